@@ -1,0 +1,38 @@
+//! `fbgforge bench …`: benchmarks that print a table and write charts; speed goals
+//! live here, not in timed unit tests.
+
+use clap::{Args, Subcommand};
+
+/// Arguments of `fbgforge bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Which benchmark.
+    #[command(subcommand)]
+    pub target: BenchTarget,
+}
+
+/// Benchmarks.
+#[derive(Debug, Subcommand)]
+pub enum BenchTarget {
+    /// Meshing tolerance against triangles, time and volume error; build timings.
+    Build(super::build::BenchBuildArgs),
+    /// Closed-form prediction time per design.
+    Predict(super::predict::BenchPredictArgs),
+    /// Reconstruction protocol: every method, speed against accuracy.
+    Reconstruct(super::reconstruct::BenchReconstructArgs),
+    /// Log parsing throughput and end-to-end verification time.
+    Verify(super::verify::BenchVerifyArgs),
+    /// Optimiser convergence time.
+    Optimize(super::optimize::BenchOptimizeArgs),
+}
+
+/// Run a benchmark.
+pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    match a.target {
+        BenchTarget::Build(b) => super::build::bench(b),
+        BenchTarget::Predict(b) => super::predict::bench(b),
+        BenchTarget::Reconstruct(b) => super::reconstruct::bench(b),
+        BenchTarget::Verify(b) => super::verify::bench(b),
+        BenchTarget::Optimize(b) => super::optimize::bench(b),
+    }
+}

@@ -1,0 +1,12 @@
+//! fbgforge: design, build, model and verify fiber Bragg grating (FBG) tactile sensors.
+//!
+//! One design spec ([`spec`]) drives everything. [`profile`] derives every dimension
+//! once; the geometry, the models and the verifier all read it.
+
+pub mod cli;
+pub mod grating;
+pub mod output;
+pub mod plot;
+pub mod profile;
+pub mod progress;
+pub mod spec;

@@ -1,0 +1,67 @@
+//! Safe output files: everything fbgforge writes goes through here.
+//!
+//! A file is written to a temporary sibling and renamed into place, so a failure (a
+//! full disk, a bad part, Ctrl-C) never leaves a half-written STL, CSV or report that
+//! a slicer or a script could mistake for a good one.
+
+use anyhow::{Context, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Create `dir` (and its parents), with an error that names it.
+pub fn ensure_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create output folder {}", dir.display()))
+}
+
+/// Write `bytes` to `path` atomically: temporary file in the same folder, then rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(path, |w| w.write_all(bytes).map_err(Into::into))
+}
+
+/// Write through a callback to `path` atomically. The callback gets a buffered writer;
+/// if it fails, the temporary file is removed and `path` is left untouched.
+pub fn write_atomic_with<F>(path: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&mut dyn Write) -> Result<()>,
+{
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    ensure_dir(&dir)?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".fbgforge-")
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .with_context(|| format!("cannot write in output folder {}", dir.display()))?;
+    {
+        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
+        fill(&mut w).with_context(|| format!("while writing {}", path.display()))?;
+        w.flush()
+            .with_context(|| format!("while writing {}", path.display()))?;
+    }
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("cannot move the finished file to {}", path.display()))?;
+    Ok(())
+}
+
+/// Serialise `value` as pretty JSON into `path`, atomically.
+pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    write_atomic(path, text.as_bytes())
+}
+
+/// Write rows as CSV with a header into `path`, atomically.
+pub fn write_csv(path: &Path, header: &[&str], rows: &[Vec<String>]) -> Result<()> {
+    write_atomic_with(path, |w| {
+        let mut c = csv::Writer::from_writer(w);
+        c.write_record(header)?;
+        for r in rows {
+            c.write_record(r)?;
+        }
+        c.flush()?;
+        Ok(())
+    })
+}

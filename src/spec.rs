@@ -1,0 +1,679 @@
+//! The design spec: the TOML file that describes one fbgforge design.
+//!
+//! A spec holds the printer, a material table, and optionally a clip-on module
+//! (cap, cores, inserts, gratings) and a flat tactile array with its casting mold.
+//! Every length is in mm, every modulus in MPa, every wavelength in nm; the unit is
+//! part of each field name. Unknown fields are rejected, and [`Design::validate`]
+//! checks every number against its allowed range so that geometry, model, verifier
+//! and optimiser can trust a loaded design.
+//!
+//! Derived dimensions (radii, heights, slit positions) are not stored here: they are
+//! computed once in [`crate::profile`], the single source of truth that both the solid
+//! geometry and the opto-mechanical model read.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// An error in a design spec, naming the file and the field at fault.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpecError {
+    /// The file the spec came from, if any.
+    pub file: Option<PathBuf>,
+    /// Dotted path of the offending field, e.g. `module.cap_wall_mm`.
+    pub field: String,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+impl fmt::Display for SpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.file {
+            Some(p) => write!(f, "{}: field `{}`: {}", p.display(), self.field, self.message),
+            None => write!(f, "field `{}`: {}", self.field, self.message),
+        }
+    }
+}
+
+impl std::error::Error for SpecError {}
+
+/// Printing process; it sets sensible defaults but the numbers in [`Printer`] rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PrintProcess {
+    /// Material jetting (e.g. Stratasys J750): fine features, soft and rigid inks.
+    Polyjet,
+    /// Fused deposition modelling: coarser, walls limited by the nozzle width.
+    Fdm,
+}
+
+impl fmt::Display for PrintProcess {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            PrintProcess::Polyjet => "polyjet",
+            PrintProcess::Fdm => "fdm",
+        })
+    }
+}
+
+/// The printer the parts are made on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Printer {
+    /// Printing process.
+    pub process: PrintProcess,
+    /// Smallest in-plane feature the printer resolves, mm. The default meshing
+    /// tolerance is half of it: a chord error below what the printer can show.
+    pub resolution_mm: f64,
+    /// Thinnest wall the printer makes reliably, mm.
+    pub min_wall_mm: f64,
+}
+
+impl Printer {
+    /// Default meshing tolerance (maximum chord deviation), mm.
+    pub fn default_tolerance_mm(&self) -> f64 {
+        self.resolution_mm / 2.0
+    }
+}
+
+/// An isotropic linear-elastic material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Young's modulus, MPa.
+    pub youngs_modulus_mpa: f64,
+    /// Poisson's ratio, dimensionless, in [0, 0.5).
+    pub poisson_ratio: f64,
+    /// Free text: where the numbers come from.
+    #[serde(default)]
+    pub note: Option<String>,
+}
+
+/// The four grooved pillars on the core's outer wall, each with a fiber through-hole,
+/// and the matching alignment pillars on the cap's inner wall.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pillars {
+    /// How many pillars, equally spaced around the core (the paper has 4).
+    pub count: u32,
+    /// Tangential width of each core pillar, mm.
+    pub width_mm: f64,
+    /// Radial height of each core pillar above the core's outer wall, mm.
+    pub height_mm: f64,
+    /// Width of the axial groove in each core pillar's outer face, mm.
+    pub groove_width_mm: f64,
+    /// Radial depth of that groove, mm.
+    pub groove_depth_mm: f64,
+    /// Diameter of the fiber through-hole along each pillar, mm (1 mm in the paper).
+    pub fiber_hole_diameter_mm: f64,
+    /// Angular position of pillar 0 from the +x axis, degrees.
+    #[serde(default = "default_first_pillar_angle_deg")]
+    pub first_pillar_angle_deg: f64,
+}
+
+fn default_first_pillar_angle_deg() -> f64 {
+    45.0
+}
+
+/// One printed plug-in sensor core (PSC). Cores share the module geometry and may
+/// differ in material (the paper prints two, E1 = 3.2 MPa and 1.4 MPa).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Core {
+    /// Name used by gratings and reports, e.g. `psc1`.
+    pub name: String,
+    /// Key into the material table.
+    pub material: String,
+}
+
+/// One solid insert (PSC-solid): a solid cylinder with a matching spherical top.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Insert {
+    /// Name, e.g. `blue`.
+    pub name: String,
+    /// Key into the material table.
+    pub material: String,
+}
+
+/// What a grating measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GratingRole {
+    /// Bonded in a pillar's fiber hole: strain (force) sensing.
+    Strain,
+    /// Free-hanging through the core's top hole: temperature only.
+    TemperatureReference,
+}
+
+/// A fiber Bragg grating of the clip-on module.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModuleGrating {
+    /// Name, e.g. `lambda_11`.
+    pub name: String,
+    /// Nominal Bragg wavelength at the reference temperature, nm.
+    pub bragg_wavelength_nm: f64,
+    /// Grating length along the fiber, mm.
+    pub length_mm: f64,
+    /// Strain or temperature reference.
+    pub role: GratingRole,
+    /// Core this grating is bonded in (strain gratings); a reference grating without a
+    /// core serves every core.
+    #[serde(default)]
+    pub core: Option<String>,
+    /// Pillar index 0..count (strain gratings).
+    #[serde(default)]
+    pub pillar: Option<u32>,
+    /// Height of the grating's centre above the core's base, mm (strain gratings).
+    #[serde(default)]
+    pub center_height_mm: Option<f64>,
+}
+
+/// The clip-on cylindrical module: cap (CC), cores (PSC), inserts (PSC-solid).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Module {
+    /// Outer diameter of the cap, mm (34 mm in the paper).
+    pub outer_diameter_mm: f64,
+    /// Overall height from the base to the cap's apex, mm (77 mm in the paper).
+    pub overall_height_mm: f64,
+    /// Height of the cap's outer spherical dome above its cylinder, mm; equal to the
+    /// outer radius for a hemisphere, smaller for a flatter dome.
+    pub dome_height_mm: f64,
+    /// Wall thickness of the clip-on cap (CC), mm.
+    pub cap_wall_mm: f64,
+    /// Wall thickness of the plug-in sensor core (PSC), mm.
+    pub core_wall_mm: f64,
+    /// Radial fit clearance between the cap's inner wall and the core's pillars, mm.
+    pub cap_core_clearance_mm: f64,
+    /// Radial fit clearance between the core's inner wall and an insert, mm.
+    pub core_insert_clearance_mm: f64,
+    /// Diameter of the hole at the core's apex for the temperature-reference grating, mm.
+    pub top_hole_diameter_mm: f64,
+    /// Diameter of the small flat at the apex of the cap and of each insert, mm. It is
+    /// the force contact patch and keeps the solids free of a singular pole.
+    pub apex_flat_diameter_mm: f64,
+    /// Key into the material table for the cap.
+    pub cap_material: String,
+    /// Grooved pillars and fiber holes.
+    pub pillars: Pillars,
+    /// Printed cores.
+    pub cores: Vec<Core>,
+    /// Solid inserts, one per material; may be empty.
+    #[serde(default)]
+    pub inserts: Vec<Insert>,
+    /// Gratings.
+    #[serde(default)]
+    pub gratings: Vec<ModuleGrating>,
+}
+
+/// A grating of the flat array.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArrayGrating {
+    /// Name, e.g. `fbg1`.
+    pub name: String,
+    /// Index into `array.fiber_x_mm`.
+    pub fiber: u32,
+    /// Position of the grating centre along its fiber from the array centre, mm.
+    pub y_mm: f64,
+    /// Nominal Bragg wavelength at the reference temperature, nm.
+    pub bragg_wavelength_nm: f64,
+    /// Grating length, mm.
+    pub length_mm: f64,
+}
+
+/// The silicone-casting mold of the flat array.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mold {
+    /// Internal size of the cavity along x (the fibers cross the walls normal to y), mm.
+    pub internal_x_mm: f64,
+    /// Internal size of the cavity along y, mm.
+    pub internal_y_mm: f64,
+    /// Height of the walls above the cavity floor, mm.
+    pub wall_height_mm: f64,
+    /// Thickness of the walls, mm.
+    pub wall_thickness_mm: f64,
+    /// Thickness of the base plate, mm.
+    pub base_thickness_mm: f64,
+    /// Depth of each fiber slit from the top of the wall, mm.
+    pub slit_depth_mm: f64,
+    /// Width of each fiber slit, mm.
+    pub slit_width_mm: f64,
+}
+
+/// The flat tactile sensor array (TSA) and its mold.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TactileArray {
+    /// Size of the silicone sheet along x, mm.
+    pub size_x_mm: f64,
+    /// Size of the silicone sheet along y, mm.
+    pub size_y_mm: f64,
+    /// Sheet thickness, mm (the fibers lie at mid-thickness).
+    pub thickness_mm: f64,
+    /// Number of cells along x.
+    pub cells_x: u32,
+    /// Number of cells along y.
+    pub cells_y: u32,
+    /// Key into the material table for the cast sheet.
+    pub material: String,
+    /// Largest load per cell the reconstruction may return, g.
+    pub ulimit_g: f64,
+    /// x position of each fiber (fibers run along y), mm from the array centre.
+    pub fiber_x_mm: Vec<f64>,
+    /// Gratings on the fibers.
+    pub gratings: Vec<ArrayGrating>,
+    /// Casting mold.
+    pub mold: Mold,
+}
+
+/// A complete design: what one TOML file holds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Design {
+    /// Short identifier, used for output names.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The printer.
+    pub printer: Printer,
+    /// Optical constants of the fiber (defaults: standard silica SMF near 1550 nm).
+    #[serde(default)]
+    pub fiber: crate::grating::FiberOptics,
+    /// Material table: name → material.
+    pub materials: BTreeMap<String, Material>,
+    /// Clip-on module, if this design has one.
+    #[serde(default)]
+    pub module: Option<Module>,
+    /// Flat tactile array, if this design has one.
+    #[serde(default)]
+    pub array: Option<TactileArray>,
+}
+
+/// Load a design from a TOML file and validate it.
+pub fn load(path: &Path) -> Result<Design, SpecError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SpecError {
+        file: Some(path.to_path_buf()),
+        field: "(file)".into(),
+        message: format!("cannot read the design file: {e}"),
+    })?;
+    parse(&text).map_err(|mut e| {
+        e.file = Some(path.to_path_buf());
+        e
+    })
+}
+
+/// Parse and validate a design from TOML text.
+pub fn parse(text: &str) -> Result<Design, SpecError> {
+    let design: Design = toml::from_str(text).map_err(|e| toml_error(text, e))?;
+    design.validate()?;
+    Ok(design)
+}
+
+fn toml_error(text: &str, e: toml::de::Error) -> SpecError {
+    let mut message = e.message().to_string();
+    if let Some(span) = e.span() {
+        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+        message = format!("line {line}: {message}");
+    }
+    // toml reports the key path only in its Display text; keep the message short.
+    SpecError {
+        file: None,
+        field: "(toml)".into(),
+        message,
+    }
+}
+
+impl Design {
+    /// Serialise to TOML (used by the optimiser to write new designs).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("a Design always serialises to TOML")
+    }
+
+    /// Look up a material, naming the field that referenced it on failure.
+    pub fn material(&self, key: &str, field: &str) -> Result<&Material, SpecError> {
+        self.materials.get(key).ok_or_else(|| {
+            let known: Vec<&str> = self.materials.keys().map(|s| s.as_str()).collect();
+            err(
+                field,
+                format!("unknown material `{key}`; the material table has: {}", known.join(", ")),
+            )
+        })
+    }
+
+    /// Check every field against its allowed range and every cross-field constraint.
+    pub fn validate(&self) -> Result<(), SpecError> {
+        let p = &self.printer;
+        positive("printer.resolution_mm", p.resolution_mm, 0.001, 2.0)?;
+        positive("printer.min_wall_mm", p.min_wall_mm, 0.01, 5.0)?;
+        let fo = &self.fiber;
+        range("fiber.photoelastic_pe", fo.photoelastic_pe, 0.0, 0.9)?;
+        range("fiber.thermal_expansion_per_k", fo.thermal_expansion_per_k, -1e-4, 1e-4)?;
+        range("fiber.thermo_optic_per_k", fo.thermo_optic_per_k, -1e-4, 1e-4)?;
+        if self.materials.is_empty() {
+            return Err(err("materials", "the material table is empty; list at least one material"));
+        }
+        for (name, m) in &self.materials {
+            positive(&format!("materials.{name}.youngs_modulus_mpa"), m.youngs_modulus_mpa, 1e-4, 1e7)?;
+            range(&format!("materials.{name}.poisson_ratio"), m.poisson_ratio, 0.0, 0.4999)?;
+        }
+        if self.module.is_none() && self.array.is_none() {
+            return Err(err("module", "a design needs a [module] or an [array] section (or both)"));
+        }
+        if let Some(m) = &self.module {
+            self.validate_module(m)?;
+        }
+        if let Some(a) = &self.array {
+            self.validate_array(a)?;
+        }
+        Ok(())
+    }
+
+    fn validate_module(&self, m: &Module) -> Result<(), SpecError> {
+        let min_wall = self.printer.min_wall_mm;
+        positive("module.outer_diameter_mm", m.outer_diameter_mm, 4.0, 200.0)?;
+        let r = m.outer_diameter_mm / 2.0;
+        positive("module.overall_height_mm", m.overall_height_mm, 2.0, 500.0)?;
+        range("module.dome_height_mm", m.dome_height_mm, 0.1 * r, r)?;
+        range("module.cap_wall_mm", m.cap_wall_mm, min_wall, 0.25 * r)?;
+        range("module.core_wall_mm", m.core_wall_mm, min_wall, 0.25 * r)?;
+        range("module.cap_core_clearance_mm", m.cap_core_clearance_mm, 0.0, 2.0)?;
+        range("module.core_insert_clearance_mm", m.core_insert_clearance_mm, 0.0, 2.0)?;
+        self.material(&m.cap_material, "module.cap_material")?;
+        let pl = &m.pillars;
+        if !(3..=8).contains(&pl.count) {
+            return Err(err("module.pillars.count", format!("expected 3 to 8 pillars, got {}", pl.count)));
+        }
+        finite("module.pillars.first_pillar_angle_deg", pl.first_pillar_angle_deg)?;
+        positive("module.pillars.fiber_hole_diameter_mm", pl.fiber_hole_diameter_mm, 0.13, 5.0)?;
+        positive("module.pillars.groove_depth_mm", pl.groove_depth_mm, 0.05, 5.0)?;
+        positive("module.pillars.groove_width_mm", pl.groove_width_mm, 0.1, 10.0)?;
+        // The groove must leave printable walls on both sides of it.
+        let max_groove_w = pl.width_mm - 2.0 * min_wall;
+        if pl.groove_width_mm > max_groove_w {
+            return Err(err(
+                "module.pillars.groove_width_mm",
+                format!(
+                    "{} mm leaves pillar walls thinner than the printer minimum {min_wall} mm; allowed up to {max_groove_w:.3} mm (pillar width − 2 × min wall)",
+                    pl.groove_width_mm
+                ),
+            ));
+        }
+        // The cap's alignment pillar is the groove less a clearance on each side.
+        if pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm < min_wall {
+            return Err(err(
+                "module.pillars.groove_width_mm",
+                format!(
+                    "the cap's alignment pillar (groove width − 2 × clearance = {:.3} mm) is thinner than the printer minimum {min_wall} mm",
+                    pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm
+                ),
+            ));
+        }
+        // The fiber hole sits between the core wall and the groove bottom.
+        let web = pl.height_mm - pl.groove_depth_mm;
+        let max_hole_radial = web - 2.0 * min_wall;
+        let max_hole_tangential = pl.width_mm - 2.0 * min_wall;
+        let max_hole = max_hole_radial.min(max_hole_tangential);
+        if pl.fiber_hole_diameter_mm > max_hole {
+            return Err(err(
+                "module.pillars.fiber_hole_diameter_mm",
+                format!(
+                    "{} mm is wider than its pillar allows; allowed up to {max_hole:.3} mm (pillar height − groove depth − 2 × min wall = {max_hole_radial:.3}, pillar width − 2 × min wall = {max_hole_tangential:.3})",
+                    pl.fiber_hole_diameter_mm
+                ),
+            ));
+        }
+        positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
+        positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
+        positive("module.top_hole_diameter_mm", m.top_hole_diameter_mm, 0.1, 0.5 * r)?;
+        positive("module.apex_flat_diameter_mm", m.apex_flat_diameter_mm, 0.01, 0.5 * r)?;
+
+        // Radial stack: the core and an insert must keep a positive radius.
+        let prof = crate::profile::ModuleProfile::from_module_unchecked(m);
+        if prof.core_inner_radius_mm < 0.25 * r || prof.core_inner_radius_mm <= 0.0 {
+            return Err(err(
+                "module.cap_wall_mm",
+                format!(
+                    "walls, clearance and pillars ({:.3} mm in all) leave the core an inner radius of {:.3} mm; at least a quarter of the outer radius ({:.3} mm) is needed: reduce the walls or the pillar height",
+                    r - prof.core_inner_radius_mm,
+                    prof.core_inner_radius_mm,
+                    0.25 * r
+                ),
+            ));
+        }
+        // Pillars must not overlap: their angular width at the core wall, plus a gap of
+        // one minimum wall between neighbours, must fit in the circumference.
+        let pitch_mm = 2.0 * std::f64::consts::PI * prof.core_outer_radius_mm / pl.count as f64;
+        if pl.width_mm + min_wall > pitch_mm * 0.8 {
+            return Err(err(
+                "module.pillars.width_mm",
+                format!(
+                    "{} pillars of {} mm overlap on a core wall of radius {:.3} mm; allowed up to {:.3} mm each",
+                    pl.count,
+                    pl.width_mm,
+                    prof.core_outer_radius_mm,
+                    pitch_mm * 0.8 - min_wall
+                ),
+            ));
+        }
+        if m.top_hole_diameter_mm / 2.0 >= prof.core_dome_inner_sphere_radius_mm * 0.5 {
+            return Err(err(
+                "module.top_hole_diameter_mm",
+                format!(
+                    "allowed up to {:.3} mm (the core's inner dome radius)",
+                    prof.core_dome_inner_sphere_radius_mm
+                ),
+            ));
+        }
+        if m.apex_flat_diameter_mm / 2.0 >= prof.insert_sphere_radius_mm * 0.5 {
+            return Err(err(
+                "module.apex_flat_diameter_mm",
+                format!("allowed up to {:.3} mm", prof.insert_sphere_radius_mm),
+            ));
+        }
+        if prof.insert_radius_mm < min_wall {
+            return Err(err(
+                "module.core_insert_clearance_mm",
+                format!("leaves the insert a radius of {:.3} mm", prof.insert_radius_mm),
+            ));
+        }
+        if prof.pillar_top_mm < 2.0 * min_wall.max(1.0) {
+            return Err(err(
+                "module.overall_height_mm",
+                format!(
+                    "{} mm leaves a cylindrical section of {:.3} mm below the dome; make the module taller or the dome lower",
+                    m.overall_height_mm, prof.pillar_top_mm
+                ),
+            ));
+        }
+
+        if m.cores.is_empty() {
+            return Err(err("module.cores", "list at least one core"));
+        }
+        for (i, c) in m.cores.iter().enumerate() {
+            self.material(&c.material, &format!("module.cores[{i}].material"))?;
+            if m.cores[..i].iter().any(|o| o.name == c.name) {
+                return Err(err(&format!("module.cores[{i}].name"), format!("duplicate core name `{}`", c.name)));
+            }
+        }
+        for (i, ins) in m.inserts.iter().enumerate() {
+            self.material(&ins.material, &format!("module.inserts[{i}].material"))?;
+            if m.inserts[..i].iter().any(|o| o.name == ins.name) {
+                return Err(err(&format!("module.inserts[{i}].name"), format!("duplicate insert name `{}`", ins.name)));
+            }
+        }
+        let mut names: Vec<&str> = Vec::new();
+        for (i, g) in m.gratings.iter().enumerate() {
+            let f = |s: &str| format!("module.gratings[{i}].{s}");
+            if names.contains(&g.name.as_str()) {
+                return Err(err(&f("name"), format!("duplicate grating name `{}`", g.name)));
+            }
+            names.push(&g.name);
+            range(&f("bragg_wavelength_nm"), g.bragg_wavelength_nm, 400.0, 2000.0)?;
+            positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
+            if let Some(core) = &g.core {
+                if !m.cores.iter().any(|c| &c.name == core) {
+                    return Err(err(&f("core"), format!("no core named `{core}`")));
+                }
+            }
+            match g.role {
+                GratingRole::Strain => {
+                    if g.core.is_none() {
+                        return Err(err(&f("core"), "a strain grating needs the core it is bonded in"));
+                    }
+                    let pillar = g
+                        .pillar
+                        .ok_or_else(|| err(&f("pillar"), "a strain grating needs its pillar index"))?;
+                    if pillar >= pl.count {
+                        return Err(err(&f("pillar"), format!("expected 0 to {}, got {pillar}", pl.count - 1)));
+                    }
+                    let z = g
+                        .center_height_mm
+                        .ok_or_else(|| err(&f("center_height_mm"), "a strain grating needs its centre height"))?;
+                    let lo = g.length_mm / 2.0;
+                    let hi = prof.pillar_top_mm - g.length_mm / 2.0;
+                    range(&f("center_height_mm"), z, lo, hi)?;
+                }
+                GratingRole::TemperatureReference => {
+                    if g.pillar.is_some() || g.center_height_mm.is_some() {
+                        return Err(err(
+                            &f("pillar"),
+                            "a temperature-reference grating hangs free in the top hole: give it no pillar or centre height",
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_array(&self, a: &TactileArray) -> Result<(), SpecError> {
+        positive("array.size_x_mm", a.size_x_mm, 1.0, 2000.0)?;
+        positive("array.size_y_mm", a.size_y_mm, 1.0, 2000.0)?;
+        positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
+        if a.cells_x == 0 || a.cells_x > 64 {
+            return Err(err("array.cells_x", format!("expected 1 to 64, got {}", a.cells_x)));
+        }
+        if a.cells_y == 0 || a.cells_y > 64 {
+            return Err(err("array.cells_y", format!("expected 1 to 64, got {}", a.cells_y)));
+        }
+        self.material(&a.material, "array.material")?;
+        positive("array.ulimit_g", a.ulimit_g, 1e-3, 1e6)?;
+        if a.fiber_x_mm.is_empty() {
+            return Err(err("array.fiber_x_mm", "list at least one fiber"));
+        }
+        let mold = &a.mold;
+        positive("array.mold.internal_x_mm", mold.internal_x_mm, 1.0, 3000.0)?;
+        positive("array.mold.internal_y_mm", mold.internal_y_mm, 1.0, 3000.0)?;
+        range("array.mold.wall_thickness_mm", mold.wall_thickness_mm, self.printer.min_wall_mm, 50.0)?;
+        range("array.mold.base_thickness_mm", mold.base_thickness_mm, self.printer.min_wall_mm, 50.0)?;
+        positive("array.mold.wall_height_mm", mold.wall_height_mm, 0.2, 200.0)?;
+        if mold.wall_height_mm < a.thickness_mm {
+            return Err(err(
+                "array.mold.wall_height_mm",
+                format!("{} mm is lower than the sheet thickness {} mm", mold.wall_height_mm, a.thickness_mm),
+            ));
+        }
+        range(
+            "array.mold.slit_depth_mm",
+            mold.slit_depth_mm,
+            0.01,
+            mold.wall_height_mm - self.printer.min_wall_mm.min(mold.wall_height_mm / 2.0),
+        )?;
+        range("array.mold.slit_width_mm", mold.slit_width_mm, self.printer.resolution_mm, 5.0)?;
+        if a.size_x_mm > mold.internal_x_mm {
+            return Err(err(
+                "array.mold.internal_x_mm",
+                format!("{} mm does not hold the {} mm sheet", mold.internal_x_mm, a.size_x_mm),
+            ));
+        }
+        if a.size_y_mm > mold.internal_y_mm {
+            return Err(err(
+                "array.mold.internal_y_mm",
+                format!("{} mm does not hold the {} mm sheet", mold.internal_y_mm, a.size_y_mm),
+            ));
+        }
+        let half_x = a.size_x_mm / 2.0;
+        let mut xs: Vec<f64> = Vec::with_capacity(a.fiber_x_mm.len());
+        for (i, &x) in a.fiber_x_mm.iter().enumerate() {
+            let field = format!("array.fiber_x_mm[{i}]");
+            range(&field, x, -half_x, half_x)?;
+            xs.push(x);
+        }
+        xs.sort_by(|a, b| a.total_cmp(b));
+        // Neighbouring slits must leave a printable wall between them.
+        let min_gap = mold.slit_width_mm + self.printer.min_wall_mm;
+        for w in xs.windows(2) {
+            if w[1] - w[0] < min_gap {
+                return Err(err(
+                    "array.fiber_x_mm",
+                    format!(
+                        "fibers at {} mm and {} mm are closer than slit width + min wall = {min_gap:.3} mm",
+                        w[0], w[1]
+                    ),
+                ));
+            }
+        }
+        let mut names: Vec<&str> = Vec::new();
+        for (i, g) in a.gratings.iter().enumerate() {
+            let f = |s: &str| format!("array.gratings[{i}].{s}");
+            if names.contains(&g.name.as_str()) {
+                return Err(err(&f("name"), format!("duplicate grating name `{}`", g.name)));
+            }
+            names.push(&g.name);
+            if g.fiber as usize >= a.fiber_x_mm.len() {
+                return Err(err(
+                    &f("fiber"),
+                    format!("expected 0 to {}, got {}", a.fiber_x_mm.len() - 1, g.fiber),
+                ));
+            }
+            range(&f("y_mm"), g.y_mm, -a.size_y_mm / 2.0, a.size_y_mm / 2.0)?;
+            range(&f("bragg_wavelength_nm"), g.bragg_wavelength_nm, 400.0, 2000.0)?;
+            positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
+        }
+        if a.gratings.is_empty() {
+            return Err(err("array.gratings", "list at least one grating"));
+        }
+        Ok(())
+    }
+}
+
+/// Build a [`SpecError`] without a file (the loader adds it).
+pub fn err(field: &str, message: impl Into<String>) -> SpecError {
+    SpecError {
+        file: None,
+        field: field.to_string(),
+        message: message.into(),
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<(), SpecError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(err(field, format!("expected a finite number, got {v}")))
+    }
+}
+
+/// `v` must be finite and within [lo, hi].
+pub fn range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
+    finite(field, v)?;
+    if v < lo || v > hi {
+        return Err(err(field, format!("{v} is out of range; allowed {lo:.4} to {hi:.4}")));
+    }
+    Ok(())
+}
+
+/// `v` must be finite, strictly positive and within [lo, hi].
+pub fn positive(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
+    finite(field, v)?;
+    if v <= 0.0 {
+        return Err(err(field, format!("{v} must be positive; allowed {lo:.4} to {hi:.4}")));
+    }
+    range(field, v, lo, hi)
+}

@@ -1,0 +1,89 @@
+//! Design spec: shipped designs load, bad specs are rejected with the field named.
+
+use fbgforge::profile::{ArrayLayout, ModuleProfile};
+use fbgforge::spec;
+use std::path::Path;
+
+fn shipped(name: &str) -> spec::Design {
+    spec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("designs").join(name))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn every_shipped_design_loads_and_validates() {
+    for name in [
+        "clip-on-34mm.toml",
+        "clip-on-10mm.toml",
+        "clip-on-16mm.toml",
+        "clip-on-22mm.toml",
+        "tactile-array-60x80.toml",
+    ] {
+        shipped(name);
+    }
+}
+
+#[test]
+fn paper_module_profile_has_the_stated_dimensions() {
+    let d = shipped("clip-on-34mm.toml");
+    let m = d.module.as_ref().unwrap();
+    let p = ModuleProfile::from_module(m);
+    assert_eq!(p.cap_outer_radius_mm, 17.0);
+    assert!((p.cap_inner_radius_mm - 15.5).abs() < 1e-12);
+    assert!((p.core_outer_radius_mm - p.core_inner_radius_mm - 1.5).abs() < 1e-12);
+    // Hemispherical dome: every junction sits at the sphere centre, H − D/2.
+    assert!((p.dome_center_z_mm - 60.0).abs() < 1e-12);
+    assert!((p.core_inner_junction_z_mm - 60.0).abs() < 1e-9);
+    assert_eq!(m.gratings.len(), 5);
+    assert_eq!(m.inserts.len(), 3);
+}
+
+#[test]
+fn derived_array_layout_reproduces_table_1_distances() {
+    let d = shipped("tactile-array-60x80.toml");
+    let a = d.array.as_ref().unwrap();
+    let l = ArrayLayout::from_array(a);
+    // Reference §2, Table 1: distance of each grating to a load at the array centre.
+    let expected = [39.53, 25.74, 14.58, 14.58, 25.74, 39.53];
+    for ((x, y), e) in l.grating_positions_mm.iter().zip(expected) {
+        assert!(((x * x + y * y).sqrt() - e).abs() < 0.01, "{x},{y} vs {e}");
+    }
+    assert_eq!(l.cell_centers_mm.len(), 8);
+    assert_eq!(l.cell_size_mm, (20.0, 30.0));
+    assert_eq!(l.mold_outer_mm, (111.0, 81.0, 7.0));
+}
+
+fn paper_text() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/clip-on-34mm.toml")).unwrap()
+}
+
+fn rejects(text: &str, field: &str) {
+    let e = spec::parse(text).expect_err("spec should be rejected");
+    assert!(
+        e.to_string().contains(field),
+        "error should name `{field}`: {e}"
+    );
+}
+
+#[test]
+fn bad_specs_name_the_field() {
+    let t = paper_text();
+    rejects(&t.replace("cap_wall_mm = 1.5", "cap_wall_mm = 17.0"), "module.cap_wall_mm");
+    rejects(&t.replace("fiber_hole_diameter_mm = 1.0", "fiber_hole_diameter_mm = 2.5"), "module.pillars.fiber_hole_diameter_mm");
+    rejects(&t.replace("width_mm = 3.0", "width_mm = 19.0"), "module.pillars");
+    rejects(&t.replace("cap_core_clearance_mm = 0.1", "cap_core_clearance_mm = -0.1"), "module.cap_core_clearance_mm");
+    rejects(&t.replace("core_wall_mm = 1.5", "core_wall_mm = nan"), "module.core_wall_mm");
+    rejects(&t.replace("outer_diameter_mm = 34.0", "outer_diameter_mm = -34.0"), "module.outer_diameter_mm");
+    rejects(&t.replace("core_wall_mm = 1.5\n", ""), "core_wall_mm");
+    rejects(&t.replace("core_wall_mm = 1.5", "core_wall_mm = 1.5\ncore_wal_mm = 1.5"), "core_wal_mm");
+    rejects(&t.replace("material = \"insert_green\"", "material = \"nope\""), "module.inserts[1].material");
+    rejects(&t.replace("pillar = 1", "pillar = 7"), "pillar");
+    let a = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml")).unwrap();
+    rejects(&a.replace("slit_depth_mm = 2.5", "slit_depth_mm = 6.0"), "array.mold.slit_depth_mm");
+    rejects(&a.replace("internal_x_mm = 105.0", "internal_x_mm = 70.0"), "array.mold.internal_x_mm");
+}
+
+#[test]
+fn toml_syntax_errors_report_the_line() {
+    let e = spec::parse("name = \"x\"\n[printer\n").unwrap_err();
+    assert!(e.to_string().contains("line 2"), "{e}");
+}
