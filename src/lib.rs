@@ -5,6 +5,7 @@
 
 pub mod cli;
 pub mod grating;
+pub mod model;
 pub mod output;
 pub mod plot;
 pub mod profile;
