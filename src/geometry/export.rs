@@ -58,6 +58,9 @@ pub struct ManifestPart {
     pub step: String,
     /// Triangles in the STL.
     pub triangles: usize,
+    /// Chord tolerance of this part's mesh, mm (finer than requested when the volume
+    /// bound needed it).
+    pub mesh_tolerance_mm: f64,
     /// Volume enclosed by the mesh, mm³.
     pub mesh_volume_mm3: f64,
     /// Volume in closed form from the spec, mm³.
@@ -94,7 +97,7 @@ pub struct Clearances {
 pub struct Manifest {
     /// Design name.
     pub design: String,
-    /// Meshing tolerance used, mm.
+    /// Meshing tolerance requested, mm.
     pub tolerance_mm: f64,
     /// Parts written.
     pub parts: Vec<ManifestPart>,
@@ -155,6 +158,7 @@ pub fn render(design: &Design, parts: &[BuiltPart], tolerance_mm: f64) -> Result
             stl,
             step,
             triangles: p.mesh.triangles.len(),
+            mesh_tolerance_mm: p.mesh_tolerance_mm,
             mesh_volume_mm3: p.mesh_volume_mm3,
             exact_volume_mm3: p.exact_volume_mm3,
             volume_error_percent: p.volume_error() * 100.0,
