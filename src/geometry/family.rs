@@ -12,7 +12,7 @@
 use crate::spec::{Design, Module, SpecError};
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
-    a + (b - a) * t
+    a * (1.0 - t) + b * t
 }
 
 fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
