@@ -223,3 +223,76 @@ pub fn mesh_solid(part: &str, solid: &Solid, tol_mm: f64) -> Result<TriMesh, Mes
     mesh.check(part)?;
     Ok(mesh)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit right tetrahedron, outward-facing: volume 1/6.
+    fn tetra(offset: f64) -> TriMesh {
+        TriMesh {
+            positions: vec![
+                [offset, 0.0, 0.0],
+                [offset + 1.0, 0.0, 0.0],
+                [offset, 1.0, 0.0],
+                [offset, 0.0, 1.0],
+            ],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        }
+    }
+
+    fn check_name(m: &TriMesh) -> Option<&'static str> {
+        m.check("t").err().map(|e| e.check)
+    }
+
+    #[test]
+    fn a_good_tetrahedron_passes_with_its_exact_volume() {
+        let m = tetra(0.0);
+        assert_eq!(check_name(&m), None);
+        assert!((m.volume_mm3() - 1.0 / 6.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn each_defect_is_named() {
+        let mut open = tetra(0.0);
+        open.triangles.pop();
+        assert_eq!(check_name(&open), Some("closed"));
+
+        let mut flipped = tetra(0.0);
+        flipped.triangles[3] = [1, 3, 2];
+        assert_eq!(check_name(&flipped), Some("oriented"));
+
+        let mut inside_out = tetra(0.0);
+        inside_out.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        assert_eq!(check_name(&inside_out), Some("volume"));
+
+        let mut two = tetra(0.0);
+        let other = tetra(5.0);
+        two.positions.extend(other.positions);
+        two.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + 4)));
+        assert_eq!(check_name(&two), Some("connected"));
+
+        let mut flat = tetra(0.0);
+        flat.positions[3] = [0.5, 0.5, 0.0];
+        assert_eq!(check_name(&flat), Some("degenerate"));
+
+        // Two tetrahedra sharing one edge: that edge has four triangles.
+        let mut bow = tetra(0.0);
+        bow.positions.push([-1.0, 0.0, 0.0]);
+        bow.positions.push([0.0, -1.0, 0.0]);
+        // Second tetra on vertices 0, 3 (shared edge 0–3) and 4, 5.
+        bow.triangles.extend([[0, 4, 5], [0, 5, 3], [0, 3, 4], [4, 3, 5]]);
+        assert!(matches!(check_name(&bow), Some("manifold") | Some("oriented")));
+    }
+
+    #[test]
+    fn welding_merges_near_points_and_drops_collapsed_triangles() {
+        let a = Point3::new(0.0, 0.0, 0.0);
+        let b = Point3::new(1.0, 0.0, 0.0);
+        let c = Point3::new(0.0, 1.0, 0.0);
+        let b2 = Point3::new(1.0 + 1e-7, 0.0, 0.0);
+        let m = weld(&[[a, b, c], [a, b2, c], [a, Point3::new(1e-7, 0.0, 0.0), c]], WELD_TOLERANCE_MM);
+        assert_eq!(m.positions.len(), 3);
+        assert_eq!(m.triangles.len(), 2);
+    }
+}
