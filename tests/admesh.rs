@@ -31,7 +31,9 @@ fn admesh_accepts_every_shipped_stl() {
         if std::env::var_os("CI").is_some() {
             panic!("admesh is not installed (apt-get install -y admesh); CI requires it");
         }
-        eprintln!("notice: admesh not found, skipping the outside STL check (apt-get install -y admesh)");
+        eprintln!(
+            "notice: admesh not found, skipping the outside STL check (apt-get install -y admesh)"
+        );
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -58,7 +60,11 @@ fn admesh_accepts_every_shipped_stl() {
             ] {
                 assert_eq!(field(&text, label), 0.0, "{what}: {label}\n{text}");
             }
-            assert_eq!(field(&text, "Number of facets") as usize, p.mesh.triangles.len(), "{what}");
+            assert_eq!(
+                field(&text, "Number of facets") as usize,
+                p.mesh.triangles.len(),
+                "{what}"
+            );
             let v = field(&text, "Volume");
             // admesh reads f32 coordinates and prints 6 decimals.
             assert!(

@@ -9,18 +9,36 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 fn shipped(name: &str) -> Design {
-    spec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("designs").join(name)).unwrap_or_else(|e| panic!("{e}"))
+    spec::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("designs")
+            .join(name),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn text(name: &str) -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("designs").join(name)).unwrap()
+    std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("designs")
+            .join(name),
+    )
+    .unwrap()
 }
 
 fn part<'a>(parts: &'a [BuiltPart], name: &str) -> &'a BuiltPart {
-    parts.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("no part {name}"))
+    parts
+        .iter()
+        .find(|p| p.name == name)
+        .unwrap_or_else(|| panic!("no part {name}"))
 }
 
-const MODULES: [&str; 4] = ["clip-on-10mm.toml", "clip-on-16mm.toml", "clip-on-22mm.toml", "clip-on-34mm.toml"];
+const MODULES: [&str; 4] = [
+    "clip-on-10mm.toml",
+    "clip-on-16mm.toml",
+    "clip-on-22mm.toml",
+    "clip-on-34mm.toml",
+];
 
 #[test]
 fn closed_form_pieces_match_textbook_volumes() {
@@ -42,7 +60,12 @@ fn every_shipped_part_passes_the_checks_at_the_default_tolerance() {
         for p in &parts {
             // Re-run the checks on the returned mesh; the volume bound is 0.5 %.
             p.mesh.check(&p.name).unwrap();
-            assert!(p.volume_error().abs() <= 0.005, "{name} {}: {}", p.name, p.volume_error());
+            assert!(
+                p.volume_error().abs() <= 0.005,
+                "{name} {}: {}",
+                p.name,
+                p.volume_error()
+            );
             assert!(p.mesh_tolerance_mm <= d.printer.default_tolerance_mm());
         }
     }
@@ -54,7 +77,11 @@ fn module_meshes_converge_to_the_exact_volumes() {
     // feature (one fiber hole is ~0.5 % of the 34 mm core) would show up here.
     for name in ["clip-on-34mm.toml", "clip-on-10mm.toml"] {
         let d = shipped(name);
-        let solids = geometry::build_solids(&d, Some(&["cap".into(), "core".into(), "insert-blue".into()])).unwrap();
+        let solids = geometry::build_solids(
+            &d,
+            Some(&["cap".into(), "core".into(), "insert-blue".into()]),
+        )
+        .unwrap();
         for s in &solids {
             let r = d.module.as_ref().unwrap().outer_diameter_mm / 2.0;
             // Same relative chord error for every size: tolerance ∝ radius.
@@ -89,7 +116,11 @@ fn mold_volume_and_size_are_exact() {
         .iter()
         .filter(|p| (p[2] - l.fiber_z_mm).abs() < 1e-9)
         .count();
-    assert_eq!(floor_pts, 6 * 2 * 4, "four corners per slit bottom, six slits, two walls");
+    assert_eq!(
+        floor_pts,
+        6 * 2 * 4,
+        "four corners per slit bottom, six slits, two walls"
+    );
 }
 
 #[test]
@@ -98,11 +129,16 @@ fn cap_and_insert_bounding_boxes_follow_the_profile() {
     let p = ModuleProfile::from_module(d.module.as_ref().unwrap());
     let parts = geometry::build_parts(&d, None, None).unwrap();
     let (lo, hi) = part(&parts, "cap").mesh.bbox_mm();
-    let apex = p.dome_center_z_mm + (p.cap_dome_outer_sphere_radius_mm.powi(2) - p.apex_flat_radius_mm.powi(2)).sqrt();
+    let apex = p.dome_center_z_mm
+        + (p.cap_dome_outer_sphere_radius_mm.powi(2) - p.apex_flat_radius_mm.powi(2)).sqrt();
     assert!((hi[2] - apex).abs() < 1e-9 && lo[2].abs() < 1e-12);
-    assert!((hi[0] - p.cap_outer_radius_mm).abs() < 1e-9 && (lo[1] + p.cap_outer_radius_mm).abs() < 1e-9);
+    assert!(
+        (hi[0] - p.cap_outer_radius_mm).abs() < 1e-9
+            && (lo[1] + p.cap_outer_radius_mm).abs() < 1e-9
+    );
     let (lo, hi) = part(&parts, "insert-green").mesh.bbox_mm();
-    let top = p.dome_center_z_mm + (p.insert_sphere_radius_mm.powi(2) - p.apex_flat_radius_mm.powi(2)).sqrt();
+    let top = p.dome_center_z_mm
+        + (p.insert_sphere_radius_mm.powi(2) - p.apex_flat_radius_mm.powi(2)).sqrt();
     assert!((hi[2] - top).abs() < 1e-9 && lo[2].abs() < 1e-12);
     assert!((hi[0] - p.insert_radius_mm).abs() < 1e-9);
 }
@@ -138,9 +174,15 @@ fn cap_pillars_fit_the_core_grooves_with_the_stated_clearance() {
                 continue;
             }
             let (rho, _, t) = polar_to_pillar(q, &p.pillar_angles_rad);
-            assert!(rho <= p.pillar_outer_radius_mm + eps && rho >= p.core_inner_radius_mm - eps, "{name} core {q:?}");
+            assert!(
+                rho <= p.pillar_outer_radius_mm + eps && rho >= p.core_inner_radius_mm - eps,
+                "{name} core {q:?}"
+            );
             if rho > p.groove_bottom_radius_mm + eps {
-                assert!(t.abs() >= hg - eps, "{name}: core material inside the groove at {q:?}");
+                assert!(
+                    t.abs() >= hg - eps,
+                    "{name}: core material inside the groove at {q:?}"
+                );
             }
         }
         // Cap below the pillar top: never inside the core's pillar radius except in
@@ -150,9 +192,15 @@ fn cap_pillars_fit_the_core_grooves_with_the_stated_clearance() {
                 continue;
             }
             let (rho, _, t) = polar_to_pillar(q, &p.pillar_angles_rad);
-            assert!(rho >= p.cap_pillar_inner_radius_mm - eps, "{name} cap {q:?}");
+            assert!(
+                rho >= p.cap_pillar_inner_radius_mm - eps,
+                "{name} cap {q:?}"
+            );
             if rho < p.cap_inner_radius_mm - eps {
-                assert!(t.abs() <= hc + eps, "{name}: cap pillar wider than {hc} at {q:?}");
+                assert!(
+                    t.abs() <= hc + eps,
+                    "{name}: cap pillar wider than {hc} at {q:?}"
+                );
                 assert!(hg - t.abs() >= m.cap_core_clearance_mm - eps);
                 assert!(rho - p.groove_bottom_radius_mm >= m.cap_core_clearance_mm - eps);
             }
@@ -169,25 +217,42 @@ fn core_has_fiber_holes_through_every_pillar_and_a_top_hole() {
     let core = part(&parts, "core");
     let rh = m.pillars.fiber_hole_diameter_mm / 2.0;
     for &a in &p.pillar_angles_rad {
-        let c = (p.fiber_hole_center_radius_mm * a.cos(), p.fiber_hole_center_radius_mm * a.sin());
+        let c = (
+            p.fiber_hole_center_radius_mm * a.cos(),
+            p.fiber_hole_center_radius_mm * a.sin(),
+        );
         let on_wall = |z: f64| {
             core.mesh
                 .positions
                 .iter()
-                .filter(|q| (q[2] - z).abs() < 1e-9 && ((q[0] - c.0).hypot(q[1] - c.1) - rh).abs() < 1e-6)
+                .filter(|q| {
+                    (q[2] - z).abs() < 1e-9 && ((q[0] - c.0).hypot(q[1] - c.1) - rh).abs() < 1e-6
+                })
                 .count()
         };
         // The hole's circle appears in the base and in the pillar top.
         assert!(on_wall(0.0) >= 8, "hole at {a} missing in the base");
-        assert!(on_wall(p.pillar_top_mm) >= 8, "hole at {a} missing in the pillar top");
+        assert!(
+            on_wall(p.pillar_top_mm) >= 8,
+            "hole at {a} missing in the pillar top"
+        );
     }
     // Nothing above the pillars comes closer to the axis than the top hole's radius,
     // and the top hole's rim is the highest point.
-    let above: Vec<_> = core.mesh.positions.iter().filter(|q| q[2] > p.pillar_top_mm + 1e-6).collect();
-    let min_rho = above.iter().map(|q| q[0].hypot(q[1])).fold(f64::INFINITY, f64::min);
+    let above: Vec<_> = core
+        .mesh
+        .positions
+        .iter()
+        .filter(|q| q[2] > p.pillar_top_mm + 1e-6)
+        .collect();
+    let min_rho = above
+        .iter()
+        .map(|q| q[0].hypot(q[1]))
+        .fold(f64::INFINITY, f64::min);
     assert!((min_rho - p.top_hole_radius_mm).abs() < 1e-6, "{min_rho}");
     let (_, hi) = core.mesh.bbox_mm();
-    let rim = p.dome_center_z_mm + (p.core_dome_outer_sphere_radius_mm.powi(2) - p.top_hole_radius_mm.powi(2)).sqrt();
+    let rim = p.dome_center_z_mm
+        + (p.core_dome_outer_sphere_radius_mm.powi(2) - p.top_hole_radius_mm.powi(2)).sqrt();
     assert!((hi[2] - rim).abs() < 1e-9);
 }
 
@@ -197,7 +262,8 @@ fn build_writes_stl_step_and_a_consistent_manifest() {
     let dir = tempfile::tempdir().unwrap();
     let r = build_design(&d, dir.path(), None, None).unwrap();
     let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
+            .unwrap();
     let listed = manifest["parts"].as_array().unwrap();
     assert_eq!(listed.len(), 5);
     for (entry, p) in listed.iter().zip(&r.parts) {
@@ -211,17 +277,23 @@ fn build_writes_stl_step_and_a_consistent_manifest() {
             .iter()
             .map(|t| {
                 let [a, b, c] = t.vertices.map(|i| stl.vertices[i].0.map(f64::from));
-                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0
+                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0
             })
             .sum();
         let mv = entry["mesh_volume_mm3"].as_f64().unwrap();
         assert!((v - mv).abs() < 1e-5 * mv, "{}: {v} vs {mv}", p.name);
         // STEP: one B-rep solid with as many faces as the truck solid.
-        let step = std::fs::read_to_string(dir.path().join(entry["step"].as_str().unwrap())).unwrap();
+        let step =
+            std::fs::read_to_string(dir.path().join(entry["step"].as_str().unwrap())).unwrap();
         assert!(step.starts_with("ISO-10303-21;"));
         assert_eq!(step.matches("MANIFOLD_SOLID_BREP").count(), 1);
         let faces = p.solid.boundaries()[0].len();
-        assert_eq!(step.matches("ADVANCED_FACE").count() + step.matches("FACE_SURFACE").count(), faces);
+        assert_eq!(
+            step.matches("ADVANCED_FACE").count() + step.matches("FACE_SURFACE").count(),
+            faces
+        );
     }
     let c = &manifest["clearances"];
     assert!((c["cap_core_radial_mm"].as_f64().unwrap() - 0.08).abs() < 1e-12);
@@ -240,8 +312,13 @@ fn parts_selection_builds_only_the_named_parts_and_rejects_unknown_ones() {
     let only = geometry::build_parts(&d, None, Some(&["insert-green".into()])).unwrap();
     assert_eq!(only.len(), 1);
     assert_eq!(only[0].kind, PartKind::Insert);
-    let e = geometry::build_parts(&d, None, Some(&["lid".into()])).unwrap_err().to_string();
-    assert!(e.contains("unknown part `lid`") && e.contains("insert-light_green"), "{e}");
+    let e = geometry::build_parts(&d, None, Some(&["lid".into()]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unknown part `lid`") && e.contains("insert-light_green"),
+        "{e}"
+    );
 }
 
 fn assert_nothing_written(dir: &Path) {
@@ -255,15 +332,35 @@ fn assert_nothing_written(dir: &Path) {
 fn impossible_geometry_is_rejected_with_the_field_and_nothing_is_written() {
     let cases = [
         // Wall as thick as the radius.
-        ("cap_wall_mm = 1.5", "cap_wall_mm = 17.0", "module.cap_wall_mm"),
+        (
+            "cap_wall_mm = 1.5",
+            "cap_wall_mm = 17.0",
+            "module.cap_wall_mm",
+        ),
         // Fiber hole wider than its pillar.
-        ("fiber_hole_diameter_mm = 1.0", "fiber_hole_diameter_mm = 2.9", "module.pillars.fiber_hole_diameter_mm"),
+        (
+            "fiber_hole_diameter_mm = 1.0",
+            "fiber_hole_diameter_mm = 2.9",
+            "module.pillars.fiber_hole_diameter_mm",
+        ),
         // Negative clearance.
-        ("cap_core_clearance_mm = 0.1", "cap_core_clearance_mm = -0.1", "module.cap_core_clearance_mm"),
+        (
+            "cap_core_clearance_mm = 0.1",
+            "cap_core_clearance_mm = -0.1",
+            "module.cap_core_clearance_mm",
+        ),
         // Overlapping pillars.
-        ("width_mm = 3.0", "width_mm = 19.0", "module.pillars.width_mm"),
+        (
+            "width_mm = 3.0",
+            "width_mm = 19.0",
+            "module.pillars.width_mm",
+        ),
         // NaN.
-        ("overall_height_mm = 77.0", "overall_height_mm = nan", "module.overall_height_mm"),
+        (
+            "overall_height_mm = 77.0",
+            "overall_height_mm = nan",
+            "module.overall_height_mm",
+        ),
     ];
     for (from, to, field) in cases {
         let t = text("clip-on-34mm.toml").replacen(from, to, 1);
@@ -271,7 +368,8 @@ fn impossible_geometry_is_rejected_with_the_field_and_nothing_is_written() {
         assert!(e.contains(field), "{to}: {e}");
     }
     // A slit deeper than the wall.
-    let t = text("tactile-array-60x80.toml").replacen("slit_depth_mm = 2.5", "slit_depth_mm = 6.0", 1);
+    let t =
+        text("tactile-array-60x80.toml").replacen("slit_depth_mm = 2.5", "slit_depth_mm = 6.0", 1);
     let e = spec::parse(&t).unwrap_err().to_string();
     assert!(e.contains("array.mold.slit_depth_mm"), "{e}");
     // A fiber slit in the mold's corner passes the spec's ranges but not the builder.
@@ -283,7 +381,10 @@ fn impossible_geometry_is_rejected_with_the_field_and_nothing_is_written() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("mold");
     let e = format!("{:#}", build_design(&d, &out, None, None).unwrap_err());
-    assert!(e.contains("array.fiber_x_mm[5]") && e.contains("nothing was written"), "{e}");
+    assert!(
+        e.contains("array.fiber_x_mm[5]") && e.contains("nothing was written"),
+        "{e}"
+    );
     assert_nothing_written(&out);
 }
 
@@ -297,8 +398,14 @@ fn an_unwritable_output_folder_is_reported_and_leaves_no_file() {
     std::fs::write(&blocker, b"x").unwrap();
     let out = blocker.join("parts");
     let e = format!("{:#}", build_design(&d, &out, None, None).unwrap_err());
-    assert!(e.contains("cannot create output folder") && e.contains("not-a-folder"), "{e}");
-    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(
+        e.contains("cannot create output folder") && e.contains("not-a-folder"),
+        "{e}"
+    );
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(names, vec![std::ffi::OsString::from("not-a-folder")]);
 }
 
@@ -306,18 +413,32 @@ fn an_unwritable_output_folder_is_reported_and_leaves_no_file() {
 fn a_tolerance_out_of_range_is_an_error_not_a_panic() {
     let d = shipped("clip-on-10mm.toml");
     for tol in [0.0, -1.0, f64::NAN, 5.0] {
-        let e = geometry::build_parts(&d, Some(tol), None).unwrap_err().to_string();
+        let e = geometry::build_parts(&d, Some(tol), None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("tolerance"), "{e}");
     }
 }
 
 #[test]
 fn family_interpolation_reproduces_the_knots_and_stays_valid() {
-    let knots: Vec<Design> = ["clip-on-10mm.toml", "clip-on-16mm.toml", "clip-on-22mm.toml"].map(shipped).into();
+    let knots: Vec<Design> = [
+        "clip-on-10mm.toml",
+        "clip-on-16mm.toml",
+        "clip-on-22mm.toml",
+    ]
+    .map(shipped)
+    .into();
     let d16 = geometry::family::interpolate(&knots, 16.0).unwrap();
     assert_eq!(d16.module, knots[1].module);
     let d13 = geometry::family::interpolate(&knots, 13.0).unwrap();
     let m = d13.module.as_ref().unwrap();
-    assert!((m.cap_wall_mm - 0.75).abs() < 1e-12, "midway between 0.6 and 0.9");
-    assert!(geometry::family::interpolate(&knots, 30.0).unwrap_err().to_string().contains("outer_diameter_mm"));
+    assert!(
+        (m.cap_wall_mm - 0.75).abs() < 1e-12,
+        "midway between 0.6 and 0.9"
+    );
+    assert!(geometry::family::interpolate(&knots, 30.0)
+        .unwrap_err()
+        .to_string()
+        .contains("outer_diameter_mm"));
 }

@@ -13,7 +13,12 @@ use proptest::prelude::*;
 use std::path::Path;
 
 fn shipped(name: &str) -> Design {
-    spec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("designs").join(name)).unwrap()
+    spec::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("designs")
+            .join(name),
+    )
+    .unwrap()
 }
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
@@ -52,7 +57,8 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     pl.groove_depth_mm = lerp(0.05, 1.0, f[5]);
     pl.height_mm = pl.fiber_hole_diameter_mm + 2.0 * w + pl.groove_depth_mm + lerp(0.05, 1.5, f[6]);
     pl.groove_width_mm = lerp(w + 2.0 * m.cap_core_clearance_mm, 2.0, f[7]).max(0.1);
-    pl.width_mm = pl.groove_width_mm.max(pl.fiber_hole_diameter_mm) + 2.0 * w + lerp(0.01, 2.0, f[8]);
+    pl.width_mm =
+        pl.groove_width_mm.max(pl.fiber_hole_diameter_mm) + 2.0 * w + lerp(0.01, 2.0, f[8]);
     pl.first_pillar_angle_deg = 360.0 * f[9];
     m.dome_height_mm = lerp(0.3 * r, r, f[10]);
     m.overall_height_mm = m.dome_height_mm + lerp(4.0, 3.0 * r + 4.0, f[11]);
@@ -144,19 +150,37 @@ fn the_module_generator_covers_the_design_range() {
     let n = 3000;
     for _ in 0..n {
         let f: [f64; 14] = std::array::from_fn(|_| rng.random());
-        let d = module_design(rng.random_range(10.0..40.0), rng.random_bool(0.25), rng.random_range(3..=8), f);
+        let d = module_design(
+            rng.random_range(10.0..40.0),
+            rng.random_bool(0.25),
+            rng.random_range(3..=8),
+            f,
+        );
         if d.validate().is_ok() {
             valid.push(d);
         }
     }
-    assert!(valid.len() * 2 > n, "only {} of {n} drawn modules are valid", valid.len());
+    assert!(
+        valid.len() * 2 > n,
+        "only {} of {n} drawn modules are valid",
+        valid.len()
+    );
     let m = |d: &Design| d.module.clone().unwrap();
     let dia: Vec<f64> = valid.iter().map(|d| m(d).outer_diameter_mm).collect();
     assert!(dia.iter().any(|&x| x < 11.0) && dia.iter().any(|&x| x > 39.0));
-    let walls: Vec<(f64, f64)> = valid.iter().map(|d| (m(d).cap_wall_mm, d.printer.min_wall_mm)).collect();
-    assert!(walls.iter().any(|&(w, min)| w < min + 0.05), "no wall near the printer minimum");
+    let walls: Vec<(f64, f64)> = valid
+        .iter()
+        .map(|d| (m(d).cap_wall_mm, d.printer.min_wall_mm))
+        .collect();
+    assert!(
+        walls.iter().any(|&(w, min)| w < min + 0.05),
+        "no wall near the printer minimum"
+    );
     assert!(walls.iter().any(|&(w, _)| w > 2.9), "no wall near 3 mm");
     for count in 3..=8 {
-        assert!(valid.iter().any(|d| m(d).pillars.count == count), "no valid design with {count} pillars");
+        assert!(
+            valid.iter().any(|d| m(d).pillars.count == count),
+            "no valid design with {count} pillars"
+        );
     }
 }

@@ -40,7 +40,12 @@ pub struct BuildReport {
 
 /// Build a loaded design into `dir`: every part is built, meshed and checked and every
 /// file rendered in memory before the first file is written.
-pub fn build_design(design: &Design, dir: &Path, tolerance_mm: Option<f64>, parts: Option<&[String]>) -> Result<BuildReport> {
+pub fn build_design(
+    design: &Design,
+    dir: &Path,
+    tolerance_mm: Option<f64>,
+    parts: Option<&[String]>,
+) -> Result<BuildReport> {
     let built = geometry::build_parts(design, tolerance_mm, parts)
         .with_context(|| format!("design `{}`: nothing was written", design.name))?;
     let tol = tolerance_mm.unwrap_or(design.printer.default_tolerance_mm());
@@ -124,7 +129,10 @@ pub fn run_default() -> Result<()> {
     let pb = crate::progress::bar(designs.len() as u64, "build");
     let mut reports = Vec::new();
     for (_, d) in &designs {
-        reports.push((d.name.clone(), build_design(d, &default_out(d), None, None)?));
+        reports.push((
+            d.name.clone(),
+            build_design(d, &default_out(d), None, None)?,
+        ));
         pb.inc(1);
     }
     pb.finish_and_clear();
@@ -221,7 +229,8 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
                 tolerance_mm: tol,
                 triangles: m.triangles.len(),
                 time_ms: median_s(times) * 1e3,
-                volume_error_percent: (m.volume_mm3() - s.exact_volume_mm3) / s.exact_volume_mm3 * 100.0,
+                volume_error_percent: (m.volume_mm3() - s.exact_volume_mm3) / s.exact_volume_mm3
+                    * 100.0,
             });
             pb.inc(1);
         }
@@ -239,7 +248,10 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
         totals.push(t.elapsed().as_secs_f64());
         let _ = (m, mo);
     }
-    for name in geometry::part_names(&design).into_iter().chain(geometry::part_names(&array)) {
+    for name in geometry::part_names(&design)
+        .into_iter()
+        .chain(geometry::part_names(&array))
+    {
         let d = if name == "mold" { &array } else { &design };
         let sel = [name.clone()];
         let mut times = Vec::new();
@@ -255,7 +267,11 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
     let knots: Vec<Design> = load_designs(&designs_dir())?
         .into_iter()
         .map(|(_, d)| d)
-        .filter(|d| d.module.as_ref().is_some_and(|m| m.outer_diameter_mm <= 22.0))
+        .filter(|d| {
+            d.module
+                .as_ref()
+                .is_some_and(|m| m.outer_diameter_mm <= 22.0)
+        })
         .collect();
     let diameters: Vec<f64> = (10..=22).map(f64::from).collect();
     let family: Vec<Design> = diameters
@@ -282,8 +298,14 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
     };
 
     // Report.
-    println!("meshing tolerance sweep ({}; median of {repeats})", design.name);
-    println!("  {:<8} {:>8} {:>10} {:>10} {:>10}", "part", "tol mm", "triangles", "time ms", "vol err %");
+    println!(
+        "meshing tolerance sweep ({}; median of {repeats})",
+        design.name
+    );
+    println!(
+        "  {:<8} {:>8} {:>10} {:>10} {:>10}",
+        "part", "tol mm", "triangles", "time ms", "vol err %"
+    );
     for r in &rows {
         println!(
             "  {:<8} {:>8.3} {:>10} {:>10.2} {:>10.4}",
@@ -317,7 +339,13 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
         .collect();
     crate::output::write_csv(
         &a.out.join("tolerance-sweep.csv"),
-        &["part", "tolerance_mm", "triangles", "time_ms", "volume_error_percent"],
+        &[
+            "part",
+            "tolerance_mm",
+            "triangles",
+            "time_ms",
+            "volume_error_percent",
+        ],
         &csv_rows,
     )?;
     crate::output::write_json(&a.out.join("timings.json"), &timings)?;
@@ -325,7 +353,11 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
         distinct
             .iter()
             .map(|s| {
-                let pts = rows.iter().filter(|r| r.part == s.name).map(|r| (r.tolerance_mm, f(r))).collect();
+                let pts = rows
+                    .iter()
+                    .filter(|r| r.part == s.name)
+                    .map(|r| (r.tolerance_mm, f(r)))
+                    .collect();
                 Series::new(s.name.clone(), pts, Mark::LinePoints)
             })
             .collect()
@@ -340,7 +372,10 @@ pub fn bench(a: BenchBuildArgs) -> Result<()> {
     err_chart.series = series(&|r| r.volume_error_percent.abs().max(1e-6));
     err_chart.write_svg(&a.out.join("volume-error.svg"))?;
     let mut tri_chart = Chart::new(
-        format!("{}: triangles and time against meshing tolerance", design.name),
+        format!(
+            "{}: triangles and time against meshing tolerance",
+            design.name
+        ),
         "tolerance (mm)",
         "triangles",
     );

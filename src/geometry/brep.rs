@@ -11,8 +11,8 @@
 //! direction the caller states.
 
 use std::collections::HashMap;
-use truck_modeling::*;
 use std::result::Result;
+use truck_modeling::*;
 
 /// Points closer than this are one vertex, mm: far below any feature, far above the
 /// rounding noise between two formulas for the same point.
@@ -20,7 +20,11 @@ const SAME_POINT_MM: f64 = 1.0e-7;
 
 fn cell(p: Point3) -> [i64; 3] {
     let s = 1.0 / (4.0 * SAME_POINT_MM);
-    [(p.x * s).floor() as i64, (p.y * s).floor() as i64, (p.z * s).floor() as i64]
+    [
+        (p.x * s).floor() as i64,
+        (p.y * s).floor() as i64,
+        (p.z * s).floor() as i64,
+    ]
 }
 
 /// Geometry of one edge, given by the caller; the registry makes the truck curve.
@@ -193,7 +197,12 @@ impl Assembler {
     }
 
     /// A planar face with outward normal `outward` (constant over the face).
-    pub fn plane(&mut self, name: &str, loops: &[Vec<Seg>], outward: Vector3) -> Result<(), BrepError> {
+    pub fn plane(
+        &mut self,
+        name: &str,
+        loops: &[Vec<Seg>],
+        outward: Vector3,
+    ) -> Result<(), BrepError> {
         // Three well-spread points of the outer loop span the plane.
         let pts: Vec<Point3> = loops[0].iter().map(|s| s.ends().0).collect();
         let o = pts[0];

@@ -123,7 +123,11 @@ fn materials(design: &Design, part: &BuiltPart) -> Vec<String> {
     };
     match part.kind {
         PartKind::Cap => vec![m.cap_material.clone()],
-        PartKind::Core => m.cores.iter().map(|c| format!("{} ({})", c.material, c.name)).collect(),
+        PartKind::Core => m
+            .cores
+            .iter()
+            .map(|c| format!("{} ({})", c.material, c.name))
+            .collect(),
         PartKind::Insert => m
             .inserts
             .iter()

@@ -31,7 +31,8 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
     m.pillars.height_mm = lerp(pa.height_mm, pb.height_mm, t);
     m.pillars.groove_width_mm = lerp(pa.groove_width_mm, pb.groove_width_mm, t);
     m.pillars.groove_depth_mm = lerp(pa.groove_depth_mm, pb.groove_depth_mm, t);
-    m.pillars.fiber_hole_diameter_mm = lerp(pa.fiber_hole_diameter_mm, pb.fiber_hole_diameter_mm, t);
+    m.pillars.fiber_hole_diameter_mm =
+        lerp(pa.fiber_hole_diameter_mm, pb.fiber_hole_diameter_mm, t);
     for (g, gb) in m.gratings.iter_mut().zip(&b.gratings) {
         g.length_mm = lerp(g.length_mm, gb.length_mm, t);
         if let (Some(za), Some(zb)) = (g.center_height_mm, gb.center_height_mm) {
@@ -64,7 +65,11 @@ pub fn interpolate(knots: &[Design], diameter_mm: f64) -> Result<Design, SpecErr
     let (a, b) = (k[i], k[i + 1]);
     let t = (diameter_mm - dia(a)) / (dia(b) - dia(a));
     let mut d = a.clone();
-    d.module = Some(lerp_module(a.module.as_ref().expect("filtered"), b.module.as_ref().expect("filtered"), t));
+    d.module = Some(lerp_module(
+        a.module.as_ref().expect("filtered"),
+        b.module.as_ref().expect("filtered"),
+        t,
+    ));
     d.name = format!("clip-on-{diameter_mm}mm-interpolated");
     d.description = Some(format!(
         "interpolated between {} and {} (t = {t:.3})",

@@ -69,7 +69,11 @@ impl TriMesh {
         let [a, b, c] = t.map(|i| self.positions[i as usize]);
         let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
         let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         if l > 0.0 {
             n.map(|x| x / l)
@@ -96,7 +100,8 @@ impl TriMesh {
             }
         }
         // Directed edges: each must occur once, and its reverse once.
-        let mut directed: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 3);
+        let mut directed: HashMap<(u32, u32), u32> =
+            HashMap::with_capacity(self.triangles.len() * 3);
         for t in &self.triangles {
             for k in 0..3 {
                 *directed.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
@@ -107,7 +112,10 @@ impl TriMesh {
             let p = self.positions[a as usize];
             if n > 1 {
                 let check = if back == 0 { "oriented" } else { "manifold" };
-                return Err(fail(check, format!("edge near {p:?} is used {n} times in the same direction")));
+                return Err(fail(
+                    check,
+                    format!("edge near {p:?} is used {n} times in the same direction"),
+                ));
             }
             if back == 0 {
                 return Err(fail("closed", format!("open edge near {p:?}")));
@@ -133,11 +141,17 @@ impl TriMesh {
             roots.insert(find(&mut parent, t[0]));
         }
         if roots.len() != 1 {
-            return Err(fail("connected", format!("{} separate pieces", roots.len())));
+            return Err(fail(
+                "connected",
+                format!("{} separate pieces", roots.len()),
+            ));
         }
         let v = self.volume_mm3();
         if v.is_nan() || v <= 0.0 {
-            return Err(fail("volume", format!("signed volume {v} mm³ is not positive (inside out)")));
+            return Err(fail(
+                "volume",
+                format!("signed volume {v} mm³ is not positive (inside out)"),
+            ));
         }
         Ok(())
     }
@@ -146,7 +160,11 @@ impl TriMesh {
         let [a, b, c] = t.map(|i| self.positions[i as usize]);
         let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
         (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
     }
 }
@@ -169,7 +187,8 @@ pub fn weld(triangles: &[[Point3; 3]], tol: f64) -> TriMesh {
                     if let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
                         for &i in list {
                             let q = positions[i as usize];
-                            let d2 = (q[0] - p.x).powi(2) + (q[1] - p.y).powi(2) + (q[2] - p.z).powi(2);
+                            let d2 =
+                                (q[0] - p.x).powi(2) + (q[1] - p.y).powi(2) + (q[2] - p.z).powi(2);
                             if d2 <= tol * tol {
                                 return i;
                             }
@@ -216,7 +235,11 @@ pub fn mesh_solid(part: &str, solid: &Solid, tol_mm: f64) -> Result<TriMesh, Mes
         for tri in poly.faces().triangle_iter() {
             let t = [pos[tri[0].pos], pos[tri[1].pos], pos[tri[2].pos]];
             // truck orients each face's triangles by that face's orientation.
-            triangles.push(if face.orientation() { t } else { [t[0], t[2], t[1]] });
+            triangles.push(if face.orientation() {
+                t
+            } else {
+                [t[0], t[2], t[1]]
+            });
         }
     }
     let mesh = weld(&triangles, WELD_TOLERANCE_MM);
@@ -269,7 +292,8 @@ mod tests {
         let mut two = tetra(0.0);
         let other = tetra(5.0);
         two.positions.extend(other.positions);
-        two.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + 4)));
+        two.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + 4)));
         assert_eq!(check_name(&two), Some("connected"));
 
         let mut flat = tetra(0.0);
@@ -281,8 +305,12 @@ mod tests {
         bow.positions.push([-1.0, 0.0, 0.0]);
         bow.positions.push([0.0, -1.0, 0.0]);
         // Second tetra on vertices 0, 3 (shared edge 0–3) and 4, 5.
-        bow.triangles.extend([[0, 4, 5], [0, 5, 3], [0, 3, 4], [4, 3, 5]]);
-        assert!(matches!(check_name(&bow), Some("manifold") | Some("oriented")));
+        bow.triangles
+            .extend([[0, 4, 5], [0, 5, 3], [0, 3, 4], [4, 3, 5]]);
+        assert!(matches!(
+            check_name(&bow),
+            Some("manifold") | Some("oriented")
+        ));
     }
 
     #[test]
@@ -291,7 +319,10 @@ mod tests {
         let b = Point3::new(1.0, 0.0, 0.0);
         let c = Point3::new(0.0, 1.0, 0.0);
         let b2 = Point3::new(1.0 + 1e-7, 0.0, 0.0);
-        let m = weld(&[[a, b, c], [a, b2, c], [a, Point3::new(1e-7, 0.0, 0.0), c]], WELD_TOLERANCE_MM);
+        let m = weld(
+            &[[a, b, c], [a, b2, c], [a, Point3::new(1e-7, 0.0, 0.0), c]],
+            WELD_TOLERANCE_MM,
+        );
         assert_eq!(m.positions.len(), 3);
         assert_eq!(m.triangles.len(), 2);
     }

@@ -118,7 +118,10 @@ pub fn part_names(design: &Design) -> Vec<String> {
     names
 }
 
-fn check_selection(design: &Design, selection: Option<&[String]>) -> Result<Vec<String>, GeometryError> {
+fn check_selection(
+    design: &Design,
+    selection: Option<&[String]>,
+) -> Result<Vec<String>, GeometryError> {
     let all = part_names(design);
     let Some(sel) = selection else { return Ok(all) };
     for s in sel {
@@ -138,18 +141,53 @@ fn check_selection(design: &Design, selection: Option<&[String]>) -> Result<Vec<
 fn check_module_profile(p: &ModuleProfile) -> Result<(), SpecError> {
     let e = |field: &str, msg: String| crate::spec::err(field, msg);
     let radii = [
-        ("module.cap_wall_mm", p.cap_inner_radius_mm, p.cap_outer_radius_mm),
-        ("module.pillars.groove_depth_mm", p.cap_pillar_inner_radius_mm, p.cap_inner_radius_mm),
-        ("module.pillars.groove_depth_mm", p.groove_bottom_radius_mm, p.pillar_outer_radius_mm),
-        ("module.pillars.height_mm", p.core_outer_radius_mm, p.groove_bottom_radius_mm),
-        ("module.core_wall_mm", p.core_inner_radius_mm, p.core_outer_radius_mm),
-        ("module.core_insert_clearance_mm", p.insert_radius_mm, p.core_inner_radius_mm),
-        ("module.top_hole_diameter_mm", p.top_hole_radius_mm, p.core_inner_radius_mm),
-        ("module.apex_flat_diameter_mm", p.apex_flat_radius_mm, p.insert_radius_mm),
+        (
+            "module.cap_wall_mm",
+            p.cap_inner_radius_mm,
+            p.cap_outer_radius_mm,
+        ),
+        (
+            "module.pillars.groove_depth_mm",
+            p.cap_pillar_inner_radius_mm,
+            p.cap_inner_radius_mm,
+        ),
+        (
+            "module.pillars.groove_depth_mm",
+            p.groove_bottom_radius_mm,
+            p.pillar_outer_radius_mm,
+        ),
+        (
+            "module.pillars.height_mm",
+            p.core_outer_radius_mm,
+            p.groove_bottom_radius_mm,
+        ),
+        (
+            "module.core_wall_mm",
+            p.core_inner_radius_mm,
+            p.core_outer_radius_mm,
+        ),
+        (
+            "module.core_insert_clearance_mm",
+            p.insert_radius_mm,
+            p.core_inner_radius_mm,
+        ),
+        (
+            "module.top_hole_diameter_mm",
+            p.top_hole_radius_mm,
+            p.core_inner_radius_mm,
+        ),
+        (
+            "module.apex_flat_diameter_mm",
+            p.apex_flat_radius_mm,
+            p.insert_radius_mm,
+        ),
     ];
     for (field, lo, hi) in radii {
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi) {
-            return Err(e(field, format!("leaves a radius of {lo:.4} mm that must lie between 0 and {hi:.4} mm")));
+            return Err(e(
+                field,
+                format!("leaves a radius of {lo:.4} mm that must lie between 0 and {hi:.4} mm"),
+            ));
         }
     }
     let heights = [
@@ -159,7 +197,9 @@ fn check_module_profile(p: &ModuleProfile) -> Result<(), SpecError> {
         p.cap_inner_junction_z_mm,
         p.insert_junction_z_mm,
     ];
-    if heights.iter().any(|z| !z.is_finite() || *z <= 0.0) || p.pillar_top_mm > p.core_outer_junction_z_mm + 1e-9 {
+    if heights.iter().any(|z| !z.is_finite() || *z <= 0.0)
+        || p.pillar_top_mm > p.core_outer_junction_z_mm + 1e-9
+    {
         return Err(e(
             "module.dome_height_mm",
             "the dome leaves no cylindrical section for the pillars; make the module taller or the dome lower".into(),
@@ -169,7 +209,9 @@ fn check_module_profile(p: &ModuleProfile) -> Result<(), SpecError> {
 }
 
 fn check_mold(design: &Design) -> Result<(), SpecError> {
-    let Some(a) = &design.array else { return Ok(()) };
+    let Some(a) = &design.array else {
+        return Ok(());
+    };
     let half = a.mold.internal_x_mm / 2.0;
     let sw = a.mold.slit_width_mm / 2.0;
     for (i, &x) in a.fiber_x_mm.iter().enumerate() {
@@ -188,7 +230,10 @@ fn check_mold(design: &Design) -> Result<(), SpecError> {
 
 /// Build the B-rep solids of the selected parts (all when `selection` is None).
 /// Parts of one kind share a solid: the inserts differ only in material.
-pub fn build_solids(design: &Design, selection: Option<&[String]>) -> Result<Vec<PartSolid>, GeometryError> {
+pub fn build_solids(
+    design: &Design,
+    selection: Option<&[String]>,
+) -> Result<Vec<PartSolid>, GeometryError> {
     let names = check_selection(design, selection)?;
     let mut out = Vec::new();
     if let Some(m) = &design.module {
@@ -205,7 +250,12 @@ pub fn build_solids(design: &Design, selection: Option<&[String]>) -> Result<Vec
         }
         if names.iter().any(|n| n == "core") {
             let pl = &m.pillars;
-            let s = module::core(&p, pl.width_mm, pl.fiber_hole_diameter_mm, pl.groove_width_mm)?;
+            let s = module::core(
+                &p,
+                pl.width_mm,
+                pl.fiber_hole_diameter_mm,
+                pl.groove_width_mm,
+            )?;
             out.push(PartSolid {
                 name: "core".into(),
                 kind: PartKind::Core,
@@ -255,7 +305,11 @@ pub const MAX_REFINEMENTS: u32 = 3;
 /// exact volume by more than `volume_bound` (small parts: an inscribed polygon of
 /// chord error s loses about 4/3 · s/r of a circle's area), the tolerance is halved,
 /// up to [`MAX_REFINEMENTS`] times; the tolerance actually used is recorded.
-pub fn mesh_part(part: &PartSolid, tol_mm: f64, volume_bound: f64) -> Result<BuiltPart, GeometryError> {
+pub fn mesh_part(
+    part: &PartSolid,
+    tol_mm: f64,
+    volume_bound: f64,
+) -> Result<BuiltPart, GeometryError> {
     let mut tol = tol_mm;
     for attempt in 0..=MAX_REFINEMENTS {
         let mesh = mesh::mesh_solid(&part.name, &part.solid, tol)?;
@@ -292,7 +346,11 @@ pub fn mesh_part(part: &PartSolid, tol_mm: f64, volume_bound: f64) -> Result<Bui
 
 /// Build, mesh and check the selected parts at `tol_mm` (the printer's default when
 /// None). Parts sharing a solid are meshed once. Fails on the first bad part.
-pub fn build_parts(design: &Design, tol_mm: Option<f64>, selection: Option<&[String]>) -> Result<Vec<BuiltPart>, GeometryError> {
+pub fn build_parts(
+    design: &Design,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<Vec<BuiltPart>, GeometryError> {
     let default = design.printer.default_tolerance_mm();
     let tol = tol_mm.unwrap_or(default);
     if !(0.001..=1.0).contains(&tol) {
@@ -303,7 +361,9 @@ pub fn build_parts(design: &Design, tol_mm: Option<f64>, selection: Option<&[Str
     // Mesh each distinct solid once (inserts share theirs), in parallel.
     let mut firsts: Vec<usize> = Vec::new();
     for (i, s) in solids.iter().enumerate() {
-        if !(s.kind == PartKind::Insert && firsts.iter().any(|&j| solids[j].kind == PartKind::Insert)) {
+        if !(s.kind == PartKind::Insert
+            && firsts.iter().any(|&j| solids[j].kind == PartKind::Insert))
+        {
             firsts.push(i);
         }
     }

@@ -39,7 +39,11 @@ impl Angles {
         let mut idx = Vec::new();
         for (i, &a) in base.iter().enumerate() {
             idx.push(th.len());
-            let b = if i + 1 < base.len() { base[i + 1] } else { base[0] + TAU };
+            let b = if i + 1 < base.len() {
+                base[i + 1]
+            } else {
+                base[0] + TAU
+            };
             let n = ((b - a) / MAX_PATCH_RAD).ceil().max(1.0) as usize;
             for k in 0..n {
                 th.push(a + (b - a) * k as f64 / n as f64);
@@ -56,7 +60,11 @@ impl Angles {
     fn interval(&self, k: usize) -> (f64, f64) {
         let n = self.len();
         let a = self.0[k % n];
-        let b = if k % n + 1 < n { self.0[k % n + 1] } else { self.0[0] + TAU };
+        let b = if k % n + 1 < n {
+            self.0[k % n + 1]
+        } else {
+            self.0[0] + TAU
+        };
         (a, b)
     }
 
@@ -77,14 +85,23 @@ impl Angles {
 /// An arc of the circle of radius `r` about `c` at height `z` from angle a0 to a1
 /// (counter-clockwise if a1 > a0).
 fn arc(c: (f64, f64), r: f64, a0: f64, a1: f64, z: f64) -> Seg {
-    Seg::Arc(pt(c, r, a0, z), pt(c, r, 0.5 * (a0 + a1), z), pt(c, r, a1, z))
+    Seg::Arc(
+        pt(c, r, a0, z),
+        pt(c, r, 0.5 * (a0 + a1), z),
+        pt(c, r, a1, z),
+    )
 }
 
 /// A cross-section segment, extruded between two heights.
 #[derive(Debug, Clone, Copy)]
 enum S2 {
     Line((f64, f64), (f64, f64)),
-    Arc { c: (f64, f64), r: f64, a0: f64, a1: f64 },
+    Arc {
+        c: (f64, f64),
+        r: f64,
+        a0: f64,
+        a1: f64,
+    },
 }
 
 impl S2 {
@@ -126,7 +143,12 @@ fn ring_cw(ang: &Angles, r: f64, from: usize, to: usize) -> Vec<S2> {
         .rev()
         .map(|k| {
             let (a0, a1) = ang.interval(k);
-            S2::Arc { c: O, r, a0: a1, a1: a0 }
+            S2::Arc {
+                c: O,
+                r,
+                a0: a1,
+                a1: a0,
+            }
         })
         .collect()
 }
@@ -144,7 +166,12 @@ fn band_sides(asm: &mut Assembler, loops: &[Vec<S2>], z0: f64, z1: f64) -> Resul
             let pa1 = Point3::new(a.0, a.1, z1);
             let pb0 = Point3::new(b.0, b.1, z0);
             let pb1 = Point3::new(b.0, b.1, z1);
-            let boundary = vec![s.at(z0), Seg::Line(pb0, pb1), s.at(z1).reversed(), Seg::Line(pa1, pa0)];
+            let boundary = vec![
+                s.at(z0),
+                Seg::Line(pb0, pb1),
+                s.at(z1).reversed(),
+                Seg::Line(pa1, pa0),
+            ];
             match *s {
                 S2::Line(..) => {
                     let out = Vector3::new(b.1 - a.1, a.0 - b.0, 0.0);
@@ -197,7 +224,12 @@ fn meridian(p: &Prof, zc: f64, th: f64) -> Seg {
 }
 
 /// Revolve a chain of profile segments through every interval of `ang`.
-fn revolve_chain(asm: &mut Assembler, chain: &[Prof], zc: f64, ang: &Angles) -> Result<(), BrepError> {
+fn revolve_chain(
+    asm: &mut Assembler,
+    chain: &[Prof],
+    zc: f64,
+    ang: &Angles,
+) -> Result<(), BrepError> {
     for p in chain {
         if (p.a.0 - p.b.0).hypot(p.a.1 - p.b.1) < MIN_SEGMENT_MM {
             continue;
@@ -214,7 +246,15 @@ fn revolve_chain(asm: &mut Assembler, chain: &[Prof], zc: f64, ang: &Angles) -> 
             let m = move |th: f64| meridian(&p, zc, th);
             let centre = p.sphere.map(|_| Point3::new(0.0, 0.0, zc));
             let name = if p.sphere.is_some() { "dome" } else { "wall" };
-            asm.revolved(name, &[boundary], Point3::new(0.0, 0.0, 0.0), (t0, t1), &m, centre, p.out)?;
+            asm.revolved(
+                name,
+                &[boundary],
+                Point3::new(0.0, 0.0, 0.0),
+                (t0, t1),
+                &m,
+                centre,
+                p.out,
+            )?;
         }
     }
     Ok(())
@@ -223,7 +263,11 @@ fn revolve_chain(asm: &mut Assembler, chain: &[Prof], zc: f64, ang: &Angles) -> 
 /// Flat disc of radius r at height z (apex flats, the insert's base).
 fn disc(asm: &mut Assembler, ang: &Angles, r: f64, z: f64, up: bool) -> Result<(), BrepError> {
     let l = at(&ring_ccw(ang, r, 0, 0), z);
-    let n = if up { Vector3::unit_z() } else { -Vector3::unit_z() };
+    let n = if up {
+        Vector3::unit_z()
+    } else {
+        -Vector3::unit_z()
+    };
     asm.plane("flat", &[l], n)
 }
 
@@ -268,8 +312,18 @@ pub fn insert(p: &ModuleProfile, part: &str) -> Result<BuiltSolid, BrepError> {
     let za = sphere_z(p, rho, a);
     disc(&mut asm, &ang, r, 0.0, false)?;
     let chain = [
-        Prof { a: (r, 0.0), b: (r, zj), sphere: None, out: 1.0 },
-        Prof { a: (r, zj), b: (a, za), sphere: Some(rho), out: 1.0 },
+        Prof {
+            a: (r, 0.0),
+            b: (r, zj),
+            sphere: None,
+            out: 1.0,
+        },
+        Prof {
+            a: (r, zj),
+            b: (a, za),
+            sphere: Some(rho),
+            out: 1.0,
+        },
     ];
     revolve_chain(&mut asm, &chain, zc, &ang)?;
     disc(&mut asm, &ang, a, za, true)?;
@@ -281,7 +335,12 @@ pub fn insert(p: &ModuleProfile, part: &str) -> Result<BuiltSolid, BrepError> {
 
 /// The core (PSC): hollow cylinder with a domed top and a top hole, and outer pillars,
 /// each with an axial groove in its outer face and a fiber through-hole.
-pub fn core(p: &ModuleProfile, pillar_width_mm: f64, fiber_hole_diameter_mm: f64, groove_width_mm: f64) -> Result<BuiltSolid, BrepError> {
+pub fn core(
+    p: &ModuleProfile,
+    pillar_width_mm: f64,
+    fiber_hole_diameter_mm: f64,
+    groove_width_mm: f64,
+) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new("core");
     let (r_co, r_ci) = (p.core_outer_radius_mm, p.core_inner_radius_mm);
     let (r_po, r_gb) = (p.pillar_outer_radius_mm, p.groove_bottom_radius_mm);
@@ -291,7 +350,11 @@ pub fn core(p: &ModuleProfile, pillar_width_mm: f64, fiber_hole_diameter_mm: f64
     let top = p.pillar_top_mm;
     let zc = p.dome_center_z_mm;
     let beta = (hw / r_co).asin();
-    let base: Vec<f64> = p.pillar_angles_rad.iter().flat_map(|&t| [t - beta, t + beta]).collect();
+    let base: Vec<f64> = p
+        .pillar_angles_rad
+        .iter()
+        .flat_map(|&t| [t - beta, t + beta])
+        .collect();
     let (ang, idx) = Angles::new(&base);
     let n = p.pillar_angles_rad.len();
 
@@ -306,24 +369,49 @@ pub fn core(p: &ModuleProfile, pillar_width_mm: f64, fiber_hole_diameter_mm: f64
         let (aw, ag, gb) = ((hw / r_po).asin(), (hg / r_po).asin(), (hg / r_gb).asin());
         vec![
             S2::Line(e(s1, -hw), e(s2, -hw)),
-            S2::Arc { c: O, r: r_po, a0: t - aw, a1: t - ag },
+            S2::Arc {
+                c: O,
+                r: r_po,
+                a0: t - aw,
+                a1: t - ag,
+            },
             S2::Line(e(s3, -hg), e(s4, -hg)),
-            S2::Arc { c: O, r: r_gb, a0: t - gb, a1: t + gb },
+            S2::Arc {
+                c: O,
+                r: r_gb,
+                a0: t - gb,
+                a1: t + gb,
+            },
             S2::Line(e(s4, hg), e(s3, hg)),
-            S2::Arc { c: O, r: r_po, a0: t + ag, a1: t + aw },
+            S2::Arc {
+                c: O,
+                r: r_po,
+                a0: t + ag,
+                a1: t + aw,
+            },
             S2::Line(e(s2, hw), e(s1, hw)),
         ]
     };
     let mut outer = Vec::new();
     for i in 0..n {
         outer.extend(rib(p.pillar_angles_rad[i]));
-        outer.extend(ring_ccw(&ang, r_co, idx[2 * i + 1], idx[(2 * i + 2) % (2 * n)]));
+        outer.extend(ring_ccw(
+            &ang,
+            r_co,
+            idx[2 * i + 1],
+            idx[(2 * i + 2) % (2 * n)],
+        ));
     }
     let inner = ring_cw(&ang, r_ci, 0, 0);
     let hole = |t: f64| -> Vec<S2> {
         let c = (r_fh * t.cos(), r_fh * t.sin());
         (0..4)
-            .map(|k| S2::Arc { c, r: rh, a0: t - k as f64 * FRAC_PI_2, a1: t - (k + 1) as f64 * FRAC_PI_2 })
+            .map(|k| S2::Arc {
+                c,
+                r: rh,
+                a0: t - k as f64 * FRAC_PI_2,
+                a1: t - (k + 1) as f64 * FRAC_PI_2,
+            })
             .collect()
     };
     let holes: Vec<Vec<S2>> = p.pillar_angles_rad.iter().map(|&t| hole(t)).collect();
@@ -336,23 +424,56 @@ pub fn core(p: &ModuleProfile, pillar_width_mm: f64, fiber_hole_diameter_mm: f64
     for i in 0..n {
         let mut l = rib(p.pillar_angles_rad[i]);
         l.extend(ring_cw(&ang, r_co, idx[2 * i + 1], idx[2 * i]));
-        asm.plane("pillar top", &[at(&l, top), at(&holes[i], top)], Vector3::unit_z())?;
+        asm.plane(
+            "pillar top",
+            &[at(&l, top), at(&holes[i], top)],
+            Vector3::unit_z(),
+        )?;
     }
 
     let th = p.top_hole_radius_mm;
-    let (rs_o, rs_i) = (p.core_dome_outer_sphere_radius_mm, p.core_dome_inner_sphere_radius_mm);
+    let (rs_o, rs_i) = (
+        p.core_dome_outer_sphere_radius_mm,
+        p.core_dome_inner_sphere_radius_mm,
+    );
     let (z_oj, z_ij) = (p.core_outer_junction_z_mm, p.core_inner_junction_z_mm);
     let (z_oh, z_ih) = (sphere_z(p, rs_o, th), sphere_z(p, rs_i, th));
     let chain = [
-        Prof { a: (r_co, top), b: (r_co, z_oj), sphere: None, out: 1.0 },
-        Prof { a: (r_co, z_oj), b: (th, z_oh), sphere: Some(rs_o), out: 1.0 },
-        Prof { a: (th, z_oh), b: (th, z_ih), sphere: None, out: -1.0 },
-        Prof { a: (th, z_ih), b: (r_ci, z_ij), sphere: Some(rs_i), out: -1.0 },
-        Prof { a: (r_ci, z_ij), b: (r_ci, top), sphere: None, out: -1.0 },
+        Prof {
+            a: (r_co, top),
+            b: (r_co, z_oj),
+            sphere: None,
+            out: 1.0,
+        },
+        Prof {
+            a: (r_co, z_oj),
+            b: (th, z_oh),
+            sphere: Some(rs_o),
+            out: 1.0,
+        },
+        Prof {
+            a: (th, z_oh),
+            b: (th, z_ih),
+            sphere: None,
+            out: -1.0,
+        },
+        Prof {
+            a: (th, z_ih),
+            b: (r_ci, z_ij),
+            sphere: Some(rs_i),
+            out: -1.0,
+        },
+        Prof {
+            a: (r_ci, z_ij),
+            b: (r_ci, top),
+            sphere: None,
+            out: -1.0,
+        },
     ];
     revolve_chain(&mut asm, &chain, zc, &ang)?;
 
-    let rib_area = slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
+    let rib_area =
+        slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
     let band = top * (PI * (r_co * r_co - r_ci * r_ci) + n as f64 * (rib_area - PI * rh * rh));
     let upper = (PI * r_co * r_co * (z_oj - top) + zone_volume(rs_o, z_oj - zc, z_oh - zc))
         - (PI * r_ci * r_ci * (z_ij - top) + zone_volume(rs_i, z_ij - zc, z_ih - zc))
@@ -367,12 +488,20 @@ pub fn core(p: &ModuleProfile, pillar_width_mm: f64, fiber_hole_diameter_mm: f64
 /// pillars that fit the core's grooves.
 pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new("cap");
-    let (r_o, r_ci, r_pi) = (p.cap_outer_radius_mm, p.cap_inner_radius_mm, p.cap_pillar_inner_radius_mm);
+    let (r_o, r_ci, r_pi) = (
+        p.cap_outer_radius_mm,
+        p.cap_inner_radius_mm,
+        p.cap_pillar_inner_radius_mm,
+    );
     let hc = p.cap_pillar_width_mm / 2.0;
     let top = p.pillar_top_mm;
     let zc = p.dome_center_z_mm;
     let beta = (hc / r_ci).asin();
-    let base: Vec<f64> = p.pillar_angles_rad.iter().flat_map(|&t| [t - beta, t + beta]).collect();
+    let base: Vec<f64> = p
+        .pillar_angles_rad
+        .iter()
+        .flat_map(|&t| [t - beta, t + beta])
+        .collect();
     let (ang, idx) = Angles::new(&base);
     let n = p.pillar_angles_rad.len();
 
@@ -386,14 +515,24 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
         let b2 = (hc / r_pi).asin();
         vec![
             S2::Line(e(s1, hc), e(s2, hc)),
-            S2::Arc { c: O, r: r_pi, a0: t + b2, a1: t - b2 },
+            S2::Arc {
+                c: O,
+                r: r_pi,
+                a0: t + b2,
+                a1: t - b2,
+            },
             S2::Line(e(s2, -hc), e(s1, -hc)),
         ]
     };
     let mut inner = Vec::new();
     for i in (0..n).rev() {
         inner.extend(rib(p.pillar_angles_rad[i]));
-        inner.extend(ring_cw(&ang, r_ci, idx[2 * i], idx[(2 * i + 2 * n - 1) % (2 * n)]));
+        inner.extend(ring_cw(
+            &ang,
+            r_ci,
+            idx[2 * i],
+            idx[(2 * i + 2 * n - 1) % (2 * n)],
+        ));
     }
     let outer = ring_ccw(&ang, r_o, 0, 0);
     let loops = vec![outer, inner];
@@ -407,16 +546,39 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
     }
 
     let a = p.apex_flat_radius_mm;
-    let (rs_o, rs_i) = (p.cap_dome_outer_sphere_radius_mm, p.cap_dome_inner_sphere_radius_mm);
+    let (rs_o, rs_i) = (
+        p.cap_dome_outer_sphere_radius_mm,
+        p.cap_dome_inner_sphere_radius_mm,
+    );
     let (z_oj, z_ij) = (p.cap_outer_junction_z_mm, p.cap_inner_junction_z_mm);
     let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
     let outer_chain = [
-        Prof { a: (r_o, top), b: (r_o, z_oj), sphere: None, out: 1.0 },
-        Prof { a: (r_o, z_oj), b: (a, z_oa), sphere: Some(rs_o), out: 1.0 },
+        Prof {
+            a: (r_o, top),
+            b: (r_o, z_oj),
+            sphere: None,
+            out: 1.0,
+        },
+        Prof {
+            a: (r_o, z_oj),
+            b: (a, z_oa),
+            sphere: Some(rs_o),
+            out: 1.0,
+        },
     ];
     let inner_chain = [
-        Prof { a: (a, z_ia), b: (r_ci, z_ij), sphere: Some(rs_i), out: -1.0 },
-        Prof { a: (r_ci, z_ij), b: (r_ci, top), sphere: None, out: -1.0 },
+        Prof {
+            a: (a, z_ia),
+            b: (r_ci, z_ij),
+            sphere: Some(rs_i),
+            out: -1.0,
+        },
+        Prof {
+            a: (r_ci, z_ij),
+            b: (r_ci, top),
+            sphere: None,
+            out: -1.0,
+        },
     ];
     revolve_chain(&mut asm, &outer_chain, zc, &ang)?;
     revolve_chain(&mut asm, &inner_chain, zc, &ang)?;

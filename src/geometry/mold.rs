@@ -13,7 +13,9 @@ use crate::spec::Mold;
 use truck_modeling::{Point3, Vector3};
 
 fn poly(pts: &[Point3]) -> Vec<Seg> {
-    (0..pts.len()).map(|i| Seg::Line(pts[i], pts[(i + 1) % pts.len()])).collect()
+    (0..pts.len())
+        .map(|i| Seg::Line(pts[i], pts[(i + 1) % pts.len()]))
+        .collect()
 }
 
 /// Build the mold. Slit centres are `layout.slit_x_mm` (validated to leave walls
@@ -32,18 +34,46 @@ pub fn mold(m: &Mold, layout: &ArrayLayout) -> Result<BuiltSolid, BrepError> {
     let (ex, ey, ez) = (Vector3::unit_x(), Vector3::unit_y(), Vector3::unit_z());
 
     // Base and cavity floor.
-    asm.plane("underside", &[poly(&[p(-hx, -hy, 0.0), p(hx, -hy, 0.0), p(hx, hy, 0.0), p(-hx, hy, 0.0)])], -ez)?;
-    asm.plane("cavity floor", &[poly(&[p(-ix, -iy, zf), p(ix, -iy, zf), p(ix, iy, zf), p(-ix, iy, zf)])], ez)?;
+    asm.plane(
+        "underside",
+        &[poly(&[
+            p(-hx, -hy, 0.0),
+            p(hx, -hy, 0.0),
+            p(hx, hy, 0.0),
+            p(-hx, hy, 0.0),
+        ])],
+        -ez,
+    )?;
+    asm.plane(
+        "cavity floor",
+        &[poly(&[
+            p(-ix, -iy, zf),
+            p(ix, -iy, zf),
+            p(ix, iy, zf),
+            p(-ix, iy, zf),
+        ])],
+        ez,
+    )?;
     // Short walls (normal to x): plain rectangles.
     for s in [-1.0, 1.0] {
         asm.plane(
             "outer short wall",
-            &[poly(&[p(s * hx, -hy, 0.0), p(s * hx, hy, 0.0), p(s * hx, hy, h), p(s * hx, -hy, h)])],
+            &[poly(&[
+                p(s * hx, -hy, 0.0),
+                p(s * hx, hy, 0.0),
+                p(s * hx, hy, h),
+                p(s * hx, -hy, h),
+            ])],
             ex * s,
         )?;
         asm.plane(
             "inner short wall",
-            &[poly(&[p(s * ix, -iy, zf), p(s * ix, iy, zf), p(s * ix, iy, h), p(s * ix, -iy, h)])],
+            &[poly(&[
+                p(s * ix, -iy, zf),
+                p(s * ix, iy, zf),
+                p(s * ix, iy, h),
+                p(s * ix, -iy, h),
+            ])],
             -ex * s,
         )?;
     }
@@ -52,7 +82,12 @@ pub fn mold(m: &Mold, layout: &ArrayLayout) -> Result<BuiltSolid, BrepError> {
     let notched_top = |y: f64| -> Vec<Point3> {
         let mut v = Vec::new();
         for &x in xs.iter().rev() {
-            v.extend([p(x + sw, y, h), p(x + sw, y, zs), p(x - sw, y, zs), p(x - sw, y, h)]);
+            v.extend([
+                p(x + sw, y, h),
+                p(x + sw, y, zs),
+                p(x - sw, y, zs),
+                p(x - sw, y, h),
+            ]);
         }
         v
     };
@@ -69,18 +104,41 @@ pub fn mold(m: &Mold, layout: &ArrayLayout) -> Result<BuiltSolid, BrepError> {
         let (ya, yb) = (s * iy, s * hy);
         for &x in &xs {
             for (xx, n) in [(x - sw, ex), (x + sw, -ex)] {
-                asm.plane("slit side", &[poly(&[p(xx, ya, zs), p(xx, yb, zs), p(xx, yb, h), p(xx, ya, h)])], n)?;
+                asm.plane(
+                    "slit side",
+                    &[poly(&[
+                        p(xx, ya, zs),
+                        p(xx, yb, zs),
+                        p(xx, yb, h),
+                        p(xx, ya, h),
+                    ])],
+                    n,
+                )?;
             }
             asm.plane(
                 "slit bottom",
-                &[poly(&[p(x - sw, ya, zs), p(x + sw, ya, zs), p(x + sw, yb, zs), p(x - sw, yb, zs)])],
+                &[poly(&[
+                    p(x - sw, ya, zs),
+                    p(x + sw, ya, zs),
+                    p(x + sw, yb, zs),
+                    p(x - sw, yb, zs),
+                ])],
                 ez,
             )?;
         }
         // Wall-top pieces of this long wall between neighbouring slits.
         for w in xs.windows(2) {
             let (x0, x1) = (w[0] + sw, w[1] - sw);
-            asm.plane("wall top", &[poly(&[p(x0, ya, h), p(x1, ya, h), p(x1, yb, h), p(x0, yb, h)])], ez)?;
+            asm.plane(
+                "wall top",
+                &[poly(&[
+                    p(x0, ya, h),
+                    p(x1, ya, h),
+                    p(x1, yb, h),
+                    p(x0, yb, h),
+                ])],
+                ez,
+            )?;
         }
     }
     // The two end pieces of the wall top: a short wall and the ends of both long
