@@ -23,7 +23,11 @@ pub struct SweepParam {
 }
 
 fn set_core_moduli(d: &mut Design, v: f64) {
-    let keys: Vec<String> = d.module.iter().flat_map(|m| m.cores.iter().map(|c| c.material.clone())).collect();
+    let keys: Vec<String> = d
+        .module
+        .iter()
+        .flat_map(|m| m.cores.iter().map(|c| c.material.clone()))
+        .collect();
     for k in keys {
         if let Some(mat) = d.materials.get_mut(&k) {
             mat.youngs_modulus_mpa = v;
@@ -31,7 +35,11 @@ fn set_core_moduli(d: &mut Design, v: f64) {
     }
 }
 fn set_insert_moduli(d: &mut Design, v: f64) {
-    let keys: Vec<String> = d.module.iter().flat_map(|m| m.inserts.iter().map(|c| c.material.clone())).collect();
+    let keys: Vec<String> = d
+        .module
+        .iter()
+        .flat_map(|m| m.inserts.iter().map(|c| c.material.clone()))
+        .collect();
     for k in keys {
         if let Some(mat) = d.materials.get_mut(&k) {
             mat.youngs_modulus_mpa = v;
@@ -53,17 +61,83 @@ fn with_module(d: &mut Design, f: impl FnOnce(&mut crate::spec::Module)) {
 
 /// Every parameter `sweep` accepts.
 pub const PARAMS: &[SweepParam] = &[
-    SweepParam { name: "e1_mpa", aliases: &["core_modulus_mpa"], label: "E1, core modulus (MPa)", is_modulus: true, apply: set_core_moduli },
-    SweepParam { name: "e2_mpa", aliases: &["cap_modulus_mpa"], label: "E2, cap modulus (MPa)", is_modulus: true, apply: set_cap_modulus },
-    SweepParam { name: "es_mpa", aliases: &["insert_modulus_mpa"], label: "Es, insert modulus (MPa)", is_modulus: true, apply: set_insert_moduli },
-    SweepParam { name: "outer_diameter_mm", aliases: &[], label: "outer diameter (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.outer_diameter_mm = v) },
-    SweepParam { name: "overall_height_mm", aliases: &[], label: "overall height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.overall_height_mm = v) },
-    SweepParam { name: "dome_height_mm", aliases: &[], label: "dome height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.dome_height_mm = v) },
-    SweepParam { name: "cap_wall_mm", aliases: &[], label: "cap wall (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.cap_wall_mm = v) },
-    SweepParam { name: "core_wall_mm", aliases: &[], label: "core wall (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.core_wall_mm = v) },
-    SweepParam { name: "apex_flat_diameter_mm", aliases: &[], label: "apex flat diameter (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.apex_flat_diameter_mm = v) },
-    SweepParam { name: "pillar_width_mm", aliases: &[], label: "pillar width (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.pillars.width_mm = v) },
-    SweepParam { name: "pillar_height_mm", aliases: &[], label: "pillar height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.pillars.height_mm = v) },
+    SweepParam {
+        name: "e1_mpa",
+        aliases: &["core_modulus_mpa"],
+        label: "E1, core modulus (MPa)",
+        is_modulus: true,
+        apply: set_core_moduli,
+    },
+    SweepParam {
+        name: "e2_mpa",
+        aliases: &["cap_modulus_mpa"],
+        label: "E2, cap modulus (MPa)",
+        is_modulus: true,
+        apply: set_cap_modulus,
+    },
+    SweepParam {
+        name: "es_mpa",
+        aliases: &["insert_modulus_mpa"],
+        label: "Es, insert modulus (MPa)",
+        is_modulus: true,
+        apply: set_insert_moduli,
+    },
+    SweepParam {
+        name: "outer_diameter_mm",
+        aliases: &[],
+        label: "outer diameter (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.outer_diameter_mm = v),
+    },
+    SweepParam {
+        name: "overall_height_mm",
+        aliases: &[],
+        label: "overall height (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.overall_height_mm = v),
+    },
+    SweepParam {
+        name: "dome_height_mm",
+        aliases: &[],
+        label: "dome height (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.dome_height_mm = v),
+    },
+    SweepParam {
+        name: "cap_wall_mm",
+        aliases: &[],
+        label: "cap wall (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.cap_wall_mm = v),
+    },
+    SweepParam {
+        name: "core_wall_mm",
+        aliases: &[],
+        label: "core wall (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.core_wall_mm = v),
+    },
+    SweepParam {
+        name: "apex_flat_diameter_mm",
+        aliases: &[],
+        label: "apex flat diameter (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.apex_flat_diameter_mm = v),
+    },
+    SweepParam {
+        name: "pillar_width_mm",
+        aliases: &[],
+        label: "pillar width (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.pillars.width_mm = v),
+    },
+    SweepParam {
+        name: "pillar_height_mm",
+        aliases: &[],
+        label: "pillar height (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.pillars.height_mm = v),
+    },
     SweepParam {
         name: "grating_center_height_mm",
         aliases: &[],
@@ -71,7 +145,11 @@ pub const PARAMS: &[SweepParam] = &[
         is_modulus: false,
         apply: |d, v| {
             with_module(d, |m| {
-                for g in m.gratings.iter_mut().filter(|g| g.center_height_mm.is_some()) {
+                for g in m
+                    .gratings
+                    .iter_mut()
+                    .filter(|g| g.center_height_mm.is_some())
+                {
                     g.center_height_mm = Some(v);
                 }
             })
@@ -146,9 +224,16 @@ pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Des
 }
 
 /// Evenly spaced values from `from` to `to` inclusive, checked.
-pub fn sweep_values(param: &SweepParam, from: f64, to: f64, steps: usize) -> Result<Vec<f64>, SweepError> {
+pub fn sweep_values(
+    param: &SweepParam,
+    from: f64,
+    to: f64,
+    steps: usize,
+) -> Result<Vec<f64>, SweepError> {
     if !from.is_finite() || !to.is_finite() {
-        return Err(SweepError::BadRange(format!("--from {from} and --to {to} must be finite numbers")));
+        return Err(SweepError::BadRange(format!(
+            "--from {from} and --to {to} must be finite numbers"
+        )));
     }
     if to <= from {
         return Err(SweepError::BadRange(format!(
@@ -156,7 +241,9 @@ pub fn sweep_values(param: &SweepParam, from: f64, to: f64, steps: usize) -> Res
         )));
     }
     if steps < 2 {
-        return Err(SweepError::BadRange(format!("--steps must be at least 2, got {steps}")));
+        return Err(SweepError::BadRange(format!(
+            "--steps must be at least 2, got {steps}"
+        )));
     }
     if param.is_modulus && from <= 0.0 {
         return Err(SweepError::BadRange(format!(
@@ -170,7 +257,9 @@ pub fn sweep_values(param: &SweepParam, from: f64, to: f64, steps: usize) -> Res
             param.name
         )));
     }
-    Ok((0..steps).map(|i| from + (to - from) * i as f64 / (steps - 1) as f64).collect())
+    Ok((0..steps)
+        .map(|i| from + (to - from) * i as f64 / (steps - 1) as f64)
+        .collect())
 }
 
 /// One curve of a sweep: a grating in a configuration.
@@ -224,7 +313,10 @@ pub fn run(
     mut on_step: impl FnMut(),
 ) -> Result<SweepResult, SweepError> {
     let mut series: Vec<SweepSeries> = Vec::new();
-    let opts = PredictOptions { force_n, delta_t_k: 0.0 };
+    let opts = PredictOptions {
+        force_n,
+        delta_t_k: 0.0,
+    };
     for &v in values {
         let d = with_param(design, param, v)?;
         let preds = predict_with(&d, &opts).map_err(|source| SweepError::Model {
@@ -232,7 +324,11 @@ pub fn run(
             value: v,
             source,
         })?;
-        for p in preds.into_iter().map(|d| d.prediction).filter(|p| case.is_none_or(|c| c == p.case)) {
+        for p in preds
+            .into_iter()
+            .map(|d| d.prediction)
+            .filter(|p| case.is_none_or(|c| c == p.case))
+        {
             let s = match series
                 .iter_mut()
                 .find(|s| s.grating == p.grating && s.case == p.case && s.insert == p.insert)
@@ -291,11 +387,56 @@ pub const PAPER_FORCE_N: f64 = 50.0;
 
 /// The five parametric figures of the paper (Fig. 9a–c: Case I; Fig. 11a–b: Case II).
 pub const PAPER_FIGURES: &[PaperFigure] = &[
-    PaperFigure { id: "fig9a_case1_e1", title: "Case I: shift at 50 N vs E1 (E2 = 44 MPa, Es = 44 MPa)", case: LoadCase::I, param: "e1_mpa", range_mpa: (1.0, 1000.0), e1_mpa: None, e2_mpa: Some(44.0), es_mpa: Some(44.0) },
-    PaperFigure { id: "fig9b_case1_e2", title: "Case I: shift at 50 N vs E2 (E1 = 1.4 MPa, Es = 44 MPa)", case: LoadCase::I, param: "e2_mpa", range_mpa: (0.5, 50.0), e1_mpa: Some(1.4), e2_mpa: None, es_mpa: Some(44.0) },
-    PaperFigure { id: "fig9c_case1_es", title: "Case I: shift at 50 N vs Es (E1 = 1.4 MPa, E2 = 44 MPa)", case: LoadCase::I, param: "es_mpa", range_mpa: (10.0, 2000.0), e1_mpa: Some(1.4), e2_mpa: Some(44.0), es_mpa: None },
-    PaperFigure { id: "fig11a_case2_e1", title: "Case II: shift at 50 N vs E1 (E2 = 44 MPa)", case: LoadCase::II, param: "e1_mpa", range_mpa: (1.0, 1000.0), e1_mpa: None, e2_mpa: Some(44.0), es_mpa: None },
-    PaperFigure { id: "fig11b_case2_e2", title: "Case II: shift at 50 N vs E2 (E1 = 1.4 MPa)", case: LoadCase::II, param: "e2_mpa", range_mpa: (0.5, 50.0), e1_mpa: Some(1.4), e2_mpa: None, es_mpa: None },
+    PaperFigure {
+        id: "fig9a_case1_e1",
+        title: "Case I: shift at 50 N vs E1 (E2 = 44 MPa, Es = 44 MPa)",
+        case: LoadCase::I,
+        param: "e1_mpa",
+        range_mpa: (1.0, 1000.0),
+        e1_mpa: None,
+        e2_mpa: Some(44.0),
+        es_mpa: Some(44.0),
+    },
+    PaperFigure {
+        id: "fig9b_case1_e2",
+        title: "Case I: shift at 50 N vs E2 (E1 = 1.4 MPa, Es = 44 MPa)",
+        case: LoadCase::I,
+        param: "e2_mpa",
+        range_mpa: (0.5, 50.0),
+        e1_mpa: Some(1.4),
+        e2_mpa: None,
+        es_mpa: Some(44.0),
+    },
+    PaperFigure {
+        id: "fig9c_case1_es",
+        title: "Case I: shift at 50 N vs Es (E1 = 1.4 MPa, E2 = 44 MPa)",
+        case: LoadCase::I,
+        param: "es_mpa",
+        range_mpa: (10.0, 2000.0),
+        e1_mpa: Some(1.4),
+        e2_mpa: Some(44.0),
+        es_mpa: None,
+    },
+    PaperFigure {
+        id: "fig11a_case2_e1",
+        title: "Case II: shift at 50 N vs E1 (E2 = 44 MPa)",
+        case: LoadCase::II,
+        param: "e1_mpa",
+        range_mpa: (1.0, 1000.0),
+        e1_mpa: None,
+        e2_mpa: Some(44.0),
+        es_mpa: None,
+    },
+    PaperFigure {
+        id: "fig11b_case2_e2",
+        title: "Case II: shift at 50 N vs E2 (E1 = 1.4 MPa)",
+        case: LoadCase::II,
+        param: "e2_mpa",
+        range_mpa: (0.5, 50.0),
+        e1_mpa: Some(1.4),
+        e2_mpa: None,
+        es_mpa: None,
+    },
 ];
 
 /// The design with a paper figure's fixed moduli applied (the swept one untouched).
@@ -328,7 +469,11 @@ pub fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design,
 }
 
 /// Run one paper figure with `steps` values.
-pub fn run_paper_figure(design: &Design, fig: &PaperFigure, steps: usize) -> Result<SweepResult, SweepError> {
+pub fn run_paper_figure(
+    design: &Design,
+    fig: &PaperFigure,
+    steps: usize,
+) -> Result<SweepResult, SweepError> {
     let d = paper_figure_design(design, fig)?;
     let param = find_param(fig.param)?;
     let values = sweep_values(param, fig.range_mpa.0, fig.range_mpa.1, steps)?;
