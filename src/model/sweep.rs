@@ -451,13 +451,15 @@ pub fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design,
     }
     if let Some(v) = fig.es_mpa {
         set_insert_moduli(&mut d, v);
-        if let Some(m) = d.module.as_mut() {
-            m.inserts.truncate(1);
-        }
     }
-    if fig.param == "es_mpa" {
-        if let Some(m) = d.module.as_mut() {
-            m.inserts.truncate(1);
+    let insert_label = match fig.es_mpa {
+        Some(v) => format!("Es = {v} MPa"),
+        None => "swept insert".to_string(),
+    };
+    if let Some(m) = d.module.as_mut() {
+        m.inserts.truncate(1);
+        if let Some(i) = m.inserts.first_mut() {
+            i.name = insert_label;
         }
     }
     d.validate().map_err(|source| SweepError::InvalidDesign {

@@ -82,10 +82,11 @@ pub fn strain_warnings(
     insert: Option<(Elastic, f64)>,
 ) -> Vec<String> {
     let mut w = Vec::new();
+    // The values themselves are in the prediction; the messages name the limit only,
+    // so a table of many rows repeats one note instead of one per row.
     if core_strain.abs() > GRATING_MAX_STRAIN {
         w.push(format!(
-            "grating strain {:.0} µε exceeds ±{:.0} µε (a third of the 1 % proof test): not reliably linear",
-            core_strain * 1e6,
+            "grating strain beyond ±{:.0} µε (a third of the 1 % proof test): not reliably linear",
             GRATING_MAX_STRAIN * 1e6
         ));
     }
@@ -97,8 +98,7 @@ pub fn strain_warnings(
         let lim = material_strain_limit(e);
         if s.abs() > lim {
             w.push(format!(
-                "{part} strain {:.2} % exceeds the linear range of its material ({:.0} % for E = {} MPa)",
-                s * 100.0,
+                "{part} strain beyond the linear range of its material ({:.0} % for E = {} MPa)",
                 lim * 100.0,
                 e.youngs_modulus_mpa
             ));
