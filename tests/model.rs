@@ -473,6 +473,22 @@ fn bad_input_gets_clear_errors() {
         "zero modulus"
     );
     assert!(sweep::sweep_values(e1, 1.0, 10.0, 1).is_err(), "one step");
+    assert!(
+        sweep::sweep_values(e1, 1.0, 10.0, 1_000_000_000).is_err(),
+        "absurd step count"
+    );
+    let mut bare = d.clone();
+    bare.module.as_mut().unwrap().inserts.clear();
+    let e = sweep::run(&bare, e1, &[1.0, 2.0], 50.0, Some(LoadCase::I), || {}).unwrap_err();
+    assert!(
+        matches!(e, SweepError::Nothing(_)) && e.to_string().contains("insert"),
+        "{e}"
+    );
+    let fig = &PAPER_FIGURES[0];
+    assert!(
+        sweep::run_paper_figure(&bare, fig, 5).is_err(),
+        "Case I figure without an insert"
+    );
     let wall = sweep::find_param("cap_wall_mm").unwrap();
     let e = sweep::run(&d, wall, &[1.0, 9.0], 50.0, None, || {}).unwrap_err();
     assert!(e.to_string().contains("cap_wall_mm = 9"), "{e}");

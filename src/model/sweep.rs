@@ -180,6 +180,9 @@ pub enum SweepError {
     /// Empty, reversed or non-finite range, or too few steps.
     #[error("bad range: {0}")]
     BadRange(String),
+    /// Nothing to sweep: no strain grating, or Case I without an insert.
+    #[error("nothing to sweep: {0}")]
+    Nothing(String),
     /// A swept value makes the design invalid.
     #[error("at {param} = {value}: {source}")]
     InvalidDesign {
@@ -223,6 +226,9 @@ pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Des
     Ok(d)
 }
 
+/// Largest number of sweep values (a typo such as `--steps 1000000000` must not hang).
+pub const MAX_STEPS: usize = 100_000;
+
 /// Evenly spaced values from `from` to `to` inclusive, checked.
 pub fn sweep_values(
     param: &SweepParam,
@@ -240,9 +246,9 @@ pub fn sweep_values(
             "--from {from} must be smaller than --to {to} (an empty or reversed range)"
         )));
     }
-    if steps < 2 {
+    if !(2..=MAX_STEPS).contains(&steps) {
         return Err(SweepError::BadRange(format!(
-            "--steps must be at least 2, got {steps}"
+            "--steps must be between 2 and {MAX_STEPS}, got {steps}"
         )));
     }
     if param.is_modulus && from <= 0.0 {
@@ -351,6 +357,14 @@ pub fn run(
             s.sensitivity_pm_per_n.push(p.sensitivity_pm_per_n);
         }
         on_step();
+    }
+    if series.is_empty() {
+        return Err(SweepError::Nothing(match case {
+            Some(LoadCase::I) => {
+                "Case I needs a solid insert and a strain grating; the design lacks one".into()
+            }
+            _ => "the design has no strain grating to predict".into(),
+        }));
     }
     Ok(SweepResult {
         param: param.name.to_string(),
