@@ -268,6 +268,7 @@ fn evaluate(
         cap_e * f,
         insert_e,
     ));
+    warnings.extend(validity::force_warnings(p, conf.case, f));
     let raw = optics.shift_pm(lambda, strain, opts.delta_t_k);
     let reference_shift =
         reference.map(|r| optics.shift_pm(r.bragg_wavelength_nm, 0.0, opts.delta_t_k));

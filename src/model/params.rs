@@ -57,6 +57,9 @@ pub struct ModuleGeometry {
     pub apex_flat_radius_mm: f64,
     /// Insert radius, mm.
     pub insert_radius_mm: f64,
+    /// Radial gap between the cap's inner dome and the core's outer dome as printed
+    /// (clearance + pillar height), mm. The model assumes it closed (paper assumption 3).
+    pub dome_gap_mm: f64,
 }
 
 impl ModuleGeometry {
@@ -92,6 +95,7 @@ impl ModuleGeometry {
             core_dome_mid_sphere_radius_mm: core_rho,
             apex_flat_radius_mm: p.apex_flat_radius_mm,
             insert_radius_mm: p.insert_radius_mm,
+            dome_gap_mm: p.cap_dome_inner_sphere_radius_mm - p.core_dome_outer_sphere_radius_mm,
         }
     }
 
