@@ -184,24 +184,24 @@ pub enum SweepError {
     #[error("nothing to sweep: {0}")]
     Nothing(String),
     /// A swept value makes the design invalid.
-    #[error("at {param} = {value}: {source}")]
+    #[error("at {param} = {value}: {reason}")]
     InvalidDesign {
         /// Parameter.
         param: String,
         /// Value.
         value: f64,
         /// Why the design is invalid.
-        source: SpecError,
+        reason: SpecError,
     },
     /// The model rejected the design.
-    #[error("at {param} = {value}: {source}")]
+    #[error("at {param} = {value}: {reason}")]
     Model {
         /// Parameter.
         param: String,
         /// Value.
         value: f64,
         /// Model error.
-        source: super::ModelError,
+        reason: super::ModelError,
     },
 }
 
@@ -218,10 +218,10 @@ pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
 pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Design, SweepError> {
     let mut d = design.clone();
     (param.apply)(&mut d, value);
-    d.validate().map_err(|source| SweepError::InvalidDesign {
+    d.validate().map_err(|reason| SweepError::InvalidDesign {
         param: param.name.to_string(),
         value,
-        source,
+        reason,
     })?;
     Ok(d)
 }
@@ -325,10 +325,10 @@ pub fn run(
     };
     for &v in values {
         let d = with_param(design, param, v)?;
-        let preds = predict_with(&d, &opts).map_err(|source| SweepError::Model {
+        let preds = predict_with(&d, &opts).map_err(|reason| SweepError::Model {
             param: param.name.to_string(),
             value: v,
-            source,
+            reason,
         })?;
         for p in preds
             .into_iter()
@@ -476,10 +476,10 @@ pub fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design,
             i.name = insert_label;
         }
     }
-    d.validate().map_err(|source| SweepError::InvalidDesign {
+    d.validate().map_err(|reason| SweepError::InvalidDesign {
         param: fig.param.to_string(),
         value: f64::NAN,
-        source,
+        reason,
     })?;
     Ok(d)
 }
