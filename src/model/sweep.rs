@@ -46,6 +46,29 @@ fn set_insert_moduli(d: &mut Design, v: f64) {
         }
     }
 }
+/// Set a material property of every material the chosen parts use.
+fn set_materials(d: &mut Design, keys: Vec<String>, f: impl Fn(&mut crate::spec::Material)) {
+    for k in keys {
+        if let Some(mat) = d.materials.get_mut(&k) {
+            f(mat);
+        }
+    }
+}
+fn core_keys(d: &Design) -> Vec<String> {
+    d.module
+        .iter()
+        .flat_map(|m| m.cores.iter().map(|c| c.material.clone()))
+        .collect()
+}
+fn insert_keys(d: &Design) -> Vec<String> {
+    d.module
+        .iter()
+        .flat_map(|m| m.inserts.iter().map(|c| c.material.clone()))
+        .collect()
+}
+fn cap_keys(d: &Design) -> Vec<String> {
+    d.module.iter().map(|m| m.cap_material.clone()).collect()
+}
 fn set_cap_modulus(d: &mut Design, v: f64) {
     if let Some(k) = d.module.as_ref().map(|m| m.cap_material.clone()) {
         if let Some(mat) = d.materials.get_mut(&k) {
@@ -137,6 +160,27 @@ pub const PARAMS: &[SweepParam] = &[
         label: "pillar height (mm)",
         is_modulus: false,
         apply: |d, v| with_module(d, |m| m.pillars.height_mm = v),
+    },
+    SweepParam {
+        name: "nu1",
+        aliases: &["core_poisson_ratio"],
+        label: "ν1, core Poisson's ratio",
+        is_modulus: false,
+        apply: |d, v| set_materials(d, core_keys(d), |m| m.poisson_ratio = v),
+    },
+    SweepParam {
+        name: "nu2",
+        aliases: &["cap_poisson_ratio"],
+        label: "ν2, cap Poisson's ratio",
+        is_modulus: false,
+        apply: |d, v| set_materials(d, cap_keys(d), |m| m.poisson_ratio = v),
+    },
+    SweepParam {
+        name: "nus",
+        aliases: &["insert_poisson_ratio"],
+        label: "νs, insert Poisson's ratio",
+        is_modulus: false,
+        apply: |d, v| set_materials(d, insert_keys(d), |m| m.poisson_ratio = v),
     },
     SweepParam {
         name: "grating_center_height_mm",
@@ -259,7 +303,7 @@ pub fn sweep_values(
     }
     if from <= 0.0 {
         return Err(SweepError::BadRange(format!(
-            "{} is a length: the range must stay above 0 mm, got --from {from}",
+            "{} must stay above 0 (a length or ratio), got --from {from}",
             param.name
         )));
     }
