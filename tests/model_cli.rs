@@ -135,6 +135,12 @@ fn sweep_and_predict_reject_bad_input_clearly() {
         "{}",
         stderr(&o)
     );
+    let o = run(&["predict", p, "--case", "I"]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("needs a solid insert"),
+        "{}",
+        stderr(&o)
+    );
     let o = run(&["predict", p, "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();

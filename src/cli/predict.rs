@@ -23,6 +23,9 @@ pub struct PredictArgs {
     /// and shows the shift after compensation with the reference grating.
     #[arg(long, default_value_t = 0.0)]
     pub delta_t_k: f64,
+    /// Keep only one loading case (Case I needs an insert in the design).
+    #[arg(long, value_enum)]
+    pub case: Option<CaseArg>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -43,7 +46,14 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         );
     }
     let design = crate::spec::load(&a.design)?;
-    let preds = model::predict_with(
+    let case = a.case.map(LoadCase::from);
+    if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
+        bail!(
+            "{}: Case I needs a solid insert, but the design lists none under [[module.inserts]]",
+            a.design.display()
+        );
+    }
+    let mut preds = model::predict_with(
         &design,
         &PredictOptions {
             force_n: a.force_n,
@@ -51,6 +61,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         },
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
+    preds.retain(|d| case.is_none_or(|c| c == d.prediction.case));
     if a.json {
         let doc = serde_json::json!({
             "design": design.name,
@@ -127,6 +138,15 @@ pub enum CaseArg {
     /// Case II (hollow core).
     #[value(name = "II", alias = "ii", alias = "2")]
     II,
+}
+
+impl From<CaseArg> for LoadCase {
+    fn from(c: CaseArg) -> Self {
+        match c {
+            CaseArg::I => LoadCase::I,
+            CaseArg::II => LoadCase::II,
+        }
+    }
 }
 
 /// Arguments of `fbgforge sweep`.
@@ -236,10 +256,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     }
     let values = sweep::sweep_values(param, from, to, a.steps)?;
-    let case = a.case.map(|c| match c {
-        CaseArg::I => LoadCase::I,
-        CaseArg::II => LoadCase::II,
-    });
+    let case = a.case.map(LoadCase::from);
     if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
         bail!(
             "{}: Case I needs a solid insert, but the design lists none",
