@@ -469,6 +469,13 @@ fn bad_input_gets_clear_errors() {
         .iter()
         .all(|p| p.case == LoadCase::II));
     let d = design("clip-on-34mm.toml");
+    let e = model::sensitivity_pm_per_n(&d, LoadCase::I, None, "lambda_11").unwrap_err();
+    assert!(
+        matches!(e, ModelError::InsertRequired { .. }) && e.to_string().contains("blue"),
+        "{e}"
+    );
+    let e = model::sensitivity_pm_per_n(&d, LoadCase::II, Some("blue"), "lambda_11").unwrap_err();
+    assert_eq!(e, ModelError::InsertInCaseII);
     let e = model::sensitivity_pm_per_n(&d, LoadCase::I, Some("red"), "lambda_11").unwrap_err();
     assert!(e.to_string().contains("blue, green, light_green"), "{e}");
     let e = model::sensitivity_pm_per_n(&d, LoadCase::II, None, "lambda_temp").unwrap_err();

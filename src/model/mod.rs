@@ -124,6 +124,12 @@ pub enum ModelError {
     /// A force that is not finite.
     #[error("the force must be a finite number of newtons, got {0}")]
     BadForce(f64),
+    /// Case I was asked for without naming an insert.
+    #[error("Case I needs an insert name; the design has: {}", known.join(", "))]
+    InsertRequired {
+        /// Insert names in the spec.
+        known: Vec<String>,
+    },
     /// Case II was given an insert.
     #[error("Case II is the hollow core: give no insert")]
     InsertInCaseII,
@@ -309,8 +315,7 @@ pub fn sensitivity_pm_per_n(
     match (case, insert) {
         (LoadCase::I, None) if m.inserts.is_empty() => return Err(ModelError::NoInsert),
         (LoadCase::I, None) => {
-            return Err(ModelError::UnknownInsert {
-                name: String::new(),
+            return Err(ModelError::InsertRequired {
                 known: m.inserts.iter().map(|i| i.name.clone()).collect(),
             })
         }
