@@ -10,6 +10,10 @@
 //!   m cells is tried (255 for 8 cells, pseudo-inverses precomputed), the one with the
 //!   smallest ‖Âz − y‖² + λ·|S| wins. This is the paper's objective with p → 0, solved
 //!   exactly instead of stochastically.
+//!//! * `wsupport`: the same enumeration, but each support is scored by the negative
+//!   log-likelihood of the paper's noise model (interrogator resolution plus a
+//!   hysteresis error per load, so the variance of a grating grows with the loads it
+//!   sees) plus λ·|S|: a weighted fit with a support-dependent variance.
 //! * `nnls`: Lawson–Hanson non-negative least squares, then the upper bound enforced
 //!   by a bounded projected-gradient polish (no sparsity prior beyond x ≥ 0).
 //! * `lasso`: ½‖Âz − y‖² + λ‖z‖₁ over the box, by FISTA with adaptive restart.
@@ -55,6 +59,9 @@ pub trait Reconstructor: Send + Sync {
 pub enum Method {
     /// Exact ℓ0-penalised bounded least squares over enumerated supports.
     Support,
+    /// Like `Support`, with each support scored by the Gaussian likelihood of the
+    /// paper's noise (resolution and per-load hysteresis) instead of plain residuals.
+    WeightedSupport,
     /// Non-negative least squares (Lawson–Hanson) with the upper bound enforced.
     Nnls,
     /// Bounded LASSO by FISTA.
@@ -67,7 +74,8 @@ pub enum Method {
 
 impl Method {
     /// Every method, fastest exact one first.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
+        Method::WeightedSupport,
         Method::Support,
         Method::Nnls,
         Method::Lasso,
@@ -79,6 +87,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Method::Support => "support",
+            Method::WeightedSupport => "wsupport",
             Method::Nnls => "nnls",
             Method::Lasso => "lasso",
             Method::Omp => "omp",
@@ -109,6 +118,7 @@ impl Method {
     pub fn default_penalty(self) -> f64 {
         match self {
             Method::Support => 4.0,
+            Method::WeightedSupport => 2.0,
             Method::Nnls => 0.0,
             Method::Lasso => 0.5,
             Method::Omp => 4.0,
@@ -121,6 +131,7 @@ impl Method {
         match self {
             Method::Nnls => vec![0.0],
             Method::Lasso => (0..13).map(|k| 0.01 * 2f64.powi(k)).collect(),
+            Method::WeightedSupport => (0..13).map(|k| 0.25 * 1.5f64.powi(k)).collect(),
             _ => (0..13).map(|k| 0.0625 * 2f64.powi(k)).collect(),
         }
     }
@@ -129,7 +140,8 @@ impl Method {
 /// Settings shared by every method.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct MethodSettings {
-    /// Penalty weight: λ per non-zero load in pm² (`support`, `omp`), σ in pm² per unit
+    /// Penalty weight: λ per non-zero load in pm² (`support`, `omp`), in units of the
+    /// negative log-likelihood (`wsupport`), σ in pm² per unit
     /// of Σ zᵖ (`de`), λ of the ℓ1 term in pm (`lasso`, normalised columns); ignored by
     /// `nnls`. With normalised columns the working unknown is in pm.
     pub penalty: f64,
@@ -142,6 +154,8 @@ pub struct MethodSettings {
     pub de_generations: u64,
     /// FISTA iteration limit.
     pub fista_iterations: u64,
+    /// Noise the `wsupport` method assumes.
+    pub noise_prior: NoisePrior,
 }
 
 impl MethodSettings {
@@ -153,6 +167,7 @@ impl MethodSettings {
             de_population: 150,
             de_generations: 1500,
             fista_iterations: 20_000,
+            noise_prior: NoisePrior::paper(),
         }
     }
 }
@@ -171,7 +186,12 @@ pub fn build(
     }
     let common = Common::new(problem);
     Ok(match method {
-        Method::Support => Box::new(SupportSearch::new(common, settings.penalty)?),
+        Method::Support => Box::new(SupportSearch::new(common, settings.penalty, None)?),
+        Method::WeightedSupport => Box::new(SupportSearch::new(
+            common,
+            settings.penalty,
+            Some(settings.noise_prior),
+        )?),
         Method::Nnls => Box::new(Nnls {
             common,
             iterations: settings.fista_iterations,
@@ -344,18 +364,48 @@ fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64
 
 // ---------------------------------------------------------------- support search
 
+/// What the `wsupport` method knows about the measurement noise (from the paper's
+/// datasheet numbers, not from the simulation): a reading of grating i with loads on
+/// the cells S has variance resolution² + (hysteresis span)²/3 · Σ_{j∈S} A_ij², since
+/// every load adds its own hysteresis error, uniform in ± (hysteresis fraction × span).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoisePrior {
+    /// Standard deviation of the interrogator noise, pm.
+    pub resolution_pm: f64,
+    /// Hysteresis bound as a load, g (fraction of span × span: 0.0433 × 250 g).
+    pub hysteresis_g: f64,
+}
+
+impl NoisePrior {
+    /// The paper's numbers: 0.5 pm, ± 4.33 % of a 250 g span.
+    pub fn paper() -> Self {
+        NoisePrior {
+            resolution_pm: 0.5,
+            hysteresis_g: 0.0433 * 250.0,
+        }
+    }
+}
+
 struct SupportEntry {
     cols: Vec<usize>,
-    /// (ÂₛᵀÂₛ)⁻¹Âₛᵀ, k × m row-major.
+    /// Weighted pseudo-inverse (ÂₛᵀWÂₛ)⁻¹ÂₛᵀW, k × m row-major.
     pinv: Vec<f64>,
     /// Âₛ columns, k × m (column a of the support at [a*m..(a+1)*m]).
     cols_data: Vec<f64>,
+    /// Weight of each grating's residual (1 / variance, or 1 without a noise prior).
+    weights: Vec<f64>,
+    /// Σ ln variance_i (0 without a noise prior): the Gaussian likelihood's
+    /// normalisation, which differs between supports once the variance depends on S.
+    log_det: f64,
 }
 
 struct SupportSearch {
     common: Common,
     lambda: f64,
-    /// Supports sorted by size (so the search can stop once λ·|S| alone is too costly).
+    weighted: bool,
+    /// Weights and log-determinant of the empty support.
+    empty: (Vec<f64>, f64),
+    /// Supports sorted by size.
     entries: Vec<SupportEntry>,
 }
 
@@ -363,7 +413,7 @@ struct SupportSearch {
 const MAX_SUPPORTS: usize = 70_000;
 
 impl SupportSearch {
-    fn new(common: Common, lambda: f64) -> Result<Self, ArrayError> {
+    fn new(common: Common, lambda: f64, prior: Option<NoisePrior>) -> Result<Self, ArrayError> {
         let (m, n) = (common.problem.n_gratings(), common.n());
         let kmax = m.min(n);
         let mut count: f64 = 0.0;
@@ -378,12 +428,33 @@ impl SupportSearch {
                  (limit {MAX_SUPPORTS}); use `omp`, `lasso` or `de` for arrays this large"
             )));
         }
+        let raw = &common.problem.sensitivity_pm_per_g;
+        let weights_for = |cols: &[usize]| -> (Vec<f64>, f64) {
+            match prior {
+                None => (vec![1.0; m], 0.0),
+                Some(p) => {
+                    let h2 = p.hysteresis_g * p.hysteresis_g / 3.0;
+                    let var: Vec<f64> = (0..m)
+                        .map(|i| {
+                            let s: f64 = cols.iter().map(|&j| raw[(i, j)] * raw[(i, j)]).sum();
+                            (p.resolution_pm * p.resolution_pm + h2 * s).max(1e-12)
+                        })
+                        .collect();
+                    (
+                        var.iter().map(|v| 1.0 / v).collect(),
+                        var.iter().map(|v| v.ln()).sum(),
+                    )
+                }
+            }
+        };
         let mut entries = Vec::new();
         for k in 1..=kmax {
             let mut cols: Vec<usize> = (0..k).collect();
             loop {
                 let a_s = DMatrix::from_fn(m, k, |i, a| common.problem.working[(i, cols[a])]);
-                let g = a_s.transpose() * &a_s;
+                let (weights, log_det) = weights_for(&cols);
+                let wa = DMatrix::from_fn(m, k, |i, a| a_s[(i, a)] * weights[i]);
+                let g = a_s.transpose() * &wa;
                 // Skip supports whose columns are (nearly) dependent: a smaller support
                 // explains the same shifts.
                 let eig = g.clone().symmetric_eigenvalues();
@@ -392,11 +463,13 @@ impl SupportSearch {
                     .fold((f64::INFINITY, 0.0f64), |(l, h), &e| (l.min(e), h.max(e)));
                 if lo > 1e-12 * hi {
                     if let Some(ch) = g.cholesky() {
-                        let p = ch.solve(&a_s.transpose());
+                        let p = ch.solve(&wa.transpose());
                         entries.push(SupportEntry {
                             cols: cols.clone(),
                             pinv: (0..k * m).map(|q| p[(q / m, q % m)]).collect(),
                             cols_data: (0..k * m).map(|q| a_s[(q % m, q / m)]).collect(),
+                            weights,
+                            log_det,
                         });
                     }
                 }
@@ -415,34 +488,79 @@ impl SupportSearch {
             }
         }
         Ok(SupportSearch {
+            empty: weights_for(&[]),
             common,
             lambda,
+            weighted: prior.is_some(),
             entries,
         })
+    }
+
+    /// Weighted misfit Σ w_i (y_i − (Âₛz)_i)² of a support's solution.
+    fn weighted_misfit(e: &SupportEntry, y: &[f64], z: &[f64]) -> f64 {
+        let m = y.len();
+        let mut rr = 0.0;
+        for (i, yi) in y.iter().enumerate() {
+            let mut fit = 0.0;
+            for (a, za) in z.iter().enumerate() {
+                fit += e.cols_data[a * m + i] * za;
+            }
+            rr += e.weights[i] * (yi - fit) * (yi - fit);
+        }
+        rr
+    }
+
+    /// Bounded weighted least squares on one support (upper bound active).
+    fn bounded(&self, e: &SupportEntry, y: &[f64]) -> (Vec<f64>, f64) {
+        let m = y.len();
+        let k = e.cols.len();
+        let a_s = DMatrix::from_fn(m, k, |i, a| e.cols_data[a * m + i]);
+        let wa = DMatrix::from_fn(m, k, |i, a| a_s[(i, a)] * e.weights[i]);
+        let g = a_s.transpose() * &wa;
+        let b = wa.transpose() * DVector::from_column_slice(y);
+        let u = DVector::from_fn(k, |a, _| self.common.problem.upper[e.cols[a]]);
+        let lip = g
+            .clone()
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        let (s, _, _) = fista_box(&g, &b, &u, 0.0, lip, DVector::zeros(k), 5000);
+        let z: Vec<f64> = s.iter().copied().collect();
+        let rr = Self::weighted_misfit(e, y, &z);
+        (z, rr)
     }
 }
 
 impl Reconstructor for SupportSearch {
     fn method(&self) -> Method {
-        Method::Support
+        if self.weighted {
+            Method::WeightedSupport
+        } else {
+            Method::Support
+        }
     }
 
     fn reconstruct(&self, y: &[f64]) -> Reconstruction {
-        let Some(aty) = self.common.aty(y) else {
+        if self.common.problem.check_shifts(y).is_err() {
             return self.common.unusable();
-        };
+        }
         let m = y.len();
         let upper = &self.common.problem.upper;
-        let yty: f64 = y.iter().map(|v| v * v).sum();
-        let mut best_cost = yty;
-        let mut best: Option<(usize, [f64; 64])> = None;
-        let mut best_full: Option<DVector<f64>> = None;
+        let (w0, ld0) = &self.empty;
+        let mut best_cost: f64 = y.iter().zip(w0).map(|(v, w)| w * v * v).sum::<f64>() + ld0;
+        let mut best: Option<(usize, Vec<f64>)> = None;
         let mut z = [0.0f64; 64];
         let mut tried = 0u64;
         for (e_idx, e) in self.entries.iter().enumerate() {
             let k = e.cols.len();
-            if self.lambda * k as f64 >= best_cost {
-                break; // sorted by size: no larger support can win
+            let floor = self.lambda * k as f64 + e.log_det;
+            if floor >= best_cost {
+                if self.weighted {
+                    continue;
+                }
+                break; // unweighted and sorted by size: no larger support can win
             }
             tried += 1;
             let mut inside = true;
@@ -459,41 +577,29 @@ impl Reconstructor for SupportSearch {
                 }
                 z[a] = v;
             }
-            // A negative load means a smaller support (already tried or still to come
-            // among the smaller ones) holds this support's bounded optimum.
+            // A negative load means this support's bounded optimum has that load at 0,
+            // i.e. it is a smaller support's solution, which is tried on its own.
             if negative {
                 continue;
             }
+            // The unconstrained misfit is a lower bound of the bounded one.
+            let rr = Self::weighted_misfit(e, y, &z[..k]);
+            if rr + floor >= best_cost {
+                continue;
+            }
             if inside {
-                let mut rr = 0.0;
-                for (i, yi) in y.iter().enumerate() {
-                    let mut fit = 0.0;
-                    for a in 0..k {
-                        fit += e.cols_data[a * m + i] * z[a];
-                    }
-                    rr += (yi - fit) * (yi - fit);
-                }
-                let cost = rr + self.lambda * k as f64;
-                if cost < best_cost {
-                    best_cost = cost;
-                    best = Some((e_idx, z));
-                    best_full = None;
-                }
+                best_cost = rr + floor;
+                best = Some((e_idx, z[..k].to_vec()));
             } else {
-                // Upper bound active: solve this support's bounded problem exactly.
-                let (zf, _) = bounded_ls_on(&self.common, &aty, &e.cols);
-                let cost = misfit(&self.common.gram, &aty, yty, &zf) + self.lambda * k as f64;
-                if cost < best_cost {
-                    best_cost = cost;
-                    best = None;
-                    best_full = Some(zf);
+                let (zb, rb) = self.bounded(e, y);
+                if rb + floor < best_cost {
+                    best_cost = rb + floor;
+                    best = Some((e_idx, zb));
                 }
             }
         }
         let mut full = vec![0.0; self.common.n()];
-        if let Some(zf) = best_full {
-            full.copy_from_slice(zf.as_slice());
-        } else if let Some((e_idx, zb)) = best {
+        if let Some((e_idx, zb)) = best {
             for (a, &j) in self.entries[e_idx].cols.iter().enumerate() {
                 full[j] = zb[a];
             }
