@@ -37,4 +37,3 @@ pub struct BenchVerifyArgs {}
 pub fn bench(_a: BenchVerifyArgs) -> anyhow::Result<()> {
     anyhow::bail!("`bench` is not available in this build yet")
 }
-
