@@ -223,11 +223,7 @@ pub fn cell_label(k: usize) -> String {
     if k < 26 {
         (letters[k] as char).to_string()
     } else {
-        format!(
-            "{}{}",
-            letters[(k / 26 - 1) % 26] as char,
-            letters[k % 26] as char
-        )
+        format!("{}{}", letters[(k / 26 - 1) % 26] as char, letters[k % 26] as char)
     }
 }
 

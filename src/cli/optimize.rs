@@ -28,3 +28,4 @@ pub struct BenchOptimizeArgs {}
 pub fn bench(_a: BenchOptimizeArgs) -> anyhow::Result<()> {
     anyhow::bail!("`bench` is not available in this build yet")
 }
+

@@ -28,3 +28,4 @@ pub struct BenchPredictArgs {}
 pub fn bench(_a: BenchPredictArgs) -> anyhow::Result<()> {
     anyhow::bail!("`bench` is not available in this build yet")
 }
+

@@ -37,3 +37,4 @@ pub struct BenchVerifyArgs {}
 pub fn bench(_a: BenchVerifyArgs) -> anyhow::Result<()> {
     anyhow::bail!("`bench` is not available in this build yet")
 }
+
