@@ -32,10 +32,10 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub method: Option<String>,
     /// Largest load per cell, g (default: the design's ulimit, else 250 g).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub ulimit_g: Option<f64>,
     /// Penalty weight of the method (default: the method's tuned default).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub penalty: Option<f64>,
     /// Do not column-normalise the matrix (the paper normalises).
     #[arg(long)]
