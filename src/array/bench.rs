@@ -593,7 +593,7 @@ fn failure_studies(
             snr = snr.with(Series::new(
                 m.name(),
                 pts.iter()
-                    .map(|p| (p.value, p.mean_snr_db.max(-20.0).min(80.0)))
+                    .map(|p| (p.value, p.mean_snr_db.clamp(-20.0, 80.0)))
                     .collect(),
                 Mark::LinePoints,
             ));

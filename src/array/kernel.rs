@@ -220,10 +220,13 @@ pub fn matrix_from_positions(
     })
 }
 
+/// A point (x, y) in the sheet's plane, mm from the array centre.
+pub type Point2Mm = (f64, f64);
+
 /// The paper's layout (reference §2, as in `designs/tactile-array-60x80.toml`):
 /// cell centres of the 4 × 2 cells of 20 × 30 mm (row-major from the −y row), and the
 /// six grating centres at x = ±7.5, ±22.5, ±37.5 mm, y = ±12.5 mm alternating.
-pub fn paper_layout() -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+pub fn paper_layout() -> (Vec<Point2Mm>, Vec<Point2Mm>) {
     let cells = [-15.0, 15.0]
         .iter()
         .flat_map(|&y| [-30.0, -10.0, 10.0, 30.0].map(|x| (x, y)))
