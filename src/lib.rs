@@ -3,6 +3,7 @@
 //! One design spec ([`spec`]) drives everything. [`profile`] derives every dimension
 //! once; the geometry, the models and the verifier all read it.
 
+pub mod array;
 pub mod cli;
 pub mod geometry;
 pub mod grating;
