@@ -4,6 +4,7 @@
 //! once; the geometry, the models and the verifier all read it.
 
 pub mod cli;
+pub mod fem;
 pub mod grating;
 pub mod model;
 pub mod output;
