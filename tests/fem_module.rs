@@ -1,0 +1,124 @@
+//! Finite-element model of the clip-on module: load path checks against closed
+//! results that hold exactly or nearly for the meshed body, sign of each case, mesh
+//! convergence, and the prediction interface.
+
+use fbgforge::fem::{self, configurations, solve_configuration, Configuration, FemOptions};
+use fbgforge::model::LoadCase;
+use fbgforge::profile::ModuleProfile;
+use fbgforge::spec::{self, Design};
+use std::path::Path;
+
+fn design() -> Design {
+    spec::load(Path::new("designs/clip-on-34mm.toml")).unwrap()
+}
+
+fn config(core: &str, case: LoadCase, insert: Option<&str>) -> Configuration {
+    Configuration {
+        core: core.into(),
+        case,
+        insert: insert.map(String::from),
+    }
+}
+
+fn strain(d: &Design, c: &Configuration, opt: &FemOptions) -> f64 {
+    solve_configuration(d, c, opt).unwrap().strain_per_n[0].2
+}
+
+#[test]
+fn case_ii_strain_matches_the_bonded_stack_far_from_the_ends() {
+    // In Case II the cap, the smeared pillar rings and the core are one bonded tube
+    // standing on the table; far from the dome and the base every layer shares one
+    // axial strain ε = −F / Σ E_i A_i. With one Poisson's ratio for every part the
+    // layers expand alike and that uniform strain is the exact elasticity solution;
+    // 0.49 also exercises the locking-free elements.
+    let mut d = design();
+    for m in d.materials.values_mut() {
+        m.poisson_ratio = 0.49;
+    }
+    let m = d.module.as_ref().unwrap();
+    let p = ModuleProfile::from_module(m);
+    let e = |k: &str| d.materials[k].youngs_modulus_mpa;
+    let (e_cap, e_core) = (e("cap_digital_abs"), e("core_rubber_case_i"));
+    let pi = std::f64::consts::PI;
+    let annulus = |a: f64, b: f64| pi * (b * b - a * a);
+    let n = m.pillars.count as f64;
+    let pl = &m.pillars;
+    // Pillar rings: fill fraction × annulus = count × width × thickness.
+    let ea = e_cap * annulus(p.cap_inner_radius_mm, p.cap_outer_radius_mm)
+        + e_core * annulus(p.core_inner_radius_mm, p.core_outer_radius_mm)
+        + e_core * n * pl.width_mm * (p.groove_bottom_radius_mm - p.core_outer_radius_mm)
+        + (e_core * n * (pl.width_mm - pl.groove_width_mm) + e_cap * n * p.cap_pillar_width_mm) * pl.groove_depth_mm
+        + e_cap * n * p.cap_pillar_width_mm * (p.cap_inner_radius_mm - p.pillar_outer_radius_mm);
+    let expected = -1.0 / ea;
+    // Load enters the cap at the dome and reaches the soft core by shear through the
+    // pillar rings (shear lag over tens of mm), so compare near the base, where the
+    // share is complete, at the fiber radius and in the cap.
+    let model = fem::module::build(&d, &m.cores[0].material, None, LoadCase::II, &FemOptions::level(0)).unwrap();
+    let sol = model.problem.solve().unwrap();
+    let got = model.mean_axial_strain(&sol, 3.0, 8.0).unwrap();
+    let in_cap = sol.strain_at(&model.problem.mesh, None, p.cap_outer_radius_mm - 0.2, 5.0).unwrap()[1];
+    assert!(((in_cap - expected) / expected).abs() < 0.005, "cap {in_cap:.4e} vs stack {expected:.4e}");
+    assert!(((got - expected) / expected).abs() < 0.005, "FE {got:.4e} vs stack {expected:.4e}");
+}
+
+#[test]
+fn case_i_is_a_red_shift_and_case_ii_a_blue_shift() {
+    let d = design();
+    let opt = FemOptions::level(0);
+    for c in configurations(&d).unwrap() {
+        let r = solve_configuration(&d, &c, &opt).unwrap();
+        for (name, _, e) in &r.strain_per_n {
+            match c.case {
+                LoadCase::I => assert!(*e > 0.0, "{name} {:?}: {e}", c.insert),
+                LoadCase::II => assert!(*e < 0.0, "{name}: {e}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn sensitivity_scales_inversely_with_all_moduli() {
+    // Linear elasticity: multiplying every modulus by s divides every strain by s.
+    let d = design();
+    let mut stiff = d.clone();
+    for m in stiff.materials.values_mut() {
+        m.youngs_modulus_mpa *= 3.0;
+    }
+    let c = config("psc1", LoadCase::I, Some("green"));
+    let opt = FemOptions::level(0);
+    let (a, b) = (strain(&d, &c, &opt), strain(&stiff, &c, &opt));
+    assert!((a / b - 3.0).abs() < 1e-6, "ratio {}", a / b);
+}
+
+#[test]
+fn sensitivity_converges_under_refinement() {
+    let d = design();
+    for c in [config("psc2", LoadCase::II, None), config("psc1", LoadCase::I, Some("blue"))] {
+        let k: Vec<f64> = (0..2).map(|l| strain(&d, &c, &FemOptions::level(l))).collect();
+        let rel = ((k[1] - k[0]) / k[1]).abs();
+        assert!(rel < 0.01, "{:?}: level 0 {:.5e}, level 1 {:.5e}", c.case, k[0], k[1]);
+    }
+}
+
+#[test]
+fn predict_returns_every_grating_with_the_fiber_constants() {
+    let d = design();
+    let out = fem::predict(&d, 10.0, &FemOptions::level(0)).unwrap();
+    // 2 cores × (Case II + 3 inserts) × 2 gratings each.
+    assert_eq!(out.len(), 16);
+    for g in &out {
+        let lambda = d.module.as_ref().unwrap().gratings.iter().find(|x| x.name == g.grating).unwrap().bragg_wavelength_nm;
+        let k = d.fiber.shift_pm(lambda, g.strain / 10.0, 0.0);
+        assert!((k - g.sensitivity_pm_per_n).abs() < 1e-9 * k.abs().max(1.0));
+        assert!((g.shift_pm - 10.0 * g.sensitivity_pm_per_n).abs() < 1e-9 * g.shift_pm.abs().max(1.0));
+    }
+    assert!(fem::predict(&d, f64::NAN, &FemOptions::level(0)).is_err());
+}
+
+#[test]
+fn case_i_without_an_insert_is_an_error() {
+    let d = design();
+    let m = d.module.as_ref().unwrap();
+    let err = fem::module::build(&d, &m.cores[0].material, None, LoadCase::I, &FemOptions::level(0)).unwrap_err();
+    assert!(err.to_string().contains("insert"), "{err}");
+}
