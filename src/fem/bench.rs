@@ -1,6 +1,270 @@
-//! `fbgforge bench fem` (filled in below).
+//! `fbgforge bench fem`: mesh convergence of K, time per prediction against error for
+//! the closed form and each finite-element mesh level, and the closed-form-vs-FE
+//! comparison over the design space.
+//!
+//! Outputs (in `out_dir`): `fem_convergence.csv`, `fem_speed_accuracy.csv` and
+//! `.svg`, and the comparison files written by [`super::compare::run_comparison`].
+//! A table of the same numbers is printed. The design is the paper's module
+//! (`designs/clip-on-34mm.toml`, compiled in so the bench runs from any folder).
+
+use super::{solve_configuration, Configuration, FemOptions};
+use crate::model::LoadCase;
+use crate::output::write_csv;
+use crate::plot::{Chart, Mark, Series};
+use crate::spec::{self, Design};
+use anyhow::{Context, Result};
 use std::path::Path;
-/// Run the benchmark.
-pub fn run_bench(_out_dir: &Path) -> anyhow::Result<()> {
+use std::time::Instant;
+
+/// The paper's module, compiled in.
+pub const PAPER_DESIGN_TOML: &str = include_str!("../../designs/clip-on-34mm.toml");
+
+/// The paper's module as a design.
+pub fn paper_design() -> Result<Design> {
+    spec::parse(PAPER_DESIGN_TOML).map_err(|e| anyhow::anyhow!("built-in design: {e}"))
+}
+
+/// One mesh level of the convergence study.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LevelResult {
+    /// Configuration label, e.g. `psc1 Case I blue`.
+    pub configuration: String,
+    /// Refinement level (element size 2 / 2^level mm).
+    pub level: u32,
+    /// Meridian element size, mm.
+    pub element_size_mm: f64,
+    /// Unknowns.
+    pub unknowns: usize,
+    /// Sensitivity of the configuration's first grating, pm/N.
+    pub sensitivity_pm_per_n: f64,
+    /// Best wall-clock time of one solve (mesh, assembly, factorisation, read-out), s.
+    pub time_s: f64,
+}
+
+/// Label of a configuration for tables.
+pub fn label(c: &Configuration) -> String {
+    let case = match c.case {
+        LoadCase::I => "Case I",
+        LoadCase::II => "Case II",
+    };
+    match &c.insert {
+        Some(i) => format!("{} {case} {i}", c.core),
+        None => format!("{} {case}", c.core),
+    }
+}
+
+/// Solve `config` at levels 0..=max_level; each level timed as the best of `repeats`.
+pub fn convergence(design: &Design, config: &Configuration, max_level: u32, repeats: usize) -> Result<Vec<LevelResult>> {
+    let mut out = Vec::new();
+    for level in 0..=max_level {
+        let opt = FemOptions::level(level);
+        let mut best = f64::INFINITY;
+        let mut last = None;
+        for _ in 0..repeats.max(1) {
+            let t = Instant::now();
+            let r = solve_configuration(design, config, &opt)?;
+            best = best.min(t.elapsed().as_secs_f64());
+            last = Some(r);
+        }
+        let r = last.expect("at least one repeat");
+        let (_, lambda, e) = r.strain_per_n.first().cloned().context("the configuration's core has no strain grating")?;
+        out.push(LevelResult {
+            configuration: label(config),
+            level,
+            element_size_mm: opt.element_size_mm,
+            unknowns: r.unknowns,
+            sensitivity_pm_per_n: design.fiber.shift_pm(lambda, e, 0.0),
+            time_s: best,
+        });
+    }
+    Ok(out)
+}
+
+/// Observed order of convergence from the last three levels (element size halving),
+/// and the Richardson-extrapolated K. None when the differences do not shrink.
+pub fn observed_order(k: &[f64]) -> Option<(f64, f64)> {
+    if k.len() < 3 {
+        return None;
+    }
+    let n = k.len();
+    let (d1, d2) = (k[n - 2] - k[n - 3], k[n - 1] - k[n - 2]);
+    if d2 == 0.0 {
+        return Some((f64::INFINITY, k[n - 1]));
+    }
+    let ratio = d1 / d2;
+    if ratio <= 1.0 {
+        return None;
+    }
+    let p = ratio.log2();
+    Some((p, k[n - 1] + d2 / (ratio - 1.0)))
+}
+
+/// Run the whole FE benchmark and write its files into `out_dir`.
+pub fn run_bench(out_dir: &Path) -> Result<()> {
+    crate::output::ensure_dir(out_dir)?;
+    let design = paper_design()?;
+    let configs = [
+        (
+            Configuration {
+                core: "psc2".into(),
+                case: LoadCase::II,
+                insert: None,
+            },
+            4u32,
+        ),
+        (
+            Configuration {
+                core: "psc1".into(),
+                case: LoadCase::I,
+                insert: Some("blue".into()),
+            },
+            2u32,
+        ),
+    ];
+    let pb = crate::progress::bar(configs.iter().map(|c| c.1 as u64 + 1).sum(), "fem levels");
+    let mut rows = Vec::new();
+    let mut speed_rows = Vec::new();
+    let mut chart = Chart::new(
+        "Clip-on module (34 mm): time per prediction against error of K",
+        "time per prediction, s",
+        "|K − K_converged| / |K_converged|, %",
+    );
+    chart.x_log = true;
+    chart.y_log = true;
+    println!("Finite-element convergence of K (paper module; K_ref = Richardson extrapolation)");
+    println!(
+        "{:<22} {:>5} {:>8} {:>9} {:>14} {:>10} {:>10}",
+        "configuration", "level", "h, mm", "unknowns", "K, pm/N", "error, %", "time, s"
+    );
+    let mut cf_points = Vec::new();
+    for (config, max_level) in &configs {
+        let mut levels = Vec::new();
+        for level in 0..=*max_level {
+            let repeats = if level <= 1 { 3 } else { 1 };
+            let mut r = convergence(&design, config, level, repeats)?;
+            levels.push(r.pop().expect("one level"));
+            pb.inc(1);
+        }
+        let ks: Vec<f64> = levels.iter().map(|l| l.sensitivity_pm_per_n).collect();
+        let (order, k_ref) = match observed_order(&ks) {
+            Some((p, k)) => (Some(p), k),
+            None => (None, *ks.last().expect("levels")),
+        };
+        let mut pts = Vec::new();
+        for l in &levels {
+            let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
+            println!(
+                "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}",
+                l.configuration, l.level, l.element_size_mm, l.unknowns, l.sensitivity_pm_per_n, err, l.time_s
+            );
+            rows.push(vec![
+                l.configuration.clone(),
+                l.level.to_string(),
+                format!("{}", l.element_size_mm),
+                l.unknowns.to_string(),
+                format!("{:.6}", l.sensitivity_pm_per_n),
+                format!("{:.6}", k_ref),
+                format!("{:.6}", err),
+                order.map(|p| format!("{p:.3}")).unwrap_or_else(|| "n/a".into()),
+                format!("{:.6}", l.time_s),
+            ]);
+            speed_rows.push(vec![
+                format!("FE level {}", l.level),
+                l.configuration.clone(),
+                format!("{:.6e}", l.time_s),
+                format!("{:.6}", err),
+            ]);
+            // A zero error cannot sit on a log axis; floor it at the solver's 1e-6 %.
+            pts.push((l.time_s, err.max(1e-6)));
+        }
+        match order {
+            Some(p) => println!("{}: observed order of convergence {p:.2}, K_ref = {k_ref:.4} pm/N", label(config)),
+            None => println!("{}: differences do not shrink monotonically; K_ref = finest level", label(config)),
+        }
+        chart = chart.with(Series::new(format!("FE, {}", label(config)), pts, Mark::LinePoints));
+
+        // The closed form on the same configuration, if the model is available.
+        match closed_form_time_and_k(&design, config) {
+            Ok((t, k)) => {
+                let err = ((k - k_ref) / k_ref).abs() * 100.0;
+                println!("{:<22} closed form: K = {k:.4} pm/N, error {err:.2} %, {t:.3e} s per prediction", label(config));
+                speed_rows.push(vec![
+                    "closed form".into(),
+                    label(config),
+                    format!("{t:.6e}"),
+                    format!("{err:.6}"),
+                ]);
+                cf_points.push((t, err.max(1e-6)));
+            }
+            Err(e) => println!("{:<22} closed form: not available ({e})", label(config)),
+        }
+    }
+    pb.finish_and_clear();
+    if !cf_points.is_empty() {
+        chart = chart.with(Series::new("closed form", cf_points, Mark::Points));
+    }
+    write_csv(
+        &out_dir.join("fem_convergence.csv"),
+        &[
+            "configuration",
+            "level",
+            "element_size_mm",
+            "unknowns",
+            "sensitivity_pm_per_n",
+            "converged_sensitivity_pm_per_n",
+            "relative_error_percent",
+            "observed_order",
+            "time_s",
+        ],
+        &rows,
+    )?;
+    write_csv(
+        &out_dir.join("fem_speed_accuracy.csv"),
+        &["method", "configuration", "time_per_prediction_s", "relative_error_percent"],
+        &speed_rows,
+    )?;
+    chart.write_svg(&out_dir.join("fem_speed_accuracy.svg"))?;
+    println!(
+        "wrote {}, {}, {}",
+        out_dir.join("fem_convergence.csv").display(),
+        out_dir.join("fem_speed_accuracy.csv").display(),
+        out_dir.join("fem_speed_accuracy.svg").display()
+    );
+    super::compare::run_comparison(out_dir)?;
     Ok(())
+}
+
+/// Time per closed-form prediction (one configuration) and its K for `config`.
+fn closed_form_time_and_k(design: &Design, config: &Configuration) -> Result<(f64, f64)> {
+    let first = crate::model::predict(design, 1.0)?;
+    let k = super::compare::closed_form_k(&first, config)?;
+    let n = 2000;
+    let t = Instant::now();
+    for _ in 0..n {
+        std::hint::black_box(crate::model::predict(std::hint::black_box(design), 1.0)?);
+    }
+    let per_call = t.elapsed().as_secs_f64() / n as f64;
+    Ok((per_call / first.len().max(1) as f64 * config_grating_count(&first, config) as f64, k))
+}
+
+fn config_grating_count(preds: &[crate::model::GratingPrediction], config: &Configuration) -> usize {
+    preds
+        .iter()
+        .filter(|p| p.core == config.core && p.case == config.case && p.insert == config.insert)
+        .count()
+        .max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn observed_order_of_a_known_sequence() {
+        // K_h = 10 + 3 h^2 at h = 1, 1/2, 1/4.
+        let k = [13.0, 10.75, 10.1875];
+        let (p, k_ref) = observed_order(&k).unwrap();
+        assert!((p - 2.0).abs() < 1e-12 && (k_ref - 10.0).abs() < 1e-12);
+        assert!(observed_order(&[1.0, 2.0, 4.0]).is_none());
+    }
 }
