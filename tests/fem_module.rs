@@ -122,3 +122,14 @@ fn case_i_without_an_insert_is_an_error() {
     let err = fem::module::build(&d, &m.cores[0].material, None, LoadCase::I, &FemOptions::level(0)).unwrap_err();
     assert!(err.to_string().contains("insert"), "{err}");
 }
+
+#[test]
+fn both_linear_solvers_give_the_same_sensitivity() {
+    let d = design();
+    let c = config("psc1", LoadCase::I, Some("light_green"));
+    let mut opt = FemOptions::level(0);
+    let a = strain(&d, &c, &opt);
+    opt.solver = fem::SolverKind::Sparse;
+    let b = strain(&d, &c, &opt);
+    assert!(((a - b) / b).abs() < 1e-9, "{a} vs {b}");
+}

@@ -7,7 +7,7 @@
 //! A table of the same numbers is printed. The design is the paper's module
 //! (`designs/clip-on-34mm.toml`, compiled in so the bench runs from any folder).
 
-use super::{solve_configuration, Configuration, FemOptions};
+use super::{solve_configuration, Configuration, FemOptions, SolverKind};
 use crate::model::LoadCase;
 use crate::output::write_csv;
 use crate::plot::{Chart, Mark, Series};
@@ -54,10 +54,17 @@ pub fn label(c: &Configuration) -> String {
 }
 
 /// Solve `config` at levels 0..=max_level; each level timed as the best of `repeats`.
-pub fn convergence(design: &Design, config: &Configuration, max_level: u32, repeats: usize) -> Result<Vec<LevelResult>> {
+pub fn convergence(
+    design: &Design,
+    config: &Configuration,
+    levels: std::ops::RangeInclusive<u32>,
+    repeats: usize,
+    solver: SolverKind,
+) -> Result<Vec<LevelResult>> {
     let mut out = Vec::new();
-    for level in 0..=max_level {
-        let opt = FemOptions::level(level);
+    for level in levels {
+        let mut opt = FemOptions::level(level);
+        opt.solver = solver;
         let mut best = f64::INFINITY;
         let mut last = None;
         for _ in 0..repeats.max(1) {
@@ -141,7 +148,7 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
         let mut levels = Vec::new();
         for level in 0..=*max_level {
             let repeats = if level <= 1 { 3 } else { 1 };
-            let mut r = convergence(&design, config, level, repeats)?;
+            let mut r = convergence(&design, config, level..=level, repeats, SolverKind::Envelope)?;
             levels.push(r.pop().expect("one level"));
             pb.inc(1);
         }
@@ -182,6 +189,25 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
             None => println!("{}: differences do not shrink monotonically; K_ref = finest level", label(config)),
         }
         chart = chart.with(Series::new(format!("FE, {}", label(config)), pts, Mark::LinePoints));
+        // The same levels with nalgebra-sparse's Cholesky: same K, other time.
+        let sparse_levels = (*max_level).min(2);
+        let sparse = convergence(&design, config, 0..=sparse_levels, 1, SolverKind::Sparse)?;
+        let mut spts = Vec::new();
+        for l in &sparse {
+            let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
+            println!(
+                "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}  (nalgebra-sparse Cholesky)",
+                l.configuration, l.level, l.element_size_mm, l.unknowns, l.sensitivity_pm_per_n, err, l.time_s
+            );
+            speed_rows.push(vec![
+                format!("FE level {} (nalgebra-sparse)", l.level),
+                l.configuration.clone(),
+                format!("{:.6e}", l.time_s),
+                format!("{:.6}", err),
+            ]);
+            spts.push((l.time_s, err.max(1e-6)));
+        }
+        chart = chart.with(Series::new(format!("FE nalgebra-sparse, {}", label(config)), spts, Mark::LinePoints));
 
         // The closed form on the same configuration, if the model is available.
         match closed_form_time_and_k(&design, config) {

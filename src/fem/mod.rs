@@ -20,7 +20,7 @@ pub mod mesh;
 pub mod module;
 pub mod solve;
 
-pub use module::{DomeContact, FemOptions, InsertContact};
+pub use module::{DomeContact, FemOptions, InsertContact, SolverKind};
 
 use crate::model::{GratingPrediction, LoadCase};
 use crate::profile::{module_gratings, ModuleProfile};
@@ -105,7 +105,7 @@ pub fn solve_configuration(design: &Design, config: &Configuration, opt: &FemOpt
         None => None,
     };
     let model = module::build(design, &core.material, insert_material, config.case, opt)?;
-    let sol = model.problem.solve()?;
+    let sol = model.problem.solve_with(opt.solver.solver())?;
     let profile = ModuleProfile::from_module(m);
     let mut strain_per_n = Vec::new();
     for g in module_gratings(m, &profile) {

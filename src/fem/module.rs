@@ -50,7 +50,7 @@
 
 use super::element::{ElasticConstants, Formulation};
 use super::mesh::{edge_forces, edge_param_at_radius, Mesh};
-use super::solve::{Problem, Solution, R, Z};
+use super::solve::{EnvelopeCholesky, LinearSolver, Problem, Solution, SparseCholesky, R, Z};
 use crate::model::LoadCase;
 use crate::profile::ModuleProfile;
 use crate::spec::{Design, Material};
@@ -94,6 +94,28 @@ pub struct FemOptions {
     /// Mixed (locking-free) or plain displacement elements.
     #[serde(skip, default = "default_formulation")]
     pub formulation: Formulation,
+    /// Linear solver.
+    pub solver: SolverKind,
+}
+
+/// Which linear solver factorises the stiffness matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    /// [`EnvelopeCholesky`] (default: fastest here).
+    Envelope,
+    /// [`SparseCholesky`] from nalgebra-sparse.
+    Sparse,
+}
+
+impl SolverKind {
+    /// The solver behind the name.
+    pub fn solver(self) -> &'static dyn LinearSolver {
+        match self {
+            SolverKind::Envelope => &EnvelopeCholesky,
+            SolverKind::Sparse => &SparseCholesky,
+        }
+    }
 }
 
 fn default_formulation() -> Formulation {
@@ -116,6 +138,7 @@ impl FemOptions {
             insert_contact: InsertContact::SlidingWall,
             dome_contact: DomeContact::Gap,
             formulation: Formulation::MixedQ9P1,
+            solver: SolverKind::Envelope,
         }
     }
 }
