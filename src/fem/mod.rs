@@ -20,7 +20,7 @@ pub mod mesh;
 pub mod module;
 pub mod solve;
 
-pub use module::{DomeContact, FemOptions, InsertContact, SolverKind};
+pub use module::{DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind};
 
 use crate::model::{GratingPrediction, LoadCase};
 use crate::profile::{module_gratings, ModuleProfile};

@@ -31,12 +31,17 @@
 //!
 //! # Contacts, supports, load
 //! - Cap, pillars and core are one body (the pillar rings are bonded to both walls:
-//!   the paper's "no sliding between CC and PSC").
+//!   the paper's "no sliding between CC and PSC"), [`PillarCoupling::Bonded`]. The
+//!   alternative [`PillarCoupling::BaseClip`] lets the cap slide axially over the
+//!   pillars' outer face except in a clip band at the base: the closed form's
+//!   series load path.
 //! - Above the pillars, the cap's dome and the core's dome are one clearance plus one
 //!   pillar height apart in the printed geometry. [`DomeContact::Gap`] keeps that gap
 //!   (the force reaches the core only through the pillars); [`DomeContact::Tied`] ties
-//!   the facing dome nodes (the paper's assumption that the force acts on the core's
-//!   dome).
+//!   all facing dome nodes; [`DomeContact::ApexPatch`] (default) ties them within the
+//!   apex contact patch, radius = apex flat radius + cap wall / 2, so that the force
+//!   reaches the core's dome there (the paper's assumption 2, and the closed form's
+//!   direct path). A tie spans the printed gap as a rigid link.
 //! - Case I: the insert stands on the table (u_z = 0 on its base, free to slide
 //!   radially); cap and core hang free. The insert is tied to the core across the
 //!   insert clearance: on the dome always in both components; on the cylinder either
@@ -75,8 +80,25 @@ pub enum InsertContact {
 pub enum DomeContact {
     /// The printed gap stays open: the force passes through the pillars only.
     Gap,
-    /// Facing dome nodes tied: the force acts on the core's dome.
+    /// Facing dome nodes tied over the whole dome (cap and core touch everywhere).
     Tied,
+    /// Facing dome nodes tied within the apex contact patch only: the apex flat widened
+    /// through half the cap wall, radius = apex flat radius + cap wall / 2 (the same
+    /// patch as the closed form's direct path). Default.
+    ApexPatch,
+}
+
+/// How the pillars couple cap and core along the cylinder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PillarCoupling {
+    /// Pillar rings bonded to cap and core over their whole length (the paper's "no
+    /// sliding between CC and PSC"). Default.
+    Bonded,
+    /// The cap slides axially over the core's pillars (radial contact only) and is
+    /// bonded to them only in a clip band at the base, one cap wall high: the load
+    /// path the closed form assumes (cap and core in series through the base clip).
+    BaseClip,
 }
 
 /// Mesh density and modelling choices of a finite-element solve.
@@ -91,6 +113,8 @@ pub struct FemOptions {
     pub insert_contact: InsertContact,
     /// Cap/core dome contact.
     pub dome_contact: DomeContact,
+    /// Cap/core coupling along the pillars.
+    pub pillar_coupling: PillarCoupling,
     /// Mixed (locking-free) or plain displacement elements.
     #[serde(skip, default = "default_formulation")]
     pub formulation: Formulation,
@@ -136,7 +160,8 @@ impl FemOptions {
             element_size_mm: 2.0 / 2f64.powi(k as i32),
             elements_through_wall: 1 << k,
             insert_contact: InsertContact::SlidingWall,
-            dome_contact: DomeContact::Gap,
+            dome_contact: DomeContact::ApexPatch,
+            pillar_coupling: PillarCoupling::Bonded,
             formulation: Formulation::MixedQ9P1,
             solver: SolverKind::Envelope,
         }
@@ -196,12 +221,13 @@ struct Stations {
     j_pillar_top: usize,
     j_45: usize,
     j_hole: usize,
+    j_patch: usize,
     j_axis: usize,
     /// Heights of the element boundaries below the seam (for strain integration).
     z_breaks: Vec<f64>,
 }
 
-fn make_stations(p: &ModuleProfile, h: f64, fiber_r: f64) -> Result<Stations> {
+fn make_stations(p: &ModuleProfile, h: f64, fiber_r: f64, patch_r: f64) -> Result<Stations> {
     let zc = p.dome_center_z_mm;
     if zc <= 0.0 {
         bail!(
@@ -221,7 +247,9 @@ fn make_stations(p: &ModuleProfile, h: f64, fiber_r: f64) -> Result<Stations> {
     // Core top hole: the ray through the hole edge at the core's mid-wall sphere.
     let rho_mid = 0.5 * (p.core_dome_outer_sphere_radius_mm + p.core_dome_inner_sphere_radius_mm);
     let theta_h = (p.top_hole_radius_mm / rho_mid).clamp(0.0, 1.0).acos();
-    let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_h, FRAC_PI_2];
+    // Apex contact patch edge on the core's outer dome (kept below the hole's ray).
+    let theta_c = (patch_r / p.core_dome_outer_sphere_radius_mm).clamp(0.0, 1.0).acos().min(theta_h);
+    let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_c, theta_h, FRAC_PI_2];
     breaks.sort_by(|a, b| a.total_cmp(b));
     breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
     let rho_ref = p.cap_dome_outer_sphere_radius_mm;
@@ -242,6 +270,7 @@ fn make_stations(p: &ModuleProfile, h: f64, fiber_r: f64) -> Result<Stations> {
             .unwrap_or(j_seam)
     };
     Ok(Stations {
+        j_patch: find(theta_c),
         j_seam,
         j_pillar_top: find(theta_p),
         j_45: find(FRAC_PI_4),
@@ -308,7 +337,8 @@ pub fn build(
     };
     let h = opt.element_size_mm;
     let fiber_r = p.fiber_hole_center_radius_mm;
-    let s = make_stations(&p, h, fiber_r)?;
+    let patch_r = p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm;
+    let s = make_stations(&p, h, fiber_r, patch_r)?;
     let zc = p.dome_center_z_mm;
     let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
     let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
@@ -358,6 +388,15 @@ pub fn build(
     if p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9 {
         add_layer(cyl(p.pillar_outer_radius_mm), m.cap_core_clearance_mm, s.j_pillar_top, 1, &mut dlines);
     }
+    // Base clip: the cap side (cap + its alignment pillars) and the core side (core
+    // pillars) get separate nodes on the pillar's outer face, tied below.
+    let split = if opt.pillar_coupling == PillarCoupling::BaseClip {
+        let outer = *dlines.last().expect("d-lines");
+        dlines.push(outer);
+        Some(dlines.len() - 2)
+    } else {
+        None
+    };
     add_layer(cyl(p.groove_bottom_radius_mm), pl.groove_depth_mm, s.j_pillar_top, 2, &mut dlines);
     let web_layer = 2 + usize::from(p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9);
     let dl_core_outer = add_layer(
@@ -411,8 +450,24 @@ pub fn build(
             fixed.push((b, Z));
         }
     }
-    if opt.dome_contact == DomeContact::Tied {
-        for j in s.j_pillar_top + 1..=s.j_hole {
+    if let Some(dl) = split {
+        // Radial contact all along the pillars; bonded only in the clip band at the base
+        // (height one cap wall), so the cap slides axially over the core above it.
+        for j in 0..=s.j_pillar_top {
+            let (a, b) = (get(&mut mesh, dl, j), get(&mut mesh, dl + 1, j));
+            ties.push((a, b, R));
+            if mesh.nodes[a][1] <= m.cap_wall_mm + 1e-9 {
+                ties.push((a, b, Z));
+            }
+        }
+    }
+    let tie_from = match opt.dome_contact {
+        DomeContact::Gap => None,
+        DomeContact::Tied => Some(s.j_pillar_top + 1),
+        DomeContact::ApexPatch => Some(s.j_patch.max(s.j_pillar_top + 1)),
+    };
+    if let Some(j0) = tie_from {
+        for j in j0..=s.j_hole {
             let a = get(&mut mesh, dl_cap_inner, j);
             let b = get(&mut mesh, dl_core_outer, j);
             ties.push((a, b, R));
