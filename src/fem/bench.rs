@@ -29,7 +29,7 @@ pub fn paper_design() -> Result<Design> {
 pub struct LevelResult {
     /// Configuration label, e.g. `psc1 Case I blue`.
     pub configuration: String,
-    /// Refinement level (element size 2 / 2^level mm).
+    /// Refinement level (cylinder element size 4 / 2^level mm).
     pub level: u32,
     /// Meridian element size, mm.
     pub element_size_mm: f64,
@@ -117,7 +117,7 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
                 case: LoadCase::II,
                 insert: None,
             },
-            4u32,
+            3u32,
         ),
         (
             Configuration {

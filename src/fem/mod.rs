@@ -161,4 +161,4 @@ pub fn predict(design: &Design, force_n: f64, opt: &FemOptions) -> Result<Vec<Gr
     Ok(out)
 }
 
-pub use compare::{choose_fidelity, validity, Fidelity, ValidityRegion};
+pub use compare::{choose_fidelity, choose_fidelity_for, validity, Fidelity, ValidityRegion};

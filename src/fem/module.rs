@@ -104,8 +104,12 @@ pub enum PillarCoupling {
 /// Mesh density and modelling choices of a finite-element solve.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FemOptions {
-    /// Target element size along the meridian, mm.
+    /// Target element size along the cylinders (and radially in the insert), mm.
     pub element_size_mm: f64,
+    /// Target element size along the domes' meridian, mm. The domes carry the load by
+    /// bending and membrane action near the apex contact and decide how the force is
+    /// shared, so they need finer elements than the cylinders' smooth far field.
+    pub dome_element_size_mm: f64,
     /// Elements through the thinner of the cap and core walls (thinner layers get
     /// at least one).
     pub elements_through_wall: usize,
@@ -153,12 +157,15 @@ impl Default for FemOptions {
 }
 
 impl FemOptions {
-    /// Uniform refinement levels of the convergence study: level k has meridian
-    /// elements of 2 / 2^k mm and 2^k elements through a wall (level 1 = default).
+    /// Refinement levels of the convergence study: level k has cylinder elements of
+    /// 4 / 2^k mm, dome elements a quarter of that, and 2^k elements through a wall:
+    /// every level halves every element size of the one before (level 1 = default).
     pub fn level(k: u32) -> Self {
+        let h = 4.0 / 2f64.powi(k as i32);
         FemOptions {
-            element_size_mm: 2.0 / 2f64.powi(k as i32),
-            elements_through_wall: 1 << k,
+            element_size_mm: h,
+            dome_element_size_mm: h / 4.0,
+            elements_through_wall: 1usize << k,
             insert_contact: InsertContact::SlidingWall,
             dome_contact: DomeContact::ApexPatch,
             pillar_coupling: PillarCoupling::Bonded,
@@ -227,7 +234,7 @@ struct Stations {
     z_breaks: Vec<f64>,
 }
 
-fn make_stations(p: &ModuleProfile, h: f64, fiber_r: f64, patch_r: f64) -> Result<Stations> {
+fn make_stations(p: &ModuleProfile, h: f64, h_dome: f64, fiber_r: f64, patch_r: f64) -> Result<Stations> {
     let zc = p.dome_center_z_mm;
     if zc <= 0.0 {
         bail!(
@@ -255,7 +262,7 @@ fn make_stations(p: &ModuleProfile, h: f64, fiber_r: f64, patch_r: f64) -> Resul
     let rho_ref = p.cap_dome_outer_sphere_radius_mm;
     let mut idx = HashMap::new();
     for w in breaks.windows(2) {
-        let n = ((rho_ref * (w[1] - w[0]) / h).ceil() as usize).max(1);
+        let n = ((rho_ref * (w[1] - w[0]) / h_dome).ceil() as usize).max(1);
         for k in 1..=2 * n {
             st.push(Station::Theta(w[0] + (w[1] - w[0]) * k as f64 / (2 * n) as f64));
         }
@@ -324,7 +331,8 @@ pub fn build(
         .module
         .as_ref()
         .ok_or_else(|| anyhow!("the design has no [module] section"))?;
-    if !(opt.element_size_mm.is_finite() && opt.element_size_mm > 0.0) || opt.elements_through_wall == 0 {
+    let sizes_ok = [opt.element_size_mm, opt.dome_element_size_mm].iter().all(|v| v.is_finite() && *v > 0.0);
+    if !sizes_ok || opt.elements_through_wall == 0 {
         bail!("finite-element options: element size must be > 0 mm and at least one element through a wall");
     }
     let p = ModuleProfile::from_module(m);
@@ -338,7 +346,7 @@ pub fn build(
     let h = opt.element_size_mm;
     let fiber_r = p.fiber_hole_center_radius_mm;
     let patch_r = p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm;
-    let s = make_stations(&p, h, fiber_r, patch_r)?;
+    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r)?;
     let zc = p.dome_center_z_mm;
     let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
     let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
