@@ -17,7 +17,11 @@ fn rubber(nu: f64) -> ElasticConstants {
 fn load_edge(loads: &mut Vec<(usize, usize, f64)>, mesh: &Mesh, ids: &[usize], traction: [f64; 2]) {
     for w in (0..ids.len() - 2).step_by(2) {
         let three = [ids[w], ids[w + 1], ids[w + 2]];
-        let xy = [mesh.nodes[three[0]], mesh.nodes[three[1]], mesh.nodes[three[2]]];
+        let xy = [
+            mesh.nodes[three[0]],
+            mesh.nodes[three[1]],
+            mesh.nodes[three[2]],
+        ];
         let f = edge_forces(xy, -1.0, 1.0, |_, _, dr, dz| {
             let len = (dr * dr + dz * dz).sqrt();
             [traction[0] * len, traction[1] * len]
@@ -60,14 +64,28 @@ fn thick_cylinder_under_axial_load_matches_uniform_stress() {
             let u = sol.displacement_mm[i];
             let ur_exact = -nu * eps_exact * q[0];
             let uz_exact = eps_exact * q[1];
-            assert!((u[0] - ur_exact).abs() <= 0.01 * ur_exact.abs(), "ν={nu} u_r at {q:?}: {} vs {ur_exact}", u[0]);
+            assert!(
+                (u[0] - ur_exact).abs() <= 0.01 * ur_exact.abs(),
+                "ν={nu} u_r at {q:?}: {} vs {ur_exact}",
+                u[0]
+            );
             if q[1] > 0.0 {
-                assert!((u[1] - uz_exact).abs() <= 0.01 * uz_exact.abs(), "ν={nu} u_z at {q:?}");
+                assert!(
+                    (u[1] - uz_exact).abs() <= 0.01 * uz_exact.abs(),
+                    "ν={nu} u_z at {q:?}"
+                );
             }
         }
         let e = sol.strain_at(&mesh, None, 6.3, 7.7).unwrap();
-        assert!((e[1] - eps_exact).abs() <= 0.01 * eps_exact.abs(), "ν={nu} ε_zz {} vs {eps_exact}", e[1]);
-        assert!((e[2] + nu * eps_exact).abs() <= 0.01 * (nu * eps_exact).abs(), "ε_θθ");
+        assert!(
+            (e[1] - eps_exact).abs() <= 0.01 * eps_exact.abs(),
+            "ν={nu} ε_zz {} vs {eps_exact}",
+            e[1]
+        );
+        assert!(
+            (e[2] + nu * eps_exact).abs() <= 0.01 * (nu * eps_exact).abs(),
+            "ε_θθ"
+        );
     }
 }
 
@@ -99,7 +117,9 @@ fn lame(nu: f64, formulation: Formulation, nr: usize) -> f64 {
         loads,
     };
     let sol = prob.solve().unwrap();
-    let exact = |r: f64| (1.0 + nu) * p * a * a / (e * (b * b - a * a)) * ((1.0 - 2.0 * nu) * r + b * b / r);
+    let exact = |r: f64| {
+        (1.0 + nu) * p * a * a / (e * (b * b - a * a)) * ((1.0 - 2.0 * nu) * r + b * b / r)
+    };
     let mut worst: f64 = 0.0;
     for (i, q) in mesh.nodes.iter().enumerate() {
         let rel = (sol.displacement_mm[i][0] - exact(q[0])).abs() / exact(q[0]);

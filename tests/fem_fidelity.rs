@@ -2,7 +2,9 @@
 //! model outside it. Each decision is checked against a fresh FE solve.
 
 use fbgforge::fem::compare::{scaled_design, TOLERANCE};
-use fbgforge::fem::{self, choose_fidelity, choose_fidelity_for, Configuration, FemOptions, Fidelity};
+use fbgforge::fem::{
+    self, choose_fidelity, choose_fidelity_for, Configuration, FemOptions, Fidelity,
+};
 use fbgforge::model::LoadCase;
 use fbgforge::spec::{self, Design};
 use std::path::Path;
@@ -26,7 +28,11 @@ fn hollow_core_designs_inside_the_region_use_the_closed_form_and_it_holds() {
     let mut d = design();
     d.module.as_mut().unwrap().inserts.clear();
     assert_eq!(choose_fidelity(&d), Fidelity::ClosedForm);
-    let c = Configuration { core: "psc2".into(), case: LoadCase::II, insert: None };
+    let c = Configuration {
+        core: "psc2".into(),
+        case: LoadCase::II,
+        insert: None,
+    };
     let err = closed_form_error(&d, &c);
     assert!(err.abs() <= TOLERANCE, "Case II closed-form error {err:.3}");
 }
@@ -37,7 +43,11 @@ fn designs_with_inserts_use_the_fem_because_case_i_misses_by_more_than_8_percent
     assert_eq!(choose_fidelity(&d), Fidelity::Fem);
     assert_eq!(choose_fidelity_for(&d, LoadCase::II), Fidelity::ClosedForm);
     assert_eq!(choose_fidelity_for(&d, LoadCase::I), Fidelity::Fem);
-    let c = Configuration { core: "psc1".into(), case: LoadCase::I, insert: Some("blue".into()) };
+    let c = Configuration {
+        core: "psc1".into(),
+        case: LoadCase::I,
+        insert: Some("blue".into()),
+    };
     let err = closed_form_error(&d, &c);
     assert!(err.abs() > TOLERANCE, "Case I closed-form error {err:.3}");
 }

@@ -47,18 +47,34 @@ fn case_ii_strain_matches_the_bonded_stack_far_from_the_ends() {
     let ea = e_cap * annulus(p.cap_inner_radius_mm, p.cap_outer_radius_mm)
         + e_core * annulus(p.core_inner_radius_mm, p.core_outer_radius_mm)
         + e_core * n * pl.width_mm * (p.groove_bottom_radius_mm - p.core_outer_radius_mm)
-        + (e_core * n * (pl.width_mm - pl.groove_width_mm) + e_cap * n * p.cap_pillar_width_mm) * pl.groove_depth_mm
+        + (e_core * n * (pl.width_mm - pl.groove_width_mm) + e_cap * n * p.cap_pillar_width_mm)
+            * pl.groove_depth_mm
         + e_cap * n * p.cap_pillar_width_mm * (p.cap_inner_radius_mm - p.pillar_outer_radius_mm);
     let expected = -1.0 / ea;
     // Load enters the cap at the dome and reaches the soft core by shear through the
     // pillar rings (shear lag over tens of mm), so compare near the base, where the
     // share is complete, at the fiber radius and in the cap.
-    let model = fem::module::build(&d, &m.cores[0].material, None, LoadCase::II, &FemOptions::level(0)).unwrap();
+    let model = fem::module::build(
+        &d,
+        &m.cores[0].material,
+        None,
+        LoadCase::II,
+        &FemOptions::level(0),
+    )
+    .unwrap();
     let sol = model.problem.solve().unwrap();
     let got = model.mean_axial_strain(&sol, 3.0, 8.0).unwrap();
-    let in_cap = sol.strain_at(&model.problem.mesh, None, p.cap_outer_radius_mm - 0.2, 5.0).unwrap()[1];
-    assert!(((in_cap - expected) / expected).abs() < 0.005, "cap {in_cap:.4e} vs stack {expected:.4e}");
-    assert!(((got - expected) / expected).abs() < 0.005, "FE {got:.4e} vs stack {expected:.4e}");
+    let in_cap = sol
+        .strain_at(&model.problem.mesh, None, p.cap_outer_radius_mm - 0.2, 5.0)
+        .unwrap()[1];
+    assert!(
+        ((in_cap - expected) / expected).abs() < 0.005,
+        "cap {in_cap:.4e} vs stack {expected:.4e}"
+    );
+    assert!(
+        ((got - expected) / expected).abs() < 0.005,
+        "FE {got:.4e} vs stack {expected:.4e}"
+    );
 }
 
 #[test]
@@ -110,7 +126,13 @@ fn sensitivity_converges_under_refinement() {
             })
             .collect();
         let rel = ((k[1] - k[0]) / k[1]).abs();
-        assert!(rel < 0.01, "{:?}: level 0 {:.5e}, level 1 {:.5e}", c.case, k[0], k[1]);
+        assert!(
+            rel < 0.01,
+            "{:?}: level 0 {:.5e}, level 1 {:.5e}",
+            c.case,
+            k[0],
+            k[1]
+        );
     }
 }
 
@@ -121,10 +143,20 @@ fn predict_returns_every_grating_with_the_fiber_constants() {
     // 2 cores × (Case II + 3 inserts) × 2 gratings each.
     assert_eq!(out.len(), 16);
     for g in &out {
-        let lambda = d.module.as_ref().unwrap().gratings.iter().find(|x| x.name == g.grating).unwrap().bragg_wavelength_nm;
+        let lambda = d
+            .module
+            .as_ref()
+            .unwrap()
+            .gratings
+            .iter()
+            .find(|x| x.name == g.grating)
+            .unwrap()
+            .bragg_wavelength_nm;
         let k = d.fiber.shift_pm(lambda, g.strain / 10.0, 0.0);
         assert!((k - g.sensitivity_pm_per_n).abs() < 1e-9 * k.abs().max(1.0));
-        assert!((g.shift_pm - 10.0 * g.sensitivity_pm_per_n).abs() < 1e-9 * g.shift_pm.abs().max(1.0));
+        assert!(
+            (g.shift_pm - 10.0 * g.sensitivity_pm_per_n).abs() < 1e-9 * g.shift_pm.abs().max(1.0)
+        );
     }
     assert!(fem::predict(&d, f64::NAN, &FemOptions::level(0)).is_err());
 }
@@ -133,7 +165,14 @@ fn predict_returns_every_grating_with_the_fiber_constants() {
 fn case_i_without_an_insert_is_an_error() {
     let d = design();
     let m = d.module.as_ref().unwrap();
-    let err = fem::module::build(&d, &m.cores[0].material, None, LoadCase::I, &FemOptions::level(0)).unwrap_err();
+    let err = fem::module::build(
+        &d,
+        &m.cores[0].material,
+        None,
+        LoadCase::I,
+        &FemOptions::level(0),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("insert"), "{err}");
 }
 

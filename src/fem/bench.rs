@@ -76,7 +76,11 @@ pub fn convergence(
             last = Some(r);
         }
         let r = last.expect("at least one repeat");
-        let (_, lambda, e) = r.strain_per_n.first().cloned().context("the configuration's core has no strain grating")?;
+        let (_, lambda, e) = r
+            .strain_per_n
+            .first()
+            .cloned()
+            .context("the configuration's core has no strain grating")?;
         out.push(LevelResult {
             configuration: match dome_contact {
                 DomeContact::Gap => format!("{} (dome gap)", label(config)),
@@ -167,7 +171,14 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
         let mut levels = Vec::new();
         for level in 0..=*max_level {
             let repeats = if level <= 1 { 3 } else { 1 };
-            let mut r = convergence(&design, config, level..=level, repeats, SolverKind::Envelope, *dome)?;
+            let mut r = convergence(
+                &design,
+                config,
+                level..=level,
+                repeats,
+                SolverKind::Envelope,
+                *dome,
+            )?;
             levels.push(r.pop().expect("one level"));
             pb.inc(1);
         }
@@ -181,7 +192,13 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
             let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
             println!(
                 "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}",
-                l.configuration, l.level, l.element_size_mm, l.unknowns, l.sensitivity_pm_per_n, err, l.time_s
+                l.configuration,
+                l.level,
+                l.element_size_mm,
+                l.unknowns,
+                l.sensitivity_pm_per_n,
+                err,
+                l.time_s
             );
             rows.push(vec![
                 l.configuration.clone(),
@@ -191,7 +208,9 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
                 format!("{:.6}", l.sensitivity_pm_per_n),
                 format!("{:.6}", k_ref),
                 format!("{:.6}", err),
-                order.map(|p| format!("{p:.3}")).unwrap_or_else(|| "n/a".into()),
+                order
+                    .map(|p| format!("{p:.3}"))
+                    .unwrap_or_else(|| "n/a".into()),
                 format!("{:.6}", l.time_s),
             ]);
             speed_rows.push(vec![
@@ -206,19 +225,36 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
             }
         }
         match order {
-            Some(p) => println!("{name}: observed order of convergence {p:.2}, K_ref = {k_ref:.4} pm/N"),
-            None => println!("{name}: differences do not shrink monotonically; K_ref = finest level"),
+            Some(p) => {
+                println!("{name}: observed order of convergence {p:.2}, K_ref = {k_ref:.4} pm/N")
+            }
+            None => {
+                println!("{name}: differences do not shrink monotonically; K_ref = finest level")
+            }
         }
         chart = chart.with(Series::new(format!("FE, {name}"), pts, Mark::LinePoints));
         // The same levels with nalgebra-sparse's Cholesky: same K, other time.
         let sparse_levels = (*max_level).min(2);
-        let sparse = convergence(&design, config, 0..=sparse_levels, 1, SolverKind::Sparse, *dome)?;
+        let sparse = convergence(
+            &design,
+            config,
+            0..=sparse_levels,
+            1,
+            SolverKind::Sparse,
+            *dome,
+        )?;
         let mut spts = Vec::new();
         for l in &sparse {
             let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
             println!(
                 "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}  (nalgebra-sparse Cholesky)",
-                l.configuration, l.level, l.element_size_mm, l.unknowns, l.sensitivity_pm_per_n, err, l.time_s
+                l.configuration,
+                l.level,
+                l.element_size_mm,
+                l.unknowns,
+                l.sensitivity_pm_per_n,
+                err,
+                l.time_s
             );
             speed_rows.push(vec![
                 format!("FE level {} (nalgebra-sparse)", l.level),
@@ -230,7 +266,11 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
                 spts.push((l.time_s, err));
             }
         }
-        chart = chart.with(Series::new(format!("FE nalgebra-sparse, {name}"), spts, Mark::LinePoints));
+        chart = chart.with(Series::new(
+            format!("FE nalgebra-sparse, {name}"),
+            spts,
+            Mark::LinePoints,
+        ));
 
         // The closed form on the same configuration, if the model is available.
         if *dome == DomeContact::Gap {
@@ -246,7 +286,11 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
                     format!("{t:.6e}"),
                     format!("{err:.6}"),
                 ]);
-                chart = chart.with(Series::new(format!("closed form, {name}"), vec![(t, err.max(1e-6))], Mark::Points));
+                chart = chart.with(Series::new(
+                    format!("closed form, {name}"),
+                    vec![(t, err.max(1e-6))],
+                    Mark::Points,
+                ));
             }
             Err(e) => println!("{:<22} closed form: not available ({e})", label(config)),
         }
@@ -269,7 +313,12 @@ pub fn run_bench(out_dir: &Path) -> Result<()> {
     )?;
     write_csv(
         &out_dir.join("fem_speed_accuracy.csv"),
-        &["method", "configuration", "time_per_prediction_s", "relative_error_percent"],
+        &[
+            "method",
+            "configuration",
+            "time_per_prediction_s",
+            "relative_error_percent",
+        ],
         &speed_rows,
     )?;
     chart.write_svg(&out_dir.join("fem_speed_accuracy.svg"))?;
@@ -293,10 +342,16 @@ fn closed_form_time_and_k(design: &Design, config: &Configuration) -> Result<(f6
         std::hint::black_box(crate::model::predict(std::hint::black_box(design), 1.0)?);
     }
     let per_call = t.elapsed().as_secs_f64() / n as f64;
-    Ok((per_call / first.len().max(1) as f64 * config_grating_count(&first, config) as f64, k))
+    Ok((
+        per_call / first.len().max(1) as f64 * config_grating_count(&first, config) as f64,
+        k,
+    ))
 }
 
-fn config_grating_count(preds: &[crate::model::GratingPrediction], config: &Configuration) -> usize {
+fn config_grating_count(
+    preds: &[crate::model::GratingPrediction],
+    config: &Configuration,
+) -> usize {
     preds
         .iter()
         .filter(|p| p.core == config.core && p.case == config.case && p.insert == config.insert)

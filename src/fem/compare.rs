@@ -39,7 +39,10 @@ pub enum Fidelity {
 /// shipped 10 mm design prints, with cap and core walls set to `wall_mm`.
 pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<Design, SpecError> {
     let mut d = base.clone();
-    let m = d.module.as_mut().ok_or_else(|| crate::spec::err("module", "the base design has no module"))?;
+    let m = d
+        .module
+        .as_mut()
+        .ok_or_else(|| crate::spec::err("module", "the base design has no module"))?;
     let s = diameter_mm / m.outer_diameter_mm;
     let floor = |v: f64, min: f64| (v * s).max(min);
     m.outer_diameter_mm = diameter_mm;
@@ -77,7 +80,12 @@ pub fn closed_form_k(preds: &[GratingPrediction], config: &Configuration) -> Res
         .iter()
         .find(|p| p.core == config.core && p.case == config.case && p.insert == config.insert)
         .map(|p| p.sensitivity_pm_per_n)
-        .ok_or_else(|| anyhow!("the closed form gave no prediction for {}", super::bench::label(config)))
+        .ok_or_else(|| {
+            anyhow!(
+                "the closed form gave no prediction for {}",
+                super::bench::label(config)
+            )
+        })
 }
 
 /// One row of the comparison.
@@ -114,7 +122,12 @@ pub struct ComparisonRow {
 fn paper_configurations(design: &Design) -> Result<Vec<Configuration>> {
     Ok(configurations(design)?
         .into_iter()
-        .filter(|c| matches!((c.case, c.core.as_str()), (LoadCase::I, "psc1") | (LoadCase::II, "psc2")))
+        .filter(|c| {
+            matches!(
+                (c.case, c.core.as_str()),
+                (LoadCase::I, "psc1") | (LoadCase::II, "psc2")
+            )
+        })
         .collect())
 }
 
@@ -131,7 +144,10 @@ pub fn scaled_options(design: &Design, level: u32) -> FemOptions {
 
 /// Compare the closed form and the FE model on every paper configuration of `design`.
 pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>> {
-    let m = design.module.as_ref().ok_or_else(|| anyhow!("the design has no module"))?;
+    let m = design
+        .module
+        .as_ref()
+        .ok_or_else(|| anyhow!("the design has no module"))?;
     let p = ModuleProfile::from_module(m);
     let opt = scaled_options(design, level);
     let closed = crate::model::predict(design, 1.0);
@@ -139,18 +155,26 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
     for c in paper_configurations(design)? {
         let k_of = |opt: &FemOptions| -> Result<f64> {
             let fe = solve_configuration(design, &c, opt)?;
-            let (_, lambda, e) = fe.strain_per_n.first().cloned().ok_or_else(|| anyhow!("no strain grating on {}", c.core))?;
+            let (_, lambda, e) = fe
+                .strain_per_n
+                .first()
+                .cloned()
+                .ok_or_else(|| anyhow!("no strain grating on {}", c.core))?;
             Ok(design.fiber.shift_pm(lambda, e, 0.0))
         };
         let k_fe = k_of(&opt)?;
         let mut clip = opt;
         clip.pillar_coupling = super::PillarCoupling::BaseClip;
         let k_clip = k_of(&clip)?;
-        let k_cf = closed.as_ref().ok().and_then(|preds| closed_form_k(preds, &c).ok());
+        let k_cf = closed
+            .as_ref()
+            .ok()
+            .and_then(|preds| closed_form_k(preds, &c).ok());
         rows.push(ComparisonRow {
             diameter_mm: m.outer_diameter_mm,
             wall_mm: m.core_wall_mm,
-            wall_to_radius: m.core_wall_mm / (0.5 * (p.core_outer_radius_mm + p.core_inner_radius_mm)),
+            wall_to_radius: m.core_wall_mm
+                / (0.5 * (p.core_outer_radius_mm + p.core_inner_radius_mm)),
             configuration: super::bench::label(&c),
             case: c.case,
             insert: c.insert.clone(),
@@ -168,7 +192,10 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
 /// the table, and return the rows.
 pub fn run_comparison(out_dir: &Path) -> Result<Vec<ComparisonRow>> {
     let base = super::bench::paper_design()?;
-    let pb = crate::progress::bar((GRID_DIAMETERS_MM.len() * GRID_WALLS_MM.len()) as u64, "comparison");
+    let pb = crate::progress::bar(
+        (GRID_DIAMETERS_MM.len() * GRID_WALLS_MM.len()) as u64,
+        "comparison",
+    );
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
     for &d in &GRID_DIAMETERS_MM {
@@ -181,7 +208,10 @@ pub fn run_comparison(out_dir: &Path) -> Result<Vec<ComparisonRow>> {
         }
     }
     pb.finish_and_clear();
-    let fmt_opt = |v: Option<f64>, prec: usize| v.map(|x| format!("{x:.prec$}")).unwrap_or_else(|| "n/a".into());
+    let fmt_opt = |v: Option<f64>, prec: usize| {
+        v.map(|x| format!("{x:.prec$}"))
+            .unwrap_or_else(|| "n/a".into())
+    };
     let csv_rows: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {
@@ -220,7 +250,10 @@ pub fn run_comparison(out_dir: &Path) -> Result<Vec<ComparisonRow>> {
         md.push_str(&format!("| {} |\n", r.join(" | ")));
     }
     for (d, w, e) in &skipped {
-        md.push_str(&format!("| {d} | {w} | – | skipped: {} | | | | | |\n", e.replace('|', "/")));
+        md.push_str(&format!(
+            "| {d} | {w} | – | skipped: {} | | | | | |\n",
+            e.replace('|', "/")
+        ));
     }
     write_atomic(&out_dir.join("fem_comparison.md"), md.as_bytes())?;
     println!("\nClosed form against FE (level 1 mesh scaled with D):");
@@ -241,23 +274,32 @@ pub fn run_comparison(out_dir: &Path) -> Result<Vec<ComparisonRow>> {
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| &r.configuration == l)
-            .filter_map(|r| r.relative_error.map(|e| (r.wall_to_radius, (e * 100.0).abs())))
+            .filter_map(|r| {
+                r.relative_error
+                    .map(|e| (r.wall_to_radius, (e * 100.0).abs()))
+            })
             .collect();
         any |= !pts.is_empty();
         chart = chart.with(Series::new(format!("{l} vs FE"), pts, Mark::Points));
         let clip: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| &r.configuration == l)
-            .filter_map(|r| r.relative_error_base_clip.map(|e| (r.wall_to_radius, (e * 100.0).abs())))
+            .filter_map(|r| {
+                r.relative_error_base_clip
+                    .map(|e| (r.wall_to_radius, (e * 100.0).abs()))
+            })
             .collect();
-        chart = chart.with(Series::new(format!("{l} vs FE base clip"), clip, Mark::Points));
+        chart = chart.with(Series::new(
+            format!("{l} vs FE base clip"),
+            clip,
+            Mark::Points,
+        ));
     }
     if any {
-        let (x0, x1) = rows
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(r.wall_to_radius), b.max(r.wall_to_radius)));
-        chart = chart
-            .with(Series::new("8 %", vec![(x0, 8.0), (x1, 8.0)], Mark::Line));
+        let (x0, x1) = rows.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+            (a.min(r.wall_to_radius), b.max(r.wall_to_radius))
+        });
+        chart = chart.with(Series::new("8 %", vec![(x0, 8.0), (x1, 8.0)], Mark::Line));
         chart.write_svg(&out_dir.join("fem_comparison.svg"))?;
     } else {
         println!("(no closed-form predictions: the comparison chart is not drawn)");
@@ -266,7 +308,11 @@ pub fn run_comparison(out_dir: &Path) -> Result<Vec<ComparisonRow>> {
         "wrote {}, {}{}",
         out_dir.join("fem_comparison.csv").display(),
         out_dir.join("fem_comparison.md").display(),
-        if any { format!(", {}", out_dir.join("fem_comparison.svg").display()) } else { String::new() }
+        if any {
+            format!(", {}", out_dir.join("fem_comparison.svg").display())
+        } else {
+            String::new()
+        }
     );
     Ok(rows)
 }
@@ -295,7 +341,10 @@ pub struct ValidityRegion {
 /// body with bonded pillars carries the load), so Case I always goes to the FE model.
 pub fn validity() -> ValidityRegion {
     ValidityRegion {
-        diameter_range_mm: (GRID_DIAMETERS_MM[0], GRID_DIAMETERS_MM[GRID_DIAMETERS_MM.len() - 1]),
+        diameter_range_mm: (
+            GRID_DIAMETERS_MM[0],
+            GRID_DIAMETERS_MM[GRID_DIAMETERS_MM.len() - 1],
+        ),
         max_wall_to_radius_case_ii: 0.65,
         max_wall_to_radius_case_i: 0.0,
         tolerance: TOLERANCE,
@@ -305,7 +354,9 @@ pub fn validity() -> ValidityRegion {
 impl ValidityRegion {
     /// Whether the closed form is trusted for `case` on `design`.
     pub fn contains_case(&self, design: &Design, case: LoadCase) -> bool {
-        let Some(m) = &design.module else { return false };
+        let Some(m) = &design.module else {
+            return false;
+        };
         let p = ModuleProfile::from_module(m);
         let ratio = m.core_wall_mm / (0.5 * (p.core_outer_radius_mm + p.core_inner_radius_mm));
         let d = m.outer_diameter_mm;
@@ -322,8 +373,11 @@ impl ValidityRegion {
     /// Whether the closed form is trusted for every configuration of `design`
     /// (Case II always; Case I when the design lists inserts).
     pub fn contains(&self, design: &Design) -> bool {
-        let Some(m) = &design.module else { return false };
-        self.contains_case(design, LoadCase::II) && (m.inserts.is_empty() || self.contains_case(design, LoadCase::I))
+        let Some(m) = &design.module else {
+            return false;
+        };
+        self.contains_case(design, LoadCase::II)
+            && (m.inserts.is_empty() || self.contains_case(design, LoadCase::I))
     }
 }
 

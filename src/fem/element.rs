@@ -187,7 +187,9 @@ pub fn stiffness(
     // Centroid and size for a well-scaled pressure basis {1, (r - rc)/h, (z - zc)/h}.
     let rc = xy[4][0];
     let zc = xy[4][1];
-    let h = ((xy[8][0] - xy[0][0]).powi(2) + (xy[8][1] - xy[0][1]).powi(2)).sqrt().max(1e-12);
+    let h = ((xy[8][0] - xy[0][0]).powi(2) + (xy[8][1] - xy[0][1]).powi(2))
+        .sqrt()
+        .max(1e-12);
     let mut m = [[0.0; 3]; 3];
     let mut gmat = [[0.0; 18]; 3];
     let mut sign = 0.0;
@@ -208,15 +210,16 @@ pub fn stiffness(
             let mut db = [[0.0; 18]; 4];
             for c in 0..18 {
                 let tr = b[0][c] + b[1][c] + b[2][c];
-                for row in 0..3 {
-                    db[row][c] = 2.0 * mu * (b[row][c] - tr / 3.0);
+                // Plain displacement element: the full volumetric term κ tr(ε).
+                let vol = if formulation == Formulation::Displacement {
+                    kappa * tr
+                } else {
+                    0.0
+                };
+                for (row, brow) in db.iter_mut().zip(&b).take(3) {
+                    row[c] = 2.0 * mu * (brow[c] - tr / 3.0) + vol;
                 }
                 db[3][c] = mu * b[3][c];
-                if formulation == Formulation::Displacement {
-                    for row in 0..3 {
-                        db[row][c] += kappa * tr;
-                    }
-                }
             }
             for a in 0..18 {
                 for c in 0..18 {
@@ -297,7 +300,8 @@ pub fn locate(xy: &[[f64; 2]; 9], r: f64, z: f64) -> Option<(f64, f64)> {
     let (mut xi, mut eta) = (0.0, 0.0);
     for _ in 0..30 {
         let (n, nxi, neta) = shape_q9(xi, eta);
-        let (mut pr, mut pz, mut r_xi, mut r_eta, mut z_xi, mut z_eta) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let (mut pr, mut pz, mut r_xi, mut r_eta, mut z_xi, mut z_eta) =
+            (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         for k in 0..9 {
             pr += n[k] * xy[k][0];
             pz += n[k] * xy[k][1];
@@ -323,7 +327,8 @@ pub fn locate(xy: &[[f64; 2]; 9], r: f64, z: f64) -> Option<(f64, f64)> {
         }
     }
     let tol = 1e-9;
-    (xi.abs() <= 1.0 + tol && eta.abs() <= 1.0 + tol).then_some((xi.clamp(-1.0, 1.0), eta.clamp(-1.0, 1.0)))
+    (xi.abs() <= 1.0 + tol && eta.abs() <= 1.0 + tol)
+        .then_some((xi.clamp(-1.0, 1.0), eta.clamp(-1.0, 1.0)))
 }
 
 #[cfg(test)]
@@ -334,7 +339,10 @@ mod tests {
         let mut xy = [[0.0; 2]; 9];
         for b in 0..3 {
             for a in 0..3 {
-                xy[a + 3 * b] = [r0 + (r1 - r0) * a as f64 / 2.0, z0 + (z1 - z0) * b as f64 / 2.0];
+                xy[a + 3 * b] = [
+                    r0 + (r1 - r0) * a as f64 / 2.0,
+                    z0 + (z1 - z0) * b as f64 / 2.0,
+                ];
             }
         }
         xy
@@ -353,7 +361,10 @@ mod tests {
     #[test]
     fn rigid_axial_translation_has_no_energy_and_stiffness_is_symmetric() {
         let xy = rect(2.0, 3.0, 0.0, 1.5);
-        let mat = ElasticConstants { youngs_modulus_mpa: 3.2, poisson_ratio: 0.49 };
+        let mat = ElasticConstants {
+            youngs_modulus_mpa: 3.2,
+            poisson_ratio: 0.49,
+        };
         let k = stiffness(&xy, mat, Formulation::MixedQ9P1).unwrap();
         for a in 0..18 {
             // u_z = 1 everywhere is the only rigid motion in axisymmetry.

@@ -29,11 +29,7 @@ pub struct Mesh {
 impl Mesh {
     /// The nine node coordinates of an element.
     pub fn element_coords(&self, e: &Element) -> [[f64; 2]; 9] {
-        let mut xy = [[0.0; 2]; 9];
-        for k in 0..9 {
-            xy[k] = self.nodes[e.nodes[k]];
-        }
-        xy
+        e.nodes.map(|n| self.nodes[n])
     }
 
     /// Add a node, returning its index.
@@ -64,7 +60,14 @@ impl Mesh {
 
     /// A structured rectangle r ∈ [r0, r1], z ∈ [z0, z1] with `nr` × `nz` elements;
     /// returns the mesh and its doubled node grid `[i][j]` (i along r, j along z).
-    pub fn rectangle(r0: f64, r1: f64, z0: f64, z1: f64, nr: usize, nz: usize) -> (Mesh, Vec<Vec<usize>>) {
+    pub fn rectangle(
+        r0: f64,
+        r1: f64,
+        z0: f64,
+        z1: f64,
+        nr: usize,
+        nz: usize,
+    ) -> (Mesh, Vec<Vec<usize>>) {
         let mut m = Mesh::default();
         let ids: Vec<Vec<usize>> = (0..=2 * nr)
             .map(|i| {
@@ -96,8 +99,18 @@ pub fn edge_forces(
 ) -> [[f64; 2]; 3] {
     // 4-point Gauss: exact for the polynomial integrands of straight or quadratic edges
     // under constant traction per projected area.
-    let gp = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
-    let gw = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+    let gp = [
+        -0.861_136_311_594_052_6,
+        -0.339_981_043_584_856_3,
+        0.339_981_043_584_856_3,
+        0.861_136_311_594_052_6,
+    ];
+    let gw = [
+        0.347_854_845_137_453_9,
+        0.652_145_154_862_546_1,
+        0.652_145_154_862_546_1,
+        0.347_854_845_137_453_9,
+    ];
     let mut f = [[0.0; 2]; 3];
     let half = 0.5 * (s1 - s0);
     for (p, w) in gp.iter().zip(gw) {

@@ -82,7 +82,11 @@ pub struct ConfigurationResult {
 }
 
 /// Solve one configuration with F = 1 N and read every grating of its core.
-pub fn solve_configuration(design: &Design, config: &Configuration, opt: &FemOptions) -> Result<ConfigurationResult> {
+pub fn solve_configuration(
+    design: &Design,
+    config: &Configuration,
+    opt: &FemOptions,
+) -> Result<ConfigurationResult> {
     let start = Instant::now();
     let m = design
         .module

@@ -234,7 +234,13 @@ struct Stations {
     z_breaks: Vec<f64>,
 }
 
-fn make_stations(p: &ModuleProfile, h: f64, h_dome: f64, fiber_r: f64, patch_r: f64) -> Result<Stations> {
+fn make_stations(
+    p: &ModuleProfile,
+    h: f64,
+    h_dome: f64,
+    fiber_r: f64,
+    patch_r: f64,
+) -> Result<Stations> {
     let zc = p.dome_center_z_mm;
     if zc <= 0.0 {
         bail!(
@@ -242,7 +248,9 @@ fn make_stations(p: &ModuleProfile, h: f64, h_dome: f64, fiber_r: f64, patch_r: 
         );
     }
     let nz = ((zc / h).ceil() as usize).max(2);
-    let mut st: Vec<Station> = (0..=2 * nz).map(|k| Station::Z(zc * k as f64 / (2 * nz) as f64)).collect();
+    let mut st: Vec<Station> = (0..=2 * nz)
+        .map(|k| Station::Z(zc * k as f64 / (2 * nz) as f64))
+        .collect();
     let z_breaks = (0..=nz).map(|k| zc * k as f64 / nz as f64).collect();
     let j_seam = st.len() - 1;
     // Ring top: the ray through the fiber radius at the pillar top.
@@ -255,7 +263,10 @@ fn make_stations(p: &ModuleProfile, h: f64, h_dome: f64, fiber_r: f64, patch_r: 
     let rho_mid = 0.5 * (p.core_dome_outer_sphere_radius_mm + p.core_dome_inner_sphere_radius_mm);
     let theta_h = (p.top_hole_radius_mm / rho_mid).clamp(0.0, 1.0).acos();
     // Apex contact patch edge on the core's outer dome (kept below the hole's ray).
-    let theta_c = (patch_r / p.core_dome_outer_sphere_radius_mm).clamp(0.0, 1.0).acos().min(theta_h);
+    let theta_c = (patch_r / p.core_dome_outer_sphere_radius_mm)
+        .clamp(0.0, 1.0)
+        .acos()
+        .min(theta_h);
     let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_c, theta_h, FRAC_PI_2];
     breaks.sort_by(|a, b| a.total_cmp(b));
     breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
@@ -264,7 +275,9 @@ fn make_stations(p: &ModuleProfile, h: f64, h_dome: f64, fiber_r: f64, patch_r: 
     for w in breaks.windows(2) {
         let n = ((rho_ref * (w[1] - w[0]) / h_dome).ceil() as usize).max(1);
         for k in 1..=2 * n {
-            st.push(Station::Theta(w[0] + (w[1] - w[0]) * k as f64 / (2 * n) as f64));
+            st.push(Station::Theta(
+                w[0] + (w[1] - w[0]) * k as f64 / (2 * n) as f64,
+            ));
         }
         idx.insert((w[1] * 1e6).round() as i64, st.len() - 1);
     }
@@ -312,7 +325,11 @@ fn constants(m: &Material) -> ElasticConstants {
 /// Poisson's ratio weighted by stiffness share).
 fn smeared(parts: &[(ElasticConstants, f64)]) -> ElasticConstants {
     let e: f64 = parts.iter().map(|(m, f)| m.youngs_modulus_mpa * f).sum();
-    let nu = parts.iter().map(|(m, f)| m.poisson_ratio * m.youngs_modulus_mpa * f).sum::<f64>() / e;
+    let nu = parts
+        .iter()
+        .map(|(m, f)| m.poisson_ratio * m.youngs_modulus_mpa * f)
+        .sum::<f64>()
+        / e;
     ElasticConstants {
         youngs_modulus_mpa: e,
         poisson_ratio: nu,
@@ -331,7 +348,9 @@ pub fn build(
         .module
         .as_ref()
         .ok_or_else(|| anyhow!("the design has no [module] section"))?;
-    let sizes_ok = [opt.element_size_mm, opt.dome_element_size_mm].iter().all(|v| v.is_finite() && *v > 0.0);
+    let sizes_ok = [opt.element_size_mm, opt.dome_element_size_mm]
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0);
     if !sizes_ok || opt.elements_through_wall == 0 {
         bail!("finite-element options: element size must be > 0 mm and at least one element through a wall");
     }
@@ -355,12 +374,40 @@ pub fn build(
     let pl = &m.pillars;
     let n = pl.count as f64;
     let fill = |width: f64, r0: f64, r1: f64| (n * width / (PI * (r0 + r1))).min(1.0);
-    let ring_clear = smeared(&[(cap, fill(p.cap_pillar_width_mm, p.pillar_outer_radius_mm, p.cap_inner_radius_mm))]);
+    let ring_clear = smeared(&[(
+        cap,
+        fill(
+            p.cap_pillar_width_mm,
+            p.pillar_outer_radius_mm,
+            p.cap_inner_radius_mm,
+        ),
+    )]);
     let ring_groove = smeared(&[
-        (core, fill(pl.width_mm - pl.groove_width_mm, p.groove_bottom_radius_mm, p.pillar_outer_radius_mm)),
-        (cap, fill(p.cap_pillar_width_mm, p.groove_bottom_radius_mm, p.pillar_outer_radius_mm)),
+        (
+            core,
+            fill(
+                pl.width_mm - pl.groove_width_mm,
+                p.groove_bottom_radius_mm,
+                p.pillar_outer_radius_mm,
+            ),
+        ),
+        (
+            cap,
+            fill(
+                p.cap_pillar_width_mm,
+                p.groove_bottom_radius_mm,
+                p.pillar_outer_radius_mm,
+            ),
+        ),
     ]);
-    let ring_web = smeared(&[(core, fill(pl.width_mm, p.core_outer_radius_mm, p.groove_bottom_radius_mm))]);
+    let ring_web = smeared(&[(
+        core,
+        fill(
+            pl.width_mm,
+            p.core_outer_radius_mm,
+            p.groove_bottom_radius_mm,
+        ),
+    )]);
     let mut materials = vec![cap, ring_clear, ring_groove, ring_web, core];
     if let Some(ins) = insert {
         materials.push(ins);
@@ -372,17 +419,21 @@ pub fn build(
         rho: p.cap_dome_outer_sphere_radius_mm,
     }];
     let mut layers: Vec<(usize, usize, usize, usize)> = Vec::new(); // (first dline, n, j_end, material)
-    let mut add_layer = |inner: Surface, thk: f64, j_end: usize, material: usize, dl: &mut Vec<Surface>| {
-        let nn = n_through(thk);
-        let outer = *dl.last().expect("at least one d-line");
-        let first = dl.len() - 1;
-        for k in 1..=2 * nn {
-            dl.push(lerp_surface(outer, inner, k as f64 / (2 * nn) as f64));
-        }
-        layers.push((first, nn, j_end, material));
-        dl.len() - 1
+    let mut add_layer =
+        |inner: Surface, thk: f64, j_end: usize, material: usize, dl: &mut Vec<Surface>| {
+            let nn = n_through(thk);
+            let outer = *dl.last().expect("at least one d-line");
+            let first = dl.len() - 1;
+            for k in 1..=2 * nn {
+                dl.push(lerp_surface(outer, inner, k as f64 / (2 * nn) as f64));
+            }
+            layers.push((first, nn, j_end, material));
+            dl.len() - 1
+        };
+    let cyl = |r: f64| Surface {
+        r,
+        rho: f64::INFINITY,
     };
-    let cyl = |r: f64| Surface { r, rho: f64::INFINITY };
     let dl_cap_inner = add_layer(
         Surface {
             r: p.cap_inner_radius_mm,
@@ -394,7 +445,13 @@ pub fn build(
         &mut dlines,
     );
     if p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9 {
-        add_layer(cyl(p.pillar_outer_radius_mm), m.cap_core_clearance_mm, s.j_pillar_top, 1, &mut dlines);
+        add_layer(
+            cyl(p.pillar_outer_radius_mm),
+            m.cap_core_clearance_mm,
+            s.j_pillar_top,
+            1,
+            &mut dlines,
+        );
     }
     // Base clip: the cap side (cap + its alignment pillars) and the core side (core
     // pillars) get separate nodes on the pillar's outer face, tied below.
@@ -405,7 +462,13 @@ pub fn build(
     } else {
         None
     };
-    add_layer(cyl(p.groove_bottom_radius_mm), pl.groove_depth_mm, s.j_pillar_top, 2, &mut dlines);
+    add_layer(
+        cyl(p.groove_bottom_radius_mm),
+        pl.groove_depth_mm,
+        s.j_pillar_top,
+        2,
+        &mut dlines,
+    );
     let web_layer = 2 + usize::from(p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9);
     let dl_core_outer = add_layer(
         Surface {
@@ -427,7 +490,6 @@ pub fn build(
         4,
         &mut dlines,
     );
-    drop(add_layer);
 
     let mut mesh = Mesh::default();
     let mut node_of: HashMap<(usize, usize), usize> = HashMap::new();
@@ -497,8 +559,10 @@ pub fn build(
         };
         let n_e = s.j_45 - s.j_seam; // doubled steps along θ ∈ [0, 45°]
         let n_n = s.j_axis - s.j_45; // doubled steps along θ ∈ [45°, 90°]
-        // Column abscissae of rectangle and square (doubled): square part then ray part.
-        let mut xs: Vec<f64> = (0..=n_n).map(|u| sq / theta(s.j_axis - u).tan().max(1e-300)).collect();
+                                     // Column abscissae of rectangle and square (doubled): square part then ray part.
+        let mut xs: Vec<f64> = (0..=n_n)
+            .map(|u| sq / theta(s.j_axis - u).tan().max(1e-300))
+            .collect();
         xs[0] = 0.0;
         for k in 1..=2 * n_rad {
             xs.push(sq + (p.insert_radius_mm - sq) * k as f64 / (2 * n_rad) as f64);
@@ -539,7 +603,10 @@ pub fn build(
         let ray = |mesh: &mut Mesh, inner: [f64; 2], j: usize, k: usize| {
             let o = point(ins_surf, s.st[j], zc);
             let t = k as f64 / (2 * n_rad) as f64;
-            mesh.add_node(inner[0] + (o[0] - inner[0]) * t, inner[1] + (o[1] - inner[1]) * t)
+            mesh.add_node(
+                inner[0] + (o[0] - inner[0]) * t,
+                inner[1] + (o[1] - inner[1]) * t,
+            )
         };
         // East block: rays θ ∈ [0, 45°] from the square's right side to the surface.
         let east: Vec<Vec<usize>> = (0..=2 * n_rad)
@@ -609,12 +676,20 @@ pub fn build(
     let mut loads = Vec::new();
     let mut j = s.j_axis;
     while j >= 2 {
-        let ids = [get(&mut mesh, 0, j - 2), get(&mut mesh, 0, j - 1), get(&mut mesh, 0, j)];
+        let ids = [
+            get(&mut mesh, 0, j - 2),
+            get(&mut mesh, 0, j - 1),
+            get(&mut mesh, 0, j),
+        ];
         let xy = [mesh.nodes[ids[0]], mesh.nodes[ids[1]], mesh.nodes[ids[2]]];
         if xy[2][0] >= a {
             break;
         }
-        let s0 = if xy[0][0] <= a { -1.0 } else { edge_param_at_radius(xy, a) };
+        let s0 = if xy[0][0] <= a {
+            -1.0
+        } else {
+            edge_param_at_radius(xy, a)
+        };
         let f = edge_forces(xy, s0, 1.0, |_, _, dr, _| [0.0, -pressure * dr.abs()]);
         for k in 0..3 {
             loads.push((ids[k], Z, f[k][1]));
@@ -643,11 +718,16 @@ pub fn build(
 impl ModuleModel {
     /// Axial strain ε_zz averaged over z ∈ [z0, z1] on the fiber axis.
     pub fn mean_axial_strain(&self, sol: &Solution, z0: f64, z1: f64) -> Result<f64> {
-        if !(z1 > z0) {
+        if z1.partial_cmp(&z0) != Some(std::cmp::Ordering::Greater) {
             bail!("grating range {z0}..{z1} mm is empty");
         }
         let mut cuts: Vec<f64> = vec![z0, z1];
-        cuts.extend(self.z_breaks_mm.iter().copied().filter(|&z| z > z0 && z < z1));
+        cuts.extend(
+            self.z_breaks_mm
+                .iter()
+                .copied()
+                .filter(|&z| z > z0 && z < z1),
+        );
         let n_min = 16;
         for k in 1..n_min {
             cuts.push(z0 + (z1 - z0) * k as f64 / n_min as f64);

@@ -211,10 +211,12 @@ impl Problem {
         let mut coo = CooMatrix::new(n, n);
         for (e, d) in self.mesh.elements.iter().zip(&elem_dofs) {
             let xy = self.mesh.element_coords(e);
-            let mat = *self
-                .materials
-                .get(e.material)
-                .ok_or_else(|| anyhow!("element refers to material {} which is not defined", e.material))?;
+            let mat = *self.materials.get(e.material).ok_or_else(|| {
+                anyhow!(
+                    "element refers to material {} which is not defined",
+                    e.material
+                )
+            })?;
             let ke = element::stiffness(&xy, mat, self.formulation)?;
             for (a, da) in d.iter().enumerate() {
                 let Some(ia) = da else { continue };
@@ -344,7 +346,7 @@ impl LinearSolver for EnvelopeCholesky {
             let row_i = &mut l[start[i]..start[i + 1]];
             let (off, diag) = row_i.split_at_mut(i - fi);
             let s = diag[0] - off.iter().map(|x| x * x).sum::<f64>();
-            if !(s > 0.0) || !s.is_finite() {
+            if s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !s.is_finite() {
                 bail!("envelope Cholesky: pivot {i} is not positive ({s:.3e})");
             }
             diag[0] = s.sqrt();
@@ -354,7 +356,11 @@ impl LinearSolver for EnvelopeCholesky {
         for i in 0..n {
             let row = &l[start[i]..start[i + 1]];
             let fi = first[i];
-            let dot: f64 = row[..i - fi].iter().zip(&y.as_slice()[fi..i]).map(|(a, b)| a * b).sum();
+            let dot: f64 = row[..i - fi]
+                .iter()
+                .zip(&y.as_slice()[fi..i])
+                .map(|(a, b)| a * b)
+                .sum();
             y[i] = (y[i] - dot) / row[i - fi];
         }
         for i in (0..n).rev() {
@@ -373,7 +379,13 @@ impl LinearSolver for EnvelopeCholesky {
 impl Solution {
     /// Strain [ε_rr, ε_zz, ε_θθ, γ_rz] at (r, z), searching the given elements
     /// (all when `elements` is None). None when the point is outside them.
-    pub fn strain_at(&self, mesh: &Mesh, elements: Option<&[usize]>, r: f64, z: f64) -> Option<[f64; 4]> {
+    pub fn strain_at(
+        &self,
+        mesh: &Mesh,
+        elements: Option<&[usize]>,
+        r: f64,
+        z: f64,
+    ) -> Option<[f64; 4]> {
         let all: Vec<usize>;
         let list = match elements {
             Some(l) => l,
@@ -397,10 +409,7 @@ impl Solution {
                 continue;
             }
             if let Some((xi, eta)) = element::locate(&xy, r, z) {
-                let mut u = [[0.0; 2]; 9];
-                for k in 0..9 {
-                    u[k] = self.displacement_mm[e.nodes[k]];
-                }
+                let u = e.nodes.map(|n| self.displacement_mm[n]);
                 return Some(element::strain_at(&xy, &u, xi, eta));
             }
         }
@@ -446,7 +455,9 @@ mod tests {
         coo.push(1, 0, 2.0);
         coo.push(1, 1, 1.0);
         let k = CscMatrix::from(&coo);
-        assert!(EnvelopeCholesky.solve(&k, &DVector::from_element(2, 1.0)).is_err());
+        assert!(EnvelopeCholesky
+            .solve(&k, &DVector::from_element(2, 1.0))
+            .is_err());
     }
 
     #[test]
