@@ -254,8 +254,20 @@ fn make_stations(
     let z_breaks = (0..=nz).map(|k| zc * k as f64 / nz as f64).collect();
     let j_seam = st.len() - 1;
     // Ring top: the ray through the fiber radius at the pillar top.
+    // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
+    // onto their spheres, so the rings stay on the cylinders.
+    let corner = |r: f64, rho: f64| if r < rho { (r / rho).acos() } else { 0.0 };
     let theta_p = if p.pillar_top_mm > zc + 1e-9 {
-        ((p.pillar_top_mm - zc) / fiber_r).atan()
+        ((p.pillar_top_mm - zc) / fiber_r)
+            .atan()
+            .min(corner(
+                p.cap_inner_radius_mm,
+                p.cap_dome_inner_sphere_radius_mm,
+            ))
+            .min(corner(
+                p.core_outer_radius_mm,
+                p.core_dome_outer_sphere_radius_mm,
+            ))
     } else {
         0.0
     };
@@ -268,6 +280,23 @@ fn make_stations(
         .acos()
         .min(theta_h);
     let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_c, theta_h, FRAC_PI_2];
+    // For a dome flatter than a hemisphere each wall surface turns a corner where its
+    // cylinder meets its sphere; a station on each corner's ray keeps quadratic
+    // elements from spanning (and folding over) a corner.
+    for (r, rho) in [
+        (p.cap_outer_radius_mm, p.cap_dome_outer_sphere_radius_mm),
+        (p.cap_inner_radius_mm, p.cap_dome_inner_sphere_radius_mm),
+        (p.core_outer_radius_mm, p.core_dome_outer_sphere_radius_mm),
+        (p.core_inner_radius_mm, p.core_dome_inner_sphere_radius_mm),
+        (p.insert_radius_mm, p.insert_sphere_radius_mm),
+    ] {
+        if r < rho {
+            let t = (r / rho).acos();
+            if t > 1e-4 && t < theta_c {
+                breaks.push(t);
+            }
+        }
+    }
     breaks.sort_by(|a, b| a.total_cmp(b));
     breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
     let rho_ref = p.cap_dome_outer_sphere_radius_mm;
