@@ -212,3 +212,25 @@ fn flatter_domes_mesh_and_keep_the_case_ii_stack_strain() {
         assert!(ci > 0.0, "dome {h} mm: Case I strain {ci}");
     }
 }
+
+#[test]
+fn default_options_extrapolate_level_1_with_level_0() {
+    let d = design();
+    let c = config("psc1", LoadCase::I, Some("green"));
+    assert_eq!(FemOptions::level(1).coarsened(), FemOptions::level(0));
+    let (k0, k1) = (
+        strain(&d, &c, &FemOptions::level(0)),
+        strain(&d, &c, &FemOptions::level(1)),
+    );
+    let kd = strain(&d, &c, &FemOptions::default());
+    assert!(
+        (kd - (2.0 * k1 - k0)).abs() < 1e-12 * k1.abs(),
+        "{kd} vs {}",
+        2.0 * k1 - k0
+    );
+    let bad = FemOptions {
+        richardson_order: Some(0.0),
+        ..FemOptions::default()
+    };
+    assert!(solve_configuration(&d, &c, &bad).is_err());
+}
