@@ -5,6 +5,7 @@
 
 pub mod array;
 pub mod cli;
+pub mod fem;
 pub mod geometry;
 pub mod grating;
 pub mod model;

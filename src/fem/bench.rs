@@ -1,0 +1,408 @@
+//! `fbgforge bench fem`: mesh convergence of K, time per prediction against error for
+//! the closed form and each finite-element mesh level, and the closed-form-vs-FE
+//! comparison over the design space.
+//!
+//! Outputs (in `out_dir`): `fem_convergence.csv`, `fem_speed_accuracy.csv` and
+//! `.svg`, and the comparison files written by [`super::compare::run_comparison`].
+//! A table of the same numbers is printed. The design is the paper's module
+//! (`designs/clip-on-34mm.toml`, compiled in so the bench runs from any folder).
+
+use super::{solve_configuration, Configuration, DomeContact, FemOptions, SolverKind};
+use crate::model::LoadCase;
+use crate::output::write_csv;
+use crate::plot::{Chart, Mark, Series};
+use crate::spec::{self, Design};
+use anyhow::{Context, Result};
+use std::path::Path;
+use std::time::Instant;
+
+/// The paper's module, compiled in.
+pub const PAPER_DESIGN_TOML: &str = include_str!("../../designs/clip-on-34mm.toml");
+
+/// The paper's module as a design.
+pub fn paper_design() -> Result<Design> {
+    spec::parse(PAPER_DESIGN_TOML).map_err(|e| anyhow::anyhow!("built-in design: {e}"))
+}
+
+/// One mesh level of the convergence study.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LevelResult {
+    /// Configuration label, e.g. `psc1 Case I blue`.
+    pub configuration: String,
+    /// Refinement level (cylinder element size 4 / 2^level mm).
+    pub level: u32,
+    /// Meridian element size, mm.
+    pub element_size_mm: f64,
+    /// Unknowns.
+    pub unknowns: usize,
+    /// Sensitivity of the configuration's first grating, pm/N.
+    pub sensitivity_pm_per_n: f64,
+    /// Best wall-clock time of one solve (mesh, assembly, factorisation, read-out), s.
+    pub time_s: f64,
+}
+
+/// Label of a configuration for tables.
+pub fn label(c: &Configuration) -> String {
+    let case = match c.case {
+        LoadCase::I => "Case I",
+        LoadCase::II => "Case II",
+    };
+    match &c.insert {
+        Some(i) => format!("{} {case} {i}", c.core),
+        None => format!("{} {case}", c.core),
+    }
+}
+
+/// Solve `config` at levels 0..=max_level; each level timed as the best of `repeats`.
+pub fn convergence(
+    design: &Design,
+    config: &Configuration,
+    levels: std::ops::RangeInclusive<u32>,
+    repeats: usize,
+    solver: SolverKind,
+    dome_contact: DomeContact,
+) -> Result<Vec<LevelResult>> {
+    let mut out = Vec::new();
+    for level in levels {
+        let mut opt = FemOptions::level(level);
+        opt.solver = solver;
+        opt.dome_contact = dome_contact;
+        let mut best = f64::INFINITY;
+        let mut last = None;
+        for _ in 0..repeats.max(1) {
+            let t = Instant::now();
+            let r = solve_configuration(design, config, &opt)?;
+            best = best.min(t.elapsed().as_secs_f64());
+            last = Some(r);
+        }
+        let r = last.expect("at least one repeat");
+        let (_, lambda, e) = r
+            .strain_per_n
+            .first()
+            .cloned()
+            .context("the configuration's core has no strain grating")?;
+        out.push(LevelResult {
+            configuration: match dome_contact {
+                DomeContact::Gap => format!("{} (dome gap)", label(config)),
+                _ => label(config),
+            },
+            level,
+            element_size_mm: opt.element_size_mm,
+            unknowns: r.unknowns,
+            sensitivity_pm_per_n: design.fiber.shift_pm(lambda, e, 0.0),
+            time_s: best,
+        });
+    }
+    Ok(out)
+}
+
+/// Observed order of convergence from the last three levels (element size halving),
+/// and the Richardson-extrapolated K. None when the differences do not shrink.
+pub fn observed_order(k: &[f64]) -> Option<(f64, f64)> {
+    if k.len() < 3 {
+        return None;
+    }
+    let n = k.len();
+    let (d1, d2) = (k[n - 2] - k[n - 3], k[n - 1] - k[n - 2]);
+    if d2 == 0.0 {
+        return Some((f64::INFINITY, k[n - 1]));
+    }
+    let ratio = d1 / d2;
+    if ratio <= 1.0 {
+        return None;
+    }
+    let p = ratio.log2();
+    Some((p, k[n - 1] + d2 / (ratio - 1.0)))
+}
+
+/// Run the whole FE benchmark and write its files into `out_dir`.
+pub fn run_bench(out_dir: &Path) -> Result<()> {
+    crate::output::ensure_dir(out_dir)?;
+    let design = paper_design()?;
+    let configs = [
+        (
+            Configuration {
+                core: "psc2".into(),
+                case: LoadCase::II,
+                insert: None,
+            },
+            3u32,
+            DomeContact::ApexPatch,
+        ),
+        (
+            Configuration {
+                core: "psc1".into(),
+                case: LoadCase::I,
+                insert: Some("blue".into()),
+            },
+            2u32,
+            DomeContact::ApexPatch,
+        ),
+        (
+            Configuration {
+                core: "psc1".into(),
+                case: LoadCase::I,
+                insert: Some("blue".into()),
+            },
+            2u32,
+            DomeContact::Gap,
+        ),
+    ];
+    let pb = crate::progress::bar(configs.iter().map(|c| c.1 as u64 + 1).sum(), "fem levels");
+    let mut rows = Vec::new();
+    let mut speed_rows = Vec::new();
+    let mut chart = Chart::new(
+        "Clip-on module (34 mm): time per prediction against error of K",
+        "time per prediction, s",
+        "|K − K_converged| / |K_converged|, %",
+    );
+    chart.x_log = true;
+    chart.y_log = true;
+    println!("Finite-element convergence of K (paper module; K_ref = Richardson extrapolation)");
+    println!(
+        "{:<22} {:>5} {:>8} {:>9} {:>14} {:>10} {:>10}",
+        "configuration", "level", "h, mm", "unknowns", "K, pm/N", "error, %", "time, s"
+    );
+    for (config, max_level, dome) in &configs {
+        let name = match dome {
+            DomeContact::Gap => format!("{} (dome gap)", label(config)),
+            _ => label(config),
+        };
+        let mut levels = Vec::new();
+        for level in 0..=*max_level {
+            let repeats = if level <= 1 { 3 } else { 1 };
+            let mut r = convergence(
+                &design,
+                config,
+                level..=level,
+                repeats,
+                SolverKind::Envelope,
+                *dome,
+            )?;
+            levels.push(r.pop().expect("one level"));
+            pb.inc(1);
+        }
+        let ks: Vec<f64> = levels.iter().map(|l| l.sensitivity_pm_per_n).collect();
+        let (order, k_ref) = match observed_order(&ks) {
+            Some((p, k)) => (Some(p), k),
+            None => (None, *ks.last().expect("levels")),
+        };
+        let mut pts = Vec::new();
+        for l in &levels {
+            let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
+            println!(
+                "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}",
+                l.configuration,
+                l.level,
+                l.element_size_mm,
+                l.unknowns,
+                l.sensitivity_pm_per_n,
+                err,
+                l.time_s
+            );
+            rows.push(vec![
+                l.configuration.clone(),
+                l.level.to_string(),
+                format!("{}", l.element_size_mm),
+                l.unknowns.to_string(),
+                format!("{:.6}", l.sensitivity_pm_per_n),
+                format!("{:.6}", k_ref),
+                format!("{:.6}", err),
+                order
+                    .map(|p| format!("{p:.3}"))
+                    .unwrap_or_else(|| "n/a".into()),
+                format!("{:.6}", l.time_s),
+            ]);
+            speed_rows.push(vec![
+                format!("FE level {}", l.level),
+                l.configuration.clone(),
+                format!("{:.6e}", l.time_s),
+                format!("{:.6}", err),
+            ]);
+            // The reference level itself (error 0) cannot sit on a log axis.
+            if err > 0.0 {
+                pts.push((l.time_s, err));
+            }
+        }
+        match order {
+            Some(p) => {
+                println!("{name}: observed order of convergence {p:.2}, K_ref = {k_ref:.4} pm/N")
+            }
+            None => {
+                println!("{name}: differences do not shrink monotonically; K_ref = finest level")
+            }
+        }
+        chart = chart.with(Series::new(format!("FE, {name}"), pts, Mark::LinePoints));
+        // The default options: level 1 extrapolated with level 0 (Richardson, p = 1).
+        {
+            let opt = FemOptions {
+                dome_contact: *dome,
+                ..FemOptions::default()
+            };
+            let mut best = f64::INFINITY;
+            let mut k = f64::NAN;
+            for _ in 0..3 {
+                let t = Instant::now();
+                let r = solve_configuration(&design, config, &opt)?;
+                best = best.min(t.elapsed().as_secs_f64());
+                let (_, lambda, e) = r.strain_per_n[0].clone();
+                k = design.fiber.shift_pm(lambda, e, 0.0);
+            }
+            let err = ((k - k_ref) / k_ref).abs() * 100.0;
+            println!(
+                "{:<22} default (level 1 + Richardson p = 1 from level 0): K = {k:.4} pm/N, error {err:.4} %, {best:.4} s",
+                name
+            );
+            speed_rows.push(vec![
+                "FE default (levels 0+1, Richardson p = 1)".into(),
+                name.clone(),
+                format!("{best:.6e}"),
+                format!("{err:.6}"),
+            ]);
+            if err > 0.0 {
+                chart = chart.with(Series::new(
+                    format!("FE default (Richardson), {name}"),
+                    vec![(best, err)],
+                    Mark::Points,
+                ));
+            }
+        }
+        // The same levels with nalgebra-sparse's Cholesky: same K, other time.
+        let sparse_levels = (*max_level).min(2);
+        let sparse = convergence(
+            &design,
+            config,
+            0..=sparse_levels,
+            1,
+            SolverKind::Sparse,
+            *dome,
+        )?;
+        let mut spts = Vec::new();
+        for l in &sparse {
+            let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
+            println!(
+                "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}  (nalgebra-sparse Cholesky)",
+                l.configuration,
+                l.level,
+                l.element_size_mm,
+                l.unknowns,
+                l.sensitivity_pm_per_n,
+                err,
+                l.time_s
+            );
+            speed_rows.push(vec![
+                format!("FE level {} (nalgebra-sparse)", l.level),
+                l.configuration.clone(),
+                format!("{:.6e}", l.time_s),
+                format!("{:.6}", err),
+            ]);
+            if err > 0.0 {
+                spts.push((l.time_s, err));
+            }
+        }
+        chart = chart.with(Series::new(
+            format!("FE nalgebra-sparse, {name}"),
+            spts,
+            Mark::LinePoints,
+        ));
+
+        // The closed form on the same configuration, if the model is available.
+        if *dome == DomeContact::Gap {
+            continue;
+        }
+        match closed_form_time_and_k(&design, config) {
+            Ok((t, k)) => {
+                let err = ((k - k_ref) / k_ref).abs() * 100.0;
+                println!("{:<22} closed form: K = {k:.4} pm/N, error {err:.2} %, {t:.3e} s per prediction", label(config));
+                speed_rows.push(vec![
+                    "closed form".into(),
+                    label(config),
+                    format!("{t:.6e}"),
+                    format!("{err:.6}"),
+                ]);
+                chart = chart.with(Series::new(
+                    format!("closed form, {name}"),
+                    vec![(t, err.max(1e-6))],
+                    Mark::Points,
+                ));
+            }
+            Err(e) => println!("{:<22} closed form: not available ({e})", label(config)),
+        }
+    }
+    pb.finish_and_clear();
+    write_csv(
+        &out_dir.join("fem_convergence.csv"),
+        &[
+            "configuration",
+            "level",
+            "element_size_mm",
+            "unknowns",
+            "sensitivity_pm_per_n",
+            "converged_sensitivity_pm_per_n",
+            "relative_error_percent",
+            "observed_order",
+            "time_s",
+        ],
+        &rows,
+    )?;
+    write_csv(
+        &out_dir.join("fem_speed_accuracy.csv"),
+        &[
+            "method",
+            "configuration",
+            "time_per_prediction_s",
+            "relative_error_percent",
+        ],
+        &speed_rows,
+    )?;
+    chart.write_svg(&out_dir.join("fem_speed_accuracy.svg"))?;
+    println!(
+        "wrote {}, {}, {}",
+        out_dir.join("fem_convergence.csv").display(),
+        out_dir.join("fem_speed_accuracy.csv").display(),
+        out_dir.join("fem_speed_accuracy.svg").display()
+    );
+    super::compare::run_comparison(out_dir)?;
+    Ok(())
+}
+
+/// Time per closed-form prediction (one configuration) and its K for `config`.
+fn closed_form_time_and_k(design: &Design, config: &Configuration) -> Result<(f64, f64)> {
+    let first = crate::model::predict(design, 1.0)?;
+    let k = super::compare::closed_form_k(&first, config)?;
+    let n = 2000;
+    let t = Instant::now();
+    for _ in 0..n {
+        std::hint::black_box(crate::model::predict(std::hint::black_box(design), 1.0)?);
+    }
+    let per_call = t.elapsed().as_secs_f64() / n as f64;
+    Ok((
+        per_call / first.len().max(1) as f64 * config_grating_count(&first, config) as f64,
+        k,
+    ))
+}
+
+fn config_grating_count(
+    preds: &[crate::model::GratingPrediction],
+    config: &Configuration,
+) -> usize {
+    preds
+        .iter()
+        .filter(|p| p.core == config.core && p.case == config.case && p.insert == config.insert)
+        .count()
+        .max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn observed_order_of_a_known_sequence() {
+        // K_h = 10 + 3 h^2 at h = 1, 1/2, 1/4.
+        let k = [13.0, 10.75, 10.1875];
+        let (p, k_ref) = observed_order(&k).unwrap();
+        assert!((p - 2.0).abs() < 1e-12 && (k_ref - 10.0).abs() < 1e-12);
+        assert!(observed_order(&[1.0, 2.0, 4.0]).is_none());
+    }
+}

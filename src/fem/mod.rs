@@ -1,0 +1,193 @@
+//! Axisymmetric finite-element reference model of the clip-on module.
+//!
+//! The closed-form model ([`crate::model`]) rests on thin-shell membrane theory and a
+//! uniform strain across each wall. This module solves the same module, meshed from
+//! the same [`crate::profile::ModuleProfile`], as a linear-elastic body of revolution
+//! with quadratic mixed elements (no volumetric locking for the ν ≈ 0.49 rubber) and a
+//! sparse Cholesky solve. It serves three purposes: an independent check of the
+//! closed form's error over the design space ([`compare`]), a slower but more general
+//! prediction for designs outside the closed form's measured validity region
+//! ([`predict`], [`choose_fidelity`]), and the speed/accuracy benchmark ([`bench`]).
+//!
+//! Submodules: [`element`] (Q9/P1 element), [`mesh`] (mesh data, edge loads),
+//! [`solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
+//! contacts, supports and load), [`compare`] (closed form vs FE), [`bench`].
+
+pub mod bench;
+pub mod compare;
+pub mod element;
+pub mod mesh;
+pub mod module;
+pub mod solve;
+
+pub use module::{DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind};
+
+use crate::model::{GratingPrediction, LoadCase};
+use crate::profile::{module_gratings, ModuleProfile};
+use crate::spec::{Design, GratingRole};
+use anyhow::{anyhow, bail, Result};
+use serde::Serialize;
+use std::time::Instant;
+
+/// One loading configuration of the module: a core, a case, and the insert in Case I.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Configuration {
+    /// Core name.
+    pub core: String,
+    /// Loading case.
+    pub case: LoadCase,
+    /// Insert name (Case I).
+    pub insert: Option<String>,
+}
+
+/// Every configuration the design allows, in the model's order: for each core,
+/// Case II, then Case I with each insert.
+pub fn configurations(design: &Design) -> Result<Vec<Configuration>> {
+    let m = design
+        .module
+        .as_ref()
+        .ok_or_else(|| anyhow!("the design has no [module] section"))?;
+    let mut out = Vec::new();
+    for c in &m.cores {
+        out.push(Configuration {
+            core: c.name.clone(),
+            case: LoadCase::II,
+            insert: None,
+        });
+        for i in &m.inserts {
+            out.push(Configuration {
+                core: c.name.clone(),
+                case: LoadCase::I,
+                insert: Some(i.name.clone()),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Result of one finite-element solve of one configuration.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConfigurationResult {
+    /// The configuration.
+    pub configuration: Configuration,
+    /// Mean axial strain per newton on the fiber axis, for every strain grating of
+    /// the configuration's core: (grating name, Bragg wavelength nm, strain per N).
+    pub strain_per_n: Vec<(String, f64, f64)>,
+    /// Unknowns solved for.
+    pub unknowns: usize,
+    /// Elements in the mesh.
+    pub elements: usize,
+    /// Wall-clock time of mesh, assembly, factorisation and read-out, s.
+    pub solve_time_s: f64,
+}
+
+/// Solve one configuration with F = 1 N and read every grating of its core.
+pub fn solve_configuration(
+    design: &Design,
+    config: &Configuration,
+    opt: &FemOptions,
+) -> Result<ConfigurationResult> {
+    if let Some(order) = opt.richardson_order {
+        if !(order.is_finite() && order > 0.0) {
+            bail!("Richardson order must be a positive number, got {order}");
+        }
+        let plain = FemOptions {
+            richardson_order: None,
+            ..*opt
+        };
+        let fine = solve_configuration(design, config, &plain)?;
+        let coarse = solve_configuration(design, config, &opt.coarsened())?;
+        let factor = 1.0 / (2f64.powf(order) - 1.0);
+        let strain_per_n = fine
+            .strain_per_n
+            .iter()
+            .zip(&coarse.strain_per_n)
+            .map(|((name, lambda, ef), (_, _, ec))| {
+                (name.clone(), *lambda, ef + (ef - ec) * factor)
+            })
+            .collect();
+        return Ok(ConfigurationResult {
+            strain_per_n,
+            solve_time_s: fine.solve_time_s + coarse.solve_time_s,
+            ..fine
+        });
+    }
+    let start = Instant::now();
+    let m = design
+        .module
+        .as_ref()
+        .ok_or_else(|| anyhow!("the design has no [module] section"))?;
+    let core = m
+        .cores
+        .iter()
+        .find(|c| c.name == config.core)
+        .ok_or_else(|| anyhow!("no core named `{}`", config.core))?;
+    let insert_material = match &config.insert {
+        Some(name) => Some(
+            m.inserts
+                .iter()
+                .find(|i| &i.name == name)
+                .ok_or_else(|| anyhow!("no insert named `{name}`"))?
+                .material
+                .as_str(),
+        ),
+        None => None,
+    };
+    let model = module::build(design, &core.material, insert_material, config.case, opt)?;
+    let sol = model.problem.solve_with(opt.solver.solver())?;
+    let profile = ModuleProfile::from_module(m);
+    let mut strain_per_n = Vec::new();
+    for g in module_gratings(m, &profile) {
+        if g.role != GratingRole::Strain || g.core.as_deref() != Some(config.core.as_str()) {
+            continue;
+        }
+        let e = model.mean_axial_strain(&sol, g.z_start_mm, g.z_end_mm)?;
+        strain_per_n.push((g.name, g.bragg_wavelength_nm, e));
+    }
+    Ok(ConfigurationResult {
+        configuration: config.clone(),
+        strain_per_n,
+        unknowns: sol.unknowns,
+        elements: model.problem.mesh.elements.len(),
+        solve_time_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Largest grating strain the linear model is trusted with (1 %): beyond it the rubber
+/// and the bond of the fiber leave the linear range.
+pub const LINEAR_STRAIN_LIMIT: f64 = 0.01;
+
+/// Finite-element prediction of every strain grating, for Case II and for Case I with
+/// each insert, at `force_n` (same output type and order as [`crate::model::predict`]).
+pub fn predict(design: &Design, force_n: f64, opt: &FemOptions) -> Result<Vec<GratingPrediction>> {
+    if !force_n.is_finite() {
+        bail!("force must be a finite number of newtons, got {force_n}");
+    }
+    let mut out = Vec::new();
+    for config in configurations(design)? {
+        let res = solve_configuration(design, &config, opt)?;
+        for (name, lambda_nm, e) in res.strain_per_n {
+            let k = design.fiber.shift_pm(lambda_nm, e, 0.0);
+            let strain = e * force_n;
+            let mut warnings = vec![];
+            if strain.abs() > LINEAR_STRAIN_LIMIT {
+                warnings.push(format!(
+                    "strain {strain:.4} at {force_n} N exceeds the linear range (|ε| ≤ {LINEAR_STRAIN_LIMIT})"
+                ));
+            }
+            out.push(GratingPrediction {
+                grating: name,
+                core: config.core.clone(),
+                case: config.case,
+                insert: config.insert.clone(),
+                sensitivity_pm_per_n: k,
+                shift_pm: k * force_n,
+                strain,
+                warnings,
+            });
+        }
+    }
+    Ok(out)
+}
+
+pub use compare::{choose_fidelity, choose_fidelity_for, validity, Fidelity, ValidityRegion};

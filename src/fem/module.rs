@@ -1,0 +1,804 @@
+//! The clip-on module as an axisymmetric finite-element problem: mesh, materials,
+//! supports, ties and the apex load, all from [`ModuleProfile`].
+//!
+//! # Mesh
+//! Every wall of the module is an offset of the cap's outer surface: a cylinder of
+//! radius r_b up to its junction with a sphere of radius ρ_b about the common dome
+//! centre (0, z_c) (see `crate::profile`). The mesher therefore uses one meridian
+//! coordinate s for all walls: the height z below z_c, and above it the polar angle θ
+//! of a ray from the dome centre (θ = 0 horizontal, θ = 90° on the axis). A point of
+//! wall b at station θ lies on that ray at distance min(ρ_b, r_b / cos θ), i.e. on the
+//! cylinder below the junction and on the sphere above it. All walls share the same
+//! stations, so nodes facing each other across a clearance sit on the same ray and can
+//! be tied one to one. The layers, from the outside in:
+//!
+//! | layer | radii | material |
+//! |---|---|---|
+//! | cap | cap outer → cap inner, to the axis | cap |
+//! | clearance ring | cap inner → pillar outer (if clearance > 0), to the pillar top | cap's alignment pillars, smeared |
+//! | groove ring | pillar outer → groove bottom, to the pillar top | core pillar flanks + cap pillar, smeared |
+//! | web ring | groove bottom → core outer, to the pillar top | core pillar web (holds the fiber), smeared |
+//! | core | core outer → core inner, to the top hole | core |
+//! | insert (Case I) | solid, to the axis: an O-grid (square + two ray blocks) above z_c and a rectangle below | insert |
+//!
+//! # Pillars
+//! The pillars are not axisymmetric. They are replaced by rings whose modulus is the
+//! material's modulus times the pillars' angular fill fraction at the layer's mid
+//! radius, count · width / (2π r) (Voigt sum where a layer holds core flanks and the
+//! cap's alignment pillar). Such a ring has the pillars' axial stiffness E·A and the
+//! same shear area for passing load between cap and core, which is what carries the
+//! force to the gratings; it adds a small hoop stiffness the real pillars do not have.
+//!
+//! # Contacts, supports, load
+//! - Cap, pillars and core are one body (the pillar rings are bonded to both walls:
+//!   the paper's "no sliding between CC and PSC"), [`PillarCoupling::Bonded`]. The
+//!   alternative [`PillarCoupling::BaseClip`] lets the cap slide axially over the
+//!   pillars' outer face except in a clip band at the base: the closed form's
+//!   series load path.
+//! - Above the pillars, the cap's dome and the core's dome are one clearance plus one
+//!   pillar height apart in the printed geometry. [`DomeContact::Gap`] keeps that gap
+//!   (the force reaches the core only through the pillars); [`DomeContact::Tied`] ties
+//!   all facing dome nodes; [`DomeContact::ApexPatch`] (default) ties them within the
+//!   apex contact patch, radius = apex flat radius + cap wall / 2, so that the force
+//!   reaches the core's dome there (the paper's assumption 2, and the closed form's
+//!   direct path). A tie spans the printed gap as a rigid link.
+//! - Case I: the insert stands on the table (u_z = 0 on its base, free to slide
+//!   radially); cap and core hang free. The insert is tied to the core across the
+//!   insert clearance: on the dome always in both components; on the cylinder either
+//!   in both ([`InsertContact::Bonded`]) or in u_r only ([`InsertContact::SlidingWall`],
+//!   frictionless: "the module extends along the insert freely").
+//! - Case II: no insert; the bases of cap, pillar rings and core stand on the table
+//!   (u_z = 0, free to slide radially).
+//! - The force is a uniform pressure on the projected apex patch of radius
+//!   `apex_flat_radius_mm` of the cap's outer surface, pointing down (−z). On the axis
+//!   u_r = 0.
+
+use super::element::{ElasticConstants, Formulation};
+use super::mesh::{edge_forces, edge_param_at_radius, Mesh};
+use super::solve::{EnvelopeCholesky, LinearSolver, Problem, Solution, SparseCholesky, R, Z};
+use crate::model::LoadCase;
+use crate::profile::ModuleProfile;
+use crate::spec::{Design, Material};
+use anyhow::{anyhow, bail, Result};
+use std::collections::HashMap;
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::ops::Range;
+
+/// How the insert meets the core's inner wall (Case I).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InsertContact {
+    /// Bonded over the whole interface (no sliding anywhere).
+    Bonded,
+    /// Bonded on the dome, frictionless (radial tie only) along the cylinder.
+    SlidingWall,
+}
+
+/// Whether the cap's dome presses on the core's dome.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DomeContact {
+    /// The printed gap stays open: the force passes through the pillars only.
+    Gap,
+    /// Facing dome nodes tied over the whole dome (cap and core touch everywhere).
+    Tied,
+    /// Facing dome nodes tied within the apex contact patch only: the apex flat widened
+    /// through half the cap wall, radius = apex flat radius + cap wall / 2 (the same
+    /// patch as the closed form's direct path). Default.
+    ApexPatch,
+}
+
+/// How the pillars couple cap and core along the cylinder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PillarCoupling {
+    /// Pillar rings bonded to cap and core over their whole length (the paper's "no
+    /// sliding between CC and PSC"). Default.
+    Bonded,
+    /// The cap slides axially over the core's pillars (radial contact only) and is
+    /// bonded to them only in a clip band at the base, one cap wall high: the load
+    /// path the closed form assumes (cap and core in series through the base clip).
+    BaseClip,
+}
+
+/// Mesh density and modelling choices of a finite-element solve.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FemOptions {
+    /// Target element size along the cylinders (and radially in the insert), mm.
+    pub element_size_mm: f64,
+    /// Target element size along the domes' meridian, mm. The domes carry the load by
+    /// bending and membrane action near the apex contact and decide how the force is
+    /// shared, so they need finer elements than the cylinders' smooth far field.
+    pub dome_element_size_mm: f64,
+    /// Elements through the thinner of the cap and core walls (thinner layers get
+    /// at least one).
+    pub elements_through_wall: usize,
+    /// Insert/core contact in Case I.
+    pub insert_contact: InsertContact,
+    /// Cap/core dome contact.
+    pub dome_contact: DomeContact,
+    /// Cap/core coupling along the pillars.
+    pub pillar_coupling: PillarCoupling,
+    /// Mixed (locking-free) or plain displacement elements.
+    #[serde(skip, default = "default_formulation")]
+    pub formulation: Formulation,
+    /// Linear solver.
+    pub solver: SolverKind,
+    /// When set, also solve a mesh twice as coarse and extrapolate each grating's
+    /// strain as ε_h + (ε_h − ε_2h) / (2^p − 1) with this order p (Richardson). The
+    /// apex-patch tie of Case I converges at a low order (0.5 to 1.2 measured), so
+    /// p = 1 removes most of the discretisation error for a 15 % longer solve.
+    #[serde(default)]
+    pub richardson_order: Option<f64>,
+}
+
+/// Which linear solver factorises the stiffness matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    /// [`EnvelopeCholesky`] (default: fastest here).
+    Envelope,
+    /// [`SparseCholesky`] from nalgebra-sparse.
+    Sparse,
+}
+
+impl SolverKind {
+    /// The solver behind the name.
+    pub fn solver(self) -> &'static dyn LinearSolver {
+        match self {
+            SolverKind::Envelope => &EnvelopeCholesky,
+            SolverKind::Sparse => &SparseCholesky,
+        }
+    }
+}
+
+fn default_formulation() -> Formulation {
+    Formulation::MixedQ9P1
+}
+
+impl Default for FemOptions {
+    /// Level 1 with two-level Richardson extrapolation (order 1) from level 0.
+    fn default() -> Self {
+        FemOptions {
+            richardson_order: Some(1.0),
+            ..FemOptions::level(1)
+        }
+    }
+}
+
+impl FemOptions {
+    /// The same options on a mesh twice as coarse (sizes doubled, half the elements
+    /// through a wall, at least one), without extrapolation.
+    pub fn coarsened(&self) -> Self {
+        FemOptions {
+            element_size_mm: 2.0 * self.element_size_mm,
+            dome_element_size_mm: 2.0 * self.dome_element_size_mm,
+            elements_through_wall: (self.elements_through_wall / 2).max(1),
+            richardson_order: None,
+            ..*self
+        }
+    }
+
+    /// Refinement levels of the convergence study: level k has cylinder elements of
+    /// 4 / 2^k mm, dome elements a quarter of that, and 2^k elements through a wall:
+    /// every level halves every element size of the one before (level 1 = default).
+    pub fn level(k: u32) -> Self {
+        let h = 4.0 / 2f64.powi(k as i32);
+        FemOptions {
+            element_size_mm: h,
+            dome_element_size_mm: h / 4.0,
+            elements_through_wall: 1usize << k,
+            insert_contact: InsertContact::SlidingWall,
+            dome_contact: DomeContact::ApexPatch,
+            pillar_coupling: PillarCoupling::Bonded,
+            formulation: Formulation::MixedQ9P1,
+            solver: SolverKind::Envelope,
+            richardson_order: None,
+        }
+    }
+}
+
+/// Station of the common meridian coordinate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Station {
+    /// Height z ≤ z_c (cylinder section).
+    Z(f64),
+    /// Polar angle of a ray from the dome centre, radians (0 horizontal).
+    Theta(f64),
+}
+
+/// A wall surface: cylinder radius and sphere radius (∞ for a pure cylinder), mm.
+#[derive(Debug, Clone, Copy)]
+struct Surface {
+    r: f64,
+    rho: f64,
+}
+
+fn lerp_surface(a: Surface, b: Surface, t: f64) -> Surface {
+    let rho = if t == 0.0 {
+        a.rho
+    } else if t == 1.0 {
+        b.rho
+    } else if a.rho.is_infinite() || b.rho.is_infinite() {
+        f64::INFINITY
+    } else {
+        a.rho + (b.rho - a.rho) * t
+    };
+    Surface {
+        r: a.r + (b.r - a.r) * t,
+        rho,
+    }
+}
+
+fn point(s: Surface, st: Station, zc: f64) -> [f64; 2] {
+    match st {
+        Station::Z(z) => [s.r, z],
+        Station::Theta(t) => {
+            if (FRAC_PI_2 - t).abs() < 1e-12 {
+                return [0.0, zc + s.rho];
+            }
+            let (sn, c) = t.sin_cos();
+            let len = (s.r / c).min(s.rho);
+            [len * c, zc + len * sn]
+        }
+    }
+}
+
+/// Doubled meridian stations and the doubled indices of the break points.
+struct Stations {
+    st: Vec<Station>,
+    j_seam: usize,
+    j_pillar_top: usize,
+    j_45: usize,
+    j_hole: usize,
+    j_patch: usize,
+    j_axis: usize,
+    /// Heights of the element boundaries below the seam (for strain integration).
+    z_breaks: Vec<f64>,
+}
+
+fn make_stations(
+    p: &ModuleProfile,
+    h: f64,
+    h_dome: f64,
+    fiber_r: f64,
+    patch_r: f64,
+) -> Result<Stations> {
+    let zc = p.dome_center_z_mm;
+    if zc <= 0.0 {
+        bail!(
+            "the finite-element mesher needs the dome centre above the base (dome centre at z = {zc:.3} mm): use a taller module or a higher dome"
+        );
+    }
+    let nz = ((zc / h).ceil() as usize).max(2);
+    let mut st: Vec<Station> = (0..=2 * nz)
+        .map(|k| Station::Z(zc * k as f64 / (2 * nz) as f64))
+        .collect();
+    let z_breaks = (0..=nz).map(|k| zc * k as f64 / nz as f64).collect();
+    let j_seam = st.len() - 1;
+    // Ring top: the ray through the fiber radius at the pillar top.
+    // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
+    // onto their spheres, so the rings stay on the cylinders.
+    let corner = |r: f64, rho: f64| if r < rho { (r / rho).acos() } else { 0.0 };
+    let theta_p = if p.pillar_top_mm > zc + 1e-9 {
+        ((p.pillar_top_mm - zc) / fiber_r)
+            .atan()
+            .min(corner(
+                p.cap_inner_radius_mm,
+                p.cap_dome_inner_sphere_radius_mm,
+            ))
+            .min(corner(
+                p.core_outer_radius_mm,
+                p.core_dome_outer_sphere_radius_mm,
+            ))
+    } else {
+        0.0
+    };
+    // Core top hole: the ray through the hole edge at the core's mid-wall sphere.
+    let rho_mid = 0.5 * (p.core_dome_outer_sphere_radius_mm + p.core_dome_inner_sphere_radius_mm);
+    let theta_h = (p.top_hole_radius_mm / rho_mid).clamp(0.0, 1.0).acos();
+    // Apex contact patch edge on the core's outer dome (kept below the hole's ray).
+    let theta_c = (patch_r / p.core_dome_outer_sphere_radius_mm)
+        .clamp(0.0, 1.0)
+        .acos()
+        .min(theta_h);
+    let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_c, theta_h, FRAC_PI_2];
+    // For a dome flatter than a hemisphere each wall surface turns a corner where its
+    // cylinder meets its sphere; a station on each corner's ray keeps quadratic
+    // elements from spanning (and folding over) a corner.
+    for (r, rho) in [
+        (p.cap_outer_radius_mm, p.cap_dome_outer_sphere_radius_mm),
+        (p.cap_inner_radius_mm, p.cap_dome_inner_sphere_radius_mm),
+        (p.core_outer_radius_mm, p.core_dome_outer_sphere_radius_mm),
+        (p.core_inner_radius_mm, p.core_dome_inner_sphere_radius_mm),
+        (p.insert_radius_mm, p.insert_sphere_radius_mm),
+    ] {
+        if r < rho {
+            let t = (r / rho).acos();
+            if t > 1e-4 && t < theta_c {
+                breaks.push(t);
+            }
+        }
+    }
+    breaks.sort_by(|a, b| a.total_cmp(b));
+    breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+    let rho_ref = p.cap_dome_outer_sphere_radius_mm;
+    let mut idx = HashMap::new();
+    for w in breaks.windows(2) {
+        let n = ((rho_ref * (w[1] - w[0]) / h_dome).ceil() as usize).max(1);
+        for k in 1..=2 * n {
+            st.push(Station::Theta(
+                w[0] + (w[1] - w[0]) * k as f64 / (2 * n) as f64,
+            ));
+        }
+        idx.insert((w[1] * 1e6).round() as i64, st.len() - 1);
+    }
+    idx.insert(0, j_seam);
+    let find = |t: f64| -> usize {
+        breaks
+            .iter()
+            .find(|b| (**b - t).abs() < 1e-6)
+            .and_then(|b| idx.get(&((b * 1e6).round() as i64)).copied())
+            .unwrap_or(j_seam)
+    };
+    Ok(Stations {
+        j_patch: find(theta_c),
+        j_seam,
+        j_pillar_top: find(theta_p),
+        j_45: find(FRAC_PI_4),
+        j_hole: find(theta_h),
+        j_axis: st.len() - 1,
+        st,
+        z_breaks,
+    })
+}
+
+/// One assembled module problem with what is needed to read the gratings.
+#[derive(Debug, Clone)]
+pub struct ModuleModel {
+    /// The boundary-value problem (loaded with F = 1 N).
+    pub problem: Problem,
+    /// Elements of the web ring (the layer holding the fiber holes).
+    pub web_elements: Range<usize>,
+    /// Radius of the fiber axis, mm.
+    pub fiber_radius_mm: f64,
+    /// Heights of element boundaries along the fiber below the seam, mm.
+    pub z_breaks_mm: Vec<f64>,
+}
+
+fn constants(m: &Material) -> ElasticConstants {
+    ElasticConstants {
+        youngs_modulus_mpa: m.youngs_modulus_mpa,
+        poisson_ratio: m.poisson_ratio,
+    }
+}
+
+/// Smear materials with angular fill fractions into one ring (Voigt sum of moduli,
+/// Poisson's ratio weighted by stiffness share).
+fn smeared(parts: &[(ElasticConstants, f64)]) -> ElasticConstants {
+    let e: f64 = parts.iter().map(|(m, f)| m.youngs_modulus_mpa * f).sum();
+    let nu = parts
+        .iter()
+        .map(|(m, f)| m.poisson_ratio * m.youngs_modulus_mpa * f)
+        .sum::<f64>()
+        / e;
+    ElasticConstants {
+        youngs_modulus_mpa: e,
+        poisson_ratio: nu,
+    }
+}
+
+/// Build the module problem for one core (and insert in Case I), loaded by 1 N.
+pub fn build(
+    design: &Design,
+    core_material: &str,
+    insert_material: Option<&str>,
+    case: LoadCase,
+    opt: &FemOptions,
+) -> Result<ModuleModel> {
+    let m = design
+        .module
+        .as_ref()
+        .ok_or_else(|| anyhow!("the design has no [module] section"))?;
+    let sizes_ok = [opt.element_size_mm, opt.dome_element_size_mm]
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0);
+    if !sizes_ok || opt.elements_through_wall == 0 {
+        bail!("finite-element options: element size must be > 0 mm and at least one element through a wall");
+    }
+    let p = ModuleProfile::from_module(m);
+    let cap = constants(design.material(&m.cap_material, "module.cap_material")?);
+    let core = constants(design.material(core_material, "module.cores[].material")?);
+    let insert = match (case, insert_material) {
+        (LoadCase::I, Some(k)) => Some(constants(design.material(k, "module.inserts[].material")?)),
+        (LoadCase::I, None) => bail!("Case I needs an insert, and none was given"),
+        (LoadCase::II, _) => None,
+    };
+    let h = opt.element_size_mm;
+    let fiber_r = p.fiber_hole_center_radius_mm;
+    let patch_r = p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm;
+    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r)?;
+    let zc = p.dome_center_z_mm;
+    let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
+    let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
+
+    // Materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core, 5 insert.
+    let pl = &m.pillars;
+    let n = pl.count as f64;
+    let fill = |width: f64, r0: f64, r1: f64| (n * width / (PI * (r0 + r1))).min(1.0);
+    let ring_clear = smeared(&[(
+        cap,
+        fill(
+            p.cap_pillar_width_mm,
+            p.pillar_outer_radius_mm,
+            p.cap_inner_radius_mm,
+        ),
+    )]);
+    let ring_groove = smeared(&[
+        (
+            core,
+            fill(
+                pl.width_mm - pl.groove_width_mm,
+                p.groove_bottom_radius_mm,
+                p.pillar_outer_radius_mm,
+            ),
+        ),
+        (
+            cap,
+            fill(
+                p.cap_pillar_width_mm,
+                p.groove_bottom_radius_mm,
+                p.pillar_outer_radius_mm,
+            ),
+        ),
+    ]);
+    let ring_web = smeared(&[(
+        core,
+        fill(
+            pl.width_mm,
+            p.core_outer_radius_mm,
+            p.groove_bottom_radius_mm,
+        ),
+    )]);
+    let mut materials = vec![cap, ring_clear, ring_groove, ring_web, core];
+    if let Some(ins) = insert {
+        materials.push(ins);
+    }
+
+    // Layered walls on shared "d-lines" (curves of constant offset).
+    let mut dlines: Vec<Surface> = vec![Surface {
+        r: p.cap_outer_radius_mm,
+        rho: p.cap_dome_outer_sphere_radius_mm,
+    }];
+    let mut layers: Vec<(usize, usize, usize, usize)> = Vec::new(); // (first dline, n, j_end, material)
+    let mut add_layer =
+        |inner: Surface, thk: f64, j_end: usize, material: usize, dl: &mut Vec<Surface>| {
+            let nn = n_through(thk);
+            let outer = *dl.last().expect("at least one d-line");
+            let first = dl.len() - 1;
+            for k in 1..=2 * nn {
+                dl.push(lerp_surface(outer, inner, k as f64 / (2 * nn) as f64));
+            }
+            layers.push((first, nn, j_end, material));
+            dl.len() - 1
+        };
+    let cyl = |r: f64| Surface {
+        r,
+        rho: f64::INFINITY,
+    };
+    let dl_cap_inner = add_layer(
+        Surface {
+            r: p.cap_inner_radius_mm,
+            rho: p.cap_dome_inner_sphere_radius_mm,
+        },
+        m.cap_wall_mm,
+        s.j_axis,
+        0,
+        &mut dlines,
+    );
+    if p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9 {
+        add_layer(
+            cyl(p.pillar_outer_radius_mm),
+            m.cap_core_clearance_mm,
+            s.j_pillar_top,
+            1,
+            &mut dlines,
+        );
+    }
+    // Base clip: the cap side (cap + its alignment pillars) and the core side (core
+    // pillars) get separate nodes on the pillar's outer face, tied below.
+    let split = if opt.pillar_coupling == PillarCoupling::BaseClip {
+        let outer = *dlines.last().expect("d-lines");
+        dlines.push(outer);
+        Some(dlines.len() - 2)
+    } else {
+        None
+    };
+    add_layer(
+        cyl(p.groove_bottom_radius_mm),
+        pl.groove_depth_mm,
+        s.j_pillar_top,
+        2,
+        &mut dlines,
+    );
+    let web_layer = 2 + usize::from(p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9);
+    let dl_core_outer = add_layer(
+        Surface {
+            r: p.core_outer_radius_mm,
+            rho: p.core_dome_outer_sphere_radius_mm,
+        },
+        p.groove_bottom_radius_mm - p.core_outer_radius_mm,
+        s.j_pillar_top,
+        3,
+        &mut dlines,
+    );
+    let dl_core_inner = add_layer(
+        Surface {
+            r: p.core_inner_radius_mm,
+            rho: p.core_dome_inner_sphere_radius_mm,
+        },
+        m.core_wall_mm,
+        s.j_hole,
+        4,
+        &mut dlines,
+    );
+
+    let mut mesh = Mesh::default();
+    let mut node_of: HashMap<(usize, usize), usize> = HashMap::new();
+    let mut get = |mesh: &mut Mesh, dl: usize, j: usize| -> usize {
+        *node_of.entry((dl, j)).or_insert_with(|| {
+            let q = point(dlines[dl], s.st[j], zc);
+            mesh.add_node(q[0], q[1])
+        })
+    };
+    let mut web_elements = 0..0;
+    let mut base_nodes = Vec::new();
+    for (li, &(first, nn, j_end, material)) in layers.iter().enumerate() {
+        let ids: Vec<Vec<usize>> = (0..=2 * nn)
+            .map(|i| (0..=j_end).map(|j| get(&mut mesh, first + i, j)).collect())
+            .collect();
+        for col in &ids {
+            base_nodes.push(col[0]);
+        }
+        let range = mesh.add_block(&ids, material);
+        if li == web_layer {
+            web_elements = range;
+        }
+    }
+    let mut fixed = Vec::new();
+    let mut ties = Vec::new();
+    if case == LoadCase::II {
+        for &b in &base_nodes {
+            fixed.push((b, Z));
+        }
+    }
+    if let Some(dl) = split {
+        // Radial contact all along the pillars; bonded only in the clip band at the base
+        // (height one cap wall), so the cap slides axially over the core above it.
+        for j in 0..=s.j_pillar_top {
+            let (a, b) = (get(&mut mesh, dl, j), get(&mut mesh, dl + 1, j));
+            ties.push((a, b, R));
+            if mesh.nodes[a][1] <= m.cap_wall_mm + 1e-9 {
+                ties.push((a, b, Z));
+            }
+        }
+    }
+    let tie_from = match opt.dome_contact {
+        DomeContact::Gap => None,
+        DomeContact::Tied => Some(s.j_pillar_top + 1),
+        DomeContact::ApexPatch => Some(s.j_patch.max(s.j_pillar_top + 1)),
+    };
+    if let Some(j0) = tie_from {
+        for j in j0..=s.j_hole {
+            let a = get(&mut mesh, dl_cap_inner, j);
+            let b = get(&mut mesh, dl_core_outer, j);
+            ties.push((a, b, R));
+            ties.push((a, b, Z));
+        }
+    }
+
+    // Case I: the solid insert (rectangle below the seam, O-grid above it).
+    if insert.is_some() {
+        let ins_surf = Surface {
+            r: p.insert_radius_mm,
+            rho: p.insert_sphere_radius_mm,
+        };
+        let sq = 0.5 * p.insert_radius_mm.min(p.insert_sphere_radius_mm);
+        let n_rad = (((p.insert_radius_mm - sq) / h).ceil() as usize).max(1);
+        let theta = |j: usize| match s.st[j] {
+            Station::Theta(t) => t,
+            Station::Z(_) => 0.0,
+        };
+        let n_e = s.j_45 - s.j_seam; // doubled steps along θ ∈ [0, 45°]
+        let n_n = s.j_axis - s.j_45; // doubled steps along θ ∈ [45°, 90°]
+                                     // Column abscissae of rectangle and square (doubled): square part then ray part.
+        let mut xs: Vec<f64> = (0..=n_n)
+            .map(|u| sq / theta(s.j_axis - u).tan().max(1e-300))
+            .collect();
+        xs[0] = 0.0;
+        for k in 1..=2 * n_rad {
+            xs.push(sq + (p.insert_radius_mm - sq) * k as f64 / (2 * n_rad) as f64);
+        }
+        let rect: Vec<Vec<usize>> = xs
+            .iter()
+            .map(|&x| {
+                (0..=s.j_seam)
+                    .map(|j| {
+                        let z = match s.st[j] {
+                            Station::Z(z) => z,
+                            Station::Theta(_) => zc,
+                        };
+                        mesh.add_node(x, z)
+                    })
+                    .collect()
+            })
+            .collect();
+        mesh.add_block(&rect, 5);
+        for col in &rect {
+            fixed.push((col[0], Z));
+        }
+        // Square: columns share x with the rectangle, rows at y = sq tan θ.
+        let square: Vec<Vec<usize>> = (0..=n_n)
+            .map(|c| {
+                (0..=n_e)
+                    .map(|t| {
+                        if t == 0 {
+                            rect[c][s.j_seam]
+                        } else {
+                            mesh.add_node(xs[c], zc + sq * theta(s.j_seam + t).tan())
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        mesh.add_block(&square, 5);
+        let ray = |mesh: &mut Mesh, inner: [f64; 2], j: usize, k: usize| {
+            let o = point(ins_surf, s.st[j], zc);
+            let t = k as f64 / (2 * n_rad) as f64;
+            mesh.add_node(
+                inner[0] + (o[0] - inner[0]) * t,
+                inner[1] + (o[1] - inner[1]) * t,
+            )
+        };
+        // East block: rays θ ∈ [0, 45°] from the square's right side to the surface.
+        let east: Vec<Vec<usize>> = (0..=2 * n_rad)
+            .map(|k| {
+                (0..=n_e)
+                    .map(|t| {
+                        if k == 0 {
+                            square[n_n][t]
+                        } else if t == 0 {
+                            rect[n_n + k][s.j_seam]
+                        } else {
+                            let th = theta(s.j_seam + t);
+                            ray(&mut mesh, [sq, zc + sq * th.tan()], s.j_seam + t, k)
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        mesh.add_block(&east, 5);
+        // North block: rays θ ∈ [45°, 90°] from the square's top side to the surface.
+        let north: Vec<Vec<usize>> = (0..=2 * n_rad)
+            .map(|k| {
+                (0..=n_n)
+                    .map(|u| {
+                        if k == 0 {
+                            square[n_n - u][n_e]
+                        } else if u == 0 {
+                            east[k][n_e]
+                        } else {
+                            ray(&mut mesh, [xs[n_n - u], zc + sq], s.j_45 + u, k)
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        mesh.add_block(&north, 5);
+        let surface = |j: usize| -> usize {
+            if j <= s.j_seam {
+                rect[xs.len() - 1][j]
+            } else if j <= s.j_45 {
+                east[2 * n_rad][j - s.j_seam]
+            } else {
+                north[2 * n_rad][j - s.j_45]
+            }
+        };
+        for j in 0..=s.j_hole {
+            let a = get(&mut mesh, dl_core_inner, j);
+            let b = surface(j);
+            let on_cylinder = mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
+            ties.push((a, b, R));
+            if !(on_cylinder && opt.insert_contact == InsertContact::SlidingWall) {
+                ties.push((a, b, Z));
+            }
+        }
+    }
+
+    // Axis: no radial motion.
+    for (i, q) in mesh.nodes.iter().enumerate() {
+        if q[0].abs() < 1e-9 {
+            fixed.push((i, R));
+        }
+    }
+
+    // Apex load, 1 N downward, as uniform pressure on the projected apex patch.
+    let a = p.apex_flat_radius_mm;
+    let pressure = 1.0 / (PI * a * a);
+    let mut loads = Vec::new();
+    let mut j = s.j_axis;
+    while j >= 2 {
+        let ids = [
+            get(&mut mesh, 0, j - 2),
+            get(&mut mesh, 0, j - 1),
+            get(&mut mesh, 0, j),
+        ];
+        let xy = [mesh.nodes[ids[0]], mesh.nodes[ids[1]], mesh.nodes[ids[2]]];
+        if xy[2][0] >= a {
+            break;
+        }
+        let s0 = if xy[0][0] <= a {
+            -1.0
+        } else {
+            edge_param_at_radius(xy, a)
+        };
+        let f = edge_forces(xy, s0, 1.0, |_, _, dr, _| [0.0, -pressure * dr.abs()]);
+        for k in 0..3 {
+            loads.push((ids[k], Z, f[k][1]));
+        }
+        if xy[0][0] > a {
+            break;
+        }
+        j -= 2;
+    }
+
+    Ok(ModuleModel {
+        problem: Problem {
+            mesh,
+            materials,
+            formulation: opt.formulation,
+            fixed,
+            ties,
+            loads,
+        },
+        web_elements,
+        fiber_radius_mm: fiber_r,
+        z_breaks_mm: s.z_breaks,
+    })
+}
+
+impl ModuleModel {
+    /// Axial strain ε_zz averaged over z ∈ [z0, z1] on the fiber axis.
+    pub fn mean_axial_strain(&self, sol: &Solution, z0: f64, z1: f64) -> Result<f64> {
+        if z1.partial_cmp(&z0) != Some(std::cmp::Ordering::Greater) {
+            bail!("grating range {z0}..{z1} mm is empty");
+        }
+        let mut cuts: Vec<f64> = vec![z0, z1];
+        cuts.extend(
+            self.z_breaks_mm
+                .iter()
+                .copied()
+                .filter(|&z| z > z0 && z < z1),
+        );
+        let n_min = 16;
+        for k in 1..n_min {
+            cuts.push(z0 + (z1 - z0) * k as f64 / n_min as f64);
+        }
+        cuts.sort_by(|a, b| a.total_cmp(b));
+        cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        let elems: Vec<usize> = self.web_elements.clone().collect();
+        let (gp, gw) = super::element::GAUSS3;
+        let mut sum = 0.0;
+        for w in cuts.windows(2) {
+            let half = 0.5 * (w[1] - w[0]);
+            for (p, wt) in gp.iter().zip(gw) {
+                let z = 0.5 * (w[0] + w[1]) + half * p;
+                let e = sol
+                    .strain_at(&self.problem.mesh, Some(&elems), self.fiber_radius_mm, z)
+                    .ok_or_else(|| anyhow!("grating point (r = {:.3} mm, z = {z:.3} mm) lies outside the pillar ring", self.fiber_radius_mm))?;
+                sum += e[1] * wt * half;
+            }
+        }
+        Ok(sum / (z1 - z0))
+    }
+}
