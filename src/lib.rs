@@ -5,9 +5,11 @@
 
 pub mod cli;
 pub mod grating;
+pub mod logs;
 pub mod model;
 pub mod output;
 pub mod plot;
 pub mod profile;
 pub mod progress;
 pub mod spec;
+pub mod verify;

@@ -1,0 +1,2 @@
+//! Verification of a printed part from interrogator and force-stand logs.
+pub mod fit;
