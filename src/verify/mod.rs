@@ -2,3 +2,4 @@
 pub mod fit;
 pub mod assign;
 pub mod analysis;
+pub mod synth;
