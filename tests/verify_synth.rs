@@ -29,6 +29,7 @@ fn check(format: LogFormat, m: &Measurement, truth: &SynthTruth, cfg: &SynthConf
     let dt = truth.sample_period_s;
     let want_off = synth::reported_offset_s(cfg, format);
     assert!((m.clock_offset_s - want_off).abs() <= dt, "{format:?}: offset {} vs {want_off}", m.clock_offset_s);
+    assert!((m.force_log_start_s - cfg.force_start_s).abs() <= dt, "{format:?}: force start {}", m.force_log_start_s);
     let strain: Vec<_> = truth.gratings.iter().filter(|g| !g.reference).collect();
     assert_eq!(m.gratings.len(), strain.len());
     for (g, t) in m.gratings.iter().zip(strain) {

@@ -140,6 +140,10 @@ pub struct Measurement {
     pub clock_offset_s: f64,
     /// `estimated` or `given`.
     pub clock_offset_source: String,
+    /// When the force log's first sample was taken, s from the wavelength log's first
+    /// row (negative: the force recording started first). Easier to read than the
+    /// offset when one log has wall-clock and the other relative times.
+    pub force_log_start_s: f64,
     /// Duration both logs cover after alignment, s.
     pub overlap_s: f64,
     /// The reference grating used, if any.
@@ -591,6 +595,7 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         force_rate_hz: 1.0 / median_period(&force.time_s),
         clock_offset_s: offset,
         clock_offset_source: source.into(),
+        force_log_start_s: fa,
         overlap_s: overlap,
         reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
         interrogator_resolution_pm: resolution_pm,

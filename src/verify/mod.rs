@@ -3,3 +3,6 @@ pub mod fit;
 pub mod assign;
 pub mod analysis;
 pub mod synth;
+pub mod verdict;
+pub mod report;
+pub mod calibrate;

@@ -211,7 +211,8 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     let normal = Normal::new(0.0, 1.0).expect("unit normal");
 
     // Noise-free response on a fine grid.
-    let dt_sim = (1.0 / (10.0 * cfg.sample_rate_hz)).min(cfg.tau_s / 20.0).min(1e-2);
+    // Fine enough for the lag truth, capped at 4 million steps for long runs.
+    let dt_sim = (1.0 / (10.0 * cfg.sample_rate_hz)).min(cfg.tau_s / 20.0).min(1e-2).max(cfg.duration_s / 4e6);
     let n_sim = (cfg.duration_s / dt_sim).ceil() as usize + 2;
     let ts: Vec<f64> = (0..n_sim).map(|i| i as f64 * dt_sim).collect();
     let fs: Vec<f64> = ts.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
