@@ -305,8 +305,8 @@ pub(crate) fn finish_times(
 }
 
 /// Spread timestamps quantised to whole seconds (several rows per second) onto the
-/// uniform grid they were sampled on: t_i = t0 + i·dt with dt from a least-squares fit
-/// and t0 the centre of the offsets allowed by floor(t_i) = written time. Returns true
+/// uniform grid they were sampled on: t_i = t0 + i·dt with dt from the first and last
+/// change of the written second, and t0 the centre of the offsets allowed by floor(t_i) = written time. Returns true
 /// when applied.
 pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarnings) -> bool {
     let n = time_s.len();
@@ -318,16 +318,25 @@ pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarn
         return false;
     }
     let base = time_s[0];
-    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-    for (i, &t) in time_s.iter().enumerate() {
-        let (x, y) = (i as f64, t - base);
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-    }
-    let nf = n as f64;
-    let dt = (nf * sxy - sx * sy) / (nf * sxx - sx * sx);
+    // The written second changes where the true time crosses a whole second; the
+    // first and last such crossings give the period without the bias a regression
+    // on floored values has.
+    let changes: Vec<usize> = (1..n).filter(|&i| time_s[i] != time_s[i - 1]).collect();
+    let dt = match (changes.first(), changes.last()) {
+        (Some(&a), Some(&b)) if b > a => (time_s[b] - time_s[a]) / (b - a) as f64,
+        _ => {
+            let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
+            for (i, &t) in time_s.iter().enumerate() {
+                let (x, y) = (i as f64, t - base);
+                sx += x;
+                sy += y;
+                sxx += x * x;
+                sxy += x * y;
+            }
+            let nf = n as f64;
+            (nf * sxy - sx * sy) / (nf * sxx - sx * sx)
+        }
+    };
     if !(dt > 0.0) {
         return false;
     }
