@@ -40,19 +40,25 @@ fn strip_bom(b: &[u8]) -> (&[u8], usize) {
 
 /// Lines of `b` with their byte offsets (line without `\n` and trailing `\r`).
 fn lines_with_offsets(b: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    lines_terminated(b).map(|(o, l, _)| (o, l))
+}
+
+/// Lines with offsets and whether each ended with a newline.
+fn lines_terminated(b: &[u8]) -> impl Iterator<Item = (usize, &[u8], bool)> {
     let mut pos = 0;
     std::iter::from_fn(move || {
         if pos >= b.len() {
             return None;
         }
         let start = pos;
-        let end = b[pos..].iter().position(|&c| c == b'\n').map_or(b.len(), |p| pos + p);
+        let found = num::find_byte(&b[pos..], b'\n');
+        let end = found.map_or(b.len(), |p| pos + p);
         pos = end + 1;
         let mut line = &b[start..end];
         if let [rest @ .., b'\r'] = line {
             line = rest;
         }
-        Some((start, line))
+        Some((start, line, found.is_some()))
     })
 }
 
@@ -218,9 +224,90 @@ struct Partial {
     lines: Vec<u32>,
     issues: Vec<(usize, LineIssue)>,
     table_lines: usize,
+    n_lines: usize,
+}
+
+/// The hot path: one ENLIGHT peaks row, read in a single pass with a cursor.
+fn parse_peaks_row(line: &[u8], channels: usize, dc: bool, out: &mut Partial, counts: &mut Vec<usize>) -> Result<(), LineIssue> {
+    let tab = num::find_byte(line, b'\t').ok_or_else(|| issue("unreadable_line", "no tab-separated fields"))?;
+    let time = parse_time_field(&line[..tab], dc).ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?;
+    let mut pos = tab + 1;
+    let skip_spaces = |pos: &mut usize| {
+        while *pos < line.len() && line[*pos] == b' ' {
+            *pos += 1;
+        }
+    };
+    // After a field: a tab (consumed), or the end of the line.
+    let next_field = |pos: &mut usize| -> bool {
+        skip_spaces(pos);
+        if *pos < line.len() && line[*pos] == b'\t' {
+            *pos += 1;
+            true
+        } else {
+            *pos >= line.len()
+        }
+    };
+    counts.clear();
+    for c in 0..channels {
+        skip_spaces(&mut pos);
+        if pos >= line.len() {
+            return Err(issue("missing_channel", format!("row ends before the peak count of channel {}", c + 1)));
+        }
+        let mut v = 0usize;
+        let s0 = pos;
+        while pos < line.len() && line[pos].is_ascii_digit() && pos - s0 < 9 {
+            v = v * 10 + (line[pos] - b'0') as usize;
+            pos += 1;
+        }
+        if pos == s0 || !next_field(&mut pos) {
+            return Err(issue("unreadable_line", format!("peak count of channel {} is not a whole number", c + 1)));
+        }
+        counts.push(v);
+    }
+    let start = out.peaks.len();
+    for (c, &n) in counts.iter().enumerate() {
+        for _ in 0..n {
+            skip_spaces(&mut pos);
+            if pos >= line.len() {
+                out.peaks.truncate(start);
+                out.chans.truncate(start);
+                return Err(issue("peak_count_mismatch", "fewer wavelengths than the peak counts announce"));
+            }
+            match num::parse_f64_prefix(&line[pos..], dc) {
+                Some((v, k)) if v.is_finite() => {
+                    pos += k;
+                    if !next_field(&mut pos) {
+                        out.peaks.truncate(start);
+                        out.chans.truncate(start);
+                        return Err(issue("unreadable_line", "unreadable wavelength"));
+                    }
+                    out.peaks.push(v);
+                    out.chans.push(c as u16);
+                }
+                _ => {
+                    out.peaks.truncate(start);
+                    out.chans.truncate(start);
+                    return Err(issue("unreadable_line", "unreadable wavelength"));
+                }
+            }
+        }
+    }
+    if line[pos.min(line.len())..].iter().any(|c| !c.is_ascii_whitespace()) {
+        out.peaks.truncate(start);
+        out.chans.truncate(start);
+        return Err(issue("peak_count_mismatch", "more wavelengths than the peak counts announce"));
+    }
+    out.times.push(time);
+    out.row_start.push(out.peaks.len());
+    Ok(())
 }
 
 fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partial, counts: &mut Vec<usize>) -> Result<(), LineIssue> {
+    if let Layout::Peaks { channels } = layout {
+        if delim == b'\t' {
+            return parse_peaks_row(line, channels, dc, out, counts);
+        }
+    }
     let start = out.peaks.len();
     let mut it = line.split(|&c| c == delim);
     let rollback = |out: &mut Partial| {
@@ -333,29 +420,28 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
     Ok(())
 }
 
-fn parse_chunk(chunk: &[u8], first_line: usize, unterminated_end: bool, layout: Layout, delim: u8, dc: bool) -> Partial {
+fn parse_chunk(chunk: &[u8], layout: Layout, delim: u8, dc: bool) -> Partial {
     let mut out = Partial::default();
     let mut counts = Vec::new();
-    let n_lines_total = chunk.iter().filter(|&&c| c == b'\n').count() + usize::from(!chunk.ends_with(b"\n"));
-    for (i, (_, line)) in lines_with_offsets(chunk).enumerate() {
-        let line_no = first_line + i;
-        if trim(line).is_empty() || line.first() == Some(&b'#') {
+    for (i, (_, line, terminated)) in lines_terminated(chunk).enumerate() {
+        out.n_lines = i + 1;
+        if line.is_empty() || line[0] == b'#' || trim(line).is_empty() {
             continue;
         }
         out.table_lines += 1;
         let before = out.issues.len();
         match parse_line(line, layout, delim, dc, &mut out, &mut counts) {
             Ok(()) => {
-                out.lines.push(line_no as u32);
+                out.lines.push(i as u32);
                 for iss in &mut out.issues[before..] {
-                    iss.0 = line_no;
+                    iss.0 = i;
                 }
             }
             Err(mut e) => {
-                if unterminated_end && i + 1 == n_lines_total {
+                if !terminated {
                     e.kind = "truncated_last_line";
                 }
-                out.issues.push((line_no, e));
+                out.issues.push((i, e));
             }
         }
     }
@@ -399,7 +485,6 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     };
     let dc = det.delimiter != b',';
     let body = &bytes[det.body_offset.min(bytes.len())..];
-    let unterminated = !body.is_empty() && !body.ends_with(b"\n");
 
     // Split at line boundaries; count lines per chunk to number them.
     let n_chunks = if body.len() > (4 << 20) { rayon::current_num_threads() * 8 } else { 1 };
@@ -418,21 +503,15 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     bounds.push(body.len());
     bounds.dedup();
     let chunks: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).collect();
-    let line_counts: Vec<usize> =
-        chunks.par_iter().map(|&(a, b)| body[a..b].iter().filter(|&&c| c == b'\n').count()).collect();
-    let mut first_lines = Vec::with_capacity(chunks.len());
+    let partials: Vec<Partial> =
+        chunks.par_iter().map(|&(a, b)| parse_chunk(&body[a..b], layout, det.delimiter, dc)).collect();
+    // Chunk-local line numbers become file line numbers.
+    let mut first_lines = Vec::with_capacity(partials.len());
     let mut acc = det.body_line;
-    for c in &line_counts {
+    for p in &partials {
         first_lines.push(acc);
-        acc += c;
+        acc += p.n_lines;
     }
-    let last = chunks.len() - 1;
-    let partials: Vec<Partial> = chunks
-        .par_iter()
-        .enumerate()
-        .map(|(k, &(a, b))| parse_chunk(&body[a..b], first_lines[k], unterminated && k == last, layout, det.delimiter, dc))
-        .collect();
-
     // Merge in order.
     let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
     let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
@@ -448,7 +527,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     let mut lines = Vec::with_capacity(rows);
     let mut bad = 0usize;
     let mut first_bad: Option<String> = None;
-    for p in partials {
+    for (p, first_line) in partials.into_iter().zip(first_lines) {
         let remap: Vec<u32> = p
             .times
             .dates
@@ -467,8 +546,9 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         row_start.extend(p.row_start.iter().map(|&s| s + base));
         peaks.extend_from_slice(&p.peaks);
         chans.extend_from_slice(&p.chans);
-        lines.extend_from_slice(&p.lines);
-        for (line_no, iss) in p.issues {
+        lines.extend(p.lines.iter().map(|&l| l + first_line as u32));
+        for (local, iss) in p.issues {
+            let line_no = local + first_line;
             if iss.kind != "short_row" && iss.kind != "truncated_last_line" {
                 bad += 1;
                 if first_bad.is_none() {

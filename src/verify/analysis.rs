@@ -463,6 +463,7 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         .collect();
     let resolution_pm = opts.resolution_pm.unwrap_or_else(|| log.format.typical_resolution_pm());
     let pulses = detect_pulses(&force.force_n);
+    let fbase = percentile(&force.force_n, 0.1);
     if pulses.is_empty() {
         warnings.add("no_pulses", || format!("{}: no loading pulse found in the force log", force.source.display()));
     }
@@ -513,7 +514,6 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             let seg_t = &fu[p.start..=p.end];
             let seg_f = &force.force_n[p.start..=p.end];
             let im = (0..seg_f.len()).max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y])).unwrap_or(0);
-            let fbase = percentile(&force.force_n, 0.1);
             let (tf, pf) = fit::peak_vertex(seg_t, seg_f, im, fbase + 0.95 * (seg_f[im] - fbase));
             let t_start = fu[p.start];
             let t_end = fu[p.end];
