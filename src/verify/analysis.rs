@@ -23,6 +23,7 @@ use super::fit::{self, LagModelCost, LagModelFit};
 use crate::logs::{median_period, Clock, ForceLog, LogWarnings, PeakLog};
 use crate::spec::{Design, GratingRole};
 use anyhow::{bail, Result};
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Options of the analysis.
@@ -420,10 +421,15 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
                 .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
             let coarse = FitData::new(&tw, s, &u, &force.force_n, a, b, 20_000, 50_000, 30.0);
             let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
-            for tau0 in [0.05f64, 0.5, 5.0] {
-                let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
-                let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
-                let r = fit::nelder_mead(coarse.cost(None), &start, &step, 300);
+            let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
+                .par_iter()
+                .map(|&tau0| {
+                    let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
+                    let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
+                    fit::nelder_mead(coarse.cost(None), &start, &step, 300)
+                })
+                .collect();
+            for r in tries {
                 if r.1 < best.1 {
                     best = r;
                 }
@@ -465,15 +471,14 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
     let pulses = detect_pulses(&force.force_n);
     let fbase = percentile(&force.force_n, 0.1);
     if pulses.is_empty() {
-        warnings.add("no_pulses", || format!("{}: no loading pulse found in the force log", force.source.display()));
+        bail!(
+            "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
+            force.source.display()
+        );
     }
 
-    // Per grating.
-    let mut series = Series { time_s: tw.clone(), force_n: fc.clone(), ..Default::default() };
-    let mut results = Vec::new();
-    let mut prev: Option<(f64, f64)> = None;
-    let order: Vec<usize> = std::iter::once(primary).chain((0..used.len()).filter(|&k| k != primary)).collect();
-    for k in order {
+    // Per grating: the primary first (its τ and r seed the others), the rest in parallel.
+    let measure = |k: usize, prev: Option<(f64, f64)>| -> Result<(GratingResult, Vec<f64>, f64, f64)> {
         let (gi, s) = &used[k];
         let g = strain[*gi];
         let t = &tracks[*gi];
@@ -484,17 +489,21 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             Some(p) => vec![p],
             None => vec![(0.05, 0.5), (0.5, 0.5), (5.0, 0.5)],
         };
-        for (tau0, r0) in starts {
-            let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
-            let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
-            let r = fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250);
+        let tries: Vec<(Vec<f64>, f64)> = starts
+            .par_iter()
+            .map(|&(tau0, r0)| {
+                let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
+                let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
+                fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250)
+            })
+            .collect();
+        for r in tries {
             if r.1 < best.1 {
                 best = r;
             }
         }
         let probe = sub.cost(Some(0.0));
         let lm0 = probe.fit_at(&best.0).ok_or_else(|| anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name))?;
-        prev = Some((lm0.tau_s, lm0.instant_fraction));
         // Final evaluation on every sample.
         let idx: Vec<usize> = (0..tw.len()).filter(|&i| s[i].is_finite() && fc[i].is_finite()).collect();
         let st: Vec<f64> = idx.iter().map(|&i| tw[i]).collect();
@@ -545,12 +554,7 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         let mean_lag = if pres.is_empty() { f64::NAN } else { pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64 };
         let k = lm.k_pm_per_n;
         let q = if max_lag > 0.0 { Some(k.abs() * line.r_squared / max_lag) } else { None };
-        if q.is_none() {
-            warnings.add("q_undefined", || format!("grating `{}`: the largest lag is not positive ({max_lag:.4} s): Q is undefined", g.name));
-        }
-        series.shift_pm.push((g.name.clone(), d.clone()));
-        series.fit.push((g.name.clone(), line.slope, line.intercept));
-        results.push(GratingResult {
+        let result = GratingResult {
             grating: g.name.clone(),
             core: g.core.clone(),
             nominal_nm: g.bragg_wavelength_nm,
@@ -574,7 +578,23 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             drift_pm_per_s: lm.drift_pm_per_s,
             residual_rms_pm: lm.rms_pm,
             pulses: pres,
-        });
+        };
+        Ok((result, d, line.slope, line.intercept))
+    };
+    let first = measure(primary, None)?;
+    let seed = Some((first.0.sls_time_constant_s, first.0.sls_instant_fraction));
+    let rest: Vec<Result<(GratingResult, Vec<f64>, f64, f64)>> =
+        (0..used.len()).filter(|&k| k != primary).collect::<Vec<_>>().par_iter().map(|&k| measure(k, seed)).collect();
+    let mut series = Series { time_s: tw.clone(), force_n: fc.clone(), ..Default::default() };
+    let mut results = Vec::new();
+    for r in std::iter::once(Ok(first)).chain(rest) {
+        let (res, d, slope, intercept) = r?;
+        if res.quality_q_pm_per_n_s.is_none() {
+            warnings.add("q_undefined", || format!("grating `{}`: the largest lag is not positive ({:.4} s): Q is undefined", res.grating, res.max_lag_s));
+        }
+        series.shift_pm.push((res.grating.clone(), d));
+        series.fit.push((res.grating.clone(), slope, intercept));
+        results.push(res);
     }
     // Report gratings in spec order.
     results.sort_by_key(|r| strain.iter().position(|g| g.name == r.grating));

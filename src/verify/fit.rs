@@ -333,7 +333,8 @@ where
         v[i] += step[i];
         simplex.push(v);
     }
-    let solver = match NelderMead::new(simplex).with_sd_tolerance(1e-10) {
+    // The cost is an RMS in pm: a spread below 1e-7 pm across the simplex is converged.
+    let solver = match NelderMead::new(simplex).with_sd_tolerance(1e-7) {
         Ok(s) => s,
         Err(_) => return (start.to_vec(), f64::MAX),
     };

@@ -202,6 +202,9 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     if !(cfg.sample_rate_hz > 0.0 && cfg.force_rate_hz > 0.0 && cfg.duration_s > 0.0 && cfg.tau_s > 0.0) {
         bail!("rates, duration and τ must be positive");
     }
+    if cfg.pulses.iter().all(|p| p.peak_n == 0.0) {
+        bail!("the force profile needs at least one pulse with a non-zero peak");
+    }
     if !(0.0..=1.0).contains(&cfg.instant_fraction) || !(0.0..1.0).contains(&cfg.dropout_fraction) {
         bail!("the instant fraction must be in [0, 1] and the dropout fraction in [0, 1)");
     }
@@ -267,7 +270,9 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
             .collect();
         // Expected R²: noise-free scatter of K·y about the best line in F, plus noise.
         let clean: Vec<f64> = y_rows.iter().map(|y| kg * y).collect();
-        let line = fit::fit_line(&f_rows, &clean).expect("pulses make the force vary");
+        let Some(line) = fit::fit_line(&f_rows, &clean) else {
+            bail!("no pulse falls inside the {} s log: the force does not vary", cfg.duration_s);
+        };
         let mean = clean.iter().sum::<f64>() / n as f64;
         let sst0: f64 = clean.iter().map(|v| (v - mean).powi(2)).sum();
         let ssr0 = (1.0 - line.r_squared) * sst0;
@@ -315,7 +320,7 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     let log = SynthLog { time_s: t_rel.clone(), names, wavelength_nm };
 
     // Force log, on its own clock, covering the wavelength log.
-    let nf = ((cfg.duration_s - cfg.force_start_s).max(0.0) * cfg.force_rate_hz).floor() as usize + 1;
+    let nf = ((cfg.duration_s - cfg.force_start_s).max(cfg.duration_s) * cfg.force_rate_hz).floor() as usize + 1;
     let mut ft = Vec::with_capacity(nf);
     let mut ff = Vec::with_capacity(nf);
     for k in 0..nf {
@@ -495,6 +500,21 @@ pub fn write_force_csv(path: &Path, force: &SynthForce) -> Result<()> {
         writeln!(w, "time_s,force_N")?;
         for (t, f) in force.time_s.iter().zip(&force.force_n) {
             writeln!(w, "{t:.6},{f:.5}")?;
+        }
+        Ok(())
+    })
+}
+
+/// Write the force log as a force stand with a wall clock does:
+/// `AbsTime,RelTime,position,force,stress`, AbsTime in `dd/mm/yyyy HH:MM:SS.ffffff`
+/// from `start_epoch_s` (the wall-clock time of the force log's first sample).
+pub fn write_force_stand_csv(path: &Path, force: &SynthForce, start_epoch_s: f64) -> Result<()> {
+    write_atomic_with(path, |w| {
+        writeln!(w, "AbsTime,RelTime,position,force,stress")?;
+        for (t, f) in force.time_s.iter().zip(&force.force_n) {
+            let abs = crate::logs::num::format_dmy_24h(start_epoch_s + t);
+            // Position and stress of a linear stand, for realism only.
+            writeln!(w, "{abs},{t:.6},{:.5},{f:.5},{:.5}", f * 0.01, f / 78.5)?;
         }
         Ok(())
     })
