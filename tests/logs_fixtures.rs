@@ -5,11 +5,14 @@ use fbgforge::logs::{self, Clock, ForceColumns, LogFormat, ReadOptions};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/logs").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/logs")
+        .join(name)
 }
 
 fn read(name: &str) -> logs::PeakLog {
-    logs::read_peak_log(&fixture(name), &ReadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e:#}"))
+    logs::read_peak_log(&fixture(name), &ReadOptions::default())
+        .unwrap_or_else(|e| panic!("{name}: {e:#}"))
 }
 
 fn epoch(y: i64, m: u32, d: u32, h: f64, mi: f64, s: f64) -> f64 {
@@ -29,7 +32,11 @@ fn bom_decimal_commas_and_twelve_hour_timestamps() {
     // Two rows per whole second: spread uniformly at 2 Hz, within the second written.
     let t0 = epoch(2025, 4, 17, 15.0, 44.0, 56.0);
     assert!((log.median_period_s() - 0.5).abs() < 1e-9);
-    assert!(log.time_s[0] >= t0 && log.time_s[0] < t0 + 0.5, "{}", log.time_s[0] - t0);
+    assert!(
+        log.time_s[0] >= t0 && log.time_s[0] < t0 + 0.5,
+        "{}",
+        log.time_s[0] - t0
+    );
     for (i, t) in log.time_s.iter().enumerate() {
         let written = t0 + (i / 2) as f64;
         assert!(*t >= written && *t < written + 1.0, "row {i}");
@@ -46,7 +53,13 @@ fn long_metadata_block_dropped_peaks_and_a_truncated_last_line() {
     assert_eq!(log.line_of_row[0], 106);
     assert_eq!(log.rows(), 3, "the truncated last row is dropped");
     assert_eq!(log.warnings.count("truncated_last_line"), 1);
-    assert!(log.warnings.counts["truncated_last_line"].first.contains(":109:"), "{:?}", log.warnings);
+    assert!(
+        log.warnings.counts["truncated_last_line"]
+            .first
+            .contains(":109:"),
+        "{:?}",
+        log.warnings
+    );
     // Row 2 lost the 1524 nm peak: one peak on channel 1, one on channel 2.
     assert_eq!(log.row(1), (&[1546.296, 1560.1461][..], &[0u16, 1][..]));
     assert_eq!(log.time_s[1] - log.time_s[0], 0.5);
@@ -59,7 +72,9 @@ fn non_monotonic_timestamps_are_sorted_and_counted() {
     assert_eq!(log.rows(), 5);
     assert!(log.time_s.windows(2).all(|w| w[1] >= w[0]));
     assert_eq!(log.warnings.count("non_monotonic_timestamp"), 1);
-    assert!(log.warnings.counts["non_monotonic_timestamp"].first.contains(":7:"));
+    assert!(log.warnings.counts["non_monotonic_timestamp"]
+        .first
+        .contains(":7:"));
     // The row written fourth (56.75 s) now sits third, with its own peaks.
     assert_eq!(log.row(2).0[0], 1524.5703);
     assert_eq!(log.line_of_row, vec![4, 5, 7, 6, 8]);
@@ -74,14 +89,20 @@ fn garbage_lines_and_a_missing_channel_are_skipped_and_counted() {
     assert_eq!(w.count("missing_channel"), 1, "{w:?}");
     assert_eq!(w.count("peak_count_mismatch"), 1, "{w:?}");
     assert!(w.counts["unreadable_line"].first.contains(":5:"), "{w:?}");
-    assert!(w.counts["missing_channel"].first.contains("channel 3"), "{w:?}");
+    assert!(
+        w.counts["missing_channel"].first.contains("channel 3"),
+        "{w:?}"
+    );
 }
 
 #[test]
 fn sensors_export_keeps_gaps_per_column() {
     let log = read("enlight_sensors.txt");
     assert_eq!(log.format, LogFormat::EnlightSensors);
-    assert_eq!(log.column_names, vec!["lambda_11", "lambda_12", "lambda_temp"]);
+    assert_eq!(
+        log.column_names,
+        vec!["lambda_11", "lambda_12", "lambda_temp"]
+    );
     assert_eq!(log.row(1), (&[1546.296, 1560.146][..], &[0u16, 2][..]));
     assert_eq!(log.warnings.total(), 0);
 }
@@ -112,34 +133,65 @@ fn plain_csv_with_comment_and_empty_cell() {
 #[test]
 fn force_stand_columns_units_and_clocks() {
     let f = logs::read_force_log(&fixture("force_stand.csv"), &ForceColumns::default()).unwrap();
-    assert_eq!((f.time_column.as_str(), f.force_column.as_str()), ("RelTime", "force"));
+    assert_eq!(
+        (f.time_column.as_str(), f.force_column.as_str()),
+        ("RelTime", "force")
+    );
     assert_eq!(f.clock, Clock::Relative);
     assert_eq!(f.force_n, vec![0.012, 5.25, 10.5, 5.2]);
     assert_eq!(f.warnings.count("force_unit_assumed"), 1);
-    let cols = ForceColumns { time: Some("AbsTime".into()), ..Default::default() };
+    let cols = ForceColumns {
+        time: Some("AbsTime".into()),
+        ..Default::default()
+    };
     let f = logs::read_force_log(&fixture("force_stand.csv"), &cols).unwrap();
     assert_eq!(f.clock, Clock::Absolute);
     assert_eq!(f.time_s[2], epoch(2025, 4, 17, 15.0, 44.0, 56.0));
     // `Force [kN]` with decimal commas and `;` separators: converted to N.
-    let f = logs::read_force_log(&fixture("force_kn_semicolon.csv"), &ForceColumns::default()).unwrap();
+    let f =
+        logs::read_force_log(&fixture("force_kn_semicolon.csv"), &ForceColumns::default()).unwrap();
     assert_eq!(f.scale_to_n, 1000.0);
     assert_eq!(f.force_n, vec![0.0, 12.5, 25.0]);
     assert_eq!(f.time_s, vec![0.0, 0.5, 1.0]);
     // A column that does not exist is named in the error.
-    let cols = ForceColumns { force: Some("load_cell".into()), ..Default::default() };
-    let e = logs::read_force_log(&fixture("force_stand.csv"), &cols).unwrap_err().to_string();
-    assert!(e.contains("load_cell") && e.contains("AbsTime, RelTime"), "{e}");
+    let cols = ForceColumns {
+        force: Some("load_cell".into()),
+        ..Default::default()
+    };
+    let e = logs::read_force_log(&fixture("force_stand.csv"), &cols)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("load_cell") && e.contains("AbsTime, RelTime"),
+        "{e}"
+    );
 }
 
 #[test]
 fn unreadable_files_give_errors_naming_file_and_line() {
-    let e = logs::read_peak_log(&fixture("metadata_only.txt"), &ReadOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("metadata_only.txt") && e.contains("--format"), "{e}");
-    let e = logs::read_peak_log(&fixture("mostly_garbage.txt"), &ReadOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("mostly_garbage.txt") && e.contains("3 of 4") && e.contains(":4:"), "{e}");
-    let forced = ReadOptions { format: Some(LogFormat::Imon), ..Default::default() };
-    let e = logs::read_peak_log(&fixture("plain.csv"), &forced).unwrap_err().to_string();
+    let e = logs::read_peak_log(&fixture("metadata_only.txt"), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("metadata_only.txt") && e.contains("--format"),
+        "{e}"
+    );
+    let e = logs::read_peak_log(&fixture("mostly_garbage.txt"), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("mostly_garbage.txt") && e.contains("3 of 4") && e.contains(":4:"),
+        "{e}"
+    );
+    let forced = ReadOptions {
+        format: Some(LogFormat::Imon),
+        ..Default::default()
+    };
+    let e = logs::read_peak_log(&fixture("plain.csv"), &forced)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no imon table header"), "{e}");
-    let e = logs::read_peak_log(&fixture("does_not_exist.txt"), &ReadOptions::default()).unwrap_err();
+    let e =
+        logs::read_peak_log(&fixture("does_not_exist.txt"), &ReadOptions::default()).unwrap_err();
     assert!(format!("{e:#}").contains("does_not_exist.txt"));
 }

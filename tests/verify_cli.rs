@@ -16,14 +16,39 @@ fn synth_log_then_verify_writes_json_and_a_report() {
     let dir = tempfile::tempdir().unwrap();
     let design = root().join("designs/clip-on-34mm.toml");
     let out = bin()
-        .args(["synth-log", design.to_str().unwrap(), "--format", "imon", "--core", "psc2", "--k-pm-per-n", "-20", "--temperature-ramp-k-per-s", "0.05", "--out"])
+        .args([
+            "synth-log",
+            design.to_str().unwrap(),
+            "--format",
+            "imon",
+            "--core",
+            "psc2",
+            "--k-pm-per-n",
+            "-20",
+            "--temperature-ramp-k-per-s",
+            "0.05",
+            "--out",
+        ])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let report = dir.path().join("report");
     let out = bin()
-        .args(["verify", design.to_str().unwrap(), "--core", "psc2", "--case", "II", "--json", "--log"])
+        .args([
+            "verify",
+            design.to_str().unwrap(),
+            "--core",
+            "psc2",
+            "--case",
+            "II",
+            "--json",
+            "--log",
+        ])
         .arg(dir.path().join("log.txt"))
         .arg("--force")
         .arg(dir.path().join("force.csv"))
@@ -33,17 +58,35 @@ fn synth_log_then_verify_writes_json_and_a_report() {
         .unwrap();
     // 0 = pass or not judged, 2 = fail; both wrote the report.
     let code = out.status.code().unwrap();
-    assert!(code == 0 || code == 2, "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        code == 0 || code == 2,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let truth: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("truth.json")).unwrap()).unwrap();
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("truth.json")).unwrap())
+            .unwrap();
     let g = &v["measurement"]["gratings"][0];
     assert_eq!(g["grating"], "lambda_21");
     let k = g["sensitivity_pm_per_n"].as_f64().unwrap();
     assert!((k + 20.0).abs() < 0.2, "{k}");
     assert!(g["sls_time_constant_s"].as_f64().unwrap() > 0.0);
     let off = v["measurement"]["clock_offset_s"].as_f64().unwrap();
-    assert!((off - truth["clock_offset_s"].as_f64().unwrap()).abs() <= 0.05, "{off}");
-    for f in ["report.md", "report.json", "shift_vs_force.svg", "force_vs_time.svg", "shift_vs_time.svg", "lag_per_pulse.svg", "timeseries.csv", "pulses.csv"] {
+    assert!(
+        (off - truth["clock_offset_s"].as_f64().unwrap()).abs() <= 0.05,
+        "{off}"
+    );
+    for f in [
+        "report.md",
+        "report.json",
+        "shift_vs_force.svg",
+        "force_vs_time.svg",
+        "shift_vs_time.svg",
+        "lag_per_pulse.svg",
+        "timeseries.csv",
+        "pulses.csv",
+    ] {
         assert!(report.join(f).is_file(), "{f} missing");
     }
     let md = std::fs::read_to_string(report.join("report.md")).unwrap();
@@ -62,9 +105,21 @@ fn verify_errors_exit_1_with_a_message() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.starts_with("error: ") && err.contains("metadata_only.txt"), "{err}");
+    assert!(
+        err.starts_with("error: ") && err.contains("metadata_only.txt"),
+        "{err}"
+    );
     let out = bin()
-        .args(["verify", design.to_str().unwrap(), "--insert", "purple", "--log", "x", "--force", "y"])
+        .args([
+            "verify",
+            design.to_str().unwrap(),
+            "--insert",
+            "purple",
+            "--log",
+            "x",
+            "--force",
+            "y",
+        ])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
@@ -82,13 +137,27 @@ fn calibrate_array_from_a_synthetic_run() {
     }
     std::fs::write(&sched, text).unwrap();
     let out = bin()
-        .args(["synth-log", design.to_str().unwrap(), "--format", "enlight-sensors", "--rate-hz", "10", "--noise-pm", "0.1", "--schedule"])
+        .args([
+            "synth-log",
+            design.to_str().unwrap(),
+            "--format",
+            "enlight-sensors",
+            "--rate-hz",
+            "10",
+            "--noise-pm",
+            "0.1",
+            "--schedule",
+        ])
         .arg(&sched)
         .arg("--out")
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let matrix = dir.path().join("A.csv");
     let out = bin()
         .args(["calibrate-array", design.to_str().unwrap(), "--log"])
@@ -99,7 +168,11 @@ fn calibrate_array_from_a_synthetic_run() {
         .arg(&matrix)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let read = |p: &Path| -> Vec<Vec<f64>> {
         std::fs::read_to_string(p)
             .unwrap()

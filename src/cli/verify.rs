@@ -123,7 +123,7 @@ pub fn run_verify(a: VerifyArgs) -> Result<()> {
 
 /// Everything `verify` does short of printing: read, analyse, judge.
 pub fn verify_files(a: &VerifyArgs) -> Result<(VerifyReport, crate::verify::analysis::Series)> {
-    if !(a.tolerance > 0.0) {
+    if a.tolerance.is_nan() || a.tolerance <= 0.0 {
         bail!("--tolerance must be positive, got {}", a.tolerance);
     }
     let design = crate::spec::load(&a.design)?;
@@ -136,14 +136,22 @@ pub fn verify_files(a: &VerifyArgs) -> Result<(VerifyReport, crate::verify::anal
     if let (Some(ins), Some(m)) = (&a.insert, &design.module) {
         if !m.inserts.iter().any(|i| &i.name == ins) {
             let names: Vec<&str> = m.inserts.iter().map(|i| i.name.as_str()).collect();
-            bail!("design `{}` has no insert named `{ins}`; its inserts are: {}", design.name, names.join(", "));
+            bail!(
+                "design `{}` has no insert named `{ins}`; its inserts are: {}",
+                design.name,
+                names.join(", ")
+            );
         }
     }
     if case == LoadCase::II && a.insert.is_some() {
         bail!("--insert names the insert of Case I; Case II has none");
     }
     let log = logs::read_peak_log(&a.log, &read_options(a.format, a.date_order))?;
-    let cols = ForceColumns { time: a.force_time_column.clone(), force: a.force_force_column.clone(), scale_to_n: a.force_scale_to_n };
+    let cols = ForceColumns {
+        time: a.force_time_column.clone(),
+        force: a.force_force_column.clone(),
+        scale_to_n: a.force_scale_to_n,
+    };
     let force = logs::read_force_log(&a.force, &cols)?;
     let opts = AnalysisOptions {
         core: a.core.clone(),
@@ -155,8 +163,21 @@ pub fn verify_files(a: &VerifyArgs) -> Result<(VerifyReport, crate::verify::anal
     let (m, series) = analyse(&design, &log, &force, &opts)?;
     // K is linear in force: any force gives the same sensitivity.
     let preds = crate::model::predict(&design, 10.0).map_err(|e| format!("{e:#}"));
-    let v = verdict::verdicts(&m, preds.as_deref().map_err(Clone::clone), case, a.insert.as_deref(), a.tolerance);
-    Ok((VerifyReport { design: design.name.clone(), measurement: m, verdict: v }, series))
+    let v = verdict::verdicts(
+        &m,
+        preds.as_deref().map_err(Clone::clone),
+        case,
+        a.insert.as_deref(),
+        a.tolerance,
+    );
+    Ok((
+        VerifyReport {
+            design: design.name.clone(),
+            measurement: m,
+            verdict: v,
+        },
+        series,
+    ))
 }
 
 /// Arguments of `fbgforge synth-log`.
@@ -239,22 +260,47 @@ pub struct SynthLogArgs {
 /// Run `fbgforge synth-log`.
 pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
     let design = crate::spec::load(&a.design)?;
-    let style = LogStyle { decimal_comma: a.decimal_comma, bom: a.bom, metadata_lines: a.metadata_lines, twelve_hour: a.twelve_hour };
+    let style = LogStyle {
+        decimal_comma: a.decimal_comma,
+        bom: a.bom,
+        metadata_lines: a.metadata_lines,
+        twelve_hour: a.twelve_hour,
+    };
     let log_path = a.out.join(format!("log.{}", synth::extension(a.format)));
     if let Some(schedule) = &a.schedule {
-        let n_cells = design.array.as_ref().map_or(0, |x| (x.cells_x * x.cells_y) as usize);
+        let n_cells = design
+            .array
+            .as_ref()
+            .map_or(0, |x| (x.cells_x * x.cells_y) as usize);
         let sched = calibrate::read_schedule(schedule, n_cells)?;
         let matrix = calibrate::power_law_matrix(&design)?;
-        let log = calibrate::synth_calibration_log(&design, &matrix, &sched, a.rate_hz, a.noise_pm, a.drift_pm_per_s, a.seed)?;
-        let cfg = synth::SynthConfig { sample_rate_hz: a.rate_hz, ..Default::default() };
+        let log = calibrate::synth_calibration_log(
+            &design,
+            &matrix,
+            &sched,
+            a.rate_hz,
+            a.noise_pm,
+            a.drift_pm_per_s,
+            a.seed,
+        )?;
+        let cfg = synth::SynthConfig {
+            sample_rate_hz: a.rate_hz,
+            ..Default::default()
+        };
         synth::write_log(&log_path, a.format, &log, &cfg, &style)?;
         let truth = a.out.join("matrix_truth.csv");
-        calibrate::write_matrix_csv(&truth, &matrix, &["synthetic truth: power-law kernel 44.7 pm·mm²/g · d^-2.05 (reference §2)".into()])?;
+        calibrate::write_matrix_csv(
+            &truth,
+            &matrix,
+            &["synthetic truth: power-law kernel 44.7 pm·mm²/g · d^-2.05 (reference §2)".into()],
+        )?;
         println!("wrote {} and {}", log_path.display(), truth.display());
         return Ok(());
     }
     let pulses = synth::pulse_train(&a.pulses_n, a.pulse_s, a.rest_s, 5.0);
-    let duration = pulses.last().map_or(30.0, |p| p.start_s + p.duration_s + a.rest_s);
+    let duration = pulses
+        .last()
+        .map_or(30.0, |p| p.start_s + p.duration_s + a.rest_s);
     let cfg = synth::SynthConfig {
         core: a.core.clone(),
         sensitivity_pm_per_n: a.k_pm_per_n,
@@ -279,7 +325,12 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
     let force_path = a.out.join("force.csv");
     synth::write_force_csv(&force_path, &force)?;
     crate::output::write_json(&a.out.join("truth.json"), &truth)?;
-    println!("wrote {}, {} and {}", log_path.display(), force_path.display(), a.out.join("truth.json").display());
+    println!(
+        "wrote {}, {} and {}",
+        log_path.display(),
+        force_path.display(),
+        a.out.join("truth.json").display()
+    );
     Ok(())
 }
 
@@ -313,12 +364,28 @@ pub struct CalibrateArrayArgs {
 /// Run `fbgforge calibrate-array`.
 pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
     let design = crate::spec::load(&a.design)?;
-    let n_cells = design.array.as_ref().map(|x| (x.cells_x * x.cells_y) as usize).with_context(|| format!("design `{}` has no [array] to calibrate", design.name))?;
+    let n_cells = design
+        .array
+        .as_ref()
+        .map(|x| (x.cells_x * x.cells_y) as usize)
+        .with_context(|| format!("design `{}` has no [array] to calibrate", design.name))?;
     let sched = calibrate::read_schedule(&a.schedule, n_cells)?;
     let log = logs::read_peak_log(&a.log, &read_options(a.format, a.date_order))?;
     let m = calibrate::calibrate(&design, &log, &sched, a.window_nm)?;
-    let out = a.out.clone().unwrap_or_else(|| Path::new("out").join(&design.name).join("sensing_matrix.csv"));
-    calibrate::write_matrix_csv(&out, &m, &[format!("measured sensing matrix, pm/g, from {} and {}", a.log.display(), a.schedule.display())])?;
+    let out = a.out.clone().unwrap_or_else(|| {
+        Path::new("out")
+            .join(&design.name)
+            .join("sensing_matrix.csv")
+    });
+    calibrate::write_matrix_csv(
+        &out,
+        &m,
+        &[format!(
+            "measured sensing matrix, pm/g, from {} and {}",
+            a.log.display(),
+            a.schedule.display()
+        )],
+    )?;
     print!("{:<8}", "grating");
     for c in &m.cells {
         print!("{c:>10}");
@@ -360,9 +427,22 @@ pub struct BenchVerifyArgs {
 pub fn bench_design() -> Result<crate::spec::Design> {
     let text = include_str!("../../designs/clip-on-34mm.toml");
     let mut d = crate::spec::parse(text)?;
-    let m = d.module.as_mut().context("the shipped design has a module")?;
-    let template = m.gratings.iter().find(|g| g.role == crate::spec::GratingRole::Strain).cloned().context("a strain grating")?;
-    let reference = m.gratings.iter().find(|g| g.role == crate::spec::GratingRole::TemperatureReference).cloned().context("a reference grating")?;
+    let m = d
+        .module
+        .as_mut()
+        .context("the shipped design has a module")?;
+    let template = m
+        .gratings
+        .iter()
+        .find(|g| g.role == crate::spec::GratingRole::Strain)
+        .cloned()
+        .context("a strain grating")?;
+    let reference = m
+        .gratings
+        .iter()
+        .find(|g| g.role == crate::spec::GratingRole::TemperatureReference)
+        .cloned()
+        .context("a reference grating")?;
     m.gratings = (0..7)
         .map(|k| {
             let mut g = template.clone();
@@ -405,11 +485,20 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         temperature_ramp_k_per_s: 0.002,
         ..Default::default()
     };
-    eprintln!("generating a {} min, {} Hz, 8-grating log ...", a.minutes, a.rate_hz);
+    eprintln!(
+        "generating a {} min, {} Hz, 8-grating log ...",
+        a.minutes, a.rate_hz
+    );
     let (log, force, truth) = synth::generate(&design, &cfg)?;
     let log_path = a.out.join("bench-peaks.txt");
     let force_path = a.out.join("bench-force.csv");
-    synth::write_log(&log_path, LogFormat::EnlightPeaks, &log, &cfg, &LogStyle::default())?;
+    synth::write_log(
+        &log_path,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )?;
     synth::write_force_csv(&force_path, &force)?;
     drop(log);
     let mb = std::fs::metadata(&log_path)?.len() as f64 / 1e6;
@@ -465,8 +554,18 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
     let analysed = (t.elapsed().as_secs_f64(), cpu() - c);
     let (t, c) = (Instant::now(), cpu());
     let preds = crate::model::predict(&design, 10.0).map_err(|e| format!("{e:#}"));
-    let v = verdict::verdicts(&m, preds.as_deref().map_err(Clone::clone), LoadCase::II, None, args.tolerance);
-    let rep = VerifyReport { design: design.name.clone(), measurement: m, verdict: v };
+    let v = verdict::verdicts(
+        &m,
+        preds.as_deref().map_err(Clone::clone),
+        LoadCase::II,
+        None,
+        args.tolerance,
+    );
+    let rep = VerifyReport {
+        design: design.name.clone(),
+        measurement: m,
+        verdict: v,
+    };
     report::write_report(&a.out.join("report"), &rep, &series)?;
     let reported = (t.elapsed().as_secs_f64(), cpu() - c);
     let total = (t_all.elapsed().as_secs_f64(), cpu() - c_all);
@@ -476,34 +575,98 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         .gratings
         .iter()
         .zip(truth.gratings.iter().filter(|g| !g.reference))
-        .map(|(g, t)| (g.sensitivity_pm_per_n - t.sensitivity_pm_per_n).abs() / t.sensitivity_pm_per_n.abs())
+        .map(|(g, t)| {
+            (g.sensitivity_pm_per_n - t.sensitivity_pm_per_n).abs() / t.sensitivity_pm_per_n.abs()
+        })
         .fold(0.0, f64::max);
     let rows: Vec<(String, f64, f64, String)> = vec![
-        ("parse ENLIGHT peaks (memory)".into(), parse_s, parse_cpu, format!("{:.0} MB/s ({mb:.0} MB, target >= 100 MB/s)", mb / parse_s)),
-        ("read wavelength log (file)".into(), read_log.0, read_log.1, format!("{:.0} MB/s", mb / read_log.0)),
-        ("read force log".into(), read_force.0, read_force.1, format!("{} samples", fl.force_n.len())),
-        ("align, fit, pulses".into(), analysed.0, analysed.1, format!("{} gratings, {} pulses", rep.measurement.gratings.len(), rep.measurement.pulse_count)),
-        ("verdict + report".into(), reported.0, reported.1, String::new()),
-        ("end to end".into(), total.0, total.1, format!("target < 10 s; worst K error {:.3} %", 100.0 * worst_k)),
+        (
+            "parse ENLIGHT peaks (memory)".into(),
+            parse_s,
+            parse_cpu,
+            format!("{:.0} MB/s ({mb:.0} MB, target >= 100 MB/s)", mb / parse_s),
+        ),
+        (
+            "read wavelength log (file)".into(),
+            read_log.0,
+            read_log.1,
+            format!("{:.0} MB/s", mb / read_log.0),
+        ),
+        (
+            "read force log".into(),
+            read_force.0,
+            read_force.1,
+            format!("{} samples", fl.force_n.len()),
+        ),
+        (
+            "align, fit, pulses".into(),
+            analysed.0,
+            analysed.1,
+            format!(
+                "{} gratings, {} pulses",
+                rep.measurement.gratings.len(),
+                rep.measurement.pulse_count
+            ),
+        ),
+        (
+            "verdict + report".into(),
+            reported.0,
+            reported.1,
+            String::new(),
+        ),
+        (
+            "end to end".into(),
+            total.0,
+            total.1,
+            format!("target < 10 s; worst K error {:.3} %", 100.0 * worst_k),
+        ),
     ];
     println!("{:<32} {:>10} {:>10}  note", "stage", "wall s", "cpu s");
     for (s, t, c, n) in &rows {
         println!("{s:<32} {t:>10.3} {c:>10.3}  {n}");
     }
-    let csv_rows: Vec<Vec<String>> = rows.iter().map(|(s, t, c, n)| vec![s.clone(), format!("{t:.4}"), format!("{c:.4}"), n.clone()]).collect();
-    crate::output::write_csv(&a.out.join("bench_verify.csv"), &["stage", "wall_s", "cpu_s", "note"], &csv_rows)?;
+    let csv_rows: Vec<Vec<String>> = rows
+        .iter()
+        .map(|(s, t, c, n)| vec![s.clone(), format!("{t:.4}"), format!("{c:.4}"), n.clone()])
+        .collect();
+    crate::output::write_csv(
+        &a.out.join("bench_verify.csv"),
+        &["stage", "wall_s", "cpu_s", "note"],
+        &csv_rows,
+    )?;
     let chart = crate::plot::Chart::new(
-        format!("bench verify: {} min at {} Hz, 8 gratings ({mb:.0} MB)", a.minutes, a.rate_hz),
+        format!(
+            "bench verify: {} min at {} Hz, 8 gratings ({mb:.0} MB)",
+            a.minutes, a.rate_hz
+        ),
         "stage (1 parse, 2 read log, 3 read force, 4 analyse, 5 report, 6 total)",
         "time (s)",
     )
-    .with(crate::plot::Series::new("wall clock", rows.iter().enumerate().map(|(i, r)| ((i + 1) as f64, r.1)).collect(), crate::plot::Mark::Points))
-    .with(crate::plot::Series::new("CPU (both cores)", rows.iter().enumerate().map(|(i, r)| ((i + 1) as f64, r.2)).collect(), crate::plot::Mark::Points));
+    .with(crate::plot::Series::new(
+        "wall clock",
+        rows.iter()
+            .enumerate()
+            .map(|(i, r)| ((i + 1) as f64, r.1))
+            .collect(),
+        crate::plot::Mark::Points,
+    ))
+    .with(crate::plot::Series::new(
+        "CPU (both cores)",
+        rows.iter()
+            .enumerate()
+            .map(|(i, r)| ((i + 1) as f64, r.2))
+            .collect(),
+        crate::plot::Mark::Points,
+    ));
     chart.write_svg(&a.out.join("bench_verify.svg"))?;
     if !a.keep {
         let _ = std::fs::remove_file(&log_path);
         let _ = std::fs::remove_file(&force_path);
     }
-    println!("wrote {} and {}", a.out.join("bench_verify.csv").display(), a.out.join("bench_verify.svg").display());
+    println!(
+        "wrote {} and {}",
+        a.out.join("bench_verify.csv").display(),
+        a.out.join("bench_verify.svg").display()
+    );
     Ok(())
 }

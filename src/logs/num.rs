@@ -119,7 +119,11 @@ pub fn parse_f64_prefix(s: &[u8], decimal_comma: bool) -> Option<(f64, usize)> {
     let e10 = exp - frac_digits;
     if !overflow && mantissa < (1u64 << 53) && (-22..=22).contains(&e10) {
         let m = mantissa as f64;
-        let v = if e10 >= 0 { m * POW10[e10 as usize] } else { m / POW10[(-e10) as usize] };
+        let v = if e10 >= 0 {
+            m * POW10[e10 as usize]
+        } else {
+            m / POW10[(-e10) as usize]
+        };
         return Some((if neg { -v } else { v }, i));
     }
     slow_parse(&s[..i], decimal_comma).map(|v| (v, i))
@@ -241,7 +245,12 @@ pub fn parse_date(s: &[u8]) -> Option<(RawDate, usize)> {
     i += 1;
     let c = read_uint(s, &mut i)?;
     let iso = a_len == 4;
-    let date = RawDate { first: a, second: b, third: c, iso };
+    let date = RawDate {
+        first: a,
+        second: b,
+        third: c,
+        iso,
+    };
     Some((date, i))
 }
 
@@ -386,7 +395,12 @@ pub fn format_dmy_24h(t: f64) -> String {
     let h = (sod / 3600.0).floor();
     let mi = ((sod - h * 3600.0) / 60.0).floor();
     let s = sod - h * 3600.0 - mi * 60.0;
-    format!("{day:02}/{m:02}/{y:04} {:02}:{:02}:{:09.6}", h as u32, mi as u32, s.max(0.0))
+    format!(
+        "{day:02}/{m:02}/{y:04} {:02}:{:02}:{:09.6}",
+        h as u32,
+        mi as u32,
+        s.max(0.0)
+    )
 }
 
 /// Split an epoch time into (days, year, month, day, seconds of day).
@@ -403,8 +417,20 @@ mod tests {
 
     #[test]
     fn floats_match_std_and_accept_locale_forms() {
-        for s in ["1546.295", "-0.0123", "1.5303003E+3", "12", "1e-5", "0.000000001", "+3.5"] {
-            assert_eq!(parse_f64(s.as_bytes(), false), Some(s.parse::<f64>().unwrap()), "{s}");
+        for s in [
+            "1546.295",
+            "-0.0123",
+            "1.5303003E+3",
+            "12",
+            "1e-5",
+            "0.000000001",
+            "+3.5",
+        ] {
+            assert_eq!(
+                parse_f64(s.as_bytes(), false),
+                Some(s.parse::<f64>().unwrap()),
+                "{s}"
+            );
         }
         assert_eq!(parse_f64(b"1546,295", true), Some(1546.295));
         assert_eq!(parse_f64(b"1546,295", false), None);
@@ -418,16 +444,31 @@ mod tests {
         assert_eq!(count_byte(b"a\nb\n\nccccccccccccccccc\n", b'\n'), 4);
         // More than 19 digits goes through the slow path, still exact.
         let long = "1546.29512345678901234567";
-        assert_eq!(parse_f64(long.as_bytes(), false), Some(long.parse().unwrap()));
+        assert_eq!(
+            parse_f64(long.as_bytes(), false),
+            Some(long.parse().unwrap())
+        );
     }
 
     #[test]
     fn times_of_day_in_both_clocks() {
-        assert_eq!(parse_time_of_day(b"3:44:56 pm"), Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.0));
+        assert_eq!(
+            parse_time_of_day(b"3:44:56 pm"),
+            Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.0)
+        );
         assert_eq!(parse_time_of_day(b"12:00:01 AM"), Some(1.0));
-        assert_eq!(parse_time_of_day(b"12:00:01 p.m."), Some(12.0 * 3600.0 + 1.0));
-        assert_eq!(parse_time_of_day(b"15:44:56.250"), Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.25));
-        assert_eq!(parse_time_of_day(b"15:44:56,5"), Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.5));
+        assert_eq!(
+            parse_time_of_day(b"12:00:01 p.m."),
+            Some(12.0 * 3600.0 + 1.0)
+        );
+        assert_eq!(
+            parse_time_of_day(b"15:44:56.250"),
+            Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.25)
+        );
+        assert_eq!(
+            parse_time_of_day(b"15:44:56,5"),
+            Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.5)
+        );
         assert_eq!(parse_time_of_day(b"13:00:00 pm"), None);
         assert_eq!(parse_time_of_day(b"25:00:00"), None);
     }
@@ -447,13 +488,28 @@ mod tests {
         let (d1, _) = parse_date(b"17/04/2025").unwrap();
         let (d2, _) = parse_date(b"10/30/2020").unwrap();
         let (d3, _) = parse_date(b"03/04/2025").unwrap();
-        assert_eq!(resolve_order(&[d1, d3], DateOrder::MonthDayYear), Ok(DateOrder::DayMonthYear));
-        assert_eq!(resolve_order(&[d2, d3], DateOrder::DayMonthYear), Ok(DateOrder::MonthDayYear));
-        assert_eq!(resolve_order(&[d3], DateOrder::DayMonthYear), Ok(DateOrder::DayMonthYear));
+        assert_eq!(
+            resolve_order(&[d1, d3], DateOrder::MonthDayYear),
+            Ok(DateOrder::DayMonthYear)
+        );
+        assert_eq!(
+            resolve_order(&[d2, d3], DateOrder::DayMonthYear),
+            Ok(DateOrder::MonthDayYear)
+        );
+        assert_eq!(
+            resolve_order(&[d3], DateOrder::DayMonthYear),
+            Ok(DateOrder::DayMonthYear)
+        );
         assert!(resolve_order(&[d1, d2], DateOrder::DayMonthYear).is_err());
-        assert_eq!(date_to_days(&d1, DateOrder::DayMonthYear), Ok(days_from_civil(2025, 4, 17)));
+        assert_eq!(
+            date_to_days(&d1, DateOrder::DayMonthYear),
+            Ok(days_from_civil(2025, 4, 17))
+        );
         let (iso, _) = parse_date(b"2025-04-17").unwrap();
-        assert_eq!(date_to_days(&iso, DateOrder::MonthDayYear), Ok(days_from_civil(2025, 4, 17)));
+        assert_eq!(
+            date_to_days(&iso, DateOrder::MonthDayYear),
+            Ok(days_from_civil(2025, 4, 17))
+        );
         let (dt, sod) = parse_datetime(b"17/04/2025 3:44:56 pm").unwrap();
         assert_eq!(dt, d1);
         assert_eq!(sod, 56696.0);
@@ -465,6 +521,9 @@ mod tests {
         let s = format_dmy_24h(t);
         assert_eq!(s, "17/04/2025 15:44:56.125000");
         let (d, sod) = parse_datetime(s.as_bytes()).unwrap();
-        assert_eq!(date_to_days(&d, DateOrder::DayMonthYear).unwrap() as f64 * 86400.0 + sod, t);
+        assert_eq!(
+            date_to_days(&d, DateOrder::DayMonthYear).unwrap() as f64 * 86400.0 + sod,
+            t
+        );
     }
 }

@@ -63,7 +63,9 @@ fn lines_terminated(b: &[u8]) -> impl Iterator<Item = (usize, &[u8], bool)> {
 }
 
 fn fields(line: &[u8], delim: u8) -> Vec<String> {
-    line.split(|&c| c == delim).map(|f| String::from_utf8_lossy(trim(f)).into_owned()).collect()
+    line.split(|&c| c == delim)
+        .map(|f| String::from_utf8_lossy(trim(f)).into_owned())
+        .collect()
 }
 
 fn is_time_field(f: &[u8]) -> bool {
@@ -82,19 +84,35 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
         let f1 = trim(it.next().unwrap_or(b""));
         let next_line = || {
             let end = off + line.len();
-            let nl = window[end..].iter().position(|&c| c == b'\n').map_or(window.len(), |p| end + p + 1);
+            let nl = window[end..]
+                .iter()
+                .position(|&c| c == b'\n')
+                .map_or(window.len(), |p| end + p + 1);
             (nl + bom, line_no + 2)
         };
         let want = |f: LogFormat| forced.is_none() || forced == Some(f);
         if f0.eq_ignore_ascii_case(b"Timestamp") && !f1.is_empty() {
             let peaks = f1.starts_with(b"# CH") || f1.starts_with(b"#CH");
-            let format = if peaks { LogFormat::EnlightPeaks } else { LogFormat::EnlightSensors };
+            let format = if peaks {
+                LogFormat::EnlightPeaks
+            } else {
+                LogFormat::EnlightSensors
+            };
             if want(format) {
                 let (body_offset, body_line) = next_line();
-                return Ok(Detected { format, body_offset, body_line, header: fields(line, b'\t'), delimiter: b'\t' });
+                return Ok(Detected {
+                    format,
+                    body_offset,
+                    body_line,
+                    header: fields(line, b'\t'),
+                    delimiter: b'\t',
+                });
             }
         }
-        if f0.eq_ignore_ascii_case(b"Date") && f1.eq_ignore_ascii_case(b"Time") && want(LogFormat::Imon) {
+        if f0.eq_ignore_ascii_case(b"Date")
+            && f1.eq_ignore_ascii_case(b"Time")
+            && want(LogFormat::Imon)
+        {
             let (body_offset, body_line) = next_line();
             return Ok(Detected {
                 format: LogFormat::Imon,
@@ -119,13 +137,24 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
                     (off + bom, line_no + 1, Vec::new())
                 } else {
                     let end = off + line.len();
-                    let nl = window[end..].iter().position(|&c| c == b'\n').map_or(window.len(), |p| end + p + 1);
+                    let nl = window[end..]
+                        .iter()
+                        .position(|&c| c == b'\n')
+                        .map_or(window.len(), |p| end + p + 1);
                     (nl + bom, line_no + 2, fields(line, delim))
                 };
                 let looks_like_table = headerless
-                    || header.first().is_some_and(|h| h.to_ascii_lowercase().contains("time"));
+                    || header
+                        .first()
+                        .is_some_and(|h| h.to_ascii_lowercase().contains("time"));
                 if looks_like_table || forced == Some(LogFormat::Csv) {
-                    return Ok(Detected { format: LogFormat::Csv, body_offset, body_line, header, delimiter: delim });
+                    return Ok(Detected {
+                        format: LogFormat::Csv,
+                        body_offset,
+                        body_line,
+                        header,
+                        delimiter: delim,
+                    });
                 }
             }
         }
@@ -176,7 +205,10 @@ struct LineIssue {
 }
 
 fn issue(kind: &'static str, message: impl Into<String>) -> LineIssue {
-    LineIssue { kind, message: message.into() }
+    LineIssue {
+        kind,
+        message: message.into(),
+    }
 }
 
 /// Times of the rows parsed so far: either a wall-clock date + seconds of day, or
@@ -211,7 +243,9 @@ fn parse_time_field(f: &[u8], decimal_comma: bool) -> Option<(Option<RawDate>, f
     if let Some((d, s)) = num::parse_datetime(f) {
         return Some((Some(d), s));
     }
-    num::parse_f64(f, decimal_comma).filter(|v| v.is_finite()).map(|v| (None, v))
+    num::parse_f64(f, decimal_comma)
+        .filter(|v| v.is_finite())
+        .map(|v| (None, v))
 }
 
 /// Rows parsed from one chunk.
@@ -228,9 +262,17 @@ struct Partial {
 }
 
 /// The hot path: one ENLIGHT peaks row, read in a single pass with a cursor.
-fn parse_peaks_row(line: &[u8], channels: usize, dc: bool, out: &mut Partial, counts: &mut Vec<usize>) -> Result<(), LineIssue> {
-    let tab = num::find_byte(line, b'\t').ok_or_else(|| issue("unreadable_line", "no tab-separated fields"))?;
-    let time = parse_time_field(&line[..tab], dc).ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?;
+fn parse_peaks_row(
+    line: &[u8],
+    channels: usize,
+    dc: bool,
+    out: &mut Partial,
+    counts: &mut Vec<usize>,
+) -> Result<(), LineIssue> {
+    let tab = num::find_byte(line, b'\t')
+        .ok_or_else(|| issue("unreadable_line", "no tab-separated fields"))?;
+    let time = parse_time_field(&line[..tab], dc)
+        .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?;
     let mut pos = tab + 1;
     let skip_spaces = |pos: &mut usize| {
         while *pos < line.len() && line[*pos] == b' ' {
@@ -251,7 +293,10 @@ fn parse_peaks_row(line: &[u8], channels: usize, dc: bool, out: &mut Partial, co
     for c in 0..channels {
         skip_spaces(&mut pos);
         if pos >= line.len() {
-            return Err(issue("missing_channel", format!("row ends before the peak count of channel {}", c + 1)));
+            return Err(issue(
+                "missing_channel",
+                format!("row ends before the peak count of channel {}", c + 1),
+            ));
         }
         let mut v = 0usize;
         let s0 = pos;
@@ -260,7 +305,10 @@ fn parse_peaks_row(line: &[u8], channels: usize, dc: bool, out: &mut Partial, co
             pos += 1;
         }
         if pos == s0 || !next_field(&mut pos) {
-            return Err(issue("unreadable_line", format!("peak count of channel {} is not a whole number", c + 1)));
+            return Err(issue(
+                "unreadable_line",
+                format!("peak count of channel {} is not a whole number", c + 1),
+            ));
         }
         counts.push(v);
     }
@@ -271,7 +319,10 @@ fn parse_peaks_row(line: &[u8], channels: usize, dc: bool, out: &mut Partial, co
             if pos >= line.len() {
                 out.peaks.truncate(start);
                 out.chans.truncate(start);
-                return Err(issue("peak_count_mismatch", "fewer wavelengths than the peak counts announce"));
+                return Err(issue(
+                    "peak_count_mismatch",
+                    "fewer wavelengths than the peak counts announce",
+                ));
             }
             match num::parse_f64_prefix(&line[pos..], dc) {
                 Some((v, k)) if v.is_finite() => {
@@ -292,17 +343,30 @@ fn parse_peaks_row(line: &[u8], channels: usize, dc: bool, out: &mut Partial, co
             }
         }
     }
-    if line[pos.min(line.len())..].iter().any(|c| !c.is_ascii_whitespace()) {
+    if line[pos.min(line.len())..]
+        .iter()
+        .any(|c| !c.is_ascii_whitespace())
+    {
         out.peaks.truncate(start);
         out.chans.truncate(start);
-        return Err(issue("peak_count_mismatch", "more wavelengths than the peak counts announce"));
+        return Err(issue(
+            "peak_count_mismatch",
+            "more wavelengths than the peak counts announce",
+        ));
     }
     out.times.push(time);
     out.row_start.push(out.peaks.len());
     Ok(())
 }
 
-fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partial, counts: &mut Vec<usize>) -> Result<(), LineIssue> {
+fn parse_line(
+    line: &[u8],
+    layout: Layout,
+    delim: u8,
+    dc: bool,
+    out: &mut Partial,
+    counts: &mut Vec<usize>,
+) -> Result<(), LineIssue> {
     if let Layout::Peaks { channels } = layout {
         if delim == b'\t' {
             return parse_peaks_row(line, channels, dc, out, counts);
@@ -317,31 +381,49 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
     let time = match layout {
         Layout::Imon { .. } => {
             let d = it.next().unwrap_or(b"");
-            let t = it.next().ok_or_else(|| issue("unreadable_line", "no time field"))?;
-            let (date, n) = num::parse_date(trim(d)).ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
+            let t = it
+                .next()
+                .ok_or_else(|| issue("unreadable_line", "no time field"))?;
+            let (date, n) = num::parse_date(trim(d))
+                .ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
             if n != trim(d).len() {
                 return Err(issue("unreadable_line", "unreadable date"));
             }
-            let sod = num::parse_time_of_day(t).ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
+            let sod = num::parse_time_of_day(t)
+                .ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
             (Some(date), sod)
         }
         _ => {
             let f = it.next().unwrap_or(b"");
-            parse_time_field(f, dc).ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?
+            parse_time_field(f, dc)
+                .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?
         }
     };
     match layout {
         Layout::Peaks { channels } => {
             counts.clear();
             for c in 0..channels {
-                let f = it.next().ok_or_else(|| issue("missing_channel", format!("row ends before the peak count of channel {}", c + 1)))?;
-                counts.push(num::parse_usize(f).ok_or_else(|| issue("unreadable_line", format!("peak count of channel {} is not a whole number", c + 1)))?);
+                let f = it.next().ok_or_else(|| {
+                    issue(
+                        "missing_channel",
+                        format!("row ends before the peak count of channel {}", c + 1),
+                    )
+                })?;
+                counts.push(num::parse_usize(f).ok_or_else(|| {
+                    issue(
+                        "unreadable_line",
+                        format!("peak count of channel {} is not a whole number", c + 1),
+                    )
+                })?);
             }
             for (c, &n) in counts.iter().enumerate() {
                 for _ in 0..n {
                     let Some(f) = it.next() else {
                         rollback(out);
-                        return Err(issue("peak_count_mismatch", "fewer wavelengths than the peak counts announce"));
+                        return Err(issue(
+                            "peak_count_mismatch",
+                            "fewer wavelengths than the peak counts announce",
+                        ));
                     };
                     match num::parse_f64(f, dc) {
                         Some(v) if v.is_finite() => {
@@ -357,7 +439,10 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
             }
             if it.any(|f| !trim(f).is_empty()) {
                 rollback(out);
-                return Err(issue("peak_count_mismatch", "more wavelengths than the peak counts announce"));
+                return Err(issue(
+                    "peak_count_mismatch",
+                    "more wavelengths than the peak counts announce",
+                ));
             }
         }
         Layout::Sensors { columns } | Layout::Csv { columns } => {
@@ -367,7 +452,10 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
                 if c >= columns {
                     if !f.is_empty() {
                         rollback(out);
-                        return Err(issue("unreadable_line", format!("more than the {columns} value columns of the header")));
+                        return Err(issue(
+                            "unreadable_line",
+                            format!("more than the {columns} value columns of the header"),
+                        ));
                     }
                     continue;
                 }
@@ -383,13 +471,22 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
                     Some(_) => {}
                     None => {
                         rollback(out);
-                        return Err(issue("unreadable_line", format!("column {} is not a number", c + 2)));
+                        return Err(issue(
+                            "unreadable_line",
+                            format!("column {} is not a number", c + 2),
+                        ));
                     }
                 }
             }
             if seen < columns {
                 // Kept (the values present are good) but counted.
-                out.issues.push((usize::MAX, issue("short_row", format!("row has {seen} of {columns} value columns"))));
+                out.issues.push((
+                    usize::MAX,
+                    issue(
+                        "short_row",
+                        format!("row has {seen} of {columns} value columns"),
+                    ),
+                ));
             }
         }
         Layout::Imon { pixels } => {
@@ -399,7 +496,11 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
                 n -= 1;
             }
             // Rows that also carry the spectrum end with `pixels` intensities.
-            let n_wl = if pixels > 0 && n > pixels { n - pixels } else { n };
+            let n_wl = if pixels > 0 && n > pixels {
+                n - pixels
+            } else {
+                n
+            };
             for f in &rest[..n_wl] {
                 match num::parse_f64(f, dc) {
                     Some(v) if v.is_finite() && v > 0.0 => {
@@ -454,15 +555,30 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     let header_line = det.body_line.saturating_sub(1);
     let (layout, column_names) = match det.format {
         LogFormat::EnlightPeaks => {
-            let channels = det.header[1..].iter().take_while(|h| h.starts_with("# CH") || h.starts_with("#CH")).count();
+            let channels = det.header[1..]
+                .iter()
+                .take_while(|h| h.starts_with("# CH") || h.starts_with("#CH"))
+                .count();
             if channels == 0 || channels > 256 {
-                bail!("{}: the header declares {channels} channels; expected 1 to 256", at(path, header_line));
+                bail!(
+                    "{}: the header declares {channels} channels; expected 1 to 256",
+                    at(path, header_line)
+                );
             }
             (Layout::Peaks { channels }, Vec::new())
         }
         LogFormat::EnlightSensors => {
-            let names: Vec<String> = det.header[1..].iter().filter(|h| !h.is_empty()).cloned().collect();
-            (Layout::Sensors { columns: names.len() }, names)
+            let names: Vec<String> = det.header[1..]
+                .iter()
+                .filter(|h| !h.is_empty())
+                .cloned()
+                .collect();
+            (
+                Layout::Sensors {
+                    columns: names.len(),
+                },
+                names,
+            )
         }
         LogFormat::Imon => {
             let pixels = det.header.iter().filter(|h| h.starts_with("Pixel")).count();
@@ -470,12 +586,22 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         }
         LogFormat::Csv => {
             let names: Vec<String> = if det.header.is_empty() {
-                let first = lines_with_offsets(&bytes[det.body_offset..]).next().map(|(_, l)| l).unwrap_or(b"");
-                (1..first.split(|&c| c == det.delimiter).count()).map(|i| format!("column {}", i + 1)).collect()
+                let first = lines_with_offsets(&bytes[det.body_offset..])
+                    .next()
+                    .map(|(_, l)| l)
+                    .unwrap_or(b"");
+                (1..first.split(|&c| c == det.delimiter).count())
+                    .map(|i| format!("column {}", i + 1))
+                    .collect()
             } else {
                 det.header[1..].to_vec()
             };
-            (Layout::Csv { columns: names.len() }, names)
+            (
+                Layout::Csv {
+                    columns: names.len(),
+                },
+                names,
+            )
         }
     };
     let channels = match layout {
@@ -487,7 +613,11 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     let body = &bytes[det.body_offset.min(bytes.len())..];
 
     // Split at line boundaries; count lines per chunk to number them.
-    let n_chunks = if body.len() > (4 << 20) { rayon::current_num_threads() * 8 } else { 1 };
+    let n_chunks = if body.len() > (4 << 20) {
+        rayon::current_num_threads() * 8
+    } else {
+        1
+    };
     let mut bounds = vec![0usize];
     for k in 1..n_chunks {
         let target = body.len() * k / n_chunks;
@@ -503,8 +633,10 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     bounds.push(body.len());
     bounds.dedup();
     let chunks: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).collect();
-    let partials: Vec<Partial> =
-        chunks.par_iter().map(|&(a, b)| parse_chunk(&body[a..b], layout, det.delimiter, dc)).collect();
+    let partials: Vec<Partial> = chunks
+        .par_iter()
+        .map(|&(a, b)| parse_chunk(&body[a..b], layout, det.delimiter, dc))
+        .collect();
     // Chunk-local line numbers become file line numbers.
     let mut first_lines = Vec::with_capacity(partials.len());
     let mut acc = det.body_line;
@@ -540,7 +672,13 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
                 }
             })
             .collect();
-        date_of_row.extend(p.times.date_of_row.iter().map(|&i| if i == NO_DATE { NO_DATE } else { remap[i as usize] }));
+        date_of_row.extend(p.times.date_of_row.iter().map(|&i| {
+            if i == NO_DATE {
+                NO_DATE
+            } else {
+                remap[i as usize]
+            }
+        }));
         sec.extend_from_slice(&p.times.sec);
         let base = peaks.len();
         row_start.extend(p.row_start.iter().map(|&s| s + base));
@@ -566,7 +704,9 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
             bad,
             table_lines,
             det.format.name(),
-            first_bad.map(|m| format!("; first: {m}")).unwrap_or_default()
+            first_bad
+                .map(|m| format!("; first: {m}"))
+                .unwrap_or_default()
         );
     }
     super::require_rows(path, rows, "the log")?;
@@ -574,29 +714,49 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     // Resolve times.
     let with_dates = date_of_row.iter().filter(|&&d| d != NO_DATE).count();
     let (mut time_s, clock) = if with_dates == 0 {
-        let clock = if sec.first().is_some_and(|&s| s > 1e8) { Clock::Absolute } else { Clock::Relative };
+        let clock = if sec.first().is_some_and(|&s| s > 1e8) {
+            Clock::Absolute
+        } else {
+            Clock::Relative
+        };
         (sec, clock)
     } else {
         if with_dates != rows {
             let i = date_of_row.iter().position(|&d| d == NO_DATE).unwrap_or(0);
-            bail!("{}: this row has a plain number for time while other rows have dates", at(path, lines[i] as usize));
+            bail!(
+                "{}: this row has a plain number for time while other rows have dates",
+                at(path, lines[i] as usize)
+            );
         }
-        let default = if det.format == LogFormat::Imon { DateOrder::MonthDayYear } else { DateOrder::DayMonthYear };
+        let default = if det.format == LogFormat::Imon {
+            DateOrder::MonthDayYear
+        } else {
+            DateOrder::DayMonthYear
+        };
         let order = match opts.date_order {
             Some(o) => o,
-            None => num::resolve_order(&dates, default).map_err(|e| anyhow!("{}: {e}; name the order with --date-order", path.display()))?,
+            None => num::resolve_order(&dates, default).map_err(|e| {
+                anyhow!("{}: {e}; name the order with --date-order", path.display())
+            })?,
         };
         let mut days = Vec::with_capacity(dates.len());
         for (k, d) in dates.iter().enumerate() {
             match num::date_to_days(d, order) {
                 Ok(v) => days.push(v),
                 Err(e) => {
-                    let i = date_of_row.iter().position(|&x| x as usize == k).unwrap_or(0);
+                    let i = date_of_row
+                        .iter()
+                        .position(|&x| x as usize == k)
+                        .unwrap_or(0);
                     bail!("{}: {e} (read as {:?})", at(path, lines[i] as usize), order);
                 }
             }
         }
-        let t = date_of_row.iter().zip(&sec).map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s).collect();
+        let t = date_of_row
+            .iter()
+            .zip(&sec)
+            .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
+            .collect();
         (t, Clock::Absolute)
     };
 
@@ -613,7 +773,8 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         line_of_row: lines,
         warnings,
     };
-    if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings) {
+    if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
+    {
         let mut rs = Vec::with_capacity(rows + 1);
         rs.push(0);
         let mut pk = Vec::with_capacity(log.peaks_nm.len());
@@ -652,16 +813,23 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let delim = guess_delimiter(header_line);
     let dc = delim != b',';
     let header = fields(header_line, delim);
-    let headerless = header_line.split(|&c| c == delim).all(|f| is_time_field(f));
+    let headerless = header_line.split(|&c| c == delim).all(is_time_field);
     let mut warnings = LogWarnings::default();
     let find = |wanted: &Option<String>, defaults: &[&str], what: &str| -> Result<usize> {
         if headerless {
             return Ok(if what == "time" { 0 } else { 1 });
         }
         if let Some(w) = wanted {
-            return header.iter().position(|h| h.eq_ignore_ascii_case(w)).ok_or_else(|| {
-                anyhow!("{}: no {what} column named `{w}`; the header has: {}", at(path, h_idx + 1), header.join(", "))
-            });
+            return header
+                .iter()
+                .position(|h| h.eq_ignore_ascii_case(w))
+                .ok_or_else(|| {
+                    anyhow!(
+                        "{}: no {what} column named `{w}`; the header has: {}",
+                        at(path, h_idx + 1),
+                        header.join(", ")
+                    )
+                });
         }
         for d in defaults {
             if let Some(i) = header.iter().position(|h| h.eq_ignore_ascii_case(d)) {
@@ -672,7 +840,8 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         for d in defaults {
             if let Some(i) = header.iter().position(|h| {
                 let l = h.to_ascii_lowercase();
-                l.starts_with(&d.to_ascii_lowercase()) && l[d.len()..].starts_with([' ', '_', '[', '('])
+                l.starts_with(&d.to_ascii_lowercase())
+                    && l[d.len()..].starts_with([' ', '_', '[', '('])
             }) {
                 return Ok(i);
             }
@@ -683,7 +852,11 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
             header.join(", ")
         )
     };
-    let ti = find(&cols.time, &["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"], "time")?;
+    let ti = find(
+        &cols.time,
+        &["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"],
+        "time",
+    )?;
     let fi = find(&cols.force, &["force_N", "force", "F", "load"], "force")?;
     let time_column = header.get(ti).cloned().unwrap_or_else(|| "column 1".into());
     let force_column = header.get(fi).cloned().unwrap_or_else(|| "column 2".into());
@@ -692,7 +865,10 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         (None, Some(s)) => s,
         (None, None) => {
             warnings.add("force_unit_assumed", || {
-                format!("{}: force column `{force_column}` names no unit; newtons assumed", path.display())
+                format!(
+                    "{}: force column `{force_column}` names no unit; newtons assumed",
+                    path.display()
+                )
             });
             1.0
         }
@@ -703,15 +879,22 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let mut bad = 0usize;
     let mut total = 0usize;
     let mut first_bad = None;
-    let body: Box<dyn Iterator<Item = (usize, (usize, &[u8]))>> =
-        if headerless { Box::new(std::iter::once((h_idx, (0, header_line))).chain(lines)) } else { Box::new(lines) };
+    type Lines<'a> = Box<dyn Iterator<Item = (usize, (usize, &'a [u8]))> + 'a>;
+    let body: Lines = if headerless {
+        Box::new(std::iter::once((h_idx, (0, header_line))).chain(lines))
+    } else {
+        Box::new(lines)
+    };
     let unterminated = !b.ends_with(b"\n");
     let n_lines = b.iter().filter(|&&c| c == b'\n').count() + usize::from(unterminated);
     for (idx, (_, line)) in body {
         total += 1;
         let parts: Vec<&[u8]> = line.split(|&c| c == delim).collect();
         let t = parts.get(ti).and_then(|f| parse_time_field(f, dc));
-        let f = parts.get(fi).and_then(|f| num::parse_f64(f, dc)).filter(|v| v.is_finite());
+        let f = parts
+            .get(fi)
+            .and_then(|f| num::parse_f64(f, dc))
+            .filter(|v| v.is_finite());
         match (t, f) {
             (Some(t), Some(f)) => {
                 times.push(t);
@@ -719,11 +902,18 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
                 line_nos.push((idx + 1) as u32);
             }
             _ => {
-                let kind = if unterminated && idx + 1 == n_lines { "truncated_last_line" } else { "unreadable_line" };
+                let kind = if unterminated && idx + 1 == n_lines {
+                    "truncated_last_line"
+                } else {
+                    "unreadable_line"
+                };
                 if kind == "unreadable_line" {
                     bad += 1;
                 }
-                let msg = format!("{}: expected a time in `{time_column}` and a number in `{force_column}`", at(path, idx + 1));
+                let msg = format!(
+                    "{}: expected a time in `{time_column}` and a number in `{force_column}`",
+                    at(path, idx + 1)
+                );
                 if first_bad.is_none() {
                     first_bad = Some(msg.clone());
                 }
@@ -735,24 +925,42 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         bail!(
             "{}: {bad} of {total} rows are unreadable{}",
             path.display(),
-            first_bad.map(|m| format!("; first: {m}")).unwrap_or_default()
+            first_bad
+                .map(|m| format!("; first: {m}"))
+                .unwrap_or_default()
         );
     }
     super::require_rows(path, force.len(), "the force log")?;
     let (mut time_s, clock) = if times.dates.is_empty() {
-        let clock = if times.sec[0] > 1e8 { Clock::Absolute } else { Clock::Relative };
+        let clock = if times.sec[0] > 1e8 {
+            Clock::Absolute
+        } else {
+            Clock::Relative
+        };
         (times.sec.clone(), clock)
     } else {
         if times.date_of_row.contains(&NO_DATE) {
-            bail!("{}: the time column mixes dates and plain numbers", path.display());
+            bail!(
+                "{}: the time column mixes dates and plain numbers",
+                path.display()
+            );
         }
-        let order = num::resolve_order(&times.dates, DateOrder::DayMonthYear).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        let order = num::resolve_order(&times.dates, DateOrder::DayMonthYear)
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
         let days: Vec<i64> = times
             .dates
             .iter()
             .map(|d| num::date_to_days(d, order).map_err(|e| anyhow!("{}: {e}", path.display())))
             .collect::<Result<_>>()?;
-        (times.date_of_row.iter().zip(&times.sec).map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s).collect(), Clock::Absolute)
+        (
+            times
+                .date_of_row
+                .iter()
+                .zip(&times.sec)
+                .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
+                .collect(),
+            Clock::Absolute,
+        )
     };
     if let Some(order) = super::finish_times(path, &mut time_s, &line_nos, &mut warnings) {
         let t: Vec<f64> = order.iter().map(|&i| time_s[i]).collect();
@@ -761,5 +969,14 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         force = f;
     }
     super::dequantize(path, &mut time_s, &mut warnings);
-    Ok(ForceLog { source: path.to_path_buf(), time_s, clock, force_n: force, time_column, force_column, scale_to_n: scale, warnings })
+    Ok(ForceLog {
+        source: path.to_path_buf(),
+        time_s,
+        clock,
+        force_n: force,
+        time_column,
+        force_column,
+        scale_to_n: scale,
+        warnings,
+    })
 }

@@ -40,7 +40,8 @@ pub struct Loading {
 
 /// Read a schedule CSV, checking cell labels against the design.
 pub fn read_schedule(path: &Path, n_cells: usize) -> Result<Vec<Loading>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read the schedule {}", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read the schedule {}", path.display()))?;
     parse_schedule(&text, path, n_cells)
 }
 
@@ -57,27 +58,61 @@ pub fn parse_schedule(text: &str, path: &Path, n_cells: usize) -> Result<Vec<Loa
         let f: Vec<&str> = l.split(',').map(str::trim).collect();
         if !header_seen {
             header_seen = true;
-            if f.len() != 4 || !f[0].eq_ignore_ascii_case("start_s") || !f[1].eq_ignore_ascii_case("end_s") || !f[2].eq_ignore_ascii_case("cell") || !f[3].eq_ignore_ascii_case("load_g") {
-                bail!("{}:{}: expected the header `start_s,end_s,cell,load_g`", path.display(), i + 1);
+            if f.len() != 4
+                || !f[0].eq_ignore_ascii_case("start_s")
+                || !f[1].eq_ignore_ascii_case("end_s")
+                || !f[2].eq_ignore_ascii_case("cell")
+                || !f[3].eq_ignore_ascii_case("load_g")
+            {
+                bail!(
+                    "{}:{}: expected the header `start_s,end_s,cell,load_g`",
+                    path.display(),
+                    i + 1
+                );
             }
             continue;
         }
         let at = || format!("{}:{}", path.display(), i + 1);
         if f.len() != 4 {
-            bail!("{}: expected 4 fields `start_s,end_s,cell,load_g`, got {}", at(), f.len());
+            bail!(
+                "{}: expected 4 fields `start_s,end_s,cell,load_g`, got {}",
+                at(),
+                f.len()
+            );
         }
         let num = |s: &str, what: &str| -> Result<f64> {
-            num::parse_f64(s.as_bytes(), false).filter(|v| v.is_finite()).with_context(|| format!("{}: {what} `{s}` is not a number", at()))
+            num::parse_f64(s.as_bytes(), false)
+                .filter(|v| v.is_finite())
+                .with_context(|| format!("{}: {what} `{s}` is not a number", at()))
         };
-        let (a, b, g) = (num(f[0], "start_s")?, num(f[1], "end_s")?, num(f[3], "load_g")?);
+        let (a, b, g) = (
+            num(f[0], "start_s")?,
+            num(f[1], "end_s")?,
+            num(f[3], "load_g")?,
+        );
         if b <= a {
             bail!("{}: end_s {b} is not after start_s {a}", at());
         }
         if g <= 0.0 {
             bail!("{}: load_g must be positive, got {g}", at());
         }
-        let cell = labels.iter().position(|c| c.eq_ignore_ascii_case(f[2])).with_context(|| format!("{}: unknown cell `{}`; the design has cells {}", at(), f[2], labels.join(", ")))?;
-        out.push(Loading { start_s: a, end_s: b, cell, load_g: g });
+        let cell = labels
+            .iter()
+            .position(|c| c.eq_ignore_ascii_case(f[2]))
+            .with_context(|| {
+                format!(
+                    "{}: unknown cell `{}`; the design has cells {}",
+                    at(),
+                    f[2],
+                    labels.join(", ")
+                )
+            })?;
+        out.push(Loading {
+            start_s: a,
+            end_s: b,
+            cell,
+            load_g: g,
+        });
     }
     if out.is_empty() {
         bail!("{}: the schedule lists no loadings", path.display());
@@ -85,7 +120,14 @@ pub fn parse_schedule(text: &str, path: &Path, n_cells: usize) -> Result<Vec<Loa
     out.sort_by(|x, y| x.start_s.total_cmp(&y.start_s));
     for w in out.windows(2) {
         if w[1].start_s < w[0].end_s {
-            bail!("{}: loadings overlap ({}–{} s and {}–{} s)", path.display(), w[0].start_s, w[0].end_s, w[1].start_s, w[1].end_s);
+            bail!(
+                "{}: loadings overlap ({}–{} s and {}–{} s)",
+                path.display(),
+                w[0].start_s,
+                w[0].end_s,
+                w[1].start_s,
+                w[1].end_s
+            );
         }
     }
     Ok(out)
@@ -118,13 +160,28 @@ fn mean_in(t: &[f64], v: &[f64], a: f64, b: f64) -> Option<f64> {
 }
 
 /// Build the matrix from a log and a schedule.
-pub fn calibrate(design: &Design, log: &PeakLog, schedule: &[Loading], half_width_nm: Option<f64>) -> Result<SensingMatrix> {
-    let Some(a) = &design.array else { bail!("design `{}` has no [array] to calibrate", design.name) };
+pub fn calibrate(
+    design: &Design,
+    log: &PeakLog,
+    schedule: &[Loading],
+    half_width_nm: Option<f64>,
+) -> Result<SensingMatrix> {
+    let Some(a) = &design.array else {
+        bail!("design `{}` has no [array] to calibrate", design.name)
+    };
     let layout = ArrayLayout::from_array(a);
     let n_cells = layout.cell_centers_mm.len();
     let nominals: Vec<f64> = a.gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
     let hw = half_width_nm.unwrap_or_else(|| assign::default_half_width_nm(&nominals));
-    let windows: Vec<GratingWindow> = a.gratings.iter().map(|g| GratingWindow { name: g.name.clone(), nominal_nm: g.bragg_wavelength_nm, half_width_nm: hw }).collect();
+    let windows: Vec<GratingWindow> = a
+        .gratings
+        .iter()
+        .map(|g| GratingWindow {
+            name: g.name.clone(),
+            nominal_nm: g.bragg_wavelength_nm,
+            half_width_nm: hw,
+        })
+        .collect();
     let tracks = assign::assign(log, &windows);
     let t: Vec<f64> = log.time_s.iter().map(|x| x - log.time_s[0]).collect();
     let end = *t.last().unwrap_or(&0.0);
@@ -134,27 +191,53 @@ pub fn calibrate(design: &Design, log: &PeakLog, schedule: &[Loading], half_widt
         }
     }
     if let Some(l) = schedule.iter().find(|l| l.end_s > end + 1e-9) {
-        bail!("a loading ends at {} s, after the log's last row at {end:.3} s", l.end_s);
+        bail!(
+            "a loading ends at {} s, after the log's last row at {end:.3} s",
+            l.end_s
+        );
     }
     let mut m = vec![vec![0.0; n_cells]; tracks.len()];
     for (gi, tr) in tracks.iter().enumerate() {
         if tr.rows_present < log.rows() / 10 {
-            bail!("{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {} rows", log.source.display(), tr.window.name, tr.window.nominal_nm, tr.rows_present, log.rows());
+            bail!(
+                "{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {} rows",
+                log.source.display(),
+                tr.window.name,
+                tr.window.nominal_nm,
+                tr.rows_present,
+                log.rows()
+            );
         }
-        let s: Vec<f64> = tr.wavelength_nm.iter().map(|l| (l - tr.window.nominal_nm) * 1e3).collect();
+        let s: Vec<f64> = tr
+            .wavelength_nm
+            .iter()
+            .map(|l| (l - tr.window.nominal_nm) * 1e3)
+            .collect();
         let mut num_ = vec![0.0; n_cells];
         let mut den = vec![0.0; n_cells];
         for (k, l) in schedule.iter().enumerate() {
             let prev_end = if k == 0 { 0.0 } else { schedule[k - 1].end_s };
             let next_start = schedule.get(k + 1).map_or(end, |n| n.start_s);
             let loaded = mean_in(&t, &s, l.start_s + 0.25 * (l.end_s - l.start_s), l.end_s)
-                .with_context(|| format!("grating `{}` has no peak while cell {} is loaded ({}–{} s)", tr.window.name, cell_label(l.cell), l.start_s, l.end_s))?;
+                .with_context(|| {
+                    format!(
+                        "grating `{}` has no peak while cell {} is loaded ({}–{} s)",
+                        tr.window.name,
+                        cell_label(l.cell),
+                        l.start_s,
+                        l.end_s
+                    )
+                })?;
             let before = mean_in(&t, &s, prev_end + 0.25 * (l.start_s - prev_end), l.start_s);
             let after = mean_in(&t, &s, l.end_s + 0.25 * (next_start - l.end_s), next_start);
             let base = match (before, after) {
                 (Some(x), Some(y)) => (x + y) / 2.0,
                 (Some(x), None) | (None, Some(x)) => x,
-                (None, None) => bail!("no unloaded samples around the loading of cell {} at {} s", cell_label(l.cell), l.start_s),
+                (None, None) => bail!(
+                    "no unloaded samples around the loading of cell {} at {} s",
+                    cell_label(l.cell),
+                    l.start_s
+                ),
             };
             num_[l.cell] += (loaded - base) * l.load_g;
             den[l.cell] += l.load_g * l.load_g;
@@ -163,7 +246,11 @@ pub fn calibrate(design: &Design, log: &PeakLog, schedule: &[Loading], half_widt
             m[gi][c] = num_[c] / den[c];
         }
     }
-    Ok(SensingMatrix { gratings: a.gratings.iter().map(|g| g.name.clone()).collect(), cells: (0..n_cells).map(cell_label).collect(), pm_per_g: m })
+    Ok(SensingMatrix {
+        gratings: a.gratings.iter().map(|g| g.name.clone()).collect(),
+        cells: (0..n_cells).map(cell_label).collect(),
+        pm_per_g: m,
+    })
 }
 
 /// Write the matrix as `grating,A,B,…` with `#` comment lines first.
@@ -188,7 +275,9 @@ pub fn write_matrix_csv(path: &Path, m: &SensingMatrix, comments: &[String]) -> 
 /// of a single encapsulated grating loaded directly (Table 2). Used for synthetic
 /// calibration logs.
 pub fn power_law_matrix(design: &Design) -> Result<SensingMatrix> {
-    let Some(a) = &design.array else { bail!("design `{}` has no [array]", design.name) };
+    let Some(a) = &design.array else {
+        bail!("design `{}` has no [array]", design.name)
+    };
     let layout = ArrayLayout::from_array(a);
     let pm_per_g = layout
         .grating_positions_mm
@@ -224,7 +313,9 @@ pub fn synth_calibration_log(
 ) -> Result<crate::verify::synth::SynthLog> {
     use rand::SeedableRng;
     use rand_distr::Distribution;
-    let Some(a) = &design.array else { bail!("design `{}` has no [array]", design.name) };
+    let Some(a) = &design.array else {
+        bail!("design `{}` has no [array]", design.name)
+    };
     let end = schedule.iter().map(|l| l.end_s).fold(0.0, f64::max) + 10.0;
     let n = (end * sample_rate_hz).ceil() as usize;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -239,10 +330,15 @@ pub fn synth_calibration_log(
                 .enumerate()
                 .map(|(g, gr)| {
                     let s = load.map_or(0.0, |l| matrix.pm_per_g[g][l.cell] * l.load_g);
-                    gr.bragg_wavelength_nm + (s + drift_pm_per_s * t + noise_pm * normal.sample(&mut rng)) * 1e-3
+                    gr.bragg_wavelength_nm
+                        + (s + drift_pm_per_s * t + noise_pm * normal.sample(&mut rng)) * 1e-3
                 })
                 .collect()
         })
         .collect();
-    Ok(crate::verify::synth::SynthLog { time_s, names: a.gratings.iter().map(|g| g.name.clone()).collect(), wavelength_nm })
+    Ok(crate::verify::synth::SynthLog {
+        time_s,
+        names: a.gratings.iter().map(|g| g.name.clone()).collect(),
+        wavelength_nm,
+    })
 }

@@ -31,14 +31,25 @@ fn status_word(s: Status) -> &'static str {
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {
-    v.filter(|x| x.is_finite()).map_or("—".into(), |x| format!("{x:.digits$}"))
+    v.filter(|x| x.is_finite())
+        .map_or("—".into(), |x| format!("{x:.digits$}"))
 }
 
 /// The short printed report.
 pub fn summary(r: &VerifyReport) -> String {
     let m = &r.measurement;
     let mut s = String::new();
-    let _ = writeln!(s, "design {}: {} ({} rows at {:.1} Hz) against {} ({} samples at {:.1} Hz)", r.design, m.wavelength_log, m.wavelength_rows, m.wavelength_rate_hz, m.force_log, m.force_samples, m.force_rate_hz);
+    let _ = writeln!(
+        s,
+        "design {}: {} ({} rows at {:.1} Hz) against {} ({} samples at {:.1} Hz)",
+        r.design,
+        m.wavelength_log,
+        m.wavelength_rows,
+        m.wavelength_rate_hz,
+        m.force_log,
+        m.force_samples,
+        m.force_rate_hz
+    );
     let _ = writeln!(
         s,
         "clock offset {:.4} s ({}; force log starts at {:.4} s), overlap {:.1} s, {} pulses, temperature reference: {}",
@@ -49,7 +60,20 @@ pub fn summary(r: &VerifyReport) -> String {
         m.pulse_count,
         m.reference_grating.as_deref().unwrap_or("none")
     );
-    let _ = writeln!(s, "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>9} {:>11} {:>8} {:>11}", "grating", "K pm/N", "±se", "R²", "hyst %", "lin %", "Δt_max s", "Q pm/(N·s)", "τ s", "model pm/N");
+    let _ = writeln!(
+        s,
+        "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>9} {:>11} {:>8} {:>11}",
+        "grating",
+        "K pm/N",
+        "±se",
+        "R²",
+        "hyst %",
+        "lin %",
+        "Δt_max s",
+        "Q pm/(N·s)",
+        "τ s",
+        "model pm/N"
+    );
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
         let _ = writeln!(
             s,
@@ -65,7 +89,13 @@ pub fn summary(r: &VerifyReport) -> String {
             g.sls_time_constant_s,
             opt(v.predicted_sensitivity_pm_per_n, 3),
             status_word(v.status),
-            v.relative_error.map(|e| format!(" ({:.2} % error, tolerance {:.1} %)", 100.0 * e, 100.0 * v.tolerance)).unwrap_or_default()
+            v.relative_error
+                .map(|e| format!(
+                    " ({:.2} % error, tolerance {:.1} %)",
+                    100.0 * e,
+                    100.0 * v.tolerance
+                ))
+                .unwrap_or_default()
         );
         if let Some(reason) = &v.reason {
             let _ = writeln!(s, "{:<12} {reason}", "");
@@ -99,7 +129,10 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     let rows: Vec<Vec<String>> = idx
         .iter()
         .map(|&i| {
-            let mut row = vec![format!("{:.6}", series.time_s[i]), format!("{:.5}", series.force_n[i])];
+            let mut row = vec![
+                format!("{:.6}", series.time_s[i]),
+                format!("{:.5}", series.force_n[i]),
+            ];
             row.extend(series.shift_pm.iter().map(|(_, v)| format!("{:.4}", v[i])));
             row
         })
@@ -126,29 +159,69 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         .collect();
     write_csv(
         &dir.join("pulses.csv"),
-        &["grating", "pulse", "start_s", "peak_force_n", "peak_force_time_s", "peak_shift_pm", "peak_shift_time_s", "lag_s"],
+        &[
+            "grating",
+            "pulse",
+            "start_s",
+            "peak_force_n",
+            "peak_force_time_s",
+            "peak_shift_pm",
+            "peak_shift_time_s",
+            "lag_s",
+        ],
         &prow,
     )?;
 
     // Plots.
     let mut c = Chart::new("Shift against force", "force F (N)", "shift Δλ (pm)");
     for ((name, v), (_, slope, intercept)) in series.shift_pm.iter().zip(&series.fit) {
-        let pts: Vec<(f64, f64)> = idx.iter().map(|&i| (series.force_n[i], v[i])).filter(|(a, b)| a.is_finite() && b.is_finite()).collect();
-        let (lo, hi) = pts.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        let pts: Vec<(f64, f64)> = idx
+            .iter()
+            .map(|&i| (series.force_n[i], v[i]))
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+            .collect();
+        let (lo, hi) = pts
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
         c = c.with(PlotSeries::new(name.clone(), pts, Mark::Points));
         if lo < hi {
-            c = c.with(PlotSeries::new(format!("{name} fit {slope:.3} pm/N"), vec![(lo, intercept + slope * lo), (hi, intercept + slope * hi)], Mark::Line));
+            c = c.with(PlotSeries::new(
+                format!("{name} fit {slope:.3} pm/N"),
+                vec![(lo, intercept + slope * lo), (hi, intercept + slope * hi)],
+                Mark::Line,
+            ));
         }
     }
     c.write_svg(&dir.join("shift_vs_force.svg"))?;
-    let fpts: Vec<(f64, f64)> = idx.iter().map(|&i| (series.time_s[i], series.force_n[i])).collect();
-    Chart::new("Force against time (wavelength clock)", "time (s)", "force F (N)").with(PlotSeries::new("force", fpts, Mark::Line)).write_svg(&dir.join("force_vs_time.svg"))?;
-    let mut c = Chart::new("Shift against time (temperature and drift removed)", "time (s)", "shift Δλ (pm)");
+    let fpts: Vec<(f64, f64)> = idx
+        .iter()
+        .map(|&i| (series.time_s[i], series.force_n[i]))
+        .collect();
+    Chart::new(
+        "Force against time (wavelength clock)",
+        "time (s)",
+        "force F (N)",
+    )
+    .with(PlotSeries::new("force", fpts, Mark::Line))
+    .write_svg(&dir.join("force_vs_time.svg"))?;
+    let mut c = Chart::new(
+        "Shift against time (temperature and drift removed)",
+        "time (s)",
+        "shift Δλ (pm)",
+    );
     for (name, v) in &series.shift_pm {
-        c = c.with(PlotSeries::new(name.clone(), idx.iter().map(|&i| (series.time_s[i], v[i])).collect(), Mark::Line));
+        c = c.with(PlotSeries::new(
+            name.clone(),
+            idx.iter().map(|&i| (series.time_s[i], v[i])).collect(),
+            Mark::Line,
+        ));
     }
     c.write_svg(&dir.join("shift_vs_time.svg"))?;
-    let mut c = Chart::new("Lag of the shift peak behind the force peak", "pulse", "lag (s)");
+    let mut c = Chart::new(
+        "Lag of the shift peak behind the force peak",
+        "pulse",
+        "lag (s)",
+    );
     let mut any = false;
     for g in &m.gratings {
         let pts: Vec<(f64, f64)> = g.pulses.iter().map(|p| (p.index as f64, p.lag_s)).collect();
@@ -162,13 +235,46 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     // Markdown.
     let mut md = String::new();
     let _ = writeln!(md, "# Verification of `{}`\n", r.design);
-    let _ = writeln!(md, "**Verdict: {}** (Case {}{}, tolerance on K {:.1} %)\n", status_word(r.verdict.overall), if r.verdict.case == crate::model::LoadCase::I { "I" } else { "II" }, r.verdict.insert.as_deref().map(|i| format!(", insert `{i}`")).unwrap_or_default(), 100.0 * r.verdict.gratings.first().map_or(0.08, |g| g.tolerance));
-    let _ = writeln!(md, "- wavelength log: `{}` ({}, {} rows, {:.2} Hz)", m.wavelength_log, m.wavelength_format, m.wavelength_rows, m.wavelength_rate_hz);
-    let _ = writeln!(md, "- force log: `{}` ({} samples, {:.2} Hz)", m.force_log, m.force_samples, m.force_rate_hz);
+    let _ = writeln!(
+        md,
+        "**Verdict: {}** (Case {}{}, tolerance on K {:.1} %)\n",
+        status_word(r.verdict.overall),
+        if r.verdict.case == crate::model::LoadCase::I {
+            "I"
+        } else {
+            "II"
+        },
+        r.verdict
+            .insert
+            .as_deref()
+            .map(|i| format!(", insert `{i}`"))
+            .unwrap_or_default(),
+        100.0 * r.verdict.gratings.first().map_or(0.08, |g| g.tolerance)
+    );
+    let _ = writeln!(
+        md,
+        "- wavelength log: `{}` ({}, {} rows, {:.2} Hz)",
+        m.wavelength_log, m.wavelength_format, m.wavelength_rows, m.wavelength_rate_hz
+    );
+    let _ = writeln!(
+        md,
+        "- force log: `{}` ({} samples, {:.2} Hz)",
+        m.force_log, m.force_samples, m.force_rate_hz
+    );
     let _ = writeln!(md, "- clock offset (force − wavelength clock): {:.4} s ({}); the force log starts at {:.4} s on the wavelength log's time axis; overlap {:.1} s; {} pulses", m.clock_offset_s, m.clock_offset_source, m.force_log_start_s, m.overlap_s, m.pulse_count);
-    let _ = writeln!(md, "- temperature reference: {}; interrogator resolution {} pm\n", m.reference_grating.as_deref().unwrap_or("none (not compensated)"), m.interrogator_resolution_pm);
+    let _ = writeln!(
+        md,
+        "- temperature reference: {}; interrogator resolution {} pm\n",
+        m.reference_grating
+            .as_deref()
+            .unwrap_or("none (not compensated)"),
+        m.interrogator_resolution_pm
+    );
     let _ = writeln!(md, "| grating | K pm/N | ± se | model pm/N | error % | status | R² | hysteresis % | non-linearity % | resolution N | Δt_max s | Q pm/(N·s) | τ s | r |");
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        md,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
         let _ = writeln!(
             md,
@@ -204,6 +310,9 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     if any {
         let _ = writeln!(md, "![lag per pulse](lag_per_pulse.svg)\n");
     }
-    let _ = writeln!(md, "Numbers behind the plots: `timeseries.csv`, `pulses.csv`, `report.json`.");
+    let _ = writeln!(
+        md,
+        "Numbers behind the plots: `timeseries.csv`, `pulses.csv`, `report.json`."
+    );
     write_atomic(&dir.join("report.md"), md.as_bytes())
 }

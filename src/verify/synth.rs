@@ -39,7 +39,11 @@ pub fn pulse_train(peaks_n: &[f64], duration_s: f64, rest_s: f64, lead_s: f64) -
     peaks_n
         .iter()
         .enumerate()
-        .map(|(i, &p)| Pulse { start_s: lead_s + i as f64 * (duration_s + rest_s), duration_s, peak_n: p })
+        .map(|(i, &p)| Pulse {
+            start_s: lead_s + i as f64 * (duration_s + rest_s),
+            duration_s,
+            peak_n: p,
+        })
         .collect()
 }
 
@@ -48,7 +52,9 @@ pub fn force_at(pulses: &[Pulse], t: f64) -> f64 {
     pulses
         .iter()
         .filter(|p| t >= p.start_s && t <= p.start_s + p.duration_s)
-        .map(|p| p.peak_n * (1.0 - (std::f64::consts::TAU * (t - p.start_s) / p.duration_s).cos()) / 2.0)
+        .map(|p| {
+            p.peak_n * (1.0 - (std::f64::consts::TAU * (t - p.start_s) / p.duration_s).cos()) / 2.0
+        })
         .sum()
 }
 
@@ -67,7 +73,12 @@ pub struct LogStyle {
 
 impl Default for LogStyle {
     fn default() -> Self {
-        LogStyle { decimal_comma: false, bom: false, metadata_lines: 45, twelve_hour: false }
+        LogStyle {
+            decimal_comma: false,
+            bom: false,
+            metadata_lines: 45,
+            twelve_hour: false,
+        }
     }
 }
 
@@ -128,7 +139,8 @@ impl Default for SynthConfig {
             temperature_ramp_k_per_s: 0.0,
             dropout_fraction: 0.0,
             // 17/04/2025 15:44:56
-            start_epoch_s: crate::logs::num::days_from_civil(2025, 4, 17) as f64 * 86400.0 + 56696.0,
+            start_epoch_s: crate::logs::num::days_from_civil(2025, 4, 17) as f64 * 86400.0
+                + 56696.0,
             seed: 1,
         }
     }
@@ -194,12 +206,25 @@ pub struct SynthForce {
 
 /// Generate a run.
 pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthForce, SynthTruth)> {
-    let Some(m) = &design.module else { bail!("design `{}` has no [module] to synthesise a log for", design.name) };
-    let core = cfg.core.clone().or_else(|| m.cores.first().map(|c| c.name.clone())).unwrap_or_default();
+    let Some(m) = &design.module else {
+        bail!(
+            "design `{}` has no [module] to synthesise a log for",
+            design.name
+        )
+    };
+    let core = cfg
+        .core
+        .clone()
+        .or_else(|| m.cores.first().map(|c| c.name.clone()))
+        .unwrap_or_default();
     if !m.cores.iter().any(|c| c.name == core) {
         bail!("design `{}` has no core named `{core}`", design.name);
     }
-    if !(cfg.sample_rate_hz > 0.0 && cfg.force_rate_hz > 0.0 && cfg.duration_s > 0.0 && cfg.tau_s > 0.0) {
+    if !(cfg.sample_rate_hz > 0.0
+        && cfg.force_rate_hz > 0.0
+        && cfg.duration_s > 0.0
+        && cfg.tau_s > 0.0)
+    {
         bail!("rates, duration and τ must be positive");
     }
     if cfg.pulses.iter().all(|p| p.peak_n == 0.0) {
@@ -208,14 +233,24 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     if !(0.0..=1.0).contains(&cfg.instant_fraction) || !(0.0..1.0).contains(&cfg.dropout_fraction) {
         bail!("the instant fraction must be in [0, 1] and the dropout fraction in [0, 1)");
     }
-    let strain: Vec<_> = m.gratings.iter().filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(&core)).collect();
-    let reference = m.gratings.iter().find(|g| g.role == GratingRole::TemperatureReference);
+    let strain: Vec<_> = m
+        .gratings
+        .iter()
+        .filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(&core))
+        .collect();
+    let reference = m
+        .gratings
+        .iter()
+        .find(|g| g.role == GratingRole::TemperatureReference);
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let normal = Normal::new(0.0, 1.0).expect("unit normal");
 
     // Noise-free response on a fine grid.
     // Fine enough for the lag truth, capped at 4 million steps for long runs.
-    let dt_sim = (1.0 / (10.0 * cfg.sample_rate_hz)).min(cfg.tau_s / 20.0).min(1e-2).max(cfg.duration_s / 4e6);
+    let dt_sim = (1.0 / (10.0 * cfg.sample_rate_hz))
+        .min(cfg.tau_s / 20.0)
+        .min(1e-2)
+        .max(cfg.duration_s / 4e6);
     let n_sim = (cfg.duration_s / dt_sim).ceil() as usize + 2;
     let ts: Vec<f64> = (0..n_sim).map(|i| i as f64 * dt_sim).collect();
     let fs: Vec<f64> = ts.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
@@ -231,11 +266,17 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
             let next = cfg.pulses.get(i + 1).map_or(f64::INFINITY, |q| q.start_s);
             let a = (p.start_s / dt_sim) as usize;
             let b = (((p.start_s + 2.0 * p.duration_s).min(next) / dt_sim) as usize).min(n_sim - 1);
-            let im = (a..=b).max_by(|&x, &y| ys[x].total_cmp(&ys[y])).unwrap_or(a);
+            let im = (a..=b)
+                .max_by(|&x, &y| ys[x].total_cmp(&ys[y]))
+                .unwrap_or(a);
             // Refine by a parabola through the three samples around the maximum.
             let (y0, y1, y2) = (ys[im - 1], ys[im], ys[(im + 1).min(n_sim - 1)]);
             let den = y0 - 2.0 * y1 + y2;
-            let frac = if den < 0.0 { 0.5 * (y0 - y2) / den } else { 0.0 };
+            let frac = if den < 0.0 {
+                0.5 * (y0 - y2) / den
+            } else {
+                0.0
+            };
             (im as f64 + frac) * dt_sim - (p.start_s + p.duration_s / 2.0)
         })
         .collect();
@@ -244,7 +285,10 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     let n = (cfg.duration_s * cfg.sample_rate_hz).floor() as usize;
     let t_rel: Vec<f64> = (0..n).map(|i| i as f64 / cfg.sample_rate_hz).collect();
     let mut h = 0;
-    let y_rows: Vec<f64> = t_rel.iter().map(|&t| fit::interp(&ts, &ys, t, &mut h)).collect();
+    let y_rows: Vec<f64> = t_rel
+        .iter()
+        .map(|&t| fit::interp(&ts, &ys, t, &mut h))
+        .collect();
     let f_rows: Vec<f64> = t_rel.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
     let fo = design.fiber;
     let half = cfg.duration_s / 2.0;
@@ -264,14 +308,20 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
                     return f64::NAN;
                 }
                 let t = t_rel[i];
-                let pm = kg * y_rows[i] + cfg.drift_pm_per_s * t + ts_pm * cfg.temperature_ramp_k_per_s * tri(t) + cfg.noise_pm * normal.sample(&mut rng);
+                let pm = kg * y_rows[i]
+                    + cfg.drift_pm_per_s * t
+                    + ts_pm * cfg.temperature_ramp_k_per_s * tri(t)
+                    + cfg.noise_pm * normal.sample(&mut rng);
                 l0 + pm * 1e-3
             })
             .collect();
         // Expected R²: noise-free scatter of K·y about the best line in F, plus noise.
         let clean: Vec<f64> = y_rows.iter().map(|y| kg * y).collect();
         let Some(line) = fit::fit_line(&f_rows, &clean) else {
-            bail!("no pulse falls inside the {} s log: the force does not vary", cfg.duration_s);
+            bail!(
+                "no pulse falls inside the {} s log: the force does not vary",
+                cfg.duration_s
+            );
         };
         let mean = clean.iter().sum::<f64>() / n as f64;
         let sst0: f64 = clean.iter().map(|v| (v - mean).powi(2)).sum();
@@ -300,7 +350,9 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
                 if rng.random::<f64>() < cfg.dropout_fraction {
                     return f64::NAN;
                 }
-                l0 + (ts_pm * cfg.temperature_ramp_k_per_s * tri(t_rel[i]) + cfg.noise_pm * normal.sample(&mut rng)) * 1e-3
+                l0 + (ts_pm * cfg.temperature_ramp_k_per_s * tri(t_rel[i])
+                    + cfg.noise_pm * normal.sample(&mut rng))
+                    * 1e-3
             })
             .collect();
         names.push(r.name.clone());
@@ -316,17 +368,28 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
             reference: true,
         });
     }
-    let wavelength_nm: Vec<Vec<f64>> = (0..n).map(|i| columns.iter().map(|c| c[i]).collect()).collect();
-    let log = SynthLog { time_s: t_rel.clone(), names, wavelength_nm };
+    let wavelength_nm: Vec<Vec<f64>> = (0..n)
+        .map(|i| columns.iter().map(|c| c[i]).collect())
+        .collect();
+    let log = SynthLog {
+        time_s: t_rel.clone(),
+        names,
+        wavelength_nm,
+    };
 
     // Force log, on its own clock, covering the wavelength log.
-    let nf = ((cfg.duration_s - cfg.force_start_s).max(cfg.duration_s) * cfg.force_rate_hz).floor() as usize + 1;
+    let nf = ((cfg.duration_s - cfg.force_start_s).max(cfg.duration_s) * cfg.force_rate_hz).floor()
+        as usize
+        + 1;
     let mut ft = Vec::with_capacity(nf);
     let mut ff = Vec::with_capacity(nf);
     for k in 0..nf {
         let tf = k as f64 / cfg.force_rate_hz;
         ft.push(tf);
-        ff.push(force_at(&cfg.pulses, tf + cfg.force_start_s) + cfg.force_noise_n * normal.sample(&mut rng));
+        ff.push(
+            force_at(&cfg.pulses, tf + cfg.force_start_s)
+                + cfg.force_noise_n * normal.sample(&mut rng),
+        );
     }
     let truth = SynthTruth {
         clock_offset_s: -cfg.force_start_s,
@@ -336,14 +399,25 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
         pulses: cfg.pulses.clone(),
         gratings: truth_gratings,
     };
-    Ok((log, SynthForce { time_s: ft, force_n: ff }, truth))
+    Ok((
+        log,
+        SynthForce {
+            time_s: ft,
+            force_n: ff,
+        },
+        truth,
+    ))
 }
 
 /// The clock offset the verifier reports for a log written in `format`: the force
 /// clock reads t − force_start, the wavelength clock `start_epoch_s` + t for formats
 /// with wall-clock timestamps and t for plain CSV.
 pub fn reported_offset_s(cfg: &SynthConfig, format: LogFormat) -> f64 {
-    let w0 = if format == LogFormat::Csv { 0.0 } else { cfg.start_epoch_s };
+    let w0 = if format == LogFormat::Csv {
+        0.0
+    } else {
+        cfg.start_epoch_s
+    };
     -cfg.force_start_s - w0
 }
 
@@ -371,9 +445,15 @@ fn enlight_timestamp(w: &mut dyn Write, t: f64, style: &LogStyle) -> std::io::Re
             12 => (12, "pm"),
             _ => (h - 12, "pm"),
         };
-        write!(w, "{d:02}/{m:02}/{y:04} {h12}:{mi:02}:{whole:02}{sep}{micros:06} {ampm}")
+        write!(
+            w,
+            "{d:02}/{m:02}/{y:04} {h12}:{mi:02}:{whole:02}{sep}{micros:06} {ampm}"
+        )
     } else {
-        write!(w, "{d:02}/{m:02}/{y:04} {h:02}:{mi:02}:{whole:02}{sep}{micros:06}")
+        write!(
+            w,
+            "{d:02}/{m:02}/{y:04} {h:02}:{mi:02}:{whole:02}{sep}{micros:06}"
+        )
     }
 }
 
@@ -393,13 +473,24 @@ fn enlight_metadata(w: &mut dyn Write, lines: usize, rate_hz: f64, t0: f64) -> s
     }
     for i in fixed.len()..lines {
         let ch = i % 4 + 1;
-        writeln!(w, "CH {ch} Peak Detection Setting {}:\tThreshold {} dB", i, 3 + i % 7)?;
+        writeln!(
+            w,
+            "CH {ch} Peak Detection Setting {}:\tThreshold {} dB",
+            i,
+            3 + i % 7
+        )?;
     }
     Ok(())
 }
 
 /// Write a wavelength log in `format`.
-pub fn write_log(path: &Path, format: LogFormat, log: &SynthLog, cfg: &SynthConfig, style: &LogStyle) -> Result<()> {
+pub fn write_log(
+    path: &Path,
+    format: LogFormat,
+    log: &SynthLog,
+    cfg: &SynthConfig,
+    style: &LogStyle,
+) -> Result<()> {
     let t0 = cfg.start_epoch_s;
     write_atomic_with(path, |w| {
         if style.bom {
@@ -419,7 +510,11 @@ pub fn write_log(path: &Path, format: LogFormat, log: &SynthLog, cfg: &SynthConf
                 for (i, row) in log.wavelength_nm.iter().enumerate() {
                     enlight_timestamp(w, t0 + log.time_s[i], style)?;
                     for c in 0..channels {
-                        let n = row.iter().enumerate().filter(|(g, v)| chan_of[*g] == c && v.is_finite()).count();
+                        let n = row
+                            .iter()
+                            .enumerate()
+                            .filter(|(g, v)| chan_of[*g] == c && v.is_finite())
+                            .count();
                         write!(w, "\t{n}")?;
                     }
                     for c in 0..channels {
@@ -467,7 +562,8 @@ pub fn write_log(path: &Path, format: LogFormat, log: &SynthLog, cfg: &SynthConf
                         _ => (h - 12, "PM"),
                     };
                     write!(w, "{m}/{d}/{y}\t{h12}:{mi:02}:{s:02} {ampm}")?;
-                    let mut present: Vec<f64> = row.iter().copied().filter(|v| v.is_finite()).collect();
+                    let mut present: Vec<f64> =
+                        row.iter().copied().filter(|v| v.is_finite()).collect();
                     present.sort_by(|a, b| a.total_cmp(b));
                     for v in present {
                         write!(w, "\t{:.7}E+3", v / 1e3)?;

@@ -27,12 +27,23 @@ pub enum Status {
 }
 
 /// Judge a measured K against a predicted K: (status, relative error).
-pub fn judge(measured_pm_per_n: f64, predicted_pm_per_n: Option<f64>, tolerance: f64) -> (Status, Option<f64>) {
+pub fn judge(
+    measured_pm_per_n: f64,
+    predicted_pm_per_n: Option<f64>,
+    tolerance: f64,
+) -> (Status, Option<f64>) {
     match predicted_pm_per_n {
         Some(p) if p.is_finite() && p != 0.0 && measured_pm_per_n.is_finite() => {
             let e = (measured_pm_per_n - p).abs() / p.abs();
             // A relative epsilon keeps an error of exactly the tolerance (as printed) a pass.
-            (if e <= tolerance * (1.0 + 1e-12) { Status::Pass } else { Status::Fail }, Some(e))
+            (
+                if e <= tolerance * (1.0 + 1e-12) {
+                    Status::Pass
+                } else {
+                    Status::Fail
+                },
+                Some(e),
+            )
         }
         _ => (Status::NotJudged, None),
     }
@@ -97,12 +108,16 @@ pub fn verdicts(
                         None => (
                             None,
                             Some(match (case, insert) {
-                                (LoadCase::I, None) => "Case I needs the insert used (--insert NAME)".to_string(),
+                                (LoadCase::I, None) => {
+                                    "Case I needs the insert used (--insert NAME)".to_string()
+                                }
                                 _ => format!(
                                     "the model gives no prediction for grating `{}` in Case {}{}",
                                     g.grating,
                                     if case == LoadCase::I { "I" } else { "II" },
-                                    insert.map(|i| format!(" with insert `{i}`")).unwrap_or_default()
+                                    insert
+                                        .map(|i| format!(" with insert `{i}`"))
+                                        .unwrap_or_default()
                                 ),
                             }),
                         ),
@@ -121,7 +136,10 @@ pub fn verdicts(
             }
         })
         .collect();
-    let judged: Vec<&GratingVerdict> = gratings.iter().filter(|g| g.status != Status::NotJudged).collect();
+    let judged: Vec<&GratingVerdict> = gratings
+        .iter()
+        .filter(|g| g.status != Status::NotJudged)
+        .collect();
     let overall = if judged.is_empty() {
         Status::NotJudged
     } else if judged.iter().all(|g| g.status == Status::Pass) {
@@ -129,7 +147,12 @@ pub fn verdicts(
     } else {
         Status::Fail
     };
-    Verdict { case, insert: insert.map(String::from), gratings, overall }
+    Verdict {
+        case,
+        insert: insert.map(String::from),
+        gratings,
+        overall,
+    }
 }
 
 #[cfg(test)]
