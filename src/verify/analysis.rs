@@ -510,7 +510,11 @@ pub fn analyse(
     let b = wb.min(fb + range);
 
     // Primary grating: the largest response.
-    let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
+    // Robust spread from every 10th sample is plenty to pick the largest response.
+    let spread = |s: &[f64]| {
+        let sub: Vec<f64> = s.iter().step_by(10).copied().collect();
+        percentile(&sub, 0.98) - percentile(&sub, 0.02)
+    };
     let primary = (0..used.len())
         .max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1)))
         .unwrap_or(0);
@@ -541,8 +545,8 @@ pub fn analyse(
             }
             // Polish at full rate on the first stretch of the overlap.
             let span = (b - a)
-                .min(200_000.0 * median_period(&u).max(1e-6))
-                .min(100_000.0 * median_period(&tw).max(1e-6));
+                .min(100_000.0 * median_period(&u).max(1e-6))
+                .min(50_000.0 * median_period(&tw).max(1e-6));
             let fine = FitData::new(
                 &tw,
                 s,
@@ -550,8 +554,8 @@ pub fn analyse(
                 &force.force_n,
                 a,
                 a + span.max(1.0),
+                50_000,
                 100_000,
-                200_000,
                 30.0,
             );
             let p = best.0.clone();
@@ -650,6 +654,13 @@ pub fn analyse(
         let idx: Vec<usize> = (0..tw.len())
             .filter(|&i| s[i].is_finite() && fc[i].is_finite())
             .collect();
+        if idx.len() < 10 {
+            bail!(
+                "grating `{}` has only {} samples where the force log overlaps the wavelength log",
+                g.name,
+                idx.len()
+            );
+        }
         let st: Vec<f64> = idx.iter().map(|&i| tw[i]).collect();
         let sv: Vec<f64> = idx.iter().map(|&i| s[i]).collect();
         let t_mid = (st[0] + st[st.len() - 1]) / 2.0;
@@ -826,8 +837,10 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
     if n < 5 {
         return (f64::NAN, f64::NAN);
     }
-    let fmin = percentile(force, 0.0);
-    let fmax = percentile(force, 1.0);
+    let (fmin, fmax) = force
+        .iter()
+        .filter(|f| f.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &f| (lo.min(f), hi.max(f)));
     let span = line.slope.abs() * (fmax - fmin);
     if span.is_nan() || span <= 0.0 {
         return (f64::NAN, f64::NAN);
