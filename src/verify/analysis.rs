@@ -840,7 +840,9 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
     let (fmin, fmax) = force
         .iter()
         .filter(|f| f.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &f| (lo.min(f), hi.max(f)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &f| {
+            (lo.min(f), hi.max(f))
+        });
     let span = line.slope.abs() * (fmax - fmin);
     if span.is_nan() || span <= 0.0 {
         return (f64::NAN, f64::NAN);
