@@ -417,7 +417,8 @@ pub struct BenchVerifyArgs {
     /// Sample rate of the wavelength and force logs, Hz.
     #[arg(long, default_value_t = 1000.0)]
     pub rate_hz: f64,
-    /// Keep the generated logs (they are large) instead of deleting them.
+    /// Keep the generated logs (they are large) and the design (bench-design.toml)
+    /// instead of deleting them.
     #[arg(long)]
     pub keep: bool,
 }
@@ -646,7 +647,13 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         crate::plot::Mark::Points,
     ));
     chart.write_svg(&a.out.join("bench_verify.svg"))?;
-    if !a.keep {
+    if a.keep {
+        // So that `fbgforge verify` can be run on the kept logs.
+        crate::output::write_atomic(
+            &a.out.join("bench-design.toml"),
+            design.to_toml().as_bytes(),
+        )?;
+    } else {
         let _ = std::fs::remove_file(&log_path);
         let _ = std::fs::remove_file(&force_path);
     }

@@ -82,6 +82,8 @@ pub struct GratingResult {
     pub grating: String,
     /// Core it is bonded in.
     pub core: Option<String>,
+    /// Material key of that core (the optimiser models lag per material).
+    pub core_material: Option<String>,
     /// Nominal wavelength, nm.
     pub nominal_nm: f64,
     /// Window half-width used, nm.
@@ -187,8 +189,16 @@ pub struct PulseSpan {
     pub end: usize,
 }
 
+/// Percentile of the finite values; vectors of more than a million values are
+/// subsampled evenly (plenty for thresholds and spreads).
 fn percentile(v: &[f64], p: f64) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    let step = v.len().div_ceil(1 << 20).max(1);
+    let mut s: Vec<f64> = v
+        .iter()
+        .step_by(step)
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
     if s.is_empty() {
         return f64::NAN;
     }
@@ -510,11 +520,7 @@ pub fn analyse(
     let b = wb.min(fb + range);
 
     // Primary grating: the largest response.
-    // Robust spread from every 10th sample is plenty to pick the largest response.
-    let spread = |s: &[f64]| {
-        let sub: Vec<f64> = s.iter().step_by(10).copied().collect();
-        percentile(&sub, 0.98) - percentile(&sub, 0.02)
-    };
+    let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
     let primary = (0..used.len())
         .max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1)))
         .unwrap_or(0);
@@ -650,23 +656,22 @@ pub fn analyse(
         let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
             anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
         })?;
-        // Final evaluation on every sample.
-        let idx: Vec<usize> = (0..tw.len())
+        // Final evaluation on every sample (NaN shifts and samples outside the force
+        // log are skipped inside the cost).
+        let n_used = (0..tw.len())
             .filter(|&i| s[i].is_finite() && fc[i].is_finite())
-            .collect();
-        if idx.len() < 10 {
+            .count();
+        if n_used < 10 {
             bail!(
                 "grating `{}` has only {} samples where the force log overlaps the wavelength log",
                 g.name,
-                idx.len()
+                n_used
             );
         }
-        let st: Vec<f64> = idx.iter().map(|&i| tw[i]).collect();
-        let sv: Vec<f64> = idx.iter().map(|&i| s[i]).collect();
-        let t_mid = (st[0] + st[st.len() - 1]) / 2.0;
+        let t_mid = (wa.max(fa) + wb.min(fb)) / 2.0;
         let full = LagModelCost {
-            shift_t: &st,
-            shift_pm: &sv,
+            shift_t: &tw,
+            shift_pm: s,
             force_t: &fu,
             force_n: &force.force_n,
             fixed_offset_s: Some(0.0),
@@ -676,17 +681,21 @@ pub fn analyse(
             .evaluate(0.0, lm0.tau_s, lm0.instant_fraction)
             .unwrap_or(lm0);
         let d: Vec<f64> = (0..tw.len())
-            .map(|i| s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid))
+            .map(|i| {
+                if fc[i].is_finite() {
+                    s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)
+                } else {
+                    f64::NAN
+                }
+            })
             .collect();
-        let dv: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
-        let fv: Vec<f64> = idx.iter().map(|&i| fc[i]).collect();
-        let line = fit::fit_line(&fv, &dv).ok_or_else(|| {
+        let line = fit::fit_line(&fc, &d).ok_or_else(|| {
             anyhow::anyhow!(
                 "grating `{}`: the force does not vary; no line can be fitted",
                 g.name
             )
         })?;
-        let (hyst, nonlin) = hysteresis_and_linearity(&fv, &dv, &line);
+        let (hyst, nonlin) = hysteresis_and_linearity(&fc, &d, &line);
         // Pulses.
         let sign = if lm.k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
         let mut pres = Vec::new();
@@ -741,6 +750,11 @@ pub fn analyse(
         let result = GratingResult {
             grating: g.name.clone(),
             core: g.core.clone(),
+            core_material: g
+                .core
+                .as_ref()
+                .and_then(|c| module.cores.iter().find(|x| &x.name == c))
+                .map(|c| c.material.clone()),
             nominal_nm: g.bragg_wavelength_nm,
             window_half_width_nm: hw,
             rows_with_peak: t.rows_present,
@@ -856,6 +870,9 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
         // Residuals from the line, so that samples spread across a bin compare fairly.
         let res = shift[i] - (line.intercept + line.slope * force[i]);
         let df = force[i + 1] - force[i - 1];
+        if !res.is_finite() || !df.is_finite() {
+            continue;
+        }
         if df > 0.0 {
             acc[b][0] += res;
             acc[b][1] += 1.0;
