@@ -309,3 +309,29 @@ mod never_panics {
         }
     }
 }
+
+#[test]
+fn compression_logged_as_negative_force_is_flipped_and_counted() {
+    let d = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, mut force, truth) = synth::generate(&d, &cfg).unwrap();
+    force.force_n.iter_mut().for_each(|f| *f = -*f);
+    let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (m, _) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
+    assert_eq!(m.warnings.count("force_sign_flipped"), 1);
+    let k = truth.gratings[0].sensitivity_pm_per_n;
+    assert!((m.gratings[0].sensitivity_pm_per_n - k).abs() / k < 0.01);
+    assert_eq!(m.gratings[0].pulses.len(), truth.gratings[0].lags_s.len());
+}

@@ -497,6 +497,22 @@ pub fn analyse(
     let range = opts.max_clock_offset_s.max(0.0);
     // Force times in the wavelength frame, before the residual offset.
     let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
+    // Some stands log compression as negative force: if the force's excursions go
+    // down rather than up, flip it (and say so) so that pulses are peaks.
+    let med = percentile(&force.force_n, 0.5);
+    let flip = (percentile(&force.force_n, 0.001) - med).abs()
+        > (percentile(&force.force_n, 0.999) - med).abs();
+    let fval: Vec<f64> = if flip {
+        warnings.add("force_sign_flipped", || {
+            format!(
+                "{}: the force pulses go negative (compression logged as negative); the force was negated",
+                force.source.display()
+            )
+        });
+        force.force_n.iter().map(|f| -f).collect()
+    } else {
+        force.force_n.clone()
+    };
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (u[0], u[u.len() - 1]);
     let gap = (fa - wb).max(wa - fb);
@@ -530,11 +546,10 @@ pub fn analyse(
         Some(o) => (o - prior, "given"),
         None => {
             let s = &used[primary].1;
-            let (dx, _) =
-                xcorr_offset(&tw, s, &u, &force.force_n, a, b, range).ok_or_else(|| {
-                    anyhow::anyhow!("the logs overlap too little to align their clocks")
-                })?;
-            let coarse = FitData::new(&tw, s, &u, &force.force_n, a, b, 20_000, 50_000, 30.0);
+            let (dx, _) = xcorr_offset(&tw, s, &u, &fval, a, b, range).ok_or_else(|| {
+                anyhow::anyhow!("the logs overlap too little to align their clocks")
+            })?;
+            let coarse = FitData::new(&tw, s, &u, &fval, a, b, 20_000, 50_000, 30.0);
             let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
             let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
                 .par_iter()
@@ -557,7 +572,7 @@ pub fn analyse(
                 &tw,
                 s,
                 &u,
-                &force.force_n,
+                &fval,
                 a,
                 a + span.max(1.0),
                 50_000,
@@ -600,15 +615,15 @@ pub fn analyse(
             if t < fa || t > fb {
                 f64::NAN
             } else {
-                fit::interp(&fu, &force.force_n, t, &mut h)
+                fit::interp(&fu, &fval, t, &mut h)
             }
         })
         .collect();
     let resolution_pm = opts
         .resolution_pm
         .unwrap_or_else(|| log.format.typical_resolution_pm());
-    let pulses = detect_pulses(&force.force_n);
-    let fbase = percentile(&force.force_n, 0.1);
+    let pulses = detect_pulses(&fval);
+    let fbase = percentile(&fval, 0.1);
     if pulses.is_empty() {
         bail!(
             "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
@@ -627,7 +642,7 @@ pub fn analyse(
             &tw,
             s,
             &fu,
-            &force.force_n,
+            &fval,
             wa.max(fa),
             wb.min(fb),
             20_000,
@@ -673,7 +688,7 @@ pub fn analyse(
             shift_t: &tw,
             shift_pm: s,
             force_t: &fu,
-            force_n: &force.force_n,
+            force_n: &fval,
             fixed_offset_s: Some(0.0),
             t_mid,
         };
@@ -701,7 +716,7 @@ pub fn analyse(
         let mut pres = Vec::new();
         for (pi, p) in pulses.iter().enumerate() {
             let seg_t = &fu[p.start..=p.end];
-            let seg_f = &force.force_n[p.start..=p.end];
+            let seg_f = &fval[p.start..=p.end];
             let im = (0..seg_f.len())
                 .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
                 .unwrap_or(0);
