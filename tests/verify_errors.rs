@@ -373,7 +373,10 @@ fn chunked_parallel_parsing_keeps_rows_and_line_numbers() {
     assert_eq!(pl.rows(), log.time_s.len() - 3);
     assert_eq!(pl.warnings.count("unreadable_line"), 3);
     let first = &pl.warnings.counts["unreadable_line"].first;
-    assert!(first.contains(&format!("big.txt:{}: ", targets[0] + 1)), "{first}");
+    assert!(
+        first.contains(&format!("big.txt:{}: ", targets[0] + 1)),
+        "{first}"
+    );
     // Every row keeps its own line number and its peaks.
     for (r, &line) in pl.line_of_row.iter().enumerate().step_by(997) {
         let want = lines[line as usize - 1];
