@@ -50,11 +50,24 @@ pub fn summary(r: &VerifyReport) -> String {
         m.force_samples,
         m.force_rate_hz
     );
+    // A wall clock against a relative one gives an offset of ~1.7e9 s: correct but
+    // unreadable, so only the force log's start is printed then (JSON has both).
+    let offset = if m.clock_offset_s.abs() < 1e6 {
+        format!(
+            "clock offset {:.4} s ({}), ",
+            m.clock_offset_s, m.clock_offset_source
+        )
+    } else {
+        format!("clock offset {} (", m.clock_offset_source)
+    };
+    let close = if m.clock_offset_s.abs() < 1e6 {
+        ""
+    } else {
+        ")"
+    };
     let _ = writeln!(
         s,
-        "clock offset {:.4} s ({}; force log starts at {:.4} s), overlap {:.1} s, {} pulses, temperature reference: {}",
-        m.clock_offset_s,
-        m.clock_offset_source,
+        "{offset}force log starts at {:.4} s{close}, overlap {:.1} s, {} pulses, temperature reference: {}",
         m.force_log_start_s,
         m.overlap_s,
         m.pulse_count,
