@@ -386,3 +386,19 @@ fn chunked_parallel_parsing_keeps_rows_and_line_numbers() {
     // Epoch seconds near 1.7e9 carry about 0.2 µs of rounding.
     assert!((pl.median_period_s() - 1e-3).abs() < 1e-6);
 }
+
+#[test]
+fn a_shift_that_leaves_its_window_under_load_is_reported() {
+    // 150 pm/N at up to 60 N is a 9 nm shift: far outside the default ±2.5 nm window,
+    // so the high-force rows lose their peak and the fit would be biased low.
+    let cfg = SynthConfig {
+        sensitivity_pm_per_n: 150.0,
+        ..Default::default()
+    };
+    let big = analyse_edited(&cfg, |_| {}, &AnalysisOptions::default()).unwrap();
+    assert!(big.warnings.count("peaks_outside_window") > 0);
+    // The default 12 pm/N stays inside its window: no such warning.
+    let small =
+        analyse_edited(&SynthConfig::default(), |_| {}, &AnalysisOptions::default()).unwrap();
+    assert_eq!(small.warnings.count("peaks_outside_window"), 0);
+}

@@ -479,6 +479,19 @@ pub fn analyse(
             warnings.add("grating_missing", || msg);
             continue;
         }
+        // A peak that leaves its window under load is dropped, and the fit then sees
+        // only the low-force part of each pulse: K and R² come out biased low.
+        let missing = rows - t.rows_present;
+        if missing * 50 > rows {
+            warnings.add_n("peaks_outside_window", missing, || {
+                format!(
+                    "{}: grating `{}` has no peak in its window {} ± {hw:.3} nm in {missing} of {rows} rows; if they gather at high force the shift leaves the window and K is biased low (--window-nm widens it)",
+                    log.source.display(),
+                    g.name,
+                    g.bragg_wavelength_nm
+                )
+            });
+        }
         let s =
             assign::compensated_shift_pm(t, ref_track.as_ref().map(|(t, f)| (*t, f.as_slice())));
         used.push((i, s));
