@@ -1,7 +1,9 @@
-//! `fbgforge bench reconstruct`: the paper's protocol for every method, speed against
-//! accuracy, stream throughput, and the failure studies (noise, number of loads,
-//! ill-conditioned layouts, column normalisation). Prints tables; writes CSV, JSON,
-//! SVG and a Markdown report of the same numbers.
+//! `fbgforge bench reconstruct`: the additivity errors of the noise models, the
+//! paper's protocol for every method, speed against accuracy, stream throughput, and
+//! the failure studies (noise level, noise model — the default against the pessimistic
+//! full-span hysteresis —, number of loads, ill-conditioned layouts, column
+//! normalisation). Prints tables; writes CSV, JSON, SVG and a Markdown report of the
+//! same numbers.
 
 use super::kernel::{
     fit_paper, fit_power_law, matrix_from_positions, matrix_quality, paper_layout, DistanceKernel,
