@@ -191,15 +191,24 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
 /// Run the grid, write `fem_comparison.csv`, `.md` and `.svg` into `out_dir`, print
 /// the table, and return the rows.
 pub fn run_comparison(out_dir: &Path) -> Result<Vec<ComparisonRow>> {
+    run_comparison_on(out_dir, &GRID_DIAMETERS_MM, &GRID_WALLS_MM)
+}
+
+/// [`run_comparison`] on a chosen grid of outer diameters and walls, mm.
+pub fn run_comparison_on(
+    out_dir: &Path,
+    diameters_mm: &[f64],
+    walls_mm: &[f64],
+) -> Result<Vec<ComparisonRow>> {
     let base = super::bench::paper_design()?;
     let pb = crate::progress::bar(
-        (GRID_DIAMETERS_MM.len() * GRID_WALLS_MM.len()) as u64,
+        (diameters_mm.len() * walls_mm.len()) as u64,
         "comparison",
     );
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
-    for &d in &GRID_DIAMETERS_MM {
-        for &w in &GRID_WALLS_MM {
+    for &d in diameters_mm {
+        for &w in walls_mm {
             pb.inc(1);
             match scaled_design(&base, d, w) {
                 Ok(design) => rows.extend(compare_design(&design, 1)?),
