@@ -4,8 +4,8 @@
 
 use fbgforge::fem::compare::{scaled_design, TOLERANCE};
 use fbgforge::fem::{
-    self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Configuration,
-    FemOptions, Fidelity, FidelityChoice,
+    self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Configuration, FemOptions,
+    Fidelity, FidelityChoice,
 };
 use fbgforge::model::{LoadCase, PredictOptions};
 use fbgforge::spec::{self, Design};
@@ -137,8 +137,7 @@ fn forced_fidelity_overrides_the_region() {
     // Case II is inside the region, yet `fem` solves it: close to, but not equal to,
     // the closed form.
     let rows =
-        predict_with_fidelity(&d, &opts, FidelityChoice::Fem, Some(LoadCase::II), &fe_opt)
-            .unwrap();
+        predict_with_fidelity(&d, &opts, FidelityChoice::Fem, Some(LoadCase::II), &fe_opt).unwrap();
     let closed = fbgforge::model::predict(&d, 1.0).unwrap();
     assert_eq!(rows.len(), 4);
     for r in &rows {
@@ -149,7 +148,11 @@ fn forced_fidelity_overrides_the_region() {
             .find(|c| c.grating == p.grating && c.case == LoadCase::II)
             .unwrap();
         let diff = (c.sensitivity_pm_per_n - p.sensitivity_pm_per_n) / p.sensitivity_pm_per_n.abs();
-        assert!(diff.abs() > 1e-4 && diff.abs() < TOLERANCE, "{}: {diff}", p.grating);
+        assert!(
+            diff.abs() > 1e-4 && diff.abs() < TOLERANCE,
+            "{}: {diff}",
+            p.grating
+        );
         assert!(r.detail.core_load_share.is_nan());
     }
     // Case I is outside, yet `closed-form` answers it from the closed form.
@@ -235,5 +238,9 @@ fn cli_auto_switches_model_at_the_measured_diameter_limit() {
         .unwrap();
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && out.contains("model"), "{out}");
-    assert_eq!(out.lines().filter(|l| l.contains(" closed-form ")).count(), 4, "{out}");
+    assert_eq!(
+        out.lines().filter(|l| l.contains(" closed-form ")).count(),
+        4,
+        "{out}"
+    );
 }

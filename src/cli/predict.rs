@@ -1,8 +1,8 @@
 //! `fbgforge predict`, `fbgforge sweep` and `fbgforge bench predict`: the
 //! opto-mechanical model from the command line.
 
-use crate::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use crate::fem::{predict_with_fidelity, FemOptions, Fidelity, FidelityChoice};
+use crate::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use crate::model::{self, closed_form, LoadCase, ModuleModelParams, PredictOptions};
 use crate::output::{ensure_dir, write_csv, write_json};
 use crate::plot::{Chart, Mark, Series};
@@ -193,7 +193,9 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
                 }
             );
         }
-        FidelityChoice::ClosedForm => println!("model: closed form forced (--fidelity closed-form)."),
+        FidelityChoice::ClosedForm => {
+            println!("model: closed form forced (--fidelity closed-form).")
+        }
         FidelityChoice::Fem => println!("model: finite elements forced (--fidelity fem)."),
     }
     for (i, n) in notes.iter().enumerate() {

@@ -201,10 +201,7 @@ pub fn run_comparison_on(
     walls_mm: &[f64],
 ) -> Result<Vec<ComparisonRow>> {
     let base = super::bench::paper_design()?;
-    let pb = crate::progress::bar(
-        (diameters_mm.len() * walls_mm.len()) as u64,
-        "comparison",
-    );
+    let pb = crate::progress::bar((diameters_mm.len() * walls_mm.len()) as u64, "comparison");
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
     for &d in diameters_mm {
@@ -343,11 +340,13 @@ pub struct ValidityRegion {
 
 /// The measured validity region of the closed form.
 ///
-/// Measured by `fbgforge bench fem` (table in docs/fem.md, level-1 meshes): every
-/// Case II grid point, D = 10 to 40 mm, t/R = 0.050 to 0.649, is within 3.6 % of the
-/// FE model, so Case II is trusted up to the largest t/R measured. No Case I grid point
-/// is within 8 % (the closed form's series load path through a base clip is not how a
-/// body with bonded pillars carries the load), so Case I always goes to the FE model.
+/// Measured by `fbgforge bench fem` (table in docs/fem.md §6 and docs/model.md §9,
+/// level-1 meshes; re-run after the profile put the domes one clearance apart): every
+/// Case II grid point, D = 10 to 40 mm, t/R = 0.050 to 0.649, is within −0.93 % to
+/// +3.49 % of the FE model, so Case II is trusted up to the largest t/R measured. No
+/// Case I grid point is within 8 % (the closed form's series load path through a base
+/// clip is not how a body with bonded pillars carries the load), so Case I always goes
+/// to the FE model.
 pub fn validity() -> ValidityRegion {
     ValidityRegion {
         diameter_range_mm: (

@@ -76,9 +76,10 @@ pub fn predict_with_fidelity(
             let i = match solved.iter().position(|r| r.configuration == config) {
                 Some(i) => i,
                 None => {
-                    let r = solve_configuration(design, &config, fem_options).with_context(
-                        || format!("finite-element solve of {}", super::bench::label(&config)),
-                    )?;
+                    let r =
+                        solve_configuration(design, &config, fem_options).with_context(|| {
+                            format!("finite-element solve of {}", super::bench::label(&config))
+                        })?;
                     solved.push(r);
                     solved.len() - 1
                 }
@@ -125,9 +126,8 @@ fn apply_fem_strain(
     // zones, the dome gap); the FE model has only the linear-range limits.
     p.warnings.clear();
     if f < 0.0 {
-        p.warnings.push(
-            "a pulling force lifts the module off its support: both cases need F ≥ 0".into(),
-        );
+        p.warnings
+            .push("a pulling force lifts the module off its support: both cases need F ≥ 0".into());
     }
     if strain.abs() > model::validity::GRATING_MAX_STRAIN {
         p.warnings.push(format!(
