@@ -35,8 +35,8 @@ pub struct BenchFemArgs {
     /// Output folder for the CSV, Markdown and SVG files.
     #[arg(long, default_value = "out/fem")]
     pub out: PathBuf,
-    /// Smoke run: one refinement level fewer and a 3 × 3 comparison grid (seconds
-    /// instead of minutes; quote the full run).
+    /// Smoke run: one refinement level fewer and a 3 × 3 comparison grid (about 30 s
+    /// instead of 2 min in a release build; quote the full run).
     #[arg(long)]
     pub quick: bool,
 }
