@@ -1,11 +1,13 @@
 //! `--fidelity auto`: the closed form inside its measured validity region, the FE
-//! model outside it. Each decision is checked against a fresh FE solve.
+//! model outside it. Each decision is checked against a fresh FE solve, through the
+//! library (`predict_with_fidelity`) and the CLI (`predict --fidelity`).
 
 use fbgforge::fem::compare::{scaled_design, TOLERANCE};
 use fbgforge::fem::{
-    self, choose_fidelity, choose_fidelity_for, Configuration, FemOptions, Fidelity,
+    self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Configuration, FemOptions,
+    Fidelity, FidelityChoice,
 };
-use fbgforge::model::LoadCase;
+use fbgforge::model::{LoadCase, PredictOptions};
 use fbgforge::spec::{self, Design};
 use std::path::Path;
 
@@ -66,4 +68,179 @@ fn designs_outside_the_measured_size_range_use_the_fem() {
 fn scaled_family_rejects_walls_too_thick_for_the_diameter() {
     let err = scaled_design(&design(), 10.0, 1.5).unwrap_err();
     assert_eq!(err.field, "module.cap_wall_mm");
+}
+
+/// FE K of one grating of `conf`, solved here independently of `predict_with_fidelity`.
+fn fem_k(d: &Design, conf: &Configuration, grating: &str, opt: &FemOptions) -> f64 {
+    let r = fem::solve_configuration(d, conf, opt).unwrap();
+    let (_, lambda, e) = r
+        .strain_per_n
+        .iter()
+        .find(|g| g.0 == grating)
+        .cloned()
+        .unwrap();
+    d.fiber.shift_pm(lambda, e, 0.0)
+}
+
+#[test]
+fn auto_answers_case_ii_with_the_closed_form_and_case_i_with_the_fem_and_says_so() {
+    let mut d = design();
+    // Blue insert only: two FE configurations (psc1, psc2) keep the dev-profile test short.
+    d.module.as_mut().unwrap().inserts.truncate(1);
+    let opts = PredictOptions {
+        force_n: 2.0,
+        delta_t_k: 0.0,
+    };
+    let fe_opt = FemOptions::level(0);
+    let rows = predict_with_fidelity(&d, &opts, FidelityChoice::Auto, None, &fe_opt).unwrap();
+    let closed = fbgforge::model::predict(&d, 2.0).unwrap();
+    assert_eq!(rows.len(), closed.len());
+    let mut seen = (0, 0);
+    for (r, c) in rows.iter().zip(&closed) {
+        let p = &r.detail.prediction;
+        assert_eq!((&p.grating, p.case), (&c.grating, c.case));
+        match p.case {
+            LoadCase::II => {
+                seen.0 += 1;
+                assert_eq!(r.model, Fidelity::ClosedForm, "{}", p.grating);
+                assert_eq!(p.sensitivity_pm_per_n, c.sensitivity_pm_per_n);
+            }
+            LoadCase::I => {
+                seen.1 += 1;
+                assert_eq!(r.model, Fidelity::Fem, "{}", p.grating);
+                let conf = Configuration {
+                    core: p.core.clone(),
+                    case: LoadCase::I,
+                    insert: p.insert.clone(),
+                };
+                let k = fem_k(&d, &conf, &p.grating, &fe_opt);
+                assert!((p.sensitivity_pm_per_n - k).abs() <= 1e-9 * k.abs());
+                assert!((p.shift_pm - 2.0 * k).abs() <= 1e-9 * k.abs().max(1.0));
+                // The row is not the closed form's number in disguise: Case I is the
+                // case the closed form misses by more than the tolerance.
+                let miss = (c.sensitivity_pm_per_n - k) / k.abs();
+                assert!(miss.abs() > TOLERANCE, "{}: {miss:.3}", p.grating);
+            }
+        }
+    }
+    assert_eq!(seen, (4, 4));
+}
+
+#[test]
+fn forced_fidelity_overrides_the_region() {
+    let d = design();
+    let opts = PredictOptions {
+        force_n: 1.0,
+        delta_t_k: 0.0,
+    };
+    let fe_opt = FemOptions::level(0);
+    // Case II is inside the region, yet `fem` solves it: close to, but not equal to,
+    // the closed form.
+    let rows =
+        predict_with_fidelity(&d, &opts, FidelityChoice::Fem, Some(LoadCase::II), &fe_opt).unwrap();
+    let closed = fbgforge::model::predict(&d, 1.0).unwrap();
+    assert_eq!(rows.len(), 4);
+    for r in &rows {
+        let p = &r.detail.prediction;
+        assert_eq!((r.model, p.case), (Fidelity::Fem, LoadCase::II));
+        let c = closed
+            .iter()
+            .find(|c| c.grating == p.grating && c.case == LoadCase::II)
+            .unwrap();
+        let diff = (c.sensitivity_pm_per_n - p.sensitivity_pm_per_n) / p.sensitivity_pm_per_n.abs();
+        assert!(
+            diff.abs() > 1e-4 && diff.abs() < TOLERANCE,
+            "{}: {diff}",
+            p.grating
+        );
+        assert!(r.detail.core_load_share.is_nan());
+    }
+    // Case I is outside, yet `closed-form` answers it from the closed form.
+    let rows = predict_with_fidelity(
+        &d,
+        &opts,
+        FidelityChoice::ClosedForm,
+        Some(LoadCase::I),
+        &fe_opt,
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 12);
+    for r in &rows {
+        let p = &r.detail.prediction;
+        assert_eq!(r.model, Fidelity::ClosedForm);
+        let c = closed
+            .iter()
+            .find(|c| c.grating == p.grating && c.case == p.case && c.insert == p.insert)
+            .unwrap();
+        assert_eq!(p.sensitivity_pm_per_n, c.sensitivity_pm_per_n);
+    }
+}
+
+fn bin() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+}
+
+/// The paper's spec text with the inserts removed and the outer diameter replaced.
+fn hollow_design_toml(diameter_mm: f64) -> String {
+    let text = std::fs::read_to_string("designs/clip-on-34mm.toml").unwrap();
+    let cut = text.find("[[module.inserts]]").unwrap();
+    let rest = &text[cut..];
+    let gratings = rest.find("[[module.gratings]]").unwrap();
+    let hollow = format!("{}{}", &text[..cut], &rest[gratings..]);
+    assert!(hollow.contains("outer_diameter_mm = 34.0"));
+    hollow.replace(
+        "outer_diameter_mm = 34.0",
+        &format!("outer_diameter_mm = {diameter_mm:.1}"),
+    )
+}
+
+#[test]
+fn cli_auto_switches_model_at_the_measured_diameter_limit() {
+    let limit = fem::validity().diameter_range_mm.1;
+    let dir = tempfile::tempdir().unwrap();
+    // Same hollow-core design just inside and just outside the largest measured D.
+    for (d_mm, expected) in [(limit, "closed-form"), (limit + 4.0, "fem")] {
+        let path = dir.path().join(format!("hollow-{d_mm}.toml"));
+        std::fs::write(&path, hollow_design_toml(d_mm)).unwrap();
+        let o = bin()
+            .args(["predict", path.to_str().unwrap(), "--json"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["fidelity"], "auto");
+        let d = spec::load(&path).unwrap();
+        let closed = fbgforge::model::predict(&d, 10.0).unwrap();
+        let preds = v["predictions"].as_array().unwrap();
+        assert_eq!(preds.len(), 4);
+        for (j, c) in preds.iter().zip(&closed) {
+            assert_eq!(j["model"], expected, "D = {d_mm} mm");
+            let k = j["sensitivity_pm_per_n"].as_f64().unwrap();
+            let conf = Configuration {
+                core: c.core.clone(),
+                case: LoadCase::II,
+                insert: None,
+            };
+            let want = if expected == "fem" {
+                fem_k(&d, &conf, &c.grating, &FemOptions::default())
+            } else {
+                c.sensitivity_pm_per_n
+            };
+            assert!((k - want).abs() <= 1e-9 * want.abs(), "{k} vs {want}");
+            // Which model answered is visible in the number too.
+            assert_eq!(expected == "fem", (k - c.sensitivity_pm_per_n).abs() > 1e-6);
+        }
+    }
+    // The table names the model of every row.
+    let o = bin()
+        .args(["predict", "designs/clip-on-34mm.toml", "--case", "II"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && out.contains("model"), "{out}");
+    assert_eq!(
+        out.lines().filter(|l| l.contains(" closed-form ")).count(),
+        4,
+        "{out}"
+    );
 }

@@ -30,6 +30,8 @@ fn predict_json_matches_the_library() {
         path.to_str().unwrap(),
         "--force-n",
         "12.5",
+        "--fidelity",
+        "closed-form",
         "--json",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -48,7 +50,12 @@ fn predict_json_matches_the_library() {
 
 #[test]
 fn predict_table_names_every_configuration() {
-    let o = run(&["predict", design("clip-on-16mm.toml").to_str().unwrap()]);
+    let o = run(&[
+        "predict",
+        design("clip-on-16mm.toml").to_str().unwrap(),
+        "--fidelity",
+        "closed-form",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     for word in [
@@ -58,6 +65,7 @@ fn predict_table_names_every_configuration() {
         "green",
         "light_green",
         "K pm/N",
+        "closed-form",
     ] {
         assert!(out.contains(word), "missing {word} in\n{out}");
     }

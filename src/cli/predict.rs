@@ -1,6 +1,7 @@
 //! `fbgforge predict`, `fbgforge sweep` and `fbgforge bench predict`: the
 //! opto-mechanical model from the command line.
 
+use crate::fem::{predict_with_fidelity, FemOptions, Fidelity, FidelityChoice};
 use crate::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use crate::model::{self, closed_form, LoadCase, ModuleModelParams, PredictOptions};
 use crate::output::{ensure_dir, write_csv, write_json};
@@ -26,9 +27,42 @@ pub struct PredictArgs {
     /// Keep only one loading case (Case I needs an insert in the design).
     #[arg(long, value_enum)]
     pub case: Option<CaseArg>,
+    /// Which model answers: `auto` uses the closed form inside its measured validity
+    /// region (docs/model.md, "Where the closed form holds") and the finite-element
+    /// model outside it, per loading case; `closed-form` and `fem` force one model.
+    #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
+    pub fidelity: FidelityArg,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--fidelity` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FidelityArg {
+    /// Closed form inside its measured validity region, finite elements outside.
+    Auto,
+    /// The closed form for every row (microseconds).
+    ClosedForm,
+    /// The finite-element model for every row (a fraction of a second per configuration).
+    Fem,
+}
+
+impl From<FidelityArg> for FidelityChoice {
+    fn from(f: FidelityArg) -> Self {
+        match f {
+            FidelityArg::Auto => FidelityChoice::Auto,
+            FidelityArg::ClosedForm => FidelityChoice::ClosedForm,
+            FidelityArg::Fem => FidelityChoice::Fem,
+        }
+    }
+}
+
+fn model_name(f: Fidelity) -> &'static str {
+    match f {
+        Fidelity::ClosedForm => "closed-form",
+        Fidelity::Fem => "fem",
+    }
 }
 
 /// Run `fbgforge predict`.
@@ -53,21 +87,25 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             a.design.display()
         );
     }
-    let mut preds = model::predict_with(
+    let choice = FidelityChoice::from(a.fidelity);
+    let rows = predict_with_fidelity(
         &design,
         &PredictOptions {
             force_n: a.force_n,
             delta_t_k: a.delta_t_k,
         },
+        choice,
+        case,
+        &FemOptions::default(),
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
-    preds.retain(|d| case.is_none_or(|c| c == d.prediction.case));
     if a.json {
         let doc = serde_json::json!({
             "design": design.name,
             "force_n": a.force_n,
             "delta_t_k": a.delta_t_k,
-            "predictions": preds,
+            "fidelity": choice,
+            "predictions": rows,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
@@ -79,14 +117,24 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     let mut notes: Vec<String> = Vec::new();
     let temp = a.delta_t_k != 0.0;
     print!(
-        "{:<12} {:<6} {:<4} {:<12} {:>8} {:>10} {:>11} {:>10} {:>8}",
-        "grating", "core", "case", "insert", "E1 MPa", "K pm/N", "shift pm", "strain µε", "share"
+        "{:<12} {:<6} {:<4} {:<12} {:<11} {:>8} {:>10} {:>11} {:>10} {:>8}",
+        "grating",
+        "core",
+        "case",
+        "insert",
+        "model",
+        "E1 MPa",
+        "K pm/N",
+        "shift pm",
+        "strain µε",
+        "share"
     );
     if temp {
         print!(" {:>11} {:>12}", "raw pm", "compens. pm");
     }
     println!("  warnings");
-    for d in &preds {
+    for row in &rows {
+        let d = &row.detail;
         let p = &d.prediction;
         let refs: Vec<String> = p
             .warnings
@@ -99,17 +147,23 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
                 format!("[{}]", i + 1)
             })
             .collect();
+        let share = if d.core_load_share.is_finite() {
+            format!("{:.4}", d.core_load_share)
+        } else {
+            "-".to_string()
+        };
         print!(
-            "{:<12} {:<6} {:<4} {:<12} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8.4}",
+            "{:<12} {:<6} {:<4} {:<12} {:<11} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
             p.grating,
             p.core,
             p.case.to_string(),
             p.insert.as_deref().unwrap_or("-"),
+            model_name(row.model),
             d.core_modulus_mpa,
             p.sensitivity_pm_per_n,
             p.shift_pm,
             p.strain * 1e6,
-            d.core_load_share
+            share
         );
         if temp {
             let comp = d
@@ -121,8 +175,29 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     }
     println!("K > 0: red shift (core cylinder in tension); K < 0: blue shift.");
     println!(
-        "share: Case I, share of F through the cap→core loop; Case II, share carried by the core."
+        "share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only)."
     );
+    match choice {
+        FidelityChoice::Auto => {
+            let v = crate::fem::validity();
+            println!(
+                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE elsewhere.",
+                v.tolerance * 100.0,
+                v.diameter_range_mm.0,
+                v.diameter_range_mm.1,
+                v.max_wall_to_radius_case_ii,
+                if v.max_wall_to_radius_case_i > 0.0 {
+                    format!("core t/R ≤ {}", v.max_wall_to_radius_case_i)
+                } else {
+                    "never".to_string()
+                }
+            );
+        }
+        FidelityChoice::ClosedForm => {
+            println!("model: closed form forced (--fidelity closed-form).")
+        }
+        FidelityChoice::Fem => println!("model: finite elements forced (--fidelity fem)."),
+    }
     for (i, n) in notes.iter().enumerate() {
         println!("[{}] {n}", i + 1);
     }

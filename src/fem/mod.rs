@@ -11,11 +11,13 @@
 //!
 //! Submodules: [`element`] (Q9/P1 element), [`mesh`] (mesh data, edge loads),
 //! [`solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
-//! contacts, supports and load), [`compare`] (closed form vs FE), [`bench`].
+//! contacts, supports and load), [`compare`] (closed form vs FE), [`fidelity`]
+//! (`predict --fidelity`: each row from the model its case needs), [`bench`].
 
 pub mod bench;
 pub mod compare;
 pub mod element;
+pub mod fidelity;
 pub mod mesh;
 pub mod module;
 pub mod solve;
@@ -191,3 +193,4 @@ pub fn predict(design: &Design, force_n: f64, opt: &FemOptions) -> Result<Vec<Gr
 }
 
 pub use compare::{choose_fidelity, choose_fidelity_for, validity, Fidelity, ValidityRegion};
+pub use fidelity::{predict_with_fidelity, FidelityChoice, ModelledPrediction};

@@ -35,8 +35,9 @@
 //!   alternative [`PillarCoupling::BaseClip`] lets the cap slide axially over the
 //!   pillars' outer face except in a clip band at the base: the closed form's
 //!   series load path.
-//! - Above the pillars, the cap's dome and the core's dome are one clearance plus one
-//!   pillar height apart in the printed geometry. [`DomeContact::Gap`] keeps that gap
+//! - Above the pillars, the cap's dome and the core's dome are one cap/core clearance
+//!   apart in the printed geometry (0.1 mm in the paper design; the profile puts the
+//!   core's dome sphere just inside the cap's). [`DomeContact::Gap`] keeps that gap
 //!   (the force reaches the core only through the pillars); [`DomeContact::Tied`] ties
 //!   all facing dome nodes; [`DomeContact::ApexPatch`] (default) ties them within the
 //!   apex contact patch, radius = apex flat radius + cap wall / 2, so that the force

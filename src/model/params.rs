@@ -58,7 +58,8 @@ pub struct ModuleGeometry {
     /// Insert radius, mm.
     pub insert_radius_mm: f64,
     /// Radial gap between the cap's inner dome and the core's outer dome as printed
-    /// (clearance + pillar height), mm. The model assumes it closed (paper assumption 3).
+    /// (one cap/core clearance), mm. The model assumes it closed (paper assumption 3);
+    /// it closes at F = gap / c_L, a fraction of a newton (docs/model.md §5.3).
     pub dome_gap_mm: f64,
 }
 
