@@ -6,6 +6,7 @@
 pub mod cli;
 pub mod grating;
 pub mod model;
+pub mod optimize;
 pub mod output;
 pub mod plot;
 pub mod profile;
