@@ -293,11 +293,25 @@ impl Evaluation {
     pub fn total_violation(&self) -> f64 {
         self.constraints.iter().map(|c| c.violation).sum()
     }
+    /// How far from feasible, for ranking infeasible designs: designs whose geometry,
+    /// spec or model fails rank behind designs that only break a physics constraint
+    /// (strain, wavelength window), since only the latter were checked in full.
+    pub fn infeasibility_rank(&self) -> (u8, f64) {
+        let geometric = self
+            .constraints
+            .iter()
+            .any(|c| c.violation > 0.0 && !PHYSICS_CONSTRAINTS.contains(&c.name.as_str()));
+        (u8::from(geometric), self.total_violation())
+    }
+
     /// True when every constraint is met.
     pub fn feasible(&self) -> bool {
         self.constraints.iter().all(|c| c.violation <= 0.0)
     }
 }
+
+/// Constraints checked on the model's prediction (only once the geometry is valid).
+pub const PHYSICS_CONSTRAINTS: [&str; 2] = ["grating_strain", "wavelength_window"];
 
 /// The problem for one discrete choice.
 pub struct ModuleProblem {
@@ -544,10 +558,13 @@ impl ModuleProblem {
             .max(0.4)
             .min(bp.fiber_hole_diameter_mm.max(0.4));
         p.groove_depth_mm = (bp.groove_depth_mm * s).max(0.1);
-        p.groove_width_mm = (bp.groove_width_mm * s).max(2.0 * m.cap_core_clearance_mm + min_wall);
-        p.width_mm = (bp.width_mm * s).max(p.groove_width_mm + 2.0 * min_wall);
-        p.height_mm =
-            (bp.height_mm * s).max(p.groove_depth_mm + p.fiber_hole_diameter_mm + 2.0 * min_wall);
+        // EPS keeps the floors strictly inside the spec's limits despite rounding.
+        const EPS: f64 = 1e-3;
+        p.groove_width_mm =
+            (bp.groove_width_mm * s).max(2.0 * m.cap_core_clearance_mm + min_wall + EPS);
+        p.width_mm = (bp.width_mm * s).max(p.groove_width_mm + 2.0 * min_wall + EPS);
+        p.height_mm = (bp.height_mm * s)
+            .max(p.groove_depth_mm + p.fiber_hole_diameter_mm + 2.0 * min_wall + EPS);
         m.top_hole_diameter_mm = (b.top_hole_diameter_mm * s).max(0.4);
         m.apex_flat_diameter_mm = (b.apex_flat_diameter_mm * s).max(2.0 * d.printer.resolution_mm);
         // Gratings keep their relative height, inside the cylindrical section.
@@ -769,14 +786,14 @@ impl ModuleProblem {
         );
     }
 
-    /// Penalised cost of an evaluation: −objective/scale, plus 1 + 10 × violation when
-    /// infeasible (every infeasible design costs more than any feasible one whose
-    /// objective is below ten times the scale... and the problem keeps the best
-    /// feasible design separately, so the penalty only has to guide the search).
+    /// Penalised cost of an evaluation: −objective/scale when feasible; otherwise
+    /// 1 + 10 × violation, plus 100 when the geometry itself fails. Feasible designs
+    /// cost below 0 and infeasible ones above 1, and the problem keeps the best feasible
+    /// design separately, so the penalty only has to steer the search.
     fn penalised(&self, e: &Evaluation) -> f64 {
-        let v = e.total_violation();
+        let (geometric, v) = e.infeasibility_rank();
         if v > 0.0 {
-            1.0 + 10.0 * v
+            1.0 + 10.0 * v + 100.0 * f64::from(geometric)
         } else {
             -e.objective / self.scale
         }
@@ -813,9 +830,11 @@ impl BoxProblem for ModuleProblem {
                 }
             }
         } else if let Ok(mut b) = self.least_violating.lock() {
-            if b.as_ref()
-                .is_none_or(|o| e.total_violation() < o.total_violation())
-            {
+            let better = |o: &Evaluation| {
+                let (a, b) = (e.infeasibility_rank(), o.infeasibility_rank());
+                a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
+            };
+            if b.as_ref().is_none_or(better) {
                 *b = Some(e);
             }
         }
@@ -1125,7 +1144,10 @@ fn infeasible_error(choices: &[ChoiceResult], settings: &ModuleSettings) -> anyh
     let least = choices
         .iter()
         .filter_map(|c| c.least_violating.as_ref().map(|e| (c, e)))
-        .min_by(|a, b| a.1.total_violation().total_cmp(&b.1.total_violation()));
+        .min_by(|a, b| {
+            let (ra, rb) = (a.1.infeasibility_rank(), b.1.infeasibility_rank());
+            ra.0.cmp(&rb.0).then(ra.1.total_cmp(&rb.1))
+        });
     match least {
         None => anyhow::anyhow!("infeasible: no candidate design could be evaluated"),
         Some((c, e)) => {
