@@ -3,8 +3,10 @@
 //! One design spec ([`spec`]) drives everything. [`profile`] derives every dimension
 //! once; the geometry, the models and the verifier all read it.
 
+pub mod array;
 pub mod cli;
 pub mod grating;
+pub mod logs;
 pub mod model;
 pub mod optimize;
 pub mod output;
@@ -12,3 +14,4 @@ pub mod plot;
 pub mod profile;
 pub mod progress;
 pub mod spec;
+pub mod verify;

@@ -1,0 +1,849 @@
+//! Reconstruction methods behind one trait, with one result type.
+//!
+//! Every method solves the same [`SensingProblem`] (matrix, bounds, normalisation) for
+//! one frame of shifts at a time and returns a [`Reconstruction`] that says whether the
+//! method converged. Methods are interchangeable: [`build`] turns a [`Method`] name and
+//! its settings into a `Box<dyn Reconstructor>` that has already precomputed whatever
+//! depends only on the matrix, so a long stream pays that cost once.
+//!
+//! * `support`: exact ℓ0-penalised bounded least squares — every support of up to
+//!   m cells is tried (255 for 8 cells, pseudo-inverses precomputed), the one with the
+//!   smallest ‖Âz − y‖² + λ·|S| wins. This is the paper's objective with p → 0, solved
+//!   exactly instead of stochastically.
+//!//! * `wsupport`: the same enumeration, but each support is scored by the negative
+//!   log-likelihood of the paper's noise model (interrogator resolution plus a
+//!   hysteresis error per load, so the variance of a grating grows with the loads it
+//!   sees) plus λ·|S|: a weighted fit with a support-dependent variance.
+//! * `nnls`: Lawson–Hanson non-negative least squares, then the upper bound enforced
+//!   by a bounded projected-gradient polish (no sparsity prior beyond x ≥ 0).
+//! * `lasso`: ½‖Âz − y‖² + λ‖z‖₁ over the box, by FISTA with adaptive restart.
+//! * `omp`: non-negative orthogonal matching pursuit; a cell is added only while it
+//!   lowers ‖Âz − y‖² by more than λ (the same trade-off as `support`, greedily).
+//! * `de`: the paper's replica — ‖Âz − y‖² + σ Σ z_jᵖ with p = 0.01, DE/rand/1/bin,
+//!   150 individuals, ≤ 1500 generations (see [`super::de`]).
+//!
+//! No method returns NaN: a frame with a non-finite shift gives all-zero loads marked
+//! not converged, and every load is clamped into [0, ulimit].
+
+use super::de::{DifferentialEvolution, PenalisedCost};
+use super::problem::SensingProblem;
+use super::ArrayError;
+use argmin::core::{Executor, State, TerminationReason};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// The outcome of reconstructing one frame.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Reconstruction {
+    /// Load on each cell, g, within [0, ulimit].
+    pub loads_g: Vec<f64>,
+    /// Whether the method met its own convergence test (exact methods: always, unless
+    /// the input was unusable).
+    pub converged: bool,
+    /// Iterations (DE generations, FISTA steps, OMP atoms, supports tried).
+    pub iterations: u64,
+    /// ‖A x − y‖, pm.
+    pub residual_pm: f64,
+}
+
+/// One frame in, one reconstruction out; precomputed state lives in the implementor.
+pub trait Reconstructor: Send + Sync {
+    /// The method this reconstructor runs.
+    fn method(&self) -> Method;
+    /// Reconstruct the loads of one frame of shifts (pm, one per grating).
+    fn reconstruct(&self, shifts_pm: &[f64]) -> Reconstruction;
+}
+
+/// The available methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+pub enum Method {
+    /// Exact ℓ0-penalised bounded least squares over enumerated supports.
+    Support,
+    /// Like `Support`, with each support scored by the Gaussian likelihood of the
+    /// paper's noise (resolution and per-load hysteresis) instead of plain residuals.
+    WeightedSupport,
+    /// Non-negative least squares (Lawson–Hanson) with the upper bound enforced.
+    Nnls,
+    /// Bounded LASSO by FISTA.
+    Lasso,
+    /// Non-negative orthogonal matching pursuit.
+    Omp,
+    /// The paper's sparse differential evolution.
+    De,
+}
+
+impl Method {
+    /// Every method, fastest exact one first.
+    pub const ALL: [Method; 6] = [
+        Method::WeightedSupport,
+        Method::Support,
+        Method::Nnls,
+        Method::Lasso,
+        Method::Omp,
+        Method::De,
+    ];
+
+    /// Name used on the command line and in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Support => "support",
+            Method::WeightedSupport => "wsupport",
+            Method::Nnls => "nnls",
+            Method::Lasso => "lasso",
+            Method::Omp => "omp",
+            Method::De => "de",
+        }
+    }
+
+    /// Parse a method name (case-insensitive).
+    pub fn from_name(name: &str) -> Result<Method, ArrayError> {
+        Method::ALL
+            .iter()
+            .copied()
+            .find(|m| m.name().eq_ignore_ascii_case(name.trim()))
+            .ok_or_else(|| ArrayError::UnknownMethod {
+                name: name.to_string(),
+                known: Method::ALL.map(|m| m.name()).join(", "),
+            })
+    }
+
+    /// Whether the method has a penalty weight to tune.
+    pub fn has_penalty(self) -> bool {
+        !matches!(self, Method::Nnls)
+    }
+
+    /// Default penalty weight (working units; see [`MethodSettings::penalty`]), tuned
+    /// on the simulated validation set of the paper's protocol with column
+    /// normalisation (`fbgforge bench reconstruct` prints the tuned values).
+    pub fn default_penalty(self) -> f64 {
+        match self {
+            Method::Support => 4.0,
+            Method::WeightedSupport => 2.0,
+            Method::Nnls => 0.0,
+            Method::Lasso => 0.5,
+            Method::Omp => 4.0,
+            Method::De => 4.0,
+        }
+    }
+
+    /// Grid of penalty weights searched when tuning on a validation set.
+    pub fn penalty_grid(self) -> Vec<f64> {
+        match self {
+            Method::Nnls => vec![0.0],
+            Method::Lasso => (0..13).map(|k| 0.01 * 2f64.powi(k)).collect(),
+            Method::WeightedSupport => (0..13).map(|k| 0.25 * 1.5f64.powi(k)).collect(),
+            _ => (0..13).map(|k| 0.0625 * 2f64.powi(k)).collect(),
+        }
+    }
+}
+
+/// Settings shared by every method.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MethodSettings {
+    /// Penalty weight: λ per non-zero load in pm² (`support`, `omp`), in units of the
+    /// negative log-likelihood (`wsupport`), σ in pm² per unit
+    /// of Σ zᵖ (`de`), λ of the ℓ1 term in pm (`lasso`, normalised columns); ignored by
+    /// `nnls`. With normalised columns the working unknown is in pm.
+    pub penalty: f64,
+    /// Seed of the DE generator (mixed with the frame's content, so a frame always gets
+    /// the same answer).
+    pub seed: u64,
+    /// DE population size (paper: 150).
+    pub de_population: usize,
+    /// DE generation limit (paper: 1500).
+    pub de_generations: u64,
+    /// FISTA iteration limit.
+    pub fista_iterations: u64,
+    /// Noise the `wsupport` method assumes.
+    pub noise_prior: NoisePrior,
+}
+
+impl MethodSettings {
+    /// The paper's settings and the method's default penalty.
+    pub fn for_method(method: Method) -> Self {
+        MethodSettings {
+            penalty: method.default_penalty(),
+            seed: 0x5EED_F8C5,
+            de_population: 150,
+            de_generations: 1500,
+            fista_iterations: 20_000,
+            noise_prior: NoisePrior::paper(),
+        }
+    }
+}
+
+/// Build a reconstructor for `problem`, precomputing what depends only on the matrix.
+pub fn build(
+    method: Method,
+    problem: &SensingProblem,
+    settings: MethodSettings,
+) -> Result<Box<dyn Reconstructor>, ArrayError> {
+    if !(settings.penalty.is_finite() && settings.penalty >= 0.0) {
+        return Err(ArrayError::Input(format!(
+            "penalty must be a finite value ≥ 0, got {}",
+            settings.penalty
+        )));
+    }
+    let common = Common::new(problem);
+    Ok(match method {
+        Method::Support => Box::new(SupportSearch::new(common, settings.penalty, None)?),
+        Method::WeightedSupport => Box::new(SupportSearch::new(
+            common,
+            settings.penalty,
+            Some(settings.noise_prior),
+        )?),
+        Method::Nnls => Box::new(Nnls {
+            common,
+            iterations: settings.fista_iterations,
+        }),
+        Method::Lasso => Box::new(Lasso {
+            common,
+            lambda: settings.penalty,
+            iterations: settings.fista_iterations,
+        }),
+        Method::Omp => Box::new(Omp {
+            common,
+            lambda: settings.penalty,
+        }),
+        Method::De => Box::new(De { common, settings }),
+    })
+}
+
+/// What every method needs: the problem and the Gram matrix of its working matrix.
+struct Common {
+    problem: SensingProblem,
+    /// ÂᵀÂ.
+    gram: DMatrix<f64>,
+    /// Largest eigenvalue of ÂᵀÂ (the gradient's Lipschitz constant).
+    lipschitz: f64,
+}
+
+impl Common {
+    fn new(problem: &SensingProblem) -> Self {
+        let gram = problem.working.transpose() * &problem.working;
+        let lipschitz = gram
+            .clone()
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        Common {
+            problem: problem.clone(),
+            gram,
+            lipschitz,
+        }
+    }
+
+    fn n(&self) -> usize {
+        self.problem.n_cells()
+    }
+
+    /// Âᵀy, or None when the frame is unusable (wrong length or non-finite).
+    fn aty(&self, y: &[f64]) -> Option<DVector<f64>> {
+        if self.problem.check_shifts(y).is_err() {
+            return None;
+        }
+        Some(self.problem.working.transpose() * DVector::from_column_slice(y))
+    }
+
+    /// Wrap working unknowns into a result.
+    fn finish(&self, z: &[f64], y: &[f64], converged: bool, iterations: u64) -> Reconstruction {
+        let loads_g = self.problem.loads_from_working(z);
+        let residual_pm = if y.len() == self.problem.n_gratings() {
+            self.problem.residual_pm(&loads_g, y)
+        } else {
+            f64::INFINITY
+        };
+        Reconstruction {
+            loads_g,
+            converged,
+            iterations,
+            residual_pm: if residual_pm.is_finite() {
+                residual_pm
+            } else {
+                f64::MAX
+            },
+        }
+    }
+
+    /// The answer for a frame that cannot be used.
+    fn unusable(&self) -> Reconstruction {
+        Reconstruction {
+            loads_g: vec![0.0; self.n()],
+            converged: false,
+            iterations: 0,
+            residual_pm: f64::MAX,
+        }
+    }
+}
+
+/// ‖Âz − y‖² from the Gram form: yᵀy − 2 bᵀz + zᵀGz (never below 0).
+fn misfit(gram: &DMatrix<f64>, aty: &DVector<f64>, yty: f64, z: &DVector<f64>) -> f64 {
+    (yty - 2.0 * aty.dot(z) + z.dot(&(gram * z))).max(0.0)
+}
+
+/// FISTA with adaptive restart for ½zᵀGz − bᵀz + λΣz over 0 ≤ z ≤ u.
+/// Returns (z, iterations, converged).
+fn fista_box(
+    gram: &DMatrix<f64>,
+    b: &DVector<f64>,
+    upper: &DVector<f64>,
+    lambda: f64,
+    lipschitz: f64,
+    start: DVector<f64>,
+    max_iter: u64,
+) -> (DVector<f64>, u64, bool) {
+    let n = b.len();
+    let step = 1.0 / lipschitz;
+    let project = |v: &mut DVector<f64>| {
+        for j in 0..n {
+            v[j] = v[j].clamp(0.0, upper[j]);
+        }
+    };
+    let mut z = start;
+    project(&mut z);
+    let mut v = z.clone();
+    let mut t = 1.0f64;
+    let scale = upper.amax().max(1e-300);
+    for it in 1..=max_iter {
+        let grad = gram * &v - b;
+        let mut z_new = &v - (grad.add_scalar(lambda)) * step;
+        project(&mut z_new);
+        let t_new = 0.5 * (1.0 + (1.0 + 4.0 * t * t).sqrt());
+        let diff = &z_new - &z;
+        // Adaptive restart (O'Donoghue & Candès): drop the momentum when it points uphill.
+        let uphill = (&v - &z_new).dot(&diff) > 0.0;
+        let momentum = if uphill { 0.0 } else { (t - 1.0) / t_new };
+        v = &z_new + &diff * momentum;
+        t = if uphill { 1.0 } else { t_new };
+        let change = diff.amax();
+        z = z_new;
+        if change <= 1e-10 * scale {
+            return (z, it, true);
+        }
+    }
+    (z, max_iter, false)
+}
+
+/// Bounded least squares restricted to the cells `cols`: the unconstrained solution
+/// when it is inside the box, else projected FISTA on the sub-problem. Returns the
+/// full-length z (zeros off the support) and whether it converged.
+fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64>, bool) {
+    let n = c.n();
+    let k = cols.len();
+    let mut z = DVector::zeros(n);
+    if k == 0 {
+        return (z, true);
+    }
+    let g = DMatrix::from_fn(k, k, |a, b| c.gram[(cols[a], cols[b])]);
+    let b = DVector::from_fn(k, |a, _| aty[cols[a]]);
+    let u = DVector::from_fn(k, |a, _| c.problem.upper[cols[a]]);
+    if let Some(ch) = g.clone().cholesky() {
+        let s = ch.solve(&b);
+        if s.iter().zip(u.iter()).all(|(v, ub)| *v >= 0.0 && v <= ub) {
+            for (a, &j) in cols.iter().enumerate() {
+                z[j] = s[a];
+            }
+            return (z, true);
+        }
+    }
+    let lip = g
+        .clone()
+        .symmetric_eigenvalues()
+        .iter()
+        .copied()
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let (s, _, ok) = fista_box(&g, &b, &u, 0.0, lip, DVector::zeros(k), 5000);
+    for (a, &j) in cols.iter().enumerate() {
+        z[j] = s[a];
+    }
+    (z, ok)
+}
+
+// ---------------------------------------------------------------- support search
+
+/// What the `wsupport` method knows about the measurement noise (from the paper's
+/// datasheet numbers, not from the simulation): a reading of grating i with loads on
+/// the cells S has variance resolution² + (hysteresis span)²/3 · Σ_{j∈S} A_ij², since
+/// every load adds its own hysteresis error, uniform in ± (hysteresis fraction × span).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoisePrior {
+    /// Standard deviation of the interrogator noise, pm.
+    pub resolution_pm: f64,
+    /// Hysteresis bound as a load, g (fraction of span × span: 0.0433 × 250 g).
+    pub hysteresis_g: f64,
+}
+
+impl NoisePrior {
+    /// The paper's numbers: 0.5 pm, ± 4.33 % of a 250 g span.
+    pub fn paper() -> Self {
+        NoisePrior {
+            resolution_pm: 0.5,
+            hysteresis_g: 0.0433 * 250.0,
+        }
+    }
+}
+
+struct SupportEntry {
+    cols: Vec<usize>,
+    /// Weighted pseudo-inverse (ÂₛᵀWÂₛ)⁻¹ÂₛᵀW, k × m row-major.
+    pinv: Vec<f64>,
+    /// Âₛ columns, k × m (column a of the support at [a*m..(a+1)*m]).
+    cols_data: Vec<f64>,
+    /// Weight of each grating's residual (1 / variance, or 1 without a noise prior).
+    weights: Vec<f64>,
+    /// Σ ln variance_i (0 without a noise prior): the Gaussian likelihood's
+    /// normalisation, which differs between supports once the variance depends on S.
+    log_det: f64,
+}
+
+struct SupportSearch {
+    common: Common,
+    lambda: f64,
+    weighted: bool,
+    /// Weights and log-determinant of the empty support.
+    empty: (Vec<f64>, f64),
+    /// Supports sorted by size.
+    entries: Vec<SupportEntry>,
+}
+
+/// Supports at most this many (2^16 cells' worth is already too slow per frame).
+const MAX_SUPPORTS: usize = 70_000;
+
+impl SupportSearch {
+    fn new(common: Common, lambda: f64, prior: Option<NoisePrior>) -> Result<Self, ArrayError> {
+        let (m, n) = (common.problem.n_gratings(), common.n());
+        let kmax = m.min(n);
+        let mut count: f64 = 0.0;
+        let mut binom: f64 = 1.0;
+        for k in 1..=kmax {
+            binom = binom * (n + 1 - k) as f64 / k as f64;
+            count += binom;
+        }
+        if count > MAX_SUPPORTS as f64 {
+            return Err(ArrayError::Input(format!(
+                "support enumeration would try {count:.0} supports for {n} cells and {m} gratings \
+                 (limit {MAX_SUPPORTS}); use `omp`, `lasso` or `de` for arrays this large"
+            )));
+        }
+        let raw = &common.problem.sensitivity_pm_per_g;
+        let weights_for = |cols: &[usize]| -> (Vec<f64>, f64) {
+            match prior {
+                None => (vec![1.0; m], 0.0),
+                Some(p) => {
+                    let h2 = p.hysteresis_g * p.hysteresis_g / 3.0;
+                    let var: Vec<f64> = (0..m)
+                        .map(|i| {
+                            let s: f64 = cols.iter().map(|&j| raw[(i, j)] * raw[(i, j)]).sum();
+                            (p.resolution_pm * p.resolution_pm + h2 * s).max(1e-12)
+                        })
+                        .collect();
+                    (
+                        var.iter().map(|v| 1.0 / v).collect(),
+                        var.iter().map(|v| v.ln()).sum(),
+                    )
+                }
+            }
+        };
+        let mut entries = Vec::new();
+        for k in 1..=kmax {
+            let mut cols: Vec<usize> = (0..k).collect();
+            loop {
+                let a_s = DMatrix::from_fn(m, k, |i, a| common.problem.working[(i, cols[a])]);
+                let (weights, log_det) = weights_for(&cols);
+                let wa = DMatrix::from_fn(m, k, |i, a| a_s[(i, a)] * weights[i]);
+                let g = a_s.transpose() * &wa;
+                // Skip supports whose columns are (nearly) dependent: a smaller support
+                // explains the same shifts.
+                let eig = g.clone().symmetric_eigenvalues();
+                let (lo, hi) = eig
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(l, h), &e| (l.min(e), h.max(e)));
+                if lo > 1e-12 * hi {
+                    if let Some(ch) = g.cholesky() {
+                        let p = ch.solve(&wa.transpose());
+                        entries.push(SupportEntry {
+                            cols: cols.clone(),
+                            pinv: (0..k * m).map(|q| p[(q / m, q % m)]).collect(),
+                            cols_data: (0..k * m).map(|q| a_s[(q % m, q / m)]).collect(),
+                            weights,
+                            log_det,
+                        });
+                    }
+                }
+                // Next k-combination in lexicographic order.
+                let mut i = k;
+                while i > 0 && cols[i - 1] == n - k + i - 1 {
+                    i -= 1;
+                }
+                if i == 0 {
+                    break;
+                }
+                cols[i - 1] += 1;
+                for q in i..k {
+                    cols[q] = cols[q - 1] + 1;
+                }
+            }
+        }
+        Ok(SupportSearch {
+            empty: weights_for(&[]),
+            common,
+            lambda,
+            weighted: prior.is_some(),
+            entries,
+        })
+    }
+
+    /// Weighted misfit Σ w_i (y_i − (Âₛz)_i)² of a support's solution.
+    fn weighted_misfit(e: &SupportEntry, y: &[f64], z: &[f64]) -> f64 {
+        let m = y.len();
+        let mut rr = 0.0;
+        for (i, yi) in y.iter().enumerate() {
+            let mut fit = 0.0;
+            for (a, za) in z.iter().enumerate() {
+                fit += e.cols_data[a * m + i] * za;
+            }
+            rr += e.weights[i] * (yi - fit) * (yi - fit);
+        }
+        rr
+    }
+
+    /// Bounded weighted least squares on one support (upper bound active).
+    fn bounded(&self, e: &SupportEntry, y: &[f64]) -> (Vec<f64>, f64) {
+        let m = y.len();
+        let k = e.cols.len();
+        let a_s = DMatrix::from_fn(m, k, |i, a| e.cols_data[a * m + i]);
+        let wa = DMatrix::from_fn(m, k, |i, a| a_s[(i, a)] * e.weights[i]);
+        let g = a_s.transpose() * &wa;
+        let b = wa.transpose() * DVector::from_column_slice(y);
+        let u = DVector::from_fn(k, |a, _| self.common.problem.upper[e.cols[a]]);
+        let lip = g
+            .clone()
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        let (s, _, _) = fista_box(&g, &b, &u, 0.0, lip, DVector::zeros(k), 5000);
+        let z: Vec<f64> = s.iter().copied().collect();
+        let rr = Self::weighted_misfit(e, y, &z);
+        (z, rr)
+    }
+}
+
+impl Reconstructor for SupportSearch {
+    fn method(&self) -> Method {
+        if self.weighted {
+            Method::WeightedSupport
+        } else {
+            Method::Support
+        }
+    }
+
+    fn reconstruct(&self, y: &[f64]) -> Reconstruction {
+        if self.common.problem.check_shifts(y).is_err() {
+            return self.common.unusable();
+        }
+        let m = y.len();
+        let upper = &self.common.problem.upper;
+        let (w0, ld0) = &self.empty;
+        let mut best_cost: f64 = y.iter().zip(w0).map(|(v, w)| w * v * v).sum::<f64>() + ld0;
+        let mut best: Option<(usize, Vec<f64>)> = None;
+        let mut z = [0.0f64; 64];
+        let mut tried = 0u64;
+        for (e_idx, e) in self.entries.iter().enumerate() {
+            let k = e.cols.len();
+            let floor = self.lambda * k as f64 + e.log_det;
+            if floor >= best_cost {
+                if self.weighted {
+                    continue;
+                }
+                break; // unweighted and sorted by size: no larger support can win
+            }
+            tried += 1;
+            let mut inside = true;
+            let mut negative = false;
+            for a in 0..k {
+                let row = &e.pinv[a * m..(a + 1) * m];
+                let v: f64 = row.iter().zip(y).map(|(p, yi)| p * yi).sum();
+                if v < 0.0 {
+                    negative = true;
+                    break;
+                }
+                if v > upper[e.cols[a]] {
+                    inside = false;
+                }
+                z[a] = v;
+            }
+            // A negative load means this support's bounded optimum has that load at 0,
+            // i.e. it is a smaller support's solution, which is tried on its own.
+            if negative {
+                continue;
+            }
+            // The unconstrained misfit is a lower bound of the bounded one.
+            let rr = Self::weighted_misfit(e, y, &z[..k]);
+            if rr + floor >= best_cost {
+                continue;
+            }
+            if inside {
+                best_cost = rr + floor;
+                best = Some((e_idx, z[..k].to_vec()));
+            } else {
+                let (zb, rb) = self.bounded(e, y);
+                if rb + floor < best_cost {
+                    best_cost = rb + floor;
+                    best = Some((e_idx, zb));
+                }
+            }
+        }
+        let mut full = vec![0.0; self.common.n()];
+        if let Some((e_idx, zb)) = best {
+            for (a, &j) in self.entries[e_idx].cols.iter().enumerate() {
+                full[j] = zb[a];
+            }
+        }
+        self.common.finish(&full, y, true, tried)
+    }
+}
+
+// ---------------------------------------------------------------- NNLS
+
+struct Nnls {
+    common: Common,
+    iterations: u64,
+}
+
+impl Reconstructor for Nnls {
+    fn method(&self) -> Method {
+        Method::Nnls
+    }
+
+    fn reconstruct(&self, y: &[f64]) -> Reconstruction {
+        let Some(aty) = self.common.aty(y) else {
+            return self.common.unusable();
+        };
+        let n = self.common.n();
+        let g = &self.common.gram;
+        let tol = 1e-12 * aty.amax().max(1e-300);
+        let mut z = DVector::<f64>::zeros(n);
+        let mut passive = vec![false; n];
+        let mut outer = 0u64;
+        let mut converged = false;
+        // Lawson–Hanson active-set method.
+        while outer < 3 * n as u64 + 10 {
+            outer += 1;
+            let w = &aty - g * &z;
+            let cand = (0..n)
+                .filter(|&j| !passive[j] && w[j] > tol)
+                .max_by(|&a, &b| w[a].total_cmp(&w[b]));
+            let Some(j) = cand else {
+                converged = true;
+                break;
+            };
+            passive[j] = true;
+            let mut inner = 0;
+            loop {
+                inner += 1;
+                let cols: Vec<usize> = (0..n).filter(|&q| passive[q]).collect();
+                let gs = DMatrix::from_fn(cols.len(), cols.len(), |a, b| g[(cols[a], cols[b])]);
+                let bs = DVector::from_fn(cols.len(), |a, _| aty[cols[a]]);
+                let Some(s) = gs.cholesky().map(|c| c.solve(&bs)) else {
+                    // Dependent columns: drop the newest one and stop growing.
+                    passive[j] = false;
+                    break;
+                };
+                if s.iter().all(|&v| v > 0.0) || inner > n + 5 {
+                    z.fill(0.0);
+                    for (a, &q) in cols.iter().enumerate() {
+                        z[q] = s[a].max(0.0);
+                    }
+                    break;
+                }
+                let mut alpha = 1.0f64;
+                for (a, &q) in cols.iter().enumerate() {
+                    if s[a] <= 0.0 {
+                        let d = z[q] - s[a];
+                        if d > 0.0 {
+                            alpha = alpha.min(z[q] / d);
+                        }
+                    }
+                }
+                for (a, &q) in cols.iter().enumerate() {
+                    z[q] += alpha * (s[a] - z[q]);
+                    if z[q] <= tol {
+                        z[q] = 0.0;
+                        passive[q] = false;
+                    }
+                }
+            }
+        }
+        let upper = &self.common.problem.upper;
+        let mut iterations = outer;
+        if z.iter().zip(upper.iter()).any(|(v, u)| v > u) {
+            // The upper bound is active: polish by projected gradient from the clamp.
+            let (zb, it, ok) = fista_box(
+                g,
+                &aty,
+                upper,
+                0.0,
+                self.common.lipschitz,
+                z.clone(),
+                self.iterations,
+            );
+            z = zb;
+            iterations += it;
+            converged &= ok;
+        }
+        self.common.finish(z.as_slice(), y, converged, iterations)
+    }
+}
+
+// ---------------------------------------------------------------- LASSO (FISTA)
+
+struct Lasso {
+    common: Common,
+    lambda: f64,
+    iterations: u64,
+}
+
+impl Reconstructor for Lasso {
+    fn method(&self) -> Method {
+        Method::Lasso
+    }
+
+    fn reconstruct(&self, y: &[f64]) -> Reconstruction {
+        let Some(aty) = self.common.aty(y) else {
+            return self.common.unusable();
+        };
+        let (z, it, ok) = fista_box(
+            &self.common.gram,
+            &aty,
+            &self.common.problem.upper,
+            self.lambda,
+            self.common.lipschitz,
+            DVector::zeros(self.common.n()),
+            self.iterations,
+        );
+        self.common.finish(z.as_slice(), y, ok, it)
+    }
+}
+
+// ---------------------------------------------------------------- OMP
+
+struct Omp {
+    common: Common,
+    lambda: f64,
+}
+
+impl Reconstructor for Omp {
+    fn method(&self) -> Method {
+        Method::Omp
+    }
+
+    fn reconstruct(&self, y: &[f64]) -> Reconstruction {
+        let Some(aty) = self.common.aty(y) else {
+            return self.common.unusable();
+        };
+        let n = self.common.n();
+        let kmax = self.common.problem.n_gratings().min(n);
+        let yty: f64 = y.iter().map(|v| v * v).sum();
+        let g = &self.common.gram;
+        let mut support: Vec<usize> = Vec::with_capacity(kmax);
+        let mut z = DVector::<f64>::zeros(n);
+        let mut rr = yty;
+        let mut converged = true;
+        while support.len() < kmax {
+            // Correlation of each column with the residual: Âᵀ(y − Âz) = b − Gz.
+            let corr = &aty - g * &z;
+            let Some(j) = (0..n)
+                .filter(|q| !support.contains(q))
+                .max_by(|&a, &b| corr[a].total_cmp(&corr[b]))
+            else {
+                break;
+            };
+            if corr[j] <= 0.0 {
+                break; // no cell can explain the residual with a positive load
+            }
+            let mut trial = support.clone();
+            trial.push(j);
+            let (zt, ok) = bounded_ls_on(&self.common, &aty, &trial);
+            let rr_t = misfit(g, &aty, yty, &zt);
+            if rr - rr_t < self.lambda {
+                break;
+            }
+            converged &= ok;
+            support = trial;
+            z = zt;
+            rr = rr_t;
+        }
+        self.common
+            .finish(z.as_slice(), y, converged, support.len() as u64)
+    }
+}
+
+// ---------------------------------------------------------------- DE replica
+
+struct De {
+    common: Common,
+    settings: MethodSettings,
+}
+
+/// FNV-1a over the bits of a frame, mixed into the seed so that equal frames give
+/// equal answers whatever order or thread they are reconstructed in.
+fn frame_seed(seed: u64, y: &[f64]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64 ^ seed;
+    for v in y {
+        for byte in v.to_bits().to_le_bytes() {
+            h ^= byte as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+impl Reconstructor for De {
+    fn method(&self) -> Method {
+        Method::De
+    }
+
+    fn reconstruct(&self, y: &[f64]) -> Reconstruction {
+        if self.common.problem.check_shifts(y).is_err() {
+            return self.common.unusable();
+        }
+        let p = &self.common.problem;
+        let cost = PenalisedCost::new(
+            &p.working,
+            &DVector::from_column_slice(y),
+            self.settings.penalty,
+            0.01,
+        );
+        let lower = vec![0.0; p.n_cells()];
+        let upper: Vec<f64> = p.upper.iter().copied().collect();
+        let solver =
+            match DifferentialEvolution::new(lower, upper, frame_seed(self.settings.seed, y)) {
+                Ok(s) => s.with_population(self.settings.de_population),
+                Err(_) => return self.common.unusable(),
+            };
+        let generations = self.settings.de_generations;
+        match Executor::new(cost, solver)
+            .configure(|s| s.max_iters(generations))
+            .run()
+        {
+            Ok(res) => {
+                let st = res.state();
+                let converged = matches!(
+                    st.get_termination_reason(),
+                    Some(TerminationReason::SolverConverged)
+                );
+                let iterations = st.get_iter();
+                match st.get_best_param() {
+                    Some(z) => self.common.finish(z, y, converged, iterations),
+                    None => self.common.unusable(),
+                }
+            }
+            Err(_) => self.common.unusable(),
+        }
+    }
+}

@@ -1,0 +1,685 @@
+//! Format detection and the row parsers behind [`super::read_peak_log`] and
+//! [`super::read_force_log`].
+//!
+//! The table body is split at line boundaries into chunks parsed in parallel (rayon);
+//! each line is cut into fields by slicing, and numbers are parsed from the bytes
+//! ([`super::num`]), so no row allocates. Dates are interned per chunk (a log rarely
+//! spans more than a few dates) and resolved once the whole file is known.
+
+use super::num::{self, trim, DateOrder, RawDate};
+use super::{at, Clock, ForceColumns, ForceLog, LogFormat, LogWarnings, PeakLog, ReadOptions};
+use anyhow::{anyhow, bail, Result};
+use rayon::prelude::*;
+use std::path::Path;
+
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// Where the table of a wavelength log starts and how its rows look.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detected {
+    /// The format.
+    pub format: LogFormat,
+    /// Byte offset of the first line after the header (or of the first row when a
+    /// CSV has no header).
+    pub body_offset: usize,
+    /// 1-based line number of the first body line.
+    pub body_line: usize,
+    /// Header fields (trimmed), empty for a header-less CSV.
+    pub header: Vec<String>,
+    /// Field delimiter.
+    pub delimiter: u8,
+}
+
+fn strip_bom(b: &[u8]) -> (&[u8], usize) {
+    if b.starts_with(BOM) {
+        (&b[3..], 3)
+    } else {
+        (b, 0)
+    }
+}
+
+/// Lines of `b` with their byte offsets (line without `\n` and trailing `\r`).
+fn lines_with_offsets(b: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    let mut pos = 0;
+    std::iter::from_fn(move || {
+        if pos >= b.len() {
+            return None;
+        }
+        let start = pos;
+        let end = b[pos..].iter().position(|&c| c == b'\n').map_or(b.len(), |p| pos + p);
+        pos = end + 1;
+        let mut line = &b[start..end];
+        if let [rest @ .., b'\r'] = line {
+            line = rest;
+        }
+        Some((start, line))
+    })
+}
+
+fn fields(line: &[u8], delim: u8) -> Vec<String> {
+    line.split(|&c| c == delim).map(|f| String::from_utf8_lossy(trim(f)).into_owned()).collect()
+}
+
+fn is_time_field(f: &[u8]) -> bool {
+    num::parse_f64(f, false).is_some() || num::parse_datetime(f).is_some()
+}
+
+/// Find the table of a wavelength log. With `forced`, look only for that format's
+/// header. The header must be within the first 4 MB.
+pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Result<Detected> {
+    let (b, bom) = strip_bom(bytes);
+    let window = &b[..b.len().min(4 << 20)];
+    let mut first_content: Option<(usize, usize, &[u8])> = None;
+    for (line_no, (off, line)) in lines_with_offsets(window).enumerate() {
+        let mut it = line.split(|&c| c == b'\t');
+        let f0 = trim(it.next().unwrap_or(b""));
+        let f1 = trim(it.next().unwrap_or(b""));
+        let next_line = || {
+            let end = off + line.len();
+            let nl = window[end..].iter().position(|&c| c == b'\n').map_or(window.len(), |p| end + p + 1);
+            (nl + bom, line_no + 2)
+        };
+        let want = |f: LogFormat| forced.is_none() || forced == Some(f);
+        if f0.eq_ignore_ascii_case(b"Timestamp") && !f1.is_empty() {
+            let peaks = f1.starts_with(b"# CH") || f1.starts_with(b"#CH");
+            let format = if peaks { LogFormat::EnlightPeaks } else { LogFormat::EnlightSensors };
+            if want(format) {
+                let (body_offset, body_line) = next_line();
+                return Ok(Detected { format, body_offset, body_line, header: fields(line, b'\t'), delimiter: b'\t' });
+            }
+        }
+        if f0.eq_ignore_ascii_case(b"Date") && f1.eq_ignore_ascii_case(b"Time") && want(LogFormat::Imon) {
+            let (body_offset, body_line) = next_line();
+            return Ok(Detected {
+                format: LogFormat::Imon,
+                body_offset,
+                body_line,
+                header: fields(line, b'\t'),
+                delimiter: b'\t',
+            });
+        }
+        let t = trim(line);
+        if first_content.is_none() && !t.is_empty() && !t.starts_with(b"#") {
+            first_content = Some((off, line_no, line));
+        }
+    }
+    if forced.is_none() || forced == Some(LogFormat::Csv) {
+        if let Some((off, line_no, line)) = first_content {
+            let delim = guess_delimiter(line);
+            let parts: Vec<&[u8]> = line.split(|&c| c == delim).collect();
+            if parts.len() >= 2 {
+                let headerless = is_time_field(parts[0]);
+                let (body_offset, body_line, header) = if headerless {
+                    (off + bom, line_no + 1, Vec::new())
+                } else {
+                    let end = off + line.len();
+                    let nl = window[end..].iter().position(|&c| c == b'\n').map_or(window.len(), |p| end + p + 1);
+                    (nl + bom, line_no + 2, fields(line, delim))
+                };
+                let looks_like_table = headerless
+                    || header.first().is_some_and(|h| h.to_ascii_lowercase().contains("time"));
+                if looks_like_table || forced == Some(LogFormat::Csv) {
+                    return Ok(Detected { format: LogFormat::Csv, body_offset, body_line, header, delimiter: delim });
+                }
+            }
+        }
+    }
+    match forced {
+        Some(f) => bail!(
+            "{}: no {} table header found; expected {}",
+            path.display(),
+            f.name(),
+            match f {
+                LogFormat::EnlightPeaks => "a line `Timestamp<TAB># CH 1<TAB>…`",
+                LogFormat::EnlightSensors => "a line `Timestamp<TAB>sensor name<TAB>…`",
+                LogFormat::Imon => "a line `Date<TAB>Time<TAB>Wavelength 1 [nm]<TAB>…`",
+                LogFormat::Csv => "a delimited table whose first column is time",
+            }
+        ),
+        None => bail!(
+            "{}: cannot tell the log format: no ENLIGHT header (`Timestamp` then `# CH 1` or sensor names), no I-MON header (`Date<TAB>Time<TAB>…`) and no CSV whose first column is a time; name the format with --format",
+            path.display()
+        ),
+    }
+}
+
+fn guess_delimiter(line: &[u8]) -> u8 {
+    let count = |d: u8| line.iter().filter(|&&c| c == d).count();
+    if count(b'\t') > 0 {
+        b'\t'
+    } else if count(b';') > 0 {
+        b';'
+    } else {
+        b','
+    }
+}
+
+/// How the body rows of a detected table are laid out.
+#[derive(Debug, Clone, Copy)]
+enum Layout {
+    Peaks { channels: usize },
+    Sensors { columns: usize },
+    Imon { pixels: usize },
+    Csv { columns: usize },
+}
+
+/// A line that could not be used: warning kind and message.
+struct LineIssue {
+    kind: &'static str,
+    message: String,
+}
+
+fn issue(kind: &'static str, message: impl Into<String>) -> LineIssue {
+    LineIssue { kind, message: message.into() }
+}
+
+/// Times of the rows parsed so far: either a wall-clock date + seconds of day, or
+/// plain seconds.
+#[derive(Default)]
+struct TimeAcc {
+    dates: Vec<RawDate>,
+    date_of_row: Vec<u32>,
+    sec: Vec<f64>,
+}
+
+const NO_DATE: u32 = u32::MAX;
+
+impl TimeAcc {
+    fn push(&mut self, t: (Option<RawDate>, f64)) {
+        let idx = match t.0 {
+            None => NO_DATE,
+            Some(d) => match self.dates.iter().rposition(|x| *x == d) {
+                Some(i) => i as u32,
+                None => {
+                    self.dates.push(d);
+                    (self.dates.len() - 1) as u32
+                }
+            },
+        };
+        self.date_of_row.push(idx);
+        self.sec.push(t.1);
+    }
+}
+
+fn parse_time_field(f: &[u8], decimal_comma: bool) -> Option<(Option<RawDate>, f64)> {
+    if let Some((d, s)) = num::parse_datetime(f) {
+        return Some((Some(d), s));
+    }
+    num::parse_f64(f, decimal_comma).filter(|v| v.is_finite()).map(|v| (None, v))
+}
+
+/// Rows parsed from one chunk.
+#[derive(Default)]
+struct Partial {
+    times: TimeAcc,
+    row_start: Vec<usize>,
+    peaks: Vec<f64>,
+    chans: Vec<u16>,
+    lines: Vec<u32>,
+    issues: Vec<(usize, LineIssue)>,
+    table_lines: usize,
+}
+
+fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partial, counts: &mut Vec<usize>) -> Result<(), LineIssue> {
+    let start = out.peaks.len();
+    let mut it = line.split(|&c| c == delim);
+    let rollback = |out: &mut Partial| {
+        out.peaks.truncate(start);
+        out.chans.truncate(start);
+    };
+    let time = match layout {
+        Layout::Imon { .. } => {
+            let d = it.next().unwrap_or(b"");
+            let t = it.next().ok_or_else(|| issue("unreadable_line", "no time field"))?;
+            let (date, n) = num::parse_date(trim(d)).ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
+            if n != trim(d).len() {
+                return Err(issue("unreadable_line", "unreadable date"));
+            }
+            let sod = num::parse_time_of_day(t).ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
+            (Some(date), sod)
+        }
+        _ => {
+            let f = it.next().unwrap_or(b"");
+            parse_time_field(f, dc).ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?
+        }
+    };
+    match layout {
+        Layout::Peaks { channels } => {
+            counts.clear();
+            for c in 0..channels {
+                let f = it.next().ok_or_else(|| issue("missing_channel", format!("row ends before the peak count of channel {}", c + 1)))?;
+                counts.push(num::parse_usize(f).ok_or_else(|| issue("unreadable_line", format!("peak count of channel {} is not a whole number", c + 1)))?);
+            }
+            for (c, &n) in counts.iter().enumerate() {
+                for _ in 0..n {
+                    let Some(f) = it.next() else {
+                        rollback(out);
+                        return Err(issue("peak_count_mismatch", "fewer wavelengths than the peak counts announce"));
+                    };
+                    match num::parse_f64(f, dc) {
+                        Some(v) if v.is_finite() => {
+                            out.peaks.push(v);
+                            out.chans.push(c as u16);
+                        }
+                        _ => {
+                            rollback(out);
+                            return Err(issue("unreadable_line", "unreadable wavelength"));
+                        }
+                    }
+                }
+            }
+            if it.any(|f| !trim(f).is_empty()) {
+                rollback(out);
+                return Err(issue("peak_count_mismatch", "more wavelengths than the peak counts announce"));
+            }
+        }
+        Layout::Sensors { columns } | Layout::Csv { columns } => {
+            let mut seen = 0;
+            for (c, f) in it.enumerate() {
+                let f = trim(f);
+                if c >= columns {
+                    if !f.is_empty() {
+                        rollback(out);
+                        return Err(issue("unreadable_line", format!("more than the {columns} value columns of the header")));
+                    }
+                    continue;
+                }
+                seen = c + 1;
+                if f.is_empty() {
+                    continue;
+                }
+                match num::parse_f64(f, dc) {
+                    Some(v) if v.is_finite() && v > 0.0 => {
+                        out.peaks.push(v);
+                        out.chans.push(c as u16);
+                    }
+                    Some(_) => {}
+                    None => {
+                        rollback(out);
+                        return Err(issue("unreadable_line", format!("column {} is not a number", c + 2)));
+                    }
+                }
+            }
+            if seen < columns {
+                // Kept (the values present are good) but counted.
+                out.issues.push((usize::MAX, issue("short_row", format!("row has {seen} of {columns} value columns"))));
+            }
+        }
+        Layout::Imon { pixels } => {
+            let rest: Vec<&[u8]> = it.map(trim).collect();
+            let mut n = rest.len();
+            while n > 0 && rest[n - 1].is_empty() {
+                n -= 1;
+            }
+            // Rows that also carry the spectrum end with `pixels` intensities.
+            let n_wl = if pixels > 0 && n > pixels { n - pixels } else { n };
+            for f in &rest[..n_wl] {
+                match num::parse_f64(f, dc) {
+                    Some(v) if v.is_finite() && v > 0.0 => {
+                        out.peaks.push(v);
+                        out.chans.push(0);
+                    }
+                    Some(_) => {}
+                    None => {
+                        rollback(out);
+                        return Err(issue("unreadable_line", "unreadable wavelength"));
+                    }
+                }
+            }
+        }
+    }
+    out.times.push(time);
+    out.row_start.push(out.peaks.len());
+    Ok(())
+}
+
+fn parse_chunk(chunk: &[u8], first_line: usize, unterminated_end: bool, layout: Layout, delim: u8, dc: bool) -> Partial {
+    let mut out = Partial::default();
+    let mut counts = Vec::new();
+    let n_lines_total = chunk.iter().filter(|&&c| c == b'\n').count() + usize::from(!chunk.ends_with(b"\n"));
+    for (i, (_, line)) in lines_with_offsets(chunk).enumerate() {
+        let line_no = first_line + i;
+        if trim(line).is_empty() || line.first() == Some(&b'#') {
+            continue;
+        }
+        out.table_lines += 1;
+        let before = out.issues.len();
+        match parse_line(line, layout, delim, dc, &mut out, &mut counts) {
+            Ok(()) => {
+                out.lines.push(line_no as u32);
+                for iss in &mut out.issues[before..] {
+                    iss.0 = line_no;
+                }
+            }
+            Err(mut e) => {
+                if unterminated_end && i + 1 == n_lines_total {
+                    e.kind = "truncated_last_line";
+                }
+                out.issues.push((line_no, e));
+            }
+        }
+    }
+    out
+}
+
+/// Parse a wavelength log held in memory.
+pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
+    let det = detect_format(bytes, path, opts.format)?;
+    let header_line = det.body_line.saturating_sub(1);
+    let (layout, column_names) = match det.format {
+        LogFormat::EnlightPeaks => {
+            let channels = det.header[1..].iter().take_while(|h| h.starts_with("# CH") || h.starts_with("#CH")).count();
+            if channels == 0 || channels > 256 {
+                bail!("{}: the header declares {channels} channels; expected 1 to 256", at(path, header_line));
+            }
+            (Layout::Peaks { channels }, Vec::new())
+        }
+        LogFormat::EnlightSensors => {
+            let names: Vec<String> = det.header[1..].iter().filter(|h| !h.is_empty()).cloned().collect();
+            (Layout::Sensors { columns: names.len() }, names)
+        }
+        LogFormat::Imon => {
+            let pixels = det.header.iter().filter(|h| h.starts_with("Pixel")).count();
+            (Layout::Imon { pixels }, Vec::new())
+        }
+        LogFormat::Csv => {
+            let names: Vec<String> = if det.header.is_empty() {
+                let first = lines_with_offsets(&bytes[det.body_offset..]).next().map(|(_, l)| l).unwrap_or(b"");
+                (1..first.split(|&c| c == det.delimiter).count()).map(|i| format!("column {}", i + 1)).collect()
+            } else {
+                det.header[1..].to_vec()
+            };
+            (Layout::Csv { columns: names.len() }, names)
+        }
+    };
+    let channels = match layout {
+        Layout::Peaks { channels } => channels,
+        Layout::Sensors { columns } | Layout::Csv { columns } => columns,
+        Layout::Imon { .. } => 1,
+    };
+    let dc = det.delimiter != b',';
+    let body = &bytes[det.body_offset.min(bytes.len())..];
+    let unterminated = !body.is_empty() && !body.ends_with(b"\n");
+
+    // Split at line boundaries; count lines per chunk to number them.
+    let n_chunks = if body.len() > (4 << 20) { rayon::current_num_threads() * 8 } else { 1 };
+    let mut bounds = vec![0usize];
+    for k in 1..n_chunks {
+        let target = body.len() * k / n_chunks;
+        let last = *bounds.last().unwrap_or(&0);
+        if target <= last {
+            continue;
+        }
+        match body[target..].iter().position(|&c| c == b'\n') {
+            Some(p) => bounds.push(target + p + 1),
+            None => break,
+        }
+    }
+    bounds.push(body.len());
+    bounds.dedup();
+    let chunks: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).collect();
+    let line_counts: Vec<usize> =
+        chunks.par_iter().map(|&(a, b)| body[a..b].iter().filter(|&&c| c == b'\n').count()).collect();
+    let mut first_lines = Vec::with_capacity(chunks.len());
+    let mut acc = det.body_line;
+    for c in &line_counts {
+        first_lines.push(acc);
+        acc += c;
+    }
+    let last = chunks.len() - 1;
+    let partials: Vec<Partial> = chunks
+        .par_iter()
+        .enumerate()
+        .map(|(k, &(a, b))| parse_chunk(&body[a..b], first_lines[k], unterminated && k == last, layout, det.delimiter, dc))
+        .collect();
+
+    // Merge in order.
+    let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
+    let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
+    let table_lines: usize = partials.iter().map(|p| p.table_lines).sum();
+    let mut warnings = LogWarnings::default();
+    let mut dates: Vec<RawDate> = Vec::new();
+    let mut date_of_row: Vec<u32> = Vec::with_capacity(rows);
+    let mut sec: Vec<f64> = Vec::with_capacity(rows);
+    let mut row_start = Vec::with_capacity(rows + 1);
+    row_start.push(0usize);
+    let mut peaks = Vec::with_capacity(n_peaks);
+    let mut chans = Vec::with_capacity(n_peaks);
+    let mut lines = Vec::with_capacity(rows);
+    let mut bad = 0usize;
+    let mut first_bad: Option<String> = None;
+    for p in partials {
+        let remap: Vec<u32> = p
+            .times
+            .dates
+            .iter()
+            .map(|d| match dates.iter().position(|x| x == d) {
+                Some(i) => i as u32,
+                None => {
+                    dates.push(*d);
+                    (dates.len() - 1) as u32
+                }
+            })
+            .collect();
+        date_of_row.extend(p.times.date_of_row.iter().map(|&i| if i == NO_DATE { NO_DATE } else { remap[i as usize] }));
+        sec.extend_from_slice(&p.times.sec);
+        let base = peaks.len();
+        row_start.extend(p.row_start.iter().map(|&s| s + base));
+        peaks.extend_from_slice(&p.peaks);
+        chans.extend_from_slice(&p.chans);
+        lines.extend_from_slice(&p.lines);
+        for (line_no, iss) in p.issues {
+            if iss.kind != "short_row" && iss.kind != "truncated_last_line" {
+                bad += 1;
+                if first_bad.is_none() {
+                    first_bad = Some(format!("{}: {}", at(path, line_no), iss.message));
+                }
+            }
+            let msg = format!("{}: {}", at(path, line_no), iss.message);
+            warnings.add(iss.kind, || msg);
+        }
+    }
+    if rows == 0 || bad * 2 > table_lines {
+        bail!(
+            "{}: {} of {} table lines are unreadable as {} rows{}",
+            path.display(),
+            bad,
+            table_lines,
+            det.format.name(),
+            first_bad.map(|m| format!("; first: {m}")).unwrap_or_default()
+        );
+    }
+    super::require_rows(path, rows, "the log")?;
+
+    // Resolve times.
+    let with_dates = date_of_row.iter().filter(|&&d| d != NO_DATE).count();
+    let (mut time_s, clock) = if with_dates == 0 {
+        let clock = if sec.first().is_some_and(|&s| s > 1e8) { Clock::Absolute } else { Clock::Relative };
+        (sec, clock)
+    } else {
+        if with_dates != rows {
+            let i = date_of_row.iter().position(|&d| d == NO_DATE).unwrap_or(0);
+            bail!("{}: this row has a plain number for time while other rows have dates", at(path, lines[i] as usize));
+        }
+        let default = if det.format == LogFormat::Imon { DateOrder::MonthDayYear } else { DateOrder::DayMonthYear };
+        let order = match opts.date_order {
+            Some(o) => o,
+            None => num::resolve_order(&dates, default).map_err(|e| anyhow!("{}: {e}; name the order with --date-order", path.display()))?,
+        };
+        let mut days = Vec::with_capacity(dates.len());
+        for (k, d) in dates.iter().enumerate() {
+            match num::date_to_days(d, order) {
+                Ok(v) => days.push(v),
+                Err(e) => {
+                    let i = date_of_row.iter().position(|&x| x as usize == k).unwrap_or(0);
+                    bail!("{}: {e} (read as {:?})", at(path, lines[i] as usize), order);
+                }
+            }
+        }
+        let t = date_of_row.iter().zip(&sec).map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s).collect();
+        (t, Clock::Absolute)
+    };
+
+    let mut log = PeakLog {
+        source: path.to_path_buf(),
+        format: det.format,
+        time_s: Vec::new(),
+        clock,
+        row_start,
+        peaks_nm: peaks,
+        peak_channel: chans,
+        channels,
+        column_names,
+        line_of_row: lines,
+        warnings,
+    };
+    if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings) {
+        let mut rs = Vec::with_capacity(rows + 1);
+        rs.push(0);
+        let mut pk = Vec::with_capacity(log.peaks_nm.len());
+        let mut ch = Vec::with_capacity(log.peaks_nm.len());
+        let mut ln = Vec::with_capacity(rows);
+        let mut ts = Vec::with_capacity(rows);
+        for &i in &order {
+            let (a, b) = (log.row_start[i], log.row_start[i + 1]);
+            pk.extend_from_slice(&log.peaks_nm[a..b]);
+            ch.extend_from_slice(&log.peak_channel[a..b]);
+            rs.push(pk.len());
+            ln.push(log.line_of_row[i]);
+            ts.push(time_s[i]);
+        }
+        log.row_start = rs;
+        log.peaks_nm = pk;
+        log.peak_channel = ch;
+        log.line_of_row = ln;
+        time_s = ts;
+    }
+    super::dequantize(path, &mut time_s, &mut log.warnings);
+    log.time_s = time_s;
+    Ok(log)
+}
+
+/// Parse a force-stand CSV held in memory.
+pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
+    let (b, _) = strip_bom(bytes);
+    let mut lines = lines_with_offsets(b).enumerate().filter(|(_, (_, l))| {
+        let t = trim(l);
+        !t.is_empty() && !t.starts_with(b"#")
+    });
+    let Some((h_idx, (_, header_line))) = lines.next() else {
+        bail!("{}: the force log is empty", path.display());
+    };
+    let delim = guess_delimiter(header_line);
+    let dc = delim != b',';
+    let header = fields(header_line, delim);
+    let headerless = header_line.split(|&c| c == delim).all(|f| is_time_field(f));
+    let mut warnings = LogWarnings::default();
+    let find = |wanted: &Option<String>, defaults: &[&str], what: &str| -> Result<usize> {
+        if headerless {
+            return Ok(if what == "time" { 0 } else { 1 });
+        }
+        if let Some(w) = wanted {
+            return header.iter().position(|h| h.eq_ignore_ascii_case(w)).ok_or_else(|| {
+                anyhow!("{}: no {what} column named `{w}`; the header has: {}", at(path, h_idx + 1), header.join(", "))
+            });
+        }
+        for d in defaults {
+            if let Some(i) = header.iter().position(|h| h.eq_ignore_ascii_case(d)) {
+                return Ok(i);
+            }
+        }
+        // Unit-suffixed names such as `force [N]` or `Time (s)`.
+        for d in defaults {
+            if let Some(i) = header.iter().position(|h| {
+                let l = h.to_ascii_lowercase();
+                l.starts_with(&d.to_ascii_lowercase()) && l[d.len()..].starts_with([' ', '_', '[', '('])
+            }) {
+                return Ok(i);
+            }
+        }
+        bail!(
+            "{}: cannot tell which column holds {what}; the header has: {}; name it with --force-{what}-column",
+            at(path, h_idx + 1),
+            header.join(", ")
+        )
+    };
+    let ti = find(&cols.time, &["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"], "time")?;
+    let fi = find(&cols.force, &["force_N", "force", "F", "load"], "force")?;
+    let time_column = header.get(ti).cloned().unwrap_or_else(|| "column 1".into());
+    let force_column = header.get(fi).cloned().unwrap_or_else(|| "column 2".into());
+    let scale = match (cols.scale_to_n, super::force_unit_scale(&force_column)) {
+        (Some(s), _) => s,
+        (None, Some(s)) => s,
+        (None, None) => {
+            warnings.add("force_unit_assumed", || {
+                format!("{}: force column `{force_column}` names no unit; newtons assumed", path.display())
+            });
+            1.0
+        }
+    };
+    let mut times = TimeAcc::default();
+    let mut force = Vec::new();
+    let mut line_nos = Vec::new();
+    let mut bad = 0usize;
+    let mut total = 0usize;
+    let mut first_bad = None;
+    let body: Box<dyn Iterator<Item = (usize, (usize, &[u8]))>> =
+        if headerless { Box::new(std::iter::once((h_idx, (0, header_line))).chain(lines)) } else { Box::new(lines) };
+    let unterminated = !b.ends_with(b"\n");
+    let n_lines = b.iter().filter(|&&c| c == b'\n').count() + usize::from(unterminated);
+    for (idx, (_, line)) in body {
+        total += 1;
+        let parts: Vec<&[u8]> = line.split(|&c| c == delim).collect();
+        let t = parts.get(ti).and_then(|f| parse_time_field(f, dc));
+        let f = parts.get(fi).and_then(|f| num::parse_f64(f, dc)).filter(|v| v.is_finite());
+        match (t, f) {
+            (Some(t), Some(f)) => {
+                times.push(t);
+                force.push(f * scale);
+                line_nos.push((idx + 1) as u32);
+            }
+            _ => {
+                let kind = if unterminated && idx + 1 == n_lines { "truncated_last_line" } else { "unreadable_line" };
+                if kind == "unreadable_line" {
+                    bad += 1;
+                }
+                let msg = format!("{}: expected a time in `{time_column}` and a number in `{force_column}`", at(path, idx + 1));
+                if first_bad.is_none() {
+                    first_bad = Some(msg.clone());
+                }
+                warnings.add(kind, || msg);
+            }
+        }
+    }
+    if force.is_empty() || bad * 2 > total {
+        bail!(
+            "{}: {bad} of {total} rows are unreadable{}",
+            path.display(),
+            first_bad.map(|m| format!("; first: {m}")).unwrap_or_default()
+        );
+    }
+    super::require_rows(path, force.len(), "the force log")?;
+    let (mut time_s, clock) = if times.dates.is_empty() {
+        let clock = if times.sec[0] > 1e8 { Clock::Absolute } else { Clock::Relative };
+        (times.sec.clone(), clock)
+    } else {
+        if times.date_of_row.contains(&NO_DATE) {
+            bail!("{}: the time column mixes dates and plain numbers", path.display());
+        }
+        let order = num::resolve_order(&times.dates, DateOrder::DayMonthYear).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        let days: Vec<i64> = times
+            .dates
+            .iter()
+            .map(|d| num::date_to_days(d, order).map_err(|e| anyhow!("{}: {e}", path.display())))
+            .collect::<Result<_>>()?;
+        (times.date_of_row.iter().zip(&times.sec).map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s).collect(), Clock::Absolute)
+    };
+    if let Some(order) = super::finish_times(path, &mut time_s, &line_nos, &mut warnings) {
+        let t: Vec<f64> = order.iter().map(|&i| time_s[i]).collect();
+        let f: Vec<f64> = order.iter().map(|&i| force[i]).collect();
+        time_s = t;
+        force = f;
+    }
+    super::dequantize(path, &mut time_s, &mut warnings);
+    Ok(ForceLog { source: path.to_path_buf(), time_s, clock, force_n: force, time_column, force_column, scale_to_n: scale, warnings })
+}

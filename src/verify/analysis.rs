@@ -1,0 +1,683 @@
+//! The analysis of one verification run: alignment of the two clocks, the lag model,
+//! loading pulses, and the figures of merit per grating.
+//!
+//! Frames: every time in the results is in seconds from the first row of the
+//! wavelength log, on the wavelength log's clock. The clock offset is
+//! `force clock − wavelength clock` for the same instant.
+//!
+//! Steps (see `docs/verify.md` for the reasoning):
+//! 1. peaks → gratings by window, temperature removed with the reference grating;
+//! 2. clock offset: cross-correlation of the force with the largest shift gives a
+//!    coarse value (offset minus the response's lag), then the lag model
+//!    ([`super::fit`]) is fitted jointly with the offset, first on a decimated copy of
+//!    the whole overlap, then at full rate on its first stretch;
+//! 3. per grating: the lag model with the offset fixed gives K (static sensitivity,
+//!    with its standard error), τ and r; baseline and linear drift are removed;
+//! 4. the force is resampled onto the wavelength log's times (the common time base),
+//!    and Δλ against F gives the linear slope, R², hysteresis and non-linearity;
+//! 5. pulses are found in the force log; per pulse the peak force, the peak shift and
+//!    the lag between the two peaks (vertices of parabolas through the top 5 %).
+
+use super::assign::{self, GratingTrack, GratingWindow};
+use super::fit::{self, LagModelCost, LagModelFit};
+use crate::logs::{median_period, Clock, ForceLog, LogWarnings, PeakLog};
+use crate::spec::{Design, GratingRole};
+use anyhow::{bail, Result};
+use serde::Serialize;
+
+/// Options of the analysis.
+#[derive(Debug, Clone)]
+pub struct AnalysisOptions {
+    /// Analyse only the strain gratings of this core (all present ones otherwise).
+    pub core: Option<String>,
+    /// Half-width of the wavelength windows, nm (default: see [`assign`]).
+    pub window_half_width_nm: Option<f64>,
+    /// A known clock offset (force clock − wavelength clock), s; estimated if None.
+    pub clock_offset_s: Option<f64>,
+    /// How far the estimated offset may lie from the prior (0 for two wall clocks,
+    /// aligned starts otherwise), s.
+    pub max_clock_offset_s: f64,
+    /// Interrogator resolution, pm (default: typical for the log format).
+    pub resolution_pm: Option<f64>,
+}
+
+impl Default for AnalysisOptions {
+    fn default() -> Self {
+        AnalysisOptions { core: None, window_half_width_nm: None, clock_offset_s: None, max_clock_offset_s: 60.0, resolution_pm: None }
+    }
+}
+
+/// One loading pulse as seen by one grating.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PulseResult {
+    /// Pulse number, from 1.
+    pub index: usize,
+    /// Start of the pulse (force above threshold), s.
+    pub start_s: f64,
+    /// End of the pulse, s.
+    pub end_s: f64,
+    /// Peak force, N.
+    pub peak_force_n: f64,
+    /// Time of the peak force, s.
+    pub peak_force_time_s: f64,
+    /// Peak shift (drift removed; signed), pm.
+    pub peak_shift_pm: f64,
+    /// Time of the peak shift, s.
+    pub peak_shift_time_s: f64,
+    /// Lag of the shift peak behind the force peak, s.
+    pub lag_s: f64,
+}
+
+/// Everything measured for one grating.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GratingResult {
+    /// Grating name.
+    pub grating: String,
+    /// Core it is bonded in.
+    pub core: Option<String>,
+    /// Nominal wavelength, nm.
+    pub nominal_nm: f64,
+    /// Window half-width used, nm.
+    pub window_half_width_nm: f64,
+    /// Rows of the log with a peak in the window.
+    pub rows_with_peak: usize,
+    /// Rows with more than one peak in the window.
+    pub rows_ambiguous: usize,
+    /// Static sensitivity K from the lag model (the one compared with the model), pm/N.
+    pub sensitivity_pm_per_n: f64,
+    /// Standard error of K (white-noise assumption), pm/N.
+    pub sensitivity_std_error_pm_per_n: f64,
+    /// Slope of a straight line through Δλ against F (no lag model), pm/N.
+    pub linear_slope_pm_per_n: f64,
+    /// R² of that straight line.
+    pub r_squared: f64,
+    /// R² of the lag model.
+    pub lag_model_r_squared: f64,
+    /// Largest gap between loading and unloading branches, % of full-scale output.
+    pub hysteresis_percent_span: f64,
+    /// Largest deviation of the bin means from the straight line, % of full-scale output.
+    pub nonlinearity_percent_span: f64,
+    /// Smallest resolvable force: interrogator resolution / |K|, N.
+    pub resolution_n: f64,
+    /// The same in grams-force, g.
+    pub resolution_g: f64,
+    /// Largest lag over the pulses (Δt_max), s.
+    pub max_lag_s: f64,
+    /// Mean lag over the pulses, s.
+    pub mean_lag_s: f64,
+    /// Q = |K|·R²/Δt_max, pm/(N·s); None when Δt_max ≤ 0.
+    pub quality_q_pm_per_n_s: Option<f64>,
+    /// Standard-linear-solid time constant τ, s (for the optimiser's lag model).
+    pub sls_time_constant_s: f64,
+    /// Fraction r of the response that follows the force without lag.
+    pub sls_instant_fraction: f64,
+    /// Drift removed from the shift, pm/s.
+    pub drift_pm_per_s: f64,
+    /// Residual RMS of the lag model, pm.
+    pub residual_rms_pm: f64,
+    /// Per pulse.
+    pub pulses: Vec<PulseResult>,
+}
+
+/// The whole measurement.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Measurement {
+    /// Wavelength log file.
+    pub wavelength_log: String,
+    /// Its format.
+    pub wavelength_format: String,
+    /// Rows read.
+    pub wavelength_rows: usize,
+    /// Median sample rate, Hz.
+    pub wavelength_rate_hz: f64,
+    /// Force log file.
+    pub force_log: String,
+    /// Force samples read.
+    pub force_samples: usize,
+    /// Median force sample rate, Hz.
+    pub force_rate_hz: f64,
+    /// Force clock − wavelength clock, s.
+    pub clock_offset_s: f64,
+    /// `estimated` or `given`.
+    pub clock_offset_source: String,
+    /// Duration both logs cover after alignment, s.
+    pub overlap_s: f64,
+    /// The reference grating used, if any.
+    pub reference_grating: Option<String>,
+    /// Interrogator resolution used, pm.
+    pub interrogator_resolution_pm: f64,
+    /// Pulses found in the force log.
+    pub pulse_count: usize,
+    /// Per grating.
+    pub gratings: Vec<GratingResult>,
+    /// Counted warnings of both logs and of the analysis.
+    pub warnings: LogWarnings,
+}
+
+/// Time series behind the plots, on the common time base.
+#[derive(Debug, Clone, Default)]
+pub struct Series {
+    /// Time, s from the wavelength log's start.
+    pub time_s: Vec<f64>,
+    /// Force resampled onto those times, N.
+    pub force_n: Vec<f64>,
+    /// (grating, drift-removed compensated shift, pm).
+    pub shift_pm: Vec<(String, Vec<f64>)>,
+    /// (grating, static K, baseline of the straight line) for the fit line.
+    pub fit: Vec<(String, f64, f64)>,
+}
+
+/// Pulse boundaries in force-sample indices.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PulseSpan {
+    /// First index above threshold.
+    pub start: usize,
+    /// Last index above the exit threshold.
+    pub end: usize,
+}
+
+fn percentile(v: &[f64], p: f64) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    let k = ((s.len() - 1) as f64 * p).round() as usize;
+    *s.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
+}
+
+/// Find loading pulses: runs where the force rises above its resting level by more
+/// than 5 % of the largest pulse and 6 noise standard deviations, ending when it falls
+/// below half that threshold (hysteresis keeps noise from splitting a pulse).
+pub fn detect_pulses(force: &[f64]) -> Vec<PulseSpan> {
+    if force.len() < 3 {
+        return Vec::new();
+    }
+    let base = percentile(force, 0.1);
+    let top = percentile(force, 0.999);
+    let diffs: Vec<f64> = force.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    let sigma = 1.4826 * percentile(&diffs, 0.5) / std::f64::consts::SQRT_2;
+    let amp = top - base;
+    if !(amp > 0.0) {
+        return Vec::new();
+    }
+    let enter = base + (0.05 * amp).max(6.0 * sigma);
+    let exit = base + 0.5 * (enter - base);
+    let mut out = Vec::new();
+    let mut start: Option<usize> = None;
+    for (i, &f) in force.iter().enumerate() {
+        match start {
+            None if f > enter => start = Some(i),
+            Some(s) if f < exit => {
+                if i - s >= 3 {
+                    out.push(PulseSpan { start: s, end: i - 1 });
+                }
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        if force.len() - s >= 3 {
+            out.push(PulseSpan { start: s, end: force.len() - 1 });
+        }
+    }
+    out
+}
+
+/// Strided copy of the samples inside [a, b] for fitting.
+struct FitData {
+    st: Vec<f64>,
+    sv: Vec<f64>,
+    ft: Vec<f64>,
+    fv: Vec<f64>,
+    t_mid: f64,
+}
+
+impl FitData {
+    fn new(tw: &[f64], s: &[f64], u: &[f64], f: &[f64], a: f64, b: f64, max_wl: usize, max_force: usize, memory_s: f64) -> Self {
+        let idx: Vec<usize> = (0..tw.len()).filter(|&i| tw[i] >= a && tw[i] <= b && s[i].is_finite()).collect();
+        let stride = idx.len().div_ceil(max_wl.max(1)).max(1);
+        let st: Vec<f64> = idx.iter().step_by(stride).map(|&i| tw[i]).collect();
+        let sv: Vec<f64> = idx.iter().step_by(stride).map(|&i| s[i]).collect();
+        let lo = u.partition_point(|&x| x < a - memory_s).saturating_sub(1);
+        let hi = (u.partition_point(|&x| x <= b + memory_s) + 1).min(u.len());
+        let n = hi.saturating_sub(lo);
+        let fs = n.div_ceil(max_force.max(1)).max(1);
+        let ft: Vec<f64> = (lo..hi).step_by(fs).map(|i| u[i]).collect();
+        let fv: Vec<f64> = (lo..hi).step_by(fs).map(|i| f[i]).collect();
+        let t_mid = if st.is_empty() { 0.0 } else { (st[0] + st[st.len() - 1]) / 2.0 };
+        FitData { st, sv, ft, fv, t_mid }
+    }
+
+    fn cost(&self, fixed: Option<f64>) -> LagModelCost<'_> {
+        LagModelCost { shift_t: &self.st, shift_pm: &self.sv, force_t: &self.ft, force_n: &self.fv, fixed_offset_s: fixed, t_mid: self.t_mid }
+    }
+}
+
+/// Coarse offset by cross-correlation: the shift lag Δ (in the force frame u) that
+/// maximises |corr(s(t), F(t + Δ))| over |Δ| ≤ range. Returns (Δ, sign of corr).
+fn xcorr_offset(tw: &[f64], s: &[f64], u: &[f64], f: &[f64], a: f64, b: f64, range: f64) -> Option<(f64, f64)> {
+    let dt_s = median_period(tw);
+    let dt_f = median_period(u);
+    let g = dt_s.max(dt_f).max((b - a) / 20000.0).max(2.0 * range / 4000.0);
+    if !(g > 0.0) || b <= a {
+        return None;
+    }
+    let n = ((b - a) / g).floor() as usize + 1;
+    // Shift on the grid (gaps bridged).
+    let filled = assign::fill_gaps(tw, s);
+    let mut h = 0;
+    let sg: Vec<f64> = (0..n).map(|j| fit::interp(tw, &filled, a + j as f64 * g, &mut h)).collect();
+    let f0 = a - range;
+    let nf = ((b + range - f0) / g).floor() as usize + 2;
+    let mut h = 0;
+    let fg: Vec<f64> = (0..nf).map(|j| fit::interp(u, f, f0 + j as f64 * g, &mut h)).collect();
+    let ms = sg.iter().sum::<f64>() / n as f64;
+    let mf = fg.iter().sum::<f64>() / nf as f64;
+    let lags = (range / g).floor() as isize;
+    let mut best = (0.0, 0.0f64, 1.0);
+    for l in -lags..=lags {
+        let off = (range / g).round() as isize + l;
+        let mut acc = 0.0;
+        for j in 0..n {
+            let k = j as isize + off;
+            if k >= 0 && (k as usize) < nf {
+                acc += (sg[j] - ms) * (fg[k as usize] - mf);
+            }
+        }
+        if acc.abs() > best.1.abs() {
+            best = (l as f64 * g, acc, acc.signum());
+        }
+    }
+    Some((best.0, best.2))
+}
+
+/// Run the analysis.
+pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &AnalysisOptions) -> Result<(Measurement, Series)> {
+    let Some(module) = &design.module else {
+        bail!("design `{}` has no [module]: verify judges a clip-on module; for a flat array use calibrate-array", design.name);
+    };
+    let mut warnings = log.warnings.clone();
+    warnings.merge(force.warnings.clone());
+    if let Some(c) = &opts.core {
+        if !module.cores.iter().any(|x| &x.name == c) {
+            let names: Vec<&str> = module.cores.iter().map(|c| c.name.as_str()).collect();
+            bail!("design `{}` has no core named `{c}`; its cores are: {}", design.name, names.join(", "));
+        }
+    }
+    let all_nominals: Vec<f64> = module.gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
+    let hw = opts.window_half_width_nm.unwrap_or_else(|| assign::default_half_width_nm(&all_nominals));
+    if !(hw > 0.0) {
+        bail!("the window half-width must be positive, got {hw} nm");
+    }
+    let strain: Vec<_> = module
+        .gratings
+        .iter()
+        .filter(|g| g.role == GratingRole::Strain && (opts.core.is_none() || g.core == opts.core))
+        .collect();
+    let reference = module
+        .gratings
+        .iter()
+        .find(|g| g.role == GratingRole::TemperatureReference && (g.core.is_none() || opts.core.is_none() || g.core == opts.core));
+    let mut windows: Vec<GratingWindow> =
+        strain.iter().map(|g| GratingWindow { name: g.name.clone(), nominal_nm: g.bragg_wavelength_nm, half_width_nm: hw }).collect();
+    if let Some(r) = reference {
+        windows.push(GratingWindow { name: r.name.clone(), nominal_nm: r.bragg_wavelength_nm, half_width_nm: hw });
+    }
+    let tracks = assign::assign(log, &windows);
+    let rows = log.rows();
+    let min_rows = (rows / 10).max(2);
+    let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
+
+    // Reference.
+    let ref_track: Option<(&GratingTrack, Vec<f64>)> = match reference {
+        Some(r) => {
+            let t = tracks.last().filter(|t| t.window.name == r.name);
+            match t {
+                Some(t) if t.rows_present >= min_rows => Some((t, assign::fill_gaps(&tw, &t.wavelength_nm))),
+                _ => {
+                    warnings.add("reference_missing", || {
+                        format!(
+                            "{}: the temperature-reference grating `{}` ({} ± {hw:.3} nm) has too few peaks; shifts are NOT temperature compensated",
+                            log.source.display(),
+                            r.name,
+                            r.bragg_wavelength_nm
+                        )
+                    });
+                    None
+                }
+            }
+        }
+        None => {
+            warnings.add("reference_missing", || format!("design `{}` has no temperature-reference grating; shifts are not compensated", design.name));
+            None
+        }
+    };
+
+    // Strain gratings present.
+    let mut used: Vec<(usize, Vec<f64>)> = Vec::new();
+    for (i, g) in strain.iter().enumerate() {
+        let t = &tracks[i];
+        if t.rows_present < min_rows {
+            let msg = format!(
+                "{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {rows} rows: is its channel connected? (--window-nm widens the window)",
+                log.source.display(),
+                g.name,
+                g.bragg_wavelength_nm,
+                t.rows_present
+            );
+            if opts.core.is_some() {
+                bail!("{msg}");
+            }
+            warnings.add("grating_missing", || msg);
+            continue;
+        }
+        let s = assign::compensated_shift_pm(t, ref_track.as_ref().map(|(t, f)| (*t, f.as_slice())));
+        used.push((i, s));
+    }
+    if used.is_empty() {
+        bail!("{}: none of the design's strain gratings has peaks in the log (windows ± {hw:.3} nm around their nominal wavelengths)", log.source.display());
+    }
+
+    // Prior for the clock offset.
+    let w0 = log.time_s[0];
+    let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute { 0.0 } else { force.time_s[0] - w0 };
+    let range = opts.max_clock_offset_s.max(0.0);
+    // Force times in the wavelength frame, before the residual offset.
+    let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
+    let (wa, wb) = (tw[0], tw[tw.len() - 1]);
+    let (fa, fb) = (u[0], u[u.len() - 1]);
+    let gap = (fa - wb).max(wa - fb);
+    if opts.clock_offset_s.is_none() && gap > range || opts.clock_offset_s.is_some_and(|o| fa - (o - prior) > wb || fb - (o - prior) < wa) {
+        bail!(
+            "the force log {} (covering {:.3} s to {:.3} s on the wavelength log's clock{}) does not overlap the wavelength log {} (0 s to {:.3} s){}",
+            force.source.display(),
+            fa,
+            fb,
+            if prior != 0.0 { ", starts aligned" } else { "" },
+            log.source.display(),
+            wb,
+            if opts.clock_offset_s.is_none() { format!(", even allowing ±{range} s of clock offset (--max-offset-s)") } else { String::new() }
+        );
+    }
+    let a = wa.max(fa - range).max(wa);
+    let b = wb.min(fb + range);
+
+    // Primary grating: the largest response.
+    let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
+    let primary = (0..used.len()).max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1))).unwrap_or(0);
+
+    // Clock offset.
+    let (delta, source) = match opts.clock_offset_s {
+        Some(o) => (o - prior, "given"),
+        None => {
+            let s = &used[primary].1;
+            let (dx, _) = xcorr_offset(&tw, s, &u, &force.force_n, a, b, range)
+                .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
+            let coarse = FitData::new(&tw, s, &u, &force.force_n, a, b, 20_000, 50_000, 30.0);
+            let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
+            for tau0 in [0.05f64, 0.5, 5.0] {
+                let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
+                let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
+                let r = fit::nelder_mead(coarse.cost(None), &start, &step, 300);
+                if r.1 < best.1 {
+                    best = r;
+                }
+            }
+            // Polish at full rate on the first stretch of the overlap.
+            let span = (b - a).min(200_000.0 * median_period(&u).max(1e-6)).min(100_000.0 * median_period(&tw).max(1e-6));
+            let fine = FitData::new(&tw, s, &u, &force.force_n, a, a + span.max(1.0), 100_000, 200_000, 30.0);
+            let p = best.0.clone();
+            let step = [2.0 * median_period(&fine.st).max(median_period(&fine.ft)), 0.3, 0.5];
+            let r = fit::nelder_mead(fine.cost(None), &p, &step, 300);
+            let d = if r.1 < f64::MAX { r.0[0] } else { p[0] };
+            if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
+                warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with --max-offset-s or give --clock-offset-s"));
+            }
+            (d, "estimated")
+        }
+    };
+    let offset = prior + delta;
+    // Force in the wavelength frame, aligned.
+    let fu: Vec<f64> = u.iter().map(|x| x - delta).collect();
+    let (fa, fb) = (fu[0], fu[fu.len() - 1]);
+    let overlap = (wb.min(fb) - wa.max(fa)).max(0.0);
+    let min_len = (wb - wa).min(fb - fa);
+    if overlap < 0.25 * min_len || overlap <= 0.0 {
+        bail!(
+            "after aligning the clocks (offset {offset:.3} s) the force log {} and the wavelength log {} overlap for only {overlap:.3} s",
+            force.source.display(),
+            log.source.display()
+        );
+    }
+
+    // Common time base: force at the wavelength log's rows.
+    let mut h = 0;
+    let fc: Vec<f64> = tw
+        .iter()
+        .map(|&t| if t < fa || t > fb { f64::NAN } else { fit::interp(&fu, &force.force_n, t, &mut h) })
+        .collect();
+    let resolution_pm = opts.resolution_pm.unwrap_or_else(|| log.format.typical_resolution_pm());
+    let pulses = detect_pulses(&force.force_n);
+    if pulses.is_empty() {
+        warnings.add("no_pulses", || format!("{}: no loading pulse found in the force log", force.source.display()));
+    }
+
+    // Per grating.
+    let mut series = Series { time_s: tw.clone(), force_n: fc.clone(), ..Default::default() };
+    let mut results = Vec::new();
+    let mut prev: Option<(f64, f64)> = None;
+    let order: Vec<usize> = std::iter::once(primary).chain((0..used.len()).filter(|&k| k != primary)).collect();
+    for k in order {
+        let (gi, s) = &used[k];
+        let g = strain[*gi];
+        let t = &tracks[*gi];
+        // τ and r with the offset fixed.
+        let sub = FitData::new(&tw, s, &fu, &force.force_n, wa.max(fa), wb.min(fb), 20_000, 50_000, 30.0);
+        let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0], f64::MAX);
+        let starts: Vec<(f64, f64)> = match prev {
+            Some(p) => vec![p],
+            None => vec![(0.05, 0.5), (0.5, 0.5), (5.0, 0.5)],
+        };
+        for (tau0, r0) in starts {
+            let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
+            let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
+            let r = fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250);
+            if r.1 < best.1 {
+                best = r;
+            }
+        }
+        let probe = sub.cost(Some(0.0));
+        let lm0 = probe.fit_at(&best.0).ok_or_else(|| anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name))?;
+        prev = Some((lm0.tau_s, lm0.instant_fraction));
+        // Final evaluation on every sample.
+        let idx: Vec<usize> = (0..tw.len()).filter(|&i| s[i].is_finite() && fc[i].is_finite()).collect();
+        let st: Vec<f64> = idx.iter().map(|&i| tw[i]).collect();
+        let sv: Vec<f64> = idx.iter().map(|&i| s[i]).collect();
+        let t_mid = (st[0] + st[st.len() - 1]) / 2.0;
+        let full = LagModelCost { shift_t: &st, shift_pm: &sv, force_t: &fu, force_n: &force.force_n, fixed_offset_s: Some(0.0), t_mid };
+        let lm: LagModelFit = full.evaluate(0.0, lm0.tau_s, lm0.instant_fraction).unwrap_or(lm0);
+        let d: Vec<f64> = (0..tw.len()).map(|i| s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)).collect();
+        let dv: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
+        let fv: Vec<f64> = idx.iter().map(|&i| fc[i]).collect();
+        let line = fit::fit_line(&fv, &dv).ok_or_else(|| anyhow::anyhow!("grating `{}`: the force does not vary; no line can be fitted", g.name))?;
+        let (hyst, nonlin) = hysteresis_and_linearity(&fv, &dv, &line);
+        // Pulses.
+        let sign = if lm.k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
+        let mut pres = Vec::new();
+        for (pi, p) in pulses.iter().enumerate() {
+            let seg_t = &fu[p.start..=p.end];
+            let seg_f = &force.force_n[p.start..=p.end];
+            let im = (0..seg_f.len()).max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y])).unwrap_or(0);
+            let fbase = percentile(&force.force_n, 0.1);
+            let (tf, pf) = fit::peak_vertex(seg_t, seg_f, im, fbase + 0.95 * (seg_f[im] - fbase));
+            let t_start = fu[p.start];
+            let t_end = fu[p.end];
+            let next = pulses.get(pi + 1).map_or(f64::INFINITY, |q| fu[q.start]);
+            let w_end = next.min(t_end + (t_end - t_start).max(1.0));
+            let i0 = tw.partition_point(|&x| x < t_start);
+            let i1 = tw.partition_point(|&x| x <= w_end);
+            if i1 <= i0 + 1 {
+                continue;
+            }
+            let seg_tw = &tw[i0..i1];
+            let seg_d: Vec<f64> = d[i0..i1].iter().map(|v| sign * v).collect();
+            let Some(jm) = (0..seg_d.len()).filter(|&j| seg_d[j].is_finite()).max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y])) else {
+                continue;
+            };
+            let (ts, ps) = fit::peak_vertex(seg_tw, &seg_d, jm, 0.95 * seg_d[jm]);
+            pres.push(PulseResult {
+                index: pi + 1,
+                start_s: t_start,
+                end_s: t_end,
+                peak_force_n: pf,
+                peak_force_time_s: tf,
+                peak_shift_pm: sign * ps,
+                peak_shift_time_s: ts,
+                lag_s: ts - tf,
+            });
+        }
+        let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
+        let mean_lag = if pres.is_empty() { f64::NAN } else { pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64 };
+        let k = lm.k_pm_per_n;
+        let q = if max_lag > 0.0 { Some(k.abs() * line.r_squared / max_lag) } else { None };
+        if q.is_none() {
+            warnings.add("q_undefined", || format!("grating `{}`: the largest lag is not positive ({max_lag:.4} s): Q is undefined", g.name));
+        }
+        series.shift_pm.push((g.name.clone(), d.clone()));
+        series.fit.push((g.name.clone(), line.slope, line.intercept));
+        results.push(GratingResult {
+            grating: g.name.clone(),
+            core: g.core.clone(),
+            nominal_nm: g.bragg_wavelength_nm,
+            window_half_width_nm: hw,
+            rows_with_peak: t.rows_present,
+            rows_ambiguous: t.rows_ambiguous,
+            sensitivity_pm_per_n: k,
+            sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
+            linear_slope_pm_per_n: line.slope,
+            r_squared: line.r_squared,
+            lag_model_r_squared: lm.r_squared,
+            hysteresis_percent_span: hyst,
+            nonlinearity_percent_span: nonlin,
+            resolution_n: resolution_pm / k.abs(),
+            resolution_g: resolution_pm / k.abs() / 9.80665e-3,
+            max_lag_s: max_lag,
+            mean_lag_s: mean_lag,
+            quality_q_pm_per_n_s: q,
+            sls_time_constant_s: lm.tau_s,
+            sls_instant_fraction: lm.instant_fraction,
+            drift_pm_per_s: lm.drift_pm_per_s,
+            residual_rms_pm: lm.rms_pm,
+            pulses: pres,
+        });
+    }
+    // Report gratings in spec order.
+    results.sort_by_key(|r| strain.iter().position(|g| g.name == r.grating));
+    series.shift_pm.sort_by_key(|(n, _)| strain.iter().position(|g| &g.name == n));
+    series.fit.sort_by_key(|(n, _, _)| strain.iter().position(|g| &g.name == n));
+    for r in &results {
+        if r.rows_ambiguous > 0 {
+            warnings.add_n("ambiguous_peaks", r.rows_ambiguous, || format!("grating `{}`: rows with more than one peak in its window (the nearest to the previous value was taken)", r.grating));
+        }
+    }
+    let m = Measurement {
+        wavelength_log: log.source.display().to_string(),
+        wavelength_format: log.format.name().into(),
+        wavelength_rows: rows,
+        wavelength_rate_hz: 1.0 / log.median_period_s(),
+        force_log: force.source.display().to_string(),
+        force_samples: force.force_n.len(),
+        force_rate_hz: 1.0 / median_period(&force.time_s),
+        clock_offset_s: offset,
+        clock_offset_source: source.into(),
+        overlap_s: overlap,
+        reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
+        interrogator_resolution_pm: resolution_pm,
+        pulse_count: pulses.len(),
+        gratings: results,
+        warnings,
+    };
+    Ok((m, series))
+}
+
+/// Hysteresis and non-linearity, % of the full-scale output |slope|·(F_max − F_min):
+/// samples are binned by force (20 bins); hysteresis is the largest difference between
+/// the mean shift while loading (force rising) and unloading in one bin, non-linearity
+/// the largest distance of a bin's mean from the fitted line (both from residuals
+/// about the line).
+pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFit) -> (f64, f64) {
+    let n = force.len();
+    if n < 5 {
+        return (f64::NAN, f64::NAN);
+    }
+    let fmin = percentile(force, 0.0);
+    let fmax = percentile(force, 1.0);
+    let span = line.slope.abs() * (fmax - fmin);
+    if !(span > 0.0) {
+        return (f64::NAN, f64::NAN);
+    }
+    const BINS: usize = 20;
+    let mut acc = [[0.0f64; 6]; BINS]; // sum_load, n_load, sum_unload, n_unload, sum_all, n_all
+    for i in 1..n - 1 {
+        let b = (((force[i] - fmin) / (fmax - fmin)) * BINS as f64).floor().clamp(0.0, (BINS - 1) as f64) as usize;
+        // Residuals from the line, so that samples spread across a bin compare fairly.
+        let res = shift[i] - (line.intercept + line.slope * force[i]);
+        let df = force[i + 1] - force[i - 1];
+        if df > 0.0 {
+            acc[b][0] += res;
+            acc[b][1] += 1.0;
+        } else if df < 0.0 {
+            acc[b][2] += res;
+            acc[b][3] += 1.0;
+        }
+        acc[b][4] += res;
+        acc[b][5] += 1.0;
+    }
+    let (mut hyst, mut lin) = (0.0f64, 0.0f64);
+    for a in acc.iter() {
+        if a[1] >= 3.0 && a[3] >= 3.0 {
+            hyst = hyst.max((a[0] / a[1] - a[2] / a[3]).abs());
+        }
+        if a[5] >= 3.0 {
+            lin = lin.max((a[4] / a[5]).abs());
+        }
+    }
+    (100.0 * hyst / span, 100.0 * lin / span)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pulses_are_found_with_noise_and_different_heights() {
+        let mut f = Vec::new();
+        for (k, amp) in [5.0, 50.0, 20.0].iter().enumerate() {
+            for i in 0..200 {
+                let x = i as f64 / 100.0;
+                let v = if x < 1.0 { amp * (1.0 - (std::f64::consts::TAU * x).cos()) / 2.0 } else { 0.0 };
+                let noise = 0.02 * (((i * 7919 + k * 104729) % 101) as f64 / 50.0 - 1.0);
+                f.push(v + noise);
+            }
+        }
+        let p = detect_pulses(&f);
+        assert_eq!(p.len(), 3, "{p:?}");
+        for (k, s) in p.iter().enumerate() {
+            assert!(s.start > k * 200 && s.end < k * 200 + 100, "{s:?}");
+        }
+    }
+
+    #[test]
+    fn a_straight_reversible_response_has_no_hysteresis() {
+        let f: Vec<f64> = (0..400).map(|i| 10.0 * (1.0 - (i as f64 * 0.05).cos())).collect();
+        let s: Vec<f64> = f.iter().map(|x| 3.0 * x).collect();
+        let line = fit::fit_line(&f, &s).unwrap();
+        let (h, l) = hysteresis_and_linearity(&f, &s, &line);
+        assert!(h < 1e-9 && l < 1e-9, "{h} {l}");
+        // A response that lags shows up as hysteresis.
+        let s2: Vec<f64> = (0..400).map(|i| 30.0 * (1.0 - (i as f64 * 0.05 - 0.3).cos())).collect();
+        let line2 = fit::fit_line(&f, &s2).unwrap();
+        assert!(hysteresis_and_linearity(&f, &s2, &line2).0 > 5.0);
+    }
+}

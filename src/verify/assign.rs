@@ -1,0 +1,221 @@
+//! From peaks to gratings: wavelength windows around the design's nominal values,
+//! gaps where a peak dropped out, and temperature removal with the reference grating.
+//!
+//! Each grating owns the window nominal ± half-width. The default half-width is half
+//! the smallest spacing between the nominal wavelengths (so windows never overlap),
+//! capped at 2.5 nm (250 N at 10 pm/N, or 250 K of temperature, before a peak leaves
+//! it). When several peaks fall in one window in one row, the one nearest the grating's
+//! previous value is taken and the row is counted as ambiguous.
+
+use crate::logs::PeakLog;
+use serde::Serialize;
+
+/// Largest default half-width of a window, nm.
+pub const MAX_DEFAULT_HALF_WIDTH_NM: f64 = 2.5;
+
+/// A grating to look for in a log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GratingWindow {
+    /// Grating name from the spec.
+    pub name: String,
+    /// Nominal Bragg wavelength, nm.
+    pub nominal_nm: f64,
+    /// Half-width of its window, nm.
+    pub half_width_nm: f64,
+}
+
+/// Default half-width for a set of nominal wavelengths, nm.
+pub fn default_half_width_nm(nominals: &[f64]) -> f64 {
+    let mut v = nominals.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    let min_gap = v.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
+    (min_gap / 2.0).min(MAX_DEFAULT_HALF_WIDTH_NM)
+}
+
+/// One grating's wavelength, row by row (NaN where no peak fell in its window).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GratingTrack {
+    /// The window it was read with.
+    pub window: GratingWindow,
+    /// Wavelength per log row, nm; NaN = dropped out.
+    pub wavelength_nm: Vec<f64>,
+    /// Rows with a peak in the window.
+    pub rows_present: usize,
+    /// Rows with more than one peak in the window.
+    pub rows_ambiguous: usize,
+}
+
+/// Assign peaks to gratings by window.
+pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
+    let n = log.rows();
+    let mut tracks: Vec<GratingTrack> = windows
+        .iter()
+        .map(|w| GratingTrack { window: w.clone(), wavelength_nm: vec![f64::NAN; n], rows_present: 0, rows_ambiguous: 0 })
+        .collect();
+    let mut last: Vec<f64> = windows.iter().map(|w| w.nominal_nm).collect();
+    let mut hits: Vec<u32> = vec![0; windows.len()];
+    for i in 0..n {
+        let (peaks, _) = log.row(i);
+        hits.iter_mut().for_each(|h| *h = 0);
+        for &p in peaks {
+            for (g, w) in windows.iter().enumerate() {
+                if (p - w.nominal_nm).abs() <= w.half_width_nm {
+                    let cur = &mut tracks[g].wavelength_nm[i];
+                    if hits[g] == 0 || (p - last[g]).abs() < (*cur - last[g]).abs() {
+                        *cur = p;
+                    }
+                    hits[g] += 1;
+                }
+            }
+        }
+        for g in 0..windows.len() {
+            if hits[g] > 0 {
+                tracks[g].rows_present += 1;
+                last[g] = tracks[g].wavelength_nm[i];
+                if hits[g] > 1 {
+                    tracks[g].rows_ambiguous += 1;
+                }
+            }
+        }
+    }
+    tracks
+}
+
+/// Fill NaN gaps by linear interpolation (ends take the nearest value). Used for the
+/// reference grating only: temperature changes slowly, so a dropped reference peak
+/// should not cost the strain sample beside it.
+pub fn fill_gaps(t: &[f64], v: &[f64]) -> Vec<f64> {
+    let idx: Vec<usize> = (0..v.len()).filter(|&i| v[i].is_finite()).collect();
+    if idx.is_empty() {
+        return v.to_vec();
+    }
+    let mut out = v.to_vec();
+    for i in 0..v.len() {
+        if out[i].is_finite() {
+            continue;
+        }
+        let k = idx.partition_point(|&j| j < i);
+        out[i] = if k == 0 {
+            v[idx[0]]
+        } else if k == idx.len() {
+            v[idx[k - 1]]
+        } else {
+            let (a, b) = (idx[k - 1], idx[k]);
+            v[a] + (v[b] - v[a]) * (t[i] - t[a]) / (t[b] - t[a])
+        };
+    }
+    out
+}
+
+/// Median of the finite values among the first `n` finite ones.
+pub fn early_median(v: &[f64], n: usize) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).take(n).collect();
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    s.sort_by(|a, b| a.total_cmp(b));
+    s[s.len() / 2]
+}
+
+/// Shift of a strain grating, pm, relative to its early baseline, with the
+/// reference grating's shift removed (scaled by λ_sensor / λ_reference as in
+/// [`crate::grating::compensate_temperature_pm`]). Without a reference the raw shift
+/// is returned. NaN stays NaN.
+pub fn compensated_shift_pm(sensor: &GratingTrack, reference: Option<(&GratingTrack, &[f64])>) -> Vec<f64> {
+    let base = early_median(&sensor.wavelength_nm, 50);
+    match reference {
+        None => sensor.wavelength_nm.iter().map(|&l| (l - base) * 1e3).collect(),
+        Some((r, filled)) => {
+            let rbase = early_median(filled, 50);
+            sensor
+                .wavelength_nm
+                .iter()
+                .zip(filled)
+                .map(|(&l, &lr)| {
+                    crate::grating::compensate_temperature_pm(
+                        (l - base) * 1e3,
+                        sensor.window.nominal_nm,
+                        (lr - rbase) * 1e3,
+                        r.window.nominal_nm,
+                    )
+                })
+                .collect()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::logs::{Clock, LogFormat, LogWarnings};
+
+    fn log_of(rows: &[&[f64]]) -> PeakLog {
+        let mut row_start = vec![0];
+        let mut peaks = Vec::new();
+        for r in rows {
+            peaks.extend_from_slice(r);
+            row_start.push(peaks.len());
+        }
+        PeakLog {
+            source: "mem".into(),
+            format: LogFormat::Csv,
+            time_s: (0..rows.len()).map(|i| i as f64).collect(),
+            clock: Clock::Relative,
+            row_start,
+            peak_channel: vec![0; peaks.len()],
+            peaks_nm: peaks,
+            channels: 1,
+            column_names: vec![],
+            line_of_row: (0..rows.len() as u32).collect(),
+            warnings: LogWarnings::default(),
+        }
+    }
+
+    #[test]
+    fn windows_assign_peaks_and_keep_gaps() {
+        let w = default_half_width_nm(&[1530.0, 1536.0, 1560.0]);
+        assert_eq!(w, 2.5);
+        assert_eq!(default_half_width_nm(&[1520.807, 1523.550]), (1523.550 - 1520.807) / 2.0);
+        let win: Vec<GratingWindow> = [1530.0, 1536.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &l)| GratingWindow { name: format!("g{i}"), nominal_nm: l, half_width_nm: w })
+            .collect();
+        let log = log_of(&[&[1530.1, 1536.2], &[1536.3], &[1529.9, 1530.6, 1545.0]]);
+        let t = assign(&log, &win);
+        assert_eq!(t[0].wavelength_nm[0], 1530.1);
+        assert!(t[0].wavelength_nm[1].is_nan());
+        // Two peaks in the window: the one nearest the previous value (1530.1) wins.
+        assert_eq!(t[0].wavelength_nm[2], 1529.9);
+        assert_eq!((t[0].rows_present, t[0].rows_ambiguous), (2, 1));
+        assert!(t[1].wavelength_nm[2].is_nan());
+    }
+
+    #[test]
+    fn reference_removes_a_pure_temperature_ramp() {
+        let fo = crate::grating::FiberOptics::default();
+        let (ls, lr) = (1546.295, 1560.146);
+        let n = 200;
+        let t: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let strain = |i: usize| if i > 100 { 50e-6 } else { 0.0 };
+        let s: Vec<f64> = (0..n).map(|i| ls + fo.shift_pm(ls, strain(i), 0.05 * i as f64) * 1e-3).collect();
+        let mut r: Vec<f64> = (0..n).map(|i| lr + fo.shift_pm(lr, 0.0, 0.05 * i as f64) * 1e-3).collect();
+        r[150] = f64::NAN; // a dropped reference peak is bridged
+        let mk = |name: &str, l0: f64, v: Vec<f64>| GratingTrack {
+            window: GratingWindow { name: name.into(), nominal_nm: l0, half_width_nm: 2.5 },
+            rows_present: n,
+            rows_ambiguous: 0,
+            wavelength_nm: v,
+        };
+        let (st, rt) = (mk("s", ls, s), mk("r", lr, r));
+        let filled = fill_gaps(&t, &rt.wavelength_nm);
+        let c = compensated_shift_pm(&st, Some((&rt, &filled)));
+        let expect = fo.shift_pm(ls, 50e-6, 0.0);
+        // The early median is taken over rows 0..50, where the ramp moves the baseline
+        // by the same amount in both gratings: compensation leaves only the strain.
+        for i in [0usize, 99, 150, 199] {
+            let want = if i > 100 { expect } else { 0.0 };
+            assert!((c[i] - want).abs() < 1e-6, "row {i}: {} vs {want}", c[i]);
+        }
+    }
+}
