@@ -257,44 +257,45 @@ pub fn design_quality(
         .collect())
 }
 
-/// What the verifier measured on a printed prototype, read from its JSON.
+/// What the verifier measured on a printed prototype, read from the JSON of
+/// `fbgforge verify --json`. Mapping from the verifier's fields (averaged over its
+/// strain gratings):
+///
+/// | here | verifier |
+/// |---|---|
+/// | `dt_max_s` | `gratings[].max_lag_s` (Δt_max, quantised by the sample period) |
+/// | `r_squared` | `gratings[].r_squared` (straight line of Δλ on F) |
+/// | `sls_lag_s` | (1 − `gratings[].sls_instant_fraction`) · `gratings[].sls_time_constant_s` |
+/// | `sample_period_s` | 1 / `wavelength_rate_hz` |
+///
+/// The verifier's first-order lag fit, Δλ = K·[r·F + (1 − r)·(F low-passed by τ)],
+/// lags a slow force by (1 − r)·τ, which is exactly the lag T of this module's SLS
+/// model; it resolves lags shorter than a sample period, so it calibrates τ better
+/// than Δt_max does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
 pub struct MeasuredPrototype {
     /// Largest lag between force and wavelength peaks, s.
     pub dt_max_s: Option<f64>,
     /// R² of the linear fit of Δλ on F.
     pub r_squared: Option<f64>,
+    /// Lag of the fitted standard linear solid, (1 − r)·τ, s.
+    pub sls_lag_s: Option<f64>,
     /// Interrogator sample period, s.
     pub sample_period_s: Option<f64>,
 }
 
-/// Keys searched in a verifier JSON, first match wins (see docs/optimize.md for the
-/// mapping from the verifier's fields).
-const DT_KEYS: &[&str] = &["dt_max_s", "lag_max_s", "max_lag_s", "delta_t_max_s"];
-const R2_KEYS: &[&str] = &["r_squared", "r2", "fit_r_squared"];
-const SAMPLE_KEYS: &[&str] = &[
-    "sample_period_s",
-    "wavelength_sample_period_s",
-    "interrogator_sample_period_s",
-];
-
-fn find_number(v: &serde_json::Value, keys: &[&str]) -> Option<f64> {
-    match v {
-        serde_json::Value::Object(map) => {
-            for k in keys {
-                if let Some(x) = map.get(*k).and_then(|x| x.as_f64()) {
-                    return Some(x);
-                }
-            }
-            map.values().find_map(|c| find_number(c, keys))
-        }
-        serde_json::Value::Array(items) => items.iter().find_map(|c| find_number(c, keys)),
-        _ => None,
-    }
+fn mean_field(gratings: &[serde_json::Value], key: &str) -> Option<f64> {
+    let v: Vec<f64> = gratings
+        .iter()
+        .filter_map(|g| g.get(key).and_then(|x| x.as_f64()))
+        .filter(|x| x.is_finite())
+        .collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
 impl MeasuredPrototype {
-    /// Read a verifier JSON (`fbgforge verify --json`), naming the file on error.
+    /// Read a verifier JSON, naming the file on error.
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| {
             anyhow::anyhow!("{}: cannot read the verifier JSON: {e}", path.display())
@@ -302,25 +303,40 @@ impl MeasuredPrototype {
         Self::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
     }
 
-    /// Parse verifier JSON text.
+    /// Parse verifier JSON text: either the verifier's own output (a `gratings`
+    /// array, possibly nested under a `measurement` object) or a flat object with
+    /// the fields of this struct.
     pub fn parse(text: &str) -> anyhow::Result<Self> {
         let v: serde_json::Value = serde_json::from_str(text)
             .map_err(|e| anyhow::anyhow!("line {}: not JSON: {e}", e.line()))?;
-        let m = MeasuredPrototype {
-            dt_max_s: find_number(&v, DT_KEYS),
-            r_squared: find_number(&v, R2_KEYS),
-            sample_period_s: find_number(&v, SAMPLE_KEYS),
+        let root = v.get("measurement").unwrap_or(&v);
+        let m = if let Some(gr) = root.get("gratings").and_then(|g| g.as_array()) {
+            let tau = mean_field(gr, "sls_time_constant_s");
+            let r = mean_field(gr, "sls_instant_fraction");
+            MeasuredPrototype {
+                dt_max_s: mean_field(gr, "max_lag_s"),
+                r_squared: mean_field(gr, "r_squared"),
+                sls_lag_s: tau.zip(r).map(|(t, r)| (1.0 - r) * t),
+                sample_period_s: root
+                    .get("wavelength_rate_hz")
+                    .and_then(|x| x.as_f64())
+                    .filter(|x| *x > 0.0)
+                    .map(|hz| 1.0 / hz),
+            }
+        } else {
+            serde_json::from_value(root.clone()).map_err(|e| {
+                anyhow::anyhow!("expected the JSON of `fbgforge verify --json` (a `gratings` array) or fields dt_max_s, r_squared, sls_lag_s, sample_period_s: {e}")
+            })?
         };
-        if m.dt_max_s.is_none() && m.r_squared.is_none() {
+        if m.dt_max_s.is_none() && m.r_squared.is_none() && m.sls_lag_s.is_none() {
             anyhow::bail!(
-                "no measured lag ({}) or R² ({}) found; expected the JSON of `fbgforge verify --json`",
-                DT_KEYS.join("/"),
-                R2_KEYS.join("/")
+                "no measured lag (gratings[].max_lag_s, gratings[].sls_time_constant_s) or R² (gratings[].r_squared) found; expected the JSON of `fbgforge verify --json`"
             );
         }
         for (name, v) in [
             ("dt_max_s", m.dt_max_s),
             ("r_squared", m.r_squared),
+            ("sls_lag_s", m.sls_lag_s),
             ("sample_period_s", m.sample_period_s),
         ] {
             if let Some(x) = v {
@@ -340,9 +356,10 @@ impl MeasuredPrototype {
     /// Calibrate the Q model against this measurement of a prototype whose model lag
     /// is `model_lag_s` and model R² is `model_r_squared`.
     ///
-    /// A lag above the sample period fixes the τ scale (T is linear in every τ). A lag
-    /// at or below the sample period only bounds T: the scale shrinks if the model
-    /// predicted more than one sample period, else it stays 1.
+    /// The fitted SLS lag, when present, fixes the τ scale (T is linear in every τ).
+    /// Otherwise Δt_max does when it exceeds the sample period; a Δt_max at the sample
+    /// period only bounds T, so the scale shrinks if the model predicted more than one
+    /// sample period, else it stays 1.
     pub fn calibrate(
         &self,
         model_lag_s: f64,
@@ -358,8 +375,10 @@ impl MeasuredPrototype {
             r_squared_loss_scale: 1.0,
             sample_period_s: sample,
         };
-        if let Some(dt) = self.dt_max_s {
-            if model_lag_s > 0.0 {
+        if model_lag_s > 0.0 {
+            if let Some(t) = self.sls_lag_s {
+                cal.tau_scale = t / model_lag_s;
+            } else if let Some(dt) = self.dt_max_s {
                 if dt > sample {
                     cal.tau_scale = dt / model_lag_s;
                 } else if model_lag_s > sample {
@@ -488,21 +507,29 @@ mod tests {
     #[test]
     fn calibration_reproduces_the_measurement() {
         let s = QualitySettings::default();
-        let m = MeasuredPrototype::parse(
-            r#"{"fit": {"dt_max_s": 1.5, "r_squared": 0.96}, "sample_period_s": 0.5}"#,
-        )
-        .unwrap();
+        // The verifier's own layout: per-grating fits and the wavelength log's rate.
+        let json = r#"{"wavelength_rate_hz": 2.0, "gratings": [
+            {"grating": "a", "max_lag_s": 1.5, "r_squared": 0.96, "sls_time_constant_s": 2.0, "sls_instant_fraction": 0.4},
+            {"grating": "b", "max_lag_s": 1.5, "r_squared": 0.96, "sls_time_constant_s": 2.0, "sls_instant_fraction": 0.4}]}"#;
+        let m = MeasuredPrototype::parse(json).unwrap();
+        assert_eq!(m.sample_period_s, Some(0.5));
+        assert!((m.sls_lag_s.unwrap() - 1.2).abs() < 1e-12);
         let cal = m.calibrate(0.6, 0.99, &s);
-        assert!((0.6 * cal.tau_scale - 1.5).abs() < 1e-12);
+        // The calibrated model reproduces the fitted lag and the measured R².
+        assert!((0.6 * cal.tau_scale - 1.2).abs() < 1e-12);
         assert!((1.0 - (1.0 - 0.99) * cal.r_squared_loss_scale - 0.96).abs() < 1e-12);
-        // A lag at the floor cannot raise the scale.
+        // Without the SLS fit, a Δt_max above one sample period sets the scale ...
+        let m = MeasuredPrototype::parse(r#"{"dt_max_s": 1.5}"#).unwrap();
+        assert!((0.6 * m.calibrate(0.6, 0.99, &s).tau_scale - 1.5).abs() < 1e-12);
+        // ... and one at the floor cannot raise it.
         let m = MeasuredPrototype::parse(r#"{"dt_max_s": 0.5}"#).unwrap();
         assert_eq!(m.calibrate(0.2, 0.99, &s).tau_scale, 1.0);
-        assert!(MeasuredPrototype::parse(r#"{"k": 1}"#)
+        let e = MeasuredPrototype::parse(r#"{"gratings": [{"k": 1}]}"#)
             .unwrap_err()
-            .to_string()
-            .contains("no measured lag"));
+            .to_string();
+        assert!(e.contains("no measured lag"), "{e}");
         assert!(MeasuredPrototype::parse(r#"{"r_squared": 1.5}"#).is_err());
+        assert!(MeasuredPrototype::parse(r#"{"speed": 3}"#).is_err());
         assert!(MeasuredPrototype::parse("{oops")
             .unwrap_err()
             .to_string()
