@@ -6,8 +6,10 @@
 //! * [`quality`]: the Q model, Q = |K|·R²/Δt_max, and its calibration by a verifier JSON.
 //! * [`solve`]: argmin solvers behind one trait, multi-start in parallel, history.
 //! * [`module`]: the module problem: variables, constraints, discrete material choices.
+//! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
 
 pub mod materials;
 pub mod module;
+pub mod place;
 pub mod quality;
 pub mod solve;
