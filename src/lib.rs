@@ -5,6 +5,7 @@
 
 pub mod array;
 pub mod cli;
+pub mod geometry;
 pub mod grating;
 pub mod logs;
 pub mod model;

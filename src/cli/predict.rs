@@ -1,31 +1,402 @@
-//! `fbgforge predict` and `fbgforge sweep`: the opto-mechanical model from the command line.
+//! `fbgforge predict`, `fbgforge sweep` and `fbgforge bench predict`: the
+//! opto-mechanical model from the command line.
 
-use clap::Args;
+use crate::model::sweep::{self, SweepResult, PAPER_FIGURES};
+use crate::model::{self, closed_form, LoadCase, ModuleModelParams, PredictOptions};
+use crate::output::{ensure_dir, write_csv, write_json};
+use crate::plot::{Chart, Mark, Series};
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-/// Arguments (placeholder until this subcommand lands).
+/// Arguments of `fbgforge predict`.
 #[derive(Debug, Args)]
-pub struct PredictArgs {}
-
-/// Placeholder: this subcommand is being built.
-pub fn run_predict(_a: PredictArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`run_predict` is not available in this build yet")
+pub struct PredictArgs {
+    /// Design spec (TOML) with a [module] section.
+    pub design: PathBuf,
+    /// Apex force at which shifts and strains are reported, N.
+    #[arg(long, default_value_t = 10.0)]
+    pub force_n: f64,
+    /// Temperature change from the reference temperature, K: adds the thermal shift
+    /// and shows the shift after compensation with the reference grating.
+    #[arg(long, default_value_t = 0.0)]
+    pub delta_t_k: f64,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
 }
 
-/// Arguments (placeholder until this subcommand lands).
-#[derive(Debug, Args)]
-pub struct SweepArgs {}
-
-/// Placeholder: this subcommand is being built.
-pub fn run_sweep(_a: SweepArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`run_sweep` is not available in this build yet")
+/// Run `fbgforge predict`.
+pub fn run_predict(a: PredictArgs) -> Result<()> {
+    if !a.force_n.is_finite() {
+        bail!("--force-n must be a finite number of newtons, got {}", a.force_n);
+    }
+    if !a.delta_t_k.is_finite() {
+        bail!("--delta-t-k must be a finite number of kelvin, got {}", a.delta_t_k);
+    }
+    let design = crate::spec::load(&a.design)?;
+    let preds = model::predict_with(
+        &design,
+        &PredictOptions {
+            force_n: a.force_n,
+            delta_t_k: a.delta_t_k,
+        },
+    )
+    .with_context(|| format!("{}: cannot predict", a.design.display()))?;
+    if a.json {
+        let doc = serde_json::json!({
+            "design": design.name,
+            "force_n": a.force_n,
+            "delta_t_k": a.delta_t_k,
+            "predictions": preds,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
+    println!("{}: predicted sensitivity at F = {} N", design.name, a.force_n);
+    let mut notes: Vec<String> = Vec::new();
+    let temp = a.delta_t_k != 0.0;
+    print!(
+        "{:<12} {:<6} {:<4} {:<12} {:>8} {:>10} {:>11} {:>10} {:>8}",
+        "grating", "core", "case", "insert", "E1 MPa", "K pm/N", "shift pm", "strain µε", "share"
+    );
+    if temp {
+        print!(" {:>11} {:>12}", "raw pm", "compens. pm");
+    }
+    println!("  warnings");
+    for d in &preds {
+        let p = &d.prediction;
+        let refs: Vec<String> = p
+            .warnings
+            .iter()
+            .map(|w| {
+                let i = notes.iter().position(|n| n == w).unwrap_or_else(|| {
+                    notes.push(w.clone());
+                    notes.len() - 1
+                });
+                format!("[{}]", i + 1)
+            })
+            .collect();
+        print!(
+            "{:<12} {:<6} {:<4} {:<12} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8.4}",
+            p.grating,
+            p.core,
+            p.case.to_string(),
+            p.insert.as_deref().unwrap_or("-"),
+            d.core_modulus_mpa,
+            p.sensitivity_pm_per_n,
+            p.shift_pm,
+            p.strain * 1e6,
+            d.core_load_share
+        );
+        if temp {
+            let comp = d.compensated_shift_pm.map_or("-".to_string(), |c| format!("{c:+.2}"));
+            print!(" {:>+11.2} {:>12}", d.raw_shift_pm, comp);
+        }
+        println!("  {}", refs.join(""));
+    }
+    println!("K > 0: red shift (core cylinder in tension); K < 0: blue shift.");
+    println!("share: Case I, share of F through the cap→core loop; Case II, share carried by the core.");
+    for (i, n) in notes.iter().enumerate() {
+        println!("[{}] {n}", i + 1);
+    }
+    Ok(())
 }
 
-/// Arguments (placeholder until this subcommand lands).
-#[derive(Debug, Args)]
-pub struct BenchPredictArgs {}
-
-/// Placeholder: this subcommand is being built.
-pub fn bench(_a: BenchPredictArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`bench` is not available in this build yet")
+/// Loading case filter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CaseArg {
+    /// Case I (core on a solid insert).
+    #[value(name = "I", alias = "i", alias = "1")]
+    I,
+    /// Case II (hollow core).
+    #[value(name = "II", alias = "ii", alias = "2")]
+    II,
 }
 
+/// Arguments of `fbgforge sweep`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Design spec (TOML) with a [module] section.
+    pub design: PathBuf,
+    /// Parameter to sweep, e.g. e1_mpa, e2_mpa, es_mpa, outer_diameter_mm, core_wall_mm,
+    /// cap_wall_mm (an unknown name lists them all).
+    #[arg(long)]
+    pub param: Option<String>,
+    /// First value of the range.
+    #[arg(long)]
+    pub from: Option<f64>,
+    /// Last value of the range (must be larger than --from).
+    #[arg(long)]
+    pub to: Option<f64>,
+    /// Number of values, including both ends.
+    #[arg(long, default_value_t = 41)]
+    pub steps: usize,
+    /// Apex force, N.
+    #[arg(long, default_value_t = 50.0)]
+    pub force_n: f64,
+    /// Keep only one loading case.
+    #[arg(long, value_enum)]
+    pub case: Option<CaseArg>,
+    /// SVG chart to write (default out/sweep/<design>-<param>.svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// CSV of the same numbers (default out/sweep/<design>-<param>.csv).
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Instead of one sweep, write the paper's parametric figures (Figs. 9a–c, 11a–b:
+    /// F = 50 N with the paper's fixed moduli) as SVG + CSV into this folder.
+    #[arg(long)]
+    pub paper_figures: Option<PathBuf>,
+}
+
+fn sweep_chart(r: &SweepResult, title: &str) -> Chart {
+    let mut c = Chart::new(title, r.label.clone(), format!("Δλ at {} N (pm)", r.force_n));
+    for s in &r.series {
+        c = c.with(Series::new(s.label(), s.x.iter().copied().zip(s.shift_pm.iter().copied()).collect(), Mark::Line));
+    }
+    c
+}
+
+fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
+    let header = ["param", "value", "grating", "case", "insert", "force_n", "shift_pm", "sensitivity_pm_per_n"];
+    let mut rows = Vec::new();
+    for s in &r.series {
+        for i in 0..s.x.len() {
+            rows.push(vec![
+                r.param.clone(),
+                format!("{}", s.x[i]),
+                s.grating.clone(),
+                s.case.to_string(),
+                s.insert.clone().unwrap_or_default(),
+                format!("{}", r.force_n),
+                format!("{:.6}", s.shift_pm[i]),
+                format!("{:.6}", s.sensitivity_pm_per_n[i]),
+            ]);
+        }
+    }
+    write_csv(path, &header, &rows)
+}
+
+/// Run `fbgforge sweep`.
+pub fn run_sweep(a: SweepArgs) -> Result<()> {
+    let design = crate::spec::load(&a.design)?;
+    if let Some(dir) = &a.paper_figures {
+        return write_paper_figures(&design, dir, a.steps);
+    }
+    let Some(name) = a.param.as_deref() else {
+        bail!(
+            "--param is required (or use --paper-figures DIR); known parameters: {}",
+            sweep::param_names().join(", ")
+        );
+    };
+    let param = sweep::find_param(name)?;
+    let (Some(from), Some(to)) = (a.from, a.to) else {
+        bail!("--from and --to are required for a sweep of {}", param.name);
+    };
+    if !a.force_n.is_finite() {
+        bail!("--force-n must be a finite number of newtons, got {}", a.force_n);
+    }
+    let values = sweep::sweep_values(param, from, to, a.steps)?;
+    let case = a.case.map(|c| match c {
+        CaseArg::I => LoadCase::I,
+        CaseArg::II => LoadCase::II,
+    });
+    if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
+        bail!("{}: Case I needs a solid insert, but the design lists none", a.design.display());
+    }
+    let pb = crate::progress::bar(values.len() as u64, "sweep");
+    let r = sweep::run(&design, param, &values, a.force_n, case, || pb.inc(1))
+        .with_context(|| format!("{}: sweep failed", a.design.display()))?;
+    pb.finish_and_clear();
+    let stem = format!("{}-{}", design.name, param.name);
+    let svg = a.plot.clone().unwrap_or_else(|| PathBuf::from("out/sweep").join(format!("{stem}.svg")));
+    let csv = a.csv.clone().unwrap_or_else(|| PathBuf::from("out/sweep").join(format!("{stem}.csv")));
+    sweep_chart(&r, &format!("{}: Δλ at {} N vs {}", design.name, a.force_n, param.name)).write_svg(&svg)?;
+    sweep_csv(&r, &csv)?;
+    println!("{}: {} over {from}..{to} ({} steps), F = {} N", design.name, param.name, a.steps, a.force_n);
+    println!("{:<36} {:>14} {:>14}", "series", "Δλ first pm", "Δλ last pm");
+    for s in &r.series {
+        println!(
+            "{:<36} {:>+14.3} {:>+14.3}",
+            s.label(),
+            s.shift_pm.first().copied().unwrap_or(f64::NAN),
+            s.shift_pm.last().copied().unwrap_or(f64::NAN)
+        );
+    }
+    println!("wrote {} and {}", svg.display(), csv.display());
+    Ok(())
+}
+
+fn write_paper_figures(design: &crate::spec::Design, dir: &Path, steps: usize) -> Result<()> {
+    ensure_dir(dir)?;
+    let pb = crate::progress::bar(PAPER_FIGURES.len() as u64, "figures");
+    for fig in PAPER_FIGURES {
+        let r = sweep::run_paper_figure(design, fig, steps.max(2))
+            .with_context(|| format!("paper figure {}", fig.id))?;
+        sweep_chart(&r, fig.title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
+        sweep_csv(&r, &dir.join(format!("{}.csv", fig.id)))?;
+        let first = &r.series[0];
+        println!(
+            "{:<18} {:<58} Δλ {:+9.2} → {:+9.2} pm ({})",
+            fig.id,
+            fig.title,
+            first.shift_pm[0],
+            first.shift_pm[first.shift_pm.len() - 1],
+            first.label()
+        );
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    println!("wrote {} figures (SVG + CSV) to {}", PAPER_FIGURES.len(), dir.display());
+    Ok(())
+}
+
+/// Arguments of `fbgforge bench predict`.
+#[derive(Debug, Args)]
+pub struct BenchPredictArgs {
+    /// Designs to time (default: designs/clip-on-*.toml).
+    pub designs: Vec<PathBuf>,
+    /// Closed-form evaluations timed per design.
+    #[arg(long, default_value_t = 200_000)]
+    pub iterations: usize,
+    /// Output folder for the chart, CSV and JSON.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
+}
+
+/// One row of the predict benchmark.
+#[derive(Debug, Clone, serde::Serialize)]
+struct BenchRow {
+    design: String,
+    outer_diameter_mm: f64,
+    configurations_x_gratings: usize,
+    closed_form_ns_per_k: f64,
+    params_from_design_ns: f64,
+    full_predict_us: f64,
+}
+
+fn default_designs() -> Result<Vec<PathBuf>> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir("designs")
+        .context("cannot list designs/: run from the project folder or name the designs")?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("clip-on-") && n.ends_with(".toml"))
+        })
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
+/// Run `fbgforge bench predict`.
+pub fn bench(a: BenchPredictArgs) -> Result<()> {
+    let designs = if a.designs.is_empty() { default_designs()? } else { a.designs.clone() };
+    if designs.is_empty() {
+        bail!("no designs to time");
+    }
+    let iters = a.iterations.max(1);
+    let mut rows = Vec::new();
+    let pb = crate::progress::bar(designs.len() as u64, "bench");
+    for path in &designs {
+        let design = crate::spec::load(path)?;
+        let m = design
+            .module
+            .as_ref()
+            .with_context(|| format!("{}: no [module] section", path.display()))?;
+        // The parameter sets an optimiser would hold: one per (core, configuration).
+        let mut sets: Vec<(ModuleModelParams, LoadCase, f64)> = Vec::new();
+        for conf in model::configurations(&design) {
+            for g in m.gratings.iter().filter(|g| g.role == crate::spec::GratingRole::Strain) {
+                let core = g.core.as_deref().unwrap_or_default();
+                let p = ModuleModelParams::from_design(&design, core, conf.insert.as_deref())?;
+                sets.push((p, conf.case, g.bragg_wavelength_nm));
+            }
+        }
+        let optics = design.fiber;
+        let t = Instant::now();
+        let mut acc = 0.0;
+        for i in 0..iters {
+            let (p, case, l) = &sets[i % sets.len()];
+            acc += closed_form::sensitivity_pm_per_n(black_box(p), *case, *l, &optics).unwrap_or(0.0);
+        }
+        black_box(acc);
+        let closed_ns = t.elapsed().as_secs_f64() * 1e9 / iters as f64;
+        let n_params = (iters / 100).max(100);
+        let core0 = m.cores[0].name.clone();
+        let t = Instant::now();
+        for _ in 0..n_params {
+            black_box(ModuleModelParams::from_design(black_box(&design), &core0, None)?);
+        }
+        let params_ns = t.elapsed().as_secs_f64() * 1e9 / n_params as f64;
+        let n_full = (iters / 1000).max(50);
+        let opts = PredictOptions { force_n: 10.0, delta_t_k: 0.0 };
+        let t = Instant::now();
+        for _ in 0..n_full {
+            black_box(model::predict_with(black_box(&design), &opts)?);
+        }
+        let full_us = t.elapsed().as_secs_f64() * 1e6 / n_full as f64;
+        rows.push(BenchRow {
+            design: design.name.clone(),
+            outer_diameter_mm: m.outer_diameter_mm,
+            configurations_x_gratings: sets.len(),
+            closed_form_ns_per_k: closed_ns,
+            params_from_design_ns: params_ns,
+            full_predict_us: full_us,
+        });
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let profile = if cfg!(debug_assertions) { "dev" } else { "release" };
+    println!("closed-form prediction time ({profile} build, {iters} evaluations per design)");
+    println!(
+        "{:<16} {:>6} {:>8} {:>16} {:>18} {:>18}",
+        "design", "D mm", "K/design", "closed form ns/K", "params build ns", "full predict µs"
+    );
+    for r in &rows {
+        println!(
+            "{:<16} {:>6.1} {:>8} {:>16.1} {:>18.0} {:>18.2}",
+            r.design, r.outer_diameter_mm, r.configurations_x_gratings, r.closed_form_ns_per_k, r.params_from_design_ns, r.full_predict_us
+        );
+    }
+    ensure_dir(&a.out)?;
+    write_json(&a.out.join("predict.json"), &rows)?;
+    let header = [
+        "design",
+        "outer_diameter_mm",
+        "configurations_x_gratings",
+        "closed_form_ns_per_k",
+        "params_from_design_ns",
+        "full_predict_us",
+    ];
+    let csv_rows: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.design.clone(),
+                format!("{}", r.outer_diameter_mm),
+                format!("{}", r.configurations_x_gratings),
+                format!("{:.2}", r.closed_form_ns_per_k),
+                format!("{:.1}", r.params_from_design_ns),
+                format!("{:.3}", r.full_predict_us),
+            ]
+        })
+        .collect();
+    write_csv(&a.out.join("predict.csv"), &header, &csv_rows)?;
+    let pts = |f: fn(&BenchRow) -> f64| rows.iter().map(|r| (r.outer_diameter_mm, f(r))).collect::<Vec<_>>();
+    let mut chart = Chart::new(
+        format!("fbgforge predict timing ({profile} build)"),
+        "module outer diameter (mm)",
+        "time per call (µs)",
+    )
+    .with(Series::new("closed form, one K", pts(|r| r.closed_form_ns_per_k / 1e3), Mark::LinePoints))
+    .with(Series::new("parameters from design", pts(|r| r.params_from_design_ns / 1e3), Mark::LinePoints))
+    .with(Series::new("full predict (all gratings, cases)", pts(|r| r.full_predict_us), Mark::LinePoints));
+    chart.y_log = true;
+    chart.write_svg(&a.out.join("predict.svg"))?;
+    println!("wrote {}/predict.{{svg,csv,json}}", a.out.display());
+    Ok(())
+}

@@ -1,0 +1,596 @@
+//! Solids of the clip-on module: cap (CC), core (PSC) and insert (PSC-solid), with
+//! their exact volumes in closed form.
+//!
+//! Each part is an extruded band z ∈ [0, pillar top] (the cross-section with pillars,
+//! grooves and fiber holes) joined to a revolved upper body (cylinder, dome, apex
+//! flat or top hole). Every circle is cut at the same angles (the pillar edges, plus
+//! extra cuts so no patch spans more than 90°), so the band's top edges are the upper
+//! body's bottom edges and the faces share them through the [`Assembler`].
+//!
+//! Loops and meridians run with the material on their left; the outward side of each
+//! face is stated explicitly and checked against the surface normal.
+
+use super::brep::{Assembler, BrepError, Seg};
+use crate::profile::ModuleProfile;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use truck_modeling::{Point3, Solid, Vector3};
+
+/// Largest angular span of one face patch, radians.
+const MAX_PATCH_RAD: f64 = FRAC_PI_2;
+/// Profile segments shorter than this are skipped (e.g. a zero-height cylinder
+/// between the pillar top and a junction at the same height), mm.
+const MIN_SEGMENT_MM: f64 = 1.0e-6;
+
+fn pt(c: (f64, f64), r: f64, th: f64, z: f64) -> Point3 {
+    Point3::new(c.0 + r * th.cos(), c.1 + r * th.sin(), z)
+}
+
+const O: (f64, f64) = (0.0, 0.0);
+
+/// Angles (radians, increasing, spanning one turn) where every circle of a part is cut.
+#[derive(Debug, Clone)]
+struct Angles(Vec<f64>);
+
+impl Angles {
+    /// Subdivide the increasing `base` angles so no interval exceeds 90°; returns the
+    /// set and the new index of each base angle.
+    fn new(base: &[f64]) -> (Self, Vec<usize>) {
+        let mut th = Vec::new();
+        let mut idx = Vec::new();
+        for (i, &a) in base.iter().enumerate() {
+            idx.push(th.len());
+            let b = if i + 1 < base.len() {
+                base[i + 1]
+            } else {
+                base[0] + TAU
+            };
+            let n = ((b - a) / MAX_PATCH_RAD).ceil().max(1.0) as usize;
+            for k in 0..n {
+                th.push(a + (b - a) * k as f64 / n as f64);
+            }
+        }
+        (Angles(th), idx)
+    }
+
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Interval k as (start, end) with end > start.
+    fn interval(&self, k: usize) -> (f64, f64) {
+        let n = self.len();
+        let a = self.0[k % n];
+        let b = if k % n + 1 < n {
+            self.0[k % n + 1]
+        } else {
+            self.0[0] + TAU
+        };
+        (a, b)
+    }
+
+    /// Interval indices walking counter-clockwise from angle index `from` to `to`
+    /// (a full turn when they are equal).
+    fn walk(&self, from: usize, to: usize) -> Vec<usize> {
+        let n = self.len();
+        let mut out = vec![from % n];
+        let mut k = (from + 1) % n;
+        while k != to % n {
+            out.push(k);
+            k = (k + 1) % n;
+        }
+        out
+    }
+}
+
+/// An arc of the circle of radius `r` about `c` at height `z` from angle a0 to a1
+/// (counter-clockwise if a1 > a0).
+fn arc(c: (f64, f64), r: f64, a0: f64, a1: f64, z: f64) -> Seg {
+    Seg::Arc(
+        pt(c, r, a0, z),
+        pt(c, r, 0.5 * (a0 + a1), z),
+        pt(c, r, a1, z),
+    )
+}
+
+/// A cross-section segment, extruded between two heights.
+#[derive(Debug, Clone, Copy)]
+enum S2 {
+    Line((f64, f64), (f64, f64)),
+    Arc {
+        c: (f64, f64),
+        r: f64,
+        a0: f64,
+        a1: f64,
+    },
+}
+
+impl S2 {
+    fn at(&self, z: f64) -> Seg {
+        match *self {
+            S2::Line(a, b) => Seg::Line(Point3::new(a.0, a.1, z), Point3::new(b.0, b.1, z)),
+            S2::Arc { c, r, a0, a1 } => arc(c, r, a0, a1, z),
+        }
+    }
+    fn start(&self) -> (f64, f64) {
+        match *self {
+            S2::Line(a, _) => a,
+            S2::Arc { c, r, a0, .. } => (c.0 + r * a0.cos(), c.1 + r * a0.sin()),
+        }
+    }
+    fn end(&self) -> (f64, f64) {
+        match *self {
+            S2::Line(_, b) => b,
+            S2::Arc { c, r, a1, .. } => (c.0 + r * a1.cos(), c.1 + r * a1.sin()),
+        }
+    }
+}
+
+fn ring_ccw(ang: &Angles, r: f64, from: usize, to: usize) -> Vec<S2> {
+    ang.walk(from, to)
+        .into_iter()
+        .map(|k| {
+            let (a0, a1) = ang.interval(k);
+            S2::Arc { c: O, r, a0, a1 }
+        })
+        .collect()
+}
+
+fn ring_cw(ang: &Angles, r: f64, from: usize, to: usize) -> Vec<S2> {
+    // Clockwise from `from` to `to` is the counter-clockwise walk from `to` to `from`,
+    // reversed.
+    ang.walk(to, from)
+        .into_iter()
+        .rev()
+        .map(|k| {
+            let (a0, a1) = ang.interval(k);
+            S2::Arc {
+                c: O,
+                r,
+                a0: a1,
+                a1: a0,
+            }
+        })
+        .collect()
+}
+
+fn at(loop2: &[S2], z: f64) -> Vec<Seg> {
+    loop2.iter().map(|s| s.at(z)).collect()
+}
+
+/// Side faces of the cross-section loops extruded from z0 to z1.
+fn band_sides(asm: &mut Assembler, loops: &[Vec<S2>], z0: f64, z1: f64) -> Result<(), BrepError> {
+    for l in loops {
+        for s in l {
+            let (a, b) = (s.start(), s.end());
+            let pa0 = Point3::new(a.0, a.1, z0);
+            let pa1 = Point3::new(a.0, a.1, z1);
+            let pb0 = Point3::new(b.0, b.1, z0);
+            let pb1 = Point3::new(b.0, b.1, z1);
+            let boundary = vec![
+                s.at(z0),
+                Seg::Line(pb0, pb1),
+                s.at(z1).reversed(),
+                Seg::Line(pa1, pa0),
+            ];
+            match *s {
+                S2::Line(..) => {
+                    let out = Vector3::new(b.1 - a.1, a.0 - b.0, 0.0);
+                    asm.plane("band side", &[boundary], out)?;
+                }
+                S2::Arc { c, r, a0, a1 } => {
+                    let axis = Point3::new(c.0, c.1, 0.0);
+                    let meridian = move |th: f64| Seg::Line(pt(c, r, th, z0), pt(c, r, th, z1));
+                    // Material on the left: counter-clockwise → material inside the
+                    // circle → outward points away from its centre.
+                    let sign = if a1 > a0 { 1.0 } else { -1.0 };
+                    asm.revolved(
+                        "band wall",
+                        &[boundary],
+                        axis,
+                        (a0.min(a1), a0.max(a1)),
+                        &meridian,
+                        None,
+                        sign,
+                    )?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// One meridian of a revolved profile, in the (r, z) half-plane.
+#[derive(Debug, Clone, Copy)]
+struct Prof {
+    a: (f64, f64),
+    b: (f64, f64),
+    /// Sphere radius for a dome, None for a vertical cylinder wall.
+    sphere: Option<f64>,
+    /// +1 if the outward normal points away from the axis / sphere centre.
+    out: f64,
+}
+
+fn meridian(p: &Prof, zc: f64, th: f64) -> Seg {
+    let (a, b) = (pt(O, p.a.0, th, p.a.1), pt(O, p.b.0, th, p.b.1));
+    match p.sphere {
+        None => Seg::Line(a, b),
+        Some(rho) => {
+            let pa = p.a.0.atan2(p.a.1 - zc);
+            let pb = p.b.0.atan2(p.b.1 - zc);
+            let pm = 0.5 * (pa + pb);
+            Seg::Arc(a, pt(O, rho * pm.sin(), th, zc + rho * pm.cos()), b)
+        }
+    }
+}
+
+/// Revolve a chain of profile segments through every interval of `ang`.
+fn revolve_chain(
+    asm: &mut Assembler,
+    chain: &[Prof],
+    zc: f64,
+    ang: &Angles,
+) -> Result<(), BrepError> {
+    for p in chain {
+        if (p.a.0 - p.b.0).hypot(p.a.1 - p.b.1) < MIN_SEGMENT_MM {
+            continue;
+        }
+        let p = *p;
+        for k in 0..ang.len() {
+            let (t0, t1) = ang.interval(k);
+            let boundary = vec![
+                arc(O, p.a.0, t0, t1, p.a.1),
+                meridian(&p, zc, t1),
+                arc(O, p.b.0, t1, t0, p.b.1),
+                meridian(&p, zc, t0).reversed(),
+            ];
+            let m = move |th: f64| meridian(&p, zc, th);
+            let centre = p.sphere.map(|_| Point3::new(0.0, 0.0, zc));
+            let name = if p.sphere.is_some() { "dome" } else { "wall" };
+            asm.revolved(
+                name,
+                &[boundary],
+                Point3::new(0.0, 0.0, 0.0),
+                (t0, t1),
+                &m,
+                centre,
+                p.out,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Flat disc of radius r at height z (apex flats, the insert's base).
+fn disc(asm: &mut Assembler, ang: &Angles, r: f64, z: f64, up: bool) -> Result<(), BrepError> {
+    let l = at(&ring_ccw(ang, r, 0, 0), z);
+    let n = if up {
+        Vector3::unit_z()
+    } else {
+        -Vector3::unit_z()
+    };
+    asm.plane("flat", &[l], n)
+}
+
+/// Solid of revolution bounded by a cylinder of radius `r` up to `zj`, a sphere of
+/// radius `rho` centred at `zc` above it, cut flat at `z_top`: its volume, mm³.
+fn capped_cylinder_volume(r: f64, zj: f64, rho: f64, zc: f64, z_top: f64) -> f64 {
+    PI * r * r * zj + zone_volume(rho, zj - zc, z_top - zc)
+}
+
+/// Volume of the part of a ball of radius rho between heights h1 < h2 above its
+/// centre (a spherical zone), mm³.
+pub fn zone_volume(rho: f64, h1: f64, h2: f64) -> f64 {
+    PI * (rho * rho * (h2 - h1) - (h2.powi(3) - h1.powi(3)) / 3.0)
+}
+
+/// Area of the slice |t| < h of a disc of radius r, mm².
+pub fn slice_area(r: f64, h: f64) -> f64 {
+    h * (r * r - h * h).sqrt() + r * r * (h / r).asin()
+}
+
+fn sphere_z(p: &ModuleProfile, rho: f64, r: f64) -> f64 {
+    p.dome_center_z_mm + (rho * rho - r * r).sqrt()
+}
+
+/// A solid with its exact volume.
+pub struct BuiltSolid {
+    /// The B-rep.
+    pub solid: Solid,
+    /// Exact volume from the closed form, mm³.
+    pub exact_volume_mm3: f64,
+}
+
+/// The insert: solid cylinder with a spherical top and an apex flat.
+pub fn insert(p: &ModuleProfile, part: &str) -> Result<BuiltSolid, BrepError> {
+    let mut asm = Assembler::new(part);
+    let (ang, _) = Angles::new(&[0.0, FRAC_PI_2, PI, 1.5 * PI]);
+    let r = p.insert_radius_mm;
+    let rho = p.insert_sphere_radius_mm;
+    let zc = p.dome_center_z_mm;
+    let zj = p.insert_junction_z_mm;
+    let a = p.apex_flat_radius_mm;
+    let za = sphere_z(p, rho, a);
+    disc(&mut asm, &ang, r, 0.0, false)?;
+    let chain = [
+        Prof {
+            a: (r, 0.0),
+            b: (r, zj),
+            sphere: None,
+            out: 1.0,
+        },
+        Prof {
+            a: (r, zj),
+            b: (a, za),
+            sphere: Some(rho),
+            out: 1.0,
+        },
+    ];
+    revolve_chain(&mut asm, &chain, zc, &ang)?;
+    disc(&mut asm, &ang, a, za, true)?;
+    Ok(BuiltSolid {
+        solid: asm.solid()?,
+        exact_volume_mm3: capped_cylinder_volume(r, zj, rho, zc, za),
+    })
+}
+
+/// The core (PSC): hollow cylinder with a domed top and a top hole, and outer pillars,
+/// each with an axial groove in its outer face and a fiber through-hole.
+pub fn core(
+    p: &ModuleProfile,
+    pillar_width_mm: f64,
+    fiber_hole_diameter_mm: f64,
+    groove_width_mm: f64,
+) -> Result<BuiltSolid, BrepError> {
+    let mut asm = Assembler::new("core");
+    let (r_co, r_ci) = (p.core_outer_radius_mm, p.core_inner_radius_mm);
+    let (r_po, r_gb) = (p.pillar_outer_radius_mm, p.groove_bottom_radius_mm);
+    let (hw, hg) = (pillar_width_mm / 2.0, groove_width_mm / 2.0);
+    let rh = fiber_hole_diameter_mm / 2.0;
+    let r_fh = p.fiber_hole_center_radius_mm;
+    let top = p.pillar_top_mm;
+    let zc = p.dome_center_z_mm;
+    let beta = (hw / r_co).asin();
+    let base: Vec<f64> = p
+        .pillar_angles_rad
+        .iter()
+        .flat_map(|&t| [t - beta, t + beta])
+        .collect();
+    let (ang, idx) = Angles::new(&base);
+    let n = p.pillar_angles_rad.len();
+
+    // Cross-section outer loop (counter-clockwise) with the pillar outlines.
+    let rib = |t: f64| -> Vec<S2> {
+        let (rh_, th_) = ((t.cos(), t.sin()), (-t.sin(), t.cos()));
+        let e = |s: f64, q: f64| (s * rh_.0 + q * th_.0, s * rh_.1 + q * th_.1);
+        let s1 = (r_co * r_co - hw * hw).sqrt();
+        let s2 = (r_po * r_po - hw * hw).sqrt();
+        let s3 = (r_po * r_po - hg * hg).sqrt();
+        let s4 = (r_gb * r_gb - hg * hg).sqrt();
+        let (aw, ag, gb) = ((hw / r_po).asin(), (hg / r_po).asin(), (hg / r_gb).asin());
+        vec![
+            S2::Line(e(s1, -hw), e(s2, -hw)),
+            S2::Arc {
+                c: O,
+                r: r_po,
+                a0: t - aw,
+                a1: t - ag,
+            },
+            S2::Line(e(s3, -hg), e(s4, -hg)),
+            S2::Arc {
+                c: O,
+                r: r_gb,
+                a0: t - gb,
+                a1: t + gb,
+            },
+            S2::Line(e(s4, hg), e(s3, hg)),
+            S2::Arc {
+                c: O,
+                r: r_po,
+                a0: t + ag,
+                a1: t + aw,
+            },
+            S2::Line(e(s2, hw), e(s1, hw)),
+        ]
+    };
+    let mut outer = Vec::new();
+    for i in 0..n {
+        outer.extend(rib(p.pillar_angles_rad[i]));
+        outer.extend(ring_ccw(
+            &ang,
+            r_co,
+            idx[2 * i + 1],
+            idx[(2 * i + 2) % (2 * n)],
+        ));
+    }
+    let inner = ring_cw(&ang, r_ci, 0, 0);
+    let hole = |t: f64| -> Vec<S2> {
+        let c = (r_fh * t.cos(), r_fh * t.sin());
+        (0..4)
+            .map(|k| S2::Arc {
+                c,
+                r: rh,
+                a0: t - k as f64 * FRAC_PI_2,
+                a1: t - (k + 1) as f64 * FRAC_PI_2,
+            })
+            .collect()
+    };
+    let holes: Vec<Vec<S2>> = p.pillar_angles_rad.iter().map(|&t| hole(t)).collect();
+
+    let mut loops = vec![outer, inner];
+    loops.extend(holes.iter().cloned());
+    let bottom: Vec<Vec<Seg>> = loops.iter().map(|l| at(l, 0.0)).collect();
+    asm.plane("base", &bottom, -Vector3::unit_z())?;
+    band_sides(&mut asm, &loops, 0.0, top)?;
+    for i in 0..n {
+        let mut l = rib(p.pillar_angles_rad[i]);
+        l.extend(ring_cw(&ang, r_co, idx[2 * i + 1], idx[2 * i]));
+        asm.plane(
+            "pillar top",
+            &[at(&l, top), at(&holes[i], top)],
+            Vector3::unit_z(),
+        )?;
+    }
+
+    let th = p.top_hole_radius_mm;
+    let (rs_o, rs_i) = (
+        p.core_dome_outer_sphere_radius_mm,
+        p.core_dome_inner_sphere_radius_mm,
+    );
+    let (z_oj, z_ij) = (p.core_outer_junction_z_mm, p.core_inner_junction_z_mm);
+    let (z_oh, z_ih) = (sphere_z(p, rs_o, th), sphere_z(p, rs_i, th));
+    let chain = [
+        Prof {
+            a: (r_co, top),
+            b: (r_co, z_oj),
+            sphere: None,
+            out: 1.0,
+        },
+        Prof {
+            a: (r_co, z_oj),
+            b: (th, z_oh),
+            sphere: Some(rs_o),
+            out: 1.0,
+        },
+        Prof {
+            a: (th, z_oh),
+            b: (th, z_ih),
+            sphere: None,
+            out: -1.0,
+        },
+        Prof {
+            a: (th, z_ih),
+            b: (r_ci, z_ij),
+            sphere: Some(rs_i),
+            out: -1.0,
+        },
+        Prof {
+            a: (r_ci, z_ij),
+            b: (r_ci, top),
+            sphere: None,
+            out: -1.0,
+        },
+    ];
+    revolve_chain(&mut asm, &chain, zc, &ang)?;
+
+    let rib_area =
+        slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
+    let band = top * (PI * (r_co * r_co - r_ci * r_ci) + n as f64 * (rib_area - PI * rh * rh));
+    let upper = (PI * r_co * r_co * (z_oj - top) + zone_volume(rs_o, z_oj - zc, z_oh - zc))
+        - (PI * r_ci * r_ci * (z_ij - top) + zone_volume(rs_i, z_ij - zc, z_ih - zc))
+        - PI * th * th * (z_oh - z_ih);
+    Ok(BuiltSolid {
+        solid: asm.solid()?,
+        exact_volume_mm3: band + upper,
+    })
+}
+
+/// The cap (CC): hollow cylinder with a domed top and apex flats, and inner alignment
+/// pillars that fit the core's grooves.
+pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
+    let mut asm = Assembler::new("cap");
+    let (r_o, r_ci, r_pi) = (
+        p.cap_outer_radius_mm,
+        p.cap_inner_radius_mm,
+        p.cap_pillar_inner_radius_mm,
+    );
+    let hc = p.cap_pillar_width_mm / 2.0;
+    let top = p.pillar_top_mm;
+    let zc = p.dome_center_z_mm;
+    let beta = (hc / r_ci).asin();
+    let base: Vec<f64> = p
+        .pillar_angles_rad
+        .iter()
+        .flat_map(|&t| [t - beta, t + beta])
+        .collect();
+    let (ang, idx) = Angles::new(&base);
+    let n = p.pillar_angles_rad.len();
+
+    // Inner loop (clockwise, material outside) with the inward pillar outlines, each
+    // run from its +t side to its −t side.
+    let rib = |t: f64| -> Vec<S2> {
+        let (rh_, th_) = ((t.cos(), t.sin()), (-t.sin(), t.cos()));
+        let e = |s: f64, q: f64| (s * rh_.0 + q * th_.0, s * rh_.1 + q * th_.1);
+        let s1 = (r_ci * r_ci - hc * hc).sqrt();
+        let s2 = (r_pi * r_pi - hc * hc).sqrt();
+        let b2 = (hc / r_pi).asin();
+        vec![
+            S2::Line(e(s1, hc), e(s2, hc)),
+            S2::Arc {
+                c: O,
+                r: r_pi,
+                a0: t + b2,
+                a1: t - b2,
+            },
+            S2::Line(e(s2, -hc), e(s1, -hc)),
+        ]
+    };
+    let mut inner = Vec::new();
+    for i in (0..n).rev() {
+        inner.extend(rib(p.pillar_angles_rad[i]));
+        inner.extend(ring_cw(
+            &ang,
+            r_ci,
+            idx[2 * i],
+            idx[(2 * i + 2 * n - 1) % (2 * n)],
+        ));
+    }
+    let outer = ring_ccw(&ang, r_o, 0, 0);
+    let loops = vec![outer, inner];
+    let bottom: Vec<Vec<Seg>> = loops.iter().map(|l| at(l, 0.0)).collect();
+    asm.plane("base", &bottom, -Vector3::unit_z())?;
+    band_sides(&mut asm, &loops, 0.0, top)?;
+    for i in 0..n {
+        let mut l = rib(p.pillar_angles_rad[i]);
+        l.extend(ring_ccw(&ang, r_ci, idx[2 * i], idx[2 * i + 1]));
+        asm.plane("pillar top", &[at(&l, top)], Vector3::unit_z())?;
+    }
+
+    let a = p.apex_flat_radius_mm;
+    let (rs_o, rs_i) = (
+        p.cap_dome_outer_sphere_radius_mm,
+        p.cap_dome_inner_sphere_radius_mm,
+    );
+    let (z_oj, z_ij) = (p.cap_outer_junction_z_mm, p.cap_inner_junction_z_mm);
+    let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
+    let outer_chain = [
+        Prof {
+            a: (r_o, top),
+            b: (r_o, z_oj),
+            sphere: None,
+            out: 1.0,
+        },
+        Prof {
+            a: (r_o, z_oj),
+            b: (a, z_oa),
+            sphere: Some(rs_o),
+            out: 1.0,
+        },
+    ];
+    let inner_chain = [
+        Prof {
+            a: (a, z_ia),
+            b: (r_ci, z_ij),
+            sphere: Some(rs_i),
+            out: -1.0,
+        },
+        Prof {
+            a: (r_ci, z_ij),
+            b: (r_ci, top),
+            sphere: None,
+            out: -1.0,
+        },
+    ];
+    revolve_chain(&mut asm, &outer_chain, zc, &ang)?;
+    revolve_chain(&mut asm, &inner_chain, zc, &ang)?;
+    disc(&mut asm, &ang, a, z_oa, true)?;
+    disc(&mut asm, &ang, a, z_ia, false)?;
+
+    let rib_area = slice_area(r_ci, hc) - slice_area(r_pi, hc);
+    let band = top * (PI * (r_o * r_o - r_ci * r_ci) + n as f64 * rib_area);
+    let upper = (PI * r_o * r_o * (z_oj - top) + zone_volume(rs_o, z_oj - zc, z_oa - zc))
+        - (PI * r_ci * r_ci * (z_ij - top) + zone_volume(rs_i, z_ij - zc, z_ia - zc));
+    Ok(BuiltSolid {
+        solid: asm.solid()?,
+        exact_volume_mm3: band + upper,
+    })
+}

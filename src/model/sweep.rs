@@ -1,0 +1,336 @@
+//! Parametric sweeps: one spec parameter over a range, the predicted shift of every
+//! grating and configuration at a force (the paper's Figs. 8–11).
+//!
+//! Parameters are named in the field's words (`e1_mpa`, `cap_wall_mm`, ...). Each
+//! step edits a copy of the design, re-validates it and re-derives the profile, so a
+//! swept dimension moves the prediction exactly as it would move the printed solid.
+
+use super::{predict_with, LoadCase, PredictOptions};
+use crate::spec::{Design, SpecError};
+use serde::Serialize;
+
+/// A sweepable parameter: its names, unit and how it edits a design.
+pub struct SweepParam {
+    /// Canonical name.
+    pub name: &'static str,
+    /// Other accepted names.
+    pub aliases: &'static [&'static str],
+    /// What it is, with unit (axis label).
+    pub label: &'static str,
+    /// True for a modulus (must stay strictly positive).
+    pub is_modulus: bool,
+    apply: fn(&mut Design, f64),
+}
+
+fn set_core_moduli(d: &mut Design, v: f64) {
+    let keys: Vec<String> = d.module.iter().flat_map(|m| m.cores.iter().map(|c| c.material.clone())).collect();
+    for k in keys {
+        if let Some(mat) = d.materials.get_mut(&k) {
+            mat.youngs_modulus_mpa = v;
+        }
+    }
+}
+fn set_insert_moduli(d: &mut Design, v: f64) {
+    let keys: Vec<String> = d.module.iter().flat_map(|m| m.inserts.iter().map(|c| c.material.clone())).collect();
+    for k in keys {
+        if let Some(mat) = d.materials.get_mut(&k) {
+            mat.youngs_modulus_mpa = v;
+        }
+    }
+}
+fn set_cap_modulus(d: &mut Design, v: f64) {
+    if let Some(k) = d.module.as_ref().map(|m| m.cap_material.clone()) {
+        if let Some(mat) = d.materials.get_mut(&k) {
+            mat.youngs_modulus_mpa = v;
+        }
+    }
+}
+fn with_module(d: &mut Design, f: impl FnOnce(&mut crate::spec::Module)) {
+    if let Some(m) = d.module.as_mut() {
+        f(m)
+    }
+}
+
+/// Every parameter `sweep` accepts.
+pub const PARAMS: &[SweepParam] = &[
+    SweepParam { name: "e1_mpa", aliases: &["core_modulus_mpa"], label: "E1, core modulus (MPa)", is_modulus: true, apply: set_core_moduli },
+    SweepParam { name: "e2_mpa", aliases: &["cap_modulus_mpa"], label: "E2, cap modulus (MPa)", is_modulus: true, apply: set_cap_modulus },
+    SweepParam { name: "es_mpa", aliases: &["insert_modulus_mpa"], label: "Es, insert modulus (MPa)", is_modulus: true, apply: set_insert_moduli },
+    SweepParam { name: "outer_diameter_mm", aliases: &[], label: "outer diameter (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.outer_diameter_mm = v) },
+    SweepParam { name: "overall_height_mm", aliases: &[], label: "overall height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.overall_height_mm = v) },
+    SweepParam { name: "dome_height_mm", aliases: &[], label: "dome height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.dome_height_mm = v) },
+    SweepParam { name: "cap_wall_mm", aliases: &[], label: "cap wall (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.cap_wall_mm = v) },
+    SweepParam { name: "core_wall_mm", aliases: &[], label: "core wall (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.core_wall_mm = v) },
+    SweepParam { name: "apex_flat_diameter_mm", aliases: &[], label: "apex flat diameter (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.apex_flat_diameter_mm = v) },
+    SweepParam { name: "pillar_width_mm", aliases: &[], label: "pillar width (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.pillars.width_mm = v) },
+    SweepParam { name: "pillar_height_mm", aliases: &[], label: "pillar height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.pillars.height_mm = v) },
+    SweepParam {
+        name: "grating_center_height_mm",
+        aliases: &[],
+        label: "grating centre height (mm)",
+        is_modulus: false,
+        apply: |d, v| {
+            with_module(d, |m| {
+                for g in m.gratings.iter_mut().filter(|g| g.center_height_mm.is_some()) {
+                    g.center_height_mm = Some(v);
+                }
+            })
+        },
+    },
+];
+
+/// Names accepted by [`find_param`], canonical first, aliases in brackets.
+pub fn param_names() -> Vec<String> {
+    PARAMS
+        .iter()
+        .map(|p| {
+            if p.aliases.is_empty() {
+                p.name.to_string()
+            } else {
+                format!("{} ({})", p.name, p.aliases.join(", "))
+            }
+        })
+        .collect()
+}
+
+/// Errors of a sweep.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SweepError {
+    /// Unknown parameter name.
+    #[error("unknown sweep parameter `{0}`; known parameters: {known}", known = param_names().join(", "))]
+    UnknownParam(String),
+    /// Empty, reversed or non-finite range, or too few steps.
+    #[error("bad range: {0}")]
+    BadRange(String),
+    /// A swept value makes the design invalid.
+    #[error("at {param} = {value}: {source}")]
+    InvalidDesign {
+        /// Parameter.
+        param: String,
+        /// Value.
+        value: f64,
+        /// Why the design is invalid.
+        source: SpecError,
+    },
+    /// The model rejected the design.
+    #[error("at {param} = {value}: {source}")]
+    Model {
+        /// Parameter.
+        param: String,
+        /// Value.
+        value: f64,
+        /// Model error.
+        source: super::ModelError,
+    },
+}
+
+/// Look a parameter up by name or alias (case-insensitive).
+pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
+    let n = name.to_ascii_lowercase();
+    PARAMS
+        .iter()
+        .find(|p| p.name == n || p.aliases.contains(&n.as_str()))
+        .ok_or_else(|| SweepError::UnknownParam(name.to_string()))
+}
+
+/// A copy of `design` with `param` set to `value`, validated.
+pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Design, SweepError> {
+    let mut d = design.clone();
+    (param.apply)(&mut d, value);
+    d.validate().map_err(|source| SweepError::InvalidDesign {
+        param: param.name.to_string(),
+        value,
+        source,
+    })?;
+    Ok(d)
+}
+
+/// Evenly spaced values from `from` to `to` inclusive, checked.
+pub fn sweep_values(param: &SweepParam, from: f64, to: f64, steps: usize) -> Result<Vec<f64>, SweepError> {
+    if !from.is_finite() || !to.is_finite() {
+        return Err(SweepError::BadRange(format!("--from {from} and --to {to} must be finite numbers")));
+    }
+    if to <= from {
+        return Err(SweepError::BadRange(format!(
+            "--from {from} must be smaller than --to {to} (an empty or reversed range)"
+        )));
+    }
+    if steps < 2 {
+        return Err(SweepError::BadRange(format!("--steps must be at least 2, got {steps}")));
+    }
+    if param.is_modulus && from <= 0.0 {
+        return Err(SweepError::BadRange(format!(
+            "{} is a modulus: the range must stay above 0 MPa, got --from {from}",
+            param.name
+        )));
+    }
+    if from <= 0.0 {
+        return Err(SweepError::BadRange(format!(
+            "{} is a length: the range must stay above 0 mm, got --from {from}",
+            param.name
+        )));
+    }
+    Ok((0..steps).map(|i| from + (to - from) * i as f64 / (steps - 1) as f64).collect())
+}
+
+/// One curve of a sweep: a grating in a configuration.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepSeries {
+    /// Grating name.
+    pub grating: String,
+    /// Loading case.
+    pub case: LoadCase,
+    /// Insert (Case I).
+    pub insert: Option<String>,
+    /// Swept values.
+    pub x: Vec<f64>,
+    /// Predicted shift at the force, pm.
+    pub shift_pm: Vec<f64>,
+    /// Sensitivity, pm/N.
+    pub sensitivity_pm_per_n: Vec<f64>,
+}
+
+impl SweepSeries {
+    /// Legend label, e.g. `lambda_11 · Case I · blue`.
+    pub fn label(&self) -> String {
+        match &self.insert {
+            Some(i) => format!("{} · Case {} · {}", self.grating, self.case, i),
+            None => format!("{} · Case {}", self.grating, self.case),
+        }
+    }
+}
+
+/// A finished sweep.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepResult {
+    /// Parameter name.
+    pub param: String,
+    /// Axis label with unit.
+    pub label: String,
+    /// Force, N.
+    pub force_n: f64,
+    /// One series per grating and configuration.
+    pub series: Vec<SweepSeries>,
+}
+
+/// Sweep `param` over `values` at `force_n`; `case` keeps only one loading case.
+/// `on_step` is called after each value (progress bars).
+pub fn run(
+    design: &Design,
+    param: &SweepParam,
+    values: &[f64],
+    force_n: f64,
+    case: Option<LoadCase>,
+    mut on_step: impl FnMut(),
+) -> Result<SweepResult, SweepError> {
+    let mut series: Vec<SweepSeries> = Vec::new();
+    let opts = PredictOptions { force_n, delta_t_k: 0.0 };
+    for &v in values {
+        let d = with_param(design, param, v)?;
+        let preds = predict_with(&d, &opts).map_err(|source| SweepError::Model {
+            param: param.name.to_string(),
+            value: v,
+            source,
+        })?;
+        for p in preds.into_iter().map(|d| d.prediction).filter(|p| case.is_none_or(|c| c == p.case)) {
+            let s = match series
+                .iter_mut()
+                .find(|s| s.grating == p.grating && s.case == p.case && s.insert == p.insert)
+            {
+                Some(s) => s,
+                None => {
+                    series.push(SweepSeries {
+                        grating: p.grating.clone(),
+                        case: p.case,
+                        insert: p.insert.clone(),
+                        x: Vec::new(),
+                        shift_pm: Vec::new(),
+                        sensitivity_pm_per_n: Vec::new(),
+                    });
+                    series.last_mut().expect("just pushed")
+                }
+            };
+            s.x.push(v);
+            s.shift_pm.push(p.shift_pm);
+            s.sensitivity_pm_per_n.push(p.sensitivity_pm_per_n);
+        }
+        on_step();
+    }
+    Ok(SweepResult {
+        param: param.name.to_string(),
+        label: param.label.to_string(),
+        force_n,
+        series,
+    })
+}
+
+/// One figure of the paper's parametric analysis (Figs. 9 and 11): which modulus is
+/// swept, over which range, with which fixed values, in which case.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PaperFigure {
+    /// File stem, e.g. `fig9a_case1_e1`.
+    pub id: &'static str,
+    /// Title.
+    pub title: &'static str,
+    /// Loading case.
+    pub case: LoadCase,
+    /// Swept parameter name.
+    pub param: &'static str,
+    /// Range swept, MPa (the paper's axes are lost: our reading, see docs/model.md).
+    pub range_mpa: (f64, f64),
+    /// Fixed E1, MPa (None when swept).
+    pub e1_mpa: Option<f64>,
+    /// Fixed E2, MPa (None when swept).
+    pub e2_mpa: Option<f64>,
+    /// Fixed Es, MPa (None when swept or Case II).
+    pub es_mpa: Option<f64>,
+}
+
+/// Force of the paper's parametric figures, N.
+pub const PAPER_FORCE_N: f64 = 50.0;
+
+/// The five parametric figures of the paper (Fig. 9a–c: Case I; Fig. 11a–b: Case II).
+pub const PAPER_FIGURES: &[PaperFigure] = &[
+    PaperFigure { id: "fig9a_case1_e1", title: "Case I: shift at 50 N vs E1 (E2 = 44 MPa, Es = 44 MPa)", case: LoadCase::I, param: "e1_mpa", range_mpa: (1.0, 1000.0), e1_mpa: None, e2_mpa: Some(44.0), es_mpa: Some(44.0) },
+    PaperFigure { id: "fig9b_case1_e2", title: "Case I: shift at 50 N vs E2 (E1 = 1.4 MPa, Es = 44 MPa)", case: LoadCase::I, param: "e2_mpa", range_mpa: (0.5, 50.0), e1_mpa: Some(1.4), e2_mpa: None, es_mpa: Some(44.0) },
+    PaperFigure { id: "fig9c_case1_es", title: "Case I: shift at 50 N vs Es (E1 = 1.4 MPa, E2 = 44 MPa)", case: LoadCase::I, param: "es_mpa", range_mpa: (10.0, 2000.0), e1_mpa: Some(1.4), e2_mpa: Some(44.0), es_mpa: None },
+    PaperFigure { id: "fig11a_case2_e1", title: "Case II: shift at 50 N vs E1 (E2 = 44 MPa)", case: LoadCase::II, param: "e1_mpa", range_mpa: (1.0, 1000.0), e1_mpa: None, e2_mpa: Some(44.0), es_mpa: None },
+    PaperFigure { id: "fig11b_case2_e2", title: "Case II: shift at 50 N vs E2 (E1 = 1.4 MPa)", case: LoadCase::II, param: "e2_mpa", range_mpa: (0.5, 50.0), e1_mpa: Some(1.4), e2_mpa: None, es_mpa: None },
+];
+
+/// The design with a paper figure's fixed moduli applied (the swept one untouched).
+/// With Es fixed every insert gets the same modulus, so only the first is kept.
+pub fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design, SweepError> {
+    let mut d = design.clone();
+    if let Some(v) = fig.e1_mpa {
+        set_core_moduli(&mut d, v);
+    }
+    if let Some(v) = fig.e2_mpa {
+        set_cap_modulus(&mut d, v);
+    }
+    if let Some(v) = fig.es_mpa {
+        set_insert_moduli(&mut d, v);
+        if let Some(m) = d.module.as_mut() {
+            m.inserts.truncate(1);
+        }
+    }
+    if fig.param == "es_mpa" {
+        if let Some(m) = d.module.as_mut() {
+            m.inserts.truncate(1);
+        }
+    }
+    d.validate().map_err(|source| SweepError::InvalidDesign {
+        param: fig.param.to_string(),
+        value: f64::NAN,
+        source,
+    })?;
+    Ok(d)
+}
+
+/// Run one paper figure with `steps` values.
+pub fn run_paper_figure(design: &Design, fig: &PaperFigure, steps: usize) -> Result<SweepResult, SweepError> {
+    let d = paper_figure_design(design, fig)?;
+    let param = find_param(fig.param)?;
+    let values = sweep_values(param, fig.range_mpa.0, fig.range_mpa.1, steps)?;
+    run(&d, param, &values, PAPER_FORCE_N, Some(fig.case), || {})
+}

@@ -1,0 +1,186 @@
+//! Property tests over the design range: every valid module (diameter 10–40 mm, walls
+//! from the printer minimum to 3 mm, 3–8 pillars, random clearances, holes, grooves
+//! and domes) and every valid mold yields parts that pass every mesh check at the
+//! printer's default tolerance, with the mesh volume within the bound of the exact one.
+//!
+//! Specs are drawn so that most are valid, and the rest are discarded by the spec's
+//! own validation (`prop_assume!`), so each property runs its full count of valid
+//! designs. 160 modules × 3 parts + 120 molds = 600 checked parts.
+
+use fbgforge::geometry;
+use fbgforge::spec::{self, Design, PrintProcess};
+use proptest::prelude::*;
+use std::path::Path;
+
+fn shipped(name: &str) -> Design {
+    spec::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("designs")
+            .join(name),
+    )
+    .unwrap()
+}
+
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a + (b - a) * t
+}
+
+/// Printer: J750-like PolyJet or a fine FDM machine.
+fn printer(fdm: bool, d: &mut Design) {
+    if fdm {
+        d.printer.process = PrintProcess::Fdm;
+        d.printer.resolution_mm = 0.1;
+        d.printer.min_wall_mm = 0.4;
+    } else {
+        d.printer.process = PrintProcess::Polyjet;
+        d.printer.resolution_mm = 0.05;
+        d.printer.min_wall_mm = 0.3;
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
+    let mut d = shipped("clip-on-34mm.toml");
+    printer(fdm, &mut d);
+    let w = d.printer.min_wall_mm;
+    let m = d.module.as_mut().unwrap();
+    m.gratings.clear();
+    let r = diameter / 2.0;
+    m.outer_diameter_mm = diameter;
+    m.cap_wall_mm = lerp(w, 3.0_f64.min(0.25 * r), f[0]);
+    m.core_wall_mm = lerp(w, 3.0_f64.min(0.25 * r), f[1]);
+    m.cap_core_clearance_mm = 0.3 * f[2];
+    m.core_insert_clearance_mm = 0.3 * f[3];
+    let pl = &mut m.pillars;
+    pl.count = count;
+    pl.fiber_hole_diameter_mm = lerp(0.13, 1.2, f[4]);
+    pl.groove_depth_mm = lerp(0.05, 1.0, f[5]);
+    pl.height_mm = pl.fiber_hole_diameter_mm + 2.0 * w + pl.groove_depth_mm + lerp(0.05, 1.5, f[6]);
+    pl.groove_width_mm = lerp(w + 2.0 * m.cap_core_clearance_mm, 2.0, f[7]).max(0.1);
+    pl.width_mm =
+        pl.groove_width_mm.max(pl.fiber_hole_diameter_mm) + 2.0 * w + lerp(0.01, 2.0, f[8]);
+    pl.first_pillar_angle_deg = 360.0 * f[9];
+    m.dome_height_mm = lerp(0.3 * r, r, f[10]);
+    m.overall_height_mm = m.dome_height_mm + lerp(4.0, 3.0 * r + 4.0, f[11]);
+    m.top_hole_diameter_mm = lerp(0.1, 1.0, f[12]);
+    m.apex_flat_diameter_mm = lerp(0.1, 1.0, f[13]);
+    d
+}
+
+fn fractions<const N: usize>() -> impl Strategy<Value = [f64; N]> {
+    proptest::array::uniform::<_, N>(0.0..1.0f64)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 160, max_global_rejects: 20_000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn every_valid_module_yields_checked_parts(
+        diameter in 10.0..40.0f64,
+        fdm in proptest::bool::weighted(0.25),
+        count in 3u32..=8,
+        f in fractions::<14>(),
+    ) {
+        let d = module_design(diameter, fdm, count, f);
+        prop_assume!(d.validate().is_ok());
+        let sel = ["cap".to_string(), "core".into(), "insert-blue".into()];
+        let parts = geometry::build_parts(&d, None, Some(&sel))
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{}", d.to_toml())))?;
+        prop_assert_eq!(parts.len(), 3);
+        for p in &parts {
+            p.mesh.check(&p.name).map_err(|e| TestCaseError::fail(e.to_string()))?;
+            prop_assert!(p.volume_error().abs() <= geometry::VOLUME_TOLERANCE_AT_DEFAULT, "{} {}", p.name, p.volume_error());
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 120, max_global_rejects: 20_000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn every_valid_mold_is_exact_and_checked(
+        fdm in proptest::bool::ANY,
+        fibers in 1usize..=8,
+        f in fractions::<9>(),
+    ) {
+        let mut d = shipped("tactile-array-60x80.toml");
+        printer(fdm, &mut d);
+        let w = d.printer.min_wall_mm;
+        let a = d.array.as_mut().unwrap();
+        a.size_x_mm = lerp(20.0, 150.0, f[0]);
+        a.size_y_mm = lerp(20.0, 150.0, f[1]);
+        a.thickness_mm = lerp(1.0, 8.0, f[2]);
+        let m = &mut a.mold;
+        m.internal_x_mm = a.size_x_mm + lerp(2.0, 30.0, f[3]);
+        m.internal_y_mm = a.size_y_mm + lerp(0.0, 30.0, f[3]);
+        m.wall_thickness_mm = lerp(w, 5.0, f[4]);
+        m.base_thickness_mm = lerp(w, 5.0, f[5]);
+        m.wall_height_mm = a.thickness_mm + lerp(0.0, 5.0, f[6]);
+        m.slit_depth_mm = lerp(0.05, m.wall_height_mm - w, f[7]);
+        m.slit_width_mm = lerp(d.printer.resolution_mm, 1.0, f[8]);
+        // Fibers evenly over the sheet, away from its edges.
+        let pitch = a.size_x_mm / fibers as f64;
+        a.fiber_x_mm = (0..fibers).map(|i| -a.size_x_mm / 2.0 + (i as f64 + 0.5) * pitch).collect();
+        let g = a.gratings[0].clone();
+        a.gratings = vec![g];
+        a.gratings[0].y_mm = 0.0;
+        prop_assume!(d.validate().is_ok());
+        let parts = geometry::build_parts(&d, None, None)
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{}", d.to_toml())))?;
+        let mold = &parts[0];
+        mold.mesh.check("mold").map_err(|e| TestCaseError::fail(e.to_string()))?;
+        // All faces are planar: the mesh is the solid, to rounding.
+        let a = d.array.as_ref().unwrap();
+        let m = &a.mold;
+        let outer = (m.internal_x_mm + 2.0 * m.wall_thickness_mm) * (m.internal_y_mm + 2.0 * m.wall_thickness_mm)
+            * (m.base_thickness_mm + m.wall_height_mm);
+        let exact = outer - m.internal_x_mm * m.internal_y_mm * m.wall_height_mm
+            - 2.0 * fibers as f64 * m.slit_width_mm * m.slit_depth_mm * m.wall_thickness_mm;
+        prop_assert!((mold.mesh_volume_mm3 - exact).abs() < 1e-9 * exact, "{} vs {}", mold.mesh_volume_mm3, exact);
+    }
+}
+
+/// The generator must reach the whole range and keep most draws valid, or the
+/// properties above would test a corner of it (or run out of accepted cases).
+#[test]
+fn the_module_generator_covers_the_design_range() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+    let mut valid = Vec::new();
+    let n = 3000;
+    for _ in 0..n {
+        let f: [f64; 14] = std::array::from_fn(|_| rng.random());
+        let d = module_design(
+            rng.random_range(10.0..40.0),
+            rng.random_bool(0.25),
+            rng.random_range(3..=8),
+            f,
+        );
+        if d.validate().is_ok() {
+            valid.push(d);
+        }
+    }
+    assert!(
+        valid.len() * 2 > n,
+        "only {} of {n} drawn modules are valid",
+        valid.len()
+    );
+    let m = |d: &Design| d.module.clone().unwrap();
+    let dia: Vec<f64> = valid.iter().map(|d| m(d).outer_diameter_mm).collect();
+    assert!(dia.iter().any(|&x| x < 11.0) && dia.iter().any(|&x| x > 39.0));
+    let walls: Vec<(f64, f64)> = valid
+        .iter()
+        .map(|d| (m(d).cap_wall_mm, d.printer.min_wall_mm))
+        .collect();
+    assert!(
+        walls.iter().any(|&(w, min)| w < min + 0.05),
+        "no wall near the printer minimum"
+    );
+    assert!(walls.iter().any(|&(w, _)| w > 2.9), "no wall near 3 mm");
+    for count in 3..=8 {
+        assert!(
+            valid.iter().any(|d| m(d).pillars.count == count),
+            "no valid design with {count} pillars"
+        );
+    }
+}
