@@ -89,6 +89,7 @@ fn finds_an_interior_analytic_optimum_with_both_solvers() {
             ..ModuleSettings::default()
         };
         s.run.max_iters = 300;
+        s.run.swarm_iters = 150;
         only_start_choice(&mut s);
         let out = optimise_module(&base, &lib, &s, None, pred.clone(), &|_| {}).unwrap();
         let best = out.choices[out.best_choice].best.as_ref().unwrap();
@@ -132,6 +133,7 @@ fn strain_limit_sets_the_optimum_diameter() {
     let mut s = ModuleSettings {
         objective: Objective::Sensitivity,
         vary: vec![Variable::OuterDiameterMm],
+        max_force_n: 50.0,
         max_grating_strain: lim,
         ..ModuleSettings::default()
     };

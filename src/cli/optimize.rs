@@ -36,7 +36,7 @@ pub struct OptimizeArgs {
     #[arg(long)]
     pub bounds: Option<String>,
     /// Largest force the module must take, N (strain and window constraints).
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 20.0)]
     pub max_force_n: f64,
     /// Largest allowed grating strain at that force, microstrain.
     #[arg(long, default_value_t = 3000.0)]
@@ -64,9 +64,12 @@ pub struct OptimizeArgs {
     /// Random starts per solver besides the design's own point.
     #[arg(long, default_value_t = 2)]
     pub starts: usize,
-    /// Iteration limit per run.
+    /// Iteration limit per Nelder–Mead run.
     #[arg(long, default_value_t = 200)]
     pub max_iters: u64,
+    /// Iteration limit of the particle swarm.
+    #[arg(long, default_value_t = 80)]
+    pub swarm_iters: u64,
     /// Seed of starts and swarms.
     #[arg(long, default_value_t = 2024)]
     pub seed: u64,
@@ -114,7 +117,11 @@ pub fn module_settings(a: &OptimizeArgs) -> Result<ModuleSettings> {
         ..ModuleSettings::default()
     };
     s.run.max_iters = a.max_iters;
-    anyhow::ensure!(a.max_iters > 0, "--max-iters must be at least 1");
+    s.run.swarm_iters = a.swarm_iters;
+    anyhow::ensure!(
+        a.max_iters > 0 && a.swarm_iters > 0,
+        "--max-iters and --swarm-iters must be at least 1"
+    );
     if let Some(c) = a.min_clearance_mm {
         anyhow::ensure!(
             c.is_finite() && c > 0.0,
@@ -442,6 +449,7 @@ pub fn place_settings(a: &PlaceArgs) -> Result<PlaceSettings> {
     };
     anyhow::ensure!(a.max_iters > 0, "--max-iters must be at least 1");
     s.run.max_iters = a.max_iters;
+    s.run.swarm_iters = a.max_iters;
     Ok(s)
 }
 

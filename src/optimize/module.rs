@@ -223,7 +223,7 @@ impl Default for ModuleSettings {
     fn default() -> Self {
         ModuleSettings {
             objective: Objective::Q,
-            max_force_n: 50.0,
+            max_force_n: 20.0,
             max_grating_strain: 3e-3,
             min_fit_clearance_mm: None,
             temperature_span_k: 10.0,
@@ -310,6 +310,9 @@ impl Evaluation {
     }
 }
 
+/// Weight of the tie-break toward the start design (see [`ModuleProblem::merit`]).
+pub const TIE_WEIGHT: f64 = 1e-3;
+
 /// Constraints checked on the model's prediction (only once the geometry is valid).
 pub const PHYSICS_CONSTRAINTS: [&str; 2] = ["grating_strain", "wavelength_window"];
 
@@ -331,6 +334,7 @@ pub struct ModuleProblem {
     predictor: Predictor,
     windows_nm: Vec<(String, f64, f64)>,
     scale: f64,
+    x0: Vec<f64>,
     best_feasible: Mutex<Option<Evaluation>>,
     least_violating: Mutex<Option<Evaluation>>,
 }
@@ -491,7 +495,7 @@ impl ModuleProblem {
                 );
             }
         }
-        Ok(ModuleProblem {
+        let mut p = ModuleProblem {
             core_name: core0.name.clone(),
             insert_name,
             choice,
@@ -506,9 +510,12 @@ impl ModuleProblem {
             predictor,
             windows_nm,
             scale: 1.0,
+            x0: Vec::new(),
             best_feasible: Mutex::new(None),
             least_violating: Mutex::new(None),
-        })
+        };
+        p.x0 = p.start_point();
+        Ok(p)
     }
 
     /// The start point: the start design's own values, clamped into the box.
@@ -795,8 +802,24 @@ impl ModuleProblem {
         if v > 0.0 {
             1.0 + 10.0 * v + 100.0 * f64::from(geometric)
         } else {
-            -e.objective / self.scale
+            -self.merit(e)
         }
+    }
+
+    /// What the search maximises among feasible designs: the objective over the scale,
+    /// less `TIE_WEIGHT` × the squared distance from the start in box units. Designs
+    /// within ~0.1 % of each other tie, and a tie goes to the design closest to the
+    /// start: when a constraint caps the objective (the grating strain usually does),
+    /// a whole family of designs reaches the cap and the least change is the one to
+    /// print.
+    pub fn merit(&self, e: &Evaluation) -> f64 {
+        let d2: f64 =
+            e.x.iter()
+                .zip(&self.x0)
+                .zip(self.lo.iter().zip(&self.hi))
+                .map(|((x, s), (l, h))| ((x - s) / (h - l)).powi(2))
+                .sum();
+        e.objective / self.scale - TIE_WEIGHT * d2
     }
 
     /// Best feasible evaluation seen so far.
@@ -825,7 +848,7 @@ impl BoxProblem for ModuleProblem {
         let c = self.penalised(&e);
         if e.feasible() {
             if let Ok(mut b) = self.best_feasible.lock() {
-                if b.as_ref().is_none_or(|o| e.objective > o.objective) {
+                if b.as_ref().is_none_or(|o| self.merit(&e) > self.merit(o)) {
                     *b = Some(e);
                 }
             }
@@ -1089,10 +1112,21 @@ pub fn optimise_module(
         })
         .collect();
     let choices_done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
+    // Every choice shares the start point and the box, so merits compare across
+    // choices too: near-ties go to the least change from the start.
+    let mut ranker = ModuleProblem::new(
+        base,
+        start_ch.clone(),
+        lib,
+        settings,
+        cal,
+        predictor.clone(),
+    )?;
+    ranker.set_scale(scale);
     let best_choice = choices_done
         .iter()
         .enumerate()
-        .filter_map(|(i, c)| c.best.as_ref().map(|b| (i, b.objective)))
+        .filter_map(|(i, c)| c.best.as_ref().map(|b| (i, ranker.merit(b))))
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(i, _)| i);
     let Some(bi) = best_choice else {

@@ -87,6 +87,7 @@ impl Default for PlaceSettings {
             extra_starts: 1,
             run: RunSettings {
                 max_iters: 60,
+                swarm_iters: 60,
                 particles: 16,
                 ..RunSettings::default()
             },

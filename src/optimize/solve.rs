@@ -63,8 +63,10 @@ impl SolverKind {
 /// Budget and tolerances of one run.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct RunSettings {
-    /// Iteration limit per run.
+    /// Iteration limit per Nelder–Mead run.
     pub max_iters: u64,
+    /// Iteration limit per particle-swarm run.
+    pub swarm_iters: u64,
     /// Nelder–Mead: stop when the simplex costs' standard deviation falls below this.
     pub sd_tolerance: f64,
     /// Particle swarm: number of particles.
@@ -77,8 +79,9 @@ impl Default for RunSettings {
     fn default() -> Self {
         RunSettings {
             max_iters: 200,
+            swarm_iters: 80,
             sd_tolerance: 1e-7,
-            particles: 24,
+            particles: 16,
             simplex_share: 0.15,
         }
     }
@@ -224,7 +227,7 @@ pub fn run_one<P: BoxProblem>(
             let solver = ParticleSwarm::new((lo.clone(), hi.clone()), settings.particles)
                 .with_rng_generator(rand::rngs::StdRng::seed_from_u64(seed));
             let res = Executor::new(boxed, solver)
-                .configure(|s| s.max_iters(settings.max_iters))
+                .configure(|s| s.max_iters(settings.swarm_iters))
                 .add_observer(History(history.clone()), ObserverMode::Always)
                 .run()
                 .map_err(|e| anyhow::anyhow!("particle-swarm: {e}"))?;
@@ -277,8 +280,8 @@ pub fn start_points(
     pts
 }
 
-/// Run every solver from every start point in parallel. Particle swarm ignores the
-/// point but uses the start index in its seed, so its runs differ too.
+/// Run Nelder–Mead from every start point and the particle swarm once (it searches
+/// the whole box), all in parallel.
 pub fn multi_start<P: BoxProblem>(
     problem: &P,
     solvers: &[SolverKind],
@@ -286,9 +289,17 @@ pub fn multi_start<P: BoxProblem>(
     seed: u64,
     settings: &RunSettings,
 ) -> anyhow::Result<Vec<Run>> {
+    // The swarm ignores the start point and covers the whole box itself, so it runs
+    // once per problem; Nelder–Mead runs from every start.
     let jobs: Vec<(SolverKind, usize)> = solvers
         .iter()
-        .flat_map(|&k| (0..starts.len()).map(move |i| (k, i)))
+        .flat_map(|&k| {
+            let n = match k {
+                SolverKind::NelderMead => starts.len(),
+                SolverKind::ParticleSwarm => starts.len().min(1),
+            };
+            (0..n).map(move |i| (k, i))
+        })
         .collect();
     jobs.par_iter()
         .map(|&(k, i)| {
@@ -355,6 +366,7 @@ mod tests {
         };
         let s = RunSettings {
             max_iters: 400,
+            swarm_iters: 400,
             particles: 30,
             ..RunSettings::default()
         };
