@@ -458,7 +458,7 @@ impl ModuleProblem {
                 l = ul;
                 h = uh;
             }
-            if !(l < h) {
+            if l >= h || l.is_nan() || h.is_nan() {
                 anyhow::bail!(
                     "contradictory bounds for `{}`: lower {l} is not below upper {h}",
                     v.name()
