@@ -185,3 +185,28 @@ fn optimised_design_builds_into_watertight_parts() {
         );
     }
 }
+
+#[test]
+fn q_reaches_the_closed_form_strain_cap() {
+    // When the grating strain limit binds, |K| ≤ ε_lim·λ(1 − p_e)/F for the
+    // shortest-wavelength strain grating, and with Δt_max at the sample-period floor
+    // Q ≤ ε_lim·λ(1 − p_e)/(F·Δt_s). The optimiser must reach that cap to within the
+    // R² loss (< 1 % for rigid inserts) and never exceed it.
+    let base = design("clip-on-34mm.toml");
+    let s = ModuleSettings {
+        extra_starts: 0,
+        cores: Some(vec!["core_rubber_case_i".into()]),
+        inserts: Some(vec!["insert_blue".into()]),
+        ..ModuleSettings::default()
+    };
+    let out = run(&base, &s);
+    let best = out.choices[out.best_choice].best.as_ref().unwrap();
+    let lambda = 1524.570;
+    let cap = s.max_grating_strain * lambda * 1e3 * (1.0 - base.fiber.photoelastic_pe)
+        / s.max_force_n
+        / s.quality.sample_period_s;
+    assert!(best.objective <= cap * (1.0 + 1e-9), "{} > cap {cap}", best.objective);
+    assert!(best.objective >= 0.99 * cap, "{} well below cap {cap}", best.objective);
+    let r2 = best.gratings[0].r_squared;
+    assert!((best.objective - cap * r2).abs() < 2e-3 * cap, "Q {} vs cap·R² {}", best.objective, cap * r2);
+}
