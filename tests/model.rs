@@ -13,7 +13,12 @@ use fbgforge::spec::{self, Design};
 use std::path::Path;
 
 fn design(name: &str) -> Design {
-    spec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("designs").join(name)).expect("shipped design loads")
+    spec::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("designs")
+            .join(name),
+    )
+    .expect("shipped design loads")
 }
 
 fn k(d: &Design, case: LoadCase, insert: Option<&str>, grating: &str) -> f64 {
@@ -22,14 +27,23 @@ fn k(d: &Design, case: LoadCase, insert: Option<&str>, grating: &str) -> f64 {
 
 /// Curve of one paper figure: (x, Δλ at 50 N) of its first series.
 fn figure(id: &str, steps: usize) -> Vec<(f64, f64)> {
-    let fig = PAPER_FIGURES.iter().find(|f| f.id == id).expect("figure exists");
+    let fig = PAPER_FIGURES
+        .iter()
+        .find(|f| f.id == id)
+        .expect("figure exists");
     let r = sweep::run_paper_figure(&design("clip-on-34mm.toml"), fig, steps).expect("figure runs");
     let s = &r.series[0];
-    s.x.iter().copied().zip(s.shift_pm.iter().copied()).collect()
+    s.x.iter()
+        .copied()
+        .zip(s.shift_pm.iter().copied())
+        .collect()
 }
 
 fn interp(curve: &[(f64, f64)], x: f64) -> f64 {
-    let i = curve.windows(2).position(|w| w[0].0 <= x && x <= w[1].0).expect("x in range");
+    let i = curve
+        .windows(2)
+        .position(|w| w[0].0 <= x && x <= w[1].0)
+        .expect("x in range");
     let ((x0, y0), (x1, y1)) = (curve[i], curve[i + 1]);
     y0 + (y1 - y0) * (x - x0) / (x1 - x0)
 }
@@ -37,7 +51,12 @@ fn interp(curve: &[(f64, f64)], x: f64) -> f64 {
 /// |Δλ| strictly falls along the curve.
 fn assert_magnitude_falls(curve: &[(f64, f64)], what: &str) {
     for w in curve.windows(2) {
-        assert!(w[1].1.abs() < w[0].1.abs(), "{what}: |Δλ| rises from {:?} to {:?}", w[0], w[1]);
+        assert!(
+            w[1].1.abs() < w[0].1.abs(),
+            "{what}: |Δλ| rises from {:?} to {:?}",
+            w[0],
+            w[1]
+        );
     }
 }
 
@@ -64,14 +83,29 @@ fn span(curve: &[(f64, f64)]) -> f64 {
 
 #[test]
 fn case_i_is_a_red_shift_and_case_ii_a_blue_shift_in_every_design() {
-    for name in ["clip-on-10mm.toml", "clip-on-16mm.toml", "clip-on-22mm.toml", "clip-on-34mm.toml"] {
+    for name in [
+        "clip-on-10mm.toml",
+        "clip-on-16mm.toml",
+        "clip-on-22mm.toml",
+        "clip-on-34mm.toml",
+    ] {
         let d = design(name);
         let preds = model::predict(&d, 10.0).unwrap();
-        assert_eq!(preds.len(), 4 * 4, "{name}: 4 gratings × (Case II + 3 inserts)");
+        assert_eq!(
+            preds.len(),
+            4 * 4,
+            "{name}: 4 gratings × (Case II + 3 inserts)"
+        );
         for p in preds {
             match p.case {
-                LoadCase::I => assert!(p.sensitivity_pm_per_n > 0.0 && p.strain > 0.0, "{name}: {p:?}"),
-                LoadCase::II => assert!(p.sensitivity_pm_per_n < 0.0 && p.strain < 0.0, "{name}: {p:?}"),
+                LoadCase::I => assert!(
+                    p.sensitivity_pm_per_n > 0.0 && p.strain > 0.0,
+                    "{name}: {p:?}"
+                ),
+                LoadCase::II => assert!(
+                    p.sensitivity_pm_per_n < 0.0 && p.strain < 0.0,
+                    "{name}: {p:?}"
+                ),
             }
             assert!((p.shift_pm - 10.0 * p.sensitivity_pm_per_n).abs() < 1e-9);
         }
@@ -101,7 +135,11 @@ fn case_i_sensitivity_rises_as_the_insert_softens_steeply_below_500_mpa() {
     assert!(kl > kg && kg > kb, "{kl} > {kg} > {kb} expected");
     let c = figure("fig9c_case1_es", 200);
     assert_magnitude_falls(&c, "Fig. 9c");
-    assert!(knee_slope_ratio(&c, 500.0) >= 10.0, "{}", knee_slope_ratio(&c, 500.0));
+    assert!(
+        knee_slope_ratio(&c, 500.0) >= 10.0,
+        "{}",
+        knee_slope_ratio(&c, 500.0)
+    );
     assert!(share_below(&c, 500.0) >= 0.75, "{}", share_below(&c, 500.0));
 }
 
@@ -110,8 +148,16 @@ fn sensitivity_falls_with_e1_and_levels_off_by_700_to_800_mpa() {
     for (id, knee) in [("fig9a_case1_e1", 800.0), ("fig11a_case2_e1", 700.0)] {
         let c = figure(id, 200);
         assert_magnitude_falls(&c, id);
-        assert!(knee_slope_ratio(&c, knee) >= 10.0, "{id}: {}", knee_slope_ratio(&c, knee));
-        assert!(share_below(&c, knee) >= 0.9, "{id}: {}", share_below(&c, knee));
+        assert!(
+            knee_slope_ratio(&c, knee) >= 10.0,
+            "{id}: {}",
+            knee_slope_ratio(&c, knee)
+        );
+        assert!(
+            share_below(&c, knee) >= 0.9,
+            "{id}: {}",
+            share_below(&c, knee)
+        );
     }
 }
 
@@ -120,17 +166,67 @@ fn sensitivity_falls_sharply_with_e2_up_to_5_mpa_then_near_its_floor() {
     for id in ["fig9b_case1_e2", "fig11b_case2_e2"] {
         let c = figure(id, 400);
         assert_magnitude_falls(&c, id);
-        assert!(knee_slope_ratio(&c, 5.0) >= 10.0, "{id}: {}", knee_slope_ratio(&c, 5.0));
-        assert!(share_below(&c, 5.0) >= 0.6, "{id}: {}", share_below(&c, 5.0));
+        assert!(
+            knee_slope_ratio(&c, 5.0) >= 10.0,
+            "{id}: {}",
+            knee_slope_ratio(&c, 5.0)
+        );
+        assert!(
+            share_below(&c, 5.0) >= 0.6,
+            "{id}: {}",
+            share_below(&c, 5.0)
+        );
     }
 }
 
 #[test]
-fn e2_has_the_greatest_influence() {
-    let (e1, e2, es) = (figure("fig9a_case1_e1", 100), figure("fig9b_case1_e2", 100), figure("fig9c_case1_es", 100));
-    assert!(span(&e2) > span(&e1) && span(&e2) > span(&es), "Case I spans E1 {} E2 {} Es {}", span(&e1), span(&e2), span(&es));
-    let (e1, e2) = (figure("fig11a_case2_e1", 100), figure("fig11b_case2_e2", 100));
-    assert!(span(&e2) > span(&e1), "Case II spans E1 {} E2 {}", span(&e1), span(&e2));
+fn e2_has_the_greatest_influence_in_case_ii() {
+    // Case II: span of Δλ(50 N) over the E2 figure against the E1 figure, and the
+    // range-free measure, |∂ln K/∂ln E| at the paper's moduli.
+    let (e1, e2) = (
+        figure("fig11a_case2_e1", 100),
+        figure("fig11b_case2_e2", 100),
+    );
+    assert!(
+        span(&e2) > span(&e1),
+        "Case II spans E1 {} E2 {}",
+        span(&e1),
+        span(&e2)
+    );
+    let d = design("clip-on-34mm.toml");
+    let p = ModuleModelParams::from_design(&d, "psc2", None).unwrap();
+    let strain = |p: &ModuleModelParams| closed_form::core_strain_per_n(p, LoadCase::II).unwrap();
+    let elasticity = |bump: &dyn Fn(&mut ModuleModelParams)| {
+        let mut q = p;
+        bump(&mut q);
+        (strain(&q) / strain(&p)).ln() / 1.01f64.ln()
+    };
+    let el_e1 = elasticity(&|q| q.core.youngs_modulus_mpa *= 1.01);
+    let el_e2 = elasticity(&|q| q.cap.youngs_modulus_mpa *= 1.01);
+    assert!(
+        el_e2.abs() > el_e1.abs(),
+        "elasticities E1 {el_e1} E2 {el_e2}"
+    );
+    // Case I: the model does NOT reproduce this claim (docs/model.md, "What the
+    // model does not reproduce"): E1 dominates because the core wall is the softest
+    // layer of both load paths. No test asserts either way.
+}
+
+#[test]
+fn the_direct_path_factor_calibrates_from_one_measured_k() {
+    let d = design("clip-on-34mm.toml");
+    let mut p = ModuleModelParams::from_design(&d, "psc1", Some("blue")).unwrap();
+    for factor in [0.2, 1.0, 3.7] {
+        p.direct_path_factor = factor;
+        let k = closed_form::sensitivity_pm_per_n(&p, LoadCase::I, 1546.295, &d.fiber).unwrap();
+        let fit = closed_form::fit_direct_path_factor(&p, k, 1546.295, &d.fiber).unwrap();
+        assert!((fit / factor - 1.0).abs() < 1e-12, "{fit} vs {factor}");
+    }
+    // A blue shift cannot come from the Case I loop.
+    assert_eq!(
+        closed_form::fit_direct_path_factor(&p, -10.0, 1546.295, &d.fiber),
+        None
+    );
 }
 
 /// Every length of a design multiplied by `s`.
@@ -178,7 +274,11 @@ fn geometrically_similar_modules_scale_as_one_over_size_squared() {
         small.validate().expect("scaled design is valid");
         for (a, b) in kb.iter().zip(model::predict(&small, 1.0).unwrap()) {
             let ratio = b.sensitivity_pm_per_n / a.sensitivity_pm_per_n;
-            assert!((ratio * s * s - 1.0).abs() < 1e-9, "D = {d_mm}: K ratio {ratio} vs 1/s² = {}", 1.0 / (s * s));
+            assert!(
+                (ratio * s * s - 1.0).abs() < 1e-9,
+                "D = {d_mm}: K ratio {ratio} vs 1/s² = {}",
+                1.0 / (s * s)
+            );
         }
     }
 }
@@ -193,9 +293,12 @@ fn sections_mm2(d: &Design) -> (f64, f64) {
     let core_o = ri - m.cap_core_clearance_mm - pl.height_mm;
     let core_i = core_o - m.core_wall_mm;
     let n = pl.count as f64;
-    let cap = pi * (r * r - ri * ri) + n * (pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm) * pl.groove_depth_mm;
+    let cap = pi * (r * r - ri * ri)
+        + n * (pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm) * pl.groove_depth_mm;
     let core = pi * (core_o * core_o - core_i * core_i)
-        + n * (pl.width_mm * pl.height_mm - pl.groove_width_mm * pl.groove_depth_mm - pi * pl.fiber_hole_diameter_mm.powi(2) / 4.0);
+        + n * (pl.width_mm * pl.height_mm
+            - pl.groove_width_mm * pl.groove_depth_mm
+            - pi * pl.fiber_hole_diameter_mm.powi(2) / 4.0);
     (cap, core)
 }
 
@@ -203,7 +306,12 @@ fn sections_mm2(d: &Design) -> (f64, f64) {
 fn the_size_family_follows_the_closed_form_and_scales_near_one_over_d_squared() {
     let mut k_d2 = Vec::new();
     let mut last = 0.0;
-    for (name, d_mm) in [("clip-on-34mm.toml", 34.0), ("clip-on-22mm.toml", 22.0), ("clip-on-16mm.toml", 16.0), ("clip-on-10mm.toml", 10.0)] {
+    for (name, d_mm) in [
+        ("clip-on-34mm.toml", 34.0),
+        ("clip-on-22mm.toml", 22.0),
+        ("clip-on-16mm.toml", 16.0),
+        ("clip-on-10mm.toml", 10.0),
+    ] {
         let d = design(name);
         let (a_cap, a_core) = sections_mm2(&d);
         let e2 = d.materials["cap_digital_abs"].youngs_modulus_mpa;
@@ -212,15 +320,23 @@ fn the_size_family_follows_the_closed_form_and_scales_near_one_over_d_squared() 
         // Case II closed form: K = −λ(1 − p_e)/(E1·A1 + E2·A2).
         let expect = -lambda * 1e3 * (1.0 - d.fiber.photoelastic_pe) / (e1 * a_core + e2 * a_cap);
         let got = k(&d, LoadCase::II, None, "lambda_21");
-        assert!((got / expect - 1.0).abs() < 1e-12, "{name}: {got} vs {expect}");
+        assert!(
+            (got / expect - 1.0).abs() < 1e-12,
+            "{name}: {got} vs {expect}"
+        );
         let ki = k(&d, LoadCase::I, Some("blue"), "lambda_11");
-        assert!(ki > last, "{name}: Case I K {ki} should grow as the module shrinks");
+        assert!(
+            ki > last,
+            "{name}: Case I K {ki} should grow as the module shrinks"
+        );
         last = ki;
         k_d2.push(got.abs() * d_mm * d_mm);
     }
     // The family is near-similar (walls do not shrink quite in proportion), so |K|·D²
     // stays within a factor of two across a 3.4× size range.
-    let (lo, hi) = k_d2.iter().fold((f64::MAX, f64::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+    let (lo, hi) = k_d2
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), &v| (l.min(v), h.max(v)));
     assert!(hi / lo < 2.0, "|K|·D² spread {lo}..{hi}");
 }
 
@@ -240,12 +356,18 @@ fn case_i_load_share_satisfies_compatibility_and_equilibrium() {
     let cap_force = s.cap_strain_per_n * p.cap.youngs_modulus_mpa * g.cap_area_mm2;
     assert!((core_force + cap_force).abs() < 1e-15 && (core_force - s.loop_share).abs() < 1e-15);
     // The insert carries all of F.
-    assert!((s.insert_strain_per_n * p.insert.unwrap().youngs_modulus_mpa * g.insert_area_mm2() + 1.0).abs() < 1e-12);
+    assert!(
+        (s.insert_strain_per_n * p.insert.unwrap().youngs_modulus_mpa * g.insert_area_mm2() + 1.0)
+            .abs()
+            < 1e-12
+    );
     // Case II: cap and core shorten equally and carry F between them.
     let p2 = ModuleModelParams::from_design(&d, "psc2", None).unwrap();
     let (core, cap, share) = closed_form::case_ii_strain_per_n(&p2);
     assert_eq!(core, cap);
-    let total = core * (p2.core.youngs_modulus_mpa * g.core_area_mm2 + p2.cap.youngs_modulus_mpa * g.cap_area_mm2);
+    let total = core
+        * (p2.core.youngs_modulus_mpa * g.core_area_mm2
+            + p2.cap.youngs_modulus_mpa * g.cap_area_mm2);
     assert!((total + 1.0).abs() < 1e-12 && share > 0.0 && share < 0.1);
 }
 
@@ -259,19 +381,33 @@ fn a_wall_changed_in_the_spec_changes_the_prediction() {
     let (_, a1) = sections_mm2(&thick);
     let p0 = ModuleModelParams::from_design(&d, "psc2", None).unwrap();
     let p1 = ModuleModelParams::from_design(&thick, "psc2", None).unwrap();
-    assert!((p0.geometry.core_area_mm2 - a0).abs() < 1e-9 && (p1.geometry.core_area_mm2 - a1).abs() < 1e-9);
-    assert!(k(&thick, LoadCase::II, None, "lambda_21").abs() < k(&d, LoadCase::II, None, "lambda_21").abs());
+    assert!(
+        (p0.geometry.core_area_mm2 - a0).abs() < 1e-9
+            && (p1.geometry.core_area_mm2 - a1).abs() < 1e-9
+    );
+    assert!(
+        k(&thick, LoadCase::II, None, "lambda_21").abs()
+            < k(&d, LoadCase::II, None, "lambda_21").abs()
+    );
 }
 
 #[test]
 fn temperature_compensation_recovers_the_strain_shift() {
     let d = design("clip-on-34mm.toml");
-    let opts = PredictOptions { force_n: 20.0, delta_t_k: 7.5 };
+    let opts = PredictOptions {
+        force_n: 20.0,
+        delta_t_k: 7.5,
+    };
     for p in model::predict_with(&d, &opts).unwrap() {
         let thermal = p.raw_shift_pm - p.prediction.shift_pm;
-        let expect = d.fiber.temperature_sensitivity_pm_per_k(p.bragg_wavelength_nm) * 7.5;
+        let expect = d
+            .fiber
+            .temperature_sensitivity_pm_per_k(p.bragg_wavelength_nm)
+            * 7.5;
         assert!((thermal - expect).abs() < 1e-9, "{thermal} vs {expect}");
-        let c = p.compensated_shift_pm.expect("the design has a reference grating");
+        let c = p
+            .compensated_shift_pm
+            .expect("the design has a reference grating");
         assert!((c - p.prediction.shift_pm).abs() < 1e-9);
     }
 }
@@ -281,20 +417,65 @@ fn validity_warnings_flag_thick_shells_and_large_strains() {
     let d = design("clip-on-34mm.toml");
     // Paper design: core t/R = 1.5/12.25 > 0.1 at any force.
     let small = model::predict(&d, 1.0).unwrap();
-    assert!(small.iter().all(|p| p.warnings.iter().any(|w| w.contains("thin-shell ratio of the core"))));
-    assert!(small.iter().all(|p| !p.warnings.iter().any(|w| w.contains("µε"))));
+    assert!(small.iter().all(|p| p
+        .warnings
+        .iter()
+        .any(|w| w.contains("thin-shell ratio of the core"))));
+    assert!(small
+        .iter()
+        .all(|p| !p.warnings.iter().any(|w| w.contains("µε"))));
     // 50 N on the hollow core: |ε| = 50/(E1A1 + E2A2) ≈ 7100 µε > 3000 µε.
     let big = model::predict(&d, 50.0).unwrap();
-    assert!(big.iter().filter(|p| p.case == LoadCase::II).all(|p| p.warnings.iter().any(|w| w.contains("µε"))));
+    assert!(big
+        .iter()
+        .filter(|p| p.case == LoadCase::II)
+        .all(|p| p.warnings.iter().any(|w| w.contains("µε"))));
+    // Dome gap of the printed profile: 2.5 mm; with all of F in the loop of PSC 1
+    // (c_L = 0.172 mm/N) it closes near 14.5 N, for PSC 2 (c_L = 0.368 mm/N) near 6.8 N.
+    let gap = |preds: &[model::GratingPrediction], core: &str| {
+        preds
+            .iter()
+            .filter(|p| p.case == LoadCase::I && p.core == core)
+            .all(|p| p.warnings.iter().any(|w| w.contains("dome gap")))
+    };
+    let at10 = model::predict(&d, 10.0).unwrap();
+    assert!(
+        gap(&at10, "psc1")
+            && !at10
+                .iter()
+                .any(|p| p.core == "psc2" && p.warnings.iter().any(|w| w.contains("dome gap")))
+    );
+    let at20 = model::predict(&d, 20.0).unwrap();
+    assert!(!at20
+        .iter()
+        .any(|p| p.warnings.iter().any(|w| w.contains("dome gap"))));
+    assert!(gap(&model::predict(&d, 5.0).unwrap(), "psc2"));
+    let pull = model::predict(&d, -1.0).unwrap();
+    assert!(pull
+        .iter()
+        .all(|p| p.warnings.iter().any(|w| w.contains("pulling force"))));
 }
 
 #[test]
 fn bad_input_gets_clear_errors() {
     let mut d = design("clip-on-34mm.toml");
     d.module.as_mut().unwrap().inserts.clear();
-    assert_eq!(model::sensitivity_pm_per_n(&d, LoadCase::I, None, "lambda_11"), Err(ModelError::NoInsert));
-    assert!(model::predict(&d, 1.0).unwrap().iter().all(|p| p.case == LoadCase::II));
+    assert_eq!(
+        model::sensitivity_pm_per_n(&d, LoadCase::I, None, "lambda_11"),
+        Err(ModelError::NoInsert)
+    );
+    assert!(model::predict(&d, 1.0)
+        .unwrap()
+        .iter()
+        .all(|p| p.case == LoadCase::II));
     let d = design("clip-on-34mm.toml");
+    let e = model::sensitivity_pm_per_n(&d, LoadCase::I, None, "lambda_11").unwrap_err();
+    assert!(
+        matches!(e, ModelError::InsertRequired { .. }) && e.to_string().contains("blue"),
+        "{e}"
+    );
+    let e = model::sensitivity_pm_per_n(&d, LoadCase::II, Some("blue"), "lambda_11").unwrap_err();
+    assert_eq!(e, ModelError::InsertInCaseII);
     let e = model::sensitivity_pm_per_n(&d, LoadCase::I, Some("red"), "lambda_11").unwrap_err();
     assert!(e.to_string().contains("blue, green, light_green"), "{e}");
     let e = model::sensitivity_pm_per_n(&d, LoadCase::II, None, "lambda_temp").unwrap_err();
@@ -305,13 +486,40 @@ fn bad_input_gets_clear_errors() {
     assert!(model::predict(&d, f64::NAN).is_err());
 
     let e = sweep::find_param("e9_mpa").err().unwrap();
-    assert!(matches!(e, SweepError::UnknownParam(_)) && e.to_string().contains("e1_mpa") && e.to_string().contains("core_wall_mm"), "{e}");
+    assert!(
+        matches!(e, SweepError::UnknownParam(_))
+            && e.to_string().contains("e1_mpa")
+            && e.to_string().contains("core_wall_mm"),
+        "{e}"
+    );
     let e1 = sweep::find_param("core_modulus_mpa").unwrap();
     assert_eq!(e1.name, "e1_mpa");
     assert!(sweep::sweep_values(e1, 10.0, 1.0, 5).is_err(), "reversed");
     assert!(sweep::sweep_values(e1, 10.0, 10.0, 5).is_err(), "empty");
-    assert!(sweep::sweep_values(e1, 0.0, 10.0, 5).unwrap_err().to_string().contains("modulus"), "zero modulus");
+    assert!(
+        sweep::sweep_values(e1, 0.0, 10.0, 5)
+            .unwrap_err()
+            .to_string()
+            .contains("modulus"),
+        "zero modulus"
+    );
     assert!(sweep::sweep_values(e1, 1.0, 10.0, 1).is_err(), "one step");
+    assert!(
+        sweep::sweep_values(e1, 1.0, 10.0, 1_000_000_000).is_err(),
+        "absurd step count"
+    );
+    let mut bare = d.clone();
+    bare.module.as_mut().unwrap().inserts.clear();
+    let e = sweep::run(&bare, e1, &[1.0, 2.0], 50.0, Some(LoadCase::I), || {}).unwrap_err();
+    assert!(
+        matches!(e, SweepError::Nothing(_)) && e.to_string().contains("insert"),
+        "{e}"
+    );
+    let fig = &PAPER_FIGURES[0];
+    assert!(
+        sweep::run_paper_figure(&bare, fig, 5).is_err(),
+        "Case I figure without an insert"
+    );
     let wall = sweep::find_param("cap_wall_mm").unwrap();
     let e = sweep::run(&d, wall, &[1.0, 9.0], 50.0, None, || {}).unwrap_err();
     assert!(e.to_string().contains("cap_wall_mm = 9"), "{e}");

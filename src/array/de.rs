@@ -122,7 +122,11 @@ impl DifferentialEvolution {
             }
             .into());
         }
-        if lower.iter().zip(&upper).any(|(l, u)| !(l <= u)) {
+        if lower
+            .iter()
+            .zip(&upper)
+            .any(|(l, u)| l.is_nan() || u.is_nan() || l > u)
+        {
             return Err(argmin::core::ArgminError::InvalidParameter {
                 text: "DE lower bound above upper bound (or NaN)".into(),
             }
@@ -237,8 +241,8 @@ where
             }
             let forced = self.rng.random_range(0..n);
             let trial = &mut self.trials[i];
-            for j in 0..n {
-                trial[j] = if j == forced || self.rng.random::<f64>() < self.crossover {
+            for (j, t) in trial.iter_mut().enumerate() {
+                *t = if j == forced || self.rng.random::<f64>() < self.crossover {
                     let v = self.population[r1][j]
                         + self.weight * (self.population[r2][j] - self.population[r3][j]);
                     v.clamp(self.lower[j], self.upper[j])

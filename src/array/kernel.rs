@@ -220,6 +220,25 @@ pub fn matrix_from_positions(
     })
 }
 
+/// A point (x, y) in the sheet's plane, mm from the array centre.
+pub type Point2Mm = (f64, f64);
+
+/// The paper's layout (reference §2, as in `designs/tactile-array-60x80.toml`):
+/// cell centres of the 4 × 2 cells of 20 × 30 mm (row-major from the −y row), and the
+/// six grating centres at x = ±7.5, ±22.5, ±37.5 mm, y = ±12.5 mm alternating.
+pub fn paper_layout() -> (Vec<Point2Mm>, Vec<Point2Mm>) {
+    let cells = [-15.0, 15.0]
+        .iter()
+        .flat_map(|&y| [-30.0, -10.0, 10.0, 30.0].map(|x| (x, y)))
+        .collect();
+    let gratings = [-37.5, -22.5, -7.5, 7.5, 22.5, 37.5]
+        .iter()
+        .enumerate()
+        .map(|(k, &x)| (x, if k % 2 == 0 { 12.5 } else { -12.5 }))
+        .collect();
+    (cells, gratings)
+}
+
 /// Named sensing matrix of a layout (cells labelled A.., gratings named `names`).
 pub fn matrix_from_layout(
     layout: &ArrayLayout,

@@ -1,22 +1,185 @@
-//! `fbgforge reconstruct`: cell loads from grating shifts.
+//! `fbgforge reconstruct` (cell loads of a flat array from grating shifts) and
+//! `fbgforge bench reconstruct` (the paper's protocol, speed against accuracy, and
+//! where each method fails).
 
+use crate::array::io::{read_matrix, read_shifts, write_loads};
+use crate::array::kernel::matrix_from_design;
+use crate::array::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
+use crate::array::problem::SensingProblem;
+use crate::array::SensingMatrix;
+use anyhow::{bail, Context, Result};
 use clap::Args;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-/// Arguments (placeholder until this subcommand lands).
+/// The paper's ulimit, used when neither `--ulimit-g` nor a design gives one, g.
+pub const PAPER_ULIMIT_G: f64 = 250.0;
+
+/// Arguments of `fbgforge reconstruct`.
 #[derive(Debug, Args)]
-pub struct ReconstructArgs {}
-
-/// Placeholder: this subcommand is being built.
-pub fn run(_a: ReconstructArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`run` is not available in this build yet")
+pub struct ReconstructArgs {
+    /// Sensing matrix CSV: header `grating,<cells…>`, one row per grating, pm/g.
+    #[arg(long, conflicts_with = "design", required_unless_present = "design")]
+    pub matrix: Option<PathBuf>,
+    /// Use the model sensing matrix of this array design instead of a measured one.
+    #[arg(long)]
+    pub design: Option<PathBuf>,
+    /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
+    #[arg(long)]
+    pub shifts: PathBuf,
+    /// Method: support, wsupport, nnls, lasso, omp or de (default: support).
+    #[arg(long)]
+    pub method: Option<String>,
+    /// Largest load per cell, g (default: the design's ulimit, else 250 g).
+    #[arg(long, allow_negative_numbers = true)]
+    pub ulimit_g: Option<f64>,
+    /// Penalty weight of the method (default: the method's tuned default).
+    #[arg(long, allow_negative_numbers = true)]
+    pub penalty: Option<f64>,
+    /// Do not column-normalise the matrix (the paper normalises).
+    #[arg(long)]
+    pub no_normalise: bool,
+    /// Output CSV of loads (default: out/reconstruct/<shifts name>-loads.csv).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary on stdout instead of the text summary.
+    #[arg(long)]
+    pub json: bool,
 }
 
-/// Arguments (placeholder until this subcommand lands).
-#[derive(Debug, Args)]
-pub struct BenchReconstructArgs {}
-
-/// Placeholder: this subcommand is being built.
-pub fn bench(_a: BenchReconstructArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`bench` is not available in this build yet")
+/// JSON summary of a reconstruction run.
+#[derive(Debug, Serialize)]
+pub struct ReconstructSummary {
+    /// Method used.
+    pub method: &'static str,
+    /// Penalty used.
+    pub penalty: f64,
+    /// Whether columns were normalised.
+    pub normalised: bool,
+    /// Upper bound per cell, g.
+    pub ulimit_g: f64,
+    /// Number of frames.
+    pub frames: usize,
+    /// Frames where the method did not converge.
+    pub not_converged: usize,
+    /// Cell labels.
+    pub cells: Vec<String>,
+    /// Mean load per cell over all frames, g.
+    pub mean_load_g: Vec<f64>,
+    /// Largest residual ‖Ax − y‖ over the frames, pm.
+    pub max_residual_pm: f64,
+    /// Wall time per frame, µs (all threads).
+    pub time_per_frame_us: f64,
+    /// Output file.
+    pub out: PathBuf,
 }
 
+/// Run `fbgforge reconstruct`.
+pub fn run(a: ReconstructArgs) -> Result<()> {
+    let method = match &a.method {
+        Some(name) => Method::from_name(name)?,
+        None => DEFAULT_METHOD,
+    };
+    let (matrix, design_ulimit): (SensingMatrix, Option<f64>) = match (&a.matrix, &a.design) {
+        (Some(p), _) => (read_matrix(p)?, None),
+        (None, Some(d)) => {
+            let design = crate::spec::load(d)?;
+            let (m, u) =
+                matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
+            (m, Some(u))
+        }
+        (None, None) => bail!("give --matrix A.csv or --design array.toml"),
+    };
+    let ulimit_g = a.ulimit_g.or(design_ulimit).unwrap_or(PAPER_ULIMIT_G);
+    if !(ulimit_g.is_finite() && ulimit_g > 0.0) {
+        bail!("--ulimit-g must be a positive load in g, got {ulimit_g}");
+    }
+    let stream = read_shifts(&a.shifts, &matrix.gratings)?;
+    let problem = SensingProblem::new(
+        matrix.sensitivity_pm_per_g.clone(),
+        ulimit_g,
+        !a.no_normalise,
+    )?;
+    let mut settings = MethodSettings::for_method(method);
+    if let Some(p) = a.penalty {
+        settings.penalty = p;
+    }
+    let t0 = Instant::now();
+    let results = reconstruct_stream(&problem, method, settings, &stream.frames_pm)?;
+    let elapsed = t0.elapsed().as_secs_f64();
+    let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
+    let loads: Vec<Vec<f64>> = results.iter().map(|r| r.loads_g.clone()).collect();
+    write_loads(&out, &matrix.cells, stream.time_s.as_deref(), &loads)?;
+    let n = results.len().max(1) as f64;
+    let summary = ReconstructSummary {
+        method: method.name(),
+        penalty: settings.penalty,
+        normalised: !a.no_normalise,
+        ulimit_g,
+        frames: results.len(),
+        not_converged: results.iter().filter(|r| !r.converged).count(),
+        mean_load_g: (0..matrix.n_cells())
+            .map(|j| results.iter().map(|r| r.loads_g[j]).sum::<f64>() / n)
+            .collect(),
+        cells: matrix.cells.clone(),
+        max_residual_pm: results.iter().map(|r| r.residual_pm).fold(0.0, f64::max),
+        time_per_frame_us: 1e6 * elapsed / n,
+        out: out.clone(),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!(
+            "{} frames, method {} (penalty {}), {:.1} µs/frame, {} not converged → {}",
+            summary.frames,
+            summary.method,
+            summary.penalty,
+            summary.time_per_frame_us,
+            summary.not_converged,
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+fn default_out(shifts: &Path) -> PathBuf {
+    let stem = shifts
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("shifts");
+    PathBuf::from("out")
+        .join("reconstruct")
+        .join(format!("{stem}-loads.csv"))
+}
+
+/// Arguments of `fbgforge bench reconstruct`.
+#[derive(Debug, Args)]
+pub struct BenchReconstructArgs {
+    /// Output folder for the tables and charts.
+    #[arg(long, default_value = "out/bench-reconstruct")]
+    pub out: PathBuf,
+    /// Array design whose model matrix plays the true array (default: the paper layout).
+    #[arg(long)]
+    pub design: Option<PathBuf>,
+    /// First seed; the protocol is repeated for `repeats` consecutive seeds.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Independent repetitions of the 84-test protocol (pooled in the tables).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: u64,
+    /// Quick run: one repetition, DE limited to 300 generations, coarser sweeps.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// Run `fbgforge bench reconstruct`.
+pub fn bench(a: BenchReconstructArgs) -> Result<()> {
+    crate::array::bench::run(&crate::array::bench::BenchOptions {
+        out: a.out,
+        design: a.design,
+        seed: a.seed,
+        repeats: if a.quick { 1 } else { a.repeats.max(1) },
+        quick: a.quick,
+    })
+}

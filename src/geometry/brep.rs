@@ -163,8 +163,8 @@ impl Assembler {
     }
 
     /// Add a face on `surface` bounded by `loops` (the first is the outer boundary,
-    /// the others holes); `probe` is a point of the face's interior region near which
-    /// the outward normal is `outward`.
+    /// the others holes). `probe` is the surface parameter inside the face where the
+    /// surface normal is compared with the stated `outward` direction.
     pub fn face(
         &mut self,
         name: &str,
@@ -213,6 +213,21 @@ impl Assembler {
         let u = (far - o).normalize();
         let v = outward.normalize().cross(u);
         let plane = Plane::new(o, o + u, o + v);
+        // Every boundary point must lie in that plane: a wrong `outward` or a
+        // non-planar loop is a construction bug, reported rather than meshed.
+        let n = outward.normalize();
+        for l in loops {
+            for s in l {
+                let (a, _) = s.ends();
+                if (a - o).dot(n).abs() > 1e-9 {
+                    return Err(BrepError::Face {
+                        part: self.part.clone(),
+                        face: name.to_string(),
+                        reason: format!("boundary point {a:?} is off the face's plane"),
+                    });
+                }
+            }
+        }
         self.face(name, loops, Surface::Plane(plane), (0.0, 0.0), outward)
     }
 

@@ -199,6 +199,7 @@ fn check_module_profile(p: &ModuleProfile) -> Result<(), SpecError> {
     ];
     if heights.iter().any(|z| !z.is_finite() || *z <= 0.0)
         || p.pillar_top_mm > p.core_outer_junction_z_mm + 1e-9
+        || p.pillar_top_mm > p.cap_inner_junction_z_mm + 1e-9
     {
         return Err(e(
             "module.dome_height_mm",

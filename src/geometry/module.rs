@@ -594,3 +594,40 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
         exact_volume_mm3: band + upper,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angles_split_long_intervals_and_keep_the_base_angles() {
+        // Three pillars: gaps of ~110° must be split, the 10° pillar spans kept.
+        let w = 5f64.to_radians();
+        let base: Vec<f64> = (0..3)
+            .flat_map(|i| {
+                let t = i as f64 * TAU / 3.0;
+                [t - w, t + w]
+            })
+            .collect();
+        let (ang, idx) = Angles::new(&base);
+        assert_eq!(ang.len(), 9);
+        for (k, &i) in idx.iter().enumerate() {
+            assert!((ang.0[i] - base[k]).abs() < 1e-15);
+        }
+        let total: f64 = (0..ang.len())
+            .map(|k| ang.interval(k).1 - ang.interval(k).0)
+            .sum();
+        assert!((total - TAU).abs() < 1e-12);
+        assert!(
+            (0..ang.len()).all(|k| ang.interval(k).1 - ang.interval(k).0 <= MAX_PATCH_RAD + 1e-12)
+        );
+        // A walk from a pillar's end to the next pillar's start covers the gap only.
+        let gap: Vec<usize> = ang.walk(idx[1], idx[2]);
+        let span: f64 = gap
+            .iter()
+            .map(|&k| ang.interval(k).1 - ang.interval(k).0)
+            .sum();
+        assert!((span - (TAU / 3.0 - 2.0 * w)).abs() < 1e-12);
+        assert_eq!(ang.walk(0, 0).len(), ang.len());
+    }
+}

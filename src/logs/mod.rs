@@ -44,8 +44,12 @@ pub enum LogFormat {
 
 impl LogFormat {
     /// Every format, for loops in tests and benchmarks.
-    pub const ALL: [LogFormat; 4] =
-        [LogFormat::EnlightPeaks, LogFormat::EnlightSensors, LogFormat::Imon, LogFormat::Csv];
+    pub const ALL: [LogFormat; 4] = [
+        LogFormat::EnlightPeaks,
+        LogFormat::EnlightSensors,
+        LogFormat::Imon,
+        LogFormat::Csv,
+    ];
 
     /// Name as used on the command line.
     pub fn name(self) -> &'static str {
@@ -107,7 +111,13 @@ impl LogWarnings {
         match self.counts.get_mut(kind) {
             Some(w) => w.count += n,
             None => {
-                self.counts.insert(kind.to_string(), WarningCount { count: n, first: message() });
+                self.counts.insert(
+                    kind.to_string(),
+                    WarningCount {
+                        count: n,
+                        first: message(),
+                    },
+                );
             }
         }
     }
@@ -182,7 +192,11 @@ impl PeakLog {
 
 /// Median of the positive time steps (0 when fewer than two samples).
 pub fn median_period(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    let mut d: Vec<f64> = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
     if d.is_empty() {
         return 0.0;
     }
@@ -201,7 +215,8 @@ pub struct ReadOptions {
 
 /// Read a wavelength log from a file.
 pub fn read_peak_log(path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read the log {}", path.display()))?;
+    let bytes =
+        std::fs::read(path).with_context(|| format!("cannot read the log {}", path.display()))?;
     parse_wavelength_bytes(&bytes, path, opts)
 }
 
@@ -240,8 +255,8 @@ pub struct ForceColumns {
 
 /// Read a force-stand CSV.
 pub fn read_force_log(path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
-    let bytes =
-        std::fs::read(path).with_context(|| format!("cannot read the force log {}", path.display()))?;
+    let bytes = std::fs::read(path)
+        .with_context(|| format!("cannot read the force log {}", path.display()))?;
     parse_force_bytes(&bytes, path, cols)
 }
 
@@ -249,7 +264,7 @@ pub fn read_force_log(path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
 pub fn force_unit_scale(name: &str) -> Option<f64> {
     let lower = name.to_ascii_lowercase();
     let unit = lower
-        .rsplit(|c: char| c == '_' || c == '[' || c == '(' || c == ' ' || c == '/')
+        .rsplit(['_', '[', '(', ' ', '/'])
         .next()
         .unwrap_or("")
         .trim_end_matches([']', ')'])
@@ -305,8 +320,8 @@ pub(crate) fn finish_times(
 }
 
 /// Spread timestamps quantised to whole seconds (several rows per second) onto the
-/// uniform grid they were sampled on: t_i = t0 + i·dt with dt from a least-squares fit
-/// and t0 the centre of the offsets allowed by floor(t_i) = written time. Returns true
+/// uniform grid they were sampled on: t_i = t0 + i·dt with dt from the first and last
+/// change of the written second, and t0 the centre of the offsets allowed by floor(t_i) = written time. Returns true
 /// when applied.
 pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarnings) -> bool {
     let n = time_s.len();
@@ -318,17 +333,26 @@ pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarn
         return false;
     }
     let base = time_s[0];
-    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-    for (i, &t) in time_s.iter().enumerate() {
-        let (x, y) = (i as f64, t - base);
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-    }
-    let nf = n as f64;
-    let dt = (nf * sxy - sx * sy) / (nf * sxx - sx * sx);
-    if !(dt > 0.0) {
+    // The written second changes where the true time crosses a whole second; the
+    // first and last such crossings give the period without the bias a regression
+    // on floored values has.
+    let changes: Vec<usize> = (1..n).filter(|&i| time_s[i] != time_s[i - 1]).collect();
+    let dt = match (changes.first(), changes.last()) {
+        (Some(&a), Some(&b)) if b > a => (time_s[b] - time_s[a]) / (b - a) as f64,
+        _ => {
+            let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
+            for (i, &t) in time_s.iter().enumerate() {
+                let (x, y) = (i as f64, t - base);
+                sx += x;
+                sy += y;
+                sxx += x * x;
+                sxy += x * y;
+            }
+            let nf = n as f64;
+            (nf * sxy - sx * sy) / (nf * sxx - sx * sx)
+        }
+    };
+    if dt.is_nan() || dt <= 0.0 {
         return false;
     }
     let (mut lo, mut hi) = (f64::MIN, f64::MAX);
@@ -354,7 +378,10 @@ pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarn
 /// Reject logs with fewer rows than an analysis can use.
 pub(crate) fn require_rows(path: &Path, rows: usize, what: &str) -> Result<()> {
     if rows < 2 {
-        bail!("{}: {what} holds {rows} readable rows; at least 2 are needed", path.display());
+        bail!(
+            "{}: {what} holds {rows} readable rows; at least 2 are needed",
+            path.display()
+        );
     }
     Ok(())
 }

@@ -41,13 +41,24 @@ pub fn parse_f64(s: &[u8], decimal_comma: bool) -> Option<f64> {
     if s.is_empty() {
         return None;
     }
+    match parse_f64_prefix(s, decimal_comma) {
+        Some((v, n)) if n == s.len() => Some(v),
+        Some(_) => None,
+        None => special(s),
+    }
+}
+
+/// Parse the number at the start of `s` (no leading spaces); returns the value and
+/// the number of bytes it took, or None if `s` does not start with a number.
+#[inline]
+pub fn parse_f64_prefix(s: &[u8], decimal_comma: bool) -> Option<(f64, usize)> {
     let mut i = 0;
-    let neg = match s[0] {
-        b'-' => {
+    let neg = match s.first() {
+        Some(b'-') => {
             i = 1;
             true
         }
-        b'+' => {
+        Some(b'+') => {
             i = 1;
             false
         }
@@ -58,6 +69,7 @@ pub fn parse_f64(s: &[u8], decimal_comma: bool) -> Option<f64> {
     let mut frac_digits = 0i32;
     let mut seen_point = false;
     let mut any_digit = false;
+    let mut overflow = false;
     while i < s.len() {
         let c = s[i];
         if c.is_ascii_digit() {
@@ -71,7 +83,7 @@ pub fn parse_f64(s: &[u8], decimal_comma: bool) -> Option<f64> {
                     frac_digits += 1;
                 }
             } else {
-                return slow_parse(s, decimal_comma);
+                overflow = true;
             }
         } else if (c == b'.' || (decimal_comma && c == b',')) && !seen_point {
             seen_point = true;
@@ -81,38 +93,69 @@ pub fn parse_f64(s: &[u8], decimal_comma: bool) -> Option<f64> {
         i += 1;
     }
     if !any_digit {
-        return special(s);
+        return None;
     }
     let mut exp: i32 = 0;
-    if i < s.len() {
-        if s[i] != b'e' && s[i] != b'E' {
-            return None;
-        }
-        i += 1;
+    if i < s.len() && (s[i] == b'e' || s[i] == b'E') {
+        let mut j = i + 1;
         let mut eneg = false;
-        if i < s.len() && (s[i] == b'+' || s[i] == b'-') {
-            eneg = s[i] == b'-';
-            i += 1;
+        if j < s.len() && (s[j] == b'+' || s[j] == b'-') {
+            eneg = s[j] == b'-';
+            j += 1;
         }
-        let start = i;
-        while i < s.len() && s[i].is_ascii_digit() {
-            exp = exp.saturating_mul(10).saturating_add((s[i] - b'0') as i32);
-            i += 1;
+        let start = j;
+        while j < s.len() && s[j].is_ascii_digit() {
+            exp = exp.saturating_mul(10).saturating_add((s[j] - b'0') as i32);
+            j += 1;
         }
-        if i == start || i != s.len() {
+        if j == start {
             return None;
         }
         if eneg {
             exp = -exp;
         }
+        i = j;
     }
     let e10 = exp - frac_digits;
-    if mantissa < (1u64 << 53) && (-22..=22).contains(&e10) {
+    if !overflow && mantissa < (1u64 << 53) && (-22..=22).contains(&e10) {
         let m = mantissa as f64;
-        let v = if e10 >= 0 { m * POW10[e10 as usize] } else { m / POW10[(-e10) as usize] };
-        return Some(if neg { -v } else { v });
+        let v = if e10 >= 0 {
+            m * POW10[e10 as usize]
+        } else {
+            m / POW10[(-e10) as usize]
+        };
+        return Some((if neg { -v } else { v }, i));
     }
-    slow_parse(s, decimal_comma)
+    slow_parse(&s[..i], decimal_comma).map(|v| (v, i))
+}
+
+/// Position of the first `needle` in `hay`, eight bytes at a time.
+#[inline]
+pub fn find_byte(hay: &[u8], needle: u8) -> Option<usize> {
+    const LO: u64 = 0x0101_0101_0101_0101;
+    const HI: u64 = 0x8080_8080_8080_8080;
+    let pat = LO.wrapping_mul(needle as u64);
+    let mut i = 0;
+    while i + 8 <= hay.len() {
+        let w = u64::from_le_bytes(hay[i..i + 8].try_into().expect("8 bytes")) ^ pat;
+        let z = w.wrapping_sub(LO) & !w & HI;
+        if z != 0 {
+            return Some(i + (z.trailing_zeros() / 8) as usize);
+        }
+        i += 8;
+    }
+    hay[i..].iter().position(|&c| c == needle).map(|p| i + p)
+}
+
+/// Number of `needle` bytes in `hay`.
+pub fn count_byte(hay: &[u8], needle: u8) -> usize {
+    let mut n = 0;
+    let mut rest = hay;
+    while let Some(p) = find_byte(rest, needle) {
+        n += 1;
+        rest = &rest[p + 1..];
+    }
+    n
 }
 
 fn special(s: &[u8]) -> Option<f64> {
@@ -202,7 +245,12 @@ pub fn parse_date(s: &[u8]) -> Option<(RawDate, usize)> {
     i += 1;
     let c = read_uint(s, &mut i)?;
     let iso = a_len == 4;
-    let date = RawDate { first: a, second: b, third: c, iso };
+    let date = RawDate {
+        first: a,
+        second: b,
+        third: c,
+        iso,
+    };
     Some((date, i))
 }
 
@@ -347,7 +395,12 @@ pub fn format_dmy_24h(t: f64) -> String {
     let h = (sod / 3600.0).floor();
     let mi = ((sod - h * 3600.0) / 60.0).floor();
     let s = sod - h * 3600.0 - mi * 60.0;
-    format!("{day:02}/{m:02}/{y:04} {:02}:{:02}:{:09.6}", h as u32, mi as u32, s.max(0.0))
+    format!(
+        "{day:02}/{m:02}/{y:04} {:02}:{:02}:{:09.6}",
+        h as u32,
+        mi as u32,
+        s.max(0.0)
+    )
 }
 
 /// Split an epoch time into (days, year, month, day, seconds of day).
@@ -364,8 +417,20 @@ mod tests {
 
     #[test]
     fn floats_match_std_and_accept_locale_forms() {
-        for s in ["1546.295", "-0.0123", "1.5303003E+3", "12", "1e-5", "0.000000001", "+3.5"] {
-            assert_eq!(parse_f64(s.as_bytes(), false), Some(s.parse::<f64>().unwrap()), "{s}");
+        for s in [
+            "1546.295",
+            "-0.0123",
+            "1.5303003E+3",
+            "12",
+            "1e-5",
+            "0.000000001",
+            "+3.5",
+        ] {
+            assert_eq!(
+                parse_f64(s.as_bytes(), false),
+                Some(s.parse::<f64>().unwrap()),
+                "{s}"
+            );
         }
         assert_eq!(parse_f64(b"1546,295", true), Some(1546.295));
         assert_eq!(parse_f64(b"1546,295", false), None);
@@ -373,18 +438,37 @@ mod tests {
         assert_eq!(parse_f64(b"abc", false), None);
         assert_eq!(parse_f64(b"", false), None);
         assert!(parse_f64(b"NaN", false).unwrap().is_nan());
+        assert_eq!(parse_f64_prefix(b"1546.295\t2", false), Some((1546.295, 8)));
+        assert_eq!(find_byte(b"0123456789abcdef\tx", b'\t'), Some(16));
+        assert_eq!(find_byte(b"abc", b'\t'), None);
+        assert_eq!(count_byte(b"a\nb\n\nccccccccccccccccc\n", b'\n'), 4);
         // More than 19 digits goes through the slow path, still exact.
         let long = "1546.29512345678901234567";
-        assert_eq!(parse_f64(long.as_bytes(), false), Some(long.parse().unwrap()));
+        assert_eq!(
+            parse_f64(long.as_bytes(), false),
+            Some(long.parse().unwrap())
+        );
     }
 
     #[test]
     fn times_of_day_in_both_clocks() {
-        assert_eq!(parse_time_of_day(b"3:44:56 pm"), Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.0));
+        assert_eq!(
+            parse_time_of_day(b"3:44:56 pm"),
+            Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.0)
+        );
         assert_eq!(parse_time_of_day(b"12:00:01 AM"), Some(1.0));
-        assert_eq!(parse_time_of_day(b"12:00:01 p.m."), Some(12.0 * 3600.0 + 1.0));
-        assert_eq!(parse_time_of_day(b"15:44:56.250"), Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.25));
-        assert_eq!(parse_time_of_day(b"15:44:56,5"), Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.5));
+        assert_eq!(
+            parse_time_of_day(b"12:00:01 p.m."),
+            Some(12.0 * 3600.0 + 1.0)
+        );
+        assert_eq!(
+            parse_time_of_day(b"15:44:56.250"),
+            Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.25)
+        );
+        assert_eq!(
+            parse_time_of_day(b"15:44:56,5"),
+            Some(15.0 * 3600.0 + 44.0 * 60.0 + 56.5)
+        );
         assert_eq!(parse_time_of_day(b"13:00:00 pm"), None);
         assert_eq!(parse_time_of_day(b"25:00:00"), None);
     }
@@ -404,13 +488,28 @@ mod tests {
         let (d1, _) = parse_date(b"17/04/2025").unwrap();
         let (d2, _) = parse_date(b"10/30/2020").unwrap();
         let (d3, _) = parse_date(b"03/04/2025").unwrap();
-        assert_eq!(resolve_order(&[d1, d3], DateOrder::MonthDayYear), Ok(DateOrder::DayMonthYear));
-        assert_eq!(resolve_order(&[d2, d3], DateOrder::DayMonthYear), Ok(DateOrder::MonthDayYear));
-        assert_eq!(resolve_order(&[d3], DateOrder::DayMonthYear), Ok(DateOrder::DayMonthYear));
+        assert_eq!(
+            resolve_order(&[d1, d3], DateOrder::MonthDayYear),
+            Ok(DateOrder::DayMonthYear)
+        );
+        assert_eq!(
+            resolve_order(&[d2, d3], DateOrder::DayMonthYear),
+            Ok(DateOrder::MonthDayYear)
+        );
+        assert_eq!(
+            resolve_order(&[d3], DateOrder::DayMonthYear),
+            Ok(DateOrder::DayMonthYear)
+        );
         assert!(resolve_order(&[d1, d2], DateOrder::DayMonthYear).is_err());
-        assert_eq!(date_to_days(&d1, DateOrder::DayMonthYear), Ok(days_from_civil(2025, 4, 17)));
+        assert_eq!(
+            date_to_days(&d1, DateOrder::DayMonthYear),
+            Ok(days_from_civil(2025, 4, 17))
+        );
         let (iso, _) = parse_date(b"2025-04-17").unwrap();
-        assert_eq!(date_to_days(&iso, DateOrder::MonthDayYear), Ok(days_from_civil(2025, 4, 17)));
+        assert_eq!(
+            date_to_days(&iso, DateOrder::MonthDayYear),
+            Ok(days_from_civil(2025, 4, 17))
+        );
         let (dt, sod) = parse_datetime(b"17/04/2025 3:44:56 pm").unwrap();
         assert_eq!(dt, d1);
         assert_eq!(sod, 56696.0);
@@ -422,6 +521,9 @@ mod tests {
         let s = format_dmy_24h(t);
         assert_eq!(s, "17/04/2025 15:44:56.125000");
         let (d, sod) = parse_datetime(s.as_bytes()).unwrap();
-        assert_eq!(date_to_days(&d, DateOrder::DayMonthYear).unwrap() as f64 * 86400.0 + sod, t);
+        assert_eq!(
+            date_to_days(&d, DateOrder::DayMonthYear).unwrap() as f64 * 86400.0 + sod,
+            t
+        );
     }
 }

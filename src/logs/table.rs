@@ -40,24 +40,32 @@ fn strip_bom(b: &[u8]) -> (&[u8], usize) {
 
 /// Lines of `b` with their byte offsets (line without `\n` and trailing `\r`).
 fn lines_with_offsets(b: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    lines_terminated(b).map(|(o, l, _)| (o, l))
+}
+
+/// Lines with offsets and whether each ended with a newline.
+fn lines_terminated(b: &[u8]) -> impl Iterator<Item = (usize, &[u8], bool)> {
     let mut pos = 0;
     std::iter::from_fn(move || {
         if pos >= b.len() {
             return None;
         }
         let start = pos;
-        let end = b[pos..].iter().position(|&c| c == b'\n').map_or(b.len(), |p| pos + p);
+        let found = num::find_byte(&b[pos..], b'\n');
+        let end = found.map_or(b.len(), |p| pos + p);
         pos = end + 1;
         let mut line = &b[start..end];
         if let [rest @ .., b'\r'] = line {
             line = rest;
         }
-        Some((start, line))
+        Some((start, line, found.is_some()))
     })
 }
 
 fn fields(line: &[u8], delim: u8) -> Vec<String> {
-    line.split(|&c| c == delim).map(|f| String::from_utf8_lossy(trim(f)).into_owned()).collect()
+    line.split(|&c| c == delim)
+        .map(|f| String::from_utf8_lossy(trim(f)).into_owned())
+        .collect()
 }
 
 fn is_time_field(f: &[u8]) -> bool {
@@ -76,19 +84,35 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
         let f1 = trim(it.next().unwrap_or(b""));
         let next_line = || {
             let end = off + line.len();
-            let nl = window[end..].iter().position(|&c| c == b'\n').map_or(window.len(), |p| end + p + 1);
+            let nl = window[end..]
+                .iter()
+                .position(|&c| c == b'\n')
+                .map_or(window.len(), |p| end + p + 1);
             (nl + bom, line_no + 2)
         };
         let want = |f: LogFormat| forced.is_none() || forced == Some(f);
         if f0.eq_ignore_ascii_case(b"Timestamp") && !f1.is_empty() {
             let peaks = f1.starts_with(b"# CH") || f1.starts_with(b"#CH");
-            let format = if peaks { LogFormat::EnlightPeaks } else { LogFormat::EnlightSensors };
+            let format = if peaks {
+                LogFormat::EnlightPeaks
+            } else {
+                LogFormat::EnlightSensors
+            };
             if want(format) {
                 let (body_offset, body_line) = next_line();
-                return Ok(Detected { format, body_offset, body_line, header: fields(line, b'\t'), delimiter: b'\t' });
+                return Ok(Detected {
+                    format,
+                    body_offset,
+                    body_line,
+                    header: fields(line, b'\t'),
+                    delimiter: b'\t',
+                });
             }
         }
-        if f0.eq_ignore_ascii_case(b"Date") && f1.eq_ignore_ascii_case(b"Time") && want(LogFormat::Imon) {
+        if f0.eq_ignore_ascii_case(b"Date")
+            && f1.eq_ignore_ascii_case(b"Time")
+            && want(LogFormat::Imon)
+        {
             let (body_offset, body_line) = next_line();
             return Ok(Detected {
                 format: LogFormat::Imon,
@@ -113,13 +137,24 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
                     (off + bom, line_no + 1, Vec::new())
                 } else {
                     let end = off + line.len();
-                    let nl = window[end..].iter().position(|&c| c == b'\n').map_or(window.len(), |p| end + p + 1);
+                    let nl = window[end..]
+                        .iter()
+                        .position(|&c| c == b'\n')
+                        .map_or(window.len(), |p| end + p + 1);
                     (nl + bom, line_no + 2, fields(line, delim))
                 };
                 let looks_like_table = headerless
-                    || header.first().is_some_and(|h| h.to_ascii_lowercase().contains("time"));
+                    || header
+                        .first()
+                        .is_some_and(|h| h.to_ascii_lowercase().contains("time"));
                 if looks_like_table || forced == Some(LogFormat::Csv) {
-                    return Ok(Detected { format: LogFormat::Csv, body_offset, body_line, header, delimiter: delim });
+                    return Ok(Detected {
+                        format: LogFormat::Csv,
+                        body_offset,
+                        body_line,
+                        header,
+                        delimiter: delim,
+                    });
                 }
             }
         }
@@ -170,7 +205,10 @@ struct LineIssue {
 }
 
 fn issue(kind: &'static str, message: impl Into<String>) -> LineIssue {
-    LineIssue { kind, message: message.into() }
+    LineIssue {
+        kind,
+        message: message.into(),
+    }
 }
 
 /// Times of the rows parsed so far: either a wall-clock date + seconds of day, or
@@ -205,7 +243,9 @@ fn parse_time_field(f: &[u8], decimal_comma: bool) -> Option<(Option<RawDate>, f
     if let Some((d, s)) = num::parse_datetime(f) {
         return Some((Some(d), s));
     }
-    num::parse_f64(f, decimal_comma).filter(|v| v.is_finite()).map(|v| (None, v))
+    num::parse_f64(f, decimal_comma)
+        .filter(|v| v.is_finite())
+        .map(|v| (None, v))
 }
 
 /// Rows parsed from one chunk.
@@ -218,9 +258,120 @@ struct Partial {
     lines: Vec<u32>,
     issues: Vec<(usize, LineIssue)>,
     table_lines: usize,
+    n_lines: usize,
 }
 
-fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partial, counts: &mut Vec<usize>) -> Result<(), LineIssue> {
+/// The hot path: one ENLIGHT peaks row, read in a single pass with a cursor.
+fn parse_peaks_row(
+    line: &[u8],
+    channels: usize,
+    dc: bool,
+    out: &mut Partial,
+    counts: &mut Vec<usize>,
+) -> Result<(), LineIssue> {
+    let tab = num::find_byte(line, b'\t')
+        .ok_or_else(|| issue("unreadable_line", "no tab-separated fields"))?;
+    let time = parse_time_field(&line[..tab], dc)
+        .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?;
+    let mut pos = tab + 1;
+    let skip_spaces = |pos: &mut usize| {
+        while *pos < line.len() && line[*pos] == b' ' {
+            *pos += 1;
+        }
+    };
+    // After a field: a tab (consumed), or the end of the line.
+    let next_field = |pos: &mut usize| -> bool {
+        skip_spaces(pos);
+        if *pos < line.len() && line[*pos] == b'\t' {
+            *pos += 1;
+            true
+        } else {
+            *pos >= line.len()
+        }
+    };
+    counts.clear();
+    for c in 0..channels {
+        skip_spaces(&mut pos);
+        if pos >= line.len() {
+            return Err(issue(
+                "missing_channel",
+                format!("row ends before the peak count of channel {}", c + 1),
+            ));
+        }
+        let mut v = 0usize;
+        let s0 = pos;
+        while pos < line.len() && line[pos].is_ascii_digit() && pos - s0 < 9 {
+            v = v * 10 + (line[pos] - b'0') as usize;
+            pos += 1;
+        }
+        if pos == s0 || !next_field(&mut pos) {
+            return Err(issue(
+                "unreadable_line",
+                format!("peak count of channel {} is not a whole number", c + 1),
+            ));
+        }
+        counts.push(v);
+    }
+    let start = out.peaks.len();
+    for (c, &n) in counts.iter().enumerate() {
+        for _ in 0..n {
+            skip_spaces(&mut pos);
+            if pos >= line.len() {
+                out.peaks.truncate(start);
+                out.chans.truncate(start);
+                return Err(issue(
+                    "peak_count_mismatch",
+                    "fewer wavelengths than the peak counts announce",
+                ));
+            }
+            match num::parse_f64_prefix(&line[pos..], dc) {
+                Some((v, k)) if v.is_finite() => {
+                    pos += k;
+                    if !next_field(&mut pos) {
+                        out.peaks.truncate(start);
+                        out.chans.truncate(start);
+                        return Err(issue("unreadable_line", "unreadable wavelength"));
+                    }
+                    out.peaks.push(v);
+                    out.chans.push(c as u16);
+                }
+                _ => {
+                    out.peaks.truncate(start);
+                    out.chans.truncate(start);
+                    return Err(issue("unreadable_line", "unreadable wavelength"));
+                }
+            }
+        }
+    }
+    if line[pos.min(line.len())..]
+        .iter()
+        .any(|c| !c.is_ascii_whitespace())
+    {
+        out.peaks.truncate(start);
+        out.chans.truncate(start);
+        return Err(issue(
+            "peak_count_mismatch",
+            "more wavelengths than the peak counts announce",
+        ));
+    }
+    out.times.push(time);
+    out.row_start.push(out.peaks.len());
+    Ok(())
+}
+
+fn parse_line(
+    line: &[u8],
+    layout: Layout,
+    delim: u8,
+    dc: bool,
+    out: &mut Partial,
+    counts: &mut Vec<usize>,
+) -> Result<(), LineIssue> {
+    if let Layout::Peaks { channels } = layout {
+        if delim == b'\t' {
+            return parse_peaks_row(line, channels, dc, out, counts);
+        }
+    }
     let start = out.peaks.len();
     let mut it = line.split(|&c| c == delim);
     let rollback = |out: &mut Partial| {
@@ -230,31 +381,49 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
     let time = match layout {
         Layout::Imon { .. } => {
             let d = it.next().unwrap_or(b"");
-            let t = it.next().ok_or_else(|| issue("unreadable_line", "no time field"))?;
-            let (date, n) = num::parse_date(trim(d)).ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
+            let t = it
+                .next()
+                .ok_or_else(|| issue("unreadable_line", "no time field"))?;
+            let (date, n) = num::parse_date(trim(d))
+                .ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
             if n != trim(d).len() {
                 return Err(issue("unreadable_line", "unreadable date"));
             }
-            let sod = num::parse_time_of_day(t).ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
+            let sod = num::parse_time_of_day(t)
+                .ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
             (Some(date), sod)
         }
         _ => {
             let f = it.next().unwrap_or(b"");
-            parse_time_field(f, dc).ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?
+            parse_time_field(f, dc)
+                .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?
         }
     };
     match layout {
         Layout::Peaks { channels } => {
             counts.clear();
             for c in 0..channels {
-                let f = it.next().ok_or_else(|| issue("missing_channel", format!("row ends before the peak count of channel {}", c + 1)))?;
-                counts.push(num::parse_usize(f).ok_or_else(|| issue("unreadable_line", format!("peak count of channel {} is not a whole number", c + 1)))?);
+                let f = it.next().ok_or_else(|| {
+                    issue(
+                        "missing_channel",
+                        format!("row ends before the peak count of channel {}", c + 1),
+                    )
+                })?;
+                counts.push(num::parse_usize(f).ok_or_else(|| {
+                    issue(
+                        "unreadable_line",
+                        format!("peak count of channel {} is not a whole number", c + 1),
+                    )
+                })?);
             }
             for (c, &n) in counts.iter().enumerate() {
                 for _ in 0..n {
                     let Some(f) = it.next() else {
                         rollback(out);
-                        return Err(issue("peak_count_mismatch", "fewer wavelengths than the peak counts announce"));
+                        return Err(issue(
+                            "peak_count_mismatch",
+                            "fewer wavelengths than the peak counts announce",
+                        ));
                     };
                     match num::parse_f64(f, dc) {
                         Some(v) if v.is_finite() => {
@@ -270,7 +439,10 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
             }
             if it.any(|f| !trim(f).is_empty()) {
                 rollback(out);
-                return Err(issue("peak_count_mismatch", "more wavelengths than the peak counts announce"));
+                return Err(issue(
+                    "peak_count_mismatch",
+                    "more wavelengths than the peak counts announce",
+                ));
             }
         }
         Layout::Sensors { columns } | Layout::Csv { columns } => {
@@ -280,7 +452,10 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
                 if c >= columns {
                     if !f.is_empty() {
                         rollback(out);
-                        return Err(issue("unreadable_line", format!("more than the {columns} value columns of the header")));
+                        return Err(issue(
+                            "unreadable_line",
+                            format!("more than the {columns} value columns of the header"),
+                        ));
                     }
                     continue;
                 }
@@ -296,13 +471,22 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
                     Some(_) => {}
                     None => {
                         rollback(out);
-                        return Err(issue("unreadable_line", format!("column {} is not a number", c + 2)));
+                        return Err(issue(
+                            "unreadable_line",
+                            format!("column {} is not a number", c + 2),
+                        ));
                     }
                 }
             }
             if seen < columns {
                 // Kept (the values present are good) but counted.
-                out.issues.push((usize::MAX, issue("short_row", format!("row has {seen} of {columns} value columns"))));
+                out.issues.push((
+                    usize::MAX,
+                    issue(
+                        "short_row",
+                        format!("row has {seen} of {columns} value columns"),
+                    ),
+                ));
             }
         }
         Layout::Imon { pixels } => {
@@ -312,7 +496,11 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
                 n -= 1;
             }
             // Rows that also carry the spectrum end with `pixels` intensities.
-            let n_wl = if pixels > 0 && n > pixels { n - pixels } else { n };
+            let n_wl = if pixels > 0 && n > pixels {
+                n - pixels
+            } else {
+                n
+            };
             for f in &rest[..n_wl] {
                 match num::parse_f64(f, dc) {
                     Some(v) if v.is_finite() && v > 0.0 => {
@@ -333,29 +521,28 @@ fn parse_line(line: &[u8], layout: Layout, delim: u8, dc: bool, out: &mut Partia
     Ok(())
 }
 
-fn parse_chunk(chunk: &[u8], first_line: usize, unterminated_end: bool, layout: Layout, delim: u8, dc: bool) -> Partial {
+fn parse_chunk(chunk: &[u8], layout: Layout, delim: u8, dc: bool) -> Partial {
     let mut out = Partial::default();
     let mut counts = Vec::new();
-    let n_lines_total = chunk.iter().filter(|&&c| c == b'\n').count() + usize::from(!chunk.ends_with(b"\n"));
-    for (i, (_, line)) in lines_with_offsets(chunk).enumerate() {
-        let line_no = first_line + i;
-        if trim(line).is_empty() || line.first() == Some(&b'#') {
+    for (i, (_, line, terminated)) in lines_terminated(chunk).enumerate() {
+        out.n_lines = i + 1;
+        if line.is_empty() || line[0] == b'#' || trim(line).is_empty() {
             continue;
         }
         out.table_lines += 1;
         let before = out.issues.len();
         match parse_line(line, layout, delim, dc, &mut out, &mut counts) {
             Ok(()) => {
-                out.lines.push(line_no as u32);
+                out.lines.push(i as u32);
                 for iss in &mut out.issues[before..] {
-                    iss.0 = line_no;
+                    iss.0 = i;
                 }
             }
             Err(mut e) => {
-                if unterminated_end && i + 1 == n_lines_total {
+                if !terminated {
                     e.kind = "truncated_last_line";
                 }
-                out.issues.push((line_no, e));
+                out.issues.push((i, e));
             }
         }
     }
@@ -368,15 +555,30 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     let header_line = det.body_line.saturating_sub(1);
     let (layout, column_names) = match det.format {
         LogFormat::EnlightPeaks => {
-            let channels = det.header[1..].iter().take_while(|h| h.starts_with("# CH") || h.starts_with("#CH")).count();
+            let channels = det.header[1..]
+                .iter()
+                .take_while(|h| h.starts_with("# CH") || h.starts_with("#CH"))
+                .count();
             if channels == 0 || channels > 256 {
-                bail!("{}: the header declares {channels} channels; expected 1 to 256", at(path, header_line));
+                bail!(
+                    "{}: the header declares {channels} channels; expected 1 to 256",
+                    at(path, header_line)
+                );
             }
             (Layout::Peaks { channels }, Vec::new())
         }
         LogFormat::EnlightSensors => {
-            let names: Vec<String> = det.header[1..].iter().filter(|h| !h.is_empty()).cloned().collect();
-            (Layout::Sensors { columns: names.len() }, names)
+            let names: Vec<String> = det.header[1..]
+                .iter()
+                .filter(|h| !h.is_empty())
+                .cloned()
+                .collect();
+            (
+                Layout::Sensors {
+                    columns: names.len(),
+                },
+                names,
+            )
         }
         LogFormat::Imon => {
             let pixels = det.header.iter().filter(|h| h.starts_with("Pixel")).count();
@@ -384,12 +586,22 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         }
         LogFormat::Csv => {
             let names: Vec<String> = if det.header.is_empty() {
-                let first = lines_with_offsets(&bytes[det.body_offset..]).next().map(|(_, l)| l).unwrap_or(b"");
-                (1..first.split(|&c| c == det.delimiter).count()).map(|i| format!("column {}", i + 1)).collect()
+                let first = lines_with_offsets(&bytes[det.body_offset..])
+                    .next()
+                    .map(|(_, l)| l)
+                    .unwrap_or(b"");
+                (1..first.split(|&c| c == det.delimiter).count())
+                    .map(|i| format!("column {}", i + 1))
+                    .collect()
             } else {
                 det.header[1..].to_vec()
             };
-            (Layout::Csv { columns: names.len() }, names)
+            (
+                Layout::Csv {
+                    columns: names.len(),
+                },
+                names,
+            )
         }
     };
     let channels = match layout {
@@ -399,10 +611,13 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     };
     let dc = det.delimiter != b',';
     let body = &bytes[det.body_offset.min(bytes.len())..];
-    let unterminated = !body.is_empty() && !body.ends_with(b"\n");
 
     // Split at line boundaries; count lines per chunk to number them.
-    let n_chunks = if body.len() > (4 << 20) { rayon::current_num_threads() * 8 } else { 1 };
+    let n_chunks = if body.len() > (4 << 20) {
+        rayon::current_num_threads() * 8
+    } else {
+        1
+    };
     let mut bounds = vec![0usize];
     for k in 1..n_chunks {
         let target = body.len() * k / n_chunks;
@@ -418,21 +633,17 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     bounds.push(body.len());
     bounds.dedup();
     let chunks: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).collect();
-    let line_counts: Vec<usize> =
-        chunks.par_iter().map(|&(a, b)| body[a..b].iter().filter(|&&c| c == b'\n').count()).collect();
-    let mut first_lines = Vec::with_capacity(chunks.len());
-    let mut acc = det.body_line;
-    for c in &line_counts {
-        first_lines.push(acc);
-        acc += c;
-    }
-    let last = chunks.len() - 1;
     let partials: Vec<Partial> = chunks
         .par_iter()
-        .enumerate()
-        .map(|(k, &(a, b))| parse_chunk(&body[a..b], first_lines[k], unterminated && k == last, layout, det.delimiter, dc))
+        .map(|&(a, b)| parse_chunk(&body[a..b], layout, det.delimiter, dc))
         .collect();
-
+    // Chunk-local line numbers become file line numbers.
+    let mut first_lines = Vec::with_capacity(partials.len());
+    let mut acc = det.body_line;
+    for p in &partials {
+        first_lines.push(acc);
+        acc += p.n_lines;
+    }
     // Merge in order.
     let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
     let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
@@ -448,7 +659,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     let mut lines = Vec::with_capacity(rows);
     let mut bad = 0usize;
     let mut first_bad: Option<String> = None;
-    for p in partials {
+    for (p, first_line) in partials.into_iter().zip(first_lines) {
         let remap: Vec<u32> = p
             .times
             .dates
@@ -461,14 +672,21 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
                 }
             })
             .collect();
-        date_of_row.extend(p.times.date_of_row.iter().map(|&i| if i == NO_DATE { NO_DATE } else { remap[i as usize] }));
+        date_of_row.extend(p.times.date_of_row.iter().map(|&i| {
+            if i == NO_DATE {
+                NO_DATE
+            } else {
+                remap[i as usize]
+            }
+        }));
         sec.extend_from_slice(&p.times.sec);
         let base = peaks.len();
         row_start.extend(p.row_start.iter().map(|&s| s + base));
         peaks.extend_from_slice(&p.peaks);
         chans.extend_from_slice(&p.chans);
-        lines.extend_from_slice(&p.lines);
-        for (line_no, iss) in p.issues {
+        lines.extend(p.lines.iter().map(|&l| l + first_line as u32));
+        for (local, iss) in p.issues {
+            let line_no = local + first_line;
             if iss.kind != "short_row" && iss.kind != "truncated_last_line" {
                 bad += 1;
                 if first_bad.is_none() {
@@ -486,7 +704,9 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
             bad,
             table_lines,
             det.format.name(),
-            first_bad.map(|m| format!("; first: {m}")).unwrap_or_default()
+            first_bad
+                .map(|m| format!("; first: {m}"))
+                .unwrap_or_default()
         );
     }
     super::require_rows(path, rows, "the log")?;
@@ -494,29 +714,49 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     // Resolve times.
     let with_dates = date_of_row.iter().filter(|&&d| d != NO_DATE).count();
     let (mut time_s, clock) = if with_dates == 0 {
-        let clock = if sec.first().is_some_and(|&s| s > 1e8) { Clock::Absolute } else { Clock::Relative };
+        let clock = if sec.first().is_some_and(|&s| s > 1e8) {
+            Clock::Absolute
+        } else {
+            Clock::Relative
+        };
         (sec, clock)
     } else {
         if with_dates != rows {
             let i = date_of_row.iter().position(|&d| d == NO_DATE).unwrap_or(0);
-            bail!("{}: this row has a plain number for time while other rows have dates", at(path, lines[i] as usize));
+            bail!(
+                "{}: this row has a plain number for time while other rows have dates",
+                at(path, lines[i] as usize)
+            );
         }
-        let default = if det.format == LogFormat::Imon { DateOrder::MonthDayYear } else { DateOrder::DayMonthYear };
+        let default = if det.format == LogFormat::Imon {
+            DateOrder::MonthDayYear
+        } else {
+            DateOrder::DayMonthYear
+        };
         let order = match opts.date_order {
             Some(o) => o,
-            None => num::resolve_order(&dates, default).map_err(|e| anyhow!("{}: {e}; name the order with --date-order", path.display()))?,
+            None => num::resolve_order(&dates, default).map_err(|e| {
+                anyhow!("{}: {e}; name the order with --date-order", path.display())
+            })?,
         };
         let mut days = Vec::with_capacity(dates.len());
         for (k, d) in dates.iter().enumerate() {
             match num::date_to_days(d, order) {
                 Ok(v) => days.push(v),
                 Err(e) => {
-                    let i = date_of_row.iter().position(|&x| x as usize == k).unwrap_or(0);
+                    let i = date_of_row
+                        .iter()
+                        .position(|&x| x as usize == k)
+                        .unwrap_or(0);
                     bail!("{}: {e} (read as {:?})", at(path, lines[i] as usize), order);
                 }
             }
         }
-        let t = date_of_row.iter().zip(&sec).map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s).collect();
+        let t = date_of_row
+            .iter()
+            .zip(&sec)
+            .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
+            .collect();
         (t, Clock::Absolute)
     };
 
@@ -533,7 +773,8 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         line_of_row: lines,
         warnings,
     };
-    if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings) {
+    if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
+    {
         let mut rs = Vec::with_capacity(rows + 1);
         rs.push(0);
         let mut pk = Vec::with_capacity(log.peaks_nm.len());
@@ -572,16 +813,23 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let delim = guess_delimiter(header_line);
     let dc = delim != b',';
     let header = fields(header_line, delim);
-    let headerless = header_line.split(|&c| c == delim).all(|f| is_time_field(f));
+    let headerless = header_line.split(|&c| c == delim).all(is_time_field);
     let mut warnings = LogWarnings::default();
     let find = |wanted: &Option<String>, defaults: &[&str], what: &str| -> Result<usize> {
         if headerless {
             return Ok(if what == "time" { 0 } else { 1 });
         }
         if let Some(w) = wanted {
-            return header.iter().position(|h| h.eq_ignore_ascii_case(w)).ok_or_else(|| {
-                anyhow!("{}: no {what} column named `{w}`; the header has: {}", at(path, h_idx + 1), header.join(", "))
-            });
+            return header
+                .iter()
+                .position(|h| h.eq_ignore_ascii_case(w))
+                .ok_or_else(|| {
+                    anyhow!(
+                        "{}: no {what} column named `{w}`; the header has: {}",
+                        at(path, h_idx + 1),
+                        header.join(", ")
+                    )
+                });
         }
         for d in defaults {
             if let Some(i) = header.iter().position(|h| h.eq_ignore_ascii_case(d)) {
@@ -592,7 +840,8 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         for d in defaults {
             if let Some(i) = header.iter().position(|h| {
                 let l = h.to_ascii_lowercase();
-                l.starts_with(&d.to_ascii_lowercase()) && l[d.len()..].starts_with([' ', '_', '[', '('])
+                l.starts_with(&d.to_ascii_lowercase())
+                    && l[d.len()..].starts_with([' ', '_', '[', '('])
             }) {
                 return Ok(i);
             }
@@ -603,7 +852,11 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
             header.join(", ")
         )
     };
-    let ti = find(&cols.time, &["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"], "time")?;
+    let ti = find(
+        &cols.time,
+        &["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"],
+        "time",
+    )?;
     let fi = find(&cols.force, &["force_N", "force", "F", "load"], "force")?;
     let time_column = header.get(ti).cloned().unwrap_or_else(|| "column 1".into());
     let force_column = header.get(fi).cloned().unwrap_or_else(|| "column 2".into());
@@ -612,7 +865,10 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         (None, Some(s)) => s,
         (None, None) => {
             warnings.add("force_unit_assumed", || {
-                format!("{}: force column `{force_column}` names no unit; newtons assumed", path.display())
+                format!(
+                    "{}: force column `{force_column}` names no unit; newtons assumed",
+                    path.display()
+                )
             });
             1.0
         }
@@ -623,15 +879,22 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let mut bad = 0usize;
     let mut total = 0usize;
     let mut first_bad = None;
-    let body: Box<dyn Iterator<Item = (usize, (usize, &[u8]))>> =
-        if headerless { Box::new(std::iter::once((h_idx, (0, header_line))).chain(lines)) } else { Box::new(lines) };
+    type Lines<'a> = Box<dyn Iterator<Item = (usize, (usize, &'a [u8]))> + 'a>;
+    let body: Lines = if headerless {
+        Box::new(std::iter::once((h_idx, (0, header_line))).chain(lines))
+    } else {
+        Box::new(lines)
+    };
     let unterminated = !b.ends_with(b"\n");
     let n_lines = b.iter().filter(|&&c| c == b'\n').count() + usize::from(unterminated);
     for (idx, (_, line)) in body {
         total += 1;
         let parts: Vec<&[u8]> = line.split(|&c| c == delim).collect();
         let t = parts.get(ti).and_then(|f| parse_time_field(f, dc));
-        let f = parts.get(fi).and_then(|f| num::parse_f64(f, dc)).filter(|v| v.is_finite());
+        let f = parts
+            .get(fi)
+            .and_then(|f| num::parse_f64(f, dc))
+            .filter(|v| v.is_finite());
         match (t, f) {
             (Some(t), Some(f)) => {
                 times.push(t);
@@ -639,11 +902,18 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
                 line_nos.push((idx + 1) as u32);
             }
             _ => {
-                let kind = if unterminated && idx + 1 == n_lines { "truncated_last_line" } else { "unreadable_line" };
+                let kind = if unterminated && idx + 1 == n_lines {
+                    "truncated_last_line"
+                } else {
+                    "unreadable_line"
+                };
                 if kind == "unreadable_line" {
                     bad += 1;
                 }
-                let msg = format!("{}: expected a time in `{time_column}` and a number in `{force_column}`", at(path, idx + 1));
+                let msg = format!(
+                    "{}: expected a time in `{time_column}` and a number in `{force_column}`",
+                    at(path, idx + 1)
+                );
                 if first_bad.is_none() {
                     first_bad = Some(msg.clone());
                 }
@@ -655,24 +925,42 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         bail!(
             "{}: {bad} of {total} rows are unreadable{}",
             path.display(),
-            first_bad.map(|m| format!("; first: {m}")).unwrap_or_default()
+            first_bad
+                .map(|m| format!("; first: {m}"))
+                .unwrap_or_default()
         );
     }
     super::require_rows(path, force.len(), "the force log")?;
     let (mut time_s, clock) = if times.dates.is_empty() {
-        let clock = if times.sec[0] > 1e8 { Clock::Absolute } else { Clock::Relative };
+        let clock = if times.sec[0] > 1e8 {
+            Clock::Absolute
+        } else {
+            Clock::Relative
+        };
         (times.sec.clone(), clock)
     } else {
         if times.date_of_row.contains(&NO_DATE) {
-            bail!("{}: the time column mixes dates and plain numbers", path.display());
+            bail!(
+                "{}: the time column mixes dates and plain numbers",
+                path.display()
+            );
         }
-        let order = num::resolve_order(&times.dates, DateOrder::DayMonthYear).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        let order = num::resolve_order(&times.dates, DateOrder::DayMonthYear)
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
         let days: Vec<i64> = times
             .dates
             .iter()
             .map(|d| num::date_to_days(d, order).map_err(|e| anyhow!("{}: {e}", path.display())))
             .collect::<Result<_>>()?;
-        (times.date_of_row.iter().zip(&times.sec).map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s).collect(), Clock::Absolute)
+        (
+            times
+                .date_of_row
+                .iter()
+                .zip(&times.sec)
+                .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
+                .collect(),
+            Clock::Absolute,
+        )
     };
     if let Some(order) = super::finish_times(path, &mut time_s, &line_nos, &mut warnings) {
         let t: Vec<f64> = order.iter().map(|&i| time_s[i]).collect();
@@ -681,5 +969,14 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         force = f;
     }
     super::dequantize(path, &mut time_s, &mut warnings);
-    Ok(ForceLog { source: path.to_path_buf(), time_s, clock, force_n: force, time_column, force_column, scale_to_n: scale, warnings })
+    Ok(ForceLog {
+        source: path.to_path_buf(),
+        time_s,
+        clock,
+        force_n: force,
+        time_column,
+        force_column,
+        scale_to_n: scale,
+        warnings,
+    })
 }

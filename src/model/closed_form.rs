@@ -77,23 +77,60 @@ pub struct CaseIShare {
     pub insert_strain_per_n: f64,
 }
 
-/// Case I: core with a solid insert standing on the table, the module free to move
-/// along it. Returns the load share and the strains per newton.
-pub fn case_i_share(p: &ModuleModelParams, insert: Elastic) -> CaseIShare {
+/// Compliance of Case I's loop path, mm/N: the cap's dome (apex patch to rim,
+/// membrane), the cap's cylinder in compression, the core's cylinder in tension and
+/// the core's dome resting on the insert's matching top.
+pub fn loop_compliance_mm_per_n(p: &ModuleModelParams) -> f64 {
     let g = &p.geometry;
-    let a = g.contact_patch_radius_mm();
-    let loop_c = dome_membrane_compliance_mm_per_n(
+    dome_membrane_compliance_mm_per_n(
         p.cap,
         g.cap_wall_mm,
         g.cap_dome_mid_sphere_radius_mm,
         g.cap_mid_radius_mm,
-        a,
+        g.contact_patch_radius_mm(),
     ) + cylinder_compliance_mm_per_n(p.cap, g.cap_cylinder_length_mm, g.cap_area_mm2)
         + cylinder_compliance_mm_per_n(p.core, g.core_cylinder_length_mm, g.core_area_mm2)
-        + supported_dome_compliance_mm_per_n(p.core, g.core_wall_mm);
-    let direct_c = layer_compliance_mm_per_n(p.cap, 0.5 * g.cap_wall_mm, a)
+        + supported_dome_compliance_mm_per_n(p.core, g.core_wall_mm)
+}
+
+/// Derived compliance of Case I's direct path (before `direct_path_factor`), mm/N:
+/// the lower half of the cap wall and the core wall squeezed over the contact patch,
+/// and the insert indented by it.
+pub fn direct_path_compliance_mm_per_n(p: &ModuleModelParams, insert: Elastic) -> f64 {
+    let g = &p.geometry;
+    let a = g.contact_patch_radius_mm();
+    layer_compliance_mm_per_n(p.cap, 0.5 * g.cap_wall_mm, a)
         + layer_compliance_mm_per_n(p.core, g.core_wall_mm, a)
-        + punch_compliance_mm_per_n(insert, a);
+        + punch_compliance_mm_per_n(insert, a)
+}
+
+/// The `direct_path_factor` that makes Case I predict a measured sensitivity
+/// `measured_pm_per_n` for a grating at `lambda_nm` (closed-form inversion of the load
+/// share). `None` when the measurement is not a red shift the model can reach
+/// (K must lie between 0 and the all-loop limit λ(1 − p_e)/(E1·A1)).
+pub fn fit_direct_path_factor(
+    p: &ModuleModelParams,
+    measured_pm_per_n: f64,
+    lambda_nm: f64,
+    optics: &crate::grating::FiberOptics,
+) -> Option<f64> {
+    let insert = p.insert?;
+    let per_strain = optics.shift_pm(lambda_nm, 1.0, 0.0);
+    let share =
+        measured_pm_per_n * p.core.youngs_modulus_mpa * p.geometry.core_area_mm2 / per_strain;
+    if !(share > 0.0 && share < 1.0) {
+        return None;
+    }
+    let direct = share * loop_compliance_mm_per_n(p) / (1.0 - share);
+    Some(direct / direct_path_compliance_mm_per_n(p, insert))
+}
+
+/// Case I: core with a solid insert standing on the table, the module free to move
+/// along it. Returns the load share and the strains per newton.
+pub fn case_i_share(p: &ModuleModelParams, insert: Elastic) -> CaseIShare {
+    let g = &p.geometry;
+    let loop_c = loop_compliance_mm_per_n(p);
+    let direct_c = p.direct_path_factor * direct_path_compliance_mm_per_n(p, insert);
     // Both paths start at the apex and end on the insert's top, so they share the apex
     // displacement: the force divides in inverse proportion to the compliances.
     let share = direct_c / (direct_c + loop_c);
@@ -138,4 +175,62 @@ pub fn sensitivity_pm_per_n(
     optics: &crate::grating::FiberOptics,
 ) -> Option<f64> {
     core_strain_per_n(p, case).map(|e| optics.shift_pm(lambda_nm, e, 0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Apex-to-rim displacement of a loaded spherical membrane, integrated numerically
+    /// from the strain–displacement relations (independent of the closed form).
+    fn dome_by_quadrature(e: Elastic, t: f64, rho: f64, rim: f64, patch: f64) -> f64 {
+        let (phi0, alpha) = ((patch / rho).asin(), (rim / rho).asin());
+        // Unit apex load: N_φ = −1/(2πρ sin²φ), N_θ = −N_φ.
+        let strains = |phi: f64| {
+            let n = -1.0 / (2.0 * PI * rho * phi.sin().powi(2));
+            let eps_phi = (n + e.poisson_ratio * n) / (e.youngs_modulus_mpa * t);
+            (eps_phi, -eps_phi)
+        };
+        // v/sinφ from d(v/sinφ)/dφ = ρ(ε_φ − ε_θ)/sinφ, with v(α) = 0 (rigid-body datum).
+        let n = 200_000;
+        let h = (alpha - phi0) / n as f64;
+        let mut w_over_sin = 0.0;
+        for i in 0..n {
+            // Midpoint rule from α down to φ0.
+            let phi = alpha - (i as f64 + 0.5) * h;
+            let (ep, et) = strains(phi);
+            w_over_sin -= rho * (ep - et) / phi.sin() * h;
+        }
+        let z = |phi: f64, v_over_sin: f64| -v_over_sin + rho * strains(phi).1 * phi.cos();
+        z(alpha, 0.0) - z(phi0, w_over_sin)
+    }
+
+    #[test]
+    fn dome_membrane_compliance_matches_quadrature() {
+        let e = Elastic {
+            youngs_modulus_mpa: 44.0,
+            poisson_ratio: 0.35,
+        };
+        for (rho, rim, patch) in [(16.25, 16.25, 1.25), (20.0, 15.0, 0.8), (8.0, 6.0, 0.3)] {
+            let exact = dome_membrane_compliance_mm_per_n(e, 1.5, rho, rim, patch);
+            let quad = dome_by_quadrature(e, 1.5, rho, rim, patch);
+            assert!((exact / quad - 1.0).abs() < 1e-6, "{exact} vs {quad}");
+        }
+    }
+
+    #[test]
+    fn punch_and_layer_compliances_follow_their_textbook_forms() {
+        let e = Elastic {
+            youngs_modulus_mpa: 2.0,
+            poisson_ratio: 0.0,
+        };
+        // ν = 0: confined modulus equals E, punch compliance 1/(2aE).
+        assert!((layer_compliance_mm_per_n(e, 1.0, 1.0) - 1.0 / (2.0 * PI)).abs() < 1e-15);
+        assert!((punch_compliance_mm_per_n(e, 0.5,) - 0.5).abs() < 1e-15);
+        let rubber = Elastic {
+            youngs_modulus_mpa: 1.0,
+            poisson_ratio: 0.49,
+        };
+        assert!((rubber.confined_modulus_mpa() - 0.51 / (1.49 * 0.02)).abs() < 1e-12);
+    }
 }

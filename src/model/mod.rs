@@ -124,6 +124,12 @@ pub enum ModelError {
     /// A force that is not finite.
     #[error("the force must be a finite number of newtons, got {0}")]
     BadForce(f64),
+    /// Case I was asked for without naming an insert.
+    #[error("Case I needs an insert name; the design has: {}", known.join(", "))]
+    InsertRequired {
+        /// Insert names in the spec.
+        known: Vec<String>,
+    },
     /// Case II was given an insert.
     #[error("Case II is the hollow core: give no insert")]
     InsertInCaseII,
@@ -207,20 +213,26 @@ pub fn predict(design: &Design, force_n: f64) -> anyhow::Result<Vec<GratingPredi
 }
 
 /// Predict every strain grating in every configuration, with details.
-pub fn predict_with(design: &Design, opts: &PredictOptions) -> Result<Vec<DetailedPrediction>, ModelError> {
+pub fn predict_with(
+    design: &Design,
+    opts: &PredictOptions,
+) -> Result<Vec<DetailedPrediction>, ModelError> {
     if !opts.force_n.is_finite() {
         return Err(ModelError::BadForce(opts.force_n));
     }
     let m = design.module.as_ref().ok_or(ModelError::NoModule)?;
     let profile = ModuleProfile::from_module(m);
     let placements = module_gratings(m, &profile);
-    let reference = placements.iter().find(|g| g.role == GratingRole::TemperatureReference);
+    let reference = placements
+        .iter()
+        .find(|g| g.role == GratingRole::TemperatureReference);
     let optics = &design.fiber;
     let mut out = Vec::new();
     for conf in configurations(design) {
         for g in strain_gratings(&placements) {
             let core = g.core.as_deref().unwrap_or_default();
-            let p = ModuleModelParams::from_parts(design, m, &profile, core, conf.insert.as_deref())?;
+            let p =
+                ModuleModelParams::from_parts(design, m, &profile, core, conf.insert.as_deref())?;
             out.push(evaluate(&p, &conf, g, reference, optics, opts));
         }
     }
@@ -239,7 +251,12 @@ fn evaluate(
     let (core_e, cap_e, share, insert_e) = match (conf.case, p.insert) {
         (LoadCase::I, Some(ins)) => {
             let s = closed_form::case_i_share(p, ins);
-            (s.core_strain_per_n, s.cap_strain_per_n, s.loop_share, Some((ins, s.insert_strain_per_n * f)))
+            (
+                s.core_strain_per_n,
+                s.cap_strain_per_n,
+                s.loop_share,
+                Some((ins, s.insert_strain_per_n * f)),
+            )
         }
         _ => {
             let (core, cap, share) = closed_form::case_ii_strain_per_n(p);
@@ -250,12 +267,20 @@ fn evaluate(
     let k = optics.shift_pm(lambda, core_e, 0.0);
     let strain = core_e * f;
     let mut warnings = validity::geometry_warnings(p, Some(g));
-    warnings.extend(validity::strain_warnings(p.core, strain, p.cap, cap_e * f, insert_e));
+    warnings.extend(validity::strain_warnings(
+        p.core,
+        strain,
+        p.cap,
+        cap_e * f,
+        insert_e,
+    ));
+    warnings.extend(validity::force_warnings(p, conf.case, f));
     let raw = optics.shift_pm(lambda, strain, opts.delta_t_k);
-    let reference_shift = reference.map(|r| optics.shift_pm(r.bragg_wavelength_nm, 0.0, opts.delta_t_k));
-    let compensated = reference
-        .zip(reference_shift)
-        .map(|(r, rs)| crate::grating::compensate_temperature_pm(raw, lambda, rs, r.bragg_wavelength_nm));
+    let reference_shift =
+        reference.map(|r| optics.shift_pm(r.bragg_wavelength_nm, 0.0, opts.delta_t_k));
+    let compensated = reference.zip(reference_shift).map(|(r, rs)| {
+        crate::grating::compensate_temperature_pm(raw, lambda, rs, r.bragg_wavelength_nm)
+    });
     DetailedPrediction {
         prediction: GratingPrediction {
             grating: g.name.clone(),
@@ -290,8 +315,7 @@ pub fn sensitivity_pm_per_n(
     match (case, insert) {
         (LoadCase::I, None) if m.inserts.is_empty() => return Err(ModelError::NoInsert),
         (LoadCase::I, None) => {
-            return Err(ModelError::UnknownInsert {
-                name: String::new(),
+            return Err(ModelError::InsertRequired {
                 known: m.inserts.iter().map(|i| i.name.clone()).collect(),
             })
         }
@@ -313,6 +337,8 @@ pub fn sensitivity_pm_per_n(
         })?;
     let core = g.core.as_deref().unwrap_or_default();
     let p = ModuleModelParams::from_design(design, core, insert)?;
-    Ok(closed_form::sensitivity_pm_per_n(&p, case, g.bragg_wavelength_nm, &design.fiber)
-        .expect("Case I was checked to have an insert"))
+    Ok(
+        closed_form::sensitivity_pm_per_n(&p, case, g.bragg_wavelength_nm, &design.fiber)
+            .expect("Case I was checked to have an insert"),
+    )
 }

@@ -23,7 +23,11 @@ pub struct SweepParam {
 }
 
 fn set_core_moduli(d: &mut Design, v: f64) {
-    let keys: Vec<String> = d.module.iter().flat_map(|m| m.cores.iter().map(|c| c.material.clone())).collect();
+    let keys: Vec<String> = d
+        .module
+        .iter()
+        .flat_map(|m| m.cores.iter().map(|c| c.material.clone()))
+        .collect();
     for k in keys {
         if let Some(mat) = d.materials.get_mut(&k) {
             mat.youngs_modulus_mpa = v;
@@ -31,12 +35,39 @@ fn set_core_moduli(d: &mut Design, v: f64) {
     }
 }
 fn set_insert_moduli(d: &mut Design, v: f64) {
-    let keys: Vec<String> = d.module.iter().flat_map(|m| m.inserts.iter().map(|c| c.material.clone())).collect();
+    let keys: Vec<String> = d
+        .module
+        .iter()
+        .flat_map(|m| m.inserts.iter().map(|c| c.material.clone()))
+        .collect();
     for k in keys {
         if let Some(mat) = d.materials.get_mut(&k) {
             mat.youngs_modulus_mpa = v;
         }
     }
+}
+/// Set a material property of every material the chosen parts use.
+fn set_materials(d: &mut Design, keys: Vec<String>, f: impl Fn(&mut crate::spec::Material)) {
+    for k in keys {
+        if let Some(mat) = d.materials.get_mut(&k) {
+            f(mat);
+        }
+    }
+}
+fn core_keys(d: &Design) -> Vec<String> {
+    d.module
+        .iter()
+        .flat_map(|m| m.cores.iter().map(|c| c.material.clone()))
+        .collect()
+}
+fn insert_keys(d: &Design) -> Vec<String> {
+    d.module
+        .iter()
+        .flat_map(|m| m.inserts.iter().map(|c| c.material.clone()))
+        .collect()
+}
+fn cap_keys(d: &Design) -> Vec<String> {
+    d.module.iter().map(|m| m.cap_material.clone()).collect()
 }
 fn set_cap_modulus(d: &mut Design, v: f64) {
     if let Some(k) = d.module.as_ref().map(|m| m.cap_material.clone()) {
@@ -53,17 +84,104 @@ fn with_module(d: &mut Design, f: impl FnOnce(&mut crate::spec::Module)) {
 
 /// Every parameter `sweep` accepts.
 pub const PARAMS: &[SweepParam] = &[
-    SweepParam { name: "e1_mpa", aliases: &["core_modulus_mpa"], label: "E1, core modulus (MPa)", is_modulus: true, apply: set_core_moduli },
-    SweepParam { name: "e2_mpa", aliases: &["cap_modulus_mpa"], label: "E2, cap modulus (MPa)", is_modulus: true, apply: set_cap_modulus },
-    SweepParam { name: "es_mpa", aliases: &["insert_modulus_mpa"], label: "Es, insert modulus (MPa)", is_modulus: true, apply: set_insert_moduli },
-    SweepParam { name: "outer_diameter_mm", aliases: &[], label: "outer diameter (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.outer_diameter_mm = v) },
-    SweepParam { name: "overall_height_mm", aliases: &[], label: "overall height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.overall_height_mm = v) },
-    SweepParam { name: "dome_height_mm", aliases: &[], label: "dome height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.dome_height_mm = v) },
-    SweepParam { name: "cap_wall_mm", aliases: &[], label: "cap wall (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.cap_wall_mm = v) },
-    SweepParam { name: "core_wall_mm", aliases: &[], label: "core wall (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.core_wall_mm = v) },
-    SweepParam { name: "apex_flat_diameter_mm", aliases: &[], label: "apex flat diameter (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.apex_flat_diameter_mm = v) },
-    SweepParam { name: "pillar_width_mm", aliases: &[], label: "pillar width (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.pillars.width_mm = v) },
-    SweepParam { name: "pillar_height_mm", aliases: &[], label: "pillar height (mm)", is_modulus: false, apply: |d, v| with_module(d, |m| m.pillars.height_mm = v) },
+    SweepParam {
+        name: "e1_mpa",
+        aliases: &["core_modulus_mpa"],
+        label: "E1, core modulus (MPa)",
+        is_modulus: true,
+        apply: set_core_moduli,
+    },
+    SweepParam {
+        name: "e2_mpa",
+        aliases: &["cap_modulus_mpa"],
+        label: "E2, cap modulus (MPa)",
+        is_modulus: true,
+        apply: set_cap_modulus,
+    },
+    SweepParam {
+        name: "es_mpa",
+        aliases: &["insert_modulus_mpa"],
+        label: "Es, insert modulus (MPa)",
+        is_modulus: true,
+        apply: set_insert_moduli,
+    },
+    SweepParam {
+        name: "outer_diameter_mm",
+        aliases: &[],
+        label: "outer diameter (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.outer_diameter_mm = v),
+    },
+    SweepParam {
+        name: "overall_height_mm",
+        aliases: &[],
+        label: "overall height (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.overall_height_mm = v),
+    },
+    SweepParam {
+        name: "dome_height_mm",
+        aliases: &[],
+        label: "dome height (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.dome_height_mm = v),
+    },
+    SweepParam {
+        name: "cap_wall_mm",
+        aliases: &[],
+        label: "cap wall (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.cap_wall_mm = v),
+    },
+    SweepParam {
+        name: "core_wall_mm",
+        aliases: &[],
+        label: "core wall (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.core_wall_mm = v),
+    },
+    SweepParam {
+        name: "apex_flat_diameter_mm",
+        aliases: &[],
+        label: "apex flat diameter (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.apex_flat_diameter_mm = v),
+    },
+    SweepParam {
+        name: "pillar_width_mm",
+        aliases: &[],
+        label: "pillar width (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.pillars.width_mm = v),
+    },
+    SweepParam {
+        name: "pillar_height_mm",
+        aliases: &[],
+        label: "pillar height (mm)",
+        is_modulus: false,
+        apply: |d, v| with_module(d, |m| m.pillars.height_mm = v),
+    },
+    SweepParam {
+        name: "nu1",
+        aliases: &["core_poisson_ratio"],
+        label: "ν1, core Poisson's ratio",
+        is_modulus: false,
+        apply: |d, v| set_materials(d, core_keys(d), |m| m.poisson_ratio = v),
+    },
+    SweepParam {
+        name: "nu2",
+        aliases: &["cap_poisson_ratio"],
+        label: "ν2, cap Poisson's ratio",
+        is_modulus: false,
+        apply: |d, v| set_materials(d, cap_keys(d), |m| m.poisson_ratio = v),
+    },
+    SweepParam {
+        name: "nus",
+        aliases: &["insert_poisson_ratio"],
+        label: "νs, insert Poisson's ratio",
+        is_modulus: false,
+        apply: |d, v| set_materials(d, insert_keys(d), |m| m.poisson_ratio = v),
+    },
     SweepParam {
         name: "grating_center_height_mm",
         aliases: &[],
@@ -71,7 +189,11 @@ pub const PARAMS: &[SweepParam] = &[
         is_modulus: false,
         apply: |d, v| {
             with_module(d, |m| {
-                for g in m.gratings.iter_mut().filter(|g| g.center_height_mm.is_some()) {
+                for g in m
+                    .gratings
+                    .iter_mut()
+                    .filter(|g| g.center_height_mm.is_some())
+                {
                     g.center_height_mm = Some(v);
                 }
             })
@@ -102,25 +224,28 @@ pub enum SweepError {
     /// Empty, reversed or non-finite range, or too few steps.
     #[error("bad range: {0}")]
     BadRange(String),
+    /// Nothing to sweep: no strain grating, or Case I without an insert.
+    #[error("nothing to sweep: {0}")]
+    Nothing(String),
     /// A swept value makes the design invalid.
-    #[error("at {param} = {value}: {source}")]
+    #[error("at {param} = {value}: {reason}")]
     InvalidDesign {
         /// Parameter.
         param: String,
         /// Value.
         value: f64,
         /// Why the design is invalid.
-        source: SpecError,
+        reason: SpecError,
     },
     /// The model rejected the design.
-    #[error("at {param} = {value}: {source}")]
+    #[error("at {param} = {value}: {reason}")]
     Model {
         /// Parameter.
         param: String,
         /// Value.
         value: f64,
         /// Model error.
-        source: super::ModelError,
+        reason: super::ModelError,
     },
 }
 
@@ -137,26 +262,38 @@ pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
 pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Design, SweepError> {
     let mut d = design.clone();
     (param.apply)(&mut d, value);
-    d.validate().map_err(|source| SweepError::InvalidDesign {
+    d.validate().map_err(|reason| SweepError::InvalidDesign {
         param: param.name.to_string(),
         value,
-        source,
+        reason,
     })?;
     Ok(d)
 }
 
+/// Largest number of sweep values (a typo such as `--steps 1000000000` must not hang).
+pub const MAX_STEPS: usize = 100_000;
+
 /// Evenly spaced values from `from` to `to` inclusive, checked.
-pub fn sweep_values(param: &SweepParam, from: f64, to: f64, steps: usize) -> Result<Vec<f64>, SweepError> {
+pub fn sweep_values(
+    param: &SweepParam,
+    from: f64,
+    to: f64,
+    steps: usize,
+) -> Result<Vec<f64>, SweepError> {
     if !from.is_finite() || !to.is_finite() {
-        return Err(SweepError::BadRange(format!("--from {from} and --to {to} must be finite numbers")));
+        return Err(SweepError::BadRange(format!(
+            "--from {from} and --to {to} must be finite numbers"
+        )));
     }
     if to <= from {
         return Err(SweepError::BadRange(format!(
             "--from {from} must be smaller than --to {to} (an empty or reversed range)"
         )));
     }
-    if steps < 2 {
-        return Err(SweepError::BadRange(format!("--steps must be at least 2, got {steps}")));
+    if !(2..=MAX_STEPS).contains(&steps) {
+        return Err(SweepError::BadRange(format!(
+            "--steps must be between 2 and {MAX_STEPS}, got {steps}"
+        )));
     }
     if param.is_modulus && from <= 0.0 {
         return Err(SweepError::BadRange(format!(
@@ -166,11 +303,13 @@ pub fn sweep_values(param: &SweepParam, from: f64, to: f64, steps: usize) -> Res
     }
     if from <= 0.0 {
         return Err(SweepError::BadRange(format!(
-            "{} is a length: the range must stay above 0 mm, got --from {from}",
+            "{} must stay above 0 (a length or ratio), got --from {from}",
             param.name
         )));
     }
-    Ok((0..steps).map(|i| from + (to - from) * i as f64 / (steps - 1) as f64).collect())
+    Ok((0..steps)
+        .map(|i| from + (to - from) * i as f64 / (steps - 1) as f64)
+        .collect())
 }
 
 /// One curve of a sweep: a grating in a configuration.
@@ -224,15 +363,22 @@ pub fn run(
     mut on_step: impl FnMut(),
 ) -> Result<SweepResult, SweepError> {
     let mut series: Vec<SweepSeries> = Vec::new();
-    let opts = PredictOptions { force_n, delta_t_k: 0.0 };
+    let opts = PredictOptions {
+        force_n,
+        delta_t_k: 0.0,
+    };
     for &v in values {
         let d = with_param(design, param, v)?;
-        let preds = predict_with(&d, &opts).map_err(|source| SweepError::Model {
+        let preds = predict_with(&d, &opts).map_err(|reason| SweepError::Model {
             param: param.name.to_string(),
             value: v,
-            source,
+            reason,
         })?;
-        for p in preds.into_iter().map(|d| d.prediction).filter(|p| case.is_none_or(|c| c == p.case)) {
+        for p in preds
+            .into_iter()
+            .map(|d| d.prediction)
+            .filter(|p| case.is_none_or(|c| c == p.case))
+        {
             let s = match series
                 .iter_mut()
                 .find(|s| s.grating == p.grating && s.case == p.case && s.insert == p.insert)
@@ -255,6 +401,14 @@ pub fn run(
             s.sensitivity_pm_per_n.push(p.sensitivity_pm_per_n);
         }
         on_step();
+    }
+    if series.is_empty() {
+        return Err(SweepError::Nothing(match case {
+            Some(LoadCase::I) => {
+                "Case I needs a solid insert and a strain grating; the design lacks one".into()
+            }
+            _ => "the design has no strain grating to predict".into(),
+        }));
     }
     Ok(SweepResult {
         param: param.name.to_string(),
@@ -291,11 +445,56 @@ pub const PAPER_FORCE_N: f64 = 50.0;
 
 /// The five parametric figures of the paper (Fig. 9a–c: Case I; Fig. 11a–b: Case II).
 pub const PAPER_FIGURES: &[PaperFigure] = &[
-    PaperFigure { id: "fig9a_case1_e1", title: "Case I: shift at 50 N vs E1 (E2 = 44 MPa, Es = 44 MPa)", case: LoadCase::I, param: "e1_mpa", range_mpa: (1.0, 1000.0), e1_mpa: None, e2_mpa: Some(44.0), es_mpa: Some(44.0) },
-    PaperFigure { id: "fig9b_case1_e2", title: "Case I: shift at 50 N vs E2 (E1 = 1.4 MPa, Es = 44 MPa)", case: LoadCase::I, param: "e2_mpa", range_mpa: (0.5, 50.0), e1_mpa: Some(1.4), e2_mpa: None, es_mpa: Some(44.0) },
-    PaperFigure { id: "fig9c_case1_es", title: "Case I: shift at 50 N vs Es (E1 = 1.4 MPa, E2 = 44 MPa)", case: LoadCase::I, param: "es_mpa", range_mpa: (10.0, 2000.0), e1_mpa: Some(1.4), e2_mpa: Some(44.0), es_mpa: None },
-    PaperFigure { id: "fig11a_case2_e1", title: "Case II: shift at 50 N vs E1 (E2 = 44 MPa)", case: LoadCase::II, param: "e1_mpa", range_mpa: (1.0, 1000.0), e1_mpa: None, e2_mpa: Some(44.0), es_mpa: None },
-    PaperFigure { id: "fig11b_case2_e2", title: "Case II: shift at 50 N vs E2 (E1 = 1.4 MPa)", case: LoadCase::II, param: "e2_mpa", range_mpa: (0.5, 50.0), e1_mpa: Some(1.4), e2_mpa: None, es_mpa: None },
+    PaperFigure {
+        id: "fig9a_case1_e1",
+        title: "Case I: shift at 50 N vs E1 (E2 = 44 MPa, Es = 44 MPa)",
+        case: LoadCase::I,
+        param: "e1_mpa",
+        range_mpa: (1.0, 1000.0),
+        e1_mpa: None,
+        e2_mpa: Some(44.0),
+        es_mpa: Some(44.0),
+    },
+    PaperFigure {
+        id: "fig9b_case1_e2",
+        title: "Case I: shift at 50 N vs E2 (E1 = 1.4 MPa, Es = 44 MPa)",
+        case: LoadCase::I,
+        param: "e2_mpa",
+        range_mpa: (0.5, 50.0),
+        e1_mpa: Some(1.4),
+        e2_mpa: None,
+        es_mpa: Some(44.0),
+    },
+    PaperFigure {
+        id: "fig9c_case1_es",
+        title: "Case I: shift at 50 N vs Es (E1 = 1.4 MPa, E2 = 44 MPa)",
+        case: LoadCase::I,
+        param: "es_mpa",
+        range_mpa: (10.0, 2000.0),
+        e1_mpa: Some(1.4),
+        e2_mpa: Some(44.0),
+        es_mpa: None,
+    },
+    PaperFigure {
+        id: "fig11a_case2_e1",
+        title: "Case II: shift at 50 N vs E1 (E2 = 44 MPa)",
+        case: LoadCase::II,
+        param: "e1_mpa",
+        range_mpa: (1.0, 1000.0),
+        e1_mpa: None,
+        e2_mpa: Some(44.0),
+        es_mpa: None,
+    },
+    PaperFigure {
+        id: "fig11b_case2_e2",
+        title: "Case II: shift at 50 N vs E2 (E1 = 1.4 MPa)",
+        case: LoadCase::II,
+        param: "e2_mpa",
+        range_mpa: (0.5, 50.0),
+        e1_mpa: Some(1.4),
+        e2_mpa: None,
+        es_mpa: None,
+    },
 ];
 
 /// The design with a paper figure's fixed moduli applied (the swept one untouched).
@@ -310,25 +509,31 @@ pub fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design,
     }
     if let Some(v) = fig.es_mpa {
         set_insert_moduli(&mut d, v);
-        if let Some(m) = d.module.as_mut() {
-            m.inserts.truncate(1);
+    }
+    let insert_label = match fig.es_mpa {
+        Some(v) => format!("Es = {v} MPa"),
+        None => "swept insert".to_string(),
+    };
+    if let Some(m) = d.module.as_mut() {
+        m.inserts.truncate(1);
+        if let Some(i) = m.inserts.first_mut() {
+            i.name = insert_label;
         }
     }
-    if fig.param == "es_mpa" {
-        if let Some(m) = d.module.as_mut() {
-            m.inserts.truncate(1);
-        }
-    }
-    d.validate().map_err(|source| SweepError::InvalidDesign {
+    d.validate().map_err(|reason| SweepError::InvalidDesign {
         param: fig.param.to_string(),
         value: f64::NAN,
-        source,
+        reason,
     })?;
     Ok(d)
 }
 
 /// Run one paper figure with `steps` values.
-pub fn run_paper_figure(design: &Design, fig: &PaperFigure, steps: usize) -> Result<SweepResult, SweepError> {
+pub fn run_paper_figure(
+    design: &Design,
+    fig: &PaperFigure,
+    steps: usize,
+) -> Result<SweepResult, SweepError> {
     let d = paper_figure_design(design, fig)?;
     let param = find_param(fig.param)?;
     let values = sweep_values(param, fig.range_mpa.0, fig.range_mpa.1, steps)?;

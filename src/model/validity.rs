@@ -12,6 +12,7 @@
 //!   the usual limit for long-term reliable, linear operation.
 
 use super::params::{Elastic, ModuleModelParams};
+use super::{closed_form, LoadCase};
 use crate::profile::GratingPlacement;
 
 /// Largest wall thickness to mid-surface radius ratio accepted as a thin shell.
@@ -82,10 +83,11 @@ pub fn strain_warnings(
     insert: Option<(Elastic, f64)>,
 ) -> Vec<String> {
     let mut w = Vec::new();
+    // The values themselves are in the prediction; the messages name the limit only,
+    // so a table of many rows repeats one note instead of one per row.
     if core_strain.abs() > GRATING_MAX_STRAIN {
         w.push(format!(
-            "grating strain {:.0} µε exceeds ±{:.0} µε (a third of the 1 % proof test): not reliably linear",
-            core_strain * 1e6,
+            "grating strain beyond ±{:.0} µε (a third of the 1 % proof test): not reliably linear",
             GRATING_MAX_STRAIN * 1e6
         ));
     }
@@ -97,10 +99,32 @@ pub fn strain_warnings(
         let lim = material_strain_limit(e);
         if s.abs() > lim {
             w.push(format!(
-                "{part} strain {:.2} % exceeds the linear range of its material ({:.0} % for E = {} MPa)",
-                s * 100.0,
+                "{part} strain beyond the linear range of its material ({:.0} % for E = {} MPa)",
                 lim * 100.0,
                 e.youngs_modulus_mpa
+            ));
+        }
+    }
+    w
+}
+
+/// Warnings that depend on the force: a pull lifts the module off its support, and in
+/// Case I the printed dome gap stays open below the force that closes it.
+pub fn force_warnings(p: &ModuleModelParams, case: LoadCase, force_n: f64) -> Vec<String> {
+    let mut w = Vec::new();
+    if force_n < 0.0 {
+        w.push(
+            "a pulling force lifts the module off its support: both cases need F ≥ 0".to_string(),
+        );
+    }
+    if case == LoadCase::I && force_n >= 0.0 && p.geometry.dome_gap_mm > 0.0 {
+        // With the gap open all of F goes round the loop, and the cap's apex approaches
+        // the core's dome by F·c_L (docs/model.md §5.3).
+        let closing_n = p.geometry.dome_gap_mm / closed_form::loop_compliance_mm_per_n(p);
+        if force_n < closing_n {
+            w.push(format!(
+                "the printed {:.2} mm dome gap closes only near {closing_n:.1} N; below it the cap does not bear on the core's dome, all of F goes round the loop and K ≈ λ(1 − p_e)/(E1·A1), far above the value shown",
+                p.geometry.dome_gap_mm
             ));
         }
     }

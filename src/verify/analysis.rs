@@ -23,6 +23,7 @@ use super::fit::{self, LagModelCost, LagModelFit};
 use crate::logs::{median_period, Clock, ForceLog, LogWarnings, PeakLog};
 use crate::spec::{Design, GratingRole};
 use anyhow::{bail, Result};
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Options of the analysis.
@@ -43,7 +44,13 @@ pub struct AnalysisOptions {
 
 impl Default for AnalysisOptions {
     fn default() -> Self {
-        AnalysisOptions { core: None, window_half_width_nm: None, clock_offset_s: None, max_clock_offset_s: 60.0, resolution_pm: None }
+        AnalysisOptions {
+            core: None,
+            window_half_width_nm: None,
+            clock_offset_s: None,
+            max_clock_offset_s: 60.0,
+            resolution_pm: None,
+        }
     }
 }
 
@@ -140,6 +147,10 @@ pub struct Measurement {
     pub clock_offset_s: f64,
     /// `estimated` or `given`.
     pub clock_offset_source: String,
+    /// When the force log's first sample was taken, s from the wavelength log's first
+    /// row (negative: the force recording started first). Easier to read than the
+    /// offset when one log has wall-clock and the other relative times.
+    pub force_log_start_s: f64,
     /// Duration both logs cover after alignment, s.
     pub overlap_s: f64,
     /// The reference grating used, if any.
@@ -197,7 +208,7 @@ pub fn detect_pulses(force: &[f64]) -> Vec<PulseSpan> {
     let diffs: Vec<f64> = force.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
     let sigma = 1.4826 * percentile(&diffs, 0.5) / std::f64::consts::SQRT_2;
     let amp = top - base;
-    if !(amp > 0.0) {
+    if amp.is_nan() || amp <= 0.0 {
         return Vec::new();
     }
     let enter = base + (0.05 * amp).max(6.0 * sigma);
@@ -209,7 +220,10 @@ pub fn detect_pulses(force: &[f64]) -> Vec<PulseSpan> {
             None if f > enter => start = Some(i),
             Some(s) if f < exit => {
                 if i - s >= 3 {
-                    out.push(PulseSpan { start: s, end: i - 1 });
+                    out.push(PulseSpan {
+                        start: s,
+                        end: i - 1,
+                    });
                 }
                 start = None;
             }
@@ -218,7 +232,10 @@ pub fn detect_pulses(force: &[f64]) -> Vec<PulseSpan> {
     }
     if let Some(s) = start {
         if force.len() - s >= 3 {
-            out.push(PulseSpan { start: s, end: force.len() - 1 });
+            out.push(PulseSpan {
+                start: s,
+                end: force.len() - 1,
+            });
         }
     }
     out
@@ -234,8 +251,24 @@ struct FitData {
 }
 
 impl FitData {
-    fn new(tw: &[f64], s: &[f64], u: &[f64], f: &[f64], a: f64, b: f64, max_wl: usize, max_force: usize, memory_s: f64) -> Self {
-        let idx: Vec<usize> = (0..tw.len()).filter(|&i| tw[i] >= a && tw[i] <= b && s[i].is_finite()).collect();
+    /// Shift samples (tw, s) inside [a, b], strided to at most `max_wl`; force samples
+    /// (u, f) over the same span plus `memory_s` before and after, strided to at most
+    /// `max_force`.
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        tw: &[f64],
+        s: &[f64],
+        u: &[f64],
+        f: &[f64],
+        a: f64,
+        b: f64,
+        max_wl: usize,
+        max_force: usize,
+        memory_s: f64,
+    ) -> Self {
+        let idx: Vec<usize> = (0..tw.len())
+            .filter(|&i| tw[i] >= a && tw[i] <= b && s[i].is_finite())
+            .collect();
         let stride = idx.len().div_ceil(max_wl.max(1)).max(1);
         let st: Vec<f64> = idx.iter().step_by(stride).map(|&i| tw[i]).collect();
         let sv: Vec<f64> = idx.iter().step_by(stride).map(|&i| s[i]).collect();
@@ -245,33 +278,65 @@ impl FitData {
         let fs = n.div_ceil(max_force.max(1)).max(1);
         let ft: Vec<f64> = (lo..hi).step_by(fs).map(|i| u[i]).collect();
         let fv: Vec<f64> = (lo..hi).step_by(fs).map(|i| f[i]).collect();
-        let t_mid = if st.is_empty() { 0.0 } else { (st[0] + st[st.len() - 1]) / 2.0 };
-        FitData { st, sv, ft, fv, t_mid }
+        let t_mid = if st.is_empty() {
+            0.0
+        } else {
+            (st[0] + st[st.len() - 1]) / 2.0
+        };
+        FitData {
+            st,
+            sv,
+            ft,
+            fv,
+            t_mid,
+        }
     }
 
     fn cost(&self, fixed: Option<f64>) -> LagModelCost<'_> {
-        LagModelCost { shift_t: &self.st, shift_pm: &self.sv, force_t: &self.ft, force_n: &self.fv, fixed_offset_s: fixed, t_mid: self.t_mid }
+        LagModelCost {
+            shift_t: &self.st,
+            shift_pm: &self.sv,
+            force_t: &self.ft,
+            force_n: &self.fv,
+            fixed_offset_s: fixed,
+            t_mid: self.t_mid,
+        }
     }
 }
 
 /// Coarse offset by cross-correlation: the shift lag Δ (in the force frame u) that
 /// maximises |corr(s(t), F(t + Δ))| over |Δ| ≤ range. Returns (Δ, sign of corr).
-fn xcorr_offset(tw: &[f64], s: &[f64], u: &[f64], f: &[f64], a: f64, b: f64, range: f64) -> Option<(f64, f64)> {
+fn xcorr_offset(
+    tw: &[f64],
+    s: &[f64],
+    u: &[f64],
+    f: &[f64],
+    a: f64,
+    b: f64,
+    range: f64,
+) -> Option<(f64, f64)> {
     let dt_s = median_period(tw);
     let dt_f = median_period(u);
-    let g = dt_s.max(dt_f).max((b - a) / 20000.0).max(2.0 * range / 4000.0);
-    if !(g > 0.0) || b <= a {
+    let g = dt_s
+        .max(dt_f)
+        .max((b - a) / 20000.0)
+        .max(2.0 * range / 4000.0);
+    if g.is_nan() || g <= 0.0 || b <= a {
         return None;
     }
     let n = ((b - a) / g).floor() as usize + 1;
     // Shift on the grid (gaps bridged).
     let filled = assign::fill_gaps(tw, s);
     let mut h = 0;
-    let sg: Vec<f64> = (0..n).map(|j| fit::interp(tw, &filled, a + j as f64 * g, &mut h)).collect();
+    let sg: Vec<f64> = (0..n)
+        .map(|j| fit::interp(tw, &filled, a + j as f64 * g, &mut h))
+        .collect();
     let f0 = a - range;
     let nf = ((b + range - f0) / g).floor() as usize + 2;
     let mut h = 0;
-    let fg: Vec<f64> = (0..nf).map(|j| fit::interp(u, f, f0 + j as f64 * g, &mut h)).collect();
+    let fg: Vec<f64> = (0..nf)
+        .map(|j| fit::interp(u, f, f0 + j as f64 * g, &mut h))
+        .collect();
     let ms = sg.iter().sum::<f64>() / n as f64;
     let mf = fg.iter().sum::<f64>() / nf as f64;
     let lags = (range / g).floor() as isize;
@@ -279,10 +344,10 @@ fn xcorr_offset(tw: &[f64], s: &[f64], u: &[f64], f: &[f64], a: f64, b: f64, ran
     for l in -lags..=lags {
         let off = (range / g).round() as isize + l;
         let mut acc = 0.0;
-        for j in 0..n {
+        for (j, sv) in sg.iter().enumerate() {
             let k = j as isize + off;
             if k >= 0 && (k as usize) < nf {
-                acc += (sg[j] - ms) * (fg[k as usize] - mf);
+                acc += (sv - ms) * (fg[k as usize] - mf);
             }
         }
         if acc.abs() > best.1.abs() {
@@ -293,7 +358,12 @@ fn xcorr_offset(tw: &[f64], s: &[f64], u: &[f64], f: &[f64], a: f64, b: f64, ran
 }
 
 /// Run the analysis.
-pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &AnalysisOptions) -> Result<(Measurement, Series)> {
+pub fn analyse(
+    design: &Design,
+    log: &PeakLog,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+) -> Result<(Measurement, Series)> {
     let Some(module) = &design.module else {
         bail!("design `{}` has no [module]: verify judges a clip-on module; for a flat array use calibrate-array", design.name);
     };
@@ -302,12 +372,22 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
     if let Some(c) = &opts.core {
         if !module.cores.iter().any(|x| &x.name == c) {
             let names: Vec<&str> = module.cores.iter().map(|c| c.name.as_str()).collect();
-            bail!("design `{}` has no core named `{c}`; its cores are: {}", design.name, names.join(", "));
+            bail!(
+                "design `{}` has no core named `{c}`; its cores are: {}",
+                design.name,
+                names.join(", ")
+            );
         }
     }
-    let all_nominals: Vec<f64> = module.gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
-    let hw = opts.window_half_width_nm.unwrap_or_else(|| assign::default_half_width_nm(&all_nominals));
-    if !(hw > 0.0) {
+    let all_nominals: Vec<f64> = module
+        .gratings
+        .iter()
+        .map(|g| g.bragg_wavelength_nm)
+        .collect();
+    let hw = opts
+        .window_half_width_nm
+        .unwrap_or_else(|| assign::default_half_width_nm(&all_nominals));
+    if hw.is_nan() || hw <= 0.0 {
         bail!("the window half-width must be positive, got {hw} nm");
     }
     let strain: Vec<_> = module
@@ -315,14 +395,24 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         .iter()
         .filter(|g| g.role == GratingRole::Strain && (opts.core.is_none() || g.core == opts.core))
         .collect();
-    let reference = module
-        .gratings
+    let reference = module.gratings.iter().find(|g| {
+        g.role == GratingRole::TemperatureReference
+            && (g.core.is_none() || opts.core.is_none() || g.core == opts.core)
+    });
+    let mut windows: Vec<GratingWindow> = strain
         .iter()
-        .find(|g| g.role == GratingRole::TemperatureReference && (g.core.is_none() || opts.core.is_none() || g.core == opts.core));
-    let mut windows: Vec<GratingWindow> =
-        strain.iter().map(|g| GratingWindow { name: g.name.clone(), nominal_nm: g.bragg_wavelength_nm, half_width_nm: hw }).collect();
+        .map(|g| GratingWindow {
+            name: g.name.clone(),
+            nominal_nm: g.bragg_wavelength_nm,
+            half_width_nm: hw,
+        })
+        .collect();
     if let Some(r) = reference {
-        windows.push(GratingWindow { name: r.name.clone(), nominal_nm: r.bragg_wavelength_nm, half_width_nm: hw });
+        windows.push(GratingWindow {
+            name: r.name.clone(),
+            nominal_nm: r.bragg_wavelength_nm,
+            half_width_nm: hw,
+        });
     }
     let tracks = assign::assign(log, &windows);
     let rows = log.rows();
@@ -334,7 +424,9 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         Some(r) => {
             let t = tracks.last().filter(|t| t.window.name == r.name);
             match t {
-                Some(t) if t.rows_present >= min_rows => Some((t, assign::fill_gaps(&tw, &t.wavelength_nm))),
+                Some(t) if t.rows_present >= min_rows => {
+                    Some((t, assign::fill_gaps(&tw, &t.wavelength_nm)))
+                }
                 _ => {
                     warnings.add("reference_missing", || {
                         format!(
@@ -349,7 +441,12 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             }
         }
         None => {
-            warnings.add("reference_missing", || format!("design `{}` has no temperature-reference grating; shifts are not compensated", design.name));
+            warnings.add("reference_missing", || {
+                format!(
+                    "design `{}` has no temperature-reference grating; shifts are not compensated",
+                    design.name
+                )
+            });
             None
         }
     };
@@ -372,7 +469,8 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             warnings.add("grating_missing", || msg);
             continue;
         }
-        let s = assign::compensated_shift_pm(t, ref_track.as_ref().map(|(t, f)| (*t, f.as_slice())));
+        let s =
+            assign::compensated_shift_pm(t, ref_track.as_ref().map(|(t, f)| (*t, f.as_slice())));
         used.push((i, s));
     }
     if used.is_empty() {
@@ -381,14 +479,22 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
 
     // Prior for the clock offset.
     let w0 = log.time_s[0];
-    let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute { 0.0 } else { force.time_s[0] - w0 };
+    let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute {
+        0.0
+    } else {
+        force.time_s[0] - w0
+    };
     let range = opts.max_clock_offset_s.max(0.0);
     // Force times in the wavelength frame, before the residual offset.
     let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (u[0], u[u.len() - 1]);
     let gap = (fa - wb).max(wa - fb);
-    if opts.clock_offset_s.is_none() && gap > range || opts.clock_offset_s.is_some_and(|o| fa - (o - prior) > wb || fb - (o - prior) < wa) {
+    if opts.clock_offset_s.is_none() && gap > range
+        || opts
+            .clock_offset_s
+            .is_some_and(|o| fa - (o - prior) > wb || fb - (o - prior) < wa)
+    {
         bail!(
             "the force log {} (covering {:.3} s to {:.3} s on the wavelength log's clock{}) does not overlap the wavelength log {} (0 s to {:.3} s){}",
             force.source.display(),
@@ -405,30 +511,55 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
 
     // Primary grating: the largest response.
     let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
-    let primary = (0..used.len()).max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1))).unwrap_or(0);
+    let primary = (0..used.len())
+        .max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1)))
+        .unwrap_or(0);
 
     // Clock offset.
     let (delta, source) = match opts.clock_offset_s {
         Some(o) => (o - prior, "given"),
         None => {
             let s = &used[primary].1;
-            let (dx, _) = xcorr_offset(&tw, s, &u, &force.force_n, a, b, range)
-                .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
+            let (dx, _) =
+                xcorr_offset(&tw, s, &u, &force.force_n, a, b, range).ok_or_else(|| {
+                    anyhow::anyhow!("the logs overlap too little to align their clocks")
+                })?;
             let coarse = FitData::new(&tw, s, &u, &force.force_n, a, b, 20_000, 50_000, 30.0);
             let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
-            for tau0 in [0.05f64, 0.5, 5.0] {
-                let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
-                let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
-                let r = fit::nelder_mead(coarse.cost(None), &start, &step, 300);
+            let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
+                .par_iter()
+                .map(|&tau0| {
+                    let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
+                    let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
+                    fit::nelder_mead(coarse.cost(None), &start, &step, 300)
+                })
+                .collect();
+            for r in tries {
                 if r.1 < best.1 {
                     best = r;
                 }
             }
             // Polish at full rate on the first stretch of the overlap.
-            let span = (b - a).min(200_000.0 * median_period(&u).max(1e-6)).min(100_000.0 * median_period(&tw).max(1e-6));
-            let fine = FitData::new(&tw, s, &u, &force.force_n, a, a + span.max(1.0), 100_000, 200_000, 30.0);
+            let span = (b - a)
+                .min(200_000.0 * median_period(&u).max(1e-6))
+                .min(100_000.0 * median_period(&tw).max(1e-6));
+            let fine = FitData::new(
+                &tw,
+                s,
+                &u,
+                &force.force_n,
+                a,
+                a + span.max(1.0),
+                100_000,
+                200_000,
+                30.0,
+            );
             let p = best.0.clone();
-            let step = [2.0 * median_period(&fine.st).max(median_period(&fine.ft)), 0.3, 0.5];
+            let step = [
+                2.0 * median_period(&fine.st).max(median_period(&fine.ft)),
+                0.3,
+                0.5,
+            ];
             let r = fit::nelder_mead(fine.cost(None), &p, &step, 300);
             let d = if r.1 < f64::MAX { r.0[0] } else { p[0] };
             if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
@@ -455,52 +586,95 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
     let mut h = 0;
     let fc: Vec<f64> = tw
         .iter()
-        .map(|&t| if t < fa || t > fb { f64::NAN } else { fit::interp(&fu, &force.force_n, t, &mut h) })
+        .map(|&t| {
+            if t < fa || t > fb {
+                f64::NAN
+            } else {
+                fit::interp(&fu, &force.force_n, t, &mut h)
+            }
+        })
         .collect();
-    let resolution_pm = opts.resolution_pm.unwrap_or_else(|| log.format.typical_resolution_pm());
+    let resolution_pm = opts
+        .resolution_pm
+        .unwrap_or_else(|| log.format.typical_resolution_pm());
     let pulses = detect_pulses(&force.force_n);
+    let fbase = percentile(&force.force_n, 0.1);
     if pulses.is_empty() {
-        warnings.add("no_pulses", || format!("{}: no loading pulse found in the force log", force.source.display()));
+        bail!(
+            "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
+            force.source.display()
+        );
     }
 
-    // Per grating.
-    let mut series = Series { time_s: tw.clone(), force_n: fc.clone(), ..Default::default() };
-    let mut results = Vec::new();
-    let mut prev: Option<(f64, f64)> = None;
-    let order: Vec<usize> = std::iter::once(primary).chain((0..used.len()).filter(|&k| k != primary)).collect();
-    for k in order {
+    // Per grating: the primary first (its τ and r seed the others), the rest in parallel.
+    type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
+    let measure = |k: usize, prev: Option<(f64, f64)>| -> Measured {
         let (gi, s) = &used[k];
         let g = strain[*gi];
         let t = &tracks[*gi];
         // τ and r with the offset fixed.
-        let sub = FitData::new(&tw, s, &fu, &force.force_n, wa.max(fa), wb.min(fb), 20_000, 50_000, 30.0);
+        let sub = FitData::new(
+            &tw,
+            s,
+            &fu,
+            &force.force_n,
+            wa.max(fa),
+            wb.min(fb),
+            20_000,
+            50_000,
+            30.0,
+        );
         let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0], f64::MAX);
         let starts: Vec<(f64, f64)> = match prev {
             Some(p) => vec![p],
             None => vec![(0.05, 0.5), (0.5, 0.5), (5.0, 0.5)],
         };
-        for (tau0, r0) in starts {
-            let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
-            let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
-            let r = fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250);
+        let tries: Vec<(Vec<f64>, f64)> = starts
+            .par_iter()
+            .map(|&(tau0, r0)| {
+                let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
+                let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
+                fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250)
+            })
+            .collect();
+        for r in tries {
             if r.1 < best.1 {
                 best = r;
             }
         }
         let probe = sub.cost(Some(0.0));
-        let lm0 = probe.fit_at(&best.0).ok_or_else(|| anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name))?;
-        prev = Some((lm0.tau_s, lm0.instant_fraction));
+        let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
+            anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
+        })?;
         // Final evaluation on every sample.
-        let idx: Vec<usize> = (0..tw.len()).filter(|&i| s[i].is_finite() && fc[i].is_finite()).collect();
+        let idx: Vec<usize> = (0..tw.len())
+            .filter(|&i| s[i].is_finite() && fc[i].is_finite())
+            .collect();
         let st: Vec<f64> = idx.iter().map(|&i| tw[i]).collect();
         let sv: Vec<f64> = idx.iter().map(|&i| s[i]).collect();
         let t_mid = (st[0] + st[st.len() - 1]) / 2.0;
-        let full = LagModelCost { shift_t: &st, shift_pm: &sv, force_t: &fu, force_n: &force.force_n, fixed_offset_s: Some(0.0), t_mid };
-        let lm: LagModelFit = full.evaluate(0.0, lm0.tau_s, lm0.instant_fraction).unwrap_or(lm0);
-        let d: Vec<f64> = (0..tw.len()).map(|i| s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)).collect();
+        let full = LagModelCost {
+            shift_t: &st,
+            shift_pm: &sv,
+            force_t: &fu,
+            force_n: &force.force_n,
+            fixed_offset_s: Some(0.0),
+            t_mid,
+        };
+        let lm: LagModelFit = full
+            .evaluate(0.0, lm0.tau_s, lm0.instant_fraction)
+            .unwrap_or(lm0);
+        let d: Vec<f64> = (0..tw.len())
+            .map(|i| s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid))
+            .collect();
         let dv: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
         let fv: Vec<f64> = idx.iter().map(|&i| fc[i]).collect();
-        let line = fit::fit_line(&fv, &dv).ok_or_else(|| anyhow::anyhow!("grating `{}`: the force does not vary; no line can be fitted", g.name))?;
+        let line = fit::fit_line(&fv, &dv).ok_or_else(|| {
+            anyhow::anyhow!(
+                "grating `{}`: the force does not vary; no line can be fitted",
+                g.name
+            )
+        })?;
         let (hyst, nonlin) = hysteresis_and_linearity(&fv, &dv, &line);
         // Pulses.
         let sign = if lm.k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
@@ -508,8 +682,9 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         for (pi, p) in pulses.iter().enumerate() {
             let seg_t = &fu[p.start..=p.end];
             let seg_f = &force.force_n[p.start..=p.end];
-            let im = (0..seg_f.len()).max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y])).unwrap_or(0);
-            let fbase = percentile(&force.force_n, 0.1);
+            let im = (0..seg_f.len())
+                .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
+                .unwrap_or(0);
             let (tf, pf) = fit::peak_vertex(seg_t, seg_f, im, fbase + 0.95 * (seg_f[im] - fbase));
             let t_start = fu[p.start];
             let t_end = fu[p.end];
@@ -522,7 +697,10 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             }
             let seg_tw = &tw[i0..i1];
             let seg_d: Vec<f64> = d[i0..i1].iter().map(|v| sign * v).collect();
-            let Some(jm) = (0..seg_d.len()).filter(|&j| seg_d[j].is_finite()).max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y])) else {
+            let Some(jm) = (0..seg_d.len())
+                .filter(|&j| seg_d[j].is_finite())
+                .max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y]))
+            else {
                 continue;
             };
             let (ts, ps) = fit::peak_vertex(seg_tw, &seg_d, jm, 0.95 * seg_d[jm]);
@@ -538,15 +716,18 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             });
         }
         let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
-        let mean_lag = if pres.is_empty() { f64::NAN } else { pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64 };
+        let mean_lag = if pres.is_empty() {
+            f64::NAN
+        } else {
+            pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64
+        };
         let k = lm.k_pm_per_n;
-        let q = if max_lag > 0.0 { Some(k.abs() * line.r_squared / max_lag) } else { None };
-        if q.is_none() {
-            warnings.add("q_undefined", || format!("grating `{}`: the largest lag is not positive ({max_lag:.4} s): Q is undefined", g.name));
-        }
-        series.shift_pm.push((g.name.clone(), d.clone()));
-        series.fit.push((g.name.clone(), line.slope, line.intercept));
-        results.push(GratingResult {
+        let q = if max_lag > 0.0 {
+            Some(k.abs() * line.r_squared / max_lag)
+        } else {
+            None
+        };
+        let result = GratingResult {
             grating: g.name.clone(),
             core: g.core.clone(),
             nominal_nm: g.bragg_wavelength_nm,
@@ -570,12 +751,45 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
             drift_pm_per_s: lm.drift_pm_per_s,
             residual_rms_pm: lm.rms_pm,
             pulses: pres,
-        });
+        };
+        Ok((result, d, line.slope, line.intercept))
+    };
+    let first = measure(primary, None)?;
+    let seed = Some((first.0.sls_time_constant_s, first.0.sls_instant_fraction));
+    let rest: Vec<Measured> = (0..used.len())
+        .filter(|&k| k != primary)
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|&k| measure(k, seed))
+        .collect();
+    let mut series = Series {
+        time_s: tw.clone(),
+        force_n: fc.clone(),
+        ..Default::default()
+    };
+    let mut results = Vec::new();
+    for r in std::iter::once(Ok(first)).chain(rest) {
+        let (res, d, slope, intercept) = r?;
+        if res.quality_q_pm_per_n_s.is_none() {
+            warnings.add("q_undefined", || {
+                format!(
+                    "grating `{}`: the largest lag is not positive ({:.4} s): Q is undefined",
+                    res.grating, res.max_lag_s
+                )
+            });
+        }
+        series.shift_pm.push((res.grating.clone(), d));
+        series.fit.push((res.grating.clone(), slope, intercept));
+        results.push(res);
     }
     // Report gratings in spec order.
     results.sort_by_key(|r| strain.iter().position(|g| g.name == r.grating));
-    series.shift_pm.sort_by_key(|(n, _)| strain.iter().position(|g| &g.name == n));
-    series.fit.sort_by_key(|(n, _, _)| strain.iter().position(|g| &g.name == n));
+    series
+        .shift_pm
+        .sort_by_key(|(n, _)| strain.iter().position(|g| &g.name == n));
+    series
+        .fit
+        .sort_by_key(|(n, _, _)| strain.iter().position(|g| &g.name == n));
     for r in &results {
         if r.rows_ambiguous > 0 {
             warnings.add_n("ambiguous_peaks", r.rows_ambiguous, || format!("grating `{}`: rows with more than one peak in its window (the nearest to the previous value was taken)", r.grating));
@@ -591,6 +805,7 @@ pub fn analyse(design: &Design, log: &PeakLog, force: &ForceLog, opts: &Analysis
         force_rate_hz: 1.0 / median_period(&force.time_s),
         clock_offset_s: offset,
         clock_offset_source: source.into(),
+        force_log_start_s: fa,
         overlap_s: overlap,
         reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
         interrogator_resolution_pm: resolution_pm,
@@ -614,13 +829,15 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
     let fmin = percentile(force, 0.0);
     let fmax = percentile(force, 1.0);
     let span = line.slope.abs() * (fmax - fmin);
-    if !(span > 0.0) {
+    if span.is_nan() || span <= 0.0 {
         return (f64::NAN, f64::NAN);
     }
     const BINS: usize = 20;
     let mut acc = [[0.0f64; 6]; BINS]; // sum_load, n_load, sum_unload, n_unload, sum_all, n_all
     for i in 1..n - 1 {
-        let b = (((force[i] - fmin) / (fmax - fmin)) * BINS as f64).floor().clamp(0.0, (BINS - 1) as f64) as usize;
+        let b = (((force[i] - fmin) / (fmax - fmin)) * BINS as f64)
+            .floor()
+            .clamp(0.0, (BINS - 1) as f64) as usize;
         // Residuals from the line, so that samples spread across a bin compare fairly.
         let res = shift[i] - (line.intercept + line.slope * force[i]);
         let df = force[i + 1] - force[i - 1];
@@ -656,7 +873,11 @@ mod tests {
         for (k, amp) in [5.0, 50.0, 20.0].iter().enumerate() {
             for i in 0..200 {
                 let x = i as f64 / 100.0;
-                let v = if x < 1.0 { amp * (1.0 - (std::f64::consts::TAU * x).cos()) / 2.0 } else { 0.0 };
+                let v = if x < 1.0 {
+                    amp * (1.0 - (std::f64::consts::TAU * x).cos()) / 2.0
+                } else {
+                    0.0
+                };
                 let noise = 0.02 * (((i * 7919 + k * 104729) % 101) as f64 / 50.0 - 1.0);
                 f.push(v + noise);
             }
@@ -670,13 +891,17 @@ mod tests {
 
     #[test]
     fn a_straight_reversible_response_has_no_hysteresis() {
-        let f: Vec<f64> = (0..400).map(|i| 10.0 * (1.0 - (i as f64 * 0.05).cos())).collect();
+        let f: Vec<f64> = (0..400)
+            .map(|i| 10.0 * (1.0 - (i as f64 * 0.05).cos()))
+            .collect();
         let s: Vec<f64> = f.iter().map(|x| 3.0 * x).collect();
         let line = fit::fit_line(&f, &s).unwrap();
         let (h, l) = hysteresis_and_linearity(&f, &s, &line);
         assert!(h < 1e-9 && l < 1e-9, "{h} {l}");
         // A response that lags shows up as hysteresis.
-        let s2: Vec<f64> = (0..400).map(|i| 30.0 * (1.0 - (i as f64 * 0.05 - 0.3).cos())).collect();
+        let s2: Vec<f64> = (0..400)
+            .map(|i| 30.0 * (1.0 - (i as f64 * 0.05 - 0.3).cos()))
+            .collect();
         let line2 = fit::fit_line(&f, &s2).unwrap();
         assert!(hysteresis_and_linearity(&f, &s2, &line2).0 > 5.0);
     }

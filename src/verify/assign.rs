@@ -28,7 +28,10 @@ pub struct GratingWindow {
 pub fn default_half_width_nm(nominals: &[f64]) -> f64 {
     let mut v = nominals.to_vec();
     v.sort_by(|a, b| a.total_cmp(b));
-    let min_gap = v.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
+    let min_gap = v
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
     (min_gap / 2.0).min(MAX_DEFAULT_HALF_WIDTH_NM)
 }
 
@@ -50,7 +53,12 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
     let n = log.rows();
     let mut tracks: Vec<GratingTrack> = windows
         .iter()
-        .map(|w| GratingTrack { window: w.clone(), wavelength_nm: vec![f64::NAN; n], rows_present: 0, rows_ambiguous: 0 })
+        .map(|w| GratingTrack {
+            window: w.clone(),
+            wavelength_nm: vec![f64::NAN; n],
+            rows_present: 0,
+            rows_ambiguous: 0,
+        })
         .collect();
     let mut last: Vec<f64> = windows.iter().map(|w| w.nominal_nm).collect();
     let mut hits: Vec<u32> = vec![0; windows.len()];
@@ -109,7 +117,12 @@ pub fn fill_gaps(t: &[f64], v: &[f64]) -> Vec<f64> {
 
 /// Median of the finite values among the first `n` finite ones.
 pub fn early_median(v: &[f64], n: usize) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).take(n).collect();
+    let mut s: Vec<f64> = v
+        .iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .take(n)
+        .collect();
     if s.is_empty() {
         return f64::NAN;
     }
@@ -121,10 +134,17 @@ pub fn early_median(v: &[f64], n: usize) -> f64 {
 /// reference grating's shift removed (scaled by λ_sensor / λ_reference as in
 /// [`crate::grating::compensate_temperature_pm`]). Without a reference the raw shift
 /// is returned. NaN stays NaN.
-pub fn compensated_shift_pm(sensor: &GratingTrack, reference: Option<(&GratingTrack, &[f64])>) -> Vec<f64> {
+pub fn compensated_shift_pm(
+    sensor: &GratingTrack,
+    reference: Option<(&GratingTrack, &[f64])>,
+) -> Vec<f64> {
     let base = early_median(&sensor.wavelength_nm, 50);
     match reference {
-        None => sensor.wavelength_nm.iter().map(|&l| (l - base) * 1e3).collect(),
+        None => sensor
+            .wavelength_nm
+            .iter()
+            .map(|&l| (l - base) * 1e3)
+            .collect(),
         Some((r, filled)) => {
             let rbase = early_median(filled, 50);
             sensor
@@ -175,11 +195,18 @@ mod tests {
     fn windows_assign_peaks_and_keep_gaps() {
         let w = default_half_width_nm(&[1530.0, 1536.0, 1560.0]);
         assert_eq!(w, 2.5);
-        assert_eq!(default_half_width_nm(&[1520.807, 1523.550]), (1523.550 - 1520.807) / 2.0);
+        assert_eq!(
+            default_half_width_nm(&[1520.807, 1523.550]),
+            (1523.550 - 1520.807) / 2.0
+        );
         let win: Vec<GratingWindow> = [1530.0, 1536.0]
             .iter()
             .enumerate()
-            .map(|(i, &l)| GratingWindow { name: format!("g{i}"), nominal_nm: l, half_width_nm: w })
+            .map(|(i, &l)| GratingWindow {
+                name: format!("g{i}"),
+                nominal_nm: l,
+                half_width_nm: w,
+            })
             .collect();
         let log = log_of(&[&[1530.1, 1536.2], &[1536.3], &[1529.9, 1530.6, 1545.0]]);
         let t = assign(&log, &win);
@@ -198,11 +225,19 @@ mod tests {
         let n = 200;
         let t: Vec<f64> = (0..n).map(|i| i as f64).collect();
         let strain = |i: usize| if i > 100 { 50e-6 } else { 0.0 };
-        let s: Vec<f64> = (0..n).map(|i| ls + fo.shift_pm(ls, strain(i), 0.05 * i as f64) * 1e-3).collect();
-        let mut r: Vec<f64> = (0..n).map(|i| lr + fo.shift_pm(lr, 0.0, 0.05 * i as f64) * 1e-3).collect();
+        let s: Vec<f64> = (0..n)
+            .map(|i| ls + fo.shift_pm(ls, strain(i), 0.05 * i as f64) * 1e-3)
+            .collect();
+        let mut r: Vec<f64> = (0..n)
+            .map(|i| lr + fo.shift_pm(lr, 0.0, 0.05 * i as f64) * 1e-3)
+            .collect();
         r[150] = f64::NAN; // a dropped reference peak is bridged
         let mk = |name: &str, l0: f64, v: Vec<f64>| GratingTrack {
-            window: GratingWindow { name: name.into(), nominal_nm: l0, half_width_nm: 2.5 },
+            window: GratingWindow {
+                name: name.into(),
+                nominal_nm: l0,
+                half_width_nm: 2.5,
+            },
             rows_present: n,
             rows_ambiguous: 0,
             wavelength_nm: v,

@@ -46,7 +46,10 @@ pub struct NormalEq {
 impl NormalEq {
     /// For `k` regressors (1 to 3).
     pub fn new(k: usize) -> Self {
-        NormalEq { k, ..Default::default() }
+        NormalEq {
+            k,
+            ..Default::default()
+        }
     }
 
     /// Add one observation.
@@ -75,8 +78,16 @@ impl NormalEq {
         // SSR = yᵀy − βᵀXᵀy (exact for the least-squares β).
         let fit: f64 = (0..k).map(|i| coef[i] * self.xty[i]).sum();
         let ssr = (self.yty - fit).max(0.0);
-        let xtx_inv = (0..k).flat_map(|i| (0..k).map(move |j| (i, j))).map(|(i, j)| inv[i * 3 + j]).collect();
-        Some(Ols { coef, ssr, xtx_inv, n: self.n })
+        let xtx_inv = (0..k)
+            .flat_map(|i| (0..k).map(move |j| (i, j)))
+            .map(|(i, j)| inv[i * 3 + j])
+            .collect();
+        Some(Ols {
+            coef,
+            ssr,
+            xtx_inv,
+            n: self.n,
+        })
     }
 }
 
@@ -89,7 +100,10 @@ fn invert(a: &[[f64; 3]; 3], k: usize) -> Option<[f64; 9]> {
         }
         m[i][3 + i] = 1.0;
     }
-    let scale = (0..k).map(|i| a[i][i].abs()).fold(0.0, f64::max).max(1e-300);
+    let scale = (0..k)
+        .map(|i| a[i][i].abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
     for c in 0..k {
         let p = (c..k).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))?;
         if m[p][c].abs() <= 1e-13 * scale {
@@ -97,14 +111,15 @@ fn invert(a: &[[f64; 3]; 3], k: usize) -> Option<[f64; 9]> {
         }
         m.swap(c, p);
         let d = m[c][c];
-        for j in 0..6 {
-            m[c][j] /= d;
+        for v in m[c].iter_mut() {
+            *v /= d;
         }
         for r in 0..k {
             if r != c {
                 let f = m[r][c];
-                for j in 0..6 {
-                    m[r][j] -= f * m[c][j];
+                let pivot = m[c];
+                for (v, p) in m[r].iter_mut().zip(pivot) {
+                    *v -= f * p;
                 }
             }
         }
@@ -159,7 +174,13 @@ pub fn fit_line(x: &[f64], y: &[f64]) -> Option<LineFit> {
 
 /// Response y of the lag model to a force sampled at (t, F), linear between samples,
 /// starting at equilibrium with the first sample. Exact for piecewise-linear force.
-pub fn sls_response(t: &[f64], force: &[f64], tau_s: f64, instant_fraction: f64, out: &mut Vec<f64>) {
+pub fn sls_response(
+    t: &[f64],
+    force: &[f64],
+    tau_s: f64,
+    instant_fraction: f64,
+    out: &mut Vec<f64>,
+) {
     out.clear();
     out.reserve(t.len());
     if t.is_empty() {
@@ -333,14 +354,21 @@ where
         v[i] += step[i];
         simplex.push(v);
     }
-    let solver = match NelderMead::new(simplex).with_sd_tolerance(1e-10) {
+    // The cost is an RMS in pm: a spread below 1e-7 pm across the simplex is converged.
+    let solver = match NelderMead::new(simplex).with_sd_tolerance(1e-7) {
         Ok(s) => s,
         Err(_) => return (start.to_vec(), f64::MAX),
     };
-    match Executor::new(cost, solver).configure(|s| s.max_iters(max_iters)).run() {
+    match Executor::new(cost, solver)
+        .configure(|s| s.max_iters(max_iters))
+        .run()
+    {
         Ok(res) => {
             let st = res.state();
-            let best = st.get_best_param().cloned().unwrap_or_else(|| start.to_vec());
+            let best = st
+                .get_best_param()
+                .cloned()
+                .unwrap_or_else(|| start.to_vec());
             (best, st.get_best_cost())
         }
         Err(_) => (start.to_vec(), f64::MAX),
@@ -396,13 +424,21 @@ mod tests {
         // A fast ramp to 1 N, then hold: y(t) = 1 − (1 − r) e^{−t/τ} after the ramp.
         let (tau, r) = (0.5, 0.3);
         let t: Vec<f64> = (0..=4000).map(|i| i as f64 * 1e-3).collect();
-        let f: Vec<f64> = t.iter().map(|&x| if x < 1e-3 { x / 1e-3 } else { 1.0 }).collect();
+        let f: Vec<f64> = t
+            .iter()
+            .map(|&x| if x < 1e-3 { x / 1e-3 } else { 1.0 })
+            .collect();
         let mut y = Vec::new();
         sls_response(&t, &f, tau, r, &mut y);
         for &i in &[100usize, 500, 2000, 4000] {
             let x = t[i] - 1e-3;
             let exact = 1.0 - (1.0 - r) * (-x / tau).exp();
-            assert!((y[i] - exact).abs() < 2e-3, "t={} y={} exact={exact}", t[i], y[i]);
+            assert!(
+                (y[i] - exact).abs() < 2e-3,
+                "t={} y={} exact={exact}",
+                t[i],
+                y[i]
+            );
         }
     }
 
@@ -432,17 +468,38 @@ mod tests {
             .iter()
             .map(|&t| {
                 let ph = (t % 6.0) / 3.0;
-                if ph < 1.0 { 20.0 * (1.0 - (std::f64::consts::TAU * ph).cos()) / 2.0 } else { 0.0 }
+                if ph < 1.0 {
+                    20.0 * (1.0 - (std::f64::consts::TAU * ph).cos()) / 2.0
+                } else {
+                    0.0
+                }
             })
             .collect();
         let mut y = Vec::new();
         sls_response(&ft, &ff, tau, r, &mut y);
         let st: Vec<f64> = (0..560).map(|i| 0.5 + i as f64 * 0.05).collect();
         let mut h = 0;
-        let sp: Vec<f64> = st.iter().map(|&t| k * interp(&ft, &y, t + off, &mut h) + 3.0).collect();
-        let cost = LagModelCost { shift_t: &st, shift_pm: &sp, force_t: &ft, force_n: &ff, fixed_offset_s: None, t_mid: 14.0 };
+        let sp: Vec<f64> = st
+            .iter()
+            .map(|&t| k * interp(&ft, &y, t + off, &mut h) + 3.0)
+            .collect();
+        let cost = LagModelCost {
+            shift_t: &st,
+            shift_pm: &sp,
+            force_t: &ft,
+            force_n: &ff,
+            fixed_offset_s: None,
+            t_mid: 14.0,
+        };
         let (p, _) = nelder_mead(cost, &[1.1, (0.2f64).ln(), 0.0], &[0.1, 0.5, 1.0], 600);
-        let cost = LagModelCost { shift_t: &st, shift_pm: &sp, force_t: &ft, force_n: &ff, fixed_offset_s: None, t_mid: 14.0 };
+        let cost = LagModelCost {
+            shift_t: &st,
+            shift_pm: &sp,
+            force_t: &ft,
+            force_n: &ff,
+            fixed_offset_s: None,
+            t_mid: 14.0,
+        };
         let fit = cost.fit_at(&p).unwrap();
         assert!((fit.offset_s - off).abs() < 0.01, "{fit:?}");
         assert!((fit.tau_s - tau).abs() < 0.01, "{fit:?}");

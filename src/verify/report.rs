@@ -1,0 +1,318 @@
+//! Reports of a verification: a short text summary for the terminal, JSON for
+//! scripts (and for the optimiser, which reads the lag-model fields), and a Markdown
+//! report with SVG plots and the CSV files behind them.
+
+use crate::output::{write_atomic, write_csv, write_json};
+use crate::plot::{Chart, Mark, Series as PlotSeries};
+use crate::verify::analysis::{Measurement, Series};
+use crate::verify::verdict::{Status, Verdict};
+use anyhow::Result;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// What `verify --json` prints and `report.json` holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct VerifyReport {
+    /// Design name.
+    pub design: String,
+    /// Measurements.
+    pub measurement: Measurement,
+    /// Verdict against the model.
+    pub verdict: Verdict,
+}
+
+fn status_word(s: Status) -> &'static str {
+    match s {
+        Status::Pass => "PASS",
+        Status::Fail => "FAIL",
+        Status::NotJudged => "NOT JUDGED",
+    }
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or("—".into(), |x| format!("{x:.digits$}"))
+}
+
+/// The short printed report.
+pub fn summary(r: &VerifyReport) -> String {
+    let m = &r.measurement;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "design {}: {} ({} rows at {:.1} Hz) against {} ({} samples at {:.1} Hz)",
+        r.design,
+        m.wavelength_log,
+        m.wavelength_rows,
+        m.wavelength_rate_hz,
+        m.force_log,
+        m.force_samples,
+        m.force_rate_hz
+    );
+    let _ = writeln!(
+        s,
+        "clock offset {:.4} s ({}; force log starts at {:.4} s), overlap {:.1} s, {} pulses, temperature reference: {}",
+        m.clock_offset_s,
+        m.clock_offset_source,
+        m.force_log_start_s,
+        m.overlap_s,
+        m.pulse_count,
+        m.reference_grating.as_deref().unwrap_or("none")
+    );
+    let _ = writeln!(
+        s,
+        "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>9} {:>11} {:>8} {:>11}",
+        "grating",
+        "K pm/N",
+        "±se",
+        "R²",
+        "hyst %",
+        "lin %",
+        "Δt_max s",
+        "Q pm/(N·s)",
+        "τ s",
+        "model pm/N"
+    );
+    for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
+        let _ = writeln!(
+            s,
+            "{:<12} {:>14.4} {:>10.4} {:>8.4} {:>9.2} {:>9.2} {:>9.3} {:>11} {:>8.3} {:>11}  {}{}",
+            g.grating,
+            g.sensitivity_pm_per_n,
+            g.sensitivity_std_error_pm_per_n,
+            g.r_squared,
+            g.hysteresis_percent_span,
+            g.nonlinearity_percent_span,
+            g.max_lag_s,
+            opt(g.quality_q_pm_per_n_s, 3),
+            g.sls_time_constant_s,
+            opt(v.predicted_sensitivity_pm_per_n, 3),
+            status_word(v.status),
+            v.relative_error
+                .map(|e| format!(
+                    " ({:.2} % error, tolerance {:.1} %)",
+                    100.0 * e,
+                    100.0 * v.tolerance
+                ))
+                .unwrap_or_default()
+        );
+        if let Some(reason) = &v.reason {
+            let _ = writeln!(s, "{:<12} {reason}", "");
+        }
+    }
+    if m.warnings.total() > 0 {
+        let _ = writeln!(s, "warnings ({}):", m.warnings.total());
+        for (k, w) in &m.warnings.counts {
+            let _ = writeln!(s, "  {k} ×{}: {}", w.count, w.first);
+        }
+    }
+    let _ = writeln!(s, "verdict: {}", status_word(r.verdict.overall));
+    s
+}
+
+fn decimate(n: usize, max: usize) -> usize {
+    n.div_ceil(max.max(1)).max(1)
+}
+
+/// Write `report.json`, `report.md`, the SVG plots and their CSVs into `dir`.
+pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()> {
+    crate::output::ensure_dir(dir)?;
+    write_json(&dir.join("report.json"), r)?;
+    let m = &r.measurement;
+    let step = decimate(series.time_s.len(), 20_000);
+    let idx: Vec<usize> = (0..series.time_s.len()).step_by(step).collect();
+
+    // Time series CSV.
+    let mut header: Vec<String> = vec!["time_s".into(), "force_n".into()];
+    header.extend(series.shift_pm.iter().map(|(n, _)| format!("{n}_shift_pm")));
+    let rows: Vec<Vec<String>> = idx
+        .iter()
+        .map(|&i| {
+            let mut row = vec![
+                format!("{:.6}", series.time_s[i]),
+                format!("{:.5}", series.force_n[i]),
+            ];
+            row.extend(series.shift_pm.iter().map(|(_, v)| format!("{:.4}", v[i])));
+            row
+        })
+        .collect();
+    let h: Vec<&str> = header.iter().map(|s| s.as_str()).collect();
+    write_csv(&dir.join("timeseries.csv"), &h, &rows)?;
+    let prow: Vec<Vec<String>> = m
+        .gratings
+        .iter()
+        .flat_map(|g| {
+            g.pulses.iter().map(move |p| {
+                vec![
+                    g.grating.clone(),
+                    p.index.to_string(),
+                    format!("{:.6}", p.start_s),
+                    format!("{:.5}", p.peak_force_n),
+                    format!("{:.6}", p.peak_force_time_s),
+                    format!("{:.4}", p.peak_shift_pm),
+                    format!("{:.6}", p.peak_shift_time_s),
+                    format!("{:.6}", p.lag_s),
+                ]
+            })
+        })
+        .collect();
+    write_csv(
+        &dir.join("pulses.csv"),
+        &[
+            "grating",
+            "pulse",
+            "start_s",
+            "peak_force_n",
+            "peak_force_time_s",
+            "peak_shift_pm",
+            "peak_shift_time_s",
+            "lag_s",
+        ],
+        &prow,
+    )?;
+
+    // Plots.
+    let mut c = Chart::new("Shift against force", "force F (N)", "shift Δλ (pm)");
+    for ((name, v), (_, slope, intercept)) in series.shift_pm.iter().zip(&series.fit) {
+        let pts: Vec<(f64, f64)> = idx
+            .iter()
+            .map(|&i| (series.force_n[i], v[i]))
+            .filter(|(a, b)| a.is_finite() && b.is_finite())
+            .collect();
+        let (lo, hi) = pts
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        c = c.with(PlotSeries::new(name.clone(), pts, Mark::Points));
+        if lo < hi {
+            c = c.with(PlotSeries::new(
+                format!("{name} fit {slope:.3} pm/N"),
+                vec![(lo, intercept + slope * lo), (hi, intercept + slope * hi)],
+                Mark::Line,
+            ));
+        }
+    }
+    c.write_svg(&dir.join("shift_vs_force.svg"))?;
+    let fpts: Vec<(f64, f64)> = idx
+        .iter()
+        .map(|&i| (series.time_s[i], series.force_n[i]))
+        .collect();
+    Chart::new(
+        "Force against time (wavelength clock)",
+        "time (s)",
+        "force F (N)",
+    )
+    .with(PlotSeries::new("force", fpts, Mark::Line))
+    .write_svg(&dir.join("force_vs_time.svg"))?;
+    let mut c = Chart::new(
+        "Shift against time (temperature and drift removed)",
+        "time (s)",
+        "shift Δλ (pm)",
+    );
+    for (name, v) in &series.shift_pm {
+        c = c.with(PlotSeries::new(
+            name.clone(),
+            idx.iter().map(|&i| (series.time_s[i], v[i])).collect(),
+            Mark::Line,
+        ));
+    }
+    c.write_svg(&dir.join("shift_vs_time.svg"))?;
+    let mut c = Chart::new(
+        "Lag of the shift peak behind the force peak",
+        "pulse",
+        "lag (s)",
+    );
+    let mut any = false;
+    for g in &m.gratings {
+        let pts: Vec<(f64, f64)> = g.pulses.iter().map(|p| (p.index as f64, p.lag_s)).collect();
+        any |= !pts.is_empty();
+        c = c.with(PlotSeries::new(g.grating.clone(), pts, Mark::LinePoints));
+    }
+    if any {
+        c.write_svg(&dir.join("lag_per_pulse.svg"))?;
+    }
+
+    // Markdown.
+    let mut md = String::new();
+    let _ = writeln!(md, "# Verification of `{}`\n", r.design);
+    let _ = writeln!(
+        md,
+        "**Verdict: {}** (Case {}{}, tolerance on K {:.1} %)\n",
+        status_word(r.verdict.overall),
+        if r.verdict.case == crate::model::LoadCase::I {
+            "I"
+        } else {
+            "II"
+        },
+        r.verdict
+            .insert
+            .as_deref()
+            .map(|i| format!(", insert `{i}`"))
+            .unwrap_or_default(),
+        100.0 * r.verdict.gratings.first().map_or(0.08, |g| g.tolerance)
+    );
+    let _ = writeln!(
+        md,
+        "- wavelength log: `{}` ({}, {} rows, {:.2} Hz)",
+        m.wavelength_log, m.wavelength_format, m.wavelength_rows, m.wavelength_rate_hz
+    );
+    let _ = writeln!(
+        md,
+        "- force log: `{}` ({} samples, {:.2} Hz)",
+        m.force_log, m.force_samples, m.force_rate_hz
+    );
+    let _ = writeln!(md, "- clock offset (force − wavelength clock): {:.4} s ({}); the force log starts at {:.4} s on the wavelength log's time axis; overlap {:.1} s; {} pulses", m.clock_offset_s, m.clock_offset_source, m.force_log_start_s, m.overlap_s, m.pulse_count);
+    let _ = writeln!(
+        md,
+        "- temperature reference: {}; interrogator resolution {} pm\n",
+        m.reference_grating
+            .as_deref()
+            .unwrap_or("none (not compensated)"),
+        m.interrogator_resolution_pm
+    );
+    let _ = writeln!(md, "| grating | K pm/N | ± se | model pm/N | error % | status | R² | hysteresis % | non-linearity % | resolution N | Δt_max s | Q pm/(N·s) | τ s | r |");
+    let _ = writeln!(
+        md,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
+        let _ = writeln!(
+            md,
+            "| {} | {:.4} | {:.4} | {} | {} | {} | {:.4} | {:.2} | {:.2} | {:.4} | {:.3} | {} | {:.3} | {:.3} |",
+            g.grating,
+            g.sensitivity_pm_per_n,
+            g.sensitivity_std_error_pm_per_n,
+            opt(v.predicted_sensitivity_pm_per_n, 4),
+            opt(v.relative_error.map(|e| 100.0 * e), 2),
+            status_word(v.status),
+            g.r_squared,
+            g.hysteresis_percent_span,
+            g.nonlinearity_percent_span,
+            g.resolution_n,
+            g.max_lag_s,
+            opt(g.quality_q_pm_per_n_s, 3),
+            g.sls_time_constant_s,
+            g.sls_instant_fraction
+        );
+    }
+    for v in &r.verdict.gratings {
+        if let Some(reason) = &v.reason {
+            let _ = writeln!(md, "\n`{}` not judged: {reason}", v.grating);
+        }
+    }
+    if m.warnings.total() > 0 {
+        let _ = writeln!(md, "\n## Warnings\n");
+        for (k, w) in &m.warnings.counts {
+            let _ = writeln!(md, "- `{k}` × {}: {}", w.count, w.first);
+        }
+    }
+    let _ = writeln!(md, "\n## Plots\n\n![shift against force](shift_vs_force.svg)\n\n![force against time](force_vs_time.svg)\n\n![shift against time](shift_vs_time.svg)\n");
+    if any {
+        let _ = writeln!(md, "![lag per pulse](lag_per_pulse.svg)\n");
+    }
+    let _ = writeln!(
+        md,
+        "Numbers behind the plots: `timeseries.csv`, `pulses.csv`, `report.json`."
+    );
+    write_atomic(&dir.join("report.md"), md.as_bytes())
+}

@@ -1,0 +1,625 @@
+//! Synthetic logs with known answers: a force profile of haversine pulses, a known
+//! static sensitivity K, the standard-linear-solid lag (τ, r), a clock offset between
+//! the two recordings, noise, drift, dropped peaks and a temperature ramp, written in
+//! any supported format together with the matching force CSV and a `truth.json` that
+//! holds the values the verifier should recover.
+//!
+//! The truth is computed from the noise-free model on a fine time grid: the lag of each
+//! pulse is the time from the force peak (the middle of the haversine) to the peak of
+//! the model response, and the expected R² adds the white noise of the sensor and
+//! reference gratings to the noise-free scatter.
+
+use crate::logs::num::{civil_from_days, split_epoch};
+use crate::logs::LogFormat;
+use crate::output::write_atomic_with;
+use crate::spec::{Design, GratingRole};
+use crate::verify::fit;
+use anyhow::{bail, Result};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+
+/// One haversine loading pulse: F = peak·(1 − cos 2π(t − start)/duration)/2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Pulse {
+    /// Start, s from the wavelength log's first row.
+    pub start_s: f64,
+    /// Duration, s.
+    pub duration_s: f64,
+    /// Peak force, N.
+    pub peak_n: f64,
+}
+
+/// Pulses of the given peaks, each `duration_s` long, separated by `rest_s`, the first
+/// starting at `lead_s`.
+pub fn pulse_train(peaks_n: &[f64], duration_s: f64, rest_s: f64, lead_s: f64) -> Vec<Pulse> {
+    peaks_n
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| Pulse {
+            start_s: lead_s + i as f64 * (duration_s + rest_s),
+            duration_s,
+            peak_n: p,
+        })
+        .collect()
+}
+
+/// Force of a pulse train at time t, N.
+pub fn force_at(pulses: &[Pulse], t: f64) -> f64 {
+    pulses
+        .iter()
+        .filter(|p| t >= p.start_s && t <= p.start_s + p.duration_s)
+        .map(|p| {
+            p.peak_n * (1.0 - (std::f64::consts::TAU * (t - p.start_s) / p.duration_s).cos()) / 2.0
+        })
+        .sum()
+}
+
+/// How the log text looks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogStyle {
+    /// Decimal commas (ENLIGHT: in every number; CSV: with `;` as the delimiter).
+    pub decimal_comma: bool,
+    /// Lead the file with a UTF-8 BOM.
+    pub bom: bool,
+    /// Lines of ENLIGHT metadata before the table header.
+    pub metadata_lines: usize,
+    /// ENLIGHT timestamps on a 12-hour clock (`3:44:56.500000 pm`).
+    pub twelve_hour: bool,
+}
+
+impl Default for LogStyle {
+    fn default() -> Self {
+        LogStyle {
+            decimal_comma: false,
+            bom: false,
+            metadata_lines: 45,
+            twelve_hour: false,
+        }
+    }
+}
+
+/// Everything a synthetic run is made of.
+#[derive(Debug, Clone)]
+pub struct SynthConfig {
+    /// Core whose gratings respond (default: the first core).
+    pub core: Option<String>,
+    /// K of the core's first strain grating, pm/N; the k-th grating gets K·(1 − 0.15 k).
+    pub sensitivity_pm_per_n: f64,
+    /// Wavelength sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Force sample rate, Hz.
+    pub force_rate_hz: f64,
+    /// Loading pulses.
+    pub pulses: Vec<Pulse>,
+    /// Length of the wavelength log, s.
+    pub duration_s: f64,
+    /// SLS time constant τ, s.
+    pub tau_s: f64,
+    /// Fraction r of the response without lag.
+    pub instant_fraction: f64,
+    /// Wavelength-log time at which the force recording starts (its time zero), s.
+    pub force_start_s: f64,
+    /// White noise on every peak, pm (standard deviation).
+    pub noise_pm: f64,
+    /// White noise on the force, N.
+    pub force_noise_n: f64,
+    /// Drift of the strain gratings (not seen by the reference), pm/s.
+    pub drift_pm_per_s: f64,
+    /// Temperature ramp seen by every grating, K/s: the temperature rises at this rate
+    /// for the first half of the run and falls back at it in the second half (a linear
+    /// drift term cannot absorb it; only the reference grating removes it).
+    pub temperature_ramp_k_per_s: f64,
+    /// Probability that a peak is missing from a row.
+    pub dropout_fraction: f64,
+    /// Wall-clock time of the first row (for formats with timestamps), s since 1970.
+    pub start_epoch_s: f64,
+    /// Random seed.
+    pub seed: u64,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        SynthConfig {
+            core: None,
+            sensitivity_pm_per_n: 12.0,
+            sample_rate_hz: 20.0,
+            force_rate_hz: 100.0,
+            pulses: pulse_train(&[10.0, 20.0, 30.0, 40.0, 50.0, 25.0], 4.0, 6.0, 5.0),
+            duration_s: 65.0,
+            tau_s: 0.4,
+            instant_fraction: 0.3,
+            force_start_s: -1.7,
+            noise_pm: 0.3,
+            force_noise_n: 0.01,
+            drift_pm_per_s: 0.05,
+            temperature_ramp_k_per_s: 0.0,
+            dropout_fraction: 0.0,
+            // 17/04/2025 15:44:56
+            start_epoch_s: crate::logs::num::days_from_civil(2025, 4, 17) as f64 * 86400.0
+                + 56696.0,
+            seed: 1,
+        }
+    }
+}
+
+/// A grating as written into the synthetic log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SynthGrating {
+    /// Name.
+    pub name: String,
+    /// Nominal wavelength, nm.
+    pub nominal_nm: f64,
+    /// True static K, pm/N (0 for the reference).
+    pub sensitivity_pm_per_n: f64,
+    /// True lag per pulse, s.
+    pub lags_s: Vec<f64>,
+    /// True Δt_max, s.
+    pub max_lag_s: f64,
+    /// Expected R² of Δλ against F.
+    pub r_squared_expected: f64,
+    /// Expected Q = |K|·R²/Δt_max, pm/(N·s).
+    pub quality_q_expected: f64,
+    /// Temperature reference?
+    pub reference: bool,
+}
+
+/// The known answers.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SynthTruth {
+    /// Force clock − wavelength clock, s.
+    pub clock_offset_s: f64,
+    /// τ, s.
+    pub sls_time_constant_s: f64,
+    /// r.
+    pub sls_instant_fraction: f64,
+    /// Wavelength sample period, s.
+    pub sample_period_s: f64,
+    /// Pulses.
+    pub pulses: Vec<Pulse>,
+    /// Gratings (strain then reference).
+    pub gratings: Vec<SynthGrating>,
+}
+
+/// A generated wavelength log before formatting.
+#[derive(Debug, Clone)]
+pub struct SynthLog {
+    /// Row times on the wavelength clock, s (absolute: `start_epoch_s` + t).
+    pub time_s: Vec<f64>,
+    /// Grating names in column order.
+    pub names: Vec<String>,
+    /// Wavelength per row and grating, nm; NaN = dropped.
+    pub wavelength_nm: Vec<Vec<f64>>,
+}
+
+/// A generated force log.
+#[derive(Debug, Clone)]
+pub struct SynthForce {
+    /// Time on the force clock (0 at its start), s.
+    pub time_s: Vec<f64>,
+    /// Force, N.
+    pub force_n: Vec<f64>,
+}
+
+/// Generate a run.
+pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthForce, SynthTruth)> {
+    let Some(m) = &design.module else {
+        bail!(
+            "design `{}` has no [module] to synthesise a log for",
+            design.name
+        )
+    };
+    let core = cfg
+        .core
+        .clone()
+        .or_else(|| m.cores.first().map(|c| c.name.clone()))
+        .unwrap_or_default();
+    if !m.cores.iter().any(|c| c.name == core) {
+        bail!("design `{}` has no core named `{core}`", design.name);
+    }
+    if !(cfg.sample_rate_hz > 0.0
+        && cfg.force_rate_hz > 0.0
+        && cfg.duration_s > 0.0
+        && cfg.tau_s > 0.0)
+    {
+        bail!("rates, duration and τ must be positive");
+    }
+    if cfg.pulses.iter().all(|p| p.peak_n == 0.0) {
+        bail!("the force profile needs at least one pulse with a non-zero peak");
+    }
+    if !(0.0..=1.0).contains(&cfg.instant_fraction) || !(0.0..1.0).contains(&cfg.dropout_fraction) {
+        bail!("the instant fraction must be in [0, 1] and the dropout fraction in [0, 1)");
+    }
+    let strain: Vec<_> = m
+        .gratings
+        .iter()
+        .filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(&core))
+        .collect();
+    let reference = m
+        .gratings
+        .iter()
+        .find(|g| g.role == GratingRole::TemperatureReference);
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    let normal = Normal::new(0.0, 1.0).expect("unit normal");
+
+    // Noise-free response on a fine grid.
+    // Fine enough for the lag truth, capped at 4 million steps for long runs.
+    let dt_sim = (1.0 / (10.0 * cfg.sample_rate_hz))
+        .min(cfg.tau_s / 20.0)
+        .min(1e-2)
+        .max(cfg.duration_s / 4e6);
+    let n_sim = (cfg.duration_s / dt_sim).ceil() as usize + 2;
+    let ts: Vec<f64> = (0..n_sim).map(|i| i as f64 * dt_sim).collect();
+    let fs: Vec<f64> = ts.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
+    let mut ys = Vec::new();
+    fit::sls_response(&ts, &fs, cfg.tau_s, cfg.instant_fraction, &mut ys);
+    // True lags.
+    let lags: Vec<f64> = cfg
+        .pulses
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.start_s + p.duration_s < cfg.duration_s)
+        .map(|(i, p)| {
+            let next = cfg.pulses.get(i + 1).map_or(f64::INFINITY, |q| q.start_s);
+            let a = (p.start_s / dt_sim) as usize;
+            let b = (((p.start_s + 2.0 * p.duration_s).min(next) / dt_sim) as usize).min(n_sim - 1);
+            let im = (a..=b)
+                .max_by(|&x, &y| ys[x].total_cmp(&ys[y]))
+                .unwrap_or(a);
+            // Refine by a parabola through the three samples around the maximum.
+            let (y0, y1, y2) = (ys[im - 1], ys[im], ys[(im + 1).min(n_sim - 1)]);
+            let den = y0 - 2.0 * y1 + y2;
+            let frac = if den < 0.0 {
+                0.5 * (y0 - y2) / den
+            } else {
+                0.0
+            };
+            (im as f64 + frac) * dt_sim - (p.start_s + p.duration_s / 2.0)
+        })
+        .collect();
+    let max_lag = lags.iter().copied().fold(f64::NAN, f64::max);
+
+    let n = (cfg.duration_s * cfg.sample_rate_hz).floor() as usize;
+    let t_rel: Vec<f64> = (0..n).map(|i| i as f64 / cfg.sample_rate_hz).collect();
+    let mut h = 0;
+    let y_rows: Vec<f64> = t_rel
+        .iter()
+        .map(|&t| fit::interp(&ts, &ys, t, &mut h))
+        .collect();
+    let f_rows: Vec<f64> = t_rel.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
+    let fo = design.fiber;
+    let half = cfg.duration_s / 2.0;
+    let tri = |t: f64| if t < half { t } else { 2.0 * half - t };
+
+    let mut names = Vec::new();
+    let mut columns = Vec::new();
+    let mut truth_gratings = Vec::new();
+    let ref_l = reference.map(|r| r.bragg_wavelength_nm);
+    for (k, g) in strain.iter().enumerate() {
+        let kg = cfg.sensitivity_pm_per_n * (1.0 - 0.15 * k as f64);
+        let l0 = g.bragg_wavelength_nm;
+        let ts_pm = fo.temperature_sensitivity_pm_per_k(l0);
+        let col: Vec<f64> = (0..n)
+            .map(|i| {
+                if rng.random::<f64>() < cfg.dropout_fraction {
+                    return f64::NAN;
+                }
+                let t = t_rel[i];
+                let pm = kg * y_rows[i]
+                    + cfg.drift_pm_per_s * t
+                    + ts_pm * cfg.temperature_ramp_k_per_s * tri(t)
+                    + cfg.noise_pm * normal.sample(&mut rng);
+                l0 + pm * 1e-3
+            })
+            .collect();
+        // Expected R²: noise-free scatter of K·y about the best line in F, plus noise.
+        let clean: Vec<f64> = y_rows.iter().map(|y| kg * y).collect();
+        let Some(line) = fit::fit_line(&f_rows, &clean) else {
+            bail!(
+                "no pulse falls inside the {} s log: the force does not vary",
+                cfg.duration_s
+            );
+        };
+        let mean = clean.iter().sum::<f64>() / n as f64;
+        let sst0: f64 = clean.iter().map(|v| (v - mean).powi(2)).sum();
+        let ssr0 = (1.0 - line.r_squared) * sst0;
+        let ratio = ref_l.map_or(0.0, |lr| l0 / lr);
+        let var = cfg.noise_pm.powi(2) * (1.0 + ratio * ratio) * n as f64;
+        let r2 = 1.0 - (ssr0 + var) / (sst0 + var);
+        names.push(g.name.clone());
+        columns.push(col);
+        truth_gratings.push(SynthGrating {
+            name: g.name.clone(),
+            nominal_nm: l0,
+            sensitivity_pm_per_n: kg,
+            lags_s: lags.clone(),
+            max_lag_s: max_lag,
+            r_squared_expected: r2,
+            quality_q_expected: kg.abs() * r2 / max_lag,
+            reference: false,
+        });
+    }
+    if let Some(r) = reference {
+        let l0 = r.bragg_wavelength_nm;
+        let ts_pm = fo.temperature_sensitivity_pm_per_k(l0);
+        let col: Vec<f64> = (0..n)
+            .map(|i| {
+                if rng.random::<f64>() < cfg.dropout_fraction {
+                    return f64::NAN;
+                }
+                l0 + (ts_pm * cfg.temperature_ramp_k_per_s * tri(t_rel[i])
+                    + cfg.noise_pm * normal.sample(&mut rng))
+                    * 1e-3
+            })
+            .collect();
+        names.push(r.name.clone());
+        columns.push(col);
+        truth_gratings.push(SynthGrating {
+            name: r.name.clone(),
+            nominal_nm: l0,
+            sensitivity_pm_per_n: 0.0,
+            lags_s: vec![],
+            max_lag_s: f64::NAN,
+            r_squared_expected: f64::NAN,
+            quality_q_expected: f64::NAN,
+            reference: true,
+        });
+    }
+    let wavelength_nm: Vec<Vec<f64>> = (0..n)
+        .map(|i| columns.iter().map(|c| c[i]).collect())
+        .collect();
+    let log = SynthLog {
+        time_s: t_rel.clone(),
+        names,
+        wavelength_nm,
+    };
+
+    // Force log, on its own clock, covering the wavelength log.
+    let nf = ((cfg.duration_s - cfg.force_start_s).max(cfg.duration_s) * cfg.force_rate_hz).floor()
+        as usize
+        + 1;
+    let mut ft = Vec::with_capacity(nf);
+    let mut ff = Vec::with_capacity(nf);
+    for k in 0..nf {
+        let tf = k as f64 / cfg.force_rate_hz;
+        ft.push(tf);
+        ff.push(
+            force_at(&cfg.pulses, tf + cfg.force_start_s)
+                + cfg.force_noise_n * normal.sample(&mut rng),
+        );
+    }
+    let truth = SynthTruth {
+        clock_offset_s: -cfg.force_start_s,
+        sls_time_constant_s: cfg.tau_s,
+        sls_instant_fraction: cfg.instant_fraction,
+        sample_period_s: 1.0 / cfg.sample_rate_hz,
+        pulses: cfg.pulses.clone(),
+        gratings: truth_gratings,
+    };
+    Ok((
+        log,
+        SynthForce {
+            time_s: ft,
+            force_n: ff,
+        },
+        truth,
+    ))
+}
+
+/// The clock offset the verifier reports for a log written in `format`: the force
+/// clock reads t − force_start, the wavelength clock `start_epoch_s` + t for formats
+/// with wall-clock timestamps and t for plain CSV.
+pub fn reported_offset_s(cfg: &SynthConfig, format: LogFormat) -> f64 {
+    let w0 = if format == LogFormat::Csv {
+        0.0
+    } else {
+        cfg.start_epoch_s
+    };
+    -cfg.force_start_s - w0
+}
+
+fn num(w: &mut dyn Write, v: f64, decimals: usize, comma: bool) -> std::io::Result<()> {
+    if comma {
+        let s = format!("{v:.decimals$}").replace('.', ",");
+        w.write_all(s.as_bytes())
+    } else {
+        write!(w, "{v:.decimals$}")
+    }
+}
+
+fn enlight_timestamp(w: &mut dyn Write, t: f64, style: &LogStyle) -> std::io::Result<()> {
+    let (_, y, m, d, sod) = split_epoch(t);
+    let h = (sod / 3600.0).floor() as u32;
+    let mi = ((sod - h as f64 * 3600.0) / 60.0).floor() as u32;
+    let s = (sod - h as f64 * 3600.0 - mi as f64 * 60.0).max(0.0);
+    let sep = if style.decimal_comma { "," } else { "." };
+    let whole = s.floor() as u32;
+    let micros = ((s - whole as f64) * 1e6).round().min(999_999.0) as u32;
+    if style.twelve_hour {
+        let (h12, ampm) = match h {
+            0 => (12, "am"),
+            1..=11 => (h, "am"),
+            12 => (12, "pm"),
+            _ => (h - 12, "pm"),
+        };
+        write!(
+            w,
+            "{d:02}/{m:02}/{y:04} {h12}:{mi:02}:{whole:02}{sep}{micros:06} {ampm}"
+        )
+    } else {
+        write!(
+            w,
+            "{d:02}/{m:02}/{y:04} {h:02}:{mi:02}:{whole:02}{sep}{micros:06}"
+        )
+    }
+}
+
+fn enlight_metadata(w: &mut dyn Write, lines: usize, rate_hz: f64, t0: f64) -> std::io::Result<()> {
+    let (_, y, m, d, _) = split_epoch(t0);
+    let fixed = [
+        format!("Date:\t{d:02}/{m:02}/{y:04}"),
+        "Module Type:\tsm125-500".to_string(),
+        format!("HW Acquisition Rate: {rate_hz} Hz"),
+        "Timestamp Format: Full".to_string(),
+        "Data Interleave:\t1".to_string(),
+    ];
+    for (i, l) in fixed.iter().enumerate() {
+        if i < lines {
+            writeln!(w, "{l}")?;
+        }
+    }
+    for i in fixed.len()..lines {
+        let ch = i % 4 + 1;
+        writeln!(
+            w,
+            "CH {ch} Peak Detection Setting {}:\tThreshold {} dB",
+            i,
+            3 + i % 7
+        )?;
+    }
+    Ok(())
+}
+
+/// Write a wavelength log in `format`.
+pub fn write_log(
+    path: &Path,
+    format: LogFormat,
+    log: &SynthLog,
+    cfg: &SynthConfig,
+    style: &LogStyle,
+) -> Result<()> {
+    let t0 = cfg.start_epoch_s;
+    write_atomic_with(path, |w| {
+        if style.bom {
+            w.write_all(b"\xEF\xBB\xBF")?;
+        }
+        let comma = style.decimal_comma;
+        match format {
+            LogFormat::EnlightPeaks => {
+                let channels = log.names.len().min(4);
+                enlight_metadata(w, style.metadata_lines, cfg.sample_rate_hz, t0)?;
+                write!(w, "Timestamp")?;
+                for c in 0..channels {
+                    write!(w, "\t# CH {}", c + 1)?;
+                }
+                writeln!(w, "\tWavelengths (nm)")?;
+                let chan_of: Vec<usize> = (0..log.names.len()).map(|g| g % channels).collect();
+                for (i, row) in log.wavelength_nm.iter().enumerate() {
+                    enlight_timestamp(w, t0 + log.time_s[i], style)?;
+                    for c in 0..channels {
+                        let n = row
+                            .iter()
+                            .enumerate()
+                            .filter(|(g, v)| chan_of[*g] == c && v.is_finite())
+                            .count();
+                        write!(w, "\t{n}")?;
+                    }
+                    for c in 0..channels {
+                        for (g, v) in row.iter().enumerate() {
+                            if chan_of[g] == c && v.is_finite() {
+                                w.write_all(b"\t")?;
+                                num(w, *v, 6, comma)?;
+                            }
+                        }
+                    }
+                    writeln!(w)?;
+                }
+            }
+            LogFormat::EnlightSensors => {
+                enlight_metadata(w, style.metadata_lines, cfg.sample_rate_hz, t0)?;
+                writeln!(w, "Timestamp\t{}", log.names.join("\t"))?;
+                for (i, row) in log.wavelength_nm.iter().enumerate() {
+                    enlight_timestamp(w, t0 + log.time_s[i], style)?;
+                    for v in row {
+                        w.write_all(b"\t")?;
+                        if v.is_finite() {
+                            num(w, *v, 6, comma)?;
+                        }
+                    }
+                    writeln!(w)?;
+                }
+            }
+            LogFormat::Imon => {
+                write!(w, "Date\tTime\tWavelength 1 [nm]")?;
+                for p in 1..=512 {
+                    write!(w, "\tPixel {p}")?;
+                }
+                writeln!(w, "\t")?;
+                writeln!(w)?;
+                for (i, row) in log.wavelength_nm.iter().enumerate() {
+                    let t = t0 + log.time_s[i];
+                    let days = (t / 86400.0).floor() as i64;
+                    let (y, m, d) = civil_from_days(days);
+                    let sod = (t - days as f64 * 86400.0).floor() as u32;
+                    let (h, mi, s) = (sod / 3600, sod / 60 % 60, sod % 60);
+                    let (h12, ampm) = match h {
+                        0 => (12, "AM"),
+                        1..=11 => (h, "AM"),
+                        12 => (12, "PM"),
+                        _ => (h - 12, "PM"),
+                    };
+                    write!(w, "{m}/{d}/{y}\t{h12}:{mi:02}:{s:02} {ampm}")?;
+                    let mut present: Vec<f64> =
+                        row.iter().copied().filter(|v| v.is_finite()).collect();
+                    present.sort_by(|a, b| a.total_cmp(b));
+                    for v in present {
+                        write!(w, "\t{:.7}E+3", v / 1e3)?;
+                    }
+                    writeln!(w, "\t")?;
+                }
+            }
+            LogFormat::Csv => {
+                let d = if comma { ";" } else { "," };
+                writeln!(w, "time_s{d}{}", log.names.join(d))?;
+                for (i, row) in log.wavelength_nm.iter().enumerate() {
+                    num(w, log.time_s[i], 6, comma)?;
+                    for v in row {
+                        w.write_all(d.as_bytes())?;
+                        if v.is_finite() {
+                            num(w, *v, 6, comma)?;
+                        }
+                    }
+                    writeln!(w)?;
+                }
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Write the force log as `time_s,force_N`.
+pub fn write_force_csv(path: &Path, force: &SynthForce) -> Result<()> {
+    write_atomic_with(path, |w| {
+        writeln!(w, "time_s,force_N")?;
+        for (t, f) in force.time_s.iter().zip(&force.force_n) {
+            writeln!(w, "{t:.6},{f:.5}")?;
+        }
+        Ok(())
+    })
+}
+
+/// Write the force log as a force stand with a wall clock does:
+/// `AbsTime,RelTime,position,force,stress`, AbsTime in `dd/mm/yyyy HH:MM:SS.ffffff`
+/// from `start_epoch_s` (the wall-clock time of the force log's first sample).
+pub fn write_force_stand_csv(path: &Path, force: &SynthForce, start_epoch_s: f64) -> Result<()> {
+    write_atomic_with(path, |w| {
+        writeln!(w, "AbsTime,RelTime,position,force,stress")?;
+        for (t, f) in force.time_s.iter().zip(&force.force_n) {
+            let abs = crate::logs::num::format_dmy_24h(start_epoch_s + t);
+            // Position and stress of a linear stand, for realism only.
+            writeln!(w, "{abs},{t:.6},{:.5},{f:.5},{:.5}", f * 0.01, f / 78.5)?;
+        }
+        Ok(())
+    })
+}
+
+/// File extension for a format.
+pub fn extension(format: LogFormat) -> &'static str {
+    match format {
+        LogFormat::Csv => "csv",
+        _ => "txt",
+    }
+}

@@ -1,0 +1,181 @@
+//! End-to-end tests of `fbgforge reconstruct`: known loads from fixture files, and a
+//! clear `error: …` with exit code 1 on bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn fixture(name: &str) -> PathBuf {
+    root().join("fixtures/array").join(name)
+}
+
+fn fbgforge(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("the binary runs")
+}
+
+#[test]
+fn reconstruct_writes_the_known_loads_and_a_json_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("loads.csv");
+    let m = fixture("paper-model-matrix.csv");
+    let s = fixture("paper-model-shifts.csv");
+    let o = fbgforge(&[
+        "reconstruct",
+        "--matrix",
+        m.to_str().unwrap(),
+        "--shifts",
+        s.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(summary["method"], "support");
+    assert_eq!(summary["frames"], 4);
+    assert_eq!(summary["not_converged"], 0);
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "time_s,A,B,C,D,E,F,G,H");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let want = [
+        [0.0, 0.0, 100.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.001, 200.0, 0.0, 0.0, 0.0, 0.0, 0.0, 50.0, 0.0],
+        [0.002, 0.0, 0.0, 100.0, 0.0, 50.0, 0.0, 0.0, 200.0],
+        [0.003, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    ];
+    for (r, w) in rows.iter().zip(want) {
+        for (a, b) in r.iter().zip(w) {
+            assert!((a - b).abs() < 0.01, "{r:?} vs {w:?}");
+        }
+    }
+}
+
+#[test]
+fn reconstruct_from_a_design_uses_the_model_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("loads.csv");
+    let s = fixture("paper-model-shifts.csv");
+    let o = fbgforge(&[
+        "reconstruct",
+        "--design",
+        "designs/tactile-array-60x80.toml",
+        "--shifts",
+        s.to_str().unwrap(),
+        "--method",
+        "omp",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    // Frame 0 is 100 g on B.
+    let row: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!((row[2] - 100.0).abs() < 0.01, "{row:?}");
+}
+
+fn expect_error(args: &[&str], needles: &[&str]) {
+    let o = fbgforge(args);
+    assert_eq!(o.status.code(), Some(1), "{args:?}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.starts_with("error: "), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` not in: {err}");
+    }
+}
+
+#[test]
+fn bad_input_exits_with_a_clear_error() {
+    let m = fixture("paper-model-matrix.csv");
+    let s = fixture("paper-model-shifts.csv");
+    let (m, s) = (m.to_str().unwrap(), s.to_str().unwrap());
+    let out = tempfile::tempdir().unwrap();
+    let o = out.path().join("x.csv");
+    let o = o.to_str().unwrap();
+    expect_error(
+        &[
+            "reconstruct",
+            "--matrix",
+            m,
+            "--shifts",
+            s,
+            "--method",
+            "simplex",
+            "--out",
+            o,
+        ],
+        &["unknown method `simplex`", "support"],
+    );
+    expect_error(
+        &[
+            "reconstruct",
+            "--matrix",
+            m,
+            "--shifts",
+            s,
+            "--ulimit-g",
+            "-5",
+            "--out",
+            o,
+        ],
+        &["ulimit", "-5"],
+    );
+    let missing = fixture("bad-shifts-missing-fbg6.csv");
+    expect_error(
+        &[
+            "reconstruct",
+            "--matrix",
+            m,
+            "--shifts",
+            missing.to_str().unwrap(),
+            "--out",
+            o,
+        ],
+        &["fbg6"],
+    );
+    let empty = fixture("empty.csv");
+    expect_error(
+        &[
+            "reconstruct",
+            "--matrix",
+            empty.to_str().unwrap(),
+            "--shifts",
+            s,
+            "--out",
+            o,
+        ],
+        &["empty.csv", "empty"],
+    );
+    let nan = fixture("bad-matrix-nan.csv");
+    expect_error(
+        &[
+            "reconstruct",
+            "--matrix",
+            nan.to_str().unwrap(),
+            "--shifts",
+            s,
+            "--out",
+            o,
+        ],
+        &["bad-matrix-nan.csv:3"],
+    );
+    assert!(
+        !out.path().join("x.csv").exists(),
+        "no output file on error"
+    );
+}

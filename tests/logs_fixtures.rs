@@ -1,0 +1,197 @@
+//! Readers against small hand-written fixtures covering the edge cases of real exports.
+
+use fbgforge::logs::num::days_from_civil;
+use fbgforge::logs::{self, Clock, ForceColumns, LogFormat, ReadOptions};
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/logs")
+        .join(name)
+}
+
+fn read(name: &str) -> logs::PeakLog {
+    logs::read_peak_log(&fixture(name), &ReadOptions::default())
+        .unwrap_or_else(|e| panic!("{name}: {e:#}"))
+}
+
+fn epoch(y: i64, m: u32, d: u32, h: f64, mi: f64, s: f64) -> f64 {
+    days_from_civil(y, m, d) as f64 * 86400.0 + h * 3600.0 + mi * 60.0 + s
+}
+
+#[test]
+fn bom_decimal_commas_and_twelve_hour_timestamps() {
+    let log = read("enlight_peaks_bom_decimal_comma.txt");
+    assert_eq!(log.format, LogFormat::EnlightPeaks);
+    assert_eq!(log.channels, 4);
+    assert_eq!(log.rows(), 6);
+    assert_eq!(log.clock, Clock::Absolute);
+    let (p, ch) = log.row(1);
+    assert_eq!(p, &[1524.5703, 1546.2961, 1560.1461]);
+    assert_eq!(ch, &[0, 0, 1]);
+    // Two rows per whole second: spread uniformly at 2 Hz, within the second written.
+    let t0 = epoch(2025, 4, 17, 15.0, 44.0, 56.0);
+    assert!((log.median_period_s() - 0.5).abs() < 1e-9);
+    assert!(
+        log.time_s[0] >= t0 && log.time_s[0] < t0 + 0.5,
+        "{}",
+        log.time_s[0] - t0
+    );
+    for (i, t) in log.time_s.iter().enumerate() {
+        let written = t0 + (i / 2) as f64;
+        assert!(*t >= written && *t < written + 1.0, "row {i}");
+    }
+    assert_eq!(log.warnings.count("whole_second_timestamps"), 1);
+}
+
+#[test]
+fn long_metadata_block_dropped_peaks_and_a_truncated_last_line() {
+    let log = read("enlight_peaks_104_metadata_dropped_truncated.txt");
+    assert_eq!(log.format, LogFormat::EnlightPeaks);
+    assert_eq!(log.channels, 2);
+    // The metadata line `Timestamp Format: Full` was not taken for the header.
+    assert_eq!(log.line_of_row[0], 106);
+    assert_eq!(log.rows(), 3, "the truncated last row is dropped");
+    assert_eq!(log.warnings.count("truncated_last_line"), 1);
+    assert!(
+        log.warnings.counts["truncated_last_line"]
+            .first
+            .contains(":109:"),
+        "{:?}",
+        log.warnings
+    );
+    // Row 2 lost the 1524 nm peak: one peak on channel 1, one on channel 2.
+    assert_eq!(log.row(1), (&[1546.296, 1560.1461][..], &[0u16, 1][..]));
+    assert_eq!(log.time_s[1] - log.time_s[0], 0.5);
+    assert_eq!(log.time_s[0], epoch(2025, 4, 17, 15.0, 44.0, 56.0));
+}
+
+#[test]
+fn non_monotonic_timestamps_are_sorted_and_counted() {
+    let log = read("enlight_peaks_non_monotonic.txt");
+    assert_eq!(log.rows(), 5);
+    assert!(log.time_s.windows(2).all(|w| w[1] >= w[0]));
+    assert_eq!(log.warnings.count("non_monotonic_timestamp"), 1);
+    assert!(log.warnings.counts["non_monotonic_timestamp"]
+        .first
+        .contains(":7:"));
+    // The row written fourth (56.75 s) now sits third, with its own peaks.
+    assert_eq!(log.row(2).0[0], 1524.5703);
+    assert_eq!(log.line_of_row, vec![4, 5, 7, 6, 8]);
+}
+
+#[test]
+fn garbage_lines_and_a_missing_channel_are_skipped_and_counted() {
+    let log = read("enlight_peaks_garbage_missing_channel.txt");
+    assert_eq!(log.rows(), 6);
+    let w = &log.warnings;
+    assert_eq!(w.count("unreadable_line"), 2, "{w:?}");
+    assert_eq!(w.count("missing_channel"), 1, "{w:?}");
+    assert_eq!(w.count("peak_count_mismatch"), 1, "{w:?}");
+    assert!(w.counts["unreadable_line"].first.contains(":5:"), "{w:?}");
+    assert!(
+        w.counts["missing_channel"].first.contains("channel 3"),
+        "{w:?}"
+    );
+}
+
+#[test]
+fn sensors_export_keeps_gaps_per_column() {
+    let log = read("enlight_sensors.txt");
+    assert_eq!(log.format, LogFormat::EnlightSensors);
+    assert_eq!(
+        log.column_names,
+        vec!["lambda_11", "lambda_12", "lambda_temp"]
+    );
+    assert_eq!(log.row(1), (&[1546.296, 1560.146][..], &[0u16, 2][..]));
+    assert_eq!(log.warnings.total(), 0);
+}
+
+#[test]
+fn imon_log_with_varying_wavelength_columns_and_pixels() {
+    let log = read("imon.txt");
+    assert_eq!(log.format, LogFormat::Imon);
+    assert_eq!(log.rows(), 6);
+    assert_eq!(log.row(1).0, &[1546.296, 1560.1461]);
+    // Row 3 carries the four pixel intensities of the header after its wavelengths.
+    assert_eq!(log.row(2).0, &[1524.571, 1546.297, 1560.146]);
+    // Month-first dates (10/30/2020), 12-hour clock, 1 s resolution spread to 2 Hz.
+    let t0 = epoch(2020, 10, 30, 16.0, 44.0, 10.0);
+    assert!(log.time_s[0] >= t0 && log.time_s[0] < t0 + 0.5);
+    assert!((log.median_period_s() - 0.5).abs() < 1e-9);
+}
+
+#[test]
+fn plain_csv_with_comment_and_empty_cell() {
+    let log = read("plain.csv");
+    assert_eq!(log.format, LogFormat::Csv);
+    assert_eq!(log.clock, Clock::Relative);
+    assert_eq!(log.time_s, vec![0.0, 0.05, 0.10]);
+    assert_eq!(log.row(1), (&[1546.2953, 1560.146][..], &[0u16, 2][..]));
+}
+
+#[test]
+fn force_stand_columns_units_and_clocks() {
+    let f = logs::read_force_log(&fixture("force_stand.csv"), &ForceColumns::default()).unwrap();
+    assert_eq!(
+        (f.time_column.as_str(), f.force_column.as_str()),
+        ("RelTime", "force")
+    );
+    assert_eq!(f.clock, Clock::Relative);
+    assert_eq!(f.force_n, vec![0.012, 5.25, 10.5, 5.2]);
+    assert_eq!(f.warnings.count("force_unit_assumed"), 1);
+    let cols = ForceColumns {
+        time: Some("AbsTime".into()),
+        ..Default::default()
+    };
+    let f = logs::read_force_log(&fixture("force_stand.csv"), &cols).unwrap();
+    assert_eq!(f.clock, Clock::Absolute);
+    assert_eq!(f.time_s[2], epoch(2025, 4, 17, 15.0, 44.0, 56.0));
+    // `Force [kN]` with decimal commas and `;` separators: converted to N.
+    let f =
+        logs::read_force_log(&fixture("force_kn_semicolon.csv"), &ForceColumns::default()).unwrap();
+    assert_eq!(f.scale_to_n, 1000.0);
+    assert_eq!(f.force_n, vec![0.0, 12.5, 25.0]);
+    assert_eq!(f.time_s, vec![0.0, 0.5, 1.0]);
+    // A column that does not exist is named in the error.
+    let cols = ForceColumns {
+        force: Some("load_cell".into()),
+        ..Default::default()
+    };
+    let e = logs::read_force_log(&fixture("force_stand.csv"), &cols)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("load_cell") && e.contains("AbsTime, RelTime"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unreadable_files_give_errors_naming_file_and_line() {
+    let e = logs::read_peak_log(&fixture("metadata_only.txt"), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("metadata_only.txt") && e.contains("--format"),
+        "{e}"
+    );
+    let e = logs::read_peak_log(&fixture("mostly_garbage.txt"), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("mostly_garbage.txt") && e.contains("3 of 4") && e.contains(":4:"),
+        "{e}"
+    );
+    let forced = ReadOptions {
+        format: Some(LogFormat::Imon),
+        ..Default::default()
+    };
+    let e = logs::read_peak_log(&fixture("plain.csv"), &forced)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no imon table header"), "{e}");
+    let e =
+        logs::read_peak_log(&fixture("does_not_exist.txt"), &ReadOptions::default()).unwrap_err();
+    assert!(format!("{e:#}").contains("does_not_exist.txt"));
+}

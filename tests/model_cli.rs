@@ -1,0 +1,163 @@
+//! Command-line tests of `fbgforge predict` and `fbgforge sweep`: output that parses
+//! and matches the library, files written where asked, clear errors on bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+}
+
+fn design(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("designs")
+        .join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn predict_json_matches_the_library() {
+    let path = design("clip-on-34mm.toml");
+    let o = run(&[
+        "predict",
+        path.to_str().unwrap(),
+        "--force-n",
+        "12.5",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let preds = v["predictions"].as_array().unwrap();
+    let lib = fbgforge::model::predict(&fbgforge::spec::load(&path).unwrap(), 12.5).unwrap();
+    assert_eq!(preds.len(), lib.len());
+    for (j, l) in preds.iter().zip(&lib) {
+        assert_eq!(j["grating"], l.grating.as_str());
+        assert!(
+            (j["sensitivity_pm_per_n"].as_f64().unwrap() - l.sensitivity_pm_per_n).abs() < 1e-9
+        );
+        assert!((j["shift_pm"].as_f64().unwrap() - 12.5 * l.sensitivity_pm_per_n).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn predict_table_names_every_configuration() {
+    let o = run(&["predict", design("clip-on-16mm.toml").to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for word in [
+        "lambda_11",
+        "lambda_22",
+        "blue",
+        "green",
+        "light_green",
+        "K pm/N",
+    ] {
+        assert!(out.contains(word), "missing {word} in\n{out}");
+    }
+}
+
+#[test]
+fn sweep_writes_chart_and_csv_with_one_row_per_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let (svg, csv) = (dir.path().join("e2.svg"), dir.path().join("e2.csv"));
+    let o = run(&[
+        "sweep",
+        design("clip-on-34mm.toml").to_str().unwrap(),
+        "--param",
+        "cap_modulus_mpa",
+        "--from",
+        "1",
+        "--to",
+        "50",
+        "--steps",
+        "5",
+        "--case",
+        "II",
+        "--plot",
+        svg.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    // 4 gratings × 5 values in Case II, plus the header.
+    assert_eq!(text.lines().count(), 1 + 4 * 5);
+    assert!(text.lines().skip(1).all(|l| l.contains(",II,")));
+}
+
+#[test]
+fn sweep_and_predict_reject_bad_input_clearly() {
+    let d = design("clip-on-34mm.toml");
+    let d = d.to_str().unwrap();
+    let o = run(&["sweep", d, "--param", "e7_mpa", "--from", "1", "--to", "2"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("unknown sweep parameter `e7_mpa`") && stderr(&o).contains("es_mpa"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["sweep", d, "--param", "e1_mpa", "--from", "5", "--to", "1"]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("reversed"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["sweep", d, "--param", "es_mpa", "--from", "0", "--to", "10"]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("modulus"),
+        "{}",
+        stderr(&o)
+    );
+
+    // A design without inserts: Case I requests fail, predict gives Case II only.
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(design("clip-on-34mm.toml")).unwrap();
+    let cut = text.find("[[module.inserts]]").unwrap();
+    let rest = &text[cut..];
+    let gratings = rest.find("[[module.gratings]]").unwrap();
+    let no_inserts = format!("{}{}", &text[..cut], &rest[gratings..]);
+    let path = dir.path().join("no-inserts.toml");
+    std::fs::write(&path, no_inserts).unwrap();
+    let p = path.to_str().unwrap();
+    let o = run(&[
+        "sweep", p, "--param", "e1_mpa", "--from", "1", "--to", "2", "--case", "I",
+    ]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("needs a solid insert"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["predict", p, "--case", "I"]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("needs a solid insert"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["predict", p, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["predictions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|p| p["case"] == "II"));
+
+    // Zero modulus in the spec is caught by the spec's validation, naming the field.
+    let zero = text.replace("youngs_modulus_mpa = 44.0", "youngs_modulus_mpa = 0.0");
+    let path = dir.path().join("zero.toml");
+    std::fs::write(&path, zero).unwrap();
+    let o = run(&["predict", path.to_str().unwrap()]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("youngs_modulus_mpa"),
+        "{}",
+        stderr(&o)
+    );
+}

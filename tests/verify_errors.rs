@@ -1,0 +1,271 @@
+//! Bad inputs to the verifier: clear errors or counted warnings, never a panic; and
+//! the verdict rule applied to model predictions.
+
+use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::model::{GratingPrediction, LoadCase};
+use fbgforge::verify::analysis::{analyse, AnalysisOptions};
+use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+use fbgforge::verify::verdict::{verdicts, Status};
+use std::path::Path;
+
+fn design() -> fbgforge::spec::Design {
+    fbgforge::spec::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/designs/clip-on-34mm.toml"
+    )))
+    .unwrap()
+}
+
+/// Write a synthetic pair after `edit` has changed the log, and analyse it.
+fn analyse_edited(
+    cfg: &SynthConfig,
+    edit: impl FnOnce(&mut synth::SynthLog),
+    opts: &AnalysisOptions,
+) -> anyhow::Result<fbgforge::verify::analysis::Measurement> {
+    let d = design();
+    let dir = tempfile::tempdir().unwrap();
+    let (mut log, force, _) = synth::generate(&d, cfg).unwrap();
+    edit(&mut log);
+    let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default())?;
+    let fl = logs::read_force_log(&fp, &ForceColumns::default())?;
+    analyse(&d, &pl, &fl, opts).map(|(m, _)| m)
+}
+
+#[test]
+fn a_force_log_that_does_not_overlap_is_an_error_naming_both_files() {
+    // Both logs on wall clocks; the force recording starts 500 s after the wavelength
+    // log ended.
+    let d = design();
+    let cfg = SynthConfig {
+        force_start_s: 565.0,
+        ..Default::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, _) = synth::generate(&d, &cfg).unwrap();
+    let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("stand.csv"));
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_stand_csv(&fp, &force, cfg.start_epoch_s + cfg.force_start_s).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let cols = ForceColumns {
+        time: Some("AbsTime".into()),
+        ..Default::default()
+    };
+    let fl = logs::read_force_log(&fp, &cols).unwrap();
+    assert_eq!(fl.clock, logs::Clock::Absolute);
+    let e = analyse(&d, &pl, &fl, &AnalysisOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("does not overlap")
+            && e.contains("stand.csv")
+            && e.contains("log.txt")
+            && e.contains("--max-offset-s"),
+        "{e}"
+    );
+    // With both logs on relative clocks the starts are aligned, so the same force log
+    // overlaps unless the user states the true offset, which then is checked too.
+    let opts = AnalysisOptions {
+        clock_offset_s: Some(-1.0e6),
+        ..Default::default()
+    };
+    let e = analyse_edited(&SynthConfig::default(), |_| {}, &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("does not overlap"), "{e}");
+}
+
+#[test]
+fn a_missing_grating_is_an_error_for_its_core_and_a_warning_otherwise() {
+    let drop_l12 = |log: &mut synth::SynthLog| {
+        let k = log.names.iter().position(|n| n == "lambda_12").unwrap();
+        for row in &mut log.wavelength_nm {
+            row[k] = f64::NAN;
+        }
+    };
+    let opts = AnalysisOptions {
+        core: Some("psc1".into()),
+        ..Default::default()
+    };
+    let e = analyse_edited(&SynthConfig::default(), drop_l12, &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("lambda_12") && e.contains("channel connected"),
+        "{e}"
+    );
+    // Without --core: the psc2 gratings (not in the log) and lambda_12 are counted, and
+    // lambda_11 is still measured.
+    let m = analyse_edited(
+        &SynthConfig::default(),
+        drop_l12,
+        &AnalysisOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(m.warnings.count("grating_missing"), 3, "{:?}", m.warnings);
+    assert_eq!(m.gratings.len(), 1);
+    assert!((m.gratings[0].sensitivity_pm_per_n - 12.0).abs() < 0.12);
+}
+
+#[test]
+fn an_unknown_core_or_a_log_without_pulses_is_reported() {
+    let opts = AnalysisOptions {
+        core: Some("psc9".into()),
+        ..Default::default()
+    };
+    let e = analyse_edited(&SynthConfig::default(), |_| {}, &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("psc9") && e.contains("psc1, psc2"), "{e}");
+    // A force log with no pulses (only noise) is an error that says so.
+    let d = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, mut force, _) = synth::generate(&d, &cfg).unwrap();
+    for (i, f) in force.force_n.iter_mut().enumerate() {
+        *f = 0.01 * ((i * 7919) % 13) as f64;
+    }
+    let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let e = analyse(&d, &pl, &fl, &AnalysisOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no loading pulse"), "{e}");
+    // A profile without pulses cannot even be synthesised.
+    let cfg = SynthConfig {
+        pulses: vec![],
+        ..Default::default()
+    };
+    assert!(synth::generate(&d, &cfg).is_err());
+}
+
+#[test]
+fn garbage_lines_inside_a_synthetic_log_are_counted_in_the_report() {
+    let d = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, truth) = synth::generate(&d, &cfg).unwrap();
+    let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let mut text = std::fs::read_to_string(&lp).unwrap();
+    let at = text.len() / 2;
+    let nl = at + text[at..].find('\n').unwrap() + 1;
+    text.insert_str(
+        nl,
+        "*** interrogator reconnected ***\n\u{0}\u{1}binary junk\n",
+    );
+    text.push_str("17/04/2025 15:46:0");
+    std::fs::write(&lp, text).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (m, _) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
+    assert_eq!(m.warnings.count("unreadable_line"), 2);
+    assert_eq!(m.warnings.count("truncated_last_line"), 1);
+    let k = truth.gratings[0].sensitivity_pm_per_n;
+    assert!((m.gratings[0].sensitivity_pm_per_n - k).abs() / k < 0.01);
+}
+
+fn prediction(grating: &str, case: LoadCase, insert: Option<&str>, k: f64) -> GratingPrediction {
+    GratingPrediction {
+        grating: grating.into(),
+        core: "psc1".into(),
+        case,
+        insert: insert.map(String::from),
+        sensitivity_pm_per_n: k,
+        shift_pm: 10.0 * k,
+        strain: 0.0,
+        warnings: vec![],
+    }
+}
+
+#[test]
+fn verdict_picks_the_prediction_for_grating_case_and_insert() {
+    let m = analyse_edited(
+        &SynthConfig::default(),
+        |_| {},
+        &AnalysisOptions {
+            core: Some("psc1".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let k11 = m.gratings[0].sensitivity_pm_per_n;
+    let k12 = m.gratings[1].sensitivity_pm_per_n;
+    let preds = vec![
+        prediction("lambda_11", LoadCase::I, Some("blue"), k11 / 1.0774), // measured 7.74 % high
+        prediction("lambda_12", LoadCase::I, Some("blue"), k12 / 1.061),
+        prediction("lambda_11", LoadCase::I, Some("light_green"), k11 / 1.2),
+        prediction("lambda_12", LoadCase::I, Some("light_green"), k12),
+        prediction("lambda_11", LoadCase::II, None, 2.0 * k11),
+    ];
+    let v = verdicts(&m, Ok(&preds), LoadCase::I, Some("blue"), 0.08);
+    assert_eq!(v.overall, Status::Pass);
+    assert!((v.gratings[0].relative_error.unwrap() - 0.0774).abs() < 1e-9);
+    let v = verdicts(&m, Ok(&preds), LoadCase::I, Some("light_green"), 0.08);
+    assert_eq!(
+        (v.gratings[0].status, v.gratings[1].status, v.overall),
+        (Status::Fail, Status::Pass, Status::Fail)
+    );
+    // Case II has a prediction for lambda_11 only: lambda_12 is not judged, the run fails.
+    let v = verdicts(&m, Ok(&preds), LoadCase::II, None, 0.08);
+    assert_eq!(
+        (v.gratings[0].status, v.gratings[1].status),
+        (Status::Fail, Status::NotJudged)
+    );
+    // Case I without the insert cannot be judged, and says why.
+    let v = verdicts(&m, Ok(&preds), LoadCase::I, None, 0.08);
+    assert_eq!(v.overall, Status::NotJudged);
+    assert!(v.gratings[0]
+        .reason
+        .as_deref()
+        .unwrap()
+        .contains("--insert"));
+    // No model available: not judged, with the model's message.
+    let v = verdicts(
+        &m,
+        Err("the model is not available".into()),
+        LoadCase::II,
+        None,
+        0.08,
+    );
+    assert_eq!(v.overall, Status::NotJudged);
+    assert!(v.gratings[1]
+        .reason
+        .as_deref()
+        .unwrap()
+        .contains("not available"));
+}

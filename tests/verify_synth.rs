@@ -1,0 +1,191 @@
+//! End-to-end recovery of known values from synthetic logs, in every format.
+
+use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
+use fbgforge::verify::synth::{self, LogStyle, SynthConfig, SynthTruth};
+use std::path::Path;
+
+fn design() -> fbgforge::spec::Design {
+    fbgforge::spec::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/designs/clip-on-34mm.toml"
+    )))
+    .unwrap()
+}
+
+fn run(
+    format: LogFormat,
+    cfg: &SynthConfig,
+    style: &LogStyle,
+    core: Option<&str>,
+) -> (Measurement, SynthTruth) {
+    let d = design();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, truth) = synth::generate(&d, cfg).unwrap();
+    let lp = dir.path().join(format!("log.{}", synth::extension(format)));
+    let fp = dir.path().join("force.csv");
+    synth::write_log(&lp, format, &log, cfg, style).unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    assert_eq!(pl.format, format, "detected format");
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let opts = AnalysisOptions {
+        core: core.map(String::from),
+        ..Default::default()
+    };
+    let (m, _) = analyse(&d, &pl, &fl, &opts).unwrap();
+    (m, truth)
+}
+
+fn check(format: LogFormat, m: &Measurement, truth: &SynthTruth, cfg: &SynthConfig) {
+    let dt = truth.sample_period_s;
+    let want_off = synth::reported_offset_s(cfg, format);
+    assert!(
+        (m.clock_offset_s - want_off).abs() <= dt,
+        "{format:?}: offset {} vs {want_off}",
+        m.clock_offset_s
+    );
+    assert!(
+        (m.force_log_start_s - cfg.force_start_s).abs() <= dt,
+        "{format:?}: force start {}",
+        m.force_log_start_s
+    );
+    let strain: Vec<_> = truth.gratings.iter().filter(|g| !g.reference).collect();
+    assert_eq!(m.gratings.len(), strain.len());
+    for (g, t) in m.gratings.iter().zip(strain) {
+        assert_eq!(g.grating, t.name);
+        let k_err =
+            (g.sensitivity_pm_per_n - t.sensitivity_pm_per_n).abs() / t.sensitivity_pm_per_n.abs();
+        assert!(
+            k_err <= 0.01,
+            "{format:?} {}: K {} vs {} ({:.3} %)",
+            g.grating,
+            g.sensitivity_pm_per_n,
+            t.sensitivity_pm_per_n,
+            100.0 * k_err
+        );
+        assert_eq!(g.pulses.len(), t.lags_s.len(), "{format:?}: pulses");
+        for (p, &lag) in g.pulses.iter().zip(&t.lags_s) {
+            assert!(
+                (p.lag_s - lag).abs() <= dt,
+                "{format:?} {} pulse {}: lag {} vs {lag}",
+                g.grating,
+                p.index,
+                p.lag_s
+            );
+        }
+        assert!(
+            (g.max_lag_s - t.max_lag_s).abs() <= dt,
+            "{format:?}: max lag {} vs {}",
+            g.max_lag_s,
+            t.max_lag_s
+        );
+        assert!(
+            (g.r_squared - t.r_squared_expected).abs() <= 0.01,
+            "{format:?}: R² {} vs {}",
+            g.r_squared,
+            t.r_squared_expected
+        );
+        let q = g.quality_q_pm_per_n_s.unwrap();
+        // Q is computed from the reported K, R² and Δt_max ...
+        assert!((q - g.sensitivity_pm_per_n.abs() * g.r_squared / g.max_lag_s).abs() < 1e-9 * q);
+        // ... and agrees with the truth within the propagated tolerances.
+        let tol = 0.01 + 0.01 + dt / t.max_lag_s;
+        assert!(
+            (q - t.quality_q_expected).abs() <= tol * t.quality_q_expected,
+            "{format:?}: Q {q} vs {}",
+            t.quality_q_expected
+        );
+        assert!(
+            (g.sls_time_constant_s - truth.sls_time_constant_s).abs()
+                <= 0.1 * truth.sls_time_constant_s,
+            "{format:?}: τ {}",
+            g.sls_time_constant_s
+        );
+    }
+}
+
+#[test]
+fn every_format_recovers_k_lag_offset_r2_and_q() {
+    let cfg = SynthConfig::default();
+    for format in LogFormat::ALL {
+        let (m, truth) = run(format, &cfg, &LogStyle::default(), None);
+        check(format, &m, &truth, &cfg);
+    }
+}
+
+#[test]
+fn a_temperature_ramp_is_removed_by_the_reference_grating_in_every_format() {
+    // 0.1 K/s up for half the run and back down: ≈ 33 pm of thermal shift, more than
+    // the 10 N pulse produces, and not a straight line in time.
+    let cfg = SynthConfig {
+        temperature_ramp_k_per_s: 0.1,
+        dropout_fraction: 0.03,
+        seed: 7,
+        ..Default::default()
+    };
+    for format in LogFormat::ALL {
+        let style = LogStyle {
+            decimal_comma: format != LogFormat::Imon,
+            bom: true,
+            metadata_lines: 104,
+            twelve_hour: format == LogFormat::EnlightPeaks,
+        };
+        let (m, truth) = run(format, &cfg, &style, Some("psc1"));
+        assert_eq!(m.reference_grating.as_deref(), Some("lambda_temp"));
+        check(format, &m, &truth, &cfg);
+    }
+}
+
+#[test]
+fn without_the_reference_grating_the_ramp_spoils_k() {
+    // Control for the test above: the same log analysed with a design that has no
+    // reference grating gives a K off by more than the 1 % tolerance.
+    let cfg = SynthConfig {
+        temperature_ramp_k_per_s: 0.1,
+        seed: 7,
+        ..Default::default()
+    };
+    let d = design();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, truth) = synth::generate(&d, &cfg).unwrap();
+    let (lp, fp) = (dir.path().join("log.csv"), dir.path().join("force.csv"));
+    synth::write_log(&lp, LogFormat::Csv, &log, &cfg, &LogStyle::default()).unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let mut no_ref = d.clone();
+    no_ref
+        .module
+        .as_mut()
+        .unwrap()
+        .gratings
+        .retain(|g| g.role == fbgforge::spec::GratingRole::Strain);
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (m, _) = analyse(&no_ref, &pl, &fl, &AnalysisOptions::default()).unwrap();
+    assert_eq!(m.warnings.count("reference_missing"), 1);
+    let err = (m.gratings[0].sensitivity_pm_per_n - truth.gratings[0].sensitivity_pm_per_n).abs()
+        / truth.gratings[0].sensitivity_pm_per_n;
+    assert!(err > 0.01, "K error without reference only {err}");
+}
+
+#[test]
+fn case_ii_blue_shift_at_the_sm125_rate() {
+    // 2 Hz like the SM125, a negative K (Case II, hollow core), slower pulses.
+    let cfg = SynthConfig {
+        core: Some("psc2".into()),
+        sensitivity_pm_per_n: -20.0,
+        sample_rate_hz: 2.0,
+        force_rate_hz: 50.0,
+        pulses: synth::pulse_train(&[10.0, 30.0, 50.0, 20.0, 40.0], 10.0, 15.0, 10.0),
+        duration_s: 140.0,
+        tau_s: 1.5,
+        instant_fraction: 0.4,
+        force_start_s: 3.3,
+        ..Default::default()
+    };
+    for format in [LogFormat::EnlightPeaks, LogFormat::Imon] {
+        let (m, truth) = run(format, &cfg, &LogStyle::default(), Some("psc2"));
+        assert!(m.gratings.iter().all(|g| g.sensitivity_pm_per_n < 0.0));
+        check(format, &m, &truth, &cfg);
+    }
+}
