@@ -158,11 +158,7 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
     let out = a.out.clone().unwrap_or_else(|| {
         PathBuf::from("out/optimize").join(format!("{}.toml", outcome.design.name))
     });
-    let report_dir = a.report_dir.clone().unwrap_or_else(|| {
-        out.parent()
-            .unwrap_or(Path::new("."))
-            .join(format!("{}-report", outcome.design.name))
-    });
+    let report_dir = a.report_dir.clone().unwrap_or_else(|| report_beside(&out));
     write_design(&out, &outcome.design)?;
     let landscape_vars = match &a.landscape {
         Some(s) => {
@@ -193,6 +189,17 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
         println!("report: {}", report_dir.display());
     }
     Ok(())
+}
+
+/// Default report folder: `<out stem>-report` beside the written design.
+fn report_beside(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "design".into());
+    out.parent()
+        .unwrap_or(Path::new("."))
+        .join(format!("{stem}-report"))
 }
 
 /// Write a design as TOML, atomically, after checking that it loads back.
@@ -420,8 +427,8 @@ pub struct PlaceArgs {
     /// Solver: nelder-mead, particle-swarm or both.
     #[arg(long, default_value = "both")]
     pub solver: String,
-    /// Iteration limit per run.
-    #[arg(long, default_value_t = 60)]
+    /// Iteration limit per run (Nelder–Mead and swarm).
+    #[arg(long, default_value_t = 90)]
     pub max_iters: u64,
     /// Random layouts for measuring the coherence proxy against the protocol (0: skip).
     #[arg(long, default_value_t = 40)]
@@ -466,11 +473,7 @@ pub fn run_place(a: PlaceArgs) -> Result<()> {
     let out = a.out.clone().unwrap_or_else(|| {
         PathBuf::from("out/place").join(format!("{}.toml", outcome.design.name))
     });
-    let report_dir = a.report_dir.clone().unwrap_or_else(|| {
-        out.parent()
-            .unwrap_or(Path::new("."))
-            .join(format!("{}-report", outcome.design.name))
-    });
+    let report_dir = a.report_dir.clone().unwrap_or_else(|| report_beside(&out));
     write_design(&out, &outcome.design)?;
     write_place_report(&report_dir, &outcome)?;
     if a.json {
@@ -618,9 +621,13 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
     let mut rows = Vec::new();
     for file in ["clip-on-34mm.toml", "clip-on-16mm.toml"] {
         let design = shipped(file)?;
-        for solver in SolverKind::ALL {
+        for solvers in [
+            vec![SolverKind::NelderMead],
+            vec![SolverKind::ParticleSwarm],
+            SolverKind::ALL.to_vec(),
+        ] {
             let s = ModuleSettings {
-                solvers: vec![solver],
+                solvers: solvers.clone(),
                 ..ModuleSettings::default()
             };
             let t0 = Instant::now();
@@ -628,7 +635,11 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
             let t = t0.elapsed().as_secs_f64();
             rows.push(BenchRow {
                 task: format!("optimize {file} ({} choices)", o.choices.len()),
-                solver: solver.name().into(),
+                solver: if solvers.len() == 1 {
+                    solvers[0].name().into()
+                } else {
+                    "both".into()
+                },
                 time_s: t,
                 evaluations: o
                     .choices
@@ -709,14 +720,16 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
         "benchmark row",
         "time / target",
     );
-    for solver in SolverKind::ALL {
+    for solver in ["nelder-mead", "particle-swarm", "both"] {
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .enumerate()
-            .filter(|(_, r)| r.solver == solver.name())
+            .filter(|(_, r)| r.solver == solver)
             .map(|(i, r)| (i as f64, r.time_s / r.target_s))
             .collect();
-        chart = chart.with(Series::new(solver.name(), pts, Mark::Points));
+        if !pts.is_empty() {
+            chart = chart.with(Series::new(solver, pts, Mark::Points));
+        }
     }
     chart.write_svg(&a.out_dir.join("optimize.svg"))?;
     println!(

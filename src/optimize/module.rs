@@ -1038,8 +1038,17 @@ pub fn optimise_module(
     )?;
     let x0 = probe.start_point();
     let mut start = probe.evaluate(&x0);
-    if let (Some(meas), Some(g)) = (measured, start.gratings.first()) {
-        cal = meas.calibrate(g.lag_s, g.r_squared, &settings.quality);
+    if let (Some(meas), false) = (measured, start.gratings.is_empty()) {
+        // The lag is the same for every grating of a core; stiffening differs a little,
+        // so the verifier's mean R² is matched against the mean model value.
+        let n = start.gratings.len() as f64;
+        let lin = start
+            .gratings
+            .iter()
+            .map(|g| g.r_squared_linearity)
+            .sum::<f64>()
+            / n;
+        cal = meas.calibrate(start.gratings[0].lag_s, lin, &settings.quality);
         let probe = ModuleProblem::new(
             base,
             start_ch.clone(),
@@ -1136,7 +1145,7 @@ pub fn optimise_module(
     let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
     let best_eval = win.best.as_ref().expect("chosen for having one");
     let mut design = p.design_at(&best_eval.x);
-    design.name = format!("{}-optimised", base.name);
+    design.name = format!("{}-optimised", base.name.trim_end_matches("-optimised"));
     design.description = Some(format!(
         "Optimised by fbgforge optimize from `{}` for {} ({}): {} = {:.4} {} (start {:.4})",
         base.name,

@@ -85,10 +85,12 @@ impl Default for PlaceSettings {
             edge_margin_mm: 2.0,
             solvers: SolverKind::ALL.to_vec(),
             extra_starts: 1,
+            // ~2000 protocol evaluations for the swarm: about half the 60 s budget on
+            // two cores in a release build (`fbgforge bench optimize`).
             run: RunSettings {
-                max_iters: 60,
-                swarm_iters: 60,
-                particles: 16,
+                max_iters: 100,
+                swarm_iters: 90,
+                particles: 20,
                 ..RunSettings::default()
             },
             seed: 7,
@@ -488,7 +490,7 @@ pub fn place(
     };
     let mut out = design.clone();
     out.array = Some(p.array_at(&best_x));
-    out.name = format!("{}-placed", design.name);
+    out.name = format!("{}-placed", design.name.trim_end_matches("-placed"));
     out.description = Some(format!(
         "Grating placement optimised by fbgforge place from `{}` ({:?} objective, method {})",
         design.name,

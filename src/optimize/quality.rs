@@ -354,16 +354,17 @@ impl MeasuredPrototype {
     }
 
     /// Calibrate the Q model against this measurement of a prototype whose model lag
-    /// is `model_lag_s` and model R² is `model_r_squared`.
+    /// is `model_lag_s` and whose model R² from stiffening is `model_r_squared_linearity`.
     ///
     /// The fitted SLS lag, when present, fixes the τ scale (T is linear in every τ).
     /// Otherwise Δt_max does when it exceeds the sample period; a Δt_max at the sample
     /// period only bounds T, so the scale shrinks if the model predicted more than one
-    /// sample period, else it stays 1.
+    /// sample period, else it stays 1. The R² loss scale is then set so that the model,
+    /// with the calibrated lag, reproduces the measured R².
     pub fn calibrate(
         &self,
         model_lag_s: f64,
-        model_r_squared: f64,
+        model_r_squared_linearity: f64,
         settings: &QualitySettings,
     ) -> Calibration {
         let sample = self
@@ -387,7 +388,10 @@ impl MeasuredPrototype {
             }
         }
         if let Some(r2) = self.r_squared {
-            let model_loss = 1.0 - model_r_squared;
+            let model_r2 =
+                r_squared_hysteresis(model_lag_s * cal.tau_scale, settings.loading_period_s)
+                    * model_r_squared_linearity;
+            let model_loss = 1.0 - model_r2;
             if model_loss > 1e-9 {
                 cal.r_squared_loss_scale = (1.0 - r2) / model_loss;
             }
@@ -516,8 +520,10 @@ mod tests {
         assert!((m.sls_lag_s.unwrap() - 1.2).abs() < 1e-12);
         let cal = m.calibrate(0.6, 0.99, &s);
         // The calibrated model reproduces the fitted lag and the measured R².
-        assert!((0.6 * cal.tau_scale - 1.2).abs() < 1e-12);
-        assert!((1.0 - (1.0 - 0.99) * cal.r_squared_loss_scale - 0.96).abs() < 1e-12);
+        let lag = 0.6 * cal.tau_scale;
+        assert!((lag - 1.2).abs() < 1e-12);
+        let model_r2 = r_squared_hysteresis(lag, s.loading_period_s) * 0.99;
+        assert!((1.0 - (1.0 - model_r2) * cal.r_squared_loss_scale - 0.96).abs() < 1e-12);
         // Without the SLS fit, a Δt_max above one sample period sets the scale ...
         let m = MeasuredPrototype::parse(r#"{"dt_max_s": 1.5}"#).unwrap();
         assert!((0.6 * m.calibrate(0.6, 0.99, &s).tau_scale - 1.5).abs() < 1e-12);
