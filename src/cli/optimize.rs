@@ -277,15 +277,30 @@ fn print_module_table(o: &ModuleOutcome) {
         }
     }
     let best = &o.choices[o.best_choice];
+    let value = best.best.as_ref().map(|e| e.objective).unwrap_or(0.0);
+    let versus = if o.start.feasible() {
+        format!(
+            "{:+.1} % on the start",
+            100.0 * (value / o.start.objective.max(1e-300) - 1.0)
+        )
+    } else {
+        let broken: Vec<String> = o
+            .start
+            .constraints
+            .iter()
+            .filter(|c| c.violation > 0.0)
+            .map(|c| format!("`{}`: {}", c.name, c.detail))
+            .collect();
+        format!("the start is infeasible, {}", broken.join("; "))
+    };
     println!(
-        "best: {} objective {:.4} {unit} ({:+.1} % on the start) in {:.2} s",
-        best.choice,
-        best.best.as_ref().map(|e| e.objective).unwrap_or(0.0),
-        100.0
-            * (best.best.as_ref().map(|e| e.objective).unwrap_or(0.0)
-                / o.start.objective.max(1e-300)
-                - 1.0),
-        o.time_s
+        "best: {} objective {value:.4} {unit} ({versus}) in {:.2} s",
+        best.choice, o.time_s
+    );
+    let m = o.design.module.as_ref().expect("module designs only");
+    println!(
+        "      D {:.3} mm, H {:.3} mm, dome {:.3} mm, cap wall {:.3} mm, core wall {:.3} mm",
+        m.outer_diameter_mm, m.overall_height_mm, m.dome_height_mm, m.cap_wall_mm, m.core_wall_mm
     );
 }
 
@@ -487,7 +502,24 @@ pub fn run_place(a: PlaceArgs) -> Result<()> {
 }
 
 fn print_place_table(o: &PlaceOutcome) {
-    println!("objective {:?}, method {}", o.objective, o.method);
+    println!(
+        "objective {:?}, method {}: start {:.4}, optimised {:.4} (training seeds)",
+        o.objective, o.method, o.start_objective, o.best_objective
+    );
+    if let Some(a) = &o.design.array {
+        println!(
+            "{:<10} {:>8} {:>12} {:>12}",
+            "grating", "fiber", "start y mm", "y mm"
+        );
+        for (i, g) in a.gratings.iter().enumerate() {
+            println!(
+                "{:<10} {:>8} {:>12.2} {:>12.2}",
+                g.name, g.fiber, o.start_x[i], g.y_mm
+            );
+        }
+        let xs: Vec<String> = a.fiber_x_mm.iter().map(|x| format!("{x:.2}")).collect();
+        println!("fiber x mm (mold slits): {}", xs.join(", "));
+    }
     println!(
         "{:<16} {:>14} {:>10} {:>10} {:>10}",
         "solver", "best objective", "iters", "evals", "time s"
