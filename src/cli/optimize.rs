@@ -543,6 +543,20 @@ fn print_place_table(o: &PlaceOutcome) {
     };
     row("start layout", &o.start_test);
     row("optimised layout", &o.best_test);
+    println!(
+        "  by number of loads (paper Table 3: RR 100/100/100/90 %, SNR 25.4/25.2/23.3/19.7 dB):"
+    );
+    for (a, b) in o
+        .start_test
+        .by_load_count
+        .iter()
+        .zip(&o.best_test.by_load_count)
+    {
+        println!(
+            "    {} load(s): start RR {:>5.1} % SNR {:>5.2} dB   optimised RR {:>5.1} % SNR {:>5.2} dB",
+            a.0, a.1, a.2, b.1, b.2
+        );
+    }
     if let Some(ag) = &o.agreement {
         println!(
             "coherence proxy vs protocol score: Spearman {:.2} over {} random layouts",

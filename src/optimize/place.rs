@@ -100,7 +100,7 @@ impl Default for PlaceSettings {
 }
 
 /// Protocol result of one layout.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct LayoutScore {
     /// Reconstruction ratio over every test, % (mean over seeds).
     pub rr_pct: f64,
@@ -108,6 +108,9 @@ pub struct LayoutScore {
     pub mean_snr_db: f64,
     /// Mutual coherence of the sensing matrix.
     pub mutual_coherence: f64,
+    /// Per number of loads: (loads, RR %, mean SNR dB), means over seeds, as in the
+    /// paper's Table 3.
+    pub by_load_count: Vec<(usize, f64, f64)>,
 }
 
 impl LayoutScore {
@@ -258,6 +261,7 @@ impl PlacementProblem {
         let a = matrix_from_positions(&self.cells, &self.positions(x), &self.kernel);
         let mut rr = 0.0;
         let mut snr = 0.0;
+        let mut by: Vec<(usize, f64, f64)> = Vec::new();
         for &s in seeds {
             let mut cfg = ProtocolConfig::paper(s);
             cfg.ulimit_g = self.array.ulimit_g;
@@ -265,12 +269,26 @@ impl PlacementProblem {
             let r = run_protocol(&a, self.settings.method, &cfg)?;
             rr += r.overall.rr_pct;
             snr += r.overall.mean_snr_db;
+            for g in &r.by_load_count {
+                match by.iter_mut().find(|b| b.0 == g.n_loads) {
+                    Some(b) => {
+                        b.1 += g.rr_pct;
+                        b.2 += g.mean_snr_db;
+                    }
+                    None => by.push((g.n_loads, g.rr_pct, g.mean_snr_db)),
+                }
+            }
         }
         let n = seeds.len().max(1) as f64;
+        for b in by.iter_mut() {
+            b.1 /= n;
+            b.2 /= n;
+        }
         Ok(LayoutScore {
             rr_pct: rr / n,
             mean_snr_db: snr / n,
             mutual_coherence: mutual_coherence(&a),
+            by_load_count: by,
         })
     }
 
