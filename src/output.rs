@@ -41,6 +41,13 @@ where
         w.flush()
             .with_context(|| format!("while writing {}", path.display()))?;
     }
+    // tempfile creates files readable by the owner only; a finished output is an
+    // ordinary file that a slicer or a colleague should be able to read.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644));
+    }
     tmp.persist(path)
         .map_err(|e| e.error)
         .with_context(|| format!("cannot move the finished file to {}", path.display()))?;

@@ -49,7 +49,7 @@ pub struct ModuleProfile {
     pub cap_dome_outer_sphere_radius_mm: f64,
     /// Cap inner dome sphere radius = R_s − cap wall.
     pub cap_dome_inner_sphere_radius_mm: f64,
-    /// Core outer dome sphere radius (one clearance and one pillar height inside the cap).
+    /// Core outer dome sphere radius: one clearance inside the cap's inner dome.
     pub core_dome_outer_sphere_radius_mm: f64,
     /// Core inner dome sphere radius = core outer sphere − core wall.
     pub core_dome_inner_sphere_radius_mm: f64,
@@ -65,8 +65,9 @@ pub struct ModuleProfile {
     pub core_inner_junction_z_mm: f64,
     /// Height where the insert's cylinder meets its spherical top.
     pub insert_junction_z_mm: f64,
-    /// Top of the core pillars and of the cap's alignment pillars: the lowest junction
-    /// of the core, so the pillars run along the whole cylindrical section.
+    /// Top of the core pillars and of the cap's alignment pillars: the lower of the
+    /// core's inner and the cap's inner junction, so the pillars run along the whole
+    /// cylindrical section of both walls.
     pub pillar_top_mm: f64,
     /// Apex height of the core's outer dome (at the axis, ignoring the top hole).
     pub core_apex_z_mm: f64,
@@ -105,11 +106,15 @@ impl ModuleProfile {
         let rs = (r * r + h * h) / (2.0 * h);
         let zc = m.overall_height_mm - rs;
         let cap_in_s = rs - m.cap_wall_mm;
-        let core_out_s = cap_in_s - m.cap_core_clearance_mm - pl.height_mm;
+        // The core's dome sits one clearance inside the cap's dome, so the cap bears on
+    // it as the model assumes (force on the core's dome); its cylinder is one pillar
+    // height further in, and meets the larger sphere a little higher up.
+    let core_out_s = cap_in_s - m.cap_core_clearance_mm;
         let core_in_s = core_out_s - m.core_wall_mm;
         let insert_s = core_in_s - m.core_insert_clearance_mm;
         let junction = |rho: f64, rad: f64| zc + sphere_height_at_radius(rho, rad);
         let core_inner_junction = junction(core_in_s, core_inner);
+        let cap_inner_junction = junction(cap_in_s, cap_inner);
         let first = pl.first_pillar_angle_deg.to_radians();
         let n = pl.count.max(1) as usize;
         ModuleProfile {
@@ -134,11 +139,12 @@ impl ModuleProfile {
             core_dome_inner_sphere_radius_mm: core_in_s,
             insert_sphere_radius_mm: insert_s,
             cap_outer_junction_z_mm: junction(rs, r),
-            cap_inner_junction_z_mm: junction(cap_in_s, cap_inner),
+            cap_inner_junction_z_mm: cap_inner_junction,
             core_outer_junction_z_mm: junction(core_out_s, core_outer),
             core_inner_junction_z_mm: core_inner_junction,
             insert_junction_z_mm: junction(insert_s, insert),
-            pillar_top_mm: core_inner_junction,
+            // The pillars stop where the cap's wall or the core's wall turns into a dome.
+            pillar_top_mm: core_inner_junction.min(cap_inner_junction),
             core_apex_z_mm: zc + core_out_s,
             insert_apex_z_mm: zc + insert_s,
             top_hole_radius_mm: m.top_hole_diameter_mm / 2.0,

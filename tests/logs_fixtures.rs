@@ -195,3 +195,61 @@ fn unreadable_files_give_errors_naming_file_and_line() {
         logs::read_peak_log(&fixture("does_not_exist.txt"), &ReadOptions::default()).unwrap_err();
     assert!(format!("{e:#}").contains("does_not_exist.txt"));
 }
+
+mod properties {
+    use fbgforge::logs::num::{date_to_days, format_dmy_24h, parse_datetime, parse_f64, DateOrder};
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn fast_float_parsing_equals_std(x in -1.0e7f64..1.0e7, decimals in 0usize..12, exp in any::<bool>()) {
+            let s = if exp { format!("{x:.decimals$E}") } else { format!("{x:.decimals$}") };
+            prop_assert_eq!(parse_f64(s.as_bytes(), false), s.parse::<f64>().ok());
+            // The same number with a decimal comma.
+            let c = s.replace('.', ",");
+            prop_assert_eq!(parse_f64(c.as_bytes(), true), s.parse::<f64>().ok());
+        }
+
+        #[test]
+        fn timestamps_round_trip_to_the_microsecond(micros in 0i64..4_102_444_800_000_000) {
+            let t = micros as f64 / 1e6;
+            let s = format_dmy_24h(t);
+            let (d, sod) = parse_datetime(s.as_bytes()).unwrap();
+            let back = date_to_days(&d, DateOrder::DayMonthYear).unwrap() as f64 * 86400.0 + sod;
+            prop_assert!((back - t).abs() < 2e-6, "{} -> {} -> {}", t, s, back);
+        }
+    }
+}
+
+mod never_panics {
+    use fbgforge::logs::{parse_force_bytes, parse_wavelength_bytes, ForceColumns, ReadOptions};
+    use proptest::prelude::*;
+    use std::path::Path;
+
+    const FIXTURES: [&str; 6] = [
+        "enlight_peaks_bom_decimal_comma.txt",
+        "enlight_peaks_104_metadata_dropped_truncated.txt",
+        "enlight_peaks_garbage_missing_channel.txt",
+        "enlight_sensors.txt",
+        "imon.txt",
+        "plain.csv",
+    ];
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Random byte edits and truncations of every fixture give Ok or an error.
+        #[test]
+        fn mutated_logs_are_read_or_rejected(which in 0usize..6, edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..12), cut in any::<prop::sample::Index>()) {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/logs").join(FIXTURES[which]);
+            let mut bytes = std::fs::read(&path).unwrap();
+            for (at, b) in edits {
+                let i = at.index(bytes.len());
+                bytes[i] = b;
+            }
+            let keep = cut.index(bytes.len() + 1);
+            bytes.truncate(keep.max(1));
+            let _ = parse_wavelength_bytes(&bytes, &path, &ReadOptions::default());
+            let _ = parse_force_bytes(&bytes, &path, &ForceColumns::default());
+        }
+    }
+}

@@ -30,9 +30,20 @@ fn paper_module_profile_has_the_stated_dimensions() {
     assert_eq!(p.cap_outer_radius_mm, 17.0);
     assert!((p.cap_inner_radius_mm - 15.5).abs() < 1e-12);
     assert!((p.core_outer_radius_mm - p.core_inner_radius_mm - 1.5).abs() < 1e-12);
-    // Hemispherical dome: every junction sits at the sphere centre, H − D/2.
+    // Hemispherical dome: the cap's junctions sit at the sphere centre, H − D/2, and
+    // so do the pillar tops.
     assert!((p.dome_center_z_mm - 60.0).abs() < 1e-12);
-    assert!((p.core_inner_junction_z_mm - 60.0).abs() < 1e-9);
+    assert!((p.cap_outer_junction_z_mm - 60.0).abs() < 1e-9);
+    assert!((p.cap_inner_junction_z_mm - 60.0).abs() < 1e-9);
+    assert!((p.pillar_top_mm - 60.0).abs() < 1e-9);
+    // The core's dome is one clearance inside the cap's (they bear on each other), so
+    // its cylinder, one pillar height further in, meets it above the centre.
+    let gap = p.cap_dome_inner_sphere_radius_mm - p.core_dome_outer_sphere_radius_mm;
+    assert!((gap - 0.1).abs() < 1e-12);
+    let rho = p.core_dome_outer_sphere_radius_mm;
+    let expected = 60.0 + (rho * rho - p.core_outer_radius_mm.powi(2)).sqrt();
+    assert!((p.core_outer_junction_z_mm - expected).abs() < 1e-9);
+    assert!(p.core_inner_junction_z_mm > p.pillar_top_mm);
     assert_eq!(m.gratings.len(), 5);
     assert_eq!(m.inserts.len(), 3);
 }

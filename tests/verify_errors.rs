@@ -269,3 +269,69 @@ fn verdict_picks_the_prediction_for_grating_case_and_insert() {
         .unwrap()
         .contains("not available"));
 }
+
+mod never_panics {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        /// Whole runs with corrupted lines, wild values and truncation: the analysis
+        /// answers Ok or Err, never panics.
+        #[test]
+        fn corrupted_runs_are_analysed_or_rejected(
+            edits in prop::collection::vec((any::<prop::sample::Index>(), 0u8..4), 1..40),
+            cut in 0.2f64..1.0,
+        ) {
+            let d = design();
+            let cfg = SynthConfig { duration_s: 30.0, pulses: synth::pulse_train(&[20.0, 40.0], 4.0, 6.0, 5.0), ..Default::default() };
+            let dir = tempfile::tempdir().unwrap();
+            let (log, force, _) = synth::generate(&d, &cfg).unwrap();
+            let (lp, fp) = (dir.path().join("log.csv"), dir.path().join("force.csv"));
+            synth::write_log(&lp, LogFormat::Csv, &log, &cfg, &LogStyle::default()).unwrap();
+            synth::write_force_csv(&fp, &force).unwrap();
+            let text = std::fs::read_to_string(&lp).unwrap();
+            let mut lines: Vec<String> = text.lines().map(String::from).collect();
+            for (at, kind) in edits {
+                let i = 1 + at.index(lines.len() - 1);
+                lines[i] = match kind {
+                    0 => "garbage,,,".to_string(),
+                    1 => lines[i].replace("154", "99"),
+                    2 => lines[i].replacen(',', ",1e300,", 1),
+                    _ => lines[lines.len() - i].clone(),
+                };
+            }
+            let keep = ((lines.len() as f64) * cut) as usize;
+            std::fs::write(&lp, lines[..keep.max(2)].join("\n")).unwrap();
+            let Ok(pl) = logs::read_peak_log(&lp, &ReadOptions::default()) else { return Ok(()) };
+            let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+            let _ = analyse(&d, &pl, &fl, &AnalysisOptions::default());
+        }
+    }
+}
+
+#[test]
+fn compression_logged_as_negative_force_is_flipped_and_counted() {
+    let d = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, mut force, truth) = synth::generate(&d, &cfg).unwrap();
+    force.force_n.iter_mut().for_each(|f| *f = -*f);
+    let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (m, _) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
+    assert_eq!(m.warnings.count("force_sign_flipped"), 1);
+    let k = truth.gratings[0].sensitivity_pm_per_n;
+    assert!((m.gratings[0].sensitivity_pm_per_n - k).abs() / k < 0.01);
+    assert_eq!(m.gratings[0].pulses.len(), truth.gratings[0].lags_s.len());
+}

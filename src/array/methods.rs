@@ -7,7 +7,7 @@
 //! depends only on the matrix, so a long stream pays that cost once.
 //!
 //! * `support`: exact ℓ0-penalised bounded least squares — every support of up to
-//!   m cells is tried (255 for 8 cells, pseudo-inverses precomputed), the one with the
+//!   m cells is tried (246 for 8 cells and 6 gratings, pseudo-inverses precomputed), the one with the
 //!   smallest ‖Âz − y‖² + λ·|S| wins. This is the paper's objective with p → 0, solved
 //!   exactly instead of stochastically.
 //! * `wsupport`: the same enumeration, but each support is scored by the negative
@@ -556,6 +556,7 @@ impl Reconstructor for SupportSearch {
         let (w0, ld0) = &self.empty;
         let mut best_cost: f64 = y.iter().zip(w0).map(|(v, w)| w * v * v).sum::<f64>() + ld0;
         let mut best: Option<(usize, Vec<f64>)> = None;
+        // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
         let mut z = [0.0f64; 64];
         let mut tried = 0u64;
         for (e_idx, e) in self.entries.iter().enumerate() {
@@ -878,4 +879,53 @@ pub fn reconstruct_stream(
         .collect();
     bar.finish_and_clear();
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fista_box_matches_the_closed_form_in_one_dimension() {
+        // min ½ g z² − b z + λ z on [0, u]  →  z = clamp((b − λ)/g, 0, u).
+        for (g, b, lambda, u) in [
+            (2.0f64, 5.0f64, 1.0f64, 10.0f64),
+            (2.0, 5.0, 1.0, 1.5),
+            (1.0, 0.5, 1.0, 3.0),
+        ] {
+            let want = ((b - lambda) / g).clamp(0.0, u);
+            let (z, _, ok) = fista_box(
+                &DMatrix::from_element(1, 1, g),
+                &DVector::from_element(1, b),
+                &DVector::from_element(1, u),
+                lambda,
+                g,
+                DVector::zeros(1),
+                10_000,
+            );
+            assert!(ok && (z[0] - want).abs() < 1e-8, "{z} vs {want}");
+        }
+    }
+
+    #[test]
+    fn support_search_enumerates_every_support_up_to_the_number_of_gratings() {
+        let a = DMatrix::from_fn(6, 8, |i, j| {
+            1.0 / (1.0 + ((i as f64) - (j as f64) * 0.7).powi(2))
+        });
+        let p = SensingProblem::new(a, 250.0, true).unwrap();
+        let s = SupportSearch::new(Common::new(&p), 1.0, None).unwrap();
+        // C(8,1) + … + C(8,6) = 8 + 28 + 56 + 70 + 56 + 28.
+        assert_eq!(s.entries.len(), 246);
+        assert!(s
+            .entries
+            .windows(2)
+            .all(|w| w[0].cols.len() <= w[1].cols.len()));
+        // 20 cells × 10 gratings would need 616 665 supports: refused with a clear error.
+        let big = SensingProblem::new(DMatrix::from_element(10, 20, 1.0), 250.0, true).unwrap();
+        let e = SupportSearch::new(Common::new(&big), 1.0, None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("omp"), "{e}");
+    }
 }

@@ -420,6 +420,9 @@ pub struct Summary {
     pub rr_pct: f64,
     /// Mean time per reconstruction, µs (one thread).
     pub time_per_frame_us: f64,
+    /// Median time per reconstruction, µs (one thread; robust to preemption on a
+    /// shared machine).
+    pub median_time_per_frame_us: f64,
     /// Tests where the method reported no convergence.
     pub not_converged: usize,
 }
@@ -441,6 +444,15 @@ pub fn summarise(results: &[CaseResult], n_loads: usize) -> Summary {
         rel_error_pct: sel.iter().map(|r| r.rel_error_pct).sum::<f64>() / k,
         rr_pct: recovery_ratio_pct(&snrs),
         time_per_frame_us: 1e6 * sel.iter().map(|r| r.time_s).sum::<f64>() / k,
+        median_time_per_frame_us: {
+            let mut t: Vec<f64> = sel.iter().map(|r| 1e6 * r.time_s).collect();
+            t.sort_by(f64::total_cmp);
+            match t.len() {
+                0 => 0.0,
+                n if n % 2 == 1 => t[n / 2],
+                n => 0.5 * (t[n / 2 - 1] + t[n / 2]),
+            }
+        },
         not_converged: sel.iter().filter(|r| !r.converged).count(),
     }
 }
@@ -570,4 +582,19 @@ pub fn run_protocol_for_positions(
         &super::kernel::DistanceKernel::paper(),
     );
     run_protocol(&a, method, cfg)
+}
+
+/// Run the protocol for a derived [`crate::profile::ArrayLayout`], with the paper
+/// kernel as the true array.
+pub fn run_protocol_for_layout(
+    layout: &crate::profile::ArrayLayout,
+    method: Method,
+    cfg: &ProtocolConfig,
+) -> Result<ProtocolRun> {
+    run_protocol_for_positions(
+        &layout.cell_centers_mm,
+        &layout.grating_positions_mm,
+        method,
+        cfg,
+    )
 }

@@ -417,7 +417,8 @@ pub struct BenchVerifyArgs {
     /// Sample rate of the wavelength and force logs, Hz.
     #[arg(long, default_value_t = 1000.0)]
     pub rate_hz: f64,
-    /// Keep the generated logs (they are large) instead of deleting them.
+    /// Keep the generated logs (they are large) and the design (bench-design.toml)
+    /// instead of deleting them.
     #[arg(long)]
     pub keep: bool,
 }
@@ -489,7 +490,10 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         "generating a {} min, {} Hz, 8-grating log ...",
         a.minutes, a.rate_hz
     );
+    // Stages: generate, write, parse ×3, end to end.
+    let pb = crate::progress::bar(6, "bench verify");
     let (log, force, truth) = synth::generate(&design, &cfg)?;
+    pb.inc(1);
     let log_path = a.out.join("bench-peaks.txt");
     let force_path = a.out.join("bench-force.csv");
     synth::write_log(
@@ -500,6 +504,7 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         &LogStyle::default(),
     )?;
     synth::write_force_csv(&force_path, &force)?;
+    pb.inc(1);
     drop(log);
     let mb = std::fs::metadata(&log_path)?.len() as f64 / 1e6;
     let bytes = std::fs::read(&log_path)?;
@@ -517,37 +522,19 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
             parse_cpu = cpu_time_s().zip(c).map_or(f64::NAN, |(b, a)| b - a);
         }
         drop(pl);
+        pb.inc(1);
     }
     drop(bytes);
 
     // Stage 2: end to end from the files.
-    let args = VerifyArgs {
-        design: PathBuf::new(),
-        log: log_path.clone(),
-        force: force_path.clone(),
-        format: None,
-        date_order: None,
-        case: None,
-        insert: None,
-        core: None,
-        tolerance: verdict::DEFAULT_TOLERANCE,
-        window_nm: None,
-        clock_offset_s: None,
-        max_offset_s: 60.0,
-        resolution_pm: None,
-        force_time_column: None,
-        force_force_column: None,
-        force_scale_to_n: None,
-        json: false,
-        report: None,
-    };
+    pb.inc(1);
     let cpu = || cpu_time_s().unwrap_or(f64::NAN);
     let (t_all, c_all) = (Instant::now(), cpu());
     let (t, c) = (Instant::now(), cpu());
-    let pl = logs::read_peak_log(&args.log, &ReadOptions::default())?;
+    let pl = logs::read_peak_log(&log_path, &ReadOptions::default())?;
     let read_log = (t.elapsed().as_secs_f64(), cpu() - c);
     let (t, c) = (Instant::now(), cpu());
-    let fl = logs::read_force_log(&args.force, &ForceColumns::default())?;
+    let fl = logs::read_force_log(&force_path, &ForceColumns::default())?;
     let read_force = (t.elapsed().as_secs_f64(), cpu() - c);
     let (t, c) = (Instant::now(), cpu());
     let (m, series) = analyse(&design, &pl, &fl, &AnalysisOptions::default())?;
@@ -559,7 +546,7 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         preds.as_deref().map_err(Clone::clone),
         LoadCase::II,
         None,
-        args.tolerance,
+        verdict::DEFAULT_TOLERANCE,
     );
     let rep = VerifyReport {
         design: design.name.clone(),
@@ -569,6 +556,7 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
     report::write_report(&a.out.join("report"), &rep, &series)?;
     let reported = (t.elapsed().as_secs_f64(), cpu() - c);
     let total = (t_all.elapsed().as_secs_f64(), cpu() - c_all);
+    pb.finish_and_clear();
 
     let worst_k = rep
         .measurement
@@ -659,7 +647,13 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         crate::plot::Mark::Points,
     ));
     chart.write_svg(&a.out.join("bench_verify.svg"))?;
-    if !a.keep {
+    if a.keep {
+        // So that `fbgforge verify` can be run on the kept logs.
+        crate::output::write_atomic(
+            &a.out.join("bench-design.toml"),
+            design.to_toml().as_bytes(),
+        )?;
+    } else {
         let _ = std::fs::remove_file(&log_path);
         let _ = std::fs::remove_file(&force_path);
     }

@@ -223,9 +223,19 @@ pub fn predict_with(
     let m = design.module.as_ref().ok_or(ModelError::NoModule)?;
     let profile = ModuleProfile::from_module(m);
     let placements = module_gratings(m, &profile);
-    let reference = placements
+    // A reference grating bonded to no core serves every core; one named after a
+    // core serves that core first.
+    let references: Vec<&GratingPlacement> = placements
         .iter()
-        .find(|g| g.role == GratingRole::TemperatureReference);
+        .filter(|g| g.role == GratingRole::TemperatureReference)
+        .collect();
+    let reference_for = |core: &Option<String>| {
+        references
+            .iter()
+            .find(|r| r.core.is_some() && &r.core == core)
+            .or_else(|| references.iter().find(|r| r.core.is_none()))
+            .copied()
+    };
     let optics = &design.fiber;
     let mut out = Vec::new();
     for conf in configurations(design) {
@@ -233,7 +243,7 @@ pub fn predict_with(
             let core = g.core.as_deref().unwrap_or_default();
             let p =
                 ModuleModelParams::from_parts(design, m, &profile, core, conf.insert.as_deref())?;
-            out.push(evaluate(&p, &conf, g, reference, optics, opts));
+            out.push(evaluate(&p, &conf, g, reference_for(&g.core), optics, opts));
         }
     }
     Ok(out)

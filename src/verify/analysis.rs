@@ -82,6 +82,8 @@ pub struct GratingResult {
     pub grating: String,
     /// Core it is bonded in.
     pub core: Option<String>,
+    /// Material key of that core (the optimiser models lag per material).
+    pub core_material: Option<String>,
     /// Nominal wavelength, nm.
     pub nominal_nm: f64,
     /// Window half-width used, nm.
@@ -187,8 +189,16 @@ pub struct PulseSpan {
     pub end: usize,
 }
 
+/// Percentile of the finite values; vectors of more than a million values are
+/// subsampled evenly (plenty for thresholds and spreads).
 fn percentile(v: &[f64], p: f64) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    let step = v.len().div_ceil(1 << 20).max(1);
+    let mut s: Vec<f64> = v
+        .iter()
+        .step_by(step)
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
     if s.is_empty() {
         return f64::NAN;
     }
@@ -487,6 +497,22 @@ pub fn analyse(
     let range = opts.max_clock_offset_s.max(0.0);
     // Force times in the wavelength frame, before the residual offset.
     let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
+    // Some stands log compression as negative force: if the force's excursions go
+    // down rather than up, flip it (and say so) so that pulses are peaks.
+    let med = percentile(&force.force_n, 0.5);
+    let flip = (percentile(&force.force_n, 0.001) - med).abs()
+        > (percentile(&force.force_n, 0.999) - med).abs();
+    let fval: Vec<f64> = if flip {
+        warnings.add("force_sign_flipped", || {
+            format!(
+                "{}: the force pulses go negative (compression logged as negative); the force was negated",
+                force.source.display()
+            )
+        });
+        force.force_n.iter().map(|f| -f).collect()
+    } else {
+        force.force_n.clone()
+    };
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (u[0], u[u.len() - 1]);
     let gap = (fa - wb).max(wa - fb);
@@ -520,11 +546,10 @@ pub fn analyse(
         Some(o) => (o - prior, "given"),
         None => {
             let s = &used[primary].1;
-            let (dx, _) =
-                xcorr_offset(&tw, s, &u, &force.force_n, a, b, range).ok_or_else(|| {
-                    anyhow::anyhow!("the logs overlap too little to align their clocks")
-                })?;
-            let coarse = FitData::new(&tw, s, &u, &force.force_n, a, b, 20_000, 50_000, 30.0);
+            let (dx, _) = xcorr_offset(&tw, s, &u, &fval, a, b, range).ok_or_else(|| {
+                anyhow::anyhow!("the logs overlap too little to align their clocks")
+            })?;
+            let coarse = FitData::new(&tw, s, &u, &fval, a, b, 20_000, 50_000, 30.0);
             let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
             let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
                 .par_iter()
@@ -541,17 +566,17 @@ pub fn analyse(
             }
             // Polish at full rate on the first stretch of the overlap.
             let span = (b - a)
-                .min(200_000.0 * median_period(&u).max(1e-6))
-                .min(100_000.0 * median_period(&tw).max(1e-6));
+                .min(100_000.0 * median_period(&u).max(1e-6))
+                .min(50_000.0 * median_period(&tw).max(1e-6));
             let fine = FitData::new(
                 &tw,
                 s,
                 &u,
-                &force.force_n,
+                &fval,
                 a,
                 a + span.max(1.0),
+                50_000,
                 100_000,
-                200_000,
                 30.0,
             );
             let p = best.0.clone();
@@ -590,15 +615,15 @@ pub fn analyse(
             if t < fa || t > fb {
                 f64::NAN
             } else {
-                fit::interp(&fu, &force.force_n, t, &mut h)
+                fit::interp(&fu, &fval, t, &mut h)
             }
         })
         .collect();
     let resolution_pm = opts
         .resolution_pm
         .unwrap_or_else(|| log.format.typical_resolution_pm());
-    let pulses = detect_pulses(&force.force_n);
-    let fbase = percentile(&force.force_n, 0.1);
+    let pulses = detect_pulses(&fval);
+    let fbase = percentile(&fval, 0.1);
     if pulses.is_empty() {
         bail!(
             "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
@@ -617,7 +642,7 @@ pub fn analyse(
             &tw,
             s,
             &fu,
-            &force.force_n,
+            &fval,
             wa.max(fa),
             wb.min(fb),
             20_000,
@@ -646,18 +671,24 @@ pub fn analyse(
         let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
             anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
         })?;
-        // Final evaluation on every sample.
-        let idx: Vec<usize> = (0..tw.len())
+        // Final evaluation on every sample (NaN shifts and samples outside the force
+        // log are skipped inside the cost).
+        let n_used = (0..tw.len())
             .filter(|&i| s[i].is_finite() && fc[i].is_finite())
-            .collect();
-        let st: Vec<f64> = idx.iter().map(|&i| tw[i]).collect();
-        let sv: Vec<f64> = idx.iter().map(|&i| s[i]).collect();
-        let t_mid = (st[0] + st[st.len() - 1]) / 2.0;
+            .count();
+        if n_used < 10 {
+            bail!(
+                "grating `{}` has only {} samples where the force log overlaps the wavelength log",
+                g.name,
+                n_used
+            );
+        }
+        let t_mid = (wa.max(fa) + wb.min(fb)) / 2.0;
         let full = LagModelCost {
-            shift_t: &st,
-            shift_pm: &sv,
+            shift_t: &tw,
+            shift_pm: s,
             force_t: &fu,
-            force_n: &force.force_n,
+            force_n: &fval,
             fixed_offset_s: Some(0.0),
             t_mid,
         };
@@ -665,23 +696,27 @@ pub fn analyse(
             .evaluate(0.0, lm0.tau_s, lm0.instant_fraction)
             .unwrap_or(lm0);
         let d: Vec<f64> = (0..tw.len())
-            .map(|i| s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid))
+            .map(|i| {
+                if fc[i].is_finite() {
+                    s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)
+                } else {
+                    f64::NAN
+                }
+            })
             .collect();
-        let dv: Vec<f64> = idx.iter().map(|&i| d[i]).collect();
-        let fv: Vec<f64> = idx.iter().map(|&i| fc[i]).collect();
-        let line = fit::fit_line(&fv, &dv).ok_or_else(|| {
+        let line = fit::fit_line(&fc, &d).ok_or_else(|| {
             anyhow::anyhow!(
                 "grating `{}`: the force does not vary; no line can be fitted",
                 g.name
             )
         })?;
-        let (hyst, nonlin) = hysteresis_and_linearity(&fv, &dv, &line);
+        let (hyst, nonlin) = hysteresis_and_linearity(&fc, &d, &line);
         // Pulses.
         let sign = if lm.k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
         let mut pres = Vec::new();
         for (pi, p) in pulses.iter().enumerate() {
             let seg_t = &fu[p.start..=p.end];
-            let seg_f = &force.force_n[p.start..=p.end];
+            let seg_f = &fval[p.start..=p.end];
             let im = (0..seg_f.len())
                 .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
                 .unwrap_or(0);
@@ -730,6 +765,11 @@ pub fn analyse(
         let result = GratingResult {
             grating: g.name.clone(),
             core: g.core.clone(),
+            core_material: g
+                .core
+                .as_ref()
+                .and_then(|c| module.cores.iter().find(|x| &x.name == c))
+                .map(|c| c.material.clone()),
             nominal_nm: g.bragg_wavelength_nm,
             window_half_width_nm: hw,
             rows_with_peak: t.rows_present,
@@ -826,8 +866,12 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
     if n < 5 {
         return (f64::NAN, f64::NAN);
     }
-    let fmin = percentile(force, 0.0);
-    let fmax = percentile(force, 1.0);
+    let (fmin, fmax) = force
+        .iter()
+        .filter(|f| f.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &f| {
+            (lo.min(f), hi.max(f))
+        });
     let span = line.slope.abs() * (fmax - fmin);
     if span.is_nan() || span <= 0.0 {
         return (f64::NAN, f64::NAN);
@@ -841,6 +885,9 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
         // Residuals from the line, so that samples spread across a bin compare fairly.
         let res = shift[i] - (line.intercept + line.slope * force[i]);
         let df = force[i + 1] - force[i - 1];
+        if !res.is_finite() || !df.is_finite() {
+            continue;
+        }
         if df > 0.0 {
             acc[b][0] += res;
             acc[b][1] += 1.0;

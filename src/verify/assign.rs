@@ -48,7 +48,8 @@ pub struct GratingTrack {
     pub rows_ambiguous: usize,
 }
 
-/// Assign peaks to gratings by window.
+/// Assign peaks to gratings: each peak to the grating with the nearest nominal
+/// wavelength, if it lies within that grating's window.
 pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
     let n = log.rows();
     let mut tracks: Vec<GratingTrack> = windows
@@ -62,19 +63,37 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
         .collect();
     let mut last: Vec<f64> = windows.iter().map(|w| w.nominal_nm).collect();
     let mut hits: Vec<u32> = vec![0; windows.len()];
+    // Windows sorted by nominal wavelength: each peak goes to the grating with the
+    // nearest nominal, if it lies within that grating's window.
+    let mut order: Vec<usize> = (0..windows.len()).collect();
+    order.sort_by(|&a, &b| windows[a].nominal_nm.total_cmp(&windows[b].nominal_nm));
+    let sorted: Vec<f64> = order.iter().map(|&g| windows[g].nominal_nm).collect();
     for i in 0..n {
         let (peaks, _) = log.row(i);
         hits.iter_mut().for_each(|h| *h = 0);
         for &p in peaks {
-            for (g, w) in windows.iter().enumerate() {
-                if (p - w.nominal_nm).abs() <= w.half_width_nm {
-                    let cur = &mut tracks[g].wavelength_nm[i];
-                    if hits[g] == 0 || (p - last[g]).abs() < (*cur - last[g]).abs() {
-                        *cur = p;
+            let k = sorted.partition_point(|&l| l < p);
+            let nearest = match (k.checked_sub(1), sorted.get(k)) {
+                (Some(a), Some(&hi)) => {
+                    if p - sorted[a] <= hi - p {
+                        a
+                    } else {
+                        k
                     }
-                    hits[g] += 1;
                 }
+                (Some(a), None) => a,
+                (None, Some(_)) => k,
+                (None, None) => continue,
+            };
+            let g = order[nearest];
+            if (p - windows[g].nominal_nm).abs() > windows[g].half_width_nm {
+                continue;
             }
+            let cur = &mut tracks[g].wavelength_nm[i];
+            if hits[g] == 0 || (p - last[g]).abs() < (*cur - last[g]).abs() {
+                *cur = p;
+            }
+            hits[g] += 1;
         }
         for g in 0..windows.len() {
             if hits[g] > 0 {

@@ -301,7 +301,16 @@ impl LagModelCost<'_> {
         let mut ne = NormalEq::new(3);
         let mut hint = 0;
         let (mut sy, mut syy) = (0.0, 0.0);
+        let (f0, f1) = (self.force_t[0], self.force_t[self.force_t.len() - 1]);
         for (&t, &s) in self.shift_t.iter().zip(self.shift_pm) {
+            // Gaps and samples the force log does not cover carry no information.
+            // (The fit subsets keep the force span wider than the shifts' so that
+            // the sample set does not change with the offset.)
+            if !s.is_finite()
+                || (self.fixed_offset_s.is_some() && (t + offset_s < f0 || t + offset_s > f1))
+            {
+                continue;
+            }
             let yv = interp(self.force_t, &y, t + offset_s, &mut hint);
             ne.add(&[yv, 1.0, t - self.t_mid], s);
             sy += s;

@@ -77,7 +77,7 @@ pub fn summary(r: &VerifyReport) -> String {
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
         let _ = writeln!(
             s,
-            "{:<12} {:>14.4} {:>10.4} {:>8.4} {:>9.2} {:>9.2} {:>9.3} {:>11} {:>8.3} {:>11}  {}{}",
+            "{:<12} {:>14.4} {:>10.2e} {:>8.4} {:>9.2} {:>9.2} {:>9.3} {:>11} {:>8.3} {:>11}  {}{}",
             g.grating,
             g.sensitivity_pm_per_n,
             g.sensitivity_std_error_pm_per_n,
