@@ -205,8 +205,21 @@ fn q_reaches_the_closed_form_strain_cap() {
     let cap = s.max_grating_strain * lambda * 1e3 * (1.0 - base.fiber.photoelastic_pe)
         / s.max_force_n
         / s.quality.sample_period_s;
-    assert!(best.objective <= cap * (1.0 + 1e-9), "{} > cap {cap}", best.objective);
-    assert!(best.objective >= 0.99 * cap, "{} well below cap {cap}", best.objective);
+    assert!(
+        best.objective <= cap * (1.0 + 1e-9),
+        "{} > cap {cap}",
+        best.objective
+    );
+    assert!(
+        best.objective >= 0.99 * cap,
+        "{} well below cap {cap}",
+        best.objective
+    );
     let r2 = best.gratings[0].r_squared;
-    assert!((best.objective - cap * r2).abs() < 2e-3 * cap, "Q {} vs cap·R² {}", best.objective, cap * r2);
+    assert!(
+        (best.objective - cap * r2).abs() < 2e-3 * cap,
+        "Q {} vs cap·R² {}",
+        best.objective,
+        cap * r2
+    );
 }
