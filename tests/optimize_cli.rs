@@ -187,3 +187,100 @@ fn bad_input_is_an_error_naming_the_problem() {
     // Nothing was written for the failed runs.
     assert!(!Path::new(out).exists());
 }
+
+#[test]
+fn the_loop_closes_through_the_verifier() {
+    // optimise → synthetic log of a print with a known lag → verify → optimise again
+    // with the verifier's JSON: the calibrated model reproduces the measured lag.
+    let dir = tempfile::tempdir().unwrap();
+    let opt = dir.path().join("opt.toml");
+    let run = |args: Vec<String>| {
+        let o = bin().args(&args).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        o.stdout
+    };
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    run(vec![
+        "optimize".into(),
+        s(&shipped("clip-on-34mm.toml")),
+        "--starts".into(),
+        "0".into(),
+        "--cores".into(),
+        "core_rubber_case_i".into(),
+        "--inserts".into(),
+        "insert_blue".into(),
+        "--out".into(),
+        s(&opt),
+    ]);
+    let synth = dir.path().join("synth");
+    let (tau, r) = (1.0, 0.5);
+    run(vec![
+        "synth-log".into(),
+        s(&opt),
+        "--k-pm-per-n".into(),
+        "150".into(),
+        "--rate-hz".into(),
+        "2".into(),
+        "--tau-s".into(),
+        tau.to_string(),
+        "--instant-fraction".into(),
+        r.to_string(),
+        "--out".into(),
+        s(&synth),
+    ]);
+    let verify = run(vec![
+        "verify".into(),
+        s(&opt),
+        "--log".into(),
+        s(&synth.join("log.txt")),
+        "--force".into(),
+        s(&synth.join("force.csv")),
+        "--case".into(),
+        "I".into(),
+        "--json".into(),
+    ]);
+    let vjson = dir.path().join("verify.json");
+    std::fs::write(&vjson, &verify).unwrap();
+    let measured = fbgforge::optimize::quality::MeasuredPrototype::load(&vjson).unwrap();
+    let lag = measured.sls_lag_s.unwrap();
+    assert!(
+        (lag - (1.0 - r) * tau).abs() < 0.05,
+        "verifier's SLS lag {lag} s"
+    );
+    let next = dir.path().join("next.toml");
+    let out = run(vec![
+        "optimize".into(),
+        s(&opt),
+        "--starts".into(),
+        "0".into(),
+        "--measured".into(),
+        s(&vjson),
+        "--out".into(),
+        s(&next),
+        "--json".into(),
+    ]);
+    let summary: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let g = &summary["start"]["gratings"];
+    let model_lag = g[0]["lag_s"].as_f64().unwrap();
+    assert!(
+        (model_lag - lag).abs() < 1e-9,
+        "calibrated lag {model_lag} vs measured {lag}"
+    );
+    let mean_r2 = g
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["r_squared"].as_f64().unwrap())
+        .sum::<f64>()
+        / g.as_array().unwrap().len() as f64;
+    assert!(
+        (mean_r2 - measured.r_squared.unwrap()).abs() < 1e-3,
+        "{mean_r2} vs {:?}",
+        measured.r_squared
+    );
+    fbgforge::spec::load(&next).unwrap();
+}
