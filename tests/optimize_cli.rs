@@ -171,6 +171,19 @@ fn bad_input_is_an_error_naming_the_problem() {
         ],
         "no measured lag",
     );
+    fails_with(
+        &[
+            "optimize",
+            d34,
+            "--vary",
+            "outer_diameter_mm,cap_wall_mm",
+            "--landscape",
+            "outer_diameter_mm,core_wall_mm",
+            "--out",
+            out,
+        ],
+        "`core_wall_mm` is not in --vary",
+    );
     fails_with(&["place", d34, "--out", out], "no [array] section");
     let arr = shipped("tactile-array-60x80.toml");
     fails_with(

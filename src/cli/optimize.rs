@@ -139,6 +139,22 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
         None => MaterialLibrary::shipped(),
     };
     let settings = module_settings(&a)?;
+    // Check the plot request before the work, so a typo costs nothing.
+    let landscape_vars = match &a.landscape {
+        Some(s) => {
+            let v = Variable::parse_list(s)?;
+            anyhow::ensure!(
+                v.len() == 2,
+                "--landscape needs exactly two variables, got {}",
+                v.len()
+            );
+            if let Some(x) = v.iter().find(|x| !settings.vary.contains(x)) {
+                anyhow::bail!("--landscape variable `{}` is not in --vary", x.name());
+            }
+            v
+        }
+        None => settings.vary.iter().take(2).copied().collect(),
+    };
     let measured = a
         .measured
         .as_deref()
@@ -160,18 +176,6 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
     });
     let report_dir = a.report_dir.clone().unwrap_or_else(|| report_beside(&out));
     write_design(&out, &outcome.design)?;
-    let landscape_vars = match &a.landscape {
-        Some(s) => {
-            let v = Variable::parse_list(s)?;
-            anyhow::ensure!(
-                v.len() == 2,
-                "--landscape needs exactly two variables, got {}",
-                v.len()
-            );
-            v
-        }
-        None => outcome.variables.iter().take(2).copied().collect(),
-    };
     write_module_report(
         &report_dir,
         &design,
