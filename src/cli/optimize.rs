@@ -387,42 +387,57 @@ fn write_module_report(
             va.name(),
             format!("objective, {}", o.objective_unit),
         );
-        for j in 0..steps {
+        // Every third slice of the second variable, feasible points joined; the
+        // points the constraints cut off drawn apart.
+        for j in (0..steps).step_by(3) {
+            let vbj = grid[j].b;
             let pts: Vec<(f64, f64)> = grid
                 .iter()
-                .filter(|g| (g.1 - grid[j].1).abs() < 1e-12)
-                .map(|g| (g.0, g.2))
-                .filter(|g| g.1.is_finite())
+                .filter(|g| (g.b - vbj).abs() < 1e-12 && g.feasible && g.objective.is_finite())
+                .map(|g| (g.a, g.objective))
                 .collect();
             if !pts.is_empty() {
                 chart = chart.with(Series::new(
-                    format!("{} = {:.3}", vb.name(), grid[j].1),
+                    format!("{} = {vbj:.3}, feasible", vb.name()),
                     pts,
                     Mark::LinePoints,
                 ));
             }
         }
+        let cut: Vec<(f64, f64)> = grid
+            .iter()
+            .filter(|g| !g.feasible && g.objective.is_finite())
+            .map(|g| (g.a, g.objective))
+            .collect();
+        if !cut.is_empty() {
+            chart = chart.with(Series::new(
+                "infeasible (strain or window limit)",
+                cut,
+                Mark::Points,
+            ));
+        }
         if chart.series.is_empty() {
-            anyhow::bail!("the landscape has no feasible point to plot");
+            anyhow::bail!("the landscape has no point the model could evaluate");
         }
         chart.write_svg(&dir.join("landscape.svg"))?;
         let rows: Vec<Vec<String>> = grid
             .iter()
             .map(|g| {
                 vec![
-                    g.0.to_string(),
-                    g.1.to_string(),
-                    if g.2.is_finite() {
-                        g.2.to_string()
+                    g.a.to_string(),
+                    g.b.to_string(),
+                    if g.objective.is_finite() {
+                        g.objective.to_string()
                     } else {
                         String::new()
                     },
+                    g.feasible.to_string(),
                 ]
             })
             .collect();
         write_csv(
             &dir.join("landscape.csv"),
-            &[va.name(), vb.name(), "objective"],
+            &[va.name(), vb.name(), "objective", "feasible"],
             &rows,
         )?;
     }

@@ -1218,15 +1218,29 @@ fn infeasible_error(choices: &[ChoiceResult], settings: &ModuleSettings) -> anyh
     }
 }
 
+/// One point of a landscape.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LandscapePoint {
+    /// Value of the first variable.
+    pub a: f64,
+    /// Value of the second variable.
+    pub b: f64,
+    /// Objective (NaN where the geometry or the model fails).
+    pub objective: f64,
+    /// Whether every constraint is met.
+    pub feasible: bool,
+}
+
 /// Objective over a grid of two variables around a point (others fixed), for the
-/// landscape plot. Infeasible points are NaN.
+/// landscape plot. Infeasible points keep their objective when the model could
+/// evaluate them (strain or window broken), so the plot shows what the limits cut off.
 pub fn landscape(
     p: &ModuleProblem,
     at: &[f64],
     a: usize,
     b: usize,
     steps: usize,
-) -> Vec<(f64, f64, f64)> {
+) -> Vec<LandscapePoint> {
     let (lo, hi) = p.box_bounds();
     let steps = steps.max(2);
     let cells: Vec<(f64, f64)> = (0..steps)
@@ -1243,7 +1257,16 @@ pub fn landscape(
             x[a] = va;
             x[b] = vb;
             let e = p.evaluate(&x);
-            (va, vb, if e.feasible() { e.objective } else { f64::NAN })
+            LandscapePoint {
+                a: va,
+                b: vb,
+                objective: if e.gratings.is_empty() {
+                    f64::NAN
+                } else {
+                    e.objective
+                },
+                feasible: e.feasible(),
+            }
         })
         .collect()
 }
