@@ -179,3 +179,40 @@ fn bad_input_exits_with_a_clear_error() {
         "no output file on error"
     );
 }
+
+#[test]
+fn shifts_without_a_time_column_give_a_frame_column() {
+    // Same frames as the fixture minus its time_s column: the output's first column is
+    // then `frame`, the 0-based row index.
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(fixture("paper-model-shifts.csv")).unwrap();
+    let no_time: String = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_once(',').unwrap().1.to_string() + "\n")
+        .collect();
+    let shifts = dir.path().join("no-time.csv");
+    std::fs::write(&shifts, no_time).unwrap();
+    let out = dir.path().join("loads.csv");
+    let o = fbgforge(&[
+        "reconstruct",
+        "--matrix",
+        fixture("paper-model-matrix.csv").to_str().unwrap(),
+        "--shifts",
+        shifts.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "frame,A,B,C,D,E,F,G,H");
+    let frames: Vec<&str> = lines[1..]
+        .iter()
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(frames, ["0", "1", "2", "3"]);
+    // Frame 0 is B = 100 g.
+    let b: f64 = lines[1].split(',').nth(2).unwrap().parse().unwrap();
+    assert!((b - 100.0).abs() < 0.01, "{b}");
+}

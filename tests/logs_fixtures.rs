@@ -253,3 +253,30 @@ mod never_panics {
         }
     }
 }
+
+#[test]
+fn windows_line_endings_read_the_same() {
+    for name in [
+        "enlight_peaks_bom_decimal_comma.txt",
+        "enlight_sensors.txt",
+        "imon.txt",
+        "plain.csv",
+    ] {
+        let path = fixture(name);
+        let bytes = std::fs::read(&path).unwrap();
+        let text = String::from_utf8(bytes.clone()).unwrap();
+        let crlf = text.replace('\n', "\r\n");
+        let a = logs::parse_wavelength_bytes(&bytes, &path, &ReadOptions::default()).unwrap();
+        let b =
+            logs::parse_wavelength_bytes(crlf.as_bytes(), &path, &ReadOptions::default()).unwrap();
+        assert_eq!(a.time_s, b.time_s, "{name}");
+        assert_eq!(a.peaks_nm, b.peaks_nm, "{name}");
+        assert_eq!(a.warnings, b.warnings, "{name}");
+    }
+    let path = fixture("force_stand.csv");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace('\n', "\r\n");
+    let f = logs::parse_force_bytes(text.as_bytes(), &path, &ForceColumns::default()).unwrap();
+    assert_eq!(f.force_n, vec![0.012, 5.25, 10.5, 5.2]);
+}

@@ -335,3 +335,54 @@ fn compression_logged_as_negative_force_is_flipped_and_counted() {
     assert!((m.gratings[0].sensitivity_pm_per_n - k).abs() / k < 0.01);
     assert_eq!(m.gratings[0].pulses.len(), truth.gratings[0].lags_s.len());
 }
+
+#[test]
+fn chunked_parallel_parsing_keeps_rows_and_line_numbers() {
+    // Over 4 MB, so the body is split into chunks parsed in parallel.
+    let d = design();
+    let cfg = SynthConfig {
+        sample_rate_hz: 1000.0,
+        duration_s: 90.0,
+        ..Default::default()
+    };
+    let (log, _, _) = synth::generate(&d, &cfg).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let lp = dir.path().join("big.txt");
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&lp).unwrap();
+    assert!(text.len() > 5 << 20, "{} bytes", text.len());
+    let mut lines: Vec<&str> = text.lines().collect();
+    let header = lines
+        .iter()
+        .position(|l| l.starts_with("Timestamp\t"))
+        .unwrap();
+    // Garbage at three places; remember their 1-based line numbers.
+    let targets = [header + 10, lines.len() / 2, lines.len() - 3];
+    for &i in &targets {
+        lines[i] = "garbage";
+    }
+    std::fs::write(&lp, lines.join("\n") + "\n").unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    assert_eq!(pl.rows(), log.time_s.len() - 3);
+    assert_eq!(pl.warnings.count("unreadable_line"), 3);
+    let first = &pl.warnings.counts["unreadable_line"].first;
+    assert!(
+        first.contains(&format!("big.txt:{}: ", targets[0] + 1)),
+        "{first}"
+    );
+    // Every row keeps its own line number and its peaks.
+    for (r, &line) in pl.line_of_row.iter().enumerate().step_by(997) {
+        let want = lines[line as usize - 1];
+        let first_peak = want.split('\t').nth(4).unwrap().parse::<f64>().unwrap();
+        assert_eq!(pl.row(r).0[0], first_peak, "row {r} line {line}");
+    }
+    // Epoch seconds near 1.7e9 carry about 0.2 µs of rounding.
+    assert!((pl.median_period_s() - 1e-3).abs() < 1e-6);
+}

@@ -213,7 +213,8 @@ pub fn read_shifts(path: &Path, gratings: &[String]) -> Result<ShiftStream> {
     })
 }
 
-/// Write reconstructed loads: `time_s,<cells…>` (or `frame,<cells…>`), g, atomically.
+/// Write reconstructed loads: `time_s,<cells…>`, g, atomically; without times the
+/// first column is `frame`, the 0-based index of the shifts row.
 pub fn write_loads(
     path: &Path,
     cells: &[String],

@@ -373,6 +373,9 @@ fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64
 /// datasheet numbers, not from the simulation): a reading of grating i with loads on
 /// the cells S has variance resolution² + (hysteresis span)²/3 · Σ_{j∈S} A_ij², since
 /// every load adds its own hysteresis error, uniform in ± (hysteresis fraction × span).
+/// This is the pessimistic full-span hysteresis (`protocol::NoiseModel::full_span`):
+/// the load-proportional default cannot be written as a variance before the loads are
+/// known, and the tuned λ absorbs most of the difference.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct NoisePrior {
     /// Standard deviation of the interrogator noise, pm.

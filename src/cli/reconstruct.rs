@@ -40,7 +40,9 @@ pub struct ReconstructArgs {
     /// Do not column-normalise the matrix (the paper normalises).
     #[arg(long)]
     pub no_normalise: bool,
-    /// Output CSV of loads (default: out/reconstruct/<shifts name>-loads.csv).
+    /// Output CSV of loads in g, `time_s,<cells…>`; when the shifts have no `time_s`
+    /// column the first column is `frame`, the 0-based row index
+    /// (default: out/reconstruct/<shifts name>-loads.csv).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print a JSON summary on stdout instead of the text summary.
@@ -165,8 +167,9 @@ pub struct BenchReconstructArgs {
     /// First seed; the protocol is repeated for `repeats` consecutive seeds.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Independent repetitions of the 84-test protocol (pooled in the tables).
-    #[arg(long, default_value_t = 5)]
+    /// Independent repetitions of the 84-test protocol (pooled in the tables; the
+    /// failure studies use the first five).
+    #[arg(long, default_value_t = 20)]
     pub repeats: u64,
     /// Quick run: one repetition, DE limited to 300 generations, coarser sweeps.
     #[arg(long)]

@@ -50,11 +50,24 @@ pub fn summary(r: &VerifyReport) -> String {
         m.force_samples,
         m.force_rate_hz
     );
+    // A wall clock against a relative one gives an offset of ~1.7e9 s: correct but
+    // unreadable, so only the force log's start is printed then (JSON has both).
+    let offset = if m.clock_offset_s.abs() < 1e6 {
+        format!(
+            "clock offset {:.4} s ({}), ",
+            m.clock_offset_s, m.clock_offset_source
+        )
+    } else {
+        format!("clock offset {} (", m.clock_offset_source)
+    };
+    let close = if m.clock_offset_s.abs() < 1e6 {
+        ""
+    } else {
+        ")"
+    };
     let _ = writeln!(
         s,
-        "clock offset {:.4} s ({}; force log starts at {:.4} s), overlap {:.1} s, {} pulses, temperature reference: {}",
-        m.clock_offset_s,
-        m.clock_offset_source,
+        "{offset}force log starts at {:.4} s{close}, overlap {:.1} s, {} pulses, temperature reference: {}",
         m.force_log_start_s,
         m.overlap_s,
         m.pulse_count,
@@ -172,10 +185,14 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         &prow,
     )?;
 
-    // Plots.
+    // Plots: at most 2 500 markers per series and 8 000 line points keep the SVGs
+    // small enough to open; the CSVs hold the denser data.
+    let n = series.time_s.len();
+    let scatter: Vec<usize> = (0..n).step_by(decimate(n, 2_500)).collect();
+    let line: Vec<usize> = (0..n).step_by(decimate(n, 8_000)).collect();
     let mut c = Chart::new("Shift against force", "force F (N)", "shift Δλ (pm)");
     for ((name, v), (_, slope, intercept)) in series.shift_pm.iter().zip(&series.fit) {
-        let pts: Vec<(f64, f64)> = idx
+        let pts: Vec<(f64, f64)> = scatter
             .iter()
             .map(|&i| (series.force_n[i], v[i]))
             .filter(|(a, b)| a.is_finite() && b.is_finite())
@@ -193,7 +210,7 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         }
     }
     c.write_svg(&dir.join("shift_vs_force.svg"))?;
-    let fpts: Vec<(f64, f64)> = idx
+    let fpts: Vec<(f64, f64)> = line
         .iter()
         .map(|&i| (series.time_s[i], series.force_n[i]))
         .collect();
@@ -212,7 +229,7 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     for (name, v) in &series.shift_pm {
         c = c.with(PlotSeries::new(
             name.clone(),
-            idx.iter().map(|&i| (series.time_s[i], v[i])).collect(),
+            line.iter().map(|&i| (series.time_s[i], v[i])).collect(),
             Mark::Line,
         ));
     }
