@@ -10,6 +10,7 @@ pub mod geometry;
 pub mod grating;
 pub mod logs;
 pub mod model;
+pub mod optimize;
 pub mod output;
 pub mod plot;
 pub mod profile;

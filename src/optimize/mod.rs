@@ -1,0 +1,15 @@
+//! Design optimisation: maximise the predicted quality Q (or the sensitivity) of a
+//! clip-on module over printable designs, and place the gratings of a flat array so
+//! that reconstruction works best.
+//!
+//! * [`materials`]: the material library (E, ν and the Q model's viscoelastic numbers).
+//! * [`quality`]: the Q model, Q = |K|·R²/Δt_max, and its calibration by a verifier JSON.
+//! * [`solve`]: argmin solvers behind one trait, multi-start in parallel, history.
+//! * [`module`]: the module problem: variables, constraints, discrete material choices.
+//! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
+
+pub mod materials;
+pub mod module;
+pub mod place;
+pub mod quality;
+pub mod solve;

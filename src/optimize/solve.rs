@@ -1,0 +1,427 @@
+//! Solver machinery shared by module optimisation and array placement, argmin style:
+//! a problem is a [`BoxProblem`] (a penalised cost over a box), the method is a
+//! [`SolverKind`] run by argmin's `Executor`, which owns iteration, stopping and the
+//! observer that records the convergence history. [`multi_start`] runs several starts
+//! of several solvers in parallel (rayon) and keeps every run for the report.
+
+use argmin::core::observers::{Observe, ObserverMode};
+use argmin::core::{CostFunction, Error, Executor, State, KV};
+use argmin::solver::neldermead::NelderMead;
+use argmin::solver::particleswarm::ParticleSwarm;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// A minimisation problem over a box: the cost is finite everywhere in the box
+/// (constraints are folded in as penalties by the problem itself).
+pub trait BoxProblem: Sync {
+    /// Lower and upper bounds of each variable.
+    fn bounds(&self) -> (Vec<f64>, Vec<f64>);
+    /// Cost at `x` (inside the box). Lower is better.
+    fn cost(&self, x: &[f64]) -> f64;
+}
+
+/// The argmin methods fbgforge compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Hash)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverKind {
+    /// Nelder–Mead simplex (argmin), started from a point.
+    NelderMead,
+    /// Particle swarm (argmin), seeded, over the whole box.
+    ParticleSwarm,
+}
+
+impl SolverKind {
+    /// Every solver.
+    pub const ALL: [SolverKind; 2] = [SolverKind::NelderMead, SolverKind::ParticleSwarm];
+
+    /// Name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::NelderMead => "nelder-mead",
+            SolverKind::ParticleSwarm => "particle-swarm",
+        }
+    }
+
+    /// Parse a name, listing the known ones on failure.
+    pub fn parse(s: &str) -> anyhow::Result<Vec<SolverKind>> {
+        match s {
+            "nelder-mead" => Ok(vec![SolverKind::NelderMead]),
+            "particle-swarm" => Ok(vec![SolverKind::ParticleSwarm]),
+            "both" => Ok(SolverKind::ALL.to_vec()),
+            _ => {
+                anyhow::bail!("unknown solver `{s}`; expected nelder-mead, particle-swarm or both")
+            }
+        }
+    }
+}
+
+/// Budget and tolerances of one run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RunSettings {
+    /// Iteration limit per Nelder–Mead run.
+    pub max_iters: u64,
+    /// Iteration limit per particle-swarm run.
+    pub swarm_iters: u64,
+    /// Nelder–Mead: stop when the simplex costs' standard deviation falls below this.
+    pub sd_tolerance: f64,
+    /// Particle swarm: number of particles.
+    pub particles: usize,
+    /// Nelder–Mead: initial simplex edge as a share of each variable's range.
+    pub simplex_share: f64,
+}
+
+impl Default for RunSettings {
+    fn default() -> Self {
+        RunSettings {
+            max_iters: 200,
+            swarm_iters: 80,
+            sd_tolerance: 1e-7,
+            particles: 16,
+            simplex_share: 0.15,
+        }
+    }
+}
+
+/// One run of one solver from one start.
+#[derive(Debug, Clone, Serialize)]
+pub struct Run {
+    /// Solver.
+    pub solver: SolverKind,
+    /// Start index (0 = the given start point).
+    pub start: usize,
+    /// Best point found (inside the box).
+    pub best_x: Vec<f64>,
+    /// Its cost.
+    pub best_cost: f64,
+    /// Iterations done.
+    pub iterations: u64,
+    /// Cost evaluations.
+    pub evaluations: u64,
+    /// Wall time, s.
+    pub time_s: f64,
+    /// Why it stopped, as argmin reports it.
+    pub termination: String,
+    /// Best cost after each iteration.
+    pub history: Vec<f64>,
+}
+
+/// argmin adapter: projects onto the box (a feasible parameterisation of the bounds)
+/// and adds the squared distance outside it so the simplex is pulled back in.
+struct Boxed<'a, P: BoxProblem> {
+    problem: &'a P,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    evaluations: Arc<AtomicU64>,
+}
+
+impl<P: BoxProblem> Boxed<'_, P> {
+    fn project(&self, x: &[f64]) -> (Vec<f64>, f64) {
+        let mut outside = 0.0;
+        let y = x
+            .iter()
+            .zip(self.lo.iter().zip(&self.hi))
+            .map(|(&v, (&l, &h))| {
+                let c = if v.is_finite() { v.clamp(l, h) } else { l };
+                let span = (h - l).max(1e-12);
+                outside += ((v - c) / span).powi(2);
+                c
+            })
+            .collect();
+        (y, outside)
+    }
+}
+
+impl<P: BoxProblem> CostFunction for Boxed<'_, P> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, Error> {
+        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        let (y, outside) = self.project(x);
+        let c = self.problem.cost(&y);
+        let c = if c.is_finite() { c } else { 1e12 };
+        Ok(c + 1e3 * outside)
+    }
+}
+
+/// Records the best cost after every iteration.
+struct History(Arc<Mutex<Vec<f64>>>);
+
+impl<I: State<Float = f64>> Observe<I> for History {
+    fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), Error> {
+        if let Ok(mut h) = self.0.lock() {
+            h.push(state.get_best_cost());
+        }
+        Ok(())
+    }
+}
+
+/// Run one solver on `problem` from `start` (Nelder–Mead) or over the box with `seed`
+/// (particle swarm).
+pub fn run_one<P: BoxProblem>(
+    problem: &P,
+    kind: SolverKind,
+    start: &[f64],
+    start_index: usize,
+    seed: u64,
+    settings: &RunSettings,
+) -> anyhow::Result<Run> {
+    let (lo, hi) = problem.bounds();
+    anyhow::ensure!(
+        lo.len() == hi.len() && lo.len() == start.len(),
+        "bounds and start differ in length"
+    );
+    let evaluations = Arc::new(AtomicU64::new(0));
+    let boxed = Boxed {
+        problem,
+        lo: lo.clone(),
+        hi: hi.clone(),
+        evaluations: evaluations.clone(),
+    };
+    let projector = Boxed {
+        problem,
+        lo: lo.clone(),
+        hi: hi.clone(),
+        evaluations: evaluations.clone(),
+    };
+    let history = Arc::new(Mutex::new(Vec::new()));
+    let t0 = Instant::now();
+    let (best_x, best_cost, iterations, termination) = match kind {
+        SolverKind::NelderMead => {
+            // Initial simplex: the start and one step along each axis, stepping inward
+            // when the start sits on the upper bound.
+            let mut simplex = vec![start.to_vec()];
+            for i in 0..start.len() {
+                let mut v = start.to_vec();
+                let step = settings.simplex_share * (hi[i] - lo[i]);
+                v[i] = if v[i] + step <= hi[i] {
+                    v[i] + step
+                } else {
+                    v[i] - step
+                };
+                simplex.push(v);
+            }
+            let solver = NelderMead::new(simplex).with_sd_tolerance(settings.sd_tolerance)?;
+            let res = Executor::new(boxed, solver)
+                .configure(|s| s.max_iters(settings.max_iters))
+                .add_observer(History(history.clone()), ObserverMode::Always)
+                .run()
+                .map_err(|e| anyhow::anyhow!("nelder-mead: {e}"))?;
+            let st = res.state();
+            let x = st
+                .get_best_param()
+                .cloned()
+                .unwrap_or_else(|| start.to_vec());
+            (
+                x,
+                st.get_best_cost(),
+                st.get_iter(),
+                st.get_termination_status().to_string(),
+            )
+        }
+        SolverKind::ParticleSwarm => {
+            let solver = ParticleSwarm::new((lo.clone(), hi.clone()), settings.particles)
+                .with_rng_generator(rand::rngs::StdRng::seed_from_u64(seed));
+            let res = Executor::new(boxed, solver)
+                .configure(|s| s.max_iters(settings.swarm_iters))
+                .add_observer(History(history.clone()), ObserverMode::Always)
+                .run()
+                .map_err(|e| anyhow::anyhow!("particle-swarm: {e}"))?;
+            let st = res.state();
+            let x = st
+                .get_best_param()
+                .map(|p| p.position.clone())
+                .unwrap_or_else(|| start.to_vec());
+            (
+                x,
+                st.get_best_cost(),
+                st.get_iter(),
+                st.get_termination_status().to_string(),
+            )
+        }
+    };
+    let (best_x, _) = projector.project(&best_x);
+    let history = history.lock().map(|h| h.clone()).unwrap_or_default();
+    Ok(Run {
+        solver: kind,
+        start: start_index,
+        best_x,
+        best_cost,
+        iterations,
+        evaluations: evaluations.load(Ordering::Relaxed),
+        time_s: t0.elapsed().as_secs_f64(),
+        termination,
+        history,
+    })
+}
+
+/// Start points: `start` itself, then `extra` seeded uniform points in the box.
+pub fn start_points(
+    start: &[f64],
+    lo: &[f64],
+    hi: &[f64],
+    extra: usize,
+    seed: u64,
+) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut pts = vec![start.to_vec()];
+    for _ in 0..extra {
+        pts.push(
+            lo.iter()
+                .zip(hi)
+                .map(|(&l, &h)| if h > l { rng.random_range(l..=h) } else { l })
+                .collect(),
+        );
+    }
+    pts
+}
+
+/// Run Nelder–Mead from every start point and the particle swarm once (it searches
+/// the whole box), all in parallel.
+pub fn multi_start<P: BoxProblem>(
+    problem: &P,
+    solvers: &[SolverKind],
+    starts: &[Vec<f64>],
+    seed: u64,
+    settings: &RunSettings,
+) -> anyhow::Result<Vec<Run>> {
+    // The swarm ignores the start point and covers the whole box itself, so it runs
+    // once per problem; Nelder–Mead runs from every start.
+    let jobs: Vec<(SolverKind, usize)> = solvers
+        .iter()
+        .flat_map(|&k| {
+            let n = match k {
+                SolverKind::NelderMead => starts.len(),
+                SolverKind::ParticleSwarm => starts.len().min(1),
+            };
+            (0..n).map(move |i| (k, i))
+        })
+        .collect();
+    jobs.par_iter()
+        .map(|&(k, i)| {
+            run_one(
+                problem,
+                k,
+                &starts[i],
+                i,
+                seed.wrapping_add(i as u64 * 7919),
+                settings,
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A shifted, scaled quadratic bowl with its minimum inside the box.
+    struct Bowl {
+        centre: Vec<f64>,
+    }
+    impl BoxProblem for Bowl {
+        fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+            (vec![-5.0; self.centre.len()], vec![5.0; self.centre.len()])
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            x.iter()
+                .zip(&self.centre)
+                .enumerate()
+                .map(|(i, (a, c))| (i + 1) as f64 * (a - c).powi(2))
+                .sum::<f64>()
+                + 3.0
+        }
+    }
+
+    /// Rosenbrock's valley, whose minimum (1, 1) is known exactly.
+    struct Rosenbrock;
+    impl BoxProblem for Rosenbrock {
+        fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+            (vec![-2.0, -1.0], vec![2.0, 3.0])
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2)
+        }
+    }
+
+    /// Minimum on the boundary: min (x − 7)² over [−5, 5] is at x = 5.
+    struct Edge;
+    impl BoxProblem for Edge {
+        fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+            (vec![-5.0], vec![5.0])
+        }
+        fn cost(&self, x: &[f64]) -> f64 {
+            (x[0] - 7.0).powi(2)
+        }
+    }
+
+    #[test]
+    fn both_solvers_find_the_bowl_minimum() {
+        let p = Bowl {
+            centre: vec![1.5, -2.0, 0.25],
+        };
+        let s = RunSettings {
+            max_iters: 400,
+            swarm_iters: 400,
+            particles: 30,
+            ..RunSettings::default()
+        };
+        for kind in SolverKind::ALL {
+            let r = run_one(&p, kind, &[0.0, 0.0, 0.0], 0, 3, &s).unwrap();
+            for (a, c) in r.best_x.iter().zip(&p.centre) {
+                assert!((a - c).abs() < 2e-2, "{kind:?}: {:?}", r.best_x);
+            }
+            assert!(
+                (r.best_cost - 3.0).abs() < 1e-3,
+                "{kind:?}: {}",
+                r.best_cost
+            );
+            // The history is the executor's best cost, never rising.
+            assert!(r.history.windows(2).all(|w| w[1] <= w[0] + 1e-12));
+            assert_eq!(r.history.len() as u64, r.iterations);
+        }
+    }
+
+    #[test]
+    fn multi_start_nelder_mead_solves_rosenbrock() {
+        let s = RunSettings {
+            max_iters: 2000,
+            sd_tolerance: 1e-14,
+            ..RunSettings::default()
+        };
+        let starts = start_points(&[-1.5, 2.5], &[-2.0, -1.0], &[2.0, 3.0], 3, 11);
+        let runs = multi_start(&Rosenbrock, &[SolverKind::NelderMead], &starts, 1, &s).unwrap();
+        assert_eq!(runs.len(), 4);
+        let best = runs
+            .iter()
+            .min_by(|a, b| a.best_cost.total_cmp(&b.best_cost))
+            .unwrap();
+        assert!(
+            (best.best_x[0] - 1.0).abs() < 1e-3 && (best.best_x[1] - 1.0).abs() < 2e-3,
+            "{:?}",
+            best.best_x
+        );
+    }
+
+    #[test]
+    fn bounded_minimum_lands_on_the_bound() {
+        for kind in SolverKind::ALL {
+            let r = run_one(&Edge, kind, &[0.0], 0, 5, &RunSettings::default()).unwrap();
+            assert!((r.best_x[0] - 5.0).abs() < 1e-3, "{kind:?}: {:?}", r.best_x);
+            assert!((r.best_cost - 4.0).abs() < 1e-2);
+        }
+    }
+
+    #[test]
+    fn unknown_solver_names_are_rejected() {
+        assert!(SolverKind::parse("simplex")
+            .unwrap_err()
+            .to_string()
+            .contains("nelder-mead"));
+        assert_eq!(SolverKind::parse("both").unwrap().len(), 2);
+    }
+}

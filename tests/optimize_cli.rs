@@ -1,0 +1,299 @@
+//! The `optimize` and `place` commands end to end: files written and loadable, and
+//! bad input reported as `error: ...` with exit status 1.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+}
+
+fn shipped(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("designs")
+        .join(name)
+}
+
+fn fails_with(args: &[&str], needle: &str) {
+    let out = bin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+    assert!(
+        err.starts_with("error: ") && err.contains(needle),
+        "{args:?}: {err}"
+    );
+}
+
+#[test]
+fn optimize_writes_a_loadable_design_a_summary_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("opt.toml");
+    let status = bin()
+        .args([
+            "optimize",
+            shipped("clip-on-34mm.toml").to_str().unwrap(),
+            "--starts",
+            "0",
+            "--cores",
+        ])
+        .arg("core_rubber_case_i")
+        .args([
+            "--inserts",
+            "insert_blue,none",
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&status.stdout).unwrap();
+    assert_eq!(summary["choices"].as_array().unwrap().len(), 2);
+    let d = fbgforge::spec::load(&out).unwrap();
+    assert_eq!(d.name, "clip-on-34mm-optimised");
+    let report = dir.path().join("opt-report");
+    for f in [
+        "summary.json",
+        "convergence.svg",
+        "convergence.csv",
+        "landscape.svg",
+        "landscape.csv",
+    ] {
+        let p = report.join(f);
+        assert!(
+            p.metadata().map(|m| m.len() > 0).unwrap_or(false),
+            "{} missing",
+            p.display()
+        );
+    }
+}
+
+#[test]
+fn place_writes_a_loadable_design() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("placed.toml");
+    let status = bin()
+        .args([
+            "place",
+            shipped("tactile-array-60x80.toml").to_str().unwrap(),
+        ])
+        .args([
+            "--objective",
+            "coherence",
+            "--max-iters",
+            "10",
+            "--agreement-samples",
+            "0",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let d = fbgforge::spec::load(&out).unwrap();
+    assert!(d.array.is_some());
+    assert!(dir.path().join("placed-report/convergence.svg").exists());
+}
+
+#[test]
+fn bad_input_is_an_error_naming_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let d34 = shipped("clip-on-34mm.toml");
+    let d34 = d34.to_str().unwrap();
+    let out = dir.path().join("x.toml");
+    let out = out.to_str().unwrap();
+    fails_with(
+        &[
+            "optimize",
+            d34,
+            "--vary",
+            "outer_diameter_mm,wall",
+            "--out",
+            out,
+        ],
+        "unknown variable `wall`",
+    );
+    fails_with(
+        &["optimize", d34, "--bounds", "cap_wall_mm=2:1", "--out", out],
+        "contradictory bounds for `cap_wall_mm`",
+    );
+    fails_with(
+        &["optimize", d34, "--objective", "speed", "--out", out],
+        "unknown objective `speed`",
+    );
+    fails_with(
+        &["optimize", d34, "--max-force-n", "0", "--out", out],
+        "--max-force-n",
+    );
+    fails_with(
+        &[
+            "optimize",
+            d34,
+            "--max-strain-microstrain",
+            "1",
+            "--starts",
+            "0",
+            "--out",
+            out,
+        ],
+        "infeasible: constraint `grating_strain` cannot be met",
+    );
+    let empty = dir.path().join("empty.toml");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    fails_with(
+        &[
+            "optimize",
+            d34,
+            "--materials",
+            empty.to_str().unwrap(),
+            "--out",
+            out,
+        ],
+        "material table is empty",
+    );
+    let bad_json = dir.path().join("v.json");
+    std::fs::write(&bad_json, "{\"gratings\": [{\"k\": 1}]}").unwrap();
+    fails_with(
+        &[
+            "optimize",
+            d34,
+            "--measured",
+            bad_json.to_str().unwrap(),
+            "--out",
+            out,
+        ],
+        "no measured lag",
+    );
+    fails_with(
+        &[
+            "optimize",
+            d34,
+            "--vary",
+            "outer_diameter_mm,cap_wall_mm",
+            "--landscape",
+            "outer_diameter_mm,core_wall_mm",
+            "--out",
+            out,
+        ],
+        "`core_wall_mm` is not in --vary",
+    );
+    fails_with(&["place", d34, "--out", out], "no [array] section");
+    let arr = shipped("tactile-array-60x80.toml");
+    fails_with(
+        &[
+            "place",
+            arr.to_str().unwrap(),
+            "--method",
+            "magic",
+            "--out",
+            out,
+        ],
+        "magic",
+    );
+    // Nothing was written for the failed runs.
+    assert!(!Path::new(out).exists());
+}
+
+#[test]
+fn the_loop_closes_through_the_verifier() {
+    // optimise → synthetic log of a print with a known lag → verify → optimise again
+    // with the verifier's JSON: the calibrated model reproduces the measured lag.
+    let dir = tempfile::tempdir().unwrap();
+    let opt = dir.path().join("opt.toml");
+    let run = |args: Vec<String>| {
+        let o = bin().args(&args).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        o.stdout
+    };
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    run(vec![
+        "optimize".into(),
+        s(&shipped("clip-on-34mm.toml")),
+        "--starts".into(),
+        "0".into(),
+        "--cores".into(),
+        "core_rubber_case_i".into(),
+        "--inserts".into(),
+        "insert_blue".into(),
+        "--out".into(),
+        s(&opt),
+    ]);
+    let synth = dir.path().join("synth");
+    let (tau, r) = (1.0, 0.5);
+    run(vec![
+        "synth-log".into(),
+        s(&opt),
+        "--k-pm-per-n".into(),
+        "150".into(),
+        "--rate-hz".into(),
+        "2".into(),
+        "--tau-s".into(),
+        tau.to_string(),
+        "--instant-fraction".into(),
+        r.to_string(),
+        "--out".into(),
+        s(&synth),
+    ]);
+    let verify = run(vec![
+        "verify".into(),
+        s(&opt),
+        "--log".into(),
+        s(&synth.join("log.txt")),
+        "--force".into(),
+        s(&synth.join("force.csv")),
+        "--case".into(),
+        "I".into(),
+        "--json".into(),
+    ]);
+    let vjson = dir.path().join("verify.json");
+    std::fs::write(&vjson, &verify).unwrap();
+    let measured = fbgforge::optimize::quality::MeasuredPrototype::load(&vjson).unwrap();
+    let lag = measured.sls_lag_s.unwrap();
+    assert!(
+        (lag - (1.0 - r) * tau).abs() < 0.05,
+        "verifier's SLS lag {lag} s"
+    );
+    let next = dir.path().join("next.toml");
+    let out = run(vec![
+        "optimize".into(),
+        s(&opt),
+        "--starts".into(),
+        "0".into(),
+        "--measured".into(),
+        s(&vjson),
+        "--out".into(),
+        s(&next),
+        "--json".into(),
+    ]);
+    let summary: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let g = &summary["start"]["gratings"];
+    let model_lag = g[0]["lag_s"].as_f64().unwrap();
+    assert!(
+        (model_lag - lag).abs() < 1e-9,
+        "calibrated lag {model_lag} vs measured {lag}"
+    );
+    let mean_r2 = g
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["r_squared"].as_f64().unwrap())
+        .sum::<f64>()
+        / g.as_array().unwrap().len() as f64;
+    assert!(
+        (mean_r2 - measured.r_squared.unwrap()).abs() < 1e-3,
+        "{mean_r2} vs {:?}",
+        measured.r_squared
+    );
+    fbgforge::spec::load(&next).unwrap();
+}
