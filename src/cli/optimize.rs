@@ -52,7 +52,7 @@ pub struct OptimizeArgs {
     /// the library's for this printer, and none).
     #[arg(long)]
     pub inserts: Option<String>,
-    /// Material library TOML replacing the shipped `designs/materials.toml`.
+    /// Material library TOML replacing the shipped `designs/library/materials.toml`.
     #[arg(long)]
     pub materials: Option<PathBuf>,
     /// JSON of `fbgforge verify --json` for a print of this design: calibrates the Q model.

@@ -1,7 +1,7 @@
 //! The optimiser's material library: elastic constants the model needs plus the
 //! viscoelastic and linearity numbers of the Q model, per printable material.
 //!
-//! The shipped library is `designs/materials.toml` (compiled in); a user library in the
+//! The shipped library is `designs/library/materials.toml` (compiled in); a user library in the
 //! same format replaces it. A design's own material table only holds E and ν, so a
 //! design material that is not in the library gets class defaults chosen by its
 //! modulus ([`ViscoParams::class_default`]).
@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// The shipped library, `designs/materials.toml`.
-pub const SHIPPED_LIBRARY_TOML: &str = include_str!("../../designs/materials.toml");
+/// The shipped library, `designs/library/materials.toml`.
+pub const SHIPPED_LIBRARY_TOML: &str = include_str!("../../designs/library/materials.toml");
 
 /// Which process makes a library material.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -148,7 +148,7 @@ pub struct MaterialLibrary {
 impl MaterialLibrary {
     /// The shipped library.
     pub fn shipped() -> Self {
-        Self::parse(SHIPPED_LIBRARY_TOML, "designs/materials.toml")
+        Self::parse(SHIPPED_LIBRARY_TOML, "designs/library/materials.toml")
             .expect("the shipped material library is valid")
     }
 
