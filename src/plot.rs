@@ -62,7 +62,11 @@ pub struct Chart {
 
 impl Chart {
     /// A linear chart with no series yet.
-    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Self {
         Chart {
             title: title.into(),
             x_label: x_label.into(),
@@ -96,7 +100,10 @@ impl Chart {
             .collect();
         let all: Vec<&(f64, f64)> = data.iter().flatten().collect();
         if all.is_empty() {
-            return Err(anyhow!("chart `{}` has no finite points to draw", self.title));
+            return Err(anyhow!(
+                "chart `{}` has no finite points to draw",
+                self.title
+            ));
         }
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for &&(x, y) in &all {
@@ -106,13 +113,25 @@ impl Chart {
             y1 = y1.max(y);
         }
         let pad = |a: f64, b: f64| {
-            let d = if (b - a).abs() < 1e-12 { a.abs().max(1.0) * 0.05 } else { (b - a) * 0.05 };
+            let d = if (b - a).abs() < 1e-12 {
+                a.abs().max(1.0) * 0.05
+            } else {
+                (b - a) * 0.05
+            };
             (a - d, b + d)
         };
         let (x0, x1) = pad(x0, x1);
         let (y0, y1) = pad(y0, y1);
-        let x_label = if self.x_log { format!("log10 {}", self.x_label) } else { self.x_label.clone() };
-        let y_label = if self.y_log { format!("log10 {}", self.y_label) } else { self.y_label.clone() };
+        let x_label = if self.x_log {
+            format!("log10 {}", self.x_label)
+        } else {
+            self.x_label.clone()
+        };
+        let y_label = if self.y_log {
+            format!("log10 {}", self.y_label)
+        } else {
+            self.y_label.clone()
+        };
 
         let mut svg = String::new();
         {

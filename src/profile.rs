@@ -107,9 +107,9 @@ impl ModuleProfile {
         let zc = m.overall_height_mm - rs;
         let cap_in_s = rs - m.cap_wall_mm;
         // The core's dome sits one clearance inside the cap's dome, so the cap bears on
-    // it as the model assumes (force on the core's dome); its cylinder is one pillar
-    // height further in, and meets the larger sphere a little higher up.
-    let core_out_s = cap_in_s - m.cap_core_clearance_mm;
+        // it as the model assumes (force on the core's dome); its cylinder is one pillar
+        // height further in, and meets the larger sphere a little higher up.
+        let core_out_s = cap_in_s - m.cap_core_clearance_mm;
         let core_in_s = core_out_s - m.core_wall_mm;
         let insert_s = core_in_s - m.core_insert_clearance_mm;
         let junction = |rho: f64, rad: f64| zc + sphere_height_at_radius(rho, rad);
@@ -229,7 +229,11 @@ pub fn cell_label(k: usize) -> String {
     if k < 26 {
         (letters[k] as char).to_string()
     } else {
-        format!("{}{}", letters[(k / 26 - 1) % 26] as char, letters[k % 26] as char)
+        format!(
+            "{}{}",
+            letters[(k / 26 - 1) % 26] as char,
+            letters[k % 26] as char
+        )
     }
 }
 

@@ -30,7 +30,13 @@ pub struct SpecError {
 impl fmt::Display for SpecError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.file {
-            Some(p) => write!(f, "{}: field `{}`: {}", p.display(), self.field, self.message),
+            Some(p) => write!(
+                f,
+                "{}: field `{}`: {}",
+                p.display(),
+                self.field,
+                self.message
+            ),
             None => write!(f, "field `{}`: {}", self.field, self.message),
         }
     }
@@ -341,7 +347,10 @@ impl Design {
             let known: Vec<&str> = self.materials.keys().map(|s| s.as_str()).collect();
             err(
                 field,
-                format!("unknown material `{key}`; the material table has: {}", known.join(", ")),
+                format!(
+                    "unknown material `{key}`; the material table has: {}",
+                    known.join(", ")
+                ),
             )
         })
     }
@@ -353,17 +362,43 @@ impl Design {
         positive("printer.min_wall_mm", p.min_wall_mm, 0.01, 5.0)?;
         let fo = &self.fiber;
         range("fiber.photoelastic_pe", fo.photoelastic_pe, 0.0, 0.9)?;
-        range("fiber.thermal_expansion_per_k", fo.thermal_expansion_per_k, -1e-4, 1e-4)?;
-        range("fiber.thermo_optic_per_k", fo.thermo_optic_per_k, -1e-4, 1e-4)?;
+        range(
+            "fiber.thermal_expansion_per_k",
+            fo.thermal_expansion_per_k,
+            -1e-4,
+            1e-4,
+        )?;
+        range(
+            "fiber.thermo_optic_per_k",
+            fo.thermo_optic_per_k,
+            -1e-4,
+            1e-4,
+        )?;
         if self.materials.is_empty() {
-            return Err(err("materials", "the material table is empty; list at least one material"));
+            return Err(err(
+                "materials",
+                "the material table is empty; list at least one material",
+            ));
         }
         for (name, m) in &self.materials {
-            positive(&format!("materials.{name}.youngs_modulus_mpa"), m.youngs_modulus_mpa, 1e-4, 1e7)?;
-            range(&format!("materials.{name}.poisson_ratio"), m.poisson_ratio, 0.0, 0.4999)?;
+            positive(
+                &format!("materials.{name}.youngs_modulus_mpa"),
+                m.youngs_modulus_mpa,
+                1e-4,
+                1e7,
+            )?;
+            range(
+                &format!("materials.{name}.poisson_ratio"),
+                m.poisson_ratio,
+                0.0,
+                0.4999,
+            )?;
         }
         if self.module.is_none() && self.array.is_none() {
-            return Err(err("module", "a design needs a [module] or an [array] section (or both)"));
+            return Err(err(
+                "module",
+                "a design needs a [module] or an [array] section (or both)",
+            ));
         }
         if let Some(m) = &self.module {
             self.validate_module(m)?;
@@ -382,17 +417,48 @@ impl Design {
         range("module.dome_height_mm", m.dome_height_mm, 0.1 * r, r)?;
         range("module.cap_wall_mm", m.cap_wall_mm, min_wall, 0.25 * r)?;
         range("module.core_wall_mm", m.core_wall_mm, min_wall, 0.25 * r)?;
-        range("module.cap_core_clearance_mm", m.cap_core_clearance_mm, 0.0, 2.0)?;
-        range("module.core_insert_clearance_mm", m.core_insert_clearance_mm, 0.0, 2.0)?;
+        range(
+            "module.cap_core_clearance_mm",
+            m.cap_core_clearance_mm,
+            0.0,
+            2.0,
+        )?;
+        range(
+            "module.core_insert_clearance_mm",
+            m.core_insert_clearance_mm,
+            0.0,
+            2.0,
+        )?;
         self.material(&m.cap_material, "module.cap_material")?;
         let pl = &m.pillars;
         if !(3..=8).contains(&pl.count) {
-            return Err(err("module.pillars.count", format!("expected 3 to 8 pillars, got {}", pl.count)));
+            return Err(err(
+                "module.pillars.count",
+                format!("expected 3 to 8 pillars, got {}", pl.count),
+            ));
         }
-        finite("module.pillars.first_pillar_angle_deg", pl.first_pillar_angle_deg)?;
-        positive("module.pillars.fiber_hole_diameter_mm", pl.fiber_hole_diameter_mm, 0.13, 5.0)?;
-        positive("module.pillars.groove_depth_mm", pl.groove_depth_mm, 0.05, 5.0)?;
-        positive("module.pillars.groove_width_mm", pl.groove_width_mm, 0.1, 10.0)?;
+        finite(
+            "module.pillars.first_pillar_angle_deg",
+            pl.first_pillar_angle_deg,
+        )?;
+        positive(
+            "module.pillars.fiber_hole_diameter_mm",
+            pl.fiber_hole_diameter_mm,
+            0.13,
+            5.0,
+        )?;
+        positive(
+            "module.pillars.groove_depth_mm",
+            pl.groove_depth_mm,
+            0.05,
+            5.0,
+        )?;
+        positive(
+            "module.pillars.groove_width_mm",
+            pl.groove_width_mm,
+            0.1,
+            10.0,
+        )?;
         // The groove must leave printable walls on both sides of it.
         let max_groove_w = pl.width_mm - 2.0 * min_wall;
         if pl.groove_width_mm > max_groove_w {
@@ -430,8 +496,18 @@ impl Design {
         }
         positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
         positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
-        positive("module.top_hole_diameter_mm", m.top_hole_diameter_mm, 0.1, 0.5 * r)?;
-        positive("module.apex_flat_diameter_mm", m.apex_flat_diameter_mm, 0.01, 0.5 * r)?;
+        positive(
+            "module.top_hole_diameter_mm",
+            m.top_hole_diameter_mm,
+            0.1,
+            0.5 * r,
+        )?;
+        positive(
+            "module.apex_flat_diameter_mm",
+            m.apex_flat_diameter_mm,
+            0.01,
+            0.5 * r,
+        )?;
 
         // Radial stack: the core and an insert must keep a positive radius.
         let prof = crate::profile::ModuleProfile::from_module_unchecked(m);
@@ -479,7 +555,10 @@ impl Design {
         if prof.insert_radius_mm < min_wall {
             return Err(err(
                 "module.core_insert_clearance_mm",
-                format!("leaves the insert a radius of {:.3} mm", prof.insert_radius_mm),
+                format!(
+                    "leaves the insert a radius of {:.3} mm",
+                    prof.insert_radius_mm
+                ),
             ));
         }
         if prof.pillar_top_mm < 2.0 * min_wall.max(1.0) {
@@ -498,23 +577,37 @@ impl Design {
         for (i, c) in m.cores.iter().enumerate() {
             self.material(&c.material, &format!("module.cores[{i}].material"))?;
             if m.cores[..i].iter().any(|o| o.name == c.name) {
-                return Err(err(&format!("module.cores[{i}].name"), format!("duplicate core name `{}`", c.name)));
+                return Err(err(
+                    &format!("module.cores[{i}].name"),
+                    format!("duplicate core name `{}`", c.name),
+                ));
             }
         }
         for (i, ins) in m.inserts.iter().enumerate() {
             self.material(&ins.material, &format!("module.inserts[{i}].material"))?;
             if m.inserts[..i].iter().any(|o| o.name == ins.name) {
-                return Err(err(&format!("module.inserts[{i}].name"), format!("duplicate insert name `{}`", ins.name)));
+                return Err(err(
+                    &format!("module.inserts[{i}].name"),
+                    format!("duplicate insert name `{}`", ins.name),
+                ));
             }
         }
         let mut names: Vec<&str> = Vec::new();
         for (i, g) in m.gratings.iter().enumerate() {
             let f = |s: &str| format!("module.gratings[{i}].{s}");
             if names.contains(&g.name.as_str()) {
-                return Err(err(&f("name"), format!("duplicate grating name `{}`", g.name)));
+                return Err(err(
+                    &f("name"),
+                    format!("duplicate grating name `{}`", g.name),
+                ));
             }
             names.push(&g.name);
-            range(&f("bragg_wavelength_nm"), g.bragg_wavelength_nm, 400.0, 2000.0)?;
+            range(
+                &f("bragg_wavelength_nm"),
+                g.bragg_wavelength_nm,
+                400.0,
+                2000.0,
+            )?;
             positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
             if let Some(core) = &g.core {
                 if !m.cores.iter().any(|c| &c.name == core) {
@@ -524,17 +617,26 @@ impl Design {
             match g.role {
                 GratingRole::Strain => {
                     if g.core.is_none() {
-                        return Err(err(&f("core"), "a strain grating needs the core it is bonded in"));
+                        return Err(err(
+                            &f("core"),
+                            "a strain grating needs the core it is bonded in",
+                        ));
                     }
-                    let pillar = g
-                        .pillar
-                        .ok_or_else(|| err(&f("pillar"), "a strain grating needs its pillar index"))?;
+                    let pillar = g.pillar.ok_or_else(|| {
+                        err(&f("pillar"), "a strain grating needs its pillar index")
+                    })?;
                     if pillar >= pl.count {
-                        return Err(err(&f("pillar"), format!("expected 0 to {}, got {pillar}", pl.count - 1)));
+                        return Err(err(
+                            &f("pillar"),
+                            format!("expected 0 to {}, got {pillar}", pl.count - 1),
+                        ));
                     }
-                    let z = g
-                        .center_height_mm
-                        .ok_or_else(|| err(&f("center_height_mm"), "a strain grating needs its centre height"))?;
+                    let z = g.center_height_mm.ok_or_else(|| {
+                        err(
+                            &f("center_height_mm"),
+                            "a strain grating needs its centre height",
+                        )
+                    })?;
                     let lo = g.length_mm / 2.0;
                     let hi = prof.pillar_top_mm - g.length_mm / 2.0;
                     range(&f("center_height_mm"), z, lo, hi)?;
@@ -557,10 +659,16 @@ impl Design {
         positive("array.size_y_mm", a.size_y_mm, 1.0, 2000.0)?;
         positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
         if a.cells_x == 0 || a.cells_x > 64 {
-            return Err(err("array.cells_x", format!("expected 1 to 64, got {}", a.cells_x)));
+            return Err(err(
+                "array.cells_x",
+                format!("expected 1 to 64, got {}", a.cells_x),
+            ));
         }
         if a.cells_y == 0 || a.cells_y > 64 {
-            return Err(err("array.cells_y", format!("expected 1 to 64, got {}", a.cells_y)));
+            return Err(err(
+                "array.cells_y",
+                format!("expected 1 to 64, got {}", a.cells_y),
+            ));
         }
         self.material(&a.material, "array.material")?;
         positive("array.ulimit_g", a.ulimit_g, 1e-3, 1e6)?;
@@ -570,13 +678,26 @@ impl Design {
         let mold = &a.mold;
         positive("array.mold.internal_x_mm", mold.internal_x_mm, 1.0, 3000.0)?;
         positive("array.mold.internal_y_mm", mold.internal_y_mm, 1.0, 3000.0)?;
-        range("array.mold.wall_thickness_mm", mold.wall_thickness_mm, self.printer.min_wall_mm, 50.0)?;
-        range("array.mold.base_thickness_mm", mold.base_thickness_mm, self.printer.min_wall_mm, 50.0)?;
+        range(
+            "array.mold.wall_thickness_mm",
+            mold.wall_thickness_mm,
+            self.printer.min_wall_mm,
+            50.0,
+        )?;
+        range(
+            "array.mold.base_thickness_mm",
+            mold.base_thickness_mm,
+            self.printer.min_wall_mm,
+            50.0,
+        )?;
         positive("array.mold.wall_height_mm", mold.wall_height_mm, 0.2, 200.0)?;
         if mold.wall_height_mm < a.thickness_mm {
             return Err(err(
                 "array.mold.wall_height_mm",
-                format!("{} mm is lower than the sheet thickness {} mm", mold.wall_height_mm, a.thickness_mm),
+                format!(
+                    "{} mm is lower than the sheet thickness {} mm",
+                    mold.wall_height_mm, a.thickness_mm
+                ),
             ));
         }
         range(
@@ -585,17 +706,28 @@ impl Design {
             0.01,
             mold.wall_height_mm - self.printer.min_wall_mm.min(mold.wall_height_mm / 2.0),
         )?;
-        range("array.mold.slit_width_mm", mold.slit_width_mm, self.printer.resolution_mm, 5.0)?;
+        range(
+            "array.mold.slit_width_mm",
+            mold.slit_width_mm,
+            self.printer.resolution_mm,
+            5.0,
+        )?;
         if a.size_x_mm > mold.internal_x_mm {
             return Err(err(
                 "array.mold.internal_x_mm",
-                format!("{} mm does not hold the {} mm sheet", mold.internal_x_mm, a.size_x_mm),
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_x_mm, a.size_x_mm
+                ),
             ));
         }
         if a.size_y_mm > mold.internal_y_mm {
             return Err(err(
                 "array.mold.internal_y_mm",
-                format!("{} mm does not hold the {} mm sheet", mold.internal_y_mm, a.size_y_mm),
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_y_mm, a.size_y_mm
+                ),
             ));
         }
         let half_x = a.size_x_mm / 2.0;
@@ -623,7 +755,10 @@ impl Design {
         for (i, g) in a.gratings.iter().enumerate() {
             let f = |s: &str| format!("array.gratings[{i}].{s}");
             if names.contains(&g.name.as_str()) {
-                return Err(err(&f("name"), format!("duplicate grating name `{}`", g.name)));
+                return Err(err(
+                    &f("name"),
+                    format!("duplicate grating name `{}`", g.name),
+                ));
             }
             names.push(&g.name);
             if g.fiber as usize >= a.fiber_x_mm.len() {
@@ -633,7 +768,12 @@ impl Design {
                 ));
             }
             range(&f("y_mm"), g.y_mm, -a.size_y_mm / 2.0, a.size_y_mm / 2.0)?;
-            range(&f("bragg_wavelength_nm"), g.bragg_wavelength_nm, 400.0, 2000.0)?;
+            range(
+                &f("bragg_wavelength_nm"),
+                g.bragg_wavelength_nm,
+                400.0,
+                2000.0,
+            )?;
             positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
         }
         if a.gratings.is_empty() {
@@ -664,7 +804,10 @@ fn finite(field: &str, v: f64) -> Result<(), SpecError> {
 pub fn range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
     finite(field, v)?;
     if v < lo || v > hi {
-        return Err(err(field, format!("{v} is out of range; allowed {lo:.4} to {hi:.4}")));
+        return Err(err(
+            field,
+            format!("{v} is out of range; allowed {lo:.4} to {hi:.4}"),
+        ));
     }
     Ok(())
 }
@@ -673,7 +816,10 @@ pub fn range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
 pub fn positive(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
     finite(field, v)?;
     if v <= 0.0 {
-        return Err(err(field, format!("{v} must be positive; allowed {lo:.4} to {hi:.4}")));
+        return Err(err(
+            field,
+            format!("{v} must be positive; allowed {lo:.4} to {hi:.4}"),
+        ));
     }
     range(field, v, lo, hi)
 }

@@ -444,8 +444,14 @@ fn validity_warnings_flag_thick_shells_and_large_strains() {
         let p = ModuleModelParams::from_design(&d, core, Some("blue")).unwrap();
         assert!(p.geometry.dome_gap_mm > 0.0 && p.geometry.dome_gap_mm < 0.2);
         let closing_n = p.geometry.dome_gap_mm / closed_form::loop_compliance_mm_per_n(&p);
-        assert!(has_gap_warning(0.5 * closing_n, core), "{core}: {closing_n} N");
-        assert!(!has_gap_warning(2.0 * closing_n, core), "{core}: {closing_n} N");
+        assert!(
+            has_gap_warning(0.5 * closing_n, core),
+            "{core}: {closing_n} N"
+        );
+        assert!(
+            !has_gap_warning(2.0 * closing_n, core),
+            "{core}: {closing_n} N"
+        );
     }
     let pull = model::predict(&d, -1.0).unwrap();
     assert!(pull

@@ -5,8 +5,12 @@ use fbgforge::spec;
 use std::path::Path;
 
 fn shipped(name: &str) -> spec::Design {
-    spec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("designs").join(name))
-        .unwrap_or_else(|e| panic!("{e}"))
+    spec::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("designs")
+            .join(name),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]
@@ -64,7 +68,8 @@ fn derived_array_layout_reproduces_table_1_distances() {
 }
 
 fn paper_text() -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/clip-on-34mm.toml")).unwrap()
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/clip-on-34mm.toml"))
+        .unwrap()
 }
 
 fn rejects(text: &str, field: &str) {
@@ -78,19 +83,61 @@ fn rejects(text: &str, field: &str) {
 #[test]
 fn bad_specs_name_the_field() {
     let t = paper_text();
-    rejects(&t.replace("cap_wall_mm = 1.5", "cap_wall_mm = 17.0"), "module.cap_wall_mm");
-    rejects(&t.replace("fiber_hole_diameter_mm = 1.0", "fiber_hole_diameter_mm = 2.5"), "module.pillars.fiber_hole_diameter_mm");
-    rejects(&t.replace("width_mm = 3.0", "width_mm = 19.0"), "module.pillars");
-    rejects(&t.replace("cap_core_clearance_mm = 0.1", "cap_core_clearance_mm = -0.1"), "module.cap_core_clearance_mm");
-    rejects(&t.replace("core_wall_mm = 1.5", "core_wall_mm = nan"), "module.core_wall_mm");
-    rejects(&t.replace("outer_diameter_mm = 34.0", "outer_diameter_mm = -34.0"), "module.outer_diameter_mm");
+    rejects(
+        &t.replace("cap_wall_mm = 1.5", "cap_wall_mm = 17.0"),
+        "module.cap_wall_mm",
+    );
+    rejects(
+        &t.replace(
+            "fiber_hole_diameter_mm = 1.0",
+            "fiber_hole_diameter_mm = 2.5",
+        ),
+        "module.pillars.fiber_hole_diameter_mm",
+    );
+    rejects(
+        &t.replace("width_mm = 3.0", "width_mm = 19.0"),
+        "module.pillars",
+    );
+    rejects(
+        &t.replace(
+            "cap_core_clearance_mm = 0.1",
+            "cap_core_clearance_mm = -0.1",
+        ),
+        "module.cap_core_clearance_mm",
+    );
+    rejects(
+        &t.replace("core_wall_mm = 1.5", "core_wall_mm = nan"),
+        "module.core_wall_mm",
+    );
+    rejects(
+        &t.replace("outer_diameter_mm = 34.0", "outer_diameter_mm = -34.0"),
+        "module.outer_diameter_mm",
+    );
     rejects(&t.replace("core_wall_mm = 1.5\n", ""), "core_wall_mm");
-    rejects(&t.replace("core_wall_mm = 1.5", "core_wall_mm = 1.5\ncore_wal_mm = 1.5"), "core_wal_mm");
-    rejects(&t.replace("material = \"insert_green\"", "material = \"nope\""), "module.inserts[1].material");
+    rejects(
+        &t.replace(
+            "core_wall_mm = 1.5",
+            "core_wall_mm = 1.5\ncore_wal_mm = 1.5",
+        ),
+        "core_wal_mm",
+    );
+    rejects(
+        &t.replace("material = \"insert_green\"", "material = \"nope\""),
+        "module.inserts[1].material",
+    );
     rejects(&t.replace("pillar = 1", "pillar = 7"), "pillar");
-    let a = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml")).unwrap();
-    rejects(&a.replace("slit_depth_mm = 2.5", "slit_depth_mm = 6.0"), "array.mold.slit_depth_mm");
-    rejects(&a.replace("internal_x_mm = 105.0", "internal_x_mm = 70.0"), "array.mold.internal_x_mm");
+    let a = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml"),
+    )
+    .unwrap();
+    rejects(
+        &a.replace("slit_depth_mm = 2.5", "slit_depth_mm = 6.0"),
+        "array.mold.slit_depth_mm",
+    );
+    rejects(
+        &a.replace("internal_x_mm = 105.0", "internal_x_mm = 70.0"),
+        "array.mold.internal_x_mm",
+    );
 }
 
 #[test]
