@@ -38,7 +38,7 @@ fn reconstruct_writes_the_known_loads_and_a_json_summary() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(summary["method"], "support");
+    assert_eq!(summary["method"], "wsupport");
     assert_eq!(summary["frames"], 4);
     assert_eq!(summary["not_converged"], 0);
     let text = std::fs::read_to_string(&out).unwrap();

@@ -28,7 +28,7 @@ pub struct ReconstructArgs {
     /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
     #[arg(long)]
     pub shifts: PathBuf,
-    /// Method: support, wsupport, nnls, lasso, omp or de (default: support).
+    /// Method: wsupport, support, nnls, lasso, omp or de (default: wsupport).
     #[arg(long)]
     pub method: Option<String>,
     /// Largest load per cell, g (default: the design's ulimit, else 250 g).
