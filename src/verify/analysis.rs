@@ -411,18 +411,10 @@ pub fn analyse(
     });
     let mut windows: Vec<GratingWindow> = strain
         .iter()
-        .map(|g| GratingWindow {
-            name: g.name.clone(),
-            nominal_nm: g.bragg_wavelength_nm,
-            half_width_nm: hw,
-        })
+        .map(|g| GratingWindow::new(&g.name, g.bragg_wavelength_nm, hw))
         .collect();
     if let Some(r) = reference {
-        windows.push(GratingWindow {
-            name: r.name.clone(),
-            nominal_nm: r.bragg_wavelength_nm,
-            half_width_nm: hw,
-        });
+        windows.push(GratingWindow::new(&r.name, r.bragg_wavelength_nm, hw));
     }
     let tracks = assign::assign(log, &windows);
     let rows = log.rows();

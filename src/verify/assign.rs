@@ -24,6 +24,17 @@ pub struct GratingWindow {
     pub half_width_nm: f64,
 }
 
+impl GratingWindow {
+    /// The window nominal ± `half_width_nm` of the grating `name`.
+    pub fn new(name: &str, nominal_nm: f64, half_width_nm: f64) -> Self {
+        GratingWindow {
+            name: name.to_string(),
+            nominal_nm,
+            half_width_nm,
+        }
+    }
+}
+
 /// Default half-width for a set of nominal wavelengths, nm.
 pub fn default_half_width_nm(nominals: &[f64]) -> f64 {
     let mut v = nominals.to_vec();

@@ -176,11 +176,7 @@ pub fn calibrate(
     let windows: Vec<GratingWindow> = a
         .gratings
         .iter()
-        .map(|g| GratingWindow {
-            name: g.name.clone(),
-            nominal_nm: g.bragg_wavelength_nm,
-            half_width_nm: hw,
-        })
+        .map(|g| GratingWindow::new(&g.name, g.bragg_wavelength_nm, hw))
         .collect();
     let tracks = assign::assign(log, &windows);
     let t: Vec<f64> = log.time_s.iter().map(|x| x - log.time_s[0]).collect();
