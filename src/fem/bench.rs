@@ -201,17 +201,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         };
         let mut pts = Vec::new();
         for l in &levels {
-            let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
-            println!(
-                "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}",
-                l.configuration,
-                l.level,
-                l.element_size_mm,
-                l.unknowns,
-                l.sensitivity_pm_per_n,
-                err,
-                l.time_s
-            );
+            let err = report_level(l, k_ref, "", &mut speed_rows, &mut pts);
             rows.push(vec![
                 l.configuration.clone(),
                 l.level.to_string(),
@@ -225,16 +215,6 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
                     .unwrap_or_else(|| "n/a".into()),
                 format!("{:.6}", l.time_s),
             ]);
-            speed_rows.push(vec![
-                format!("FE level {}", l.level),
-                l.configuration.clone(),
-                format!("{:.6e}", l.time_s),
-                format!("{:.6}", err),
-            ]);
-            // The reference level itself (error 0) cannot sit on a log axis.
-            if err > 0.0 {
-                pts.push((l.time_s, err));
-            }
         }
         match order {
             Some(p) => {
@@ -291,26 +271,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         )?;
         let mut spts = Vec::new();
         for l in &sparse {
-            let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
-            println!(
-                "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}  (nalgebra-sparse Cholesky)",
-                l.configuration,
-                l.level,
-                l.element_size_mm,
-                l.unknowns,
-                l.sensitivity_pm_per_n,
-                err,
-                l.time_s
-            );
-            speed_rows.push(vec![
-                format!("FE level {} (nalgebra-sparse)", l.level),
-                l.configuration.clone(),
-                format!("{:.6e}", l.time_s),
-                format!("{:.6}", err),
-            ]);
-            if err > 0.0 {
-                spts.push((l.time_s, err));
-            }
+            report_level(l, k_ref, "nalgebra-sparse", &mut speed_rows, &mut spts);
         }
         chart = chart.with(Series::new(
             format!("FE nalgebra-sparse, {name}"),
@@ -383,6 +344,47 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
 }
 
 /// Time per closed-form prediction (one configuration) and its K for `config`.
+/// Print one mesh level's row, add it to the speed/accuracy table and chart, and
+/// return its error against `k_ref`, %. `solver` names a non-default solver.
+fn report_level(
+    l: &LevelResult,
+    k_ref: f64,
+    solver: &str,
+    speed_rows: &mut Vec<Vec<String>>,
+    points: &mut Vec<(f64, f64)>,
+) -> f64 {
+    let err = ((l.sensitivity_pm_per_n - k_ref) / k_ref).abs() * 100.0;
+    let (note, label) = if solver.is_empty() {
+        (String::new(), format!("FE level {}", l.level))
+    } else {
+        (
+            format!("  ({solver} Cholesky)"),
+            format!("FE level {} ({solver})", l.level),
+        )
+    };
+    println!(
+        "{:<22} {:>5} {:>8.3} {:>9} {:>14.4} {:>10.4} {:>10.4}{note}",
+        l.configuration,
+        l.level,
+        l.element_size_mm,
+        l.unknowns,
+        l.sensitivity_pm_per_n,
+        err,
+        l.time_s
+    );
+    speed_rows.push(vec![
+        label,
+        l.configuration.clone(),
+        format!("{:.6e}", l.time_s),
+        format!("{:.6}", err),
+    ]);
+    // The reference level itself (error 0) cannot sit on a log axis.
+    if err > 0.0 {
+        points.push((l.time_s, err));
+    }
+    err
+}
+
 fn closed_form_time_and_k(design: &Design, config: &Configuration) -> Result<(f64, f64)> {
     let first = crate::model::predict(design, 1.0)?;
     let k = super::compare::closed_form_k(&first, config)?;
