@@ -409,6 +409,37 @@ fn an_unwritable_output_folder_is_reported_and_leaves_no_file() {
     assert_eq!(names, vec![std::ffi::OsString::from("not-a-folder")]);
 }
 
+/// Zero clearances are valid specs (a press-fit insert, a core that touches the cap):
+/// the parts still build and pass every check, and the insert fills the core exactly.
+/// (Found by the property test in CI: the builder once demanded a strict gap.)
+#[test]
+fn press_fit_zero_clearances_build_checked_parts() {
+    for name in MODULES {
+        let mut d = shipped(name);
+        let m = d.module.as_mut().unwrap();
+        m.cap_core_clearance_mm = 0.0;
+        m.core_insert_clearance_mm = 0.0;
+        d.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+        let p = ModuleProfile::from_module(d.module.as_ref().unwrap());
+        assert_eq!(p.insert_radius_mm, p.core_inner_radius_mm);
+        let parts = geometry::build_parts(&d, None, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for part in &parts {
+            part.mesh
+                .check(&part.name)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(
+                part.volume_error().abs() <= geometry::VOLUME_TOLERANCE_AT_DEFAULT,
+                "{name} {}: {}",
+                part.name,
+                part.volume_error()
+            );
+        }
+        let insert = parts.iter().find(|q| q.kind == PartKind::Insert).unwrap();
+        let (_, hi) = insert.mesh.bbox_mm();
+        assert!((hi[0] - p.core_inner_radius_mm).abs() < 1e-9, "{name}");
+    }
+}
+
 #[test]
 fn a_tolerance_out_of_range_is_an_error_not_a_panic() {
     let d = shipped("clip-on-10mm.toml");

@@ -67,12 +67,20 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     d
 }
 
+/// The case count: `default`, or `PROPTEST_CASES` when set (for long soak runs).
+fn cases(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
 fn fractions<const N: usize>() -> impl Strategy<Value = [f64; N]> {
     proptest::array::uniform::<_, N>(0.0..1.0f64)
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 160, max_global_rejects: 20_000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(160), max_global_rejects: 20_000, ..ProptestConfig::default() })]
 
     #[test]
     fn every_valid_module_yields_checked_parts(
@@ -95,7 +103,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 120, max_global_rejects: 20_000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(120), max_global_rejects: 20_000, ..ProptestConfig::default() })]
 
     #[test]
     fn every_valid_mold_is_exact_and_checked(

@@ -275,7 +275,9 @@ mod never_panics {
     use proptest::prelude::*;
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(24))]
+        #![proptest_config(ProptestConfig::with_cases(
+            std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(24)
+        ))]
         /// Whole runs with corrupted lines, wild values and truncation: the analysis
         /// answers Ok or Err, never panics.
         #[test]

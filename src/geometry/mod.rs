@@ -183,7 +183,14 @@ fn check_module_profile(p: &ModuleProfile) -> Result<(), SpecError> {
         ),
     ];
     for (field, lo, hi) in radii {
-        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo < hi) {
+        // A zero clearance (press fit) is a valid spec: the insert is its own solid, so
+        // its radius may equal the core's inner radius.
+        let fits = if field == "module.core_insert_clearance_mm" {
+            lo <= hi
+        } else {
+            lo < hi
+        };
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && fits) {
             return Err(e(
                 field,
                 format!("leaves a radius of {lo:.4} mm that must lie between 0 and {hi:.4} mm"),
