@@ -169,3 +169,55 @@ fn sweep_and_predict_reject_bad_input_clearly() {
         stderr(&o)
     );
 }
+
+#[test]
+fn sweep_with_the_fe_model_says_so_and_writes_its_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("fe.csv");
+    let svg = dir.path().join("fe.svg");
+    let path = design("clip-on-34mm.toml");
+    let args = |fidelity: &str, csv: &Path| {
+        run(&[
+            "sweep",
+            path.to_str().unwrap(),
+            "--param",
+            "e2_mpa",
+            "--from",
+            "20",
+            "--to",
+            "44",
+            "--steps",
+            "2",
+            "--case",
+            "II",
+            "--fidelity",
+            fidelity,
+            "--csv",
+            csv.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ])
+    };
+    let o = args("fem", &csv);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("model: finite elements"));
+    let cf_csv = dir.path().join("cf.csv");
+    let o = args("closed-form", &cf_csv);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let k = |p: &Path| -> Vec<f64> {
+        std::fs::read_to_string(p)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (fe, cf) = (k(&csv), k(&cf_csv));
+    assert_eq!(fe.len(), 8, "2 steps × 4 gratings");
+    for (a, b) in fe.iter().zip(&cf) {
+        assert!(
+            a != b && ((a - b) / a).abs() < 0.08,
+            "FE {a} vs closed form {b}"
+        );
+    }
+}

@@ -258,6 +258,28 @@ pub struct SweepArgs {
     /// F = 50 N with the paper's fixed moduli) as SVG + CSV into this folder.
     #[arg(long)]
     pub paper_figures: Option<PathBuf>,
+    /// Which model answers at each step: the closed form (microseconds a step, the
+    /// default), the finite-element model (a fraction of a second per configuration
+    /// and step), or `auto` as in `predict`.
+    #[arg(long, value_enum, default_value_t = FidelityArg::ClosedForm)]
+    pub fidelity: FidelityArg,
+}
+
+/// How a sweep's output names its model.
+fn fidelity_label(f: FidelityArg) -> &'static str {
+    match f {
+        FidelityArg::ClosedForm => "closed form",
+        FidelityArg::Fem => "finite elements",
+        FidelityArg::Auto => "auto (closed form where valid, FE elsewhere)",
+    }
+}
+
+/// The sweep's predictor for a `--fidelity` (None: the closed form itself).
+fn sweep_predictor(
+    fidelity: FidelityArg,
+    case: Option<LoadCase>,
+) -> Option<Box<sweep::Predictor<'static>>> {
+    crate::fem::sweep_predictor(fidelity.into(), case, FemOptions::default())
 }
 
 fn sweep_chart(r: &SweepResult, title: &str) -> Chart {
@@ -312,7 +334,7 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
     let design = crate::spec::load(&a.design)?;
     if let Some(dir) = &a.paper_figures {
-        return write_paper_figures(&design, dir, a.steps);
+        return write_paper_figures(&design, dir, a.steps, a.fidelity);
     }
     let Some(name) = a.param.as_deref() else {
         bail!(
@@ -339,8 +361,17 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     }
     let pb = crate::progress::bar(values.len() as u64, "sweep");
-    let r = sweep::run(&design, param, &values, a.force_n, case, || pb.inc(1))
-        .with_context(|| format!("{}: sweep failed", a.design.display()))?;
+    let predictor = sweep_predictor(a.fidelity, case);
+    let r = sweep::run_with(
+        &design,
+        param,
+        &values,
+        a.force_n,
+        case,
+        predictor.as_deref(),
+        || pb.inc(1),
+    )
+    .with_context(|| format!("{}: sweep failed", a.design.display()))?;
     pb.finish_and_clear();
     let stem = format!("{}-{}", design.name, param.name);
     let svg = a
@@ -353,13 +384,23 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("out/sweep").join(format!("{stem}.csv")));
     sweep_chart(
         &r,
-        &format!("{}: Δλ at {} N vs {}", design.name, a.force_n, param.name),
+        &format!(
+            "{}: Δλ at {} N vs {} ({})",
+            design.name,
+            a.force_n,
+            param.name,
+            fidelity_label(a.fidelity)
+        ),
     )
     .write_svg(&svg)?;
     sweep_csv(&r, &csv)?;
     println!(
-        "{}: {} over {from}..{to} ({} steps), F = {} N",
-        design.name, param.name, a.steps, a.force_n
+        "{}: {} over {from}..{to} ({} steps), F = {} N, model: {}",
+        design.name,
+        param.name,
+        a.steps,
+        a.force_n,
+        fidelity_label(a.fidelity)
     );
     println!(
         "{:<36} {:>14} {:>14}",
@@ -377,13 +418,25 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
     Ok(())
 }
 
-fn write_paper_figures(design: &crate::spec::Design, dir: &Path, steps: usize) -> Result<()> {
+fn write_paper_figures(
+    design: &crate::spec::Design,
+    dir: &Path,
+    steps: usize,
+    fidelity: FidelityArg,
+) -> Result<()> {
     ensure_dir(dir)?;
-    let pb = crate::progress::bar(PAPER_FIGURES.len() as u64, "figures");
+    let steps = steps.max(2);
+    let pb = crate::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
     for fig in PAPER_FIGURES {
-        let r = sweep::run_paper_figure(design, fig, steps.max(2))
-            .with_context(|| format!("paper figure {}", fig.id))?;
-        sweep_chart(&r, fig.title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
+        let predictor = sweep_predictor(fidelity, Some(fig.case));
+        let r =
+            sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), || pb.inc(1))
+                .with_context(|| format!("paper figure {}", fig.id))?;
+        let title = match fidelity {
+            FidelityArg::ClosedForm => fig.title.to_string(),
+            f => format!("{} ({})", fig.title, fidelity_label(f)),
+        };
+        sweep_chart(&r, &title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
         sweep_csv(&r, &dir.join(format!("{}.csv", fig.id)))?;
         let first = &r.series[0];
         println!(
@@ -394,13 +447,13 @@ fn write_paper_figures(design: &crate::spec::Design, dir: &Path, steps: usize) -
             first.shift_pm[first.shift_pm.len() - 1],
             first.label()
         );
-        pb.inc(1);
     }
     pb.finish_and_clear();
     println!(
-        "wrote {} figures (SVG + CSV) to {}",
+        "wrote {} figures (SVG + CSV) to {}, model: {}",
         PAPER_FIGURES.len(),
-        dir.display()
+        dir.display(),
+        fidelity_label(fidelity)
     );
     Ok(())
 }

@@ -137,6 +137,23 @@ fn apply_fem_strain(
     }
 }
 
+/// The predictor a parametric sweep uses for `choice` (`None` for the closed form,
+/// which the sweep calls itself): each step answered as `predict --fidelity` would.
+pub fn sweep_predictor(
+    choice: FidelityChoice,
+    case: Option<LoadCase>,
+    fem_options: FemOptions,
+) -> Option<Box<model::sweep::Predictor<'static>>> {
+    if choice == FidelityChoice::ClosedForm {
+        return None;
+    }
+    Some(Box::new(move |d, o| {
+        predict_with_fidelity(d, o, choice, case, &fem_options)
+            .map(|rows| rows.into_iter().map(|r| r.detail.prediction).collect())
+            .map_err(|e| format!("{e:#}"))
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

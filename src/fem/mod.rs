@@ -193,4 +193,4 @@ pub fn predict(design: &Design, force_n: f64, opt: &FemOptions) -> Result<Vec<Gr
 }
 
 pub use compare::{choose_fidelity, choose_fidelity_for, validity, Fidelity, ValidityRegion};
-pub use fidelity::{predict_with_fidelity, FidelityChoice, ModelledPrediction};
+pub use fidelity::{predict_with_fidelity, sweep_predictor, FidelityChoice, ModelledPrediction};

@@ -5,7 +5,7 @@
 //! step edits a copy of the design, re-validates it and re-derives the profile, so a
 //! swept dimension moves the prediction exactly as it would move the printed solid.
 
-use super::{predict_with, LoadCase, PredictOptions};
+use super::{predict_with, GratingPrediction, LoadCase, PredictOptions};
 use crate::spec::{Design, SpecError};
 use serde::Serialize;
 
@@ -247,7 +247,23 @@ pub enum SweepError {
         /// Model error.
         reason: super::ModelError,
     },
+    /// Another predictor (the finite-element model) failed.
+    #[error("at {param} = {value}: {reason}")]
+    Predictor {
+        /// Parameter.
+        param: String,
+        /// Value.
+        value: f64,
+        /// What the predictor reported, with its context.
+        reason: String,
+    },
 }
+
+/// Where a step's predictions come from when not from the closed form: any model of
+/// the same design (the finite-element model in `crate::fem`), returning every
+/// grating's prediction or a message. Keeps `model` free of a dependency on `fem`.
+pub type Predictor<'a> =
+    dyn Fn(&Design, &PredictOptions) -> Result<Vec<GratingPrediction>, String> + 'a;
 
 /// Look a parameter up by name or alias (case-insensitive).
 pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
@@ -352,14 +368,27 @@ pub struct SweepResult {
     pub series: Vec<SweepSeries>,
 }
 
-/// Sweep `param` over `values` at `force_n`; `case` keeps only one loading case.
-/// `on_step` is called after each value (progress bars).
+/// Sweep `param` over `values` at `force_n` with the closed form; `case` keeps only
+/// one loading case. `on_step` is called after each value (progress bars).
 pub fn run(
     design: &Design,
     param: &SweepParam,
     values: &[f64],
     force_n: f64,
     case: Option<LoadCase>,
+    on_step: impl FnMut(),
+) -> Result<SweepResult, SweepError> {
+    run_with(design, param, values, force_n, case, None, on_step)
+}
+
+/// [`run`] with another model answering at each step (`None`: the closed form).
+pub fn run_with(
+    design: &Design,
+    param: &SweepParam,
+    values: &[f64],
+    force_n: f64,
+    case: Option<LoadCase>,
+    predictor: Option<&Predictor>,
     mut on_step: impl FnMut(),
 ) -> Result<SweepResult, SweepError> {
     let mut series: Vec<SweepSeries> = Vec::new();
@@ -369,14 +398,24 @@ pub fn run(
     };
     for &v in values {
         let d = with_param(design, param, v)?;
-        let preds = predict_with(&d, &opts).map_err(|reason| SweepError::Model {
-            param: param.name.to_string(),
-            value: v,
-            reason,
-        })?;
+        let preds: Vec<GratingPrediction> = match predictor {
+            None => predict_with(&d, &opts)
+                .map_err(|reason| SweepError::Model {
+                    param: param.name.to_string(),
+                    value: v,
+                    reason,
+                })?
+                .into_iter()
+                .map(|d| d.prediction)
+                .collect(),
+            Some(f) => f(&d, &opts).map_err(|reason| SweepError::Predictor {
+                param: param.name.to_string(),
+                value: v,
+                reason,
+            })?,
+        };
         for p in preds
             .into_iter()
-            .map(|d| d.prediction)
             .filter(|p| case.is_none_or(|c| c == p.case))
         {
             let s = match series
@@ -534,8 +573,28 @@ pub fn run_paper_figure(
     fig: &PaperFigure,
     steps: usize,
 ) -> Result<SweepResult, SweepError> {
+    run_paper_figure_with(design, fig, steps, None, || {})
+}
+
+/// [`run_paper_figure`] with another model answering (`None`: the closed form);
+/// `on_step` is called after each value.
+pub fn run_paper_figure_with(
+    design: &Design,
+    fig: &PaperFigure,
+    steps: usize,
+    predictor: Option<&Predictor>,
+    on_step: impl FnMut(),
+) -> Result<SweepResult, SweepError> {
     let d = paper_figure_design(design, fig)?;
     let param = find_param(fig.param)?;
     let values = sweep_values(param, fig.range_mpa.0, fig.range_mpa.1, steps)?;
-    run(&d, param, &values, PAPER_FORCE_N, Some(fig.case), || {})
+    run_with(
+        &d,
+        param,
+        &values,
+        PAPER_FORCE_N,
+        Some(fig.case),
+        predictor,
+        on_step,
+    )
 }
