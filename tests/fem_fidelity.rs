@@ -2,6 +2,8 @@
 //! model outside it. Each decision is checked against a fresh FE solve, through the
 //! library (`predict_with_fidelity`) and the CLI (`predict --fidelity`).
 
+mod common;
+
 use fbgforge::fem::compare::{scaled_design, TOLERANCE};
 use fbgforge::fem::{
     self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Configuration, FemOptions,
@@ -9,10 +11,9 @@ use fbgforge::fem::{
 };
 use fbgforge::model::{LoadCase, PredictOptions};
 use fbgforge::spec::{self, Design};
-use std::path::Path;
 
-fn design() -> Design {
-    spec::load(Path::new("designs/clip-on-34mm.toml")).unwrap()
+fn design() -> fbgforge::spec::Design {
+    common::shipped("clip-on-34mm.toml")
 }
 
 /// Relative error of the closed form against the FE model for one configuration.

@@ -2,14 +2,15 @@
 //! results that hold exactly or nearly for the meshed body, sign of each case, mesh
 //! convergence, and the prediction interface.
 
+mod common;
+
 use fbgforge::fem::{self, configurations, solve_configuration, Configuration, FemOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::profile::ModuleProfile;
-use fbgforge::spec::{self, Design};
-use std::path::Path;
+use fbgforge::spec::Design;
 
-fn design() -> Design {
-    spec::load(Path::new("designs/clip-on-34mm.toml")).unwrap()
+fn design() -> fbgforge::spec::Design {
+    common::shipped("clip-on-34mm.toml")
 }
 
 fn config(core: &str, case: LoadCase, insert: Option<&str>) -> Configuration {

@@ -1,6 +1,8 @@
 //! Geometry: the parts of the shipped designs against closed forms, the profile, each
 //! other (fits), and the files written; bad input and unwritable folders.
 
+mod common;
+
 use fbgforge::cli::build::build_design;
 use fbgforge::geometry::{self, mesh, module, BuiltPart, PartKind};
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
@@ -8,14 +10,7 @@ use fbgforge::spec::{self, Design};
 use std::f64::consts::PI;
 use std::path::Path;
 
-fn shipped(name: &str) -> Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
-}
+use common::shipped;
 
 fn text(name: &str) -> String {
     std::fs::read_to_string(

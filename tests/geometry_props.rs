@@ -7,19 +7,13 @@
 //! own validation (`prop_assume!`), so each property runs its full count of valid
 //! designs. 160 modules × 3 parts + 120 molds = 600 checked parts.
 
-use fbgforge::geometry;
-use fbgforge::spec::{self, Design, PrintProcess};
-use proptest::prelude::*;
-use std::path::Path;
+mod common;
 
-fn shipped(name: &str) -> Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .unwrap()
-}
+use fbgforge::geometry;
+use fbgforge::spec::{Design, PrintProcess};
+use proptest::prelude::*;
+
+use common::shipped;
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t

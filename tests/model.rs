@@ -7,19 +7,13 @@
 //! above x*; "E2 has the greatest influence" when the span of Δλ(50 N) over the E2
 //! figure exceeds the span over every other modulus figure.
 
+mod common;
+
 use fbgforge::model::sweep::{self, SweepError, PAPER_FIGURES};
 use fbgforge::model::{self, closed_form, LoadCase, ModelError, ModuleModelParams, PredictOptions};
-use fbgforge::spec::{self, Design};
-use std::path::Path;
+use fbgforge::spec::Design;
 
-fn design(name: &str) -> Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .expect("shipped design loads")
-}
+use common::shipped as design;
 
 fn k(d: &Design, case: LoadCase, insert: Option<&str>, grating: &str) -> f64 {
     model::sensitivity_pm_per_n(d, case, insert, grating).expect("prediction")

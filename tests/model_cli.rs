@@ -1,18 +1,16 @@
 //! Command-line tests of `fbgforge predict` and `fbgforge sweep`: output that parses
 //! and matches the library, files written where asked, clear errors on bad input.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fbgforge"))
 }
 
-fn design(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("designs")
-        .join(name)
-}
+use common::shipped_path as design;
 
 fn run(args: &[&str]) -> Output {
     bin().args(args).output().expect("binary runs")

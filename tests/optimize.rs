@@ -1,6 +1,8 @@
 //! Module optimisation against synthetic models whose optimum is known in closed form,
 //! constraint handling, and bad input.
 
+mod common;
+
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{
@@ -8,17 +10,9 @@ use fbgforge::optimize::module::{
 };
 use fbgforge::optimize::solve::SolverKind;
 use fbgforge::spec::{self, Design, GratingRole};
-use std::path::Path;
 use std::sync::Arc;
 
-fn design(name: &str) -> Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .unwrap()
-}
+use common::shipped as design;
 
 /// A synthetic model: every strain grating gets K = k(module) pm/N in every case, and
 /// the strain that K implies through the fiber's strain sensitivity.

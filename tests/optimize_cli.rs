@@ -1,18 +1,16 @@
 //! The `optimize` and `place` commands end to end: files written and loadable, and
 //! bad input reported as `error: ...` with exit status 1.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fbgforge"))
 }
 
-fn shipped(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("designs")
-        .join(name)
-}
+use common::shipped_path as shipped;
 
 fn fails_with(args: &[&str], needle: &str) {
     let out = bin().args(args).output().unwrap();

@@ -2,6 +2,8 @@
 //! the returned design meets every constraint, never scores below a feasible start,
 //! loads back from its TOML with the same Q, and builds into watertight parts.
 
+mod common;
+
 use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{
     model_predictor, optimise_module, start_choice, ModuleOutcome, ModuleProblem, ModuleSettings,
@@ -9,16 +11,8 @@ use fbgforge::optimize::module::{
 };
 use fbgforge::optimize::quality::{design_quality, Calibration};
 use fbgforge::spec::{self, Design};
-use std::path::Path;
 
-fn design(name: &str) -> Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .unwrap()
-}
+use common::shipped as design;
 
 fn run(d: &Design, s: &ModuleSettings) -> ModuleOutcome {
     optimise_module(

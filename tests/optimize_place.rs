@@ -1,21 +1,15 @@
 //! Grating placement in the flat array: never worse than the start on the training
 //! protocol, valid designs whose mold follows the fibers, and clear errors.
 
+mod common;
+
 use fbgforge::array::methods::Method;
 use fbgforge::optimize::place::{place, PlaceObjective, PlaceSettings, PlacementProblem};
 use fbgforge::optimize::solve::{RunSettings, SolverKind};
 use fbgforge::profile::ArrayLayout;
-use fbgforge::spec::{self, Design};
-use std::path::Path;
+use fbgforge::spec::{self};
 
-fn design(name: &str) -> Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .unwrap()
-}
+use common::shipped as design;
 
 fn quick(objective: PlaceObjective, vary_fibers: bool) -> PlaceSettings {
     PlaceSettings {

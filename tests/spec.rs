@@ -1,17 +1,12 @@
 //! Design spec: shipped designs load, bad specs are rejected with the field named.
 
+mod common;
+
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
 use fbgforge::spec;
 use std::path::Path;
 
-fn shipped(name: &str) -> spec::Design {
-    spec::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("designs")
-            .join(name),
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
-}
+use common::shipped;
 
 #[test]
 fn every_shipped_design_loads_and_validates() {

@@ -1,17 +1,15 @@
 //! Array calibration: a synthetic calibration run recovers the sensing matrix it was
 //! made from; bad schedules are named.
 
+mod common;
+
 use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::verify::calibrate::{self, Loading};
 use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
 use std::path::Path;
 
 fn design() -> fbgforge::spec::Design {
-    fbgforge::spec::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/designs/tactile-array-60x80.toml"
-    )))
-    .unwrap()
+    common::shipped("tactile-array-60x80.toml")
 }
 
 /// 200 g on each of the 8 cells in turn, then 100 g on each again.

@@ -1,19 +1,16 @@
 //! Bad inputs to the verifier: clear errors or counted warnings, never a panic; and
 //! the verdict rule applied to model predictions.
 
+mod common;
+
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions};
 use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
 use fbgforge::verify::verdict::{verdicts, Status};
-use std::path::Path;
 
 fn design() -> fbgforge::spec::Design {
-    fbgforge::spec::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/designs/clip-on-34mm.toml"
-    )))
-    .unwrap()
+    common::shipped("clip-on-34mm.toml")
 }
 
 /// Write a synthetic pair after `edit` has changed the log, and analyse it.

@@ -1,16 +1,13 @@
 //! End-to-end recovery of known values from synthetic logs, in every format.
 
+mod common;
+
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
 use fbgforge::verify::synth::{self, LogStyle, SynthConfig, SynthTruth};
-use std::path::Path;
 
 fn design() -> fbgforge::spec::Design {
-    fbgforge::spec::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/designs/clip-on-34mm.toml"
-    )))
-    .unwrap()
+    common::shipped("clip-on-34mm.toml")
 }
 
 fn run(

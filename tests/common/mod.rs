@@ -1,0 +1,18 @@
+//! Helpers shared by the integration tests: the shipped designs, by file name.
+//! (Each `tests/*.rs` is its own crate and uses only some of these.)
+#![allow(dead_code)]
+
+use fbgforge::spec::{self, Design};
+use std::path::{Path, PathBuf};
+
+/// Path of a shipped design (`designs/<name>`), independent of the working directory.
+pub fn shipped_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("designs")
+        .join(name)
+}
+
+/// A shipped design, loaded and validated; panics with the loader's message.
+pub fn shipped(name: &str) -> Design {
+    spec::load(&shipped_path(name)).unwrap_or_else(|e| panic!("{e}"))
+}
