@@ -246,27 +246,33 @@ fn cli_auto_switches_model_at_the_measured_diameter_limit() {
     );
 }
 
+/// One of the paper's parametric figures swept by the closed form and by the FE model
+/// (level 0), `steps` values each: (closed form, FE, steps the FE sweep reported).
+fn closed_form_and_fe_figure(
+    id: &str,
+    case: LoadCase,
+    steps: usize,
+) -> (
+    fbgforge::model::sweep::SweepResult,
+    fbgforge::model::sweep::SweepResult,
+    usize,
+) {
+    use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
+    let d = design();
+    let fig = PAPER_FIGURES.iter().find(|f| f.id == id).unwrap();
+    let fe = fem::sweep_predictor(FidelityChoice::Fem, Some(case), FemOptions::level(0)).unwrap();
+    let mut reported = 0;
+    let r = run_paper_figure_with(&d, fig, steps, Some(&*fe), || reported += 1).unwrap();
+    (run_paper_figure(&d, fig, steps).unwrap(), r, reported)
+}
+
 /// `sweep --fidelity fem` answers every step with the FE model. Case II (Fig. 11a, the
 /// paper's E1 axis): the FE sweep stays within the closed form's measured tolerance
 /// over the whole range (2.3 % at most, docs/model.md §8), and every point differs
 /// from the closed form's (so the FE really answered).
 #[test]
 fn fe_sweeps_of_the_case_ii_figure_follow_the_closed_form() {
-    use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
-    let d = design();
-    let fig = PAPER_FIGURES
-        .iter()
-        .find(|f| f.id == "fig11a_case2_e1")
-        .unwrap();
-    let cf = run_paper_figure(&d, fig, 3).unwrap();
-    let fe = fem::sweep_predictor(
-        FidelityChoice::Fem,
-        Some(LoadCase::II),
-        FemOptions::level(0),
-    )
-    .unwrap();
-    let mut steps = 0;
-    let r = run_paper_figure_with(&d, fig, 3, Some(&*fe), || steps += 1).unwrap();
+    let (cf, r, steps) = closed_form_and_fe_figure("fig11a_case2_e1", LoadCase::II, 3);
     assert_eq!(steps, 3);
     assert_eq!(r.series.len(), cf.series.len());
     for (a, b) in cf.series.iter().zip(&r.series) {
@@ -293,16 +299,7 @@ fn fe_sweeps_of_the_case_ii_figure_follow_the_closed_form() {
 /// fall. Pinned so that a change of the FE model that alters it is noticed.
 #[test]
 fn fe_case_i_shift_rises_with_the_cap_modulus_unlike_the_paper_figure() {
-    use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
-    let d = design();
-    let fig = PAPER_FIGURES
-        .iter()
-        .find(|f| f.id == "fig9b_case1_e2")
-        .unwrap();
-    let fe =
-        fem::sweep_predictor(FidelityChoice::Fem, Some(LoadCase::I), FemOptions::level(0)).unwrap();
-    let r = run_paper_figure_with(&d, fig, 2, Some(&*fe), || {}).unwrap();
-    let cf = run_paper_figure(&d, fig, 2).unwrap();
+    let (cf, r, _) = closed_form_and_fe_figure("fig9b_case1_e2", LoadCase::I, 2);
     for (a, b) in cf.series.iter().zip(&r.series) {
         let (cf0, cf1) = (a.shift_pm[0], a.shift_pm[1]);
         let (fe0, fe1) = (b.shift_pm[0], b.shift_pm[1]);
