@@ -29,16 +29,14 @@ pub struct SpecError {
 
 impl fmt::Display for SpecError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match &self.file {
-            Some(p) => write!(
-                f,
-                "{}: field `{}`: {}",
-                p.display(),
-                self.field,
-                self.message
-            ),
-            None => write!(f, "field `{}`: {}", self.field, self.message),
+        if let Some(p) = &self.file {
+            write!(f, "{}: ", p.display())?;
         }
+        // File-level errors (unreadable file, TOML syntax at the top level) name no field.
+        if !self.field.is_empty() {
+            write!(f, "field `{}`: ", self.field)?;
+        }
+        write!(f, "{}", self.message)
     }
 }
 
@@ -305,7 +303,7 @@ pub struct Design {
 pub fn load(path: &Path) -> Result<Design, SpecError> {
     let text = std::fs::read_to_string(path).map_err(|e| SpecError {
         file: Some(path.to_path_buf()),
-        field: "(file)".into(),
+        field: String::new(),
         message: format!("cannot read the design file: {e}"),
     })?;
     parse(&text).map_err(|mut e| {
@@ -323,16 +321,33 @@ pub fn parse(text: &str) -> Result<Design, SpecError> {
 
 fn toml_error(text: &str, e: toml::de::Error) -> SpecError {
     let mut message = e.message().to_string();
+    let mut field = String::new();
     if let Some(span) = e.span() {
-        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+        let before = &text[..span.start.min(text.len())];
+        let line = before.matches('\n').count() + 1;
         message = format!("line {line}: {message}");
+        // toml names no key path; the table the line sits in is the next best thing.
+        field = before
+            .lines()
+            .rev()
+            .find_map(table_header)
+            .unwrap_or_default();
     }
-    // toml reports the key path only in its Display text; keep the message short.
     SpecError {
         file: None,
-        field: "(toml)".into(),
+        field,
         message,
     }
+}
+
+/// The table a TOML header line opens (`[module.pillars]`, `[[module.cores]]`).
+fn table_header(line: &str) -> Option<String> {
+    let t = line.trim();
+    let inner = t
+        .strip_prefix("[[")
+        .and_then(|r| r.strip_suffix("]]"))
+        .or_else(|| t.strip_prefix('[').and_then(|r| r.strip_suffix(']')))?;
+    Some(inner.trim().to_string())
 }
 
 impl Design {

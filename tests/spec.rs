@@ -140,3 +140,33 @@ fn toml_syntax_errors_report_the_line() {
     let e = spec::parse("name = \"x\"\n[printer\n").unwrap_err();
     assert!(e.to_string().contains("line 2"), "{e}");
 }
+
+/// An unknown key names its table and line (toml gives no key path of its own), and a
+/// file-level error names no field.
+#[test]
+fn unknown_keys_name_their_table_and_line() {
+    let text = std::fs::read_to_string(common::shipped_path("clip-on-34mm.toml")).unwrap();
+    let bad = text.replace(
+        "groove_depth_mm = 0.6",
+        "groove_depth_mm = 0.6\ngroove_dept_mm = 0.6",
+    );
+    let line = bad
+        .lines()
+        .position(|l| l.starts_with("groove_dept_mm"))
+        .unwrap()
+        + 1;
+    let e = spec::parse(&bad).unwrap_err();
+    assert_eq!(e.field, "module.pillars");
+    let msg = e.to_string();
+    assert!(
+        msg.contains(&format!("line {line}:")) && msg.contains("unknown field `groove_dept_mm`"),
+        "{msg}"
+    );
+    let missing = spec::load(Path::new("/no/such/design.toml")).unwrap_err();
+    assert!(
+        missing
+            .to_string()
+            .starts_with("/no/such/design.toml: cannot read"),
+        "{missing}"
+    );
+}
