@@ -135,6 +135,23 @@ fn bad_input_exits_with_a_clear_error() {
         ],
         &["ulimit", "-5"],
     );
+    // The load range's lower end: negative, NaN, or not below ulimit.
+    for (value, needle) in [("-1", "-1"), ("NaN", "NaN"), ("250", "ulimit")] {
+        expect_error(
+            &[
+                "reconstruct",
+                "--matrix",
+                m,
+                "--shifts",
+                s,
+                "--min-load-g",
+                value,
+                "--out",
+                o,
+            ],
+            &["--min-load-g", "min_load", needle],
+        );
+    }
     let missing = fixture("bad-shifts-missing-fbg6.csv");
     expect_error(
         &[
