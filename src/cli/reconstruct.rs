@@ -35,8 +35,8 @@ pub struct ReconstructArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub ulimit_g: Option<f64>,
     /// Smallest load a loaded cell carries, g: the lower end of the array's rated
-    /// range, a prior of the default `wsupport` method (default: the paper's 25 g;
-    /// 0 disables it; must be below ulimit).
+    /// range, a prior of the default `wsupport` method (default: the paper's 25 g, or
+    /// 0 when ulimit is not above 25 g; 0 disables it; must be below ulimit).
     #[arg(long, allow_negative_numbers = true)]
     pub min_load_g: Option<f64>,
     /// Penalty weight of the method (default: the method's tuned default).
@@ -105,7 +105,14 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         bail!("--ulimit-g must be a positive load in g, got {ulimit_g}");
     }
     let stream = read_shifts(&a.shifts, &matrix.gratings)?;
-    let min_load_g = a.min_load_g.unwrap_or(PAPER_MIN_LOAD_G);
+    // The paper's 25 g unless told otherwise; an array rated for less than that in
+    // total (ulimit ≤ 25 g) gets no lower end rather than an error about a value the
+    // user never gave.
+    let min_load_g = a.min_load_g.unwrap_or(if PAPER_MIN_LOAD_G < ulimit_g {
+        PAPER_MIN_LOAD_G
+    } else {
+        0.0
+    });
     let problem = SensingProblem::new(
         matrix.sensitivity_pm_per_g.clone(),
         ulimit_g,
