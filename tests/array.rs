@@ -8,7 +8,7 @@ use fbgforge::array::kernel::*;
 use fbgforge::array::methods::{
     build, reconstruct_stream, Method, MethodSettings, NoisePrior, DEFAULT_METHOD,
 };
-use fbgforge::array::problem::SensingProblem;
+use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::*;
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
@@ -192,8 +192,21 @@ fn recover_all(
     normalise: bool,
     settings: MethodSettings,
 ) -> (usize, usize) {
+    recover_all_with_min_load(method, kmax, normalise, settings, 0.0)
+}
+
+fn recover_all_with_min_load(
+    method: Method,
+    kmax: usize,
+    normalise: bool,
+    settings: MethodSettings,
+    min_load_g: f64,
+) -> (usize, usize) {
     let a = paper_matrix();
-    let p = SensingProblem::new(a.clone(), 250.0, normalise).unwrap();
+    let p = SensingProblem::new(a.clone(), 250.0, normalise)
+        .unwrap()
+        .with_min_load_g(min_load_g)
+        .unwrap();
     let r = build(method, &p, settings).unwrap();
     let cases = sparse_cases(8, kmax);
     let exact = cases
@@ -241,6 +254,82 @@ fn likelihood_search_with_its_default_prior_is_exact_up_to_two_loads() {
         let (ok, n) = recover_all(Method::WeightedSupport, 2, normalise, s);
         assert_eq!(ok, n, "normalise={normalise}");
     }
+}
+
+#[test]
+fn load_range_prior_keeps_noise_free_recovery_exact() {
+    // The test masses (50/100/200 g) lie inside the rated 25–250 g range, so the prior
+    // must not cost a true support anything that matters: still exact up to two loads
+    // with the default noise prior and up to three when told the data are noise-free.
+    let s = MethodSettings::for_method(Method::WeightedSupport);
+    for normalise in [true, false] {
+        let (ok, n) =
+            recover_all_with_min_load(Method::WeightedSupport, 2, normalise, s, PAPER_MIN_LOAD_G);
+        assert_eq!(ok, n, "normalise={normalise}");
+    }
+    let mut s = s;
+    s.penalty = 1e-6;
+    s.noise_prior = NoisePrior {
+        resolution_pm: 1e-3,
+        additivity_frac: 0.0,
+        calibration_load_g: 200.0,
+    };
+    let (ok, n) = recover_all_with_min_load(Method::WeightedSupport, 3, true, s, PAPER_MIN_LOAD_G);
+    assert_eq!(ok, n);
+}
+
+#[test]
+fn load_range_prior_rejects_a_planted_load_below_the_rated_range() {
+    // 100 g on cell B and 200 g on cell G, plus 6 g on cell C (under a grating): a
+    // 6 g "load" is below the array's rated 25–250 g, i.e. not something the array
+    // can tell from a disturbance. With a quiet interrogator (0.05 pm, no additivity
+    // error), without the lower end of the range the exact three-load fit wins; with
+    // it the two-load reading must win, the 6 g shared out among B and G.
+    let a = paper_matrix();
+    let x = [0.0, 100.0, 6.0, 0.0, 0.0, 0.0, 200.0, 0.0];
+    let y = shifts(&a, &x);
+    let mut s = MethodSettings::for_method(Method::WeightedSupport);
+    s.noise_prior = NoisePrior {
+        resolution_pm: 0.05,
+        additivity_frac: 0.0,
+        calibration_load_g: 200.0,
+    };
+    let solve = |min_load: f64| {
+        let p = SensingProblem::new(a.clone(), 250.0, true)
+            .unwrap()
+            .with_min_load_g(min_load)
+            .unwrap();
+        build(Method::WeightedSupport, &p, s)
+            .unwrap()
+            .reconstruct(&y)
+            .loads_g
+    };
+    let without = solve(0.0);
+    for (j, (e, t)) in without.iter().zip(x.iter()).enumerate() {
+        assert!((e - t).abs() < 1e-6, "no range, cell {j}: {e} vs {t}");
+    }
+    let with = solve(PAPER_MIN_LOAD_G);
+    let support: Vec<usize> = (0..8).filter(|&j| with[j] > 0.0).collect();
+    assert_eq!(support, vec![1, 6], "{with:?}");
+    assert!(
+        (with[1] - 100.0).abs() < 10.0 && (with[6] - 200.0).abs() < 10.0,
+        "{with:?}"
+    );
+}
+
+#[test]
+fn load_range_is_checked() {
+    let p = || SensingProblem::new(paper_matrix(), 250.0, true).unwrap();
+    for bad in [-1.0, f64::NAN, f64::INFINITY, 250.0, 300.0] {
+        let e = p().with_min_load_g(bad).unwrap_err().to_string();
+        assert!(e.contains("min_load"), "{e}");
+    }
+    let ok = p().with_min_load_g(25.0).unwrap();
+    assert_eq!(ok.min_load_g, 25.0);
+    for j in 0..8 {
+        assert!((ok.lower[j] - 25.0 * ok.scale[j]).abs() < 1e-12);
+    }
+    assert_eq!(p().with_min_load_g(0.0).unwrap().lower.amax(), 0.0);
 }
 
 #[test]

@@ -41,6 +41,10 @@ fn reconstruct_writes_the_known_loads_and_a_json_summary() {
     assert_eq!(summary["method"], "wsupport");
     assert_eq!(summary["frames"], 4);
     assert_eq!(summary["not_converged"], 0);
+    assert_eq!(
+        summary["min_load_g"], 25.0,
+        "the paper's rated range by default"
+    );
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next().unwrap(), "time_s,A,B,C,D,E,F,G,H");
@@ -135,6 +139,23 @@ fn bad_input_exits_with_a_clear_error() {
         ],
         &["ulimit", "-5"],
     );
+    // The load range's lower end: negative, NaN, or not below ulimit.
+    for (value, needle) in [("-1", "-1"), ("NaN", "NaN"), ("250", "ulimit")] {
+        expect_error(
+            &[
+                "reconstruct",
+                "--matrix",
+                m,
+                "--shifts",
+                s,
+                "--min-load-g",
+                value,
+                "--out",
+                o,
+            ],
+            &["--min-load-g", "min_load", needle],
+        );
+    }
     let missing = fixture("bad-shifts-missing-fbg6.csv");
     expect_error(
         &[

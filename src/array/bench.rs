@@ -369,7 +369,8 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         .map(|k| cases[k % cases.len()].shifts_pm.clone())
         .collect();
     let measured = cfgs[0].noise.calibrate(&true_a, &mut rng);
-    let problem = SensingProblem::new(measured, cfgs[0].ulimit_g, true)?;
+    let problem = SensingProblem::new(measured, cfgs[0].ulimit_g, true)?
+        .with_min_load_g(cfgs[0].min_load_g)?;
     let mut tp_rows = Vec::new();
     writeln!(
         report,

@@ -14,7 +14,8 @@
 //!   generalised least squares and scored by −2 ln of its Laplace-approximated
 //!   evidence under the noise that leaves the span of its columns (interrogator
 //!   resolution, the additivity error of simultaneous loads, calibration noise; see
-//!   [`NoisePrior`]) with a uniform prior over load counts, plus a small λ·|S|.
+//!   [`NoisePrior`]) with a uniform prior over load counts and a uniform prior on each
+//!   load over the array's rated range [min_load, ulimit], plus a small λ·|S|.
 //! * `nnls`: Lawson–Hanson non-negative least squares, then the upper bound enforced
 //!   by a bounded projected-gradient polish (no sparsity prior beyond x ≥ 0).
 //! * `lasso`: ½‖Âz − y‖² + λ‖z‖₁ over the box, by FISTA with adaptive restart.
@@ -420,7 +421,8 @@ struct SupportEntry {
     cols_data: Vec<f64>,
     /// −2 ln of the support's prior and of its loads' prior volume (`wsupport`):
     /// 2 ln C(n, k) (every load count equally likely a priori, every support of that
-    /// count too) + 2 Σ ln upper_a (loads uniform on [0, upper]) − k ln 2π (the
+    /// count too) + 2 Σ ln(upper_a − lower_a) (loads uniform on [min_load, ulimit],
+    /// lower_a = 0 without a load range) − k ln 2π (the
     /// Gaussian part of the Laplace evidence).
     occam: f64,
 }
@@ -488,6 +490,33 @@ fn box_qp_by_upper_sets(
     None
 }
 
+/// ln Φ(t), the log of the standard normal distribution function, accurate in the far
+/// left tail (where Φ underflows): ln Φ(t) = ln(½ erfc(−t/√2)), with erfc from the
+/// Chebyshev fit of Numerical Recipes (§6.2, relative error < 1.2e−7 everywhere),
+/// which gives ln erfc directly for large arguments.
+pub(crate) fn ln_normal_cdf(t: f64) -> f64 {
+    let x = -t / std::f64::consts::SQRT_2;
+    let ax = x.abs();
+    let tt = 1.0 / (1.0 + 0.5 * ax);
+    let poly = -1.265_512_23
+        + tt * (1.000_023_68
+            + tt * (0.374_091_96
+                + tt * (0.096_784_18
+                    + tt * (-0.186_288_06
+                        + tt * (0.278_868_07
+                            + tt * (-1.135_203_98
+                                + tt * (1.488_515_87
+                                    + tt * (-0.822_152_23 + tt * 0.170_872_77))))))));
+    // ln erfc(|x|)
+    let ln_erfc_abs = tt.ln() - ax * ax + poly;
+    if x >= 0.0 {
+        ln_erfc_abs - std::f64::consts::LN_2
+    } else {
+        // erfc(x) = 2 − erfc(|x|) for x < 0.
+        (-0.5 * ln_erfc_abs.exp()).ln_1p()
+    }
+}
+
 /// ln C(n, k).
 fn ln_binom(n: usize, k: usize) -> f64 {
     (0..k).map(|i| ((n - i) as f64 / (k - i) as f64).ln()).sum()
@@ -534,7 +563,10 @@ impl SupportSearch {
                             occam: 2.0 * ln_binom(n, k)
                                 + cols
                                     .iter()
-                                    .map(|&j| 2.0 * common.problem.upper[j].max(1e-300).ln())
+                                    .map(|&j| {
+                                        let p = &common.problem;
+                                        2.0 * (p.upper[j] - p.lower[j]).max(1e-300).ln()
+                                    })
                                     .sum::<f64>()
                                 - k as f64 * (2.0 * std::f64::consts::PI).ln(),
                         });
@@ -663,7 +695,12 @@ impl SupportSearch {
     ///   standing in for the prediction in the additivity variance; G = ÂₛᵀWÂₛ;
     /// * χ² and ln det Σ are then evaluated with the support's own covariance: σ², plus
     ///   (a²/3)·(Âₛz)_i² for several loads, plus σ²·Σ_j (x_j/x_cal)² from the
-    ///   calibration readings' noise (each column was read once at x_cal).
+    ///   calibration readings' noise (each column was read once at x_cal);
+    /// * with a load range (`min_load_g` > 0) the loads' prior is uniform on
+    ///   [min_load, ulimit], and the score adds −2 Σ ln Φ((z_a − l_a)/sd_a), the share
+    ///   of each load's Laplace posterior N(z_a, (G⁻¹)_aa) above min_load: a support
+    ///   whose fit needs a load well below the rated range pays for it, one whose
+    ///   small load is within noise of min_load hardly does.
     ///
     /// λ only absorbs what the Gaussian model gets wrong (uniform errors, the fit
     /// standing in for the true loads).
@@ -675,6 +712,7 @@ impl SupportSearch {
         let var0 = (prior.resolution_pm * prior.resolution_pm).max(1e-12);
         let add = prior.additivity_frac * prior.additivity_frac / 3.0;
         let ln_var0_sum = m as f64 * var0.ln();
+        let use_lower = problem.min_load_g > 0.0;
         // Weighted normal equations for one load (index 0) and for several (index 1).
         let sets: Vec<(DMatrix<f64>, DVector<f64>)> = [0.0, add]
             .iter()
@@ -741,6 +779,25 @@ impl SupportSearch {
             if z[..k].iter().any(|&v| v < 0.0) {
                 continue; // a smaller support's solution, tried on its own
             }
+            // Posterior standard deviation of each load (working units): the diagonal
+            // of G⁻¹ = L⁻ᵀL⁻¹, column a of L⁻¹ by forward substitution. Needed only
+            // for the load-range prior.
+            let mut sd = [0.0f64; 64];
+            if use_lower {
+                let mut w = [0.0f64; 64];
+                for (a, sd_a) in sd.iter_mut().enumerate().take(k) {
+                    let mut var = 0.0;
+                    for r in a..k {
+                        let mut v = if r == a { 1.0 } else { 0.0 };
+                        for t in a..r {
+                            v -= l[r * k + t] * w[t];
+                        }
+                        w[r] = v / l[r * k + r];
+                        var += w[r] * w[r];
+                    }
+                    *sd_a = var.sqrt();
+                }
+            }
             // The support's score at loads zs, with its own covariance.
             let score = |zs: &[f64]| -> f64 {
                 // Calibration noise: a column's entries carry σ/x_cal of noise, so a
@@ -761,7 +818,22 @@ impl SupportSearch {
                     chi2 += (yi - fit) * (yi - fit) / v;
                     ln_det_sigma += v.ln();
                 }
-                chi2 + ln_det_sigma + prior_cost
+                // Load-range prior: the evidence integrates the likelihood over the
+                // prior box [min_load, ulimit]; the Laplace posterior N(z, G⁻¹) puts
+                // the share Φ((z_a − l_a)/sd_a) of each load's mass above min_load
+                // (marginals, correlations neglected). −2 ln of that share charges a
+                // fit that needs a load well below min_load, allowing for noise.
+                let range: f64 = if use_lower {
+                    (0..k)
+                        .map(|a| {
+                            let lo = problem.lower[e.cols[a]];
+                            -2.0 * ln_normal_cdf((zs[a] - lo) / sd[a].max(1e-300))
+                        })
+                        .sum()
+                } else {
+                    0.0
+                };
+                chi2 + ln_det_sigma + prior_cost + range
             };
             let cost = score(&z[..k]);
             // The unconstrained fit scores at least as well as the bounded one in
@@ -771,18 +843,17 @@ impl SupportSearch {
             if cost >= best_cost {
                 continue;
             }
-            if (0..k).all(|a| z[a] <= problem.upper[e.cols[a]]) {
-                best_cost = cost;
-                best = Some((e_idx, z[..k].to_vec()));
+            let (cost, zs) = if (0..k).all(|a| z[a] <= problem.upper[e.cols[a]]) {
+                (cost, z[..k].to_vec())
             } else {
                 let gs = DMatrix::from_fn(k, k, |a, q| g[(e.cols[a], e.cols[q])]);
                 let bs = DVector::from_fn(k, |a, _| b[e.cols[a]]);
                 let zb = self.bounded_sub(&e.cols, &gs, &bs).0;
-                let cost = score(&zb);
-                if cost < best_cost {
-                    best_cost = cost;
-                    best = Some((e_idx, zb));
-                }
+                (score(&zb), zb)
+            };
+            if cost < best_cost {
+                best_cost = cost;
+                best = Some((e_idx, zs));
             }
         }
         (best, tried)
@@ -1086,6 +1157,33 @@ pub fn reconstruct_stream(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ln_normal_cdf_matches_tabulated_values_and_the_far_tail() {
+        // Φ from tables (Abramowitz & Stegun 26.2), and Φ(−10) = 7.6198530241605e−24.
+        for (t, phi) in [
+            (0.0, 0.5),
+            (1.0, 0.841_344_746_068_543),
+            (-1.959_963_985, 0.025),
+            (-3.0, 0.001_349_898_031_630_1),
+            (2.5, 0.993_790_334_674_224),
+        ] {
+            let got = ln_normal_cdf(t).exp();
+            assert!(
+                (got - phi).abs() < 2e-7 * phi.max(1e-3),
+                "Φ({t}) = {got}, want {phi}"
+            );
+        }
+        let ln_tail = ln_normal_cdf(-10.0);
+        assert!(
+            (ln_tail - 7.619_853_024_160_5e-24f64.ln()).abs() < 1e-5,
+            "{ln_tail}"
+        );
+        // Far beyond underflow it stays finite and follows −t²/2.
+        let far = ln_normal_cdf(-100.0);
+        assert!(far.is_finite() && (far + 5000.0).abs() < 10.0, "{far}");
+        assert!(ln_normal_cdf(40.0) <= 0.0 && ln_normal_cdf(40.0) > -1e-12);
+    }
 
     #[test]
     fn fista_box_matches_the_closed_form_in_one_dimension() {

@@ -11,6 +11,13 @@
 //! This changes nothing for exact least squares but it changes which support a sparsity
 //! penalty prefers, and it makes an ℓ1 penalty treat every cell alike. Without
 //! normalisation the scale is 1 (z = x, in g).
+//!
+//! The problem also carries the array's load range: ulimit (the most a cell can carry)
+//! and `min_load_g` (the least load a loaded cell carries: the paper's array is rated
+//! for 25–250 g per cell). `min_load_g` is a prior over loads, not a hard bound: the
+//! likelihood search (`wsupport`) puts its uniform prior on [min_load, ulimit] and
+//! charges a support for the posterior mass its fit leaves below min_load; the other
+//! methods ignore it. 0 disables it.
 
 use super::ArrayError;
 use nalgebra::{DMatrix, DVector};
@@ -22,6 +29,9 @@ pub struct SensingProblem {
     pub sensitivity_pm_per_g: DMatrix<f64>,
     /// Largest load per cell, g.
     pub ulimit_g: f64,
+    /// Smallest load a loaded cell carries, g (0: no lower limit). A prior used by
+    /// `wsupport` only; see the module doc.
+    pub min_load_g: f64,
     /// Whether the methods work with unit-norm columns.
     pub normalised: bool,
     /// The matrix the methods solve with: A, or A with unit columns.
@@ -30,10 +40,16 @@ pub struct SensingProblem {
     pub scale: DVector<f64>,
     /// Upper bound of each working unknown: ulimit · scale_j.
     pub upper: DVector<f64>,
+    /// Smallest load of a loaded cell in working units: min_load · scale_j.
+    pub lower: DVector<f64>,
 }
 
+/// The paper's rated load range per cell starts at 25 g (reference §2: 25–250 g).
+pub const PAPER_MIN_LOAD_G: f64 = 25.0;
+
 impl SensingProblem {
-    /// Check the matrix and the bound, then derive the working matrix.
+    /// Check the matrix and the bound, then derive the working matrix. The smallest
+    /// load starts at 0 (no lower limit); set it with [`Self::with_min_load_g`].
     pub fn new(
         sensitivity_pm_per_g: DMatrix<f64>,
         ulimit_g: f64,
@@ -82,14 +98,36 @@ impl SensingProblem {
             working.column_mut(j).iter_mut().for_each(|v| *v /= s);
         }
         let upper = scale.map(|s| s * ulimit_g);
+        let lower = DVector::zeros(n);
         Ok(SensingProblem {
             sensitivity_pm_per_g,
             ulimit_g,
+            min_load_g: 0.0,
             normalised,
             working,
             scale,
             upper,
+            lower,
         })
+    }
+
+    /// The same problem with the smallest load of a loaded cell set to `min_load_g`
+    /// (g; 0 disables it). It must be finite, ≥ 0 and below ulimit.
+    pub fn with_min_load_g(mut self, min_load_g: f64) -> Result<Self, ArrayError> {
+        if !(min_load_g.is_finite() && min_load_g >= 0.0) {
+            return Err(ArrayError::Input(format!(
+                "min_load must be a load ≥ 0 in g (0 disables it), got {min_load_g}"
+            )));
+        }
+        if min_load_g >= self.ulimit_g {
+            return Err(ArrayError::Input(format!(
+                "min_load ({min_load_g} g) must be below ulimit ({} g)",
+                self.ulimit_g
+            )));
+        }
+        self.min_load_g = min_load_g;
+        self.lower = self.scale.map(|s| s * min_load_g);
+        Ok(self)
     }
 
     /// Number of gratings.

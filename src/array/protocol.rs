@@ -299,6 +299,9 @@ pub struct ProtocolConfig {
     pub noise: NoiseModel,
     /// Largest load per cell the methods may return, g (paper: 250).
     pub ulimit_g: f64,
+    /// Smallest load of a loaded cell, g, the lower end of the array's rated range
+    /// (paper: 25; 0 disables it). A prior of `wsupport`; never the test masses.
+    pub min_load_g: f64,
     /// Column-normalise the matrix (paper: yes).
     pub normalise: bool,
     /// Tune the penalty on the validation set (else use the method's default).
@@ -321,6 +324,7 @@ impl ProtocolConfig {
             validation_cases: 22,
             noise: NoiseModel::paper(),
             ulimit_g: 250.0,
+            min_load_g: super::problem::PAPER_MIN_LOAD_G,
             normalise: true,
             tune_penalty: true,
             de_generations: 1500,
@@ -625,7 +629,8 @@ pub fn run_protocol(
     let measured = cfg.noise.calibrate(true_a, &mut rng_cal);
     let cases = test_cases(true_a, cfg, &mut rng_test);
     let validation = validation_cases(true_a, cfg, &mut rng_val);
-    let problem = SensingProblem::new(measured.clone(), cfg.ulimit_g, cfg.normalise)?;
+    let problem = SensingProblem::new(measured.clone(), cfg.ulimit_g, cfg.normalise)?
+        .with_min_load_g(cfg.min_load_g)?;
     let mut settings = MethodSettings::for_method(method);
     settings.de_generations = cfg.de_generations;
     settings.de_population = cfg.de_population;

@@ -5,7 +5,7 @@
 use crate::array::io::{read_matrix, read_shifts, write_loads};
 use crate::array::kernel::matrix_from_design;
 use crate::array::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
-use crate::array::problem::SensingProblem;
+use crate::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use crate::array::SensingMatrix;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -34,6 +34,11 @@ pub struct ReconstructArgs {
     /// Largest load per cell, g (default: the design's ulimit, else 250 g).
     #[arg(long, allow_negative_numbers = true)]
     pub ulimit_g: Option<f64>,
+    /// Smallest load a loaded cell carries, g: the lower end of the array's rated
+    /// range, a prior of the default `wsupport` method (default: the paper's 25 g, or
+    /// 0 when ulimit is not above 25 g; 0 disables it; must be below ulimit).
+    #[arg(long, allow_negative_numbers = true)]
+    pub min_load_g: Option<f64>,
     /// Penalty weight of the method (default: the method's tuned default).
     #[arg(long, allow_negative_numbers = true)]
     pub penalty: Option<f64>,
@@ -61,6 +66,8 @@ pub struct ReconstructSummary {
     pub normalised: bool,
     /// Upper bound per cell, g.
     pub ulimit_g: f64,
+    /// Smallest load of a loaded cell (prior of `wsupport`), g.
+    pub min_load_g: f64,
     /// Number of frames.
     pub frames: usize,
     /// Frames where the method did not converge.
@@ -98,11 +105,21 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         bail!("--ulimit-g must be a positive load in g, got {ulimit_g}");
     }
     let stream = read_shifts(&a.shifts, &matrix.gratings)?;
+    // The paper's 25 g unless told otherwise; an array rated for less than that in
+    // total (ulimit ≤ 25 g) gets no lower end rather than an error about a value the
+    // user never gave.
+    let min_load_g = a.min_load_g.unwrap_or(if PAPER_MIN_LOAD_G < ulimit_g {
+        PAPER_MIN_LOAD_G
+    } else {
+        0.0
+    });
     let problem = SensingProblem::new(
         matrix.sensitivity_pm_per_g.clone(),
         ulimit_g,
         !a.no_normalise,
-    )?;
+    )?
+    .with_min_load_g(min_load_g)
+    .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?;
     let mut settings = MethodSettings::for_method(method);
     if let Some(p) = a.penalty {
         settings.penalty = p;
@@ -119,6 +136,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         penalty: settings.penalty,
         normalised: !a.no_normalise,
         ulimit_g,
+        min_load_g,
         frames: results.len(),
         not_converged: results.iter().filter(|r| !r.converged).count(),
         mean_load_g: (0..matrix.n_cells())
