@@ -557,3 +557,51 @@ fn bad_input_gets_clear_errors() {
     let e = sweep::run(&d, wall, &[1.0, 9.0], 50.0, None, || {}).unwrap_err();
     assert!(e.to_string().contains("cap_wall_mm = 9"), "{e}");
 }
+
+/// Moduli at the ends of the range the spec accepts (1e-4 to 1e7 MPa) for core, cap and
+/// insert, every combination: the closed form never returns NaN or infinity, keeps
+/// Case I red and Case II blue, and keeps Case I's load share a proper fraction that
+/// satisfies compatibility (equal apex displacement along both paths), so nothing
+/// overflows or flips sign at eleven orders of magnitude of contrast.
+#[test]
+fn the_closed_form_holds_at_the_extremes_of_the_modulus_range() {
+    let base = design("clip-on-34mm.toml");
+    let moduli = [1e-4, 1e-2, 1.0, 1e2, 1e4, 1e7];
+    for e1 in moduli {
+        for e2 in moduli {
+            for es in moduli {
+                let mut d = base.clone();
+                d.materials
+                    .get_mut("core_rubber_case_i")
+                    .unwrap()
+                    .youngs_modulus_mpa = e1;
+                d.materials
+                    .get_mut("cap_digital_abs")
+                    .unwrap()
+                    .youngs_modulus_mpa = e2;
+                d.materials
+                    .get_mut("insert_blue")
+                    .unwrap()
+                    .youngs_modulus_mpa = es;
+                let tag = format!("E1 {e1} E2 {e2} Es {es}");
+                let k_i = k(&d, LoadCase::I, Some("blue"), "lambda_11");
+                let k_ii = k(&d, LoadCase::II, None, "lambda_11");
+                assert!(k_i.is_finite() && k_i > 0.0, "{tag}: K_I {k_i}");
+                assert!(k_ii.is_finite() && k_ii < 0.0, "{tag}: K_II {k_ii}");
+                let p = ModuleModelParams::from_design(&d, "psc1", Some("blue")).unwrap();
+                let s = closed_form::case_i_share(&p, p.insert.unwrap());
+                assert!(s.loop_share > 0.0 && s.loop_share < 1.0, "{tag}: {s:?}");
+                let (loop_mm, direct_mm) = (
+                    s.loop_share * s.loop_compliance_mm_per_n,
+                    (1.0 - s.loop_share) * s.direct_compliance_mm_per_n,
+                );
+                // 1 − share loses digits when the direct path is 10⁸ times the more
+                // compliant (Es = 1e-4 MPa): 1e-6 still catches any real mismatch.
+                assert!(
+                    (loop_mm - direct_mm).abs() <= 1e-6 * loop_mm.abs().max(direct_mm.abs()),
+                    "{tag}: apex displacement {loop_mm} vs {direct_mm}"
+                );
+            }
+        }
+    }
+}
