@@ -247,14 +247,8 @@ fn case_ii_holds_at_the_extremes_of_the_modulus_range() {
     for e1 in [1e-4, 1.4, 1e7] {
         for e2 in [1e-4, 44.0, 1e7] {
             let mut d = design();
-            d.materials
-                .get_mut("core_rubber_case_ii")
-                .unwrap()
-                .youngs_modulus_mpa = e1;
-            d.materials
-                .get_mut("cap_digital_abs")
-                .unwrap()
-                .youngs_modulus_mpa = e2;
+            common::set_modulus(&mut d, "core_rubber_case_ii", e1);
+            common::set_modulus(&mut d, "cap_digital_abs", e2);
             d.validate().unwrap();
             let r = solve_configuration(&d, &c, &FemOptions::level(0)).unwrap();
             let (name, lambda, e) = r.strain_per_n[0].clone();

@@ -571,18 +571,9 @@ fn the_closed_form_holds_at_the_extremes_of_the_modulus_range() {
         for e2 in moduli {
             for es in moduli {
                 let mut d = base.clone();
-                d.materials
-                    .get_mut("core_rubber_case_i")
-                    .unwrap()
-                    .youngs_modulus_mpa = e1;
-                d.materials
-                    .get_mut("cap_digital_abs")
-                    .unwrap()
-                    .youngs_modulus_mpa = e2;
-                d.materials
-                    .get_mut("insert_blue")
-                    .unwrap()
-                    .youngs_modulus_mpa = es;
+                common::set_modulus(&mut d, "core_rubber_case_i", e1);
+                common::set_modulus(&mut d, "cap_digital_abs", e2);
+                common::set_modulus(&mut d, "insert_blue", es);
                 let tag = format!("E1 {e1} E2 {e2} Es {es}");
                 let k_i = k(&d, LoadCase::I, Some("blue"), "lambda_11");
                 let k_ii = k(&d, LoadCase::II, None, "lambda_11");

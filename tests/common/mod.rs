@@ -16,3 +16,11 @@ pub fn shipped_path(name: &str) -> PathBuf {
 pub fn shipped(name: &str) -> Design {
     spec::load(&shipped_path(name)).unwrap_or_else(|e| panic!("{e}"))
 }
+
+/// Set one material's Young's modulus, MPa (the material must exist in the design).
+pub fn set_modulus(d: &mut Design, material: &str, mpa: f64) {
+    d.materials
+        .get_mut(material)
+        .unwrap_or_else(|| panic!("no material {material}"))
+        .youngs_modulus_mpa = mpa;
+}
