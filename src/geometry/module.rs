@@ -260,6 +260,43 @@ fn revolve_chain(
     Ok(())
 }
 
+/// A domed wall as every part's profile draws it: the cylinder of radius `r` from
+/// `z_base` up to its junction `zj` with the sphere of radius `rho`, then the sphere on
+/// to `end`. An outer wall (`facing_out`) runs upwards with outward normals; an inner
+/// wall runs the same meridian downwards, facing the axis.
+fn domed_wall(
+    r: f64,
+    z_base: f64,
+    zj: f64,
+    rho: f64,
+    end: (f64, f64),
+    facing_out: bool,
+) -> [Prof; 2] {
+    let cylinder = Prof {
+        a: (r, z_base),
+        b: (r, zj),
+        sphere: None,
+        out: 1.0,
+    };
+    let dome = Prof {
+        a: (r, zj),
+        b: end,
+        sphere: Some(rho),
+        out: 1.0,
+    };
+    if facing_out {
+        [cylinder, dome]
+    } else {
+        let down = |q: Prof| Prof {
+            a: q.b,
+            b: q.a,
+            out: -1.0,
+            ..q
+        };
+        [down(dome), down(cylinder)]
+    }
+}
+
 /// Flat disc of radius r at height z (apex flats, the insert's base).
 fn disc(asm: &mut Assembler, ang: &Angles, r: f64, z: f64, up: bool) -> Result<(), BrepError> {
     let l = at(&ring_ccw(ang, r, 0, 0), z);
@@ -271,10 +308,11 @@ fn disc(asm: &mut Assembler, ang: &Angles, r: f64, z: f64, up: bool) -> Result<(
     asm.plane("flat", &[l], n)
 }
 
-/// Solid of revolution bounded by a cylinder of radius `r` up to `zj`, a sphere of
-/// radius `rho` centred at `zc` above it, cut flat at `z_top`: its volume, mm³.
-fn capped_cylinder_volume(r: f64, zj: f64, rho: f64, zc: f64, z_top: f64) -> f64 {
-    PI * r * r * zj + zone_volume(rho, zj - zc, z_top - zc)
+/// Solid of revolution bounded by a cylinder of radius `r` from `z_base` up to `zj`, a
+/// sphere of radius `rho` centred at `zc` above it, cut flat at `z_top`: its volume,
+/// mm³ (the volume inside a [`domed_wall`]).
+fn capped_cylinder_volume(r: f64, z_base: f64, zj: f64, rho: f64, zc: f64, z_top: f64) -> f64 {
+    PI * r * r * (zj - z_base) + zone_volume(rho, zj - zc, z_top - zc)
 }
 
 /// Volume of the part of a ball of radius rho between heights h1 < h2 above its
@@ -311,25 +349,12 @@ pub fn insert(p: &ModuleProfile, part: &str) -> Result<BuiltSolid, BrepError> {
     let a = p.apex_flat_radius_mm;
     let za = sphere_z(p, rho, a);
     disc(&mut asm, &ang, r, 0.0, false)?;
-    let chain = [
-        Prof {
-            a: (r, 0.0),
-            b: (r, zj),
-            sphere: None,
-            out: 1.0,
-        },
-        Prof {
-            a: (r, zj),
-            b: (a, za),
-            sphere: Some(rho),
-            out: 1.0,
-        },
-    ];
+    let chain = domed_wall(r, 0.0, zj, rho, (a, za), true);
     revolve_chain(&mut asm, &chain, zc, &ang)?;
     disc(&mut asm, &ang, a, za, true)?;
     Ok(BuiltSolid {
         solid: asm.solid()?,
-        exact_volume_mm3: capped_cylinder_volume(r, zj, rho, zc, za),
+        exact_volume_mm3: capped_cylinder_volume(r, 0.0, zj, rho, zc, za),
     })
 }
 
@@ -438,45 +463,22 @@ pub fn core(
     );
     let (z_oj, z_ij) = (p.core_outer_junction_z_mm, p.core_inner_junction_z_mm);
     let (z_oh, z_ih) = (sphere_z(p, rs_o, th), sphere_z(p, rs_i, th));
-    let chain = [
-        Prof {
-            a: (r_co, top),
-            b: (r_co, z_oj),
-            sphere: None,
-            out: 1.0,
-        },
-        Prof {
-            a: (r_co, z_oj),
-            b: (th, z_oh),
-            sphere: Some(rs_o),
-            out: 1.0,
-        },
-        Prof {
-            a: (th, z_oh),
-            b: (th, z_ih),
-            sphere: None,
-            out: -1.0,
-        },
-        Prof {
-            a: (th, z_ih),
-            b: (r_ci, z_ij),
-            sphere: Some(rs_i),
-            out: -1.0,
-        },
-        Prof {
-            a: (r_ci, z_ij),
-            b: (r_ci, top),
-            sphere: None,
-            out: -1.0,
-        },
-    ];
+    let [outer_wall, outer_dome] = domed_wall(r_co, top, z_oj, rs_o, (th, z_oh), true);
+    let [inner_dome, inner_wall] = domed_wall(r_ci, top, z_ij, rs_i, (th, z_ih), false);
+    let top_hole = Prof {
+        a: (th, z_oh),
+        b: (th, z_ih),
+        sphere: None,
+        out: -1.0,
+    };
+    let chain = [outer_wall, outer_dome, top_hole, inner_dome, inner_wall];
     revolve_chain(&mut asm, &chain, zc, &ang)?;
 
     let rib_area =
         slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
     let band = top * (PI * (r_co * r_co - r_ci * r_ci) + n as f64 * (rib_area - PI * rh * rh));
-    let upper = (PI * r_co * r_co * (z_oj - top) + zone_volume(rs_o, z_oj - zc, z_oh - zc))
-        - (PI * r_ci * r_ci * (z_ij - top) + zone_volume(rs_i, z_ij - zc, z_ih - zc))
+    let upper = capped_cylinder_volume(r_co, top, z_oj, rs_o, zc, z_oh)
+        - capped_cylinder_volume(r_ci, top, z_ij, rs_i, zc, z_ih)
         - PI * th * th * (z_oh - z_ih);
     Ok(BuiltSolid {
         solid: asm.solid()?,
@@ -552,34 +554,8 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
     );
     let (z_oj, z_ij) = (p.cap_outer_junction_z_mm, p.cap_inner_junction_z_mm);
     let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
-    let outer_chain = [
-        Prof {
-            a: (r_o, top),
-            b: (r_o, z_oj),
-            sphere: None,
-            out: 1.0,
-        },
-        Prof {
-            a: (r_o, z_oj),
-            b: (a, z_oa),
-            sphere: Some(rs_o),
-            out: 1.0,
-        },
-    ];
-    let inner_chain = [
-        Prof {
-            a: (a, z_ia),
-            b: (r_ci, z_ij),
-            sphere: Some(rs_i),
-            out: -1.0,
-        },
-        Prof {
-            a: (r_ci, z_ij),
-            b: (r_ci, top),
-            sphere: None,
-            out: -1.0,
-        },
-    ];
+    let outer_chain = domed_wall(r_o, top, z_oj, rs_o, (a, z_oa), true);
+    let inner_chain = domed_wall(r_ci, top, z_ij, rs_i, (a, z_ia), false);
     revolve_chain(&mut asm, &outer_chain, zc, &ang)?;
     revolve_chain(&mut asm, &inner_chain, zc, &ang)?;
     disc(&mut asm, &ang, a, z_oa, true)?;
@@ -587,8 +563,8 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
 
     let rib_area = slice_area(r_ci, hc) - slice_area(r_pi, hc);
     let band = top * (PI * (r_o * r_o - r_ci * r_ci) + n as f64 * rib_area);
-    let upper = (PI * r_o * r_o * (z_oj - top) + zone_volume(rs_o, z_oj - zc, z_oa - zc))
-        - (PI * r_ci * r_ci * (z_ij - top) + zone_volume(rs_i, z_ij - zc, z_ia - zc));
+    let upper = capped_cylinder_volume(r_o, top, z_oj, rs_o, zc, z_oa)
+        - capped_cylinder_volume(r_ci, top, z_ij, rs_i, zc, z_ia);
     Ok(BuiltSolid {
         solid: asm.solid()?,
         exact_volume_mm3: band + upper,
