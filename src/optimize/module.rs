@@ -1028,14 +1028,17 @@ pub fn optimise_module(
     // The start problem: evaluates the start, and calibrates the Q model on it when a
     // verifier JSON of this design is given.
     let mut cal = Calibration::identity(&settings.quality);
-    let probe = ModuleProblem::new(
-        base,
-        start_ch.clone(),
-        lib,
-        settings,
-        cal,
-        predictor.clone(),
-    )?;
+    let start_problem = |cal| {
+        ModuleProblem::new(
+            base,
+            start_ch.clone(),
+            lib,
+            settings,
+            cal,
+            predictor.clone(),
+        )
+    };
+    let probe = start_problem(cal)?;
     let x0 = probe.start_point();
     let mut start = probe.evaluate(&x0);
     if let (Some(meas), false) = (measured, start.gratings.is_empty()) {
@@ -1049,15 +1052,7 @@ pub fn optimise_module(
             .sum::<f64>()
             / n;
         cal = meas.calibrate(start.gratings[0].lag_s, lin, &settings.quality);
-        let probe = ModuleProblem::new(
-            base,
-            start_ch.clone(),
-            lib,
-            settings,
-            cal,
-            predictor.clone(),
-        )?;
-        start = probe.evaluate(&x0);
+        start = start_problem(cal)?.evaluate(&x0);
     }
     let scale = if start.feasible() && start.objective > 0.0 {
         start.objective
