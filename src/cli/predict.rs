@@ -274,14 +274,6 @@ fn fidelity_label(f: FidelityArg) -> &'static str {
     }
 }
 
-/// The sweep's predictor for a `--fidelity` (None: the closed form itself).
-fn sweep_predictor(
-    fidelity: FidelityArg,
-    case: Option<LoadCase>,
-) -> Option<Box<sweep::Predictor<'static>>> {
-    crate::fem::sweep_predictor(fidelity.into(), case, FemOptions::default())
-}
-
 fn sweep_chart(r: &SweepResult, title: &str) -> Chart {
     let mut c = Chart::new(
         title,
@@ -361,7 +353,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     }
     let pb = crate::progress::bar(values.len() as u64, "sweep");
-    let predictor = sweep_predictor(a.fidelity, case);
+    let predictor = crate::fem::sweep_predictor(a.fidelity.into(), case, FemOptions::default());
     let r = sweep::run_with(
         &design,
         param,
@@ -428,7 +420,8 @@ fn write_paper_figures(
     let steps = steps.max(2);
     let pb = crate::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
     for fig in PAPER_FIGURES {
-        let predictor = sweep_predictor(fidelity, Some(fig.case));
+        let predictor =
+            crate::fem::sweep_predictor(fidelity.into(), Some(fig.case), FemOptions::default());
         let r =
             sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), || pb.inc(1))
                 .with_context(|| format!("paper figure {}", fig.id))?;
