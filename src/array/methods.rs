@@ -730,6 +730,8 @@ impl SupportSearch {
         // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
         let mut l = [0.0f64; 64 * 64];
         let mut z = [0.0f64; 64];
+        // Posterior standard deviations of the loads and a column of L⁻¹ (load range).
+        let (mut sd, mut w) = ([0.0f64; 64], [0.0f64; 64]);
         for (e_idx, e) in self.entries.iter().enumerate() {
             let k = e.cols.len();
             let (g, b) = &sets[usize::from(k >= 2)];
@@ -782,9 +784,7 @@ impl SupportSearch {
             // Posterior standard deviation of each load (working units): the diagonal
             // of G⁻¹ = L⁻ᵀL⁻¹, column a of L⁻¹ by forward substitution. Needed only
             // for the load-range prior.
-            let mut sd = [0.0f64; 64];
             if use_lower {
-                let mut w = [0.0f64; 64];
                 for (a, sd_a) in sd.iter_mut().enumerate().take(k) {
                     let mut var = 0.0;
                     for r in a..k {
