@@ -8,9 +8,30 @@ use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions};
 use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
 use fbgforge::verify::verdict::{verdicts, Status};
+use std::path::Path;
 
 fn design() -> fbgforge::spec::Design {
     common::shipped("clip-on-34mm.toml")
+}
+
+/// Write a synthetic log as an ENLIGHT Peaks export with the default style.
+fn write_peaks(path: &Path, log: &synth::SynthLog, cfg: &SynthConfig) {
+    synth::write_log(
+        path,
+        LogFormat::EnlightPeaks,
+        log,
+        cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+}
+
+/// Read a wavelength log and a `time_s,force_N` force log with default options.
+fn read_pair(lp: &Path, fp: &Path) -> anyhow::Result<(logs::PeakLog, logs::ForceLog)> {
+    Ok((
+        logs::read_peak_log(lp, &ReadOptions::default())?,
+        logs::read_force_log(fp, &ForceColumns::default())?,
+    ))
 }
 
 /// Write a synthetic pair after `edit` has changed the log, and analyse it.
@@ -24,17 +45,9 @@ fn analyse_edited(
     let (mut log, force, _) = synth::generate(&d, cfg).unwrap();
     edit(&mut log);
     let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
-    synth::write_log(
-        &lp,
-        LogFormat::EnlightPeaks,
-        &log,
-        cfg,
-        &LogStyle::default(),
-    )
-    .unwrap();
+    write_peaks(&lp, &log, cfg);
     synth::write_force_csv(&fp, &force).unwrap();
-    let pl = logs::read_peak_log(&lp, &ReadOptions::default())?;
-    let fl = logs::read_force_log(&fp, &ForceColumns::default())?;
+    let (pl, fl) = read_pair(&lp, &fp)?;
     analyse(&d, &pl, &fl, opts).map(|(m, _)| m)
 }
 
@@ -50,14 +63,7 @@ fn a_force_log_that_does_not_overlap_is_an_error_naming_both_files() {
     let dir = tempfile::tempdir().unwrap();
     let (log, force, _) = synth::generate(&d, &cfg).unwrap();
     let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("stand.csv"));
-    synth::write_log(
-        &lp,
-        LogFormat::EnlightPeaks,
-        &log,
-        &cfg,
-        &LogStyle::default(),
-    )
-    .unwrap();
+    write_peaks(&lp, &log, &cfg);
     synth::write_force_stand_csv(&fp, &force, cfg.start_epoch_s + cfg.force_start_s).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
     let cols = ForceColumns {
@@ -139,17 +145,9 @@ fn an_unknown_core_or_a_log_without_pulses_is_reported() {
         *f = 0.01 * ((i * 7919) % 13) as f64;
     }
     let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
-    synth::write_log(
-        &lp,
-        LogFormat::EnlightPeaks,
-        &log,
-        &cfg,
-        &LogStyle::default(),
-    )
-    .unwrap();
+    write_peaks(&lp, &log, &cfg);
     synth::write_force_csv(&fp, &force).unwrap();
-    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (pl, fl) = read_pair(&lp, &fp).unwrap();
     let e = analyse(&d, &pl, &fl, &AnalysisOptions::default())
         .unwrap_err()
         .to_string();
@@ -169,14 +167,7 @@ fn garbage_lines_inside_a_synthetic_log_are_counted_in_the_report() {
     let dir = tempfile::tempdir().unwrap();
     let (log, force, truth) = synth::generate(&d, &cfg).unwrap();
     let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
-    synth::write_log(
-        &lp,
-        LogFormat::EnlightPeaks,
-        &log,
-        &cfg,
-        &LogStyle::default(),
-    )
-    .unwrap();
+    write_peaks(&lp, &log, &cfg);
     synth::write_force_csv(&fp, &force).unwrap();
     let mut text = std::fs::read_to_string(&lp).unwrap();
     let at = text.len() / 2;
@@ -187,8 +178,7 @@ fn garbage_lines_inside_a_synthetic_log_are_counted_in_the_report() {
     );
     text.push_str("17/04/2025 15:46:0");
     std::fs::write(&lp, text).unwrap();
-    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (pl, fl) = read_pair(&lp, &fp).unwrap();
     let (m, _) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
     assert_eq!(m.warnings.count("unreadable_line"), 2);
     assert_eq!(m.warnings.count("truncated_last_line"), 1);
@@ -317,17 +307,9 @@ fn compression_logged_as_negative_force_is_flipped_and_counted() {
     let (log, mut force, truth) = synth::generate(&d, &cfg).unwrap();
     force.force_n.iter_mut().for_each(|f| *f = -*f);
     let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
-    synth::write_log(
-        &lp,
-        LogFormat::EnlightPeaks,
-        &log,
-        &cfg,
-        &LogStyle::default(),
-    )
-    .unwrap();
+    write_peaks(&lp, &log, &cfg);
     synth::write_force_csv(&fp, &force).unwrap();
-    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (pl, fl) = read_pair(&lp, &fp).unwrap();
     let (m, _) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
     assert_eq!(m.warnings.count("force_sign_flipped"), 1);
     let k = truth.gratings[0].sensitivity_pm_per_n;
@@ -347,14 +329,7 @@ fn chunked_parallel_parsing_keeps_rows_and_line_numbers() {
     let (log, _, _) = synth::generate(&d, &cfg).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let lp = dir.path().join("big.txt");
-    synth::write_log(
-        &lp,
-        LogFormat::EnlightPeaks,
-        &log,
-        &cfg,
-        &LogStyle::default(),
-    )
-    .unwrap();
+    write_peaks(&lp, &log, &cfg);
     let text = std::fs::read_to_string(&lp).unwrap();
     assert!(text.len() > 5 << 20, "{} bytes", text.len());
     let mut lines: Vec<&str> = text.lines().collect();
