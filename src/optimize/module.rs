@@ -1118,14 +1118,7 @@ pub fn optimise_module(
     let choices_done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
     // Every choice shares the start point and the box, so merits compare across
     // choices too: near-ties go to the least change from the start.
-    let mut ranker = ModuleProblem::new(
-        base,
-        start_ch.clone(),
-        lib,
-        settings,
-        cal,
-        predictor.clone(),
-    )?;
+    let mut ranker = start_problem(cal)?;
     ranker.set_scale(scale);
     let best_choice = choices_done
         .iter()
