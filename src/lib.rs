@@ -4,7 +4,6 @@
 //! once; the geometry, the models and the verifier all read it.
 
 pub mod array;
-pub mod cli;
 pub mod fem;
 pub mod geometry;
 pub mod grating;
@@ -13,6 +12,7 @@ pub mod model;
 pub mod optimize;
 pub mod output;
 pub mod plot;
+pub mod prediction;
 pub mod profile;
 pub mod progress;
 pub mod spec;

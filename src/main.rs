@@ -1,32 +1,41 @@
-//! The `fbgforge` command: a thin layer over the library's modules.
+//! The `fbgforge` command: parse the flags, call one library use case, print, and
+//! return an exit code. Everything else lives in the library (`fbgforge::…`).
+
+mod cli;
 
 use clap::Parser;
-use fbgforge::cli::{Cli, Command};
+use cli::{Cli, Command};
+use std::process::ExitCode;
 
-fn main() {
+fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        None => fbgforge::cli::build::run_default(),
+        None => cli::build::run_default().map(|()| ExitCode::SUCCESS),
         Some(cmd) => run(cmd),
     };
-    if let Err(e) = result {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
     }
 }
 
-fn run(cmd: Command) -> anyhow::Result<()> {
-    use fbgforge::cli::*;
+/// Dispatch one subcommand. A subcommand that has more to say than success or
+/// failure (verify: a FAIL verdict) returns its own code.
+fn run(cmd: Command) -> anyhow::Result<ExitCode> {
+    let ok = |r: anyhow::Result<()>| r.map(|()| ExitCode::SUCCESS);
     match cmd {
-        Command::Build(a) => build::run(a),
-        Command::Predict(a) => predict::run_predict(a),
-        Command::Sweep(a) => predict::run_sweep(a),
-        Command::Reconstruct(a) => reconstruct::run(a),
-        Command::Verify(a) => verify::run_verify(a),
-        Command::SynthLog(a) => verify::run_synth_log(a),
-        Command::CalibrateArray(a) => verify::run_calibrate_array(a),
-        Command::Optimize(a) => optimize::run_optimize(a),
-        Command::Place(a) => optimize::run_place(a),
-        Command::Bench(a) => bench::run(a),
+        Command::Build(a) => ok(cli::build::run(a)),
+        Command::Predict(a) => ok(cli::predict::run_predict(a)),
+        Command::Sweep(a) => ok(cli::predict::run_sweep(a)),
+        Command::Reconstruct(a) => ok(cli::reconstruct::run(a)),
+        Command::Verify(a) => cli::verify::run_verify(a),
+        Command::SynthLog(a) => ok(cli::verify::run_synth_log(a)),
+        Command::CalibrateArray(a) => ok(cli::verify::run_calibrate_array(a)),
+        Command::Optimize(a) => ok(cli::optimize::run_optimize(a)),
+        Command::Place(a) => ok(cli::optimize::run_place(a)),
+        Command::Bench(a) => ok(cli::bench::run(a)),
     }
 }

@@ -838,3 +838,32 @@ pub fn positive(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> 
     }
     range(field, v, lo, hi)
 }
+
+/// The folder of shipped designs: `designs/` under the working directory, else the
+/// crate's own.
+pub fn designs_dir() -> PathBuf {
+    let local = PathBuf::from("designs");
+    if local.is_dir() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("designs")
+    }
+}
+
+/// Every `*.toml` in `dir`, loaded and validated, sorted by file name.
+pub fn load_designs(dir: &Path) -> anyhow::Result<Vec<(PathBuf, Design)>> {
+    use anyhow::Context;
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read the designs folder {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    paths.sort();
+    paths
+        .into_iter()
+        .map(|p| {
+            let d = load(&p)?;
+            Ok((p, d))
+        })
+        .collect()
+}

@@ -3,7 +3,7 @@
 
 mod common;
 
-use fbgforge::cli::build::build_design;
+use fbgforge::geometry::build_design;
 use fbgforge::geometry::{self, mesh, module, BuiltPart, PartKind};
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
 use fbgforge::spec::{self, Design};

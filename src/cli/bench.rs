@@ -15,8 +15,6 @@ pub struct BenchArgs {
 /// Benchmarks.
 #[derive(Debug, Subcommand)]
 pub enum BenchTarget {
-    /// Meshing tolerance against triangles, time and volume error; build timings.
-    Build(super::build::BenchBuildArgs),
     /// Closed-form prediction time per design.
     Predict(super::predict::BenchPredictArgs),
     /// Reconstruction protocol: every method, speed against accuracy.
@@ -44,11 +42,10 @@ pub struct BenchFemArgs {
 /// Run a benchmark.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     match a.target {
-        BenchTarget::Build(b) => super::build::bench(b),
         BenchTarget::Predict(b) => super::predict::bench(b),
         BenchTarget::Reconstruct(b) => super::reconstruct::bench(b),
         BenchTarget::Verify(b) => super::verify::bench(b),
         BenchTarget::Optimize(b) => super::optimize::bench(b),
-        BenchTarget::Fem(b) => crate::fem::bench::run_bench_with(&b.out, b.quick),
+        BenchTarget::Fem(b) => fbgforge::fem::bench::run_bench_with(&b.out, b.quick),
     }
 }

@@ -1,19 +1,19 @@
 //! `fbgforge optimize`, `fbgforge place` and `fbgforge bench optimize`: design
-//! optimisation from the command line (the work is in [`crate::optimize`]).
+//! optimisation from the command line (the work is in [`fbgforge::optimize`]).
 
-use crate::optimize::materials::MaterialLibrary;
-use crate::optimize::module::{
+use anyhow::{Context, Result};
+use clap::Args;
+use fbgforge::optimize::materials::MaterialLibrary;
+use fbgforge::optimize::module::{
     landscape, model_predictor, optimise_module, parse_bounds, ModuleOutcome, ModuleProblem,
     ModuleSettings, Objective, Predictor, Variable,
 };
-use crate::optimize::place::{place, PlaceObjective, PlaceOutcome, PlaceSettings};
-use crate::optimize::quality::MeasuredPrototype;
-use crate::optimize::solve::SolverKind;
-use crate::output::{write_atomic, write_csv, write_json};
-use crate::plot::{Chart, Mark, Series};
-use crate::spec::{self, Design};
-use anyhow::{Context, Result};
-use clap::Args;
+use fbgforge::optimize::place::{place, PlaceObjective, PlaceOutcome, PlaceSettings};
+use fbgforge::optimize::quality::MeasuredPrototype;
+use fbgforge::optimize::solve::SolverKind;
+use fbgforge::output::{write_atomic, write_csv, write_json};
+use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::spec::{self, Design};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -160,8 +160,8 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
         .as_deref()
         .map(MeasuredPrototype::load)
         .transpose()?;
-    let n_choices = crate::optimize::module::choices(&design, &lib, &settings)?.len();
-    let bar = crate::progress::bar(n_choices as u64, "optimise");
+    let n_choices = fbgforge::optimize::module::choices(&design, &lib, &settings)?.len();
+    let bar = fbgforge::progress::bar(n_choices as u64, "optimise");
     let outcome = optimise_module(
         &design,
         &lib,
@@ -233,9 +233,9 @@ fn print_module_table(o: &ModuleOutcome) {
         o.start.objective,
         o.start.feasible()
     );
-    let mut rows: Vec<&crate::optimize::module::ChoiceResult> = o.choices.iter().collect();
+    let mut rows: Vec<&fbgforge::optimize::module::ChoiceResult> = o.choices.iter().collect();
     rows.sort_by(|a, b| {
-        let f = |c: &crate::optimize::module::ChoiceResult| {
+        let f = |c: &fbgforge::optimize::module::ChoiceResult| {
             c.best.as_ref().map(|e| e.objective).unwrap_or(-1.0)
         };
         f(b).total_cmp(&f(a))
@@ -482,7 +482,7 @@ pub struct PlaceArgs {
 pub fn place_settings(a: &PlaceArgs) -> Result<PlaceSettings> {
     let mut s = PlaceSettings {
         objective: PlaceObjective::parse(&a.objective)?,
-        method: crate::array::methods::Method::from_name(&a.method)?,
+        method: fbgforge::array::methods::Method::from_name(&a.method)?,
         vary_fibers: a.vary_fibers,
         solvers: SolverKind::parse(&a.solver)?,
         agreement_samples: a.agreement_samples,
@@ -498,7 +498,7 @@ pub fn place_settings(a: &PlaceArgs) -> Result<PlaceSettings> {
 pub fn run_place(a: PlaceArgs) -> Result<()> {
     let design = spec::load(&a.design)?;
     let settings = place_settings(&a)?;
-    let bar = crate::progress::bar(3, "place");
+    let bar = fbgforge::progress::bar(3, "place");
     let outcome = place(&design, &settings, &|stage| {
         bar.set_message(stage.to_string());
         bar.inc(1)
@@ -554,7 +554,7 @@ fn print_place_table(o: &PlaceOutcome) {
         );
     }
     println!("held-out protocol (penalty tuned):  RR %   mean SNR dB   coherence");
-    let row = |name: &str, s: &crate::optimize::place::LayoutScore| {
+    let row = |name: &str, s: &fbgforge::optimize::place::LayoutScore| {
         println!(
             "  {name:<32} {:>6.1} {:>12.2} {:>11.3}",
             s.rr_pct, s.mean_snr_db, s.mutual_coherence

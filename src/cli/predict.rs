@@ -1,13 +1,13 @@
 //! `fbgforge predict`, `fbgforge sweep` and `fbgforge bench predict`: the
 //! opto-mechanical model from the command line.
 
-use crate::fem::{predict_with_fidelity, FemOptions, Fidelity, FidelityChoice};
-use crate::model::sweep::{self, SweepResult, PAPER_FIGURES};
-use crate::model::{self, closed_form, LoadCase, ModuleModelParams, PredictOptions};
-use crate::output::{ensure_dir, write_csv, write_json};
-use crate::plot::{Chart, Mark, Series};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use fbgforge::fem::{FemOptions, Fidelity, FidelityChoice};
+use fbgforge::model::sweep::{self, SweepResult, PAPER_FIGURES};
+use fbgforge::model::{self, closed_form, LoadCase, ModuleModelParams, PredictOptions};
+use fbgforge::output::{ensure_dir, write_csv, write_json};
+use fbgforge::plot::{Chart, Mark, Series};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -79,7 +79,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             a.delta_t_k
         );
     }
-    let design = crate::spec::load(&a.design)?;
+    let design = fbgforge::spec::load(&a.design)?;
     let case = a.case.map(LoadCase::from);
     if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
         bail!(
@@ -88,15 +88,14 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         );
     }
     let choice = FidelityChoice::from(a.fidelity);
-    let rows = predict_with_fidelity(
+    let rows = fbgforge::prediction::predict(
         &design,
-        &PredictOptions {
+        &fbgforge::prediction::PredictionRequest {
             force_n: a.force_n,
             delta_t_k: a.delta_t_k,
+            case,
+            fidelity: choice,
         },
-        choice,
-        case,
-        &FemOptions::default(),
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
     if a.json {
@@ -179,7 +178,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     );
     match choice {
         FidelityChoice::Auto => {
-            let v = crate::fem::validity();
+            let v = fbgforge::fem::validity();
             println!(
                 "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE elsewhere.",
                 v.tolerance * 100.0,
@@ -324,7 +323,7 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
 
 /// Run `fbgforge sweep`.
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
-    let design = crate::spec::load(&a.design)?;
+    let design = fbgforge::spec::load(&a.design)?;
     if let Some(dir) = &a.paper_figures {
         return write_paper_figures(&design, dir, a.steps, a.fidelity);
     }
@@ -352,8 +351,8 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             a.design.display()
         );
     }
-    let pb = crate::progress::bar(values.len() as u64, "sweep");
-    let predictor = crate::fem::sweep_predictor(a.fidelity.into(), case, FemOptions::default());
+    let pb = fbgforge::progress::bar(values.len() as u64, "sweep");
+    let predictor = fbgforge::fem::sweep_predictor(a.fidelity.into(), case, FemOptions::default());
     let r = sweep::run_with(
         &design,
         param,
@@ -411,17 +410,17 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
 }
 
 fn write_paper_figures(
-    design: &crate::spec::Design,
+    design: &fbgforge::spec::Design,
     dir: &Path,
     steps: usize,
     fidelity: FidelityArg,
 ) -> Result<()> {
     ensure_dir(dir)?;
     let steps = steps.max(2);
-    let pb = crate::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
+    let pb = fbgforge::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
     for fig in PAPER_FIGURES {
         let predictor =
-            crate::fem::sweep_predictor(fidelity.into(), Some(fig.case), FemOptions::default());
+            fbgforge::fem::sweep_predictor(fidelity.into(), Some(fig.case), FemOptions::default());
         let r =
             sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), || pb.inc(1))
                 .with_context(|| format!("paper figure {}", fig.id))?;
@@ -501,9 +500,9 @@ pub fn bench(a: BenchPredictArgs) -> Result<()> {
     }
     let iters = a.iterations.max(1);
     let mut rows = Vec::new();
-    let pb = crate::progress::bar(designs.len() as u64, "bench");
+    let pb = fbgforge::progress::bar(designs.len() as u64, "bench");
     for path in &designs {
-        let design = crate::spec::load(path)?;
+        let design = fbgforge::spec::load(path)?;
         let m = design
             .module
             .as_ref()
@@ -514,7 +513,7 @@ pub fn bench(a: BenchPredictArgs) -> Result<()> {
             for g in m
                 .gratings
                 .iter()
-                .filter(|g| g.role == crate::spec::GratingRole::Strain)
+                .filter(|g| g.role == fbgforge::spec::GratingRole::Strain)
             {
                 let core = g.core.as_deref().unwrap_or_default();
                 let p = ModuleModelParams::from_design(&design, core, conf.insert.as_deref())?;

@@ -2,13 +2,13 @@
 //! `fbgforge bench reconstruct` (the paper's protocol, speed against accuracy, and
 //! where each method fails).
 
-use crate::array::io::{read_matrix, read_shifts, write_loads};
-use crate::array::kernel::matrix_from_design;
-use crate::array::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
-use crate::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
-use crate::array::SensingMatrix;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use fbgforge::array::io::{read_matrix, read_shifts, write_loads};
+use fbgforge::array::kernel::matrix_from_design;
+use fbgforge::array::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
+use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
+use fbgforge::array::SensingMatrix;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -93,7 +93,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
     let (matrix, design_ulimit): (SensingMatrix, Option<f64>) = match (&a.matrix, &a.design) {
         (Some(p), _) => (read_matrix(p)?, None),
         (None, Some(d)) => {
-            let design = crate::spec::load(d)?;
+            let design = fbgforge::spec::load(d)?;
             let (m, u) =
                 matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
             (m, Some(u))
@@ -196,7 +196,7 @@ pub struct BenchReconstructArgs {
 
 /// Run `fbgforge bench reconstruct`.
 pub fn bench(a: BenchReconstructArgs) -> Result<()> {
-    crate::array::bench::run(&crate::array::bench::BenchOptions {
+    fbgforge::array::bench::run(&fbgforge::array::bench::BenchOptions {
         out: a.out,
         design: a.design,
         seed: a.seed,

@@ -1,14 +1,14 @@
 //! `fbgforge verify`, `synth-log` and `calibrate-array`: logs to verdicts; and
 //! `fbgforge bench verify`.
 
-use crate::logs::{self, num::DateOrder, ForceColumns, LogFormat, ReadOptions};
-use crate::model::LoadCase;
-use crate::verify::analysis::{analyse, AnalysisOptions};
-use crate::verify::report::{self, VerifyReport};
-use crate::verify::verdict::{self, Status};
-use crate::verify::{calibrate, synth};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use fbgforge::logs::{self, num::DateOrder, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::model::LoadCase;
+use fbgforge::verify::analysis::{analyse, AnalysisOptions};
+use fbgforge::verify::report::{self, VerifyReport};
+use fbgforge::verify::verdict::{self, Status};
+use fbgforge::verify::{calibrate, synth};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -100,9 +100,9 @@ fn read_options(format: Option<LogFormat>, date_order: Option<DateOrderArg>) -> 
     }
 }
 
-/// Run `fbgforge verify`. Exits with status 2 after writing everything when the
+/// Run `fbgforge verify`. Returns status 2 after writing everything when the
 /// verdict is FAIL, so scripts can tell a failed part from an error (status 1).
-pub fn run_verify(a: VerifyArgs) -> Result<()> {
+pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
     let (report, series) = verify_files(&a)?;
     if let Some(dir) = &a.report {
         report::write_report(dir, &report, &series)?;
@@ -116,17 +116,17 @@ pub fn run_verify(a: VerifyArgs) -> Result<()> {
         }
     }
     if report.verdict.overall == Status::Fail {
-        std::process::exit(2);
+        return Ok(std::process::ExitCode::from(2));
     }
-    Ok(())
+    Ok(std::process::ExitCode::SUCCESS)
 }
 
 /// Everything `verify` does short of printing: read, analyse, judge.
-pub fn verify_files(a: &VerifyArgs) -> Result<(VerifyReport, crate::verify::analysis::Series)> {
+pub fn verify_files(a: &VerifyArgs) -> Result<(VerifyReport, fbgforge::verify::analysis::Series)> {
     if a.tolerance.is_nan() || a.tolerance <= 0.0 {
         bail!("--tolerance must be positive, got {}", a.tolerance);
     }
-    let design = crate::spec::load(&a.design)?;
+    let design = fbgforge::spec::load(&a.design)?;
     let case = match a.case {
         Some(CaseArg::I) => LoadCase::I,
         Some(CaseArg::II) => LoadCase::II,
@@ -162,7 +162,7 @@ pub fn verify_files(a: &VerifyArgs) -> Result<(VerifyReport, crate::verify::anal
     };
     let (m, series) = analyse(&design, &log, &force, &opts)?;
     // K is linear in force: any force gives the same sensitivity.
-    let preds = crate::model::predict(&design, 10.0).map_err(|e| format!("{e:#}"));
+    let preds = fbgforge::model::predict(&design, 10.0).map_err(|e| format!("{e:#}"));
     let v = verdict::verdicts(
         &m,
         preds.as_deref().map_err(Clone::clone),
@@ -259,7 +259,7 @@ pub struct SynthLogArgs {
 
 /// Run `fbgforge synth-log`.
 pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
-    let design = crate::spec::load(&a.design)?;
+    let design = fbgforge::spec::load(&a.design)?;
     let style = LogStyle {
         decimal_comma: a.decimal_comma,
         bom: a.bom,
@@ -324,7 +324,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
     synth::write_log(&log_path, a.format, &log, &cfg, &style)?;
     let force_path = a.out.join("force.csv");
     synth::write_force_csv(&force_path, &force)?;
-    crate::output::write_json(&a.out.join("truth.json"), &truth)?;
+    fbgforge::output::write_json(&a.out.join("truth.json"), &truth)?;
     println!(
         "wrote {}, {} and {}",
         log_path.display(),
@@ -363,7 +363,7 @@ pub struct CalibrateArrayArgs {
 
 /// Run `fbgforge calibrate-array`.
 pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
-    let design = crate::spec::load(&a.design)?;
+    let design = fbgforge::spec::load(&a.design)?;
     let n_cells = design
         .array
         .as_ref()
@@ -425,9 +425,9 @@ pub struct BenchVerifyArgs {
 
 /// A design with eight gratings (seven strain gratings on one core and the reference),
 /// for the benchmark.
-pub fn bench_design() -> Result<crate::spec::Design> {
+pub fn bench_design() -> Result<fbgforge::spec::Design> {
     let text = include_str!("../../designs/clip-on-34mm.toml");
-    let mut d = crate::spec::parse(text)?;
+    let mut d = fbgforge::spec::parse(text)?;
     let m = d
         .module
         .as_mut()
@@ -435,13 +435,13 @@ pub fn bench_design() -> Result<crate::spec::Design> {
     let template = m
         .gratings
         .iter()
-        .find(|g| g.role == crate::spec::GratingRole::Strain)
+        .find(|g| g.role == fbgforge::spec::GratingRole::Strain)
         .cloned()
         .context("a strain grating")?;
     let reference = m
         .gratings
         .iter()
-        .find(|g| g.role == crate::spec::GratingRole::TemperatureReference)
+        .find(|g| g.role == fbgforge::spec::GratingRole::TemperatureReference)
         .cloned()
         .context("a reference grating")?;
     m.gratings = (0..7)
@@ -473,7 +473,7 @@ fn cpu_time_s() -> Option<f64> {
 /// Run `fbgforge bench verify`.
 pub fn bench(a: BenchVerifyArgs) -> Result<()> {
     let design = bench_design()?;
-    crate::output::ensure_dir(&a.out)?;
+    fbgforge::output::ensure_dir(&a.out)?;
     let amps = [10.0, 20.0, 30.0, 40.0, 50.0];
     let duration = a.minutes * 60.0;
     let n_pulses = ((duration - 10.0) / 10.0).floor().max(1.0) as usize;
@@ -491,7 +491,7 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         a.minutes, a.rate_hz
     );
     // Stages: generate, write, parse ×3, end to end.
-    let pb = crate::progress::bar(6, "bench verify");
+    let pb = fbgforge::progress::bar(6, "bench verify");
     let (log, force, truth) = synth::generate(&design, &cfg)?;
     pb.inc(1);
     let log_path = a.out.join("bench-peaks.txt");
@@ -540,7 +540,7 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
     let (m, series) = analyse(&design, &pl, &fl, &AnalysisOptions::default())?;
     let analysed = (t.elapsed().as_secs_f64(), cpu() - c);
     let (t, c) = (Instant::now(), cpu());
-    let preds = crate::model::predict(&design, 10.0).map_err(|e| format!("{e:#}"));
+    let preds = fbgforge::model::predict(&design, 10.0).map_err(|e| format!("{e:#}"));
     let v = verdict::verdicts(
         &m,
         preds.as_deref().map_err(Clone::clone),
@@ -617,12 +617,12 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         .iter()
         .map(|(s, t, c, n)| vec![s.clone(), format!("{t:.4}"), format!("{c:.4}"), n.clone()])
         .collect();
-    crate::output::write_csv(
+    fbgforge::output::write_csv(
         &a.out.join("bench_verify.csv"),
         &["stage", "wall_s", "cpu_s", "note"],
         &csv_rows,
     )?;
-    let chart = crate::plot::Chart::new(
+    let chart = fbgforge::plot::Chart::new(
         format!(
             "bench verify: {} min at {} Hz, 8 gratings ({mb:.0} MB)",
             a.minutes, a.rate_hz
@@ -630,26 +630,26 @@ pub fn bench(a: BenchVerifyArgs) -> Result<()> {
         "stage (1 parse, 2 read log, 3 read force, 4 analyse, 5 report, 6 total)",
         "time (s)",
     )
-    .with(crate::plot::Series::new(
+    .with(fbgforge::plot::Series::new(
         "wall clock",
         rows.iter()
             .enumerate()
             .map(|(i, r)| ((i + 1) as f64, r.1))
             .collect(),
-        crate::plot::Mark::Points,
+        fbgforge::plot::Mark::Points,
     ))
-    .with(crate::plot::Series::new(
+    .with(fbgforge::plot::Series::new(
         "CPU (both cores)",
         rows.iter()
             .enumerate()
             .map(|(i, r)| ((i + 1) as f64, r.2))
             .collect(),
-        crate::plot::Mark::Points,
+        fbgforge::plot::Mark::Points,
     ));
     chart.write_svg(&a.out.join("bench_verify.svg"))?;
     if a.keep {
         // So that `fbgforge verify` can be run on the kept logs.
-        crate::output::write_atomic(
+        fbgforge::output::write_atomic(
             &a.out.join("bench-design.toml"),
             design.to_toml().as_bytes(),
         )?;

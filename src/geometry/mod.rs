@@ -16,8 +16,10 @@ pub mod mold;
 
 use crate::profile::{ArrayLayout, ModuleProfile};
 use crate::spec::{Design, SpecError};
+use anyhow::Context;
 use mesh::{MeshError, TriMesh};
 use rayon::prelude::*;
+use std::path::{Path, PathBuf};
 use truck_modeling::Solid;
 
 /// Largest allowed relative difference between mesh and exact volume at the printer's
@@ -390,4 +392,35 @@ pub fn build_parts(
         out.push(b);
     }
     Ok(out)
+}
+
+/// What one design build wrote.
+#[derive(Debug, Clone)]
+pub struct BuildReport {
+    /// Output folder.
+    pub dir: PathBuf,
+    /// Parts built.
+    pub parts: Vec<BuiltPart>,
+    /// Every file written, manifest last.
+    pub files: Vec<PathBuf>,
+}
+
+/// Build a loaded design into `dir`: every part is built, meshed and checked and every
+/// file rendered in memory before the first file is written.
+pub fn build_design(
+    design: &Design,
+    dir: &Path,
+    tolerance_mm: Option<f64>,
+    parts: Option<&[String]>,
+) -> anyhow::Result<BuildReport> {
+    let built = build_parts(design, tolerance_mm, parts)
+        .with_context(|| format!("design `{}`: nothing was written", design.name))?;
+    let tol = tolerance_mm.unwrap_or(design.printer.default_tolerance_mm());
+    let rendered = export::render(design, &built, tol)?;
+    let files = export::write_all(dir, &rendered)?;
+    Ok(BuildReport {
+        dir: dir.to_path_buf(),
+        parts: built,
+        files,
+    })
 }

@@ -1,0 +1,9 @@
+//! fbgforge-studies: the project's measured tables and charts, kept out of the
+//! library. Each module is one study (a benchmark that prints a table and writes
+//! CSV/JSON/SVG, a paper reproduction or a failure study) with its own `clap` args,
+//! a `--quick` form that the test suite runs so no study can rot, and a `run`
+//! function. Nothing in the `fbgforge` library imports this crate.
+//!
+//! Run one with `cargo run --release -p fbgforge-studies -- <study> [--quick]`.
+
+pub mod build;
