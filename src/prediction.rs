@@ -21,6 +21,9 @@ pub struct PredictionRequest {
     pub case: Option<LoadCase>,
     /// Which model answers: [`FidelityChoice::Auto`] is the policy's default.
     pub fidelity: FidelityChoice,
+    /// Also compute each Case I row's prediction band (`band_pm_per_n`); callers in
+    /// inner loops (the optimiser) leave it off.
+    pub band: bool,
 }
 
 impl Default for PredictionRequest {
@@ -30,6 +33,7 @@ impl Default for PredictionRequest {
             delta_t_k: 0.0,
             case: None,
             fidelity: FidelityChoice::Auto,
+            band: false,
         }
     }
 }

@@ -95,6 +95,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             delta_t_k: a.delta_t_k,
             case,
             fidelity: choice,
+            band: true,
         },
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;

@@ -44,6 +44,11 @@ impl FidelityChoice {
 pub struct ModelledPrediction {
     /// The model that produced K, strain and shifts of this row.
     pub model: Fidelity,
+    /// Case I: the range of K (pm/N, low then high) between the physically bounding
+    /// contact readings of cap and core; `None` where the model has no such spread
+    /// (Case II) or the caller did not ask for it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band_pm_per_n: Option<[f64; 2]>,
     /// The prediction. For FE rows `core_load_share` is NaN (null in JSON): the FE
     /// model does not split the force into the closed form's paths.
     #[serde(flatten)]
@@ -94,7 +99,11 @@ pub fn predict_with_fidelity(
                 })?;
             apply_fem_strain(&mut d, design, opts, strain_per_n);
         }
-        out.push(ModelledPrediction { model, detail: d });
+        out.push(ModelledPrediction {
+            model,
+            band_pm_per_n: None,
+            detail: d,
+        });
     }
     Ok(out)
 }
