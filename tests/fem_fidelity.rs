@@ -4,12 +4,13 @@
 
 mod common;
 
-use fbgforge::fem::compare::{scaled_design, TOLERANCE};
-use fbgforge::fem::{
-    self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Configuration, FemOptions,
-    Fidelity, FidelityChoice,
-};
+use fbgforge::family::scaled_design;
+use fbgforge::fem::{self, Configuration, FemOptions};
 use fbgforge::model::{LoadCase, PredictOptions};
+use fbgforge::prediction::{
+    self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Fidelity, FidelityChoice,
+    TOLERANCE,
+};
 use fbgforge::spec::{self, Design};
 
 fn design() -> fbgforge::spec::Design {
@@ -19,7 +20,11 @@ fn design() -> fbgforge::spec::Design {
 /// Relative error of the closed form against the FE model for one configuration.
 fn closed_form_error(d: &Design, c: &Configuration) -> f64 {
     let preds = fbgforge::model::predict(d, 1.0).unwrap();
-    let k_cf = fem::compare::closed_form_k(&preds, c).unwrap();
+    let k_cf = preds
+        .iter()
+        .find(|p| p.core == c.core && p.case == c.case && p.insert == c.insert)
+        .map(|p| p.sensitivity_pm_per_n)
+        .unwrap();
     let r = fem::solve_configuration(d, c, &FemOptions::level(1)).unwrap();
     let (_, lambda, e) = r.strain_per_n[0].clone();
     let k_fe = d.fiber.shift_pm(lambda, e, 0.0);
@@ -197,7 +202,7 @@ fn hollow_design_toml(diameter_mm: f64) -> String {
 
 #[test]
 fn cli_auto_switches_model_at_the_measured_diameter_limit() {
-    let limit = fem::validity().diameter_range_mm.1;
+    let limit = prediction::validity().diameter_range_mm.1;
     let dir = tempfile::tempdir().unwrap();
     // Same hollow-core design just inside and just outside the largest measured D.
     for (d_mm, expected) in [(limit, "closed-form"), (limit + 4.0, "fem")] {
@@ -260,7 +265,8 @@ fn closed_form_and_fe_figure(
     use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
     let d = design();
     let fig = PAPER_FIGURES.iter().find(|f| f.id == id).unwrap();
-    let fe = fem::sweep_predictor(FidelityChoice::Fem, Some(case), FemOptions::level(0)).unwrap();
+    let fe =
+        prediction::sweep_predictor(FidelityChoice::Fem, Some(case), FemOptions::level(0)).unwrap();
     let mut reported = 0;
     let r = run_paper_figure_with(&d, fig, steps, Some(&*fe), || reported += 1).unwrap();
     (run_paper_figure(&d, fig, steps).unwrap(), r, reported)

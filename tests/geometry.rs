@@ -455,15 +455,15 @@ fn family_interpolation_reproduces_the_knots_and_stays_valid() {
     ]
     .map(shipped)
     .into();
-    let d16 = geometry::family::interpolate(&knots, 16.0).unwrap();
+    let d16 = fbgforge::family::interpolate(&knots, 16.0).unwrap();
     assert_eq!(d16.module, knots[1].module);
-    let d13 = geometry::family::interpolate(&knots, 13.0).unwrap();
+    let d13 = fbgforge::family::interpolate(&knots, 13.0).unwrap();
     let m = d13.module.as_ref().unwrap();
     assert!(
         (m.cap_wall_mm - 0.75).abs() < 1e-12,
         "midway between 0.6 and 0.9"
     );
-    assert!(geometry::family::interpolate(&knots, 30.0)
+    assert!(fbgforge::family::interpolate(&knots, 30.0)
         .unwrap_err()
         .to_string()
         .contains("outer_diameter_mm"));

@@ -172,35 +172,3 @@ fn default_out(shifts: &Path) -> PathBuf {
         .join("reconstruct")
         .join(format!("{stem}-loads.csv"))
 }
-
-/// Arguments of `fbgforge bench reconstruct`.
-#[derive(Debug, Args)]
-pub struct BenchReconstructArgs {
-    /// Output folder for the tables and charts.
-    #[arg(long, default_value = "out/bench-reconstruct")]
-    pub out: PathBuf,
-    /// Array design whose model matrix plays the true array (default: the paper layout).
-    #[arg(long)]
-    pub design: Option<PathBuf>,
-    /// First seed; the protocol is repeated for `repeats` consecutive seeds.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Independent repetitions of the 84-test protocol (pooled in the tables; the
-    /// failure studies use the first five).
-    #[arg(long, default_value_t = 20)]
-    pub repeats: u64,
-    /// Quick run: one repetition, DE limited to 300 generations, coarser sweeps.
-    #[arg(long)]
-    pub quick: bool,
-}
-
-/// Run `fbgforge bench reconstruct`.
-pub fn bench(a: BenchReconstructArgs) -> Result<()> {
-    fbgforge::array::bench::run(&fbgforge::array::bench::BenchOptions {
-        out: a.out,
-        design: a.design,
-        seed: a.seed,
-        repeats: if a.quick { 1 } else { a.repeats.max(1) },
-        quick: a.quick,
-    })
-}

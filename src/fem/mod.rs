@@ -7,65 +7,27 @@
 //! sparse Cholesky solve. It serves three purposes: an independent check of the
 //! closed form's error over the design space ([`compare`]), a slower but more general
 //! prediction for designs outside the closed form's measured validity region
-//! ([`predict`], [`choose_fidelity`]), and the speed/accuracy benchmark ([`bench`]).
+
 //!
 //! Submodules: [`element`] (Q9/P1 element), [`mesh`] (mesh data, edge loads),
 //! [`solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
 //! contacts, supports and load), [`compare`] (closed form vs FE), [`fidelity`]
 //! (`predict --fidelity`: each row from the model its case needs), [`bench`].
 
-pub mod bench;
-pub mod compare;
 pub mod element;
-pub mod fidelity;
 pub mod mesh;
 pub mod module;
 pub mod solve;
 
 pub use module::{DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind};
 
-use crate::model::{GratingPrediction, LoadCase};
+use crate::model::GratingPrediction;
+pub use crate::model::{configurations, Configuration};
 use crate::profile::{module_gratings, ModuleProfile};
 use crate::spec::{Design, GratingRole};
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
 use std::time::Instant;
-
-/// One loading configuration of the module: a core, a case, and the insert in Case I.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Configuration {
-    /// Core name.
-    pub core: String,
-    /// Loading case.
-    pub case: LoadCase,
-    /// Insert name (Case I).
-    pub insert: Option<String>,
-}
-
-/// Every configuration the design allows, in the model's order: for each core,
-/// Case II, then Case I with each insert.
-pub fn configurations(design: &Design) -> Result<Vec<Configuration>> {
-    let m = design
-        .module
-        .as_ref()
-        .ok_or_else(|| anyhow!("the design has no [module] section"))?;
-    let mut out = Vec::new();
-    for c in &m.cores {
-        out.push(Configuration {
-            core: c.name.clone(),
-            case: LoadCase::II,
-            insert: None,
-        });
-        for i in &m.inserts {
-            out.push(Configuration {
-                core: c.name.clone(),
-                case: LoadCase::I,
-                insert: Some(i.name.clone()),
-            });
-        }
-    }
-    Ok(out)
-}
 
 /// Result of one finite-element solve of one configuration.
 #[derive(Debug, Clone, Serialize)]
@@ -191,6 +153,3 @@ pub fn predict(design: &Design, force_n: f64, opt: &FemOptions) -> Result<Vec<Gr
     }
     Ok(out)
 }
-
-pub use compare::{choose_fidelity, choose_fidelity_for, validity, Fidelity, ValidityRegion};
-pub use fidelity::{predict_with_fidelity, sweep_predictor, FidelityChoice, ModelledPrediction};

@@ -9,7 +9,7 @@
 
 pub mod brep;
 pub mod export;
-pub mod family;
+
 pub mod mesh;
 pub mod module;
 pub mod mold;

@@ -167,30 +167,61 @@ pub struct DetailedPrediction {
     pub compensated_shift_pm: Option<f64>,
 }
 
-/// One configuration to evaluate: a case and, for Case I, an insert.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// One loading configuration of the module: a core, a case, and the insert in Case I.
+/// The one configuration type of the closed form, the FE model and the model policy.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct Configuration {
+    /// Core name.
+    pub core: String,
     /// Loading case.
     pub case: LoadCase,
     /// Insert name (Case I).
     pub insert: Option<String>,
 }
 
-/// Every configuration of a design: Case II, then Case I with each insert.
-pub fn configurations(design: &Design) -> Vec<Configuration> {
-    let mut v = vec![Configuration {
-        case: LoadCase::II,
-        insert: None,
-    }];
-    if let Some(m) = &design.module {
-        for i in &m.inserts {
-            v.push(Configuration {
-                case: LoadCase::I,
-                insert: Some(i.name.clone()),
+impl Configuration {
+    /// Label for tables, e.g. `psc1 Case I blue`.
+    pub fn label(&self) -> String {
+        let case = match self.case {
+            LoadCase::I => "Case I",
+            LoadCase::II => "Case II",
+        };
+        match &self.insert {
+            Some(i) => format!("{} {case} {i}", self.core),
+            None => format!("{} {case}", self.core),
+        }
+    }
+}
+
+/// Every configuration the design allows, in the model's order: for each core,
+/// Case II, then Case I with each insert.
+pub fn configurations(design: &Design) -> anyhow::Result<Vec<Configuration>> {
+    let m = design
+        .module
+        .as_ref()
+        .ok_or_else(|| anyhow::anyhow!("the design has no [module] section"))?;
+    let mut out = Vec::new();
+    for c in &m.cores {
+        for (case, insert) in load_setups(m) {
+            out.push(Configuration {
+                core: c.name.clone(),
+                case,
+                insert,
             });
         }
     }
-    v
+    Ok(out)
+}
+
+/// The load set-ups of a module, core aside: Case II, then Case I with each insert.
+fn load_setups(m: &crate::spec::Module) -> Vec<(LoadCase, Option<String>)> {
+    std::iter::once((LoadCase::II, None))
+        .chain(
+            m.inserts
+                .iter()
+                .map(|i| (LoadCase::I, Some(i.name.clone()))),
+        )
+        .collect()
 }
 
 fn strain_gratings(placements: &[GratingPlacement]) -> impl Iterator<Item = &GratingPlacement> {
@@ -238,11 +269,15 @@ pub fn predict_with(
     };
     let optics = &design.fiber;
     let mut out = Vec::new();
-    for conf in configurations(design) {
+    for (case, insert) in load_setups(m) {
         for g in strain_gratings(&placements) {
             let core = g.core.as_deref().unwrap_or_default();
-            let p =
-                ModuleModelParams::from_parts(design, m, &profile, core, conf.insert.as_deref())?;
+            let p = ModuleModelParams::from_parts(design, m, &profile, core, insert.as_deref())?;
+            let conf = Configuration {
+                core: core.to_owned(),
+                case,
+                insert: insert.clone(),
+            };
             out.push(evaluate(&p, &conf, g, reference_for(&g.core), optics, opts));
         }
     }

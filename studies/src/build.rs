@@ -144,7 +144,7 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
     let diameters: Vec<f64> = (10..=22).map(f64::from).collect();
     let family: Vec<Design> = diameters
         .iter()
-        .map(|&dm| geometry::family::interpolate(&knots, dm))
+        .map(|&dm| fbgforge::family::interpolate(&knots, dm))
         .collect::<Result<_, _>>()?;
     let mut fam_times = Vec::new();
     for _ in 0..repeats {

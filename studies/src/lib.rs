@@ -7,3 +7,7 @@
 //! Run one with `cargo run --release -p fbgforge-studies -- <study> [--quick]`.
 
 pub mod build;
+pub mod fem;
+pub mod fem_compare;
+pub mod predict;
+pub mod reconstruct;

@@ -19,11 +19,20 @@ struct Cli {
 enum Study {
     /// Meshing tolerance against triangles, time and volume error; build timings.
     Build(studies::build::BuildStudyArgs),
+    /// Finite-element convergence, time against error, and closed form against FE.
+    Fem(studies::fem::FemStudyArgs),
+    /// Closed-form prediction time per design.
+    Predict(studies::predict::BenchPredictArgs),
+    /// Reconstruction protocol: every method, speed against accuracy, failure studies.
+    Reconstruct(studies::reconstruct::BenchOptions),
 }
 
 fn main() -> ExitCode {
     let result = match Cli::parse().study {
         Study::Build(a) => studies::build::run(&a),
+        Study::Fem(a) => studies::fem::run(&a),
+        Study::Predict(a) => studies::predict::run(&a),
+        Study::Reconstruct(a) => studies::reconstruct::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

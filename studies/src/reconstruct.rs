@@ -1,23 +1,23 @@
-//! `fbgforge bench reconstruct`: the additivity errors of the noise models, the
+//! Study `reconstruct` (`cargo run --release -p fbgforge-studies -- reconstruct`): the additivity errors of the noise models, the
 //! paper's protocol for every method, speed against accuracy, stream throughput, and
 //! the failure studies (noise level, noise model — the default against the pessimistic
 //! full-span hysteresis —, number of loads, ill-conditioned layouts, column
 //! normalisation). Prints tables; writes CSV, JSON, SVG and a Markdown report of the
 //! same numbers.
 
-use super::kernel::{
+use anyhow::Result;
+use fbgforge::array::kernel::{
     fit_paper, fit_power_law, matrix_from_positions, matrix_quality, paper_layout, DistanceKernel,
     TABLE1,
 };
-use super::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
-use super::problem::SensingProblem;
-use super::protocol::{
+use fbgforge::array::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
+use fbgforge::array::problem::SensingProblem;
+use fbgforge::array::protocol::{
     run_protocol, summarise, test_cases, CaseResult, NoiseModel, ProtocolConfig, Summary,
     PAPER_TABLE3,
 };
-use crate::output::{write_atomic, write_csv, write_json};
-use crate::plot::{Chart, Mark, Series};
-use anyhow::Result;
+use fbgforge::output::{write_atomic, write_csv, write_json};
+use fbgforge::plot::{Chart, Mark, Series};
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -26,18 +26,24 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// What to run.
-#[derive(Debug, Clone)]
+/// Arguments of the `reconstruct` study.
+#[derive(Debug, Clone, clap::Args)]
 pub struct BenchOptions {
-    /// Output folder.
+    /// Output folder for the tables and charts.
+    #[arg(long, default_value = "out/bench-reconstruct")]
     pub out: PathBuf,
-    /// Design whose model matrix is the true array (None: the paper layout).
+    /// Array design whose model matrix plays the true array (default: the paper layout).
+    #[arg(long)]
     pub design: Option<PathBuf>,
-    /// First seed.
+    /// First seed; the protocol is repeated for `repeats` consecutive seeds.
+    #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Protocol repetitions (consecutive seeds), pooled.
+    /// Independent repetitions of the 84-test protocol (pooled in the tables; the
+    /// failure studies use the first five). `--quick` runs one.
+    #[arg(long, default_value_t = 20)]
     pub repeats: u64,
-    /// Fewer DE generations and coarser sweeps.
+    /// Quick run: one repetition, DE limited to 300 generations, coarser sweeps.
+    #[arg(long)]
     pub quick: bool,
 }
 
@@ -91,12 +97,16 @@ fn f(v: f64, d: usize) -> String {
 
 /// Run the whole benchmark.
 pub fn run(opts: &BenchOptions) -> Result<()> {
-    crate::output::ensure_dir(&opts.out)?;
+    let opts = &BenchOptions {
+        repeats: if opts.quick { 1 } else { opts.repeats.max(1) },
+        ..opts.clone()
+    };
+    fbgforge::output::ensure_dir(&opts.out)?;
     let (true_a, layout_name) = match &opts.design {
         Some(p) => {
-            let d = crate::spec::load(p)?;
+            let d = fbgforge::spec::load(p)?;
             (
-                super::kernel::matrix_from_design(&d)?
+                fbgforge::array::kernel::matrix_from_design(&d)?
                     .0
                     .sensitivity_pm_per_g,
                 d.name.clone(),
@@ -203,7 +213,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     let cfgs: Vec<ProtocolConfig> = (0..opts.repeats)
         .map(|r| base_config(opts, opts.seed + r))
         .collect();
-    let bar = crate::progress::bar(Method::ALL.len() as u64, "protocol");
+    let bar = fbgforge::progress::bar(Method::ALL.len() as u64, "protocol");
     let mut runs = Vec::new();
     for m in Method::ALL {
         runs.push(pooled(&true_a, m, &cfgs)?);
@@ -500,7 +510,7 @@ fn failure_studies(
     ];
     let total =
         Method::ALL.len() * (noise_factors.len() + 1 + layouts.len() + 2 + noise_models.len());
-    let bar = crate::progress::bar(total as u64, "failure");
+    let bar = fbgforge::progress::bar(total as u64, "failure");
     let mut points = Vec::new();
     let mut breakdown = Vec::new();
     for m in Method::ALL {
@@ -818,7 +828,7 @@ pub struct AdditivityCheck {
 /// additivity tests do, under the noise model.
 pub fn additivity_check(
     true_a: &DMatrix<f64>,
-    noise: &super::protocol::NoiseModel,
+    noise: &fbgforge::array::protocol::NoiseModel,
     seed: u64,
 ) -> AdditivityCheck {
     let n = true_a.ncols();

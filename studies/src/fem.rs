@@ -1,18 +1,18 @@
-//! `fbgforge bench fem`: mesh convergence of K, time per prediction against error for
+//! Study `fem` (`cargo run --release -p fbgforge-studies -- fem [--quick]`): mesh convergence of K, time per prediction against error for
 //! the closed form and each finite-element mesh level, and the closed-form-vs-FE
 //! comparison over the design space.
 //!
 //! Outputs (in `out_dir`): `fem_convergence.csv`, `fem_speed_accuracy.csv` and
-//! `.svg`, and the comparison files written by [`super::compare::run_comparison`].
+//! `.svg`, and the comparison files written by [`super::fem_compare::run_comparison`].
 //! A table of the same numbers is printed. The design is the paper's module
 //! (`designs/clip-on-34mm.toml`, compiled in so the bench runs from any folder).
 
-use super::{solve_configuration, Configuration, DomeContact, FemOptions, SolverKind};
-use crate::model::LoadCase;
-use crate::output::write_csv;
-use crate::plot::{Chart, Mark, Series};
-use crate::spec::{self, Design};
 use anyhow::{Context, Result};
+use fbgforge::fem::{solve_configuration, Configuration, DomeContact, FemOptions, SolverKind};
+use fbgforge::model::LoadCase;
+use fbgforge::output::write_csv;
+use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::spec::{self, Design};
 use std::path::Path;
 use std::time::Instant;
 
@@ -39,18 +39,6 @@ pub struct LevelResult {
     pub sensitivity_pm_per_n: f64,
     /// Best wall-clock time of one solve (mesh, assembly, factorisation, read-out), s.
     pub time_s: f64,
-}
-
-/// Label of a configuration for tables.
-pub fn label(c: &Configuration) -> String {
-    let case = match c.case {
-        LoadCase::I => "Case I",
-        LoadCase::II => "Case II",
-    };
-    match &c.insert {
-        Some(i) => format!("{} {case} {i}", c.core),
-        None => format!("{} {case}", c.core),
-    }
 }
 
 /// Solve `config` at levels 0..=max_level; each level timed as the best of `repeats`.
@@ -83,8 +71,8 @@ pub fn convergence(
             .context("the configuration's core has no strain grating")?;
         out.push(LevelResult {
             configuration: match dome_contact {
-                DomeContact::Gap => format!("{} (dome gap)", label(config)),
-                _ => label(config),
+                DomeContact::Gap => format!("{} (dome gap)", config.label()),
+                _ => config.label(),
             },
             level,
             element_size_mm: opt.element_size_mm,
@@ -115,16 +103,28 @@ pub fn observed_order(k: &[f64]) -> Option<(f64, f64)> {
     Some((p, k[n - 1] + d2 / (ratio - 1.0)))
 }
 
-/// Run the whole FE benchmark and write its files into `out_dir`.
-pub fn run_bench(out_dir: &Path) -> Result<()> {
-    run_bench_with(out_dir, false)
+/// Arguments of the `fem` study.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FemStudyArgs {
+    /// Output folder for the CSV, Markdown and SVG files.
+    #[arg(long, default_value = "out/fem")]
+    pub out: std::path::PathBuf,
+    /// Smoke run: one refinement level fewer and a 3 × 3 comparison grid (about 30 s
+    /// instead of 2 min in a release build; quote the full run).
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// Run the study with its arguments.
+pub fn run(a: &FemStudyArgs) -> Result<()> {
+    run_bench_with(&a.out, a.quick)
 }
 
 /// Run the FE benchmark; `quick` stops every convergence study one level earlier
 /// and compares on a 3 × 3 corner-and-centre subset of the grid (a smoke run of a
 /// few seconds; its K_ref is less accurate, so the full run is the one to quote).
 pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
-    crate::output::ensure_dir(out_dir)?;
+    fbgforge::output::ensure_dir(out_dir)?;
     let design = paper_design()?;
     let configs = [
         (
@@ -160,7 +160,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         let max_level = if quick { max_level.min(2) } else { max_level };
         (c, max_level, dome)
     });
-    let pb = crate::progress::bar(configs.iter().map(|c| c.1 as u64 + 1).sum(), "fem levels");
+    let pb = fbgforge::progress::bar(configs.iter().map(|c| c.1 as u64 + 1).sum(), "fem levels");
     let mut rows = Vec::new();
     let mut speed_rows = Vec::new();
     let mut chart = Chart::new(
@@ -177,8 +177,8 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
     );
     for (config, max_level, dome) in &configs {
         let name = match dome {
-            DomeContact::Gap => format!("{} (dome gap)", label(config)),
-            _ => label(config),
+            DomeContact::Gap => format!("{} (dome gap)", config.label()),
+            _ => config.label(),
         };
         let mut levels = Vec::new();
         for level in 0..=*max_level {
@@ -286,10 +286,10 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         match closed_form_time_and_k(&design, config) {
             Ok((t, k)) => {
                 let err = ((k - k_ref) / k_ref).abs() * 100.0;
-                println!("{:<22} closed form: K = {k:.4} pm/N, error {err:.2} %, {t:.3e} s per prediction", label(config));
+                println!("{:<22} closed form: K = {k:.4} pm/N, error {err:.2} %, {t:.3e} s per prediction", config.label());
                 speed_rows.push(vec![
                     "closed form".into(),
-                    label(config),
+                    config.label(),
                     format!("{t:.6e}"),
                     format!("{err:.6}"),
                 ]);
@@ -299,7 +299,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
                     Mark::Points,
                 ));
             }
-            Err(e) => println!("{:<22} closed form: not available ({e})", label(config)),
+            Err(e) => println!("{:<22} closed form: not available ({e})", config.label()),
         }
     }
     pb.finish_and_clear();
@@ -336,9 +336,9 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         out_dir.join("fem_speed_accuracy.svg").display()
     );
     if quick {
-        super::compare::run_comparison_on(out_dir, &[10.0, 22.0, 40.0], &[0.8, 1.5, 3.0])?;
+        super::fem_compare::run_comparison_on(out_dir, &[10.0, 22.0, 40.0], &[0.8, 1.5, 3.0])?;
     } else {
-        super::compare::run_comparison(out_dir)?;
+        super::fem_compare::run_comparison(out_dir)?;
     }
     Ok(())
 }
@@ -386,12 +386,12 @@ fn report_level(
 }
 
 fn closed_form_time_and_k(design: &Design, config: &Configuration) -> Result<(f64, f64)> {
-    let first = crate::model::predict(design, 1.0)?;
-    let k = super::compare::closed_form_k(&first, config)?;
+    let first = fbgforge::model::predict(design, 1.0)?;
+    let k = super::fem_compare::closed_form_k(&first, config)?;
     let n = 2000;
     let t = Instant::now();
     for _ in 0..n {
-        std::hint::black_box(crate::model::predict(std::hint::black_box(design), 1.0)?);
+        std::hint::black_box(fbgforge::model::predict(std::hint::black_box(design), 1.0)?);
     }
     let per_call = t.elapsed().as_secs_f64() / n as f64;
     Ok((
@@ -401,7 +401,7 @@ fn closed_form_time_and_k(design: &Design, config: &Configuration) -> Result<(f6
 }
 
 fn config_grating_count(
-    preds: &[crate::model::GratingPrediction],
+    preds: &[fbgforge::model::GratingPrediction],
     config: &Configuration,
 ) -> usize {
     preds

@@ -1,5 +1,6 @@
-//! The closed-form model against the finite-element reference over the design space,
-//! and the validity region that `--fidelity auto` uses.
+//! The closed-form model against the finite-element reference over the design space:
+//! the measurement behind the validity region of the model policy
+//! ([`fbgforge::prediction::validity`]).
 //!
 //! The grid: outer diameters 10 to 40 mm and walls (cap = core) 0.8 to 3 mm, each a
 //! member of the clip-on family scaled from the paper's module ([`scaled_design`]),
@@ -7,13 +8,14 @@
 //! Case II with core psc2 (E1 = 1.4 MPa), E2 = 44 MPa. Grid points the spec
 //! validation rejects (walls too thick for the diameter) are listed as skipped.
 
-use super::{configurations, solve_configuration, Configuration, FemOptions};
-use crate::model::{GratingPrediction, LoadCase};
-use crate::output::{write_atomic, write_csv};
-use crate::plot::{Chart, Mark, Series};
-use crate::profile::ModuleProfile;
-use crate::spec::{Design, SpecError};
 use anyhow::{anyhow, Result};
+use fbgforge::family::scaled_design;
+use fbgforge::fem::{configurations, solve_configuration, Configuration, FemOptions};
+use fbgforge::model::{GratingPrediction, LoadCase};
+use fbgforge::output::{write_atomic, write_csv};
+use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::profile::ModuleProfile;
+use fbgforge::spec::Design;
 use serde::Serialize;
 use std::path::Path;
 
@@ -22,57 +24,7 @@ pub const GRID_DIAMETERS_MM: [f64; 7] = [10.0, 13.0, 16.0, 22.0, 28.0, 34.0, 40.
 /// Wall thicknesses of the comparison grid (cap and core alike), mm.
 pub const GRID_WALLS_MM: [f64; 6] = [0.8, 1.2, 1.5, 2.0, 2.5, 3.0];
 /// The closed form's error bound claimed by the paper.
-pub const TOLERANCE: f64 = 0.08;
-
-/// Which model answers a prediction.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Fidelity {
-    /// The closed-form model (microseconds).
-    ClosedForm,
-    /// The finite-element model (a fraction of a second per configuration).
-    Fem,
-}
-
-/// A member of the clip-on family: the paper's module scaled by D / 34 mm in every
-/// length (height, dome, pillars, holes, clearances, gratings), never below what the
-/// shipped 10 mm design prints, with cap and core walls set to `wall_mm`.
-pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<Design, SpecError> {
-    let mut d = base.clone();
-    let m = d
-        .module
-        .as_mut()
-        .ok_or_else(|| crate::spec::err("module", "the base design has no module"))?;
-    let s = diameter_mm / m.outer_diameter_mm;
-    let floor = |v: f64, min: f64| (v * s).max(min);
-    m.outer_diameter_mm = diameter_mm;
-    m.overall_height_mm *= s;
-    m.dome_height_mm *= s;
-    m.cap_wall_mm = wall_mm;
-    m.core_wall_mm = wall_mm;
-    m.cap_core_clearance_mm = floor(m.cap_core_clearance_mm, 0.05);
-    m.core_insert_clearance_mm = floor(m.core_insert_clearance_mm, 0.05);
-    m.top_hole_diameter_mm = floor(m.top_hole_diameter_mm, 0.4);
-    m.apex_flat_diameter_mm = floor(m.apex_flat_diameter_mm, 0.4);
-    let p = &mut m.pillars;
-    p.width_mm = floor(p.width_mm, 1.4);
-    p.height_mm = floor(p.height_mm, 1.3);
-    p.groove_width_mm = floor(p.groove_width_mm, 0.5);
-    p.groove_depth_mm = floor(p.groove_depth_mm, 0.25);
-    // The hole must leave printable walls in the pillar web (it does not enter the
-    // smeared-pillar FE model, only the spec validation).
-    let web = p.height_mm - p.groove_depth_mm - 2.0 * base.printer.min_wall_mm;
-    p.fiber_hole_diameter_mm = floor(p.fiber_hole_diameter_mm, 0.4).min(web).max(0.13);
-    for g in &mut m.gratings {
-        g.length_mm = floor(g.length_mm, 3.0);
-        if let Some(z) = g.center_height_mm.as_mut() {
-            *z *= s;
-        }
-    }
-    d.name = format!("clip-on-{diameter_mm}mm-wall-{wall_mm}mm");
-    d.validate()?;
-    Ok(d)
-}
+pub use fbgforge::prediction::TOLERANCE;
 
 /// K of the first grating of `config` among closed-form predictions.
 pub fn closed_form_k(preds: &[GratingPrediction], config: &Configuration) -> Result<f64> {
@@ -80,12 +32,7 @@ pub fn closed_form_k(preds: &[GratingPrediction], config: &Configuration) -> Res
         .iter()
         .find(|p| p.core == config.core && p.case == config.case && p.insert == config.insert)
         .map(|p| p.sensitivity_pm_per_n)
-        .ok_or_else(|| {
-            anyhow!(
-                "the closed form gave no prediction for {}",
-                super::bench::label(config)
-            )
-        })
+        .ok_or_else(|| anyhow!("the closed form gave no prediction for {}", config.label()))
 }
 
 /// One row of the comparison.
@@ -109,7 +56,7 @@ pub struct ComparisonRow {
     /// domes tied at the apex patch), pm/N: the reference.
     pub fem_pm_per_n: f64,
     /// Finite-element K with the closed form's series load path (cap bonded to the
-    /// pillars only in the base clip band, [`super::PillarCoupling::BaseClip`]), pm/N.
+    /// pillars only in the base clip band, [`fbgforge::fem::PillarCoupling::BaseClip`]), pm/N.
     pub fem_base_clip_pm_per_n: f64,
     /// (K_closed − K_FE) / |K_FE| against the reference.
     pub relative_error: Option<f64>,
@@ -150,7 +97,7 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
         .ok_or_else(|| anyhow!("the design has no module"))?;
     let p = ModuleProfile::from_module(m);
     let opt = scaled_options(design, level);
-    let closed = crate::model::predict(design, 1.0);
+    let closed = fbgforge::model::predict(design, 1.0);
     let mut rows = Vec::new();
     for c in paper_configurations(design)? {
         let k_of = |opt: &FemOptions| -> Result<f64> {
@@ -164,7 +111,7 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
         };
         let k_fe = k_of(&opt)?;
         let mut clip = opt;
-        clip.pillar_coupling = super::PillarCoupling::BaseClip;
+        clip.pillar_coupling = fbgforge::fem::PillarCoupling::BaseClip;
         let k_clip = k_of(&clip)?;
         let k_cf = closed
             .as_ref()
@@ -175,7 +122,7 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
             wall_mm: m.core_wall_mm,
             wall_to_radius: m.core_wall_mm
                 / (0.5 * (p.core_outer_radius_mm + p.core_inner_radius_mm)),
-            configuration: super::bench::label(&c),
+            configuration: c.label(),
             case: c.case,
             insert: c.insert.clone(),
             closed_form_pm_per_n: k_cf,
@@ -200,8 +147,8 @@ pub fn run_comparison_on(
     diameters_mm: &[f64],
     walls_mm: &[f64],
 ) -> Result<Vec<ComparisonRow>> {
-    let base = super::bench::paper_design()?;
-    let pb = crate::progress::bar((diameters_mm.len() * walls_mm.len()) as u64, "comparison");
+    let base = super::fem::paper_design()?;
+    let pb = fbgforge::progress::bar((diameters_mm.len() * walls_mm.len()) as u64, "comparison");
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
     for &d in diameters_mm {
@@ -321,89 +268,4 @@ pub fn run_comparison_on(
         }
     );
     Ok(rows)
-}
-
-/// Where the closed form is within [`TOLERANCE`] of the FE model, per case, as
-/// measured by [`run_comparison`] (see docs/fem.md for the table it comes from).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ValidityRegion {
-    /// Smallest and largest outer diameter measured, mm.
-    pub diameter_range_mm: (f64, f64),
-    /// Largest core wall-to-radius ratio t/R for which Case II stays within tolerance.
-    pub max_wall_to_radius_case_ii: f64,
-    /// Largest t/R for which Case I (every insert of the paper) stays within tolerance;
-    /// 0 when no measured Case I point does.
-    pub max_wall_to_radius_case_i: f64,
-    /// Relative error bound, e.g. 0.08.
-    pub tolerance: f64,
-}
-
-/// The measured validity region of the closed form.
-///
-/// Measured by `fbgforge bench fem` (table in docs/fem.md §6 and docs/model.md §9,
-/// level-1 meshes; re-run after the profile put the domes one clearance apart): every
-/// Case II grid point, D = 10 to 40 mm, t/R = 0.050 to 0.649, is within −0.93 % to
-/// +3.49 % of the FE model, so Case II is trusted up to the largest t/R measured. No
-/// Case I grid point is within 8 % (the closed form's series load path through a base
-/// clip is not how a body with bonded pillars carries the load), so Case I always goes
-/// to the FE model.
-pub fn validity() -> ValidityRegion {
-    ValidityRegion {
-        diameter_range_mm: (
-            GRID_DIAMETERS_MM[0],
-            GRID_DIAMETERS_MM[GRID_DIAMETERS_MM.len() - 1],
-        ),
-        max_wall_to_radius_case_ii: 0.65,
-        max_wall_to_radius_case_i: 0.0,
-        tolerance: TOLERANCE,
-    }
-}
-
-impl ValidityRegion {
-    /// Whether the closed form is trusted for `case` on `design`.
-    pub fn contains_case(&self, design: &Design, case: LoadCase) -> bool {
-        let Some(m) = &design.module else {
-            return false;
-        };
-        let p = ModuleProfile::from_module(m);
-        let ratio = m.core_wall_mm / (0.5 * (p.core_outer_radius_mm + p.core_inner_radius_mm));
-        let d = m.outer_diameter_mm;
-        if d < self.diameter_range_mm.0 || d > self.diameter_range_mm.1 {
-            return false;
-        }
-        let limit = match case {
-            LoadCase::I => self.max_wall_to_radius_case_i,
-            LoadCase::II => self.max_wall_to_radius_case_ii,
-        };
-        ratio > 0.0 && ratio <= limit
-    }
-
-    /// Whether the closed form is trusted for every configuration of `design`
-    /// (Case II always; Case I when the design lists inserts).
-    pub fn contains(&self, design: &Design) -> bool {
-        let Some(m) = &design.module else {
-            return false;
-        };
-        self.contains_case(design, LoadCase::II)
-            && (m.inserts.is_empty() || self.contains_case(design, LoadCase::I))
-    }
-}
-
-/// The model `--fidelity auto` uses for one case of `design`.
-pub fn choose_fidelity_for(design: &Design, case: LoadCase) -> Fidelity {
-    if validity().contains_case(design, case) {
-        Fidelity::ClosedForm
-    } else {
-        Fidelity::Fem
-    }
-}
-
-/// The model `--fidelity auto` uses for `design`: the closed form inside its measured
-/// validity region, the FE model outside it.
-pub fn choose_fidelity(design: &Design) -> Fidelity {
-    if validity().contains(design) {
-        Fidelity::ClosedForm
-    } else {
-        Fidelity::Fem
-    }
 }

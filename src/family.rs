@@ -1,4 +1,10 @@
-//! Module designs at any diameter between shipped family members.
+//! The clip-on family: a module design at any diameter. One place derives "the module
+//! at diameter D" for every caller: [`interpolate`] between the shipped, hand-sized
+//! family members (what `build` and the geometry studies use), and [`scaled_design`],
+//! the paper's module scaled in proportion with printable floors (the grid on which the
+//! closed form is compared with the FE model).
+//!
+//! Interpolation:
 //!
 //! Plain proportional scaling of the 34 mm module fails below ~16 mm: a 1.5 mm wall
 //! scaled to 10 mm is 0.44 mm, fine, but the fiber hole and the groove then leave
@@ -75,6 +81,46 @@ pub fn interpolate(knots: &[Design], diameter_mm: f64) -> Result<Design, SpecErr
         "interpolated between {} and {} (t = {t:.3})",
         a.name, b.name
     ));
+    d.validate()?;
+    Ok(d)
+}
+
+/// A member of the clip-on family: the paper's module scaled by D / 34 mm in every
+/// length (height, dome, pillars, holes, clearances, gratings), never below what the
+/// shipped 10 mm design prints, with cap and core walls set to `wall_mm`.
+pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<Design, SpecError> {
+    let mut d = base.clone();
+    let m = d
+        .module
+        .as_mut()
+        .ok_or_else(|| crate::spec::err("module", "the base design has no module"))?;
+    let s = diameter_mm / m.outer_diameter_mm;
+    let floor = |v: f64, min: f64| (v * s).max(min);
+    m.outer_diameter_mm = diameter_mm;
+    m.overall_height_mm *= s;
+    m.dome_height_mm *= s;
+    m.cap_wall_mm = wall_mm;
+    m.core_wall_mm = wall_mm;
+    m.cap_core_clearance_mm = floor(m.cap_core_clearance_mm, 0.05);
+    m.core_insert_clearance_mm = floor(m.core_insert_clearance_mm, 0.05);
+    m.top_hole_diameter_mm = floor(m.top_hole_diameter_mm, 0.4);
+    m.apex_flat_diameter_mm = floor(m.apex_flat_diameter_mm, 0.4);
+    let p = &mut m.pillars;
+    p.width_mm = floor(p.width_mm, 1.4);
+    p.height_mm = floor(p.height_mm, 1.3);
+    p.groove_width_mm = floor(p.groove_width_mm, 0.5);
+    p.groove_depth_mm = floor(p.groove_depth_mm, 0.25);
+    // The hole must leave printable walls in the pillar web (it does not enter the
+    // smeared-pillar FE model, only the spec validation).
+    let web = p.height_mm - p.groove_depth_mm - 2.0 * base.printer.min_wall_mm;
+    p.fiber_hole_diameter_mm = floor(p.fiber_hole_diameter_mm, 0.4).min(web).max(0.13);
+    for g in &mut m.gratings {
+        g.length_mm = floor(g.length_mm, 3.0);
+        if let Some(z) = g.center_height_mm.as_mut() {
+            *z *= s;
+        }
+    }
+    d.name = format!("clip-on-{diameter_mm}mm-wall-{wall_mm}mm");
     d.validate()?;
     Ok(d)
 }
