@@ -14,8 +14,6 @@ pub struct BenchArgs {
 /// Benchmarks.
 #[derive(Debug, Subcommand)]
 pub enum BenchTarget {
-    /// Log parsing throughput and end-to-end verification time.
-    Verify(super::verify::BenchVerifyArgs),
     /// Optimiser convergence time.
     Optimize(super::optimize::BenchOptimizeArgs),
 }
@@ -23,7 +21,6 @@ pub enum BenchTarget {
 /// Run a benchmark.
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     match a.target {
-        BenchTarget::Verify(b) => super::verify::bench(b),
         BenchTarget::Optimize(b) => super::optimize::bench(b),
     }
 }

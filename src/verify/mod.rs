@@ -1,8 +1,11 @@
-//! Verification of a printed part from interrogator and force-stand logs.
+//! Verification of a printed part from interrogator and force-stand logs: the use case
+//! is [`run::run`] (re-exported as [`run`]); the other modules are its stages.
 pub mod analysis;
 pub mod assign;
 pub mod calibrate;
 pub mod fit;
 pub mod report;
+pub mod run;
 pub mod synth;
 pub mod verdict;
+pub use run::{run, VerifyOutcome, VerifyRequest};

@@ -11,3 +11,4 @@ pub mod fem;
 pub mod fem_compare;
 pub mod predict;
 pub mod reconstruct;
+pub mod verify;

@@ -25,6 +25,8 @@ enum Study {
     Predict(studies::predict::BenchPredictArgs),
     /// Reconstruction protocol: every method, speed against accuracy, failure studies.
     Reconstruct(studies::reconstruct::BenchOptions),
+    /// Log parsing throughput and end-to-end verification time.
+    Verify(studies::verify::BenchVerifyArgs),
 }
 
 fn main() -> ExitCode {
@@ -33,6 +35,7 @@ fn main() -> ExitCode {
         Study::Fem(a) => studies::fem::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
+        Study::Verify(a) => studies::verify::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

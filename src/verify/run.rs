@@ -1,0 +1,142 @@
+//! The verify use case: a design and two log files in, a judged report out.
+//! `fbgforge verify`, the verify study and the Python bindings all call [`run`] (or its
+//! two stages, [`read_inputs`] and [`judge`]), so the pipeline is written once.
+
+use super::analysis::{analyse, AnalysisOptions, Series};
+use super::report::VerifyReport;
+use super::verdict;
+use crate::logs::{self, ForceColumns, ForceLog, PeakLog, ReadOptions};
+use crate::model::LoadCase;
+use crate::spec::Design;
+use anyhow::{bail, Result};
+use std::path::PathBuf;
+
+/// What to verify and how.
+#[derive(Debug, Clone)]
+pub struct VerifyRequest {
+    /// Design spec (TOML).
+    pub design: PathBuf,
+    /// Wavelength log (ENLIGHT Peaks or Sensors export, I-MON log, or CSV).
+    pub log: PathBuf,
+    /// Force-stand CSV.
+    pub force: PathBuf,
+    /// How to read the wavelength log (format and date order detected when `None`).
+    pub read: ReadOptions,
+    /// Which columns of the force log hold time and force, and their unit.
+    pub force_columns: ForceColumns,
+    /// Load case (default: I with an insert, II without).
+    pub case: Option<LoadCase>,
+    /// Insert used in Case I.
+    pub insert: Option<String>,
+    /// Analysis options (core, windows, clock offset, resolution).
+    pub analysis: AnalysisOptions,
+    /// Largest accepted relative error of K against the model (0.08 = 8 %).
+    pub k_tolerance: f64,
+}
+
+impl VerifyRequest {
+    /// A request with every option at its default.
+    pub fn new(design: PathBuf, log: PathBuf, force: PathBuf) -> Self {
+        VerifyRequest {
+            design,
+            log,
+            force,
+            read: ReadOptions::default(),
+            force_columns: ForceColumns::default(),
+            case: None,
+            insert: None,
+            analysis: AnalysisOptions::default(),
+            k_tolerance: verdict::DEFAULT_TOLERANCE,
+        }
+    }
+
+    /// The load case the request names or implies.
+    pub fn load_case(&self) -> LoadCase {
+        self.case.unwrap_or(if self.insert.is_some() {
+            LoadCase::I
+        } else {
+            LoadCase::II
+        })
+    }
+}
+
+/// A judged report and the aligned series behind it (for plots).
+#[derive(Debug, Clone)]
+pub struct VerifyOutcome {
+    /// The report: measurement and verdict.
+    pub report: VerifyReport,
+    /// Aligned force and wavelength series.
+    pub series: Series,
+}
+
+/// The inputs of a verification, read and checked.
+#[derive(Debug, Clone)]
+pub struct VerifyInputs {
+    /// The design.
+    pub design: Design,
+    /// The wavelength log.
+    pub log: PeakLog,
+    /// The force log.
+    pub force: ForceLog,
+}
+
+/// Read, analyse and judge.
+pub fn run(req: &VerifyRequest) -> Result<VerifyOutcome> {
+    let inputs = read_inputs(req)?;
+    judge(req, &inputs)
+}
+
+/// Stage 1: check the request against the design and read both logs.
+pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
+    if req.k_tolerance.is_nan() || req.k_tolerance <= 0.0 {
+        bail!(
+            "the K tolerance must be a positive fraction (0.08 = 8 %), got {}",
+            req.k_tolerance
+        );
+    }
+    let design = crate::spec::load(&req.design)?;
+    check_insert(&design, req)?;
+    let log = logs::read_peak_log(&req.log, &req.read)?;
+    let force = logs::read_force_log(&req.force, &req.force_columns)?;
+    Ok(VerifyInputs { design, log, force })
+}
+
+fn check_insert(design: &Design, req: &VerifyRequest) -> Result<()> {
+    if let (Some(ins), Some(m)) = (&req.insert, &design.module) {
+        if !m.inserts.iter().any(|i| &i.name == ins) {
+            let names: Vec<&str> = m.inserts.iter().map(|i| i.name.as_str()).collect();
+            bail!(
+                "design `{}` has no insert named `{ins}`; its inserts are: {}",
+                design.name,
+                names.join(", ")
+            );
+        }
+    }
+    if req.load_case() == LoadCase::II && req.insert.is_some() {
+        bail!("--insert names the insert of Case I; Case II has none");
+    }
+    Ok(())
+}
+
+/// Stage 2: align, fit and judge read inputs against the model.
+pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome> {
+    let design = &inputs.design;
+    let (m, series) = analyse(design, &inputs.log, &inputs.force, &req.analysis)?;
+    // K is linear in force: any force gives the same sensitivity.
+    let preds = crate::model::predict(design, 10.0).map_err(|e| format!("{e:#}"));
+    let v = verdict::verdicts(
+        &m,
+        preds.as_deref().map_err(Clone::clone),
+        req.load_case(),
+        req.insert.as_deref(),
+        req.k_tolerance,
+    );
+    Ok(VerifyOutcome {
+        report: VerifyReport {
+            design: design.name.clone(),
+            measurement: m,
+            verdict: v,
+        },
+        series,
+    })
+}

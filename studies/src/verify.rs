@@ -1,0 +1,270 @@
+//! Study `verify` (`cargo run --release -p fbgforge-studies -- verify [--quick]`): log
+//! parsing throughput and the end-to-end verification time of a long synthetic
+//! 8-grating log, stage by stage, through the library's verify use case.
+
+use anyhow::{Context, Result};
+use clap::Args;
+use fbgforge::logs::{self, LogFormat, ReadOptions};
+use fbgforge::verify::synth::{self, LogStyle};
+use fbgforge::verify::{report, run as verify_run, VerifyRequest};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of the `verify` study.
+#[derive(Debug, Clone, Args)]
+pub struct BenchVerifyArgs {
+    /// Output folder for the generated logs and the results.
+    #[arg(long, default_value = "out/bench-verify")]
+    pub out: PathBuf,
+    /// Length of the end-to-end log, minutes.
+    #[arg(long, default_value_t = 60.0)]
+    pub minutes: f64,
+    /// Sample rate of the wavelength and force logs, Hz.
+    #[arg(long, default_value_t = 1000.0)]
+    pub rate_hz: f64,
+    /// Keep the generated logs (they are large) and the design (bench-design.toml)
+    /// instead of deleting them.
+    #[arg(long)]
+    pub keep: bool,
+    /// Smoke run: a 2-minute log at 100 Hz.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// A design with eight gratings (seven strain gratings on one core and the reference),
+/// for the benchmark.
+pub fn bench_design() -> Result<fbgforge::spec::Design> {
+    let text = include_str!("../../designs/clip-on-34mm.toml");
+    let mut d = fbgforge::spec::parse(text)?;
+    let m = d
+        .module
+        .as_mut()
+        .context("the shipped design has a module")?;
+    let template = m
+        .gratings
+        .iter()
+        .find(|g| g.role == fbgforge::spec::GratingRole::Strain)
+        .cloned()
+        .context("a strain grating")?;
+    let reference = m
+        .gratings
+        .iter()
+        .find(|g| g.role == fbgforge::spec::GratingRole::TemperatureReference)
+        .cloned()
+        .context("a reference grating")?;
+    m.gratings = (0..7)
+        .map(|k| {
+            let mut g = template.clone();
+            g.name = format!("fbg{}", k + 1);
+            g.core = Some("psc1".into());
+            g.pillar = Some((k % 4) as u32);
+            g.center_height_mm = Some(if k < 4 { 20.0 } else { 35.0 });
+            g.bragg_wavelength_nm = 1520.0 + 5.0 * k as f64;
+            g
+        })
+        .collect();
+    m.gratings.push(reference);
+    d.validate()?;
+    Ok(d)
+}
+
+/// CPU time used by this process so far (user + system), s, from /proc (Linux);
+/// None elsewhere. On a shared machine it shows the work apart from waiting.
+fn cpu_time_s() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// Run the study.
+pub fn run(a: &BenchVerifyArgs) -> Result<()> {
+    let a = &BenchVerifyArgs {
+        minutes: if a.quick { 2.0 } else { a.minutes },
+        rate_hz: if a.quick { 100.0 } else { a.rate_hz },
+        ..a.clone()
+    };
+    let design = bench_design()?;
+    fbgforge::output::ensure_dir(&a.out)?;
+    let amps = [10.0, 20.0, 30.0, 40.0, 50.0];
+    let duration = a.minutes * 60.0;
+    let n_pulses = ((duration - 10.0) / 10.0).floor().max(1.0) as usize;
+    let peaks: Vec<f64> = (0..n_pulses).map(|i| amps[i % amps.len()]).collect();
+    let cfg = synth::SynthConfig {
+        sample_rate_hz: a.rate_hz,
+        force_rate_hz: a.rate_hz,
+        pulses: synth::pulse_train(&peaks, 4.0, 6.0, 5.0),
+        duration_s: duration,
+        temperature_ramp_k_per_s: 0.002,
+        ..Default::default()
+    };
+    eprintln!(
+        "generating a {} min, {} Hz, 8-grating log ...",
+        a.minutes, a.rate_hz
+    );
+    // Stages: generate, write, parse ×3, end to end.
+    let pb = fbgforge::progress::bar(6, "bench verify");
+    let (log, force, truth) = synth::generate(&design, &cfg)?;
+    pb.inc(1);
+    let log_path = a.out.join("bench-peaks.txt");
+    let force_path = a.out.join("bench-force.csv");
+    synth::write_log(
+        &log_path,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )?;
+    synth::write_force_csv(&force_path, &force)?;
+    pb.inc(1);
+    drop(log);
+    let mb = std::fs::metadata(&log_path)?.len() as f64 / 1e6;
+    let bytes = std::fs::read(&log_path)?;
+
+    // Stage 1: parse from memory (throughput), best of three.
+    let mut parse_s = f64::MAX;
+    let mut parse_cpu = f64::NAN;
+    for _ in 0..3 {
+        let c = cpu_time_s();
+        let t = Instant::now();
+        let pl = logs::parse_wavelength_bytes(&bytes, &log_path, &ReadOptions::default())?;
+        let el = t.elapsed().as_secs_f64();
+        if el < parse_s {
+            parse_s = el;
+            parse_cpu = cpu_time_s().zip(c).map_or(f64::NAN, |(b, a)| b - a);
+        }
+        drop(pl);
+        pb.inc(1);
+    }
+    drop(bytes);
+
+    // Stage 2: end to end from the files.
+    pb.inc(1);
+    let cpu = || cpu_time_s().unwrap_or(f64::NAN);
+    let (t_all, c_all) = (Instant::now(), cpu());
+    let design_path = a.out.join("bench-design.toml");
+    fbgforge::output::write_atomic(&design_path, design.to_toml().as_bytes())?;
+    let req = VerifyRequest::new(design_path.clone(), log_path.clone(), force_path.clone());
+    let (t, c) = (Instant::now(), cpu());
+    let pl = logs::read_peak_log(&log_path, &ReadOptions::default())?;
+    let read_log = (t.elapsed().as_secs_f64(), cpu() - c);
+    drop(pl);
+    let (t, c) = (Instant::now(), cpu());
+    let inputs = verify_run::read_inputs(&req)?;
+    let read_force = (
+        t.elapsed().as_secs_f64() - read_log.0,
+        cpu() - c - read_log.1,
+    );
+    let fl = &inputs.force;
+    let (t, c) = (Instant::now(), cpu());
+    let outcome = verify_run::judge(&req, &inputs)?;
+    let analysed = (t.elapsed().as_secs_f64(), cpu() - c);
+    let (t, c) = (Instant::now(), cpu());
+    let (rep, series) = (&outcome.report, &outcome.series);
+    report::write_report(&a.out.join("report"), rep, series)?;
+    let reported = (t.elapsed().as_secs_f64(), cpu() - c);
+    let total = (t_all.elapsed().as_secs_f64(), cpu() - c_all);
+    pb.finish_and_clear();
+
+    let worst_k = rep
+        .measurement
+        .gratings
+        .iter()
+        .zip(truth.gratings.iter().filter(|g| !g.reference))
+        .map(|(g, t)| {
+            (g.sensitivity_pm_per_n - t.sensitivity_pm_per_n).abs() / t.sensitivity_pm_per_n.abs()
+        })
+        .fold(0.0, f64::max);
+    let rows: Vec<(String, f64, f64, String)> = vec![
+        (
+            "parse ENLIGHT peaks (memory)".into(),
+            parse_s,
+            parse_cpu,
+            format!("{:.0} MB/s ({mb:.0} MB, target >= 100 MB/s)", mb / parse_s),
+        ),
+        (
+            "read wavelength log (file)".into(),
+            read_log.0,
+            read_log.1,
+            format!("{:.0} MB/s", mb / read_log.0),
+        ),
+        (
+            "read force log".into(),
+            read_force.0,
+            read_force.1,
+            format!("{} samples", fl.force_n.len()),
+        ),
+        (
+            "align, fit, pulses".into(),
+            analysed.0,
+            analysed.1,
+            format!(
+                "{} gratings, {} pulses",
+                rep.measurement.gratings.len(),
+                rep.measurement.pulse_count
+            ),
+        ),
+        (
+            "verdict + report".into(),
+            reported.0,
+            reported.1,
+            String::new(),
+        ),
+        (
+            "end to end".into(),
+            total.0,
+            total.1,
+            format!("target < 10 s; worst K error {:.3} %", 100.0 * worst_k),
+        ),
+    ];
+    println!("{:<32} {:>10} {:>10}  note", "stage", "wall s", "cpu s");
+    for (s, t, c, n) in &rows {
+        println!("{s:<32} {t:>10.3} {c:>10.3}  {n}");
+    }
+    let csv_rows: Vec<Vec<String>> = rows
+        .iter()
+        .map(|(s, t, c, n)| vec![s.clone(), format!("{t:.4}"), format!("{c:.4}"), n.clone()])
+        .collect();
+    fbgforge::output::write_csv(
+        &a.out.join("bench_verify.csv"),
+        &["stage", "wall_s", "cpu_s", "note"],
+        &csv_rows,
+    )?;
+    let chart = fbgforge::plot::Chart::new(
+        format!(
+            "bench verify: {} min at {} Hz, 8 gratings ({mb:.0} MB)",
+            a.minutes, a.rate_hz
+        ),
+        "stage (1 parse, 2 read log, 3 read force, 4 analyse, 5 report, 6 total)",
+        "time (s)",
+    )
+    .with(fbgforge::plot::Series::new(
+        "wall clock",
+        rows.iter()
+            .enumerate()
+            .map(|(i, r)| ((i + 1) as f64, r.1))
+            .collect(),
+        fbgforge::plot::Mark::Points,
+    ))
+    .with(fbgforge::plot::Series::new(
+        "CPU (both cores)",
+        rows.iter()
+            .enumerate()
+            .map(|(i, r)| ((i + 1) as f64, r.2))
+            .collect(),
+        fbgforge::plot::Mark::Points,
+    ));
+    chart.write_svg(&a.out.join("bench_verify.svg"))?;
+    if !a.keep {
+        let _ = std::fs::remove_file(&design_path);
+        let _ = std::fs::remove_file(&log_path);
+        let _ = std::fs::remove_file(&force_path);
+    }
+    println!(
+        "wrote {} and {}",
+        a.out.join("bench_verify.csv").display(),
+        a.out.join("bench_verify.svg").display()
+    );
+    Ok(())
+}
