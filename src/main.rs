@@ -36,6 +36,5 @@ fn run(cmd: Command) -> anyhow::Result<ExitCode> {
         Command::CalibrateArray(a) => ok(cli::verify::run_calibrate_array(a)),
         Command::Optimize(a) => ok(cli::optimize::run_optimize(a)),
         Command::Place(a) => ok(cli::optimize::run_place(a)),
-        Command::Bench(a) => ok(cli::bench::run(a)),
     }
 }

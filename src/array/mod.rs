@@ -24,6 +24,7 @@ pub mod kernel;
 pub mod methods;
 pub mod problem;
 pub mod protocol;
+pub mod run;
 
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -73,3 +74,4 @@ pub enum ArrayError {
         known: String,
     },
 }
+pub use run::reconstruct_file;

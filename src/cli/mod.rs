@@ -1,7 +1,6 @@
 //! Command-line interface: argument types and the glue from each subcommand to the
 //! library. One file per area; each owns its subcommands' arguments.
 
-pub mod bench;
 pub mod build;
 pub mod optimize;
 pub mod predict;
@@ -42,6 +41,4 @@ pub enum Command {
     Optimize(optimize::OptimizeArgs),
     /// Optimise grating placement in a flat array.
     Place(optimize::PlaceArgs),
-    /// Benchmarks that print a table and write charts.
-    Bench(bench::BenchArgs),
 }

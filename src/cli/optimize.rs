@@ -1,21 +1,15 @@
-//! `fbgforge optimize`, `fbgforge place` and `fbgforge bench optimize`: design
-//! optimisation from the command line (the work is in [`fbgforge::optimize`]).
+//! `fbgforge optimize` and `fbgforge place`: design optimisation from the command
+//! line (the work is in `fbgforge::optimize::run`).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
-use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{
-    landscape, model_predictor, optimise_module, parse_bounds, ModuleOutcome, ModuleProblem,
-    ModuleSettings, Objective, Predictor, Variable,
+    parse_bounds, ModuleOutcome, ModuleSettings, Objective, Variable,
 };
-use fbgforge::optimize::place::{place, PlaceObjective, PlaceOutcome, PlaceSettings};
-use fbgforge::optimize::quality::MeasuredPrototype;
+use fbgforge::optimize::place::{PlaceObjective, PlaceOutcome, PlaceSettings};
+use fbgforge::optimize::run::{run_module, run_placement, ModuleRequest, PlaceRequest};
 use fbgforge::optimize::solve::SolverKind;
-use fbgforge::output::{write_atomic, write_csv, write_json};
-use fbgforge::plot::{Chart, Mark, Series};
-use fbgforge::spec::{self, Design};
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
 
 /// Arguments of `fbgforge optimize`.
 #[derive(Debug, Args)]
@@ -133,88 +127,28 @@ pub fn module_settings(a: &OptimizeArgs) -> Result<ModuleSettings> {
 
 /// Run `fbgforge optimize`.
 pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
-    let design = spec::load(&a.design)?;
-    let lib = match &a.materials {
-        Some(p) => MaterialLibrary::load(p)?,
-        None => MaterialLibrary::shipped(),
+    let req = ModuleRequest {
+        design: a.design.clone(),
+        materials: a.materials.clone(),
+        settings: module_settings(&a)?,
+        measured: a.measured.clone(),
+        landscape: a
+            .landscape
+            .as_deref()
+            .map(Variable::parse_list)
+            .transpose()?,
+        out: a.out.clone(),
+        report_dir: a.report_dir.clone(),
     };
-    let settings = module_settings(&a)?;
-    // Check the plot request before the work, so a typo costs nothing.
-    let landscape_vars = match &a.landscape {
-        Some(s) => {
-            let v = Variable::parse_list(s)?;
-            anyhow::ensure!(
-                v.len() == 2,
-                "--landscape needs exactly two variables, got {}",
-                v.len()
-            );
-            if let Some(x) = v.iter().find(|x| !settings.vary.contains(x)) {
-                anyhow::bail!("--landscape variable `{}` is not in --vary", x.name());
-            }
-            v
-        }
-        None => settings.vary.iter().take(2).copied().collect(),
-    };
-    let measured = a
-        .measured
-        .as_deref()
-        .map(MeasuredPrototype::load)
-        .transpose()?;
-    let n_choices = fbgforge::optimize::module::choices(&design, &lib, &settings)?.len();
-    let bar = fbgforge::progress::bar(n_choices as u64, "optimise");
-    let outcome = optimise_module(
-        &design,
-        &lib,
-        &settings,
-        measured.as_ref(),
-        model_predictor(),
-        &|done| bar.set_position(done as u64),
-    )?;
-    bar.finish_and_clear();
-    let out = a.out.clone().unwrap_or_else(|| {
-        PathBuf::from("out/optimize").join(format!("{}.toml", outcome.design.name))
-    });
-    let report_dir = a.report_dir.clone().unwrap_or_else(|| report_beside(&out));
-    write_design(&out, &outcome.design)?;
-    write_module_report(
-        &report_dir,
-        &design,
-        &lib,
-        &settings,
-        &outcome,
-        &landscape_vars,
-        model_predictor(),
-    )?;
+    let run = run_module(&req)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&outcome)?);
+        println!("{}", serde_json::to_string_pretty(&run.outcome)?);
     } else {
-        print_module_table(&outcome);
-        println!("design: {}", out.display());
-        println!("report: {}", report_dir.display());
+        print_module_table(&run.outcome);
+        println!("design: {}", run.design_path.display());
+        println!("report: {}", run.report_dir.display());
     }
     Ok(())
-}
-
-/// Default report folder: `<out stem>-report` beside the written design.
-fn report_beside(out: &Path) -> PathBuf {
-    let stem = out
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "design".into());
-    out.parent()
-        .unwrap_or(Path::new("."))
-        .join(format!("{stem}-report"))
-}
-
-/// Write a design as TOML, atomically, after checking that it loads back.
-fn write_design(path: &Path, d: &Design) -> Result<()> {
-    let text = format!(
-        "# Written by fbgforge; loads with `fbgforge build/predict/verify`.\n{}",
-        d.to_toml()
-    );
-    spec::parse(&text)
-        .map_err(|e| anyhow::anyhow!("internal: the written design does not load back: {e}"))?;
-    write_atomic(path, text.as_bytes())
 }
 
 fn x_text(vars: &[Variable], x: &[f64]) -> String {
@@ -308,142 +242,6 @@ fn print_module_table(o: &ModuleOutcome) {
     );
 }
 
-/// Convergence chart, landscape chart, their CSVs, and the JSON summary.
-fn write_module_report(
-    dir: &Path,
-    base: &Design,
-    lib: &MaterialLibrary,
-    settings: &ModuleSettings,
-    o: &ModuleOutcome,
-    landscape_vars: &[Variable],
-    predictor: Predictor,
-) -> Result<()> {
-    write_json(&dir.join("summary.json"), o)?;
-    // Convergence of every run of the winning choice (best penalised cost per iteration).
-    let win = &o.choices[o.best_choice];
-    let mut chart = Chart::new(
-        format!("Convergence, {}", win.choice),
-        "iteration",
-        "best cost (−objective / start objective)",
-    );
-    let mut rows = Vec::new();
-    for r in &win.runs {
-        let pts: Vec<(f64, f64)> = r
-            .history
-            .iter()
-            .enumerate()
-            .map(|(i, c)| (i as f64 + 1.0, *c))
-            .collect();
-        for (i, c) in &pts {
-            rows.push(vec![
-                r.solver.name().to_string(),
-                r.start.to_string(),
-                i.to_string(),
-                c.to_string(),
-            ]);
-        }
-        chart = chart.with(Series::new(
-            format!("{} start {}", r.solver.name(), r.start),
-            pts,
-            Mark::Line,
-        ));
-    }
-    chart.write_svg(&dir.join("convergence.svg"))?;
-    write_csv(
-        &dir.join("convergence.csv"),
-        &["solver", "start", "iteration", "best_cost"],
-        &rows,
-    )?;
-    // Landscape over two variables at the optimum of the winning choice.
-    let idx: Vec<usize> = landscape_vars
-        .iter()
-        .map(|v| {
-            o.variables.iter().position(|w| w == v).ok_or_else(|| {
-                anyhow::anyhow!("--landscape variable `{}` is not in --vary", v.name())
-            })
-        })
-        .collect::<Result<_>>()?;
-    if idx.len() == 2 {
-        let cal = o.calibration;
-        let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
-        let at = win
-            .best
-            .as_ref()
-            .map(|e| e.x.clone())
-            .unwrap_or_else(|| p.start_point());
-        let steps = 15;
-        let grid = landscape(&p, &at, idx[0], idx[1], steps);
-        let (va, vb) = (landscape_vars[0], landscape_vars[1]);
-        let mut chart = Chart::new(
-            format!(
-                "{} landscape, {}",
-                if o.objective == Objective::Q {
-                    "Q"
-                } else {
-                    "|K|"
-                },
-                win.choice
-            ),
-            va.name(),
-            format!("objective, {}", o.objective_unit),
-        );
-        // Every third slice of the second variable, feasible points joined; the
-        // points the constraints cut off drawn apart.
-        for j in (0..steps).step_by(3) {
-            let vbj = grid[j].b;
-            let pts: Vec<(f64, f64)> = grid
-                .iter()
-                .filter(|g| (g.b - vbj).abs() < 1e-12 && g.feasible && g.objective.is_finite())
-                .map(|g| (g.a, g.objective))
-                .collect();
-            if !pts.is_empty() {
-                chart = chart.with(Series::new(
-                    format!("{} = {vbj:.3}, feasible", vb.name()),
-                    pts,
-                    Mark::LinePoints,
-                ));
-            }
-        }
-        let cut: Vec<(f64, f64)> = grid
-            .iter()
-            .filter(|g| !g.feasible && g.objective.is_finite())
-            .map(|g| (g.a, g.objective))
-            .collect();
-        if !cut.is_empty() {
-            chart = chart.with(Series::new(
-                "infeasible (strain or window limit)",
-                cut,
-                Mark::Points,
-            ));
-        }
-        if chart.series.is_empty() {
-            anyhow::bail!("the landscape has no point the model could evaluate");
-        }
-        chart.write_svg(&dir.join("landscape.svg"))?;
-        let rows: Vec<Vec<String>> = grid
-            .iter()
-            .map(|g| {
-                vec![
-                    g.a.to_string(),
-                    g.b.to_string(),
-                    if g.objective.is_finite() {
-                        g.objective.to_string()
-                    } else {
-                        String::new()
-                    },
-                    g.feasible.to_string(),
-                ]
-            })
-            .collect();
-        write_csv(
-            &dir.join("landscape.csv"),
-            &[va.name(), vb.name(), "objective", "feasible"],
-            &rows,
-        )?;
-    }
-    Ok(())
-}
-
 /// Arguments of `fbgforge place`.
 #[derive(Debug, Args)]
 pub struct PlaceArgs {
@@ -496,26 +294,19 @@ pub fn place_settings(a: &PlaceArgs) -> Result<PlaceSettings> {
 
 /// Run `fbgforge place`.
 pub fn run_place(a: PlaceArgs) -> Result<()> {
-    let design = spec::load(&a.design)?;
-    let settings = place_settings(&a)?;
-    let bar = fbgforge::progress::bar(3, "place");
-    let outcome = place(&design, &settings, &|stage| {
-        bar.set_message(stage.to_string());
-        bar.inc(1)
-    })?;
-    bar.finish_and_clear();
-    let out = a.out.clone().unwrap_or_else(|| {
-        PathBuf::from("out/place").join(format!("{}.toml", outcome.design.name))
-    });
-    let report_dir = a.report_dir.clone().unwrap_or_else(|| report_beside(&out));
-    write_design(&out, &outcome.design)?;
-    write_place_report(&report_dir, &outcome)?;
+    let req = PlaceRequest {
+        design: a.design.clone(),
+        settings: place_settings(&a)?,
+        out: a.out.clone(),
+        report_dir: a.report_dir.clone(),
+    };
+    let run = run_placement(&req)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&outcome)?);
+        println!("{}", serde_json::to_string_pretty(&run.outcome)?);
     } else {
-        print_place_table(&outcome);
-        println!("design: {}", out.display());
-        println!("report: {}", report_dir.display());
+        print_place_table(&run.outcome);
+        println!("design: {}", run.design_path.display());
+        println!("report: {}", run.report_dir.display());
     }
     Ok(())
 }
@@ -583,223 +374,4 @@ fn print_place_table(o: &PlaceOutcome) {
         );
     }
     println!("in {:.1} s", o.time_s);
-}
-
-fn write_place_report(dir: &Path, o: &PlaceOutcome) -> Result<()> {
-    write_json(&dir.join("summary.json"), o)?;
-    let mut chart = Chart::new(
-        "Placement convergence",
-        "iteration",
-        "best cost (−objective)",
-    );
-    let mut rows = Vec::new();
-    for r in &o.runs {
-        let pts: Vec<(f64, f64)> = r
-            .history
-            .iter()
-            .enumerate()
-            .map(|(i, c)| (i as f64 + 1.0, *c))
-            .collect();
-        for (i, c) in &pts {
-            rows.push(vec![
-                r.solver.name().to_string(),
-                i.to_string(),
-                c.to_string(),
-            ]);
-        }
-        chart = chart.with(Series::new(r.solver.name(), pts, Mark::Line));
-    }
-    chart.write_svg(&dir.join("convergence.svg"))?;
-    write_csv(
-        &dir.join("convergence.csv"),
-        &["solver", "iteration", "best_cost"],
-        &rows,
-    )?;
-    if let Some(ag) = &o.agreement {
-        let chart = Chart::new(
-            "Coherence proxy against the protocol",
-            "mutual coherence",
-            "RR % + mean SNR dB",
-        )
-        .with(Series::new(
-            "random layouts",
-            ag.points.clone(),
-            Mark::Points,
-        ));
-        chart.write_svg(&dir.join("proxy_agreement.svg"))?;
-        let rows: Vec<Vec<String>> = ag
-            .points
-            .iter()
-            .map(|p| vec![p.0.to_string(), p.1.to_string()])
-            .collect();
-        write_csv(
-            &dir.join("proxy_agreement.csv"),
-            &["mutual_coherence", "protocol_score"],
-            &rows,
-        )?;
-    }
-    Ok(())
-}
-
-/// Arguments of `fbgforge bench optimize`.
-#[derive(Debug, Args)]
-pub struct BenchOptimizeArgs {
-    /// Worker threads (the target machine has 2 cores).
-    #[arg(long, default_value_t = 2)]
-    pub threads: usize,
-    /// Folder for the table (CSV, JSON) and chart.
-    #[arg(long, default_value = "out/bench")]
-    pub out_dir: PathBuf,
-}
-
-/// One benchmark row.
-#[derive(Debug, Clone, serde::Serialize)]
-struct BenchRow {
-    task: String,
-    solver: String,
-    time_s: f64,
-    evaluations: u64,
-    objective: f64,
-    start_objective: f64,
-    target_s: f64,
-}
-
-/// Run `fbgforge bench optimize`: module optimisation per design and solver, and
-/// placement per solver, on `--threads` threads.
-pub fn bench(a: BenchOptimizeArgs) -> Result<()> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.max(1))
-        .build()
-        .context("cannot start the thread pool")?;
-    pool.install(|| bench_inner(&a))
-}
-
-fn shipped(name: &str) -> Result<Design> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("designs")
-        .join(name);
-    Ok(spec::load(&p)?)
-}
-
-fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
-    let lib = MaterialLibrary::shipped();
-    let mut rows = Vec::new();
-    for file in ["clip-on-34mm.toml", "clip-on-16mm.toml"] {
-        let design = shipped(file)?;
-        for solvers in [
-            vec![SolverKind::NelderMead],
-            vec![SolverKind::ParticleSwarm],
-            SolverKind::ALL.to_vec(),
-        ] {
-            let s = ModuleSettings {
-                solvers: solvers.clone(),
-                ..ModuleSettings::default()
-            };
-            let t0 = Instant::now();
-            let o = optimise_module(&design, &lib, &s, None, model_predictor(), &|_| {})?;
-            let t = t0.elapsed().as_secs_f64();
-            rows.push(BenchRow {
-                task: format!("optimize {file} ({} choices)", o.choices.len()),
-                solver: if solvers.len() == 1 {
-                    solvers[0].name().into()
-                } else {
-                    "both".into()
-                },
-                time_s: t,
-                evaluations: o
-                    .choices
-                    .iter()
-                    .flat_map(|c| &c.runs)
-                    .map(|r| r.evaluations)
-                    .sum(),
-                objective: o.choices[o.best_choice]
-                    .best
-                    .as_ref()
-                    .map(|e| e.objective)
-                    .unwrap_or(0.0),
-                start_objective: o.start.objective,
-                target_s: 2.0,
-            });
-        }
-    }
-    let array = shipped("tactile-array-60x80.toml")?;
-    for solver in SolverKind::ALL {
-        let s = PlaceSettings {
-            solvers: vec![solver],
-            agreement_samples: 0,
-            ..PlaceSettings::default()
-        };
-        let t0 = Instant::now();
-        let o = place(&array, &s, &|_| {})?;
-        let t = t0.elapsed().as_secs_f64();
-        rows.push(BenchRow {
-            task: "place tactile-array-60x80.toml".into(),
-            solver: solver.name().into(),
-            time_s: t,
-            evaluations: o.runs.iter().map(|r| r.evaluations).sum(),
-            objective: o.best_objective,
-            start_objective: o.start_objective,
-            target_s: 60.0,
-        });
-    }
-    println!(
-        "{:<44} {:<15} {:>9} {:>9} {:>12} {:>12} {:>7}",
-        "task", "solver", "time s", "target s", "evaluations", "objective", "start"
-    );
-    for r in &rows {
-        println!(
-            "{:<44} {:<15} {:>9.3} {:>9.0} {:>12} {:>12.4} {:>7.3}",
-            r.task, r.solver, r.time_s, r.target_s, r.evaluations, r.objective, r.start_objective
-        );
-    }
-    write_json(&a.out_dir.join("optimize.json"), &rows)?;
-    let csv_rows: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            vec![
-                r.task.clone(),
-                r.solver.clone(),
-                r.time_s.to_string(),
-                r.target_s.to_string(),
-                r.evaluations.to_string(),
-                r.objective.to_string(),
-                r.start_objective.to_string(),
-            ]
-        })
-        .collect();
-    write_csv(
-        &a.out_dir.join("optimize.csv"),
-        &[
-            "task",
-            "solver",
-            "time_s",
-            "target_s",
-            "evaluations",
-            "objective",
-            "start_objective",
-        ],
-        &csv_rows,
-    )?;
-    let mut chart = Chart::new(
-        "fbgforge bench optimize: time against target",
-        "benchmark row",
-        "time / target",
-    );
-    for solver in ["nelder-mead", "particle-swarm", "both"] {
-        let pts: Vec<(f64, f64)> = rows
-            .iter()
-            .enumerate()
-            .filter(|(_, r)| r.solver == solver)
-            .map(|(i, r)| (i as f64, r.time_s / r.target_s))
-            .collect();
-        if !pts.is_empty() {
-            chart = chart.with(Series::new(solver, pts, Mark::Points));
-        }
-    }
-    chart.write_svg(&a.out_dir.join("optimize.svg"))?;
-    println!(
-        "wrote {}",
-        a.out_dir.join("optimize.{json,csv,svg}").display()
-    );
-    Ok(())
 }

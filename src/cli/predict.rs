@@ -1,5 +1,5 @@
-//! `fbgforge predict`, `fbgforge sweep` and `fbgforge bench predict`: the
-//! opto-mechanical model from the command line.
+//! `fbgforge predict` and `fbgforge sweep`: the opto-mechanical model from the command
+//! line.
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};

@@ -4,15 +4,15 @@
 //! uniform strain across each wall. This module solves the same module, meshed from
 //! the same [`crate::profile::ModuleProfile`], as a linear-elastic body of revolution
 //! with quadratic mixed elements (no volumetric locking for the ν ≈ 0.49 rubber) and a
-//! sparse Cholesky solve. It serves three purposes: an independent check of the
-//! closed form's error over the design space ([`compare`]), a slower but more general
-//! prediction for designs outside the closed form's measured validity region
-
+//! sparse Cholesky solve. It is the independent check of the closed form over the
+//! design space (the `fem` study of the studies crate) and the slower, more general
+//! prediction ([`predict`]) for designs outside the closed form's measured validity
+//! region; which of the two answers a row is decided by the one model policy,
+//! [`crate::prediction`].
 //!
 //! Submodules: [`element`] (Q9/P1 element), [`mesh`] (mesh data, edge loads),
 //! [`solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
-//! contacts, supports and load), [`compare`] (closed form vs FE), [`fidelity`]
-//! (`predict --fidelity`: each row from the model its case needs), [`bench`].
+//! contacts, supports and load).
 
 pub mod element;
 pub mod mesh;

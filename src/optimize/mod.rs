@@ -7,9 +7,12 @@
 //! * [`solve`]: argmin solvers behind one trait, multi-start in parallel, history.
 //! * [`module`]: the module problem: variables, constraints, discrete material choices.
 //! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
+//! * [`run`]: the use cases the CLI calls: optimise a module, place gratings; both write
+//!   the design and a report.
 
 pub mod materials;
 pub mod module;
 pub mod place;
 pub mod quality;
+pub mod run;
 pub mod solve;

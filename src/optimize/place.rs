@@ -86,7 +86,7 @@ impl Default for PlaceSettings {
             solvers: SolverKind::ALL.to_vec(),
             extra_starts: 1,
             // ~2000 protocol evaluations for the swarm: about half the 60 s budget on
-            // two cores in a release build (`fbgforge bench optimize`).
+            // two cores in a release build (the `optimize` study).
             run: RunSettings {
                 max_iters: 100,
                 swarm_iters: 90,

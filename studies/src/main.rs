@@ -21,6 +21,8 @@ enum Study {
     Build(studies::build::BuildStudyArgs),
     /// Finite-element convergence, time against error, and closed form against FE.
     Fem(studies::fem::FemStudyArgs),
+    /// Optimiser convergence time per design and solver.
+    Optimize(studies::optimize::BenchOptimizeArgs),
     /// Closed-form prediction time per design.
     Predict(studies::predict::BenchPredictArgs),
     /// Reconstruction protocol: every method, speed against accuracy, failure studies.
@@ -33,6 +35,7 @@ fn main() -> ExitCode {
     let result = match Cli::parse().study {
         Study::Build(a) => studies::build::run(&a),
         Study::Fem(a) => studies::fem::run(&a),
+        Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
         Study::Verify(a) => studies::verify::run(&a),

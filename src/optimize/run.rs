@@ -1,0 +1,376 @@
+//! The optimisation use cases: [`run_module`] (module design for Q or sensitivity)
+//! and [`run_placement`] (grating placement in a flat array). Each loads the design,
+//! runs the search, writes the optimised design as TOML (it loads, builds, predicts
+//! and verifies) and a report folder (summary JSON, SVG charts with their CSVs).
+
+use super::materials::MaterialLibrary;
+use super::module::{
+    landscape, model_predictor, optimise_module, ModuleOutcome, ModuleProblem, ModuleSettings,
+    Objective, Predictor, Variable,
+};
+use super::place::{place, PlaceOutcome, PlaceSettings};
+use super::quality::MeasuredPrototype;
+use crate::output::{write_atomic, write_csv, write_json};
+use crate::plot::{Chart, Mark, Series};
+use crate::spec::{self, Design};
+use anyhow::Result;
+use std::path::{Path, PathBuf};
+
+/// What `run_module` optimises and where it writes.
+#[derive(Debug, Clone)]
+pub struct ModuleRequest {
+    /// The start design (TOML).
+    pub design: PathBuf,
+    /// Material library (TOML); the shipped one when `None`.
+    pub materials: Option<PathBuf>,
+    /// Objective, variables, bounds, constraints and solvers.
+    pub settings: ModuleSettings,
+    /// `fbgforge verify --json` of a printed prototype, to calibrate lag and R².
+    pub measured: Option<PathBuf>,
+    /// The two variables of the landscape chart (the first two varied when `None`).
+    pub landscape: Option<Vec<Variable>>,
+    /// Where the optimised design goes [default: out/optimize/<name>.toml].
+    pub out: Option<PathBuf>,
+    /// Report folder [default: `<out stem>-report` beside the design].
+    pub report_dir: Option<PathBuf>,
+}
+
+/// What `run_module` did.
+#[derive(Debug, Clone)]
+pub struct ModuleRun {
+    /// The search's outcome (best design, every run).
+    pub outcome: ModuleOutcome,
+    /// Where the optimised design was written.
+    pub design_path: PathBuf,
+    /// Where the report was written.
+    pub report_dir: PathBuf,
+}
+
+/// What `run_placement` optimises and where it writes.
+#[derive(Debug, Clone)]
+pub struct PlaceRequest {
+    /// The array design (TOML).
+    pub design: PathBuf,
+    /// Objective, method, solvers.
+    pub settings: PlaceSettings,
+    /// Where the optimised design goes [default: out/place/<name>.toml].
+    pub out: Option<PathBuf>,
+    /// Report folder [default: `<out stem>-report` beside the design].
+    pub report_dir: Option<PathBuf>,
+}
+
+/// What `run_placement` did.
+#[derive(Debug, Clone)]
+pub struct PlaceRun {
+    /// The search's outcome.
+    pub outcome: PlaceOutcome,
+    /// Where the optimised design was written.
+    pub design_path: PathBuf,
+    /// Where the report was written.
+    pub report_dir: PathBuf,
+}
+
+/// Optimise a module design: load it, search every material choice, write the
+/// optimised design and the report, and return what was done.
+pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
+    let design = spec::load(&req.design)?;
+    let lib = match &req.materials {
+        Some(p) => MaterialLibrary::load(p)?,
+        None => MaterialLibrary::shipped(),
+    };
+    let settings = &req.settings;
+    // Check the plot request before the work, so a typo costs nothing.
+    let landscape_vars = match &req.landscape {
+        Some(v) => {
+            let v = v.clone();
+            anyhow::ensure!(
+                v.len() == 2,
+                "--landscape needs exactly two variables, got {}",
+                v.len()
+            );
+            if let Some(x) = v.iter().find(|x| !settings.vary.contains(x)) {
+                anyhow::bail!("--landscape variable `{}` is not in --vary", x.name());
+            }
+            v
+        }
+        None => settings.vary.iter().take(2).copied().collect(),
+    };
+    let measured = req
+        .measured
+        .as_deref()
+        .map(MeasuredPrototype::load)
+        .transpose()?;
+    let n_choices = crate::optimize::module::choices(&design, &lib, settings)?.len();
+    let bar = crate::progress::bar(n_choices as u64, "optimise");
+    let outcome = optimise_module(
+        &design,
+        &lib,
+        settings,
+        measured.as_ref(),
+        model_predictor(),
+        &|done| bar.set_position(done as u64),
+    )?;
+    bar.finish_and_clear();
+    let out = req.out.clone().unwrap_or_else(|| {
+        PathBuf::from("out/optimize").join(format!("{}.toml", outcome.design.name))
+    });
+    let report_dir = req
+        .report_dir
+        .clone()
+        .unwrap_or_else(|| report_beside(&out));
+    write_design(&out, &outcome.design)?;
+    write_module_report(
+        &report_dir,
+        &design,
+        &lib,
+        settings,
+        &outcome,
+        &landscape_vars,
+        model_predictor(),
+    )?;
+    Ok(ModuleRun {
+        outcome,
+        design_path: out,
+        report_dir,
+    })
+}
+
+/// Optimise grating placement: load the array design, search, write the design and
+/// the report.
+pub fn run_placement(req: &PlaceRequest) -> Result<PlaceRun> {
+    let design = spec::load(&req.design)?;
+    let bar = crate::progress::bar(3, "place");
+    let outcome = place(&design, &req.settings, &|stage| {
+        bar.set_message(stage.to_string());
+        bar.inc(1)
+    })?;
+    bar.finish_and_clear();
+    let out = req.out.clone().unwrap_or_else(|| {
+        PathBuf::from("out/place").join(format!("{}.toml", outcome.design.name))
+    });
+    let report_dir = req
+        .report_dir
+        .clone()
+        .unwrap_or_else(|| report_beside(&out));
+    write_design(&out, &outcome.design)?;
+    write_place_report(&report_dir, &outcome)?;
+    Ok(PlaceRun {
+        outcome,
+        design_path: out,
+        report_dir,
+    })
+}
+
+/// Default report folder: `<out stem>-report` beside the written design.
+fn report_beside(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "design".into());
+    out.parent()
+        .unwrap_or(Path::new("."))
+        .join(format!("{stem}-report"))
+}
+
+/// Write a design as TOML, atomically, after checking that it loads back.
+pub fn write_design(path: &Path, d: &Design) -> Result<()> {
+    let text = format!(
+        "# Written by fbgforge; loads with `fbgforge build/predict/verify`.\n{}",
+        d.to_toml()
+    );
+    spec::parse(&text)
+        .map_err(|e| anyhow::anyhow!("internal: the written design does not load back: {e}"))?;
+    write_atomic(path, text.as_bytes())
+}
+
+/// Convergence chart, landscape chart, their CSVs, and the JSON summary.
+fn write_module_report(
+    dir: &Path,
+    base: &Design,
+    lib: &MaterialLibrary,
+    settings: &ModuleSettings,
+    o: &ModuleOutcome,
+    landscape_vars: &[Variable],
+    predictor: Predictor,
+) -> Result<()> {
+    write_json(&dir.join("summary.json"), o)?;
+    // Convergence of every run of the winning choice (best penalised cost per iteration).
+    let win = &o.choices[o.best_choice];
+    let mut chart = Chart::new(
+        format!("Convergence, {}", win.choice),
+        "iteration",
+        "best cost (−objective / start objective)",
+    );
+    let mut rows = Vec::new();
+    for r in &win.runs {
+        let pts: Vec<(f64, f64)> = r
+            .history
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (i as f64 + 1.0, *c))
+            .collect();
+        for (i, c) in &pts {
+            rows.push(vec![
+                r.solver.name().to_string(),
+                r.start.to_string(),
+                i.to_string(),
+                c.to_string(),
+            ]);
+        }
+        chart = chart.with(Series::new(
+            format!("{} start {}", r.solver.name(), r.start),
+            pts,
+            Mark::Line,
+        ));
+    }
+    chart.write_svg(&dir.join("convergence.svg"))?;
+    write_csv(
+        &dir.join("convergence.csv"),
+        &["solver", "start", "iteration", "best_cost"],
+        &rows,
+    )?;
+    // Landscape over two variables at the optimum of the winning choice.
+    let idx: Vec<usize> = landscape_vars
+        .iter()
+        .map(|v| {
+            o.variables.iter().position(|w| w == v).ok_or_else(|| {
+                anyhow::anyhow!("--landscape variable `{}` is not in --vary", v.name())
+            })
+        })
+        .collect::<Result<_>>()?;
+    if idx.len() == 2 {
+        let cal = o.calibration;
+        let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
+        let at = win
+            .best
+            .as_ref()
+            .map(|e| e.x.clone())
+            .unwrap_or_else(|| p.start_point());
+        let steps = 15;
+        let grid = landscape(&p, &at, idx[0], idx[1], steps);
+        let (va, vb) = (landscape_vars[0], landscape_vars[1]);
+        let mut chart = Chart::new(
+            format!(
+                "{} landscape, {}",
+                if o.objective == Objective::Q {
+                    "Q"
+                } else {
+                    "|K|"
+                },
+                win.choice
+            ),
+            va.name(),
+            format!("objective, {}", o.objective_unit),
+        );
+        // Every third slice of the second variable, feasible points joined; the
+        // points the constraints cut off drawn apart.
+        for j in (0..steps).step_by(3) {
+            let vbj = grid[j].b;
+            let pts: Vec<(f64, f64)> = grid
+                .iter()
+                .filter(|g| (g.b - vbj).abs() < 1e-12 && g.feasible && g.objective.is_finite())
+                .map(|g| (g.a, g.objective))
+                .collect();
+            if !pts.is_empty() {
+                chart = chart.with(Series::new(
+                    format!("{} = {vbj:.3}, feasible", vb.name()),
+                    pts,
+                    Mark::LinePoints,
+                ));
+            }
+        }
+        let cut: Vec<(f64, f64)> = grid
+            .iter()
+            .filter(|g| !g.feasible && g.objective.is_finite())
+            .map(|g| (g.a, g.objective))
+            .collect();
+        if !cut.is_empty() {
+            chart = chart.with(Series::new(
+                "infeasible (strain or window limit)",
+                cut,
+                Mark::Points,
+            ));
+        }
+        if chart.series.is_empty() {
+            anyhow::bail!("the landscape has no point the model could evaluate");
+        }
+        chart.write_svg(&dir.join("landscape.svg"))?;
+        let rows: Vec<Vec<String>> = grid
+            .iter()
+            .map(|g| {
+                vec![
+                    g.a.to_string(),
+                    g.b.to_string(),
+                    if g.objective.is_finite() {
+                        g.objective.to_string()
+                    } else {
+                        String::new()
+                    },
+                    g.feasible.to_string(),
+                ]
+            })
+            .collect();
+        write_csv(
+            &dir.join("landscape.csv"),
+            &[va.name(), vb.name(), "objective", "feasible"],
+            &rows,
+        )?;
+    }
+    Ok(())
+}
+
+fn write_place_report(dir: &Path, o: &PlaceOutcome) -> Result<()> {
+    write_json(&dir.join("summary.json"), o)?;
+    let mut chart = Chart::new(
+        "Placement convergence",
+        "iteration",
+        "best cost (−objective)",
+    );
+    let mut rows = Vec::new();
+    for r in &o.runs {
+        let pts: Vec<(f64, f64)> = r
+            .history
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (i as f64 + 1.0, *c))
+            .collect();
+        for (i, c) in &pts {
+            rows.push(vec![
+                r.solver.name().to_string(),
+                i.to_string(),
+                c.to_string(),
+            ]);
+        }
+        chart = chart.with(Series::new(r.solver.name(), pts, Mark::Line));
+    }
+    chart.write_svg(&dir.join("convergence.svg"))?;
+    write_csv(
+        &dir.join("convergence.csv"),
+        &["solver", "iteration", "best_cost"],
+        &rows,
+    )?;
+    if let Some(ag) = &o.agreement {
+        let chart = Chart::new(
+            "Coherence proxy against the protocol",
+            "mutual coherence",
+            "RR % + mean SNR dB",
+        )
+        .with(Series::new(
+            "random layouts",
+            ag.points.clone(),
+            Mark::Points,
+        ));
+        chart.write_svg(&dir.join("proxy_agreement.svg"))?;
+        let rows: Vec<Vec<String>> = ag
+            .points
+            .iter()
+            .map(|p| vec![p.0.to_string(), p.1.to_string()])
+            .collect();
+        write_csv(
+            &dir.join("proxy_agreement.csv"),
+            &["mutual_coherence", "protocol_score"],
+            &rows,
+        )?;
+    }
+    Ok(())
+}
