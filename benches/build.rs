@@ -8,7 +8,7 @@ fn shipped(name: &str) -> fbgforge::spec::Design {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("designs")
         .join(name);
-    fbgforge::spec::load(&p).expect("shipped design loads")
+    fbgforge::design::load(&p).expect("shipped design loads")
 }
 
 fn build_module(c: &mut Criterion) {

@@ -4,6 +4,7 @@
 //! once; the geometry, the models and the verifier all read it.
 
 pub mod array;
+pub mod design;
 pub mod family;
 pub mod fem;
 pub mod geometry;

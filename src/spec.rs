@@ -9,12 +9,13 @@
 //!
 //! Derived dimensions (radii, heights, slit positions) are not stored here: they are
 //! computed once in [`crate::profile`], the single source of truth that both the solid
-//! geometry and the opto-mechanical model read.
+//! geometry and the opto-mechanical model read. Loading a design file goes through
+//! [`crate::design`], which adds the checks that need those derived dimensions.
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// An error in a design spec, naming the file and the field at fault.
 #[derive(Debug, Clone, PartialEq)]
@@ -299,24 +300,10 @@ pub struct Design {
     pub array: Option<TactileArray>,
 }
 
-/// Load a design from a TOML file and validate it.
-pub fn load(path: &Path) -> Result<Design, SpecError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SpecError {
-        file: Some(path.to_path_buf()),
-        field: String::new(),
-        message: format!("cannot read the design file: {e}"),
-    })?;
-    parse(&text).map_err(|mut e| {
-        e.file = Some(path.to_path_buf());
-        e
-    })
-}
-
-/// Parse and validate a design from TOML text.
-pub fn parse(text: &str) -> Result<Design, SpecError> {
-    let design: Design = toml::from_str(text).map_err(|e| toml_error(text, e))?;
-    design.validate()?;
-    Ok(design)
+/// Deserialise a design from TOML text without validating it (the design layer,
+/// [`crate::design`], parses and validates).
+pub fn parse_unvalidated(text: &str) -> Result<Design, SpecError> {
+    toml::from_str(text).map_err(|e| toml_error(text, e))
 }
 
 fn toml_error(text: &str, e: toml::de::Error) -> SpecError {
@@ -370,8 +357,10 @@ impl Design {
         })
     }
 
-    /// Check every field against its allowed range and every cross-field constraint.
-    pub fn validate(&self) -> Result<(), SpecError> {
+    /// Check every field against its allowed range and every cross-field constraint
+    /// that needs no derived dimension; [`crate::design`] adds the checks on the
+    /// derived profile (radial stack, pillar pitch, holes against the domes).
+    pub fn validate_fields(&self) -> Result<(), SpecError> {
         let p = &self.printer;
         positive("printer.resolution_mm", p.resolution_mm, 0.001, 2.0)?;
         positive("printer.min_wall_mm", p.min_wall_mm, 0.01, 5.0)?;
@@ -524,68 +513,6 @@ impl Design {
             0.5 * r,
         )?;
 
-        // Radial stack: the core and an insert must keep a positive radius.
-        let prof = crate::profile::ModuleProfile::from_module_unchecked(m);
-        if prof.core_inner_radius_mm < 0.25 * r || prof.core_inner_radius_mm <= 0.0 {
-            return Err(err(
-                "module.cap_wall_mm",
-                format!(
-                    "walls, clearance and pillars ({:.3} mm in all) leave the core an inner radius of {:.3} mm; at least a quarter of the outer radius ({:.3} mm) is needed: reduce the walls or the pillar height",
-                    r - prof.core_inner_radius_mm,
-                    prof.core_inner_radius_mm,
-                    0.25 * r
-                ),
-            ));
-        }
-        // Pillars must not overlap: their angular width at the core wall, plus a gap of
-        // one minimum wall between neighbours, must fit in the circumference.
-        let pitch_mm = 2.0 * std::f64::consts::PI * prof.core_outer_radius_mm / pl.count as f64;
-        if pl.width_mm + min_wall > pitch_mm * 0.8 {
-            return Err(err(
-                "module.pillars.width_mm",
-                format!(
-                    "{} pillars of {} mm overlap on a core wall of radius {:.3} mm; allowed up to {:.3} mm each",
-                    pl.count,
-                    pl.width_mm,
-                    prof.core_outer_radius_mm,
-                    pitch_mm * 0.8 - min_wall
-                ),
-            ));
-        }
-        if m.top_hole_diameter_mm / 2.0 >= prof.core_dome_inner_sphere_radius_mm * 0.5 {
-            return Err(err(
-                "module.top_hole_diameter_mm",
-                format!(
-                    "allowed up to {:.3} mm (the core's inner dome radius)",
-                    prof.core_dome_inner_sphere_radius_mm
-                ),
-            ));
-        }
-        if m.apex_flat_diameter_mm / 2.0 >= prof.insert_sphere_radius_mm * 0.5 {
-            return Err(err(
-                "module.apex_flat_diameter_mm",
-                format!("allowed up to {:.3} mm", prof.insert_sphere_radius_mm),
-            ));
-        }
-        if prof.insert_radius_mm < min_wall {
-            return Err(err(
-                "module.core_insert_clearance_mm",
-                format!(
-                    "leaves the insert a radius of {:.3} mm",
-                    prof.insert_radius_mm
-                ),
-            ));
-        }
-        if prof.pillar_top_mm < 2.0 * min_wall.max(1.0) {
-            return Err(err(
-                "module.overall_height_mm",
-                format!(
-                    "{} mm leaves a cylindrical section of {:.3} mm below the dome; make the module taller or the dome lower",
-                    m.overall_height_mm, prof.pillar_top_mm
-                ),
-            ));
-        }
-
         if m.cores.is_empty() {
             return Err(err("module.cores", "list at least one core"));
         }
@@ -646,15 +573,14 @@ impl Design {
                             format!("expected 0 to {}, got {pillar}", pl.count - 1),
                         ));
                     }
-                    let z = g.center_height_mm.ok_or_else(|| {
+                    // Its range along the pillar needs the derived profile:
+                    // checked in crate::design.
+                    g.center_height_mm.ok_or_else(|| {
                         err(
                             &f("center_height_mm"),
                             "a strain grating needs its centre height",
                         )
                     })?;
-                    let lo = g.length_mm / 2.0;
-                    let hi = prof.pillar_top_mm - g.length_mm / 2.0;
-                    range(&f("center_height_mm"), z, lo, hi)?;
                 }
                 GratingRole::TemperatureReference => {
                     if g.pillar.is_some() || g.center_height_mm.is_some() {
@@ -837,33 +763,4 @@ pub fn positive(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> 
         ));
     }
     range(field, v, lo, hi)
-}
-
-/// The folder of shipped designs: `designs/` under the working directory, else the
-/// crate's own.
-pub fn designs_dir() -> PathBuf {
-    let local = PathBuf::from("designs");
-    if local.is_dir() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("designs")
-    }
-}
-
-/// Every `*.toml` in `dir`, loaded and validated, sorted by file name.
-pub fn load_designs(dir: &Path) -> anyhow::Result<Vec<(PathBuf, Design)>> {
-    use anyhow::Context;
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot read the designs folder {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    paths.sort();
-    paths
-        .into_iter()
-        .map(|p| {
-            let d = load(&p)?;
-            Ok((p, d))
-        })
-        .collect()
 }

@@ -5,8 +5,8 @@
 //! Without admesh the test fails when `CI` is set (`.ci/run` installs it) and is
 //! skipped with a notice otherwise.
 
+use fbgforge::design::{designs_dir, load_designs};
 use fbgforge::geometry::build_design;
-use fbgforge::spec::{designs_dir, load_designs};
 use std::process::Command;
 
 /// The numbers admesh prints, by label.

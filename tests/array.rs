@@ -115,7 +115,7 @@ fn paper_layout_reproduces_table1_distances() {
 #[test]
 fn design_matrix_equals_the_paper_layout_matrix() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml");
-    let design = fbgforge::spec::load(&path).unwrap();
+    let design = fbgforge::design::load(&path).unwrap();
     let (m, ulimit) = matrix_from_design(&design).unwrap();
     assert_eq!(ulimit, 250.0);
     assert_eq!(m.cells, ["A", "B", "C", "D", "E", "F", "G", "H"]);

@@ -11,7 +11,7 @@ use fbgforge::prediction::{
     self, choose_fidelity, choose_fidelity_for, predict_with_fidelity, Fidelity, FidelityChoice,
     TOLERANCE,
 };
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 
 fn design() -> fbgforge::spec::Design {
     common::shipped("clip-on-34mm.toml")
@@ -215,7 +215,7 @@ fn cli_auto_switches_model_at_the_measured_diameter_limit() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         assert_eq!(v["fidelity"], "auto");
-        let d = spec::load(&path).unwrap();
+        let d = fbgforge::design::load(&path).unwrap();
         let closed = fbgforge::model::predict(&d, 10.0).unwrap();
         let preds = v["predictions"].as_array().unwrap();
         assert_eq!(preds.len(), 4);

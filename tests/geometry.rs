@@ -6,7 +6,7 @@ mod common;
 use fbgforge::geometry::build_design;
 use fbgforge::geometry::{self, mesh, module, BuiltPart, PartKind};
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -359,13 +359,13 @@ fn impossible_geometry_is_rejected_with_the_field_and_nothing_is_written() {
     ];
     for (from, to, field) in cases {
         let t = text("clip-on-34mm.toml").replacen(from, to, 1);
-        let e = spec::parse(&t).expect_err(to).to_string();
+        let e = fbgforge::design::parse(&t).expect_err(to).to_string();
         assert!(e.contains(field), "{to}: {e}");
     }
     // A slit deeper than the wall.
     let t =
         text("tactile-array-60x80.toml").replacen("slit_depth_mm = 2.5", "slit_depth_mm = 6.0", 1);
-    let e = spec::parse(&t).unwrap_err().to_string();
+    let e = fbgforge::design::parse(&t).unwrap_err().to_string();
     assert!(e.contains("array.mold.slit_depth_mm"), "{e}");
     // A fiber slit in the mold's corner passes the spec's ranges but not the builder.
     let mut d = shipped("tactile-array-60x80.toml");

@@ -8,8 +8,8 @@
 //! the -dev packages provide, so the test points it at a temporary folder of symlinks
 //! to the versioned libraries.
 
+use fbgforge::design::{designs_dir, load_designs};
 use fbgforge::geometry::build_design;
-use fbgforge::spec::{designs_dir, load_designs};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

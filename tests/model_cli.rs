@@ -35,7 +35,7 @@ fn predict_json_matches_the_library() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let preds = v["predictions"].as_array().unwrap();
-    let lib = fbgforge::model::predict(&fbgforge::spec::load(&path).unwrap(), 12.5).unwrap();
+    let lib = fbgforge::model::predict(&fbgforge::design::load(&path).unwrap(), 12.5).unwrap();
     assert_eq!(preds.len(), lib.len());
     for (j, l) in preds.iter().zip(&lib) {
         assert_eq!(j["grating"], l.grating.as_str());

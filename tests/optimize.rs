@@ -9,7 +9,7 @@ use fbgforge::optimize::module::{
     optimise_module, parse_bounds, ModuleSettings, Objective, Predictor, Variable,
 };
 use fbgforge::optimize::solve::SolverKind;
-use fbgforge::spec::{self, Design, GratingRole};
+use fbgforge::spec::{Design, GratingRole};
 use std::sync::Arc;
 
 use common::shipped as design;
@@ -203,7 +203,7 @@ fn every_returned_design_meets_every_constraint_loads_and_beats_the_start() {
         );
         // The written TOML loads and validates, and describes the same design.
         let text = out.design.to_toml();
-        let back = spec::parse(&text).unwrap_or_else(|e| panic!("{file}: {e}\n{text}"));
+        let back = fbgforge::design::parse(&text).unwrap_or_else(|e| panic!("{file}: {e}\n{text}"));
         assert_eq!(back, out.design);
         let m = back.module.as_ref().unwrap();
         assert_eq!(m.cores.len(), 1);

@@ -51,7 +51,7 @@ fn optimize_writes_a_loadable_design_a_summary_and_plots() {
     );
     let summary: serde_json::Value = serde_json::from_slice(&status.stdout).unwrap();
     assert_eq!(summary["choices"].as_array().unwrap().len(), 2);
-    let d = fbgforge::spec::load(&out).unwrap();
+    let d = fbgforge::design::load(&out).unwrap();
     assert_eq!(d.name, "clip-on-34mm-optimised");
     let report = dir.path().join("opt-report");
     for f in [
@@ -95,7 +95,7 @@ fn place_writes_a_loadable_design() {
         "{}",
         String::from_utf8_lossy(&status.stderr)
     );
-    let d = fbgforge::spec::load(&out).unwrap();
+    let d = fbgforge::design::load(&out).unwrap();
     assert!(d.array.is_some());
     assert!(dir.path().join("placed-report/convergence.svg").exists());
 }
@@ -293,5 +293,5 @@ fn the_loop_closes_through_the_verifier() {
         "{mean_r2} vs {:?}",
         measured.r_squared
     );
-    fbgforge::spec::load(&next).unwrap();
+    fbgforge::design::load(&next).unwrap();
 }

@@ -10,7 +10,7 @@ use fbgforge::optimize::module::{
     Objective,
 };
 use fbgforge::optimize::quality::{design_quality, Calibration};
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 
 use common::shipped as design;
 
@@ -29,7 +29,7 @@ fn run(d: &Design, s: &ModuleSettings) -> ModuleOutcome {
 /// Q of the written design, recomputed from scratch through the model.
 fn q_of_written(out: &ModuleOutcome, s: &ModuleSettings) -> f64 {
     let text = out.design.to_toml();
-    let back = spec::parse(&text).unwrap();
+    let back = fbgforge::design::parse(&text).unwrap();
     let m = back.module.as_ref().unwrap();
     let preds = fbgforge::model::predict(&back, s.max_force_n).unwrap();
     let insert = m.inserts.first().map(|i| i.name.as_str());
@@ -162,7 +162,7 @@ fn optimised_design_builds_into_watertight_parts() {
         ..ModuleSettings::default()
     };
     let out = run(&base, &s);
-    let back = spec::parse(&out.design.to_toml()).unwrap();
+    let back = fbgforge::design::parse(&out.design.to_toml()).unwrap();
     let parts = fbgforge::geometry::build_parts(&back, None, None).unwrap();
     assert!(
         parts.len() >= 3,

@@ -7,7 +7,6 @@ use fbgforge::array::methods::Method;
 use fbgforge::optimize::place::{place, PlaceObjective, PlaceSettings, PlacementProblem};
 use fbgforge::optimize::solve::{RunSettings, SolverKind};
 use fbgforge::profile::ArrayLayout;
-use fbgforge::spec::{self};
 
 use common::shipped as design;
 
@@ -55,7 +54,7 @@ fn placement_never_scores_below_the_papers_layout() {
             assert!(r.best_objective <= out.best_objective + 1e-9);
             assert!(r.evaluations > 0 && !r.history.is_empty());
         }
-        let back = spec::parse(&out.design.to_toml()).unwrap();
+        let back = fbgforge::design::parse(&out.design.to_toml()).unwrap();
         assert_eq!(back.array, out.design.array);
     }
 }

@@ -3,7 +3,6 @@
 mod common;
 
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
-use fbgforge::spec;
 use std::path::Path;
 
 use common::shipped;
@@ -68,7 +67,7 @@ fn paper_text() -> String {
 }
 
 fn rejects(text: &str, field: &str) {
-    let e = spec::parse(text).expect_err("spec should be rejected");
+    let e = fbgforge::design::parse(text).expect_err("spec should be rejected");
     assert!(
         e.to_string().contains(field),
         "error should name `{field}`: {e}"
@@ -137,7 +136,7 @@ fn bad_specs_name_the_field() {
 
 #[test]
 fn toml_syntax_errors_report_the_line() {
-    let e = spec::parse("name = \"x\"\n[printer\n").unwrap_err();
+    let e = fbgforge::design::parse("name = \"x\"\n[printer\n").unwrap_err();
     assert!(e.to_string().contains("line 2"), "{e}");
 }
 
@@ -155,14 +154,14 @@ fn unknown_keys_name_their_table_and_line() {
         .position(|l| l.starts_with("groove_dept_mm"))
         .unwrap()
         + 1;
-    let e = spec::parse(&bad).unwrap_err();
+    let e = fbgforge::design::parse(&bad).unwrap_err();
     assert_eq!(e.field, "module.pillars");
     let msg = e.to_string();
     assert!(
         msg.contains(&format!("line {line}:")) && msg.contains("unknown field `groove_dept_mm`"),
         "{msg}"
     );
-    let missing = spec::load(Path::new("/no/such/design.toml")).unwrap_err();
+    let missing = fbgforge::design::load(Path::new("/no/such/design.toml")).unwrap_err();
     assert!(
         missing
             .to_string()

@@ -101,7 +101,7 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
     let (matrix, design_ulimit): (SensingMatrix, Option<f64>) = match &a.matrix {
         MatrixSource::Csv(p) => (read_matrix(p)?, None),
         MatrixSource::Design(d) => {
-            let design = crate::spec::load(d)?;
+            let design = crate::design::load(d)?;
             let (m, u) =
                 matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
             (m, Some(u))

@@ -4,7 +4,7 @@
 use anyhow::{bail, Result};
 use clap::Args;
 use fbgforge::geometry;
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -49,7 +49,7 @@ fn print_table(design: &str, r: &geometry::BuildReport) {
 
 /// `fbgforge build`.
 pub fn run(a: BuildArgs) -> Result<()> {
-    let design = spec::load(&a.design)?;
+    let design = fbgforge::design::load(&a.design)?;
     let dir = a.out.clone().unwrap_or_else(|| default_out(&design));
     let r = geometry::build_design(&design, &dir, a.tolerance, a.parts.as_deref())?;
     print_table(&design.name, &r);
@@ -59,9 +59,12 @@ pub fn run(a: BuildArgs) -> Result<()> {
 
 /// `fbgforge` with no arguments: build the shipped default designs into `out/`.
 pub fn run_default() -> Result<()> {
-    let designs = spec::load_designs(&spec::designs_dir())?;
+    let designs = fbgforge::design::load_designs(&fbgforge::design::designs_dir())?;
     if designs.is_empty() {
-        bail!("no designs found in {}", spec::designs_dir().display());
+        bail!(
+            "no designs found in {}",
+            fbgforge::design::designs_dir().display()
+        );
     }
     let t = Instant::now();
     let pb = fbgforge::progress::bar(designs.len() as u64, "build");

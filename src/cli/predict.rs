@@ -78,7 +78,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             a.delta_t_k
         );
     }
-    let design = fbgforge::spec::load(&a.design)?;
+    let design = fbgforge::design::load(&a.design)?;
     let case = a.case.map(LoadCase::from);
     if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
         bail!(
@@ -323,7 +323,7 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
 
 /// Run `fbgforge sweep`.
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
-    let design = fbgforge::spec::load(&a.design)?;
+    let design = fbgforge::design::load(&a.design)?;
     if let Some(dir) = &a.paper_figures {
         return write_paper_figures(&design, dir, a.steps, a.fidelity);
     }

@@ -225,7 +225,7 @@ pub struct SynthLogArgs {
 
 /// Run `fbgforge synth-log`.
 pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
-    let design = fbgforge::spec::load(&a.design)?;
+    let design = fbgforge::design::load(&a.design)?;
     let style = LogStyle {
         decimal_comma: a.decimal_comma,
         bom: a.bom,
@@ -329,7 +329,7 @@ pub struct CalibrateArrayArgs {
 
 /// Run `fbgforge calibrate-array`.
 pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
-    let design = fbgforge::spec::load(&a.design)?;
+    let design = fbgforge::design::load(&a.design)?;
     let n_cells = design
         .array
         .as_ref()

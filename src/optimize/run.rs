@@ -12,7 +12,7 @@ use super::place::{place, PlaceOutcome, PlaceSettings};
 use super::quality::MeasuredPrototype;
 use crate::output::{write_atomic, write_csv, write_json};
 use crate::plot::{Chart, Mark, Series};
-use crate::spec::{self, Design};
+use crate::spec::Design;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -73,7 +73,7 @@ pub struct PlaceRun {
 /// Optimise a module design: load it, search every material choice, write the
 /// optimised design and the report, and return what was done.
 pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
-    let design = spec::load(&req.design)?;
+    let design = crate::design::load(&req.design)?;
     let lib = match &req.materials {
         Some(p) => MaterialLibrary::load(p)?,
         None => MaterialLibrary::shipped(),
@@ -138,7 +138,7 @@ pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
 /// Optimise grating placement: load the array design, search, write the design and
 /// the report.
 pub fn run_placement(req: &PlaceRequest) -> Result<PlaceRun> {
-    let design = spec::load(&req.design)?;
+    let design = crate::design::load(&req.design)?;
     let bar = crate::progress::bar(3, "place");
     let outcome = place(&design, &req.settings, &|stage| {
         bar.set_message(stage.to_string());
@@ -178,7 +178,7 @@ pub fn write_design(path: &Path, d: &Design) -> Result<()> {
         "# Written by fbgforge; loads with `fbgforge build/predict/verify`.\n{}",
         d.to_toml()
     );
-    spec::parse(&text)
+    crate::design::parse(&text)
         .map_err(|e| anyhow::anyhow!("internal: the written design does not load back: {e}"))?;
     write_atomic(path, text.as_bytes())
 }

@@ -94,7 +94,7 @@ pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
             req.k_tolerance
         );
     }
-    let design = crate::spec::load(&req.design)?;
+    let design = crate::design::load(&req.design)?;
     check_insert(&design, req)?;
     let log = logs::read_peak_log(&req.log, &req.read)?;
     let force = logs::read_force_log(&req.force, &req.force_columns)?;

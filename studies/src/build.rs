@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use fbgforge::geometry::{self, mesh};
 use fbgforge::plot::{Chart, Mark, Series};
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -60,8 +60,8 @@ struct Timings {
 
 /// Run the study, print its tables and write its CSV, JSON and charts into `a.out`.
 pub fn run(a: &BuildStudyArgs) -> Result<()> {
-    let design = spec::load(&a.design)?;
-    let array = spec::load(&a.array)?;
+    let design = fbgforge::design::load(&a.design)?;
+    let array = fbgforge::design::load(&a.array)?;
     let repeats = if a.quick { 1 } else { a.repeats.max(1) };
     let solids = geometry::build_solids(&design, None)?;
     let tolerances: &[f64] = if a.quick {
@@ -132,7 +132,7 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
     }
 
     // 3. The 13 diameters 10..22 mm, interpolated in the shipped family, in parallel.
-    let knots: Vec<Design> = spec::load_designs(&spec::designs_dir())?
+    let knots: Vec<Design> = fbgforge::design::load_designs(&fbgforge::design::designs_dir())?
         .into_iter()
         .map(|(_, d)| d)
         .filter(|d| {

@@ -12,7 +12,7 @@ use fbgforge::fem::{solve_configuration, Configuration, DomeContact, FemOptions,
 use fbgforge::model::LoadCase;
 use fbgforge::output::write_csv;
 use fbgforge::plot::{Chart, Mark, Series};
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 use std::path::Path;
 use std::time::Instant;
 
@@ -21,7 +21,7 @@ pub const PAPER_DESIGN_TOML: &str = include_str!("../../designs/clip-on-34mm.tom
 
 /// The paper's module as a design.
 pub fn paper_design() -> Result<Design> {
-    spec::parse(PAPER_DESIGN_TOML).map_err(|e| anyhow::anyhow!("built-in design: {e}"))
+    fbgforge::design::parse(PAPER_DESIGN_TOML).map_err(|e| anyhow::anyhow!("built-in design: {e}"))
 }
 
 /// One mesh level of the convergence study.

@@ -10,7 +10,7 @@ use fbgforge::optimize::place::{place, PlaceSettings};
 use fbgforge::optimize::solve::SolverKind;
 use fbgforge::output::{write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -54,7 +54,7 @@ fn shipped(name: &str) -> Result<Design> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../designs")
         .join(name);
-    Ok(spec::load(&p)?)
+    Ok(fbgforge::design::load(&p)?)
 }
 
 fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {

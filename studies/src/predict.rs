@@ -66,7 +66,7 @@ pub fn run(a: &BenchPredictArgs) -> Result<()> {
     let mut rows = Vec::new();
     let pb = fbgforge::progress::bar(designs.len() as u64, "bench");
     for path in &designs {
-        let design = fbgforge::spec::load(path)?;
+        let design = fbgforge::design::load(path)?;
         let m = design
             .module
             .as_ref()

@@ -104,7 +104,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     fbgforge::output::ensure_dir(&opts.out)?;
     let (true_a, layout_name) = match &opts.design {
         Some(p) => {
-            let d = fbgforge::spec::load(p)?;
+            let d = fbgforge::design::load(p)?;
             (
                 fbgforge::array::kernel::matrix_from_design(&d)?
                     .0

@@ -35,7 +35,7 @@ pub struct BenchVerifyArgs {
 /// for the benchmark.
 pub fn bench_design() -> Result<fbgforge::spec::Design> {
     let text = include_str!("../../designs/clip-on-34mm.toml");
-    let mut d = fbgforge::spec::parse(text)?;
+    let mut d = fbgforge::design::parse(text)?;
     let m = d
         .module
         .as_mut()

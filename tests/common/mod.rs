@@ -2,7 +2,7 @@
 //! (Each `tests/*.rs` is its own crate and uses only some of these.)
 #![allow(dead_code)]
 
-use fbgforge::spec::{self, Design};
+use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 
 /// Path of a shipped design (`designs/<name>`), independent of the working directory.
@@ -14,7 +14,7 @@ pub fn shipped_path(name: &str) -> PathBuf {
 
 /// A shipped design, loaded and validated; panics with the loader's message.
 pub fn shipped(name: &str) -> Design {
-    spec::load(&shipped_path(name)).unwrap_or_else(|e| panic!("{e}"))
+    fbgforge::design::load(&shipped_path(name)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Set one material's Young's modulus, MPa (the material must exist in the design).
