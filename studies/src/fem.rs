@@ -7,6 +7,7 @@
 //! A table of the same numbers is printed. The design is the paper's module
 //! (`designs/clip-on-34mm.toml`, compiled in so the bench runs from any folder).
 
+use super::fem_compare::paper_design;
 use anyhow::{Context, Result};
 use fbgforge::fem::{solve_configuration, Configuration, DomeContact, FemOptions, SolverKind};
 use fbgforge::model::LoadCase;
@@ -15,14 +16,6 @@ use fbgforge::plot::{Chart, Mark, Series};
 use fbgforge::spec::Design;
 use std::path::Path;
 use std::time::Instant;
-
-/// The paper's module, compiled in.
-pub const PAPER_DESIGN_TOML: &str = include_str!("../../designs/clip-on-34mm.toml");
-
-/// The paper's module as a design.
-pub fn paper_design() -> Result<Design> {
-    fbgforge::design::parse(PAPER_DESIGN_TOML).map_err(|e| anyhow::anyhow!("built-in design: {e}"))
-}
 
 /// One mesh level of the convergence study.
 #[derive(Debug, Clone, serde::Serialize)]

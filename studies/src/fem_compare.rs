@@ -19,6 +19,14 @@ use fbgforge::spec::Design;
 use serde::Serialize;
 use std::path::Path;
 
+/// The paper's module, compiled in.
+pub const PAPER_DESIGN_TOML: &str = include_str!("../../designs/clip-on-34mm.toml");
+
+/// The paper's module as a design.
+pub fn paper_design() -> Result<Design> {
+    fbgforge::design::parse(PAPER_DESIGN_TOML).map_err(|e| anyhow::anyhow!("built-in design: {e}"))
+}
+
 /// Outer diameters of the comparison grid, mm.
 pub const GRID_DIAMETERS_MM: [f64; 7] = [10.0, 13.0, 16.0, 22.0, 28.0, 34.0, 40.0];
 /// Wall thicknesses of the comparison grid (cap and core alike), mm.
@@ -147,7 +155,7 @@ pub fn run_comparison_on(
     diameters_mm: &[f64],
     walls_mm: &[f64],
 ) -> Result<Vec<ComparisonRow>> {
-    let base = super::fem::paper_design()?;
+    let base = paper_design()?;
     let pb = fbgforge::progress::bar((diameters_mm.len() * walls_mm.len()) as u64, "comparison");
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
