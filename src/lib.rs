@@ -17,5 +17,6 @@ pub mod plot;
 pub mod prediction;
 pub mod profile;
 pub mod progress;
+pub mod solvers;
 pub mod spec;
 pub mod verify;

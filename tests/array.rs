@@ -2,14 +2,15 @@
 //! matrix, exact recovery on noise-free sparse cases, metric arithmetic, bounds,
 //! the seeded protocol, and clear errors on bad input.
 
-use fbgforge::array::de::{DifferentialEvolution, PenalisedCost};
 use fbgforge::array::io::{read_matrix, read_shifts};
 use fbgforge::array::kernel::*;
+use fbgforge::array::methods::PenalisedCost;
 use fbgforge::array::methods::{
     build, reconstruct_stream, Method, MethodSettings, NoisePrior, DEFAULT_METHOD,
 };
 use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::*;
+use fbgforge::solvers::differential_evolution::DifferentialEvolution;
 use nalgebra::{DMatrix, DVector};
 use std::path::{Path, PathBuf};
 

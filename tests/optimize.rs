@@ -8,7 +8,7 @@ use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{
     optimise_module, parse_bounds, ModuleSettings, Objective, Predictor, Variable,
 };
-use fbgforge::optimize::solve::SolverKind;
+use fbgforge::solvers::SolverKind;
 use fbgforge::spec::{Design, GratingRole};
 use std::sync::Arc;
 

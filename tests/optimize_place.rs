@@ -5,8 +5,8 @@ mod common;
 
 use fbgforge::array::methods::Method;
 use fbgforge::optimize::place::{place, PlaceObjective, PlaceSettings, PlacementProblem};
-use fbgforge::optimize::solve::{RunSettings, SolverKind};
 use fbgforge::profile::ArrayLayout;
+use fbgforge::solvers::{RunSettings, SolverKind};
 
 use common::shipped as design;
 

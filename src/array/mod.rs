@@ -18,7 +18,6 @@
 //!
 //! Units: sensitivities in pm/g, shifts in pm, loads in g, distances in mm.
 
-pub mod de;
 pub mod io;
 pub mod kernel;
 pub mod methods;

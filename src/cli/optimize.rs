@@ -8,7 +8,7 @@ use fbgforge::optimize::module::{
 };
 use fbgforge::optimize::place::{PlaceObjective, PlaceOutcome, PlaceSettings};
 use fbgforge::optimize::run::{run_module, run_placement, ModuleRequest, PlaceRequest};
-use fbgforge::optimize::solve::SolverKind;
+use fbgforge::solvers::SolverKind;
 use std::path::PathBuf;
 
 /// Arguments of `fbgforge optimize`.

@@ -15,4 +15,3 @@ pub mod module;
 pub mod place;
 pub mod quality;
 pub mod run;
-pub mod solve;

@@ -18,13 +18,13 @@ use super::materials::{MaterialLibrary, MaterialRole};
 use super::quality::{
     design_quality, Calibration, MeasuredPrototype, QualityBreakdown, QualitySettings,
 };
-use super::solve::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
 use crate::model::GratingPrediction;
 use crate::profile::ModuleProfile;
+use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
 use crate::spec::{Core, Design, GratingRole, Insert, Module};
 use rayon::prelude::*;
 use serde::Serialize;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A function that predicts every grating of a design at a force (the model).
@@ -234,7 +234,7 @@ impl Default for ModuleSettings {
             cores: None,
             inserts: None,
             quality: QualitySettings::default(),
-            solvers: SolverKind::ALL.to_vec(),
+            solvers: SolverKind::BOTH.to_vec(),
             extra_starts: 2,
             run: RunSettings::default(),
             seed: 2024,
@@ -335,8 +335,6 @@ pub struct ModuleProblem {
     windows_nm: Vec<(String, f64, f64)>,
     scale: f64,
     x0: Vec<f64>,
-    best_feasible: Mutex<Option<Evaluation>>,
-    least_violating: Mutex<Option<Evaluation>>,
 }
 
 fn module_of(d: &Design) -> anyhow::Result<&Module> {
@@ -511,8 +509,6 @@ impl ModuleProblem {
             windows_nm,
             scale: 1.0,
             x0: Vec::new(),
-            best_feasible: Mutex::new(None),
-            least_violating: Mutex::new(None),
         };
         p.x0 = p.start_point();
         Ok(p)
@@ -822,19 +818,25 @@ impl ModuleProblem {
         e.objective / self.scale - TIE_WEIGHT * d2
     }
 
-    /// Best feasible evaluation seen so far.
-    pub fn best_feasible(&self) -> Option<Evaluation> {
-        self.best_feasible.lock().ok().and_then(|g| g.clone())
-    }
-
-    /// Least violating evaluation seen so far (for infeasibility reports).
-    pub fn least_violating(&self) -> Option<Evaluation> {
-        self.least_violating.lock().ok().and_then(|g| g.clone())
-    }
-
     /// Bounds of the search box.
     pub fn box_bounds(&self) -> (Vec<f64>, Vec<f64>) {
         (self.lo.clone(), self.hi.clone())
+    }
+
+    /// Of the runs' best points (argmin's state), the feasible one of highest merit.
+    pub fn best_feasible<'e>(&self, evals: &'e [Evaluation]) -> Option<&'e Evaluation> {
+        evals
+            .iter()
+            .filter(|e| e.feasible())
+            .max_by(|a, b| self.merit(a).total_cmp(&self.merit(b)))
+    }
+
+    /// Of the runs' best points, the one that violates the constraints least.
+    pub fn least_violating<'e>(&self, evals: &'e [Evaluation]) -> Option<&'e Evaluation> {
+        evals.iter().filter(|e| !e.feasible()).min_by(|a, b| {
+            let (a, b) = (a.infeasibility_rank(), b.infeasibility_rank());
+            a.0.cmp(&b.0).then(a.1.total_cmp(&b.1))
+        })
     }
 }
 
@@ -844,24 +846,7 @@ impl BoxProblem for ModuleProblem {
     }
 
     fn cost(&self, x: &[f64]) -> f64 {
-        let e = self.evaluate(x);
-        let c = self.penalised(&e);
-        if e.feasible() {
-            if let Ok(mut b) = self.best_feasible.lock() {
-                if b.as_ref().is_none_or(|o| self.merit(&e) > self.merit(o)) {
-                    *b = Some(e);
-                }
-            }
-        } else if let Ok(mut b) = self.least_violating.lock() {
-            let better = |o: &Evaluation| {
-                let (a, b) = (e.infeasibility_rank(), o.infeasibility_rank());
-                a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
-            };
-            if b.as_ref().is_none_or(better) {
-                *b = Some(e);
-            }
-        }
-        c
+        self.penalised(&self.evaluate(x))
     }
 }
 
@@ -1083,26 +1068,29 @@ pub fn optimise_module(
                 settings.seed.wrapping_add(ci as u64),
                 &settings.run,
             )?;
+            // The best point of each run comes from argmin's state; the start point
+            // is a candidate too (every Nelder–Mead run starts there).
+            let evals: Vec<Evaluation> = std::iter::once(p.evaluate(&p.start_point()))
+                .chain(runs.iter().map(|r| p.evaluate(&r.best_x)))
+                .collect();
             let summaries = runs
                 .into_iter()
-                .map(|r| {
-                    let e = p.evaluate(&r.best_x);
-                    RunSummary {
-                        solver: r.solver,
-                        start: r.start,
-                        iterations: r.iterations,
-                        evaluations: r.evaluations,
-                        time_s: r.time_s,
-                        objective: if e.feasible() { e.objective } else { 0.0 },
-                        feasible: e.feasible(),
-                        termination: r.termination,
-                        history: r.history,
-                    }
+                .zip(&evals[1..])
+                .map(|(r, e)| RunSummary {
+                    solver: r.solver,
+                    start: r.start,
+                    iterations: r.iterations,
+                    evaluations: r.evaluations,
+                    time_s: r.time_s,
+                    objective: if e.feasible() { e.objective } else { 0.0 },
+                    feasible: e.feasible(),
+                    termination: r.termination,
+                    history: r.history,
                 })
                 .collect();
-            let best = p.best_feasible();
+            let best = p.best_feasible(&evals).cloned();
             let least = if best.is_none() {
-                p.least_violating()
+                p.least_violating(&evals).cloned()
             } else {
                 None
             };

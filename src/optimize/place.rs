@@ -15,15 +15,14 @@
 //! protocol seeds, with the penalty tuned per layout as the paper does. The mold
 //! follows the fibers automatically: its slits derive from `array.fiber_x_mm`.
 
-use super::solve::{multi_start, start_points, BoxProblem, RunSettings, SolverKind};
 use crate::array::kernel::{matrix_from_positions, mutual_coherence, DistanceKernel};
 use crate::array::methods::Method;
 use crate::array::protocol::{run_protocol, ProtocolConfig};
 use crate::profile::ArrayLayout;
+use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
 use crate::spec::{Design, TactileArray};
 use rayon::prelude::*;
 use serde::Serialize;
-use std::sync::Mutex;
 use std::time::Instant;
 
 /// What placement maximises.
@@ -83,7 +82,7 @@ impl Default for PlaceSettings {
             test_seeds: vec![101, 102, 103, 104, 105],
             vary_fibers: false,
             edge_margin_mm: 2.0,
-            solvers: SolverKind::ALL.to_vec(),
+            solvers: SolverKind::BOTH.to_vec(),
             extra_starts: 1,
             // ~2000 protocol evaluations for the swarm: about half the 60 s budget on
             // two cores in a release build (the `optimize` study).
@@ -129,7 +128,6 @@ pub struct PlacementProblem {
     settings: PlaceSettings,
     lo: Vec<f64>,
     hi: Vec<f64>,
-    best: Mutex<Option<(f64, Vec<f64>)>>,
 }
 
 impl PlacementProblem {
@@ -188,7 +186,6 @@ impl PlacementProblem {
             settings: settings.clone(),
             lo,
             hi,
-            best: Mutex::new(None),
         })
     }
 
@@ -303,9 +300,15 @@ impl PlacementProblem {
         }
     }
 
-    /// Best feasible layout evaluated so far and its objective.
-    pub fn best(&self) -> Option<(f64, Vec<f64>)> {
-        self.best.lock().ok().and_then(|b| b.clone())
+    /// Of the start and the runs' best points (argmin's state), the feasible layout
+    /// of highest objective and that objective.
+    pub fn best_of(&self, start: &[f64], runs: &[Run]) -> Option<(f64, Vec<f64>)> {
+        std::iter::once(start)
+            .chain(runs.iter().map(|r| r.best_x.as_slice()))
+            .filter(|x| self.violation(x) <= 0.0)
+            .map(|x| (self.objective(x), x.to_vec()))
+            .filter(|(f, _)| f.is_finite())
+            .max_by(|a, b| a.0.total_cmp(&b.0))
     }
 }
 
@@ -321,13 +324,7 @@ impl BoxProblem for PlacementProblem {
             // coherence and ≤ 100 + SNR for the protocol).
             return 1e3 * (1.0 + v);
         }
-        let f = self.objective(x);
-        if let Ok(mut b) = self.best.lock() {
-            if f.is_finite() && b.as_ref().is_none_or(|(o, _)| f > *o) {
-                *b = Some((f, x.to_vec()));
-            }
-        }
-        -f
+        -self.objective(x)
     }
 }
 
@@ -467,9 +464,6 @@ pub fn place(
         "the start layout breaks the spacing constraints (fibers closer than slit width + min wall, or gratings overlapping on a fiber)"
     );
     let start_objective = p.objective(&x0);
-    // Evaluating the start through the cost makes it the first best-so-far, so the
-    // answer can never score below it.
-    let _ = p.cost(&x0);
     let (lo, hi) = p.bounds();
     let starts = start_points(&x0, &lo, &hi, settings.extra_starts, settings.seed);
     progress("searching");
@@ -490,7 +484,10 @@ pub fn place(
             history: best.history.clone(),
         });
     }
-    let (best_objective, best_x) = p.best().unwrap_or((start_objective, x0.clone()));
+    // The start is a candidate, so the answer can never score below it.
+    let (best_objective, best_x) = p
+        .best_of(&x0, &runs)
+        .unwrap_or((start_objective, x0.clone()));
     progress("held-out protocol");
     let (start_test, best_test) = rayon::join(
         || p.protocol(&x0, &settings.test_seeds, true),

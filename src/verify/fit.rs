@@ -16,8 +16,8 @@
 //! a baseline and drift, only (offset, τ, r) are searched (variable projection), by
 //! Nelder–Mead through argmin: the cost is [`LagModelCost`], the solver interchangeable.
 
-use argmin::core::{CostFunction, Executor, State};
-use argmin::solver::neldermead::NelderMead;
+use crate::solvers::nelder_mead;
+use argmin::core::CostFunction;
 
 /// Ordinary least squares with an arbitrary number of regressors (normal equations;
 /// the problems here have at most three columns). Returns (coefficients, SSR,
@@ -352,34 +352,17 @@ impl CostFunction for LagModelCost<'_> {
 }
 
 /// Minimise a cost with Nelder–Mead from `start` with initial steps `step`; returns
-/// the best parameters and cost.
+/// the best parameters and cost (the start and `f64::MAX` when the solver fails).
 pub fn nelder_mead<C>(cost: C, start: &[f64], step: &[f64], max_iters: u64) -> (Vec<f64>, f64)
 where
     C: CostFunction<Param = Vec<f64>, Output = f64>,
 {
-    let mut simplex = vec![start.to_vec()];
-    for i in 0..start.len() {
-        let mut v = start.to_vec();
-        v[i] += step[i];
-        simplex.push(v);
-    }
+    let unbounded = vec![f64::INFINITY; start.len()];
+    let simplex = nelder_mead::simplex_inside(start, step, &unbounded);
     // The cost is an RMS in pm: a spread below 1e-7 pm across the simplex is converged.
-    let solver = match NelderMead::new(simplex).with_sd_tolerance(1e-7) {
-        Ok(s) => s,
-        Err(_) => return (start.to_vec(), f64::MAX),
-    };
-    match Executor::new(cost, solver)
-        .configure(|s| s.max_iters(max_iters))
-        .run()
+    match nelder_mead::minimise::<_, nelder_mead::Unobserved>(cost, simplex, 1e-7, max_iters, None)
     {
-        Ok(res) => {
-            let st = res.state();
-            let best = st
-                .get_best_param()
-                .cloned()
-                .unwrap_or_else(|| start.to_vec());
-            (best, st.get_best_cost())
-        }
+        Ok(m) => (m.best_x, m.best_cost),
         Err(_) => (start.to_vec(), f64::MAX),
     }
 }

@@ -7,9 +7,9 @@ use clap::Args;
 use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{model_predictor, optimise_module, ModuleSettings};
 use fbgforge::optimize::place::{place, PlaceSettings};
-use fbgforge::optimize::solve::SolverKind;
 use fbgforge::output::{write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::solvers::SolverKind;
 use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -71,7 +71,7 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
         vec![
             vec![SolverKind::NelderMead],
             vec![SolverKind::ParticleSwarm],
-            SolverKind::ALL.to_vec(),
+            SolverKind::BOTH.to_vec(),
         ]
     };
     for file in files {
@@ -109,7 +109,7 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
         }
     }
     let array = shipped("tactile-array-60x80.toml")?;
-    let place_solvers: &[SolverKind] = if a.quick { &[] } else { &SolverKind::ALL };
+    let place_solvers: &[SolverKind] = if a.quick { &[] } else { &SolverKind::BOTH };
     for &solver in place_solvers {
         let s = PlaceSettings {
             solvers: vec![solver],

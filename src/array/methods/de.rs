@@ -2,8 +2,9 @@
 //! evolution (DE/rand/1/bin, 150 individuals, ≤ 1500 generations).
 
 use super::*;
-use crate::array::de::{DifferentialEvolution, PenalisedCost};
-use argmin::core::{Executor, State, TerminationReason};
+use crate::solvers::differential_evolution::DifferentialEvolution;
+use argmin::core::{CostFunction, Error, Executor, State, TerminationReason};
+use std::sync::Arc;
 
 /// The registry entry of `de`.
 pub(super) const ENTRY: MethodEntry = MethodEntry {
@@ -13,6 +14,7 @@ pub(super) const ENTRY: MethodEntry = MethodEntry {
     penalty_grid: doubling_grid,
     build: |common, s| {
         Ok(Box::new(De {
+            gram: row_major(&common.gram),
             common,
             settings: *s,
         }))
@@ -22,6 +24,14 @@ pub(super) const ENTRY: MethodEntry = MethodEntry {
 pub(super) struct De {
     pub(super) common: Common,
     pub(super) settings: MethodSettings,
+    /// The common Gram matrix, row-major, computed once for the stream.
+    gram: Arc<[f64]>,
+}
+
+/// A matrix's entries in row-major order.
+fn row_major(g: &DMatrix<f64>) -> Arc<[f64]> {
+    let n = g.ncols();
+    (0..g.nrows() * n).map(|k| g[(k / n, k % n)]).collect()
 }
 
 /// FNV-1a over the bits of a frame, mixed into the seed so that equal frames give
@@ -47,7 +57,8 @@ impl Reconstructor for De {
             return self.common.unusable();
         }
         let p = &self.common.problem;
-        let cost = PenalisedCost::new(
+        let cost = PenalisedCost::with_gram(
+            self.gram.clone(),
             &p.working,
             &DVector::from_column_slice(y),
             self.settings.penalty,
@@ -79,5 +90,82 @@ impl Reconstructor for De {
             }
             Err(_) => self.common.unusable(),
         }
+    }
+}
+
+/// The paper's objective in the working unknowns z (see [`crate::array::problem`]):
+/// ‖Âz − y‖² + σ Σ_j z_jᵖ, evaluated as zᵀGz − 2bᵀz + yᵀy with G = ÂᵀÂ, b = Âᵀy.
+#[derive(Debug, Clone)]
+pub struct PenalisedCost {
+    /// Gram matrix ÂᵀÂ, row-major n × n, shared by every frame of a stream.
+    gram: Arc<[f64]>,
+    /// Âᵀy.
+    aty: Vec<f64>,
+    /// yᵀy, pm².
+    yty: f64,
+    /// Number of unknowns.
+    n: usize,
+    /// Penalty weight σ, pm² per unit of Σ zᵖ.
+    pub sigma: f64,
+    /// Exponent p of the penalty (0.01 in the paper: a smooth stand-in for ℓ0).
+    pub p: f64,
+}
+
+impl PenalisedCost {
+    /// Cost for matrix `a`, frame `y`, weight `sigma` and exponent `p`.
+    pub fn new(a: &DMatrix<f64>, y: &DVector<f64>, sigma: f64, p: f64) -> Self {
+        Self::with_gram(row_major(&(a.transpose() * a)), a, y, sigma, p)
+    }
+
+    /// The same cost with the Gram matrix ÂᵀÂ already computed (row-major), as the
+    /// reconstructor holds it for a whole stream.
+    pub fn with_gram(
+        gram: Arc<[f64]>,
+        a: &DMatrix<f64>,
+        y: &DVector<f64>,
+        sigma: f64,
+        p: f64,
+    ) -> Self {
+        PenalisedCost {
+            gram,
+            aty: (a.transpose() * y).iter().copied().collect(),
+            yty: y.norm_squared(),
+            n: a.ncols(),
+            sigma,
+            p,
+        }
+    }
+
+    /// The data term ‖Âz − y‖² alone.
+    pub fn misfit(&self, z: &[f64]) -> f64 {
+        let mut q = 0.0;
+        for (j, &zj) in z.iter().enumerate() {
+            if zj == 0.0 {
+                continue;
+            }
+            let row = &self.gram[j * self.n..(j + 1) * self.n];
+            let gz: f64 = row.iter().zip(z).map(|(g, zk)| g * zk).sum();
+            q += zj * (gz - 2.0 * self.aty[j]);
+        }
+        (q + self.yty).max(0.0)
+    }
+
+    /// Full cost of a candidate given as a slice.
+    pub fn eval(&self, z: &[f64]) -> f64 {
+        let mut penalty = 0.0;
+        for &zj in z {
+            if zj > 0.0 {
+                penalty += (self.p * zj.ln()).exp();
+            }
+        }
+        self.misfit(z) + self.sigma * penalty
+    }
+}
+
+impl CostFunction for PenalisedCost {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, z: &Self::Param) -> Result<f64, Error> {
+        Ok(self.eval(z))
     }
 }

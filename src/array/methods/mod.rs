@@ -33,6 +33,7 @@ mod nnls;
 mod omp;
 mod support;
 
+pub use de::PenalisedCost;
 pub use support::NoisePrior;
 
 use super::problem::SensingProblem;

@@ -1,12 +1,20 @@
-//! Solver machinery shared by module optimisation and array placement, argmin style:
-//! a problem is a [`BoxProblem`] (a penalised cost over a box), the method is a
-//! [`SolverKind`] run by argmin's `Executor`, which owns iteration, stopping and the
-//! observer that records the convergence history. [`multi_start`] runs several starts
-//! of several solvers in parallel (rayon) and keeps every run for the report.
+//! The one solver layer, argmin style, for everything fbgforge minimises: a problem is
+//! a [`BoxProblem`] (a penalised cost over a box), the method is a [`SolverKind`]
+//! (Nelder–Mead, particle swarm, differential evolution) run by argmin's `Executor`,
+//! which owns iteration, stopping and the observer that records the convergence
+//! history; the best point is read from argmin's state. [`multi_start`] runs several
+//! starts of several solvers in parallel (rayon) and keeps every run for the report.
+//!
+//! Users: module optimisation and grating placement ([`crate::optimize`]) through
+//! [`run_one`]/[`multi_start`]; the lag fit of the verifier through
+//! [`nelder_mead::minimise`]; the `de` reconstruction method through
+//! [`differential_evolution::DifferentialEvolution`].
+
+pub mod differential_evolution;
+pub mod nelder_mead;
 
 use argmin::core::observers::{Observe, ObserverMode};
 use argmin::core::{CostFunction, Error, Executor, State, KV};
-use argmin::solver::neldermead::NelderMead;
 use argmin::solver::particleswarm::ParticleSwarm;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -33,17 +41,27 @@ pub enum SolverKind {
     NelderMead,
     /// Particle swarm (argmin), seeded, over the whole box.
     ParticleSwarm,
+    /// Differential evolution (DE/rand/1/bin, [`differential_evolution`]), seeded, over
+    /// the whole box.
+    DifferentialEvolution,
 }
 
 impl SolverKind {
     /// Every solver.
-    pub const ALL: [SolverKind; 2] = [SolverKind::NelderMead, SolverKind::ParticleSwarm];
+    pub const ALL: [SolverKind; 3] = [
+        SolverKind::NelderMead,
+        SolverKind::ParticleSwarm,
+        SolverKind::DifferentialEvolution,
+    ];
+    /// The pair the optimisers compare by default (`--solver both`).
+    pub const BOTH: [SolverKind; 2] = [SolverKind::NelderMead, SolverKind::ParticleSwarm];
 
     /// Name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             SolverKind::NelderMead => "nelder-mead",
             SolverKind::ParticleSwarm => "particle-swarm",
+            SolverKind::DifferentialEvolution => "differential-evolution",
         }
     }
 
@@ -52,9 +70,11 @@ impl SolverKind {
         match s {
             "nelder-mead" => Ok(vec![SolverKind::NelderMead]),
             "particle-swarm" => Ok(vec![SolverKind::ParticleSwarm]),
-            "both" => Ok(SolverKind::ALL.to_vec()),
+            "differential-evolution" => Ok(vec![SolverKind::DifferentialEvolution]),
+            "both" => Ok(SolverKind::BOTH.to_vec()),
+            "all" => Ok(SolverKind::ALL.to_vec()),
             _ => {
-                anyhow::bail!("unknown solver `{s}`; expected nelder-mead, particle-swarm or both")
+                anyhow::bail!("unknown solver `{s}`; expected nelder-mead, particle-swarm, differential-evolution, both (the first two) or all")
             }
         }
     }
@@ -69,7 +89,7 @@ pub struct RunSettings {
     pub swarm_iters: u64,
     /// Nelder–Mead: stop when the simplex costs' standard deviation falls below this.
     pub sd_tolerance: f64,
-    /// Particle swarm: number of particles.
+    /// Particle swarm: number of particles; differential evolution: individuals.
     pub particles: usize,
     /// Nelder–Mead: initial simplex edge as a share of each variable's range.
     pub simplex_share: f64,
@@ -192,36 +212,22 @@ pub fn run_one<P: BoxProblem>(
     let t0 = Instant::now();
     let (best_x, best_cost, iterations, termination) = match kind {
         SolverKind::NelderMead => {
-            // Initial simplex: the start and one step along each axis, stepping inward
-            // when the start sits on the upper bound.
-            let mut simplex = vec![start.to_vec()];
-            for i in 0..start.len() {
-                let mut v = start.to_vec();
-                let step = settings.simplex_share * (hi[i] - lo[i]);
-                v[i] = if v[i] + step <= hi[i] {
-                    v[i] + step
-                } else {
-                    v[i] - step
-                };
-                simplex.push(v);
-            }
-            let solver = NelderMead::new(simplex).with_sd_tolerance(settings.sd_tolerance)?;
-            let res = Executor::new(boxed, solver)
-                .configure(|s| s.max_iters(settings.max_iters))
-                .add_observer(History(history.clone()), ObserverMode::Always)
-                .run()
-                .map_err(|e| anyhow::anyhow!("nelder-mead: {e}"))?;
-            let st = res.state();
-            let x = st
-                .get_best_param()
-                .cloned()
-                .unwrap_or_else(|| start.to_vec());
-            (
-                x,
-                st.get_best_cost(),
-                st.get_iter(),
-                st.get_termination_status().to_string(),
+            let steps: Vec<f64> = lo
+                .iter()
+                .zip(&hi)
+                .map(|(l, h)| settings.simplex_share * (h - l))
+                .collect();
+            let simplex = nelder_mead::simplex_inside(start, &steps, &hi);
+            let observer = History(history.clone());
+            let m = nelder_mead::minimise(
+                boxed,
+                simplex,
+                settings.sd_tolerance,
+                settings.max_iters,
+                Some(observer),
             )
+            .map_err(|e| anyhow::anyhow!("nelder-mead: {e}"))?;
+            (m.best_x, m.best_cost, m.iterations, m.termination)
         }
         SolverKind::ParticleSwarm => {
             let solver = ParticleSwarm::new((lo.clone(), hi.clone()), settings.particles)
@@ -235,6 +241,27 @@ pub fn run_one<P: BoxProblem>(
             let x = st
                 .get_best_param()
                 .map(|p| p.position.clone())
+                .unwrap_or_else(|| start.to_vec());
+            (
+                x,
+                st.get_best_cost(),
+                st.get_iter(),
+                st.get_termination_status().to_string(),
+            )
+        }
+        SolverKind::DifferentialEvolution => {
+            let solver =
+                differential_evolution::DifferentialEvolution::new(lo.clone(), hi.clone(), seed)?
+                    .with_population(settings.particles);
+            let res = Executor::new(boxed, solver)
+                .configure(|s| s.max_iters(settings.swarm_iters))
+                .add_observer(History(history.clone()), ObserverMode::Always)
+                .run()
+                .map_err(|e| anyhow::anyhow!("differential-evolution: {e}"))?;
+            let st = res.state();
+            let x = st
+                .get_best_param()
+                .cloned()
                 .unwrap_or_else(|| start.to_vec());
             (
                 x,
@@ -296,7 +323,9 @@ pub fn multi_start<P: BoxProblem>(
         .flat_map(|&k| {
             let n = match k {
                 SolverKind::NelderMead => starts.len(),
-                SolverKind::ParticleSwarm => starts.len().min(1),
+                SolverKind::ParticleSwarm | SolverKind::DifferentialEvolution => {
+                    starts.len().min(1)
+                }
             };
             (0..n).map(move |i| (k, i))
         })
@@ -423,5 +452,6 @@ mod tests {
             .to_string()
             .contains("nelder-mead"));
         assert_eq!(SolverKind::parse("both").unwrap().len(), 2);
+        assert_eq!(SolverKind::parse("all").unwrap().len(), 3);
     }
 }

@@ -1,14 +1,12 @@
-//! Differential evolution (DE/rand/1/bin) as an `argmin` solver, and the paper's
-//! penalised cost min ‖Âz − y‖² + σ Σ z_jᵖ as an `argmin` cost function.
+//! Differential evolution (DE/rand/1/bin) as an `argmin` solver.
 //!
 //! argmin 0.11 ships no DE, so this file writes one against argmin's [`Solver`] trait:
 //! the executor owns the loop, the iteration limit and the stopping test, the cost
 //! function is any `CostFunction<Param = Vec<f64>, Output = f64>`. Speed matters (the
-//! paper runs 150 individuals for up to 1500 generations, i.e. up to 225 000 cost
+//! array paper runs 150 individuals for up to 1500 generations, i.e. up to 225 000 cost
 //! evaluations per frame): the population and the trial vectors live in buffers
-//! allocated once in `init`, each generation is evaluated with one `bulk_problem`
-//! call, and the cost of one candidate uses the precomputed Gram matrix ÂᵀÂ so it needs
-//! no scratch memory at all.
+//! allocated once in `init`, and each generation is evaluated with one `bulk_problem`
+//! call.
 //!
 //! Mutation: v = x_r1 + F (x_r2 − x_r3) with r1, r2, r3 distinct and different from
 //! the target; binomial crossover with rate CR and one forced coordinate; components
@@ -19,78 +17,8 @@
 use argmin::core::{
     CostFunction, Error, IterState, Problem, Solver, TerminationReason, TerminationStatus, KV,
 };
-use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// The paper's objective in the working unknowns z (see [`super::problem`]):
-/// ‖Âz − y‖² + σ Σ_j z_jᵖ, evaluated as zᵀGz − 2bᵀz + yᵀy with G = ÂᵀÂ, b = Âᵀy.
-#[derive(Debug, Clone)]
-pub struct PenalisedCost {
-    /// Gram matrix ÂᵀÂ, row-major n × n.
-    gram: Vec<f64>,
-    /// Âᵀy.
-    aty: Vec<f64>,
-    /// yᵀy, pm².
-    yty: f64,
-    /// Number of unknowns.
-    n: usize,
-    /// Penalty weight σ, pm² per unit of Σ zᵖ.
-    pub sigma: f64,
-    /// Exponent p of the penalty (0.01 in the paper: a smooth stand-in for ℓ0).
-    pub p: f64,
-}
-
-impl PenalisedCost {
-    /// Cost for matrix `a`, frame `y`, weight `sigma` and exponent `p`.
-    pub fn new(a: &DMatrix<f64>, y: &DVector<f64>, sigma: f64, p: f64) -> Self {
-        let n = a.ncols();
-        let g = a.transpose() * a;
-        let gram = (0..n * n).map(|k| g[(k / n, k % n)]).collect();
-        let aty = (a.transpose() * y).iter().copied().collect();
-        PenalisedCost {
-            gram,
-            aty,
-            yty: y.norm_squared(),
-            n,
-            sigma,
-            p,
-        }
-    }
-
-    /// The data term ‖Âz − y‖² alone.
-    pub fn misfit(&self, z: &[f64]) -> f64 {
-        let mut q = 0.0;
-        for (j, &zj) in z.iter().enumerate() {
-            if zj == 0.0 {
-                continue;
-            }
-            let row = &self.gram[j * self.n..(j + 1) * self.n];
-            let gz: f64 = row.iter().zip(z).map(|(g, zk)| g * zk).sum();
-            q += zj * (gz - 2.0 * self.aty[j]);
-        }
-        (q + self.yty).max(0.0)
-    }
-
-    /// Full cost of a candidate given as a slice.
-    pub fn eval(&self, z: &[f64]) -> f64 {
-        let mut penalty = 0.0;
-        for &zj in z {
-            if zj > 0.0 {
-                penalty += (self.p * zj.ln()).exp();
-            }
-        }
-        self.misfit(z) + self.sigma * penalty
-    }
-}
-
-impl CostFunction for PenalisedCost {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, z: &Self::Param) -> Result<f64, Error> {
-        Ok(self.eval(z))
-    }
-}
 
 /// DE/rand/1/bin over the box lower ≤ z ≤ upper.
 #[derive(Debug, Clone)]
