@@ -36,9 +36,8 @@ fn calibration_recovers_the_power_law_matrix_in_every_format() {
     // The kernel reproduces reference §2's centre-load sensitivities only loosely, but
     // its nearest-cell values must be of the paper's order (0.1–0.4 pm/g).
     let max = truth
-        .pm_per_g
+        .sensitivity_pm_per_g
         .iter()
-        .flatten()
         .fold(0.0f64, |a, &b| a.max(b));
     assert!(max > 0.1 && max < 0.5, "{max}");
     let sched = schedule();
@@ -58,8 +57,9 @@ fn calibration_recovers_the_power_law_matrix_in_every_format() {
             m.gratings,
             vec!["fbg1", "fbg2", "fbg3", "fbg4", "fbg5", "fbg6"]
         );
-        for (g, (row, trow)) in m.pm_per_g.iter().zip(&truth.pm_per_g).enumerate() {
-            for (c, (v, t)) in row.iter().zip(trow).enumerate() {
+        let (mm, tm) = (&m.sensitivity_pm_per_g, &truth.sensitivity_pm_per_g);
+        for (g, (row, trow)) in mm.row_iter().zip(tm.row_iter()).enumerate() {
+            for (c, (v, t)) in row.iter().zip(trow.iter()).enumerate() {
                 // 0.2 pm noise averaged over ~75 samples per loading, two loadings:
                 // ≤ 0.005 pm/g absolute, or 2 % of the larger entries.
                 assert!(
@@ -71,7 +71,7 @@ fn calibration_recovers_the_power_law_matrix_in_every_format() {
         }
         // The CSV the reconstruction reads.
         let out = dir.path().join("A.csv");
-        calibrate::write_matrix_csv(&out, &m, &["test".into()]).unwrap();
+        fbgforge::array::io::write_matrix_with_comments(&out, &m, &["test".into()]).unwrap();
         let text = std::fs::read_to_string(&out).unwrap();
         let mut lines = text.lines();
         assert_eq!(lines.next(), Some("# test"));
@@ -79,7 +79,7 @@ fn calibration_recovers_the_power_law_matrix_in_every_format() {
         let first: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(first.len(), 9);
         assert_eq!(first[0], "fbg1");
-        assert!((first[1].parse::<f64>().unwrap() - m.pm_per_g[0][0]).abs() < 1e-6);
+        assert!((first[1].parse::<f64>().unwrap() - m.sensitivity_pm_per_g[(0, 0)]).abs() < 1e-6);
     }
 }
 

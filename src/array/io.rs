@@ -129,17 +129,24 @@ pub fn read_matrix(path: &Path) -> Result<SensingMatrix> {
 
 /// Write a sensing matrix in the same format (atomically).
 pub fn write_matrix(path: &Path, m: &SensingMatrix) -> Result<()> {
-    let mut header = vec!["grating".to_string()];
-    header.extend(m.cells.iter().cloned());
-    let rows: Vec<Vec<String>> = (0..m.n_gratings())
-        .map(|i| {
-            let mut r = vec![m.gratings[i].clone()];
-            r.extend((0..m.n_cells()).map(|j| format!("{:.6}", m.sensitivity_pm_per_g[(i, j)])));
-            r
-        })
-        .collect();
-    let h: Vec<&str> = header.iter().map(String::as_str).collect();
-    crate::output::write_csv(path, &h, &rows)
+    write_matrix_with_comments(path, m, &[])
+}
+
+/// Write a sensing matrix with `#` comment lines first (where it came from), atomically.
+pub fn write_matrix_with_comments(path: &Path, m: &SensingMatrix, comments: &[String]) -> Result<()> {
+    crate::output::write_atomic_with(path, |w| {
+        for c in comments {
+            writeln!(w, "# {c}")?;
+        }
+        writeln!(w, "grating,{}", m.cells.join(","))?;
+        for i in 0..m.n_gratings() {
+            let vals: Vec<String> = (0..m.n_cells())
+                .map(|j| format!("{:.6}", m.sensitivity_pm_per_g[(i, j)]))
+                .collect();
+            writeln!(w, "{},{}", m.gratings[i], vals.join(","))?;
+        }
+        Ok(())
+    })
 }
 
 /// Frames of grating shifts, columns in the matrix's grating order.

@@ -255,10 +255,10 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         };
         synth::write_log(&log_path, a.format, &log, &cfg, &style)?;
         let truth = a.out.join("matrix_truth.csv");
-        calibrate::write_matrix_csv(
+        fbgforge::array::io::write_matrix_with_comments(
             &truth,
             &matrix,
-            &["synthetic truth: power-law kernel 44.7 pm·mm²/g · d^-2.05 (reference §2)".into()],
+            &["synthetic truth: power-law kernel fitted to Table 1, about 44.7 pm·mm²/g · d^-2.05 (reference §2)".into()],
         )?;
         println!("wrote {} and {}", log_path.display(), truth.display());
         return Ok(());
@@ -343,7 +343,7 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
             .join(&design.name)
             .join("sensing_matrix.csv")
     });
-    calibrate::write_matrix_csv(
+    fbgforge::array::io::write_matrix_with_comments(
         &out,
         &m,
         &[format!(
@@ -357,9 +357,9 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
         print!("{c:>10}");
     }
     println!();
-    for (g, row) in m.gratings.iter().zip(&m.pm_per_g) {
+    for (g, row) in m.gratings.iter().zip(m.sensitivity_pm_per_g.row_iter()) {
         print!("{g:<8}");
-        for v in row {
+        for v in row.iter() {
             print!("{v:>10.5}");
         }
         println!();

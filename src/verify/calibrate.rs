@@ -18,7 +18,8 @@
 //! the format `fbgforge reconstruct` reads.
 
 use crate::logs::{num, PeakLog};
-use crate::output::write_atomic_with;
+use crate::array::{kernel, SensingMatrix};
+use nalgebra::DMatrix;
 use crate::profile::{cell_label, ArrayLayout};
 use crate::spec::Design;
 use crate::verify::assign::{self, GratingWindow};
@@ -133,17 +134,6 @@ pub fn parse_schedule(text: &str, path: &Path, n_cells: usize) -> Result<Vec<Loa
     Ok(out)
 }
 
-/// A measured sensing matrix.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SensingMatrix {
-    /// Grating names (rows).
-    pub gratings: Vec<String>,
-    /// Cell labels (columns).
-    pub cells: Vec<String>,
-    /// Sensitivity, pm/g, `[grating][cell]`.
-    pub pm_per_g: Vec<Vec<f64>>,
-}
-
 /// Mean of the finite values with a ≤ t < b (half-open, so a loading's first
 /// sample never counts in the rest before it).
 fn mean_in(t: &[f64], v: &[f64], a: f64, b: f64) -> Option<f64> {
@@ -245,54 +235,34 @@ pub fn calibrate(
     Ok(SensingMatrix {
         gratings: a.gratings.iter().map(|g| g.name.clone()).collect(),
         cells: (0..n_cells).map(cell_label).collect(),
-        pm_per_g: m,
+        sensitivity_pm_per_g: DMatrix::from_fn(m.len(), n_cells, |g, c| m[g][c]),
     })
 }
 
-/// Write the matrix as `grating,A,B,…` with `#` comment lines first.
-pub fn write_matrix_csv(path: &Path, m: &SensingMatrix, comments: &[String]) -> Result<()> {
-    write_atomic_with(path, |w| {
-        for c in comments {
-            writeln!(w, "# {c}")?;
-        }
-        writeln!(w, "grating,{}", m.cells.join(","))?;
-        for (g, row) in m.gratings.iter().zip(&m.pm_per_g) {
-            let vals: Vec<String> = row.iter().map(|v| format!("{v:.6}")).collect();
-            writeln!(w, "{g},{}", vals.join(","))?;
-        }
-        Ok(())
-    })
-}
-
-/// Sensitivity kernel derived in reference §2 from the paper's Table 1: a power law
-/// s(d) = c·d^(−n) in pm/g with d the distance in mm from the load to the grating,
-/// c = 44.7 pm·mm²/g, n = 2.05. The fit covers 14.6–39.5 mm; nearer loads are
-/// clamped to d = 10 mm, where the kernel gives ≈ 0.4 pm/g, close to the 0.371 pm/g
-/// of a single encapsulated grating loaded directly (Table 2). Used for synthetic
-/// calibration logs.
+/// The bare power law s(d) = c·d^(−n) fitted to the paper's Table 1
+/// ([`kernel::fit_power_law`]; reference §2: c ≈ 44.7 pm·mm²/g, n ≈ 2.05), with d the
+/// distance in mm from the load to the grating. The fit covers 14.6–39.5 mm; nearer
+/// loads are clamped to d = 10 mm, where the kernel gives ≈ 0.4 pm/g, close to the
+/// 0.371 pm/g of a single encapsulated grating loaded directly (Table 2). Used for
+/// synthetic calibration logs.
 pub fn power_law_matrix(design: &Design) -> Result<SensingMatrix> {
     let Some(a) = &design.array else {
         bail!("design `{}` has no [array]", design.name)
     };
     let layout = ArrayLayout::from_array(a);
-    let pm_per_g = layout
-        .grating_positions_mm
-        .iter()
-        .map(|&(gx, gy)| {
-            layout
-                .cell_centers_mm
-                .iter()
-                .map(|&(cx, cy)| {
-                    let d = ((gx - cx).powi(2) + (gy - cy).powi(2)).sqrt().max(10.0);
-                    44.7 * d.powf(-2.05)
-                })
-                .collect()
-        })
-        .collect();
+    let law = kernel::fit_power_law(&kernel::TABLE1)?.kernel;
+    let sensitivity_pm_per_g = DMatrix::from_fn(
+        layout.grating_positions_mm.len(),
+        layout.cell_centers_mm.len(),
+        |g, c| {
+            let ((gx, gy), (cx, cy)) = (layout.grating_positions_mm[g], layout.cell_centers_mm[c]);
+            law.sensitivity_pm_per_g((gx - cx).hypot(gy - cy).max(10.0))
+        },
+    );
     Ok(SensingMatrix {
         gratings: a.gratings.iter().map(|g| g.name.clone()).collect(),
         cells: (0..layout.cell_centers_mm.len()).map(cell_label).collect(),
-        pm_per_g,
+        sensitivity_pm_per_g,
     })
 }
 
@@ -325,7 +295,7 @@ pub fn synth_calibration_log(
                 .iter()
                 .enumerate()
                 .map(|(g, gr)| {
-                    let s = load.map_or(0.0, |l| matrix.pm_per_g[g][l.cell] * l.load_g);
+                    let s = load.map_or(0.0, |l| matrix.sensitivity_pm_per_g[(g, l.cell)] * l.load_g);
                     gr.bragg_wavelength_nm
                         + (s + drift_pm_per_s * t + noise_pm * normal.sample(&mut rng)) * 1e-3
                 })
