@@ -36,78 +36,198 @@ impl Design {
         self.validate_fields()?;
         if let Some(m) = &self.module {
             check_profile(m, self.printer.min_wall_mm)?;
-            check_grating_heights(m)?;
         }
         Ok(())
     }
 }
 
-/// The module's constraints on its derived profile.
-fn check_profile(m: &Module, min_wall: f64) -> Result<(), SpecError> {
-    let r = m.outer_diameter_mm / 2.0;
-    let pl = &m.pillars;
-    // Radial stack: the core and an insert must keep a positive radius.
+/// One rule of a module's derived profile, evaluated: how far the design is past its
+/// limit. Validation turns the first violated rule into an error; the optimiser adds
+/// every rule's excess to its penalty, so the two can never disagree on a rule.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Violation {
+    /// Stable rule name (`radial_stack`, `pillar_spacing`, ...).
+    pub rule: &'static str,
+    /// The spec field an error names.
+    pub field: String,
+    /// What the rule requires, in words with units.
+    pub requirement: String,
+    /// How far past the limit, normalised by a length of the design (> 0: violated).
+    pub excess: f64,
+    /// What the design has, in words with units (the error message).
+    pub detail: String,
+}
+
+impl Violation {
+    /// Whether the design breaks this rule.
+    pub fn violated(&self) -> bool {
+        self.excess > 0.0
+    }
+}
+
+/// Every rule on the module's derived profile, in validation order, with its excess.
+pub fn profile_violations(m: &Module, min_wall: f64) -> Vec<Violation> {
     let prof = ModuleProfile::from_module_unchecked(m);
-    if prof.core_inner_radius_mm < 0.25 * r || prof.core_inner_radius_mm <= 0.0 {
-        return Err(err(
-                "module.cap_wall_mm",
-                format!(
-                    "walls, clearance and pillars ({:.3} mm in all) leave the core an inner radius of {:.3} mm; at least a quarter of the outer radius ({:.3} mm) is needed: reduce the walls or the pillar height",
-                    r - prof.core_inner_radius_mm,
-                    prof.core_inner_radius_mm,
-                    0.25 * r
-                ),
-            ));
+    vec![
+        radial_stack(m, &prof),
+        pillar_spacing(m, &prof, min_wall),
+        top_hole(m, &prof),
+        apex_flat(m, &prof),
+        insert_radius(&prof, min_wall),
+        cylinder_height(m, &prof, min_wall),
+        grating_heights(m, &prof),
+    ]
+}
+
+/// Each strain grating lies wholly on the cylindrical part of its pillar; the excess is
+/// the worst grating's distance outside its allowed centre range over its length.
+fn grating_heights(m: &Module, prof: &ModuleProfile) -> Violation {
+    let mut worst = Violation {
+        rule: "grating_heights",
+        field: "module.gratings".into(),
+        requirement: "each strain grating on the cylindrical part of its pillar".into(),
+        excess: f64::NEG_INFINITY,
+        detail: "every grating on its pillar's cylinder".into(),
+    };
+    for (i, g) in m.gratings.iter().enumerate() {
+        let (GratingRole::Strain, Some(z)) = (g.role, g.center_height_mm) else {
+            continue;
+        };
+        let lo = g.length_mm / 2.0;
+        let hi = prof.pillar_top_mm - g.length_mm / 2.0;
+        let excess = if z.is_finite() {
+            (lo - z).max(z - hi) / g.length_mm.max(1e-9)
+        } else {
+            f64::INFINITY
+        };
+        // The error names the first grating out of range; the excess is the worst.
+        if excess > 0.0 && !worst.violated() {
+            worst.field = format!("module.gratings[{i}].center_height_mm");
+            worst.detail = match range(&worst.field, z, lo, hi) {
+                Err(e) => e.message,
+                Ok(()) => format!("{z} mm lies in {lo:.4} to {hi:.4}"),
+            };
+        }
+        worst.excess = worst.excess.max(excess);
     }
-    // Pillars must not overlap: their angular width at the core wall, plus a gap of
-    // one minimum wall between neighbours, must fit in the circumference.
-    let pitch_mm = 2.0 * std::f64::consts::PI * prof.core_outer_radius_mm / pl.count as f64;
-    if pl.width_mm + min_wall > pitch_mm * 0.8 {
-        return Err(err(
-                "module.pillars.width_mm",
-                format!(
-                    "{} pillars of {} mm overlap on a core wall of radius {:.3} mm; allowed up to {:.3} mm each",
-                    pl.count,
-                    pl.width_mm,
-                    prof.core_outer_radius_mm,
-                    pitch_mm * 0.8 - min_wall
-                ),
-            ));
+    worst
+}
+
+/// The walls, clearance and pillars leave the core at least a quarter of the outer
+/// radius (and no wall is thicker than that quarter).
+fn radial_stack(m: &Module, prof: &ModuleProfile) -> Violation {
+    let r = m.outer_diameter_mm / 2.0;
+    let thickest = m.cap_wall_mm.max(m.core_wall_mm);
+    let core = prof.core_inner_radius_mm;
+    Violation {
+        rule: "radial_stack",
+        field: "module.cap_wall_mm".into(),
+        requirement: "walls ≤ R/4 and core inner radius ≥ R/4".into(),
+        excess: ((thickest - 0.25 * r) / r).max((0.25 * r - core) / r),
+        detail: format!(
+            "walls, clearance and pillars ({:.3} mm in all) leave the core an inner radius of {core:.3} mm; at least a quarter of the outer radius ({:.3} mm) is needed: reduce the walls or the pillar height",
+            r - core,
+            0.25 * r
+        ),
     }
-    if m.top_hole_diameter_mm / 2.0 >= prof.core_dome_inner_sphere_radius_mm * 0.5 {
-        return Err(err(
-            "module.top_hole_diameter_mm",
-            format!(
-                "allowed up to {:.3} mm (the core's inner dome radius)",
-                prof.core_dome_inner_sphere_radius_mm
-            ),
-        ));
+}
+
+/// Pillars must not overlap: their width at the core wall plus a gap of one minimum
+/// wall between neighbours fits in 0.8 of the pitch.
+fn pillar_spacing(m: &Module, prof: &ModuleProfile, min_wall: f64) -> Violation {
+    let pl = &m.pillars;
+    let pitch = std::f64::consts::TAU * prof.core_outer_radius_mm / pl.count as f64;
+    Violation {
+        rule: "pillar_spacing",
+        field: "module.pillars.width_mm".into(),
+        requirement: "pillar width + min wall ≤ 0.8 × pillar pitch".into(),
+        excess: (pl.width_mm + min_wall - 0.8 * pitch) / pitch.abs().max(1e-9),
+        detail: format!(
+            "{} pillars of {} mm overlap on a core wall of radius {:.3} mm; allowed up to {:.3} mm each",
+            pl.count,
+            pl.width_mm,
+            prof.core_outer_radius_mm,
+            pitch * 0.8 - min_wall
+        ),
     }
-    if m.apex_flat_diameter_mm / 2.0 >= prof.insert_sphere_radius_mm * 0.5 {
-        return Err(err(
-            "module.apex_flat_diameter_mm",
-            format!("allowed up to {:.3} mm", prof.insert_sphere_radius_mm),
-        ));
+}
+
+/// The reference fiber's hole stays well inside the core's dome.
+fn top_hole(m: &Module, prof: &ModuleProfile) -> Violation {
+    let limit = prof.core_dome_inner_sphere_radius_mm * 0.5;
+    Violation {
+        rule: "top_hole",
+        field: "module.top_hole_diameter_mm".into(),
+        requirement: "top hole radius < half the core's inner dome radius".into(),
+        excess: hold_below(m.top_hole_diameter_mm / 2.0, limit),
+        detail: format!(
+            "allowed up to {:.3} mm (the core's inner dome radius)",
+            prof.core_dome_inner_sphere_radius_mm
+        ),
     }
-    if prof.insert_radius_mm < min_wall {
-        return Err(err(
-            "module.core_insert_clearance_mm",
-            format!(
-                "leaves the insert a radius of {:.3} mm",
-                prof.insert_radius_mm
-            ),
-        ));
+}
+
+/// The contact flat stays well inside the insert's dome.
+fn apex_flat(m: &Module, prof: &ModuleProfile) -> Violation {
+    let limit = prof.insert_sphere_radius_mm * 0.5;
+    Violation {
+        rule: "apex_flat",
+        field: "module.apex_flat_diameter_mm".into(),
+        requirement: "apex flat radius < half the insert's dome radius".into(),
+        excess: hold_below(m.apex_flat_diameter_mm / 2.0, limit),
+        detail: format!("allowed up to {:.3} mm", prof.insert_sphere_radius_mm),
     }
-    if prof.pillar_top_mm < 2.0 * min_wall.max(1.0) {
-        return Err(err(
-                "module.overall_height_mm",
-                format!(
-                    "{} mm leaves a cylindrical section of {:.3} mm below the dome; make the module taller or the dome lower",
-                    m.overall_height_mm, prof.pillar_top_mm
-                ),
-            ));
+}
+
+/// The insert keeps at least a printable radius.
+fn insert_radius(prof: &ModuleProfile, min_wall: f64) -> Violation {
+    Violation {
+        rule: "insert_radius",
+        field: "module.core_insert_clearance_mm".into(),
+        requirement: format!("insert radius ≥ {min_wall} mm"),
+        excess: (min_wall - prof.insert_radius_mm) / min_wall,
+        detail: format!(
+            "leaves the insert a radius of {:.3} mm",
+            prof.insert_radius_mm
+        ),
     }
-    Ok(())
+}
+
+/// The cylindrical section below the dome holds two walls (at least 1 mm each).
+fn cylinder_height(m: &Module, prof: &ModuleProfile, min_wall: f64) -> Violation {
+    let need = 2.0 * min_wall.max(1.0);
+    Violation {
+        rule: "cylinder_height",
+        field: "module.overall_height_mm".into(),
+        requirement: format!("cylindrical section ≥ {need:.3} mm"),
+        excess: (need - prof.pillar_top_mm) / need,
+        detail: format!(
+            "{} mm leaves a cylindrical section of {:.3} mm below the dome; make the module taller or the dome lower",
+            m.overall_height_mm, prof.pillar_top_mm
+        ),
+    }
+}
+
+/// Excess of `value` over a strict upper `limit`, relative to the limit; a value on
+/// the limit counts as past it (the rule is strict).
+fn hold_below(value: f64, limit: f64) -> f64 {
+    let excess = (value - limit) / limit.abs().max(1e-9);
+    if value >= limit {
+        excess.max(f64::MIN_POSITIVE)
+    } else {
+        excess
+    }
+}
+
+/// The module's constraints on its derived profile: the first violated rule.
+fn check_profile(m: &Module, min_wall: f64) -> Result<(), SpecError> {
+    match profile_violations(m, min_wall)
+        .into_iter()
+        .find(Violation::violated)
+    {
+        Some(v) => Err(err(&v.field, v.detail)),
+        None => Ok(()),
+    }
 }
 
 /// The folder of shipped designs: `designs/` under the working directory, else the
@@ -137,17 +257,4 @@ pub fn load_designs(dir: &Path) -> anyhow::Result<Vec<(PathBuf, Design)>> {
             Ok((p, d))
         })
         .collect()
-}
-
-/// Each strain grating lies wholly on the cylindrical part of its pillar.
-fn check_grating_heights(m: &Module) -> Result<(), SpecError> {
-    let prof = ModuleProfile::from_module_unchecked(m);
-    for (i, g) in m.gratings.iter().enumerate() {
-        if let (GratingRole::Strain, Some(z)) = (g.role, g.center_height_mm) {
-            let lo = g.length_mm / 2.0;
-            let hi = prof.pillar_top_mm - g.length_mm / 2.0;
-            range(&format!("module.gratings[{i}].center_height_mm"), z, lo, hi)?;
-        }
-    }
-    Ok(())
 }

@@ -133,7 +133,11 @@ pub fn write_matrix(path: &Path, m: &SensingMatrix) -> Result<()> {
 }
 
 /// Write a sensing matrix with `#` comment lines first (where it came from), atomically.
-pub fn write_matrix_with_comments(path: &Path, m: &SensingMatrix, comments: &[String]) -> Result<()> {
+pub fn write_matrix_with_comments(
+    path: &Path,
+    m: &SensingMatrix,
+    comments: &[String],
+) -> Result<()> {
     crate::output::write_atomic_with(path, |w| {
         for c in comments {
             writeln!(w, "# {c}")?;

@@ -598,8 +598,6 @@ impl ModuleProblem {
     /// Evaluate a built candidate design.
     pub fn evaluate_design(&self, x: &[f64], d: &Design) -> Evaluation {
         let m = d.module.as_ref().expect("candidate has a module");
-        let prof = ModuleProfile::from_module_unchecked(m);
-        let r = m.outer_diameter_mm / 2.0;
         let min_wall = d.printer.min_wall_mm;
         let mut cons = Vec::new();
         let thinnest = m.cap_wall_mm.min(m.core_wall_mm);
@@ -619,38 +617,11 @@ impl ModuleProblem {
             (fit - tight) / fit,
             format!("tightest clearance {tight:.3} mm"),
         );
-        let thickest = m.cap_wall_mm.max(m.core_wall_mm);
-        let stack = ((thickest - 0.25 * r) / r).max((0.25 * r - prof.core_inner_radius_mm) / r);
-        push(
-            &mut cons,
-            "radial_stack",
-            "walls ≤ R/4 and core inner radius ≥ R/4".into(),
-            stack,
-            format!(
-                "thickest wall {thickest:.3} mm, core inner radius {:.3} mm, R = {r:.3} mm",
-                prof.core_inner_radius_mm
-            ),
-        );
-        let pitch = std::f64::consts::TAU * prof.core_outer_radius_mm / m.pillars.count as f64;
-        push(
-            &mut cons,
-            "pillar_spacing",
-            "pillar width + min wall ≤ 0.8 × pillar pitch".into(),
-            (m.pillars.width_mm + min_wall - 0.8 * pitch) / pitch.abs().max(1e-9),
-            format!(
-                "pillar width {:.3} mm, pitch {pitch:.3} mm",
-                m.pillars.width_mm
-            ),
-        );
-        let longest = m.gratings.iter().map(|g| g.length_mm).fold(0.0, f64::max);
-        let need = longest.max(2.0 * min_wall.max(1.0));
-        push(
-            &mut cons,
-            "cylinder_height",
-            format!("cylindrical section ≥ {need:.3} mm (the gratings' length)"),
-            (need - prof.pillar_top_mm) / need,
-            format!("cylindrical section {:.3} mm", prof.pillar_top_mm),
-        );
+        // The spec's rules on the derived profile, each with how far it is broken:
+        // the same rules `design::load` enforces, as penalties.
+        for v in crate::design::profile_violations(m, min_wall) {
+            push(&mut cons, v.rule, v.requirement, v.excess, v.detail);
+        }
         // Everything the spec itself checks (a design that fails here would not load).
         let spec_violation = cons.iter().all(|c| c.violation <= 0.0);
         if spec_violation {

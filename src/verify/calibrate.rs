@@ -17,13 +17,13 @@
 //! Σ shift·load / Σ load². Output: `grating,A,B,…` with one row per grating in pm/g,
 //! the format `fbgforge reconstruct` reads.
 
-use crate::logs::{num, PeakLog};
 use crate::array::{kernel, SensingMatrix};
-use nalgebra::DMatrix;
+use crate::logs::{num, PeakLog};
 use crate::profile::{cell_label, ArrayLayout};
 use crate::spec::Design;
 use crate::verify::assign::{self, GratingWindow};
 use anyhow::{bail, Context, Result};
+use nalgebra::DMatrix;
 use std::path::Path;
 
 /// One loading in the schedule.
@@ -295,7 +295,8 @@ pub fn synth_calibration_log(
                 .iter()
                 .enumerate()
                 .map(|(g, gr)| {
-                    let s = load.map_or(0.0, |l| matrix.sensitivity_pm_per_g[(g, l.cell)] * l.load_g);
+                    let s =
+                        load.map_or(0.0, |l| matrix.sensitivity_pm_per_g[(g, l.cell)] * l.load_g);
                     gr.bragg_wavelength_nm
                         + (s + drift_pm_per_s * t + noise_pm * normal.sample(&mut rng)) * 1e-3
                 })
