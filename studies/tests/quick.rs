@@ -41,3 +41,134 @@ fn build_study_quick_writes_a_sweep_with_shrinking_volume_error() {
     assert!(t["module_and_mold_ms"].as_f64().unwrap() > 0.0);
     assert_eq!(t["family_diameters_mm"].as_array().unwrap().len(), 13);
 }
+
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn predict_study_quick_times_every_shipped_module() {
+    let dir = tempfile::tempdir().unwrap();
+    let designs: Vec<PathBuf> = ["clip-on-10mm.toml", "clip-on-34mm.toml"]
+        .iter()
+        .map(|n| root().join("designs").join(n))
+        .collect();
+    let a = fbgforge_studies::predict::BenchPredictArgs {
+        designs,
+        iterations: 2_000,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::predict::run(&a).unwrap();
+    let rows = read_json(&dir.path().join("predict.json"));
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for r in rows {
+        // One closed-form K is far cheaper than a whole prediction of the design.
+        let k_ns = r["closed_form_ns_per_k"].as_f64().unwrap();
+        let full_us = r["full_predict_us"].as_f64().unwrap();
+        assert!(k_ns > 0.0 && k_ns * 1e-3 < full_us, "{r}");
+    }
+}
+
+#[test]
+fn verify_study_quick_recovers_k_of_its_synthetic_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::verify::BenchVerifyArgs {
+        out: dir.path().to_path_buf(),
+        minutes: 60.0,
+        rate_hz: 1000.0,
+        keep: false,
+        quick: true,
+    };
+    fbgforge_studies::verify::run(&a).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("bench_verify.csv")).unwrap();
+    let total = csv.lines().find(|l| l.starts_with("end to end")).unwrap();
+    // "... worst K error 0.123 %": the pipeline recovers the log's K within 1 %.
+    let pct: f64 = total
+        .split("worst K error ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(pct < 1.0, "{total}");
+    assert!(
+        !dir.path().join("bench-peaks.txt").exists(),
+        "logs removed without --keep"
+    );
+}
+
+#[test]
+fn optimize_study_quick_never_ends_below_its_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::optimize::BenchOptimizeArgs {
+        threads: 2,
+        out_dir: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::optimize::run(&a).unwrap();
+    let rows = read_json(&dir.path().join("optimize.json"));
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 1, "quick: the 34 mm module with Nelder–Mead");
+    let r = &rows[0];
+    assert!(r["objective"].as_f64().unwrap() >= r["start_objective"].as_f64().unwrap());
+}
+
+#[test]
+fn reconstruct_study_quick_recovers_every_single_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::reconstruct::BenchOptions {
+        out: dir.path().to_path_buf(),
+        design: None,
+        seed: 1,
+        repeats: 20,
+        quick: true,
+    };
+    fbgforge_studies::reconstruct::run(&a).unwrap();
+    let runs = read_json(&dir.path().join("protocol.json"));
+    let wsupport = runs
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["method"].as_str().unwrap().starts_with("wsupport"))
+        .unwrap();
+    let single = wsupport["by_load_count"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["n_loads"] == 1)
+        .unwrap();
+    // The paper's Table 3: every single load is recovered (RR 100 %).
+    assert_eq!(single["rr_pct"].as_f64().unwrap(), 100.0, "{single}");
+    assert!(dir.path().join("speed_accuracy.svg").exists());
+}
+
+#[test]
+fn fem_study_quick_converges_under_refinement() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::fem::FemStudyArgs {
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::fem::run(&a).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("fem_convergence.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (cfg, k) = (col("configuration"), col("sensitivity_pm_per_n"));
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    // Case II: successive refinements change K less and less.
+    let k2: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[cfg].contains("Case II"))
+        .map(|r| r[k].parse().unwrap())
+        .collect();
+    assert!(k2.len() >= 3, "{csv}");
+    let d: Vec<f64> = k2.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    assert!(d.windows(2).all(|w| w[1] < w[0]), "{k2:?}");
+}

@@ -1,0 +1,37 @@
+//! Criterion time per frame of every reconstruction method on the paper's 6 × 8 array
+//! (model matrix of `designs/tactile-array-60x80.toml`, two loads of 100 g, noise-free):
+//! what one frame costs once the reconstructor is built. Run with
+//! `cargo bench --bench reconstruct`.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use fbgforge::array::kernel::matrix_from_design;
+use fbgforge::array::methods::{self, Method, MethodSettings};
+use fbgforge::array::problem::SensingProblem;
+use std::path::Path;
+
+fn per_frame(c: &mut Criterion) {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml");
+    let design = fbgforge::design::load(&p).expect("shipped design loads");
+    let (m, ulimit_g) = matrix_from_design(&design).unwrap();
+    let a = &m.sensitivity_pm_per_g;
+    let mut x = vec![0.0; m.n_cells()];
+    x[1] = 100.0;
+    x[6] = 100.0;
+    let y: Vec<f64> = (a * nalgebra::DVector::from_vec(x))
+        .iter()
+        .copied()
+        .collect();
+    let problem = SensingProblem::new(a.clone(), ulimit_g, true).unwrap();
+    let mut g = c.benchmark_group("reconstruct per frame (6 × 8)");
+    for method in Method::ALL.into_iter().filter(|m| *m != Method::De) {
+        let r = methods::build(method, &problem, MethodSettings::for_method(method)).unwrap();
+        g.bench_function(method.name(), |b| b.iter(|| r.reconstruct(black_box(&y))));
+    }
+    g.sample_size(10);
+    let r = methods::build(Method::De, &problem, MethodSettings::for_method(Method::De)).unwrap();
+    g.bench_function("de", |b| b.iter(|| r.reconstruct(black_box(&y))));
+    g.finish();
+}
+
+criterion_group!(benches, per_frame);
+criterion_main!(benches);
