@@ -389,41 +389,16 @@ fn smeared(parts: &[(ElasticConstants, f64)]) -> ElasticConstants {
     }
 }
 
-/// Build the module problem for one core (and insert in Case I), loaded by 1 N.
-pub fn build(
-    design: &Design,
-    core_material: &str,
-    insert_material: Option<&str>,
-    case: LoadCase,
-    opt: &FemOptions,
-) -> Result<ModuleModel> {
-    let m = design
-        .module
-        .as_ref()
-        .ok_or_else(|| anyhow!("the design has no [module] section"))?;
-    let sizes_ok = [opt.element_size_mm, opt.dome_element_size_mm]
-        .iter()
-        .all(|v| v.is_finite() && *v > 0.0);
-    if !sizes_ok || opt.elements_through_wall == 0 {
-        bail!("finite-element options: element size must be > 0 mm and at least one element through a wall");
-    }
-    let p = ModuleProfile::from_module(m);
-    let cap = constants(design.material(&m.cap_material, "module.cap_material")?);
-    let core = constants(design.material(core_material, "module.cores[].material")?);
-    let insert = match (case, insert_material) {
-        (LoadCase::I, Some(k)) => Some(constants(design.material(k, "module.inserts[].material")?)),
-        (LoadCase::I, None) => bail!("Case I needs an insert, and none was given"),
-        (LoadCase::II, _) => None,
-    };
-    let h = opt.element_size_mm;
-    let fiber_r = p.fiber_hole_center_radius_mm;
-    let patch_r = p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm;
-    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r)?;
-    let zc = p.dome_center_z_mm;
-    let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
-    let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
-
-    // Materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core, 5 insert.
+/// The element materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core,
+/// 5 insert (Case I). The pillar rings smear the pillars over the circumference by
+/// their share of it.
+fn smeared_materials(
+    m: &crate::spec::Module,
+    p: &ModuleProfile,
+    cap: ElasticConstants,
+    core: ElasticConstants,
+    insert: Option<ElasticConstants>,
+) -> Vec<ElasticConstants> {
     let pl = &m.pillars;
     let n = pl.count as f64;
     let fill = |width: f64, r0: f64, r1: f64| (n * width / (PI * (r0 + r1))).min(1.0);
@@ -462,9 +437,166 @@ pub fn build(
         ),
     )]);
     let mut materials = vec![cap, ring_clear, ring_groove, ring_web, core];
-    if let Some(ins) = insert {
-        materials.push(ins);
+    materials.extend(insert);
+    materials
+}
+
+/// Mesh the solid insert of Case I: a rectangle below the dome seam, an O-grid (a
+/// square and two ray blocks) above it, its base held axially. Returns the node on the
+/// insert's surface at each station j (the core's inner wall is tied to them).
+fn mesh_insert(
+    mesh: &mut Mesh,
+    fixed: &mut Vec<(usize, usize)>,
+    p: &ModuleProfile,
+    s: &Stations,
+    h: f64,
+    zc: f64,
+) -> Vec<usize> {
+    let ins_surf = Surface {
+        r: p.insert_radius_mm,
+        rho: p.insert_sphere_radius_mm,
+    };
+    let sq = 0.5 * p.insert_radius_mm.min(p.insert_sphere_radius_mm);
+    let n_rad = (((p.insert_radius_mm - sq) / h).ceil() as usize).max(1);
+    let theta = |j: usize| match s.st[j] {
+        Station::Theta(t) => t,
+        Station::Z(_) => 0.0,
+    };
+    let n_e = s.j_45 - s.j_seam; // doubled steps along θ ∈ [0, 45°]
+    let n_n = s.j_axis - s.j_45; // doubled steps along θ ∈ [45°, 90°]
+                                 // Column abscissae of rectangle and square (doubled): square part then ray part.
+    let mut xs: Vec<f64> = (0..=n_n)
+        .map(|u| sq / theta(s.j_axis - u).tan().max(1e-300))
+        .collect();
+    xs[0] = 0.0;
+    for k in 1..=2 * n_rad {
+        xs.push(sq + (p.insert_radius_mm - sq) * k as f64 / (2 * n_rad) as f64);
     }
+    let rect: Vec<Vec<usize>> = xs
+        .iter()
+        .map(|&x| {
+            (0..=s.j_seam)
+                .map(|j| {
+                    let z = match s.st[j] {
+                        Station::Z(z) => z,
+                        Station::Theta(_) => zc,
+                    };
+                    mesh.add_node(x, z)
+                })
+                .collect()
+        })
+        .collect();
+    mesh.add_block(&rect, 5);
+    for col in &rect {
+        fixed.push((col[0], Z));
+    }
+    // Square: columns share x with the rectangle, rows at y = sq tan θ.
+    let square: Vec<Vec<usize>> = (0..=n_n)
+        .map(|c| {
+            (0..=n_e)
+                .map(|t| {
+                    if t == 0 {
+                        rect[c][s.j_seam]
+                    } else {
+                        mesh.add_node(xs[c], zc + sq * theta(s.j_seam + t).tan())
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    mesh.add_block(&square, 5);
+    let ray = |mesh: &mut Mesh, inner: [f64; 2], j: usize, k: usize| {
+        let o = point(ins_surf, s.st[j], zc);
+        let t = k as f64 / (2 * n_rad) as f64;
+        mesh.add_node(
+            inner[0] + (o[0] - inner[0]) * t,
+            inner[1] + (o[1] - inner[1]) * t,
+        )
+    };
+    // East block: rays θ ∈ [0, 45°] from the square's right side to the surface.
+    let east: Vec<Vec<usize>> = (0..=2 * n_rad)
+        .map(|k| {
+            (0..=n_e)
+                .map(|t| {
+                    if k == 0 {
+                        square[n_n][t]
+                    } else if t == 0 {
+                        rect[n_n + k][s.j_seam]
+                    } else {
+                        let th = theta(s.j_seam + t);
+                        ray(mesh, [sq, zc + sq * th.tan()], s.j_seam + t, k)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    mesh.add_block(&east, 5);
+    // North block: rays θ ∈ [45°, 90°] from the square's top side to the surface.
+    let north: Vec<Vec<usize>> = (0..=2 * n_rad)
+        .map(|k| {
+            (0..=n_n)
+                .map(|u| {
+                    if k == 0 {
+                        square[n_n - u][n_e]
+                    } else if u == 0 {
+                        east[k][n_e]
+                    } else {
+                        ray(mesh, [xs[n_n - u], zc + sq], s.j_45 + u, k)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    mesh.add_block(&north, 5);
+    (0..=s.j_axis)
+        .map(|j| {
+            if j <= s.j_seam {
+                rect[xs.len() - 1][j]
+            } else if j <= s.j_45 {
+                east[2 * n_rad][j - s.j_seam]
+            } else {
+                north[2 * n_rad][j - s.j_45]
+            }
+        })
+        .collect()
+}
+
+/// Build the module problem for one core (and insert in Case I), loaded by 1 N.
+pub fn build(
+    design: &Design,
+    core_material: &str,
+    insert_material: Option<&str>,
+    case: LoadCase,
+    opt: &FemOptions,
+) -> Result<ModuleModel> {
+    let m = design
+        .module
+        .as_ref()
+        .ok_or_else(|| anyhow!("the design has no [module] section"))?;
+    let sizes_ok = [opt.element_size_mm, opt.dome_element_size_mm]
+        .iter()
+        .all(|v| v.is_finite() && *v > 0.0);
+    if !sizes_ok || opt.elements_through_wall == 0 {
+        bail!("finite-element options: element size must be > 0 mm and at least one element through a wall");
+    }
+    let p = ModuleProfile::from_module(m);
+    let cap = constants(design.material(&m.cap_material, "module.cap_material")?);
+    let core = constants(design.material(core_material, "module.cores[].material")?);
+    let insert = match (case, insert_material) {
+        (LoadCase::I, Some(k)) => Some(constants(design.material(k, "module.inserts[].material")?)),
+        (LoadCase::I, None) => bail!("Case I needs an insert, and none was given"),
+        (LoadCase::II, _) => None,
+    };
+    let h = opt.element_size_mm;
+    let fiber_r = p.fiber_hole_center_radius_mm;
+    let patch_r = p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm;
+    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r)?;
+    let zc = p.dome_center_z_mm;
+    let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
+    let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
+
+    // Materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core, 5 insert.
+    let materials = smeared_materials(m, &p, cap, core, insert);
 
     // Layered walls on shared "d-lines" (curves of constant offset).
     let mut dlines: Vec<Surface> = vec![Surface {
@@ -517,7 +649,7 @@ pub fn build(
     };
     add_layer(
         cyl(p.groove_bottom_radius_mm),
-        pl.groove_depth_mm,
+        m.pillars.groove_depth_mm,
         s.j_pillar_top,
         2,
         &mut dlines,
@@ -600,114 +732,10 @@ pub fn build(
 
     // Case I: the solid insert (rectangle below the seam, O-grid above it).
     if insert.is_some() {
-        let ins_surf = Surface {
-            r: p.insert_radius_mm,
-            rho: p.insert_sphere_radius_mm,
-        };
-        let sq = 0.5 * p.insert_radius_mm.min(p.insert_sphere_radius_mm);
-        let n_rad = (((p.insert_radius_mm - sq) / h).ceil() as usize).max(1);
-        let theta = |j: usize| match s.st[j] {
-            Station::Theta(t) => t,
-            Station::Z(_) => 0.0,
-        };
-        let n_e = s.j_45 - s.j_seam; // doubled steps along θ ∈ [0, 45°]
-        let n_n = s.j_axis - s.j_45; // doubled steps along θ ∈ [45°, 90°]
-                                     // Column abscissae of rectangle and square (doubled): square part then ray part.
-        let mut xs: Vec<f64> = (0..=n_n)
-            .map(|u| sq / theta(s.j_axis - u).tan().max(1e-300))
-            .collect();
-        xs[0] = 0.0;
-        for k in 1..=2 * n_rad {
-            xs.push(sq + (p.insert_radius_mm - sq) * k as f64 / (2 * n_rad) as f64);
-        }
-        let rect: Vec<Vec<usize>> = xs
-            .iter()
-            .map(|&x| {
-                (0..=s.j_seam)
-                    .map(|j| {
-                        let z = match s.st[j] {
-                            Station::Z(z) => z,
-                            Station::Theta(_) => zc,
-                        };
-                        mesh.add_node(x, z)
-                    })
-                    .collect()
-            })
-            .collect();
-        mesh.add_block(&rect, 5);
-        for col in &rect {
-            fixed.push((col[0], Z));
-        }
-        // Square: columns share x with the rectangle, rows at y = sq tan θ.
-        let square: Vec<Vec<usize>> = (0..=n_n)
-            .map(|c| {
-                (0..=n_e)
-                    .map(|t| {
-                        if t == 0 {
-                            rect[c][s.j_seam]
-                        } else {
-                            mesh.add_node(xs[c], zc + sq * theta(s.j_seam + t).tan())
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        mesh.add_block(&square, 5);
-        let ray = |mesh: &mut Mesh, inner: [f64; 2], j: usize, k: usize| {
-            let o = point(ins_surf, s.st[j], zc);
-            let t = k as f64 / (2 * n_rad) as f64;
-            mesh.add_node(
-                inner[0] + (o[0] - inner[0]) * t,
-                inner[1] + (o[1] - inner[1]) * t,
-            )
-        };
-        // East block: rays θ ∈ [0, 45°] from the square's right side to the surface.
-        let east: Vec<Vec<usize>> = (0..=2 * n_rad)
-            .map(|k| {
-                (0..=n_e)
-                    .map(|t| {
-                        if k == 0 {
-                            square[n_n][t]
-                        } else if t == 0 {
-                            rect[n_n + k][s.j_seam]
-                        } else {
-                            let th = theta(s.j_seam + t);
-                            ray(&mut mesh, [sq, zc + sq * th.tan()], s.j_seam + t, k)
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        mesh.add_block(&east, 5);
-        // North block: rays θ ∈ [45°, 90°] from the square's top side to the surface.
-        let north: Vec<Vec<usize>> = (0..=2 * n_rad)
-            .map(|k| {
-                (0..=n_n)
-                    .map(|u| {
-                        if k == 0 {
-                            square[n_n - u][n_e]
-                        } else if u == 0 {
-                            east[k][n_e]
-                        } else {
-                            ray(&mut mesh, [xs[n_n - u], zc + sq], s.j_45 + u, k)
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        mesh.add_block(&north, 5);
-        let surface = |j: usize| -> usize {
-            if j <= s.j_seam {
-                rect[xs.len() - 1][j]
-            } else if j <= s.j_45 {
-                east[2 * n_rad][j - s.j_seam]
-            } else {
-                north[2 * n_rad][j - s.j_45]
-            }
-        };
+        let surface = mesh_insert(&mut mesh, &mut fixed, &p, &s, h, zc);
         for j in 0..=s.j_hole {
             let a = get(&mut mesh, dl_core_inner, j);
-            let b = surface(j);
+            let b = surface[j];
             let on_cylinder = mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
             ties.push((a, b, R));
             if !(on_cylinder && opt.insert_contact == InsertContact::SlidingWall) {

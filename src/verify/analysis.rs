@@ -421,76 +421,32 @@ pub fn analyse(
     let min_rows = (rows / 10).max(2);
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
 
-    // Reference.
-    let ref_track: Option<(&GratingTrack, Vec<f64>)> = match reference {
-        Some(r) => {
-            let t = tracks.last().filter(|t| t.window.name == r.name);
-            match t {
-                Some(t) if t.rows_present >= min_rows => {
-                    Some((t, assign::fill_gaps(&tw, &t.wavelength_nm)))
-                }
-                _ => {
-                    warnings.add("reference_missing", || {
-                        format!(
-                            "{}: the temperature-reference grating `{}` ({} ± {hw:.3} nm) has too few peaks; shifts are NOT temperature compensated",
-                            log.source.display(),
-                            r.name,
-                            r.bragg_wavelength_nm
-                        )
-                    });
-                    None
-                }
-            }
-        }
-        None => {
-            warnings.add("reference_missing", || {
-                format!(
-                    "design `{}` has no temperature-reference grating; shifts are not compensated",
-                    design.name
-                )
-            });
-            None
-        }
-    };
+    let ref_track = reference_track(
+        &Tracked {
+            design,
+            log,
+            tracks: &tracks,
+            min_rows,
+            hw,
+        },
+        reference,
+        &tw,
+        &mut warnings,
+    );
 
-    // Strain gratings present.
-    let mut used: Vec<(usize, Vec<f64>)> = Vec::new();
-    for (i, g) in strain.iter().enumerate() {
-        let t = &tracks[i];
-        if t.rows_present < min_rows {
-            let msg = format!(
-                "{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {rows} rows: is its channel connected? (--window-nm widens the window)",
-                log.source.display(),
-                g.name,
-                g.bragg_wavelength_nm,
-                t.rows_present
-            );
-            if opts.core.is_some() {
-                bail!("{msg}");
-            }
-            warnings.add("grating_missing", || msg);
-            continue;
-        }
-        // A peak that leaves its window under load is dropped, and the fit then sees
-        // only the low-force part of each pulse: K and R² come out biased low.
-        let missing = rows - t.rows_present;
-        if missing * 50 > rows {
-            warnings.add_n("peaks_outside_window", missing, || {
-                format!(
-                    "{}: grating `{}` has no peak in its window {} ± {hw:.3} nm in {missing} of {rows} rows; if they gather at high force the shift leaves the window and K is biased low (--window-nm widens it)",
-                    log.source.display(),
-                    g.name,
-                    g.bragg_wavelength_nm
-                )
-            });
-        }
-        let s =
-            assign::compensated_shift_pm(t, ref_track.as_ref().map(|(t, f)| (*t, f.as_slice())));
-        used.push((i, s));
-    }
-    if used.is_empty() {
-        bail!("{}: none of the design's strain gratings has peaks in the log (windows ± {hw:.3} nm around their nominal wavelengths)", log.source.display());
-    }
+    let used = strain_shifts(
+        &Tracked {
+            design,
+            log,
+            tracks: &tracks,
+            min_rows,
+            hw,
+        },
+        &strain,
+        ref_track.as_ref(),
+        opts.core.is_some(),
+        &mut warnings,
+    )?;
 
     // Prior for the clock offset.
     let w0 = log.time_s[0];
@@ -502,22 +458,7 @@ pub fn analyse(
     let range = opts.max_clock_offset_s.max(0.0);
     // Force times in the wavelength frame, before the residual offset.
     let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
-    // Some stands log compression as negative force: if the force's excursions go
-    // down rather than up, flip it (and say so) so that pulses are peaks.
-    let med = percentile(&force.force_n, 0.5);
-    let flip = (percentile(&force.force_n, 0.001) - med).abs()
-        > (percentile(&force.force_n, 0.999) - med).abs();
-    let fval: Vec<f64> = if flip {
-        warnings.add("force_sign_flipped", || {
-            format!(
-                "{}: the force pulses go negative (compression logged as negative); the force was negated",
-                force.source.display()
-            )
-        });
-        force.force_n.iter().map(|f| -f).collect()
-    } else {
-        force.force_n.clone()
-    };
+    let fval = compression_positive(force, &mut warnings);
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (u[0], u[u.len() - 1]);
     let gap = (fa - wb).max(wa - fb);
@@ -549,54 +490,21 @@ pub fn analyse(
     // Clock offset.
     let (delta, source) = match opts.clock_offset_s {
         Some(o) => (o - prior, "given"),
-        None => {
-            let s = &used[primary].1;
-            let (dx, _) = xcorr_offset(&tw, s, &u, &fval, a, b, range).ok_or_else(|| {
-                anyhow::anyhow!("the logs overlap too little to align their clocks")
-            })?;
-            let coarse = FitData::new(&tw, s, &u, &fval, a, b, 20_000, 50_000, 30.0);
-            let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
-            let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
-                .par_iter()
-                .map(|&tau0| {
-                    let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
-                    let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
-                    fit::nelder_mead(coarse.cost(None), &start, &step, 300)
-                })
-                .collect();
-            for r in tries {
-                if r.1 < best.1 {
-                    best = r;
-                }
-            }
-            // Polish at full rate on the first stretch of the overlap.
-            let span = (b - a)
-                .min(100_000.0 * median_period(&u).max(1e-6))
-                .min(50_000.0 * median_period(&tw).max(1e-6));
-            let fine = FitData::new(
-                &tw,
-                s,
-                &u,
-                &fval,
-                a,
-                a + span.max(1.0),
-                50_000,
-                100_000,
-                30.0,
-            );
-            let p = best.0.clone();
-            let step = [
-                2.0 * median_period(&fine.st).max(median_period(&fine.ft)),
-                0.3,
-                0.5,
-            ];
-            let r = fit::nelder_mead(fine.cost(None), &p, &step, 300);
-            let d = if r.1 < f64::MAX { r.0[0] } else { p[0] };
-            if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
-                warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with --max-offset-s or give --clock-offset-s"));
-            }
-            (d, "estimated")
-        }
+        None => (
+            estimate_clock_offset(
+                &Alignment {
+                    tw: &tw,
+                    shift_pm: &used[primary].1,
+                    u: &u,
+                    fval: &fval,
+                    a,
+                    b,
+                    range,
+                },
+                &mut warnings,
+            )?,
+            "estimated",
+        ),
     };
     let offset = prior + delta;
     // Force in the wavelength frame, aligned.
@@ -637,168 +545,22 @@ pub fn analyse(
     }
 
     // Per grating: the primary first (its τ and r seed the others), the rest in parallel.
-    type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
-    let measure = |k: usize, prev: Option<(f64, f64)>| -> Measured {
-        let (gi, s) = &used[k];
-        let g = strain[*gi];
-        let t = &tracks[*gi];
-        // τ and r with the offset fixed.
-        let sub = FitData::new(
-            &tw,
-            s,
-            &fu,
-            &fval,
-            wa.max(fa),
-            wb.min(fb),
-            20_000,
-            50_000,
-            30.0,
-        );
-        let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0], f64::MAX);
-        let starts: Vec<(f64, f64)> = match prev {
-            Some(p) => vec![p],
-            None => vec![(0.05, 0.5), (0.5, 0.5), (5.0, 0.5)],
-        };
-        let tries: Vec<(Vec<f64>, f64)> = starts
-            .par_iter()
-            .map(|&(tau0, r0)| {
-                let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
-                let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
-                fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250)
-            })
-            .collect();
-        for r in tries {
-            if r.1 < best.1 {
-                best = r;
-            }
-        }
-        let probe = sub.cost(Some(0.0));
-        let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
-            anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
-        })?;
-        // Final evaluation on every sample (NaN shifts and samples outside the force
-        // log are skipped inside the cost).
-        let n_used = (0..tw.len())
-            .filter(|&i| s[i].is_finite() && fc[i].is_finite())
-            .count();
-        if n_used < 10 {
-            bail!(
-                "grating `{}` has only {} samples where the force log overlaps the wavelength log",
-                g.name,
-                n_used
-            );
-        }
-        let t_mid = (wa.max(fa) + wb.min(fb)) / 2.0;
-        let full = LagModelCost {
-            shift_t: &tw,
-            shift_pm: s,
-            force_t: &fu,
-            force_n: &fval,
-            fixed_offset_s: Some(0.0),
-            t_mid,
-        };
-        let lm: LagModelFit = full
-            .evaluate(0.0, lm0.tau_s, lm0.instant_fraction)
-            .unwrap_or(lm0);
-        let d: Vec<f64> = (0..tw.len())
-            .map(|i| {
-                if fc[i].is_finite() {
-                    s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect();
-        let line = fit::fit_line(&fc, &d).ok_or_else(|| {
-            anyhow::anyhow!(
-                "grating `{}`: the force does not vary; no line can be fitted",
-                g.name
-            )
-        })?;
-        let (hyst, nonlin) = hysteresis_and_linearity(&fc, &d, &line);
-        // Pulses.
-        let sign = if lm.k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
-        let mut pres = Vec::new();
-        for (pi, p) in pulses.iter().enumerate() {
-            let seg_t = &fu[p.start..=p.end];
-            let seg_f = &fval[p.start..=p.end];
-            let im = (0..seg_f.len())
-                .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
-                .unwrap_or(0);
-            let (tf, pf) = fit::peak_vertex(seg_t, seg_f, im, fbase + 0.95 * (seg_f[im] - fbase));
-            let t_start = fu[p.start];
-            let t_end = fu[p.end];
-            let next = pulses.get(pi + 1).map_or(f64::INFINITY, |q| fu[q.start]);
-            let w_end = next.min(t_end + (t_end - t_start).max(1.0));
-            let i0 = tw.partition_point(|&x| x < t_start);
-            let i1 = tw.partition_point(|&x| x <= w_end);
-            if i1 <= i0 + 1 {
-                continue;
-            }
-            let seg_tw = &tw[i0..i1];
-            let seg_d: Vec<f64> = d[i0..i1].iter().map(|v| sign * v).collect();
-            let Some(jm) = (0..seg_d.len())
-                .filter(|&j| seg_d[j].is_finite())
-                .max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y]))
-            else {
-                continue;
-            };
-            let (ts, ps) = fit::peak_vertex(seg_tw, &seg_d, jm, 0.95 * seg_d[jm]);
-            pres.push(PulseResult {
-                index: pi + 1,
-                start_s: t_start,
-                end_s: t_end,
-                peak_force_n: pf,
-                peak_force_time_s: tf,
-                peak_shift_pm: sign * ps,
-                peak_shift_time_s: ts,
-                lag_s: ts - tf,
-            });
-        }
-        let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
-        let mean_lag = if pres.is_empty() {
-            f64::NAN
-        } else {
-            pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64
-        };
-        let k = lm.k_pm_per_n;
-        let q = if max_lag > 0.0 {
-            Some(k.abs() * line.r_squared / max_lag)
-        } else {
-            None
-        };
-        let result = GratingResult {
-            grating: g.name.clone(),
-            core: g.core.clone(),
-            core_material: g
-                .core
-                .as_ref()
-                .and_then(|c| module.cores.iter().find(|x| &x.name == c))
-                .map(|c| c.material.clone()),
-            nominal_nm: g.bragg_wavelength_nm,
-            window_half_width_nm: hw,
-            rows_with_peak: t.rows_present,
-            rows_ambiguous: t.rows_ambiguous,
-            sensitivity_pm_per_n: k,
-            sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
-            linear_slope_pm_per_n: line.slope,
-            r_squared: line.r_squared,
-            lag_model_r_squared: lm.r_squared,
-            hysteresis_percent_span: hyst,
-            nonlinearity_percent_span: nonlin,
-            resolution_n: resolution_pm / k.abs(),
-            resolution_g: resolution_pm / k.abs() / 9.80665e-3,
-            max_lag_s: max_lag,
-            mean_lag_s: mean_lag,
-            quality_q_pm_per_n_s: q,
-            sls_time_constant_s: lm.tau_s,
-            sls_instant_fraction: lm.instant_fraction,
-            drift_pm_per_s: lm.drift_pm_per_s,
-            residual_rms_pm: lm.rms_pm,
-            pulses: pres,
-        };
-        Ok((result, d, line.slope, line.intercept))
+    let ctx = GratingContext {
+        module,
+        strain: &strain,
+        tracks: &tracks,
+        used: &used,
+        tw: &tw,
+        fu: &fu,
+        fval: &fval,
+        fc: &fc,
+        span: (wa.max(fa), wb.min(fb)),
+        pulses: &pulses,
+        fbase,
+        resolution_pm,
+        hw,
     };
+    let measure = |k: usize, prev: Option<(f64, f64)>| measure_grating(&ctx, k, prev);
     let first = measure(primary, None)?;
     let seed = Some((first.0.sls_time_constant_s, first.0.sls_instant_fraction));
     let rest: Vec<Measured> = (0..used.len())
@@ -807,9 +569,165 @@ pub fn analyse(
         .par_iter()
         .map(|&k| measure(k, seed))
         .collect();
+    let (results, series) = collect_results(first, rest, &strain, &tw, &fc, &mut warnings)?;
+    let m = Measurement {
+        wavelength_log: log.source.display().to_string(),
+        wavelength_format: log.format.name().into(),
+        wavelength_rows: rows,
+        wavelength_rate_hz: 1.0 / log.median_period_s(),
+        force_log: force.source.display().to_string(),
+        force_samples: force.force_n.len(),
+        force_rate_hz: 1.0 / median_period(&force.time_s),
+        clock_offset_s: offset,
+        clock_offset_source: source.into(),
+        force_log_start_s: fa,
+        overlap_s: overlap,
+        reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
+        interrogator_resolution_pm: resolution_pm,
+        pulse_count: pulses.len(),
+        gratings: results,
+        warnings,
+    };
+    Ok((m, series))
+}
+
+/// What the grating tracks of a verification were read from and how.
+struct Tracked<'a> {
+    design: &'a Design,
+    log: &'a PeakLog,
+    tracks: &'a [GratingTrack],
+    /// Fewest rows with a peak for a grating to count as present.
+    min_rows: usize,
+    /// Window half-width, nm.
+    hw: f64,
+}
+
+/// The temperature-reference grating's track (the last one) with its gaps filled, or
+/// `None` with a warning when the design has none or its peaks are too few.
+fn reference_track<'a>(
+    tr: &Tracked<'a>,
+    reference: Option<&crate::spec::ModuleGrating>,
+    tw: &[f64],
+    warnings: &mut LogWarnings,
+) -> Option<(&'a GratingTrack, Vec<f64>)> {
+    let (design, log, tracks, min_rows, hw) = (tr.design, tr.log, tr.tracks, tr.min_rows, tr.hw);
+    match reference {
+        Some(r) => {
+            let t = tracks.last().filter(|t| t.window.name == r.name);
+            match t {
+                Some(t) if t.rows_present >= min_rows => {
+                    Some((t, assign::fill_gaps(&tw, &t.wavelength_nm)))
+                }
+                _ => {
+                    warnings.add("reference_missing", || {
+                        format!(
+                            "{}: the temperature-reference grating `{}` ({} ± {hw:.3} nm) has too few peaks; shifts are NOT temperature compensated",
+                            log.source.display(),
+                            r.name,
+                            r.bragg_wavelength_nm
+                        )
+                    });
+                    None
+                }
+            }
+        }
+        None => {
+            warnings.add("reference_missing", || {
+                format!(
+                    "design `{}` has no temperature-reference grating; shifts are not compensated",
+                    design.name
+                )
+            });
+            None
+        }
+    }
+}
+
+/// The temperature-compensated shift of every strain grating present in the log, by
+/// index into `strain`; a missing grating is a warning (an error when a core was named).
+fn strain_shifts(
+    tr: &Tracked,
+    strain: &[&crate::spec::ModuleGrating],
+    ref_track: Option<&(&GratingTrack, Vec<f64>)>,
+    core_named: bool,
+    warnings: &mut LogWarnings,
+) -> Result<Vec<(usize, Vec<f64>)>> {
+    let (log, tracks, min_rows, hw) = (tr.log, tr.tracks, tr.min_rows, tr.hw);
+    let rows = log.rows();
+    let mut used: Vec<(usize, Vec<f64>)> = Vec::new();
+    for (i, g) in strain.iter().enumerate() {
+        let t = &tracks[i];
+        if t.rows_present < min_rows {
+            let msg = format!(
+                "{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {rows} rows: is its channel connected? (--window-nm widens the window)",
+                log.source.display(),
+                g.name,
+                g.bragg_wavelength_nm,
+                t.rows_present
+            );
+            if core_named {
+                bail!("{msg}");
+            }
+            warnings.add("grating_missing", || msg);
+            continue;
+        }
+        // A peak that leaves its window under load is dropped, and the fit then sees
+        // only the low-force part of each pulse: K and R² come out biased low.
+        let missing = rows - t.rows_present;
+        if missing * 50 > rows {
+            warnings.add_n("peaks_outside_window", missing, || {
+                format!(
+                    "{}: grating `{}` has no peak in its window {} ± {hw:.3} nm in {missing} of {rows} rows; if they gather at high force the shift leaves the window and K is biased low (--window-nm widens it)",
+                    log.source.display(),
+                    g.name,
+                    g.bragg_wavelength_nm
+                )
+            });
+        }
+        let s = assign::compensated_shift_pm(t, ref_track.map(|(t, f)| (*t, f.as_slice())));
+        used.push((i, s));
+    }
+    if used.is_empty() {
+        bail!("{}: none of the design's strain gratings has peaks in the log (windows ± {hw:.3} nm around their nominal wavelengths)", log.source.display());
+    }
+    Ok(used)
+}
+
+/// The force with compression positive: some stands log compression as negative
+/// force; if the force's excursions go down rather than up, flip it (and say so) so
+/// that pulses are peaks.
+fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64> {
+    // Some stands log compression as negative force: if the force's excursions go
+    // down rather than up, flip it (and say so) so that pulses are peaks.
+    let med = percentile(&force.force_n, 0.5);
+    let flip = (percentile(&force.force_n, 0.001) - med).abs()
+        > (percentile(&force.force_n, 0.999) - med).abs();
+    if flip {
+        warnings.add("force_sign_flipped", || {
+            format!(
+                "{}: the force pulses go negative (compression logged as negative); the force was negated",
+                force.source.display()
+            )
+        });
+        force.force_n.iter().map(|f| -f).collect()
+    } else {
+        force.force_n.clone()
+    }
+}
+
+/// The measured gratings in spec order with their series, and the warnings their
+/// results call for.
+fn collect_results(
+    first: (GratingResult, Vec<f64>, f64, f64),
+    rest: Vec<Measured>,
+    strain: &[&crate::spec::ModuleGrating],
+    tw: &[f64],
+    fc: &[f64],
+    warnings: &mut LogWarnings,
+) -> Result<(Vec<GratingResult>, Series)> {
     let mut series = Series {
-        time_s: tw.clone(),
-        force_n: fc.clone(),
+        time_s: tw.to_vec(),
+        force_n: fc.to_vec(),
         ..Default::default()
     };
     let mut results = Vec::new();
@@ -840,25 +758,262 @@ pub fn analyse(
             warnings.add_n("ambiguous_peaks", r.rows_ambiguous, || format!("grating `{}`: rows with more than one peak in its window (the nearest to the previous value was taken)", r.grating));
         }
     }
-    let m = Measurement {
-        wavelength_log: log.source.display().to_string(),
-        wavelength_format: log.format.name().into(),
-        wavelength_rows: rows,
-        wavelength_rate_hz: 1.0 / log.median_period_s(),
-        force_log: force.source.display().to_string(),
-        force_samples: force.force_n.len(),
-        force_rate_hz: 1.0 / median_period(&force.time_s),
-        clock_offset_s: offset,
-        clock_offset_source: source.into(),
-        force_log_start_s: fa,
-        overlap_s: overlap,
-        reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
-        interrogator_resolution_pm: resolution_pm,
-        pulse_count: pulses.len(),
-        gratings: results,
-        warnings,
+    Ok((results, series))
+}
+
+/// The logs' time bases for estimating the clock offset: the wavelength log's times
+/// `tw` and a strain grating's shifts, the force log's times `u` (wavelength frame,
+/// before the residual offset) and forces, the usable span [a, b] and the search range.
+struct Alignment<'a> {
+    tw: &'a [f64],
+    shift_pm: &'a [f64],
+    u: &'a [f64],
+    fval: &'a [f64],
+    a: f64,
+    b: f64,
+    range: f64,
+}
+
+/// Estimate the residual clock offset: cross-correlation for a start, then the lag
+/// model fitted with the offset free, coarse then at full rate.
+fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f64> {
+    let (tw, s, u, fval, a, b, range) = (al.tw, al.shift_pm, al.u, al.fval, al.a, al.b, al.range);
+    let (dx, _) = xcorr_offset(&tw, s, &u, &fval, a, b, range)
+        .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
+    let coarse = FitData::new(&tw, s, &u, &fval, a, b, 20_000, 50_000, 30.0);
+    let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
+    let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
+        .par_iter()
+        .map(|&tau0| {
+            let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
+            let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
+            fit::nelder_mead(coarse.cost(None), &start, &step, 300)
+        })
+        .collect();
+    for r in tries {
+        if r.1 < best.1 {
+            best = r;
+        }
+    }
+    // Polish at full rate on the first stretch of the overlap.
+    let span = (b - a)
+        .min(100_000.0 * median_period(&u).max(1e-6))
+        .min(50_000.0 * median_period(&tw).max(1e-6));
+    let fine = FitData::new(
+        &tw,
+        s,
+        &u,
+        &fval,
+        a,
+        a + span.max(1.0),
+        50_000,
+        100_000,
+        30.0,
+    );
+    let p = best.0.clone();
+    let step = [
+        2.0 * median_period(&fine.st).max(median_period(&fine.ft)),
+        0.3,
+        0.5,
+    ];
+    let r = fit::nelder_mead(fine.cost(None), &p, &step, 300);
+    let d = if r.1 < f64::MAX { r.0[0] } else { p[0] };
+    if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
+        warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with --max-offset-s or give --clock-offset-s"));
+    }
+    Ok(d)
+}
+
+/// Measurement of one grating in a verification: what every grating shares.
+struct GratingContext<'a> {
+    module: &'a crate::spec::Module,
+    strain: &'a [&'a crate::spec::ModuleGrating],
+    tracks: &'a [GratingTrack],
+    used: &'a [(usize, Vec<f64>)],
+    /// Wavelength log times, s from its first row.
+    tw: &'a [f64],
+    /// Force log times, aligned to the wavelength clock, s.
+    fu: &'a [f64],
+    /// Force, N (compression positive).
+    fval: &'a [f64],
+    /// Force at the wavelength log's rows, N (NaN outside the force log).
+    fc: &'a [f64],
+    /// Time span both logs cover, s.
+    span: (f64, f64),
+    pulses: &'a [PulseSpan],
+    /// Resting force level, N.
+    fbase: f64,
+    resolution_pm: f64,
+    /// Window half-width, nm.
+    hw: f64,
+}
+
+/// A measured grating, its drift-free shift series and its straight-line fit.
+type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
+
+/// Fit the lag model, the straight line and the per-pulse lags of `used[k]`; `prev`
+/// seeds τ and r from an already measured grating.
+fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> Measured {
+    let (module, strain, tracks, used) = (ctx.module, ctx.strain, ctx.tracks, ctx.used);
+    let (tw, fu, fval, fc, hw, resolution_pm) =
+        (ctx.tw, ctx.fu, ctx.fval, ctx.fc, ctx.hw, ctx.resolution_pm);
+    let (span_a, span_b) = ctx.span;
+    let (gi, s) = &used[k];
+    let g = strain[*gi];
+    let t = &tracks[*gi];
+    // τ and r with the offset fixed.
+    let sub = FitData::new(&tw, s, &fu, &fval, span_a, span_b, 20_000, 50_000, 30.0);
+    let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0], f64::MAX);
+    let starts: Vec<(f64, f64)> = match prev {
+        Some(p) => vec![p],
+        None => vec![(0.05, 0.5), (0.5, 0.5), (5.0, 0.5)],
     };
-    Ok((m, series))
+    let tries: Vec<(Vec<f64>, f64)> = starts
+        .par_iter()
+        .map(|&(tau0, r0)| {
+            let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
+            let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
+            fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250)
+        })
+        .collect();
+    for r in tries {
+        if r.1 < best.1 {
+            best = r;
+        }
+    }
+    let probe = sub.cost(Some(0.0));
+    let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
+        anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
+    })?;
+    // Final evaluation on every sample (NaN shifts and samples outside the force
+    // log are skipped inside the cost).
+    let n_used = (0..tw.len())
+        .filter(|&i| s[i].is_finite() && fc[i].is_finite())
+        .count();
+    if n_used < 10 {
+        bail!(
+            "grating `{}` has only {} samples where the force log overlaps the wavelength log",
+            g.name,
+            n_used
+        );
+    }
+    let t_mid = (span_a + span_b) / 2.0;
+    let full = LagModelCost {
+        shift_t: &tw,
+        shift_pm: s,
+        force_t: &fu,
+        force_n: &fval,
+        fixed_offset_s: Some(0.0),
+        t_mid,
+    };
+    let lm: LagModelFit = full
+        .evaluate(0.0, lm0.tau_s, lm0.instant_fraction)
+        .unwrap_or(lm0);
+    let d: Vec<f64> = (0..tw.len())
+        .map(|i| {
+            if fc[i].is_finite() {
+                s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let line = fit::fit_line(&fc, &d).ok_or_else(|| {
+        anyhow::anyhow!(
+            "grating `{}`: the force does not vary; no line can be fitted",
+            g.name
+        )
+    })?;
+    let (hyst, nonlin) = hysteresis_and_linearity(&fc, &d, &line);
+    let pres = pulse_lags(ctx, &d, lm.k_pm_per_n);
+    let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
+    let mean_lag = if pres.is_empty() {
+        f64::NAN
+    } else {
+        pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64
+    };
+    let k = lm.k_pm_per_n;
+    let q = if max_lag > 0.0 {
+        Some(k.abs() * line.r_squared / max_lag)
+    } else {
+        None
+    };
+    let result = GratingResult {
+        grating: g.name.clone(),
+        core: g.core.clone(),
+        core_material: g
+            .core
+            .as_ref()
+            .and_then(|c| module.cores.iter().find(|x| &x.name == c))
+            .map(|c| c.material.clone()),
+        nominal_nm: g.bragg_wavelength_nm,
+        window_half_width_nm: hw,
+        rows_with_peak: t.rows_present,
+        rows_ambiguous: t.rows_ambiguous,
+        sensitivity_pm_per_n: k,
+        sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
+        linear_slope_pm_per_n: line.slope,
+        r_squared: line.r_squared,
+        lag_model_r_squared: lm.r_squared,
+        hysteresis_percent_span: hyst,
+        nonlinearity_percent_span: nonlin,
+        resolution_n: resolution_pm / k.abs(),
+        resolution_g: resolution_pm / k.abs() / 9.80665e-3,
+        max_lag_s: max_lag,
+        mean_lag_s: mean_lag,
+        quality_q_pm_per_n_s: q,
+        sls_time_constant_s: lm.tau_s,
+        sls_instant_fraction: lm.instant_fraction,
+        drift_pm_per_s: lm.drift_pm_per_s,
+        residual_rms_pm: lm.rms_pm,
+        pulses: pres,
+    };
+    Ok((result, d, line.slope, line.intercept))
+}
+
+/// Per pulse: the times of the force peak and of the matching wavelength peak (vertex
+/// of a parabola through the top 5 % of each), and their difference, the lag.
+fn pulse_lags(ctx: &GratingContext, d: &[f64], k_pm_per_n: f64) -> Vec<PulseResult> {
+    let (tw, fu, fval, pulses, fbase) = (ctx.tw, ctx.fu, ctx.fval, ctx.pulses, ctx.fbase);
+    let sign = if k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
+    let mut pres = Vec::new();
+    for (pi, p) in pulses.iter().enumerate() {
+        let seg_t = &fu[p.start..=p.end];
+        let seg_f = &fval[p.start..=p.end];
+        let im = (0..seg_f.len())
+            .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
+            .unwrap_or(0);
+        let (tf, pf) = fit::peak_vertex(seg_t, seg_f, im, fbase + 0.95 * (seg_f[im] - fbase));
+        let t_start = fu[p.start];
+        let t_end = fu[p.end];
+        let next = pulses.get(pi + 1).map_or(f64::INFINITY, |q| fu[q.start]);
+        let w_end = next.min(t_end + (t_end - t_start).max(1.0));
+        let i0 = tw.partition_point(|&x| x < t_start);
+        let i1 = tw.partition_point(|&x| x <= w_end);
+        if i1 <= i0 + 1 {
+            continue;
+        }
+        let seg_tw = &tw[i0..i1];
+        let seg_d: Vec<f64> = d[i0..i1].iter().map(|v| sign * v).collect();
+        let Some(jm) = (0..seg_d.len())
+            .filter(|&j| seg_d[j].is_finite())
+            .max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y]))
+        else {
+            continue;
+        };
+        let (ts, ps) = fit::peak_vertex(seg_tw, &seg_d, jm, 0.95 * seg_d[jm]);
+        pres.push(PulseResult {
+            index: pi + 1,
+            start_s: t_start,
+            end_s: t_end,
+            peak_force_n: pf,
+            peak_force_time_s: tf,
+            peak_shift_pm: sign * ps,
+            peak_shift_time_s: ts,
+            lag_s: ts - tf,
+        });
+    }
+    pres
 }
 
 /// Hysteresis and non-linearity, % of the full-scale output |slope|·(F_max − F_min):
