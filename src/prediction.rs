@@ -181,7 +181,7 @@ pub fn sweep_predictor(
 }
 
 /// Where the closed form is within [`TOLERANCE`] of the FE model, per case, as
-/// measured by [`run_comparison`] (see docs/fem.md for the table it comes from).
+/// measured by the `fem` study's comparison (see docs/fem.md for the table it comes from).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ValidityRegion {
     /// Smallest and largest outer diameter measured, mm.

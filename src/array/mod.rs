@@ -10,9 +10,10 @@
 //! * [`io`]: measured sensing matrices and shift streams as CSV, reconstructions out;
 //! * [`problem`]: the problem — matrix, bounds, column normalisation — kept apart from
 //!   the methods that solve it;
-//! * [`methods`]: interchangeable solvers behind one trait ([`methods::Reconstructor`])
-//!   with one result type ([`methods::Reconstruction`]);
-//! * [`de`]: differential evolution written as an `argmin` solver (argmin 0.11 has none);
+//! * [`methods`]: interchangeable reconstruction methods behind one trait
+//!   ([`methods::Reconstructor`]), one file each, registered by name
+//!   ([`methods::Method::ALL`]), with one result type ([`methods::Reconstruction`]);
+//! * [`run`]: the use case, [`reconstruct_file`];
 //! * [`protocol`]: the paper's 84-test protocol simulated with a seeded noise model,
 //!   and the metrics of Table 3 (SNR, SEM, relative error, RR).
 //!

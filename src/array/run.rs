@@ -42,7 +42,7 @@ pub struct ReconstructRequest {
     pub penalty: Option<f64>,
     /// Column-normalise the matrix (the paper does).
     pub normalise: bool,
-    /// Output CSV of loads (default: out/reconstruct/<shifts name>-loads.csv).
+    /// Output CSV of loads (default: `out/reconstruct/<shifts name>-loads.csv`).
     pub out: Option<PathBuf>,
 }
 

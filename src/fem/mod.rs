@@ -11,7 +11,7 @@
 //! [`crate::prediction`].
 //!
 //! Submodules: [`element`] (Q9/P1 element), [`mesh`] (mesh data, edge loads),
-//! [`solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
+//! [`mod@solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
 //! contacts, supports and load).
 
 pub mod element;

@@ -733,9 +733,8 @@ pub fn build(
     // Case I: the solid insert (rectangle below the seam, O-grid above it).
     if insert.is_some() {
         let surface = mesh_insert(&mut mesh, &mut fixed, &p, &s, h, zc);
-        for j in 0..=s.j_hole {
+        for (j, &b) in surface.iter().enumerate().take(s.j_hole + 1) {
             let a = get(&mut mesh, dl_core_inner, j);
-            let b = surface[j];
             let on_cylinder = mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
             ties.push((a, b, R));
             if !(on_cylinder && opt.insert_contact == InsertContact::SlidingWall) {

@@ -4,7 +4,7 @@
 //!
 //! * [`materials`]: the material library (E, ν and the Q model's viscoelastic numbers).
 //! * [`quality`]: the Q model, Q = |K|·R²/Δt_max, and its calibration by a verifier JSON.
-//! * [`solve`]: argmin solvers behind one trait, multi-start in parallel, history.
+//! * the solvers are the crate's one solver layer, [`crate::solvers`].
 //! * [`module`]: the module problem: variables, constraints, discrete material choices.
 //! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
 //! * [`run`]: the use cases the CLI calls: optimise a module, place gratings; both write

@@ -29,9 +29,9 @@ pub struct ModuleRequest {
     pub measured: Option<PathBuf>,
     /// The two variables of the landscape chart (the first two varied when `None`).
     pub landscape: Option<Vec<Variable>>,
-    /// Where the optimised design goes [default: out/optimize/<name>.toml].
+    /// Where the optimised design goes (default: `out/optimize/<name>.toml`).
     pub out: Option<PathBuf>,
-    /// Report folder [default: `<out stem>-report` beside the design].
+    /// Report folder (default: `<out stem>-report` beside the design).
     pub report_dir: Option<PathBuf>,
 }
 
@@ -53,9 +53,9 @@ pub struct PlaceRequest {
     pub design: PathBuf,
     /// Objective, method, solvers.
     pub settings: PlaceSettings,
-    /// Where the optimised design goes [default: out/place/<name>.toml].
+    /// Where the optimised design goes (default: `out/place/<name>.toml`).
     pub out: Option<PathBuf>,
-    /// Report folder [default: `<out stem>-report` beside the design].
+    /// Report folder (default: `<out stem>-report` beside the design).
     pub report_dir: Option<PathBuf>,
 }
 

@@ -616,7 +616,7 @@ fn reference_track<'a>(
             let t = tracks.last().filter(|t| t.window.name == r.name);
             match t {
                 Some(t) if t.rows_present >= min_rows => {
-                    Some((t, assign::fill_gaps(&tw, &t.wavelength_nm)))
+                    Some((t, assign::fill_gaps(tw, &t.wavelength_nm)))
                 }
                 _ => {
                     warnings.add("reference_missing", || {
@@ -778,9 +778,9 @@ struct Alignment<'a> {
 /// model fitted with the offset free, coarse then at full rate.
 fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f64> {
     let (tw, s, u, fval, a, b, range) = (al.tw, al.shift_pm, al.u, al.fval, al.a, al.b, al.range);
-    let (dx, _) = xcorr_offset(&tw, s, &u, &fval, a, b, range)
+    let (dx, _) = xcorr_offset(tw, s, u, fval, a, b, range)
         .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
-    let coarse = FitData::new(&tw, s, &u, &fval, a, b, 20_000, 50_000, 30.0);
+    let coarse = FitData::new(tw, s, u, fval, a, b, 20_000, 50_000, 30.0);
     let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
     let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
         .par_iter()
@@ -797,19 +797,9 @@ fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f
     }
     // Polish at full rate on the first stretch of the overlap.
     let span = (b - a)
-        .min(100_000.0 * median_period(&u).max(1e-6))
-        .min(50_000.0 * median_period(&tw).max(1e-6));
-    let fine = FitData::new(
-        &tw,
-        s,
-        &u,
-        &fval,
-        a,
-        a + span.max(1.0),
-        50_000,
-        100_000,
-        30.0,
-    );
+        .min(100_000.0 * median_period(u).max(1e-6))
+        .min(50_000.0 * median_period(tw).max(1e-6));
+    let fine = FitData::new(tw, s, u, fval, a, a + span.max(1.0), 50_000, 100_000, 30.0);
     let p = best.0.clone();
     let step = [
         2.0 * median_period(&fine.st).max(median_period(&fine.ft)),
@@ -862,7 +852,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
     let g = strain[*gi];
     let t = &tracks[*gi];
     // τ and r with the offset fixed.
-    let sub = FitData::new(&tw, s, &fu, &fval, span_a, span_b, 20_000, 50_000, 30.0);
+    let sub = FitData::new(tw, s, fu, fval, span_a, span_b, 20_000, 50_000, 30.0);
     let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0], f64::MAX);
     let starts: Vec<(f64, f64)> = match prev {
         Some(p) => vec![p],
@@ -899,10 +889,10 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
     }
     let t_mid = (span_a + span_b) / 2.0;
     let full = LagModelCost {
-        shift_t: &tw,
+        shift_t: tw,
         shift_pm: s,
-        force_t: &fu,
-        force_n: &fval,
+        force_t: fu,
+        force_n: fval,
         fixed_offset_s: Some(0.0),
         t_mid,
     };
@@ -918,13 +908,13 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
             }
         })
         .collect();
-    let line = fit::fit_line(&fc, &d).ok_or_else(|| {
+    let line = fit::fit_line(fc, &d).ok_or_else(|| {
         anyhow::anyhow!(
             "grating `{}`: the force does not vary; no line can be fitted",
             g.name
         )
     })?;
-    let (hyst, nonlin) = hysteresis_and_linearity(&fc, &d, &line);
+    let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
     let pres = pulse_lags(ctx, &d, lm.k_pm_per_n);
     let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
     let mean_lag = if pres.is_empty() {

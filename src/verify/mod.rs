@@ -1,5 +1,5 @@
 //! Verification of a printed part from interrogator and force-stand logs: the use case
-//! is [`run::run`] (re-exported as [`run`]); the other modules are its stages.
+//! is [`run::run`] (re-exported as [`run()`]); the other modules are its stages.
 pub mod analysis;
 pub mod assign;
 pub mod calibrate;

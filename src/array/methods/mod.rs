@@ -22,7 +22,7 @@
 //! * `omp`: non-negative orthogonal matching pursuit; a cell is added only while it
 //!   lowers ‖Âz − y‖² by more than λ (the same trade-off as `support`, greedily).
 //! * `de`: the paper's replica — ‖Âz − y‖² + σ Σ z_jᵖ with p = 0.01, DE/rand/1/bin,
-//!   150 individuals, ≤ 1500 generations (see [`super::de`]).
+//!   150 individuals, ≤ 1500 generations (see [`crate::solvers::differential_evolution`]).
 //!
 //! No method returns NaN: a frame with a non-finite shift gives all-zero loads marked
 //! not converged, and every load is clamped into [0, ulimit].
@@ -80,8 +80,11 @@ pub struct MethodEntry {
     /// Grid of penalty weights searched when tuning on a validation set.
     pub penalty_grid: fn() -> Vec<f64>,
     /// Build the method's reconstructor from the matrix-only precomputation.
-    build: fn(Common, &MethodSettings) -> Result<Box<dyn Reconstructor>, ArrayError>,
+    build: BuildFn,
 }
+
+/// How a registry entry builds its reconstructor.
+type BuildFn = fn(Common, &MethodSettings) -> Result<Box<dyn Reconstructor>, ArrayError>;
 
 /// A registered method: a handle on its [`MethodEntry`], compared by name.
 #[derive(Clone, Copy)]
