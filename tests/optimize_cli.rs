@@ -243,17 +243,29 @@ fn the_loop_closes_through_the_verifier() {
         "--out".into(),
         s(&synth),
     ]);
-    let verify = run(vec![
-        "verify".into(),
-        s(&opt),
-        "--log".into(),
-        s(&synth.join("log.txt")),
-        "--force".into(),
-        s(&synth.join("force.csv")),
-        "--case".into(),
-        "I".into(),
-        "--json".into(),
-    ]);
+    // Case I without --insert: the fit is made and reported, but nothing is judged
+    // against the model, which the exit code says (3, not 0 for PASS).
+    let o = bin()
+        .args([
+            "verify",
+            &s(&opt),
+            "--log",
+            &s(&synth.join("log.txt")),
+            "--force",
+            &s(&synth.join("force.csv")),
+            "--case",
+            "I",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let verify = o.stdout;
     let vjson = dir.path().join("verify.json");
     std::fs::write(&vjson, &verify).unwrap();
     let measured = fbgforge::optimize::quality::MeasuredPrototype::load(&vjson).unwrap();

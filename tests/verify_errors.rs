@@ -376,3 +376,48 @@ fn a_shift_that_leaves_its_window_under_load_is_reported() {
         analyse_edited(&SynthConfig::default(), |_| {}, &AnalysisOptions::default()).unwrap();
     assert_eq!(small.warnings.count("peaks_outside_window"), 0);
 }
+
+#[test]
+fn a_corrupted_force_time_is_refused_naming_its_line_and_a_nan_offset_is_an_error() {
+    // One time of -1e308 among the samples: an error naming line 6, not a panic and not
+    // a K stretched over an absurd span.
+    let d = common::shipped_path("clip-on-34mm.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let design = common::shipped("clip-on-34mm.toml");
+    let cfg = fbgforge::verify::synth::SynthConfig::default();
+    let (log, force, _) = fbgforge::verify::synth::generate(&design, &cfg).unwrap();
+    let lp = dir.path().join("log.txt");
+    let fp = dir.path().join("force.csv");
+    fbgforge::verify::synth::write_log(
+        &lp,
+        fbgforge::logs::LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &fbgforge::verify::synth::LogStyle::default(),
+    )
+    .unwrap();
+    fbgforge::verify::synth::write_force_csv(&fp, &force).unwrap();
+    let text = std::fs::read_to_string(&fp).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let rest = lines[5].split_once(',').unwrap().1.to_string();
+    lines[5] = format!("-1e308,{rest}");
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, lines.join("\n")).unwrap();
+    let mut req = fbgforge::verify::VerifyRequest::new(d.clone(), lp.clone(), bad.clone());
+    let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+    assert!(
+        e.contains("bad.csv:6") && e.contains("runs backwards"),
+        "{e}"
+    );
+    req.force = fp.clone();
+    req.analysis.clock_offset_s = Some(f64::NAN);
+    let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+    assert!(
+        e.contains("--clock-offset-s") && e.contains("finite"),
+        "{e}"
+    );
+    req.analysis.clock_offset_s = None;
+    req.analysis.max_clock_offset_s = f64::INFINITY;
+    let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+    assert!(e.contains("--max-offset-s"), "{e}");
+}

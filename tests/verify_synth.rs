@@ -186,3 +186,109 @@ fn case_ii_blue_shift_at_the_sm125_rate() {
         check(format, &m, &truth, &cfg);
     }
 }
+
+/// Model predictions that agree exactly with whatever K was measured: without a
+/// response gate, every grating of any log would PASS against them.
+fn flattering_predictions(m: &Measurement) -> Vec<fbgforge::model::GratingPrediction> {
+    m.gratings
+        .iter()
+        .map(|g| fbgforge::model::GratingPrediction {
+            grating: g.grating.clone(),
+            core: g.core.clone().unwrap_or_default(),
+            case: fbgforge::model::LoadCase::II,
+            insert: None,
+            sensitivity_pm_per_n: g.sensitivity_pm_per_n,
+            shift_pm: 0.0,
+            strain: 0.0,
+            warnings: vec![],
+        })
+        .collect()
+}
+
+fn verdict_of(m: &Measurement) -> fbgforge::verify::verdict::Verdict {
+    let preds = flattering_predictions(m);
+    fbgforge::verify::verdict::verdicts(
+        m,
+        Ok(&preds),
+        fbgforge::model::LoadCase::II,
+        None,
+        fbgforge::verify::verdict::DEFAULT_TOLERANCE,
+    )
+}
+
+#[test]
+fn an_unloaded_sensor_never_passes_whatever_the_model_says() {
+    use fbgforge::verify::verdict::Status;
+    // No response at all: the wavelength wanders (drift, a temperature ramp the
+    // reference does not see) while the force log has its pulses.
+    for (seed, drift) in [(1u64, 0.05), (2, 0.5), (3, -0.3)] {
+        let cfg = SynthConfig {
+            sensitivity_pm_per_n: 0.0,
+            noise_pm: 0.5,
+            drift_pm_per_s: drift,
+            seed,
+            ..SynthConfig::default()
+        };
+        let (m, _) = run(LogFormat::EnlightPeaks, &cfg, &LogStyle::default(), None);
+        let v = verdict_of(&m);
+        assert_eq!(v.overall, Status::NoResponse, "seed {seed}: {v:?}");
+        for g in &v.gratings {
+            assert_eq!(g.status, Status::NoResponse, "{g:?}");
+            assert!(g.reason.as_deref().is_some_and(|r| !r.is_empty()));
+        }
+    }
+}
+
+#[test]
+fn a_log_against_an_unrelated_force_log_is_not_judged() {
+    use fbgforge::verify::verdict::Status;
+    // The sensor responded, but to other pulses than the force log holds.
+    let d = design();
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = SynthConfig::default();
+    let other = SynthConfig {
+        pulses: synth::pulse_train(&[30.0, 10.0, 50.0], 3.0, 14.0, 9.0),
+        seed: 9,
+        ..SynthConfig::default()
+    };
+    let (log, _, _) = synth::generate(&d, &cfg).unwrap();
+    let (_, force, _) = synth::generate(&d, &other).unwrap();
+    let lp = dir.path().join("log.txt");
+    let fp = dir.path().join("force.csv");
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let opts = AnalysisOptions {
+        clock_offset_s: Some(synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks)),
+        ..Default::default()
+    };
+    let (m, _) = analyse(&d, &pl, &fl, &opts).unwrap();
+    let v = verdict_of(&m);
+    assert_ne!(v.overall, Status::Pass, "{v:?}");
+    assert!(
+        v.gratings.iter().all(|g| g.status == Status::NoResponse),
+        "{v:?}"
+    );
+}
+
+#[test]
+fn a_real_response_passes_the_gate_and_is_judged() {
+    use fbgforge::verify::verdict::Status;
+    let cfg = SynthConfig::default();
+    let (m, _) = run(LogFormat::EnlightPeaks, &cfg, &LogStyle::default(), None);
+    let v = verdict_of(&m);
+    assert_eq!(v.overall, Status::Pass, "{v:?}");
+    for g in &m.gratings {
+        // Autocorrelated residuals widen the standard error, never narrow it.
+        assert!(g.sensitivity_std_error_effective_pm_per_n >= g.sensitivity_std_error_pm_per_n);
+        assert!(g.effective_samples >= 2.0);
+    }
+}

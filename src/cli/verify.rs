@@ -100,8 +100,9 @@ fn read_options(format: Option<LogFormat>, date_order: Option<DateOrderArg>) -> 
     }
 }
 
-/// Run `fbgforge verify`. Returns status 2 after writing everything when the
-/// verdict is FAIL, so scripts can tell a failed part from an error (status 1).
+/// Run `fbgforge verify`. After writing everything it returns status 0 for PASS, 2 for
+/// FAIL and 3 when nothing could be judged (NO RESPONSE or NOT JUDGED), so scripts can
+/// tell a failed part, an undecided one and an error (status 1) apart.
 pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
     let VerifyOutcome { report, series } = fbgforge::verify::run(&verify_request(&a))?;
     if let Some(dir) = &a.report {
@@ -115,10 +116,11 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
             println!("report: {}", dir.join("report.md").display());
         }
     }
-    if report.verdict.overall == Status::Fail {
-        return Ok(std::process::ExitCode::from(2));
-    }
-    Ok(std::process::ExitCode::SUCCESS)
+    Ok(match report.verdict.overall {
+        Status::Pass => std::process::ExitCode::SUCCESS,
+        Status::Fail => std::process::ExitCode::from(2),
+        Status::NotJudged | Status::NoResponse => std::process::ExitCode::from(3),
+    })
 }
 
 /// The library request that `fbgforge verify`'s flags describe.

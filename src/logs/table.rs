@@ -800,6 +800,41 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     Ok(log)
 }
 
+/// A time for a message: plain decimals, scientific notation when absurdly large.
+fn readable_s(t: f64) -> String {
+    if t.abs() < 1e9 {
+        format!("{t}")
+    } else {
+        format!("{t:e}")
+    }
+}
+
+/// Refuse a force log whose time column runs backwards, naming the first lines where it
+/// does.
+fn check_force_times_increase(path: &Path, time_s: &[f64], line_nos: &[u32]) -> Result<()> {
+    let backward: Vec<usize> = (1..time_s.len())
+        .filter(|&i| time_s[i] < time_s[i - 1])
+        .collect();
+    if let Some(&i) = backward.first() {
+        let lines: Vec<String> = backward
+            .iter()
+            .take(5)
+            .map(|&k| line_nos[k].to_string())
+            .collect();
+        bail!(
+            "{}: the force log's time runs backwards ({} s after {} s) at {} of its {} rows (lines {}{}); a force log's times must increase: fix or remove those rows",
+            at(path, line_nos[i] as usize),
+            readable_s(time_s[i]),
+            readable_s(time_s[i - 1]),
+            backward.len(),
+            time_s.len(),
+            lines.join(", "),
+            if backward.len() > 5 { ", …" } else { "" }
+        );
+    }
+    Ok(())
+}
+
 /// Parse a force-stand CSV held in memory.
 pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
     let (b, _) = strip_bom(bytes);
@@ -962,12 +997,10 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
             Clock::Absolute,
         )
     };
-    if let Some(order) = super::finish_times(path, &mut time_s, &line_nos, &mut warnings) {
-        let t: Vec<f64> = order.iter().map(|&i| time_s[i]).collect();
-        let f: Vec<f64> = order.iter().map(|&i| force[i]).collect();
-        time_s = t;
-        force = f;
-    }
+    // A force stand writes its samples in time order: a time that runs backwards is a
+    // corrupted or mis-parsed value, and sorting it in would stretch the log over the
+    // wrong span (one time of -1e308 among 1836 samples gave K = -13 867 pm/N).
+    check_force_times_increase(path, &time_s, &line_nos)?;
     super::dequantize(path, &mut time_s, &mut warnings);
     Ok(ForceLog {
         source: path.to_path_buf(),

@@ -96,6 +96,17 @@ pub struct GratingResult {
     pub sensitivity_pm_per_n: f64,
     /// Standard error of K (white-noise assumption), pm/N.
     pub sensitivity_std_error_pm_per_n: f64,
+    /// Lag-1 autocorrelation of the straight-line residuals: near 1 when the residual
+    /// wanders slowly (drift, an unrelated signal), which makes the samples far from
+    /// independent.
+    pub residual_autocorrelation: f64,
+    /// Effective number of independent samples, n (1 − ρ) / (1 + ρ).
+    pub effective_samples: f64,
+    /// Standard error of K allowing for the autocorrelated residuals:
+    /// `sensitivity_std_error_pm_per_n` × √(n / n_eff), pm/N.
+    pub sensitivity_std_error_effective_pm_per_n: f64,
+    /// Largest peak force of the pulses, N.
+    pub peak_force_n: f64,
     /// Slope of a straight line through Δλ against F (no lag model), pm/N.
     pub linear_slope_pm_per_n: f64,
     /// R² of that straight line.
@@ -915,6 +926,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         )
     })?;
     let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
+    let (rho, n, n_eff) = residual_independence(fc, &d, line.slope, line.intercept);
     let pres = pulse_lags(ctx, &d, lm.k_pm_per_n);
     let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
     let mean_lag = if pres.is_empty() {
@@ -942,6 +954,11 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         rows_ambiguous: t.rows_ambiguous,
         sensitivity_pm_per_n: k,
         sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
+        residual_autocorrelation: rho,
+        effective_samples: n_eff,
+        sensitivity_std_error_effective_pm_per_n: lm.k_std_error_pm_per_n
+            * (n as f64 / n_eff).sqrt(),
+        peak_force_n: pres.iter().map(|p| p.peak_force_n).fold(f64::NAN, f64::max),
         linear_slope_pm_per_n: line.slope,
         r_squared: line.r_squared,
         lag_model_r_squared: lm.r_squared,
@@ -959,6 +976,41 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         pulses: pres,
     };
     Ok((result, d, line.slope, line.intercept))
+}
+
+/// Lag-1 autocorrelation ρ of the straight-line residuals over consecutive samples
+/// where both force and shift exist, the number n of such samples and the effective
+/// number of independent ones, n (1 − ρ) / (1 + ρ) (an AR(1) reading of the residual;
+/// at least 2, at most n).
+fn residual_independence(
+    force: &[f64],
+    shift: &[f64],
+    slope: f64,
+    intercept: f64,
+) -> (f64, usize, f64) {
+    let r: Vec<f64> = force
+        .iter()
+        .zip(shift)
+        .map(|(f, s)| s - (slope * f + intercept))
+        .collect();
+    let (mut num, mut den, mut n) = (0.0, 0.0, 0usize);
+    for (i, v) in r.iter().enumerate() {
+        if !v.is_finite() {
+            continue;
+        }
+        n += 1;
+        den += v * v;
+        if let Some(next) = r.get(i + 1).filter(|x| x.is_finite()) {
+            num += v * next;
+        }
+    }
+    let rho = if den > 0.0 {
+        (num / den).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    let n_eff = (n as f64 * (1.0 - rho) / (1.0 + rho)).clamp(2.0_f64.min(n as f64), n as f64);
+    (rho, n, n_eff)
 }
 
 /// Per pulse: the times of the force peak and of the matching wavelength peak (vertex

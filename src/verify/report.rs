@@ -27,6 +27,7 @@ fn status_word(s: Status) -> &'static str {
         Status::Pass => "PASS",
         Status::Fail => "FAIL",
         Status::NotJudged => "NOT JUDGED",
+        Status::NoResponse => "NO RESPONSE",
     }
 }
 

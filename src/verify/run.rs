@@ -94,6 +94,13 @@ pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
             req.k_tolerance
         );
     }
+    if let Some(o) = req.analysis.clock_offset_s.filter(|o| !o.is_finite()) {
+        bail!("the clock offset (--clock-offset-s) must be a finite number of seconds, got {o}");
+    }
+    let range = req.analysis.max_clock_offset_s;
+    if !(range.is_finite() && range >= 0.0) {
+        bail!("the clock offset's search range (--max-offset-s) must be a finite number of seconds ≥ 0, got {range}");
+    }
     let design = crate::design::load(&req.design)?;
     check_insert(&design, req)?;
     let log = logs::read_peak_log(&req.log, &req.read)?;

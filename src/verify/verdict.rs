@@ -8,7 +8,7 @@
 //! failing the whole run.
 
 use crate::model::{GratingPrediction, LoadCase};
-use crate::verify::analysis::Measurement;
+use crate::verify::analysis::{GratingResult, Measurement};
 use serde::Serialize;
 
 /// Default tolerance on the relative error of K (the paper's model was within 8 %).
@@ -24,6 +24,89 @@ pub enum Status {
     Fail,
     /// No prediction to compare with.
     NotJudged,
+    /// The grating shows no response to the force that the data can tell from noise
+    /// (see [`ResponseGate`]); nothing to compare.
+    NoResponse,
+}
+
+/// What a grating's fit must show before its K is compared with the model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ResponseGate {
+    /// Smallest straight-line R² of shift against force: the force explains the shift.
+    pub min_r_squared: f64,
+    /// Smallest |K| / standard error, the error allowing for autocorrelated residuals
+    /// (effective sample size): K differs from zero beyond doubt.
+    pub min_t_statistic: f64,
+    /// Largest lag time constant τ as a share of the median pulse spacing: a "lag"
+    /// longer than the pulses is drift, not a response.
+    pub max_tau_over_spacing: f64,
+    /// Smallest shift over the pulses' force range, in interrogator resolutions.
+    pub min_shift_over_resolution: f64,
+}
+
+impl Default for ResponseGate {
+    fn default() -> Self {
+        ResponseGate {
+            min_r_squared: 0.5,
+            min_t_statistic: 5.0,
+            max_tau_over_spacing: 0.5,
+            min_shift_over_resolution: 10.0,
+        }
+    }
+}
+
+impl ResponseGate {
+    /// Why `g` shows no response, or `None` when it does. `spacing_s` is the median
+    /// spacing of the pulses (the log's length for one pulse), `resolution_pm` the
+    /// interrogator's.
+    pub fn no_response(
+        &self,
+        g: &GratingResult,
+        spacing_s: f64,
+        resolution_pm: f64,
+    ) -> Option<String> {
+        let t = g.sensitivity_pm_per_n.abs() / g.sensitivity_std_error_effective_pm_per_n;
+        let shift_pm = g.sensitivity_pm_per_n.abs() * g.peak_force_n;
+        if !(g.r_squared >= self.min_r_squared) {
+            Some(format!(
+                "the force explains too little of the shift: R² = {:.4} < {}",
+                g.r_squared, self.min_r_squared
+            ))
+        } else if !(t >= self.min_t_statistic) {
+            Some(format!(
+                "K = {:.3} ± {:.3} pm/N (standard error allowing for autocorrelated residuals, {:.0} effective of the samples) is not distinguishable from zero: |K|/se = {t:.1} < {}",
+                g.sensitivity_pm_per_n,
+                g.sensitivity_std_error_effective_pm_per_n,
+                g.effective_samples,
+                self.min_t_statistic
+            ))
+        } else if !(g.sls_time_constant_s <= self.max_tau_over_spacing * spacing_s) {
+            Some(format!(
+                "the fitted lag time constant τ = {:.3} s is not short against the pulse spacing {spacing_s:.3} s: the shift follows something slower than the force",
+                g.sls_time_constant_s
+            ))
+        } else if !(shift_pm >= self.min_shift_over_resolution * resolution_pm) {
+            Some(format!(
+                "the shift over the pulses' force range, {shift_pm:.2} pm, is below {} × the interrogator resolution ({resolution_pm} pm)",
+                self.min_shift_over_resolution
+            ))
+        } else {
+            None
+        }
+    }
+}
+
+/// Median spacing of the measurement's pulses, s (the span of the pulses when there
+/// is only one, or the whole overlap when none was measured).
+fn pulse_spacing_s(m: &Measurement, g: &GratingResult) -> f64 {
+    let mut starts: Vec<f64> = g.pulses.iter().map(|p| p.start_s).collect();
+    starts.sort_by(f64::total_cmp);
+    let mut gaps: Vec<f64> = starts.windows(2).map(|w| w[1] - w[0]).collect();
+    if gaps.is_empty() {
+        return m.overlap_s;
+    }
+    gaps.sort_by(f64::total_cmp);
+    gaps[gaps.len() / 2]
 }
 
 /// Judge a measured K against a predicted K: (status, relative error).
@@ -77,8 +160,8 @@ pub struct Verdict {
     pub insert: Option<String>,
     /// Per grating.
     pub gratings: Vec<GratingVerdict>,
-    /// Pass if every judged grating passes and at least one was judged; NotJudged if
-    /// none could be judged.
+    /// Pass if every judged grating passes and at least one was judged; NoResponse if
+    /// no grating responded to the force; NotJudged if none could be judged otherwise.
     pub overall: Status,
 }
 
@@ -90,6 +173,25 @@ pub fn verdicts(
     case: LoadCase,
     insert: Option<&str>,
     tolerance: f64,
+) -> Verdict {
+    verdicts_gated(
+        m,
+        predictions,
+        case,
+        insert,
+        tolerance,
+        &ResponseGate::default(),
+    )
+}
+
+/// [`verdicts`] with an explicit response gate.
+pub fn verdicts_gated(
+    m: &Measurement,
+    predictions: Result<&[GratingPrediction], String>,
+    case: LoadCase,
+    insert: Option<&str>,
+    tolerance: f64,
+    gate: &ResponseGate,
 ) -> Verdict {
     let gratings: Vec<GratingVerdict> = m
         .gratings
@@ -124,7 +226,14 @@ pub fn verdicts(
                     }
                 }
             };
-            let (status, rel) = judge(g.sensitivity_pm_per_n, pred, tolerance);
+            let silent = gate.no_response(g, pulse_spacing_s(m, g), m.interrogator_resolution_pm);
+            let (status, rel, reason) = match silent {
+                Some(why) => (Status::NoResponse, None, Some(why)),
+                None => {
+                    let (status, rel) = judge(g.sensitivity_pm_per_n, pred, tolerance);
+                    (status, rel, reason)
+                }
+            };
             GratingVerdict {
                 grating: g.grating.clone(),
                 measured_sensitivity_pm_per_n: g.sensitivity_pm_per_n,
@@ -138,10 +247,14 @@ pub fn verdicts(
         .collect();
     let judged: Vec<&GratingVerdict> = gratings
         .iter()
-        .filter(|g| g.status != Status::NotJudged)
+        .filter(|g| matches!(g.status, Status::Pass | Status::Fail))
         .collect();
     let overall = if judged.is_empty() {
-        Status::NotJudged
+        if !gratings.is_empty() && gratings.iter().all(|g| g.status == Status::NoResponse) {
+            Status::NoResponse
+        } else {
+            Status::NotJudged
+        }
     } else if judged.iter().all(|g| g.status == Status::Pass) {
         Status::Pass
     } else {
