@@ -67,12 +67,14 @@ impl ResponseGate {
     ) -> Option<String> {
         let t = g.sensitivity_pm_per_n.abs() / g.sensitivity_std_error_effective_pm_per_n;
         let shift_pm = g.sensitivity_pm_per_n.abs() * g.peak_force_n;
-        if !(g.r_squared >= self.min_r_squared) {
+        // Each test also fails on NaN (a fit that could not be made shows no response).
+        let below = |v: f64, min: f64| v.is_nan() || v < min;
+        if below(g.r_squared, self.min_r_squared) {
             Some(format!(
                 "the force explains too little of the shift: R² = {:.4} < {}",
                 g.r_squared, self.min_r_squared
             ))
-        } else if !(t >= self.min_t_statistic) {
+        } else if below(t, self.min_t_statistic) {
             Some(format!(
                 "K = {:.3} ± {:.3} pm/N (standard error allowing for autocorrelated residuals, {:.0} effective of the samples) is not distinguishable from zero: |K|/se = {t:.1} < {}",
                 g.sensitivity_pm_per_n,
@@ -80,12 +82,14 @@ impl ResponseGate {
                 g.effective_samples,
                 self.min_t_statistic
             ))
-        } else if !(g.sls_time_constant_s <= self.max_tau_over_spacing * spacing_s) {
+        } else if g.sls_time_constant_s.is_nan()
+            || below(self.max_tau_over_spacing * spacing_s, g.sls_time_constant_s)
+        {
             Some(format!(
                 "the fitted lag time constant τ = {:.3} s is not short against the pulse spacing {spacing_s:.3} s: the shift follows something slower than the force",
                 g.sls_time_constant_s
             ))
-        } else if !(shift_pm >= self.min_shift_over_resolution * resolution_pm) {
+        } else if below(shift_pm, self.min_shift_over_resolution * resolution_pm) {
             Some(format!(
                 "the shift over the pulses' force range, {shift_pm:.2} pm, is below {} × the interrogator resolution ({resolution_pm} pm)",
                 self.min_shift_over_resolution
