@@ -168,7 +168,7 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
         &csv_rows,
     )?;
     let mut chart = Chart::new(
-        "fbgforge bench optimize: time against target",
+        "fbgforge-studies optimize: time against target",
         "benchmark row",
         "time / target",
     );

@@ -121,7 +121,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         }
     };
     let mut report = String::new();
-    writeln!(report, "# fbgforge bench reconstruct\n")?;
+    writeln!(report, "# fbgforge-studies reconstruct\n")?;
     writeln!(
         report,
         "True array: model matrix of the {layout_name}; seeds {}..{} ({} repetition(s) of the 84-test protocol, pooled){}.\n",
