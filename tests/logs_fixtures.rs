@@ -282,3 +282,59 @@ fn windows_line_endings_read_the_same() {
     let f = logs::parse_force_bytes(text.as_bytes(), &path, &ForceColumns::default()).unwrap();
     assert_eq!(f.force_n, vec![0.012, 5.25, 10.5, 5.2]);
 }
+
+/// Write `text` as a force log in a temporary folder and read it with `cols`.
+fn force_from(text: &str, cols: &ForceColumns) -> anyhow::Result<logs::ForceLog> {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("force.csv");
+    std::fs::write(&p, text).unwrap();
+    logs::read_force_log(&p, cols)
+}
+
+#[test]
+fn force_logs_are_read_as_labs_write_them() {
+    let cols = ForceColumns::default();
+    // Milliseconds in the name: `time_ms` and `Time [ms]` are not seconds.
+    for header in ["time_ms,force_N", "Time [ms],Force [N]"] {
+        let f = force_from(&format!("{header}\n0,0\n500,1.5\n1000,3\n"), &cols).unwrap();
+        assert_eq!(f.time_s, vec![0.0, 0.5, 1.0], "{header}");
+        assert_eq!(f.force_n, vec![0.0, 1.5, 3.0], "{header}");
+    }
+    // An Instron/Bluehill units row under the header: seconds and kilonewtons.
+    let f = force_from(
+        "Time,Extension,Load\n(s),(mm),(kN)\n0.0,0.00,0.000\n0.5,0.10,0.012\n1.0,0.20,0.025\n",
+        &cols,
+    )
+    .unwrap();
+    assert_eq!(f.time_s, vec![0.0, 0.5, 1.0]);
+    assert!((f.force_n[2] - 25.0).abs() < 1e-9, "{:?}", f.force_n);
+    assert_eq!(f.warnings.count("force_unit_assumed"), 0);
+    // A units row in milliseconds scales the time.
+    let f = force_from("Time,Load\n(ms),(N)\n0,1\n250,2\n500,3\n", &cols).unwrap();
+    assert_eq!(f.time_s, vec![0.0, 0.25, 0.5]);
+    // Quoted CSV, as Excel and Bluehill write it.
+    let f = force_from(
+        "\"time_s\",\"force_N\"\n\"0.0\",\"1.0\"\n\"0.5\",\"2.0\"\n\"1.0\",\"3.0\"\n",
+        &cols,
+    )
+    .unwrap();
+    assert_eq!(f.time_s, vec![0.0, 0.5, 1.0]);
+    assert_eq!(f.force_n, vec![1.0, 2.0, 3.0]);
+}
+
+#[test]
+fn us_dates_in_a_force_log_follow_force_date_order() {
+    // 04/05/2025: 4 May read day first, 5 April read month first.
+    let text = "AbsTime,force_N\n04/05/2025 10:00:00.0,0\n04/05/2025 10:00:00.5,1\n04/05/2025 10:00:01.0,2\n";
+    let dmy = force_from(text, &ForceColumns::default()).unwrap();
+    let mdy = force_from(
+        text,
+        &ForceColumns {
+            date_order: Some(fbgforge::logs::num::DateOrder::MonthDayYear),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(dmy.time_s[0] - mdy.time_s[0], 29.0 * 86400.0);
+    assert_eq!(mdy.time_s[0], epoch(2025, 4, 5, 10.0, 0.0, 0.0));
+}

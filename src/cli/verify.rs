@@ -76,6 +76,10 @@ pub struct VerifyArgs {
     /// Name of the force log's time column.
     #[arg(long)]
     pub force_time_column: Option<String>,
+    /// Order of day and month in the force log's slash dates (detected when the file
+    /// tells, else day first).
+    #[arg(long, value_enum)]
+    pub force_date_order: Option<DateOrderArg>,
     /// Name of the force log's force column.
     #[arg(long)]
     pub force_force_column: Option<String>,
@@ -90,13 +94,17 @@ pub struct VerifyArgs {
     pub report: Option<PathBuf>,
 }
 
-fn read_options(format: Option<LogFormat>, date_order: Option<DateOrderArg>) -> ReadOptions {
+fn date_order(d: DateOrderArg) -> DateOrder {
+    match d {
+        DateOrderArg::Dmy => DateOrder::DayMonthYear,
+        DateOrderArg::Mdy => DateOrder::MonthDayYear,
+    }
+}
+
+fn read_options(format: Option<LogFormat>, d: Option<DateOrderArg>) -> ReadOptions {
     ReadOptions {
         format,
-        date_order: date_order.map(|d| match d {
-            DateOrderArg::Dmy => DateOrder::DayMonthYear,
-            DateOrderArg::Mdy => DateOrder::MonthDayYear,
-        }),
+        date_order: d.map(date_order),
     }
 }
 
@@ -131,6 +139,7 @@ fn verify_request(a: &VerifyArgs) -> VerifyRequest {
         time: a.force_time_column.clone(),
         force: a.force_force_column.clone(),
         scale_to_n: a.force_scale_to_n,
+        date_order: a.force_date_order.map(date_order),
     };
     req.case = a.case.map(|c| match c {
         CaseArg::I => LoadCase::I,

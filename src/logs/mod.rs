@@ -249,8 +249,12 @@ pub struct ForceColumns {
     pub time: Option<String>,
     /// Force column name (default: the first of `force_N`, `force`, `F`, `load`).
     pub force: Option<String>,
-    /// Factor to N; default from the unit in the column name (`_N`, `[kN]`, `(g)`, …).
+    /// Factor to N; default from the unit in the column name (`_N`, `[kN]`, `(g)`, …)
+    /// or in a units row under the header (`(s),(mm),(kN)`, as Bluehill writes it).
     pub scale_to_n: Option<f64>,
+    /// Order of day and month in slash dates (detected when the file tells, else
+    /// day first).
+    pub date_order: Option<num::DateOrder>,
 }
 
 /// Read a force-stand CSV.
@@ -276,6 +280,26 @@ pub fn force_unit_scale(name: &str) -> Option<f64> {
         "g" | "gf" => Some(9.80665e-3),
         "kg" | "kgf" => Some(9.80665),
         "lbf" => Some(4.448_221_615),
+        _ => None,
+    }
+}
+
+/// Factor to seconds from a time column name's unit (`time_ms`, `Time [ms]`, `(s)`),
+/// if it names one.
+pub fn time_unit_scale(name: &str) -> Option<f64> {
+    let lower = name.to_lowercase();
+    let unit = lower
+        .rsplit(['_', '[', '(', ' ', '/'])
+        .next()
+        .unwrap_or("")
+        .trim_end_matches([']', ')'])
+        .trim();
+    match unit {
+        "s" | "sec" | "secs" | "seconds" => Some(1.0),
+        "ms" | "msec" => Some(1e-3),
+        "us" | "µs" | "μs" => Some(1e-6),
+        "min" => Some(60.0),
+        "h" | "hr" => Some(3600.0),
         _ => None,
     }
 }

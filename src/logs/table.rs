@@ -64,8 +64,28 @@ fn lines_terminated(b: &[u8]) -> impl Iterator<Item = (usize, &[u8], bool)> {
 
 fn fields(line: &[u8], delim: u8) -> Vec<String> {
     line.split(|&c| c == delim)
-        .map(|f| String::from_utf8_lossy(trim(f)).into_owned())
+        .map(|f| String::from_utf8_lossy(unquote(trim(f))).into_owned())
         .collect()
+}
+
+/// A field without the double quotes Excel and Bluehill put around it.
+fn unquote(f: &[u8]) -> &[u8] {
+    match f {
+        [b'"', inner @ .., b'"'] => inner,
+        _ => f,
+    }
+}
+
+/// A units row under a force log's header: every field a unit in brackets, like
+/// `(s),(mm),(kN)`.
+fn is_units_row(line: &[u8], delim: u8) -> bool {
+    let fs = fields(line, delim);
+    fs.iter().any(|f| !f.is_empty())
+        && fs.iter().all(|f| {
+            f.is_empty()
+                || (f.starts_with('(') && f.ends_with(')'))
+                || (f.starts_with('[') && f.ends_with(']'))
+        })
 }
 
 fn is_time_field(f: &[u8]) -> bool {
@@ -895,7 +915,26 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let fi = find(&cols.force, &["force_N", "force", "F", "load"], "force")?;
     let time_column = header.get(ti).cloned().unwrap_or_else(|| "column 1".into());
     let force_column = header.get(fi).cloned().unwrap_or_else(|| "column 2".into());
-    let scale = match (cols.scale_to_n, super::force_unit_scale(&force_column)) {
+    let mut lines = lines.peekable();
+    // A units row (`(s),(mm),(kN)`) names the units the header leaves out.
+    let units: Vec<String> = match lines.peek() {
+        Some((_, (_, l))) if !headerless && is_units_row(l, delim) => {
+            let u = fields(l, delim);
+            lines.next();
+            u
+        }
+        _ => Vec::new(),
+    };
+    let unit_of = |i: usize, name: &str| {
+        units
+            .get(i)
+            .filter(|u| !u.is_empty())
+            .map(|u| format!("{name} {u}"))
+            .unwrap_or_else(|| name.to_string())
+    };
+    let (time_named, force_named) = (unit_of(ti, &time_column), unit_of(fi, &force_column));
+    let time_scale_s = super::time_unit_scale(&time_named).unwrap_or(1.0);
+    let scale = match (cols.scale_to_n, super::force_unit_scale(&force_named)) {
         (Some(s), _) => s,
         (None, Some(s)) => s,
         (None, None) => {
@@ -924,7 +963,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let n_lines = b.iter().filter(|&&c| c == b'\n').count() + usize::from(unterminated);
     for (idx, (_, line)) in body {
         total += 1;
-        let parts: Vec<&[u8]> = line.split(|&c| c == delim).collect();
+        let parts: Vec<&[u8]> = line.split(|&c| c == delim).map(|f| unquote(trim(f))).collect();
         let t = parts.get(ti).and_then(|f| parse_time_field(f, dc));
         let f = parts
             .get(fi)
@@ -967,12 +1006,14 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     }
     super::require_rows(path, force.len(), "the force log")?;
     let (mut time_s, clock) = if times.dates.is_empty() {
-        let clock = if times.sec[0] > 1e8 {
+        // Plain numbers in the column's unit (`time_ms`, `Time [ms]`, a units row).
+        let sec: Vec<f64> = times.sec.iter().map(|t| t * time_scale_s).collect();
+        let clock = if sec[0] > 1e8 {
             Clock::Absolute
         } else {
             Clock::Relative
         };
-        (times.sec.clone(), clock)
+        (sec, clock)
     } else {
         if times.date_of_row.contains(&NO_DATE) {
             bail!(
@@ -980,8 +1021,11 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
                 path.display()
             );
         }
-        let order = num::resolve_order(&times.dates, DateOrder::DayMonthYear)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        let order = match cols.date_order {
+            Some(o) => o,
+            None => num::resolve_order(&times.dates, DateOrder::DayMonthYear)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?,
+        };
         let days: Vec<i64> = times
             .dates
             .iter()
