@@ -421,3 +421,38 @@ fn a_corrupted_force_time_is_refused_naming_its_line_and_a_nan_offset_is_an_erro
     let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
     assert!(e.contains("--max-offset-s"), "{e}");
 }
+
+#[test]
+fn a_wavelength_log_that_ends_before_the_first_pulse_is_an_error_naming_both_ranges() {
+    use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+    let d = common::shipped_path("clip-on-34mm.toml");
+    let design = common::shipped("clip-on-34mm.toml");
+    let dir = tempfile::tempdir().unwrap();
+    // The force log's first pulse starts at 5 s; the wavelength log stops at 3 s.
+    let cfg = SynthConfig::default();
+    let (mut log, force, _) = synth::generate(&design, &cfg).unwrap();
+    let keep = log.time_s.iter().take_while(|&&t| t < 3.0).count();
+    log.time_s.truncate(keep);
+    log.wavelength_nm.truncate(keep);
+    let lp = dir.path().join("log.txt");
+    let fp = dir.path().join("force.csv");
+    synth::write_log(
+        &lp,
+        fbgforge::logs::LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let mut req = fbgforge::verify::VerifyRequest::new(d, lp, fp);
+    req.analysis.clock_offset_s = Some(synth::reported_offset_s(
+        &cfg,
+        fbgforge::logs::LogFormat::EnlightPeaks,
+    ));
+    let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+    assert!(
+        e.contains("covers none of the") && e.contains("log.txt") && e.contains("force.csv"),
+        "{e}"
+    );
+}

@@ -963,7 +963,10 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     let n_lines = b.iter().filter(|&&c| c == b'\n').count() + usize::from(unterminated);
     for (idx, (_, line)) in body {
         total += 1;
-        let parts: Vec<&[u8]> = line.split(|&c| c == delim).map(|f| unquote(trim(f))).collect();
+        let parts: Vec<&[u8]> = line
+            .split(|&c| c == delim)
+            .map(|f| unquote(trim(f)))
+            .collect();
         let t = parts.get(ti).and_then(|f| parse_time_field(f, dc));
         let f = parts
             .get(fi)

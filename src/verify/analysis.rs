@@ -554,6 +554,17 @@ pub fn analyse(
             force.source.display()
         );
     }
+    // The wavelength log must cover at least one pulse, or K is fitted to rest alone.
+    if !pulses.iter().any(|p| fu[p.start] < wb && fu[p.end] > wa) {
+        bail!(
+            "the wavelength log {} (0 s to {wb:.3} s) covers none of the {} loading pulses of the force log {} ({:.3} s to {:.3} s on the wavelength log's clock): nothing to fit",
+            log.source.display(),
+            pulses.len(),
+            force.source.display(),
+            fu[pulses[0].start],
+            fu[pulses[pulses.len() - 1].end]
+        );
+    }
 
     // Per grating: the primary first (its τ and r seed the others), the rest in parallel.
     let ctx = GratingContext {
