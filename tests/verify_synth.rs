@@ -292,3 +292,76 @@ fn a_real_response_passes_the_gate_and_is_judged() {
         assert!(g.effective_samples >= 2.0);
     }
 }
+
+fn analyse_with(cfg: &SynthConfig, opts: &AnalysisOptions) -> Measurement {
+    let d = design();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, _) = synth::generate(&d, cfg).unwrap();
+    let lp = dir.path().join("log.txt");
+    let fp = dir.path().join("force.csv");
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    analyse(&d, &pl, &fl, opts).unwrap().0
+}
+
+#[test]
+fn the_offset_search_stays_inside_max_offset_and_estimated_lags_are_marked_relative() {
+    let cfg = SynthConfig::default();
+    let free = analyse_with(&cfg, &AnalysisOptions::default());
+    assert!(
+        free.lag_is_relative,
+        "an estimated offset leaves relative lags"
+    );
+    // The true offset (-1.7 s) lies outside ±0.05 s: the estimate stops at the bound
+    // and says so.
+    let bounded = analyse_with(
+        &cfg,
+        &AnalysisOptions {
+            max_clock_offset_s: 0.05,
+            ..Default::default()
+        },
+    );
+    // The residual offset searched around the logs' own start times is the force log's
+    // start on the wavelength clock, which the truth puts at -1.7 s.
+    assert!(
+        (free.force_log_start_s + 1.7).abs() <= 0.05,
+        "{}",
+        free.force_log_start_s
+    );
+    assert!(
+        bounded.force_log_start_s.abs() <= 0.05 + 1e-9,
+        "{}",
+        bounded.force_log_start_s
+    );
+    assert_eq!(bounded.warnings.count("clock_offset_at_limit"), 1);
+    // A given offset gives absolute lags.
+    let given = analyse_with(
+        &cfg,
+        &AnalysisOptions {
+            clock_offset_s: Some(synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks)),
+            ..Default::default()
+        },
+    );
+    assert!(!given.lag_is_relative);
+    let report = fbgforge::verify::report::VerifyReport {
+        design: "d".into(),
+        verdict: fbgforge::verify::verdict::verdicts(
+            &free,
+            Err("none".into()),
+            fbgforge::model::LoadCase::II,
+            None,
+            0.08,
+        ),
+        measurement: free,
+    };
+    assert!(fbgforge::verify::report::summary(&report).contains("RELATIVE"));
+}

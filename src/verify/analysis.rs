@@ -160,6 +160,10 @@ pub struct Measurement {
     pub clock_offset_s: f64,
     /// `estimated` or `given`.
     pub clock_offset_source: String,
+    /// True when the clock offset was estimated: the estimate absorbs any pure delay
+    /// between force and wavelength, so the lags, Δt_max and Q are relative to it, not
+    /// absolute. Give the offset (`--clock-offset-s`) for absolute lags.
+    pub lag_is_relative: bool,
     /// When the force log's first sample was taken, s from the wavelength log's first
     /// row (negative: the force recording started first). Easier to read than the
     /// offset when one log has wall-clock and the other relative times.
@@ -602,6 +606,7 @@ pub fn analyse(
         force_rate_hz: 1.0 / median_period(&force.time_s),
         clock_offset_s: offset,
         clock_offset_source: source.into(),
+        lag_is_relative: source == "estimated",
         force_log_start_s: fa,
         overlap_s: overlap,
         reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
@@ -833,7 +838,8 @@ fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f
     if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
         warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with --max-offset-s or give --clock-offset-s"));
     }
-    Ok(d)
+    // The search range is a bound the user set: the polished fit may not leave it.
+    Ok(d.clamp(-range, range))
 }
 
 /// Measurement of one grating in a verification: what every grating shares.

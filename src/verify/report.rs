@@ -22,6 +22,9 @@ pub struct VerifyReport {
     pub verdict: Verdict,
 }
 
+/// Why an estimated clock offset leaves only relative lags, and what to do about it.
+pub const RELATIVE_LAG_NOTE: &str = "the clock offset was estimated from the logs, and an estimated offset absorbs any pure delay between force and wavelength, so the absolute lag cannot be told from this data; give the offset between the two recorders' clocks with --clock-offset-s for absolute lags";
+
 fn status_word(s: Status) -> &'static str {
     match s {
         Status::Pass => "PASS",
@@ -74,6 +77,9 @@ pub fn summary(r: &VerifyReport) -> String {
         m.pulse_count,
         m.reference_grating.as_deref().unwrap_or("none")
     );
+    if m.lag_is_relative {
+        let _ = writeln!(s, "lags, Δt_max and Q are RELATIVE: {RELATIVE_LAG_NOTE}");
+    }
     let _ = writeln!(
         s,
         "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>9} {:>11} {:>8} {:>11}",
@@ -280,6 +286,12 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         m.force_log, m.force_samples, m.force_rate_hz
     );
     let _ = writeln!(md, "- clock offset (force − wavelength clock): {:.4} s ({}); the force log starts at {:.4} s on the wavelength log's time axis; overlap {:.1} s; {} pulses", m.clock_offset_s, m.clock_offset_source, m.force_log_start_s, m.overlap_s, m.pulse_count);
+    if m.lag_is_relative {
+        let _ = writeln!(
+            md,
+            "- **lags, Δt_max and Q are relative**: {RELATIVE_LAG_NOTE}"
+        );
+    }
     let _ = writeln!(
         md,
         "- temperature reference: {}; interrogator resolution {} pm\n",
