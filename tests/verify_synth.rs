@@ -365,3 +365,30 @@ fn the_offset_search_stays_inside_max_offset_and_estimated_lags_are_marked_relat
     };
     assert!(fbgforge::verify::report::summary(&report).contains("RELATIVE"));
 }
+
+#[test]
+fn the_chart_fit_line_shows_the_table_k() {
+    let d = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, _) = synth::generate(&d, &cfg).unwrap();
+    let lp = dir.path().join("log.txt");
+    let fp = dir.path().join("force.csv");
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let (m, series) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
+    assert_eq!(series.fit.len(), m.gratings.len());
+    for (g, (name, k, _)) in m.gratings.iter().zip(&series.fit) {
+        assert_eq!(&g.grating, name);
+        assert_eq!(*k, g.sensitivity_pm_per_n);
+    }
+}

@@ -191,7 +191,8 @@ pub struct Series {
     pub force_n: Vec<f64>,
     /// (grating, drift-removed compensated shift, pm).
     pub shift_pm: Vec<(String, Vec<f64>)>,
-    /// (grating, static K, baseline of the straight line) for the fit line.
+    /// (grating, the static K of the table, pm/N, and the line's baseline, pm) for the fit
+    /// line of the shift-against-force chart.
     pub fit: Vec<(String, f64, f64)>,
 }
 
@@ -992,7 +993,20 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         residual_rms_pm: lm.rms_pm,
         pulses: pres,
     };
-    Ok((result, d, line.slope, line.intercept))
+    // The chart draws the table's K (the lag model's static sensitivity), through the
+    // centre of the data, so the plot and the table never show two numbers.
+    let k = result.sensitivity_pm_per_n;
+    let (sum, count) = fc
+        .iter()
+        .zip(&d)
+        .filter(|(f, v)| f.is_finite() && v.is_finite())
+        .fold((0.0, 0usize), |(s, n), (f, v)| (s + v - k * f, n + 1));
+    let intercept = if count > 0 {
+        sum / count as f64
+    } else {
+        line.intercept
+    };
+    Ok((result, d, k, intercept))
 }
 
 /// Lag-1 autocorrelation ρ of the straight-line residuals over consecutive samples

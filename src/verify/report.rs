@@ -210,7 +210,7 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         c = c.with(PlotSeries::new(name.clone(), pts, Mark::Points));
         if lo < hi {
             c = c.with(PlotSeries::new(
-                format!("{name} fit {slope:.3} pm/N"),
+                format!("{name}: K = {slope:.3} pm/N (as in the table)"),
                 vec![(lo, intercept + slope * lo), (hi, intercept + slope * hi)],
                 Mark::Line,
             ));
