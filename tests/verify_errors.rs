@@ -113,15 +113,19 @@ fn a_missing_grating_is_an_error_for_its_core_and_a_warning_otherwise() {
         e.contains("lambda_12") && e.contains("channel connected"),
         "{e}"
     );
-    // Without --core: the psc2 gratings (not in the log) and lambda_12 are counted, and
-    // lambda_11 is still measured.
+    // Without --core: lambda_12 (its core, psc1, is in the log) is counted as missing;
+    // the psc2 gratings are not, since no psc2 grating is in the log (psc2 is not the
+    // core under test: issue 12); lambda_11 is still measured.
     let m = analyse_edited(
         &SynthConfig::default(),
         drop_l12,
         &AnalysisOptions::default(),
     )
     .unwrap();
-    assert_eq!(m.warnings.count("grating_missing"), 3, "{:?}", m.warnings);
+    assert_eq!(m.warnings.count("grating_missing"), 1, "{:?}", m.warnings);
+    assert!(m.warnings.counts["grating_missing"]
+        .first
+        .contains("lambda_12"));
     assert_eq!(m.gratings.len(), 1);
     assert!((m.gratings[0].sensitivity_pm_per_n - 12.0).abs() < 0.12);
 }
