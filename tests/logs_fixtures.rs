@@ -338,3 +338,30 @@ fn us_dates_in_a_force_log_follow_force_date_order() {
     assert_eq!(dmy.time_s[0] - mdy.time_s[0], 29.0 * 86400.0);
     assert_eq!(mdy.time_s[0], epoch(2025, 4, 5, 10.0, 0.0, 0.0));
 }
+
+#[test]
+fn a_csv_whose_first_column_is_an_index_is_refused_not_read_as_seconds() {
+    // A Hyperion CSV export without timestamps: `id` counts samples at 1 kHz.
+    let dir = tempfile::tempdir().unwrap();
+    for header in ["id,CH1,CH2", "Index;CH1;CH2", ",CH1,CH2"] {
+        let d = if header.contains(';') { ";" } else { "," };
+        let text = format!(
+            "{header}\n0{d}1546.295{d}1524.570\n1{d}1546.296{d}1524.571\n2{d}1546.297{d}1524.569\n"
+        );
+        let p = dir.path().join("hyperion.csv");
+        std::fs::write(&p, text).unwrap();
+        let e = logs::read_peak_log(
+            &p,
+            &ReadOptions {
+                format: Some(LogFormat::Csv),
+                ..Default::default()
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("sample index") && e.contains("hyperion.csv"),
+            "{header}: {e}"
+        );
+    }
+}

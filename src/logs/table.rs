@@ -76,6 +76,33 @@ fn unquote(f: &[u8]) -> &[u8] {
     }
 }
 
+/// A column name that counts samples rather than timing them (`id`, `index`, `sample`,
+/// …): taken as seconds, it would silently give every row a one-second period.
+fn is_index_column(name: &str) -> bool {
+    let n = name
+        .trim()
+        .trim_start_matches('#')
+        .trim()
+        .to_ascii_lowercase();
+    matches!(
+        n.as_str(),
+        "" | "id"
+            | "index"
+            | "idx"
+            | "n"
+            | "no"
+            | "nr"
+            | "row"
+            | "sample"
+            | "samples"
+            | "frame"
+            | "serial"
+            | "count"
+            | "seq"
+            | "sequence"
+    )
+}
+
 /// A units row under a force log's header: every field a unit in brackets, like
 /// `(s),(mm),(kN)`.
 fn is_units_row(line: &[u8], delim: u8) -> bool {
@@ -605,6 +632,12 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
             (Layout::Imon { pixels }, Vec::new())
         }
         LogFormat::Csv => {
+            if let Some(first) = det.header.first().filter(|h| is_index_column(h)) {
+                bail!(
+                    "{}: the first column `{first}` is a sample index, not a time: a CSV log needs its time first (seconds, or a date and time); export the log with its timestamps",
+                    at(path, header_line)
+                );
+            }
             let names: Vec<String> = if det.header.is_empty() {
                 let first = lines_with_offsets(&bytes[det.body_offset..])
                     .next()
