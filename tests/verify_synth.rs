@@ -392,3 +392,32 @@ fn the_chart_fit_line_shows_the_table_k() {
         assert_eq!(*k, g.sensitivity_pm_per_n);
     }
 }
+
+#[test]
+fn force_start_read_off_the_wall_clock_gives_the_true_offset_and_absolute_lags() {
+    let d = common::shipped_path("clip-on-34mm.toml");
+    let design = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, _) = synth::generate(&design, &cfg).unwrap();
+    let lp = dir.path().join("log.txt");
+    let fp = dir.path().join("force.csv");
+    synth::write_log(&lp, LogFormat::EnlightPeaks, &log, &cfg, &LogStyle::default()).unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    // The wavelength log starts at 17/04/2025 15:44:56; the force recording started
+    // 1.7 s earlier.
+    let mut req = fbgforge::verify::VerifyRequest::new(d.clone(), lp.clone(), fp.clone());
+    req.force_start = Some("2025-04-17 15:44:54.3".into());
+    let m = fbgforge::verify::run(&req).unwrap().report.measurement;
+    let truth = synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks);
+    assert!((m.clock_offset_s - truth).abs() < 1e-6, "{} vs {truth}", m.clock_offset_s);
+    assert!(!m.lag_is_relative);
+    assert!((m.force_log_start_s + 1.7).abs() < 1e-6);
+    // With a wavelength log on a relative clock there is no wall clock to read it off.
+    let cp = dir.path().join("log.csv");
+    synth::write_log(&cp, LogFormat::Csv, &log, &cfg, &LogStyle::default()).unwrap();
+    let mut req = fbgforge::verify::VerifyRequest::new(d, cp, fp);
+    req.force_start = Some("2025-04-17 15:44:54.3".into());
+    let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+    assert!(e.contains("--force-start needs"), "{e}");
+}

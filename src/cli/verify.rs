@@ -67,6 +67,11 @@ pub struct VerifyArgs {
     /// Known clock offset, force clock − wavelength clock, s (estimated if omitted).
     #[arg(long, allow_hyphen_values = true)]
     pub clock_offset_s: Option<f64>,
+    /// When the force recording started, read off the wavelength log's clock (for a
+    /// force log with relative times), e.g. "2025-04-17 15:44:54.3": makes the lags
+    /// absolute. An alternative to --clock-offset-s.
+    #[arg(long)]
+    pub force_start: Option<String>,
     /// Search range of the estimated clock offset around the prior, s.
     #[arg(long, default_value_t = 60.0)]
     pub max_offset_s: f64,
@@ -154,6 +159,7 @@ fn verify_request(a: &VerifyArgs) -> VerifyRequest {
         resolution_pm: a.resolution_pm,
     };
     req.k_tolerance = a.k_tolerance;
+    req.force_start = a.force_start.clone();
     req
 }
 

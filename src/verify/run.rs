@@ -32,6 +32,11 @@ pub struct VerifyRequest {
     pub analysis: AnalysisOptions,
     /// Largest accepted relative error of K against the model (0.08 = 8 %).
     pub k_tolerance: f64,
+    /// When the force recording started, on the wavelength log's wall clock, as the
+    /// user read it (`2025-04-17 15:44:54.3`; ISO, or slash dates in the wavelength
+    /// log's date order): gives the clock offset of a relative force log, so lags are
+    /// absolute. An alternative to `analysis.clock_offset_s`.
+    pub force_start: Option<String>,
 }
 
 impl VerifyRequest {
@@ -47,6 +52,7 @@ impl VerifyRequest {
             insert: None,
             analysis: AnalysisOptions::default(),
             k_tolerance: verdict::DEFAULT_TOLERANCE,
+            force_start: None,
         }
     }
 
@@ -83,7 +89,17 @@ pub struct VerifyInputs {
 /// Read, analyse and judge.
 pub fn run(req: &VerifyRequest) -> Result<VerifyOutcome> {
     let inputs = read_inputs(req)?;
-    judge(req, &inputs)
+    match &req.force_start {
+        None => judge(req, &inputs),
+        Some(text) => {
+            if req.analysis.clock_offset_s.is_some() {
+                bail!("give either --force-start or --clock-offset-s, not both");
+            }
+            let mut req = req.clone();
+            req.analysis.clock_offset_s = Some(offset_from_force_start(text, &inputs, &req.read)?);
+            judge(&req, &inputs)
+        }
+    }
 }
 
 /// Stage 1: check the request against the design and read both logs.
@@ -106,6 +122,26 @@ pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
     let log = logs::read_peak_log(&req.log, &req.read)?;
     let force = logs::read_force_log(&req.force, &req.force_columns)?;
     Ok(VerifyInputs { design, log, force })
+}
+
+/// The clock offset a `--force-start` wall-clock time gives (force clock − wavelength
+/// clock, s), checked against what the two logs carry.
+pub fn offset_from_force_start(text: &str, inputs: &VerifyInputs, read: &ReadOptions) -> Result<f64> {
+    use crate::logs::{num, Clock};
+    if inputs.log.clock != Clock::Absolute {
+        bail!("--force-start needs a wavelength log with wall-clock times; {} has relative times: give --clock-offset-s instead", inputs.log.source.display());
+    }
+    if inputs.force.clock == Clock::Absolute {
+        bail!("--force-start is for a force log with relative times; {} carries wall-clock times already (drop --force-start)", inputs.force.source.display());
+    }
+    let (date, secs) = num::parse_datetime(text.as_bytes()).ok_or_else(|| {
+        anyhow::anyhow!("--force-start `{text}`: expected a date and time such as 2025-04-17 15:44:54.3")
+    })?;
+    let order = read.date_order.unwrap_or(num::DateOrder::DayMonthYear);
+    let days = num::date_to_days(&date, order).map_err(|e| anyhow::anyhow!("--force-start `{text}`: {e}"))?;
+    let start = days as f64 * 86400.0 + secs;
+    // The force log's first sample (its own time force.time_s[0]) was taken at `start`.
+    Ok(inputs.force.time_s[0] - start)
 }
 
 fn check_insert(design: &Design, req: &VerifyRequest) -> Result<()> {
