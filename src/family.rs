@@ -39,6 +39,10 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
     m.pillars.groove_depth_mm = lerp(pa.groove_depth_mm, pb.groove_depth_mm, t);
     m.pillars.fiber_hole_diameter_mm =
         lerp(pa.fiber_hole_diameter_mm, pb.fiber_hole_diameter_mm, t);
+    if let (Some(sa), Some(sb)) = (&mut m.snap, &b.snap) {
+        sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
+        sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
+    }
     for (g, gb) in m.gratings.iter_mut().zip(&b.gratings) {
         g.length_mm = lerp(g.length_mm, gb.length_mm, t);
         if let (Some(za), Some(zb)) = (g.center_height_mm, gb.center_height_mm) {
@@ -76,6 +80,12 @@ pub fn interpolate(knots: &[Design], diameter_mm: f64) -> Result<Design, SpecErr
         b.module.as_ref().expect("filtered"),
         t,
     ));
+    // The fiber is a choice, not a length: the lower knot's (at the upper knot, that
+    // knot's own), so a module between 10 and 16 mm keeps the 10 mm module's
+    // bend-insensitive fiber.
+    if t >= 1.0 {
+        d.fiber_routing = b.fiber_routing.clone();
+    }
     d.name = format!("clip-on-{diameter_mm}mm-interpolated");
     d.description = Some(format!(
         "interpolated between {} and {} (t = {t:.3})",

@@ -249,8 +249,14 @@ pub fn build_solids(
     if let Some(m) = &design.module {
         let p = ModuleProfile::from_module(m);
         check_module_profile(&p)?;
+        let pp = crate::profile::PartsProfile::new(
+            m,
+            &p,
+            &design.fiber_routing,
+            design.fiber_routing.channel_width_mm(&design.printer),
+        );
         if names.iter().any(|n| n == "cap") {
-            let s = module::cap(&p)?;
+            let s = module::cap(&p, &pp)?;
             out.push(PartSolid {
                 name: "cap".into(),
                 kind: PartKind::Cap,
@@ -262,6 +268,7 @@ pub fn build_solids(
             let pl = &m.pillars;
             let s = module::core(
                 &p,
+                &pp,
                 pl.width_mm,
                 pl.fiber_hole_diameter_mm,
                 pl.groove_width_mm,
@@ -275,7 +282,7 @@ pub fn build_solids(
         }
         let inserts: Vec<&String> = names.iter().filter(|n| n.starts_with("insert-")).collect();
         if let Some(first) = inserts.first() {
-            let s = module::insert(&p, first)?;
+            let s = module::insert(&p, &pp, first)?;
             for n in inserts {
                 out.push(PartSolid {
                     name: n.clone(),
