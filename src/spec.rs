@@ -367,6 +367,10 @@ pub struct Mold {
     /// wider pocket above it that the plug fills, so the silicone cannot run out.
     #[serde(default)]
     pub plugs: bool,
+    /// Key into the material table for what the mold (and its plugs) is printed in;
+    /// the cast sheet's material is `array.material`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub print_material: Option<String>,
 }
 
 /// Marks a derived field not given in the file ([`Design::fill_derived`] fills it).
@@ -851,6 +855,9 @@ impl Design {
             return Err(err("array.fiber_x_mm", "list at least one fiber"));
         }
         let mold = &a.mold;
+        if let Some(pm) = &mold.print_material {
+            self.material(pm, "array.mold.print_material")?;
+        }
         positive("array.mold.internal_x_mm", mold.internal_x_mm, 1.0, 3000.0)?;
         positive("array.mold.internal_y_mm", mold.internal_y_mm, 1.0, 3000.0)?;
         range(
