@@ -68,6 +68,21 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
             ));
         }
     }
+    // The reference fiber runs up the axis through the core's top hole.
+    let has_reference = m
+        .gratings
+        .iter()
+        .any(|g| g.role == GratingRole::TemperatureReference);
+    let coated = d.fiber_routing.coated_diameter_mm;
+    if has_reference && m.top_hole_diameter_mm < coated + d.printer.resolution_mm {
+        return Err(err(
+            "module.top_hole_diameter_mm",
+            format!(
+                "{} mm does not pass the reference fiber: at least its coated diameter {coated} mm + the printer's resolution {} mm",
+                m.top_hole_diameter_mm, d.printer.resolution_mm
+            ),
+        ));
+    }
     if z_b + min_wall > p.pillar_top_mm {
         return Err(err(
             "fiber_routing.min_bend_radius_mm",

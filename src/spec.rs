@@ -894,6 +894,15 @@ impl Design {
             self.printer.resolution_mm,
             5.0,
         )?;
+        if self.fiber_routing.coated_diameter_mm >= a.thickness_mm {
+            return Err(err(
+                "fiber_routing.coated_diameter_mm",
+                format!(
+                    "{} mm does not fit in the {} mm sheet",
+                    self.fiber_routing.coated_diameter_mm, a.thickness_mm
+                ),
+            ));
+        }
         // The slit holds the coated fiber with its clearance and stays open in print.
         let need = self.fiber_routing.channel_width_mm(&self.printer);
         if mold.slit_width_mm < need - 1e-9 {

@@ -393,15 +393,22 @@ pub struct Interference {
 
 /// Check that no two of `parts` overlap: no triangle of one crosses a triangle of the
 /// other, and neither lies inside the other. Parts sharing one solid (the inserts) are
-/// checked once.
-pub fn check_no_interference(parts: &[BuiltPart]) -> Result<(), Interference> {
-    let solids: Vec<Solid> = parts
+/// checked once; pairs for which `check` is false (a press fit: designed without
+/// clearance) are skipped.
+pub fn check_no_interference(
+    parts: &[BuiltPart],
+    check: &dyn Fn(super::PartKind, super::PartKind) -> bool,
+) -> Result<(), Interference> {
+    let kept: Vec<&BuiltPart> = parts
         .iter()
         .filter(|b| b.kind != super::PartKind::Insert || b.name == first_insert(parts))
-        .map(|b| Solid::new(&b.name, &b.mesh))
         .collect();
+    let solids: Vec<Solid> = kept.iter().map(|b| Solid::new(&b.name, &b.mesh)).collect();
     for i in 0..solids.len() {
         for j in i + 1..solids.len() {
+            if !check(kept[i].kind, kept[j].kind) {
+                continue;
+            }
             let (a, b) = (&solids[i], &solids[j]);
             for (k, (lo, hi)) in a.boxes.iter().enumerate() {
                 for (l, (lo2, hi2)) in b.boxes.iter().enumerate() {

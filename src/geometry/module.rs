@@ -230,19 +230,83 @@ fn revolve_chain(
     zc: f64,
     ang: &Angles,
 ) -> Result<(), BrepError> {
+    revolve_chain_above(asm, chain, zc, ang, f64::INFINITY)
+}
+
+impl Angles {
+    /// A coarser set of cuts: some of these angles, no interval over 90°. The features
+    /// that need every cut (pillars, slots) end below the domes, and the small circles
+    /// near an apex would otherwise be cut into arcs too short to mesh.
+    fn coarse(&self) -> (Angles, Vec<usize>) {
+        let n = self.len();
+        let end = self.0[0] + TAU;
+        let mut idx = vec![0];
+        let mut i = 0;
+        while end - self.0[i] > MAX_PATCH_RAD + 1e-12 {
+            let mut j = i + 1;
+            while j + 1 < n && self.0[j + 1] - self.0[i] <= MAX_PATCH_RAD + 1e-12 {
+                j += 1;
+            }
+            if j >= n {
+                break;
+            }
+            idx.push(j);
+            i = j;
+        }
+        (Angles(idx.iter().map(|&k| self.0[k]).collect()), idx)
+    }
+}
+
+/// Revolve a chain of profile segments: with every cut of `ang` where both ends of a
+/// segment lie at or below `fine_up_to_z`, on the coarse cuts ([`Angles::coarse`])
+/// above it, and on coarse patches whose lower edge is split at every cut where a
+/// segment crosses that height.
+fn revolve_chain_above(
+    asm: &mut Assembler,
+    chain: &[Prof],
+    zc: f64,
+    ang: &Angles,
+    fine_up_to_z: f64,
+) -> Result<(), BrepError> {
+    let (coarse, cidx) = ang.coarse();
     for p in chain {
         if (p.a.0 - p.b.0).hypot(p.a.1 - p.b.1) < MIN_SEGMENT_MM {
             continue;
         }
         let p = *p;
-        for k in 0..ang.len() {
-            let (t0, t1) = ang.interval(k);
-            let boundary = vec![
-                arc(O, p.a.0, t0, t1, p.a.1),
-                meridian(&p, zc, t1),
-                arc(O, p.b.0, t1, t0, p.b.1),
-                meridian(&p, zc, t0).reversed(),
-            ];
+        let fine = |z: f64| z <= fine_up_to_z + 1e-9;
+        let (fa, fb) = (fine(p.a.1), fine(p.b.1));
+        let (set, n) = if fa && fb {
+            (ang, ang.len())
+        } else {
+            (&coarse, coarse.len())
+        };
+        for k in 0..n {
+            let (t0, t1) = set.interval(k);
+            // The arcs of an end: one per fine cut inside the patch on a fine end.
+            let arcs = |r: f64, z: f64, fine_end: bool| -> Vec<Seg> {
+                if fine_end && !(fa && fb) {
+                    ang.walk(cidx[k], cidx[(k + 1) % cidx.len()])
+                        .into_iter()
+                        .map(|j| {
+                            let (a0, a1) = ang.interval(j);
+                            let shift = if a0 < t0 - 1e-9 { TAU } else { 0.0 };
+                            arc(O, r, a0 + shift, a1 + shift, z)
+                        })
+                        .collect()
+                } else {
+                    vec![arc(O, r, t0, t1, z)]
+                }
+            };
+            let mut boundary = arcs(p.a.0, p.a.1, fa);
+            boundary.push(meridian(&p, zc, t1));
+            boundary.extend(
+                arcs(p.b.0, p.b.1, fb)
+                    .into_iter()
+                    .rev()
+                    .map(|s| s.reversed()),
+            );
+            boundary.push(meridian(&p, zc, t0).reversed());
             let m = move |th: f64| meridian(&p, zc, th);
             let centre = p.sphere.map(|_| Point3::new(0.0, 0.0, zc));
             let name = if p.sphere.is_some() { "dome" } else { "wall" };
@@ -628,7 +692,7 @@ pub fn core(
         out: -1.0,
     };
     let chain = [outer_wall, outer_dome, top_hole, inner_dome, inner_wall];
-    revolve_chain(&mut asm, &chain, zc, ang)?;
+    revolve_chain_above(&mut asm, &chain, zc, ang, top)?;
 
     let rib_area =
         slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
@@ -777,10 +841,11 @@ pub fn cap(p: &ModuleProfile, pp: &PartsProfile) -> Result<BuiltSolid, BrepError
     let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
     let outer_chain = domed_wall(r_o, top, z_oj, rs_o, (a, z_oa), true);
     let inner_dome = domed_wall(r_ci, top, z_ij, rs_i, (a, z_ia), false);
-    revolve_chain(&mut asm, &outer_chain, zc, ang)?;
-    revolve_chain(&mut asm, &inner_dome, zc, ang)?;
-    disc(&mut asm, ang, a, z_oa, true)?;
-    disc(&mut asm, ang, a, z_ia, false)?;
+    revolve_chain_above(&mut asm, &outer_chain, zc, ang, top)?;
+    revolve_chain_above(&mut asm, &inner_dome, zc, ang, top)?;
+    let coarse = ang.coarse().0;
+    disc(&mut asm, &coarse, a, z_oa, true)?;
+    disc(&mut asm, &coarse, a, z_ia, false)?;
 
     let rib_area = slice_area(r_ci, hc) - slice_area(r_pi, hc);
     let band = top * PI * (r_o * r_o - r_ci * r_ci) + (top - bottom) * n as f64 * rib_area

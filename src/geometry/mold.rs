@@ -86,6 +86,8 @@ pub fn mold(
     let zs = h - m.slit_depth_mm;
     let sw = m.slit_width_mm / 2.0;
     // Without a pocket the slit is one width from the wall top down.
+    // A pocket no wider than the seat is no step: one width from the top down.
+    let pocket = pocket.filter(|q| q.width_mm / 2.0 > sw + 1e-6);
     let (pw, zp) = pocket.map_or((sw, h), |q| (q.width_mm / 2.0, q.bottom_z_mm));
     let stepped = pocket.is_some();
     let mut xs = layout.slit_x_mm.clone();
