@@ -837,6 +837,15 @@ impl Design {
         positive("array.size_x_mm", a.size_x_mm, 1.0, 2000.0)?;
         positive("array.size_y_mm", a.size_y_mm, 1.0, 2000.0)?;
         positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
+        if self.fiber_routing.coated_diameter_mm >= a.thickness_mm {
+            return Err(err(
+                "fiber_routing.coated_diameter_mm",
+                format!(
+                    "{} mm does not fit in the {} mm sheet",
+                    self.fiber_routing.coated_diameter_mm, a.thickness_mm
+                ),
+            ));
+        }
         if a.cells_x == 0 || a.cells_x > 64 {
             return Err(err(
                 "array.cells_x",
@@ -894,15 +903,6 @@ impl Design {
             self.printer.resolution_mm,
             5.0,
         )?;
-        if self.fiber_routing.coated_diameter_mm >= a.thickness_mm {
-            return Err(err(
-                "fiber_routing.coated_diameter_mm",
-                format!(
-                    "{} mm does not fit in the {} mm sheet",
-                    self.fiber_routing.coated_diameter_mm, a.thickness_mm
-                ),
-            ));
-        }
         // The slit holds the coated fiber with its clearance and stays open in print.
         let need = self.fiber_routing.channel_width_mm(&self.printer);
         if mold.slit_width_mm < need - 1e-9 {
