@@ -825,9 +825,9 @@ pub fn cap(p: &ModuleProfile, pp: &PartsProfile) -> Result<BuiltSolid, BrepError
         inner.extend(ring_cw(ang, r_ci, rib_idx[i].0, rib_idx[(i + n - 1) % n].1));
     }
     band_sides(&mut asm, &[inner], bottom, top)?;
-    for i in 0..n {
-        let mut l = rib(p.pillar_angles_rad[i]);
-        l.extend(ring_ccw(ang, r_ci, rib_idx[i].0, rib_idx[i].1));
+    for (&t, &(from, to)) in p.pillar_angles_rad.iter().zip(&rib_idx) {
+        let mut l = rib(t);
+        l.extend(ring_ccw(ang, r_ci, from, to));
         asm.plane("pillar bottom", &[at(&l, bottom)], -Vector3::unit_z())?;
         asm.plane("pillar top", &[at(&l, top)], Vector3::unit_z())?;
     }

@@ -11,6 +11,8 @@ use crate::spec::Design;
 use std::fmt::Write;
 
 type Seg2 = [(f64, f64); 2];
+/// A named, coloured polyline in model coordinates (mm).
+type Polyline = (String, &'static str, Vec<(f64, f64)>);
 
 fn colour(kind: PartKind) -> &'static str {
     match kind {
@@ -26,7 +28,7 @@ fn colour(kind: PartKind) -> &'static str {
 struct Panel {
     title: String,
     layers: Vec<(String, &'static str, Vec<Seg2>)>,
-    polylines: Vec<(String, &'static str, Vec<(f64, f64)>)>,
+    polylines: Vec<Polyline>,
     levels: Vec<(String, f64)>,
     /// Model window (x0, x1, y0, y1) to show, mm; everything when None.
     view: Option<(f64, f64, f64, f64)>,
