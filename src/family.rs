@@ -130,6 +130,23 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
             *z *= s;
         }
     }
+    if let Some(snap) = m.snap.as_mut() {
+        snap.undercut_mm = floor(snap.undercut_mm, 0.05);
+        snap.bead_height_mm = floor(snap.bead_height_mm, 0.3);
+    }
+    // The fiber does not scale: where standard fiber's exit bend would reach the
+    // lowest grating, the module takes the bend-insensitive fiber the shipped 10 mm
+    // design uses (G.657.B3, 5 mm).
+    let lowest = m
+        .gratings
+        .iter()
+        .filter_map(|g| g.center_height_mm.map(|z| z - g.length_mm / 2.0))
+        .fold(f64::INFINITY, f64::min);
+    let fr = &mut d.fiber_routing;
+    let need = fr.exit_height_mm + fr.min_bend_radius_mm + fr.coated_diameter_mm / 2.0;
+    if lowest < need {
+        fr.min_bend_radius_mm = fr.min_bend_radius_mm.min(5.0);
+    }
     d.name = format!("clip-on-{diameter_mm}mm-wall-{wall_mm}mm");
     d.validate()?;
     Ok(d)
