@@ -217,17 +217,20 @@ pub fn centreline(
         pts.push(at(r0, z_from - (z_from - z_b) * i as f64 / n as f64));
     }
     let n = (rb * std::f64::consts::FRAC_PI_2 / step).ceil() as usize;
-    for i in 0..n {
+    for i in 0..=n {
         let phi = std::f64::consts::FRAC_PI_2 * i as f64 / n as f64;
         pts.push(at(r0 + rb * (1.0 - phi.cos()), z_b - rb * phi.sin()));
     }
+    // The horizontal run, if the bend has not already carried the fiber past r_out.
     let r1 = r0 + rb;
-    let n = ((r_out - r1) / step).ceil().max(1.0) as usize;
-    for i in 0..=n {
-        pts.push(at(
-            r1 + (r_out - r1) * i as f64 / n as f64,
-            pp.exit_height_mm,
-        ));
+    if r_out > r1 {
+        let n = ((r_out - r1) / step).ceil().max(1.0) as usize;
+        for i in 1..=n {
+            pts.push(at(
+                r1 + (r_out - r1) * i as f64 / n as f64,
+                pp.exit_height_mm,
+            ));
+        }
     }
     pts
 }
