@@ -824,6 +824,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         channels,
         column_names,
         line_of_row: lines,
+        time_uncertainty_s: 0.0,
         warnings,
     };
     if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
@@ -848,7 +849,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         log.line_of_row = ln;
         time_s = ts;
     }
-    super::dequantize(path, &mut time_s, &mut log.warnings);
+    log.time_uncertainty_s = super::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
     Ok(log)
 }
@@ -1081,7 +1082,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     // corrupted or mis-parsed value, and sorting it in would stretch the log over the
     // wrong span (one time of -1e308 among 1836 samples gave K = -13 867 pm/N).
     check_force_times_increase(path, &time_s, &line_nos)?;
-    super::dequantize(path, &mut time_s, &mut warnings);
+    let time_uncertainty_s = super::dequantize(path, &mut time_s, &mut warnings);
     Ok(ForceLog {
         source: path.to_path_buf(),
         time_s,
@@ -1090,6 +1091,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         time_column,
         force_column,
         scale_to_n: scale,
+        time_uncertainty_s,
         warnings,
     })
 }
