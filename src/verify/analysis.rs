@@ -784,8 +784,19 @@ fn collect_results(
         if res.quality_q_pm_per_n_s.is_none() {
             warnings.add("q_undefined", || {
                 format!(
-                    "grating `{}`: the largest lag is not positive ({:.4} s): Q is undefined",
-                    res.grating, res.max_lag_s
+                    "grating `{}`: Δt_max = {:.4} ± {:.4} s is not resolved from zero (it must exceed twice its uncertainty): Q = |K|R²/Δt_max is undefined{}",
+                    res.grating,
+                    res.max_lag_s,
+                    res.max_lag_uncertainty_s,
+                    if res.max_lag_s > 0.0 {
+                        format!(
+                            "; Q > {:.3} pm/(N·s) at 2σ",
+                            res.sensitivity_pm_per_n.abs() * res.r_squared
+                                / (res.max_lag_s + 2.0 * res.max_lag_uncertainty_s)
+                        )
+                    } else {
+                        String::new()
+                    }
                 )
             });
         }
