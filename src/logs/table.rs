@@ -886,6 +886,26 @@ fn check_force_times_increase(path: &Path, time_s: &[f64], line_nos: &[u32]) -> 
             if backward.len() > 5 { ", …" } else { "" }
         );
     }
+    // A corrupted time at either end cannot run backwards, but it stretches the log:
+    // a first or last step a hundred times longer than all the other samples span.
+    let n = time_s.len();
+    if n >= 4 {
+        let inner = time_s[n - 2] - time_s[1];
+        for (odd, step) in [
+            (0, time_s[1] - time_s[0]),
+            (n - 1, time_s[n - 1] - time_s[n - 2]),
+        ] {
+            if inner > 0.0 && step > 100.0 * inner {
+                bail!(
+                    "{}: the force log's time jumps by {} s to this sample, while the other {} samples span {} s: a corrupted time? fix or remove that row",
+                    at(path, line_nos[odd] as usize),
+                    readable_s(step),
+                    n - 1,
+                    readable_s(inner)
+                );
+            }
+        }
+    }
     Ok(())
 }
 
