@@ -310,6 +310,25 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     {
         bail!("rates, duration and τ must be positive");
     }
+    if !(cfg.transport_delay_s.is_finite() && cfg.transport_delay_s >= 0.0) {
+        bail!(
+            "the transport delay must be a finite number of seconds ≥ 0, got {}",
+            cfg.transport_delay_s
+        );
+    }
+    for p in &cfg.pulses {
+        let ok = match p.shape {
+            PulseShape::Haversine => true,
+            PulseShape::Trapezoid { ramp_s } => ramp_s > 0.0 && 2.0 * ramp_s <= p.duration_s,
+            PulseShape::Staircase { steps, ramp_s } => {
+                steps >= 1 && ramp_s > 0.0 && 2.0 * steps as f64 * ramp_s < p.duration_s
+            }
+            PulseShape::Sine { cycles } => cycles >= 1,
+        };
+        if !ok || !(p.duration_s > 0.0 && p.duration_s.is_finite() && p.peak_n.is_finite()) {
+            bail!("pulse at {} s: its shape {:?} does not fit its duration {} s (ramps must be positive and fit; at least one step or cycle)", p.start_s, p.shape, p.duration_s);
+        }
+    }
     if cfg.pulses.iter().all(|p| p.peak_n == 0.0) {
         bail!("the force profile needs at least one pulse with a non-zero peak");
     }
