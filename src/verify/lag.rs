@@ -87,7 +87,7 @@ pub fn segment_lag(
         let vx = sxx - sx * sx / n;
         // No force change in view at this shift, or a change of the wrong sign: no
         // match (the residual is the whole variance).
-        if !(vx > 1e-12 * (sxx.abs() + 1e-300)) {
+        if vx.is_nan() || vx <= 1e-12 * (sxx.abs() + 1e-300) {
             return (sst, 0.0);
         }
         let cov = sxy - sx * sy / n;
@@ -110,7 +110,7 @@ pub fn segment_lag(
     let coarse_n = 61;
     let c = 2.0 * max_lag_s / (coarse_n - 1) as f64;
     let coarse = scan(-max_lag_s, c, coarse_n);
-    if !(sst > 0.0) || coarse.iter().all(|p| p.2 == 0.0) {
+    if sst.is_nan() || sst <= 0.0 || coarse.iter().all(|p| p.2 == 0.0) {
         return None;
     }
     let best = argmin(&coarse);

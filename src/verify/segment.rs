@@ -390,7 +390,6 @@ pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
                     last.level_n,
                     base,
                 ));
-                let n = bounds.len();
                 for (j, (wa, s, e, wb, from, to)) in bounds.into_iter().enumerate() {
                     let kind = if classes[k] == Protocol::PressHoldRelease {
                         if j == 0 {
@@ -403,7 +402,6 @@ pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
                     } else {
                         SegmentKind::StepDown
                     };
-                    let _ = n;
                     if wb > wa + 2 {
                         out.segments.push(Segment {
                             kind,
@@ -593,7 +591,6 @@ fn oscillation_minima(sm: &[f64], s: usize, e: usize, swing: f64) -> Vec<usize> 
             (ext, ext_i) = (v, i);
         }
     }
-    let _ = ext_i;
     if rising {
         peaks += usize::from(ext > sm[s] + swing);
     }
@@ -645,7 +642,7 @@ mod tests {
             .iter()
             .map(|&x| {
                 let ph = (x - 5.0).rem_euclid(20.0);
-                if x >= 5.0 && x < 65.0 && ph < 4.0 {
+                if (5.0..65.0).contains(&x) && ph < 4.0 {
                     30.0 * hav(ph / 4.0)
                 } else {
                     0.0
@@ -658,7 +655,7 @@ mod tests {
         assert!(s.segments.iter().all(|g| g.kind == SegmentKind::Pulse));
         // Trapezoids: 2 s ramps, 10 s hold: a press and a release each.
         let trap = |x: f64| {
-            if x < 0.0 || x > 14.0 {
+            if !(0.0..=14.0).contains(&x) {
                 0.0
             } else {
                 (x / 2.0).min(1.0).min((14.0 - x) / 2.0)

@@ -325,7 +325,7 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
             }
             PulseShape::Sine { cycles } => cycles >= 1,
         };
-        if !ok || !(p.duration_s > 0.0 && p.duration_s.is_finite() && p.peak_n.is_finite()) {
+        if !(ok && p.duration_s > 0.0 && p.duration_s.is_finite() && p.peak_n.is_finite()) {
             bail!("pulse at {} s: its shape {:?} does not fit its duration {} s (ramps must be positive and fit; at least one step or cycle)", p.start_s, p.shape, p.duration_s);
         }
     }
