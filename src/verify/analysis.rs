@@ -916,10 +916,12 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
     let sub = FitData::new(tw, s, fu, fval, span_a, span_b, 20_000, 50_000, 30.0);
     let max_delay = max_transport_delay_s(ctx);
     let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0, 0.0], f64::MAX);
-    let mut starts: Vec<(f64, f64, f64)> = vec![(0.0, 0.05, 0.5), (0.0, 0.5, 0.5), (0.0, 5.0, 0.5)];
-    if let Some(p) = prev {
-        starts.insert(0, p);
-    }
+    // The first grating searches from three time constants; the others from its
+    // solution and from a short lag without delay (their dynamics are usually alike).
+    let starts: Vec<(f64, f64, f64)> = match prev {
+        None => vec![(0.0, 0.05, 0.5), (0.0, 0.5, 0.5), (0.0, 5.0, 0.5)],
+        Some(p) => vec![p, (0.0, 0.05, 0.5)],
+    };
     let step_delay = (2.0 * median_period(&sub.st)).max(0.25).min(max_delay);
     let tries: Vec<(Vec<f64>, f64)> = starts
         .par_iter()
@@ -1166,14 +1168,25 @@ fn segment_lags(
         // The model's lag behind the force in this window, in continuous time (both
         // at the force log's rate, noise-free) ...
         let range = lag::search_range_s(window, model_lag_s);
-        let Some(lm_lag) = lag::segment_lag(fu, &model, fu, fval, window, range, 1.0) else {
+        // The force and the model over the window and the search range, at most
+        // 4 000 samples (both are smooth): every scan step then costs the window's
+        // samples, not a walk through a kHz log.
+        let lo = fu
+            .partition_point(|&x| x < window.0 - range)
+            .saturating_sub(1);
+        let hi = (fu.partition_point(|&x| x <= window.1 + range) + 1).min(fu.len());
+        let stride = (hi - lo).div_ceil(4000).max(1);
+        let lt: Vec<f64> = fu[lo..hi].iter().step_by(stride).copied().collect();
+        let lf: Vec<f64> = fval[lo..hi].iter().step_by(stride).copied().collect();
+        let lm_: Vec<f64> = model[lo..hi].iter().step_by(stride).copied().collect();
+        let Some(lm_lag) = lag::segment_lag(&lt, &lm_, &lt, &lf, window, range, 1.0) else {
             continue;
         };
         // ... and how late the data run behind the model here, with its uncertainty:
         // matched against the model's shape, not the force's, the estimate does not
         // depend on where the samples fall (the force's shape gave 0.19 s for a
         // 0.125 s lag at 2 Hz).
-        let Some(l) = lag::segment_lag(tw, d, fu, &model, window, range, sign) else {
+        let Some(l) = lag::segment_lag(tw, d, &lt, &lm_, window, range, sign) else {
             continue;
         };
         if l.at_limit

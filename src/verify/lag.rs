@@ -76,7 +76,10 @@ pub fn segment_lag(
     let (sy, syy) = ys.iter().fold((0.0, 0.0), |(s, q), y| (s + y, q + y * y));
     let sst = syy - sy * sy / n;
     let eval = |d: f64| -> (f64, f64) {
-        let mut hint = 0;
+        // Start the interpolation at the window (a walk from 0 costs the whole log).
+        let mut hint = force_t
+            .partition_point(|&v| v <= ts[0] - d)
+            .saturating_sub(1);
         let (mut sx, mut sxx, mut sxy) = (0.0, 0.0, 0.0);
         for (&t, &y) in ts.iter().zip(&ys) {
             let x = interp(force_t, force, t - d, &mut hint);
