@@ -824,6 +824,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         channels,
         column_names,
         line_of_row: lines,
+        time_uncertainty_s: 0.0,
         warnings,
     };
     if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
@@ -848,7 +849,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         log.line_of_row = ln;
         time_s = ts;
     }
-    super::dequantize(path, &mut time_s, &mut log.warnings);
+    log.time_uncertainty_s = super::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
     Ok(log)
 }
@@ -884,6 +885,26 @@ fn check_force_times_increase(path: &Path, time_s: &[f64], line_nos: &[u32]) -> 
             lines.join(", "),
             if backward.len() > 5 { ", …" } else { "" }
         );
+    }
+    // A corrupted time at either end cannot run backwards, but it stretches the log:
+    // a first or last step a hundred times longer than all the other samples span.
+    let n = time_s.len();
+    if n >= 4 {
+        let inner = time_s[n - 2] - time_s[1];
+        for (odd, step) in [
+            (0, time_s[1] - time_s[0]),
+            (n - 1, time_s[n - 1] - time_s[n - 2]),
+        ] {
+            if inner > 0.0 && step > 100.0 * inner {
+                bail!(
+                    "{}: the force log's time jumps by {} s to this sample, while the other {} samples span {} s: a corrupted time? fix or remove that row",
+                    at(path, line_nos[odd] as usize),
+                    readable_s(step),
+                    n - 1,
+                    readable_s(inner)
+                );
+            }
+        }
     }
     Ok(())
 }
@@ -1081,7 +1102,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     // corrupted or mis-parsed value, and sorting it in would stretch the log over the
     // wrong span (one time of -1e308 among 1836 samples gave K = -13 867 pm/N).
     check_force_times_increase(path, &time_s, &line_nos)?;
-    super::dequantize(path, &mut time_s, &mut warnings);
+    let time_uncertainty_s = super::dequantize(path, &mut time_s, &mut warnings);
     Ok(ForceLog {
         source: path.to_path_buf(),
         time_s,
@@ -1090,6 +1111,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         time_column,
         force_column,
         scale_to_n: scale,
+        time_uncertainty_s,
         warnings,
     })
 }
