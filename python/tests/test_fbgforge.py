@@ -323,11 +323,17 @@ def test_a_bad_log_raises_the_cli_message(cli, name, words):
 
 
 def test_a_truncated_or_ragged_log_is_read_with_its_bad_rows_counted(tmp_path):
-    src = (FIXTURES / "logs" / "plain.csv").read_text()
-    ragged = write(tmp_path, "ragged.csv", src + "9.0,1546.3,oops,1560.1\n9.05,1546.3")
-    log = fbgforge.read_log(ragged)
-    assert set(log["warnings"]) >= {"unreadable_line", "truncated_last_line"}
-    assert "ragged.csv:" in log["warnings"]["unreadable_line"]["first"]
+    truncated = fbgforge.read_log(FIXTURES / "logs" / "enlight_peaks_104_metadata_dropped_truncated.txt")
+    w = truncated["warnings"]["truncated_last_line"]
+    assert w["count"] == 1 and w["first"].endswith(":109: fewer wavelengths than the peak counts announce")
+    ragged = fbgforge.read_log(FIXTURES / "logs" / "enlight_peaks_garbage_missing_channel.txt")
+    assert ragged["rows"] == 6
+    assert {k: v["count"] for k, v in ragged["warnings"].items()} == {
+        "missing_channel": 1,
+        "peak_count_mismatch": 1,
+        "unreadable_line": 2,
+    }
+    assert ":7: row ends before the peak count of channel 3" in ragged["warnings"]["missing_channel"]["first"]
 
 
 def test_a_force_log_running_backwards_raises_the_cli_message(cli, tmp_path, synth_logs):
