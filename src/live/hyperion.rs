@@ -117,7 +117,7 @@ pub fn decode_peaks(content: &[u8]) -> Result<PeaksFrame, FrameError> {
     let length = u16_at(content, 0) as usize;
     if length < PEAKS_HEADER_BYTES
         || length > content.len()
-        || (length - PEAKS_HEADER_BYTES) % 2 != 0
+        || !(length - PEAKS_HEADER_BYTES).is_multiple_of(2)
     {
         return bad(format!(
             "peaks header length {length} is impossible (content {} bytes; expected 24 + 2 per channel)",

@@ -192,10 +192,15 @@ impl Tracker {
             self.hits[g] += 1;
         }
         let mut ambiguous = false;
-        for g in 0..self.windows.len() {
-            if self.hits[g] > 0 {
-                self.last_nm[g] = out[g];
-                ambiguous |= self.hits[g] > 1;
+        for ((&hits, last), &w) in self
+            .hits
+            .iter()
+            .zip(self.last_nm.iter_mut())
+            .zip(out.iter())
+        {
+            if hits > 0 {
+                *last = w;
+                ambiguous |= hits > 1;
             }
         }
         ambiguous
@@ -683,8 +688,8 @@ impl Interpreter {
     /// Stage 2: readings of a batch of prepared frames, in order. Array frames are
     /// reconstructed in parallel (rayon) when the batch is large enough to pay for it.
     pub fn solve(&mut self, batch: &[Prepared]) -> Vec<Reading> {
-        if self.array.is_some() {
-            let r = &self.array.as_ref().expect("array").reconstructor;
+        if let Some(array) = &self.array {
+            let r = &array.reconstructor;
             let one = |p: &Prepared| -> Reading {
                 let Reconstruction {
                     loads_g,

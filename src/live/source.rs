@@ -122,10 +122,11 @@ impl SourceSpec {
 
 fn has_port(hostport: &str) -> bool {
     match hostport.rsplit_once(':') {
+        // `::1` alone is an IPv6 address without a port; `[::1]:4000` has one.
         Some((host, port)) => {
             !host.ends_with(':')
                 && port.parse::<u16>().is_ok()
-                && !(host.starts_with('[') && !host.ends_with(']'))
+                && (!host.starts_with('[') || host.ends_with(']'))
         }
         None => false,
     }

@@ -437,13 +437,15 @@ impl Generator {
             _ => true,
         };
         let mut peaks: Vec<f64> = Vec::with_capacity(self.nominal_nm.len() + self.extra_nm.len());
-        for i in 0..self.nominal_nm.len() {
+        for ((nominal, offset), shift) in
+            self.nominal_nm.iter().zip(&self.offsets_nm).zip(&shifts_pm)
+        {
             let noise = if add_resolution {
                 self.resolution.sample(&mut self.rng)
             } else {
                 0.0
             };
-            peaks.push(self.nominal_nm[i] + self.offsets_nm[i] + (shifts_pm[i] + noise) * 1e-3);
+            peaks.push(nominal + offset + (shift + noise) * 1e-3);
         }
         // Gratings on one fiber come back in wavelength order.
         peaks.sort_by(|a, b| a.total_cmp(b));

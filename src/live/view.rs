@@ -225,7 +225,7 @@ fn bar(frac: f64, width: usize) -> String {
     };
     let eighths = (f * (width * 8) as f64).round() as usize;
     let mut s: String = "█".repeat(eighths / 8);
-    if eighths % 8 > 0 && s.chars().count() < width {
+    if !eighths.is_multiple_of(8) && s.chars().count() < width {
         s.push(EIGHTHS[eighths % 8]);
     }
     while s.chars().count() < width {
