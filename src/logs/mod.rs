@@ -27,6 +27,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub use table::{detect_format, parse_force_bytes, parse_wavelength_bytes};
+pub use table::{LogRow, RowReader};
 
 /// A supported wavelength log format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
