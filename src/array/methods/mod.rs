@@ -447,11 +447,17 @@ pub fn reconstruct_stream(
     settings: MethodSettings,
     frames: &[Vec<f64>],
 ) -> Result<Vec<Reconstruction>, ArrayError> {
-    use rayon::prelude::*;
     let r = build(method, problem, settings)?;
+    Ok(reconstruct_frames(r.as_ref(), frames))
+}
+
+/// Reconstruct every frame with a reconstructor already built (its set-up paid):
+/// in parallel (rayon) from 512 frames on, with a progress bar on a terminal.
+pub fn reconstruct_frames(r: &dyn Reconstructor, frames: &[Vec<f64>]) -> Vec<Reconstruction> {
+    use rayon::prelude::*;
     const PARALLEL_FROM: usize = 512;
     if frames.len() < PARALLEL_FROM {
-        return Ok(frames.iter().map(|y| r.reconstruct(y)).collect());
+        return frames.iter().map(|y| r.reconstruct(y)).collect();
     }
     let bar = crate::progress::bar(frames.len() as u64, "reconstruct");
     let out: Vec<Reconstruction> = frames
@@ -463,7 +469,7 @@ pub fn reconstruct_stream(
         })
         .collect();
     bar.finish_and_clear();
-    Ok(out)
+    out
 }
 
 #[cfg(test)]
