@@ -452,7 +452,7 @@ impl Search<'_> {
     /// Greedy forward selection up to K cells: a first incumbent.
     fn greedy(&mut self, path: &mut Path) {
         let (g, n) = (&self.bb.gram_rows, self.order.len());
-        for _ in 0..self.bb.kmax {
+        while path.depth() < self.bb.kmax {
             let mut pick: Option<(usize, f64)> = None;
             for c in 0..n {
                 if path.cells.contains(&c) {
@@ -470,6 +470,59 @@ impl Search<'_> {
             }
             self.nodes += 1;
             self.consider(path);
+        }
+        while path.depth() > 0 {
+            path.pop();
+        }
+    }
+
+    /// Swap local search around the incumbent: replace one of its cells by any other
+    /// cell (or add one while it has fewer than K), keep any improvement, repeat
+    /// until none. A better incumbent before the search prunes more, and it is the
+    /// answer when the node budget ends the search.
+    fn local_search(&mut self, path: &mut Path) {
+        let (g, n) = (&self.bb.gram_rows, self.order.len());
+        for _pass in 0..8 {
+            let current: Vec<usize> = self.best.iter().map(|&(c, _)| c).collect();
+            if current.is_empty() {
+                return;
+            }
+            let before = self.best_cost;
+            let k = current.len();
+            // Drop position a (a = k: drop none, i.e. grow when below K).
+            for a in 0..=k {
+                if a == k && k >= self.bb.kmax {
+                    break;
+                }
+                while path.depth() > 0 {
+                    path.pop();
+                }
+                if !current
+                    .iter()
+                    .enumerate()
+                    .filter(|&(q, _)| q != a)
+                    .all(|(_, &c)| path.push(g, &self.b, c))
+                {
+                    continue;
+                }
+                let floor = self.bb.lambda * (path.depth() + 1) as f64;
+                for j in 0..n {
+                    if current.contains(&j) {
+                        continue;
+                    }
+                    self.nodes += 1;
+                    let Some(r) = path.child_residual(g, &self.b, j) else {
+                        continue;
+                    };
+                    if r + floor < self.best_cost && path.push(g, &self.b, j) {
+                        self.consider(path);
+                        path.pop();
+                    }
+                }
+            }
+            if self.best_cost >= before {
+                break;
+            }
         }
         while path.depth() > 0 {
             path.pop();
@@ -582,7 +635,9 @@ impl Reconstructor for BranchAndBound {
             slack: 1e-9 * (1.0 + yty),
         };
         let mut path = Path::new(n, self.kmax, yty);
+        // The first incumbent: greedy, improved by swaps.
         search.greedy(&mut path);
+        search.local_search(&mut path);
         search.explore(&mut path, 0, &mut root);
         let mut full = vec![0.0; n];
         for &(c, v) in &search.best {
