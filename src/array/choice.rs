@@ -125,6 +125,46 @@ fn support_count(n: usize, kmax: usize) -> f64 {
     count
 }
 
+/// What timing a candidate on the probe frames gave.
+struct Probe {
+    median_us: f64,
+    /// Frames where the method reported no convergence (`bnb`: node budget reached).
+    stopped: usize,
+    frames: usize,
+    /// Iterations (for `bnb`: nodes) per µs over the probe.
+    nodes_per_us: f64,
+}
+
+fn probe_frames(r: &dyn Reconstructor, frames: &[Vec<f64>], budget_us: f64) -> Probe {
+    let mut times = Vec::with_capacity(frames.len());
+    let (mut stopped, mut nodes, mut total_us) = (0usize, 0u64, 0.0f64);
+    for y in frames {
+        let t = Instant::now();
+        let rec = r.reconstruct(y);
+        let us = 1e6 * t.elapsed().as_secs_f64();
+        times.push(us);
+        total_us += us;
+        nodes += rec.iterations;
+        if !rec.converged {
+            stopped += 1;
+        }
+        // A method already far over the budget need not finish the probe.
+        if times.len() >= 3 && median(times.clone()) > 20.0 * budget_us {
+            break;
+        }
+    }
+    Probe {
+        frames: times.len(),
+        median_us: median(times),
+        stopped,
+        nodes_per_us: if total_us > 0.0 {
+            nodes as f64 / total_us
+        } else {
+            0.0
+        },
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -203,33 +243,44 @@ pub fn choose_method(
                 continue;
             }
         };
-        let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
-        let mut times = Vec::with_capacity(frames.len());
-        let mut stopped = 0usize;
-        for y in &frames {
-            let t = Instant::now();
-            let rec = r.reconstruct(y);
-            times.push(1e6 * t.elapsed().as_secs_f64());
-            if method == Method::BranchAndBound && !rec.converged {
-                stopped += 1;
-            }
-            // A method already far over the budget need not finish the probe.
-            if times.len() >= 3 && median(times.clone()) > 20.0 * budget_us {
-                break;
+        let mut setup_ms = 1e3 * t0.elapsed().as_secs_f64();
+        let mut r = r;
+        let mut settings = settings;
+        let mut p = probe_frames(r.as_ref(), &frames, budget_us);
+        // `bnb` over the budget: give it the node budget that fits (its answer is then
+        // the best support found, certified only where the search completed).
+        let mut fitted = String::new();
+        if method == Method::BranchAndBound && p.median_us > budget_us && p.nodes_per_us > 0.0 {
+            let nodes = (0.7 * budget_us * p.nodes_per_us).floor().max(50.0) as u64;
+            if nodes < settings.node_budget {
+                settings.node_budget = nodes;
+                let t1 = Instant::now();
+                if let Ok(rb) = build(method, problem, settings) {
+                    setup_ms += 1e3 * t1.elapsed().as_secs_f64();
+                    r = rb;
+                    p = probe_frames(r.as_ref(), &frames, budget_us);
+                    fitted = format!("node budget {nodes} to fit the time budget; ");
+                }
             }
         }
-        let us = median(times);
+        let us = p.median_us;
+        let stopped = p.stopped;
         let within = us <= budget_us;
         let note = format!(
-            "median {us:.1} µs per probe frame ({} frames{}){}",
+            "{fitted}median {us:.1} µs per probe frame ({} frames{}){}",
             frames.len(),
             if probed_on_data {
                 " of the data"
             } else {
                 ", synthetic"
             },
-            if stopped > 0 {
-                format!("; stopped at its node budget on {stopped} (not certified)")
+            if stopped > 0 && method == Method::BranchAndBound {
+                format!(
+                    "; stopped at its node budget on {stopped} of {} (best support found, not certified)",
+                    p.frames
+                )
+            } else if stopped > 0 {
+                format!("; not converged on {stopped} of {}", p.frames)
             } else {
                 String::new()
             }

@@ -83,7 +83,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
             println!("method choice: {}", c.reason);
         }
         println!(
-            "{} frames, method {} (penalty {}, ≤ {} loads), set-up {:.1} ms, {:.1} µs/frame ({} thread{}), {} not converged → {}",
+            "{} frames, method {} (penalty {}, ≤ {} loads), set-up {:.1} ms, {:.1} µs/frame ({} thread{}), {} {} → {}",
             summary.frames,
             summary.method,
             summary.penalty,
@@ -93,6 +93,11 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
             summary.threads,
             if summary.threads == 1 { "" } else { "s" },
             summary.not_converged,
+            if summary.method == "bnb" {
+                "stopped at the node budget (best support found, not certified)"
+            } else {
+                "not converged"
+            },
             summary.out.display()
         );
     }
