@@ -4,8 +4,9 @@
 //! Methods are tried in order of accuracy ([`PREFERENCE`], from the `reconstruct`
 //! study's protocol and scaling tables, docs/array.md). For each, a cheap estimate
 //! first rules out the hopeless (an enumeration of too many supports is not even
-//! built); the others are built and timed on probe frames — the caller's first
-//! frames, or frames synthesised from the matrix — and the first whose median time
+//! built); the others are built and timed on probe frames — twelve frames spread
+//! over the caller's stream, or frames synthesised from the matrix — and the first
+//! whose median time
 //! per frame is within the budget is taken. If none is, the fastest one measured is
 //! taken and the choice says so: an array is never refused because the budget is
 //! tight. Every candidate's fate is reported ([`MethodChoice::candidates`]) so the
@@ -181,7 +182,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// Choose the default method for `problem`: the first of [`PREFERENCE`] whose median
 /// time per probe frame is within `budget_us`, else the fastest one measured.
 /// `settings_for` gives each method's settings (penalty, max loads); `probe` are the
-/// caller's frames (the first few are timed), or None to synthesise them.
+/// caller's frames (twelve spread over them are timed), or None to synthesise them.
 pub fn choose_method(
     problem: &SensingProblem,
     settings_for: &dyn Fn(Method) -> MethodSettings,
@@ -193,12 +194,15 @@ pub fn choose_method(
             "the per-frame budget must be a positive time in µs, got {budget_us}"
         )));
     }
-    let usable: Vec<Vec<f64>> = probe
+    // Probe frames spread evenly over the caller's stream (a stream's first frames
+    // are often alike: one load, or none), unusable frames left out.
+    let given: Vec<&Vec<f64>> = probe
         .unwrap_or(&[])
         .iter()
         .filter(|y| problem.check_shifts(y).is_ok())
-        .take(PROBE_FRAMES)
-        .cloned()
+        .collect();
+    let usable: Vec<Vec<f64>> = (0..given.len().min(PROBE_FRAMES))
+        .map(|i| given[i * given.len() / given.len().min(PROBE_FRAMES)].clone())
         .collect();
     let probed_on_data = !usable.is_empty();
     let (m, n) = (problem.n_gratings(), problem.n_cells());

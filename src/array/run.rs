@@ -82,7 +82,7 @@ pub struct ChoiceSummary {
     pub budget_us: f64,
     /// Which method and why, in one sentence.
     pub reason: String,
-    /// Whether the probe frames were the first frames of the data (else synthetic).
+    /// Whether the probe frames were frames of the data (else synthetic).
     pub probed_on_data: bool,
     /// Every method considered, most accurate first.
     pub candidates: Vec<Candidate>,

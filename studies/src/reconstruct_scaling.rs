@@ -344,12 +344,7 @@ pub fn run(
         // The default: what `fbgforge reconstruct` picks without --method.
         let t0 = Instant::now();
         let settings_for = |mm: Method| MethodSettings::for_method(mm);
-        let choice = choose_method(
-            &problem,
-            &settings_for,
-            budget_us,
-            Some(&test.shifts_pm[..test.shifts_pm.len().min(12)]),
-        )?;
+        let choice = choose_method(&problem, &settings_for, budget_us, Some(&test.shifts_pm))?;
         let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
         let res = evaluate(choice.reconstructor.as_ref(), &test);
         let label = format!("default → {}", choice.method.name());
