@@ -336,6 +336,13 @@ impl Path {
         Some((self.residual[p] - num * num / den).max(0.0))
     }
 
+    /// Whether the child P ∪ {j} gives j a positive load in its unconstrained fit
+    /// (w_j > 0: the last load of the factor, before the others are corrected).
+    #[inline]
+    fn child_pushes_up(&self, b: &[f64], j: usize) -> bool {
+        b[j] - self.t[self.depth() * self.n + j] > 0.0
+    }
+
     /// Descend to the child P ∪ {c}; false (and no change) when c is dependent.
     fn push(&mut self, g: &[Vec<f64>], b: &[f64], c: usize) -> bool {
         let (p, n) = (self.depth(), self.n);
@@ -456,6 +463,11 @@ impl Search<'_> {
             let mut pick: Option<(usize, f64)> = None;
             for c in 0..n {
                 if path.cells.contains(&c) {
+                    continue;
+                }
+                // Only cells that would carry a positive load: a path through a
+                // negative one is rejected whole, and the incumbent would stay empty.
+                if !path.child_pushes_up(&self.b, c) {
                     continue;
                 }
                 if let Some(r) = path.child_residual(g, &self.b, c) {
