@@ -388,11 +388,13 @@ impl Path {
         let p = self.depth();
         let mut z = self.w[..p].to_vec();
         for r in (0..p).rev() {
-            let mut v = z[r];
-            for t in r + 1..p {
-                v -= self.m[r * self.n + self.cells[t]] * z[t];
-            }
-            z[r] = v / self.d[r];
+            let row = &self.m[r * self.n..(r + 1) * self.n];
+            let later: f64 = self.cells[r + 1..p]
+                .iter()
+                .zip(&z[r + 1..p])
+                .map(|(&c, &zt)| row[c] * zt)
+                .sum();
+            z[r] = (z[r] - later) / self.d[r];
         }
         z
     }
