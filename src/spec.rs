@@ -402,6 +402,10 @@ pub struct TactileArray {
     pub gratings: Vec<ArrayGrating>,
     /// Casting mold.
     pub mold: Mold,
+    /// Most cells loaded at once that reconstruction considers (default 4, the
+    /// paper's largest test; 1 to 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_loads: Option<u32>,
 }
 
 /// A complete design: what one TOML file holds.
@@ -993,6 +997,14 @@ impl Design {
         }
         if a.gratings.is_empty() {
             return Err(err("array.gratings", "list at least one grating"));
+        }
+        if let Some(k) = a.max_loads {
+            if !(1..=64).contains(&k) {
+                return Err(err(
+                    "array.max_loads",
+                    format!("must be 1 to 64 simultaneous loads, got {k}"),
+                ));
+            }
         }
         Ok(())
     }

@@ -12,4 +12,5 @@ pub mod fem_compare;
 pub mod optimize;
 pub mod predict;
 pub mod reconstruct;
+pub mod reconstruct_scaling;
 pub mod verify;

@@ -143,6 +143,8 @@ fn reconstruct_study_quick_recovers_every_single_load() {
         seed: 1,
         repeats: 20,
         quick: true,
+        part: fbgforge_studies::reconstruct::Part::All,
+        budget_us: None,
     };
     fbgforge_studies::reconstruct::run(&a).unwrap();
     let runs = read_json(&dir.path().join("protocol.json"));
