@@ -106,6 +106,7 @@ def reconstruct(
     ulimit_g: float = 250.0,
     min_load_g: Optional[float] = None,
     penalty: Optional[float] = None,
+    max_loads: Optional[int] = None,
     normalise: bool = True,
     return_info: Literal[False] = False,
 ) -> npt.NDArray[np.float64]: ...
@@ -118,6 +119,7 @@ def reconstruct(
     ulimit_g: float = 250.0,
     min_load_g: Optional[float] = None,
     penalty: Optional[float] = None,
+    max_loads: Optional[int] = None,
     normalise: bool = True,
     return_info: Literal[True],
 ) -> Tuple[npt.NDArray[np.float64], Dict[str, Any]]:

@@ -6,8 +6,8 @@
 
 use fbgforge::array::kernel::matrix_from_design;
 use fbgforge::array::methods::{self as array_methods, Method, MethodSettings};
-use fbgforge::array::problem::SensingProblem;
-use fbgforge::live::interpret::{default_method, default_min_load_g};
+use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
+use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::prediction::{FidelityChoice, PredictionRequest};
@@ -431,7 +431,7 @@ fn methods() -> Vec<&'static str> {
 /// and the `method` and `penalty` used.
 #[pyfunction]
 #[pyo3(signature = (a, y, method=None, *, ulimit_g=250.0, min_load_g=None, penalty=None,
-    normalise=true, return_info=false))]
+    max_loads=None, normalise=true, return_info=false))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -441,9 +441,15 @@ fn reconstruct<'py>(
     ulimit_g: f64,
     min_load_g: Option<f64>,
     penalty: Option<f64>,
+    max_loads: Option<usize>,
     normalise: bool,
     return_info: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
+    if penalty.is_some() && method.is_none() {
+        return Err(fail(
+            "penalty is a setting of a named method: give method= as well (the default choice tunes its own)".to_string(),
+        ));
+    }
     let av = a.as_array();
     let (m, n) = av.dim();
     let matrix = nalgebra::DMatrix::from_fn(m, n, |i, j| av[(i, j)]);
@@ -478,23 +484,38 @@ fn reconstruct<'py>(
     let problem = SensingProblem::new(matrix, ulimit_g, normalise)
         .and_then(|p| p.with_min_load_g(min_load_g.unwrap_or(default_min_load_g(ulimit_g))))
         .map_err(|e| fail(e.to_string()))?;
-    let method = match method {
-        Some(name) => Method::from_name(name).map_err(|e| fail(e.to_string()))?,
-        None => default_method(&problem),
-    };
-    let mut settings = MethodSettings::for_method(method);
-    if let Some(p) = penalty {
-        settings.penalty = p;
+    let max_loads = max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS);
+    if max_loads == 0 {
+        return Err(fail("max_loads must be at least 1".to_string()));
     }
-    let results = py
-        .detach(
-            || -> Result<Vec<array_methods::Reconstruction>, fbgforge::array::ArrayError> {
-                use rayon::prelude::*;
-                let r = array_methods::build(method, &problem, settings)?;
-                Ok(frames.par_iter().map(|f| r.reconstruct(f)).collect())
-            },
-        )
+    // A named method is built as named; otherwise the array's default choice, the one
+    // `fbgforge reconstruct` makes, timed on the caller's own frames.
+    let (method, settings, reason, r) = py
+        .detach(|| -> Result<_, fbgforge::array::ArrayError> {
+            match method {
+                Some(name) => {
+                    let method = Method::from_name(name)?;
+                    let mut settings = MethodSettings {
+                        max_loads,
+                        ..MethodSettings::for_method(method)
+                    };
+                    if let Some(p) = penalty {
+                        settings.penalty = p;
+                    }
+                    let r = array_methods::build(method, &problem, settings)?;
+                    Ok((method, settings, format!("{} as named", method.name()), r))
+                }
+                None => {
+                    let c = default_choice(&problem, max_loads, DEFAULT_BUDGET_US, Some(&frames))?;
+                    Ok((c.method, c.settings, c.reason, c.reconstructor))
+                }
+            }
+        })
         .map_err(|e| fail(e.to_string()))?;
+    let results: Vec<array_methods::Reconstruction> = py.detach(|| {
+        use rayon::prelude::*;
+        frames.par_iter().map(|f| r.reconstruct(f)).collect()
+    });
     let loads = Array2::from_shape_fn((results.len(), n), |(i, j)| results[i].loads_g[j]);
     let loads: Bound<'py, PyAny> = if one_frame {
         loads.row(0).to_owned().into_pyarray(py).into_any()
@@ -506,6 +527,8 @@ fn reconstruct<'py>(
     }
     let info = PyDict::new(py);
     info.set_item("method", method.name())?;
+    info.set_item("reason", reason)?;
+    info.set_item("max_loads", settings.max_loads)?;
     info.set_item("penalty", settings.penalty)?;
     info.set_item(
         "converged",

@@ -179,6 +179,22 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
+/// The array's default method, as every caller without a named method gets it
+/// (`reconstruct`, the live mode, the Python binding): [`choose_method`] with each
+/// method's default settings under a cap of `max_loads` simultaneous loads.
+pub fn default_choice(
+    problem: &SensingProblem,
+    max_loads: usize,
+    budget_us: f64,
+    probe: Option<&[Vec<f64>]>,
+) -> Result<MethodChoice, ArrayError> {
+    let settings_for = |m: Method| MethodSettings {
+        max_loads,
+        ..MethodSettings::for_method(m)
+    };
+    choose_method(problem, &settings_for, budget_us, probe)
+}
+
 /// Choose the default method for `problem`: the first of [`PREFERENCE`] whose median
 /// time per probe frame is within `budget_us`, else the fastest one measured.
 /// `settings_for` gives each method's settings (penalty, max loads); `probe` are the

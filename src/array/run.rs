@@ -2,13 +2,13 @@
 //! and a file of grating shifts in, the loads CSV and a summary out. `fbgforge
 //! reconstruct` calls [`reconstruct_file`].
 
-use super::choice::{choose_method, Candidate, DEFAULT_BUDGET_US};
+use super::choice::{default_choice, Candidate, DEFAULT_BUDGET_US};
 use super::io::{read_matrix_file, read_shifts_for, write_loads};
 use super::kernel::matrix_from_design;
 use super::methods::{
     build, reconstruct_frames, Method, MethodSettings, Reconstructor, DEFAULT_MAX_LOADS,
 };
-use super::problem::{SensingProblem, PAPER_MIN_LOAD_G};
+use super::problem::{default_min_load_g, SensingProblem};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -161,14 +161,7 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
         bail!("--max-loads must be at least 1");
     }
     let stream = read_shifts_for(&a.shifts, &matrix.gratings, generated_names)?;
-    // The paper's 25 g unless told otherwise; an array rated for less than that in
-    // total (ulimit ≤ 25 g) gets no lower end rather than an error about a value the
-    // user never gave.
-    let min_load_g = a.min_load_g.unwrap_or(if PAPER_MIN_LOAD_G < ulimit_g {
-        PAPER_MIN_LOAD_G
-    } else {
-        0.0
-    });
+    let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
     let problem = SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
         .with_min_load_g(min_load_g)
         .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?;
@@ -192,7 +185,7 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
         }
         None => {
             let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
-            let c = choose_method(&problem, &settings_for, budget_us, Some(&stream.frames_pm))
+            let c = default_choice(&problem, max_loads, budget_us, Some(&stream.frames_pm))
                 .map_err(|e| anyhow::anyhow!("--budget-us: {e}"))?;
             let summary = ChoiceSummary {
                 budget_us,

@@ -11,7 +11,8 @@
 use super::source::Frame;
 use crate::array::kernel::matrix_from_design;
 use crate::array::methods::{self, Method, MethodSettings, Reconstruction, Reconstructor};
-use crate::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
+use crate::array::choice::{default_choice, DEFAULT_BUDGET_US};
+use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
@@ -292,22 +293,6 @@ pub struct Interpreter {
     description: String,
 }
 
-/// The method a live array uses when none is named: the library's default for the
-/// array (this is the one place the live mode and the Python bindings ask for it).
-pub fn default_method(_problem: &SensingProblem) -> Method {
-    methods::DEFAULT_METHOD
-}
-
-/// The smallest load of a loaded cell when none is given: the paper's 25 g, or 0 for
-/// an array rated for 25 g or less (the rule of `array::run::reconstruct_file`).
-pub fn default_min_load_g(ulimit_g: f64) -> f64 {
-    if PAPER_MIN_LOAD_G < ulimit_g {
-        PAPER_MIN_LOAD_G
-    } else {
-        0.0
-    }
-}
-
 impl Interpreter {
     /// Prepare a design: windows, tare, and the array's reconstructor or the module's K.
     pub fn new(design: &Design, opts: &InterpretOptions) -> Result<Self> {
@@ -346,11 +331,27 @@ impl Interpreter {
         let (matrix, ulimit_g) = matrix_from_design(design)?;
         let problem = SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, true)?
             .with_min_load_g(default_min_load_g(ulimit_g))?;
-        let method = match &opts.method {
-            Some(m) => Method::from_name(m)?,
-            None => default_method(&problem),
+        let max_loads = a
+            .max_loads
+            .map(|k| k as usize)
+            .unwrap_or(methods::DEFAULT_MAX_LOADS);
+        // A named method is built as named; otherwise the array's default choice (the
+        // one `reconstruct` and the Python binding make), probed on synthetic frames
+        // because no frame has arrived yet.
+        let (method, reconstructor) = match &opts.method {
+            Some(m) => {
+                let method = Method::from_name(m)?;
+                let settings = MethodSettings {
+                    max_loads,
+                    ..MethodSettings::for_method(method)
+                };
+                (method, methods::build(method, &problem, settings)?)
+            }
+            None => {
+                let c = default_choice(&problem, max_loads, DEFAULT_BUDGET_US, None)?;
+                (c.method, c.reconstructor)
+            }
         };
-        let reconstructor = methods::build(method, &problem, MethodSettings::for_method(method))?;
         let names: Vec<String> = a.gratings.iter().map(|g| g.name.clone()).collect();
         let nominal: Vec<f64> = a.gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
         let windows = Self::windows(&names, &nominal, opts)?;
