@@ -9,14 +9,14 @@
 //! unloaded (a printed grating is rarely at its nominal wavelength to the picometre).
 
 use super::source::Frame;
+use crate::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use crate::array::kernel::matrix_from_design;
 use crate::array::methods::{self, Method, MethodSettings, Reconstruction, Reconstructor};
-use crate::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
-use crate::verify::assign::{default_half_width_nm, GratingWindow};
+use crate::verify::assign::{default_half_width_nm, GratingWindow, PeakTracker};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -134,80 +134,6 @@ pub enum Skip {
     Bad(&'static str, String),
 }
 
-/// Finds each grating's peak in a frame.
-#[derive(Debug, Clone)]
-struct Tracker {
-    windows: Vec<GratingWindow>,
-    /// Indices of `windows` sorted by nominal wavelength, and those nominals.
-    order: Vec<usize>,
-    sorted_nm: Vec<f64>,
-    last_nm: Vec<f64>,
-    hits: Vec<u32>,
-}
-
-impl Tracker {
-    fn new(windows: Vec<GratingWindow>) -> Self {
-        let mut order: Vec<usize> = (0..windows.len()).collect();
-        order.sort_by(|&a, &b| windows[a].nominal_nm.total_cmp(&windows[b].nominal_nm));
-        let sorted_nm = order.iter().map(|&g| windows[g].nominal_nm).collect();
-        let last_nm = windows.iter().map(|w| w.nominal_nm).collect();
-        let hits = vec![0; windows.len()];
-        Tracker {
-            windows,
-            order,
-            sorted_nm,
-            last_nm,
-            hits,
-        }
-    }
-
-    /// Wavelength of each grating in this frame, nm (NaN: no peak in its window), and
-    /// whether any window held more than one peak. Same rule as `verify::assign`.
-    fn assign(&mut self, peaks: &[f64], out: &mut Vec<f64>) -> bool {
-        out.clear();
-        out.resize(self.windows.len(), f64::NAN);
-        self.hits.iter_mut().for_each(|h| *h = 0);
-        let sorted = &self.sorted_nm;
-        for &p in peaks {
-            let k = sorted.partition_point(|&l| l < p);
-            let nearest = match (k.checked_sub(1), sorted.get(k)) {
-                (Some(a), Some(&hi)) => {
-                    if p - sorted[a] <= hi - p {
-                        a
-                    } else {
-                        k
-                    }
-                }
-                (Some(a), None) => a,
-                (None, Some(_)) => k,
-                (None, None) => continue,
-            };
-            let g = self.order[nearest];
-            let w = &self.windows[g];
-            if (p - w.nominal_nm).abs() > w.half_width_nm {
-                continue;
-            }
-            if self.hits[g] == 0 || (p - self.last_nm[g]).abs() < (out[g] - self.last_nm[g]).abs() {
-                out[g] = p;
-            }
-            self.hits[g] += 1;
-        }
-        let mut ambiguous = false;
-        for ((&hits, last), &w) in self
-            .hits
-            .iter()
-            .zip(self.last_nm.iter_mut())
-            .zip(out.iter())
-        {
-            if hits > 0 {
-                *last = w;
-                ambiguous |= hits > 1;
-            }
-        }
-        ambiguous
-    }
-}
-
 /// The zero-load baseline: the mean of the first frames.
 #[derive(Debug, Clone)]
 struct Tare {
@@ -282,7 +208,7 @@ struct ModulePart {
 /// Turns frames into readings for one design.
 pub struct Interpreter {
     design_name: String,
-    tracker: Tracker,
+    tracker: PeakTracker,
     tare: Tare,
     nominal_nm: Vec<f64>,
     outputs: Vec<String>,
@@ -358,7 +284,7 @@ impl Interpreter {
         Ok(Interpreter {
             design_name: design.name.clone(),
             tare: Tare::new(opts.tare_frames, &nominal),
-            tracker: Tracker::new(windows),
+            tracker: PeakTracker::new(windows),
             nominal_nm: nominal,
             outputs: matrix.cells.clone(),
             array: Some(ArrayPart {
@@ -533,7 +459,7 @@ impl Interpreter {
         Ok(Interpreter {
             design_name: design.name.clone(),
             tare: Tare::new(opts.tare_frames, &nominal),
-            tracker: Tracker::new(windows),
+            tracker: PeakTracker::new(windows),
             nominal_nm: nominal,
             outputs,
             array: None,
@@ -576,7 +502,7 @@ impl Interpreter {
     /// The tracked gratings' names.
     pub fn gratings(&self) -> Vec<String> {
         self.tracker
-            .windows
+            .windows()
             .iter()
             .map(|w| w.name.clone())
             .collect()
@@ -611,7 +537,7 @@ impl Interpreter {
     /// Also returns whether a window held more than one peak.
     pub fn prepare(&mut self, frame: &Frame) -> (Result<Prepared, Skip>, bool) {
         let mut wl = std::mem::take(&mut self.scratch);
-        let ambiguous = self.tracker.assign(&frame.peaks_nm, &mut wl);
+        let ambiguous = self.tracker.assign_frame(&frame.peaks_nm, &mut wl);
         let result = self.prepare_from(&wl, frame);
         self.scratch = wl;
         (result, ambiguous)
@@ -622,7 +548,7 @@ impl Interpreter {
         let missing: Vec<usize> = (0..wl.len()).filter(|&i| !wl[i].is_finite()).collect();
         let must_have_all = self.array.is_some();
         if !missing.is_empty() && (must_have_all || missing.len() == wl.len()) {
-            let w = &self.tracker.windows[missing[0]];
+            let w = &self.tracker.windows()[missing[0]];
             return Err(Skip::Bad(
                 "missing_peak",
                 format!(

@@ -59,29 +59,50 @@ pub struct GratingTrack {
     pub rows_ambiguous: usize,
 }
 
-/// Assign peaks to gratings: each peak to the grating with the nearest nominal
-/// wavelength, if it lies within that grating's window.
-pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
-    let n = log.rows();
-    let mut tracks: Vec<GratingTrack> = windows
-        .iter()
-        .map(|w| GratingTrack {
-            window: w.clone(),
-            wavelength_nm: vec![f64::NAN; n],
-            rows_present: 0,
-            rows_ambiguous: 0,
-        })
-        .collect();
-    let mut last: Vec<f64> = windows.iter().map(|w| w.nominal_nm).collect();
-    let mut hits: Vec<u32> = vec![0; windows.len()];
-    // Windows sorted by nominal wavelength: each peak goes to the grating with the
-    // nearest nominal, if it lies within that grating's window.
-    let mut order: Vec<usize> = (0..windows.len()).collect();
-    order.sort_by(|&a, &b| windows[a].nominal_nm.total_cmp(&windows[b].nominal_nm));
-    let sorted: Vec<f64> = order.iter().map(|&g| windows[g].nominal_nm).collect();
-    for i in 0..n {
-        let (peaks, _) = log.row(i);
-        hits.iter_mut().for_each(|h| *h = 0);
+/// Assigns one frame's peaks to gratings, frame after frame: each peak to the grating
+/// with the nearest nominal wavelength, if it lies within that grating's window; of
+/// several peaks in one window, the one nearest the grating's previous value. The one
+/// rule of the verifier ([`assign`]) and the live mode.
+#[derive(Debug, Clone)]
+pub struct PeakTracker {
+    windows: Vec<GratingWindow>,
+    /// Indices of `windows` sorted by nominal wavelength, and those nominals.
+    order: Vec<usize>,
+    sorted_nm: Vec<f64>,
+    last_nm: Vec<f64>,
+    hits: Vec<u32>,
+}
+
+impl PeakTracker {
+    /// A tracker for `windows`, each grating starting at its nominal wavelength.
+    pub fn new(windows: Vec<GratingWindow>) -> Self {
+        let mut order: Vec<usize> = (0..windows.len()).collect();
+        order.sort_by(|&a, &b| windows[a].nominal_nm.total_cmp(&windows[b].nominal_nm));
+        let sorted_nm = order.iter().map(|&g| windows[g].nominal_nm).collect();
+        let last_nm = windows.iter().map(|w| w.nominal_nm).collect();
+        let hits = vec![0; windows.len()];
+        PeakTracker {
+            windows,
+            order,
+            sorted_nm,
+            last_nm,
+            hits,
+        }
+    }
+
+    /// The windows, in the order of the outputs.
+    pub fn windows(&self) -> &[GratingWindow] {
+        &self.windows
+    }
+
+    /// Wavelength of each grating in this frame into `out`, nm (NaN: no peak in its
+    /// window); returns whether any window held more than one peak. [`Self::hits`]
+    /// then tells how many peaks each window held.
+    pub fn assign_frame(&mut self, peaks: &[f64], out: &mut Vec<f64>) -> bool {
+        out.clear();
+        out.resize(self.windows.len(), f64::NAN);
+        self.hits.iter_mut().for_each(|h| *h = 0);
+        let sorted = &self.sorted_nm;
         for &p in peaks {
             let k = sorted.partition_point(|&l| l < p);
             let nearest = match (k.checked_sub(1), sorted.get(k)) {
@@ -96,22 +117,60 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
                 (None, Some(_)) => k,
                 (None, None) => continue,
             };
-            let g = order[nearest];
-            if (p - windows[g].nominal_nm).abs() > windows[g].half_width_nm {
+            let g = self.order[nearest];
+            let w = &self.windows[g];
+            if (p - w.nominal_nm).abs() > w.half_width_nm {
                 continue;
             }
-            let cur = &mut tracks[g].wavelength_nm[i];
-            if hits[g] == 0 || (p - last[g]).abs() < (*cur - last[g]).abs() {
-                *cur = p;
+            if self.hits[g] == 0 || (p - self.last_nm[g]).abs() < (out[g] - self.last_nm[g]).abs() {
+                out[g] = p;
             }
-            hits[g] += 1;
+            self.hits[g] += 1;
         }
-        for g in 0..windows.len() {
-            if hits[g] > 0 {
-                tracks[g].rows_present += 1;
-                last[g] = tracks[g].wavelength_nm[i];
-                if hits[g] > 1 {
-                    tracks[g].rows_ambiguous += 1;
+        let mut ambiguous = false;
+        for ((&hits, last), &w) in self
+            .hits
+            .iter()
+            .zip(self.last_nm.iter_mut())
+            .zip(out.iter())
+        {
+            if hits > 0 {
+                *last = w;
+                ambiguous |= hits > 1;
+            }
+        }
+        ambiguous
+    }
+
+    /// How many peaks each window held in the last frame.
+    pub fn hits(&self) -> &[u32] {
+        &self.hits
+    }
+}
+
+/// Assign peaks to gratings, row by row, with one [`PeakTracker`].
+pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
+    let n = log.rows();
+    let mut tracks: Vec<GratingTrack> = windows
+        .iter()
+        .map(|w| GratingTrack {
+            window: w.clone(),
+            wavelength_nm: vec![f64::NAN; n],
+            rows_present: 0,
+            rows_ambiguous: 0,
+        })
+        .collect();
+    let mut tracker = PeakTracker::new(windows.to_vec());
+    let mut frame = Vec::with_capacity(windows.len());
+    for i in 0..n {
+        let (peaks, _) = log.row(i);
+        tracker.assign_frame(peaks, &mut frame);
+        for (g, (track, &hits)) in tracks.iter_mut().zip(tracker.hits()).enumerate() {
+            track.wavelength_nm[i] = frame[g];
+            if hits > 0 {
+                track.rows_present += 1;
+                if hits > 1 {
+                    track.rows_ambiguous += 1;
                 }
             }
         }
