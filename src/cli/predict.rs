@@ -31,6 +31,9 @@ pub struct PredictArgs {
     /// model outside it, per loading case; `closed-form` and `fem` force one model.
     #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
     pub fidelity: FidelityArg,
+    /// Skip the prediction band (two more finite-element solves per configuration).
+    #[arg(long)]
+    pub no_band: bool,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -58,10 +61,7 @@ impl From<FidelityArg> for FidelityChoice {
 }
 
 fn model_name(f: Fidelity) -> &'static str {
-    match f {
-        Fidelity::ClosedForm => "closed-form",
-        Fidelity::Fem => "fem",
-    }
+    f.name()
 }
 
 /// Run `fbgforge predict`.
@@ -94,7 +94,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             delta_t_k: a.delta_t_k,
             case,
             fidelity: choice,
-            band: true,
+            band: !a.no_band,
+            ..Default::default()
         },
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
@@ -115,8 +116,10 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     );
     let mut notes: Vec<String> = Vec::new();
     let temp = a.delta_t_k != 0.0;
+    let band = !a.no_band;
+    let mut models: Vec<String> = Vec::new();
     print!(
-        "{:<12} {:<6} {:<4} {:<12} {:<11} {:>8} {:>10} {:>11} {:>10} {:>8}",
+        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
         "grating",
         "core",
         "case",
@@ -128,6 +131,9 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         "strain µε",
         "share"
     );
+    if band {
+        print!(" {:>21}", "band pm/N");
+    }
     if temp {
         print!(" {:>11} {:>12}", "raw pm", "compens. pm");
     }
@@ -151,19 +157,32 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         } else {
             "-".to_string()
         };
+        let m = models
+            .iter()
+            .position(|n| n == &row.model_description)
+            .unwrap_or_else(|| {
+                models.push(row.model_description.clone());
+                models.len() - 1
+            });
         print!(
-            "{:<12} {:<6} {:<4} {:<12} {:<11} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
+            "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
             p.grating,
             p.core,
             p.case.to_string(),
             p.insert.as_deref().unwrap_or("-"),
-            model_name(row.model),
+            format!("{} (m{})", model_name(row.model), m + 1),
             d.core_modulus_mpa,
             p.sensitivity_pm_per_n,
             p.shift_pm,
             p.strain * 1e6,
             share
         );
+        if band {
+            let b = row
+                .band_pm_per_n
+                .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
+            print!(" {b:>21}");
+        }
         if temp {
             let comp = d
                 .compensated_shift_pm
@@ -172,7 +191,15 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         }
         println!("  {}", refs.join(""));
     }
+    for (i, m) in models.iter().enumerate() {
+        println!("m{}: {m}", i + 1);
+    }
     println!("K > 0: red shift (core cylinder in tension); K < 0: blue shift.");
+    if band {
+        println!(
+            "band: K between the bounding contact readings (FE): pillars bonded to the cap (most coupled) and cylinders sliding with the domes touching over the apex patch only (least coupled); docs/model.md §5.6."
+        );
+    }
     println!(
         "share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only)."
     );
@@ -180,7 +207,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         FidelityChoice::Auto => {
             let v = fbgforge::prediction::validity();
             println!(
-                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE elsewhere.",
+                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE with the design's [module.contact] elsewhere.",
                 v.tolerance * 100.0,
                 v.diameter_range_mm.0,
                 v.diameter_range_mm.1,
