@@ -135,6 +135,7 @@ pub fn predict_with_fidelity(
             delta_t_k: opts.delta_t_k,
             case,
             insert: None,
+            core: None,
             fidelity: choice,
             band: false,
             fem_options: *fem_options,
@@ -334,6 +335,8 @@ pub struct PredictionRequest {
     pub case: Option<LoadCase>,
     /// Case I with this insert only (Case II rows are kept unless `case` drops them).
     pub insert: Option<String>,
+    /// Gratings of this core only.
+    pub core: Option<String>,
     /// Which model answers: [`FidelityChoice::Auto`] is the policy's default.
     pub fidelity: FidelityChoice,
     /// Also compute each row's prediction band (`band_pm_per_n`): two more FE solves
@@ -350,6 +353,7 @@ impl Default for PredictionRequest {
             delta_t_k: 0.0,
             case: None,
             insert: None,
+            core: None,
             fidelity: FidelityChoice::Auto,
             band: false,
             fem_options: FemOptions::default(),
@@ -368,6 +372,7 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
     rows.retain(|d| {
         let p = &d.prediction;
         request.case.is_none_or(|c| c == p.case)
+            && request.core.as_ref().is_none_or(|c| c == &p.core)
             && (p.case == LoadCase::II || request.insert.is_none() || p.insert == request.insert)
     });
     let m = design

@@ -114,8 +114,9 @@ fn read_options(format: Option<LogFormat>, d: Option<DateOrderArg>) -> ReadOptio
 }
 
 /// Run `fbgforge verify`. After writing everything it returns status 0 for PASS, 2 for
-/// FAIL and 3 when nothing could be judged (NO RESPONSE or NOT JUDGED), so scripts can
-/// tell a failed part, an undecided one and an error (status 1) apart.
+/// FAIL, 3 when nothing could be judged (NO RESPONSE or NOT JUDGED) and 4 for IN BAND
+/// (off the nominal prediction, inside the contact band), so scripts can tell a failed
+/// part, an undecided one, a contact reading to calibrate and an error (status 1) apart.
 pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
     let VerifyOutcome { report, series } = fbgforge::verify::run(&verify_request(&a))?;
     if let Some(dir) = &a.report {
@@ -132,6 +133,7 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
     Ok(match report.verdict.overall {
         Status::Pass => std::process::ExitCode::SUCCESS,
         Status::Fail => std::process::ExitCode::from(2),
+        Status::InBand => std::process::ExitCode::from(4),
         Status::NotJudged | Status::NoResponse => std::process::ExitCode::from(3),
     })
 }

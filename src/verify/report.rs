@@ -29,6 +29,7 @@ fn status_word(s: Status) -> &'static str {
     match s {
         Status::Pass => "PASS",
         Status::Fail => "FAIL",
+        Status::InBand => "IN BAND",
         Status::NotJudged => "NOT JUDGED",
         Status::NoResponse => "NO RESPONSE",
     }
@@ -119,6 +120,18 @@ pub fn summary(r: &VerifyReport) -> String {
         );
         if let Some(reason) = &v.reason {
             let _ = writeln!(s, "{:<12} {reason}", "");
+        }
+    }
+    if let Some(model) = r.verdict.gratings.iter().find_map(|v| v.model.as_ref()) {
+        let _ = writeln!(s, "model: {model}");
+    }
+    for v in &r.verdict.gratings {
+        if let Some([lo, hi]) = v.band_pm_per_n {
+            let _ = writeln!(
+                s,
+                "band of {} between the bounding contact readings: {lo:.3} … {hi:.3} pm/N",
+                v.grating
+            );
         }
     }
     if m.warnings.total() > 0 {

@@ -126,7 +126,11 @@ pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
 
 /// The clock offset a `--force-start` wall-clock time gives (force clock − wavelength
 /// clock, s), checked against what the two logs carry.
-pub fn offset_from_force_start(text: &str, inputs: &VerifyInputs, read: &ReadOptions) -> Result<f64> {
+pub fn offset_from_force_start(
+    text: &str,
+    inputs: &VerifyInputs,
+    read: &ReadOptions,
+) -> Result<f64> {
     use crate::logs::{num, Clock};
     if inputs.log.clock != Clock::Absolute {
         bail!("--force-start needs a wavelength log with wall-clock times; {} has relative times: give --clock-offset-s instead", inputs.log.source.display());
@@ -135,10 +139,13 @@ pub fn offset_from_force_start(text: &str, inputs: &VerifyInputs, read: &ReadOpt
         bail!("--force-start is for a force log with relative times; {} carries wall-clock times already (drop --force-start)", inputs.force.source.display());
     }
     let (date, secs) = num::parse_datetime(text.as_bytes()).ok_or_else(|| {
-        anyhow::anyhow!("--force-start `{text}`: expected a date and time such as 2025-04-17 15:44:54.3")
+        anyhow::anyhow!(
+            "--force-start `{text}`: expected a date and time such as 2025-04-17 15:44:54.3"
+        )
     })?;
     let order = read.date_order.unwrap_or(num::DateOrder::DayMonthYear);
-    let days = num::date_to_days(&date, order).map_err(|e| anyhow::anyhow!("--force-start `{text}`: {e}"))?;
+    let days = num::date_to_days(&date, order)
+        .map_err(|e| anyhow::anyhow!("--force-start `{text}`: {e}"))?;
     let start = days as f64 * 86400.0 + secs;
     // The force log's first sample (its own time force.time_s[0]) was taken at `start`.
     Ok(inputs.force.time_s[0] - start)
@@ -165,14 +172,28 @@ fn check_insert(design: &Design, req: &VerifyRequest) -> Result<()> {
 pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome> {
     let design = &inputs.design;
     let (m, series) = analyse(design, &inputs.log, &inputs.force, &req.analysis)?;
-    // K is linear in force: any force gives the same sensitivity.
-    let preds = crate::model::predict(design, 10.0).map_err(|e| format!("{e:#}"));
-    let v = verdict::verdicts(
+    // The one model policy, with the band, for the configuration under test only.
+    let mut cores: Vec<&String> = m.gratings.iter().filter_map(|g| g.core.as_ref()).collect();
+    cores.sort();
+    cores.dedup();
+    let preds = crate::prediction::predict(
+        design,
+        &crate::prediction::PredictionRequest {
+            case: Some(req.load_case()),
+            insert: req.insert.clone(),
+            core: (cores.len() == 1).then(|| cores[0].clone()),
+            band: true,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| format!("{e:#}"));
+    let v = verdict::verdicts_with_band(
         &m,
         preds.as_deref().map_err(Clone::clone),
         req.load_case(),
         req.insert.as_deref(),
         req.k_tolerance,
+        &verdict::ResponseGate::default(),
     );
     Ok(VerifyOutcome {
         report: VerifyReport {
