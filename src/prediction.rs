@@ -499,7 +499,7 @@ impl Anchored {
                     p.sensitivity_pm_per_n / c.sensitivity_pm_per_n,
                 ));
                 description = format!(
-                    "closed form, FE rows scaled to the policy's {} at the start design",
+                    "closed form, FE rows scaled to the policy's {} at the anchor design",
                     r.model_description
                 );
             }
@@ -543,6 +543,194 @@ impl Anchored {
         }
         Ok(rows)
     }
+}
+
+/// One grating of a contact calibration, K in pm/N.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibratedGrating {
+    /// Grating name.
+    pub grating: String,
+    /// Measured K.
+    pub measured_pm_per_n: f64,
+    /// The policy's K before the calibration.
+    pub before_pm_per_n: f64,
+    /// The policy's K with the calibrated contact.
+    pub after_pm_per_n: f64,
+}
+
+/// A calibration of the design's contact reading on a measured Case I sensitivity.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ContactCalibration {
+    /// The configuration measured.
+    pub configuration: Configuration,
+    /// `[module.contact].dome_contact_radius_mm` before, mm.
+    pub previous_radius_mm: f64,
+    /// The calibrated radius, mm.
+    pub radius_mm: f64,
+    /// The radii searched, mm (low, high).
+    pub searched_mm: [f64; 2],
+    /// Per grating: measured, before and after.
+    pub gratings: Vec<CalibratedGrating>,
+    /// FE solves spent.
+    pub evaluations: usize,
+}
+
+/// `design` with its domes' contact radius set to `radius_mm`.
+pub fn with_contact_radius(design: &Design, radius_mm: f64) -> Design {
+    let mut d = design.clone();
+    if let Some(m) = d.module.as_mut() {
+        m.contact.dome_contact_radius_mm = Some(radius_mm);
+    }
+    d
+}
+
+/// The policy's Case I K of every grating of `config` with the domes' contact radius
+/// set to `radius_mm`.
+fn case_i_k_at(
+    design: &Design,
+    config: &Configuration,
+    radius_mm: f64,
+    fem_options: &FemOptions,
+) -> Result<Vec<(String, f64)>> {
+    let d = with_contact_radius(design, radius_mm);
+    let m = d
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    let r = solve_configuration(
+        &d,
+        config,
+        &fem_options.with_reading(m, ContactReading::Design),
+    )?;
+    Ok(r.strain_per_n
+        .into_iter()
+        .map(|(name, lambda, e)| (name, d.fiber.shift_pm(lambda, e, 0.0)))
+        .collect())
+}
+
+/// Fit the one contact parameter of the policy, the domes' contact radius
+/// (`[module.contact].dome_contact_radius_mm`), to measured Case I sensitivities of
+/// `config`'s gratings (`measured`: grating name, K in pm/N): the radius at which the
+/// model's K, as a ratio to the measured K and averaged over the gratings, is 1
+/// (exact for one grating). Regula falsi (Illinois) on a bracket from half to four
+/// times the apex patch; one FE solve per step.
+pub fn calibrate_contact(
+    design: &Design,
+    config: &Configuration,
+    measured: &[(String, f64)],
+    fem_options: &FemOptions,
+) -> Result<ContactCalibration> {
+    let m = design
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    anyhow::ensure!(
+        config.case == LoadCase::I,
+        "calibration fits the domes' contact radius, which only Case I depends on in the model policy (Case II is the closed form); give a Case I log"
+    );
+    anyhow::ensure!(
+        !measured.is_empty(),
+        "no grating of {} responded to the force: nothing to calibrate on",
+        config.label()
+    );
+    for (g, k) in measured {
+        anyhow::ensure!(
+            k.is_finite() && *k > 0.0,
+            "grating `{g}`: a measured Case I K of {k} pm/N is not a red shift; the contact reading predicts K > 0 at every radius, so it cannot be calibrated on it"
+        );
+    }
+    let previous = m.dome_contact_radius_mm();
+    let before = case_i_k_at(design, config, previous, fem_options)?;
+    let patch = m.apex_patch_radius_mm();
+    let profile = ModuleProfile::from_module(m);
+    let lo = 0.5 * patch;
+    let hi = (4.0 * patch).min(0.6 * profile.core_dome_outer_sphere_radius_mm);
+    let mut evaluations = 1;
+    // Mean ratio of model to measurement, minus one: falls as the radius grows.
+    let h = |ks: &[(String, f64)]| -> Result<f64> {
+        let mut sum = 0.0;
+        for (g, k) in measured {
+            let model = ks
+                .iter()
+                .find(|(n, _)| n == g)
+                .map(|(_, v)| *v)
+                .with_context(|| {
+                    format!(
+                        "grating `{g}` is not a strain grating of {}",
+                        config.label()
+                    )
+                })?;
+            sum += model / k;
+        }
+        Ok(sum / measured.len() as f64 - 1.0)
+    };
+    let k_lo = case_i_k_at(design, config, lo, fem_options)?;
+    let k_hi = case_i_k_at(design, config, hi, fem_options)?;
+    evaluations += 2;
+    let (mut a, mut fa) = (lo, h(&k_lo)?);
+    let (mut b, mut fb) = (hi, h(&k_hi)?);
+    if fa.signum() == fb.signum() {
+        let first = |ks: &[(String, f64)]| ks.first().map_or(f64::NAN, |(_, k)| *k);
+        anyhow::bail!(
+            "no dome contact radius from {lo:.3} to {hi:.3} mm reproduces the measurement: the model's K of `{}` runs from {:.3} to {:.3} pm/N over that range, the measured K is {:.3} pm/N",
+            measured[0].0,
+            first(&k_lo),
+            first(&k_hi),
+            measured[0].1
+        );
+    }
+    let mut side = 0i8;
+    let mut best = (a, fa.abs());
+    for _ in 0..40 {
+        let c = (a * fb - b * fa) / (fb - fa);
+        let fc = h(&case_i_k_at(design, config, c, fem_options)?)?;
+        evaluations += 1;
+        if fc.abs() < best.1 {
+            best = (c, fc.abs());
+        }
+        if fc.abs() < 1e-4 || (b - a).abs() < 1e-5 * c {
+            break;
+        }
+        if fc.signum() == fb.signum() {
+            b = c;
+            fb = fc;
+            if side == -1 {
+                fa *= 0.5;
+            }
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if side == 1 {
+                fb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    let radius = best.0;
+    let after = case_i_k_at(design, config, radius, fem_options)?;
+    evaluations += 1;
+    let k_of = |ks: &[(String, f64)], g: &str| {
+        ks.iter()
+            .find(|(n, _)| n == g)
+            .map_or(f64::NAN, |(_, k)| *k)
+    };
+    Ok(ContactCalibration {
+        configuration: config.clone(),
+        previous_radius_mm: previous,
+        radius_mm: radius,
+        searched_mm: [lo, hi],
+        gratings: measured
+            .iter()
+            .map(|(g, k)| CalibratedGrating {
+                grating: g.clone(),
+                measured_pm_per_n: *k,
+                before_pm_per_n: k_of(&before, g),
+                after_pm_per_n: k_of(&after, g),
+            })
+            .collect(),
+        evaluations,
+    })
 }
 
 #[cfg(test)]

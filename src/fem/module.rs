@@ -376,6 +376,7 @@ fn make_stations(
     h_dome: f64,
     fiber_r: f64,
     patch_r: f64,
+    clip_mm: Option<f64>,
 ) -> Result<Stations> {
     let zc = p.dome_center_z_mm;
     if zc <= 0.0 {
@@ -383,11 +384,31 @@ fn make_stations(
             "the finite-element mesher needs the dome centre above the base (dome centre at z = {zc:.3} mm): use a taller module or a higher dome"
         );
     }
-    let nz = ((zc / h).ceil() as usize).max(2);
-    let mut st: Vec<Station> = (0..=2 * nz)
-        .map(|k| Station::Z(zc * k as f64 / (2 * nz) as f64))
-        .collect();
-    let z_breaks = (0..=nz).map(|k| zc * k as f64 / nz as f64).collect();
+    // Element boundaries along the cylinders: uniform, with one on the clip band's top
+    // edge when there is one, so the bonded band ends on a node and K varies
+    // continuously with every dimension (a band edge between nodes jumps from node to
+    // node as the module changes).
+    let mut z_breaks: Vec<f64> = Vec::new();
+    let mut segment = |z0: f64, z1: f64, min: usize| {
+        let n = (((z1 - z0) / h).ceil() as usize).max(min);
+        for k in 0..n {
+            z_breaks.push(z0 + (z1 - z0) * k as f64 / n as f64);
+        }
+    };
+    match clip_mm.filter(|c| *c > 0.0 && *c < zc) {
+        Some(c) => {
+            segment(0.0, c, 1);
+            segment(c, zc, 1);
+        }
+        None => segment(0.0, zc, 2),
+    }
+    z_breaks.push(zc);
+    let mut st: Vec<Station> = Vec::with_capacity(2 * z_breaks.len());
+    for w in z_breaks.windows(2) {
+        st.push(Station::Z(w[0]));
+        st.push(Station::Z(0.5 * (w[0] + w[1])));
+    }
+    st.push(Station::Z(zc));
     let j_seam = st.len() - 1;
     // Ring top: the ray through the fiber radius at the pillar top.
     // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
@@ -712,7 +733,11 @@ pub fn build(
             p.core_dome_outer_sphere_radius_mm
         ),
     };
-    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r)?;
+    let clip = match opt.pillar_coupling {
+        PillarCoupling::Bonded => None,
+        _ => Some(opt.clip_height_mm.unwrap_or(m.cap_wall_mm)),
+    };
+    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r, clip)?;
     let zc = p.dome_center_z_mm;
     let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
     let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
