@@ -171,6 +171,8 @@ pub struct ConfigurationResponse {
     pub gratings: Vec<GratingResponse>,
     /// Contact pairs touching at each force.
     pub active_pairs: Vec<usize>,
+    /// Of those, the pairs along the cylinders (the rest are on the domes).
+    pub active_cylinder_pairs: Vec<usize>,
     /// Contact pairs in the model.
     pub contact_pairs: usize,
     /// Force at which the first printed gap closes (the knee), N; `None` when the model
@@ -248,12 +250,21 @@ pub fn solve_response(
     )?;
     let mut strain = vec![Vec::with_capacity(forces_n.len()); gratings.len()];
     let mut active = Vec::with_capacity(forces_n.len());
+    let mut active_cylinders = Vec::with_capacity(forces_n.len());
     for &f in forces_n {
         let state = reduced.solve(f, 0.0)?;
         for (s, v) in strain.iter_mut().zip(&state.observed) {
             s.push(*v);
         }
         active.push(state.active());
+        active_cylinders.push(
+            state
+                .normal_force_n
+                .iter()
+                .zip(&model.pair_on_cylinders)
+                .filter(|(l, on)| **l > 0.0 && **on)
+                .count(),
+        );
     }
     Ok(ConfigurationResponse {
         configuration: config.clone(),
@@ -268,6 +279,7 @@ pub fn solve_response(
             })
             .collect(),
         active_pairs: active,
+        active_cylinder_pairs: active_cylinders,
         contact_pairs: model.contact_pairs.len(),
         knee_force_n: reduced.knee_load_factor(),
         unknowns: factored.unknowns(),

@@ -501,6 +501,8 @@ pub struct ModuleModel {
     /// Unilateral contact pairs (empty unless a contact reading asks for them): the
     /// problem is then solved by `fem::contact`.
     pub contact_pairs: Vec<ContactPair>,
+    /// For each contact pair: whether it lies along the cylinders (else on the domes).
+    pub pair_on_cylinders: Vec<bool>,
 }
 
 fn constants(m: &Material) -> ElasticConstants {
@@ -880,6 +882,7 @@ pub fn build(
             }
         }
     }
+    let cylinder_pairs = contact_pairs.len();
     let tie_from = match opt.dome_contact {
         DomeContact::Gap | DomeContact::Unilateral => None,
         DomeContact::Tied => Some(s.j_pillar_top + 1),
@@ -976,6 +979,9 @@ pub fn build(
         web_elements,
         fiber_radius_mm: fiber_r,
         z_breaks_mm: s.z_breaks,
+        pair_on_cylinders: (0..contact_pairs.len())
+            .map(|i| i < cylinder_pairs)
+            .collect(),
         contact_pairs,
     })
 }

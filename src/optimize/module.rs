@@ -19,7 +19,7 @@ use super::quality::{
     design_quality, Calibration, MeasuredPrototype, QualityBreakdown, QualitySettings,
 };
 use crate::fem::FemOptions;
-use crate::model::GratingPrediction;
+use crate::model::{GratingPrediction, LoadCase};
 use crate::prediction::{Anchored, FidelityChoice};
 use crate::profile::ModuleProfile;
 use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
@@ -380,6 +380,39 @@ pub const TIE_WEIGHT: f64 = 1e-3;
 /// Constraints checked on the model's prediction (only once the geometry is valid).
 pub const PHYSICS_CONSTRAINTS: [&str; 2] = ["grating_strain", "wavelength_window"];
 
+/// A linear correction of the anchored estimate around `center`: per grating row
+/// (grating, case, insert), the relative slope of the policy's K against it along each
+/// variable.
+#[derive(Debug, Clone)]
+struct Correction {
+    center: Vec<f64>,
+    rows: Vec<((String, LoadCase, Option<String>), Vec<f64>)>,
+}
+
+impl Correction {
+    fn apply(&self, x: &[f64], preds: &mut [GratingPrediction]) {
+        for p in preds.iter_mut() {
+            let Some((_, s)) = self
+                .rows
+                .iter()
+                .find(|(k, _)| k.0 == p.grating && k.1 == p.case && k.2 == p.insert)
+            else {
+                continue;
+            };
+            let f: f64 = 1.0
+                + s.iter()
+                    .zip(x.iter().zip(&self.center))
+                    .map(|(s, (x, c))| s * (x - c))
+                    .sum::<f64>();
+            // A linear factor is trusted near its centre only; keep it positive.
+            let f = f.clamp(0.2, 5.0);
+            p.sensitivity_pm_per_n *= f;
+            p.shift_pm *= f;
+            p.strain *= f;
+        }
+    }
+}
+
 /// The problem for one discrete choice.
 #[derive(Clone)]
 pub struct ModuleProblem {
@@ -399,6 +432,7 @@ pub struct ModuleProblem {
     predictor: Predictor,
     model: PredictFn,
     model_description: String,
+    correction: Option<Correction>,
     windows_nm: Vec<(String, f64, f64)>,
     scale: f64,
     x0: Vec<f64>,
@@ -575,6 +609,7 @@ impl ModuleProblem {
             predictor: predictor.clone(),
             model: Arc::new(|_: &Design, _: f64| anyhow::bail!("the model is not anchored yet")),
             model_description: String::new(),
+            correction: None,
             windows_nm,
             scale: 1.0,
             x0: Vec::new(),
@@ -589,6 +624,48 @@ impl ModuleProblem {
     pub fn anchored_at(&self, x: &[f64]) -> anyhow::Result<Self> {
         let mut p = self.clone();
         (p.model, p.model_description) = self.predictor.anchored_on(&self.design_at(x))?;
+        p.correction = None;
+        Ok(p)
+    }
+
+    /// The model anchored at `x` with a first-order correction: the ratio of the
+    /// policy's K to the anchored estimate is measured a step along each variable (one
+    /// anchoring each) and applied as a linear factor, so the estimate has the
+    /// policy's value and slope at `x` (what a trust region needs to converge).
+    pub fn corrected_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+        let mut p = self.anchored_at(x)?;
+        if matches!(self.predictor, Predictor::Function(_)) {
+            return Ok(p);
+        }
+        let at = |q: &ModuleProblem, x: &[f64]| -> anyhow::Result<Vec<GratingPrediction>> {
+            (q.model)(&q.design_at(x), 1.0)
+        };
+        let base = at(&p, x)?;
+        let mut slopes: Vec<Vec<f64>> = vec![vec![0.0; x.len()]; base.len()];
+        for v in 0..x.len() {
+            let span = self.hi[v] - self.lo[v];
+            let mut h = 0.02 * span;
+            if x[v] + h > self.hi[v] {
+                h = -h;
+            }
+            let mut xs = x.to_vec();
+            xs[v] += h;
+            let estimate = at(&p, &xs)?;
+            let exact = at(&p.anchored_at(&xs)?, &xs)?;
+            for (i, (e, t)) in estimate.iter().zip(&exact).enumerate() {
+                if e.sensitivity_pm_per_n != 0.0 {
+                    slopes[i][v] = (t.sensitivity_pm_per_n / e.sensitivity_pm_per_n - 1.0) / h;
+                }
+            }
+        }
+        p.correction = Some(Correction {
+            center: x.to_vec(),
+            rows: base
+                .iter()
+                .map(|b| (b.grating.clone(), b.case, b.insert.clone()))
+                .zip(slopes)
+                .collect(),
+        });
         Ok(p)
     }
 
@@ -737,7 +814,13 @@ impl ModuleProblem {
         let mut objective = 0.0;
         let mut gratings = Vec::new();
         if cons.iter().all(|c| c.violation <= 0.0) {
-            match (self.model)(d, self.settings.max_force_n) {
+            let preds = (self.model)(d, self.settings.max_force_n).map(|mut preds| {
+                if let Some(c) = &self.correction {
+                    c.apply(x, &mut preds);
+                }
+                preds
+            });
+            match preds {
                 Err(e) => push(
                     &mut cons,
                     "model",
@@ -1213,7 +1296,11 @@ pub fn optimise_module(
     }
     let mut answer = None;
     let mut why = Vec::new();
-    for &i in order.iter().filter(|&&i| i == bi).chain(order.iter().filter(|&&i| i != bi)) {
+    for &i in order
+        .iter()
+        .filter(|&&i| i == bi)
+        .chain(order.iter().filter(|&&i| i != bi))
+    {
         let p = ModuleProblem::new(
             base,
             choices_done[i].choice.clone(),
@@ -1222,7 +1309,10 @@ pub fn optimise_module(
             cal,
             predictor.clone(),
         )?;
-        let found = choices_done[i].best.clone().unwrap_or_else(|| p.evaluate(&p.start_point()));
+        let found = choices_done[i]
+            .best
+            .clone()
+            .unwrap_or_else(|| p.evaluate(&p.start_point()));
         match policy_answer(p, found, settings) {
             Ok(a) => {
                 answer = Some((i, a));
@@ -1282,11 +1372,13 @@ pub fn optimise_module(
 /// The winning choice's answer as the policy predicts it. Away from its anchor the
 /// optimiser's model is an estimate (closed-form trend, FE level at the anchor), and in
 /// Case I the closed form's trend can be far off the FE's. So the answer is refined by
-/// a trust region on the policy itself: anchor on the current design (exact there),
-/// search the estimate within a box around it, score the step by the policy anchored
-/// on the step; accept it when the policy agrees it is better (and feasible), widen the
-/// box when the estimate was right, shrink it when not. Each step costs one anchoring
-/// (one FE solve per configuration). The global search's answer is a candidate too.
+/// a trust region on the policy itself: anchor on the current design with a
+/// first-order correction (value and slope of the policy's K there, one anchoring per
+/// variable), search that estimate within a box around it, score the step by the
+/// policy anchored on the step; accept it when the policy agrees it is better (and
+/// feasible), widen the box when the estimate was right, shrink it when not. Each
+/// anchoring costs one FE solve per configuration. The global search's answer is a
+/// candidate too.
 fn policy_answer(
     p: ModuleProblem,
     found: Evaluation,
@@ -1325,7 +1417,7 @@ fn policy_answer(
                 ((x - d).max(*l), (x + d).min(*h))
             })
             .unzip();
-        let q = cur.0.within(tl, th);
+        let q = cur.0.corrected_at(&xc)?.within(tl, th);
         let runs = multi_start(
             &q,
             &settings.solvers,

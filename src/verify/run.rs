@@ -248,6 +248,26 @@ fn check_insert(design: &Design, req: &VerifyRequest) -> Result<()> {
     Ok(())
 }
 
+/// What the verdict compares with: the model policy's rows, with the band, for one
+/// configuration (and one core, when given).
+pub fn model_predictions(
+    design: &Design,
+    case: LoadCase,
+    insert: Option<&str>,
+    core: Option<&str>,
+) -> Result<Vec<crate::prediction::ModelledPrediction>> {
+    crate::prediction::predict(
+        design,
+        &crate::prediction::PredictionRequest {
+            case: Some(case),
+            insert: insert.map(String::from),
+            core: core.map(String::from),
+            band: true,
+            ..Default::default()
+        },
+    )
+}
+
 /// Stage 2: align, fit and judge read inputs against the model.
 pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome> {
     let design = &inputs.design;
@@ -256,17 +276,9 @@ pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome
     let mut cores: Vec<&String> = m.gratings.iter().filter_map(|g| g.core.as_ref()).collect();
     cores.sort();
     cores.dedup();
-    let preds = crate::prediction::predict(
-        design,
-        &crate::prediction::PredictionRequest {
-            case: Some(req.load_case()),
-            insert: req.insert.clone(),
-            core: (cores.len() == 1).then(|| cores[0].clone()),
-            band: true,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| format!("{e:#}"));
+    let core = (cores.len() == 1).then(|| cores[0].as_str());
+    let preds = model_predictions(design, req.load_case(), req.insert.as_deref(), core)
+        .map_err(|e| format!("{e:#}"));
     let v = verdict::verdicts_with_band(
         &m,
         preds.as_deref().map_err(Clone::clone),
