@@ -163,12 +163,12 @@ fn solve_jobs(
         .context("the design has no [module] section")?;
     jobs.par_iter()
         .map(|j| {
-            let opt = fem_options.with_reading(m, j.reading);
+            let opt = fem_options.with_reading(m, j.reading, j.config.case);
             let r = solve_configuration(design, &j.config, &opt).with_context(|| {
                 format!(
                     "finite-element solve of {} ({})",
                     j.config.label(),
-                    j.reading.describe(m)
+                    j.reading.describe(m, j.config.case)
                 )
             })?;
             Ok(r.strain_per_n
@@ -232,13 +232,39 @@ pub fn sweep_predictor(
     case: Option<LoadCase>,
     fem_options: FemOptions,
 ) -> Option<Box<model::sweep::Predictor<'static>>> {
+    sweep_predictor_with_band(choice, case, fem_options, false)
+}
+
+/// [`sweep_predictor`], with each step's band when `band` is set (two more FE solves
+/// per configuration and step).
+pub fn sweep_predictor_with_band(
+    choice: FidelityChoice,
+    case: Option<LoadCase>,
+    fem_options: FemOptions,
+    band: bool,
+) -> Option<Box<model::sweep::Predictor<'static>>> {
     if choice == FidelityChoice::ClosedForm {
         return None;
     }
     Some(Box::new(move |d, o| {
-        predict_with_fidelity(d, o, choice, case, &fem_options)
-            .map(|rows| rows.into_iter().map(|r| r.detail.prediction).collect())
-            .map_err(|e| format!("{e:#}"))
+        predict(
+            d,
+            &PredictionRequest {
+                force_n: o.force_n,
+                delta_t_k: o.delta_t_k,
+                case,
+                fidelity: choice,
+                band,
+                fem_options,
+                ..Default::default()
+            },
+        )
+        .map(|rows| {
+            rows.into_iter()
+                .map(|r| (r.detail.prediction, r.band_pm_per_n))
+                .collect()
+        })
+        .map_err(|e| format!("{e:#}"))
     }))
 }
 
@@ -423,7 +449,10 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
             Fidelity::Fem => {
                 let e = strain_of(&d.prediction, ContactReading::Design)?;
                 apply_fem_strain(&mut d, design, &opts, e);
-                format!("FE, {}", ContactReading::Design.describe(m))
+                format!(
+                    "FE, {}",
+                    ContactReading::Design.describe(m, d.prediction.case)
+                )
             }
         };
         let (band, readings) = if request.band {
@@ -600,7 +629,7 @@ fn case_i_k_at(
     let r = solve_configuration(
         &d,
         config,
-        &fem_options.with_reading(m, ContactReading::Design),
+        &fem_options.with_reading(m, ContactReading::Design, config.case),
     )?;
     Ok(r.strain_per_n
         .into_iter()

@@ -251,7 +251,7 @@ pub struct Contact {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dome_clearance_mm: Option<f64>,
     /// Radius of the zone around the apex over which the cap's dome bears on the core's
-    /// dome under working loads (measured on the core's dome), mm; default: 1.44 × the
+    /// dome under working loads (measured on the core's dome), mm; default: 1.376 × the
     /// apex contact patch (apex flat radius + cap wall / 2). The one contact parameter a
     /// measured Case I sensitivity calibrates (`verify --calibrate-into`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -263,7 +263,7 @@ pub struct Contact {
 
 impl Contact {
     /// Default contact radius as a multiple of the apex contact patch radius.
-    pub const DEFAULT_CONTACT_TO_PATCH: f64 = 1.44;
+    pub const DEFAULT_CONTACT_TO_PATCH: f64 = 1.376;
 
     /// Whether every field is at its default (then the table is not written).
     pub fn is_default(&self) -> bool {

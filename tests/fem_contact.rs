@@ -240,7 +240,7 @@ fn a_rigid_sphere_on_an_elastic_half_space_follows_hertz() {
 fn the_module_s_dome_clearance_closes_at_a_knee_and_the_cylinders_stay_apart() {
     let d = common::shipped("clip-on-34mm.toml");
     let m = d.module.as_ref().unwrap();
-    let opt = FemOptions::level(0).with_reading(m, ContactReading::Unilateral);
+    let opt = FemOptions::level(0).with_reading(m, ContactReading::Unilateral, LoadCase::I);
     let config = Configuration {
         core: "psc1".into(),
         case: LoadCase::I,

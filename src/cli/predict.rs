@@ -284,11 +284,14 @@ pub struct SweepArgs {
     /// F = 50 N with the paper's fixed moduli) as SVG + CSV into this folder.
     #[arg(long)]
     pub paper_figures: Option<PathBuf>,
-    /// Which model answers at each step: the closed form (microseconds a step, the
-    /// default), the finite-element model (a fraction of a second per configuration
-    /// and step), or `auto` as in `predict`.
-    #[arg(long, value_enum, default_value_t = FidelityArg::ClosedForm)]
+    /// Which model answers at each step: `auto`, the model policy of `predict` (the
+    /// default: Case I by the FE model, a fraction of a second per configuration and
+    /// step), the closed form (microseconds a step) or the FE model throughout.
+    #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
     pub fidelity: FidelityArg,
+    /// Skip the shaded prediction band (two more FE solves per configuration and step).
+    #[arg(long)]
+    pub no_band: bool,
 }
 
 /// How a sweep's output names its model.
@@ -296,7 +299,7 @@ fn fidelity_label(f: FidelityArg) -> &'static str {
     match f {
         FidelityArg::ClosedForm => "closed form",
         FidelityArg::Fem => "finite elements",
-        FidelityArg::Auto => "auto (closed form where valid, FE elsewhere)",
+        FidelityArg::Auto => "model policy",
     }
 }
 
@@ -307,14 +310,25 @@ fn sweep_chart(r: &SweepResult, title: &str) -> Chart {
         format!("Δλ at {} N (pm)", r.force_n),
     );
     for s in &r.series {
-        c = c.with(Series::new(
+        let mut line = Series::new(
             s.label(),
             s.x.iter()
                 .copied()
                 .zip(s.shift_pm.iter().copied())
                 .collect(),
             Mark::Line,
-        ));
+        );
+        if s.band_pm_per_n.len() == s.x.len() && !s.x.is_empty() {
+            // The band of K as a band of the shift at the sweep's force.
+            let f = r.force_n;
+            line = line.with_band(
+                s.x.iter()
+                    .zip(&s.band_pm_per_n)
+                    .map(|(&x, &[lo, hi])| (x, (lo * f).min(hi * f), (lo * f).max(hi * f)))
+                    .collect(),
+            );
+        }
+        c = c.with(line);
     }
     c
 }
@@ -327,12 +341,20 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
         "case",
         "insert",
         "force_n",
+        "band_low_pm_per_n",
+        "band_high_pm_per_n",
         "shift_pm",
         "sensitivity_pm_per_n",
     ];
     let mut rows = Vec::new();
     for s in &r.series {
         for i in 0..s.x.len() {
+            let band = |k: usize| {
+                s.band_pm_per_n
+                    .get(i)
+                    .filter(|_| s.band_pm_per_n.len() == s.x.len())
+                    .map_or(String::new(), |b| format!("{:.6}", b[k]))
+            };
             rows.push(vec![
                 r.param.clone(),
                 format!("{}", s.x[i]),
@@ -340,6 +362,8 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
                 s.case.to_string(),
                 s.insert.clone().unwrap_or_default(),
                 format!("{}", r.force_n),
+                band(0),
+                band(1),
                 format!("{:.6}", s.shift_pm[i]),
                 format!("{:.6}", s.sensitivity_pm_per_n[i]),
             ]);
@@ -352,7 +376,7 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
     if let Some(dir) = &a.paper_figures {
-        return write_paper_figures(&design, dir, a.steps, a.fidelity);
+        return write_paper_figures(&design, dir, a.steps, a.fidelity, !a.no_band);
     }
     let Some(name) = a.param.as_deref() else {
         bail!(
@@ -379,8 +403,12 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     }
     let pb = fbgforge::progress::bar(values.len() as u64, "sweep");
-    let predictor =
-        fbgforge::prediction::sweep_predictor(a.fidelity.into(), case, FemOptions::default());
+    let predictor = fbgforge::prediction::sweep_predictor_with_band(
+        a.fidelity.into(),
+        case,
+        FemOptions::default(),
+        !a.no_band,
+    );
     let r = sweep::run_with(
         &design,
         param,
@@ -442,23 +470,22 @@ fn write_paper_figures(
     dir: &Path,
     steps: usize,
     fidelity: FidelityArg,
+    band: bool,
 ) -> Result<()> {
     ensure_dir(dir)?;
     let steps = steps.max(2);
     let pb = fbgforge::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
     for fig in PAPER_FIGURES {
-        let predictor = fbgforge::prediction::sweep_predictor(
+        let predictor = fbgforge::prediction::sweep_predictor_with_band(
             fidelity.into(),
             Some(fig.case),
             FemOptions::default(),
+            band,
         );
         let r =
             sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), || pb.inc(1))
                 .with_context(|| format!("paper figure {}", fig.id))?;
-        let title = match fidelity {
-            FidelityArg::ClosedForm => fig.title.to_string(),
-            f => format!("{} ({})", fig.title, fidelity_label(f)),
-        };
+        let title = format!("{} ({})", fig.title, fidelity_label(fidelity));
         sweep_chart(&r, &title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
         sweep_csv(&r, &dir.join(format!("{}.csv", fig.id)))?;
         let first = &r.series[0];

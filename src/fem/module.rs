@@ -117,8 +117,9 @@ pub enum PillarCoupling {
 #[serde(rename_all = "snake_case")]
 pub enum ContactReading {
     /// The design's `[module.contact]`: cylinders sliding above the base clip (or
-    /// bonded), the domes bearing on each other within the design's contact radius.
-    /// The nominal prediction.
+    /// bonded); in Case I the domes bear on each other within the design's contact
+    /// radius, in Case II over the whole dome (no insert holds the hollow core's dome
+    /// up, so the cap's dome presses all of it). The nominal prediction.
     Design,
     /// Pillars bonded to cap and core along their length, domes tied over the apex
     /// patch (the paper's literal "no sliding"): the most tightly coupled reading,
@@ -136,7 +137,7 @@ pub enum ContactReading {
 
 impl ContactReading {
     /// Short description for tables and reports.
-    pub fn describe(self, m: &crate::spec::Module) -> String {
+    pub fn describe(self, m: &crate::spec::Module, case: LoadCase) -> String {
         let clip = m.clip_height_mm();
         let cyl = match m.contact.cylinders {
             CylinderCoupling::Sliding => {
@@ -145,6 +146,9 @@ impl ContactReading {
             CylinderCoupling::Bonded => "pillars bonded to the cap".to_string(),
         };
         match self {
+            ContactReading::Design if case == LoadCase::II => {
+                format!("{cyl}, domes in contact over the whole dome (Case II)")
+            }
             ContactReading::Design => format!(
                 "{cyl}, domes in contact within r = {:.3} mm",
                 m.dome_contact_radius_mm()
@@ -253,8 +257,14 @@ impl FemOptions {
         }
     }
 
-    /// These options (mesh, solver) with the contact choices of `reading` for module `m`.
-    pub fn with_reading(self, m: &crate::spec::Module, reading: ContactReading) -> Self {
+    /// These options (mesh, solver) with the contact choices of `reading` for module `m`
+    /// in `case`.
+    pub fn with_reading(
+        self,
+        m: &crate::spec::Module,
+        reading: ContactReading,
+        case: LoadCase,
+    ) -> Self {
         let sliding = m.contact.cylinders == CylinderCoupling::Sliding;
         let clip = Some(m.clip_height_mm());
         let (pillar_coupling, dome_contact, radius) = match reading {
@@ -264,7 +274,11 @@ impl FemOptions {
                 } else {
                     PillarCoupling::Bonded
                 },
-                DomeContact::ApexPatch,
+                if case == LoadCase::II {
+                    DomeContact::Tied
+                } else {
+                    DomeContact::ApexPatch
+                },
                 Some(m.dome_contact_radius_mm()),
             ),
             ContactReading::BondedPillars => (PillarCoupling::Bonded, DomeContact::ApexPatch, None),
@@ -536,36 +550,54 @@ fn smeared_materials(
     cap: ElasticConstants,
     core: ElasticConstants,
     insert: Option<ElasticConstants>,
+    sliding: bool,
 ) -> Vec<ElasticConstants> {
     let pl = &m.pillars;
     let n = pl.count as f64;
     let fill = |width: f64, r0: f64, r1: f64| (n * width / (PI * (r0 + r1))).min(1.0);
-    let ring_clear = smeared(&[(
-        cap,
+    let flanks = (
+        core,
         fill(
-            p.cap_pillar_width_mm,
+            pl.width_mm - pl.groove_width_mm,
+            p.groove_bottom_radius_mm,
             p.pillar_outer_radius_mm,
-            p.cap_inner_radius_mm,
         ),
-    )]);
-    let ring_groove = smeared(&[
-        (
-            core,
-            fill(
-                pl.width_mm - pl.groove_width_mm,
-                p.groove_bottom_radius_mm,
-                p.pillar_outer_radius_mm,
-            ),
-        ),
-        (
+    );
+    let (ring_clear, ring_groove) = if sliding {
+        // The cap's ribs slide in the grooves with the cap, so their axial stiffness
+        // must sit on the cap's side of the sliding face: the clearance ring gets the
+        // ribs' whole E·A (rib section n · width · groove depth over the ring's
+        // section), the groove ring the core's flanks only. Without a clearance ring the
+        // ribs' share of the cap's section (≈ 1.5 % in the paper's module) is dropped.
+        let ring_area = PI * (p.cap_inner_radius_mm.powi(2) - p.pillar_outer_radius_mm.powi(2));
+        let rib_area = n * p.cap_pillar_width_mm * pl.groove_depth_mm;
+        let clear = ElasticConstants {
+            youngs_modulus_mpa: cap.youngs_modulus_mpa * rib_area / ring_area.max(1e-12),
+            poisson_ratio: cap.poisson_ratio,
+        };
+        (clear, smeared(&[flanks]))
+    } else {
+        let clear = smeared(&[(
             cap,
             fill(
                 p.cap_pillar_width_mm,
-                p.groove_bottom_radius_mm,
                 p.pillar_outer_radius_mm,
+                p.cap_inner_radius_mm,
             ),
-        ),
-    ]);
+        )]);
+        let groove = smeared(&[
+            flanks,
+            (
+                cap,
+                fill(
+                    p.cap_pillar_width_mm,
+                    p.groove_bottom_radius_mm,
+                    p.pillar_outer_radius_mm,
+                ),
+            ),
+        ]);
+        (clear, groove)
+    };
     let ring_web = smeared(&[(
         core,
         fill(
@@ -745,7 +777,14 @@ pub fn build(
     let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
 
     // Materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core, 5 insert.
-    let materials = smeared_materials(m, &p, cap, core, insert);
+    let materials = smeared_materials(
+        m,
+        &p,
+        cap,
+        core,
+        insert,
+        opt.pillar_coupling != PillarCoupling::Bonded,
+    );
 
     // Layered walls on shared "d-lines" (curves of constant offset).
     let mut dlines: Vec<Surface> = vec![Surface {
