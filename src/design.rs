@@ -5,7 +5,7 @@
 //!
 //! This sits above both `spec` and `profile`, so neither imports the other's caller.
 
-use crate::profile::ModuleProfile;
+use crate::profile::{module_gratings, snap_report, ModuleProfile, PartsProfile};
 use crate::spec::{err, range, Design, GratingRole, Module, SpecError};
 use std::path::{Path, PathBuf};
 
@@ -24,7 +24,8 @@ pub fn load(path: &Path) -> Result<Design, SpecError> {
 
 /// Parse and validate a design from TOML text.
 pub fn parse(text: &str) -> Result<Design, SpecError> {
-    let design = crate::spec::parse_unvalidated(text)?;
+    let mut design = crate::spec::parse_unvalidated(text)?;
+    design.fill_derived();
     design.validate()?;
     Ok(design)
 }
@@ -36,9 +37,122 @@ impl Design {
         self.validate_fields()?;
         if let Some(m) = &self.module {
             check_profile(m, self.printer.min_wall_mm)?;
+            check_parts(self, m)?;
         }
         Ok(())
     }
+}
+
+/// The fiber exits, the insert's bore and the snap bead fit the module: every fiber
+/// bends below its grating and above the plate, every slot stays below the features
+/// over it, and the snap strains the cap's material less than it permits.
+fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
+    let Some((p, pp)) = PartsProfile::of_design(d) else {
+        return Ok(());
+    };
+    let min_wall = d.printer.min_wall_mm;
+    let z_b = pp.bend_start_z_mm;
+    let advice = "raise the grating, lower fiber_routing.exit_height_mm, or use a fiber with a smaller fiber_routing.min_bend_radius_mm (bend-insensitive G.657 fiber: 7.5 or 5 mm)";
+    for (i, g) in module_gratings(m, &p).iter().enumerate() {
+        if g.z_start_mm < z_b + pp.fiber_radius_mm {
+            let field = match g.role {
+                GratingRole::Strain => format!("module.gratings[{i}].center_height_mm"),
+                GratingRole::TemperatureReference => "module.overall_height_mm".into(),
+            };
+            return Err(err(
+                &field,
+                format!(
+                    "grating `{}` starts at {:.3} mm, but its fiber must run straight down to {:.3} mm (exit height {} mm + minimum bend radius {} mm) before it can bend out of the module; {advice}",
+                    g.name, g.z_start_mm, z_b, pp.exit_height_mm, pp.bend_radius_mm
+                ),
+            ));
+        }
+    }
+    // The reference fiber runs up the axis through the core's top hole.
+    let has_reference = m
+        .gratings
+        .iter()
+        .any(|g| g.role == GratingRole::TemperatureReference);
+    let coated = d.fiber_routing.coated_diameter_mm;
+    if has_reference && m.top_hole_diameter_mm < coated + d.printer.resolution_mm {
+        return Err(err(
+            "module.top_hole_diameter_mm",
+            format!(
+                "{} mm does not pass the reference fiber: at least its coated diameter {coated} mm + the printer's resolution {} mm",
+                m.top_hole_diameter_mm, d.printer.resolution_mm
+            ),
+        ));
+    }
+    if z_b + min_wall > p.pillar_top_mm {
+        return Err(err(
+            "fiber_routing.min_bend_radius_mm",
+            format!(
+                "the fibers bend out below {z_b:.3} mm, which leaves no pillar below the pillar top at {:.3} mm; {advice}",
+                p.pillar_top_mm
+            ),
+        ));
+    }
+    let below = |field: &str, what: &str, z: f64, limit: f64, over: &str| {
+        if z + min_wall > limit {
+            Err(err(
+                field,
+                format!(
+                    "{what} reaches {z:.3} mm, within a printable wall ({min_wall} mm) of {over} at {limit:.3} mm"
+                ),
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    below(
+        "fiber_routing.min_bend_radius_mm",
+        "the slot for the reference fiber in the insert's base",
+        pp.insert_slot_top_mm,
+        p.insert_junction_z_mm,
+        "the insert's dome",
+    )?;
+    below(
+        "fiber_routing.min_bend_radius_mm",
+        "the cap's fiber slots",
+        pp.cap_slot_top_mm,
+        pp.pillar_bottom_mm,
+        "the pillar bottoms",
+    )?;
+    if pp.insert_bore_radius_mm + min_wall > p.insert_radius_mm {
+        return Err(err(
+            "fiber_routing.coated_diameter_mm",
+            format!(
+                "the reference fiber's bore (radius {:.3} mm) leaves the insert (radius {:.3} mm) no printable wall",
+                pp.insert_bore_radius_mm, p.insert_radius_mm
+            ),
+        ));
+    }
+    if let (Some(s), Some(sp)) = (&m.snap, &pp.snap) {
+        below(
+            "module.snap.bead_height_mm",
+            "the cap's fiber slots",
+            pp.cap_slot_top_mm,
+            sp.lead_in_z_mm,
+            "the snap bead's lead-in",
+        )?;
+        if let Some(r) = snap_report(d, &p, &pp) {
+            if r.cap_strain_percent > r.permissible_strain_percent {
+                return Err(err(
+                    "module.snap.undercut_mm",
+                    format!(
+                        "{} mm strains the cap's ring by {:.3} % (undercut / crest radius {:.3} mm), more than its material `{}` permits ({} %); allowed up to {:.4} mm",
+                        s.undercut_mm,
+                        r.cap_strain_percent,
+                        r.crest_radius_mm,
+                        m.cap_material,
+                        r.permissible_strain_percent,
+                        r.permissible_strain_percent / 100.0 * r.crest_radius_mm
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One rule of a module's derived profile, evaluated: how far the design is past its

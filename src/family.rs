@@ -48,6 +48,10 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
         b.dome_contact_radius_mm(),
         t,
     ));
+    if let (Some(sa), Some(sb)) = (&mut m.snap, &b.snap) {
+        sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
+        sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
+    }
     for (g, gb) in m.gratings.iter_mut().zip(&b.gratings) {
         g.length_mm = lerp(g.length_mm, gb.length_mm, t);
         if let (Some(za), Some(zb)) = (g.center_height_mm, gb.center_height_mm) {
@@ -85,6 +89,12 @@ pub fn interpolate(knots: &[Design], diameter_mm: f64) -> Result<Design, SpecErr
         b.module.as_ref().expect("filtered"),
         t,
     ));
+    // The fiber is a choice, not a length: the lower knot's (at the upper knot, that
+    // knot's own), so a module between 10 and 16 mm keeps the 10 mm module's
+    // bend-insensitive fiber.
+    if t >= 1.0 {
+        d.fiber_routing = b.fiber_routing.clone();
+    }
     d.name = format!("clip-on-{diameter_mm}mm-interpolated");
     d.description = Some(format!(
         "interpolated between {} and {} (t = {t:.3})",
@@ -146,6 +156,23 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
         .contact
         .dome_contact_radius_mm
         .map(|r| r / b.apex_patch_radius_mm() * m.apex_patch_radius_mm());
+    if let Some(snap) = m.snap.as_mut() {
+        snap.undercut_mm = floor(snap.undercut_mm, 0.05);
+        snap.bead_height_mm = floor(snap.bead_height_mm, 0.3);
+    }
+    // The fiber does not scale: where standard fiber's exit bend would reach the
+    // lowest grating, the module takes the bend-insensitive fiber the shipped 10 mm
+    // design uses (G.657.B3, 5 mm).
+    let lowest = m
+        .gratings
+        .iter()
+        .filter_map(|g| g.center_height_mm.map(|z| z - g.length_mm / 2.0))
+        .fold(f64::INFINITY, f64::min);
+    let fr = &mut d.fiber_routing;
+    let need = fr.exit_height_mm + fr.min_bend_radius_mm + fr.coated_diameter_mm / 2.0;
+    if lowest < need {
+        fr.min_bend_radius_mm = fr.min_bend_radius_mm.min(5.0);
+    }
     d.name = format!("clip-on-{diameter_mm}mm-wall-{wall_mm}mm");
     d.validate()?;
     Ok(d)

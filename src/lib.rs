@@ -25,6 +25,7 @@ pub mod family;
 pub mod fem;
 pub mod geometry;
 pub mod grating;
+pub mod live;
 pub mod logs;
 pub mod model;
 pub mod optimize;

@@ -36,5 +36,7 @@ fn run(cmd: Command) -> anyhow::Result<ExitCode> {
         Command::CalibrateArray(a) => ok(cli::verify::run_calibrate_array(a)),
         Command::Optimize(a) => ok(cli::optimize::run_optimize(a)),
         Command::Place(a) => ok(cli::optimize::run_place(a)),
+        Command::Live(a) => cli::live::run_live(a),
+        Command::SynthStream(a) => cli::live::run_synth_stream(a),
     }
 }

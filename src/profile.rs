@@ -12,7 +12,7 @@
 //! array, x runs along the sheet's long side, fibers run along y, z = 0 is the mold's
 //! underside.
 
-use crate::spec::{GratingRole, Module, TactileArray};
+use crate::spec::{FiberRouting, GratingRole, Module, TactileArray};
 use serde::Serialize;
 
 /// Every derived radius (mm) and height (mm) of the clip-on module.
@@ -220,8 +220,13 @@ pub struct ArrayLayout {
     pub mold_outer_mm: (f64, f64, f64),
     /// Height of the cavity floor above the mold's underside, mm.
     pub cavity_floor_z_mm: f64,
-    /// Height of the fibers above the mold's underside (mid-thickness of the sheet), mm.
+    /// Height of the fibers' axes above the mold's underside (mid-thickness of the
+    /// sheet), mm.
     pub fiber_z_mm: f64,
+    /// Height of the slit bottoms, where the coated fiber rests, mm.
+    pub slit_bottom_z_mm: f64,
+    /// Silicone level: the sheet's top above the mold's underside, mm.
+    pub silicone_level_z_mm: f64,
 }
 
 /// Cell label: A, B, … Z, then AA, AB, …
@@ -268,7 +273,272 @@ impl ArrayLayout {
                 m.base_thickness_mm + m.wall_height_mm,
             ),
             cavity_floor_z_mm: m.base_thickness_mm,
-            fiber_z_mm: m.base_thickness_mm + m.wall_height_mm - m.slit_depth_mm,
+            fiber_z_mm: m.base_thickness_mm + a.thickness_mm / 2.0,
+            slit_bottom_z_mm: m.base_thickness_mm + m.wall_height_mm - m.slit_depth_mm,
+            silicone_level_z_mm: m.base_thickness_mm + a.thickness_mm,
         }
     }
+}
+
+/// Dimensions of what makes the module's parts assemble and wire: the fiber exits,
+/// the reference fiber's bore and the snap-fit bead. Derived from the module, the
+/// printer and `[fiber_routing]`; the solids and the fiber tracer read them.
+///
+/// Every fiber leaves the module the same way: straight down its hole (or, for the
+/// reference fiber, down the axis) to `bend_start_z_mm`, then along a quarter circle
+/// of radius `bend_radius_mm` that turns it horizontal at `exit_height_mm`, outward in
+/// the vertical plane through its angle. The core's pillars end at the bend start,
+/// so the strain fibers leave their holes before bending, and slots open to the base
+/// in every part the bend crosses (cap, core wall, insert) let it out and let the
+/// parts slide together with the fibers in place.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PartsProfile {
+    /// Width of every fiber slot and channel, mm.
+    pub channel_width_mm: f64,
+    /// Coated fiber radius, mm.
+    pub fiber_radius_mm: f64,
+    /// Radius of every exit bend (the fiber's minimum), mm.
+    pub bend_radius_mm: f64,
+    /// Height of the fiber axis where the bend ends horizontal, mm.
+    pub exit_height_mm: f64,
+    /// Height where every fiber starts to bend: exit height + bend radius, mm.
+    pub bend_start_z_mm: f64,
+    /// Bottom of the core's pillars (they run up to the profile's pillar top), mm.
+    pub pillar_bottom_mm: f64,
+    /// Angle of the reference fiber's exit: midway between the last and the first
+    /// pillar, radians.
+    pub reference_exit_angle_rad: f64,
+    /// Radius of the axial bore through each insert for the reference fiber, mm.
+    pub insert_bore_radius_mm: f64,
+    /// Half-width of the parallel slot in each insert's base (reference exit), mm.
+    pub insert_slot_half_width_mm: f64,
+    /// Height of the insert's slot roof, mm.
+    pub insert_slot_top_mm: f64,
+    /// Half-angle of the radial slot in the core wall (reference exit), radians.
+    pub core_slot_half_angle_rad: f64,
+    /// Height of the core wall's slot roof, mm.
+    pub core_slot_top_mm: f64,
+    /// Half-angle of the radial slots in the cap (one per pillar and one for the
+    /// reference fiber), radians.
+    pub cap_slot_half_angle_rad: f64,
+    /// Height of the cap's slot roofs, mm.
+    pub cap_slot_top_mm: f64,
+    /// Snap bead, when the module has a `[module.snap]`.
+    pub snap: Option<SnapProfile>,
+}
+
+/// The cap's snap bead: a ring on the cap's inner wall just below the pillar bottoms.
+/// From the base up, the inner wall runs at the cap's inner radius to `lead_in_z_mm`,
+/// the lead-in cone rises to the crest radius at `crest_bottom_z_mm`, the crest runs
+/// to `crest_top_z_mm`, and the retention cone returns to the inner radius at
+/// `retention_top_z_mm`, one clearance below the pillar bottoms.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SnapProfile {
+    /// Inner radius of the bead's crest: pillar outer radius − undercut, mm.
+    pub crest_radius_mm: f64,
+    /// Where the lead-in cone leaves the cap's inner wall, mm.
+    pub lead_in_z_mm: f64,
+    /// Bottom of the crest, mm.
+    pub crest_bottom_z_mm: f64,
+    /// Top of the crest, mm.
+    pub crest_top_z_mm: f64,
+    /// Where the retention cone meets the cap's inner wall again, mm.
+    pub retention_top_z_mm: f64,
+}
+
+/// Height above `bend_start_z` at which a slot roof's inner corner, `r_rel` outward from
+/// the fiber's vertical run, clears a bend of radius `bend` by `gap` (the fiber radius
+/// plus its clearance); where the bend has already turned horizontal, the roof only has
+/// to clear the horizontal run.
+pub fn slot_roof_z_mm(r_rel: f64, bend_start_z: f64, bend: f64, gap: f64, exit_z: f64) -> f64 {
+    let reach = bend - gap;
+    let dx = bend - r_rel;
+    if dx <= 0.0 || reach <= dx {
+        // The corner lies above the horizontal run (or beyond the bend's reach).
+        return exit_z + gap;
+    }
+    bend_start_z - (reach * reach - dx * dx).sqrt()
+}
+
+impl PartsProfile {
+    /// Derive from a module and its profile; `printer_min_gap_mm` and `routing` come
+    /// from the design. Results may be out of range for a bad spec: validation checks
+    /// them ([`crate::design`]).
+    pub fn new(
+        m: &Module,
+        p: &ModuleProfile,
+        routing: &FiberRouting,
+        channel_width_mm: f64,
+    ) -> Self {
+        let w = channel_width_mm;
+        let rf = routing.coated_diameter_mm / 2.0;
+        let gap = rf + routing.channel_clearance_mm;
+        let bend = routing.min_bend_radius_mm;
+        let z_h = routing.exit_height_mm;
+        let z_b = z_h + bend;
+        let n = p.pillar_angles_rad.len().max(1) as f64;
+        let first = p.pillar_angles_rad.first().copied().unwrap_or(0.0);
+        let bore = w / 2.0 + routing.channel_clearance_mm.max(0.05 * w);
+        let roof = |r_rel: f64| slot_roof_z_mm(r_rel, z_b, bend, gap, z_h);
+        // The cap's slots carry the strain fibers (bend starting at the fiber hole)
+        // and the reference fiber (bend starting on the axis): the higher roof wins.
+        let cap_roof = roof(p.cap_inner_radius_mm - p.fiber_hole_center_radius_mm)
+            .max(roof(p.cap_inner_radius_mm));
+        let snap = m.snap.as_ref().map(|s| {
+            let lift = s.undercut_mm + m.cap_core_clearance_mm;
+            let axial_gap = m.cap_core_clearance_mm.max(0.05);
+            let retention_top = z_b - axial_gap;
+            let crest_top = retention_top - lift / s.retention_angle_deg.to_radians().tan();
+            let crest_bottom = crest_top - s.bead_height_mm;
+            SnapProfile {
+                crest_radius_mm: p.pillar_outer_radius_mm - s.undercut_mm,
+                lead_in_z_mm: crest_bottom - lift / s.lead_in_angle_deg.to_radians().tan(),
+                crest_bottom_z_mm: crest_bottom,
+                crest_top_z_mm: crest_top,
+                retention_top_z_mm: retention_top,
+            }
+        });
+        PartsProfile {
+            channel_width_mm: w,
+            fiber_radius_mm: rf,
+            bend_radius_mm: bend,
+            exit_height_mm: z_h,
+            bend_start_z_mm: z_b,
+            pillar_bottom_mm: z_b,
+            reference_exit_angle_rad: first - std::f64::consts::PI / n,
+            insert_bore_radius_mm: bore,
+            insert_slot_half_width_mm: w / 2.0,
+            insert_slot_top_mm: roof(bore),
+            core_slot_half_angle_rad: (w / 2.0 / p.core_inner_radius_mm).asin(),
+            core_slot_top_mm: roof(p.core_inner_radius_mm),
+            cap_slot_half_angle_rad: (w / 2.0 / p.cap_inner_radius_mm).asin(),
+            cap_slot_top_mm: cap_roof,
+            snap,
+        }
+    }
+
+    /// Derive for a design's module (None without one).
+    pub fn of_design(d: &crate::spec::Design) -> Option<(ModuleProfile, PartsProfile)> {
+        let m = d.module.as_ref()?;
+        let p = ModuleProfile::from_module_unchecked(m);
+        let w = d.fiber_routing.channel_width_mm(&d.printer);
+        let pp = PartsProfile::new(m, &p, &d.fiber_routing, w);
+        Some((p, pp))
+    }
+}
+
+/// The snap-fit sized by the standard equations (annular snap on a rigid shaft, Bayer /
+/// Covestro snap-fit guide): strain, transverse force and the mating and separating
+/// forces of the cap on each core. See docs/geometry.md, "Snap-fit".
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SnapReport {
+    /// Radial undercut y, mm.
+    pub undercut_mm: f64,
+    /// Radius of the bead's crest, mm.
+    pub crest_radius_mm: f64,
+    /// Hoop strain of the cap's ring opened by the whole undercut (a rigid core):
+    /// y / crest radius, percent. This is the number checked.
+    pub cap_strain_percent: f64,
+    /// The cap material's permissible strain, percent.
+    pub permissible_strain_percent: f64,
+    /// Lead-in and retention angles, degrees; friction coefficient.
+    pub lead_in_angle_deg: f64,
+    /// Retention angle, degrees.
+    pub retention_angle_deg: f64,
+    /// Friction coefficient.
+    pub friction_coefficient: f64,
+    /// Radial stiffness of the cap's ring under a ring load, N/mm.
+    pub ring_stiffness_n_per_mm: f64,
+    /// Forces for each core (cores differ in material, so in how much of the undercut
+    /// their pillars take).
+    pub cores: Vec<SnapCoreForces>,
+}
+
+/// Snap forces for one core.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SnapCoreForces {
+    /// Core name.
+    pub core: String,
+    /// Radial stiffness of all pillars pressed by the bead crest, N/mm.
+    pub pillar_stiffness_n_per_mm: f64,
+    /// Total radial (transverse) force at full undercut, N.
+    pub transverse_force_n: f64,
+    /// Part of the undercut the cap's ring takes (the rest squeezes the pillars), mm.
+    pub cap_deflection_mm: f64,
+    /// Force to push the cap on over the lead-in cone, N.
+    pub assembly_force_n: f64,
+    /// Friction force while the crest slides along the pillars, N.
+    pub sliding_force_n: f64,
+    /// Force to pull the cap off over the retention cone, N; None when the retention
+    /// cone is self-locking (μ·tan α ≥ 1: the joint does not come apart without
+    /// damage).
+    pub retention_force_n: Option<f64>,
+}
+
+/// W = P (μ + tan α) / (1 − μ tan α): the axial force that pushes a transverse force P
+/// over a ramp at angle α to the axis; None when the ramp is self-locking.
+pub fn ramp_force_n(p: f64, mu: f64, alpha_deg: f64) -> Option<f64> {
+    let t = alpha_deg.to_radians().tan();
+    let den = 1.0 - mu * t;
+    (alpha_deg < 90.0 && den > 0.0).then(|| p * (mu + t) / den)
+}
+
+/// Size the snap of `m` (None without `[module.snap]` or without the permissible
+/// strain of the cap's material).
+pub fn snap_report(
+    d: &crate::spec::Design,
+    p: &ModuleProfile,
+    pp: &PartsProfile,
+) -> Option<SnapReport> {
+    let m = d.module.as_ref()?;
+    let s = m.snap.as_ref()?;
+    let sp = pp.snap.as_ref()?;
+    let cap = d.materials.get(&m.cap_material)?;
+    let eps_max = cap.permissible_strain_percent?;
+    let y = s.undercut_mm;
+    // Long thin cylinder under a ring load (beam on an elastic foundation):
+    // w = Q λ / (2k), k = E t / r², λ⁴ = 3(1 − ν²) / (r² t²); P = 2π r Q.
+    let t = m.cap_wall_mm;
+    let r = p.cap_inner_radius_mm + t / 2.0;
+    let nu = cap.poisson_ratio;
+    let lambda = (3.0 * (1.0 - nu * nu) / (r * r * t * t)).powf(0.25);
+    let k_ring = 4.0 * std::f64::consts::PI * cap.youngs_modulus_mpa * t / (r * lambda);
+    // Each pillar's two faces beside the groove are pressed over the crest height
+    // through the pillar's radial height.
+    let pl = &m.pillars;
+    let face_area = (pl.width_mm - pl.groove_width_mm) * s.bead_height_mm;
+    let cores = m
+        .cores
+        .iter()
+        .filter_map(|c| {
+            let e = d.materials.get(&c.material)?.youngs_modulus_mpa;
+            let k_p = p.pillar_angles_rad.len() as f64 * e * face_area / pl.height_mm;
+            let force = y / (1.0 / k_ring + 1.0 / k_p);
+            Some(SnapCoreForces {
+                core: c.name.clone(),
+                pillar_stiffness_n_per_mm: k_p,
+                transverse_force_n: force,
+                cap_deflection_mm: force / k_ring,
+                assembly_force_n: ramp_force_n(force, s.friction_coefficient, s.lead_in_angle_deg)
+                    .unwrap_or(f64::INFINITY),
+                sliding_force_n: s.friction_coefficient * force,
+                retention_force_n: ramp_force_n(
+                    force,
+                    s.friction_coefficient,
+                    s.retention_angle_deg,
+                ),
+            })
+        })
+        .collect();
+    Some(SnapReport {
+        undercut_mm: y,
+        crest_radius_mm: sp.crest_radius_mm,
+        cap_strain_percent: 100.0 * y / sp.crest_radius_mm,
+        permissible_strain_percent: eps_max,
+        lead_in_angle_deg: s.lead_in_angle_deg,
+        retention_angle_deg: s.retention_angle_deg,
+        friction_coefficient: s.friction_coefficient,
+        ring_stiffness_n_per_mm: k_ring,
+        cores,
+    })
 }

@@ -73,6 +73,11 @@ pub struct Printer {
     pub resolution_mm: f64,
     /// Thinnest wall the printer makes reliably, mm.
     pub min_wall_mm: f64,
+    /// Nozzle diameter of an FDM printer, mm (default 0.4 mm for `fdm`; unused for
+    /// PolyJet). A printed gap narrower than the nozzle closes up, so fiber slits and
+    /// channels are never made narrower than this.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nozzle_diameter_mm: Option<f64>,
 }
 
 impl Printer {
@@ -80,7 +85,19 @@ impl Printer {
     pub fn default_tolerance_mm(&self) -> f64 {
         self.resolution_mm / 2.0
     }
+
+    /// Narrowest gap (slit, channel) the printer keeps open, mm: the nozzle for FDM
+    /// (0.4 mm when not stated), the resolution for PolyJet.
+    pub fn min_gap_mm(&self) -> f64 {
+        match self.process {
+            PrintProcess::Fdm => self.nozzle_diameter_mm.unwrap_or(DEFAULT_FDM_NOZZLE_MM),
+            PrintProcess::Polyjet => self.resolution_mm,
+        }
+    }
 }
+
+/// Nozzle diameter assumed for an FDM printer that states none, mm.
+pub const DEFAULT_FDM_NOZZLE_MM: f64 = 0.4;
 
 /// An isotropic linear-elastic material.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -93,6 +110,11 @@ pub struct Material {
     /// Free text: where the numbers come from.
     #[serde(default)]
     pub note: Option<String>,
+    /// Largest strain a snap-fit may impose on this material, percent (a datasheet or
+    /// snap-fit-guide value; needed for the cap's material when the module has a
+    /// `[module.snap]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub permissible_strain_percent: Option<f64>,
 }
 
 /// The four grooved pillars on the core's outer wall, each with a fiber through-hole,
@@ -216,6 +238,9 @@ pub struct Module {
     /// use for Case I (and the finite-element model for Case II). Defaults when absent.
     #[serde(default, skip_serializing_if = "Contact::is_default")]
     pub contact: Contact,
+    /// Snap-fit between cap and core; without it the cap is a plain sliding fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub snap: Option<Snap>,
 }
 
 /// How the cap's cylinder couples to the core's along the pillars.
@@ -298,6 +323,91 @@ impl Module {
     }
 }
 
+/// The annular snap-fit that holds the cap on the core: a bead ring on the cap's inner
+/// wall, just below the core's pillars, that the pillar bottoms hook over (see
+/// docs/geometry.md, "Snap-fit").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Snap {
+    /// Radial undercut y: how far the bead reaches inside the pillar faces, mm.
+    pub undercut_mm: f64,
+    /// Axial height of the bead's cylindrical crest, mm.
+    pub bead_height_mm: f64,
+    /// Angle of the bead's lead-in cone to the module axis, degrees (30° typical).
+    #[serde(default = "default_lead_in_angle_deg")]
+    pub lead_in_angle_deg: f64,
+    /// Angle of the bead's retention cone to the module axis, degrees (90° = flat,
+    /// self-locking; 45° typical for a joint meant to come apart).
+    #[serde(default = "default_retention_angle_deg")]
+    pub retention_angle_deg: f64,
+    /// Coefficient of friction between cap and core, dimensionless.
+    #[serde(default = "default_friction_coefficient")]
+    pub friction_coefficient: f64,
+}
+
+fn default_lead_in_angle_deg() -> f64 {
+    30.0
+}
+fn default_retention_angle_deg() -> f64 {
+    45.0
+}
+fn default_friction_coefficient() -> f64 {
+    0.3
+}
+
+/// How the fibers leave the module and the mold: the fiber's size and stiffness and
+/// the clearance the printed channels give it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FiberRouting {
+    /// Diameter of the coated fiber, mm (250 µm acrylate coating of standard SMF).
+    #[serde(default = "default_coated_diameter_mm")]
+    pub coated_diameter_mm: f64,
+    /// Smallest bend radius the fiber may take, mm (10 mm for standard SMF, G.652;
+    /// 7.5 or 5 mm for bend-insensitive G.657.A2 / B3 fiber).
+    #[serde(default = "default_min_bend_radius_mm")]
+    pub min_bend_radius_mm: f64,
+    /// Clearance between the coated fiber and a printed channel on each side, mm.
+    #[serde(default = "default_channel_clearance_mm")]
+    pub channel_clearance_mm: f64,
+    /// Height of the fiber axis above the base where a fiber leaving the module has
+    /// turned horizontal, mm.
+    #[serde(default = "default_exit_height_mm")]
+    pub exit_height_mm: f64,
+}
+
+fn default_coated_diameter_mm() -> f64 {
+    0.25
+}
+fn default_min_bend_radius_mm() -> f64 {
+    10.0
+}
+fn default_channel_clearance_mm() -> f64 {
+    0.1
+}
+fn default_exit_height_mm() -> f64 {
+    1.0
+}
+
+impl Default for FiberRouting {
+    fn default() -> Self {
+        FiberRouting {
+            coated_diameter_mm: default_coated_diameter_mm(),
+            min_bend_radius_mm: default_min_bend_radius_mm(),
+            channel_clearance_mm: default_channel_clearance_mm(),
+            exit_height_mm: default_exit_height_mm(),
+        }
+    }
+}
+
+impl FiberRouting {
+    /// Width of a fiber channel or slit on `printer`: the coated fiber plus its
+    /// clearance each side, but never narrower than the printer keeps open, mm.
+    pub fn channel_width_mm(&self, printer: &Printer) -> f64 {
+        (self.coated_diameter_mm + 2.0 * self.channel_clearance_mm).max(printer.min_gap_mm())
+    }
+}
+
 /// A grating of the flat array.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -328,10 +438,28 @@ pub struct Mold {
     pub wall_thickness_mm: f64,
     /// Thickness of the base plate, mm.
     pub base_thickness_mm: f64,
-    /// Depth of each fiber slit from the top of the wall, mm.
+    /// Depth of each fiber slit from the top of the wall, mm. Derived when absent: the
+    /// slit stops where the coated fiber, resting on its bottom, has its axis at the
+    /// sheet's mid-thickness; a stated value must equal that.
+    #[serde(default = "unset")]
     pub slit_depth_mm: f64,
-    /// Width of each fiber slit, mm.
+    /// Width of each fiber slit, mm. Derived when absent from the coated fiber and the
+    /// printer ([`FiberRouting::channel_width_mm`]); a stated value may not be narrower.
+    #[serde(default = "unset")]
     pub slit_width_mm: f64,
+    /// Print a plug per slit: the slit is then a narrow seat as high as the fiber and a
+    /// wider pocket above it that the plug fills, so the silicone cannot run out.
+    #[serde(default)]
+    pub plugs: bool,
+    /// Key into the material table for what the mold (and its plugs) is printed in;
+    /// the cast sheet's material is `array.material`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub print_material: Option<String>,
+}
+
+/// Marks a derived field not given in the file ([`Design::fill_derived`] fills it).
+fn unset() -> f64 {
+    f64::NAN
 }
 
 /// The flat tactile sensor array (TSA) and its mold.
@@ -358,6 +486,10 @@ pub struct TactileArray {
     pub gratings: Vec<ArrayGrating>,
     /// Casting mold.
     pub mold: Mold,
+    /// Most cells loaded at once that reconstruction considers (default 4, the
+    /// paper's largest test; 1 to 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_loads: Option<u32>,
 }
 
 /// A complete design: what one TOML file holds.
@@ -382,6 +514,10 @@ pub struct Design {
     /// Flat tactile array, if this design has one.
     #[serde(default)]
     pub array: Option<TactileArray>,
+    /// Fiber size, bend radius and channel clearance for routing (defaults: standard
+    /// SMF with a 250 µm coating).
+    #[serde(default)]
+    pub fiber_routing: FiberRouting,
 }
 
 /// Deserialise a design from TOML text without validating it (the design layer,
@@ -448,6 +584,34 @@ impl Design {
         let p = &self.printer;
         positive("printer.resolution_mm", p.resolution_mm, 0.001, 2.0)?;
         positive("printer.min_wall_mm", p.min_wall_mm, 0.01, 5.0)?;
+        if let Some(n) = p.nozzle_diameter_mm {
+            positive("printer.nozzle_diameter_mm", n, 0.1, 2.0)?;
+        }
+        let fr = &self.fiber_routing;
+        positive(
+            "fiber_routing.coated_diameter_mm",
+            fr.coated_diameter_mm,
+            0.05,
+            2.0,
+        )?;
+        positive(
+            "fiber_routing.min_bend_radius_mm",
+            fr.min_bend_radius_mm,
+            1.0,
+            200.0,
+        )?;
+        range(
+            "fiber_routing.channel_clearance_mm",
+            fr.channel_clearance_mm,
+            0.0,
+            1.0,
+        )?;
+        range(
+            "fiber_routing.exit_height_mm",
+            fr.exit_height_mm,
+            fr.coated_diameter_mm / 2.0,
+            50.0,
+        )?;
         let fo = &self.fiber;
         range("fiber.photoelastic_pe", fo.photoelastic_pe, 0.0, 0.9)?;
         range(
@@ -481,6 +645,14 @@ impl Design {
                 0.0,
                 0.4999,
             )?;
+            if let Some(e) = m.permissible_strain_percent {
+                positive(
+                    &format!("materials.{name}.permissible_strain_percent"),
+                    e,
+                    0.01,
+                    500.0,
+                )?;
+            }
         }
         if self.module.is_none() && self.array.is_none() {
             return Err(err(
@@ -612,6 +784,9 @@ impl Design {
             0.5 * r,
         )?;
 
+        if let Some(snap) = &m.snap {
+            self.validate_snap(m, snap)?;
+        }
         if m.cores.is_empty() {
             return Err(err("module.cores", "list at least one core"));
         }
@@ -694,10 +869,86 @@ impl Design {
         Ok(())
     }
 
+    fn validate_snap(&self, m: &Module, s: &Snap) -> Result<(), SpecError> {
+        let res = self.printer.resolution_mm;
+        positive(
+            "module.snap.undercut_mm",
+            s.undercut_mm,
+            res.min(0.01),
+            m.pillars.groove_depth_mm.max(res),
+        )?;
+        positive("module.snap.bead_height_mm", s.bead_height_mm, res, 20.0)?;
+        range(
+            "module.snap.friction_coefficient",
+            s.friction_coefficient,
+            0.0,
+            1.5,
+        )?;
+        range(
+            "module.snap.lead_in_angle_deg",
+            s.lead_in_angle_deg,
+            5.0,
+            80.0,
+        )?;
+        range(
+            "module.snap.retention_angle_deg",
+            s.retention_angle_deg,
+            5.0,
+            90.0,
+        )?;
+        // A lead-in steeper than the friction angle's complement jams: the joint
+        // could not be pushed together at any force.
+        let jam = s.friction_coefficient * s.lead_in_angle_deg.to_radians().tan();
+        if jam >= 1.0 {
+            return Err(err(
+                "module.snap.lead_in_angle_deg",
+                format!(
+                    "{}° with friction {} jams (μ·tan α = {jam:.3} ≥ 1); allowed below {:.1}°",
+                    s.lead_in_angle_deg,
+                    s.friction_coefficient,
+                    (1.0 / s.friction_coefficient.max(1e-9)).atan().to_degrees()
+                ),
+            ));
+        }
+        let cap = self.material(&m.cap_material, "module.cap_material")?;
+        if cap.permissible_strain_percent.is_none() {
+            return Err(err(
+                &format!("materials.{}.permissible_strain_percent", m.cap_material),
+                "the cap's material needs a permissible strain (percent) to size the snap-fit",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Fill the fields a file may leave to be derived (the mold's slit width and
+    /// depth); [`crate::design`] calls this before validation.
+    pub fn fill_derived(&mut self) {
+        let width = self.fiber_routing.channel_width_mm(&self.printer);
+        let coated = self.fiber_routing.coated_diameter_mm;
+        if let Some(a) = &mut self.array {
+            let depth = derived_slit_depth_mm(a, coated);
+            if a.mold.slit_width_mm.is_nan() {
+                a.mold.slit_width_mm = width;
+            }
+            if a.mold.slit_depth_mm.is_nan() {
+                a.mold.slit_depth_mm = depth;
+            }
+        }
+    }
+
     fn validate_array(&self, a: &TactileArray) -> Result<(), SpecError> {
         positive("array.size_x_mm", a.size_x_mm, 1.0, 2000.0)?;
         positive("array.size_y_mm", a.size_y_mm, 1.0, 2000.0)?;
         positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
+        if self.fiber_routing.coated_diameter_mm >= a.thickness_mm {
+            return Err(err(
+                "fiber_routing.coated_diameter_mm",
+                format!(
+                    "{} mm does not fit in the {} mm sheet",
+                    self.fiber_routing.coated_diameter_mm, a.thickness_mm
+                ),
+            ));
+        }
         if a.cells_x == 0 || a.cells_x > 64 {
             return Err(err(
                 "array.cells_x",
@@ -716,6 +967,9 @@ impl Design {
             return Err(err("array.fiber_x_mm", "list at least one fiber"));
         }
         let mold = &a.mold;
+        if let Some(pm) = &mold.print_material {
+            self.material(pm, "array.mold.print_material")?;
+        }
         positive("array.mold.internal_x_mm", mold.internal_x_mm, 1.0, 3000.0)?;
         positive("array.mold.internal_y_mm", mold.internal_y_mm, 1.0, 3000.0)?;
         range(
@@ -752,6 +1006,30 @@ impl Design {
             self.printer.resolution_mm,
             5.0,
         )?;
+        // The slit holds the coated fiber with its clearance and stays open in print.
+        let need = self.fiber_routing.channel_width_mm(&self.printer);
+        if mold.slit_width_mm < need - 1e-9 {
+            return Err(err(
+                "array.mold.slit_width_mm",
+                format!(
+                    "{} mm is narrower than the {need:.3} mm the fiber needs (coated diameter {} mm + 2 × clearance {} mm, at least the printer's smallest open gap {} mm); leave the field out to derive it",
+                    mold.slit_width_mm,
+                    self.fiber_routing.coated_diameter_mm,
+                    self.fiber_routing.channel_clearance_mm,
+                    self.printer.min_gap_mm()
+                ),
+            ));
+        }
+        let depth = derived_slit_depth_mm(a, self.fiber_routing.coated_diameter_mm);
+        if (mold.slit_depth_mm - depth).abs() > 1e-6 {
+            return Err(err(
+                "array.mold.slit_depth_mm",
+                format!(
+                    "{} mm does not put the fiber at the sheet's mid-thickness; expected {depth:.4} mm (wall height − thickness/2 + coated diameter/2); leave the field out to derive it",
+                    mold.slit_depth_mm
+                ),
+            ));
+        }
         if a.size_x_mm > mold.internal_x_mm {
             return Err(err(
                 "array.mold.internal_x_mm",
@@ -778,8 +1056,8 @@ impl Design {
             xs.push(x);
         }
         xs.sort_by(|a, b| a.total_cmp(b));
-        // Neighbouring slits must leave a printable wall between them.
-        let min_gap = mold.slit_width_mm + self.printer.min_wall_mm;
+        // Neighbouring slits (or plug pockets) must leave a printable wall between them.
+        let min_gap = mold_slot_width_mm(self, mold) + self.printer.min_wall_mm;
         for w in xs.windows(2) {
             if w[1] - w[0] < min_gap {
                 return Err(err(
@@ -819,7 +1097,33 @@ impl Design {
         if a.gratings.is_empty() {
             return Err(err("array.gratings", "list at least one grating"));
         }
+        if let Some(k) = a.max_loads {
+            if !(1..=64).contains(&k) {
+                return Err(err(
+                    "array.max_loads",
+                    format!("must be 1 to 64 simultaneous loads, got {k}"),
+                ));
+            }
+        }
         Ok(())
+    }
+}
+
+/// Depth of a mold slit below the wall top that leaves the coated fiber, resting on
+/// the slit bottom, with its axis at the sheet's mid-thickness, mm.
+pub fn derived_slit_depth_mm(a: &TactileArray, coated_diameter_mm: f64) -> f64 {
+    a.mold.wall_height_mm - a.thickness_mm / 2.0 + coated_diameter_mm / 2.0
+}
+
+/// Width of the widest part of a slit: the plug pocket when the mold has plugs (a plug
+/// at least one printable wall thick, with a channel clearance each side), else the
+/// slit itself, mm.
+pub fn mold_slot_width_mm(d: &Design, mold: &Mold) -> f64 {
+    if mold.plugs {
+        mold.slit_width_mm
+            .max(d.printer.min_wall_mm + 2.0 * d.fiber_routing.channel_clearance_mm)
+    } else {
+        mold.slit_width_mm
     }
 }
 

@@ -35,10 +35,22 @@ fn reconstruct_writes_the_known_loads_and_a_json_summary() {
         "--out",
         out.to_str().unwrap(),
         "--json",
+        // A budget no method misses: the choice is then the most accurate method,
+        // whatever the machine's load.
+        "--budget-us",
+        "1e9",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(summary["method"], "wsupport");
+    assert_eq!(summary["choice"]["candidates"][0]["status"], "picked");
+    assert!(summary["choice"]["reason"]
+        .as_str()
+        .unwrap()
+        .starts_with("wsupport is the most accurate method within"));
+    assert!(summary["setup_ms"].as_f64().unwrap() > 0.0);
+    assert!(summary["time_per_frame_us"].as_f64().unwrap() > 0.0);
+    assert_eq!(summary["max_loads"], 4);
     assert_eq!(summary["frames"], 4);
     assert_eq!(summary["not_converged"], 0);
     assert_eq!(
@@ -155,6 +167,16 @@ fn bad_input_exits_with_a_clear_error() {
             ],
             &["--min-load-g", "min_load", needle],
         );
+    }
+    // The method choice's options.
+    for (args, needles) in [
+        (vec!["--penalty", "2"], vec!["--penalty", "--method"]),
+        (vec!["--budget-us", "0"], vec!["--budget-us", "positive"]),
+        (vec!["--max-loads", "0"], vec!["--max-loads", "at least 1"]),
+    ] {
+        let mut all = vec!["reconstruct", "--matrix", m, "--shifts", s, "--out", o];
+        all.extend(args);
+        expect_error(&all, &needles);
     }
     let missing = fixture("bad-shifts-missing-fbg6.csv");
     expect_error(

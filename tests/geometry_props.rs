@@ -38,7 +38,8 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     printer(fdm, &mut d);
     let w = d.printer.min_wall_mm;
     let m = d.module.as_mut().unwrap();
-    m.gratings.clear();
+    m.gratings
+        .retain(|g| g.role == fbgforge::spec::GratingRole::TemperatureReference);
     let r = diameter / 2.0;
     m.outer_diameter_mm = diameter;
     m.cap_wall_mm = lerp(w, 3.0_f64.min(0.25 * r), f[0]);
@@ -58,6 +59,13 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     m.overall_height_mm = m.dome_height_mm + lerp(4.0, 3.0 * r + 4.0, f[11]);
     m.top_hole_diameter_mm = lerp(0.1, 1.0, f[12]);
     m.apex_flat_diameter_mm = lerp(0.1, 1.0, f[13]);
+    // Snap and fiber exit sized to the draw (reusing its fractions): an undercut under
+    // 0.8 % of the radius, a bend radius a third of the cylinder's height (2 to 10 mm).
+    let snap = m.snap.as_mut().unwrap();
+    snap.undercut_mm = (0.008 * r * lerp(0.25, 1.0, f[2])).min(m.pillars.groove_depth_mm);
+    snap.bead_height_mm = lerp(0.1, 0.6, f[3]);
+    let cylinder = m.overall_height_mm - m.dome_height_mm;
+    d.fiber_routing.min_bend_radius_mm = (cylinder / 3.0).clamp(2.0, 10.0);
     d
 }
 
@@ -93,6 +101,11 @@ proptest! {
             p.mesh.check(&p.name).map_err(|e| TestCaseError::fail(e.to_string()))?;
             prop_assert!(p.volume_error().abs() <= geometry::VOLUME_TOLERANCE_AT_DEFAULT, "{} {}", p.name, p.volume_error());
         }
+        // Assembled, the parts do not overlap and the reference fiber finds its way
+        // out (the generator lists no strain grating).
+        let traced = geometry::check_assembly(&d, &parts)
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{}", d.to_toml())))?;
+        prop_assert!(traced.is_some());
     }
 }
 
@@ -118,8 +131,9 @@ proptest! {
         m.wall_thickness_mm = lerp(w, 5.0, f[4]);
         m.base_thickness_mm = lerp(w, 5.0, f[5]);
         m.wall_height_mm = a.thickness_mm + lerp(0.0, 5.0, f[6]);
-        m.slit_depth_mm = lerp(0.05, m.wall_height_mm - w, f[7]);
-        m.slit_width_mm = lerp(d.printer.resolution_mm, 1.0, f[8]);
+        m.plugs = f[7] < 0.5;
+        m.slit_width_mm = lerp(d.fiber_routing.channel_width_mm(&d.printer), 1.0, f[8]);
+        m.slit_depth_mm = m.wall_height_mm - a.thickness_mm / 2.0 + d.fiber_routing.coated_diameter_mm / 2.0;
         // Fibers evenly over the sheet, away from its edges.
         let pitch = a.size_x_mm / fibers as f64;
         a.fiber_x_mm = (0..fibers).map(|i| -a.size_x_mm / 2.0 + (i as f64 + 0.5) * pitch).collect();
@@ -136,9 +150,23 @@ proptest! {
         let m = &a.mold;
         let outer = (m.internal_x_mm + 2.0 * m.wall_thickness_mm) * (m.internal_y_mm + 2.0 * m.wall_thickness_mm)
             * (m.base_thickness_mm + m.wall_height_mm);
+        // A slit: the seat (as wide as the slit, as high as the coated fiber) under a
+        // pocket as wide as a printable plug plus clearances, or one width throughout.
+        let coated = d.fiber_routing.coated_diameter_mm;
+        let slit_area = if m.plugs {
+            let pocket = m.slit_width_mm.max(d.printer.min_wall_mm + 2.0 * d.fiber_routing.channel_clearance_mm);
+            m.slit_width_mm * coated + pocket * (m.slit_depth_mm - coated)
+        } else {
+            m.slit_width_mm * m.slit_depth_mm
+        };
         let exact = outer - m.internal_x_mm * m.internal_y_mm * m.wall_height_mm
-            - 2.0 * fibers as f64 * m.slit_width_mm * m.slit_depth_mm * m.wall_thickness_mm;
+            - 2.0 * fibers as f64 * slit_area * m.wall_thickness_mm;
         prop_assert!((mold.mesh_volume_mm3 - exact).abs() < 1e-9 * exact, "{} vs {}", mold.mesh_volume_mm3, exact);
+        // The slits stop where the fiber's axis is at the sheet's mid-thickness.
+        let lowest = mold.mesh.positions.iter()
+            .filter(|q| q[1].abs() > m.internal_y_mm / 2.0 + 1e-9 && q[2] > m.base_thickness_mm + 1e-9)
+            .map(|q| q[2]).fold(f64::INFINITY, f64::min);
+        prop_assert!((lowest + coated / 2.0 - (m.base_thickness_mm + a.thickness_mm / 2.0)).abs() < 1e-9);
     }
 }
 

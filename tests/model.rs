@@ -287,6 +287,20 @@ fn scaled(d: &Design, s: f64) -> Design {
             *z *= s;
         }
     }
+    // The parts' snap and fiber exits (issue 15) are lengths too.
+    if let Some(snap) = m.snap.as_mut() {
+        snap.undercut_mm *= s;
+        snap.bead_height_mm *= s;
+    }
+    let fr = &mut d.fiber_routing;
+    for v in [
+        &mut fr.coated_diameter_mm,
+        &mut fr.min_bend_radius_mm,
+        &mut fr.channel_clearance_mm,
+        &mut fr.exit_height_mm,
+    ] {
+        *v *= s;
+    }
     let c = &mut m.contact;
     for v in [
         &mut c.clip_height_mm,

@@ -125,7 +125,7 @@ fn bad_specs_name_the_field() {
     )
     .unwrap();
     rejects(
-        &a.replace("slit_depth_mm = 2.5", "slit_depth_mm = 6.0"),
+        &a.replace("plugs = true", "plugs = true\nslit_depth_mm = 6.0"),
         "array.mold.slit_depth_mm",
     );
     rejects(

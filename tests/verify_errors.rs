@@ -303,6 +303,124 @@ mod never_panics {
     }
 }
 
+mod never_panics_on_force_logs_and_options {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Values that have broken number handling before.
+    fn wild() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::NEG_INFINITY),
+            Just(1e308),
+            Just(-1e308),
+            Just(-9e307),
+            Just(0.0),
+            Just(-1.0),
+            Just(5e-324),
+            -1e3f64..1e3,
+        ]
+    }
+
+    /// Mostly the default (so that most runs reach the analysis), sometimes wild.
+    fn opt_wild() -> impl Strategy<Value = Option<f64>> {
+        prop_oneof![4 => Just(None), 1 => wild().prop_map(Some)]
+    }
+
+    fn or_wild(default: f64) -> impl Strategy<Value = f64> {
+        prop_oneof![4 => Just(default), 1 => wild()]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(
+            std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(24)
+        ))]
+        /// A force log with corrupted times and forces (NaN, ±1e308, −9e307, text,
+        /// swapped and cut lines) and wild options: the verifier answers Ok or Err,
+        /// never panics.
+        #[test]
+        fn mutated_force_logs_and_options_are_verified_or_refused(
+            edits in prop::collection::vec((any::<prop::sample::Index>(), 0u8..6, wild()), 0..8),
+            cut in 0.05f64..1.0,
+            clock_offset in opt_wild(),
+            max_offset in or_wild(60.0),
+            window in opt_wild(),
+            resolution in opt_wild(),
+            tolerance in or_wild(0.08),
+            scale in opt_wild(),
+        ) {
+            let d = common::shipped_path("clip-on-34mm.toml");
+            let design = design();
+            let cfg = SynthConfig { duration_s: 30.0, pulses: synth::pulse_train(&[20.0, 40.0], 4.0, 6.0, 5.0), ..Default::default() };
+            let dir = tempfile::tempdir().unwrap();
+            let (log, force, _) = synth::generate(&design, &cfg).unwrap();
+            let (lp, fp) = (dir.path().join("log.txt"), dir.path().join("force.csv"));
+            write_peaks(&lp, &log, &cfg);
+            synth::write_force_csv(&fp, &force).unwrap();
+            let text = std::fs::read_to_string(&fp).unwrap();
+            let mut lines: Vec<String> = text.lines().map(String::from).collect();
+            for (at, kind, v) in edits {
+                let i = 1 + at.index(lines.len() - 1);
+                let (t, f) = lines[i].split_once(',').map(|(a, b)| (a.to_string(), b.to_string())).unwrap_or_default();
+                lines[i] = match kind {
+                    0 => format!("{v},{f}"),
+                    1 => format!("{t},{v}"),
+                    2 => format!("{v},{v}"),
+                    3 => "garbage,text".to_string(),
+                    4 => lines[lines.len() - i].clone(),
+                    _ => String::new(),
+                };
+            }
+            let keep = ((lines.len() as f64) * cut) as usize;
+            std::fs::write(&fp, lines[..keep.max(1)].join("\n")).unwrap();
+            let mut req = fbgforge::verify::VerifyRequest::new(d, lp, fp);
+            req.analysis.clock_offset_s = clock_offset;
+            req.analysis.max_clock_offset_s = max_offset;
+            req.analysis.window_half_width_nm = window;
+            req.analysis.resolution_pm = resolution;
+            req.k_tolerance = tolerance;
+            req.force_columns.scale_to_n = scale;
+            // Outputs of an answered run are written too (no panic in the report).
+            if let Ok(out) = fbgforge::verify::run(&req) {
+                let _ = fbgforge::verify::report::summary(&out.report);
+                fbgforge::verify::report::write_report(&dir.path().join("r"), &out.report, &out.series).unwrap();
+            }
+        }
+    }
+}
+
+#[test]
+fn a_corrupted_time_at_either_end_of_the_force_log_is_refused_naming_its_line() {
+    // Neither runs backwards, but either would stretch the log over an absurd span
+    // (-9e307 as the first time panicked in the fit before).
+    let d = common::shipped_path("clip-on-34mm.toml");
+    let design = design();
+    let cfg = SynthConfig::default();
+    let dir = tempfile::tempdir().unwrap();
+    let (log, force, _) = synth::generate(&design, &cfg).unwrap();
+    let lp = dir.path().join("log.txt");
+    write_peaks(&lp, &log, &cfg);
+    let fp = dir.path().join("force.csv");
+    synth::write_force_csv(&fp, &force).unwrap();
+    let text = std::fs::read_to_string(&fp).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let n = lines.len();
+    for (line, value) in [(2usize, "-9e307"), (n, "1e308"), (n, "1e6")] {
+        let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        let rest = edited[line - 1].split_once(',').unwrap().1.to_string();
+        edited[line - 1] = format!("{value},{rest}");
+        let bad = dir.path().join("bad.csv");
+        std::fs::write(&bad, edited.join("\n")).unwrap();
+        let req = fbgforge::verify::VerifyRequest::new(d.clone(), lp.clone(), bad);
+        let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+        assert!(
+            e.contains(&format!("bad.csv:{line}:")) && e.contains("corrupted time"),
+            "{value} at line {line}: {e}"
+        );
+    }
+}
+
 #[test]
 fn compression_logged_as_negative_force_is_flipped_and_counted() {
     let d = design();

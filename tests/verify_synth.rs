@@ -402,7 +402,14 @@ fn force_start_read_off_the_wall_clock_gives_the_true_offset_and_absolute_lags()
     let (log, force, _) = synth::generate(&design, &cfg).unwrap();
     let lp = dir.path().join("log.txt");
     let fp = dir.path().join("force.csv");
-    synth::write_log(&lp, LogFormat::EnlightPeaks, &log, &cfg, &LogStyle::default()).unwrap();
+    synth::write_log(
+        &lp,
+        LogFormat::EnlightPeaks,
+        &log,
+        &cfg,
+        &LogStyle::default(),
+    )
+    .unwrap();
     synth::write_force_csv(&fp, &force).unwrap();
     // The wavelength log starts at 17/04/2025 15:44:56; the force recording started
     // 1.7 s earlier.
@@ -410,7 +417,11 @@ fn force_start_read_off_the_wall_clock_gives_the_true_offset_and_absolute_lags()
     req.force_start = Some("2025-04-17 15:44:54.3".into());
     let m = fbgforge::verify::run(&req).unwrap().report.measurement;
     let truth = synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks);
-    assert!((m.clock_offset_s - truth).abs() < 1e-6, "{} vs {truth}", m.clock_offset_s);
+    assert!(
+        (m.clock_offset_s - truth).abs() < 1e-6,
+        "{} vs {truth}",
+        m.clock_offset_s
+    );
     assert!(!m.lag_is_relative);
     assert!((m.force_log_start_s + 1.7).abs() < 1e-6);
     // With a wavelength log on a relative clock there is no wall clock to read it off.

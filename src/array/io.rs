@@ -2,13 +2,20 @@
 //!
 //! Formats (agreed with the calibration/verification area, which writes matrices):
 //! * sensing matrix: header `grating,<cell labels…>`, then one row per grating: its
-//!   name and its sensitivity to each cell in pm/g;
+//!   name and its sensitivity to each cell in pm/g; or numbers only (no header, no
+//!   names: one row per grating, one column per cell), as `numpy.savetxt` and MATLAB
+//!   `writematrix` write it, in which case the gratings are named `fbg1`, `fbg2`, …
+//!   and the cells `A`, `B`, … (row-major order of the rows and columns given);
 //! * shifts: header `[time_s,]<grating names…>`, one row per frame, shifts in pm;
-//!   columns are matched to the matrix's gratings by name, in any order;
+//!   columns are matched to the matrix's gratings by name, in any order. When the
+//!   matrix had no header the shifts may have none either: one column per grating in
+//!   the matrix's row order (or a first column of times in s and then those);
 //! * reconstruction: header `time_s,<cell labels…>` (or `frame,…` when the shifts had
 //!   no time column), loads in g.
 //!
-//! Lines starting with `#` are comments. Every error names the file and the line.
+//! Fields are separated by commas, tabs, or (numpy's default) runs of spaces, decided
+//! by the first data line. Lines starting with `#` are comments, a UTF-8 byte-order
+//! mark is ignored. Every error names the file and the line.
 
 use super::SensingMatrix;
 use anyhow::{anyhow, bail, Context, Result};
@@ -16,15 +23,11 @@ use nalgebra::DMatrix;
 use std::collections::HashSet;
 use std::path::Path;
 
-fn reader(path: &Path) -> Result<csv::Reader<std::fs::File>> {
-    let file =
-        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    Ok(csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .has_headers(false)
-        .from_reader(file))
+/// How the fields of a line are separated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Separator {
+    Byte(u8),
+    Whitespace,
 }
 
 fn parse_value(path: &Path, line: u64, column: &str, text: &str, unit: &str) -> Result<f64> {
@@ -43,16 +46,62 @@ fn parse_value(path: &Path, line: u64, column: &str, text: &str, unit: &str) -> 
     Ok(v)
 }
 
-/// Read the records of a CSV file: (line number, fields). Errors on an empty file.
+/// Read the records of a delimited text file: (line number, fields). Errors on an
+/// empty file.
 fn records(path: &Path) -> Result<Vec<(u64, Vec<String>)>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'));
+    let Some(first) = first else {
+        bail!(
+            "{} is empty: expected a header line and data rows",
+            path.display()
+        );
+    };
+    let sep = if first.contains(',') {
+        Separator::Byte(b',')
+    } else if first.contains('\t') {
+        Separator::Byte(b'\t')
+    } else if first.contains(';') {
+        Separator::Byte(b';')
+    } else {
+        Separator::Whitespace
+    };
     let mut out = Vec::new();
-    for rec in reader(path)?.records() {
-        let rec = rec.with_context(|| format!("cannot read {}", path.display()))?;
-        let line = rec.position().map_or(0, |p| p.line());
-        if rec.iter().all(|f| f.is_empty()) {
-            continue;
+    match sep {
+        Separator::Byte(d) => {
+            let mut reader = csv::ReaderBuilder::new()
+                .comment(Some(b'#'))
+                .flexible(true)
+                .trim(csv::Trim::All)
+                .has_headers(false)
+                .delimiter(d)
+                .from_reader(text.as_bytes());
+            for rec in reader.records() {
+                let rec = rec.with_context(|| format!("cannot read {}", path.display()))?;
+                let line = rec.position().map_or(0, |p| p.line());
+                if rec.iter().all(|f| f.is_empty()) {
+                    continue;
+                }
+                out.push((line, rec.iter().map(str::to_string).collect()));
+            }
         }
-        out.push((line, rec.iter().map(str::to_string).collect()));
+        Separator::Whitespace => {
+            for (k, l) in text.lines().enumerate() {
+                let l = l.trim();
+                if l.is_empty() || l.starts_with('#') {
+                    continue;
+                }
+                out.push((
+                    k as u64 + 1,
+                    l.split_whitespace().map(str::to_string).collect(),
+                ));
+            }
+        }
     }
     if out.is_empty() {
         bail!(
@@ -63,13 +112,71 @@ fn records(path: &Path) -> Result<Vec<(u64, Vec<String>)>> {
     Ok(out)
 }
 
-/// Read a sensing matrix CSV (`grating,<cells…>`, values in pm/g).
+/// Whether a record is numbers only (a headerless file's first row).
+fn all_numbers(rec: &[String]) -> bool {
+    !rec.is_empty() && rec.iter().all(|f| f.parse::<f64>().is_ok())
+}
+
+/// A sensing matrix as read from a file, and whether its names were generated (the
+/// file was numbers only).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatrixFile {
+    /// The matrix.
+    pub matrix: SensingMatrix,
+    /// True when the file had no header: gratings `fbg1…`, cells `A…`.
+    pub generated_names: bool,
+}
+
+/// Read a headerless (numbers only) matrix: one row per grating.
+fn read_matrix_numbers(path: &Path, recs: &[(u64, Vec<String>)]) -> Result<SensingMatrix> {
+    let n = recs[0].1.len();
+    let mut values = Vec::with_capacity(recs.len() * n);
+    for (line, rec) in recs {
+        if rec.len() != n {
+            bail!(
+                "{}:{line}: {} numbers, expected {n} as on line {} (a matrix without header has one row per grating and one column per cell)",
+                path.display(),
+                rec.len(),
+                recs[0].0
+            );
+        }
+        for (j, text) in rec.iter().enumerate() {
+            let cell = crate::profile::cell_label(j);
+            values.push(parse_value(
+                path,
+                *line,
+                &format!("{} (cell {cell})", j + 1),
+                text,
+                "a sensitivity in pm/g",
+            )?);
+        }
+    }
+    let m = recs.len();
+    Ok(SensingMatrix {
+        gratings: (1..=m).map(|i| format!("fbg{i}")).collect(),
+        cells: (0..n).map(crate::profile::cell_label).collect(),
+        sensitivity_pm_per_g: DMatrix::from_row_slice(m, n, &values),
+    })
+}
+
+/// Read a sensing matrix CSV (`grating,<cells…>`, values in pm/g, or numbers only).
 pub fn read_matrix(path: &Path) -> Result<SensingMatrix> {
+    read_matrix_file(path).map(|f| f.matrix)
+}
+
+/// Read a sensing matrix and say whether its names were generated (no header).
+pub fn read_matrix_file(path: &Path) -> Result<MatrixFile> {
     let recs = records(path)?;
+    if all_numbers(&recs[0].1) {
+        return Ok(MatrixFile {
+            matrix: read_matrix_numbers(path, &recs)?,
+            generated_names: true,
+        });
+    }
     let (hline, header) = &recs[0];
     if !header[0].eq_ignore_ascii_case("grating") {
         bail!(
-            "{}:{hline}: the header must start with `grating`, then one column per cell; found `{}`",
+            "{}:{hline}: the header must start with `grating`, then one column per cell (or give numbers only, without header); found `{}`",
             path.display(),
             header[0]
         );
@@ -120,10 +227,13 @@ pub fn read_matrix(path: &Path) -> Result<SensingMatrix> {
     }
     let m = gratings.len();
     let n = cells.len();
-    Ok(SensingMatrix {
-        gratings,
-        cells,
-        sensitivity_pm_per_g: DMatrix::from_row_slice(m, n, &values),
+    Ok(MatrixFile {
+        matrix: SensingMatrix {
+            gratings,
+            cells,
+            sensitivity_pm_per_g: DMatrix::from_row_slice(m, n, &values),
+        },
+        generated_names: false,
     })
 }
 
@@ -162,9 +272,32 @@ pub struct ShiftStream {
     pub frames_pm: Vec<Vec<f64>>,
 }
 
-/// Read shifts (`[time_s,]<gratings…>`, pm), reordering columns to `gratings`.
+/// Read shifts (`[time_s,]<gratings…>`, pm), reordering columns to `gratings`. A
+/// header is required.
 pub fn read_shifts(path: &Path, gratings: &[String]) -> Result<ShiftStream> {
+    read_shifts_for(path, gratings, false)
+}
+
+/// Read shifts for a matrix; `headerless_ok` (the matrix had no header) also accepts
+/// numbers only: one column per grating in the matrix's row order, or a first column
+/// of times in s and then those.
+pub fn read_shifts_for(
+    path: &Path,
+    gratings: &[String],
+    headerless_ok: bool,
+) -> Result<ShiftStream> {
     let recs = records(path)?;
+    if all_numbers(&recs[0].1) {
+        if !headerless_ok {
+            bail!(
+                "{}:{}: the shifts have no header; name the columns ({}) — a shifts file without header is read only with a matrix without header",
+                path.display(),
+                recs[0].0,
+                gratings.join(",")
+            );
+        }
+        return read_shifts_numbers(path, gratings, &recs);
+    }
     let (hline, header) = &recs[0];
     let time_col = header.iter().position(|h| h.eq_ignore_ascii_case("time_s"));
     let mut seen = HashSet::new();
@@ -220,6 +353,70 @@ pub fn read_shifts(path: &Path, gratings: &[String]) -> Result<ShiftStream> {
     }
     Ok(ShiftStream {
         time_s: time_col.map(|_| times),
+        frames_pm: frames,
+    })
+}
+
+/// Headerless shifts: m columns, or m + 1 with times first.
+fn read_shifts_numbers(
+    path: &Path,
+    gratings: &[String],
+    recs: &[(u64, Vec<String>)],
+) -> Result<ShiftStream> {
+    let m = gratings.len();
+    let width = recs[0].1.len();
+    let timed = if width == m {
+        false
+    } else if width == m + 1 {
+        true
+    } else {
+        bail!(
+            "{}:{}: {width} numbers, expected {m} shifts (one per row of the matrix), or a time in s and {m} shifts",
+            path.display(),
+            recs[0].0
+        );
+    };
+    let mut times = Vec::new();
+    let mut frames = Vec::with_capacity(recs.len());
+    for (line, rec) in recs {
+        if rec.len() != width {
+            bail!(
+                "{}:{line}: {} numbers, expected {width} as on line {}",
+                path.display(),
+                rec.len(),
+                recs[0].0
+            );
+        }
+        let shifts = if timed {
+            times.push(parse_value(
+                path,
+                *line,
+                "1 (time_s)",
+                &rec[0],
+                "a time in s",
+            )?);
+            &rec[1..]
+        } else {
+            &rec[..]
+        };
+        let frame = shifts
+            .iter()
+            .zip(gratings)
+            .enumerate()
+            .map(|(k, (text, g))| {
+                parse_value(
+                    path,
+                    *line,
+                    &format!("{} ({g})", k + 1 + usize::from(timed)),
+                    text,
+                    "a shift in pm",
+                )
+            })
+            .collect::<Result<Vec<f64>>>()?;
+        frames.push(frame);
+    }
+    Ok(ShiftStream {
+        time_s: timed.then_some(times),
         frames_pm: frames,
     })
 }

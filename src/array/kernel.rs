@@ -59,6 +59,21 @@ impl DistanceKernel {
     pub fn paper() -> Self {
         fit_paper().kernel
     }
+
+    /// Table 1's bare power law (c = 44.7 pm·mm^n/g, n = 2.05, [`fit_power_law`]) with a
+    /// core radius `core_radius_mm` that keeps it finite under a grating. With 3 mm it
+    /// is the kernel of the scaling study (the arrays of issue 14: a grating's
+    /// sensitivity falls by half within 3 mm, so large arrays of 20 × 30 mm cells are
+    /// far from the coherent limit the 16 mm core of [`Self::paper`] gives).
+    pub fn table1_power_law(core_radius_mm: f64) -> Self {
+        let k = fit_power_law(&TABLE1)
+            .expect("Table 1 is valid fit data")
+            .kernel;
+        DistanceKernel {
+            core_radius_mm,
+            ..k
+        }
+    }
 }
 
 /// One data point of a kernel fit and how far the kernel misses it.
@@ -236,6 +251,57 @@ pub fn paper_layout() -> (Vec<Point2Mm>, Vec<Point2Mm>) {
         .enumerate()
         .map(|(k, &x)| (x, if k % 2 == 0 { 12.5 } else { -12.5 }))
         .collect();
+    (cells, gratings)
+}
+
+/// A grid array for any size (the scaling study): `cells_x` × `cells_y` cells of
+/// 20 × 30 mm centred on the origin (row-major from the −y row), and `fibers`
+/// parallel fibers along x, each carrying `gratings_per_fiber` gratings.
+///
+/// Fiber f runs at the centre of its band of cells_y / fibers rows; a band of one row
+/// has its fiber 2.5 mm towards the array centre (the paper's 12.5 mm against 15),
+/// a band of two or more rows has it 5 mm off the band's centre line, alternately
+/// down and up, so that no two cells are mirror images about a fiber (a mirror pair is
+/// seen identically by every grating on it). Gratings are spaced by the pitch
+/// p = width / gratings_per_fiber, at 0.3·p from the left end of a pitch on even
+/// fibers and 0.7·p on odd ones (staggered).
+pub fn fiber_grid_layout(
+    cells_x: usize,
+    cells_y: usize,
+    fibers: usize,
+    gratings_per_fiber: usize,
+) -> (Vec<Point2Mm>, Vec<Point2Mm>) {
+    const CELL_X_MM: f64 = 20.0;
+    const CELL_Y_MM: f64 = 30.0;
+    let (w, h) = (cells_x as f64 * CELL_X_MM, cells_y as f64 * CELL_Y_MM);
+    let cells = (0..cells_y)
+        .flat_map(|j| {
+            (0..cells_x).map(move |i| {
+                (
+                    -w / 2.0 + (i as f64 + 0.5) * CELL_X_MM,
+                    -h / 2.0 + (j as f64 + 0.5) * CELL_Y_MM,
+                )
+            })
+        })
+        .collect();
+    let fibers = fibers.max(1);
+    let rows_per_fiber = cells_y / fibers;
+    let pitch = w / gratings_per_fiber.max(1) as f64;
+    let mut gratings = Vec::with_capacity(fibers * gratings_per_fiber);
+    for f in 0..fibers {
+        let centre = -h / 2.0 + (f as f64 + 0.5) * h / fibers as f64;
+        let y = if rows_per_fiber <= 1 {
+            centre - centre.signum() * 2.5
+        } else if f % 2 == 1 {
+            centre + 5.0
+        } else {
+            centre - 5.0
+        };
+        let offset = if f % 2 == 1 { 0.7 } else { 0.3 };
+        for i in 0..gratings_per_fiber {
+            gratings.push((-w / 2.0 + (i as f64 + offset) * pitch, y));
+        }
+    }
     (cells, gratings)
 }
 

@@ -13,12 +13,15 @@
 //! * [`methods`]: interchangeable reconstruction methods behind one trait
 //!   ([`methods::Reconstructor`]), one file each, registered by name
 //!   ([`methods::Method::ALL`]), with one result type ([`methods::Reconstruction`]);
+//! * [`choice`]: the default method — the most accurate one within a per-frame time
+//!   budget for the array's size ([`choice::choose_method`]);
 //! * [`run`]: the use case, [`reconstruct_file`];
 //! * [`protocol`]: the paper's 84-test protocol simulated with a seeded noise model,
 //!   and the metrics of Table 3 (SNR, SEM, relative error, RR).
 //!
 //! Units: sensitivities in pm/g, shifts in pm, loads in g, distances in mm.
 
+pub mod choice;
 pub mod io;
 pub mod kernel;
 pub mod methods;

@@ -47,6 +47,17 @@ pub struct SensingProblem {
 /// The paper's rated load range per cell starts at 25 g (reference §2: 25–250 g).
 pub const PAPER_MIN_LOAD_G: f64 = 25.0;
 
+/// The smallest load of a loaded cell when none is given: the paper's 25 g, or no
+/// lower end (0) for an array rated for 25 g or less in total, rather than an error
+/// about a value the user never gave.
+pub fn default_min_load_g(ulimit_g: f64) -> f64 {
+    if PAPER_MIN_LOAD_G < ulimit_g {
+        PAPER_MIN_LOAD_G
+    } else {
+        0.0
+    }
+}
+
 impl SensingProblem {
     /// Check the matrix and the bound, then derive the working matrix. The smallest
     /// load starts at 0 (no lower limit); set it with [`Self::with_min_load_g`].

@@ -310,6 +310,10 @@ pub struct ProtocolConfig {
     pub de_generations: u64,
     /// DE population (paper: 150).
     pub de_population: usize,
+    /// Most simultaneous loads the support methods consider (default 4, the paper's
+    /// largest test; the failure study over 1–8 loads raises it to the number of
+    /// gratings, as before the cap existed).
+    pub max_loads: usize,
 }
 
 impl ProtocolConfig {
@@ -329,6 +333,7 @@ impl ProtocolConfig {
             tune_penalty: true,
             de_generations: 1500,
             de_population: 150,
+            max_loads: super::methods::DEFAULT_MAX_LOADS,
         }
     }
 }
@@ -634,6 +639,7 @@ pub fn run_protocol(
     let mut settings = MethodSettings::for_method(method);
     settings.de_generations = cfg.de_generations;
     settings.de_population = cfg.de_population;
+    settings.max_loads = cfg.max_loads;
     settings.seed ^= cfg.seed;
     if cfg.tune_penalty {
         settings.penalty = tune_penalty(method, &problem, settings, &validation)?;

@@ -2,11 +2,13 @@
 //! and a file of grating shifts in, the loads CSV and a summary out. `fbgforge
 //! reconstruct` calls [`reconstruct_file`].
 
-use super::io::{read_matrix, read_shifts, write_loads};
+use super::choice::{default_choice, Candidate, DEFAULT_BUDGET_US};
+use super::io::{read_matrix_file, read_shifts_for, write_loads};
 use super::kernel::matrix_from_design;
-use super::methods::{reconstruct_stream, Method, MethodSettings, DEFAULT_METHOD};
-use super::problem::{SensingProblem, PAPER_MIN_LOAD_G};
-use super::SensingMatrix;
+use super::methods::{
+    build, reconstruct_frames, Method, MethodSettings, Reconstructor, DEFAULT_MAX_LOADS,
+};
+use super::problem::{default_min_load_g, SensingProblem};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -18,7 +20,9 @@ pub const PAPER_ULIMIT_G: f64 = 250.0;
 /// Where the sensing matrix comes from.
 #[derive(Debug, Clone)]
 pub enum MatrixSource {
-    /// A measured matrix CSV: header `grating,<cells…>`, one row per grating, pm/g.
+    /// A measured matrix CSV: header `grating,<cells…>`, one row per grating, pm/g;
+    /// or numbers only (no header, no names), as numpy.savetxt or MATLAB writematrix
+    /// write it.
     Csv(PathBuf),
     /// The model sensing matrix of an array design.
     Design(PathBuf),
@@ -31,8 +35,15 @@ pub struct ReconstructRequest {
     pub matrix: MatrixSource,
     /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
     pub shifts: PathBuf,
-    /// Method name (default: [`DEFAULT_METHOD`]).
+    /// Method name (default: the most accurate method within `budget_us`, see
+    /// [`crate::array::choice`]).
     pub method: Option<String>,
+    /// Per-frame time budget of the automatic method choice, µs (default
+    /// [`DEFAULT_BUDGET_US`]); ignored when a method is named.
+    pub budget_us: Option<f64>,
+    /// Most simultaneous loads (default: the design's `max_loads`, else
+    /// [`DEFAULT_MAX_LOADS`]).
+    pub max_loads: Option<usize>,
     /// Largest load per cell, g (default: the design's ulimit, else 250 g).
     pub ulimit_g: Option<f64>,
     /// Smallest load a loaded cell carries, g (default: the paper's 25 g, or 0 when
@@ -53,6 +64,8 @@ impl ReconstructRequest {
             matrix,
             shifts,
             method: None,
+            budget_us: None,
+            max_loads: None,
             ulimit_g: None,
             min_load_g: None,
             penalty: None,
@@ -62,22 +75,42 @@ impl ReconstructRequest {
     }
 }
 
+/// How the default method was chosen (absent when a method was named).
+#[derive(Debug, Serialize)]
+pub struct ChoiceSummary {
+    /// Per-frame budget, µs.
+    pub budget_us: f64,
+    /// Which method and why, in one sentence.
+    pub reason: String,
+    /// Whether the probe frames were frames of the data (else synthetic).
+    pub probed_on_data: bool,
+    /// Every method considered, most accurate first.
+    pub candidates: Vec<Candidate>,
+}
+
 /// JSON summary of a reconstruction run.
 #[derive(Debug, Serialize)]
 pub struct ReconstructSummary {
     /// Method used.
     pub method: &'static str,
+    /// How it was chosen, when no method was named.
+    pub choice: Option<ChoiceSummary>,
     /// Penalty used.
     pub penalty: f64,
+    /// Most simultaneous loads considered (support methods).
+    pub max_loads: usize,
     /// Whether columns were normalised.
     pub normalised: bool,
     /// Upper bound per cell, g.
     pub ulimit_g: f64,
     /// Smallest load of a loaded cell (prior of `wsupport`), g.
     pub min_load_g: f64,
+    /// Gratings (rows of the matrix).
+    pub gratings: usize,
     /// Number of frames.
     pub frames: usize,
-    /// Frames where the method did not converge.
+    /// Frames where the method did not converge (for `bnb`: stopped at its node
+    /// budget, best support found but not certified).
     pub not_converged: usize,
     /// Cell labels.
     pub cells: Vec<String>,
@@ -85,8 +118,13 @@ pub struct ReconstructSummary {
     pub mean_load_g: Vec<f64>,
     /// Largest residual ‖Ax − y‖ over the frames, pm.
     pub max_residual_pm: f64,
-    /// Wall time per frame, µs (all threads).
+    /// One-off set-up: building the method for the matrix (and, for the automatic
+    /// choice, timing the candidates), ms. Not part of the per-frame time.
+    pub setup_ms: f64,
+    /// Wall time of reconstructing the frames alone, per frame, µs (all threads).
     pub time_per_frame_us: f64,
+    /// Threads used for the frames (in parallel from 512 frames on).
+    pub threads: usize,
     /// Output file.
     pub out: PathBuf,
 }
@@ -94,52 +132,87 @@ pub struct ReconstructSummary {
 /// Read a sensing matrix (or derive it from a design) and a shifts file, reconstruct
 /// every frame, write the loads CSV and return the summary.
 pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
-    let method = match &a.method {
-        Some(name) => Method::from_name(name)?,
-        None => DEFAULT_METHOD,
-    };
-    let (matrix, design_ulimit): (SensingMatrix, Option<f64>) = match &a.matrix {
-        MatrixSource::Csv(p) => (read_matrix(p)?, None),
+    let named = a.method.as_deref().map(Method::from_name).transpose()?;
+    if a.penalty.is_some() && named.is_none() {
+        bail!("--penalty is a weight of one method: name the method with --method");
+    }
+    let (matrix, generated_names, design_ulimit, design_max_loads) = match &a.matrix {
+        MatrixSource::Csv(p) => {
+            let f = read_matrix_file(p)?;
+            (f.matrix, f.generated_names, None, None)
+        }
         MatrixSource::Design(d) => {
             let design = crate::design::load(d)?;
             let (m, u) =
                 matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
-            (m, Some(u))
+            let k = design.array.as_ref().and_then(|arr| arr.max_loads);
+            (m, false, Some(u), k.map(|k| k as usize))
         }
     };
     let ulimit_g = a.ulimit_g.or(design_ulimit).unwrap_or(PAPER_ULIMIT_G);
     if !(ulimit_g.is_finite() && ulimit_g > 0.0) {
         bail!("--ulimit-g must be a positive load in g, got {ulimit_g}");
     }
-    let stream = read_shifts(&a.shifts, &matrix.gratings)?;
-    // The paper's 25 g unless told otherwise; an array rated for less than that in
-    // total (ulimit ≤ 25 g) gets no lower end rather than an error about a value the
-    // user never gave.
-    let min_load_g = a.min_load_g.unwrap_or(if PAPER_MIN_LOAD_G < ulimit_g {
-        PAPER_MIN_LOAD_G
-    } else {
-        0.0
-    });
+    let max_loads = a
+        .max_loads
+        .or(design_max_loads)
+        .unwrap_or(DEFAULT_MAX_LOADS);
+    if max_loads == 0 {
+        bail!("--max-loads must be at least 1");
+    }
+    let stream = read_shifts_for(&a.shifts, &matrix.gratings, generated_names)?;
+    let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
     let problem = SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
         .with_min_load_g(min_load_g)
         .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?;
-    let mut settings = MethodSettings::for_method(method);
-    if let Some(p) = a.penalty {
-        settings.penalty = p;
-    }
+    let settings_for = |m: Method| MethodSettings {
+        max_loads,
+        ..MethodSettings::for_method(m)
+    };
     let t0 = Instant::now();
-    let results = reconstruct_stream(&problem, method, settings, &stream.frames_pm)?;
-    let elapsed = t0.elapsed().as_secs_f64();
+    let (method, settings, reconstructor, choice): (
+        Method,
+        MethodSettings,
+        Box<dyn Reconstructor>,
+        Option<ChoiceSummary>,
+    ) = match named {
+        Some(m) => {
+            let mut settings = settings_for(m);
+            if let Some(p) = a.penalty {
+                settings.penalty = p;
+            }
+            (m, settings, build(m, &problem, settings)?, None)
+        }
+        None => {
+            let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
+            let c = default_choice(&problem, max_loads, budget_us, Some(&stream.frames_pm))
+                .map_err(|e| anyhow::anyhow!("--budget-us: {e}"))?;
+            let summary = ChoiceSummary {
+                budget_us,
+                reason: c.reason,
+                probed_on_data: c.probed_on_data,
+                candidates: c.candidates,
+            };
+            (c.method, c.settings, c.reconstructor, Some(summary))
+        }
+    };
+    let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let results = reconstruct_frames(reconstructor.as_ref(), &stream.frames_pm);
+    let elapsed = t1.elapsed().as_secs_f64();
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
     let loads: Vec<Vec<f64>> = results.iter().map(|r| r.loads_g.clone()).collect();
     write_loads(&out, &matrix.cells, stream.time_s.as_deref(), &loads)?;
     let n = results.len().max(1) as f64;
     let summary = ReconstructSummary {
         method: method.name(),
+        choice,
         penalty: settings.penalty,
+        max_loads: max_loads.min(matrix.n_gratings()).min(matrix.n_cells()),
         normalised: a.normalise,
         ulimit_g,
         min_load_g,
+        gratings: matrix.n_gratings(),
         frames: results.len(),
         not_converged: results.iter().filter(|r| !r.converged).count(),
         mean_load_g: (0..matrix.n_cells())
@@ -147,7 +220,13 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
             .collect(),
         cells: matrix.cells.clone(),
         max_residual_pm: results.iter().map(|r| r.residual_pm).fold(0.0, f64::max),
+        setup_ms,
         time_per_frame_us: 1e6 * elapsed / n,
+        threads: if results.len() >= 512 {
+            rayon::current_num_threads()
+        } else {
+            1
+        },
         out: out.clone(),
     };
     Ok(summary)

@@ -2,6 +2,7 @@
 //! library. One file per area; each owns its subcommands' arguments.
 
 pub mod build;
+pub mod live;
 pub mod optimize;
 pub mod predict;
 pub mod reconstruct;
@@ -41,4 +42,8 @@ pub enum Command {
     Optimize(optimize::OptimizeArgs),
     /// Optimise grating placement in a flat array.
     Place(optimize::PlaceArgs),
+    /// Read a running interrogator stream: cell loads (array) or force per grating (module).
+    Live(live::LiveArgs),
+    /// Serve a simulated Hyperion peak stream on 127.0.0.1 from a design and a load script.
+    SynthStream(live::SynthStreamArgs),
 }

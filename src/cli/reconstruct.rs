@@ -9,7 +9,9 @@ use std::path::PathBuf;
 /// Arguments of `fbgforge reconstruct`.
 #[derive(Debug, Args)]
 pub struct ReconstructArgs {
-    /// Sensing matrix CSV: header `grating,<cells…>`, one row per grating, pm/g.
+    /// Sensing matrix CSV: header `grating,<cells…>`, one row per grating, pm/g; or
+    /// numbers only, without header (numpy.savetxt, MATLAB writematrix): gratings are
+    /// then named fbg1…, cells A…, and the shifts may be numbers only too.
     #[arg(long, conflicts_with = "design", required_unless_present = "design")]
     pub matrix: Option<PathBuf>,
     /// Use the model sensing matrix of this array design instead of a measured one.
@@ -18,9 +20,19 @@ pub struct ReconstructArgs {
     /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
     #[arg(long)]
     pub shifts: PathBuf,
-    /// Method: wsupport, support, nnls, lasso, omp or de (default: wsupport).
+    /// Method: wsupport, support, bnb, nnls, lasso, omp or de (default: the most
+    /// accurate method within --budget-us per frame for this array, chosen by timing
+    /// the candidates on the first frames; the choice and why is printed).
     #[arg(long)]
     pub method: Option<String>,
+    /// Per-frame time budget of the automatic method choice, µs (default 100, i.e.
+    /// 10 000 frames/s on one thread). Ignored with --method.
+    #[arg(long, allow_negative_numbers = true)]
+    pub budget_us: Option<f64>,
+    /// Most cells loaded at once the support methods consider (default: the design's
+    /// max_loads, else 4, the paper's largest test).
+    #[arg(long)]
+    pub max_loads: Option<usize>,
     /// Largest load per cell, g (default: the design's ulimit, else 250 g).
     #[arg(long, allow_negative_numbers = true)]
     pub ulimit_g: Option<f64>,
@@ -54,6 +66,8 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
     };
     let req = ReconstructRequest {
         method: a.method,
+        budget_us: a.budget_us,
+        max_loads: a.max_loads,
         ulimit_g: a.ulimit_g,
         min_load_g: a.min_load_g,
         penalty: a.penalty,
@@ -65,13 +79,25 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
+        if let Some(c) = &summary.choice {
+            println!("method choice: {}", c.reason);
+        }
         println!(
-            "{} frames, method {} (penalty {}), {:.1} µs/frame, {} not converged → {}",
+            "{} frames, method {} (penalty {}, ≤ {} loads), set-up {:.1} ms, {:.1} µs/frame ({} thread{}), {} {} → {}",
             summary.frames,
             summary.method,
             summary.penalty,
+            summary.max_loads,
+            summary.setup_ms,
             summary.time_per_frame_us,
+            summary.threads,
+            if summary.threads == 1 { "" } else { "s" },
             summary.not_converged,
+            if summary.method == "bnb" {
+                "stopped at the node budget (best support found, not certified)"
+            } else {
+                "not converged"
+            },
             summary.out.display()
         );
     }

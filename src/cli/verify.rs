@@ -225,9 +225,25 @@ pub struct SynthLogArgs {
     /// Peak force of each pulse, N, comma-separated.
     #[arg(long, default_value = "10,20,30,40,50,25", value_delimiter = ',')]
     pub pulses_n: Vec<f64>,
-    /// Duration of each haversine pulse, s.
+    /// Duration of each pulse, s.
     #[arg(long, default_value_t = 4.0)]
     pub pulse_s: f64,
+    /// Shape of each pulse: the force-stand protocol.
+    #[arg(long, value_enum, default_value = "haversine")]
+    pub shape: ShapeArg,
+    /// Ramp duration of a trapezoid or of each staircase step, s.
+    #[arg(long, default_value_t = 1.0)]
+    pub ramp_s: f64,
+    /// Steps up (and as many down) of a staircase.
+    #[arg(long, default_value_t = 10)]
+    pub steps: u32,
+    /// Cycles of a sine filling each pulse.
+    #[arg(long, default_value_t = 8)]
+    pub cycles: u32,
+    /// Pure transport delay of the response behind the force, s (on top of the
+    /// SLS lag).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub delay_s: f64,
     /// Rest between pulses, s.
     #[arg(long, default_value_t = 6.0)]
     pub rest_s: f64,
@@ -276,6 +292,19 @@ pub struct SynthLogArgs {
     pub schedule: Option<PathBuf>,
 }
 
+/// Pulse shape on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ShapeArg {
+    /// Impulse-like haversine presses.
+    Haversine,
+    /// Press-hold-release (trapezoid, ramps of --ramp-s).
+    Trapezoid,
+    /// Staircase of --steps steps up and down (ramps of --ramp-s).
+    Staircase,
+    /// Sine from rest, --cycles per pulse.
+    Sine,
+}
+
 /// Run `fbgforge synth-log`.
 pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
@@ -316,7 +345,16 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         println!("wrote {} and {}", log_path.display(), truth.display());
         return Ok(());
     }
-    let pulses = synth::pulse_train(&a.pulses_n, a.pulse_s, a.rest_s, 5.0);
+    let shape = match a.shape {
+        ShapeArg::Haversine => synth::PulseShape::Haversine,
+        ShapeArg::Trapezoid => synth::PulseShape::Trapezoid { ramp_s: a.ramp_s },
+        ShapeArg::Staircase => synth::PulseShape::Staircase {
+            steps: a.steps,
+            ramp_s: a.ramp_s,
+        },
+        ShapeArg::Sine => synth::PulseShape::Sine { cycles: a.cycles },
+    };
+    let pulses = synth::shaped_train(&a.pulses_n, a.pulse_s, a.rest_s, 5.0, shape);
     let duration = pulses
         .last()
         .map_or(30.0, |p| p.start_s + p.duration_s + a.rest_s);
@@ -329,6 +367,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         duration_s: duration,
         tau_s: a.tau_s,
         instant_fraction: a.instant_fraction,
+        transport_delay_s: a.delay_s,
         force_start_s: a.force_start_s,
         noise_pm: a.noise_pm,
         force_noise_n: a.force_noise_n,

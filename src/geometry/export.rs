@@ -31,18 +31,63 @@ pub fn stl_bytes(part: &BuiltPart) -> Result<Vec<u8>> {
     Ok(buf)
 }
 
-/// STEP (AP203 B-rep) text of a part's solid.
+/// The STEP schema the files declare: AP214 (automotive design), which the data
+/// section's APPLICATION_PROTOCOL_DEFINITION ('automotive_design', 2000) already names.
+pub const STEP_SCHEMA: &str = "AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }";
+
+/// STEP (AP214 B-rep) text of a part's solid.
+///
+/// truck-stepio 0.3 writes a header other CAD reads badly: the schema `ISO-10303-042`
+/// (a part number, not a schema name) and the author and organisation of FILE_NAME as
+/// nested lists `(('')),`, which OpenCASCADE counts as two unresolved references. The
+/// header is therefore written here; the data section is truck's.
 pub fn step_text(part: &BuiltPart, design_name: &str) -> String {
     let compressed = part.solid.compress();
-    out::CompleteStepDisplay::new(
+    let text = out::CompleteStepDisplay::new(
         out::StepModel::from(&compressed),
-        out::StepHeaderDescriptor {
-            file_name: format!("{}-{}.step", design_name, part.name),
-            organization_system: "fbgforge".to_owned(),
-            ..Default::default()
-        },
+        out::StepHeaderDescriptor::default(),
     )
-    .to_string()
+    .to_string();
+    let data = text.find("DATA;").map_or(text.as_str(), |i| &text[i..]);
+    format!(
+        "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('fbgforge part {part} of design {design}'), '2;1');\nFILE_NAME('{design}-{part}.step', '{stamp}', ('fbgforge'), (''), 'truck-stepio 0.3', 'fbgforge {version}', '');\nFILE_SCHEMA(('{STEP_SCHEMA}'));\nENDSEC;\n{data}",
+        part = step_string(&part.name),
+        design = step_string(design_name),
+        stamp = iso8601_now(),
+        version = env!("CARGO_PKG_VERSION"),
+    )
+}
+
+/// A STEP string literal's content: apostrophes doubled, only printable ASCII kept.
+fn step_string(s: &str) -> String {
+    s.chars()
+        .filter(|c| c.is_ascii() && !c.is_ascii_control())
+        .collect::<String>()
+        .replace('\'', "''")
+}
+
+/// The current UTC time as ISO 8601 (`YYYY-MM-DDThh:mm:ss`), as FILE_NAME expects.
+fn iso8601_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs() as i64);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
 }
 
 /// One part in the manifest.
@@ -92,6 +137,48 @@ pub struct Clearances {
     pub dome_gap_mm: f64,
 }
 
+/// What a lab needs to cast the array: levels and slit sizes of the mold.
+#[derive(Debug, Clone, Serialize)]
+pub struct MoldReport {
+    /// Silicone level: pour to this height above the mold's underside (the sheet's top;
+    /// the wall top when the walls are as high as the sheet is thick), mm.
+    pub silicone_level_mm: f64,
+    /// Height of the fibers' axes (the sheet's mid-thickness), mm.
+    pub fiber_axis_z_mm: f64,
+    /// Height of the slit bottoms, where each coated fiber rests, mm.
+    pub slit_bottom_z_mm: f64,
+    /// Width of the fiber's seat in the slit, mm.
+    pub slit_width_mm: f64,
+    /// Width of the plug pocket above the seat (None without plugs), mm.
+    pub pocket_width_mm: Option<f64>,
+    /// Plugs to print (one per slit), 0 without plugs.
+    pub plugs_to_print: usize,
+    /// How the slits are closed under the silicone level.
+    pub sealing: String,
+}
+
+fn mold_report(design: &Design) -> Option<MoldReport> {
+    let a = design.array.as_ref()?;
+    let l = crate::profile::ArrayLayout::from_array(a);
+    let pocket = super::mold_pocket(design);
+    let slits = 2 * a.fiber_x_mm.len();
+    Some(MoldReport {
+        silicone_level_mm: l.silicone_level_z_mm,
+        fiber_axis_z_mm: l.fiber_z_mm,
+        slit_bottom_z_mm: l.slit_bottom_z_mm,
+        slit_width_mm: a.mold.slit_width_mm,
+        pocket_width_mm: pocket.map(|q| q.width_mm),
+        plugs_to_print: if pocket.is_some() { slits } else { 0 },
+        sealing: if pocket.is_some() {
+            format!(
+                "lay each fiber in its seat, push a printed plug (mold-plug.stl) into each of the {slits} pockets down onto the fiber, then pour"
+            )
+        } else {
+            "the slits are open above each fiber below the silicone level: close them from outside (putty or tape) before pouring, or set array.mold.plugs = true".into()
+        },
+    })
+}
+
 /// `manifest.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Manifest {
@@ -103,6 +190,15 @@ pub struct Manifest {
     pub parts: Vec<ManifestPart>,
     /// Assembly clearances (module designs only).
     pub clearances: Option<Clearances>,
+    /// The snap-fit, sized (module designs with `[module.snap]`).
+    pub snap: Option<crate::profile::SnapReport>,
+    /// Every fiber's way out, traced through the assembled parts (module designs
+    /// built whole).
+    pub fibers: Option<Vec<super::assembly::FiberTrace>>,
+    /// The mold's levels and slits (array designs).
+    pub mold: Option<MoldReport>,
+    /// Cut-away previews written beside the parts.
+    pub previews: Vec<String>,
 }
 
 fn clearances(design: &Design) -> Option<Clearances> {
@@ -118,8 +214,21 @@ fn clearances(design: &Design) -> Option<Clearances> {
 }
 
 fn materials(design: &Design, part: &BuiltPart) -> Vec<String> {
+    if matches!(part.kind, PartKind::Mold | PartKind::MoldPlug) {
+        // What the mold is printed in, not the silicone cast in it.
+        return design
+            .array
+            .iter()
+            .map(|a| {
+                a.mold
+                    .print_material
+                    .clone()
+                    .unwrap_or_else(|| "not stated (array.mold.print_material)".into())
+            })
+            .collect();
+    }
     let Some(m) = &design.module else {
-        return design.array.iter().map(|a| a.material.clone()).collect();
+        return Vec::new();
     };
     match part.kind {
         PartKind::Cap => vec![m.cap_material.clone()],
@@ -134,7 +243,7 @@ fn materials(design: &Design, part: &BuiltPart) -> Vec<String> {
             .filter(|i| format!("insert-{}", i.name) == part.name)
             .map(|i| i.material.clone())
             .collect(),
-        PartKind::Mold => Vec::new(),
+        PartKind::Mold | PartKind::MoldPlug => Vec::new(),
     }
 }
 
@@ -146,8 +255,14 @@ pub struct Rendered {
     pub manifest: Manifest,
 }
 
-/// Render all parts in memory.
-pub fn render(design: &Design, parts: &[BuiltPart], tolerance_mm: f64) -> Result<Rendered> {
+/// Render all parts in memory; `fibers` are the traced fiber paths when the whole
+/// module was built.
+pub fn render(
+    design: &Design,
+    parts: &[BuiltPart],
+    tolerance_mm: f64,
+    fibers: Option<&[super::assembly::FiberTrace]>,
+) -> Result<Rendered> {
     let mut files = Vec::new();
     let mut listed = Vec::new();
     for p in parts {
@@ -171,11 +286,26 @@ pub fn render(design: &Design, parts: &[BuiltPart], tolerance_mm: f64) -> Result
             materials: materials(design, p),
         });
     }
+    let mut previews = Vec::new();
+    if let Some(svg) = fibers.and_then(|f| super::preview::module_svg(design, parts, f)) {
+        previews.push("preview-module.svg".to_string());
+        files.push(("preview-module.svg".into(), svg.into_bytes()));
+    }
+    if let Some(svg) = super::preview::mold_svg(design, parts) {
+        previews.push("preview-mold.svg".to_string());
+        files.push(("preview-mold.svg".into(), svg.into_bytes()));
+    }
+    let snap = crate::profile::PartsProfile::of_design(design)
+        .and_then(|(p, pp)| crate::profile::snap_report(design, &p, &pp));
     let manifest = Manifest {
         design: design.name.clone(),
         tolerance_mm,
         parts: listed,
         clearances: clearances(design),
+        snap,
+        fibers: fibers.map(<[_]>::to_vec),
+        mold: mold_report(design),
+        previews,
     };
     Ok(Rendered { files, manifest })
 }

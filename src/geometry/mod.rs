@@ -7,12 +7,14 @@
 //! Nothing here writes files: [`export`] turns checked parts into STL, STEP and a
 //! manifest, and the CLI writes them only once every part has passed.
 
+pub mod assembly;
 pub mod brep;
 pub mod export;
 
 pub mod mesh;
 pub mod module;
 pub mod mold;
+pub mod preview;
 
 use crate::profile::{ArrayLayout, ModuleProfile};
 use crate::spec::{Design, SpecError};
@@ -39,6 +41,8 @@ pub enum PartKind {
     Insert,
     /// Casting mold of the flat array.
     Mold,
+    /// Plug that closes a mold slit above its fiber (one file, printed once per slit).
+    MoldPlug,
 }
 
 /// A part's B-rep with its exact volume.
@@ -101,6 +105,12 @@ pub enum GeometryError {
         /// Comma-separated list of available parts.
         known: String,
     },
+    /// A fiber has no way out of the assembled module.
+    #[error(transparent)]
+    Route(#[from] assembly::RouteError),
+    /// Two assembled parts overlap.
+    #[error(transparent)]
+    Interference(#[from] assembly::Interference),
     /// A tolerance outside the range truck can mesh with.
     #[error("meshing tolerance {0} mm is out of range; allowed 0.001 to 1 mm")]
     Tolerance(f64),
@@ -114,8 +124,11 @@ pub fn part_names(design: &Design) -> Vec<String> {
         names.push("core".to_string());
         names.extend(m.inserts.iter().map(|i| format!("insert-{}", i.name)));
     }
-    if design.array.is_some() {
+    if let Some(a) = &design.array {
         names.push("mold".to_string());
+        if a.mold.plugs {
+            names.push("mold-plug".to_string());
+        }
     }
     names
 }
@@ -223,7 +236,7 @@ fn check_mold(design: &Design) -> Result<(), SpecError> {
         return Ok(());
     };
     let half = a.mold.internal_x_mm / 2.0;
-    let sw = a.mold.slit_width_mm / 2.0;
+    let sw = crate::spec::mold_slot_width_mm(design, &a.mold) / 2.0;
     for (i, &x) in a.fiber_x_mm.iter().enumerate() {
         if x.abs() + sw >= half - 1e-9 {
             return Err(crate::spec::err(
@@ -238,6 +251,20 @@ fn check_mold(design: &Design) -> Result<(), SpecError> {
     Ok(())
 }
 
+/// The plug pocket of the design's mold slits (None without plugs): as wide as a
+/// printable plug plus a channel clearance each side, from the coated fiber's top up.
+pub fn mold_pocket(design: &Design) -> Option<mold::Pocket> {
+    let a = design.array.as_ref()?;
+    if !a.mold.plugs {
+        return None;
+    }
+    let layout = ArrayLayout::from_array(a);
+    Some(mold::Pocket {
+        width_mm: crate::spec::mold_slot_width_mm(design, &a.mold),
+        bottom_z_mm: layout.slit_bottom_z_mm + design.fiber_routing.coated_diameter_mm,
+    })
+}
+
 /// Build the B-rep solids of the selected parts (all when `selection` is None).
 /// Parts of one kind share a solid: the inserts differ only in material.
 pub fn build_solids(
@@ -249,8 +276,14 @@ pub fn build_solids(
     if let Some(m) = &design.module {
         let p = ModuleProfile::from_module(m);
         check_module_profile(&p)?;
+        let pp = crate::profile::PartsProfile::new(
+            m,
+            &p,
+            &design.fiber_routing,
+            design.fiber_routing.channel_width_mm(&design.printer),
+        );
         if names.iter().any(|n| n == "cap") {
-            let s = module::cap(&p)?;
+            let s = module::cap(&p, &pp)?;
             out.push(PartSolid {
                 name: "cap".into(),
                 kind: PartKind::Cap,
@@ -262,6 +295,7 @@ pub fn build_solids(
             let pl = &m.pillars;
             let s = module::core(
                 &p,
+                &pp,
                 pl.width_mm,
                 pl.fiber_hole_diameter_mm,
                 pl.groove_width_mm,
@@ -275,7 +309,7 @@ pub fn build_solids(
         }
         let inserts: Vec<&String> = names.iter().filter(|n| n.starts_with("insert-")).collect();
         if let Some(first) = inserts.first() {
-            let s = module::insert(&p, first)?;
+            let s = module::insert(&p, &pp, first)?;
             for n in inserts {
                 out.push(PartSolid {
                     name: n.clone(),
@@ -287,13 +321,28 @@ pub fn build_solids(
         }
     }
     if let Some(a) = &design.array {
+        let layout = ArrayLayout::from_array(a);
+        let pocket = mold_pocket(design);
         if names.iter().any(|n| n == "mold") {
             check_mold(design)?;
-            let layout = ArrayLayout::from_array(a);
-            let s = mold::mold(&a.mold, &layout)?;
+            let s = mold::mold(&a.mold, &layout, pocket)?;
             out.push(PartSolid {
                 name: "mold".into(),
                 kind: PartKind::Mold,
+                solid: s.solid,
+                exact_volume_mm3: s.exact_volume_mm3,
+            });
+        }
+        if let (true, Some(q)) = (names.iter().any(|n| n == "mold-plug"), pocket) {
+            let s = mold::plug(
+                &a.mold,
+                &layout,
+                q,
+                design.fiber_routing.channel_clearance_mm,
+            )?;
+            out.push(PartSolid {
+                name: "mold-plug".into(),
+                kind: PartKind::MoldPlug,
                 solid: s.solid,
                 exact_volume_mm3: s.exact_volume_mm3,
             });
@@ -403,6 +452,50 @@ pub struct BuildReport {
     pub parts: Vec<BuiltPart>,
     /// Every file written, manifest last.
     pub files: Vec<PathBuf>,
+    /// Each fiber's traced way out (empty unless cap, core and an insert were built).
+    pub fibers: Vec<assembly::FiberTrace>,
+}
+
+/// Trace the fibers and check the assembly when the whole module was built (cap, core
+/// and, if the design has any, an insert); None otherwise.
+pub fn check_assembly(
+    design: &Design,
+    built: &[BuiltPart],
+) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {
+    let Some(m) = &design.module else {
+        return Ok(None);
+    };
+    let has = |k: PartKind| built.iter().any(|b| b.kind == k);
+    if !has(PartKind::Cap)
+        || !has(PartKind::Core)
+        || (!m.inserts.is_empty() && !has(PartKind::Insert))
+    {
+        return Ok(None);
+    }
+    let module: Vec<BuiltPart> = built
+        .iter()
+        .filter(|b| matches!(b.kind, PartKind::Cap | PartKind::Core | PartKind::Insert))
+        .cloned()
+        .collect();
+    // A mesh's chords cut into a concave wall by about its tolerance (truck keeps the
+    // chord error near, not strictly under, it), so two parts
+    // designed closer than that (a press fit at zero clearance) cannot be told apart
+    // from overlapping ones: such a pair is not checked.
+    let tol = module
+        .iter()
+        .map(|b| b.mesh_tolerance_mm)
+        .fold(0.0, f64::max);
+    let press = |a: PartKind, b: PartKind| match (a, b) {
+        (PartKind::Cap, PartKind::Core) | (PartKind::Core, PartKind::Cap) => {
+            m.cap_core_clearance_mm > 2.0 * tol
+        }
+        (PartKind::Core, PartKind::Insert) | (PartKind::Insert, PartKind::Core) => {
+            m.core_insert_clearance_mm > 2.0 * tol
+        }
+        _ => true,
+    };
+    assembly::check_no_interference(&module, &press)?;
+    Ok(Some(assembly::trace_fibers(design, &module)?))
 }
 
 /// Build a loaded design into `dir`: every part is built, meshed and checked and every
@@ -413,14 +506,16 @@ pub fn build_design(
     tolerance_mm: Option<f64>,
     parts: Option<&[String]>,
 ) -> anyhow::Result<BuildReport> {
-    let built = build_parts(design, tolerance_mm, parts)
-        .with_context(|| format!("design `{}`: nothing was written", design.name))?;
+    let nothing = || format!("design `{}`: nothing was written", design.name);
+    let built = build_parts(design, tolerance_mm, parts).with_context(nothing)?;
+    let fibers = check_assembly(design, &built).with_context(nothing)?;
     let tol = tolerance_mm.unwrap_or(design.printer.default_tolerance_mm());
-    let rendered = export::render(design, &built, tol)?;
+    let rendered = export::render(design, &built, tol, fibers.as_deref())?;
     let files = export::write_all(dir, &rendered)?;
     Ok(BuildReport {
         dir: dir.to_path_buf(),
         parts: built,
         files,
+        fibers: fibers.unwrap_or_default(),
     })
 }

@@ -230,19 +230,83 @@ fn revolve_chain(
     zc: f64,
     ang: &Angles,
 ) -> Result<(), BrepError> {
+    revolve_chain_above(asm, chain, zc, ang, f64::INFINITY)
+}
+
+impl Angles {
+    /// A coarser set of cuts: some of these angles, no interval over 90°. The features
+    /// that need every cut (pillars, slots) end below the domes, and the small circles
+    /// near an apex would otherwise be cut into arcs too short to mesh.
+    fn coarse(&self) -> (Angles, Vec<usize>) {
+        let n = self.len();
+        let end = self.0[0] + TAU;
+        let mut idx = vec![0];
+        let mut i = 0;
+        while end - self.0[i] > MAX_PATCH_RAD + 1e-12 {
+            let mut j = i + 1;
+            while j + 1 < n && self.0[j + 1] - self.0[i] <= MAX_PATCH_RAD + 1e-12 {
+                j += 1;
+            }
+            if j >= n {
+                break;
+            }
+            idx.push(j);
+            i = j;
+        }
+        (Angles(idx.iter().map(|&k| self.0[k]).collect()), idx)
+    }
+}
+
+/// Revolve a chain of profile segments: with every cut of `ang` where both ends of a
+/// segment lie at or below `fine_up_to_z`, on the coarse cuts ([`Angles::coarse`])
+/// above it, and on coarse patches whose lower edge is split at every cut where a
+/// segment crosses that height.
+fn revolve_chain_above(
+    asm: &mut Assembler,
+    chain: &[Prof],
+    zc: f64,
+    ang: &Angles,
+    fine_up_to_z: f64,
+) -> Result<(), BrepError> {
+    let (coarse, cidx) = ang.coarse();
     for p in chain {
         if (p.a.0 - p.b.0).hypot(p.a.1 - p.b.1) < MIN_SEGMENT_MM {
             continue;
         }
         let p = *p;
-        for k in 0..ang.len() {
-            let (t0, t1) = ang.interval(k);
-            let boundary = vec![
-                arc(O, p.a.0, t0, t1, p.a.1),
-                meridian(&p, zc, t1),
-                arc(O, p.b.0, t1, t0, p.b.1),
-                meridian(&p, zc, t0).reversed(),
-            ];
+        let fine = |z: f64| z <= fine_up_to_z + 1e-9;
+        let (fa, fb) = (fine(p.a.1), fine(p.b.1));
+        let (set, n) = if fa && fb {
+            (ang, ang.len())
+        } else {
+            (&coarse, coarse.len())
+        };
+        for k in 0..n {
+            let (t0, t1) = set.interval(k);
+            // The arcs of an end: one per fine cut inside the patch on a fine end.
+            let arcs = |r: f64, z: f64, fine_end: bool| -> Vec<Seg> {
+                if fine_end && !(fa && fb) {
+                    ang.walk(cidx[k], cidx[(k + 1) % cidx.len()])
+                        .into_iter()
+                        .map(|j| {
+                            let (a0, a1) = ang.interval(j);
+                            let shift = if a0 < t0 - 1e-9 { TAU } else { 0.0 };
+                            arc(O, r, a0 + shift, a1 + shift, z)
+                        })
+                        .collect()
+                } else {
+                    vec![arc(O, r, t0, t1, z)]
+                }
+            };
+            let mut boundary = arcs(p.a.0, p.a.1, fa);
+            boundary.push(meridian(&p, zc, t1));
+            boundary.extend(
+                arcs(p.b.0, p.b.1, fb)
+                    .into_iter()
+                    .rev()
+                    .map(|s| s.reversed()),
+            );
+            boundary.push(meridian(&p, zc, t0).reversed());
             let m = move |th: f64| meridian(&p, zc, th);
             let centre = p.sphere.map(|_| Point3::new(0.0, 0.0, zc));
             let name = if p.sphere.is_some() { "dome" } else { "wall" };
@@ -338,30 +402,155 @@ pub struct BuiltSolid {
     pub exact_volume_mm3: f64,
 }
 
-/// The insert: solid cylinder with a spherical top and an apex flat.
-pub fn insert(p: &ModuleProfile, part: &str) -> Result<BuiltSolid, BrepError> {
+/// The cut angles of one part: `special` angles (pillar and slot edges, any order,
+/// any turn) sorted into one increasing set from the first, subdivided so no interval
+/// exceeds 90°, with a lookup from a special angle to its index.
+struct Cuts {
+    ang: Angles,
+    base: Vec<f64>,
+    idx: Vec<usize>,
+}
+
+impl Cuts {
+    fn new(special: &[f64]) -> Self {
+        let a0 = special[0];
+        let mut base: Vec<f64> = special
+            .iter()
+            .map(|&a| a0 + (a - a0).rem_euclid(TAU))
+            .collect();
+        base.sort_by(|a, b| a.total_cmp(b));
+        base.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        let (ang, idx) = Angles::new(&base);
+        Cuts { ang, base, idx }
+    }
+
+    /// Index in the subdivided set of a special angle.
+    fn at(&self, angle: f64) -> usize {
+        let a = self.base[0] + (angle - self.base[0]).rem_euclid(TAU);
+        let k = self
+            .base
+            .iter()
+            .position(|&b| (b - a).abs() < 1e-9 || (b - a).abs() > TAU - 1e-9)
+            .expect("a special angle of this part");
+        self.idx[k]
+    }
+}
+
+/// A vertical wall segment of the (r, z) profile: cylinder of radius r from z0 to z1
+/// (or a cone when the radii differ), facing away from the axis if `out` > 0.
+fn wall(r0: f64, z0: f64, r1: f64, z1: f64, out: f64) -> Prof {
+    Prof {
+        a: (r0, z0),
+        b: (r1, z1),
+        sphere: None,
+        out,
+    }
+}
+
+/// Flat annular sector between radii r0 < r1 from interval index `from` to `to`
+/// (counter-clockwise) at height z; `up` says which way it faces.
+fn sector(
+    asm: &mut Assembler,
+    ang: &Angles,
+    (r0, r1): (f64, f64),
+    (from, to): (usize, usize),
+    z: f64,
+    up: bool,
+) -> Result<(), BrepError> {
+    let mut l = ring_ccw(ang, r1, from, to);
+    let end = l.last().expect("an arc").end();
+    let k = r0 / r1;
+    l.push(S2::Line(end, (end.0 * k, end.1 * k)));
+    l.extend(ring_cw(ang, r0, to, from));
+    let start = l[0].start();
+    l.push(S2::Line(l.last().expect("an arc").end(), start));
+    let n = if up {
+        Vector3::unit_z()
+    } else {
+        -Vector3::unit_z()
+    };
+    asm.plane("sector", &[at(&l, z)], n)
+}
+
+/// Parts-profile heights and angles the solids need (see [`crate::profile::PartsProfile`]).
+pub use crate::profile::PartsProfile;
+
+/// The insert: solid cylinder with a spherical top and an apex flat, an axial bore for
+/// the reference fiber, and a slot in its base through which that fiber bends out.
+pub fn insert(p: &ModuleProfile, pp: &PartsProfile, part: &str) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new(part);
-    let (ang, _) = Angles::new(&[0.0, FRAC_PI_2, PI, 1.5 * PI]);
     let r = p.insert_radius_mm;
+    let rb = pp.insert_bore_radius_mm;
+    let hw = pp.insert_slot_half_width_mm;
+    let th = pp.reference_exit_angle_rad;
+    let (bo, bb) = ((hw / r).asin(), (hw / rb).asin());
+    let cuts = Cuts::new(&[th - bo, th + bo, th - bb, th + bb]);
+    let ang = &cuts.ang;
     let rho = p.insert_sphere_radius_mm;
     let zc = p.dome_center_z_mm;
     let zj = p.insert_junction_z_mm;
     let a = p.apex_flat_radius_mm;
-    let za = sphere_z(p, rho, a);
-    disc(&mut asm, &ang, r, 0.0, false)?;
-    let chain = domed_wall(r, 0.0, zj, rho, (a, za), true);
-    revolve_chain(&mut asm, &chain, zc, &ang)?;
-    disc(&mut asm, &ang, a, za, true)?;
+    let hs = pp.insert_slot_top_mm;
+    let (io0, io1, ib0, ib1) = (
+        cuts.at(th - bo),
+        cuts.at(th + bo),
+        cuts.at(th - bb),
+        cuts.at(th + bb),
+    );
+    // Keyhole cross-section below the slot roof: the outer circle outside the slot, the
+    // slot's sides, the bore's far side.
+    let mut key = ring_ccw(ang, r, io1, io0);
+    key.push(S2::Line(
+        (r * (th - bo).cos(), r * (th - bo).sin()),
+        (rb * (th - bb).cos(), rb * (th - bb).sin()),
+    ));
+    key.extend(ring_cw(ang, rb, ib0, ib1));
+    key.push(S2::Line(
+        (rb * (th + bb).cos(), rb * (th + bb).sin()),
+        (r * (th + bo).cos(), r * (th + bo).sin()),
+    ));
+    asm.plane("base", &[at(&key, 0.0)], -Vector3::unit_z())?;
+    band_sides(&mut asm, std::slice::from_ref(&key), 0.0, hs)?;
+    // Slot roof: between the bore's near side and the outer circle's slot arc.
+    let mut roof = ring_ccw(ang, r, io0, io1);
+    roof.push(S2::Line(
+        (r * (th + bo).cos(), r * (th + bo).sin()),
+        (rb * (th + bb).cos(), rb * (th + bb).sin()),
+    ));
+    roof.extend(ring_cw(ang, rb, ib1, ib0));
+    roof.push(S2::Line(
+        (rb * (th - bb).cos(), rb * (th - bb).sin()),
+        (r * (th - bo).cos(), r * (th - bo).sin()),
+    ));
+    asm.plane("slot roof", &[at(&roof, hs)], -Vector3::unit_z())?;
+    // Above the roof: cylinder, dome, apex flat (if the bore leaves one) and the bore.
+    let top_r = a.max(rb);
+    let z_top = sphere_z(p, rho, top_r);
+    let chain = domed_wall(r, hs, zj, rho, (top_r, z_top), true);
+    revolve_chain(&mut asm, &chain, zc, ang)?;
+    if rb < a - MIN_SEGMENT_MM {
+        let l = [
+            at(&ring_ccw(ang, a, 0, 0), z_top),
+            at(&ring_cw(ang, rb, 0, 0), z_top),
+        ];
+        asm.plane("apex flat", &l, Vector3::unit_z())?;
+    }
+    revolve_chain(&mut asm, &[wall(rb, z_top, rb, hs, -1.0)], zc, ang)?;
+    let slot_area = slice_area(r, hw) - slice_area(rb, hw);
     Ok(BuiltSolid {
         solid: asm.solid()?,
-        exact_volume_mm3: capped_cylinder_volume(r, 0.0, zj, rho, zc, za),
+        exact_volume_mm3: capped_cylinder_volume(r, 0.0, zj, rho, zc, z_top)
+            - PI * rb * rb * z_top
+            - slot_area * hs,
     })
 }
 
-/// The core (PSC): hollow cylinder with a domed top and a top hole, and outer pillars,
-/// each with an axial groove in its outer face and a fiber through-hole.
+/// The core (PSC): hollow cylinder with a domed top and a top hole; outer pillars from
+/// the pillar bottom to the pillar top, each with an axial groove in its outer face and
+/// a fiber through-hole; a radial slot in the wall's base for the reference fiber.
 pub fn core(
     p: &ModuleProfile,
+    pp: &PartsProfile,
     pillar_width_mm: f64,
     fiber_hole_diameter_mm: f64,
     groove_width_mm: f64,
@@ -373,17 +562,26 @@ pub fn core(
     let rh = fiber_hole_diameter_mm / 2.0;
     let r_fh = p.fiber_hole_center_radius_mm;
     let top = p.pillar_top_mm;
+    let bottom = pp.pillar_bottom_mm;
     let zc = p.dome_center_z_mm;
     let beta = (hw / r_co).asin();
-    let base: Vec<f64> = p
+    let (th, phi, hs) = (
+        pp.reference_exit_angle_rad,
+        pp.core_slot_half_angle_rad,
+        pp.core_slot_top_mm,
+    );
+    let mut special: Vec<f64> = p
         .pillar_angles_rad
         .iter()
         .flat_map(|&t| [t - beta, t + beta])
         .collect();
-    let (ang, idx) = Angles::new(&base);
+    special.extend([th - phi, th + phi]);
+    let cuts = Cuts::new(&special);
+    let ang = &cuts.ang;
     let n = p.pillar_angles_rad.len();
+    let (s0, s1) = (cuts.at(th - phi), cuts.at(th + phi));
 
-    // Cross-section outer loop (counter-clockwise) with the pillar outlines.
+    // Pillar outline from its −t edge to its +t edge on the core wall.
     let rib = |t: f64| -> Vec<S2> {
         let (rh_, th_) = ((t.cos(), t.sin()), (-t.sin(), t.cos()));
         let e = |s: f64, q: f64| (s * rh_.0 + q * th_.0, s * rh_.1 + q * th_.1);
@@ -417,17 +615,6 @@ pub fn core(
             S2::Line(e(s2, hw), e(s1, hw)),
         ]
     };
-    let mut outer = Vec::new();
-    for i in 0..n {
-        outer.extend(rib(p.pillar_angles_rad[i]));
-        outer.extend(ring_ccw(
-            &ang,
-            r_co,
-            idx[2 * i + 1],
-            idx[(2 * i + 2) % (2 * n)],
-        ));
-    }
-    let inner = ring_cw(&ang, r_ci, 0, 0);
     let hole = |t: f64| -> Vec<S2> {
         let c = (r_fh * t.cos(), r_fh * t.sin());
         (0..4)
@@ -439,16 +626,49 @@ pub fn core(
             })
             .collect()
     };
-    let holes: Vec<Vec<S2>> = p.pillar_angles_rad.iter().map(|&t| hole(t)).collect();
+    let radial = |a: f64, r0: f64, r1: f64| {
+        S2::Line((r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin()))
+    };
 
-    let mut loops = vec![outer, inner];
+    // Base band: the wall with the reference fiber's slot.
+    let mut c_loop = ring_ccw(ang, r_co, s1, s0);
+    c_loop.push(radial(th - phi, r_co, r_ci));
+    c_loop.extend(ring_cw(ang, r_ci, s0, s1));
+    c_loop.push(radial(th + phi, r_ci, r_co));
+    asm.plane("base", &[at(&c_loop, 0.0)], -Vector3::unit_z())?;
+    band_sides(&mut asm, std::slice::from_ref(&c_loop), 0.0, hs)?;
+    sector(&mut asm, ang, (r_ci, r_co), (s0, s1), hs, false)?;
+    // Plain wall up to the pillar bottoms (outside) and the pillar top (inside).
+    band_sides(&mut asm, &[ring_ccw(ang, r_co, 0, 0)], hs, bottom)?;
+    band_sides(&mut asm, &[ring_cw(ang, r_ci, 0, 0)], hs, top)?;
+    // Pillars: bottom faces, sides and holes, tops.
+    let pillar_edges: Vec<(usize, usize)> = p
+        .pillar_angles_rad
+        .iter()
+        .map(|&t| (cuts.at(t - beta), cuts.at(t + beta)))
+        .collect();
+    let mut outer = Vec::new();
+    for i in 0..n {
+        outer.extend(rib(p.pillar_angles_rad[i]));
+        outer.extend(ring_ccw(
+            ang,
+            r_co,
+            pillar_edges[i].1,
+            pillar_edges[(i + 1) % n].0,
+        ));
+    }
+    let holes: Vec<Vec<S2>> = p.pillar_angles_rad.iter().map(|&t| hole(t)).collect();
+    let mut loops = vec![outer];
     loops.extend(holes.iter().cloned());
-    let bottom: Vec<Vec<Seg>> = loops.iter().map(|l| at(l, 0.0)).collect();
-    asm.plane("base", &bottom, -Vector3::unit_z())?;
-    band_sides(&mut asm, &loops, 0.0, top)?;
+    band_sides(&mut asm, &loops, bottom, top)?;
     for i in 0..n {
         let mut l = rib(p.pillar_angles_rad[i]);
-        l.extend(ring_cw(&ang, r_co, idx[2 * i + 1], idx[2 * i]));
+        l.extend(ring_cw(ang, r_co, pillar_edges[i].1, pillar_edges[i].0));
+        asm.plane(
+            "pillar bottom",
+            &[at(&l, bottom), at(&holes[i], bottom)],
+            -Vector3::unit_z(),
+        )?;
         asm.plane(
             "pillar top",
             &[at(&l, top), at(&holes[i], top)],
@@ -456,39 +676,54 @@ pub fn core(
         )?;
     }
 
-    let th = p.top_hole_radius_mm;
+    let tr = p.top_hole_radius_mm;
     let (rs_o, rs_i) = (
         p.core_dome_outer_sphere_radius_mm,
         p.core_dome_inner_sphere_radius_mm,
     );
     let (z_oj, z_ij) = (p.core_outer_junction_z_mm, p.core_inner_junction_z_mm);
-    let (z_oh, z_ih) = (sphere_z(p, rs_o, th), sphere_z(p, rs_i, th));
-    let [outer_wall, outer_dome] = domed_wall(r_co, top, z_oj, rs_o, (th, z_oh), true);
-    let [inner_dome, inner_wall] = domed_wall(r_ci, top, z_ij, rs_i, (th, z_ih), false);
+    let (z_oh, z_ih) = (sphere_z(p, rs_o, tr), sphere_z(p, rs_i, tr));
+    let [outer_wall, outer_dome] = domed_wall(r_co, top, z_oj, rs_o, (tr, z_oh), true);
+    let [inner_dome, inner_wall] = domed_wall(r_ci, top, z_ij, rs_i, (tr, z_ih), false);
     let top_hole = Prof {
-        a: (th, z_oh),
-        b: (th, z_ih),
+        a: (tr, z_oh),
+        b: (tr, z_ih),
         sphere: None,
         out: -1.0,
     };
     let chain = [outer_wall, outer_dome, top_hole, inner_dome, inner_wall];
-    revolve_chain(&mut asm, &chain, zc, &ang)?;
+    revolve_chain_above(&mut asm, &chain, zc, ang, top)?;
 
     let rib_area =
         slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
-    let band = top * (PI * (r_co * r_co - r_ci * r_ci) + n as f64 * (rib_area - PI * rh * rh));
+    let band = top * PI * (r_co * r_co - r_ci * r_ci)
+        + (top - bottom) * n as f64 * (rib_area - PI * rh * rh)
+        - hs * phi * (r_co * r_co - r_ci * r_ci);
     let upper = capped_cylinder_volume(r_co, top, z_oj, rs_o, zc, z_oh)
         - capped_cylinder_volume(r_ci, top, z_ij, rs_i, zc, z_ih)
-        - PI * th * th * (z_oh - z_ih);
+        - PI * tr * tr * (z_oh - z_ih);
     Ok(BuiltSolid {
         solid: asm.solid()?,
         exact_volume_mm3: band + upper,
     })
 }
 
-/// The cap (CC): hollow cylinder with a domed top and apex flats, and inner alignment
-/// pillars that fit the core's grooves.
-pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
+/// Volume swept about the axis by the region between radius `r_out` and a chain of
+/// straight (r, z) segments inside it, mm³ (Pappus, segment by segment).
+fn ring_volume(r_out: f64, chain: &[(f64, f64)]) -> f64 {
+    chain
+        .windows(2)
+        .map(|w| {
+            let ((r1, z1), (r2, z2)) = (w[0], w[1]);
+            PI * (z2 - z1) * (r_out * r_out - (r1 * r1 + r1 * r2 + r2 * r2) / 3.0)
+        })
+        .sum()
+}
+
+/// The cap (CC): hollow cylinder with a domed top and apex flats; inner alignment
+/// pillars from the core's pillar bottom up, fitting the core's grooves; the snap bead
+/// ring just below them; and a radial slot open to the base for every fiber.
+pub fn cap(p: &ModuleProfile, pp: &PartsProfile) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new("cap");
     let (r_o, r_ci, r_pi) = (
         p.cap_outer_radius_mm,
@@ -497,18 +732,71 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
     );
     let hc = p.cap_pillar_width_mm / 2.0;
     let top = p.pillar_top_mm;
+    let bottom = pp.pillar_bottom_mm;
     let zc = p.dome_center_z_mm;
     let beta = (hc / r_ci).asin();
-    let base: Vec<f64> = p
+    let (phi, hs) = (pp.cap_slot_half_angle_rad, pp.cap_slot_top_mm);
+    let mut slots: Vec<f64> = p.pillar_angles_rad.clone();
+    slots.push(pp.reference_exit_angle_rad);
+    let mut special: Vec<f64> = p
         .pillar_angles_rad
         .iter()
         .flat_map(|&t| [t - beta, t + beta])
         .collect();
-    let (ang, idx) = Angles::new(&base);
+    special.extend(slots.iter().flat_map(|&t| [t - phi, t + phi]));
+    let cuts = Cuts::new(&special);
+    let ang = &cuts.ang;
     let n = p.pillar_angles_rad.len();
+    // Slots as index ranges, sorted by angle; the fingers lie between them.
+    let mut slot_idx: Vec<(usize, usize)> = slots
+        .iter()
+        .map(|&t| (cuts.at(t - phi), cuts.at(t + phi)))
+        .collect();
+    slot_idx.sort();
 
-    // Inner loop (clockwise, material outside) with the inward pillar outlines, each
-    // run from its +t side to its −t side.
+    // Fingers between the slots, from the base to the slot roofs.
+    let radial = |k: usize, r0: f64, r1: f64| {
+        let a = ang.interval(k).0;
+        S2::Line((r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin()))
+    };
+    let mut fingers = Vec::new();
+    for j in 0..slot_idx.len() {
+        let (from, to) = (slot_idx[j].1, slot_idx[(j + 1) % slot_idx.len()].0);
+        let mut l = ring_ccw(ang, r_o, from, to);
+        l.push(radial(to, r_o, r_ci));
+        l.extend(ring_cw(ang, r_ci, to, from));
+        l.push(radial(from, r_ci, r_o));
+        fingers.push(l);
+    }
+    let bottoms: Vec<Vec<Seg>> = fingers.iter().map(|l| at(l, 0.0)).collect();
+    for b in &bottoms {
+        asm.plane("base", std::slice::from_ref(b), -Vector3::unit_z())?;
+    }
+    band_sides(&mut asm, &fingers, 0.0, hs)?;
+    for &(a, b) in &slot_idx {
+        sector(&mut asm, ang, (r_ci, r_o), (a, b), hs, false)?;
+    }
+    // Outer wall above the slots.
+    band_sides(&mut asm, &[ring_ccw(ang, r_o, 0, 0)], hs, top)?;
+    // Inner wall from the slot roofs to the pillar bottoms, with the snap bead.
+    let mut inner_chain = vec![(r_ci, hs)];
+    if let Some(s) = &pp.snap {
+        let rc = s.crest_radius_mm;
+        inner_chain.extend([
+            (r_ci, s.lead_in_z_mm),
+            (rc, s.crest_bottom_z_mm),
+            (rc, s.crest_top_z_mm),
+            (r_ci, s.retention_top_z_mm),
+        ]);
+    }
+    inner_chain.push((r_ci, bottom));
+    let profs: Vec<Prof> = inner_chain
+        .windows(2)
+        .map(|w| wall(w[0].0, w[0].1, w[1].0, w[1].1, -1.0))
+        .collect();
+    revolve_chain(&mut asm, &profs, zc, ang)?;
+
+    // Alignment pillars from the pillar bottoms to the pillar top.
     let rib = |t: f64| -> Vec<S2> {
         let (rh_, th_) = ((t.cos(), t.sin()), (-t.sin(), t.cos()));
         let e = |s: f64, q: f64| (s * rh_.0 + q * th_.0, s * rh_.1 + q * th_.1);
@@ -526,24 +814,21 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
             S2::Line(e(s2, -hc), e(s1, -hc)),
         ]
     };
+    let rib_idx: Vec<(usize, usize)> = p
+        .pillar_angles_rad
+        .iter()
+        .map(|&t| (cuts.at(t - beta), cuts.at(t + beta)))
+        .collect();
     let mut inner = Vec::new();
     for i in (0..n).rev() {
         inner.extend(rib(p.pillar_angles_rad[i]));
-        inner.extend(ring_cw(
-            &ang,
-            r_ci,
-            idx[2 * i],
-            idx[(2 * i + 2 * n - 1) % (2 * n)],
-        ));
+        inner.extend(ring_cw(ang, r_ci, rib_idx[i].0, rib_idx[(i + n - 1) % n].1));
     }
-    let outer = ring_ccw(&ang, r_o, 0, 0);
-    let loops = vec![outer, inner];
-    let bottom: Vec<Vec<Seg>> = loops.iter().map(|l| at(l, 0.0)).collect();
-    asm.plane("base", &bottom, -Vector3::unit_z())?;
-    band_sides(&mut asm, &loops, 0.0, top)?;
-    for i in 0..n {
-        let mut l = rib(p.pillar_angles_rad[i]);
-        l.extend(ring_ccw(&ang, r_ci, idx[2 * i], idx[2 * i + 1]));
+    band_sides(&mut asm, &[inner], bottom, top)?;
+    for (&t, &(from, to)) in p.pillar_angles_rad.iter().zip(&rib_idx) {
+        let mut l = rib(t);
+        l.extend(ring_ccw(ang, r_ci, from, to));
+        asm.plane("pillar bottom", &[at(&l, bottom)], -Vector3::unit_z())?;
         asm.plane("pillar top", &[at(&l, top)], Vector3::unit_z())?;
     }
 
@@ -555,14 +840,17 @@ pub fn cap(p: &ModuleProfile) -> Result<BuiltSolid, BrepError> {
     let (z_oj, z_ij) = (p.cap_outer_junction_z_mm, p.cap_inner_junction_z_mm);
     let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
     let outer_chain = domed_wall(r_o, top, z_oj, rs_o, (a, z_oa), true);
-    let inner_chain = domed_wall(r_ci, top, z_ij, rs_i, (a, z_ia), false);
-    revolve_chain(&mut asm, &outer_chain, zc, &ang)?;
-    revolve_chain(&mut asm, &inner_chain, zc, &ang)?;
-    disc(&mut asm, &ang, a, z_oa, true)?;
-    disc(&mut asm, &ang, a, z_ia, false)?;
+    let inner_dome = domed_wall(r_ci, top, z_ij, rs_i, (a, z_ia), false);
+    revolve_chain_above(&mut asm, &outer_chain, zc, ang, top)?;
+    revolve_chain_above(&mut asm, &inner_dome, zc, ang, top)?;
+    let coarse = ang.coarse().0;
+    disc(&mut asm, &coarse, a, z_oa, true)?;
+    disc(&mut asm, &coarse, a, z_ia, false)?;
 
     let rib_area = slice_area(r_ci, hc) - slice_area(r_pi, hc);
-    let band = top * (PI * (r_o * r_o - r_ci * r_ci) + n as f64 * rib_area);
+    let band = top * PI * (r_o * r_o - r_ci * r_ci) + (top - bottom) * n as f64 * rib_area
+        - hs * slots.len() as f64 * phi * (r_o * r_o - r_ci * r_ci)
+        + ring_volume(r_ci, &inner_chain);
     let upper = capped_cylinder_volume(r_o, top, z_oj, rs_o, zc, z_oa)
         - capped_cylinder_volume(r_ci, top, z_ij, rs_i, zc, z_ia);
     Ok(BuiltSolid {

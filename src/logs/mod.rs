@@ -27,6 +27,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub use table::{detect_format, parse_force_bytes, parse_wavelength_bytes};
+pub use table::{LogRow, RowReader};
 
 /// A supported wavelength log format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -168,6 +169,10 @@ pub struct PeakLog {
     pub column_names: Vec<String>,
     /// File line number of each row (1-based), for messages.
     pub line_of_row: Vec<u32>,
+    /// Bound on the error of each row's absolute time, s: half the range of phases
+    /// the timestamps allow when they were written in whole seconds and spread onto
+    /// their sampling grid (±0.25 s at 2 Hz), 0 otherwise.
+    pub time_uncertainty_s: f64,
     /// Counted problems.
     pub warnings: LogWarnings,
 }
@@ -237,6 +242,9 @@ pub struct ForceLog {
     pub force_column: String,
     /// Factor applied to reach N (from the column's unit).
     pub scale_to_n: f64,
+    /// Bound on the error of each sample's absolute time, s (see
+    /// [`PeakLog::time_uncertainty_s`]).
+    pub time_uncertainty_s: f64,
     /// Counted problems.
     pub warnings: LogWarnings,
 }
@@ -345,16 +353,18 @@ pub(crate) fn finish_times(
 
 /// Spread timestamps quantised to whole seconds (several rows per second) onto the
 /// uniform grid they were sampled on: t_i = t0 + i·dt with dt from the first and last
-/// change of the written second, and t0 the centre of the offsets allowed by floor(t_i) = written time. Returns true
-/// when applied.
-pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarnings) -> bool {
+/// change of the written second, and t0 the centre of the offsets allowed by
+/// floor(t_i) = written time. Returns the half-width of that range of offsets, the
+/// bound on each time's error (0.25 s at 2 Hz), or 0 when the times were left as
+/// they are.
+pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarnings) -> f64 {
     let n = time_s.len();
     if n < 4 || time_s.iter().any(|t| t.fract() != 0.0) {
-        return false;
+        return 0.0;
     }
     let repeats = time_s.windows(2).filter(|w| w[0] == w[1]).count();
     if repeats * 2 < n {
-        return false;
+        return 0.0;
     }
     let base = time_s[0];
     // The written second changes where the true time crosses a whole second; the
@@ -377,7 +387,7 @@ pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarn
         }
     };
     if dt.is_nan() || dt <= 0.0 {
-        return false;
+        return 0.0;
     }
     let (mut lo, mut hi) = (f64::MIN, f64::MAX);
     for (i, &t) in time_s.iter().enumerate() {
@@ -385,18 +395,22 @@ pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarn
         lo = lo.max(q);
         hi = hi.min(q + 1.0);
     }
-    let t0 = if lo <= hi { (lo + hi) / 2.0 } else { lo };
+    let (t0, half) = if lo <= hi {
+        ((lo + hi) / 2.0, (hi - lo) / 2.0)
+    } else {
+        (lo, 0.5)
+    };
     for (i, t) in time_s.iter_mut().enumerate() {
         *t = base + t0 + i as f64 * dt;
     }
     warnings.add("whole_second_timestamps", || {
         format!(
-            "{}: timestamps have a resolution of 1 s with several rows per second; rows were spread uniformly at {:.4} Hz",
+            "{}: timestamps have a resolution of 1 s with several rows per second; rows were spread uniformly at {:.4} Hz, each time uncertain by up to ±{half:.3} s",
             path.display(),
             1.0 / dt
         )
     });
-    true
+    half
 }
 
 /// Reject logs with fewer rows than an analysis can use.

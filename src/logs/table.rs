@@ -596,11 +596,11 @@ fn parse_chunk(chunk: &[u8], layout: Layout, delim: u8, dc: bool) -> Partial {
     out
 }
 
-/// Parse a wavelength log held in memory.
-pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
-    let det = detect_format(bytes, path, opts.format)?;
+/// The row layout and column names of a detected table (the body's first line is
+/// read for a header-less CSV, to count its columns).
+fn layout_of(det: &Detected, bytes: &[u8], path: &Path) -> Result<(Layout, Vec<String>)> {
     let header_line = det.body_line.saturating_sub(1);
-    let (layout, column_names) = match det.format {
+    Ok(match det.format {
         LogFormat::EnlightPeaks => {
             let channels = det.header[1..]
                 .iter()
@@ -656,7 +656,13 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
                 names,
             )
         }
-    };
+    })
+}
+
+/// Parse a wavelength log held in memory.
+pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
+    let det = detect_format(bytes, path, opts.format)?;
+    let (layout, column_names) = layout_of(&det, bytes, path)?;
     let channels = match layout {
         Layout::Peaks { channels } => channels,
         Layout::Sensors { columns } | Layout::Csv { columns } => columns,
@@ -824,6 +830,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         channels,
         column_names,
         line_of_row: lines,
+        time_uncertainty_s: 0.0,
         warnings,
     };
     if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
@@ -848,7 +855,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         log.line_of_row = ln;
         time_s = ts;
     }
-    super::dequantize(path, &mut time_s, &mut log.warnings);
+    log.time_uncertainty_s = super::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
     Ok(log)
 }
@@ -884,6 +891,26 @@ fn check_force_times_increase(path: &Path, time_s: &[f64], line_nos: &[u32]) -> 
             lines.join(", "),
             if backward.len() > 5 { ", …" } else { "" }
         );
+    }
+    // A corrupted time at either end cannot run backwards, but it stretches the log:
+    // a first or last step a hundred times longer than all the other samples span.
+    let n = time_s.len();
+    if n >= 4 {
+        let inner = time_s[n - 2] - time_s[1];
+        for (odd, step) in [
+            (0, time_s[1] - time_s[0]),
+            (n - 1, time_s[n - 1] - time_s[n - 2]),
+        ] {
+            if inner > 0.0 && step > 100.0 * inner {
+                bail!(
+                    "{}: the force log's time jumps by {} s to this sample, while the other {} samples span {} s: a corrupted time? fix or remove that row",
+                    at(path, line_nos[odd] as usize),
+                    readable_s(step),
+                    n - 1,
+                    readable_s(inner)
+                );
+            }
+        }
     }
     Ok(())
 }
@@ -1081,7 +1108,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
     // corrupted or mis-parsed value, and sorting it in would stretch the log over the
     // wrong span (one time of -1e308 among 1836 samples gave K = -13 867 pm/N).
     check_force_times_increase(path, &time_s, &line_nos)?;
-    super::dequantize(path, &mut time_s, &mut warnings);
+    let time_uncertainty_s = super::dequantize(path, &mut time_s, &mut warnings);
     Ok(ForceLog {
         source: path.to_path_buf(),
         time_s,
@@ -1090,6 +1117,98 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         time_column,
         force_column,
         scale_to_n: scale,
+        time_uncertainty_s,
         warnings,
     })
+}
+
+/// One row of a log read on its own: the live mode's tail of a file an interrogator
+/// is still writing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogRow {
+    /// Time of the row, s: wall-clock seconds since 1970 when the row carries a date
+    /// (resolved with the reader's date order), else the plain number written.
+    pub time_s: f64,
+    /// Peak wavelengths, nm.
+    pub peaks_nm: Vec<f64>,
+    /// Channel (ENLIGHT) or column (CSV, Sensors) of each peak, from 0.
+    pub channels: Vec<u16>,
+}
+
+/// Parses the rows of a log one line at a time with the same row parsers as
+/// [`parse_wavelength_bytes`], for a file that is still growing.
+pub struct RowReader {
+    format: LogFormat,
+    layout: Layout,
+    delimiter: u8,
+    decimal_comma: bool,
+    date_order: DateOrder,
+    scratch: Partial,
+    counts: Vec<usize>,
+}
+
+impl RowReader {
+    /// Detect the table in `head` (the complete lines written so far) and return the
+    /// reader with the byte offset of the first body line. A slash date is read in
+    /// `opts.date_order`, else the format's usual order (a single row cannot tell).
+    pub fn new(head: &[u8], path: &Path, opts: &ReadOptions) -> Result<(RowReader, usize)> {
+        let det = detect_format(head, path, opts.format)?;
+        let (layout, _) = layout_of(&det, head, path)?;
+        let default_order = if det.format == LogFormat::Imon {
+            DateOrder::MonthDayYear
+        } else {
+            DateOrder::DayMonthYear
+        };
+        Ok((
+            RowReader {
+                format: det.format,
+                layout,
+                delimiter: det.delimiter,
+                decimal_comma: det.delimiter != b',',
+                date_order: opts.date_order.unwrap_or(default_order),
+                scratch: Partial::default(),
+                counts: Vec::new(),
+            },
+            det.body_offset,
+        ))
+    }
+
+    /// The detected format.
+    pub fn format(&self) -> LogFormat {
+        self.format
+    }
+
+    /// Parse one line (without its newline). `Ok(None)` for a blank or comment line;
+    /// `Err((kind, message))` for a line that cannot be used, with the warning kind the
+    /// whole-file reader would count.
+    pub fn parse(&mut self, line: &[u8]) -> Result<Option<LogRow>, (&'static str, String)> {
+        let line = line.strip_suffix(b"\r").unwrap_or(line);
+        if line.is_empty() || line[0] == b'#' || trim(line).is_empty() {
+            return Ok(None);
+        }
+        let out = &mut self.scratch;
+        *out = Partial::default();
+        parse_line(
+            line,
+            self.layout,
+            self.delimiter,
+            self.decimal_comma,
+            out,
+            &mut self.counts,
+        )
+        .map_err(|e| (e.kind, e.message))?;
+        let (date, sec) = (out.times.date_of_row[0], out.times.sec[0]);
+        let time_s = if date == NO_DATE {
+            sec
+        } else {
+            let days = num::date_to_days(&out.times.dates[date as usize], self.date_order)
+                .map_err(|e| ("unreadable_line", e))?;
+            days as f64 * 86400.0 + sec
+        };
+        Ok(Some(LogRow {
+            time_s,
+            peaks_nm: std::mem::take(&mut out.peaks),
+            channels: std::mem::take(&mut out.chans),
+        }))
+    }
 }

@@ -118,6 +118,7 @@ impl LibraryMaterial {
             youngs_modulus_mpa: self.youngs_modulus_mpa,
             poisson_ratio: self.poisson_ratio,
             note: Some(self.source.clone()),
+            permissible_strain_percent: None,
         }
     }
 

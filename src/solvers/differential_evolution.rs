@@ -38,6 +38,9 @@ pub struct DifferentialEvolution {
     costs: Vec<f64>,
     trials: Vec<Vec<f64>>,
     trial_costs: Vec<f64>,
+    /// Individuals placed in the initial population (after the origin), clamped into
+    /// the box.
+    seeds: Vec<Vec<f64>>,
 }
 
 impl DifferentialEvolution {
@@ -72,12 +75,21 @@ impl DifferentialEvolution {
             costs: Vec::new(),
             trials: Vec::new(),
             trial_costs: Vec::new(),
+            seeds: Vec::new(),
         })
     }
 
     /// Set the population size (at least 4: DE/rand/1 needs three others).
     pub fn with_population(mut self, size: usize) -> Self {
         self.population_size = size.max(4);
+        self
+    }
+
+    /// Start with these individuals in the population (after the origin; as many as
+    /// fit): good guesses a caller already has. Selection is elitist, so the answer is
+    /// never worse than the best seed.
+    pub fn with_seeds(mut self, seeds: Vec<Vec<f64>>) -> Self {
+        self.seeds = seeds;
         self
     }
 
@@ -123,6 +135,13 @@ where
             .iter_mut()
             .zip(&self.lower)
             .for_each(|(z, l)| *z = *l);
+        for (ind, seed) in self.population[1..].iter_mut().zip(&self.seeds) {
+            if seed.len() == n {
+                for (j, (z, &v)) in ind.iter_mut().zip(seed).enumerate() {
+                    *z = v.clamp(self.lower[j], self.upper[j]);
+                }
+            }
+        }
         self.trials = self.population.clone();
         self.trial_costs = vec![0.0; np];
         let pop = &self.population;

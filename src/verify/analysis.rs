@@ -20,6 +20,9 @@
 
 use super::assign::{self, GratingTrack, GratingWindow};
 use super::fit::{self, LagModelCost, LagModelFit};
+use super::lag;
+pub use super::segment::{detect_pulses, percentile, PulseSpan};
+use super::segment::{Protocol, SegmentKind, Segmentation};
 use crate::logs::{median_period, Clock, ForceLog, LogWarnings, PeakLog};
 use crate::spec::{Design, GratingRole};
 use anyhow::{bail, Result};
@@ -54,25 +57,38 @@ impl Default for AnalysisOptions {
     }
 }
 
-/// One loading pulse as seen by one grating.
+/// One segment of the loading (a press, a cycle, a ramp or a step; see
+/// [`super::segment`]) as seen by one grating. The JSON keeps the name `pulses` for
+/// the list.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PulseResult {
-    /// Pulse number, from 1.
+    /// Segment number, from 1.
     pub index: usize,
-    /// Start of the pulse (force above threshold), s.
+    /// The pulse (excursion above rest) it belongs to, from 1.
+    pub pulse: usize,
+    /// What it is: `pulse`, `cycle`, `press`, `release`, `step-up`, `step-down`.
+    pub kind: SegmentKind,
+    /// Start of the change of force, s.
     pub start_s: f64,
-    /// End of the pulse, s.
+    /// End of the change of force, s.
     pub end_s: f64,
-    /// Peak force, N.
+    /// Largest force in the segment's window, N.
     pub peak_force_n: f64,
-    /// Time of the peak force, s.
+    /// Time of the force peak (vertex of a parabola through its top 5 %), s; for a
+    /// pulse or a cycle only (NaN for ramps and steps, whose peak is a plateau).
     pub peak_force_time_s: f64,
-    /// Peak shift (drift removed; signed), pm.
+    /// Peak shift (drift removed; signed), pm; pulses and cycles only.
     pub peak_shift_pm: f64,
-    /// Time of the peak shift, s.
+    /// Time of the peak shift, s; pulses and cycles only (informational: the lag is
+    /// `lag_s`, not the difference of the two peak times).
     pub peak_shift_time_s: f64,
-    /// Lag of the shift peak behind the force peak, s.
+    /// Lag of the shift behind the force: the time shift that best lines the shift up
+    /// with the force over the segment's window (sub-sample cross-correlation), s.
     pub lag_s: f64,
+    /// Standard uncertainty of `lag_s`: the noise, and 2 % of the wavelength log's
+    /// sample period for a segment seen in few samples, s (not the timestamps'
+    /// resolution, which every segment shares: see `max_lag_uncertainty_s`).
+    pub lag_uncertainty_s: f64,
 }
 
 /// Everything measured for one grating.
@@ -121,12 +137,38 @@ pub struct GratingResult {
     pub resolution_n: f64,
     /// The same in grams-force, g.
     pub resolution_g: f64,
-    /// Largest lag over the pulses (Δt_max), s.
+    /// Δt_max, s: the weighted mean of the segment lags when they agree within their
+    /// uncertainties (`max_lag_method` = `pooled`), else the largest (`largest`); see
+    /// [`super::lag`].
     pub max_lag_s: f64,
-    /// Mean lag over the pulses, s.
+    /// Standard uncertainty of Δt_max, s: the noise, 2 % of the sample period, and the
+    /// timestamps' resolution when the lags are absolute (`timing_uncertainty_s` of
+    /// the measurement, a bound b counted as b/√3).
+    pub max_lag_uncertainty_s: f64,
+    /// How Δt_max was taken: `pooled`, `largest` or `single`.
+    pub max_lag_method: String,
+    /// Mean lag over the segments, s.
     pub mean_lag_s: f64,
-    /// Q = |K|·R²/Δt_max, pm/(N·s); None when Δt_max ≤ 0.
+    /// Median lag over the segments, s.
+    pub median_lag_s: f64,
+    /// Robust spread of the segment lags (1.4826 × MAD), s.
+    pub lag_spread_s: f64,
+    /// Q = |K|·R²/Δt_max, pm/(N·s); None when Δt_max is not resolved from zero
+    /// (Δt_max ≤ 2 × its uncertainty).
     pub quality_q_pm_per_n_s: Option<f64>,
+    /// Standard uncertainty of Q from those of Δt_max and K, pm/(N·s).
+    pub quality_q_uncertainty_pm_per_n_s: Option<f64>,
+    /// Pure transport delay of the lag model (the shift follows the force delayed by
+    /// this, on top of the SLS lag), s; relative to the clock offset.
+    pub transport_delay_s: f64,
+    /// K from the held levels (press-hold-release and staircase protocols): the slope
+    /// of the mean shift against the mean force over the settled second half of every
+    /// plateau and rest, pm/N.
+    pub plateau_sensitivity_pm_per_n: Option<f64>,
+    /// Its standard error, pm/N.
+    pub plateau_sensitivity_std_error_pm_per_n: Option<f64>,
+    /// Held levels (plateaus and rests) behind it.
+    pub plateau_count: usize,
     /// Standard-linear-solid time constant τ, s (for the optimiser's lag model).
     pub sls_time_constant_s: f64,
     /// Fraction r of the response that follows the force without lag.
@@ -176,6 +218,15 @@ pub struct Measurement {
     pub interrogator_resolution_pm: f64,
     /// Pulses found in the force log.
     pub pulse_count: usize,
+    /// Loading protocol detected in the force log: `impulse`, `press-hold-release`,
+    /// `staircase`, `sine` or `mixed`.
+    pub protocol: Protocol,
+    /// Segments whose lag is measured (presses, cycles, ramps or steps).
+    pub segment_count: usize,
+    /// Bound on the error of the logs' absolute times, s: half the range the
+    /// timestamps allow when they were written in whole seconds (±0.25 s at 2 Hz), 0
+    /// otherwise. It enters the lags' uncertainty when the clock offset is given.
+    pub timing_uncertainty_s: f64,
     /// Per grating.
     pub gratings: Vec<GratingResult>,
     /// Counted warnings of both logs and of the analysis.
@@ -194,77 +245,6 @@ pub struct Series {
     /// (grating, the static K of the table, pm/N, and the line's baseline, pm) for the fit
     /// line of the shift-against-force chart.
     pub fit: Vec<(String, f64, f64)>,
-}
-
-/// Pulse boundaries in force-sample indices.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PulseSpan {
-    /// First index above threshold.
-    pub start: usize,
-    /// Last index above the exit threshold.
-    pub end: usize,
-}
-
-/// Percentile of the finite values; vectors of more than a million values are
-/// subsampled evenly (plenty for thresholds and spreads).
-fn percentile(v: &[f64], p: f64) -> f64 {
-    let step = v.len().div_ceil(1 << 20).max(1);
-    let mut s: Vec<f64> = v
-        .iter()
-        .step_by(step)
-        .copied()
-        .filter(|x| x.is_finite())
-        .collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    let k = ((s.len() - 1) as f64 * p).round() as usize;
-    *s.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
-}
-
-/// Find loading pulses: runs where the force rises above its resting level by more
-/// than 5 % of the largest pulse and 6 noise standard deviations, ending when it falls
-/// below half that threshold (hysteresis keeps noise from splitting a pulse).
-pub fn detect_pulses(force: &[f64]) -> Vec<PulseSpan> {
-    if force.len() < 3 {
-        return Vec::new();
-    }
-    let base = percentile(force, 0.1);
-    let top = percentile(force, 0.999);
-    let diffs: Vec<f64> = force.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-    let sigma = 1.4826 * percentile(&diffs, 0.5) / std::f64::consts::SQRT_2;
-    let amp = top - base;
-    if amp.is_nan() || amp <= 0.0 {
-        return Vec::new();
-    }
-    let enter = base + (0.05 * amp).max(6.0 * sigma);
-    let exit = base + 0.5 * (enter - base);
-    let mut out = Vec::new();
-    let mut start: Option<usize> = None;
-    for (i, &f) in force.iter().enumerate() {
-        match start {
-            None if f > enter => start = Some(i),
-            Some(s) if f < exit => {
-                if i - s >= 3 {
-                    out.push(PulseSpan {
-                        start: s,
-                        end: i - 1,
-                    });
-                }
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        if force.len() - s >= 3 {
-            out.push(PulseSpan {
-                start: s,
-                end: force.len() - 1,
-            });
-        }
-    }
-    out
 }
 
 /// Strided copy of the samples inside [a, b] for fitting.
@@ -325,7 +305,17 @@ impl FitData {
             force_t: &self.ft,
             force_n: &self.fv,
             fixed_offset_s: fixed,
+            offset_range_s: None,
             t_mid: self.t_mid,
+        }
+    }
+
+    /// The cost with the clocks aligned and a transport delay of at most `max_delay_s`
+    /// free (parameters: −delay, ln τ, logit r).
+    fn cost_with_delay(&self, max_delay_s: f64) -> LagModelCost<'_> {
+        LagModelCost {
+            offset_range_s: Some((-max_delay_s, max_delay_s)),
+            ..self.cost(None)
         }
     }
 }
@@ -551,8 +541,8 @@ pub fn analyse(
     let resolution_pm = opts
         .resolution_pm
         .unwrap_or_else(|| log.format.typical_resolution_pm());
-    let pulses = detect_pulses(&fval);
-    let fbase = percentile(&fval, 0.1);
+    let seg = super::segment::segment(&force.time_s, &fval);
+    let pulses = &seg.pulses;
     if pulses.is_empty() {
         bail!(
             "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
@@ -570,6 +560,17 @@ pub fn analyse(
             fu[pulses[pulses.len() - 1].end]
         );
     }
+    // Whole-second timestamps leave each log's absolute times uncertain; a given
+    // offset carries that into the lags, an estimated one absorbs it.
+    let timing = log.time_uncertainty_s.hypot(force.time_uncertainty_s);
+    let relative = source == "estimated";
+    if timing > 0.0 && !relative {
+        warnings.add("timing_uncertain", || {
+            format!(
+                "timestamps written in whole seconds leave the absolute time of each sample uncertain by up to ±{timing:.3} s; the lags, Δt_max and Q carry that uncertainty (a log with sub-second timestamps removes it)"
+            )
+        });
+    }
 
     // Per grating: the primary first (its τ and r seed the others), the rest in parallel.
     let ctx = GratingContext {
@@ -582,14 +583,18 @@ pub fn analyse(
         fval: &fval,
         fc: &fc,
         span: (wa.max(fa), wb.min(fb)),
-        pulses: &pulses,
-        fbase,
+        seg: &seg,
         resolution_pm,
         hw,
+        timing_s: if relative { 0.0 } else { timing },
     };
-    let measure = |k: usize, prev: Option<(f64, f64)>| measure_grating(&ctx, k, prev);
+    let measure = |k: usize, prev: Option<(f64, f64, f64)>| measure_grating(&ctx, k, prev);
     let first = measure(primary, None)?;
-    let seed = Some((first.0.sls_time_constant_s, first.0.sls_instant_fraction));
+    let seed = Some((
+        first.0.transport_delay_s,
+        first.0.sls_time_constant_s,
+        first.0.sls_instant_fraction,
+    ));
     let rest: Vec<Measured> = (0..used.len())
         .filter(|&k| k != primary)
         .collect::<Vec<_>>()
@@ -607,12 +612,15 @@ pub fn analyse(
         force_rate_hz: 1.0 / median_period(&force.time_s),
         clock_offset_s: offset,
         clock_offset_source: source.into(),
-        lag_is_relative: source == "estimated",
+        lag_is_relative: relative,
         force_log_start_s: fa,
         overlap_s: overlap,
         reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
         interrogator_resolution_pm: resolution_pm,
         pulse_count: pulses.len(),
+        protocol: seg.protocol,
+        segment_count: seg.segments.len(),
+        timing_uncertainty_s: timing,
         gratings: results,
         warnings,
     };
@@ -776,8 +784,19 @@ fn collect_results(
         if res.quality_q_pm_per_n_s.is_none() {
             warnings.add("q_undefined", || {
                 format!(
-                    "grating `{}`: the largest lag is not positive ({:.4} s): Q is undefined",
-                    res.grating, res.max_lag_s
+                    "grating `{}`: Δt_max = {:.4} ± {:.4} s is not resolved from zero (it must exceed twice its uncertainty): Q = |K|R²/Δt_max is undefined{}",
+                    res.grating,
+                    res.max_lag_s,
+                    res.max_lag_uncertainty_s,
+                    if res.max_lag_s > 0.0 {
+                        format!(
+                            "; Q > {:.3} pm/(N·s) at 2σ",
+                            res.sensitivity_pm_per_n.abs() * res.r_squared
+                                / (res.max_lag_s + 2.0 * res.max_lag_uncertainty_s)
+                        )
+                    } else {
+                        String::new()
+                    }
                 )
             });
         }
@@ -871,20 +890,21 @@ struct GratingContext<'a> {
     fc: &'a [f64],
     /// Time span both logs cover, s.
     span: (f64, f64),
-    pulses: &'a [PulseSpan],
-    /// Resting force level, N.
-    fbase: f64,
+    /// The force log's protocol and segments (force-sample indices).
+    seg: &'a Segmentation,
     resolution_pm: f64,
     /// Window half-width, nm.
     hw: f64,
+    /// Timing uncertainty carried into absolute lags (0 when the lags are relative), s.
+    timing_s: f64,
 }
 
 /// A measured grating, its drift-free shift series and its straight-line fit.
 type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
 
-/// Fit the lag model, the straight line and the per-pulse lags of `used[k]`; `prev`
-/// seeds τ and r from an already measured grating.
-fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> Measured {
+/// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
+/// seeds the delay, τ and r from an already measured grating.
+fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>) -> Measured {
     let (module, strain, tracks, used) = (ctx.module, ctx.strain, ctx.tracks, ctx.used);
     let (tw, fu, fval, fc, hw, resolution_pm) =
         (ctx.tw, ctx.fu, ctx.fval, ctx.fc, ctx.hw, ctx.resolution_pm);
@@ -892,19 +912,28 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
     let (gi, s) = &used[k];
     let g = strain[*gi];
     let t = &tracks[*gi];
-    // τ and r with the offset fixed.
+    // Delay, τ and r with the clocks aligned.
     let sub = FitData::new(tw, s, fu, fval, span_a, span_b, 20_000, 50_000, 30.0);
-    let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0], f64::MAX);
-    let starts: Vec<(f64, f64)> = match prev {
-        Some(p) => vec![p],
-        None => vec![(0.05, 0.5), (0.5, 0.5), (5.0, 0.5)],
+    let max_delay = max_transport_delay_s(ctx);
+    let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0, 0.0], f64::MAX);
+    // The first grating searches from three time constants; the others from its
+    // solution and from a short lag without delay (their dynamics are usually alike).
+    let starts: Vec<(f64, f64, f64)> = match prev {
+        None => vec![(0.0, 0.05, 0.5), (0.0, 0.5, 0.5), (0.0, 5.0, 0.5)],
+        Some(p) => vec![p, (0.0, 0.05, 0.5)],
     };
+    let step_delay = (2.0 * median_period(&sub.st)).max(0.25).min(max_delay);
     let tries: Vec<(Vec<f64>, f64)> = starts
         .par_iter()
-        .map(|&(tau0, r0)| {
+        .map(|&(d0, tau0, r0)| {
             let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
-            let start = [tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
-            fit::nelder_mead(sub.cost(Some(0.0)), &start, &[1.0, 1.5], 250)
+            let start = [-d0, tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
+            fit::nelder_mead(
+                sub.cost_with_delay(max_delay),
+                &start,
+                &[step_delay, 1.0, 1.5],
+                300,
+            )
         })
         .collect();
     for r in tries {
@@ -912,7 +941,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
             best = r;
         }
     }
-    let probe = sub.cost(Some(0.0));
+    let probe = sub.cost_with_delay(max_delay);
     let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
         anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
     })?;
@@ -935,11 +964,13 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         force_t: fu,
         force_n: fval,
         fixed_offset_s: Some(0.0),
+        offset_range_s: None,
         t_mid,
     };
     let lm: LagModelFit = full
-        .evaluate(0.0, lm0.tau_s, lm0.instant_fraction)
+        .evaluate(lm0.offset_s, lm0.tau_s, lm0.instant_fraction)
         .unwrap_or(lm0);
+    let delay = -lm.offset_s;
     let d: Vec<f64> = (0..tw.len())
         .map(|i| {
             if fc[i].is_finite() {
@@ -957,19 +988,44 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
     })?;
     let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
     let (rho, n, n_eff) = residual_independence(fc, &d, line.slope, line.intercept);
-    let pres = pulse_lags(ctx, &d, lm.k_pm_per_n);
-    let max_lag = pres.iter().map(|p| p.lag_s).fold(f64::NAN, f64::max);
+    let k = lm.k_pm_per_n;
+    let pres = segment_lags(ctx, &d, &lm, delay);
+    let se_k_eff = lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt();
+    // A segment seen in a few samples is fitted nearly exactly: allow 2 % of the
+    // sample period on top of the noise (0.01 s at 2 Hz).
+    let systematic = 0.02 * median_period(tw);
+    let lags: Vec<(f64, f64)> = pres
+        .iter()
+        .map(|p| (p.lag_s, p.lag_uncertainty_s))
+        .collect();
+    let summary = lag::summarise(&lags, systematic);
+    let mut pres = pres;
+    for p in &mut pres {
+        p.lag_uncertainty_s = p.lag_uncertainty_s.hypot(systematic);
+    }
     let mean_lag = if pres.is_empty() {
         f64::NAN
     } else {
         pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64
     };
-    let k = lm.k_pm_per_n;
-    let q = if max_lag > 0.0 {
-        Some(k.abs() * line.r_squared / max_lag)
+    let (max_lag, max_lag_u) = summary.map_or((f64::NAN, f64::NAN), |s| {
+        // The timing bound is the half-width of a uniform error: its standard
+        // uncertainty is bound/√3.
+        (
+            s.max_lag_s,
+            s.max_lag_uncertainty_s.hypot(ctx.timing_s / 3f64.sqrt()),
+        )
+    });
+    let (q, q_u) = if max_lag > 2.0 * max_lag_u && max_lag > 0.0 {
+        let q = k.abs() * line.r_squared / max_lag;
+        (
+            Some(q),
+            Some(q * (max_lag_u / max_lag).hypot(se_k_eff / k.abs())),
+        )
     } else {
-        None
+        (None, None)
     };
+    let plateau = plateau_sensitivity(ctx, &d);
     let result = GratingResult {
         grating: g.name.clone(),
         core: g.core.clone(),
@@ -986,8 +1042,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
         residual_autocorrelation: rho,
         effective_samples: n_eff,
-        sensitivity_std_error_effective_pm_per_n: lm.k_std_error_pm_per_n
-            * (n as f64 / n_eff).sqrt(),
+        sensitivity_std_error_effective_pm_per_n: se_k_eff,
         peak_force_n: pres.iter().map(|p| p.peak_force_n).fold(f64::NAN, f64::max),
         linear_slope_pm_per_n: line.slope,
         r_squared: line.r_squared,
@@ -997,8 +1052,17 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64)>) -> 
         resolution_n: resolution_pm / k.abs(),
         resolution_g: resolution_pm / k.abs() / 9.80665e-3,
         max_lag_s: max_lag,
+        max_lag_uncertainty_s: max_lag_u,
+        max_lag_method: summary.map_or("none", |s| s.max_lag_method).into(),
         mean_lag_s: mean_lag,
+        median_lag_s: summary.map_or(f64::NAN, |s| s.median_lag_s),
+        lag_spread_s: summary.map_or(f64::NAN, |s| s.lag_spread_s),
         quality_q_pm_per_n_s: q,
+        quality_q_uncertainty_pm_per_n_s: q_u,
+        transport_delay_s: delay,
+        plateau_sensitivity_pm_per_n: plateau.map(|p| p.0),
+        plateau_sensitivity_std_error_pm_per_n: plateau.map(|p| p.1),
+        plateau_count: plateau.map_or(0, |p| p.2),
         sls_time_constant_s: lm.tau_s,
         sls_instant_fraction: lm.instant_fraction,
         drift_pm_per_s: lm.drift_pm_per_s,
@@ -1056,49 +1120,163 @@ fn residual_independence(
     (rho, n, n_eff)
 }
 
-/// Per pulse: the times of the force peak and of the matching wavelength peak (vertex
-/// of a parabola through the top 5 % of each), and their difference, the lag.
-fn pulse_lags(ctx: &GratingContext, d: &[f64], k_pm_per_n: f64) -> Vec<PulseResult> {
-    let (tw, fu, fval, pulses, fbase) = (ctx.tw, ctx.fu, ctx.fval, ctx.pulses, ctx.fbase);
-    let sign = if k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
+/// Largest transport delay a grating's fit may take: a quarter of the median spacing
+/// of the segments (beyond it a delay would match the next segment), at least 1 s.
+fn max_transport_delay_s(ctx: &GratingContext) -> f64 {
+    let mut starts: Vec<f64> = ctx.seg.segments.iter().map(|s| ctx.fu[s.start]).collect();
+    starts.sort_by(f64::total_cmp);
+    let mut gaps: Vec<f64> = starts.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_by(f64::total_cmp);
+    gaps.get(gaps.len() / 2)
+        .map_or(1.0, |g| (0.25 * g).max(1.0))
+}
+
+/// Per segment that the wavelength log covers whole: the lag of the drift-free shift
+/// `d` behind the force by sub-sample cross-correlation over the segment's window
+/// ([`lag::segment_lag`]), and for presses and cycles the peak times (vertices of
+/// parabolas through the top 5 %).
+fn segment_lags(
+    ctx: &GratingContext,
+    d: &[f64],
+    lm: &LagModelFit,
+    delay_s: f64,
+) -> Vec<PulseResult> {
+    let (tw, fu, fval) = (ctx.tw, ctx.fu, ctx.fval);
+    let sign = if lm.k_pm_per_n < 0.0 { -1.0 } else { 1.0 };
+    let model_lag_s = delay_s.abs() + (1.0 - lm.instant_fraction) * lm.tau_s;
+    // The fitted lag model's response on the force log's own grid: the shape the
+    // data are matched against. Both come from the force smoothed over ±0.05 s (a
+    // symmetric average moves no edge): the force noise the model response carries
+    // along would otherwise pull the model's own lag towards its delay.
+    let m = ((0.05 / median_period(fu).max(1e-9)).round() as usize).min(50);
+    let fval = &super::segment::moving_average(fval, m)[..];
+    let mut y = Vec::new();
+    fit::sls_response(fu, fval, lm.tau_s, lm.instant_fraction, &mut y);
+    let mut h = 0;
+    let model: Vec<f64> = fu
+        .iter()
+        .map(|&t| fit::interp(fu, &y, t - delay_s, &mut h))
+        .collect();
+    let (first, last) = (tw[0], tw[tw.len() - 1]);
     let mut pres = Vec::new();
-    for (pi, p) in pulses.iter().enumerate() {
-        let seg_t = &fu[p.start..=p.end];
-        let seg_f = &fval[p.start..=p.end];
-        let im = (0..seg_f.len())
-            .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
-            .unwrap_or(0);
-        let (tf, pf) = fit::peak_vertex(seg_t, seg_f, im, fbase + 0.95 * (seg_f[im] - fbase));
-        let t_start = fu[p.start];
-        let t_end = fu[p.end];
-        let next = pulses.get(pi + 1).map_or(f64::INFINITY, |q| fu[q.start]);
-        let w_end = next.min(t_end + (t_end - t_start).max(1.0));
-        let i0 = tw.partition_point(|&x| x < t_start);
-        let i1 = tw.partition_point(|&x| x <= w_end);
-        if i1 <= i0 + 1 {
+    for s in &ctx.seg.segments {
+        let (t_start, t_end) = (fu[s.start], fu[s.end]);
+        if t_start < first || t_end > last {
             continue;
         }
-        let seg_tw = &tw[i0..i1];
-        let seg_d: Vec<f64> = d[i0..i1].iter().map(|v| sign * v).collect();
-        let Some(jm) = (0..seg_d.len())
-            .filter(|&j| seg_d[j].is_finite())
-            .max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y]))
-        else {
+        let window = (fu[s.window.0], fu[s.window.1]);
+        // The model's lag behind the force in this window, in continuous time (both
+        // at the force log's rate, noise-free) ...
+        let range = lag::search_range_s(window, model_lag_s);
+        // The force and the model over the window and the search range, at most
+        // 4 000 samples (both are smooth): every scan step then costs the window's
+        // samples, not a walk through a kHz log.
+        let lo = fu
+            .partition_point(|&x| x < window.0 - range)
+            .saturating_sub(1);
+        let hi = (fu.partition_point(|&x| x <= window.1 + range) + 1).min(fu.len());
+        let stride = (hi - lo).div_ceil(4000).max(1);
+        let lt: Vec<f64> = fu[lo..hi].iter().step_by(stride).copied().collect();
+        let lf: Vec<f64> = fval[lo..hi].iter().step_by(stride).copied().collect();
+        let lm_: Vec<f64> = model[lo..hi].iter().step_by(stride).copied().collect();
+        let Some(lm_lag) = lag::segment_lag(&lt, &lm_, &lt, &lf, window, range, 1.0) else {
             continue;
         };
-        let (ts, ps) = fit::peak_vertex(seg_tw, &seg_d, jm, 0.95 * seg_d[jm]);
+        // ... and how late the data run behind the model here, with its uncertainty:
+        // matched against the model's shape, not the force's, the estimate does not
+        // depend on where the samples fall (the force's shape gave 0.19 s for a
+        // 0.125 s lag at 2 Hz).
+        let Some(l) = lag::segment_lag(tw, d, &lt, &lm_, window, range, sign) else {
+            continue;
+        };
+        if l.at_limit
+            || lm_lag.at_limit
+            || !l.uncertainty_s.is_finite()
+            || l.r_squared < lag::MIN_SEGMENT_R_SQUARED
+        {
+            continue;
+        }
+        let l = lag::SegmentLag {
+            lag_s: lm_lag.lag_s + l.lag_s,
+            ..l
+        };
+        let wf = &fval[s.window.0..=s.window.1];
+        let peak_force = wf.iter().copied().fold(f64::NAN, f64::max);
+        let (mut tf, mut ts, mut ps) = (f64::NAN, f64::NAN, f64::NAN);
+        if matches!(s.kind, SegmentKind::Pulse | SegmentKind::Cycle) {
+            let seg_t = &fu[s.start..=s.end];
+            let seg_f = &fval[s.start..=s.end];
+            let base = seg_f
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min)
+                .min(wf[0]);
+            let im = (0..seg_f.len())
+                .max_by(|&x, &y| seg_f[x].total_cmp(&seg_f[y]))
+                .unwrap_or(0);
+            tf = fit::peak_vertex(seg_t, seg_f, im, base + 0.95 * (seg_f[im] - base)).0;
+            let i0 = tw.partition_point(|&x| x < window.0);
+            let i1 = tw.partition_point(|&x| x <= window.1);
+            let seg_d: Vec<f64> = d[i0..i1].iter().map(|v| sign * v).collect();
+            if let Some(jm) = (0..seg_d.len())
+                .filter(|&j| seg_d[j].is_finite())
+                .max_by(|&x, &y| seg_d[x].total_cmp(&seg_d[y]))
+            {
+                let (a, b) = fit::peak_vertex(&tw[i0..i1], &seg_d, jm, 0.95 * seg_d[jm]);
+                (ts, ps) = (a, sign * b);
+            }
+        }
         pres.push(PulseResult {
-            index: pi + 1,
+            index: pres.len() + 1,
+            pulse: s.pulse + 1,
+            kind: s.kind,
             start_s: t_start,
             end_s: t_end,
-            peak_force_n: pf,
+            peak_force_n: peak_force,
             peak_force_time_s: tf,
-            peak_shift_pm: sign * ps,
+            peak_shift_pm: ps,
             peak_shift_time_s: ts,
-            lag_s: ts - tf,
+            lag_s: l.lag_s,
+            lag_uncertainty_s: l.uncertainty_s,
         });
     }
     pres
+}
+
+/// K from the held levels: (slope, its standard error, levels used) of the mean
+/// drift-free shift against the mean force over the second half of every plateau and
+/// rest; None unless the protocol holds levels inside its pulses and at least three
+/// levels are covered by the wavelength log.
+fn plateau_sensitivity(ctx: &GratingContext, d: &[f64]) -> Option<(f64, f64, usize)> {
+    if !ctx.seg.plateaus.iter().any(|p| !p.rest) {
+        return None;
+    }
+    let (tw, fu, fc) = (ctx.tw, ctx.fu, ctx.fc);
+    let mut mf = Vec::new();
+    let mut md = Vec::new();
+    for p in &ctx.seg.plateaus {
+        let (a, b) = (fu[p.start], fu[p.end]);
+        let settled = (a + b) / 2.0;
+        let i0 = tw.partition_point(|&x| x < settled);
+        let i1 = tw.partition_point(|&x| x <= b);
+        let (mut sf, mut sd, mut n) = (0.0, 0.0, 0usize);
+        for i in i0..i1 {
+            if fc[i].is_finite() && d[i].is_finite() {
+                sf += fc[i];
+                sd += d[i];
+                n += 1;
+            }
+        }
+        if n > 0 {
+            mf.push(sf / n as f64);
+            md.push(sd / n as f64);
+        }
+    }
+    if mf.len() < 3 {
+        return None;
+    }
+    let line = fit::fit_line(&mf, &md)?;
+    Some((line.slope, line.slope_std_error, mf.len()))
 }
 
 /// Hysteresis and non-linearity, % of the full-scale output |slope|·(F_max − F_min):
@@ -1158,28 +1336,6 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn pulses_are_found_with_noise_and_different_heights() {
-        let mut f = Vec::new();
-        for (k, amp) in [5.0, 50.0, 20.0].iter().enumerate() {
-            for i in 0..200 {
-                let x = i as f64 / 100.0;
-                let v = if x < 1.0 {
-                    amp * (1.0 - (std::f64::consts::TAU * x).cos()) / 2.0
-                } else {
-                    0.0
-                };
-                let noise = 0.02 * (((i * 7919 + k * 104729) % 101) as f64 / 50.0 - 1.0);
-                f.push(v + noise);
-            }
-        }
-        let p = detect_pulses(&f);
-        assert_eq!(p.len(), 3, "{p:?}");
-        for (k, s) in p.iter().enumerate() {
-            assert!(s.start > k * 200 && s.end < k * 200 + 100, "{s:?}");
-        }
-    }
 
     #[test]
     fn a_straight_reversible_response_has_no_hysteresis() {

@@ -217,6 +217,7 @@ mod tests {
             channels: 1,
             column_names: vec![],
             line_of_row: (0..rows.len() as u32).collect(),
+            time_uncertainty_s: 0.0,
             warnings: LogWarnings::default(),
         }
     }

@@ -35,6 +35,38 @@ fn status_word(s: Status) -> &'static str {
     }
 }
 
+/// `v ± u`, or `—` when v is missing.
+fn plus_minus(v: Option<f64>, u: Option<f64>, digits: usize) -> String {
+    match (v.filter(|x| x.is_finite()), u.filter(|x| x.is_finite())) {
+        (Some(v), Some(u)) => format!("{v:.digits$} ± {u:.digits$}"),
+        (Some(v), None) => format!("{v:.digits$}"),
+        _ => "—".into(),
+    }
+}
+
+/// The protocol, its pulses and segments, and how the lags were measured.
+fn protocol_line(m: &Measurement) -> String {
+    let timing = if m.timing_uncertainty_s > 0.0 {
+        format!(
+            "; timestamps uncertain by ±{:.3} s{}",
+            m.timing_uncertainty_s,
+            if m.lag_is_relative {
+                " (absorbed by the estimated offset)"
+            } else {
+                " (in the lags' uncertainty)"
+            }
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "{} ({} pulses, {} segments: lag per segment by cross-correlation, Δt_max pooled when the segments agree){timing}",
+        m.protocol.name(),
+        m.pulse_count,
+        m.segment_count
+    )
+}
+
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.filter(|x| x.is_finite())
         .map_or("—".into(), |x| format!("{x:.digits$}"))
@@ -72,18 +104,18 @@ pub fn summary(r: &VerifyReport) -> String {
     };
     let _ = writeln!(
         s,
-        "{offset}force log starts at {:.4} s{close}, overlap {:.1} s, {} pulses, temperature reference: {}",
+        "{offset}force log starts at {:.4} s{close}, overlap {:.1} s, temperature reference: {}",
         m.force_log_start_s,
         m.overlap_s,
-        m.pulse_count,
         m.reference_grating.as_deref().unwrap_or("none")
     );
+    let _ = writeln!(s, "protocol: {}", protocol_line(m));
     if m.lag_is_relative {
         let _ = writeln!(s, "lags, Δt_max and Q are RELATIVE: {RELATIVE_LAG_NOTE}");
     }
     let _ = writeln!(
         s,
-        "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>9} {:>11} {:>8} {:>11}",
+        "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>17} {:>17} {:>8} {:>11}",
         "grating",
         "K pm/N",
         "±se",
@@ -96,17 +128,18 @@ pub fn summary(r: &VerifyReport) -> String {
         "model pm/N"
     );
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
-        let _ = writeln!(
+        let _ =
+            writeln!(
             s,
-            "{:<12} {:>14.4} {:>10.2e} {:>8.4} {:>9.2} {:>9.2} {:>9.3} {:>11} {:>8.3} {:>11}  {}{}",
+            "{:<12} {:>14.4} {:>10.2e} {:>8.4} {:>9.2} {:>9.2} {:>17} {:>17} {:>8.3} {:>11}  {}{}",
             g.grating,
             g.sensitivity_pm_per_n,
             g.sensitivity_std_error_pm_per_n,
             g.r_squared,
             g.hysteresis_percent_span,
             g.nonlinearity_percent_span,
-            g.max_lag_s,
-            opt(g.quality_q_pm_per_n_s, 3),
+            plus_minus(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
+            plus_minus(g.quality_q_pm_per_n_s, g.quality_q_uncertainty_pm_per_n_s, 3),
             g.sls_time_constant_s,
             opt(v.predicted_sensitivity_pm_per_n, 3),
             status_word(v.status),
@@ -180,12 +213,19 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
                 vec![
                     g.grating.clone(),
                     p.index.to_string(),
+                    p.pulse.to_string(),
+                    serde_json::to_value(p.kind)
+                        .ok()
+                        .and_then(|v| v.as_str().map(String::from))
+                        .unwrap_or_default(),
                     format!("{:.6}", p.start_s),
+                    format!("{:.6}", p.end_s),
                     format!("{:.5}", p.peak_force_n),
                     format!("{:.6}", p.peak_force_time_s),
                     format!("{:.4}", p.peak_shift_pm),
                     format!("{:.6}", p.peak_shift_time_s),
                     format!("{:.6}", p.lag_s),
+                    format!("{:.6}", p.lag_uncertainty_s),
                 ]
             })
         })
@@ -194,13 +234,17 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         &dir.join("pulses.csv"),
         &[
             "grating",
+            "segment",
             "pulse",
+            "kind",
             "start_s",
+            "end_s",
             "peak_force_n",
             "peak_force_time_s",
             "peak_shift_pm",
             "peak_shift_time_s",
             "lag_s",
+            "lag_uncertainty_s",
         ],
         &prow,
     )?;
@@ -255,8 +299,8 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     }
     c.write_svg(&dir.join("shift_vs_time.svg"))?;
     let mut c = Chart::new(
-        "Lag of the shift peak behind the force peak",
-        "pulse",
+        "Lag of the shift behind the force, per segment",
+        "segment",
         "lag (s)",
     );
     let mut any = false;
@@ -298,7 +342,8 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         "- force log: `{}` ({} samples, {:.2} Hz)",
         m.force_log, m.force_samples, m.force_rate_hz
     );
-    let _ = writeln!(md, "- clock offset (force − wavelength clock): {:.4} s ({}); the force log starts at {:.4} s on the wavelength log's time axis; overlap {:.1} s; {} pulses", m.clock_offset_s, m.clock_offset_source, m.force_log_start_s, m.overlap_s, m.pulse_count);
+    let _ = writeln!(md, "- clock offset (force − wavelength clock): {:.4} s ({}); the force log starts at {:.4} s on the wavelength log's time axis; overlap {:.1} s", m.clock_offset_s, m.clock_offset_source, m.force_log_start_s, m.overlap_s);
+    let _ = writeln!(md, "- protocol: {}", protocol_line(m));
     if m.lag_is_relative {
         let _ = writeln!(
             md,
@@ -313,15 +358,15 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             .unwrap_or("none (not compensated)"),
         m.interrogator_resolution_pm
     );
-    let _ = writeln!(md, "| grating | K pm/N | ± se | model pm/N | error % | status | R² | hysteresis % | non-linearity % | resolution N | Δt_max s | Q pm/(N·s) | τ s | r |");
+    let _ = writeln!(md, "| grating | K pm/N | ± se | model pm/N | error % | status | R² | hysteresis % | non-linearity % | resolution N | Δt_max s | Q pm/(N·s) | τ s | r | delay s | plateau K pm/N |");
     let _ = writeln!(
         md,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
         let _ = writeln!(
             md,
-            "| {} | {:.4} | {:.4} | {} | {} | {} | {:.4} | {:.2} | {:.2} | {:.4} | {:.3} | {} | {:.3} | {:.3} |",
+            "| {} | {:.4} | {:.4} | {} | {} | {} | {:.4} | {:.2} | {:.2} | {:.4} | {} ({}) | {} | {:.3} | {:.3} | {:.3} | {} |",
             g.grating,
             g.sensitivity_pm_per_n,
             g.sensitivity_std_error_pm_per_n,
@@ -332,10 +377,17 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             g.hysteresis_percent_span,
             g.nonlinearity_percent_span,
             g.resolution_n,
-            g.max_lag_s,
-            opt(g.quality_q_pm_per_n_s, 3),
+            plus_minus(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
+            g.max_lag_method,
+            plus_minus(g.quality_q_pm_per_n_s, g.quality_q_uncertainty_pm_per_n_s, 3),
             g.sls_time_constant_s,
-            g.sls_instant_fraction
+            g.sls_instant_fraction,
+            g.transport_delay_s,
+            plus_minus(
+                g.plateau_sensitivity_pm_per_n,
+                g.plateau_sensitivity_std_error_pm_per_n,
+                4
+            )
         );
     }
     for v in &r.verdict.gratings {

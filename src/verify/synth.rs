@@ -13,7 +13,7 @@ use crate::logs::num::{civil_from_days, split_epoch};
 use crate::logs::LogFormat;
 use crate::output::write_atomic_with;
 use crate::spec::{Design, GratingRole};
-use crate::verify::fit;
+use crate::verify::{fit, lag, segment};
 use anyhow::{bail, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -22,7 +22,35 @@ use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 
-/// One haversine loading pulse: F = peak·(1 − cos 2π(t − start)/duration)/2.
+/// The shape of one loading pulse (a force-stand protocol).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[serde(rename_all = "kebab-case", tag = "shape")]
+pub enum PulseShape {
+    /// F = peak·(1 − cos 2π(t − start)/duration)/2: an impulse-like press.
+    #[default]
+    Haversine,
+    /// Press-hold-release: linear ramps of `ramp_s` up and down, the peak held between.
+    Trapezoid {
+        /// Duration of each ramp, s.
+        ramp_s: f64,
+    },
+    /// A staircase: `steps` equal steps up to the peak, then back down step by step;
+    /// every change a linear ramp of `ramp_s`, the holds between of equal length.
+    Staircase {
+        /// Number of steps up (as many down).
+        steps: u32,
+        /// Duration of each step's ramp, s.
+        ramp_s: f64,
+    },
+    /// A sine from rest: `cycles` back-to-back haversines filling the duration
+    /// (0 to the peak and back, at cycles/duration Hz).
+    Sine {
+        /// Number of cycles.
+        cycles: u32,
+    },
+}
+
+/// One loading pulse.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Pulse {
     /// Start, s from the wavelength log's first row.
@@ -31,11 +59,63 @@ pub struct Pulse {
     pub duration_s: f64,
     /// Peak force, N.
     pub peak_n: f64,
+    /// Shape.
+    pub shape: PulseShape,
 }
 
-/// Pulses of the given peaks, each `duration_s` long, separated by `rest_s`, the first
-/// starting at `lead_s`.
+impl Pulse {
+    /// Force at time `t`, N (0 outside the pulse).
+    pub fn force_at(&self, t: f64) -> f64 {
+        let x = t - self.start_s;
+        let d = self.duration_s;
+        if !(0.0..=d).contains(&x) || d <= 0.0 {
+            return 0.0;
+        }
+        let hav = |u: f64| (1.0 - (std::f64::consts::TAU * u).cos()) / 2.0;
+        self.peak_n
+            * match self.shape {
+                PulseShape::Haversine => hav(x / d),
+                PulseShape::Trapezoid { ramp_s } => {
+                    let r = ramp_s.clamp(1e-9, d / 2.0);
+                    (x / r).min(1.0).min((d - x) / r)
+                }
+                PulseShape::Staircase { steps, ramp_s } => {
+                    let n = steps.max(1) as f64;
+                    let changes = 2.0 * n;
+                    let r = ramp_s.clamp(1e-9, d / changes);
+                    let hold = (d - changes * r) / (changes - 1.0);
+                    // Change k (0-based) starts at k (r + hold).
+                    let k = (x / (r + hold)).floor().min(changes - 1.0);
+                    let within = x - k * (r + hold);
+                    let level = |j: f64| if j < n { j + 1.0 } else { 2.0 * n - j - 1.0 };
+                    let before = if k == 0.0 { 0.0 } else { level(k - 1.0) };
+                    let after = level(k);
+                    let v = if within < r {
+                        before + (after - before) * within / r
+                    } else {
+                        after
+                    };
+                    v / n
+                }
+                PulseShape::Sine { cycles } => hav(x * cycles.max(1) as f64 / d),
+            }
+    }
+}
+
+/// Haversine pulses of the given peaks, each `duration_s` long, separated by `rest_s`,
+/// the first starting at `lead_s`.
 pub fn pulse_train(peaks_n: &[f64], duration_s: f64, rest_s: f64, lead_s: f64) -> Vec<Pulse> {
+    shaped_train(peaks_n, duration_s, rest_s, lead_s, PulseShape::Haversine)
+}
+
+/// Pulses of one shape, as [`pulse_train`].
+pub fn shaped_train(
+    peaks_n: &[f64],
+    duration_s: f64,
+    rest_s: f64,
+    lead_s: f64,
+    shape: PulseShape,
+) -> Vec<Pulse> {
     peaks_n
         .iter()
         .enumerate()
@@ -43,19 +123,14 @@ pub fn pulse_train(peaks_n: &[f64], duration_s: f64, rest_s: f64, lead_s: f64) -
             start_s: lead_s + i as f64 * (duration_s + rest_s),
             duration_s,
             peak_n: p,
+            shape,
         })
         .collect()
 }
 
 /// Force of a pulse train at time t, N.
 pub fn force_at(pulses: &[Pulse], t: f64) -> f64 {
-    pulses
-        .iter()
-        .filter(|p| t >= p.start_s && t <= p.start_s + p.duration_s)
-        .map(|p| {
-            p.peak_n * (1.0 - (std::f64::consts::TAU * (t - p.start_s) / p.duration_s).cos()) / 2.0
-        })
-        .sum()
+    pulses.iter().map(|p| p.force_at(t)).sum()
 }
 
 /// How the log text looks.
@@ -101,6 +176,9 @@ pub struct SynthConfig {
     pub tau_s: f64,
     /// Fraction r of the response without lag.
     pub instant_fraction: f64,
+    /// Pure transport delay of the response behind the force, s (on top of the SLS
+    /// lag): the shift at t is the SLS response to the force at t − delay.
+    pub transport_delay_s: f64,
     /// Wavelength-log time at which the force recording starts (its time zero), s.
     pub force_start_s: f64,
     /// White noise on every peak, pm (standard deviation).
@@ -132,6 +210,7 @@ impl Default for SynthConfig {
             duration_s: 65.0,
             tau_s: 0.4,
             instant_fraction: 0.3,
+            transport_delay_s: 0.0,
             force_start_s: -1.7,
             noise_pm: 0.3,
             force_noise_n: 0.01,
@@ -155,9 +234,9 @@ pub struct SynthGrating {
     pub nominal_nm: f64,
     /// True static K, pm/N (0 for the reference).
     pub sensitivity_pm_per_n: f64,
-    /// True lag per pulse, s.
+    /// True lag per segment (see [`crate::verify::lag`]), s.
     pub lags_s: Vec<f64>,
-    /// True Δt_max, s.
+    /// True Δt_max (the largest segment lag), s.
     pub max_lag_s: f64,
     /// Expected R² of Δλ against F.
     pub r_squared_expected: f64,
@@ -176,6 +255,10 @@ pub struct SynthTruth {
     pub sls_time_constant_s: f64,
     /// r.
     pub sls_instant_fraction: f64,
+    /// Pure transport delay, s.
+    pub transport_delay_s: f64,
+    /// Protocol of the force profile, as the verifier names it.
+    pub protocol: String,
     /// Wavelength sample period, s.
     pub sample_period_s: f64,
     /// Pulses.
@@ -227,6 +310,25 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     {
         bail!("rates, duration and τ must be positive");
     }
+    if !(cfg.transport_delay_s.is_finite() && cfg.transport_delay_s >= 0.0) {
+        bail!(
+            "the transport delay must be a finite number of seconds ≥ 0, got {}",
+            cfg.transport_delay_s
+        );
+    }
+    for p in &cfg.pulses {
+        let ok = match p.shape {
+            PulseShape::Haversine => true,
+            PulseShape::Trapezoid { ramp_s } => ramp_s > 0.0 && 2.0 * ramp_s <= p.duration_s,
+            PulseShape::Staircase { steps, ramp_s } => {
+                steps >= 1 && ramp_s > 0.0 && 2.0 * steps as f64 * ramp_s < p.duration_s
+            }
+            PulseShape::Sine { cycles } => cycles >= 1,
+        };
+        if !(ok && p.duration_s > 0.0 && p.duration_s.is_finite() && p.peak_n.is_finite()) {
+            bail!("pulse at {} s: its shape {:?} does not fit its duration {} s (ramps must be positive and fit; at least one step or cycle)", p.start_s, p.shape, p.duration_s);
+        }
+    }
     if cfg.pulses.iter().all(|p| p.peak_n == 0.0) {
         bail!("the force profile needs at least one pulse with a non-zero peak");
     }
@@ -254,30 +356,41 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     let n_sim = (cfg.duration_s / dt_sim).ceil() as usize + 2;
     let ts: Vec<f64> = (0..n_sim).map(|i| i as f64 * dt_sim).collect();
     let fs: Vec<f64> = ts.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
-    let mut ys = Vec::new();
-    fit::sls_response(&ts, &fs, cfg.tau_s, cfg.instant_fraction, &mut ys);
-    // True lags.
-    let lags: Vec<f64> = cfg
-        .pulses
+    let mut y0 = Vec::new();
+    fit::sls_response(&ts, &fs, cfg.tau_s, cfg.instant_fraction, &mut y0);
+    // The delayed response: ys(t) = y0(t − delay).
+    let mut h = 0;
+    let ys: Vec<f64> = ts
         .iter()
-        .enumerate()
-        .filter(|(_, p)| p.start_s + p.duration_s < cfg.duration_s)
-        .map(|(i, p)| {
-            let next = cfg.pulses.get(i + 1).map_or(f64::INFINITY, |q| q.start_s);
-            let a = (p.start_s / dt_sim) as usize;
-            let b = (((p.start_s + 2.0 * p.duration_s).min(next) / dt_sim) as usize).min(n_sim - 1);
-            let im = (a..=b)
-                .max_by(|&x, &y| ys[x].total_cmp(&ys[y]))
-                .unwrap_or(a);
-            // Refine by a parabola through the three samples around the maximum.
-            let (y0, y1, y2) = (ys[im - 1], ys[im], ys[(im + 1).min(n_sim - 1)]);
-            let den = y0 - 2.0 * y1 + y2;
-            let frac = if den < 0.0 {
-                0.5 * (y0 - y2) / den
+        .map(|&t| {
+            if t < cfg.transport_delay_s {
+                y0[0]
             } else {
-                0.0
-            };
-            (im as f64 + frac) * dt_sim - (p.start_s + p.duration_s / 2.0)
+                fit::interp(&ts, &y0, t - cfg.transport_delay_s, &mut h)
+            }
+        })
+        .collect();
+    // True lags: the verifier's segments of the noise-free force and its lag measure
+    // on the noise-free response, both on the fine grid (continuous time).
+    let seg = segment::segment(&ts, &fs);
+    let model_lag = cfg.transport_delay_s.abs() + (1.0 - cfg.instant_fraction) * cfg.tau_s;
+    let lags: Vec<f64> = seg
+        .segments
+        .iter()
+        // As the verifier: only changes of force that the log covers whole.
+        .filter(|s| ts[s.end] < cfg.duration_s)
+        .filter_map(|s| {
+            let w = (ts[s.window.0], ts[s.window.1]);
+            lag::segment_lag(
+                &ts,
+                &ys,
+                &ts,
+                &fs,
+                w,
+                lag::search_range_s(w, model_lag),
+                1.0,
+            )
+            .map(|l| l.lag_s)
         })
         .collect();
     let max_lag = lags.iter().copied().fold(f64::NAN, f64::max);
@@ -395,6 +508,8 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
         clock_offset_s: -cfg.force_start_s,
         sls_time_constant_s: cfg.tau_s,
         sls_instant_fraction: cfg.instant_fraction,
+        transport_delay_s: cfg.transport_delay_s,
+        protocol: seg.protocol.name().into(),
         sample_period_s: 1.0 / cfg.sample_rate_hz,
         pulses: cfg.pulses.clone(),
         gratings: truth_gratings,

@@ -120,7 +120,11 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         .into_iter()
         .chain(geometry::part_names(&array))
     {
-        let d = if name == "mold" { &array } else { &design };
+        let d = if name.starts_with("mold") {
+            &array
+        } else {
+            &design
+        };
         let sel = [name.clone()];
         let mut times = Vec::new();
         for _ in 0..repeats {

@@ -13,4 +13,5 @@ pub mod fem_contact;
 pub mod optimize;
 pub mod predict;
 pub mod reconstruct;
+pub mod reconstruct_scaling;
 pub mod verify;

@@ -42,9 +42,29 @@ pub struct BenchOptions {
     /// failure studies use the first five). `--quick` runs one.
     #[arg(long, default_value_t = 20)]
     pub repeats: u64,
-    /// Quick run: one repetition, DE limited to 300 generations, coarser sweeps.
+    /// Quick run: one repetition, DE limited to 300 generations, coarser sweeps, two
+    /// frames per load count in the scaling part.
     #[arg(long)]
     pub quick: bool,
+    /// Which part to run: the paper's protocol and failure studies, the scaling
+    /// study (6 × 8 to 32 × 256 cells), or both.
+    #[arg(long, value_enum, default_value_t = Part::All)]
+    pub part: Part,
+    /// Per-frame budget of the default method choice in the scaling part, µs
+    /// (default 100).
+    #[arg(long)]
+    pub budget_us: Option<f64>,
+}
+
+/// Parts of the `reconstruct` study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Part {
+    /// Protocol, speed, throughput, failure studies, then scaling.
+    All,
+    /// The paper's protocol, speed against accuracy, throughput, failure studies.
+    Protocol,
+    /// Time per frame and RR per method against the array's size.
+    Scaling,
 }
 
 /// RR below which a method counts as broken down, %.
@@ -102,6 +122,20 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         ..opts.clone()
     };
     fbgforge::output::ensure_dir(&opts.out)?;
+    if opts.part == Part::Scaling {
+        let mut report = String::from("# fbgforge-studies reconstruct --part scaling\n");
+        crate::reconstruct_scaling::run(
+            &opts.out,
+            opts.quick,
+            opts.seed,
+            opts.budget_us,
+            &mut report,
+        )?;
+        write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
+        println!("{report}");
+        println!("written to {}", opts.out.display());
+        return Ok(());
+    }
     let (true_a, layout_name) = match &opts.design {
         Some(p) => {
             let d = fbgforge::design::load(p)?;
@@ -410,7 +444,20 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     let studies = failure_studies(&true_a, opts, &cfgs[..cfgs.len().min(5)], &mut report)?;
     write_json(&opts.out.join("failure.json"), &studies)?;
 
-    writeln!(report, "\nDefault method: `{}`.", DEFAULT_METHOD.name())?;
+    writeln!(
+        report,
+        "\nMost accurate method (protocol default): `{}`.",
+        DEFAULT_METHOD.name()
+    )?;
+    if opts.part == Part::All {
+        crate::reconstruct_scaling::run(
+            &opts.out,
+            opts.quick,
+            opts.seed,
+            opts.budget_us,
+            &mut report,
+        )?;
+    }
     write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
     println!("{report}");
     println!("written to {}", opts.out.display());
@@ -578,6 +625,7 @@ fn failure_studies(
             .map(|c| ProtocolConfig {
                 singles_per_mass: 0,
                 multi_load_counts: (1..=8).collect(),
+                max_loads: true_a.nrows(),
                 ..c.clone()
             })
             .collect();

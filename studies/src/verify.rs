@@ -1,6 +1,9 @@
 //! Study `verify` (`cargo run --release -p fbgforge-studies -- verify [--quick]`): log
 //! parsing throughput and the end-to-end verification time of a long synthetic
-//! 8-grating log, stage by stage, through the library's verify use case.
+//! 8-grating log, stage by stage, through the library's verify use case; then the
+//! accuracy of K, the segment lags, Δt_max and Q on the force-stand protocols labs
+//! use (impulse, press-hold-release, staircase, sine), each with a pure transport
+//! delay and with a standard-linear-solid lag (`protocols.csv`, `protocols.svg`).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -265,6 +268,218 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
         "wrote {} and {}",
         a.out.join("bench_verify.csv").display(),
         a.out.join("bench_verify.svg").display()
+    );
+    protocol_accuracy(&a.out)
+}
+
+/// One protocol run for the accuracy table.
+struct ProtocolCase {
+    protocol: &'static str,
+    cfg: synth::SynthConfig,
+}
+
+/// The protocols of `tests/verify_protocols.rs`: 1 s presses at 2 Hz, press-hold-release
+/// with 10 s plateaus at 10 Hz, a 0–250 g staircase in 25 g steps at 10 Hz, sines of
+/// 0.1, 0.25 (at 2 Hz) and 0.5 Hz.
+fn protocol_cases() -> Vec<ProtocolCase> {
+    use synth::{shaped_train, PulseShape, SynthConfig};
+    let base = SynthConfig::default();
+    vec![
+        ProtocolCase {
+            protocol: "impulse",
+            cfg: SynthConfig {
+                sample_rate_hz: 2.0,
+                pulses: synth::pulse_train(&[10.0, 20.0, 30.0, 40.0, 50.0, 25.0], 1.0, 9.0, 5.0),
+                duration_s: 65.0,
+                ..base.clone()
+            },
+        },
+        ProtocolCase {
+            protocol: "press-hold-release",
+            cfg: SynthConfig {
+                sample_rate_hz: 10.0,
+                pulses: shaped_train(
+                    &[20.0, 40.0, 30.0],
+                    12.0,
+                    10.0,
+                    5.0,
+                    PulseShape::Trapezoid { ramp_s: 1.0 },
+                ),
+                duration_s: 75.0,
+                ..base.clone()
+            },
+        },
+        ProtocolCase {
+            protocol: "staircase",
+            cfg: SynthConfig {
+                sample_rate_hz: 10.0,
+                sensitivity_pm_per_n: 38.0,
+                pulses: shaped_train(
+                    &[0.250 * 9.80665],
+                    20.0 * 0.3 + 19.0 * 5.0,
+                    0.0,
+                    8.0,
+                    PulseShape::Staircase {
+                        steps: 10,
+                        ramp_s: 0.3,
+                    },
+                ),
+                duration_s: 120.0,
+                ..base.clone()
+            },
+        },
+        ProtocolCase {
+            protocol: "sine 0.1 Hz",
+            cfg: SynthConfig {
+                sample_rate_hz: 10.0,
+                pulses: shaped_train(&[40.0], 40.0, 0.0, 6.0, PulseShape::Sine { cycles: 4 }),
+                duration_s: 56.0,
+                ..base.clone()
+            },
+        },
+        ProtocolCase {
+            protocol: "sine 0.25 Hz",
+            cfg: SynthConfig {
+                sample_rate_hz: 2.0,
+                pulses: shaped_train(&[40.0], 32.0, 0.0, 6.0, PulseShape::Sine { cycles: 8 }),
+                duration_s: 48.0,
+                ..base.clone()
+            },
+        },
+        ProtocolCase {
+            protocol: "sine 0.5 Hz",
+            cfg: SynthConfig {
+                sample_rate_hz: 10.0,
+                pulses: shaped_train(&[40.0], 20.0, 0.0, 6.0, PulseShape::Sine { cycles: 10 }),
+                duration_s: 36.0,
+                ..base
+            },
+        },
+    ]
+}
+
+/// K, lag, Δt_max and Q accuracy per protocol and dynamics, offset given: printed as a
+/// table, written to `protocols.csv` and `protocols.svg`.
+fn protocol_accuracy(out: &std::path::Path) -> Result<()> {
+    use fbgforge::verify::analysis::{analyse, AnalysisOptions};
+    let design = fbgforge::design::parse(include_str!("../../designs/clip-on-34mm.toml"))?;
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    let mut points = (Vec::new(), Vec::new());
+    println!(
+        "\n{:<20} {:>5} {:<10} {:<19} {:>9} {:>10} {:>10} {:>10} {:>9}",
+        "protocol",
+        "Hz",
+        "dynamics",
+        "detected",
+        "K err %",
+        "lag err s",
+        "Δt err s",
+        "Δt_max s",
+        "Q/K ratio"
+    );
+    for case in protocol_cases() {
+        for (dynamics, delay, r) in [("delay 0.3 s", 0.3, 1.0), ("SLS τ 0.4 s", 0.0, 0.3)] {
+            let cfg = synth::SynthConfig {
+                transport_delay_s: delay,
+                instant_fraction: r,
+                tau_s: 0.4,
+                ..case.cfg.clone()
+            };
+            let (log, force, truth) = synth::generate(&design, &cfg)?;
+            let (lp, fp) = (out.join("protocol-log.csv"), out.join("protocol-force.csv"));
+            synth::write_log(&lp, LogFormat::Csv, &log, &cfg, &LogStyle::default())?;
+            synth::write_force_csv(&fp, &force)?;
+            let pl = logs::read_peak_log(&lp, &ReadOptions::default())?;
+            let fl = logs::read_force_log(&fp, &logs::ForceColumns::default())?;
+            let opts = AnalysisOptions {
+                clock_offset_s: Some(synth::reported_offset_s(&cfg, LogFormat::Csv)),
+                ..Default::default()
+            };
+            let (m, _) = analyse(&design, &pl, &fl, &opts)?;
+            let strain: Vec<_> = truth.gratings.iter().filter(|g| !g.reference).collect();
+            let (mut k_err, mut lag_err, mut dt_err) = (0.0f64, 0.0f64, 0.0f64);
+            for (g, t) in m.gratings.iter().zip(&strain) {
+                k_err = k_err.max((g.sensitivity_pm_per_n / t.sensitivity_pm_per_n - 1.0).abs());
+                for (p, l) in g.pulses.iter().zip(&t.lags_s) {
+                    lag_err = lag_err.max((p.lag_s - l).abs());
+                }
+                if g.pulses.len() != t.lags_s.len() {
+                    lag_err = f64::NAN;
+                }
+                dt_err = dt_err.max((g.max_lag_s - t.max_lag_s).abs());
+            }
+            let q = |i: usize| m.gratings.get(i).and_then(|g| g.quality_q_pm_per_n_s);
+            let q_ratio = match (q(0), q(1)) {
+                (Some(a), Some(b)) => {
+                    a / b / (strain[0].sensitivity_pm_per_n / strain[1].sensitivity_pm_per_n)
+                }
+                _ => f64::NAN,
+            };
+            println!(
+                "{:<20} {:>5} {:<10} {:<19} {:>9.3} {:>10.4} {:>10.4} {:>10.4} {:>9.4}",
+                case.protocol,
+                cfg.sample_rate_hz,
+                dynamics,
+                m.protocol.name(),
+                100.0 * k_err,
+                lag_err,
+                dt_err,
+                strain[0].max_lag_s,
+                q_ratio
+            );
+            let i = rows.len() as f64 + 1.0;
+            points.0.push((i, 100.0 * k_err));
+            points.1.push((i, dt_err));
+            rows.push(vec![
+                case.protocol.into(),
+                format!("{}", cfg.sample_rate_hz),
+                dynamics.into(),
+                m.protocol.name().into(),
+                format!("{:.4}", 100.0 * k_err),
+                format!("{lag_err:.5}"),
+                format!("{dt_err:.5}"),
+                format!("{:.5}", strain[0].max_lag_s),
+                format!("{q_ratio:.5}"),
+            ]);
+        }
+    }
+    let _ = std::fs::remove_file(out.join("protocol-log.csv"));
+    let _ = std::fs::remove_file(out.join("protocol-force.csv"));
+    fbgforge::output::write_csv(
+        &out.join("protocols.csv"),
+        &[
+            "protocol",
+            "rate_hz",
+            "dynamics",
+            "detected",
+            "worst_k_error_percent",
+            "worst_segment_lag_error_s",
+            "worst_max_lag_error_s",
+            "true_max_lag_s",
+            "q_ratio_over_k_ratio",
+        ],
+        &rows,
+    )?;
+    fbgforge::plot::Chart::new(
+        "verify: accuracy per protocol (offset given; case number as in protocols.csv)",
+        "case",
+        "K error (%) and Δt_max error (s)",
+    )
+    .with(fbgforge::plot::Series::new(
+        "worst K error, %",
+        points.0,
+        fbgforge::plot::Mark::Points,
+    ))
+    .with(fbgforge::plot::Series::new(
+        "worst Δt_max error, s",
+        points.1,
+        fbgforge::plot::Mark::Points,
+    ))
+    .write_svg(&out.join("protocols.svg"))?;
+    println!(
+        "wrote {} and {}",
+        out.join("protocols.csv").display(),
+        out.join("protocols.svg").display()
     );
     Ok(())
 }

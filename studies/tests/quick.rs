@@ -99,6 +99,23 @@ fn verify_study_quick_recovers_k_of_its_synthetic_log() {
         !dir.path().join("bench-peaks.txt").exists(),
         "logs removed without --keep"
     );
+    // The protocol table: every protocol detected, K within 1 %, Δt_max within 0.05 s
+    // of the synthetic truth, Q in the ratio of K within 5 %.
+    let csv = std::fs::read_to_string(dir.path().join("protocols.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 12, "{csv}");
+    for r in &rows {
+        assert!(r[0].starts_with(r[3]), "{r:?}");
+        let num = |i: usize| r[i].parse::<f64>().unwrap();
+        assert!(
+            num(4) < 1.0 && num(6) < 0.05 && (num(8) - 1.0).abs() < 0.05,
+            "{r:?}"
+        );
+    }
 }
 
 #[test]
@@ -126,6 +143,8 @@ fn reconstruct_study_quick_recovers_every_single_load() {
         seed: 1,
         repeats: 20,
         quick: true,
+        part: fbgforge_studies::reconstruct::Part::All,
+        budget_us: None,
     };
     fbgforge_studies::reconstruct::run(&a).unwrap();
     let runs = read_json(&dir.path().join("protocol.json"));

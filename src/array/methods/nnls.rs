@@ -27,6 +27,11 @@ impl Reconstructor for Nnls {
         Method::Nnls
     }
 
+    /// ‖Âz − y‖² over the box.
+    fn objective(&self, y: &[f64], loads_g: &[f64]) -> Option<f64> {
+        self.common.misfit_of(y, loads_g).map(|(m, _)| m)
+    }
+
     fn reconstruct(&self, y: &[f64]) -> Reconstruction {
         let Some(aty) = self.common.aty(y) else {
             return self.common.unusable();

@@ -10,7 +10,14 @@ pub(super) const SUPPORT: MethodEntry = MethodEntry {
     default_penalty: 4.0,
     has_penalty: true,
     penalty_grid: doubling_grid,
-    build: |common, s| Ok(Box::new(SupportSearch::new(common, s.penalty, None)?)),
+    build: |common, s| {
+        Ok(Box::new(SupportSearch::new(
+            common,
+            s.penalty,
+            None,
+            s.max_loads,
+        )?))
+    },
 };
 
 /// The registry entry of `wsupport`.
@@ -24,6 +31,7 @@ pub(super) const WEIGHTED_SUPPORT: MethodEntry = MethodEntry {
             common,
             s.penalty,
             Some(s.noise_prior),
+            s.max_loads,
         )?))
     },
 };
@@ -186,9 +194,13 @@ impl SupportSearch {
         common: Common,
         lambda: f64,
         prior: Option<NoisePrior>,
+        max_loads: usize,
     ) -> Result<Self, ArrayError> {
         let (m, n) = (common.problem.n_gratings(), common.n());
-        let kmax = m.min(n);
+        if max_loads == 0 {
+            return Err(ArrayError::Input("max_loads must be at least 1".into()));
+        }
+        let kmax = m.min(n).min(max_loads);
         let mut count: f64 = 0.0;
         let mut binom: f64 = 1.0;
         for k in 1..=kmax {
@@ -197,8 +209,10 @@ impl SupportSearch {
         }
         if count > MAX_SUPPORTS as f64 {
             return Err(ArrayError::Input(format!(
-                "support enumeration would try {count:.0} supports for {n} cells and {m} gratings \
-                 (limit {MAX_SUPPORTS}); use `omp`, `lasso` or `de` for arrays this large"
+                "support enumeration would try {count:.0} supports of up to {kmax} loads for {n} cells \
+                 and {m} gratings (limit {MAX_SUPPORTS}); use `bnb` (the `support` objective by \
+                 branch and bound) or the default method choice for arrays this large, or lower \
+                 --max-loads"
             )));
         }
         let mut entries = Vec::new();
@@ -527,6 +541,15 @@ impl Reconstructor for SupportSearch {
         } else {
             Method::Support
         }
+    }
+
+    /// `support`: ‖Âz − y‖² + λ·|S|; `wsupport` scores supports, not loads: None.
+    fn objective(&self, y: &[f64], loads_g: &[f64]) -> Option<f64> {
+        if self.prior.is_some() {
+            return None;
+        }
+        let (misfit, _) = self.common.misfit_of(y, loads_g)?;
+        Some(misfit + self.lambda * loads_g.iter().filter(|&&x| x > 0.0).count() as f64)
     }
 
     fn reconstruct(&self, y: &[f64]) -> Reconstruction {

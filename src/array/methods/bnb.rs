@@ -1,0 +1,663 @@
+//! `bnb`: the `support` objective — min ‖Âz − y‖² + λ·|S| over supports of at most
+//! K cells, 0 ≤ z ≤ u — solved exactly by depth-first branch and bound instead of
+//! enumerating all C(n, ≤ K) supports.
+//!
+//! * **Order.** Cells are ranked once per frame: the cells of the non-negative least
+//!   squares fit of the whole frame (largest load first), then the rest by their
+//!   correlation with the frame. A node is a partial support P whose cells appear in
+//!   that order; its children add one cell after P's last one. Supports that explain
+//!   the frame are met early, so the incumbent is good from the start.
+//! * **Node values.** Along a path the Cholesky factor L of ÂₚᵀÂₚ grows by one row
+//!   per level, and with it the rows of M = L⁻¹Gₚ,· over every cell (O(n·|P|) per
+//!   node). Every child P ∪ {j} then costs O(1): its residual is
+//!   R(P) − (b_j − t_j)²/(G_jj − s_j), with s_j = Σ_r M_rj², t_j = Σ_r M_rj w_r,
+//!   b = Âᵀy, w = L⁻¹bₚ (incremental Cholesky). A support whose unconstrained loads
+//!   are all inside the box has that residual as its exact value; one with a
+//!   negative load is a smaller support's solution (valued on its own); one above the
+//!   upper bound gets the exact bounded solve.
+//! * **Bounds.** Every support below the child P ∪ {order[i]} lies within the cells
+//!   P ∪ {order[i], order[i+1], …}. The non-negative least-squares residual over those
+//!   cells (z ≥ 0 only: a relaxation of the box and of the cardinality) plus λ·|P ∪ c|
+//!   is therefore a lower bound of the whole subtree. The bound only grows along the
+//!   siblings (each drops one more cell from the set), so the first sibling whose
+//!   bound reaches the incumbent ends the loop over siblings. Going from one sibling
+//!   to the next removes one cell from the relaxation; the Lawson–Hanson solve is warm
+//!   started, and costs nothing when that cell carried no load.
+//! * **Leaves.** At |P| = K − 1 the children are leaves, valued exactly in O(1) each
+//!   without any relaxation.
+//!
+//! The search stops when every node is pruned (the answer is the certified optimum,
+//! `converged`) or after a node budget (the best support found so far, not certified:
+//! `converged = false`).
+
+use super::support::box_qp_by_upper_sets;
+use super::*;
+
+/// The registry entry of `bnb`.
+pub(super) const ENTRY: MethodEntry = MethodEntry {
+    name: "bnb",
+    default_penalty: 4.0,
+    has_penalty: true,
+    penalty_grid: doubling_grid,
+    build: |common, s| {
+        if s.max_loads == 0 {
+            return Err(ArrayError::Input(
+                "max_loads must be at least 1 for `bnb`".into(),
+            ));
+        }
+        let kmax = s.max_loads.min(common.problem.n_gratings()).min(common.n());
+        Ok(Box::new(BranchAndBound {
+            gram_rows: (0..common.n())
+                .map(|i| common.gram.row(i).iter().copied().collect())
+                .collect(),
+            common,
+            lambda: s.penalty,
+            kmax,
+            node_budget: s.node_budget,
+        }))
+    },
+};
+
+pub(super) struct BranchAndBound {
+    pub(super) common: Common,
+    pub(super) lambda: f64,
+    /// Most loads in a support (K, capped at the number of gratings and cells).
+    pub(super) kmax: usize,
+    /// Nodes (supports valued plus relaxation updates) before the search gives up
+    /// its certificate.
+    pub(super) node_budget: u64,
+    /// ÂᵀÂ row by row (contiguous rows for the Lawson–Hanson gradient).
+    gram_rows: Vec<Vec<f64>>,
+}
+
+/// Lawson–Hanson non-negative least squares in Gram form over the allowed cells,
+/// warm-startable: min zᵀGz − 2bᵀz, z ≥ 0, z_j = 0 off `allowed`. The Cholesky
+/// factor of the passive cells' Gram block grows by one row per added cell.
+#[derive(Clone)]
+struct Nnls {
+    z: Vec<f64>,
+    passive: Vec<usize>,
+    allowed: Vec<bool>,
+    in_passive: Vec<bool>,
+    /// Cholesky factor of the passive block, row-major with stride `cap`.
+    l: Vec<f64>,
+    cap: usize,
+    /// Scratch: least-squares solution on the passive set.
+    s: Vec<f64>,
+}
+
+impl Nnls {
+    fn new(n: usize, cap: usize) -> Self {
+        Nnls {
+            z: vec![0.0; n],
+            passive: Vec::with_capacity(cap),
+            allowed: vec![true; n],
+            in_passive: vec![false; n],
+            l: vec![0.0; cap * cap],
+            cap,
+            s: vec![0.0; cap],
+        }
+    }
+
+    /// Append factor row `r` for cell `j` (the cells before it already factored);
+    /// false when its column is numerically dependent on theirs.
+    fn factor_row(&mut self, g: &[Vec<f64>], r: usize, j: usize) -> bool {
+        let cap = self.cap;
+        let gj = &g[j];
+        let mut d2 = gj[j];
+        for q in 0..r {
+            let mut v = gj[self.passive[q]];
+            for t in 0..q {
+                v -= self.l[r * cap + t] * self.l[q * cap + t];
+            }
+            let lv = v / self.l[q * cap + q];
+            self.l[r * cap + q] = lv;
+            d2 -= lv * lv;
+        }
+        if d2 <= 1e-12 * gj[j] {
+            return false;
+        }
+        self.l[r * cap + r] = d2.sqrt();
+        true
+    }
+
+    /// Refactor the passive rows from `from` on (after a cell left the set). Cells
+    /// that turn out dependent are dropped (their load set to 0).
+    fn refactor_from(&mut self, g: &[Vec<f64>], from: usize) {
+        let mut r = from;
+        while r < self.passive.len() {
+            let j = self.passive[r];
+            if self.factor_row(g, r, j) {
+                r += 1;
+            } else {
+                self.passive.remove(r);
+                self.in_passive[j] = false;
+                self.z[j] = 0.0;
+            }
+        }
+    }
+
+    /// Least squares on the passive set into `self.s`.
+    fn passive_solve(&mut self, b: &[f64]) {
+        let (p, cap) = (self.passive.len(), self.cap);
+        for r in 0..p {
+            let mut v = b[self.passive[r]];
+            for t in 0..r {
+                v -= self.l[r * cap + t] * self.s[t];
+            }
+            self.s[r] = v / self.l[r * cap + r];
+        }
+        for r in (0..p).rev() {
+            let mut v = self.s[r];
+            for t in r + 1..p {
+                v -= self.l[t * cap + r] * self.s[t];
+            }
+            self.s[r] = v / self.l[r * cap + r];
+        }
+    }
+
+    /// Run Lawson–Hanson from the current feasible point (passive loads > 0, the
+    /// factor up to date) to the optimum. Returns the number of passive solves.
+    fn solve(&mut self, g: &[Vec<f64>], b: &[f64], tol: f64) -> u64 {
+        let n = self.z.len();
+        let mut solves = 0u64;
+        let mut restore_only = true;
+        for _outer in 0..(3 * n + 10) {
+            if !restore_only {
+                // Most promising cell: largest b_j − (Gz)_j among the others.
+                let mut best: Option<(usize, f64)> = None;
+                for j in 0..n {
+                    if !self.allowed[j] || self.in_passive[j] {
+                        continue;
+                    }
+                    let row = &g[j];
+                    let mut w = b[j];
+                    for &q in &self.passive {
+                        w -= row[q] * self.z[q];
+                    }
+                    if w > tol && best.is_none_or(|(_, bw)| w > bw) {
+                        best = Some((j, w));
+                    }
+                }
+                let Some((j, _)) = best else {
+                    return solves;
+                };
+                let r = self.passive.len();
+                if r == self.cap || {
+                    self.passive.push(j);
+                    !self.factor_row(g, r, j)
+                } {
+                    // Full rank already, or a dependent column: the optimum is reached
+                    // up to round-off.
+                    if self.passive.len() > r {
+                        self.passive.pop();
+                    }
+                    return solves;
+                }
+                self.in_passive[j] = true;
+            }
+            restore_only = false;
+            // Inner loop: keep every passive load positive.
+            for _inner in 0..(n + 5) {
+                solves += 1;
+                self.passive_solve(b);
+                let p = self.passive.len();
+                if self.s[..p].iter().all(|&v| v > 0.0) {
+                    for a in 0..p {
+                        self.z[self.passive[a]] = self.s[a];
+                    }
+                    break;
+                }
+                // Step towards s until the first load reaches zero; it leaves.
+                let mut alpha = 1.0f64;
+                let mut hit = None;
+                for a in 0..p {
+                    let q = self.passive[a];
+                    if self.s[a] <= 0.0 {
+                        let d = self.z[q] - self.s[a];
+                        if d > 0.0 && self.z[q] / d < alpha {
+                            alpha = self.z[q] / d;
+                            hit = Some(q);
+                        }
+                    }
+                }
+                for a in 0..p {
+                    let q = self.passive[a];
+                    self.z[q] += alpha * (self.s[a] - self.z[q]);
+                }
+                if let Some(q) = hit {
+                    self.z[q] = 0.0;
+                }
+                let mut first_gone = p;
+                let mut a = 0;
+                while a < self.passive.len() {
+                    let q = self.passive[a];
+                    if self.z[q] <= 0.0 {
+                        self.z[q] = 0.0;
+                        self.in_passive[q] = false;
+                        self.passive.remove(a);
+                        first_gone = first_gone.min(a);
+                    } else {
+                        a += 1;
+                    }
+                }
+                self.refactor_from(g, first_gone);
+            }
+        }
+        solves
+    }
+
+    /// Forbid cell `c`; returns whether the optimum may have changed (it carried a
+    /// load), in which case the factor is already updated and `solve` must run.
+    fn remove(&mut self, g: &[Vec<f64>], c: usize) -> bool {
+        self.allowed[c] = false;
+        if let Some(pos) = self.passive.iter().position(|&q| q == c) {
+            self.passive.remove(pos);
+            self.in_passive[c] = false;
+            self.z[c] = 0.0;
+            self.refactor_from(g, pos);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// ‖Âz − y‖² at the current point: yᵀy − 2bᵀz + zᵀGz.
+    fn residual(&self, g: &[Vec<f64>], b: &[f64], yty: f64) -> f64 {
+        let mut quad = 0.0;
+        let mut lin = 0.0;
+        for &r in &self.passive {
+            lin += b[r] * self.z[r];
+            let gr = &g[r];
+            let mut v = 0.0;
+            for &q in &self.passive {
+                v += gr[q] * self.z[q];
+            }
+            quad += self.z[r] * v;
+        }
+        (yty - 2.0 * lin + quad).max(0.0)
+    }
+}
+
+/// The partial support of a node, with what makes its children cheap: row r of
+/// M = L⁻¹Gₚ,· for every cell (L the Cholesky factor of the path's Gram block), and
+/// per depth the running sums s_j = Σ_r M_rj² and t_j = Σ_r M_rj w_r (w = L⁻¹bₚ).
+/// Then a child P ∪ {j} has pivot² G_jj − s_j and residual
+/// R(P) − (b_j − t_j)² / (G_jj − s_j): O(1) per child after O(n·|P|) per node.
+struct Path {
+    n: usize,
+    cells: Vec<usize>,
+    /// Rows of M, K × n.
+    m: Vec<f64>,
+    /// Pivot (diagonal of L) per depth.
+    d: Vec<f64>,
+    w: Vec<f64>,
+    /// s and t per depth, (K + 1) × n.
+    s: Vec<f64>,
+    t: Vec<f64>,
+    /// Unconstrained residual per depth.
+    residual: Vec<f64>,
+}
+
+impl Path {
+    fn new(n: usize, cap: usize, yty: f64) -> Self {
+        let mut residual = vec![0.0; cap + 1];
+        residual[0] = yty;
+        Path {
+            n,
+            cells: Vec::with_capacity(cap),
+            m: vec![0.0; cap * n],
+            d: vec![0.0; cap],
+            w: vec![0.0; cap],
+            s: vec![0.0; (cap + 1) * n],
+            t: vec![0.0; (cap + 1) * n],
+            residual,
+        }
+    }
+
+    fn depth(&self) -> usize {
+        self.cells.len()
+    }
+
+    fn residual(&self) -> f64 {
+        self.residual[self.depth()]
+    }
+
+    /// Residual of the child P ∪ {j}, or None when j's column is (numerically) in the
+    /// span of the path's.
+    #[inline]
+    fn child_residual(&self, g: &[Vec<f64>], b: &[f64], j: usize) -> Option<f64> {
+        let p = self.depth();
+        let den = g[j][j] - self.s[p * self.n + j];
+        if den <= 1e-10 * g[j][j] {
+            return None;
+        }
+        let num = b[j] - self.t[p * self.n + j];
+        Some((self.residual[p] - num * num / den).max(0.0))
+    }
+
+    /// Whether the child P ∪ {j} gives j a positive load in its unconstrained fit
+    /// (w_j > 0: the last load of the factor, before the others are corrected).
+    #[inline]
+    fn child_pushes_up(&self, b: &[f64], j: usize) -> bool {
+        b[j] - self.t[self.depth() * self.n + j] > 0.0
+    }
+
+    /// Descend to the child P ∪ {c}; false (and no change) when c is dependent.
+    fn push(&mut self, g: &[Vec<f64>], b: &[f64], c: usize) -> bool {
+        let (p, n) = (self.depth(), self.n);
+        let den = g[c][c] - self.s[p * n + c];
+        if den <= 1e-10 * g[c][c] {
+            return false;
+        }
+        let d = den.sqrt();
+        let w = (b[c] - self.t[p * n + c]) / d;
+        let (before, row) = self.m.split_at_mut(p * n);
+        let row = &mut row[..n];
+        row.copy_from_slice(&g[c]);
+        for r in 0..p {
+            let mr = &before[r * n..(r + 1) * n];
+            let f = mr[c];
+            for (x, &v) in row.iter_mut().zip(mr) {
+                *x -= f * v;
+            }
+        }
+        let inv = 1.0 / d;
+        let (s_old, s_new) = self.s.split_at_mut((p + 1) * n);
+        let (t_old, t_new) = self.t.split_at_mut((p + 1) * n);
+        let (s_old, t_old) = (&s_old[p * n..], &t_old[p * n..]);
+        for j in 0..n {
+            let v = row[j] * inv;
+            row[j] = v;
+            s_new[j] = s_old[j] + v * v;
+            t_new[j] = t_old[j] + v * w;
+        }
+        self.d[p] = d;
+        self.w[p] = w;
+        self.cells.push(c);
+        self.residual[p + 1] = (self.residual[p] - w * w).max(0.0);
+        true
+    }
+
+    fn pop(&mut self) {
+        self.cells.pop();
+    }
+
+    /// Unconstrained loads z = L⁻ᵀw of the path (in path order), L_rt = M_t,c_r.
+    fn loads(&self) -> Vec<f64> {
+        let p = self.depth();
+        let mut z = self.w[..p].to_vec();
+        for r in (0..p).rev() {
+            let row = &self.m[r * self.n..(r + 1) * self.n];
+            let later: f64 = self.cells[r + 1..p]
+                .iter()
+                .zip(&z[r + 1..p])
+                .map(|(&c, &zt)| row[c] * zt)
+                .sum();
+            z[r] = (z[r] - later) / self.d[r];
+        }
+        z
+    }
+}
+
+/// Search state of one frame.
+struct Search<'a> {
+    bb: &'a BranchAndBound,
+    b: Vec<f64>,
+    yty: f64,
+    order: Vec<usize>,
+    best_cost: f64,
+    best: Vec<(usize, f64)>,
+    nodes: u64,
+    exhausted: bool,
+    tol: f64,
+    /// Slack on comparisons against the incumbent (round-off only).
+    slack: f64,
+}
+
+impl Search<'_> {
+    /// Value the support of `path` (its unconstrained fit is known) and keep it if it
+    /// beats the incumbent.
+    fn consider(&mut self, path: &Path) {
+        let k = path.depth();
+        let floor = self.bb.lambda * k as f64;
+        if path.residual() + floor >= self.best_cost {
+            return; // the bounded residual is at least the unconstrained one
+        }
+        let z = path.loads();
+        if z.iter().any(|&v| v < 0.0) {
+            return; // a smaller support's solution, valued on its own
+        }
+        let upper = &self.bb.common.problem.upper;
+        let (z, residual) = if path.cells.iter().zip(&z).all(|(&c, &v)| v <= upper[c]) {
+            (z, path.residual())
+        } else {
+            let g = DMatrix::from_fn(k, k, |a, q| self.bb.gram_rows[path.cells[a]][path.cells[q]]);
+            let bs = DVector::from_fn(k, |a, _| self.b[path.cells[a]]);
+            let u = DVector::from_fn(k, |a, _| upper[path.cells[a]]);
+            let zb = match box_qp_by_upper_sets(&g, &bs, &u) {
+                Some(s) => s,
+                None => {
+                    let lip = g
+                        .clone()
+                        .symmetric_eigenvalues()
+                        .iter()
+                        .copied()
+                        .fold(0.0, f64::max)
+                        .max(1e-300);
+                    fista_box(&g, &bs, &u, 0.0, lip, DVector::zeros(k), 5000).0
+                }
+            };
+            let quad = zb.dot(&(&g * &zb)) - 2.0 * bs.dot(&zb);
+            (zb.iter().copied().collect(), (self.yty + quad).max(0.0))
+        };
+        let cost = residual + floor;
+        if cost < self.best_cost {
+            self.best_cost = cost;
+            self.best = path.cells.iter().copied().zip(z).collect();
+        }
+    }
+
+    /// Greedy forward selection up to K cells: a first incumbent.
+    fn greedy(&mut self, path: &mut Path) {
+        let (g, n) = (&self.bb.gram_rows, self.order.len());
+        while path.depth() < self.bb.kmax {
+            let mut pick: Option<(usize, f64)> = None;
+            for c in 0..n {
+                if path.cells.contains(&c) {
+                    continue;
+                }
+                // Only cells that would carry a positive load: a path through a
+                // negative one is rejected whole, and the incumbent would stay empty.
+                if !path.child_pushes_up(&self.b, c) {
+                    continue;
+                }
+                if let Some(r) = path.child_residual(g, &self.b, c) {
+                    if pick.is_none_or(|(_, br)| r < br) {
+                        pick = Some((c, r));
+                    }
+                }
+            }
+            let Some((c, _)) = pick else { break };
+            if !path.push(g, &self.b, c) {
+                break;
+            }
+            self.nodes += 1;
+            self.consider(path);
+        }
+        while path.depth() > 0 {
+            path.pop();
+        }
+    }
+
+    /// Swap local search around the incumbent: replace one of its cells by any other
+    /// cell (or add one while it has fewer than K), keep any improvement, repeat
+    /// until none. A better incumbent before the search prunes more, and it is the
+    /// answer when the node budget ends the search.
+    fn local_search(&mut self, path: &mut Path) {
+        let (g, n) = (&self.bb.gram_rows, self.order.len());
+        for _pass in 0..8 {
+            let current: Vec<usize> = self.best.iter().map(|&(c, _)| c).collect();
+            if current.is_empty() {
+                return;
+            }
+            let before = self.best_cost;
+            let k = current.len();
+            // Drop position a (a = k: drop none, i.e. grow when below K).
+            for a in 0..=k {
+                if a == k && k >= self.bb.kmax {
+                    break;
+                }
+                while path.depth() > 0 {
+                    path.pop();
+                }
+                if !current
+                    .iter()
+                    .enumerate()
+                    .filter(|&(q, _)| q != a)
+                    .all(|(_, &c)| path.push(g, &self.b, c))
+                {
+                    continue;
+                }
+                let floor = self.bb.lambda * (path.depth() + 1) as f64;
+                for j in 0..n {
+                    if current.contains(&j) {
+                        continue;
+                    }
+                    self.nodes += 1;
+                    let Some(r) = path.child_residual(g, &self.b, j) else {
+                        continue;
+                    };
+                    if r + floor < self.best_cost && path.push(g, &self.b, j) {
+                        self.consider(path);
+                        path.pop();
+                    }
+                }
+            }
+            if self.best_cost >= before {
+                break;
+            }
+        }
+        while path.depth() > 0 {
+            path.pop();
+        }
+    }
+
+    /// Children of `path` that are leaves (size K): valued in O(1) each.
+    fn leaves(&mut self, path: &mut Path, start: usize) {
+        let g = &self.bb.gram_rows;
+        let floor = self.bb.lambda * (path.depth() + 1) as f64;
+        for i in start..self.order.len() {
+            let j = self.order[i];
+            self.nodes += 1;
+            let Some(r) = path.child_residual(g, &self.b, j) else {
+                continue;
+            };
+            if r + floor < self.best_cost && path.push(g, &self.b, j) {
+                self.consider(path);
+                path.pop();
+            }
+        }
+    }
+
+    /// Explore the children of `path`, whose candidates are `order[start..]`;
+    /// `relax` is the non-negative fit over path ∪ order[start..].
+    fn explore(&mut self, path: &mut Path, start: usize, relax: &mut Nnls) {
+        let n = self.order.len();
+        let depth = path.depth() + 1; // size of the children
+        let floor = self.bb.lambda * depth as f64;
+        if floor >= self.best_cost {
+            return;
+        }
+        if depth == self.bb.kmax {
+            self.leaves(path, start);
+            return;
+        }
+        let g = &self.bb.gram_rows;
+        let mut child_relax = relax.clone();
+        for i in start..n {
+            if self.nodes >= self.bb.node_budget {
+                self.exhausted = true;
+                return;
+            }
+            let c = self.order[i];
+            // Bound of every support below this child: the relaxation over
+            // path ∪ order[i..]; it only grows along the siblings.
+            if i > start && relax.remove(g, self.order[i - 1]) {
+                self.nodes += relax.solve(g, &self.b, self.tol);
+            }
+            let bound = relax.residual(g, &self.b, self.yty) + floor;
+            if bound >= self.best_cost + self.slack {
+                return;
+            }
+            self.nodes += 1;
+            if !path.push(g, &self.b, c) {
+                continue; // dependent: every superset is too
+            }
+            self.consider(path);
+            if depth + 1 == self.bb.kmax {
+                self.leaves(path, i + 1);
+            } else {
+                child_relax.clone_from(relax);
+                self.explore(path, i + 1, &mut child_relax);
+            }
+            path.pop();
+            if self.exhausted {
+                return;
+            }
+        }
+    }
+}
+
+impl Reconstructor for BranchAndBound {
+    fn method(&self) -> Method {
+        Method::BranchAndBound
+    }
+
+    /// ‖Âz − y‖² + λ·|S|, as `support`.
+    fn objective(&self, y: &[f64], loads_g: &[f64]) -> Option<f64> {
+        let (misfit, _) = self.common.misfit_of(y, loads_g)?;
+        Some(misfit + self.lambda * loads_g.iter().filter(|&&x| x > 0.0).count() as f64)
+    }
+
+    fn reconstruct(&self, y: &[f64]) -> Reconstruction {
+        let Some(aty) = self.common.aty(y) else {
+            return self.common.unusable();
+        };
+        let n = self.common.n();
+        let b: Vec<f64> = aty.iter().copied().collect();
+        let yty: f64 = y.iter().map(|v| v * v).sum();
+        let tol = 1e-12 * b.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(1e-300);
+        // Root relaxation: non-negative fit over every cell; its cells (largest load
+        // first), then the others by correlation, give the search order.
+        let cap = self.common.problem.n_gratings().min(n);
+        let mut root = Nnls::new(n, cap);
+        let mut nodes = root.solve(&self.gram_rows, &b, tol);
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&p, &q| root.z[q].total_cmp(&root.z[p]).then(b[q].total_cmp(&b[p])));
+        nodes += 1;
+        let mut search = Search {
+            bb: self,
+            b,
+            yty,
+            order,
+            best_cost: yty,
+            best: Vec::new(),
+            nodes,
+            exhausted: false,
+            tol,
+            slack: 1e-9 * (1.0 + yty),
+        };
+        let mut path = Path::new(n, self.kmax, yty);
+        // The first incumbent: greedy, improved by swaps.
+        search.greedy(&mut path);
+        search.local_search(&mut path);
+        search.explore(&mut path, 0, &mut root);
+        let mut full = vec![0.0; n];
+        for &(c, v) in &search.best {
+            full[c] = v;
+        }
+        self.common
+            .finish(&full, y, !search.exhausted, search.nodes)
+    }
+}

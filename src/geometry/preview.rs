@@ -1,0 +1,294 @@
+//! Cut-away previews of what `build` makes, as SVG: the assembled module cut by the
+//! vertical planes its fibers leave in (a strain fiber's pillar and the reference
+//! fiber's exit), and the mold cut through a fiber slit, with the fiber and the
+//! silicone level drawn in. Sections of the checked meshes, so the picture is what the
+//! STL files hold.
+
+use super::assembly::{axial_section, plane_section, FiberTrace};
+use super::{BuiltPart, PartKind};
+use crate::profile::{ArrayLayout, PartsProfile};
+use crate::spec::Design;
+use std::fmt::Write;
+
+type Seg2 = [(f64, f64); 2];
+/// A named, coloured polyline in model coordinates (mm).
+type Polyline = (String, &'static str, Vec<(f64, f64)>);
+
+fn colour(kind: PartKind) -> &'static str {
+    match kind {
+        PartKind::Cap => "#1f77b4",
+        PartKind::Core => "#2ca02c",
+        PartKind::Insert => "#9467bd",
+        PartKind::Mold => "#7f7f7f",
+        PartKind::MoldPlug => "#ff7f0e",
+    }
+}
+
+/// One panel: layers of segments in model coordinates (mm), drawn to fit `w`×`h` px.
+struct Panel {
+    title: String,
+    layers: Vec<(String, &'static str, Vec<Seg2>)>,
+    polylines: Vec<Polyline>,
+    levels: Vec<(String, f64)>,
+    /// Model window (x0, x1, y0, y1) to show, mm; everything when None.
+    view: Option<(f64, f64, f64, f64)>,
+}
+
+impl Panel {
+    fn bounds(&self) -> (f64, f64, f64, f64) {
+        if let Some(v) = self.view {
+            return v;
+        }
+        let pts = self
+            .layers
+            .iter()
+            .flat_map(|l| l.2.iter().flat_map(|s| [s[0], s[1]]))
+            .chain(self.polylines.iter().flat_map(|l| l.2.iter().copied()));
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for (x, y) in pts {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        (x0, x1, y0, y1)
+    }
+}
+
+fn draw(panels: &[Panel], caption: &str) -> String {
+    let (w, max_h, pad) = (520.0, 560.0, 40.0);
+    let scales: Vec<f64> = panels
+        .iter()
+        .map(|p| {
+            let (x0, x1, y0, y1) = p.bounds();
+            ((w - 2.0 * pad) / (x1 - x0)).min((max_h - 2.0 * pad) / (y1 - y0))
+        })
+        .collect();
+    let h = panels
+        .iter()
+        .zip(&scales)
+        .map(|(p, sc)| {
+            let (_, _, y0, y1) = p.bounds();
+            (y1 - y0) * sc + 2.0 * pad
+        })
+        .fold(120.0, f64::max);
+    let lines: Vec<&str> = caption.split("; ").collect();
+    let legend = 14.0 * panels.iter().map(|p| p.layers.len()).max().unwrap_or(1) as f64;
+    let total_h = h + legend + 20.0 + 16.0 * lines.len() as f64;
+    let total_w = w * panels.len() as f64;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{total_w}" height="{total_h}" viewBox="0 0 {total_w} {total_h}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    for (i, p) in panels.iter().enumerate() {
+        let (x0, x1, y0, _) = p.bounds();
+        let scale = scales[i];
+        let _ = writeln!(
+            s,
+            r#"<clipPath id="c{i}"><rect x="{}" y="{}" width="{}" height="{}"/></clipPath><g clip-path="url(#c{i})">"#,
+            i as f64 * w + pad - 2.0,
+            pad - 2.0,
+            w - 2.0 * pad + 4.0,
+            h - 2.0 * pad + 4.0
+        );
+        let ox = i as f64 * w + pad + 0.5 * (w - 2.0 * pad - scale * (x1 - x0));
+        let tx = |x: f64| ox + (x - x0) * scale;
+        let ty = |y: f64| h - pad - (y - y0) * scale;
+        for (name, y) in &p.levels {
+            let _ = writeln!(
+                s,
+                r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/><text x="{}" y="{:.2}" fill="#17becf">{name}</text>"##,
+                tx(x0),
+                ty(*y),
+                tx(x1),
+                ty(*y),
+                tx(x0),
+                ty(*y) - 3.0
+            );
+        }
+        for (name, col, segs) in &p.layers {
+            let mut d = String::new();
+            for sg in segs {
+                let _ = write!(
+                    d,
+                    "M{:.2} {:.2}L{:.2} {:.2}",
+                    tx(sg[0].0),
+                    ty(sg[0].1),
+                    tx(sg[1].0),
+                    ty(sg[1].1)
+                );
+            }
+            let _ = writeln!(
+                s,
+                r#"<path d="{d}" stroke="{col}" stroke-width="1.2" fill="none"><title>{name}</title></path>"#
+            );
+        }
+        for (_, col, line) in &p.polylines {
+            let d: String = line
+                .iter()
+                .enumerate()
+                .map(|(j, &(x, y))| {
+                    format!(
+                        "{}{:.2} {:.2}",
+                        if j == 0 { "M" } else { "L" },
+                        tx(x),
+                        ty(y)
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                r#"<path d="{d}" stroke="{col}" stroke-width="1.6" fill="none"/>"#
+            );
+        }
+        s.push_str("</g>\n");
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="20" font-weight="bold">{}</text>"#,
+            i as f64 * w + pad,
+            p.title
+        );
+        for (k, (name, col, _)) in p.layers.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}" fill="{col}">{name}</text>"#,
+                i as f64 * w + pad,
+                h + 10.0 + 14.0 * k as f64
+            );
+        }
+        for (k, (name, col, _)) in p.polylines.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                r#"<text x="{}" y="{}" fill="{col}">{name}</text>"#,
+                i as f64 * w + w / 2.0,
+                h + 10.0 + 14.0 * k as f64
+            );
+        }
+    }
+    for (k, l) in lines.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r#"<text x="10" y="{}">{l}</text>"#,
+            h + legend + 24.0 + 16.0 * k as f64
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+/// The assembled module cut by the plane of pillar 0's fiber and by the plane of the
+/// reference fiber's exit, with every fiber in that plane drawn in red.
+pub fn module_svg(design: &Design, parts: &[BuiltPart], fibers: &[FiberTrace]) -> Option<String> {
+    let (p, pp) = PartsProfile::of_design(design)?;
+    let mut seen = Vec::new();
+    let shown: Vec<&BuiltPart> = parts
+        .iter()
+        .filter(|b| {
+            let first = !seen.contains(&b.kind);
+            seen.push(b.kind);
+            first && matches!(b.kind, PartKind::Cap | PartKind::Core | PartKind::Insert)
+        })
+        .collect();
+    let planes = [
+        ("pillar 0 (strain fiber)", *p.pillar_angles_rad.first()?),
+        ("reference fiber exit", pp.reference_exit_angle_rad),
+    ];
+    let panels = planes
+        .iter()
+        .map(|&(title, theta)| {
+            let layers = shown
+                .iter()
+                .map(|b| {
+                    (
+                        b.name.clone(),
+                        colour(b.kind),
+                        axial_section(&b.mesh, theta),
+                    )
+                })
+                .collect();
+            let (c, s) = (theta.cos(), theta.sin());
+            let polylines = fibers
+                .iter()
+                .filter(|f| (f.exit_angle_deg.to_radians() - theta).sin().abs() < 1e-6)
+                .map(|f| {
+                    let line = f
+                        .points
+                        .iter()
+                        .map(|q| (q[0] * c + q[1] * s, q[2]))
+                        .collect();
+                    (format!("fiber {}", f.grating), "#d62728", line)
+                })
+                .collect();
+            Panel {
+                title: format!("{} cut at {:.1}°: {title}", design.name, theta.to_degrees()),
+                layers,
+                polylines,
+                levels: vec![("plate".into(), 0.0)],
+                view: None,
+            }
+        })
+        .collect::<Vec<_>>();
+    Some(draw(
+        &panels,
+        &format!(
+            "Cut-away of the assembled module; fibers bend at {} mm radius and leave at {} mm above the plate.",
+            pp.bend_radius_mm, pp.exit_height_mm
+        ),
+    ))
+}
+
+/// The mold (and its plugs in place) cut through the first fiber's slits, with the
+/// fiber and the silicone level.
+pub fn mold_svg(design: &Design, parts: &[BuiltPart]) -> Option<String> {
+    let a = design.array.as_ref()?;
+    let mold = parts.iter().find(|b| b.kind == PartKind::Mold)?;
+    let l = ArrayLayout::from_array(a);
+    let x = *l.slit_x_mm.first()?;
+    let mut layers = vec![(
+        "mold".to_string(),
+        colour(PartKind::Mold),
+        plane_section(&mold.mesh, [1.0, 0.0, 0.0], x, |q| (q[1], q[2])),
+    )];
+    if let (Some(plug), Some(pocket)) = (
+        parts.iter().find(|b| b.kind == PartKind::MoldPlug),
+        super::mold_pocket(design),
+    ) {
+        // The plug in place: its corner at the pocket's −x, inner-wall end, bottom.
+        let (iy, hy) = (a.mold.internal_y_mm / 2.0, l.mold_outer_mm.1 / 2.0);
+        let fit = design.fiber_routing.channel_clearance_mm;
+        let x0 = x - pocket.width_mm / 2.0 + fit;
+        for y0 in [iy, -hy] {
+            let segs = plane_section(&plug.mesh, [1.0, 0.0, 0.0], x - x0, |q| {
+                (q[1] + y0, q[2] + pocket.bottom_z_mm)
+            });
+            layers.push(("plug in place".into(), colour(PartKind::MoldPlug), segs));
+        }
+    }
+    let hy = l.mold_outer_mm.1 / 2.0;
+    let fiber = vec![(-hy - 3.0, l.fiber_z_mm), (hy + 3.0, l.fiber_z_mm)];
+    let iy = a.mold.internal_y_mm / 2.0;
+    let top = l.mold_outer_mm.2;
+    let whole = Panel {
+        title: format!("{} mold cut at x = {x} mm (fiber 0)", design.name),
+        layers: layers.clone(),
+        polylines: vec![("fiber axis".into(), "#d62728", fiber.clone())],
+        levels: vec![("silicone level".into(), l.silicone_level_z_mm)],
+        view: None,
+    };
+    let detail = Panel {
+        title: "detail: the +y wall's slit".into(),
+        layers,
+        polylines: vec![("fiber axis".into(), "#d62728", fiber)],
+        levels: vec![("silicone level".into(), l.silicone_level_z_mm)],
+        view: Some((iy - 2.0, hy + 1.0, -0.5, top + 1.0)),
+    };
+    Some(draw(
+        &[whole, detail],
+        &format!(
+            "Fill silicone to {:.3} mm above the mold's underside; the fiber axis lies at {:.3} mm, the slit bottoms at {:.3} mm.",
+            l.silicone_level_z_mm, l.fiber_z_mm, l.slit_bottom_z_mm
+        ),
+    ))
+}

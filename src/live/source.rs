@@ -1,0 +1,611 @@
+//! Where live frames come from: a log file an interrogator is still writing (ENLIGHT,
+//! I-MON, CSV), standard input (one frame of peaks per line), or a Hyperion peak
+//! stream over TCP. Each source runs on its own thread and sends [`SourceEvent`]s into a
+//! bounded queue; a frame that finds the queue full is dropped and counted, so a slow
+//! consumer never makes the reader fall behind the instrument.
+
+use super::hyperion::{self, StreamDecoder};
+use crate::logs::{ReadOptions, RowReader};
+use std::io::{BufRead, Read};
+use std::net::{TcpStream, ToSocketAddrs};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{SyncSender, TrySendError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// One frame of peaks as read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// The instrument's frame counter (Hyperion), if it has one.
+    pub serial: Option<u64>,
+    /// The frame's own time, s (instrument timestamp or log time), if it has one.
+    pub time_s: Option<f64>,
+    /// Whether `time_s` is wall-clock time since 1970 (so its age can be measured).
+    pub wall_clock: bool,
+    /// Peak wavelengths, nm.
+    pub peaks_nm: Vec<f64>,
+    /// When the frame was read.
+    pub received: Instant,
+    /// Where it came from, for messages: `line 12`, `serial 4711`.
+    pub origin: String,
+}
+
+/// What a source reports.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SourceEvent {
+    /// A frame.
+    Frame(Frame),
+    /// A frame that could not be read: counted by `kind`, named by `message`.
+    Bad {
+        /// Warning kind (`malformed_frame`, `unreadable_line`, ...).
+        kind: String,
+        /// What was wrong, and where.
+        message: String,
+    },
+    /// Frames the instrument numbered that never arrived (serial-number gap).
+    Missed(u64),
+    /// Connected (or reconnected) to the named source.
+    Connected(String),
+    /// The connection dropped; the source will try again.
+    Disconnected(String),
+    /// The source has ended (end of input, or reconnecting was given up).
+    End(String),
+}
+
+/// Where to read from.
+#[derive(Debug, Clone)]
+pub enum SourceSpec {
+    /// A growing log file.
+    Tail {
+        /// The file.
+        path: PathBuf,
+        /// Replay the rows already in the file (default: start at its end).
+        from_start: bool,
+        /// End after the file has not grown for this long, s (default: never).
+        idle_exit_s: Option<f64>,
+        /// Format and date order.
+        read: ReadOptions,
+    },
+    /// Standard input, one frame of peaks (nm) per line.
+    Stdin,
+    /// A Hyperion peak stream.
+    Hyperion {
+        /// `host:port`.
+        address: String,
+        /// Give up after failing to (re)connect for this long, s.
+        give_up_s: f64,
+    },
+}
+
+impl SourceSpec {
+    /// Parse `--from`: `-` is standard input, `hyperion://HOST[:PORT]` or
+    /// `tcp://HOST:PORT` a Hyperion stream (default port 51972), anything else a file.
+    pub fn parse(
+        text: &str,
+        read: ReadOptions,
+        from_start: bool,
+        idle_exit_s: Option<f64>,
+        give_up_s: f64,
+    ) -> SourceSpec {
+        if text == "-" {
+            return SourceSpec::Stdin;
+        }
+        for scheme in ["hyperion://", "tcp://"] {
+            if let Some(rest) = text.strip_prefix(scheme) {
+                let rest = rest.trim_end_matches('/');
+                let address = if has_port(rest) {
+                    rest.to_string()
+                } else {
+                    format!("{rest}:{}", hyperion::PEAK_STREAM_PORT)
+                };
+                return SourceSpec::Hyperion { address, give_up_s };
+            }
+        }
+        SourceSpec::Tail {
+            path: PathBuf::from(text),
+            from_start,
+            idle_exit_s,
+            read,
+        }
+    }
+
+    /// A short description for the view.
+    pub fn describe(&self) -> String {
+        match self {
+            SourceSpec::Tail { path, .. } => format!("tail {}", path.display()),
+            SourceSpec::Stdin => "standard input".to_string(),
+            SourceSpec::Hyperion { address, .. } => format!("hyperion {address}"),
+        }
+    }
+}
+
+fn has_port(hostport: &str) -> bool {
+    match hostport.rsplit_once(':') {
+        // `::1` alone is an IPv6 address without a port; `[::1]:4000` has one.
+        Some((host, port)) => {
+            !host.ends_with(':')
+                && port.parse::<u16>().is_ok()
+                && (!host.starts_with('[') || host.ends_with(']'))
+        }
+        None => false,
+    }
+}
+
+/// The sending half shared by every source: counts frames dropped on a full queue and
+/// stops when asked.
+#[derive(Clone)]
+pub struct Outlet {
+    tx: SyncSender<SourceEvent>,
+    /// Frames dropped because the queue was full.
+    pub overflow: Arc<AtomicU64>,
+    /// Set by the consumer to stop the source.
+    pub stop: Arc<AtomicBool>,
+}
+
+impl Outlet {
+    /// A new outlet over `tx`.
+    pub fn new(tx: SyncSender<SourceEvent>, stop: Arc<AtomicBool>) -> Self {
+        Outlet {
+            tx,
+            overflow: Arc::new(AtomicU64::new(0)),
+            stop,
+        }
+    }
+
+    fn stopped(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// Send a frame, dropping it (counted) when the queue is full. False when the
+    /// consumer is gone.
+    fn frame(&self, f: Frame) -> bool {
+        match self.tx.try_send(SourceEvent::Frame(f)) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                self.overflow.fetch_add(1, Ordering::Relaxed);
+                true
+            }
+            Err(TrySendError::Disconnected(_)) => false,
+        }
+    }
+
+    /// Send any other event, waiting for room (they are rare). False when the consumer
+    /// is gone.
+    fn event(&self, e: SourceEvent) -> bool {
+        self.tx.send(e).is_ok()
+    }
+}
+
+/// Start reading `spec` on a new thread.
+pub fn spawn(spec: SourceSpec, out: Outlet) -> std::thread::JoinHandle<()> {
+    std::thread::Builder::new()
+        .name("fbgforge-live-source".into())
+        .spawn(move || match spec {
+            SourceSpec::Tail {
+                path,
+                from_start,
+                idle_exit_s,
+                read,
+            } => tail_file(&path, from_start, idle_exit_s, &read, &out),
+            SourceSpec::Stdin => {
+                let stdin = std::io::stdin();
+                read_lines(stdin.lock(), "standard input", &out)
+            }
+            SourceSpec::Hyperion { address, give_up_s } => {
+                hyperion_client(&address, give_up_s, &out)
+            }
+        })
+        .expect("a thread can be started")
+}
+
+/// Parse one line of standard input: peak wavelengths in nm separated by spaces,
+/// tabs, commas or semicolons. Blank lines and `#` comments give `Ok(None)`.
+pub fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
+    let t = line.trim();
+    if t.is_empty() || t.starts_with('#') {
+        return Ok(None);
+    }
+    let mut peaks = Vec::new();
+    for (i, f) in t
+        .split(|c: char| c.is_whitespace() || c == ',' || c == ';')
+        .filter(|f| !f.is_empty())
+        .enumerate()
+    {
+        match f.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => peaks.push(v),
+            _ => {
+                return Err(format!(
+                    "field {} `{f}` is not a peak wavelength in nm",
+                    i + 1
+                ))
+            }
+        }
+    }
+    Ok(Some(peaks))
+}
+
+/// Frames from text lines (standard input or any reader), until the end of input.
+pub fn read_lines<R: BufRead>(mut r: R, name: &str, out: &Outlet) {
+    out.event(SourceEvent::Connected(name.to_string()));
+    let mut line = String::new();
+    let mut n = 0u64;
+    loop {
+        if out.stopped() {
+            return;
+        }
+        line.clear();
+        match r.read_line(&mut line) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) => {
+                out.event(SourceEvent::End(format!("cannot read {name}: {e}")));
+                return;
+            }
+        }
+        n += 1;
+        let received = Instant::now();
+        let ok = match parse_peak_line(&line) {
+            Ok(None) => true,
+            Ok(Some(peaks_nm)) => out.frame(Frame {
+                serial: None,
+                time_s: None,
+                wall_clock: false,
+                peaks_nm,
+                received,
+                origin: format!("{name} line {n}"),
+            }),
+            Err(m) => out.event(SourceEvent::Bad {
+                kind: "unreadable_line".into(),
+                message: format!("{name} line {n}: {m}"),
+            }),
+        };
+        if !ok {
+            return;
+        }
+    }
+    out.event(SourceEvent::End(format!("end of {name}")));
+}
+
+/// Follow a log file as it grows (polling: interrogator software writes in bursts,
+/// and a 1 ms poll keeps up with 1 kHz without a file-watching dependency).
+fn tail_file(
+    path: &Path,
+    from_start: bool,
+    idle_exit_s: Option<f64>,
+    read: &ReadOptions,
+    out: &Outlet,
+) {
+    const POLL: Duration = Duration::from_millis(1);
+    let started = Instant::now();
+    let mut last_growth = Instant::now();
+    let idle_done = |last: Instant| idle_exit_s.is_some_and(|s| last.elapsed().as_secs_f64() >= s);
+    // Wait for the file and its table header.
+    let (mut reader, mut offset, mut file) = loop {
+        if out.stopped() {
+            return;
+        }
+        if let Ok(bytes) = std::fs::read(path) {
+            let complete = bytes.iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
+            if let Ok((reader, body)) = RowReader::new(&bytes[..complete], path, read) {
+                let offset = if from_start {
+                    body as u64
+                } else {
+                    complete as u64
+                };
+                match std::fs::File::open(path) {
+                    Ok(f) => break (reader, offset, f),
+                    Err(e) => {
+                        out.event(SourceEvent::End(format!(
+                            "cannot open {}: {e}",
+                            path.display()
+                        )));
+                        return;
+                    }
+                }
+            }
+        }
+        if idle_done(started) {
+            out.event(SourceEvent::End(format!(
+                "{} holds no log table (ENLIGHT, I-MON or CSV header) after {:.1} s",
+                path.display(),
+                started.elapsed().as_secs_f64()
+            )));
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    out.event(SourceEvent::Connected(format!(
+        "{} ({})",
+        path.display(),
+        reader.format().name()
+    )));
+    let mut pending: Vec<u8> = Vec::new();
+    let mut chunk = vec![0u8; 1 << 16];
+    let mut line_no: Option<u64> = None;
+    loop {
+        if out.stopped() {
+            return;
+        }
+        // A file shorter than what was read was truncated or replaced: start again.
+        if let Ok(meta) = std::fs::metadata(path) {
+            if meta.len() < offset {
+                out.event(SourceEvent::Bad {
+                    kind: "file_truncated".into(),
+                    message: format!(
+                        "{} shrank from {offset} to {} bytes; reading it again from its table",
+                        path.display(),
+                        meta.len()
+                    ),
+                });
+                match std::fs::read(path)
+                    .ok()
+                    .and_then(|b| RowReader::new(&b, path, read).ok())
+                {
+                    Some((r, body)) => {
+                        reader = r;
+                        offset = body as u64;
+                    }
+                    None => offset = 0,
+                }
+                pending.clear();
+                line_no = None;
+                if let Ok(f) = std::fs::File::open(path) {
+                    file = f;
+                }
+            }
+        }
+        use std::io::Seek;
+        let got = file
+            .seek(std::io::SeekFrom::Start(offset))
+            .and_then(|_| file.read(&mut chunk));
+        let n = match got {
+            Ok(n) => n,
+            Err(e) => {
+                out.event(SourceEvent::End(format!(
+                    "cannot read {}: {e}",
+                    path.display()
+                )));
+                return;
+            }
+        };
+        if n == 0 {
+            if idle_done(last_growth) {
+                out.event(SourceEvent::End(format!(
+                    "{} did not grow for {:.1} s",
+                    path.display(),
+                    idle_exit_s.unwrap_or(0.0)
+                )));
+                return;
+            }
+            std::thread::sleep(POLL);
+            continue;
+        }
+        last_growth = Instant::now();
+        offset += n as u64;
+        pending.extend_from_slice(&chunk[..n]);
+        let Some(end) = pending.iter().rposition(|&c| c == b'\n') else {
+            continue;
+        };
+        let received = Instant::now();
+        // Line numbers are known only when reading from the table's start.
+        for line in pending[..end].split(|&c| c == b'\n') {
+            line_no = line_no
+                .map(|l| l + 1)
+                .or(if from_start { Some(1) } else { None });
+            let origin = match line_no {
+                Some(l) => format!("{} body line {l}", path.display()),
+                None => format!("{}", path.display()),
+            };
+            let ok = match reader.parse(line) {
+                Ok(None) => true,
+                Ok(Some(row)) => out.frame(Frame {
+                    serial: None,
+                    time_s: Some(row.time_s),
+                    wall_clock: row.time_s > 1e8,
+                    peaks_nm: row.peaks_nm,
+                    received,
+                    origin,
+                }),
+                Err((kind, message)) => out.event(SourceEvent::Bad {
+                    kind: kind.to_string(),
+                    message: format!("{origin}: {message}"),
+                }),
+            };
+            if !ok {
+                return;
+            }
+        }
+        pending.drain(..=end);
+    }
+}
+
+/// Read a Hyperion peak stream, reconnecting after every dropped connection until
+/// reconnecting has failed for `give_up_s` seconds.
+fn hyperion_client(address: &str, give_up_s: f64, out: &Outlet) {
+    let mut last_serial: Option<u64> = None;
+    let mut failing_since: Option<Instant> = None;
+    let mut backoff = Duration::from_millis(50);
+    let mut ever_connected = false;
+    loop {
+        if out.stopped() {
+            return;
+        }
+        let connected = connect(address).map_err(|e| format!("cannot connect to {address}: {e}"));
+        let stream = match connected {
+            Ok(s) => s,
+            Err(msg) => {
+                let since = *failing_since.get_or_insert_with(Instant::now);
+                if since.elapsed().as_secs_f64() >= give_up_s {
+                    let what = if ever_connected {
+                        "reconnecting"
+                    } else {
+                        "connecting"
+                    };
+                    out.event(SourceEvent::End(format!(
+                        "{msg}; gave up {what} after {give_up_s} s"
+                    )));
+                    return;
+                }
+                std::thread::sleep(backoff);
+                backoff = (backoff * 2).min(Duration::from_millis(500));
+                continue;
+            }
+        };
+        backoff = Duration::from_millis(50);
+        ever_connected = true;
+        if !out.event(SourceEvent::Connected(format!("hyperion {address}"))) {
+            return;
+        }
+        let why = read_stream(stream, address, &mut last_serial, out);
+        match why {
+            None => return,
+            Some(reason) => {
+                if !out.event(SourceEvent::Disconnected(reason)) {
+                    return;
+                }
+                failing_since = Some(Instant::now());
+            }
+        }
+    }
+}
+
+fn connect(address: &str) -> std::io::Result<TcpStream> {
+    let mut last = std::io::Error::new(
+        std::io::ErrorKind::NotFound,
+        "the address resolves to nothing",
+    );
+    for a in address.to_socket_addrs()? {
+        match TcpStream::connect_timeout(&a, Duration::from_secs(2)) {
+            Ok(s) => {
+                s.set_nodelay(true).ok();
+                // A read timeout lets the thread notice a stop request.
+                s.set_read_timeout(Some(Duration::from_millis(200))).ok();
+                return Ok(s);
+            }
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
+}
+
+/// Read frames until the connection drops (Some(reason)) or the consumer stops (None).
+fn read_stream(
+    mut s: TcpStream,
+    address: &str,
+    last_serial: &mut Option<u64>,
+    out: &Outlet,
+) -> Option<String> {
+    let mut dec = StreamDecoder::new();
+    let mut buf = vec![0u8; 1 << 16];
+    let mut silent_since = Instant::now();
+    loop {
+        if out.stopped() {
+            return None;
+        }
+        let n = match s.read(&mut buf) {
+            Ok(0) => return Some(format!("{address} closed the connection")),
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                // An instrument streams continuously: 10 s of silence is a dead link.
+                if silent_since.elapsed() > Duration::from_secs(10) {
+                    return Some(format!("{address} sent nothing for 10 s"));
+                }
+                continue;
+            }
+            Err(e) => return Some(format!("connection to {address} failed: {e}")),
+        };
+        silent_since = Instant::now();
+        let received = Instant::now();
+        dec.push(&buf[..n]);
+        while let Some(r) = dec.next_frame() {
+            let ok = match r {
+                Ok(f) => {
+                    if let Some(prev) = *last_serial {
+                        if f.serial_number > prev + 1 {
+                            out.event(SourceEvent::Missed(f.serial_number - prev - 1));
+                        } else if f.serial_number <= prev {
+                            out.event(SourceEvent::Bad {
+                                kind: "serial_restart".into(),
+                                message: format!("serial number went back from {prev} to {} (instrument restarted?)", f.serial_number),
+                            });
+                        }
+                    }
+                    *last_serial = Some(f.serial_number);
+                    out.frame(Frame {
+                        serial: Some(f.serial_number),
+                        time_s: Some(f.timestamp_s),
+                        wall_clock: true,
+                        origin: format!("serial {}", f.serial_number),
+                        peaks_nm: f.peaks_nm,
+                        received,
+                    })
+                }
+                Err(e) => {
+                    let lost = matches!(e, hyperion::FrameError::FramingLost(_));
+                    let ok = out.event(SourceEvent::Bad {
+                        kind: e.kind().to_string(),
+                        message: e.to_string(),
+                    });
+                    if lost {
+                        return Some(format!("{address}: {e}"));
+                    }
+                    ok
+                }
+            };
+            if !ok {
+                return None;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn source_names_parse_to_the_right_kind() {
+        let r = ReadOptions::default();
+        assert!(matches!(
+            SourceSpec::parse("-", r.clone(), false, None, 5.0),
+            SourceSpec::Stdin
+        ));
+        let addr = |s: &str| match SourceSpec::parse(s, ReadOptions::default(), false, None, 5.0) {
+            SourceSpec::Hyperion { address, give_up_s } => {
+                assert_eq!(give_up_s, 5.0);
+                address
+            }
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(addr("hyperion://10.0.0.55"), "10.0.0.55:51972");
+        assert_eq!(addr("tcp://127.0.0.1:4000"), "127.0.0.1:4000");
+        assert_eq!(addr("hyperion://localhost/"), "localhost:51972");
+        assert!(matches!(
+            SourceSpec::parse("Peaks.20250320140346.txt", r, true, Some(1.0), 5.0),
+            SourceSpec::Tail {
+                from_start: true,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn peak_lines_take_any_separator_and_name_a_bad_field() {
+        assert_eq!(
+            parse_peak_line("1520.8 1523.55,1526.7;\t1530.6\n").unwrap(),
+            Some(vec![1520.8, 1523.55, 1526.7, 1530.6])
+        );
+        assert_eq!(parse_peak_line("  # comment").unwrap(), None);
+        assert_eq!(parse_peak_line("").unwrap(), None);
+        let e = parse_peak_line("1520.8 abc").unwrap_err();
+        assert!(e.contains("field 2 `abc`"), "{e}");
+        assert!(parse_peak_line("1520.8 NaN").is_err());
+        assert!(parse_peak_line("-3").is_err());
+    }
+}

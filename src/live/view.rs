@@ -1,0 +1,451 @@
+//! What a live run shows: a terminal view (a text heat map of the array's cells, or a
+//! force table of the module's gratings, with rate, latency, drops and bad frames),
+//! redrawn a few times a second, or one JSON object per line for programs.
+
+use super::interpret::Reading;
+use super::stats::{LiveSummary, Stats};
+use serde::Serialize;
+use std::io::{self, Write};
+use std::time::{Duration, Instant};
+
+/// What the view needs to know about the run, once.
+#[derive(Debug, Clone, Serialize)]
+pub struct LiveInfo {
+    /// Design name.
+    pub design: String,
+    /// `array` or `module`.
+    pub kind: &'static str,
+    /// The source.
+    pub source: String,
+    /// One line on what is read and how.
+    pub description: String,
+    /// Cell labels (array) or strain gratings (module), in the order of each reading.
+    pub outputs: Vec<String>,
+    /// Gratings tracked in each frame.
+    pub gratings: Vec<String>,
+    /// Array: cells along x and y, and ulimit, g.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<(usize, usize, f64)>,
+    /// Array: reconstruction method.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
+    /// Module: K per strain grating, pm/N.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sensitivities_pm_per_n: Vec<f64>,
+    /// Frames averaged for the tare.
+    pub tare_frames: usize,
+}
+
+/// One reading, as shown and streamed.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameReading {
+    /// The instrument's frame counter, if any.
+    pub serial: Option<u64>,
+    /// The frame's own time, s, if any.
+    pub time_s: Option<f64>,
+    /// Loads or forces.
+    #[serde(flatten)]
+    pub reading: Reading,
+    /// Receive → reading, µs.
+    pub latency_us: f64,
+    /// Instrument timestamp → reading, µs (wall-clock sources).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub age_us: Option<f64>,
+}
+
+/// Where a live run's output goes.
+pub trait LiveSink {
+    /// Once, before the first frame.
+    fn start(&mut self, info: &LiveInfo) -> io::Result<()>;
+    /// Every reading, in order.
+    fn reading(&mut self, r: &FrameReading) -> io::Result<()>;
+    /// A bad frame (counted by kind, named by message).
+    fn bad(&mut self, kind: &str, message: &str) -> io::Result<()>;
+    /// A connection event (`connected`, `disconnected`).
+    fn event(&mut self, event: &str, message: &str) -> io::Result<()>;
+    /// After each batch of frames, with the counters so far and the time since the
+    /// first frame.
+    fn tick(&mut self, stats: &Stats, elapsed: Duration) -> io::Result<()>;
+    /// Once, at the end.
+    fn finish(&mut self, summary: &LiveSummary) -> io::Result<()>;
+}
+
+/// One JSON object per line: `start`, then `frame`, `bad` and `event` lines, then a
+/// `summary`.
+pub struct JsonlSink<W: Write> {
+    out: W,
+}
+
+impl<W: Write> JsonlSink<W> {
+    /// Write to `out` (give it a buffer; it is flushed after every batch).
+    pub fn new(out: W) -> Self {
+        JsonlSink { out }
+    }
+
+    fn line<T: Serialize>(&mut self, kind: &str, value: &T) -> io::Result<()> {
+        let mut v = serde_json::to_value(value).map_err(io::Error::other)?;
+        if let serde_json::Value::Object(m) = &mut v {
+            m.insert("type".into(), kind.into());
+        }
+        serde_json::to_writer(&mut self.out, &v).map_err(io::Error::other)?;
+        self.out.write_all(b"\n")
+    }
+}
+
+impl<W: Write> LiveSink for JsonlSink<W> {
+    fn start(&mut self, info: &LiveInfo) -> io::Result<()> {
+        self.line("start", info)?;
+        self.out.flush()
+    }
+    fn reading(&mut self, r: &FrameReading) -> io::Result<()> {
+        self.line("frame", r)
+    }
+    fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
+        self.line(
+            "bad",
+            &serde_json::json!({ "kind": kind, "message": message }),
+        )
+    }
+    fn event(&mut self, event: &str, message: &str) -> io::Result<()> {
+        self.line(
+            "event",
+            &serde_json::json!({ "event": event, "message": message }),
+        )
+    }
+    fn tick(&mut self, _: &Stats, _: Duration) -> io::Result<()> {
+        self.out.flush()
+    }
+    fn finish(&mut self, summary: &LiveSummary) -> io::Result<()> {
+        self.line("summary", summary)?;
+        self.out.flush()
+    }
+}
+
+/// The terminal view: redrawn at most `refresh` apart when `redraw` (a terminal),
+/// printed once at the end otherwise.
+pub struct TerminalSink<W: Write> {
+    out: W,
+    redraw: bool,
+    refresh: Duration,
+    last_draw: Option<Instant>,
+    info: Option<LiveInfo>,
+    last: Option<FrameReading>,
+    events: Vec<String>,
+    stats: Stats,
+    elapsed: Duration,
+}
+
+impl<W: Write> TerminalSink<W> {
+    /// `redraw`: clear and redraw the screen (a terminal); else one view at the end.
+    pub fn new(out: W, redraw: bool) -> Self {
+        TerminalSink {
+            out,
+            redraw,
+            refresh: Duration::from_millis(100),
+            last_draw: None,
+            info: None,
+            last: None,
+            events: Vec::new(),
+            stats: Stats::default(),
+            elapsed: Duration::ZERO,
+        }
+    }
+
+    fn note(&mut self, s: String) {
+        self.events.push(s);
+        if self.events.len() > 3 {
+            self.events.remove(0);
+        }
+    }
+
+    fn draw(&mut self) -> io::Result<()> {
+        let Some(info) = &self.info else {
+            return Ok(());
+        };
+        let text = render(
+            info,
+            self.last.as_ref(),
+            &self.stats,
+            self.elapsed,
+            &self.events,
+        );
+        if self.redraw {
+            // Home, clear, draw.
+            write!(self.out, "\x1b[H\x1b[2J{text}")?;
+        } else {
+            write!(self.out, "{text}")?;
+        }
+        self.out.flush()
+    }
+}
+
+impl<W: Write> LiveSink for TerminalSink<W> {
+    fn start(&mut self, info: &LiveInfo) -> io::Result<()> {
+        self.info = Some(info.clone());
+        if self.redraw {
+            self.draw()?;
+        }
+        Ok(())
+    }
+    fn reading(&mut self, r: &FrameReading) -> io::Result<()> {
+        self.last = Some(r.clone());
+        Ok(())
+    }
+    fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
+        self.note(format!("bad frame ({kind}): {message}"));
+        Ok(())
+    }
+    fn event(&mut self, event: &str, message: &str) -> io::Result<()> {
+        self.note(format!("{event}: {message}"));
+        Ok(())
+    }
+    fn tick(&mut self, stats: &Stats, elapsed: Duration) -> io::Result<()> {
+        self.stats = stats.clone();
+        self.elapsed = elapsed;
+        if self.redraw && self.last_draw.is_none_or(|t| t.elapsed() >= self.refresh) {
+            self.last_draw = Some(Instant::now());
+            self.draw()?;
+        }
+        Ok(())
+    }
+    fn finish(&mut self, summary: &LiveSummary) -> io::Result<()> {
+        self.draw()?;
+        writeln!(self.out, "{}", summary_text(summary))?;
+        self.out.flush()
+    }
+}
+
+/// A horizontal bar of `width` cells for `frac` of full scale (eighth blocks).
+fn bar(frac: f64, width: usize) -> String {
+    const EIGHTHS: [char; 8] = [' ', '▏', '▎', '▍', '▌', '▋', '▊', '▉'];
+    let f = if frac.is_finite() {
+        frac.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let eighths = (f * (width * 8) as f64).round() as usize;
+    let mut s: String = "█".repeat(eighths / 8);
+    if !eighths.is_multiple_of(8) && s.chars().count() < width {
+        s.push(EIGHTHS[eighths % 8]);
+    }
+    while s.chars().count() < width {
+        s.push(' ');
+    }
+    s
+}
+
+fn us(v: f64) -> String {
+    if !v.is_finite() {
+        "–".into()
+    } else if v < 10_000.0 {
+        format!("{v:.0} µs")
+    } else {
+        format!("{:.1} ms", v / 1000.0)
+    }
+}
+
+/// The terminal view as text.
+pub fn render(
+    info: &LiveInfo,
+    last: Option<&FrameReading>,
+    stats: &Stats,
+    elapsed: Duration,
+    events: &[String],
+) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "fbgforge live · {} · {}", info.design, info.source);
+    let _ = writeln!(s, "{}", info.description);
+    match (last.map(|r| &r.reading), info.grid) {
+        (
+            Some(Reading::Loads {
+                loads_g,
+                residual_pm,
+                ..
+            }),
+            Some((nx, ny, ulimit)),
+        ) => {
+            const W: usize = 9;
+            let line = |l: char, m: char, r: char| {
+                let mut t = format!("     {l}");
+                for i in 0..nx {
+                    t.push_str(&"─".repeat(W));
+                    t.push(if i + 1 == nx { r } else { m });
+                }
+                t
+            };
+            let _ = writeln!(s, "{}", line('┌', '┬', '┐'));
+            for row in (0..ny).rev() {
+                let mut a = format!("{:>5}│", if row + 1 == ny { "+y" } else { "" });
+                let mut b = "     │".to_string();
+                for col in 0..nx {
+                    let k = row * nx + col;
+                    let name = info.outputs.get(k).map_or("?", |n| n.as_str());
+                    let v = loads_g.get(k).copied().unwrap_or(f64::NAN);
+                    let frac = v / ulimit;
+                    let _ = write!(a, " {name:<2}{:>5.0} │", v);
+                    let _ = write!(b, " {} │", bar(frac, W - 2));
+                }
+                let _ = writeln!(s, "{a}");
+                let _ = writeln!(s, "{b}");
+                let _ = writeln!(
+                    s,
+                    "{}",
+                    if row == 0 {
+                        line('└', '┴', '┘')
+                    } else {
+                        line('├', '┼', '┤')
+                    }
+                );
+            }
+            let total: f64 = loads_g.iter().sum();
+            let _ = writeln!(
+                s,
+                "      −x → +x   loads in g; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm"
+            );
+        }
+        (
+            Some(Reading::Forces {
+                forces_n,
+                delta_t_k,
+            }),
+            _,
+        ) => {
+            let scale = forces_n
+                .iter()
+                .flatten()
+                .fold(1.0f64, |m, f| m.max(f.abs()));
+            let _ = writeln!(s, "  {:<14} {:>10} {:>10}", "grating", "K pm/N", "force N");
+            for (i, name) in info.outputs.iter().enumerate() {
+                let k = info
+                    .sensitivities_pm_per_n
+                    .get(i)
+                    .copied()
+                    .unwrap_or(f64::NAN);
+                match forces_n.get(i).copied().flatten() {
+                    Some(f) => {
+                        let _ = writeln!(
+                            s,
+                            "  {name:<14} {k:>+10.3} {f:>+10.3}  {}",
+                            bar(f.abs() / scale, 30)
+                        );
+                    }
+                    None => {
+                        let _ = writeln!(s, "  {name:<14} {k:>+10.3} {:>10}  (no peak)", "–");
+                    }
+                }
+            }
+            match delta_t_k {
+                Some(t) => {
+                    let _ = writeln!(
+                        s,
+                        "  temperature change since the tare: {t:+.2} K (compensated)"
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "  no temperature reference: forces are not compensated");
+                }
+            }
+        }
+        _ => {
+            let _ = writeln!(
+                s,
+                "  waiting for frames ({} of {} tare frames taken; keep the sensor unloaded)",
+                stats.tare_frames, info.tare_frames
+            );
+        }
+    }
+    let secs = elapsed.as_secs_f64();
+    let rate = if secs > 0.0 {
+        stats.frames_in as f64 / secs
+    } else {
+        0.0
+    };
+    let lat = stats.latency.summary();
+    let frame = last.map_or("–".into(), |r| match (r.serial, r.time_s) {
+        (Some(n), _) => format!("serial {n}"),
+        (None, Some(t)) => format!("t {t:.3} s"),
+        _ => "–".into(),
+    });
+    let _ = writeln!(
+        s,
+        "frame {frame}   {:.0} frames/s   latency p50 {} p99 {} max {}",
+        rate,
+        us(lat.p50_us),
+        us(lat.p99_us),
+        us(lat.max_us)
+    );
+    let d = &stats.dropped;
+    let _ = writeln!(
+        s,
+        "frames {} in, {} read   dropped {} (gaps {}, queue {})   bad {}   reconnects {}",
+        stats.frames_in,
+        stats.frames_out,
+        d.serial_gaps + d.queue_overflow,
+        d.serial_gaps,
+        d.queue_overflow,
+        stats.bad_frames,
+        stats.reconnects
+    );
+    for e in events {
+        let _ = writeln!(s, "  {e}");
+    }
+    s
+}
+
+/// The end-of-run summary as text.
+pub fn summary_text(x: &LiveSummary) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "ended: {}", x.ended);
+    let _ = writeln!(
+        s,
+        "{} frames in {:.2} s ({:.0} frames/s): {} read, {} tare, {} bad, {} ambiguous; dropped {} (serial gaps {}, queue overflow {}); {} reconnects",
+        x.frames_in,
+        x.elapsed_s,
+        x.rate_hz,
+        x.frames_out,
+        x.tare_frames,
+        x.bad_frames,
+        x.ambiguous_frames,
+        x.dropped.total,
+        x.dropped.serial_gaps,
+        x.dropped.queue_overflow,
+        x.reconnects
+    );
+    let _ = write!(
+        s,
+        "latency (receive → reading): p50 {} p99 {} max {}",
+        us(x.latency.p50_us),
+        us(x.latency.p99_us),
+        us(x.latency.max_us)
+    );
+    if x.age.count > 0 {
+        let _ = write!(
+            s,
+            "\nage (instrument timestamp → reading): p50 {} p99 {} max {}",
+            us(x.age.p50_us),
+            us(x.age.p99_us),
+            us(x.age.max_us)
+        );
+    }
+    for (kind, w) in &x.bad.counts {
+        let _ = write!(s, "\n  {kind}: {} (first: {})", w.count, w.first);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bars_fill_in_eighths_and_keep_their_width() {
+        assert_eq!(bar(0.0, 4), "    ");
+        assert_eq!(bar(1.0, 4), "████");
+        assert_eq!(bar(0.5, 4), "██  ");
+        assert_eq!(bar(1.0 / 32.0, 4), "▏   ");
+        assert_eq!(bar(f64::NAN, 3), "   ");
+        assert_eq!(bar(7.0, 3).chars().count(), 3);
+    }
+}

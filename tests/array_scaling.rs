@@ -1,0 +1,409 @@
+//! Tests of reconstruction at any size (issue 14): `bnb` against the exact truth and
+//! against brute-force enumeration, no method claiming convergence at a worse
+//! objective than the truth, the load cap, the automatic method choice, and sensing
+//! matrices and shifts as users have them (numbers only, no header).
+
+use fbgforge::array::choice::{choose_method, PREFERENCE};
+use fbgforge::array::kernel::{
+    fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
+};
+use fbgforge::array::methods::{build, Method, MethodSettings};
+use fbgforge::array::problem::SensingProblem;
+use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
+use nalgebra::{DMatrix, DVector};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// The scaling study's array: `cells_x × cells_y` cells under `fibers` fibers.
+fn grid_matrix(cx: usize, cy: usize, fibers: usize, per_fiber: usize) -> DMatrix<f64> {
+    let (c, g) = fiber_grid_layout(cx, cy, fibers, per_fiber);
+    matrix_from_positions(&c, &g, &DistanceKernel::table1_power_law(3.0))
+}
+
+/// Random loads of `k` distinct cells, masses 50/100/200 g.
+fn random_loads(n: usize, k: usize, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    let mut x = vec![0.0; n];
+    let mut placed = 0;
+    while placed < k {
+        let j = rng.random_range(0..n);
+        if x[j] == 0.0 {
+            x[j] = [50.0, 100.0, 200.0][rng.random_range(0..3)];
+            placed += 1;
+        }
+    }
+    x
+}
+
+fn shifts(a: &DMatrix<f64>, x: &[f64]) -> Vec<f64> {
+    (a * DVector::from_column_slice(x))
+        .iter()
+        .copied()
+        .collect()
+}
+
+/// Shifts with the scaling study's noise: 3 % relative and 0.25 pm absolute
+/// (uniform here: only the size matters to these tests).
+fn noisy(a: &DMatrix<f64>, x: &[f64], rng: &mut ChaCha8Rng) -> Vec<f64> {
+    shifts(a, x)
+        .into_iter()
+        .map(|v| v * (1.0 + 0.05 * rng.random_range(-1.0..1.0)) + 0.4 * rng.random_range(-1.0..1.0))
+        .collect()
+}
+
+#[test]
+fn bnb_recovers_noise_free_frames_exactly_at_16x64_with_four_loads() {
+    let a = grid_matrix(8, 8, 4, 4);
+    assert_eq!(a.shape(), (16, 64));
+    let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+    // Noise-free frames: the penalty must stay below the misfit of absorbing one load
+    // into a neighbouring cell (coherence 0.996 here: about 1 pm² for a 100 g load),
+    // else the ℓ0 optimum is rightly a smaller support. 0.1 pm² is well below.
+    let settings = MethodSettings {
+        penalty: 0.1,
+        ..MethodSettings::for_method(Method::BranchAndBound)
+    };
+    let r = build(Method::BranchAndBound, &p, settings).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(64);
+    for k in 1..=4 {
+        for _ in 0..6 {
+            let x = random_loads(64, k, &mut rng);
+            let rec = r.reconstruct(&shifts(&a, &x));
+            assert!(rec.converged, "certified on a noise-free frame");
+            for (j, (got, want)) in rec.loads_g.iter().zip(&x).enumerate() {
+                assert!(
+                    (got - want).abs() < 1e-6,
+                    "cell {j}: {got} g, truth {want} g"
+                );
+            }
+        }
+    }
+}
+
+/// ‖Ax − y‖² + λ·|S|: the objective `support` and `bnb` minimise.
+fn l0_cost(a: &DMatrix<f64>, y: &[f64], x: &[f64], lambda: f64) -> f64 {
+    let r = a * DVector::from_column_slice(x) - DVector::from_column_slice(y);
+    r.norm_squared() + lambda * x.iter().filter(|&&v| v > 0.0).count() as f64
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    /// Branch and bound finds the optimum that brute-force enumeration of every
+    /// support of ≤ K cells finds, on random arrays (entries of either sign), random
+    /// frames and penalties.
+    #[test]
+    fn bnb_matches_brute_force_enumeration(
+        m in 3usize..7,
+        extra in 0usize..5,
+        kmax in 1usize..4,
+        lambda in prop::sample::select(vec![0.25, 2.0, 8.0, 32.0]),
+        seed in any::<u64>(),
+        negative in any::<bool>(),
+    ) {
+        let n = m + extra;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let lo = if negative { -0.3 } else { 0.02 };
+        let a = DMatrix::from_fn(m, n, |_, _| rng.random_range(lo..1.0));
+        let k = rng.random_range(1..=kmax.min(n));
+        let x = random_loads(n, k, &mut rng);
+        let y: Vec<f64> = shifts(&a, &x)
+            .into_iter()
+            .map(|v| v + rng.random_range(-3.0..3.0))
+            .collect();
+        let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+        let settings = |mm| MethodSettings { penalty: lambda, max_loads: kmax, ..MethodSettings::for_method(mm) };
+        let brute = build(Method::Support, &p, settings(Method::Support)).unwrap().reconstruct(&y);
+        let bb = build(Method::BranchAndBound, &p, settings(Method::BranchAndBound)).unwrap().reconstruct(&y);
+        prop_assert!(bb.converged);
+        prop_assert!(bb.loads_g.iter().filter(|&&v| v > 0.0).count() <= kmax);
+        let (cb, cs) = (l0_cost(&a, &y, &bb.loads_g, lambda), l0_cost(&a, &y, &brute.loads_g, lambda));
+        prop_assert!((cb - cs).abs() <= 1e-7 * (1.0 + cs), "bnb {cb} vs enumeration {cs}");
+        let support = |x: &[f64]| -> Vec<usize> { (0..x.len()).filter(|&j| x[j] > 0.0).collect() };
+        // Same support unless two supports tie (then either is the optimum).
+        if support(&bb.loads_g) != support(&brute.loads_g) {
+            prop_assert!((cb - cs).abs() <= 1e-9 * (1.0 + cs));
+        }
+    }
+}
+
+/// For every method with an objective: converged ⇒ objective(answer) ≤ objective(truth).
+fn check_no_false_convergence(
+    a: &DMatrix<f64>,
+    methods: &[(Method, MethodSettings)],
+    frames: usize,
+    seed: u64,
+) {
+    let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+    let n = a.ncols();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for &(method, settings) in methods {
+        let r = build(method, &p, settings).unwrap();
+        let mut checked = 0;
+        for f in 0..frames {
+            let x = random_loads(n, 1 + f % 4, &mut rng);
+            let y = noisy(a, &x, &mut rng);
+            let rec = r.reconstruct(&y);
+            let (Some(got), Some(truth)) = (r.objective(&y, &rec.loads_g), r.objective(&y, &x))
+            else {
+                panic!("{} has an objective", method.name());
+            };
+            if rec.converged {
+                checked += 1;
+                assert!(
+                    got <= truth + 1e-6 * (1.0 + truth.abs()),
+                    "{} claims convergence at objective {got} > {truth} at the truth ({}×{n}, frame {f})",
+                    method.name(),
+                    a.nrows()
+                );
+            }
+        }
+        assert!(
+            checked > 0 || method == Method::De,
+            "{} converged on no frame",
+            method.name()
+        );
+    }
+}
+
+#[test]
+fn no_method_claims_convergence_at_a_worse_objective_than_the_truth() {
+    let (c, g) = paper_layout();
+    let paper = matrix_from_positions(&c, &g, &DistanceKernel::paper());
+    let s = MethodSettings::for_method;
+    let exact = [
+        (Method::Support, s(Method::Support)),
+        (Method::BranchAndBound, s(Method::BranchAndBound)),
+        (Method::Nnls, s(Method::Nnls)),
+        (Method::Lasso, s(Method::Lasso)),
+    ];
+    check_no_false_convergence(&paper, &exact, 24, 1);
+    check_no_false_convergence(&grid_matrix(8, 4, 2, 6), &exact, 16, 2);
+    let large = [
+        (Method::BranchAndBound, s(Method::BranchAndBound)),
+        (Method::Nnls, s(Method::Nnls)),
+        (Method::Lasso, s(Method::Lasso)),
+    ];
+    check_no_false_convergence(&grid_matrix(16, 16, 8, 4), &large, 8, 3);
+    // DE with a population small enough to collapse early (on a wrong point, often):
+    // its label must not claim convergence then.
+    let de = MethodSettings {
+        de_population: 6,
+        de_generations: 400,
+        ..s(Method::De)
+    };
+    check_no_false_convergence(&paper, &[(Method::De, de)], 24, 4);
+    check_no_false_convergence(&grid_matrix(8, 8, 4, 4), &[(Method::De, de)], 8, 5);
+}
+
+#[test]
+fn de_no_longer_returns_zeros_on_single_loads_of_a_large_array() {
+    // Issue 14: at 32 × 256 the replica returned all-zero loads marked converged on
+    // every single-load frame. Seeded with the greedy fits it cannot end below them.
+    // (At this coherence, 0.9998, a neighbouring cell may fit a noisy frame better
+    // than the true one: what counts is the objective, not the SNR.)
+    let a = grid_matrix(16, 16, 8, 4);
+    let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+    let settings = MethodSettings {
+        de_population: 20,
+        de_generations: 60,
+        ..MethodSettings::for_method(Method::De)
+    };
+    let r = build(Method::De, &p, settings).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..3 {
+        let x = random_loads(256, 1, &mut rng);
+        let y = noisy(&a, &x, &mut rng);
+        let rec = r.reconstruct(&y);
+        assert!(rec.loads_g.iter().any(|&v| v > 0.0), "all-zero answer");
+        let (got, truth) = (
+            r.objective(&y, &rec.loads_g).unwrap(),
+            r.objective(&y, &x).unwrap(),
+        );
+        assert!(!rec.converged || got <= truth + 1e-9, "{got} > {truth}");
+        assert!(
+            got < r.objective(&y, &vec![0.0; 256]).unwrap(),
+            "better than all-zero"
+        );
+    }
+}
+
+#[test]
+fn support_methods_never_use_more_loads_than_the_cap() {
+    let a = grid_matrix(4, 4, 2, 4);
+    let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for method in [
+        Method::Support,
+        Method::WeightedSupport,
+        Method::BranchAndBound,
+    ] {
+        let settings = MethodSettings {
+            max_loads: 2,
+            penalty: 0.0,
+            ..MethodSettings::for_method(method)
+        };
+        let r = build(method, &p, settings).unwrap();
+        for _ in 0..10 {
+            let x = random_loads(16, 4, &mut rng);
+            let rec = r.reconstruct(&noisy(&a, &x, &mut rng));
+            let used = rec.loads_g.iter().filter(|&&v| v > 0.0).count();
+            assert!(used <= 2, "{} used {used} loads", method.name());
+        }
+        let zero = MethodSettings {
+            max_loads: 0,
+            ..MethodSettings::for_method(method)
+        };
+        assert!(build(method, &p, zero).is_err(), "max_loads 0 is refused");
+    }
+}
+
+#[test]
+fn choice_takes_the_most_accurate_method_within_the_budget() {
+    let (c, g) = paper_layout();
+    let a = matrix_from_positions(&c, &g, &DistanceKernel::paper());
+    let p = SensingProblem::new(a, 250.0, true).unwrap();
+    let settings = |m| MethodSettings::for_method(m);
+    // A generous budget: the most accurate method.
+    let c = choose_method(&p, &settings, 1e9, None).unwrap();
+    assert_eq!(c.method, PREFERENCE[0]);
+    assert_eq!(c.candidates.len(), 1);
+    assert!(c.reason.contains("most accurate"), "{}", c.reason);
+    // An impossible budget: never refused, the fastest measured, and it says so.
+    let c = choose_method(&p, &settings, 1e-6, None).unwrap();
+    assert!(c.reason.contains("no method met"), "{}", c.reason);
+    assert_eq!(c.candidates.len(), PREFERENCE.len());
+    let picked = c.candidates.iter().find(|k| k.status == "picked").unwrap();
+    assert_eq!(picked.method, c.method);
+    let fastest = c
+        .candidates
+        .iter()
+        .filter_map(|k| k.probe_us_per_frame)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(picked.probe_us_per_frame, Some(fastest));
+    // A bad budget is an error, not a panic.
+    for bad in [0.0, -5.0, f64::NAN] {
+        assert!(choose_method(&p, &settings, bad, None).is_err());
+    }
+}
+
+/// Write a matrix as numbers only, as numpy.savetxt (spaces) or MATLAB (commas).
+fn write_numbers(path: &std::path::Path, rows: &[Vec<f64>], sep: &str) {
+    let text: String = rows
+        .iter()
+        .map(|r| {
+            r.iter()
+                .map(|v| format!("{v:.18e}"))
+                .collect::<Vec<_>>()
+                .join(sep)
+                + "\n"
+        })
+        .collect();
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn the_default_solves_a_32x256_array_given_as_headerless_files() {
+    let a = grid_matrix(16, 16, 8, 4);
+    let dir = tempfile::tempdir().unwrap();
+    let rows: Vec<Vec<f64>> = (0..a.nrows())
+        .map(|i| a.row(i).iter().copied().collect())
+        .collect();
+    write_numbers(&dir.path().join("A.txt"), &rows, " ");
+    let mut rng = ChaCha8Rng::seed_from_u64(256);
+    let truths: Vec<Vec<f64>> = (0..3).map(|f| random_loads(256, 1 + f, &mut rng)).collect();
+    let frames: Vec<Vec<f64>> = truths.iter().map(|x| shifts(&a, x)).collect();
+    write_numbers(&dir.path().join("Y.csv"), &frames, ",");
+    let out = dir.path().join("loads.csv");
+    let req = ReconstructRequest {
+        out: Some(out.clone()),
+        ..ReconstructRequest::new(
+            MatrixSource::Csv(dir.path().join("A.txt")),
+            dir.path().join("Y.csv"),
+        )
+    };
+    let s = reconstruct_file(&req).unwrap();
+    assert_eq!((s.gratings, s.cells.len(), s.frames), (32, 256, 3));
+    assert_eq!(s.cells[0], "A");
+    let choice = s.choice.as_ref().expect("the default says how it chose");
+    assert!(choice.reason.contains(s.method), "{}", choice.reason);
+    assert!(s.setup_ms > 0.0 && s.time_per_frame_us > 0.0);
+    assert!(out.exists());
+}
+
+#[test]
+fn headerless_files_are_read_with_generated_names_and_bad_ones_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = grid_matrix(4, 2, 2, 3);
+    let rows: Vec<Vec<f64>> = (0..a.nrows())
+        .map(|i| a.row(i).iter().copied().collect())
+        .collect();
+    let x = vec![0.0, 100.0, 0.0, 0.0, 0.0, 0.0, 200.0, 0.0];
+    let y = shifts(&a, &x);
+    let path = |n: &str| dir.path().join(n);
+    write_numbers(&path("A.csv"), &rows, ",");
+    // Shifts with a time column first, tab separated.
+    std::fs::write(
+        path("Y.tsv"),
+        format!(
+            "0.5\t{}\n",
+            y.iter()
+                .map(|v| format!("{v}"))
+                .collect::<Vec<_>>()
+                .join("\t")
+        ),
+    )
+    .unwrap();
+    let req = |m: &str, sh: &str| ReconstructRequest {
+        method: Some("support".into()),
+        out: Some(path("out.csv")),
+        ..ReconstructRequest::new(MatrixSource::Csv(path(m)), path(sh))
+    };
+    let s = reconstruct_file(&req("A.csv", "Y.tsv")).unwrap();
+    assert_eq!(s.cells, ["A", "B", "C", "D", "E", "F", "G", "H"]);
+    let text = std::fs::read_to_string(path("out.csv")).unwrap();
+    assert!(text.starts_with("time_s,A,B"), "{text}");
+    let row: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for (got, want) in row[1..].iter().zip(&x) {
+        assert!((got - want).abs() < 1e-3, "{row:?}");
+    }
+    let err = |m: &str, sh: &str| format!("{:#}", reconstruct_file(&req(m, sh)).unwrap_err());
+    // Ragged and NaN matrices name the line.
+    std::fs::write(path("ragged.csv"), "0.1,0.2,0.3\n0.1,0.2\n").unwrap();
+    let e = err("ragged.csv", "Y.tsv");
+    assert!(
+        e.contains("ragged.csv:2") && e.contains("2 numbers, expected 3"),
+        "{e}"
+    );
+    std::fs::write(path("nan.csv"), "0.1 0.2\nNaN 0.3\n").unwrap();
+    let e = err("nan.csv", "Y.tsv");
+    assert!(
+        e.contains("nan.csv:2") && e.contains("not a finite value"),
+        "{e}"
+    );
+    // Headerless shifts of the wrong width, and headerless shifts for a named matrix.
+    std::fs::write(path("short.csv"), "1,2,3\n").unwrap();
+    let e = err("A.csv", "short.csv");
+    assert!(e.contains("expected 6 shifts"), "{e}");
+    let named = path("named.csv");
+    let mut t = String::from("grating,A,B,C,D,E,F,G,H\n");
+    for (i, r) in rows.iter().enumerate() {
+        t += &format!(
+            "fbg{},{}\n",
+            i + 1,
+            r.iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        );
+    }
+    std::fs::write(&named, t).unwrap();
+    let e = err("named.csv", "Y.tsv");
+    assert!(e.contains("no header") && e.contains("fbg1"), "{e}");
+}
