@@ -9,7 +9,7 @@
 //!   the finite-element model outside it.
 //! - **Case I**: the finite-element model with the design's contact reading
 //!   (`[module.contact]`: by default the cylinders slide above the base clip and the
-//!   domes bear on each other within 1.5 × the apex patch; docs/model.md §5.6). The
+//!   domes bear on each other within 1.376 × the apex patch; docs/model.md §5.6). The
 //!   closed form is nowhere within 8 % of any FE reading in Case I (docs/model.md §9).
 //! - **Band** (on request): every row carries the range of K between the physically
 //!   bounding contact readings, both FE: pillars bonded (most coupled) and cylinders

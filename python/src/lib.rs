@@ -4,9 +4,9 @@
 //! every error is an `fbgforge.FbgforgeError` (a `ValueError`) carrying the command
 //! line's message. Heavy work runs with the GIL released.
 
+use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use fbgforge::array::kernel::matrix_from_design;
 use fbgforge::array::methods::{self as array_methods, Method, MethodSettings};
-use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
@@ -223,6 +223,7 @@ fn predict<'py>(
                     case,
                     fidelity: choice,
                     band: true,
+                    ..Default::default()
                 },
             )
         })

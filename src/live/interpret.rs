@@ -9,9 +9,9 @@
 //! unloaded (a printed grating is rarely at its nominal wavelength to the picometre).
 
 use super::source::Frame;
+use crate::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use crate::array::kernel::matrix_from_design;
 use crate::array::methods::{self, Method, MethodSettings, Reconstruction, Reconstructor};
-use crate::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};

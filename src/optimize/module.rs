@@ -386,8 +386,11 @@ pub const PHYSICS_CONSTRAINTS: [&str; 2] = ["grating_strain", "wavelength_window
 #[derive(Debug, Clone)]
 struct Correction {
     center: Vec<f64>,
-    rows: Vec<((String, LoadCase, Option<String>), Vec<f64>)>,
+    rows: Vec<(RowKey, Vec<f64>)>,
 }
+
+/// A prediction row's identity: grating, case, insert.
+type RowKey = (String, LoadCase, Option<String>);
 
 impl Correction {
     fn apply(&self, x: &[f64], preds: &mut [GratingPrediction]) {
@@ -1421,7 +1424,7 @@ fn policy_answer(
         let runs = multi_start(
             &q,
             &settings.solvers,
-            &[xc.clone()],
+            std::slice::from_ref(&xc),
             settings.seed.wrapping_add(1000 + k),
             &settings.run,
         )?;

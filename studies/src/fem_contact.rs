@@ -279,12 +279,12 @@ fn curves(design: &Design, out: &Path, quick: bool) -> Result<()> {
             }
             if level.is_none() {
                 chart = chart.with(Series::new(
-                    format!("{insert}"),
+                    insert.to_string(),
                     fs.iter().copied().zip(shift.iter().copied()).collect(),
                     Mark::LinePoints,
                 ));
                 tangent_chart =
-                    tangent_chart.with(Series::new(format!("{insert}"), tangent, Mark::LinePoints));
+                    tangent_chart.with(Series::new(insert.to_string(), tangent, Mark::LinePoints));
             }
         }
     }
