@@ -12,8 +12,9 @@
 //! designs were sized by hand to stay printable, so a module of diameter D is made by
 //! piecewise-linear interpolation of every length (walls, clearances, pillars, holes,
 //! heights, grating lengths and heights) between the two shipped designs whose
-//! diameters bracket D. Counts, names, materials and wavelengths come from the lower
-//! knot. The result is validated like any spec.
+//! diameters bracket D, and so are the contact reading's lengths (`[module.contact]`).
+//! Counts, names, materials and wavelengths come from the lower knot. The result is
+//! validated like any spec.
 
 use crate::spec::{Design, Module, SpecError};
 
@@ -39,6 +40,14 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
     m.pillars.groove_depth_mm = lerp(pa.groove_depth_mm, pb.groove_depth_mm, t);
     m.pillars.fiber_hole_diameter_mm =
         lerp(pa.fiber_hole_diameter_mm, pb.fiber_hole_diameter_mm, t);
+    // The contact reading's lengths as the knots resolve them.
+    m.contact.clip_height_mm = Some(lerp(a.clip_height_mm(), b.clip_height_mm(), t));
+    m.contact.dome_clearance_mm = Some(lerp(a.dome_clearance_mm(), b.dome_clearance_mm(), t));
+    m.contact.dome_contact_radius_mm = Some(lerp(
+        a.dome_contact_radius_mm(),
+        b.dome_contact_radius_mm(),
+        t,
+    ));
     if let (Some(sa), Some(sb)) = (&mut m.snap, &b.snap) {
         sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
         sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
@@ -130,6 +139,23 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
             *z *= s;
         }
     }
+    // The contact reading keeps its proportions: the clip to the cap wall, the domes'
+    // contact zone to the apex patch; the dome clearance follows the cap/core one
+    // unless the base sets it apart.
+    let b = base.module.as_ref().expect("checked above");
+    m.contact.clip_height_mm = b
+        .contact
+        .clip_height_mm
+        .map(|h| h * wall_mm / b.cap_wall_mm);
+    m.contact.dome_clearance_mm = b
+        .contact
+        .dome_clearance_mm
+        .filter(|&c| c != b.cap_core_clearance_mm)
+        .map(|c| (c * s).max(0.0));
+    m.contact.dome_contact_radius_mm = b
+        .contact
+        .dome_contact_radius_mm
+        .map(|r| r / b.apex_patch_radius_mm() * m.apex_patch_radius_mm());
     if let Some(snap) = m.snap.as_mut() {
         snap.undercut_mm = floor(snap.undercut_mm, 0.05);
         snap.bead_height_mm = floor(snap.bead_height_mm, 0.3);

@@ -1,7 +1,8 @@
 //! SVG charts for results people would rather look at than read.
 //!
 //! One small chart type covers every plot fbgforge makes: named series of (x, y)
-//! points drawn as lines, markers or both, on linear or log10 axes. Charts are
+//! points drawn as lines, markers or both, optionally with a shaded band, on linear
+//! or log10 axes. Charts are
 //! rendered to a string with plotters' SVG backend and written atomically; the same
 //! numbers always go to a JSON or CSV beside the chart.
 
@@ -30,6 +31,9 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Drawing style.
     pub mark: Mark,
+    /// A range around the series, (x, low, high), drawn as a shaded band in the
+    /// series' colour (e.g. a prediction's band between bounding model readings).
+    pub band: Option<Vec<(f64, f64, f64)>>,
 }
 
 impl Series {
@@ -39,7 +43,14 @@ impl Series {
             name: name.into(),
             points,
             mark,
+            band: None,
         }
+    }
+
+    /// The same series with a shaded band (x, low, high).
+    pub fn with_band(mut self, band: Vec<(f64, f64, f64)>) -> Self {
+        self.band = Some(band);
+        self
     }
 }
 
@@ -98,7 +109,25 @@ impl Chart {
                     .collect()
             })
             .collect();
-        let all: Vec<&(f64, f64)> = data.iter().flatten().collect();
+        // Each band as a closed outline: the low edge forward, the high edge back.
+        let bands: Vec<Vec<(f64, f64)>> = self
+            .series
+            .iter()
+            .map(|s| {
+                let Some(b) = &s.band else {
+                    return Vec::new();
+                };
+                let ok = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite();
+                let low = b.iter().map(|&(x, lo, _)| (tx(x), ty(lo))).filter(ok);
+                let high: Vec<(f64, f64)> = b
+                    .iter()
+                    .map(|&(x, _, hi)| (tx(x), ty(hi)))
+                    .filter(ok)
+                    .collect();
+                low.chain(high.into_iter().rev()).collect()
+            })
+            .collect();
+        let all: Vec<&(f64, f64)> = data.iter().chain(&bands).flatten().collect();
         if all.is_empty() {
             return Err(anyhow!(
                 "chart `{}` has no finite points to draw",
@@ -150,6 +179,14 @@ impl Chart {
                 .y_desc(y_label)
                 .draw()
                 .map_err(|e| anyhow!("plot: {e}"))?;
+            for (i, band) in bands.iter().enumerate() {
+                if band.len() >= 3 {
+                    let shade = Palette99::pick(i).mix(0.18);
+                    chart
+                        .draw_series(std::iter::once(Polygon::new(band.clone(), shade.filled())))
+                        .map_err(|e| anyhow!("plot: {e}"))?;
+                }
+            }
             for (i, (s, pts)) in self.series.iter().zip(&data).enumerate() {
                 let color = Palette99::pick(i).to_rgba();
                 let style = ShapeStyle::from(&color).stroke_width(2);

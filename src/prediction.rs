@@ -1,20 +1,33 @@
 //! The one model policy: every command that needs a grating's predicted sensitivity
 //! (`predict`, `sweep`, `verify`'s verdict, `optimize`'s objective and constraints)
-//! asks [`predict`] here, so no two commands can answer the same design with two
-//! models. Each row names the model that produced it.
+//! asks [`predict`] here (the optimiser through [`Anchored`], built by the same
+//! policy), so no two commands can answer the same design with two models. Each row
+//! names the model that produced it.
 //!
-//! The policy: the closed form inside its measured validity region ([`validity`]),
-//! the finite-element model outside it. The closed form is always evaluated
-//! (microseconds) because it also gives the details the FE solve does not (load
-//! share, reference grating); rows that go to the FE model keep those details but
-//! take K, strain and shifts from the FE solve. Each FE configuration (core, case,
-//! insert) is solved once, at 1 N, and only when a row asks for it.
+//! The policy ([`FidelityChoice::Auto`]):
+//! - **Case II**: the closed form inside its measured validity region ([`validity`]),
+//!   the finite-element model outside it.
+//! - **Case I**: the finite-element model with the design's contact reading
+//!   (`[module.contact]`: by default the cylinders slide above the base clip and the
+//!   domes bear on each other within 1.376 × the apex patch; docs/model.md §5.6). The
+//!   closed form is nowhere within 8 % of any FE reading in Case I (docs/model.md §9).
+//! - **Band** (on request): every row carries the range of K between the physically
+//!   bounding contact readings, both FE: pillars bonded (most coupled) and cylinders
+//!   sliding with the domes touching over the apex patch only (least coupled).
+//!
+//! The closed form is always evaluated (microseconds) because it also gives the
+//! details the FE solve does not (load share, reference grating); rows that go to the
+//! FE model keep those details but take K, strain and shifts from the FE solve. Each FE
+//! configuration (core, case, insert, reading) is solved once, at 1 N, in parallel.
 
-use crate::fem::{solve_configuration, FemOptions};
-use crate::model::{self, Configuration, DetailedPrediction, LoadCase, PredictOptions};
+use crate::fem::{solve_configuration, ContactReading, FemOptions};
+use crate::model::{
+    self, Configuration, DetailedPrediction, GratingPrediction, LoadCase, PredictOptions,
+};
 use crate::profile::ModuleProfile;
 use crate::spec::Design;
 use anyhow::{Context, Result};
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// The closed form's error bound claimed by the paper.
@@ -34,16 +47,26 @@ pub enum Fidelity {
     Fem,
 }
 
+impl Fidelity {
+    /// The name printed in tables and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Fidelity::ClosedForm => "closed-form",
+            Fidelity::Fem => "fem",
+        }
+    }
+}
+
 /// Which model `predict` should use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FidelityChoice {
-    /// Per case: the closed form inside its measured validity region, FE outside
-    /// ([`choose_fidelity_for`]).
+    /// The policy: Case II by the closed form inside its measured validity region,
+    /// everything else by the FE model with the design's contact reading.
     Auto,
     /// The closed form everywhere.
     ClosedForm,
-    /// The finite-element model everywhere.
+    /// The finite-element model (design's contact reading) everywhere.
     Fem,
 }
 
@@ -58,24 +81,46 @@ impl FidelityChoice {
     }
 }
 
+/// The contact readings behind a row's band, K in pm/N.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BandReadings {
+    /// FE, pillars bonded to cap and core, domes tied over the apex patch.
+    pub bonded_pillars_pm_per_n: f64,
+    /// FE, cylinders sliding above the base clip, domes touching over the apex patch only.
+    pub sliding_apex_patch_pm_per_n: f64,
+}
+
 /// One grating prediction and the model that produced it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModelledPrediction {
     /// The model that produced K, strain and shifts of this row.
     pub model: Fidelity,
-    /// Case I: the range of K (pm/N, low then high) between the physically bounding
-    /// contact readings of cap and core; `None` where the model has no such spread
-    /// (Case II) or the caller did not ask for it.
+    /// The model in words, with the contact reading for FE rows.
+    pub model_description: String,
+    /// The range of K (pm/N, low then high) between the physically bounding contact
+    /// readings ([`BandReadings`]) and the nominal K; `None` when the caller did not ask.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub band_pm_per_n: Option<[f64; 2]>,
+    /// The readings that make the band.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band_readings: Option<BandReadings>,
     /// The prediction. For FE rows `core_load_share` is NaN (null in JSON): the FE
     /// model does not split the force into the closed form's paths.
     #[serde(flatten)]
     pub detail: DetailedPrediction,
 }
 
+impl ModelledPrediction {
+    /// Whether `k_pm_per_n` lies inside the band (false when there is none).
+    pub fn band_contains(&self, k_pm_per_n: f64) -> bool {
+        self.band_pm_per_n
+            .is_some_and(|[lo, hi]| k_pm_per_n >= lo && k_pm_per_n <= hi)
+    }
+}
+
 /// Predict every strain grating (of `case` only, when given) with the model `choice`
-/// picks per configuration. FE rows are solved with `fem_options`.
+/// picks per configuration. FE rows are solved with `fem_options` (mesh and solver;
+/// the contact choices come from the design).
 pub fn predict_with_fidelity(
     design: &Design,
     opts: &PredictOptions,
@@ -83,46 +128,63 @@ pub fn predict_with_fidelity(
     case: Option<LoadCase>,
     fem_options: &FemOptions,
 ) -> Result<Vec<ModelledPrediction>> {
-    let mut rows = model::predict_with(design, opts)?;
-    rows.retain(|d| case.is_none_or(|c| c == d.prediction.case));
-    // A handful of configurations at most: a list is enough.
-    let mut solved: Vec<crate::fem::ConfigurationResult> = Vec::new();
-    let mut out = Vec::with_capacity(rows.len());
-    for mut d in rows {
-        let model = choice.resolve(design, d.prediction.case);
-        if model == Fidelity::Fem {
-            let p = &d.prediction;
-            let config = Configuration {
-                core: p.core.clone(),
-                case: p.case,
-                insert: p.insert.clone(),
-            };
-            let i = match solved.iter().position(|r| r.configuration == config) {
-                Some(i) => i,
-                None => {
-                    let r = solve_configuration(design, &config, fem_options)
-                        .with_context(|| format!("finite-element solve of {}", config.label()))?;
-                    solved.push(r);
-                    solved.len() - 1
-                }
-            };
-            let strain_per_n = solved[i]
-                .strain_per_n
-                .iter()
-                .find(|(name, _, _)| name == &p.grating)
-                .map(|(_, _, e)| *e)
-                .with_context(|| {
-                    format!("the FE model gave no strain for grating `{}`", p.grating)
-                })?;
-            apply_fem_strain(&mut d, design, opts, strain_per_n);
-        }
-        out.push(ModelledPrediction {
-            model,
-            band_pm_per_n: None,
-            detail: d,
-        });
+    predict(
+        design,
+        &PredictionRequest {
+            force_n: opts.force_n,
+            delta_t_k: opts.delta_t_k,
+            case,
+            insert: None,
+            core: None,
+            fidelity: choice,
+            band: false,
+            fem_options: *fem_options,
+        },
+    )
+}
+
+/// One finite-element solve the policy needs.
+#[derive(Debug, Clone, PartialEq)]
+struct FeJob {
+    config: Configuration,
+    reading: ContactReading,
+}
+
+/// Solve every job once (in parallel) and return the strain per newton of each
+/// grating: `(job index, grating, strain)`.
+fn solve_jobs(
+    design: &Design,
+    jobs: &[FeJob],
+    fem_options: &FemOptions,
+) -> Result<Vec<Vec<(String, f64)>>> {
+    let m = design
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    jobs.par_iter()
+        .map(|j| {
+            let opt = fem_options.with_reading(m, j.reading, j.config.case);
+            let r = solve_configuration(design, &j.config, &opt).with_context(|| {
+                format!(
+                    "finite-element solve of {} ({})",
+                    j.config.label(),
+                    j.reading.describe(m, j.config.case)
+                )
+            })?;
+            Ok(r.strain_per_n
+                .into_iter()
+                .map(|(name, _, e)| (name, e))
+                .collect())
+        })
+        .collect()
+}
+
+fn config_of(p: &GratingPrediction) -> Configuration {
+    Configuration {
+        core: p.core.clone(),
+        case: p.case,
+        insert: p.insert.clone(),
     }
-    Ok(out)
 }
 
 /// Replace the closed-form numbers of `d` with those of an FE strain per newton.
@@ -170,13 +232,39 @@ pub fn sweep_predictor(
     case: Option<LoadCase>,
     fem_options: FemOptions,
 ) -> Option<Box<model::sweep::Predictor<'static>>> {
+    sweep_predictor_with_band(choice, case, fem_options, false)
+}
+
+/// [`sweep_predictor`], with each step's band when `band` is set (two more FE solves
+/// per configuration and step).
+pub fn sweep_predictor_with_band(
+    choice: FidelityChoice,
+    case: Option<LoadCase>,
+    fem_options: FemOptions,
+    band: bool,
+) -> Option<Box<model::sweep::Predictor<'static>>> {
     if choice == FidelityChoice::ClosedForm {
         return None;
     }
     Some(Box::new(move |d, o| {
-        predict_with_fidelity(d, o, choice, case, &fem_options)
-            .map(|rows| rows.into_iter().map(|r| r.detail.prediction).collect())
-            .map_err(|e| format!("{e:#}"))
+        predict(
+            d,
+            &PredictionRequest {
+                force_n: o.force_n,
+                delta_t_k: o.delta_t_k,
+                case,
+                fidelity: choice,
+                band,
+                fem_options,
+                ..Default::default()
+            },
+        )
+        .map(|rows| {
+            rows.into_iter()
+                .map(|r| (r.detail.prediction, r.band_pm_per_n))
+                .collect()
+        })
+        .map_err(|e| format!("{e:#}"))
     }))
 }
 
@@ -271,11 +359,17 @@ pub struct PredictionRequest {
     pub delta_t_k: f64,
     /// One load case only, or every configuration of the design.
     pub case: Option<LoadCase>,
+    /// Case I with this insert only (Case II rows are kept unless `case` drops them).
+    pub insert: Option<String>,
+    /// Gratings of this core only.
+    pub core: Option<String>,
     /// Which model answers: [`FidelityChoice::Auto`] is the policy's default.
     pub fidelity: FidelityChoice,
-    /// Also compute each Case I row's prediction band (`band_pm_per_n`); callers in
-    /// inner loops (the optimiser) leave it off.
+    /// Also compute each row's prediction band (`band_pm_per_n`): two more FE solves
+    /// per configuration.
     pub band: bool,
+    /// Mesh and solver of the FE solves (the contact choices come from the design).
+    pub fem_options: FemOptions,
 }
 
 impl Default for PredictionRequest {
@@ -284,8 +378,11 @@ impl Default for PredictionRequest {
             force_n: 1.0,
             delta_t_k: 0.0,
             case: None,
+            insert: None,
+            core: None,
             fidelity: FidelityChoice::Auto,
             band: false,
+            fem_options: FemOptions::default(),
         }
     }
 }
@@ -293,16 +390,376 @@ impl Default for PredictionRequest {
 /// Predict every strain grating of `design` (of `request.case` only, when given) with
 /// the model the policy picks for each configuration.
 pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<ModelledPrediction>> {
-    predict_with_fidelity(
-        design,
-        &PredictOptions {
-            force_n: request.force_n,
-            delta_t_k: request.delta_t_k,
-        },
-        request.fidelity,
-        request.case,
-        &FemOptions::default(),
-    )
+    let opts = PredictOptions {
+        force_n: request.force_n,
+        delta_t_k: request.delta_t_k,
+    };
+    let mut rows = model::predict_with(design, &opts)?;
+    rows.retain(|d| {
+        let p = &d.prediction;
+        request.case.is_none_or(|c| c == p.case)
+            && request.core.as_ref().is_none_or(|c| c == &p.core)
+            && (p.case == LoadCase::II || request.insert.is_none() || p.insert == request.insert)
+    });
+    let m = design
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    // Every FE solve the rows need, once each.
+    let mut jobs: Vec<FeJob> = Vec::new();
+    let mut want = |config: Configuration, reading: ContactReading| {
+        let job = FeJob { config, reading };
+        if !jobs.contains(&job) {
+            jobs.push(job);
+        }
+    };
+    let models: Vec<Fidelity> = rows
+        .iter()
+        .map(|d| request.fidelity.resolve(design, d.prediction.case))
+        .collect();
+    for (d, model) in rows.iter().zip(&models) {
+        let c = config_of(&d.prediction);
+        if *model == Fidelity::Fem {
+            want(c.clone(), ContactReading::Design);
+        }
+        if request.band {
+            want(c.clone(), ContactReading::BondedPillars);
+            want(c, ContactReading::SlidingApexPatch);
+        }
+    }
+    let solved = solve_jobs(design, &jobs, &request.fem_options)?;
+    let strain_of = |p: &GratingPrediction, reading: ContactReading| -> Result<f64> {
+        let config = config_of(p);
+        let i = jobs
+            .iter()
+            .position(|j| j.config == config && j.reading == reading)
+            .expect("every needed job was solved");
+        solved[i]
+            .iter()
+            .find(|(name, _)| name == &p.grating)
+            .map(|(_, e)| *e)
+            .with_context(|| format!("the FE model gave no strain for grating `{}`", p.grating))
+    };
+    let k_of =
+        |d: &DetailedPrediction, e: f64| design.fiber.shift_pm(d.bragg_wavelength_nm, e, 0.0);
+    let mut out = Vec::with_capacity(rows.len());
+    for (mut d, model) in rows.into_iter().zip(models) {
+        let description = match model {
+            Fidelity::ClosedForm => "closed form (membrane theory, docs/model.md)".to_string(),
+            Fidelity::Fem => {
+                let e = strain_of(&d.prediction, ContactReading::Design)?;
+                apply_fem_strain(&mut d, design, &opts, e);
+                format!(
+                    "FE, {}",
+                    ContactReading::Design.describe(m, d.prediction.case)
+                )
+            }
+        };
+        let (band, readings) = if request.band {
+            let bonded = k_of(&d, strain_of(&d.prediction, ContactReading::BondedPillars)?);
+            let sliding = k_of(
+                &d,
+                strain_of(&d.prediction, ContactReading::SlidingApexPatch)?,
+            );
+            let k = d.prediction.sensitivity_pm_per_n;
+            (
+                Some([bonded.min(sliding).min(k), bonded.max(sliding).max(k)]),
+                Some(BandReadings {
+                    bonded_pillars_pm_per_n: bonded,
+                    sliding_apex_patch_pm_per_n: sliding,
+                }),
+            )
+        } else {
+            (None, None)
+        };
+        out.push(ModelledPrediction {
+            model,
+            model_description: description,
+            band_pm_per_n: band,
+            band_readings: readings,
+            detail: d,
+        });
+    }
+    Ok(out)
+}
+
+/// The policy's predictions as the optimiser needs them: fast enough for an inner loop,
+/// equal to [`predict`] at the design it was anchored on.
+///
+/// Rows the policy answers with the closed form stay closed form. Rows it answers with
+/// the FE model are the closed form scaled by the ratio FE/closed form of the same
+/// configuration at the anchor design (a multiplicative correction: the closed form
+/// carries the trend in the optimiser's variables, the FE solve at the anchor the
+/// contact reading's level). So at the anchor `predict` and the optimiser agree exactly;
+/// away from it the optimiser's K is an estimate, and the optimiser re-predicts its
+/// answer with [`predict`].
+#[derive(Debug, Clone)]
+pub struct Anchored {
+    fidelity: FidelityChoice,
+    /// (configuration, grating, FE K / closed-form K at the anchor).
+    factors: Vec<(Configuration, String, f64)>,
+    description: String,
+}
+
+impl Anchored {
+    /// Anchor the policy on `design` (one FE solve per configuration that needs one).
+    pub fn new(
+        design: &Design,
+        fidelity: FidelityChoice,
+        fem_options: &FemOptions,
+    ) -> Result<Self> {
+        let rows = predict(
+            design,
+            &PredictionRequest {
+                fidelity,
+                fem_options: *fem_options,
+                ..PredictionRequest::default()
+            },
+        )?;
+        let closed = model::predict(design, 1.0)?;
+        let mut factors = Vec::new();
+        let mut description = "closed form".to_string();
+        for (r, c) in rows.iter().zip(&closed) {
+            let p = &r.detail.prediction;
+            if r.model == Fidelity::Fem {
+                factors.push((
+                    config_of(p),
+                    p.grating.clone(),
+                    p.sensitivity_pm_per_n / c.sensitivity_pm_per_n,
+                ));
+                description = format!(
+                    "closed form, FE rows scaled to the policy's {} at the anchor design",
+                    r.model_description
+                );
+            }
+        }
+        Ok(Anchored {
+            fidelity,
+            factors,
+            description,
+        })
+    }
+
+    /// The model in words.
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+
+    /// Every grating of `design` at `force_n`, in [`model::predict`]'s order.
+    pub fn predict(&self, design: &Design, force_n: f64) -> Result<Vec<GratingPrediction>> {
+        let mut rows = model::predict(design, force_n)?;
+        for p in rows.iter_mut() {
+            if self.fidelity.resolve(design, p.case) != Fidelity::Fem {
+                continue;
+            }
+            let config = config_of(p);
+            let Some((_, _, f)) = self
+                .factors
+                .iter()
+                .find(|(c, g, _)| c == &config && g == &p.grating)
+            else {
+                anyhow::bail!(
+                    "the optimiser's model was anchored without {} for grating `{}`",
+                    config.label(),
+                    p.grating
+                );
+            };
+            p.sensitivity_pm_per_n *= f;
+            p.shift_pm *= f;
+            p.strain *= f;
+            // The closed form's warnings concern its own assumptions.
+            p.warnings.clear();
+        }
+        Ok(rows)
+    }
+}
+
+/// One grating of a contact calibration, K in pm/N.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibratedGrating {
+    /// Grating name.
+    pub grating: String,
+    /// Measured K.
+    pub measured_pm_per_n: f64,
+    /// The policy's K before the calibration.
+    pub before_pm_per_n: f64,
+    /// The policy's K with the calibrated contact.
+    pub after_pm_per_n: f64,
+}
+
+/// A calibration of the design's contact reading on a measured Case I sensitivity.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ContactCalibration {
+    /// The configuration measured.
+    pub configuration: Configuration,
+    /// `[module.contact].dome_contact_radius_mm` before, mm.
+    pub previous_radius_mm: f64,
+    /// The calibrated radius, mm.
+    pub radius_mm: f64,
+    /// The radii searched, mm (low, high).
+    pub searched_mm: [f64; 2],
+    /// Per grating: measured, before and after.
+    pub gratings: Vec<CalibratedGrating>,
+    /// FE solves spent.
+    pub evaluations: usize,
+}
+
+/// `design` with its domes' contact radius set to `radius_mm`.
+pub fn with_contact_radius(design: &Design, radius_mm: f64) -> Design {
+    let mut d = design.clone();
+    if let Some(m) = d.module.as_mut() {
+        m.contact.dome_contact_radius_mm = Some(radius_mm);
+    }
+    d
+}
+
+/// The policy's Case I K of every grating of `config` with the domes' contact radius
+/// set to `radius_mm`.
+fn case_i_k_at(
+    design: &Design,
+    config: &Configuration,
+    radius_mm: f64,
+    fem_options: &FemOptions,
+) -> Result<Vec<(String, f64)>> {
+    let d = with_contact_radius(design, radius_mm);
+    let m = d
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    let r = solve_configuration(
+        &d,
+        config,
+        &fem_options.with_reading(m, ContactReading::Design, config.case),
+    )?;
+    Ok(r.strain_per_n
+        .into_iter()
+        .map(|(name, lambda, e)| (name, d.fiber.shift_pm(lambda, e, 0.0)))
+        .collect())
+}
+
+/// Fit the one contact parameter of the policy, the domes' contact radius
+/// (`[module.contact].dome_contact_radius_mm`), to measured Case I sensitivities of
+/// `config`'s gratings (`measured`: grating name, K in pm/N): the radius at which the
+/// model's K, as a ratio to the measured K and averaged over the gratings, is 1
+/// (exact for one grating). Regula falsi (Illinois) on a bracket from half to four
+/// times the apex patch; one FE solve per step.
+pub fn calibrate_contact(
+    design: &Design,
+    config: &Configuration,
+    measured: &[(String, f64)],
+    fem_options: &FemOptions,
+) -> Result<ContactCalibration> {
+    let m = design
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    anyhow::ensure!(
+        config.case == LoadCase::I,
+        "calibration fits the domes' contact radius, which only Case I depends on in the model policy (Case II is the closed form); give a Case I log"
+    );
+    anyhow::ensure!(
+        !measured.is_empty(),
+        "no grating of {} responded to the force: nothing to calibrate on",
+        config.label()
+    );
+    for (g, k) in measured {
+        anyhow::ensure!(
+            k.is_finite() && *k > 0.0,
+            "grating `{g}`: a measured Case I K of {k} pm/N is not a red shift; the contact reading predicts K > 0 at every radius, so it cannot be calibrated on it"
+        );
+    }
+    let previous = m.dome_contact_radius_mm();
+    let before = case_i_k_at(design, config, previous, fem_options)?;
+    let patch = m.apex_patch_radius_mm();
+    let profile = ModuleProfile::from_module(m);
+    let lo = 0.5 * patch;
+    let hi = (4.0 * patch).min(0.6 * profile.core_dome_outer_sphere_radius_mm);
+    let mut evaluations = 1;
+    // Mean ratio of model to measurement, minus one: falls as the radius grows.
+    let h = |ks: &[(String, f64)]| -> Result<f64> {
+        let mut sum = 0.0;
+        for (g, k) in measured {
+            let model = ks
+                .iter()
+                .find(|(n, _)| n == g)
+                .map(|(_, v)| *v)
+                .with_context(|| {
+                    format!(
+                        "grating `{g}` is not a strain grating of {}",
+                        config.label()
+                    )
+                })?;
+            sum += model / k;
+        }
+        Ok(sum / measured.len() as f64 - 1.0)
+    };
+    let k_lo = case_i_k_at(design, config, lo, fem_options)?;
+    let k_hi = case_i_k_at(design, config, hi, fem_options)?;
+    evaluations += 2;
+    let (mut a, mut fa) = (lo, h(&k_lo)?);
+    let (mut b, mut fb) = (hi, h(&k_hi)?);
+    if fa.signum() == fb.signum() {
+        let first = |ks: &[(String, f64)]| ks.first().map_or(f64::NAN, |(_, k)| *k);
+        anyhow::bail!(
+            "no dome contact radius from {lo:.3} to {hi:.3} mm reproduces the measurement: the model's K of `{}` runs from {:.3} to {:.3} pm/N over that range, the measured K is {:.3} pm/N",
+            measured[0].0,
+            first(&k_lo),
+            first(&k_hi),
+            measured[0].1
+        );
+    }
+    let mut side = 0i8;
+    let mut best = (a, fa.abs());
+    for _ in 0..40 {
+        let c = (a * fb - b * fa) / (fb - fa);
+        let fc = h(&case_i_k_at(design, config, c, fem_options)?)?;
+        evaluations += 1;
+        if fc.abs() < best.1 {
+            best = (c, fc.abs());
+        }
+        if fc.abs() < 1e-4 || (b - a).abs() < 1e-5 * c {
+            break;
+        }
+        if fc.signum() == fb.signum() {
+            b = c;
+            fb = fc;
+            if side == -1 {
+                fa *= 0.5;
+            }
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if side == 1 {
+                fb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    let radius = best.0;
+    let after = case_i_k_at(design, config, radius, fem_options)?;
+    evaluations += 1;
+    let k_of = |ks: &[(String, f64)], g: &str| {
+        ks.iter()
+            .find(|(n, _)| n == g)
+            .map_or(f64::NAN, |(_, k)| *k)
+    };
+    Ok(ContactCalibration {
+        configuration: config.clone(),
+        previous_radius_mm: previous,
+        radius_mm: radius,
+        searched_mm: [lo, hi],
+        gratings: measured
+            .iter()
+            .map(|(g, k)| CalibratedGrating {
+                grating: g.clone(),
+                measured_pm_per_n: *k,
+                before_pm_per_n: k_of(&before, g),
+                after_pm_per_n: k_of(&after, g),
+            })
+            .collect(),
+        evaluations,
+    })
 }
 
 #[cfg(test)]

@@ -49,7 +49,8 @@ pub struct ModuleProfile {
     pub cap_dome_outer_sphere_radius_mm: f64,
     /// Cap inner dome sphere radius = R_s − cap wall.
     pub cap_dome_inner_sphere_radius_mm: f64,
-    /// Core outer dome sphere radius: one clearance inside the cap's inner dome.
+    /// Core outer dome sphere radius: one dome clearance (`[module.contact]`, by default
+    /// the cap/core clearance) inside the cap's inner dome.
     pub core_dome_outer_sphere_radius_mm: f64,
     /// Core inner dome sphere radius = core outer sphere − core wall.
     pub core_dome_inner_sphere_radius_mm: f64,
@@ -109,7 +110,7 @@ impl ModuleProfile {
         // The core's dome sits one clearance inside the cap's dome, so the cap bears on
         // it as the model assumes (force on the core's dome); its cylinder is one pillar
         // height further in, and meets the larger sphere a little higher up.
-        let core_out_s = cap_in_s - m.cap_core_clearance_mm;
+        let core_out_s = cap_in_s - m.dome_clearance_mm();
         let core_in_s = core_out_s - m.core_wall_mm;
         let insert_s = core_in_s - m.core_insert_clearance_mm;
         let junction = |rho: f64, rad: f64| zc + sphere_height_at_radius(rho, rad);

@@ -77,8 +77,11 @@ fn scaled_family_rejects_walls_too_thick_for_the_diameter() {
 }
 
 /// FE K of one grating of `conf`, solved here independently of `predict_with_fidelity`.
+/// The policy solves the design's own contact reading (`[module.contact]`).
 fn fem_k(d: &Design, conf: &Configuration, grating: &str, opt: &FemOptions) -> f64 {
-    let r = fem::solve_configuration(d, conf, opt).unwrap();
+    let m = d.module.as_ref().unwrap();
+    let opt = opt.with_reading(m, fem::ContactReading::Design, conf.case);
+    let r = fem::solve_configuration(d, conf, &opt).unwrap();
     let (_, lambda, e) = r
         .strain_per_n
         .iter()
@@ -122,10 +125,11 @@ fn auto_answers_case_ii_with_the_closed_form_and_case_i_with_the_fem_and_says_so
                 let k = fem_k(&d, &conf, &p.grating, &fe_opt);
                 assert!((p.sensitivity_pm_per_n - k).abs() <= 1e-9 * k.abs());
                 assert!((p.shift_pm - 2.0 * k).abs() <= 1e-9 * k.abs().max(1.0));
-                // The row is not the closed form's number in disguise: Case I is the
-                // case the closed form misses by more than the tolerance.
+                // The row is not the closed form's number in disguise. (With the blue
+                // insert the default contact reading is within a few per cent of the
+                // closed form by construction, docs/model.md §5.6.)
                 let miss = (c.sensitivity_pm_per_n - k) / k.abs();
-                assert!(miss.abs() > TOLERANCE, "{}: {miss:.3}", p.grating);
+                assert!(miss.abs() > 1e-3, "{}: {miss:.3}", p.grating);
             }
         }
     }
@@ -262,8 +266,21 @@ fn closed_form_and_fe_figure(
     fbgforge::model::sweep::SweepResult,
     usize,
 ) {
+    closed_form_and_fe_figure_of(design(), id, case, steps)
+}
+
+/// [`closed_form_and_fe_figure`] for design `d`.
+fn closed_form_and_fe_figure_of(
+    d: Design,
+    id: &str,
+    case: LoadCase,
+    steps: usize,
+) -> (
+    fbgforge::model::sweep::SweepResult,
+    fbgforge::model::sweep::SweepResult,
+    usize,
+) {
     use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
-    let d = design();
     let fig = PAPER_FIGURES.iter().find(|f| f.id == id).unwrap();
     let fe =
         prediction::sweep_predictor(FidelityChoice::Fem, Some(case), FemOptions::level(0)).unwrap();
@@ -300,12 +317,14 @@ fn fe_sweeps_of_the_case_ii_figure_follow_the_closed_form() {
 }
 
 /// The finding behind docs/model.md §8: with the pillars bonded (the paper's "no
-/// sliding"), the FE model's Case I shift *rises* with the cap's modulus E2 over the
+/// sliding", `cylinders = "bonded"`), the FE model's Case I shift *rises* with the cap's modulus E2 over the
 /// paper's Fig. 9b axis, where the paper (and, more weakly, the closed form) has it
 /// fall. Pinned so that a change of the FE model that alters it is noticed.
 #[test]
 fn fe_case_i_shift_rises_with_the_cap_modulus_unlike_the_paper_figure() {
-    let (cf, r, _) = closed_form_and_fe_figure("fig9b_case1_e2", LoadCase::I, 2);
+    let mut d = design();
+    d.module.as_mut().unwrap().contact.cylinders = fbgforge::spec::CylinderCoupling::Bonded;
+    let (cf, r, _) = closed_form_and_fe_figure_of(d, "fig9b_case1_e2", LoadCase::I, 2);
     for (a, b) in cf.series.iter().zip(&r.series) {
         let (cf0, cf1) = (a.shift_pm[0], a.shift_pm[1]);
         let (fe0, fe1) = (b.shift_pm[0], b.shift_pm[1]);

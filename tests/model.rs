@@ -301,6 +301,17 @@ fn scaled(d: &Design, s: f64) -> Design {
     ] {
         *v *= s;
     }
+    let c = &mut m.contact;
+    for v in [
+        &mut c.clip_height_mm,
+        &mut c.dome_clearance_mm,
+        &mut c.dome_contact_radius_mm,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        *v *= s;
+    }
     d.printer.min_wall_mm *= s;
     d.printer.resolution_mm *= s;
     d

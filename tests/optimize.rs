@@ -17,7 +17,7 @@ use common::shipped as design;
 /// A synthetic model: every strain grating gets K = k(module) pm/N in every case, and
 /// the strain that K implies through the fiber's strain sensitivity.
 fn synthetic(k: impl Fn(&fbgforge::spec::Module) -> f64 + Send + Sync + 'static) -> Predictor {
-    Arc::new(move |d: &Design, f: f64| {
+    Predictor::Function(Arc::new(move |d: &Design, f: f64| {
         let m = d.module.as_ref().unwrap();
         let kk = k(m);
         let mut out = Vec::new();
@@ -41,7 +41,7 @@ fn synthetic(k: impl Fn(&fbgforge::spec::Module) -> f64 + Send + Sync + 'static)
             }
         }
         Ok(out)
-    })
+    }))
 }
 
 /// A library of one purely elastic core and one insert, so that Q = |K| / sample period

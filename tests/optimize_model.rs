@@ -26,12 +26,27 @@ fn run(d: &Design, s: &ModuleSettings) -> ModuleOutcome {
     .unwrap()
 }
 
-/// Q of the written design, recomputed from scratch through the model.
+/// The model policy's predictions of a design (what `fbgforge predict` prints).
+fn policy(d: &Design, force_n: f64) -> Vec<fbgforge::model::GratingPrediction> {
+    fbgforge::prediction::predict(
+        d,
+        &fbgforge::prediction::PredictionRequest {
+            force_n,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .into_iter()
+    .map(|r| r.detail.prediction)
+    .collect()
+}
+
+/// Q of the written design, recomputed from scratch through the model policy.
 fn q_of_written(out: &ModuleOutcome, s: &ModuleSettings) -> f64 {
     let text = out.design.to_toml();
     let back = fbgforge::design::parse(&text).unwrap();
     let m = back.module.as_ref().unwrap();
-    let preds = fbgforge::model::predict(&back, s.max_force_n).unwrap();
+    let preds = policy(&back, s.max_force_n);
     let insert = m.inserts.first().map(|i| i.name.as_str());
     let q = design_quality(
         &back,
@@ -86,7 +101,7 @@ fn optimised_shipped_designs_meet_every_constraint_and_beat_a_feasible_start() {
             best.objective
         );
         // Grating strain at the largest force really is below the limit in the model.
-        let preds = fbgforge::model::predict(&out.design, s.max_force_n).unwrap();
+        let preds = policy(&out.design, s.max_force_n);
         let m = out.design.module.as_ref().unwrap();
         let case_ins = m.inserts.first().map(|i| i.name.clone());
         for p in preds.iter().filter(|p| p.insert == case_ins) {
@@ -209,9 +224,12 @@ fn q_reaches_the_closed_form_strain_cap() {
         "{} well below cap {cap}",
         best.objective
     );
+    // The answer is the model policy's own (Case I: FE), reached by a trust region on
+    // its predictions (one FE solve a step), which closes on the strain limit to a few
+    // tenths of a per cent rather than to round-off.
     let r2 = best.gratings[0].r_squared;
     assert!(
-        (best.objective - cap * r2).abs() < 2e-3 * cap,
+        (best.objective - cap * r2).abs() < 5e-3 * cap,
         "Q {} vs cap·R² {}",
         best.objective,
         cap * r2

@@ -223,6 +223,7 @@ fn predict<'py>(
                     case,
                     fidelity: choice,
                     band: true,
+                    ..Default::default()
                 },
             )
         })

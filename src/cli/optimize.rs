@@ -235,6 +235,10 @@ fn print_module_table(o: &ModuleOutcome) {
         "best: {} objective {value:.4} {unit} ({versus}) in {:.2} s",
         best.choice, o.time_s
     );
+    println!(
+        "model: {} (other choices: scored with the policy anchored on their start)",
+        o.model
+    );
     let m = o.design.module.as_ref().expect("module designs only");
     println!(
         "      D {:.3} mm, H {:.3} mm, dome {:.3} mm, cap wall {:.3} mm, core wall {:.3} mm",

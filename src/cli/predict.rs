@@ -31,6 +31,9 @@ pub struct PredictArgs {
     /// model outside it, per loading case; `closed-form` and `fem` force one model.
     #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
     pub fidelity: FidelityArg,
+    /// Skip the prediction band (two more finite-element solves per configuration).
+    #[arg(long)]
+    pub no_band: bool,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -58,10 +61,7 @@ impl From<FidelityArg> for FidelityChoice {
 }
 
 fn model_name(f: Fidelity) -> &'static str {
-    match f {
-        Fidelity::ClosedForm => "closed-form",
-        Fidelity::Fem => "fem",
-    }
+    f.name()
 }
 
 /// Run `fbgforge predict`.
@@ -94,7 +94,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             delta_t_k: a.delta_t_k,
             case,
             fidelity: choice,
-            band: true,
+            band: !a.no_band,
+            ..Default::default()
         },
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
@@ -115,8 +116,10 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     );
     let mut notes: Vec<String> = Vec::new();
     let temp = a.delta_t_k != 0.0;
+    let band = !a.no_band;
+    let mut models: Vec<String> = Vec::new();
     print!(
-        "{:<12} {:<6} {:<4} {:<12} {:<11} {:>8} {:>10} {:>11} {:>10} {:>8}",
+        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
         "grating",
         "core",
         "case",
@@ -128,6 +131,9 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         "strain µε",
         "share"
     );
+    if band {
+        print!(" {:>21}", "band pm/N");
+    }
     if temp {
         print!(" {:>11} {:>12}", "raw pm", "compens. pm");
     }
@@ -151,19 +157,32 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         } else {
             "-".to_string()
         };
+        let m = models
+            .iter()
+            .position(|n| n == &row.model_description)
+            .unwrap_or_else(|| {
+                models.push(row.model_description.clone());
+                models.len() - 1
+            });
         print!(
-            "{:<12} {:<6} {:<4} {:<12} {:<11} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
+            "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
             p.grating,
             p.core,
             p.case.to_string(),
             p.insert.as_deref().unwrap_or("-"),
-            model_name(row.model),
+            format!("{} (m{})", model_name(row.model), m + 1),
             d.core_modulus_mpa,
             p.sensitivity_pm_per_n,
             p.shift_pm,
             p.strain * 1e6,
             share
         );
+        if band {
+            let b = row
+                .band_pm_per_n
+                .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
+            print!(" {b:>21}");
+        }
         if temp {
             let comp = d
                 .compensated_shift_pm
@@ -172,7 +191,15 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         }
         println!("  {}", refs.join(""));
     }
+    for (i, m) in models.iter().enumerate() {
+        println!("m{}: {m}", i + 1);
+    }
     println!("K > 0: red shift (core cylinder in tension); K < 0: blue shift.");
+    if band {
+        println!(
+            "band: K between the bounding contact readings (FE): pillars bonded to the cap (most coupled) and cylinders sliding with the domes touching over the apex patch only (least coupled); docs/model.md §5.6."
+        );
+    }
     println!(
         "share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only)."
     );
@@ -180,7 +207,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         FidelityChoice::Auto => {
             let v = fbgforge::prediction::validity();
             println!(
-                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE elsewhere.",
+                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE with the design's [module.contact] elsewhere.",
                 v.tolerance * 100.0,
                 v.diameter_range_mm.0,
                 v.diameter_range_mm.1,
@@ -257,11 +284,14 @@ pub struct SweepArgs {
     /// F = 50 N with the paper's fixed moduli) as SVG + CSV into this folder.
     #[arg(long)]
     pub paper_figures: Option<PathBuf>,
-    /// Which model answers at each step: the closed form (microseconds a step, the
-    /// default), the finite-element model (a fraction of a second per configuration
-    /// and step), or `auto` as in `predict`.
-    #[arg(long, value_enum, default_value_t = FidelityArg::ClosedForm)]
+    /// Which model answers at each step: `auto`, the model policy of `predict` (the
+    /// default: Case I by the FE model, a fraction of a second per configuration and
+    /// step), the closed form (microseconds a step) or the FE model throughout.
+    #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
     pub fidelity: FidelityArg,
+    /// Skip the shaded prediction band (two more FE solves per configuration and step).
+    #[arg(long)]
+    pub no_band: bool,
 }
 
 /// How a sweep's output names its model.
@@ -269,7 +299,7 @@ fn fidelity_label(f: FidelityArg) -> &'static str {
     match f {
         FidelityArg::ClosedForm => "closed form",
         FidelityArg::Fem => "finite elements",
-        FidelityArg::Auto => "auto (closed form where valid, FE elsewhere)",
+        FidelityArg::Auto => "model policy",
     }
 }
 
@@ -280,14 +310,25 @@ fn sweep_chart(r: &SweepResult, title: &str) -> Chart {
         format!("Δλ at {} N (pm)", r.force_n),
     );
     for s in &r.series {
-        c = c.with(Series::new(
+        let mut line = Series::new(
             s.label(),
             s.x.iter()
                 .copied()
                 .zip(s.shift_pm.iter().copied())
                 .collect(),
             Mark::Line,
-        ));
+        );
+        if s.band_pm_per_n.len() == s.x.len() && !s.x.is_empty() {
+            // The band of K as a band of the shift at the sweep's force.
+            let f = r.force_n;
+            line = line.with_band(
+                s.x.iter()
+                    .zip(&s.band_pm_per_n)
+                    .map(|(&x, &[lo, hi])| (x, (lo * f).min(hi * f), (lo * f).max(hi * f)))
+                    .collect(),
+            );
+        }
+        c = c.with(line);
     }
     c
 }
@@ -300,12 +341,20 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
         "case",
         "insert",
         "force_n",
+        "band_low_pm_per_n",
+        "band_high_pm_per_n",
         "shift_pm",
         "sensitivity_pm_per_n",
     ];
     let mut rows = Vec::new();
     for s in &r.series {
         for i in 0..s.x.len() {
+            let band = |k: usize| {
+                s.band_pm_per_n
+                    .get(i)
+                    .filter(|_| s.band_pm_per_n.len() == s.x.len())
+                    .map_or(String::new(), |b| format!("{:.6}", b[k]))
+            };
             rows.push(vec![
                 r.param.clone(),
                 format!("{}", s.x[i]),
@@ -313,6 +362,8 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
                 s.case.to_string(),
                 s.insert.clone().unwrap_or_default(),
                 format!("{}", r.force_n),
+                band(0),
+                band(1),
                 format!("{:.6}", s.shift_pm[i]),
                 format!("{:.6}", s.sensitivity_pm_per_n[i]),
             ]);
@@ -325,7 +376,7 @@ fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
     if let Some(dir) = &a.paper_figures {
-        return write_paper_figures(&design, dir, a.steps, a.fidelity);
+        return write_paper_figures(&design, dir, a.steps, a.fidelity, !a.no_band);
     }
     let Some(name) = a.param.as_deref() else {
         bail!(
@@ -352,8 +403,12 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     }
     let pb = fbgforge::progress::bar(values.len() as u64, "sweep");
-    let predictor =
-        fbgforge::prediction::sweep_predictor(a.fidelity.into(), case, FemOptions::default());
+    let predictor = fbgforge::prediction::sweep_predictor_with_band(
+        a.fidelity.into(),
+        case,
+        FemOptions::default(),
+        !a.no_band,
+    );
     let r = sweep::run_with(
         &design,
         param,
@@ -415,23 +470,22 @@ fn write_paper_figures(
     dir: &Path,
     steps: usize,
     fidelity: FidelityArg,
+    band: bool,
 ) -> Result<()> {
     ensure_dir(dir)?;
     let steps = steps.max(2);
     let pb = fbgforge::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
     for fig in PAPER_FIGURES {
-        let predictor = fbgforge::prediction::sweep_predictor(
+        let predictor = fbgforge::prediction::sweep_predictor_with_band(
             fidelity.into(),
             Some(fig.case),
             FemOptions::default(),
+            band,
         );
         let r =
             sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), || pb.inc(1))
                 .with_context(|| format!("paper figure {}", fig.id))?;
-        let title = match fidelity {
-            FidelityArg::ClosedForm => fig.title.to_string(),
-            f => format!("{} ({})", fig.title, fidelity_label(f)),
-        };
+        let title = format!("{} ({})", fig.title, fidelity_label(fidelity));
         sweep_chart(&r, &title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
         sweep_csv(&r, &dir.join(format!("{}.csv", fig.id)))?;
         let first = &r.series[0];

@@ -97,6 +97,11 @@ pub struct VerifyArgs {
     /// Write report.md, report.json, SVG plots and CSVs into this folder.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Fit the design's contact reading ([module.contact] dome_contact_radius_mm) to the
+    /// measured Case I K and write the calibrated design to this TOML (atomically);
+    /// `predict` and `optimize` of that design then use the measurement.
+    #[arg(long, value_name = "DESIGN.toml")]
+    pub calibrate_into: Option<PathBuf>,
 }
 
 fn date_order(d: DateOrderArg) -> DateOrder {
@@ -114,10 +119,15 @@ fn read_options(format: Option<LogFormat>, d: Option<DateOrderArg>) -> ReadOptio
 }
 
 /// Run `fbgforge verify`. After writing everything it returns status 0 for PASS, 2 for
-/// FAIL and 3 when nothing could be judged (NO RESPONSE or NOT JUDGED), so scripts can
-/// tell a failed part, an undecided one and an error (status 1) apart.
+/// FAIL, 3 when nothing could be judged (NO RESPONSE or NOT JUDGED) and 4 for IN BAND
+/// (off the nominal prediction, inside the contact band), so scripts can tell a failed
+/// part, an undecided one, a contact reading to calibrate and an error (status 1) apart.
 pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
-    let VerifyOutcome { report, series } = fbgforge::verify::run(&verify_request(&a))?;
+    let VerifyOutcome {
+        report,
+        series,
+        calibration,
+    } = fbgforge::verify::run(&verify_request(&a))?;
     if let Some(dir) = &a.report {
         report::write_report(dir, &report, &series)?;
     }
@@ -129,9 +139,34 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
             println!("report: {}", dir.join("report.md").display());
         }
     }
+    if let (Some(c), Some(path)) = (&calibration, &a.calibrate_into) {
+        // On stderr with --json, so the JSON stays one document.
+        let text = format!(
+            "calibrated {}: dome_contact_radius_mm {:.4} → {:.4} mm ({} FE solves); {}; written to {}",
+            c.configuration.label(),
+            c.previous_radius_mm,
+            c.radius_mm,
+            c.evaluations,
+            c.gratings
+                .iter()
+                .map(|g| format!(
+                    "{} measured {:+.3}, model {:+.3} → {:+.3} pm/N",
+                    g.grating, g.measured_pm_per_n, g.before_pm_per_n, g.after_pm_per_n
+                ))
+                .collect::<Vec<_>>()
+                .join("; "),
+            path.display()
+        );
+        if a.json {
+            eprintln!("{text}");
+        } else {
+            println!("{text}");
+        }
+    }
     Ok(match report.verdict.overall {
         Status::Pass => std::process::ExitCode::SUCCESS,
         Status::Fail => std::process::ExitCode::from(2),
+        Status::InBand => std::process::ExitCode::from(4),
         Status::NotJudged | Status::NoResponse => std::process::ExitCode::from(3),
     })
 }
@@ -160,6 +195,7 @@ fn verify_request(a: &VerifyArgs) -> VerifyRequest {
     };
     req.k_tolerance = a.k_tolerance;
     req.force_start = a.force_start.clone();
+    req.calibrate_into = a.calibrate_into.clone();
     req
 }
 

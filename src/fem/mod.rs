@@ -14,16 +14,19 @@
 //! [`mod@solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
 //! contacts, supports and load).
 
+pub mod contact;
 pub mod element;
 pub mod mesh;
 pub mod module;
 pub mod solve;
 
-pub use module::{DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind};
+pub use module::{
+    ContactReading, DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind,
+};
 
 use crate::model::GratingPrediction;
 pub use crate::model::{configurations, Configuration};
-use crate::profile::{module_gratings, ModuleProfile};
+use crate::profile::{module_gratings, GratingPlacement, ModuleProfile};
 use crate::spec::{Design, GratingRole};
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
@@ -77,6 +80,43 @@ pub fn solve_configuration(
         });
     }
     let start = Instant::now();
+    let (model, gratings) = build_configuration(design, config, opt)?;
+    if !model.contact_pairs.is_empty() {
+        // A contact reading: K depends on the force; this is the secant K at 1 N.
+        let r = solve_response(design, config, opt, &[1.0])?;
+        return Ok(ConfigurationResult {
+            configuration: config.clone(),
+            strain_per_n: r
+                .gratings
+                .iter()
+                .map(|g| (g.name.clone(), g.bragg_wavelength_nm, g.strain[0]))
+                .collect(),
+            unknowns: r.unknowns,
+            elements: r.elements,
+            solve_time_s: start.elapsed().as_secs_f64(),
+        });
+    }
+    let sol = model.problem.solve_with(opt.solver.solver())?;
+    let mut strain_per_n = Vec::new();
+    for g in gratings {
+        let e = model.mean_axial_strain(&sol, g.z_start_mm, g.z_end_mm)?;
+        strain_per_n.push((g.name, g.bragg_wavelength_nm, e));
+    }
+    Ok(ConfigurationResult {
+        configuration: config.clone(),
+        strain_per_n,
+        unknowns: sol.unknowns,
+        elements: model.problem.mesh.elements.len(),
+        solve_time_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The module problem of one configuration and the strain gratings of its core.
+fn build_configuration(
+    design: &Design,
+    config: &Configuration,
+    opt: &FemOptions,
+) -> Result<(module::ModuleModel, Vec<GratingPlacement>)> {
     let m = design
         .module
         .as_ref()
@@ -98,20 +138,151 @@ pub fn solve_configuration(
         None => None,
     };
     let model = module::build(design, &core.material, insert_material, config.case, opt)?;
-    let sol = model.problem.solve_with(opt.solver.solver())?;
     let profile = ModuleProfile::from_module(m);
-    let mut strain_per_n = Vec::new();
-    for g in module_gratings(m, &profile) {
-        if g.role != GratingRole::Strain || g.core.as_deref() != Some(config.core.as_str()) {
-            continue;
-        }
-        let e = model.mean_axial_strain(&sol, g.z_start_mm, g.z_end_mm)?;
-        strain_per_n.push((g.name, g.bragg_wavelength_nm, e));
+    let gratings = module_gratings(m, &profile)
+        .into_iter()
+        .filter(|g| {
+            g.role == GratingRole::Strain && g.core.as_deref() == Some(config.core.as_str())
+        })
+        .collect();
+    Ok((model, gratings))
+}
+
+/// One grating's response over a force range.
+#[derive(Debug, Clone, Serialize)]
+pub struct GratingResponse {
+    /// Grating name.
+    pub name: String,
+    /// Bragg wavelength, nm.
+    pub bragg_wavelength_nm: f64,
+    /// Mean axial strain at the grating at each force (dimensionless).
+    pub strain: Vec<f64>,
+}
+
+/// The response of one configuration over a range of apex forces: with unilateral
+/// contact (a contact reading of [`FemOptions`]) it is not linear in the force.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConfigurationResponse {
+    /// The configuration.
+    pub configuration: Configuration,
+    /// Apex forces, N.
+    pub force_n: Vec<f64>,
+    /// Each strain grating of the configuration's core.
+    pub gratings: Vec<GratingResponse>,
+    /// Contact pairs touching at each force.
+    pub active_pairs: Vec<usize>,
+    /// Of those, the pairs along the cylinders (the rest are on the domes).
+    pub active_cylinder_pairs: Vec<usize>,
+    /// Contact pairs in the model.
+    pub contact_pairs: usize,
+    /// Force at which the first printed gap closes (the knee), N; `None` when the model
+    /// has no contact pairs or no gap closes.
+    pub knee_force_n: Option<f64>,
+    /// Unknowns solved for.
+    pub unknowns: usize,
+    /// Elements in the mesh.
+    pub elements: usize,
+    /// Wall-clock time, s.
+    pub solve_time_s: f64,
+}
+
+impl ConfigurationResponse {
+    /// Bragg shift of grating `i` at each force, pm.
+    pub fn shift_pm(&self, optics: &crate::grating::FiberOptics, i: usize) -> Vec<f64> {
+        let g = &self.gratings[i];
+        g.strain
+            .iter()
+            .map(|&e| optics.shift_pm(g.bragg_wavelength_nm, e, 0.0))
+            .collect()
     }
-    Ok(ConfigurationResult {
+}
+
+/// Solve one configuration at each of `forces_n` (N, in increasing order): the
+/// stiffness is factorised once and the contact problem, when the options ask for
+/// one, is condensed on its pairs and solved exactly at every force (`contact`).
+pub fn solve_response(
+    design: &Design,
+    config: &Configuration,
+    opt: &FemOptions,
+    forces_n: &[f64],
+) -> Result<ConfigurationResponse> {
+    if forces_n.iter().any(|f| !f.is_finite()) {
+        bail!("forces must be finite numbers of newtons");
+    }
+    if let Some(order) = opt.richardson_order {
+        if !(order.is_finite() && order > 0.0) {
+            bail!("Richardson order must be a positive number, got {order}");
+        }
+        let plain = FemOptions {
+            richardson_order: None,
+            ..*opt
+        };
+        let fine = solve_response(design, config, &plain, forces_n)?;
+        let coarse = solve_response(design, config, &opt.coarsened(), forces_n)?;
+        let factor = 1.0 / (2f64.powf(order) - 1.0);
+        let mut out = fine.clone();
+        for (g, c) in out.gratings.iter_mut().zip(&coarse.gratings) {
+            for (e, ec) in g.strain.iter_mut().zip(&c.strain) {
+                *e += (*e - ec) * factor;
+            }
+        }
+        out.knee_force_n = match (fine.knee_force_n, coarse.knee_force_n) {
+            (Some(f), Some(c)) => Some(f + (f - c) * factor),
+            (f, _) => f,
+        };
+        out.solve_time_s = fine.solve_time_s + coarse.solve_time_s;
+        return Ok(out);
+    }
+    let start = Instant::now();
+    let (model, gratings) = build_configuration(design, config, opt)?;
+    let factored = model.problem.factor_with(opt.solver.solver())?;
+    let observe = |sol: &solve::Solution| -> Result<Vec<f64>> {
+        gratings
+            .iter()
+            .map(|g| model.mean_axial_strain(sol, g.z_start_mm, g.z_end_mm))
+            .collect()
+    };
+    let reduced = contact::reduce(
+        &factored,
+        &model.problem.loads,
+        &model.contact_pairs,
+        observe,
+    )?;
+    let mut strain = vec![Vec::with_capacity(forces_n.len()); gratings.len()];
+    let mut active = Vec::with_capacity(forces_n.len());
+    let mut active_cylinders = Vec::with_capacity(forces_n.len());
+    for &f in forces_n {
+        let state = reduced.solve(f, 0.0)?;
+        for (s, v) in strain.iter_mut().zip(&state.observed) {
+            s.push(*v);
+        }
+        active.push(state.active());
+        active_cylinders.push(
+            state
+                .normal_force_n
+                .iter()
+                .zip(&model.pair_on_cylinders)
+                .filter(|(l, on)| **l > 0.0 && **on)
+                .count(),
+        );
+    }
+    Ok(ConfigurationResponse {
         configuration: config.clone(),
-        strain_per_n,
-        unknowns: sol.unknowns,
+        force_n: forces_n.to_vec(),
+        gratings: gratings
+            .into_iter()
+            .zip(strain)
+            .map(|(g, strain)| GratingResponse {
+                name: g.name,
+                bragg_wavelength_nm: g.bragg_wavelength_nm,
+                strain,
+            })
+            .collect(),
+        active_pairs: active,
+        active_cylinder_pairs: active_cylinders,
+        contact_pairs: model.contact_pairs.len(),
+        knee_force_n: reduced.knee_load_factor(),
+        unknowns: factored.unknowns(),
         elements: model.problem.mesh.elements.len(),
         solve_time_s: start.elapsed().as_secs_f64(),
     })

@@ -54,12 +54,13 @@
 //!   `apex_flat_radius_mm` of the cap's outer surface, pointing down (−z). On the axis
 //!   u_r = 0.
 
+use super::contact::ContactPair;
 use super::element::{ElasticConstants, Formulation};
 use super::mesh::{edge_forces, edge_param_at_radius, Mesh};
 use super::solve::{EnvelopeCholesky, LinearSolver, Problem, Solution, SparseCholesky, R, Z};
 use crate::model::LoadCase;
 use crate::profile::ModuleProfile;
-use crate::spec::{Design, Material};
+use crate::spec::{CylinderCoupling, Design, Material};
 use anyhow::{anyhow, bail, Result};
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
@@ -87,6 +88,10 @@ pub enum DomeContact {
     /// through half the cap wall, radius = apex flat radius + cap wall / 2 (the same
     /// patch as the closed form's direct path). Default.
     ApexPatch,
+    /// Unilateral contact across the printed clearance: every facing pair of dome nodes
+    /// may touch and push but never pull, and touches only once its gap has closed
+    /// (`fem::contact`). The contact zone grows with the force.
+    Unilateral,
 }
 
 /// How the pillars couple cap and core along the cylinder.
@@ -100,6 +105,68 @@ pub enum PillarCoupling {
     /// bonded to them only in a clip band at the base, one cap wall high: the load
     /// path the closed form assumes (cap and core in series through the base clip).
     BaseClip,
+    /// Bonded in the clip band at the base; above it cap and core meet in unilateral,
+    /// frictionless contact across the printed radial clearance (`fem::contact`): they
+    /// may push each other apart but not pull, and touch only once the gap has closed.
+    BaseClipContact,
+}
+
+/// A reading of how cap and core touch and are held together: the contact choices of
+/// [`FemOptions`] that the model policy (`crate::prediction`) solves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactReading {
+    /// The design's `[module.contact]`: cylinders sliding above the base clip (or
+    /// bonded); in Case I the domes bear on each other within the design's contact
+    /// radius, in Case II over the whole dome (no insert holds the hollow core's dome
+    /// up, so the cap's dome presses all of it). The nominal prediction.
+    Design,
+    /// Pillars bonded to cap and core along their length, domes tied over the apex
+    /// patch (the paper's literal "no sliding"): the most tightly coupled reading,
+    /// lower end of Case I's band.
+    BondedPillars,
+    /// Cylinders sliding above the base clip, the domes touching over the apex patch
+    /// only: the least coupled reading with the domes in contact, upper end of Case I's
+    /// band.
+    SlidingApexPatch,
+    /// Cylinders as the design says (sliding: unilateral contact across the printed
+    /// radial clearance above the clip), domes in unilateral contact across the printed
+    /// dome clearance: the contact zone grows with the force, so K depends on F.
+    Unilateral,
+}
+
+impl ContactReading {
+    /// Short description for tables and reports.
+    pub fn describe(self, m: &crate::spec::Module, case: LoadCase) -> String {
+        let clip = m.clip_height_mm();
+        let cyl = match m.contact.cylinders {
+            CylinderCoupling::Sliding => {
+                format!("cylinders sliding above a {clip:.2} mm base clip")
+            }
+            CylinderCoupling::Bonded => "pillars bonded to the cap".to_string(),
+        };
+        match self {
+            ContactReading::Design if case == LoadCase::II => {
+                format!("{cyl}, domes in contact over the whole dome (Case II)")
+            }
+            ContactReading::Design => format!(
+                "{cyl}, domes in contact within r = {:.3} mm",
+                m.dome_contact_radius_mm()
+            ),
+            ContactReading::BondedPillars => format!(
+                "pillars bonded to the cap, domes tied over the apex patch (r = {:.3} mm)",
+                m.apex_patch_radius_mm()
+            ),
+            ContactReading::SlidingApexPatch => format!(
+                "cylinders sliding above a {clip:.2} mm base clip, domes touching over the apex patch only (r = {:.3} mm)",
+                m.apex_patch_radius_mm()
+            ),
+            ContactReading::Unilateral => format!(
+                "{cyl}, unilateral contact across the printed {:.3} mm dome clearance",
+                m.dome_clearance_mm()
+            ),
+        }
+    }
 }
 
 /// Mesh density and modelling choices of a finite-element solve.
@@ -120,6 +187,16 @@ pub struct FemOptions {
     pub dome_contact: DomeContact,
     /// Cap/core coupling along the pillars.
     pub pillar_coupling: PillarCoupling,
+    /// Radius of the zone around the apex over which the domes bear on each other with
+    /// [`DomeContact::ApexPatch`] (measured on the core's outer dome), mm; `None`: the
+    /// apex contact patch, apex flat radius + cap wall / 2.
+    #[serde(default)]
+    pub dome_contact_radius_mm: Option<f64>,
+    /// Height of the clip band at the base where cap and core are bonded when the
+    /// pillars are not ([`PillarCoupling::BaseClip`], [`PillarCoupling::BaseClipContact`]),
+    /// mm; `None`: one cap wall.
+    #[serde(default)]
+    pub clip_height_mm: Option<f64>,
     /// Mixed (locking-free) or plain displacement elements.
     #[serde(skip, default = "default_formulation")]
     pub formulation: Formulation,
@@ -180,6 +257,53 @@ impl FemOptions {
         }
     }
 
+    /// These options (mesh, solver) with the contact choices of `reading` for module `m`
+    /// in `case`.
+    pub fn with_reading(
+        self,
+        m: &crate::spec::Module,
+        reading: ContactReading,
+        case: LoadCase,
+    ) -> Self {
+        let sliding = m.contact.cylinders == CylinderCoupling::Sliding;
+        let clip = Some(m.clip_height_mm());
+        let (pillar_coupling, dome_contact, radius) = match reading {
+            ContactReading::Design => (
+                if sliding {
+                    PillarCoupling::BaseClip
+                } else {
+                    PillarCoupling::Bonded
+                },
+                if case == LoadCase::II {
+                    DomeContact::Tied
+                } else {
+                    DomeContact::ApexPatch
+                },
+                Some(m.dome_contact_radius_mm()),
+            ),
+            ContactReading::BondedPillars => (PillarCoupling::Bonded, DomeContact::ApexPatch, None),
+            ContactReading::SlidingApexPatch => {
+                (PillarCoupling::BaseClip, DomeContact::ApexPatch, None)
+            }
+            ContactReading::Unilateral => (
+                if sliding {
+                    PillarCoupling::BaseClipContact
+                } else {
+                    PillarCoupling::Bonded
+                },
+                DomeContact::Unilateral,
+                None,
+            ),
+        };
+        FemOptions {
+            pillar_coupling,
+            dome_contact,
+            dome_contact_radius_mm: radius,
+            clip_height_mm: clip,
+            ..self
+        }
+    }
+
     /// Refinement levels of the convergence study: level k has cylinder elements of
     /// 4 / 2^k mm, dome elements a quarter of that, and 2^k elements through a wall:
     /// every level halves every element size of the one before (level 1 = default).
@@ -192,6 +316,8 @@ impl FemOptions {
             insert_contact: InsertContact::SlidingWall,
             dome_contact: DomeContact::ApexPatch,
             pillar_coupling: PillarCoupling::Bonded,
+            clip_height_mm: None,
+            dome_contact_radius_mm: None,
             formulation: Formulation::MixedQ9P1,
             solver: SolverKind::Envelope,
             richardson_order: None,
@@ -264,6 +390,7 @@ fn make_stations(
     h_dome: f64,
     fiber_r: f64,
     patch_r: f64,
+    clip_mm: Option<f64>,
 ) -> Result<Stations> {
     let zc = p.dome_center_z_mm;
     if zc <= 0.0 {
@@ -271,11 +398,31 @@ fn make_stations(
             "the finite-element mesher needs the dome centre above the base (dome centre at z = {zc:.3} mm): use a taller module or a higher dome"
         );
     }
-    let nz = ((zc / h).ceil() as usize).max(2);
-    let mut st: Vec<Station> = (0..=2 * nz)
-        .map(|k| Station::Z(zc * k as f64 / (2 * nz) as f64))
-        .collect();
-    let z_breaks = (0..=nz).map(|k| zc * k as f64 / nz as f64).collect();
+    // Element boundaries along the cylinders: uniform, with one on the clip band's top
+    // edge when there is one, so the bonded band ends on a node and K varies
+    // continuously with every dimension (a band edge between nodes jumps from node to
+    // node as the module changes).
+    let mut z_breaks: Vec<f64> = Vec::new();
+    let mut segment = |z0: f64, z1: f64, min: usize| {
+        let n = (((z1 - z0) / h).ceil() as usize).max(min);
+        for k in 0..n {
+            z_breaks.push(z0 + (z1 - z0) * k as f64 / n as f64);
+        }
+    };
+    match clip_mm.filter(|c| *c > 0.0 && *c < zc) {
+        Some(c) => {
+            segment(0.0, c, 1);
+            segment(c, zc, 1);
+        }
+        None => segment(0.0, zc, 2),
+    }
+    z_breaks.push(zc);
+    let mut st: Vec<Station> = Vec::with_capacity(2 * z_breaks.len());
+    for w in z_breaks.windows(2) {
+        st.push(Station::Z(w[0]));
+        st.push(Station::Z(0.5 * (w[0] + w[1])));
+    }
+    st.push(Station::Z(zc));
     let j_seam = st.len() - 1;
     // Ring top: the ray through the fiber radius at the pillar top.
     // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
@@ -365,6 +512,11 @@ pub struct ModuleModel {
     pub fiber_radius_mm: f64,
     /// Heights of element boundaries along the fiber below the seam, mm.
     pub z_breaks_mm: Vec<f64>,
+    /// Unilateral contact pairs (empty unless a contact reading asks for them): the
+    /// problem is then solved by `fem::contact`.
+    pub contact_pairs: Vec<ContactPair>,
+    /// For each contact pair: whether it lies along the cylinders (else on the domes).
+    pub pair_on_cylinders: Vec<bool>,
 }
 
 fn constants(m: &Material) -> ElasticConstants {
@@ -398,36 +550,54 @@ fn smeared_materials(
     cap: ElasticConstants,
     core: ElasticConstants,
     insert: Option<ElasticConstants>,
+    sliding: bool,
 ) -> Vec<ElasticConstants> {
     let pl = &m.pillars;
     let n = pl.count as f64;
     let fill = |width: f64, r0: f64, r1: f64| (n * width / (PI * (r0 + r1))).min(1.0);
-    let ring_clear = smeared(&[(
-        cap,
+    let flanks = (
+        core,
         fill(
-            p.cap_pillar_width_mm,
+            pl.width_mm - pl.groove_width_mm,
+            p.groove_bottom_radius_mm,
             p.pillar_outer_radius_mm,
-            p.cap_inner_radius_mm,
         ),
-    )]);
-    let ring_groove = smeared(&[
-        (
-            core,
-            fill(
-                pl.width_mm - pl.groove_width_mm,
-                p.groove_bottom_radius_mm,
-                p.pillar_outer_radius_mm,
-            ),
-        ),
-        (
+    );
+    let (ring_clear, ring_groove) = if sliding {
+        // The cap's ribs slide in the grooves with the cap, so their axial stiffness
+        // must sit on the cap's side of the sliding face: the clearance ring gets the
+        // ribs' whole E·A (rib section n · width · groove depth over the ring's
+        // section), the groove ring the core's flanks only. Without a clearance ring the
+        // ribs' share of the cap's section (≈ 1.5 % in the paper's module) is dropped.
+        let ring_area = PI * (p.cap_inner_radius_mm.powi(2) - p.pillar_outer_radius_mm.powi(2));
+        let rib_area = n * p.cap_pillar_width_mm * pl.groove_depth_mm;
+        let clear = ElasticConstants {
+            youngs_modulus_mpa: cap.youngs_modulus_mpa * rib_area / ring_area.max(1e-12),
+            poisson_ratio: cap.poisson_ratio,
+        };
+        (clear, smeared(&[flanks]))
+    } else {
+        let clear = smeared(&[(
             cap,
             fill(
                 p.cap_pillar_width_mm,
-                p.groove_bottom_radius_mm,
                 p.pillar_outer_radius_mm,
+                p.cap_inner_radius_mm,
             ),
-        ),
-    ]);
+        )]);
+        let groove = smeared(&[
+            flanks,
+            (
+                cap,
+                fill(
+                    p.cap_pillar_width_mm,
+                    p.groove_bottom_radius_mm,
+                    p.pillar_outer_radius_mm,
+                ),
+            ),
+        ]);
+        (clear, groove)
+    };
     let ring_web = smeared(&[(
         core,
         fill(
@@ -589,14 +759,32 @@ pub fn build(
     };
     let h = opt.element_size_mm;
     let fiber_r = p.fiber_hole_center_radius_mm;
-    let patch_r = p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm;
-    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r)?;
+    let patch_r = match opt.dome_contact_radius_mm {
+        None => p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm,
+        Some(r) if r.is_finite() && r > 0.0 && r < p.core_dome_outer_sphere_radius_mm => r,
+        Some(r) => bail!(
+            "the domes' contact radius must lie between 0 and the core's dome radius {:.3} mm, got {r} mm",
+            p.core_dome_outer_sphere_radius_mm
+        ),
+    };
+    let clip = match opt.pillar_coupling {
+        PillarCoupling::Bonded => None,
+        _ => Some(opt.clip_height_mm.unwrap_or(m.cap_wall_mm)),
+    };
+    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r, clip)?;
     let zc = p.dome_center_z_mm;
     let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
     let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
 
     // Materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core, 5 insert.
-    let materials = smeared_materials(m, &p, cap, core, insert);
+    let materials = smeared_materials(
+        m,
+        &p,
+        cap,
+        core,
+        insert,
+        opt.pillar_coupling != PillarCoupling::Bonded,
+    );
 
     // Layered walls on shared "d-lines" (curves of constant offset).
     let mut dlines: Vec<Surface> = vec![Surface {
@@ -640,7 +828,7 @@ pub fn build(
     }
     // Base clip: the cap side (cap + its alignment pillars) and the core side (core
     // pillars) get separate nodes on the pillar's outer face, tied below.
-    let split = if opt.pillar_coupling == PillarCoupling::BaseClip {
+    let split = if opt.pillar_coupling != PillarCoupling::Bonded {
         let outer = *dlines.last().expect("d-lines");
         dlines.push(outer);
         Some(dlines.len() - 2)
@@ -705,22 +893,60 @@ pub fn build(
             fixed.push((b, Z));
         }
     }
+    let mut contact_pairs = Vec::new();
     if let Some(dl) = split {
-        // Radial contact all along the pillars; bonded only in the clip band at the base
-        // (height one cap wall), so the cap slides axially over the core above it.
+        let clip = opt.clip_height_mm.unwrap_or(m.cap_wall_mm);
+        if !(clip.is_finite() && clip > 0.0) {
+            bail!("the clip band's height must be a positive number of mm, got {clip}");
+        }
+        // Bonded only in the clip band at the base, so the cap slides axially over the
+        // core above it: in radial contact (a bilateral tie) or in unilateral contact
+        // across the printed clearance.
         for j in 0..=s.j_pillar_top {
             let (a, b) = (get(&mut mesh, dl, j), get(&mut mesh, dl + 1, j));
-            ties.push((a, b, R));
-            if mesh.nodes[a][1] <= m.cap_wall_mm + 1e-9 {
+            let in_clip = mesh.nodes[a][1] <= clip + 1e-9;
+            if in_clip {
+                ties.push((a, b, R));
                 ties.push((a, b, Z));
+            } else if opt.pillar_coupling == PillarCoupling::BaseClipContact {
+                // The cap side lies outside: the normal from it to the core points inwards.
+                contact_pairs.push(ContactPair {
+                    a,
+                    b: Some(b),
+                    normal: [-1.0, 0.0],
+                    gap_mm: m.cap_core_clearance_mm,
+                });
+            } else {
+                ties.push((a, b, R));
             }
         }
     }
+    let cylinder_pairs = contact_pairs.len();
     let tie_from = match opt.dome_contact {
-        DomeContact::Gap => None,
+        DomeContact::Gap | DomeContact::Unilateral => None,
         DomeContact::Tied => Some(s.j_pillar_top + 1),
         DomeContact::ApexPatch => Some(s.j_patch.max(s.j_pillar_top + 1)),
     };
+    if opt.dome_contact == DomeContact::Unilateral {
+        for j in s.j_pillar_top + 1..=s.j_hole {
+            let a = get(&mut mesh, dl_cap_inner, j);
+            let b = get(&mut mesh, dl_core_outer, j);
+            // Facing nodes lie on one ray from the dome centre (or one horizontal line
+            // below it): the normal points along it, inwards, from the cap to the core.
+            let normal = match s.st[j] {
+                Station::Z(_) => [-1.0, 0.0],
+                Station::Theta(t) => [-t.cos(), -t.sin()],
+            };
+            let (xa, xb) = (mesh.nodes[a], mesh.nodes[b]);
+            let gap = normal[0] * (xb[0] - xa[0]) + normal[1] * (xb[1] - xa[1]);
+            contact_pairs.push(ContactPair {
+                a,
+                b: Some(b),
+                normal,
+                gap_mm: gap.max(0.0),
+            });
+        }
+    }
     if let Some(j0) = tie_from {
         for j in j0..=s.j_hole {
             let a = get(&mut mesh, dl_cap_inner, j);
@@ -792,6 +1018,10 @@ pub fn build(
         web_elements,
         fiber_radius_mm: fiber_r,
         z_breaks_mm: s.z_breaks,
+        pair_on_cylinders: (0..contact_pairs.len())
+            .map(|i| i < cylinder_pairs)
+            .collect(),
+        contact_pairs,
     })
 }
 

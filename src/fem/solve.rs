@@ -173,6 +173,13 @@ impl Problem {
 
     /// Assemble and solve K u = f with the given linear solver.
     pub fn solve_with(&self, solver: &dyn LinearSolver) -> Result<Solution> {
+        let f = self.factor_with(solver)?;
+        f.solve_loads(&self.loads)
+    }
+
+    /// Assemble and factorise K once; the factor then solves any number of load cases
+    /// (the contact solver needs one solve per contact pair).
+    pub fn factor_with(&self, solver: &dyn LinearSolver) -> Result<FactoredProblem> {
         let (map, n) = dof_map(self)?;
         if n == 0 {
             bail!("the problem has no free unknowns");
@@ -226,22 +233,68 @@ impl Problem {
                 }
             }
         }
-        let mut f = DVector::zeros(n);
-        for &(node, c, value) in &self.loads {
-            if let Some(Some(i)) = map.get(2 * node + c) {
-                f[perm[*i]] += value;
-            }
-        }
         let k = CscMatrix::from(&coo);
         drop(coo);
-        let (u, factor_nonzeros) = solver
-            .solve(&k, &f)
+        let factor = solver
+            .factor(&k)
             .context("the stiffness matrix is not positive definite: a part is not supported (rigid-body motion) or an element is degenerate")?;
-        let mut disp = vec![[0.0; 2]; self.mesh.nodes.len()];
+        Ok(FactoredProblem {
+            map,
+            perm,
+            unknowns: n,
+            nodes: self.mesh.nodes.len(),
+            factor,
+        })
+    }
+}
+
+/// An assembled and factorised stiffness matrix with its numbering of the unknowns.
+pub struct FactoredProblem {
+    map: Vec<Option<usize>>,
+    perm: Vec<usize>,
+    unknowns: usize,
+    nodes: usize,
+    factor: Box<dyn Factorization>,
+}
+
+impl FactoredProblem {
+    /// Number of unknowns.
+    pub fn unknowns(&self) -> usize {
+        self.unknowns
+    }
+
+    /// The position of (node, component) in the solver's vector, `None` when the
+    /// component is held at zero.
+    pub fn unknown_of(&self, node: usize, component: Component) -> Option<usize> {
+        self.map
+            .get(2 * node + component)
+            .copied()
+            .flatten()
+            .map(|i| self.perm[i])
+    }
+
+    /// Solve for nodal loads (node, component, N); loads on held components are dropped.
+    pub fn solve_loads(&self, loads: &[(usize, Component, f64)]) -> Result<Solution> {
+        let mut f = vec![0.0; self.unknowns];
+        for &(node, c, value) in loads {
+            if node >= self.nodes || c > 1 {
+                bail!("load ({node}, {c}) refers to a node or component that does not exist");
+            }
+            if let Some(i) = self.unknown_of(node, c) {
+                f[i] += value;
+            }
+        }
+        self.factor.solve_in_place(&mut f);
+        self.solution_from(&f)
+    }
+
+    /// Nodal displacements from a solution vector in the solver's numbering.
+    pub fn solution_from(&self, u: &[f64]) -> Result<Solution> {
+        let mut disp = vec![[0.0; 2]; self.nodes];
         for (node, dd) in disp.iter_mut().enumerate() {
-            for c in 0..2 {
-                if let Some(i) = map[2 * node + c] {
-                    dd[c] = u[perm[i]];
+            for (c, v) in dd.iter_mut().enumerate() {
+                if let Some(i) = self.unknown_of(node, c) {
+                    *v = u[i];
                 }
             }
         }
@@ -250,33 +303,58 @@ impl Problem {
         }
         Ok(Solution {
             displacement_mm: disp,
-            unknowns: n,
-            factor_nonzeros,
+            unknowns: self.unknowns,
+            factor_nonzeros: self.factor.nonzeros(),
         })
     }
+}
+
+/// A factorised symmetric positive definite matrix.
+pub trait Factorization: Send + Sync {
+    /// Overwrite `b` with the solution of K x = b.
+    fn solve_in_place(&self, b: &mut [f64]);
+    /// Non-zeros of the factor.
+    fn nonzeros(&self) -> usize;
 }
 
 /// A direct solver for a symmetric positive definite system K u = f.
 pub trait LinearSolver {
     /// Short name for tables.
     fn name(&self) -> &'static str;
+    /// Factorise K.
+    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>>;
     /// Solve; returns u and the number of non-zeros of the factor.
-    fn solve(&self, k: &CscMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)>;
+    fn solve(&self, k: &CscMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)> {
+        let factor = self.factor(k)?;
+        let mut u = f.clone();
+        factor.solve_in_place(u.as_mut_slice());
+        Ok((u, factor.nonzeros()))
+    }
 }
 
 /// nalgebra-sparse's `CscCholesky` (up-looking sparse Cholesky, no reordering of its own).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SparseCholesky;
 
+struct SparseFactor(CscCholesky<f64>);
+
+impl Factorization for SparseFactor {
+    fn solve_in_place(&self, b: &mut [f64]) {
+        let u = self.0.solve(&DVector::from_column_slice(b));
+        b.copy_from_slice(u.column(0).as_slice());
+    }
+    fn nonzeros(&self) -> usize {
+        self.0.l().nnz()
+    }
+}
+
 impl LinearSolver for SparseCholesky {
     fn name(&self) -> &'static str {
         "sparse Cholesky (nalgebra-sparse)"
     }
-    fn solve(&self, k: &CscMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)> {
+    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>> {
         let chol = CscCholesky::factor(k).map_err(|e| anyhow!("sparse Cholesky failed: {e:?}"))?;
-        let nnz = chol.l().nnz();
-        let u = chol.solve(f);
-        Ok((u.column(0).into_owned(), nnz))
+        Ok(Box::new(SparseFactor(chol)))
     }
 }
 
@@ -303,11 +381,45 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 #[derive(Debug, Clone, Copy, Default)]
 pub struct EnvelopeCholesky;
 
+/// The envelope factor: row i of L from column `first[i]` to the diagonal, stored
+/// contiguously from `start[i]`.
+struct EnvelopeFactor {
+    first: Vec<usize>,
+    start: Vec<usize>,
+    l: Vec<f64>,
+}
+
+impl Factorization for EnvelopeFactor {
+    fn solve_in_place(&self, y: &mut [f64]) {
+        let (first, start, l) = (&self.first, &self.start, &self.l);
+        let n = first.len();
+        // Forward L y = f, then backward Lᵀ u = y.
+        for i in 0..n {
+            let row = &l[start[i]..start[i + 1]];
+            let fi = first[i];
+            let dot = dot(&row[..i - fi], &y[fi..i]);
+            y[i] = (y[i] - dot) / row[i - fi];
+        }
+        for i in (0..n).rev() {
+            let row = &l[start[i]..start[i + 1]];
+            let fi = first[i];
+            y[i] /= row[i - fi];
+            let yi = y[i];
+            for (k, &lik) in row[..i - fi].iter().enumerate() {
+                y[fi + k] -= lik * yi;
+            }
+        }
+    }
+    fn nonzeros(&self) -> usize {
+        self.l.len()
+    }
+}
+
 impl LinearSolver for EnvelopeCholesky {
     fn name(&self) -> &'static str {
         "envelope Cholesky"
     }
-    fn solve(&self, k: &CscMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)> {
+    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>> {
         let n = k.nrows();
         // First column of each row in the lower triangle (K is symmetric: use columns).
         let mut first: Vec<usize> = (0..n).collect();
@@ -351,28 +463,7 @@ impl LinearSolver for EnvelopeCholesky {
             }
             diag[0] = s.sqrt();
         }
-        // Forward L y = f, then backward Lᵀ u = y.
-        let mut y = f.clone();
-        for i in 0..n {
-            let row = &l[start[i]..start[i + 1]];
-            let fi = first[i];
-            let dot: f64 = row[..i - fi]
-                .iter()
-                .zip(&y.as_slice()[fi..i])
-                .map(|(a, b)| a * b)
-                .sum();
-            y[i] = (y[i] - dot) / row[i - fi];
-        }
-        for i in (0..n).rev() {
-            let row = &l[start[i]..start[i + 1]];
-            let fi = first[i];
-            y[i] /= row[i - fi];
-            let yi = y[i];
-            for (k, &lik) in row[..i - fi].iter().enumerate() {
-                y[fi + k] -= lik * yi;
-            }
-        }
-        Ok((y, start[n]))
+        Ok(Box::new(EnvelopeFactor { first, start, l }))
     }
 }
 

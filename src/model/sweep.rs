@@ -260,10 +260,11 @@ pub enum SweepError {
 }
 
 /// Where a step's predictions come from when not from the closed form: any model of
-/// the same design (the finite-element model in `crate::fem`), returning every
-/// grating's prediction or a message. Keeps `model` free of a dependency on `fem`.
-pub type Predictor<'a> =
-    dyn Fn(&Design, &PredictOptions) -> Result<Vec<GratingPrediction>, String> + 'a;
+/// the same design (the model policy, `crate::prediction`), returning every grating's
+/// prediction with its band of K (pm/N, low and high) when the model gives one, or a
+/// message. Keeps `model` free of a dependency on `fem`.
+pub type Predictor<'a> = dyn Fn(&Design, &PredictOptions) -> Result<Vec<(GratingPrediction, Option<[f64; 2]>)>, String>
+    + 'a;
 
 /// Look a parameter up by name or alias (case-insensitive).
 pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
@@ -343,6 +344,9 @@ pub struct SweepSeries {
     pub shift_pm: Vec<f64>,
     /// Sensitivity, pm/N.
     pub sensitivity_pm_per_n: Vec<f64>,
+    /// Band of K at each value, pm/N (low, high); empty when the model gives none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub band_pm_per_n: Vec<[f64; 2]>,
 }
 
 impl SweepSeries {
@@ -398,7 +402,7 @@ pub fn run_with(
     };
     for &v in values {
         let d = with_param(design, param, v)?;
-        let preds: Vec<GratingPrediction> = match predictor {
+        let preds: Vec<(GratingPrediction, Option<[f64; 2]>)> = match predictor {
             None => predict_with(&d, &opts)
                 .map_err(|reason| SweepError::Model {
                     param: param.name.to_string(),
@@ -406,7 +410,7 @@ pub fn run_with(
                     reason,
                 })?
                 .into_iter()
-                .map(|d| d.prediction)
+                .map(|d| (d.prediction, None))
                 .collect(),
             Some(f) => f(&d, &opts).map_err(|reason| SweepError::Predictor {
                 param: param.name.to_string(),
@@ -414,9 +418,9 @@ pub fn run_with(
                 reason,
             })?,
         };
-        for p in preds
+        for (p, band) in preds
             .into_iter()
-            .filter(|p| case.is_none_or(|c| c == p.case))
+            .filter(|(p, _)| case.is_none_or(|c| c == p.case))
         {
             let s = match series
                 .iter_mut()
@@ -431,6 +435,7 @@ pub fn run_with(
                         x: Vec::new(),
                         shift_pm: Vec::new(),
                         sensitivity_pm_per_n: Vec::new(),
+                        band_pm_per_n: Vec::new(),
                     });
                     series.last_mut().expect("just pushed")
                 }
@@ -438,6 +443,9 @@ pub fn run_with(
             s.x.push(v);
             s.shift_pm.push(p.shift_pm);
             s.sensitivity_pm_per_n.push(p.sensitivity_pm_per_n);
+            if let Some(b) = band {
+                s.band_pm_per_n.push(b);
+            }
         }
         on_step();
     }

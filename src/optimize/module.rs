@@ -18,22 +18,86 @@ use super::materials::{MaterialLibrary, MaterialRole};
 use super::quality::{
     design_quality, Calibration, MeasuredPrototype, QualityBreakdown, QualitySettings,
 };
-use crate::model::GratingPrediction;
+use crate::fem::FemOptions;
+use crate::model::{GratingPrediction, LoadCase};
+use crate::prediction::{Anchored, FidelityChoice};
 use crate::profile::ModuleProfile;
 use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
 use crate::spec::{Core, Design, GratingRole, Insert, Module};
 use rayon::prelude::*;
 use serde::Serialize;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-/// A function that predicts every grating of a design at a force (the model).
-pub type Predictor =
+/// A function that predicts every grating of a design at a force.
+pub type PredictFn =
     Arc<dyn Fn(&Design, f64) -> anyhow::Result<Vec<GratingPrediction>> + Send + Sync>;
 
-/// The opto-mechanical model as a [`Predictor`].
+/// Anchored policies already built, keyed by the TOML of the design they were anchored
+/// on (one FE solve per configuration saved when a problem is set up again).
+pub type AnchorCache = Arc<Mutex<Vec<(String, Arc<Anchored>)>>>;
+
+/// The model the optimiser asks.
+#[derive(Clone)]
+pub enum Predictor {
+    /// The model policy ([`crate::prediction`]), as [`Anchored`] on each problem's
+    /// start design: equal to `fbgforge predict` there; the final answer is anchored
+    /// on itself, so the optimiser reports the policy's own K for the design it writes.
+    Policy {
+        /// Which model the policy uses.
+        fidelity: FidelityChoice,
+        /// Anchors built so far.
+        cache: AnchorCache,
+    },
+    /// Any function (synthetic models in tests).
+    Function(PredictFn),
+}
+
+impl Predictor {
+    /// A predictor from a plain function.
+    pub fn function(
+        f: impl Fn(&Design, f64) -> anyhow::Result<Vec<GratingPrediction>> + Send + Sync + 'static,
+    ) -> Self {
+        Predictor::Function(Arc::new(f))
+    }
+
+    /// The model anchored on `design`, and its name.
+    fn anchored_on(&self, design: &Design) -> anyhow::Result<(PredictFn, String)> {
+        match self {
+            Predictor::Function(f) => Ok((f.clone(), "custom predictor".into())),
+            Predictor::Policy { fidelity, cache } => {
+                let key = design.to_toml();
+                let found = cache
+                    .lock()
+                    .expect("anchor cache")
+                    .iter()
+                    .find(|(k, _)| k == &key)
+                    .map(|(_, a)| a.clone());
+                let a = match found {
+                    Some(a) => a,
+                    None => {
+                        let a = Arc::new(
+                            Anchored::new(design, *fidelity, &FemOptions::default()).map_err(
+                                |e| e.context("anchoring the model policy on the start design"),
+                            )?,
+                        );
+                        cache.lock().expect("anchor cache").push((key, a.clone()));
+                        a
+                    }
+                };
+                let name = a.description().to_string();
+                Ok((Arc::new(move |d: &Design, f: f64| a.predict(d, f)), name))
+            }
+        }
+    }
+}
+
+/// The opto-mechanical model policy as a [`Predictor`].
 pub fn model_predictor() -> Predictor {
-    Arc::new(crate::model::predict)
+    Predictor::Policy {
+        fidelity: FidelityChoice::Auto,
+        cache: Arc::new(Mutex::new(Vec::new())),
+    }
 }
 
 /// What to maximise.
@@ -316,7 +380,44 @@ pub const TIE_WEIGHT: f64 = 1e-3;
 /// Constraints checked on the model's prediction (only once the geometry is valid).
 pub const PHYSICS_CONSTRAINTS: [&str; 2] = ["grating_strain", "wavelength_window"];
 
+/// A linear correction of the anchored estimate around `center`: per grating row
+/// (grating, case, insert), the relative slope of the policy's K against it along each
+/// variable.
+#[derive(Debug, Clone)]
+struct Correction {
+    center: Vec<f64>,
+    rows: Vec<(RowKey, Vec<f64>)>,
+}
+
+/// A prediction row's identity: grating, case, insert.
+type RowKey = (String, LoadCase, Option<String>);
+
+impl Correction {
+    fn apply(&self, x: &[f64], preds: &mut [GratingPrediction]) {
+        for p in preds.iter_mut() {
+            let Some((_, s)) = self
+                .rows
+                .iter()
+                .find(|(k, _)| k.0 == p.grating && k.1 == p.case && k.2 == p.insert)
+            else {
+                continue;
+            };
+            let f: f64 = 1.0
+                + s.iter()
+                    .zip(x.iter().zip(&self.center))
+                    .map(|(s, (x, c))| s * (x - c))
+                    .sum::<f64>();
+            // A linear factor is trusted near its centre only; keep it positive.
+            let f = f.clamp(0.2, 5.0);
+            p.sensitivity_pm_per_n *= f;
+            p.shift_pm *= f;
+            p.strain *= f;
+        }
+    }
+}
+
 /// The problem for one discrete choice.
+#[derive(Clone)]
 pub struct ModuleProblem {
     /// The choice.
     pub choice: Choice,
@@ -332,6 +433,9 @@ pub struct ModuleProblem {
     settings: ModuleSettings,
     calibration: Calibration,
     predictor: Predictor,
+    model: PredictFn,
+    model_description: String,
+    correction: Option<Correction>,
     windows_nm: Vec<(String, f64, f64)>,
     scale: f64,
     x0: Vec<f64>,
@@ -505,13 +609,80 @@ impl ModuleProblem {
             lib: lib.clone(),
             settings: settings.clone(),
             calibration,
-            predictor,
+            predictor: predictor.clone(),
+            model: Arc::new(|_: &Design, _: f64| anyhow::bail!("the model is not anchored yet")),
+            model_description: String::new(),
+            correction: None,
             windows_nm,
             scale: 1.0,
             x0: Vec::new(),
         };
         p.x0 = p.start_point();
+        (p.model, p.model_description) = predictor.anchored_on(&p.design_at(&p.x0))?;
         Ok(p)
+    }
+
+    /// The same problem with the model anchored on the design at `x` (the policy's
+    /// own K there).
+    pub fn anchored_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+        let mut p = self.clone();
+        (p.model, p.model_description) = self.predictor.anchored_on(&self.design_at(x))?;
+        p.correction = None;
+        Ok(p)
+    }
+
+    /// The model anchored at `x` with a first-order correction: the ratio of the
+    /// policy's K to the anchored estimate is measured a step along each variable (one
+    /// anchoring each) and applied as a linear factor, so the estimate has the
+    /// policy's value and slope at `x` (what a trust region needs to converge).
+    pub fn corrected_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+        let mut p = self.anchored_at(x)?;
+        if matches!(self.predictor, Predictor::Function(_)) {
+            return Ok(p);
+        }
+        let at = |q: &ModuleProblem, x: &[f64]| -> anyhow::Result<Vec<GratingPrediction>> {
+            (q.model)(&q.design_at(x), 1.0)
+        };
+        let base = at(&p, x)?;
+        let mut slopes: Vec<Vec<f64>> = vec![vec![0.0; x.len()]; base.len()];
+        for v in 0..x.len() {
+            let span = self.hi[v] - self.lo[v];
+            let mut h = 0.02 * span;
+            if x[v] + h > self.hi[v] {
+                h = -h;
+            }
+            let mut xs = x.to_vec();
+            xs[v] += h;
+            let estimate = at(&p, &xs)?;
+            let exact = at(&p.anchored_at(&xs)?, &xs)?;
+            for (i, (e, t)) in estimate.iter().zip(&exact).enumerate() {
+                if e.sensitivity_pm_per_n != 0.0 {
+                    slopes[i][v] = (t.sensitivity_pm_per_n / e.sensitivity_pm_per_n - 1.0) / h;
+                }
+            }
+        }
+        p.correction = Some(Correction {
+            center: x.to_vec(),
+            rows: base
+                .iter()
+                .map(|b| (b.grating.clone(), b.case, b.insert.clone()))
+                .zip(slopes)
+                .collect(),
+        });
+        Ok(p)
+    }
+
+    /// The same problem searched in the box `lo`..`hi` (a trust region).
+    pub fn within(&self, lo: Vec<f64>, hi: Vec<f64>) -> Self {
+        let mut p = self.clone();
+        p.lo = lo;
+        p.hi = hi;
+        p
+    }
+
+    /// The model that scores candidates, in words.
+    pub fn model_description(&self) -> &str {
+        &self.model_description
     }
 
     /// The start point: the start design's own values, clamped into the box.
@@ -569,6 +740,14 @@ impl ModuleProblem {
         p.height_mm = (bp.height_mm * s)
             .max(p.groove_depth_mm + p.fiber_hole_diameter_mm + 2.0 * min_wall + EPS);
         m.top_hole_diameter_mm = (b.top_hole_diameter_mm * s).max(0.4);
+        // The contact reading's lengths scale with the module too (the clip with the cap
+        // wall by default, the domes' contact zone with the diameter).
+        if let Some(r) = b.contact.dome_contact_radius_mm {
+            m.contact.dome_contact_radius_mm = Some(r * s);
+        }
+        if let Some(h) = b.contact.clip_height_mm {
+            m.contact.clip_height_mm = Some(h * m.cap_wall_mm / b.cap_wall_mm);
+        }
         m.apex_flat_diameter_mm = (b.apex_flat_diameter_mm * s).max(2.0 * d.printer.resolution_mm);
         // Gratings keep their relative height, inside the cylindrical section.
         let prof = ModuleProfile::from_module_unchecked(m);
@@ -638,7 +817,13 @@ impl ModuleProblem {
         let mut objective = 0.0;
         let mut gratings = Vec::new();
         if cons.iter().all(|c| c.violation <= 0.0) {
-            match (self.predictor)(d, self.settings.max_force_n) {
+            let preds = (self.model)(d, self.settings.max_force_n).map(|mut preds| {
+                if let Some(c) = &self.correction {
+                    c.apply(x, &mut preds);
+                }
+                preds
+            });
+            match preds {
                 Err(e) => push(
                     &mut cons,
                     "model",
@@ -874,6 +1059,8 @@ pub struct ModuleOutcome {
     pub start_choice: Choice,
     /// The start design evaluated (its objective is the bar to beat).
     pub start: Evaluation,
+    /// The model that scored the answer, in words (the policy anchored on it).
+    pub model: String,
     /// Index of the winning choice in `choices`.
     pub best_choice: usize,
     /// Every choice.
@@ -1088,9 +1275,65 @@ pub fn optimise_module(
     let Some(bi) = best_choice else {
         return Err(infeasible_error(&choices_done, settings));
     };
+    let mut choices_done = choices_done;
+    // Away from its anchor the optimiser's K is an estimate (closed-form trend, FE level
+    // at the anchor); the answer is refined on the policy itself, so what is reported
+    // and written is the policy's own prediction of the design. Choices are tried in
+    // the order of their estimated merit until one holds under the policy (at most
+    // four), then the start's own choice.
+    let mut order: Vec<usize> = choices_done
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.best.is_some())
+        .map(|(i, _)| i)
+        .collect();
+    order.sort_by(|&a, &b| {
+        let m = |i: usize| ranker.merit(choices_done[i].best.as_ref().expect("filtered"));
+        m(b).total_cmp(&m(a))
+    });
+    order.truncate(4);
+    if let Some(si) = choices_done.iter().position(|c| c.choice == start_ch) {
+        if !order.contains(&si) {
+            order.push(si);
+        }
+    }
+    let mut answer = None;
+    let mut why = Vec::new();
+    for &i in order
+        .iter()
+        .filter(|&&i| i == bi)
+        .chain(order.iter().filter(|&&i| i != bi))
+    {
+        let p = ModuleProblem::new(
+            base,
+            choices_done[i].choice.clone(),
+            lib,
+            settings,
+            cal,
+            predictor.clone(),
+        )?;
+        let found = choices_done[i]
+            .best
+            .clone()
+            .unwrap_or_else(|| p.evaluate(&p.start_point()));
+        match policy_answer(p, found, settings) {
+            Ok(a) => {
+                answer = Some((i, a));
+                break;
+            }
+            Err(e) => why.push(format!("{}: {e:#}", choices_done[i].choice)),
+        }
+    }
+    let Some((bi, (p, best_eval))) = answer else {
+        anyhow::bail!(
+            "infeasible under the model policy's own prediction: {}",
+            why.join("; ")
+        );
+    };
+    // The other choices keep their estimated answers; the winner's is the policy's.
+    choices_done[bi].best = Some(best_eval.clone());
     let win = &choices_done[bi];
-    let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
-    let best_eval = win.best.as_ref().expect("chosen for having one");
+    let best_eval = &best_eval;
     let mut design = p.design_at(&best_eval.x);
     design.name = format!("{}-optimised", base.name.trim_end_matches("-optimised"));
     design.description = Some(format!(
@@ -1120,12 +1363,108 @@ pub fn optimise_module(
         upper_bounds: p.hi.clone(),
         start_choice: start_ch,
         start,
+        model: p.model_description().to_string(),
         best_choice: bi,
         choices: choices_done,
         design,
         time_s: t0.elapsed().as_secs_f64(),
         calibration: cal,
     })
+}
+
+/// The winning choice's answer as the policy predicts it. Away from its anchor the
+/// optimiser's model is an estimate (closed-form trend, FE level at the anchor), and in
+/// Case I the closed form's trend can be far off the FE's. So the answer is refined by
+/// a trust region on the policy itself: anchor on the current design with a
+/// first-order correction (value and slope of the policy's K there, one anchoring per
+/// variable), search that estimate within a box around it, score the step by the
+/// policy anchored on the step; accept it when the policy agrees it is better (and
+/// feasible), widen the box when the estimate was right, shrink it when not. Each
+/// anchoring costs one FE solve per configuration. The global search's answer is a
+/// candidate too.
+fn policy_answer(
+    p: ModuleProblem,
+    found: Evaluation,
+    settings: &ModuleSettings,
+) -> anyhow::Result<(ModuleProblem, Evaluation)> {
+    let (lo, hi) = p.box_bounds();
+    let exact = |x: &[f64]| -> anyhow::Result<(ModuleProblem, Evaluation)> {
+        let q = p.anchored_at(x)?;
+        let e = q.evaluate(x);
+        Ok((q, e))
+    };
+    // The problem is anchored on its start, so the start is scored exactly.
+    let x0 = p.start_point();
+    let mut cur = (p.clone(), p.evaluate(&x0));
+    // Feasible beats infeasible; between feasible designs the objective decides,
+    // between infeasible ones the smaller violation (so a start the policy finds
+    // infeasible can be walked into the feasible region).
+    let better = |a: &Evaluation, b: &Evaluation| match (a.feasible(), b.feasible()) {
+        (true, false) => true,
+        (false, true) => false,
+        (true, true) => a.objective > b.objective,
+        (false, false) => a.total_violation() < b.total_violation(),
+    };
+    let cand = exact(&found.x)?;
+    if better(&cand.1, &cur.1) {
+        cur = cand;
+    }
+    let mut radius = 0.25;
+    for k in 0..24u64 {
+        let xc = cur.1.x.clone();
+        let (tl, th): (Vec<f64>, Vec<f64>) = xc
+            .iter()
+            .zip(lo.iter().zip(&hi))
+            .map(|(x, (l, h))| {
+                let d = radius * (h - l);
+                ((x - d).max(*l), (x + d).min(*h))
+            })
+            .unzip();
+        let q = cur.0.corrected_at(&xc)?.within(tl, th);
+        let runs = multi_start(
+            &q,
+            &settings.solvers,
+            std::slice::from_ref(&xc),
+            settings.seed.wrapping_add(1000 + k),
+            &settings.run,
+        )?;
+        let evals: Vec<Evaluation> = runs.iter().map(|r| q.evaluate(&r.best_x)).collect();
+        let step = q
+            .best_feasible(&evals)
+            .filter(|t| !cur.1.feasible() || t.objective > cur.1.objective * (1.0 + 1e-9))
+            .cloned();
+        match step {
+            Some(t) => {
+                let trial = exact(&t.x)?;
+                if better(&trial.1, &cur.1) {
+                    let predicted = t.objective - cur.1.objective;
+                    let actual = trial.1.objective - cur.1.objective;
+                    if cur.1.feasible() && actual > 0.75 * predicted {
+                        radius = (2.0 * radius).min(0.5);
+                    }
+                    cur = trial;
+                } else {
+                    radius *= 0.5;
+                }
+            }
+            None => radius *= 0.5,
+        }
+        if radius < 1e-4 {
+            break;
+        }
+    }
+    anyhow::ensure!(
+        cur.1.feasible(),
+        "infeasible: under the model policy's own prediction neither the optimised design nor the start meets every constraint ({})",
+        cur.1
+            .constraints
+            .iter()
+            .filter(|c| c.violation > 0.0)
+            .map(|c| format!("{}: {}", c.name, c.detail))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
+    Ok(cur)
 }
 
 /// Name the constraint that cannot be met: across choices, the one violated at the

@@ -102,12 +102,13 @@ pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
         .transpose()?;
     let n_choices = crate::optimize::module::choices(&design, &lib, settings)?.len();
     let bar = crate::progress::bar(n_choices as u64, "optimise");
+    let predictor = model_predictor();
     let outcome = optimise_module(
         &design,
         &lib,
         settings,
         measured.as_ref(),
-        model_predictor(),
+        predictor.clone(),
         &|done| bar.set_position(done as u64),
     )?;
     bar.finish_and_clear();
@@ -126,7 +127,7 @@ pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
         settings,
         &outcome,
         &landscape_vars,
-        model_predictor(),
+        predictor,
     )?;
     Ok(ModuleRun {
         outcome,

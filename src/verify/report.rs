@@ -29,6 +29,7 @@ fn status_word(s: Status) -> &'static str {
     match s {
         Status::Pass => "PASS",
         Status::Fail => "FAIL",
+        Status::InBand => "IN BAND",
         Status::NotJudged => "NOT JUDGED",
         Status::NoResponse => "NO RESPONSE",
     }
@@ -152,6 +153,18 @@ pub fn summary(r: &VerifyReport) -> String {
         );
         if let Some(reason) = &v.reason {
             let _ = writeln!(s, "{:<12} {reason}", "");
+        }
+    }
+    if let Some(model) = r.verdict.gratings.iter().find_map(|v| v.model.as_ref()) {
+        let _ = writeln!(s, "model: {model}");
+    }
+    for v in &r.verdict.gratings {
+        if let Some([lo, hi]) = v.band_pm_per_n {
+            let _ = writeln!(
+                s,
+                "band of {} between the bounding contact readings: {lo:.3} … {hi:.3} pm/N",
+                v.grating
+            );
         }
     }
     if m.warnings.total() > 0 {
@@ -379,7 +392,23 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     }
     for v in &r.verdict.gratings {
         if let Some(reason) = &v.reason {
-            let _ = writeln!(md, "\n`{}` not judged: {reason}", v.grating);
+            let what = match v.status {
+                Status::InBand => "in band",
+                _ => "not judged",
+            };
+            let _ = writeln!(md, "\n`{}` {what}: {reason}", v.grating);
+        }
+    }
+    if let Some(model) = r.verdict.gratings.iter().find_map(|v| v.model.as_ref()) {
+        let _ = writeln!(md, "\nModel: {model}.");
+    }
+    for v in &r.verdict.gratings {
+        if let Some([lo, hi]) = v.band_pm_per_n {
+            let _ = writeln!(
+                md,
+                "\nBand of `{}` between the bounding contact readings: {lo:.3} … {hi:.3} pm/N.",
+                v.grating
+            );
         }
     }
     if m.warnings.total() > 0 {

@@ -37,6 +37,9 @@ pub struct VerifyRequest {
     /// log's date order): gives the clock offset of a relative force log, so lags are
     /// absolute. An alternative to `analysis.clock_offset_s`.
     pub force_start: Option<String>,
+    /// Fit the design's contact reading (`[module.contact].dome_contact_radius_mm`) to
+    /// the measured Case I K and write the calibrated design here (atomically).
+    pub calibrate_into: Option<PathBuf>,
 }
 
 impl VerifyRequest {
@@ -53,6 +56,7 @@ impl VerifyRequest {
             analysis: AnalysisOptions::default(),
             k_tolerance: verdict::DEFAULT_TOLERANCE,
             force_start: None,
+            calibrate_into: None,
         }
     }
 
@@ -73,6 +77,8 @@ pub struct VerifyOutcome {
     pub report: VerifyReport,
     /// Aligned force and wavelength series.
     pub series: Series,
+    /// The contact calibration, when one was asked for (`calibrate_into`).
+    pub calibration: Option<crate::prediction::ContactCalibration>,
 }
 
 /// The inputs of a verification, read and checked.
@@ -86,20 +92,94 @@ pub struct VerifyInputs {
     pub force: ForceLog,
 }
 
-/// Read, analyse and judge.
+/// Read, analyse and judge (and calibrate, when asked).
 pub fn run(req: &VerifyRequest) -> Result<VerifyOutcome> {
     let inputs = read_inputs(req)?;
-    match &req.force_start {
-        None => judge(req, &inputs),
+    let mut outcome = match &req.force_start {
+        None => judge(req, &inputs)?,
         Some(text) => {
             if req.analysis.clock_offset_s.is_some() {
                 bail!("give either --force-start or --clock-offset-s, not both");
             }
             let mut req = req.clone();
             req.analysis.clock_offset_s = Some(offset_from_force_start(text, &inputs, &req.read)?);
-            judge(&req, &inputs)
+            judge(&req, &inputs)?
         }
+    };
+    if let Some(path) = &req.calibrate_into {
+        outcome.calibration = Some(calibrate_into(req, &inputs, &outcome.report, path)?);
     }
+    Ok(outcome)
+}
+
+/// Fit the design's contact reading to the measured K of the gratings that responded,
+/// and write the calibrated design to `path`.
+fn calibrate_into(
+    req: &VerifyRequest,
+    inputs: &VerifyInputs,
+    report: &VerifyReport,
+    path: &std::path::Path,
+) -> Result<crate::prediction::ContactCalibration> {
+    use crate::prediction::{calibrate_contact, with_contact_radius};
+    if req.load_case() != LoadCase::I {
+        bail!("--calibrate-into fits the Case I contact reading: give a Case I log (--case I --insert NAME)");
+    }
+    let Some(insert) = req.insert.clone() else {
+        bail!("--calibrate-into needs the insert used (--insert NAME)");
+    };
+    let responded: Vec<_> = report
+        .measurement
+        .gratings
+        .iter()
+        .zip(&report.verdict.gratings)
+        .filter(|(_, v)| {
+            !matches!(
+                v.status,
+                verdict::Status::NoResponse | verdict::Status::NotJudged
+            )
+        })
+        .map(|(g, _)| g)
+        .collect();
+    let Some(core) = responded.first().and_then(|g| g.core.clone()) else {
+        bail!(
+            "--calibrate-into: no grating responded to the force, so there is no K to calibrate on"
+        );
+    };
+    let measured: Vec<(String, f64)> = responded
+        .iter()
+        .filter(|g| g.core.as_deref() == Some(core.as_str()))
+        .map(|g| (g.grating.clone(), g.sensitivity_pm_per_n))
+        .collect();
+    let config = crate::model::Configuration {
+        core,
+        case: LoadCase::I,
+        insert: Some(insert.clone()),
+    };
+    let design = &inputs.design;
+    let cal = calibrate_contact(
+        design,
+        &config,
+        &measured,
+        &crate::fem::FemOptions::default(),
+    )?;
+    let mut out = with_contact_radius(design, cal.radius_mm);
+    if let Some(m) = out.module.as_mut() {
+        m.contact.note = Some(format!(
+            "dome_contact_radius_mm calibrated by fbgforge verify on {} with {} (insert {insert}): was {:.4} mm",
+            req.log.display(),
+            req.force.display(),
+            cal.previous_radius_mm
+        ));
+    }
+    let text = format!(
+        "# Written by fbgforge verify --calibrate-into from {}: [module.contact] calibrated on a measured Case I log.\n{}",
+        req.design.display(),
+        out.to_toml()
+    );
+    crate::design::parse(&text)
+        .map_err(|e| anyhow::anyhow!("internal: the calibrated design does not load back: {e}"))?;
+    crate::output::write_atomic(path, text.as_bytes())?;
+    Ok(cal)
 }
 
 /// Stage 1: check the request against the design and read both logs.
@@ -168,18 +248,44 @@ fn check_insert(design: &Design, req: &VerifyRequest) -> Result<()> {
     Ok(())
 }
 
+/// What the verdict compares with: the model policy's rows, with the band, for one
+/// configuration (and one core, when given).
+pub fn model_predictions(
+    design: &Design,
+    case: LoadCase,
+    insert: Option<&str>,
+    core: Option<&str>,
+) -> Result<Vec<crate::prediction::ModelledPrediction>> {
+    crate::prediction::predict(
+        design,
+        &crate::prediction::PredictionRequest {
+            case: Some(case),
+            insert: insert.map(String::from),
+            core: core.map(String::from),
+            band: true,
+            ..Default::default()
+        },
+    )
+}
+
 /// Stage 2: align, fit and judge read inputs against the model.
 pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome> {
     let design = &inputs.design;
     let (m, series) = analyse(design, &inputs.log, &inputs.force, &req.analysis)?;
-    // K is linear in force: any force gives the same sensitivity.
-    let preds = crate::model::predict(design, 10.0).map_err(|e| format!("{e:#}"));
-    let v = verdict::verdicts(
+    // The one model policy, with the band, for the configuration under test only.
+    let mut cores: Vec<&String> = m.gratings.iter().filter_map(|g| g.core.as_ref()).collect();
+    cores.sort();
+    cores.dedup();
+    let core = (cores.len() == 1).then(|| cores[0].as_str());
+    let preds = model_predictions(design, req.load_case(), req.insert.as_deref(), core)
+        .map_err(|e| format!("{e:#}"));
+    let v = verdict::verdicts_with_band(
         &m,
         preds.as_deref().map_err(Clone::clone),
         req.load_case(),
         req.insert.as_deref(),
         req.k_tolerance,
+        &verdict::ResponseGate::default(),
     );
     Ok(VerifyOutcome {
         report: VerifyReport {
@@ -188,5 +294,6 @@ pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome
             verdict: v,
         },
         series,
+        calibration: None,
     })
 }

@@ -5,9 +5,13 @@
 //! applies it to every measured grating, picking the model's prediction for the
 //! grating, the load case and (Case I) the insert. When the model cannot give a
 //! prediction the grating is reported as not judged, with the reason, instead of
-//! failing the whole run.
+//! failing the whole run. [`verdicts_with_band`] takes the model policy's rows
+//! (`crate::prediction`): a K outside the tolerance of the nominal prediction but
+//! inside the band between the bounding contact readings is [`Status::InBand`] — the
+//! print is consistent with the model, its contact reading is not — not a FAIL.
 
 use crate::model::{GratingPrediction, LoadCase};
+use crate::prediction::ModelledPrediction;
 use crate::verify::analysis::{GratingResult, Measurement};
 use serde::Serialize;
 
@@ -20,8 +24,12 @@ pub const DEFAULT_TOLERANCE: f64 = 0.08;
 pub enum Status {
     /// Relative error within tolerance.
     Pass,
-    /// Relative error above tolerance.
+    /// Relative error above tolerance, and outside the prediction band.
     Fail,
+    /// Relative error above tolerance, but K inside the band between the physically
+    /// bounding contact readings: the contact reading, not the print, is off
+    /// (calibrate it: `verify --calibrate-into`).
+    InBand,
     /// No prediction to compare with.
     NotJudged,
     /// The grating shows no response to the force that the data can tell from noise
@@ -145,6 +153,12 @@ pub struct GratingVerdict {
     pub measured_sensitivity_pm_per_n: f64,
     /// Model K, pm/N.
     pub predicted_sensitivity_pm_per_n: Option<f64>,
+    /// The band of K between the bounding contact readings, pm/N (low, high).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band_pm_per_n: Option<[f64; 2]>,
+    /// The model that gave the prediction, in words.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
     /// |measured − predicted| / |predicted|.
     pub relative_error: Option<f64>,
     /// Tolerance applied.
@@ -164,8 +178,9 @@ pub struct Verdict {
     pub insert: Option<String>,
     /// Per grating.
     pub gratings: Vec<GratingVerdict>,
-    /// Pass if every judged grating passes and at least one was judged; NoResponse if
-    /// no grating responded to the force; NotJudged if none could be judged otherwise.
+    /// Fail if a judged grating fails; otherwise InBand if one is in band; Pass if
+    /// every judged grating passes and at least one was judged; NoResponse if no
+    /// grating responded to the force; NotJudged if none could be judged otherwise.
     pub overall: Status,
 }
 
@@ -197,20 +212,71 @@ pub fn verdicts_gated(
     tolerance: f64,
     gate: &ResponseGate,
 ) -> Verdict {
+    let rows: Result<Vec<Found>, String> = predictions.map(|ps| {
+        ps.iter()
+            .map(|p| Found {
+                prediction: p,
+                band: None,
+                model: None,
+            })
+            .collect()
+    });
+    judge_all(m, rows, case, insert, tolerance, gate)
+}
+
+/// [`verdicts`] against the model policy's rows: each grating judged against its
+/// nominal K, and a K outside tolerance but inside the row's band is
+/// [`Status::InBand`].
+pub fn verdicts_with_band(
+    m: &Measurement,
+    predictions: Result<&[ModelledPrediction], String>,
+    case: LoadCase,
+    insert: Option<&str>,
+    tolerance: f64,
+    gate: &ResponseGate,
+) -> Verdict {
+    let rows: Result<Vec<Found>, String> = predictions.map(|ps| {
+        ps.iter()
+            .map(|p| Found {
+                prediction: &p.detail.prediction,
+                band: p.band_pm_per_n,
+                model: Some(p.model_description.clone()),
+            })
+            .collect()
+    });
+    judge_all(m, rows, case, insert, tolerance, gate)
+}
+
+/// A prediction with what the policy adds to it.
+struct Found<'a> {
+    prediction: &'a GratingPrediction,
+    band: Option<[f64; 2]>,
+    model: Option<String>,
+}
+
+fn judge_all(
+    m: &Measurement,
+    predictions: Result<Vec<Found>, String>,
+    case: LoadCase,
+    insert: Option<&str>,
+    tolerance: f64,
+    gate: &ResponseGate,
+) -> Verdict {
     let gratings: Vec<GratingVerdict> = m
         .gratings
         .iter()
         .map(|g| {
-            let (pred, reason) = match &predictions {
+            let (found, reason) = match &predictions {
                 Err(e) => (None, Some(format!("no model prediction: {e}"))),
                 Ok(ps) => {
-                    let found = ps.iter().find(|p| {
+                    let found = ps.iter().find(|f| {
+                        let p = f.prediction;
                         p.grating == g.grating
                             && p.case == case
                             && (case == LoadCase::II || p.insert.as_deref() == insert)
                     });
                     match found {
-                        Some(p) => (Some(p.sensitivity_pm_per_n), None),
+                        Some(f) => (Some(f), None),
                         None => (
                             None,
                             Some(match (case, insert) {
@@ -230,11 +296,24 @@ pub fn verdicts_gated(
                     }
                 }
             };
+            let pred = found.map(|f| f.prediction.sensitivity_pm_per_n);
+            let band = found.and_then(|f| f.band);
             let silent = gate.no_response(g, pulse_spacing_s(m, g), m.interrogator_resolution_pm);
             let (status, rel, reason) = match silent {
                 Some(why) => (Status::NoResponse, None, Some(why)),
                 None => {
-                    let (status, rel) = judge(g.sensitivity_pm_per_n, pred, tolerance);
+                    let (mut status, rel) = judge(g.sensitivity_pm_per_n, pred, tolerance);
+                    let k = g.sensitivity_pm_per_n;
+                    let mut reason = reason;
+                    if let (Status::Fail, Some([lo, hi])) = (status, band) {
+                        if k >= lo && k <= hi {
+                            status = Status::InBand;
+                            reason = Some(format!(
+                                "K = {k:.3} pm/N is {:.1} % from the nominal prediction but inside the band {lo:.3} … {hi:.3} pm/N between the bounding contact readings: the print is consistent with the model, the design's contact reading is not; calibrate it (verify --calibrate-into)",
+                                100.0 * rel.unwrap_or(f64::NAN)
+                            ));
+                        }
+                    }
                     (status, rel, reason)
                 }
             };
@@ -242,6 +321,8 @@ pub fn verdicts_gated(
                 grating: g.grating.clone(),
                 measured_sensitivity_pm_per_n: g.sensitivity_pm_per_n,
                 predicted_sensitivity_pm_per_n: pred,
+                band_pm_per_n: band,
+                model: found.and_then(|f| f.model.clone()),
                 relative_error: rel,
                 tolerance,
                 status,
@@ -251,7 +332,7 @@ pub fn verdicts_gated(
         .collect();
     let judged: Vec<&GratingVerdict> = gratings
         .iter()
-        .filter(|g| matches!(g.status, Status::Pass | Status::Fail))
+        .filter(|g| matches!(g.status, Status::Pass | Status::Fail | Status::InBand))
         .collect();
     let overall = if judged.is_empty() {
         if !gratings.is_empty() && gratings.iter().all(|g| g.status == Status::NoResponse) {
@@ -259,10 +340,12 @@ pub fn verdicts_gated(
         } else {
             Status::NotJudged
         }
-    } else if judged.iter().all(|g| g.status == Status::Pass) {
-        Status::Pass
-    } else {
+    } else if judged.iter().any(|g| g.status == Status::Fail) {
         Status::Fail
+    } else if judged.iter().any(|g| g.status == Status::InBand) {
+        Status::InBand
+    } else {
+        Status::Pass
     };
     Verdict {
         case,

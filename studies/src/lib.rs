@@ -9,6 +9,7 @@
 pub mod build;
 pub mod fem;
 pub mod fem_compare;
+pub mod fem_contact;
 pub mod optimize;
 pub mod predict;
 pub mod reconstruct;

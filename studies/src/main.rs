@@ -21,6 +21,9 @@ enum Study {
     Build(studies::build::BuildStudyArgs),
     /// Finite-element convergence, time against error, and closed form against FE.
     Fem(studies::fem::FemStudyArgs),
+    /// Contact readings of the module and the unilateral contact solver: Hertz, K(F)
+    /// and the knee, timing, the contact radii consistent with the paper.
+    Contact(studies::fem_contact::ContactStudyArgs),
     /// Optimiser convergence time per design and solver.
     Optimize(studies::optimize::BenchOptimizeArgs),
     /// Closed-form prediction time per design.
@@ -35,6 +38,7 @@ fn main() -> ExitCode {
     let result = match Cli::parse().study {
         Study::Build(a) => studies::build::run(&a),
         Study::Fem(a) => studies::fem::run(&a),
+        Study::Contact(a) => studies::fem_contact::run(&a),
         Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),

@@ -191,3 +191,37 @@ fn fem_study_quick_converges_under_refinement() {
     let d: Vec<f64> = k2.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
     assert!(d.windows(2).all(|w| w[1] < w[0]), "{k2:?}");
 }
+
+#[test]
+fn contact_study_quick_meets_hertz_and_finds_the_knee() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::fem_contact::ContactStudyArgs {
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::fem_contact::run(&a).unwrap();
+    let rows = |name: &str| -> Vec<Vec<String>> {
+        std::fs::read_to_string(dir.path().join(name))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(str::to_owned).collect())
+            .collect()
+    };
+    // Hertz: within 3 % at 8 elements across the contact radius.
+    let hertz = rows("contact_hertz.csv");
+    let err: f64 = hertz.last().unwrap()[3].parse().unwrap();
+    assert!(err.abs() < 3.0, "Hertz error {err} %");
+    // The dome clearance closes below 2 N for both inserts, and the touching pairs are
+    // all on the domes.
+    for k in rows("contact_knee.csv") {
+        let knee: f64 = k[2].parse().unwrap();
+        assert!(knee > 0.05 && knee < 2.0, "{k:?}");
+    }
+    assert!(rows("contact_curve.csv").iter().all(|r| r[5] == "0"));
+    // The default radius (1.72 mm) meets the statements; the window file has a row
+    // for it.
+    let w = rows("contact_window.csv");
+    let r = w.iter().find(|r| r[0] == "1.72").unwrap();
+    assert_eq!((r[7].as_str(), r[8].as_str()), ("true", "true"));
+}
