@@ -247,7 +247,8 @@ pub fn l0_penalty_for_resolution(resolution_pm: f64) -> f64 {
 pub const DEFAULT_MAX_LOADS: usize = 4;
 
 /// Default work budget of `bnb` per frame (units of [`MethodSettings::node_budget`];
-/// ~30 ms on the reference machine).
+/// 7–35 ms on the reference machine from 32 × 256 down to 8 × 16, see
+/// `choice::ns_per_bnb_unit`).
 pub const DEFAULT_NODE_BUDGET: u64 = 2_000_000;
 
 impl MethodSettings {
