@@ -185,7 +185,7 @@ struct Probe {
     median_work: f64,
     /// Median measured time per frame here, µs (information only).
     measured_us: f64,
-    /// Frames where the method reported no convergence (`bnb`: node budget reached).
+    /// Frames where the method reported no convergence (`bnb`: work budget reached).
     stopped: usize,
     frames: usize,
 }

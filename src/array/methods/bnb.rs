@@ -32,7 +32,7 @@
 //!   without any relaxation.
 //!
 //! The search stops when every node is pruned (the answer is the certified optimum,
-//! `converged`) or after a node budget (the best support found so far, not certified:
+//! `converged`) or after a work budget (the best support found so far, not certified:
 //! `converged = false`).
 
 use super::support::box_qp_by_upper_sets;
@@ -572,7 +572,7 @@ impl Search<'_> {
     /// Swap local search around the incumbent: replace one of its cells by any other
     /// cell (or add one while it has fewer than K), keep any improvement, repeat
     /// until none. A better incumbent before the search prunes more, and it is the
-    /// answer when the node budget ends the search.
+    /// answer when the work budget ends the search.
     fn local_search(&mut self, path: &mut Path) {
         let (g, n) = (&self.bb.gram_rows, self.order.len());
         for _pass in 0..8 {
