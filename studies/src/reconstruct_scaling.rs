@@ -121,6 +121,28 @@ fn frames(a: &DMatrix<f64>, per_load: usize, rng: &mut ChaCha8Rng) -> Frames {
     f
 }
 
+/// The scaling study's array of `cells` cells (one of [`SIZES`]) as a problem, and its
+/// test frames for `seed` (the study's default seed is 1): (loads per frame, true
+/// loads g, shifts pm), `per_load` frames per load count. For calibration runs
+/// (`studies/examples/reconstruct_cost.rs`) on exactly the study's frames.
+#[allow(clippy::type_complexity)]
+pub fn scaling_problem_and_frames(
+    cells: usize,
+    per_load: usize,
+    seed: u64,
+) -> Result<(SensingProblem, Vec<usize>, Vec<Vec<f64>>, Vec<Vec<f64>>)> {
+    let &(_, n, cx, cy, nf, gpf) = SIZES
+        .iter()
+        .find(|s| s.1 == cells)
+        .ok_or_else(|| anyhow::anyhow!("no scaling array with {cells} cells"))?;
+    let (cells, gratings) = fiber_grid_layout(cx, cy, nf, gpf);
+    let a = matrix_from_positions(&cells, &gratings, &DistanceKernel::table1_power_law(3.0));
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1000) + n as u64);
+    let f = frames(&a, per_load, &mut rng);
+    let problem = SensingProblem::new(a, ULIMIT_G, true)?.with_min_load_g(PAPER_MIN_LOAD_G)?;
+    Ok((problem, f.loads, f.truth_g, f.shifts_pm))
+}
+
 /// A standard normal draw (Box–Muller).
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = 1.0 - rng.random::<f64>();
