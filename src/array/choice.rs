@@ -2,20 +2,27 @@
 //! per-frame time budget on this array, on this machine.
 //!
 //! Methods are tried in order of accuracy ([`PREFERENCE`], from the `reconstruct`
-//! study's protocol and scaling tables, docs/array.md). For each, a cheap estimate
-//! first rules out the hopeless (an enumeration of too many supports is not even
-//! built); the others are built and timed on probe frames — twelve frames spread
-//! over the caller's stream, or frames synthesised from the matrix — and the first
-//! whose median time
-//! per frame is within the budget is taken. If none is, the fastest one measured is
-//! taken and the choice says so: an array is never refused because the budget is
-//! tight. Every candidate's fate is reported ([`MethodChoice::candidates`]) so the
-//! CLI and JSON can say which method was picked and why.
+//! study's protocol and scaling tables, docs/array.md). Each is judged by an
+//! *estimated* time per frame, not a timed one: the work it does on probe frames —
+//! twelve frames spread over the caller's stream, or frames synthesised from the
+//! matrix — counted in operations (supports enumerated, `bnb` work units, OMP atoms,
+//! coordinate sweeps, Lawson–Hanson steps) and converted with a per-method cost
+//! calibrated once on the reference machine ([`estimated_ns_per_frame`]). The first
+//! method whose median estimate is within the budget is taken. If none is, the one
+//! with the smallest estimate is taken and the choice says so: an array is never
+//! refused because the budget is tight. Every candidate's fate is reported
+//! ([`MethodChoice::candidates`]) so the CLI and JSON can say which method was
+//! picked and why.
 //!
-//! Timing makes the choice depend on the machine and its load near the budget; pass
-//! a method explicitly for a reproducible run.
+//! The choice is therefore deterministic: the same matrix and frames give the same
+//! method and settings on any machine and under any load (a timed choice flipped
+//! `bnb` → `omp` at 24 × 128 between two runs on a busy machine). The budget is
+//! read as time on the reference machine; the measured time per probe frame is
+//! still reported, for information only.
 
-use super::methods::{build, Method, MethodSettings, Reconstructor};
+use super::methods::{
+    build, l0_penalty_for_resolution, Method, MethodSettings, NoisePrior, Reconstructor,
+};
 use super::problem::SensingProblem;
 use super::ArrayError;
 use rand::{Rng, SeedableRng};
@@ -42,16 +49,56 @@ pub const PREFERENCE: [Method; 6] = [
 /// Probe frames timed per candidate (at most).
 const PROBE_FRAMES: usize = 12;
 
-/// Optimistic cost of one support per frame, ns (enumeration methods), used only to
-/// skip building an enumeration that cannot meet the budget: `support` measured
-/// 10–15 ns, `wsupport` 100–200 ns per support (docs/array.md).
+/// Cost of one support per frame, ns (enumeration methods): `support` measured
+/// 5–15 ns, `wsupport` 90–140 ns per support up to 8 × 16 (docs/array.md). The
+/// enumerations do the same work on every frame, so they are judged without probing.
 fn ns_per_support(m: Method) -> Option<f64> {
     if m == Method::Support {
         Some(5.0)
     } else if m == Method::WeightedSupport {
-        Some(50.0)
+        Some(120.0)
     } else {
         None
+    }
+}
+
+/// ns per `bnb` work unit (one leaf valued, or ~8 multiply-adds of a push or of a
+/// relaxation step) with n cells: 2.5 + 240/n, fitted to 17, 10.5, 5.5, 4.2 and
+/// 4.0 ns measured at 8 × 16, 12 × 32, 16 × 64, 24 × 128 and 32 × 256 (longer
+/// vectors cost less per multiply-add; docs/array.md §10.3).
+pub fn ns_per_bnb_unit(n: usize) -> f64 {
+    2.5 + 240.0 / n.max(1) as f64
+}
+
+/// Estimated time of one frame on the reference machine (the project's 2-core
+/// machine, one thread), ns, from the work `iterations` a method reported for it:
+/// `bnb` work units × [`ns_per_bnb_unit`]; OMP (atoms + 1) × n·m × 6 ns + 5 µs;
+/// `lasso` sweeps × n × 4.5 ns + n·m × 2 ns; `nnls` steps × n·m × 2.5 ns + 1 µs; `de`
+/// generations × population × n·m × 1 ns; the enumerations their support count ×
+/// the cost of one support. The coefficients were fitted on the scaling study's
+/// arrays (6 × 8 to 32 × 256, `studies/examples`-style runs of each method on its
+/// frames, best of 3 per frame); each is within about 2× of the measured time per
+/// frame there, and they only decide which method to use.
+pub fn estimated_ns_per_frame(
+    method: Method,
+    settings: &MethodSettings,
+    m: usize,
+    n: usize,
+    iterations: u64,
+) -> f64 {
+    let (mf, nf, it) = (m as f64, n as f64, iterations as f64);
+    if let Some(ns) = ns_per_support(method) {
+        support_count(n, settings.max_loads.min(m)) * ns
+    } else if method == Method::BranchAndBound {
+        it * ns_per_bnb_unit(n)
+    } else if method == Method::Omp {
+        (it + 1.0) * nf * mf * 6.0 + 5e3
+    } else if method == Method::Lasso {
+        it * nf * 4.5 + nf * mf * 2.0
+    } else if method == Method::Nnls {
+        it.max(1.0) * nf * mf * 2.5 + 1e3
+    } else {
+        it * settings.de_population as f64 * nf * mf
     }
 }
 
@@ -60,10 +107,14 @@ fn ns_per_support(m: Method) -> Option<f64> {
 pub struct Candidate {
     /// Method name.
     pub method: Method,
-    /// `picked`, `over budget`, `not applicable`, `estimated over budget` or `not tried`.
+    /// `picked`, `over budget`, `not applicable` or `estimated over budget`.
     pub status: &'static str,
-    /// Median time per probe frame, µs (one thread), when it was timed.
+    /// Estimated time per frame on the reference machine, µs: the median over the
+    /// probe frames of [`estimated_ns_per_frame`] (what the choice is made on).
     pub probe_us_per_frame: Option<f64>,
+    /// Median measured time per probe frame here, µs (one thread), when it was run:
+    /// for information only, the choice does not depend on it.
+    pub measured_us_per_frame: Option<f64>,
     /// Time to build it (precomputation for the matrix), ms, when it was built.
     pub setup_ms: Option<f64>,
     /// Why, in words.
@@ -126,43 +177,43 @@ fn support_count(n: usize, kmax: usize) -> f64 {
     count
 }
 
-/// What timing a candidate on the probe frames gave.
+/// What running a candidate on the probe frames gave.
 struct Probe {
-    median_us: f64,
-    /// Frames where the method reported no convergence (`bnb`: node budget reached).
+    /// Median estimated time per frame on the reference machine, µs.
+    estimate_us: f64,
+    /// Median work per frame (the method's `iterations`).
+    median_work: f64,
+    /// Median measured time per frame here, µs (information only).
+    measured_us: f64,
+    /// Frames where the method reported no convergence (`bnb`: work budget reached).
     stopped: usize,
     frames: usize,
-    /// Iterations (for `bnb`: nodes) per µs over the probe.
-    nodes_per_us: f64,
 }
 
-fn probe_frames(r: &dyn Reconstructor, frames: &[Vec<f64>], budget_us: f64) -> Probe {
-    let mut times = Vec::with_capacity(frames.len());
-    let (mut stopped, mut nodes, mut total_us) = (0usize, 0u64, 0.0f64);
+fn probe_frames(
+    r: &dyn Reconstructor,
+    settings: &MethodSettings,
+    (m, n): (usize, usize),
+    frames: &[Vec<f64>],
+) -> Probe {
+    let (mut estimates, mut works, mut times) = (Vec::new(), Vec::new(), Vec::new());
+    let mut stopped = 0usize;
     for y in frames {
         let t = Instant::now();
         let rec = r.reconstruct(y);
-        let us = 1e6 * t.elapsed().as_secs_f64();
-        times.push(us);
-        total_us += us;
-        nodes += rec.iterations;
+        times.push(1e6 * t.elapsed().as_secs_f64());
+        estimates.push(1e-3 * estimated_ns_per_frame(r.method(), settings, m, n, rec.iterations));
+        works.push(rec.iterations as f64);
         if !rec.converged {
             stopped += 1;
         }
-        // A method already far over the budget need not finish the probe.
-        if times.len() >= 3 && median(times.clone()) > 20.0 * budget_us {
-            break;
-        }
     }
     Probe {
-        frames: times.len(),
-        median_us: median(times),
+        frames: frames.len(),
+        estimate_us: median(estimates),
+        median_work: median(works),
+        measured_us: median(times),
         stopped,
-        nodes_per_us: if total_us > 0.0 {
-            nodes as f64 / total_us
-        } else {
-            0.0
-        },
     }
 }
 
@@ -188,15 +239,46 @@ pub fn default_choice(
     budget_us: f64,
     probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
-    let settings_for = |m: Method| MethodSettings {
+    default_choice_for_resolution(
+        problem,
         max_loads,
-        ..MethodSettings::for_method(m)
+        NoisePrior::paper().resolution_pm,
+        budget_us,
+        probe,
+    )
+}
+
+/// [`default_choice`] for an interrogator of a known resolution (noise standard
+/// deviation, pm): the ℓ0 penalty of `support` and `bnb` follows it
+/// ([`l0_penalty_for_resolution`]); the other methods keep their defaults.
+pub fn default_choice_for_resolution(
+    problem: &SensingProblem,
+    max_loads: usize,
+    resolution_pm: f64,
+    budget_us: f64,
+    probe: Option<&[Vec<f64>]>,
+) -> Result<MethodChoice, ArrayError> {
+    if !(resolution_pm.is_finite() && resolution_pm > 0.0) {
+        return Err(ArrayError::Input(format!(
+            "the interrogator resolution must be a positive noise in pm, got {resolution_pm}"
+        )));
+    }
+    let settings_for = |m: Method| {
+        let mut s = MethodSettings {
+            max_loads,
+            ..MethodSettings::for_method(m)
+        };
+        if m == Method::Support || m == Method::BranchAndBound {
+            s.penalty = l0_penalty_for_resolution(resolution_pm);
+        }
+        s
     };
     choose_method(problem, &settings_for, budget_us, probe)
 }
 
 /// Choose the default method for `problem`: the first of [`PREFERENCE`] whose median
-/// time per probe frame is within `budget_us`, else the fastest one measured.
+/// estimated time per probe frame is within `budget_us`, else the one with the
+/// smallest estimate. Deterministic: it does not read the clock to decide.
 /// `settings_for` gives each method's settings (penalty, max loads); `probe` are the
 /// caller's frames (twelve spread over them are timed), or None to synthesise them.
 pub fn choose_method(
@@ -223,8 +305,15 @@ pub fn choose_method(
     let probed_on_data = !usable.is_empty();
     let (m, n) = (problem.n_gratings(), problem.n_cells());
     let mut candidates: Vec<Candidate> = Vec::new();
-    // The fastest built so far, in case none meets the budget.
-    let mut fastest: Option<(usize, f64, Box<dyn Reconstructor>, MethodSettings)> = None;
+    // The cheapest estimate so far, in case none meets the budget.
+    // (An enumeration over budget is not built unless it is that one.)
+    type Cheapest = (usize, f64, Option<Box<dyn Reconstructor>>, MethodSettings);
+    let mut cheapest: Option<Cheapest> = None;
+    let source = if probed_on_data {
+        " of the data"
+    } else {
+        ", synthetic"
+    };
     for method in PREFERENCE {
         let settings = settings_for(method);
         let frames = if probed_on_data {
@@ -232,20 +321,28 @@ pub fn choose_method(
         } else {
             synthetic_probe_frames(problem, settings.max_loads)
         };
-        if let Some(ns) = ns_per_support(method) {
-            let count = support_count(n, settings.max_loads.min(m));
-            let estimate_us = count * ns * 1e-3;
+        let kmax = settings.max_loads.min(m).min(n);
+        // An enumeration does the same work on every frame: no need to run it.
+        let enumeration = ns_per_support(method).map(|ns| (support_count(n, kmax), ns));
+        if let Some((count, ns)) = enumeration {
+            let estimate_us = 1e-3 * count * ns;
             if estimate_us > budget_us {
                 candidates.push(Candidate {
                     method,
                     status: "estimated over budget",
-                    probe_us_per_frame: None,
+                    probe_us_per_frame: Some(estimate_us),
+                    measured_us_per_frame: None,
                     setup_ms: None,
                     note: format!(
-                        "{count:.0} supports of up to {} loads: at least ~{estimate_us:.0} µs per frame",
-                        settings.max_loads.min(m).min(n)
+                        "{count:.0} supports of up to {kmax} loads × {ns} ns: ~{estimate_us:.0} µs per frame"
                     ),
                 });
+                if cheapest
+                    .as_ref()
+                    .is_none_or(|(_, t, _, _)| estimate_us < *t)
+                {
+                    cheapest = Some((candidates.len() - 1, estimate_us, None, settings));
+                }
                 continue;
             }
         }
@@ -257,6 +354,7 @@ pub fn choose_method(
                     method,
                     status: "not applicable",
                     probe_us_per_frame: None,
+                    measured_us_per_frame: None,
                     setup_ms: None,
                     note: e.to_string(),
                 });
@@ -266,41 +364,49 @@ pub fn choose_method(
         let mut setup_ms = 1e3 * t0.elapsed().as_secs_f64();
         let mut r = r;
         let mut settings = settings;
-        let mut p = probe_frames(r.as_ref(), &frames, budget_us);
-        // `bnb` over the budget: give it the node budget that fits (its answer is then
-        // the best support found, certified only where the search completed).
+        let mut p = probe_frames(r.as_ref(), &settings, (m, n), &frames);
+        // `bnb` over the budget: give it the work budget that fits, with a margin for
+        // the incumbent's search, which runs before the budget is checked (its
+        // answer is then the best support found, certified only where the search
+        // completed).
         let mut fitted = String::new();
-        if method == Method::BranchAndBound && p.median_us > budget_us && p.nodes_per_us > 0.0 {
-            let nodes = (0.7 * budget_us * p.nodes_per_us).floor().max(50.0) as u64;
-            if nodes < settings.node_budget {
-                settings.node_budget = nodes;
+        if method == Method::BranchAndBound && p.estimate_us > budget_us {
+            let units = (0.7 * budget_us * 1e3 / ns_per_bnb_unit(n))
+                .floor()
+                .max(50.0) as u64;
+            if units < settings.node_budget {
+                settings.node_budget = units;
                 let t1 = Instant::now();
                 if let Ok(rb) = build(method, problem, settings) {
                     setup_ms += 1e3 * t1.elapsed().as_secs_f64();
                     r = rb;
-                    p = probe_frames(r.as_ref(), &frames, budget_us);
-                    fitted = format!("node budget {nodes} to fit the time budget; ");
+                    p = probe_frames(r.as_ref(), &settings, (m, n), &frames);
+                    fitted = format!("work budget {units} units to fit the time budget; ");
                 }
             }
         }
-        let us = p.median_us;
-        let stopped = p.stopped;
+        let us = p.estimate_us;
         let within = us <= budget_us;
+        let work = match enumeration {
+            Some((count, ns)) => format!("{count:.0} supports × {ns} ns"),
+            None if method == Method::BranchAndBound => format!(
+                "median {:.0} work units × {:.2} ns",
+                p.median_work,
+                ns_per_bnb_unit(n)
+            ),
+            None => format!("median {:.0} iterations", p.median_work),
+        };
         let note = format!(
-            "{fitted}median {us:.1} µs per probe frame ({} frames{}){}",
-            frames.len(),
-            if probed_on_data {
-                " of the data"
-            } else {
-                ", synthetic"
-            },
-            if stopped > 0 && method == Method::BranchAndBound {
+            "{fitted}estimated {us:.1} µs per frame ({work}, {} probe frames{source}; measured here {:.1} µs){}",
+            p.frames,
+            p.measured_us,
+            if p.stopped > 0 && method == Method::BranchAndBound {
                 format!(
-                    "; stopped at its node budget on {stopped} of {} (best support found, not certified)",
-                    p.frames
+                    "; stopped at its work budget on {} of {} (best support found, not certified)",
+                    p.stopped, p.frames
                 )
-            } else if stopped > 0 {
-                format!("; not converged on {stopped} of {}", p.frames)
+            } else if p.stopped > 0 {
+                format!("; not converged on {} of {}", p.stopped, p.frames)
             } else {
                 String::new()
             }
@@ -309,13 +415,15 @@ pub fn choose_method(
             method,
             status: if within { "picked" } else { "over budget" },
             probe_us_per_frame: Some(us),
+            measured_us_per_frame: Some(p.measured_us),
             setup_ms: Some(setup_ms),
             note,
         });
         if within {
             let reason = format!(
-                "{} is the most accurate method within {budget_us} µs per frame for {m} gratings × {n} cells ({us:.1} µs per probe frame){}",
+                "{} is the most accurate method within {budget_us} µs per frame for {m} gratings × {n} cells ({fitted}estimated {us:.1} µs per frame on the reference machine from its operation count: {work}, {} probe frames{source}){}",
                 method.name(),
+                p.frames,
                 skipped_summary(&candidates, "more accurate but over budget")
             );
             return Ok(MethodChoice {
@@ -328,19 +436,28 @@ pub fn choose_method(
                 probed_on_data,
             });
         }
-        if fastest.as_ref().is_none_or(|(_, t, _, _)| us < *t) {
-            fastest = Some((candidates.len() - 1, us, r, settings));
+        if cheapest.as_ref().is_none_or(|(_, t, _, _)| us < *t) {
+            cheapest = Some((candidates.len() - 1, us, Some(r), settings));
         }
     }
-    let Some((idx, us, r, settings)) = fastest else {
+    let Some((idx, us, r, settings)) = cheapest else {
         return Err(ArrayError::Input(
             "no reconstruction method could be built for this matrix".into(),
         ));
     };
-    candidates[idx].status = "picked";
     let method = candidates[idx].method;
+    let r = match r {
+        Some(r) => r,
+        None => {
+            let t0 = Instant::now();
+            let r = build(method, problem, settings)?;
+            candidates[idx].setup_ms = Some(1e3 * t0.elapsed().as_secs_f64());
+            r
+        }
+    };
+    candidates[idx].status = "picked";
     let reason = format!(
-        "no method met {budget_us} µs per frame for {m} gratings × {n} cells; {} is the fastest measured ({us:.1} µs per probe frame){}",
+        "no method met {budget_us} µs per frame for {m} gratings × {n} cells; {} has the smallest estimate ({us:.1} µs per frame on the reference machine, from its operation count on the probe frames){}",
         method.name(),
         skipped_summary(&candidates, "the others")
     );
@@ -361,7 +478,7 @@ fn skipped_summary(candidates: &[Candidate], label: &str) -> String {
         .iter()
         .filter(|c| c.status != "picked")
         .map(|c| match c.probe_us_per_frame {
-            Some(us) => format!("{} {us:.0} µs", c.method.name()),
+            Some(us) => format!("{} ~{us:.0} µs", c.method.name()),
             None => format!("{} ({})", c.method.name(), c.status),
         })
         .collect();

@@ -20,14 +20,19 @@
 //!   cells (z ≥ 0 only: a relaxation of the box and of the cardinality) plus λ·|P ∪ c|
 //!   is therefore a lower bound of the whole subtree. The bound only grows along the
 //!   siblings (each drops one more cell from the set), so the first sibling whose
-//!   bound reaches the incumbent ends the loop over siblings. Going from one sibling
-//!   to the next removes one cell from the relaxation; the Lawson–Hanson solve is warm
-//!   started, and costs nothing when that cell carried no load.
+//!   bound reaches the incumbent ends the loop over siblings. The supports strictly
+//!   below a child hold one load more, so their bound is λ higher: once that reaches
+//!   the incumbent, the remaining siblings are only valued themselves (O(1) each, as
+//!   leaves) and no relaxation is solved for them. Going from one sibling to the next
+//!   removes one cell from the relaxation; the Lawson–Hanson solve is warm started
+//!   (the factor downdated by Givens rotations, the passive fit one back
+//!   substitution, the entering cell chosen from the residual in the gratings'
+//!   space), and costs nothing when that cell carried no load.
 //! * **Leaves.** At |P| = K − 1 the children are leaves, valued exactly in O(1) each
 //!   without any relaxation.
 //!
 //! The search stops when every node is pruned (the answer is the certified optimum,
-//! `converged`) or after a node budget (the best support found so far, not certified:
+//! `converged`) or after a work budget (the best support found so far, not certified:
 //! `converged = false`).
 
 use super::support::box_qp_by_upper_sets;
@@ -50,6 +55,10 @@ pub(super) const ENTRY: MethodEntry = MethodEntry {
             gram_rows: (0..common.n())
                 .map(|i| common.gram.row(i).iter().copied().collect())
                 .collect(),
+            columns: Columns {
+                at: common.problem.working.as_slice().to_vec(), // column-major: column j contiguous
+                m: common.problem.n_gratings(),
+            },
             common,
             lambda: s.penalty,
             kmax,
@@ -66,8 +75,10 @@ pub(super) struct BranchAndBound {
     /// Nodes (supports valued plus relaxation updates) before the search gives up
     /// its certificate.
     pub(super) node_budget: u64,
-    /// ÂᵀÂ row by row (contiguous rows for the Lawson–Hanson gradient).
+    /// ÂᵀÂ row by row.
     gram_rows: Vec<Vec<f64>>,
+    /// Â by columns (the Lawson–Hanson gradient).
+    columns: Columns,
 }
 
 /// Lawson–Hanson non-negative least squares in Gram form over the allowed cells,
@@ -84,11 +95,43 @@ struct Nnls {
     cap: usize,
     /// Scratch: least-squares solution on the passive set.
     s: Vec<f64>,
+    /// Scratch: the residual y − Âz (one entry per grating).
+    r: Vec<f64>,
+    /// u = L⁻¹bₚ, kept with the factor: the passive least-squares solution is then
+    /// one back substitution, and its residual yᵀy − uᵀu.
+    u: Vec<f64>,
+    /// ‖Âz − y‖² at the optimum of the last `solve`.
+    value: f64,
+}
+
+/// What the relaxation needs of the matrix and the frame.
+struct FrameData<'a> {
+    g: &'a [Vec<f64>],
+    cols: &'a Columns,
+    y: &'a [f64],
+    b: &'a [f64],
+    yty: f64,
+    tol: f64,
+}
+
+/// The working matrix Â column by column (cell j's m entries contiguous).
+struct Columns {
+    at: Vec<f64>,
+    m: usize,
+}
+
+impl Columns {
+    fn col(&self, j: usize) -> &[f64] {
+        &self.at[j * self.m..(j + 1) * self.m]
+    }
 }
 
 impl Nnls {
-    fn new(n: usize, cap: usize) -> Self {
+    fn new(n: usize, m: usize, cap: usize) -> Self {
         Nnls {
+            r: vec![0.0; m],
+            u: vec![0.0; cap],
+            value: f64::INFINITY,
             z: vec![0.0; n],
             passive: Vec::with_capacity(cap),
             allowed: vec![true; n],
@@ -101,7 +144,7 @@ impl Nnls {
 
     /// Append factor row `r` for cell `j` (the cells before it already factored);
     /// false when its column is numerically dependent on theirs.
-    fn factor_row(&mut self, g: &[Vec<f64>], r: usize, j: usize) -> bool {
+    fn factor_row(&mut self, g: &[Vec<f64>], b: &[f64], r: usize, j: usize) -> bool {
         let cap = self.cap;
         let gj = &g[j];
         let mut d2 = gj[j];
@@ -117,36 +160,50 @@ impl Nnls {
         if d2 <= 1e-12 * gj[j] {
             return false;
         }
-        self.l[r * cap + r] = d2.sqrt();
+        let d = d2.sqrt();
+        self.l[r * cap + r] = d;
+        let mut v = b[j];
+        for t in 0..r {
+            v -= self.l[r * cap + t] * self.u[t];
+        }
+        self.u[r] = v / d;
         true
     }
 
-    /// Refactor the passive rows from `from` on (after a cell left the set). Cells
-    /// that turn out dependent are dropped (their load set to 0).
-    fn refactor_from(&mut self, g: &[Vec<f64>], from: usize) {
-        let mut r = from;
-        while r < self.passive.len() {
-            let j = self.passive[r];
-            if self.factor_row(g, r, j) {
-                r += 1;
-            } else {
-                self.passive.remove(r);
-                self.in_passive[j] = false;
-                self.z[j] = 0.0;
+    /// Take the passive cell at `pos` out of the set and out of the factor: its row
+    /// is deleted and the later rows, now one entry past the diagonal, are restored to
+    /// triangular form by Givens rotations of adjacent columns — O((p − pos)²)
+    /// instead of refactoring them (O((p − pos)·p²)), which the relaxation's updates
+    /// did on nearly every sibling.
+    fn drop_passive(&mut self, pos: usize) {
+        let (p, cap) = (self.passive.len(), self.cap);
+        let j = self.passive.remove(pos);
+        self.in_passive[j] = false;
+        self.z[j] = 0.0;
+        let (l, u) = (&mut self.l, &mut self.u);
+        for r in pos + 1..p {
+            l.copy_within(r * cap..r * cap + r + 1, (r - 1) * cap);
+        }
+        for k in pos..p - 1 {
+            let (a, b) = (l[k * cap + k], l[k * cap + k + 1]);
+            let h = (a * a + b * b).sqrt(); // libm's hypot costs more than the rest
+            let (c, s) = (a / h, b / h);
+            for r in k..p - 1 {
+                let (x, y) = (l[r * cap + k], l[r * cap + k + 1]);
+                l[r * cap + k] = c * x + s * y;
+                l[r * cap + k + 1] = c * y - s * x;
             }
+            l[k * cap + k + 1] = 0.0;
+            let (x, y) = (u[k], u[k + 1]);
+            u[k] = c * x + s * y;
+            u[k + 1] = c * y - s * x;
         }
     }
 
-    /// Least squares on the passive set into `self.s`.
-    fn passive_solve(&mut self, b: &[f64]) {
+    /// Least squares on the passive set into `self.s`: Lᵀs = u.
+    fn passive_solve(&mut self) {
         let (p, cap) = (self.passive.len(), self.cap);
-        for r in 0..p {
-            let mut v = b[self.passive[r]];
-            for t in 0..r {
-                v -= self.l[r * cap + t] * self.s[t];
-            }
-            self.s[r] = v / self.l[r * cap + r];
-        }
+        self.s[..p].copy_from_slice(&self.u[..p]);
         for r in (0..p).rev() {
             let mut v = self.s[r];
             for t in r + 1..p {
@@ -157,41 +214,56 @@ impl Nnls {
     }
 
     /// Run Lawson–Hanson from the current feasible point (passive loads > 0, the
-    /// factor up to date) to the optimum. Returns the number of passive solves.
-    fn solve(&mut self, g: &[Vec<f64>], b: &[f64], tol: f64) -> u64 {
+    /// factor up to date) to the optimum. Returns its work in units of ~8
+    /// multiply-adds: each passive solve p²/8, each search for an entering cell n·m/8.
+    fn solve(&mut self, f: &FrameData) -> u64 {
+        let (g, cols, y, b, tol) = (f.g, f.cols, f.y, f.b, f.tol);
         let n = self.z.len();
         let mut solves = 0u64;
         let mut restore_only = true;
+        // Whether z is the least-squares fit of the passive set (then its residual
+        // is yᵀy − uᵀu).
+        let mut at_fit = true;
         for _outer in 0..(3 * n + 10) {
             if !restore_only {
-                // Most promising cell: largest b_j − (Gz)_j among the others.
+                // Most promising cell: largest b_j − (Gz)_j = Â_jᵀ(y − Âz) among the
+                // others, from the residual in the gratings' space: contiguous
+                // m-long dot products instead of gathers from the Gram rows.
+                let m = cols.m;
+                solves += 1 + (n * m / 8) as u64;
+                self.r.copy_from_slice(y);
+                for &q in &self.passive {
+                    let (zq, aq) = (self.z[q], cols.col(q));
+                    for (ri, &a) in self.r.iter_mut().zip(aq) {
+                        *ri -= zq * a;
+                    }
+                }
                 let mut best: Option<(usize, f64)> = None;
                 for j in 0..n {
                     if !self.allowed[j] || self.in_passive[j] {
                         continue;
                     }
-                    let row = &g[j];
-                    let mut w = b[j];
-                    for &q in &self.passive {
-                        w -= row[q] * self.z[q];
-                    }
+                    let aj = &cols.at[j * m..(j + 1) * m];
+                    let w: f64 = aj.iter().zip(&self.r).map(|(a, r)| a * r).sum();
                     if w > tol && best.is_none_or(|(_, bw)| w > bw) {
                         best = Some((j, w));
                     }
                 }
                 let Some((j, _)) = best else {
+                    self.set_value(f, at_fit);
                     return solves;
                 };
                 let r = self.passive.len();
                 if r == self.cap || {
                     self.passive.push(j);
-                    !self.factor_row(g, r, j)
+                    !self.factor_row(g, b, r, j)
                 } {
                     // Full rank already, or a dependent column: the optimum is reached
                     // up to round-off.
                     if self.passive.len() > r {
                         self.passive.pop();
                     }
+                    self.set_value(f, at_fit);
                     return solves;
                 }
                 self.in_passive[j] = true;
@@ -199,13 +271,15 @@ impl Nnls {
             restore_only = false;
             // Inner loop: keep every passive load positive.
             for _inner in 0..(n + 5) {
-                solves += 1;
-                self.passive_solve(b);
+                self.passive_solve();
                 let p = self.passive.len();
+                solves += 1 + (p * p / 8) as u64;
+                at_fit = false;
                 if self.s[..p].iter().all(|&v| v > 0.0) {
                     for a in 0..p {
                         self.z[self.passive[a]] = self.s[a];
                     }
+                    at_fit = true;
                     break;
                 }
                 // Step towards s until the first load reaches zero; it leaves.
@@ -228,34 +302,33 @@ impl Nnls {
                 if let Some(q) = hit {
                     self.z[q] = 0.0;
                 }
-                let mut first_gone = p;
-                let mut a = 0;
-                while a < self.passive.len() {
-                    let q = self.passive[a];
-                    if self.z[q] <= 0.0 {
-                        self.z[q] = 0.0;
-                        self.in_passive[q] = false;
-                        self.passive.remove(a);
-                        first_gone = first_gone.min(a);
-                    } else {
-                        a += 1;
+                for a in (0..self.passive.len()).rev() {
+                    if self.z[self.passive[a]] <= 0.0 {
+                        self.drop_passive(a);
                     }
                 }
-                self.refactor_from(g, first_gone);
             }
         }
+        self.set_value(f, at_fit);
         solves
+    }
+
+    /// Cache ‖Âz − y‖² at the current point.
+    fn set_value(&mut self, f: &FrameData, at_fit: bool) {
+        self.value = if at_fit {
+            let p = self.passive.len();
+            (f.yty - self.u[..p].iter().map(|v| v * v).sum::<f64>()).max(0.0)
+        } else {
+            self.residual_at_z(f.g, f.b, f.yty)
+        };
     }
 
     /// Forbid cell `c`; returns whether the optimum may have changed (it carried a
     /// load), in which case the factor is already updated and `solve` must run.
-    fn remove(&mut self, g: &[Vec<f64>], c: usize) -> bool {
+    fn remove(&mut self, c: usize) -> bool {
         self.allowed[c] = false;
         if let Some(pos) = self.passive.iter().position(|&q| q == c) {
-            self.passive.remove(pos);
-            self.in_passive[c] = false;
-            self.z[c] = 0.0;
-            self.refactor_from(g, pos);
+            self.drop_passive(pos);
             true
         } else {
             false
@@ -263,7 +336,7 @@ impl Nnls {
     }
 
     /// ‖Âz − y‖² at the current point: yᵀy − 2bᵀz + zᵀGz.
-    fn residual(&self, g: &[Vec<f64>], b: &[f64], yty: f64) -> f64 {
+    fn residual_at_z(&self, g: &[Vec<f64>], b: &[f64], yty: f64) -> f64 {
         let mut quad = 0.0;
         let mut lin = 0.0;
         for &r in &self.passive {
@@ -297,6 +370,8 @@ struct Path {
     t: Vec<f64>,
     /// Unconstrained residual per depth.
     residual: Vec<f64>,
+    /// Work of the pushes so far (units of ~8 multiply-adds: n·(|P| + 1)/8 each).
+    work: u64,
 }
 
 impl Path {
@@ -312,6 +387,7 @@ impl Path {
             s: vec![0.0; (cap + 1) * n],
             t: vec![0.0; (cap + 1) * n],
             residual,
+            work: 0,
         }
     }
 
@@ -350,6 +426,7 @@ impl Path {
         if den <= 1e-10 * g[c][c] {
             return false;
         }
+        self.work += 1 + (n * (p + 1) / 8) as u64;
         let d = den.sqrt();
         let w = (b[c] - self.t[p * n + c]) / d;
         let (before, row) = self.m.split_at_mut(p * n);
@@ -403,6 +480,8 @@ impl Path {
 /// Search state of one frame.
 struct Search<'a> {
     bb: &'a BranchAndBound,
+    /// The frame (working units).
+    y: &'a [f64],
     b: Vec<f64>,
     yty: f64,
     order: Vec<usize>,
@@ -478,11 +557,11 @@ impl Search<'_> {
                     }
                 }
             }
+            self.nodes += n as u64;
             let Some((c, _)) = pick else { break };
             if !path.push(g, &self.b, c) {
                 break;
             }
-            self.nodes += 1;
             self.consider(path);
         }
         while path.depth() > 0 {
@@ -493,7 +572,7 @@ impl Search<'_> {
     /// Swap local search around the incumbent: replace one of its cells by any other
     /// cell (or add one while it has fewer than K), keep any improvement, repeat
     /// until none. A better incumbent before the search prunes more, and it is the
-    /// answer when the node budget ends the search.
+    /// answer when the work budget ends the search.
     fn local_search(&mut self, path: &mut Path) {
         let (g, n) = (&self.bb.gram_rows, self.order.len());
         for _pass in 0..8 {
@@ -576,21 +655,34 @@ impl Search<'_> {
         let g = &self.bb.gram_rows;
         let mut child_relax = relax.clone();
         for i in start..n {
-            if self.nodes >= self.bb.node_budget {
+            if self.nodes + path.work >= self.bb.node_budget {
                 self.exhausted = true;
                 return;
             }
             let c = self.order[i];
             // Bound of every support below this child: the relaxation over
             // path ∪ order[i..]; it only grows along the siblings.
-            if i > start && relax.remove(g, self.order[i - 1]) {
-                self.nodes += relax.solve(g, &self.b, self.tol);
+            if i > start && relax.remove(self.order[i - 1]) {
+                self.nodes += relax.solve(&FrameData {
+                    g,
+                    cols: &self.bb.columns,
+                    y: self.y,
+                    b: &self.b,
+                    yty: self.yty,
+                    tol: self.tol,
+                });
             }
-            let bound = relax.residual(g, &self.b, self.yty) + floor;
+            let bound = relax.value + floor;
             if bound >= self.best_cost + self.slack {
                 return;
             }
-            self.nodes += 1;
+            // The supports strictly below this child hold one more load: once even
+            // that λ more reaches the incumbent, no sibling from here on needs its
+            // subtree, only its own value (an O(1) scan, no more relaxations).
+            if bound + self.bb.lambda >= self.best_cost + self.slack {
+                self.leaves(path, i);
+                return;
+            }
             if !path.push(g, &self.b, c) {
                 continue; // dependent: every superset is too
             }
@@ -631,13 +723,21 @@ impl Reconstructor for BranchAndBound {
         // Root relaxation: non-negative fit over every cell; its cells (largest load
         // first), then the others by correlation, give the search order.
         let cap = self.common.problem.n_gratings().min(n);
-        let mut root = Nnls::new(n, cap);
-        let mut nodes = root.solve(&self.gram_rows, &b, tol);
+        let mut root = Nnls::new(n, self.columns.m, cap);
+        let mut nodes = root.solve(&FrameData {
+            g: &self.gram_rows,
+            cols: &self.columns,
+            y,
+            b: &b,
+            yty,
+            tol,
+        });
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&p, &q| root.z[q].total_cmp(&root.z[p]).then(b[q].total_cmp(&b[p])));
         nodes += 1;
         let mut search = Search {
             bb: self,
+            y,
             b,
             yty,
             order,
@@ -658,6 +758,6 @@ impl Reconstructor for BranchAndBound {
             full[c] = v;
         }
         self.common
-            .finish(&full, y, !search.exhausted, search.nodes)
+            .finish(&full, y, !search.exhausted, search.nodes + path.work)
     }
 }

@@ -30,7 +30,7 @@ pub(super) const ENTRY: MethodEntry = MethodEntry {
         let reference = (super::bnb::ENTRY.build)(
             Common::new(&common.problem),
             &MethodSettings {
-                node_budget: s.node_budget.min(100_000),
+                node_budget: s.node_budget.min(1_000_000),
                 ..*s
             },
         )?;

@@ -222,17 +222,34 @@ pub struct MethodSettings {
     /// Most simultaneous loads a support may hold (`support`, `wsupport`, `bnb`):
     /// supports grow as C(n, ≤ K) instead of 2ⁿ. Capped at the number of gratings.
     pub max_loads: usize,
-    /// Nodes `bnb` may visit per frame before it stops with the best support found
-    /// so far, marked not converged (not certified).
+    /// Work `bnb` may do per frame before it stops with the best support found so
+    /// far, marked not converged (not certified), in work units: one per support
+    /// valued in O(1), and ~8 multiply-adds per unit for the pushes along a path and
+    /// the relaxation's steps (what `bnb` reports as its `iterations`).
     pub node_budget: u64,
+}
+
+/// The penalty of the ℓ0 objective (`support`, `bnb`; σ of `de`) for an interrogator
+/// whose readings have a noise of `resolution_pm` (standard deviation, pm):
+/// λ = 16 σ² (pm², the price of one more load in squared residual). The factor is the
+/// paper's calibration: λ = 4 was tuned on its protocol (σ = 0.5 pm, the default);
+/// with σ = 0.25 pm it gives λ = 1, what the validation frames of the scaling study
+/// (σ = 0.25 pm plus 3 % relative noise) chose independently at 6 × 8, 12 × 32,
+/// 16 × 64 and 32 × 256 (docs/array.md §10.6). It does not grow with the number of
+/// cells: at fixed noise the tuned λ did not (4 at 8 × 16, 0.25 at 24 × 128, 1
+/// elsewhere).
+pub fn l0_penalty_for_resolution(resolution_pm: f64) -> f64 {
+    16.0 * resolution_pm * resolution_pm
 }
 
 /// Most simultaneous loads assumed when neither the caller nor the design says: the
 /// paper tests up to four (reference §2, Table 3).
 pub const DEFAULT_MAX_LOADS: usize = 4;
 
-/// Default node budget of `bnb` per frame.
-pub const DEFAULT_NODE_BUDGET: u64 = 200_000;
+/// Default work budget of `bnb` per frame (units of [`MethodSettings::node_budget`];
+/// 7–35 ms on the reference machine from 32 × 256 down to 8 × 16, see
+/// `choice::ns_per_bnb_unit`).
+pub const DEFAULT_NODE_BUDGET: u64 = 2_000_000;
 
 impl MethodSettings {
     /// The paper's settings and the method's default penalty.
