@@ -173,6 +173,8 @@ fn bad_input_exits_with_a_clear_error() {
         (vec!["--penalty", "2"], vec!["--penalty", "--method"]),
         (vec!["--budget-us", "0"], vec!["--budget-us", "positive"]),
         (vec!["--max-loads", "0"], vec!["--max-loads", "at least 1"]),
+        (vec!["--resolution-pm", "0"], vec!["--resolution-pm", "positive"]),
+        (vec!["--resolution-pm", "nan"], vec!["--resolution-pm", "positive"]),
     ] {
         let mut all = vec!["reconstruct", "--matrix", m, "--shifts", s, "--out", o];
         all.extend(args);
@@ -258,4 +260,50 @@ fn shifts_without_a_time_column_give_a_frame_column() {
     // Frame 0 is B = 100 g.
     let b: f64 = lines[1].split(',').nth(2).unwrap().parse().unwrap();
     assert!((b - 100.0).abs() < 0.01, "{b}");
+}
+
+#[test]
+fn the_interrogator_resolution_sets_the_l0_penalty() {
+    // λ = 16 σ²: the paper's 4 at its 0.5 pm, 1 at 0.25 pm; for a named method and for
+    // the default choice alike; an explicit --penalty wins.
+    let m = fixture("paper-model-matrix.csv");
+    let s = fixture("paper-model-shifts.csv");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("loads.csv");
+    let penalty = |extra: &[&str]| -> (String, f64) {
+        let mut args = vec![
+            "reconstruct",
+            "--matrix",
+            m.to_str().unwrap(),
+            "--shifts",
+            s.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ];
+        args.extend(extra);
+        let o = fbgforge(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (
+            v["method"].as_str().unwrap().to_string(),
+            v["penalty"].as_f64().unwrap(),
+        )
+    };
+    assert_eq!(penalty(&["--method", "bnb"]).1, 4.0);
+    assert_eq!(penalty(&["--method", "bnb", "--resolution-pm", "0.25"]).1, 1.0);
+    assert_eq!(penalty(&["--method", "support", "--resolution-pm", "1"]).1, 16.0);
+    assert_eq!(
+        penalty(&["--method", "bnb", "--resolution-pm", "0.25", "--penalty", "2.5"]).1,
+        2.5
+    );
+    // Methods without an ℓ0 penalty keep their own.
+    let (_, omp) = penalty(&["--method", "omp", "--resolution-pm", "0.25"]);
+    let (_, omp_default) = penalty(&["--method", "omp"]);
+    assert_eq!(omp, omp_default);
+    // The default choice: when it picks an ℓ0 method, with the resolution's penalty.
+    let (method, p) = penalty(&["--resolution-pm", "0.25", "--budget-us", "100000"]);
+    if method == "support" || method == "bnb" {
+        assert_eq!(p, 1.0, "{method}");
+    }
 }

@@ -107,6 +107,7 @@ def reconstruct(
     min_load_g: Optional[float] = None,
     penalty: Optional[float] = None,
     max_loads: Optional[int] = None,
+    resolution_pm: float = 0.5,
     normalise: bool = True,
     return_info: Literal[False] = False,
 ) -> npt.NDArray[np.float64]: ...
@@ -120,6 +121,7 @@ def reconstruct(
     min_load_g: Optional[float] = None,
     penalty: Optional[float] = None,
     max_loads: Optional[int] = None,
+    resolution_pm: float = 0.5,
     normalise: bool = True,
     return_info: Literal[True],
 ) -> Tuple[npt.NDArray[np.float64], Dict[str, Any]]:

@@ -4,9 +4,11 @@
 //! every error is an `fbgforge.FbgforgeError` (a `ValueError`) carrying the command
 //! line's message. Heavy work runs with the GIL released.
 
-use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
+use fbgforge::array::choice::{
+    check_resolution, default_choice_for_resolution, default_settings, DEFAULT_BUDGET_US,
+};
 use fbgforge::array::kernel::matrix_from_design;
-use fbgforge::array::methods::{self as array_methods, Method, MethodSettings};
+use fbgforge::array::methods::{self as array_methods, Method};
 use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
@@ -432,7 +434,7 @@ fn methods() -> Vec<&'static str> {
 /// and the `method` and `penalty` used.
 #[pyfunction]
 #[pyo3(signature = (a, y, method=None, *, ulimit_g=250.0, min_load_g=None, penalty=None,
-    max_loads=None, normalise=true, return_info=false))]
+    max_loads=None, resolution_pm=0.5, normalise=true, return_info=false))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -443,6 +445,7 @@ fn reconstruct<'py>(
     min_load_g: Option<f64>,
     penalty: Option<f64>,
     max_loads: Option<usize>,
+    resolution_pm: f64,
     normalise: bool,
     return_info: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -493,13 +496,11 @@ fn reconstruct<'py>(
     // `fbgforge reconstruct` makes, timed on the caller's own frames.
     let (method, settings, reason, r) = py
         .detach(|| -> Result<_, fbgforge::array::ArrayError> {
+            check_resolution(resolution_pm)?;
             match method {
                 Some(name) => {
                     let method = Method::from_name(name)?;
-                    let mut settings = MethodSettings {
-                        max_loads,
-                        ..MethodSettings::for_method(method)
-                    };
+                    let mut settings = default_settings(method, max_loads, resolution_pm);
                     if let Some(p) = penalty {
                         settings.penalty = p;
                     }
@@ -507,7 +508,13 @@ fn reconstruct<'py>(
                     Ok((method, settings, format!("{} as named", method.name()), r))
                 }
                 None => {
-                    let c = default_choice(&problem, max_loads, DEFAULT_BUDGET_US, Some(&frames))?;
+                    let c = default_choice_for_resolution(
+                        &problem,
+                        max_loads,
+                        resolution_pm,
+                        DEFAULT_BUDGET_US,
+                        Some(&frames),
+                    )?;
                     Ok((c.method, c.settings, c.reason, c.reconstructor))
                 }
             }

@@ -258,22 +258,35 @@ pub fn default_choice_for_resolution(
     budget_us: f64,
     probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
-    if !(resolution_pm.is_finite() && resolution_pm > 0.0) {
-        return Err(ArrayError::Input(format!(
-            "the interrogator resolution must be a positive noise in pm, got {resolution_pm}"
-        )));
-    }
-    let settings_for = |m: Method| {
-        let mut s = MethodSettings {
-            max_loads,
-            ..MethodSettings::for_method(m)
-        };
-        if m == Method::Support || m == Method::BranchAndBound {
-            s.penalty = l0_penalty_for_resolution(resolution_pm);
-        }
-        s
-    };
+    check_resolution(resolution_pm)?;
+    let settings_for = |m: Method| default_settings(m, max_loads, resolution_pm);
     choose_method(problem, &settings_for, budget_us, probe)
+}
+
+/// A method's default settings for an array read with up to `max_loads` loads by an
+/// interrogator of `resolution_pm` (noise standard deviation, pm): the ℓ0 penalty of
+/// `support` and `bnb` from the resolution, every other setting the method's default.
+/// The one rule [`default_choice_for_resolution`] and a named method both follow.
+pub fn default_settings(method: Method, max_loads: usize, resolution_pm: f64) -> MethodSettings {
+    let mut s = MethodSettings {
+        max_loads,
+        ..MethodSettings::for_method(method)
+    };
+    if method == Method::Support || method == Method::BranchAndBound {
+        s.penalty = l0_penalty_for_resolution(resolution_pm);
+    }
+    s
+}
+
+/// A resolution must be a positive, finite noise in pm.
+pub fn check_resolution(resolution_pm: f64) -> Result<(), ArrayError> {
+    if resolution_pm.is_finite() && resolution_pm > 0.0 {
+        Ok(())
+    } else {
+        Err(ArrayError::Input(format!(
+            "the interrogator resolution must be a positive noise in pm, got {resolution_pm}"
+        )))
+    }
 }
 
 /// Choose the default method for `problem`: the first of [`PREFERENCE`] whose median

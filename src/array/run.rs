@@ -2,11 +2,13 @@
 //! and a file of grating shifts in, the loads CSV and a summary out. `fbgforge
 //! reconstruct` calls [`reconstruct_file`].
 
-use super::choice::{default_choice, Candidate, DEFAULT_BUDGET_US};
+use super::choice::{
+    check_resolution, default_choice_for_resolution, default_settings, Candidate, DEFAULT_BUDGET_US,
+};
 use super::io::{read_matrix_file, read_shifts_for, write_loads};
 use super::kernel::matrix_from_design;
 use super::methods::{
-    build, reconstruct_frames, Method, MethodSettings, Reconstructor, DEFAULT_MAX_LOADS,
+    build, reconstruct_frames, Method, MethodSettings, NoisePrior, Reconstructor, DEFAULT_MAX_LOADS,
 };
 use super::problem::{default_min_load_g, SensingProblem};
 use anyhow::{bail, Context, Result};
@@ -49,8 +51,13 @@ pub struct ReconstructRequest {
     /// Smallest load a loaded cell carries, g (default: the paper's 25 g, or 0 when
     /// ulimit is not above 25 g).
     pub min_load_g: Option<f64>,
-    /// Penalty weight (default: the method's tuned default).
+    /// Penalty weight (default: the method's tuned default, or for `support` and
+    /// `bnb` the one that follows `resolution_pm`).
     pub penalty: Option<f64>,
+    /// The interrogator's resolution (noise standard deviation), pm; sets the ℓ0
+    /// penalty of `support` and `bnb` ([`crate::array::methods::l0_penalty_for_resolution`];
+    /// default: the paper's 0.5 pm, λ = 4).
+    pub resolution_pm: Option<f64>,
     /// Column-normalise the matrix (the paper does).
     pub normalise: bool,
     /// Output CSV of loads (default: `out/reconstruct/<shifts name>-loads.csv`).
@@ -69,6 +76,7 @@ impl ReconstructRequest {
             ulimit_g: None,
             min_load_g: None,
             penalty: None,
+            resolution_pm: None,
             normalise: true,
             out: None,
         }
@@ -165,10 +173,9 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
     let problem = SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
         .with_min_load_g(min_load_g)
         .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?;
-    let settings_for = |m: Method| MethodSettings {
-        max_loads,
-        ..MethodSettings::for_method(m)
-    };
+    let resolution_pm = a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm);
+    check_resolution(resolution_pm).map_err(|e| anyhow::anyhow!("--resolution-pm: {e}"))?;
+    let settings_for = |m: Method| default_settings(m, max_loads, resolution_pm);
     let t0 = Instant::now();
     let (method, settings, reconstructor, choice): (
         Method,
@@ -185,8 +192,14 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
         }
         None => {
             let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
-            let c = default_choice(&problem, max_loads, budget_us, Some(&stream.frames_pm))
-                .map_err(|e| anyhow::anyhow!("--budget-us: {e}"))?;
+            let c = default_choice_for_resolution(
+                &problem,
+                max_loads,
+                resolution_pm,
+                budget_us,
+                Some(&stream.frames_pm),
+            )
+            .map_err(|e| anyhow::anyhow!("--budget-us: {e}"))?;
             let summary = ChoiceSummary {
                 budget_us,
                 reason: c.reason,

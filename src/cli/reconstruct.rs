@@ -21,8 +21,9 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub shifts: PathBuf,
     /// Method: wsupport, support, bnb, nnls, lasso, omp or de (default: the most
-    /// accurate method within --budget-us per frame for this array, chosen by timing
-    /// the candidates on the first frames; the choice and why is printed).
+    /// accurate method within --budget-us per frame for this array, chosen from the
+    /// work each candidate does on frames spread over the file, converted to time by
+    /// per-method costs measured once; the choice and why is printed).
     #[arg(long)]
     pub method: Option<String>,
     /// Per-frame time budget of the automatic method choice, µs (default 100, i.e.
@@ -41,9 +42,15 @@ pub struct ReconstructArgs {
     /// 0 when ulimit is not above 25 g; 0 disables it; must be below ulimit).
     #[arg(long, allow_negative_numbers = true)]
     pub min_load_g: Option<f64>,
-    /// Penalty weight of the method (default: the method's tuned default).
+    /// Penalty weight of the method (default: the method's tuned default; for support
+    /// and bnb, 16 × resolution²).
     #[arg(long, allow_negative_numbers = true)]
     pub penalty: Option<f64>,
+    /// The interrogator's resolution, the noise standard deviation of a shift, pm
+    /// (default 0.5, the paper's): sets the ℓ0 penalty of support and bnb to
+    /// 16 × resolution² (λ = 4 at 0.5 pm, 1 at 0.25 pm).
+    #[arg(long, allow_negative_numbers = true)]
+    pub resolution_pm: Option<f64>,
     /// Do not column-normalise the matrix (the paper normalises).
     #[arg(long)]
     pub no_normalise: bool,
@@ -71,6 +78,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         ulimit_g: a.ulimit_g,
         min_load_g: a.min_load_g,
         penalty: a.penalty,
+        resolution_pm: a.resolution_pm,
         normalise: !a.no_normalise,
         out: a.out,
         ..ReconstructRequest::new(matrix, a.shifts)
