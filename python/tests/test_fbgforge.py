@@ -383,3 +383,29 @@ def test_the_type_stubs_cover_the_public_api():
     assert set(fbgforge.__all__) <= defined, set(fbgforge.__all__) - defined
     assert (pkg / "py.typed").exists()
     assert fbgforge.__version__ == "0.1.0"
+
+
+def test_reconstruct_takes_the_cli_defaults_resolution_and_load_cap():
+    m = fbgforge.sensing_matrix(ARRAY)
+    a = m["sensitivity_pm_per_g"]
+    x = np.zeros((2, 8))
+    x[0, 3] = 120.0
+    x[1, [1, 5]] = [80.0, 150.0]
+    y = x @ a.T
+    # The interrogator's noise sets the l0 penalty (16 sigma^2), as --resolution-pm does.
+    _, info = fbgforge.reconstruct(a, y, method="bnb", resolution_pm=0.25, return_info=True)
+    assert info["penalty"] == 1.0 and info["max_loads"] == 4
+    _, info = fbgforge.reconstruct(a, y, method="bnb", return_info=True)
+    assert info["penalty"] == 4.0
+    # The default choice says which method it took and why.
+    got, info = fbgforge.reconstruct(a, y, max_loads=2, return_info=True)
+    assert info["method"] in fbgforge.methods() and info["reason"]
+    assert np.allclose(got, x, atol=0.5)
+    # A penalty belongs to a named method; a bad resolution or load cap is refused.
+    for kwargs, needle in [
+        ({"penalty": 2.0}, "method"),
+        ({"resolution_pm": 0.0}, "resolution"),
+        ({"max_loads": 0}, "max_loads"),
+    ]:
+        with pytest.raises(fbgforge.FbgforgeError, match=needle):
+            fbgforge.reconstruct(a, y, **kwargs)
