@@ -252,7 +252,10 @@ impl Watch<'_> {
             if let Err(e) = self.sink.reading(&r) {
                 *out_err = Some(e);
             }
-            if self.max_frames.is_some_and(|limit| stats.frames_out >= limit) {
+            if self
+                .max_frames
+                .is_some_and(|limit| stats.frames_out >= limit)
+            {
                 let n = stats.frames_out;
                 self.ended.get_or_insert_with(|| format!("{n} frames read"));
                 break;
