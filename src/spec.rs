@@ -1061,6 +1061,32 @@ impl Design {
                 ),
             ));
         }
+        self.validate_mold_slits(a)?;
+        if a.size_x_mm > mold.internal_x_mm {
+            return Err(err(
+                "array.mold.internal_x_mm",
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_x_mm, a.size_x_mm
+                ),
+            ));
+        }
+        if a.size_y_mm > mold.internal_y_mm {
+            return Err(err(
+                "array.mold.internal_y_mm",
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_y_mm, a.size_y_mm
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The mold's slits: as wide as the coated fiber and its clearance need, and as deep
+    /// as puts the fiber at the sheet's mid-thickness.
+    fn validate_mold_slits(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let mold = &a.mold;
         range(
             "array.mold.slit_depth_mm",
             mold.slit_depth_mm,
@@ -1094,24 +1120,6 @@ impl Design {
                 format!(
                     "{} mm does not put the fiber at the sheet's mid-thickness; expected {depth:.4} mm (wall height − thickness/2 + coated diameter/2); leave the field out to derive it",
                     mold.slit_depth_mm
-                ),
-            ));
-        }
-        if a.size_x_mm > mold.internal_x_mm {
-            return Err(err(
-                "array.mold.internal_x_mm",
-                format!(
-                    "{} mm does not hold the {} mm sheet",
-                    mold.internal_x_mm, a.size_x_mm
-                ),
-            ));
-        }
-        if a.size_y_mm > mold.internal_y_mm {
-            return Err(err(
-                "array.mold.internal_y_mm",
-                format!(
-                    "{} mm does not hold the {} mm sheet",
-                    mold.internal_y_mm, a.size_y_mm
                 ),
             ));
         }
