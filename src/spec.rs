@@ -669,7 +669,43 @@ impl Design {
         Ok(())
     }
 
+    /// Check a module: its shell, pillars, snap-fit, cores, inserts and gratings.
     fn validate_module(&self, m: &Module) -> Result<(), SpecError> {
+        self.validate_module_shell(m)?;
+        self.validate_pillars(m)?;
+        let r = m.outer_diameter_mm / 2.0;
+        positive(
+            "module.top_hole_diameter_mm",
+            m.top_hole_diameter_mm,
+            0.1,
+            0.5 * r,
+        )?;
+        positive(
+            "module.apex_flat_diameter_mm",
+            m.apex_flat_diameter_mm,
+            0.01,
+            0.5 * r,
+        )?;
+        if let Some(snap) = &m.snap {
+            self.validate_snap(m, snap)?;
+        }
+        self.validate_cores_and_inserts(m)?;
+        let mut names: Vec<&str> = Vec::new();
+        for (i, g) in m.gratings.iter().enumerate() {
+            if names.contains(&g.name.as_str()) {
+                return Err(err(
+                    &format!("module.gratings[{i}].name"),
+                    format!("duplicate grating name `{}`", g.name),
+                ));
+            }
+            names.push(&g.name);
+            Self::validate_module_grating(m, i, g)?;
+        }
+        Ok(())
+    }
+
+    /// The module's outer size, walls, clearances, cap material and contact overrides.
+    fn validate_module_shell(&self, m: &Module) -> Result<(), SpecError> {
         let min_wall = self.printer.min_wall_mm;
         positive("module.outer_diameter_mm", m.outer_diameter_mm, 4.0, 200.0)?;
         let r = m.outer_diameter_mm / 2.0;
@@ -705,6 +741,13 @@ impl Design {
         if let Some(a) = c.dome_contact_radius_mm {
             positive("module.contact.dome_contact_radius_mm", a, 1e-3, 0.5 * r)?;
         }
+        Ok(())
+    }
+
+    /// The pillars: count, groove and fiber hole sized to leave printable walls.
+    fn validate_pillars(&self, m: &Module) -> Result<(), SpecError> {
+        let min_wall = self.printer.min_wall_mm;
+        let r = m.outer_diameter_mm / 2.0;
         let pl = &m.pillars;
         if !(3..=8).contains(&pl.count) {
             return Err(err(
@@ -771,22 +814,11 @@ impl Design {
         }
         positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
         positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
-        positive(
-            "module.top_hole_diameter_mm",
-            m.top_hole_diameter_mm,
-            0.1,
-            0.5 * r,
-        )?;
-        positive(
-            "module.apex_flat_diameter_mm",
-            m.apex_flat_diameter_mm,
-            0.01,
-            0.5 * r,
-        )?;
+        Ok(())
+    }
 
-        if let Some(snap) = &m.snap {
-            self.validate_snap(m, snap)?;
-        }
+    /// At least one core; cores and inserts of known materials and distinct names.
+    fn validate_cores_and_inserts(&self, m: &Module) -> Result<(), SpecError> {
         if m.cores.is_empty() {
             return Err(err("module.cores", "list at least one core"));
         }
@@ -808,61 +840,58 @@ impl Design {
                 ));
             }
         }
-        let mut names: Vec<&str> = Vec::new();
-        for (i, g) in m.gratings.iter().enumerate() {
-            let f = |s: &str| format!("module.gratings[{i}].{s}");
-            if names.contains(&g.name.as_str()) {
-                return Err(err(
-                    &f("name"),
-                    format!("duplicate grating name `{}`", g.name),
-                ));
+        Ok(())
+    }
+
+    /// One module grating (index `i`): wavelength, length, core, and what its role
+    /// needs (a strain grating its core, pillar and height; a reference none).
+    fn validate_module_grating(m: &Module, i: usize, g: &ModuleGrating) -> Result<(), SpecError> {
+        let pl = &m.pillars;
+        let f = |s: &str| format!("module.gratings[{i}].{s}");
+        range(
+            &f("bragg_wavelength_nm"),
+            g.bragg_wavelength_nm,
+            400.0,
+            2000.0,
+        )?;
+        positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
+        if let Some(core) = &g.core {
+            if !m.cores.iter().any(|c| &c.name == core) {
+                return Err(err(&f("core"), format!("no core named `{core}`")));
             }
-            names.push(&g.name);
-            range(
-                &f("bragg_wavelength_nm"),
-                g.bragg_wavelength_nm,
-                400.0,
-                2000.0,
-            )?;
-            positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
-            if let Some(core) = &g.core {
-                if !m.cores.iter().any(|c| &c.name == core) {
-                    return Err(err(&f("core"), format!("no core named `{core}`")));
+        }
+        match g.role {
+            GratingRole::Strain => {
+                if g.core.is_none() {
+                    return Err(err(
+                        &f("core"),
+                        "a strain grating needs the core it is bonded in",
+                    ));
                 }
+                let pillar = g
+                    .pillar
+                    .ok_or_else(|| err(&f("pillar"), "a strain grating needs its pillar index"))?;
+                if pillar >= pl.count {
+                    return Err(err(
+                        &f("pillar"),
+                        format!("expected 0 to {}, got {pillar}", pl.count - 1),
+                    ));
+                }
+                // Its range along the pillar needs the derived profile:
+                // checked in crate::design.
+                g.center_height_mm.ok_or_else(|| {
+                    err(
+                        &f("center_height_mm"),
+                        "a strain grating needs its centre height",
+                    )
+                })?;
             }
-            match g.role {
-                GratingRole::Strain => {
-                    if g.core.is_none() {
-                        return Err(err(
-                            &f("core"),
-                            "a strain grating needs the core it is bonded in",
-                        ));
-                    }
-                    let pillar = g.pillar.ok_or_else(|| {
-                        err(&f("pillar"), "a strain grating needs its pillar index")
-                    })?;
-                    if pillar >= pl.count {
-                        return Err(err(
-                            &f("pillar"),
-                            format!("expected 0 to {}, got {pillar}", pl.count - 1),
-                        ));
-                    }
-                    // Its range along the pillar needs the derived profile:
-                    // checked in crate::design.
-                    g.center_height_mm.ok_or_else(|| {
-                        err(
-                            &f("center_height_mm"),
-                            "a strain grating needs its centre height",
-                        )
-                    })?;
-                }
-                GratingRole::TemperatureReference => {
-                    if g.pillar.is_some() || g.center_height_mm.is_some() {
-                        return Err(err(
-                            &f("pillar"),
-                            "a temperature-reference grating hangs free in the top hole: give it no pillar or centre height",
-                        ));
-                    }
+            GratingRole::TemperatureReference => {
+                if g.pillar.is_some() || g.center_height_mm.is_some() {
+                    return Err(err(
+                        &f("pillar"),
+                        "a temperature-reference grating hangs free in the top hole: give it no pillar or centre height",
+                    ));
                 }
             }
         }
@@ -936,7 +965,39 @@ impl Design {
         }
     }
 
+    /// Check an array: the sheet, its mold, the fibers' positions and the gratings.
     fn validate_array(&self, a: &TactileArray) -> Result<(), SpecError> {
+        self.validate_sheet(a)?;
+        self.validate_mold(a)?;
+        self.validate_fiber_positions(a)?;
+        let mut names: Vec<&str> = Vec::new();
+        for (i, g) in a.gratings.iter().enumerate() {
+            if names.contains(&g.name.as_str()) {
+                return Err(err(
+                    &format!("array.gratings[{i}].name"),
+                    format!("duplicate grating name `{}`", g.name),
+                ));
+            }
+            names.push(&g.name);
+            Self::validate_array_grating(a, i, g)?;
+        }
+        if a.gratings.is_empty() {
+            return Err(err("array.gratings", "list at least one grating"));
+        }
+        if let Some(k) = a.max_loads {
+            if !(1..=64).contains(&k) {
+                return Err(err(
+                    "array.max_loads",
+                    format!("must be 1 to 64 simultaneous loads, got {k}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The sheet: size, thickness (the coated fiber fits in it), cells, material, load
+    /// limit, at least one fiber.
+    fn validate_sheet(&self, a: &TactileArray) -> Result<(), SpecError> {
         positive("array.size_x_mm", a.size_x_mm, 1.0, 2000.0)?;
         positive("array.size_y_mm", a.size_y_mm, 1.0, 2000.0)?;
         positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
@@ -966,6 +1027,12 @@ impl Design {
         if a.fiber_x_mm.is_empty() {
             return Err(err("array.fiber_x_mm", "list at least one fiber"));
         }
+        Ok(())
+    }
+
+    /// The casting mold: printable walls, a cavity that holds the sheet, and slits that
+    /// hold the coated fiber at the sheet's mid-thickness.
+    fn validate_mold(&self, a: &TactileArray) -> Result<(), SpecError> {
         let mold = &a.mold;
         if let Some(pm) = &mold.print_material {
             self.material(pm, "array.mold.print_material")?;
@@ -994,6 +1061,32 @@ impl Design {
                 ),
             ));
         }
+        self.validate_mold_slits(a)?;
+        if a.size_x_mm > mold.internal_x_mm {
+            return Err(err(
+                "array.mold.internal_x_mm",
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_x_mm, a.size_x_mm
+                ),
+            ));
+        }
+        if a.size_y_mm > mold.internal_y_mm {
+            return Err(err(
+                "array.mold.internal_y_mm",
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_y_mm, a.size_y_mm
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The mold's slits: as wide as the coated fiber and its clearance need, and as deep
+    /// as puts the fiber at the sheet's mid-thickness.
+    fn validate_mold_slits(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let mold = &a.mold;
         range(
             "array.mold.slit_depth_mm",
             mold.slit_depth_mm,
@@ -1030,24 +1123,13 @@ impl Design {
                 ),
             ));
         }
-        if a.size_x_mm > mold.internal_x_mm {
-            return Err(err(
-                "array.mold.internal_x_mm",
-                format!(
-                    "{} mm does not hold the {} mm sheet",
-                    mold.internal_x_mm, a.size_x_mm
-                ),
-            ));
-        }
-        if a.size_y_mm > mold.internal_y_mm {
-            return Err(err(
-                "array.mold.internal_y_mm",
-                format!(
-                    "{} mm does not hold the {} mm sheet",
-                    mold.internal_y_mm, a.size_y_mm
-                ),
-            ));
-        }
+        Ok(())
+    }
+
+    /// The fibers lie on the sheet, with a printable wall between neighbouring slits
+    /// (or plug pockets).
+    fn validate_fiber_positions(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let mold = &a.mold;
         let half_x = a.size_x_mm / 2.0;
         let mut xs: Vec<f64> = Vec::with_capacity(a.fiber_x_mm.len());
         for (i, &x) in a.fiber_x_mm.iter().enumerate() {
@@ -1056,7 +1138,6 @@ impl Design {
             xs.push(x);
         }
         xs.sort_by(|a, b| a.total_cmp(b));
-        // Neighbouring slits (or plug pockets) must leave a printable wall between them.
         let min_gap = mold_slot_width_mm(self, mold) + self.printer.min_wall_mm;
         for w in xs.windows(2) {
             if w[1] - w[0] < min_gap {
@@ -1069,42 +1150,31 @@ impl Design {
                 ));
             }
         }
-        let mut names: Vec<&str> = Vec::new();
-        for (i, g) in a.gratings.iter().enumerate() {
-            let f = |s: &str| format!("array.gratings[{i}].{s}");
-            if names.contains(&g.name.as_str()) {
-                return Err(err(
-                    &f("name"),
-                    format!("duplicate grating name `{}`", g.name),
-                ));
-            }
-            names.push(&g.name);
-            if g.fiber as usize >= a.fiber_x_mm.len() {
-                return Err(err(
-                    &f("fiber"),
-                    format!("expected 0 to {}, got {}", a.fiber_x_mm.len() - 1, g.fiber),
-                ));
-            }
-            range(&f("y_mm"), g.y_mm, -a.size_y_mm / 2.0, a.size_y_mm / 2.0)?;
-            range(
-                &f("bragg_wavelength_nm"),
-                g.bragg_wavelength_nm,
-                400.0,
-                2000.0,
-            )?;
-            positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
+        Ok(())
+    }
+
+    /// One array grating (index `i`): on a listed fiber, on the sheet, a plausible
+    /// wavelength and length.
+    fn validate_array_grating(
+        a: &TactileArray,
+        i: usize,
+        g: &ArrayGrating,
+    ) -> Result<(), SpecError> {
+        let f = |s: &str| format!("array.gratings[{i}].{s}");
+        if g.fiber as usize >= a.fiber_x_mm.len() {
+            return Err(err(
+                &f("fiber"),
+                format!("expected 0 to {}, got {}", a.fiber_x_mm.len() - 1, g.fiber),
+            ));
         }
-        if a.gratings.is_empty() {
-            return Err(err("array.gratings", "list at least one grating"));
-        }
-        if let Some(k) = a.max_loads {
-            if !(1..=64).contains(&k) {
-                return Err(err(
-                    "array.max_loads",
-                    format!("must be 1 to 64 simultaneous loads, got {k}"),
-                ));
-            }
-        }
+        range(&f("y_mm"), g.y_mm, -a.size_y_mm / 2.0, a.size_y_mm / 2.0)?;
+        range(
+            &f("bragg_wavelength_nm"),
+            g.bragg_wavelength_nm,
+            400.0,
+            2000.0,
+        )?;
+        positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
         Ok(())
     }
 }

@@ -8,7 +8,7 @@ use fbgforge::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use fbgforge::model::LoadCase;
 use fbgforge::output::{ensure_dir, write_csv};
 use fbgforge::plot::{Chart, Mark, Series};
-use fbgforge::prediction::{Fidelity, FidelityChoice};
+use fbgforge::prediction::{Fidelity, FidelityChoice, ModelledPrediction};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `fbgforge predict`.
@@ -64,8 +64,8 @@ fn model_name(f: Fidelity) -> &'static str {
     f.name()
 }
 
-/// Run `fbgforge predict`.
-pub fn run_predict(a: PredictArgs) -> Result<()> {
+/// Check the numbers of the request.
+fn check_predict_args(a: &PredictArgs) -> Result<()> {
     if !a.force_n.is_finite() {
         bail!(
             "--force-n must be a finite number of newtons, got {}",
@@ -78,6 +78,132 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             a.delta_t_k
         );
     }
+    Ok(())
+}
+
+/// Numbered footnotes: each distinct text once, in order of first use.
+#[derive(Default)]
+struct Footnotes(Vec<String>);
+
+impl Footnotes {
+    /// The index of `text`, added if new.
+    fn index(&mut self, text: &str) -> usize {
+        self.0.iter().position(|n| n == text).unwrap_or_else(|| {
+            self.0.push(text.to_string());
+            self.0.len() - 1
+        })
+    }
+}
+
+/// The table's header line.
+fn print_predict_header(band: bool, temp: bool) {
+    print!(
+        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
+        "grating",
+        "core",
+        "case",
+        "insert",
+        "model",
+        "E1 MPa",
+        "K pm/N",
+        "shift pm",
+        "strain µε",
+        "share"
+    );
+    if band {
+        print!(" {:>21}", "band pm/N");
+    }
+    if temp {
+        print!(" {:>11} {:>12}", "raw pm", "compens. pm");
+    }
+    println!("  warnings");
+}
+
+/// One row of the table; its warnings and model become numbered notes.
+fn print_predict_row(
+    row: &ModelledPrediction,
+    (band, temp): (bool, bool),
+    notes: &mut Footnotes,
+    models: &mut Footnotes,
+) {
+    let d = &row.detail;
+    let p = &d.prediction;
+    let refs: Vec<String> = p
+        .warnings
+        .iter()
+        .map(|w| format!("[{}]", notes.index(w) + 1))
+        .collect();
+    let share = if d.core_load_share.is_finite() {
+        format!("{:.4}", d.core_load_share)
+    } else {
+        "-".to_string()
+    };
+    let m = models.index(&row.model_description);
+    print!(
+        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
+        p.grating,
+        p.core,
+        p.case.to_string(),
+        p.insert.as_deref().unwrap_or("-"),
+        format!("{} (m{})", model_name(row.model), m + 1),
+        d.core_modulus_mpa,
+        p.sensitivity_pm_per_n,
+        p.shift_pm,
+        p.strain * 1e6,
+        share
+    );
+    if band {
+        let b = row
+            .band_pm_per_n
+            .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
+        print!(" {b:>21}");
+    }
+    if temp {
+        let comp = d
+            .compensated_shift_pm
+            .map_or("-".to_string(), |c| format!("{c:+.2}"));
+        print!(" {:>+11.2} {:>12}", d.raw_shift_pm, comp);
+    }
+    println!("  {}", refs.join(""));
+}
+
+/// What the columns and the model choice mean.
+fn print_predict_legend(band: bool, choice: FidelityChoice) {
+    println!("K > 0: red shift (core cylinder in tension); K < 0: blue shift.");
+    if band {
+        println!(
+            "band: K between the bounding contact readings (FE): pillars bonded to the cap (most coupled) and cylinders sliding with the domes touching over the apex patch only (least coupled); docs/model.md §5.6."
+        );
+    }
+    println!(
+        "share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only)."
+    );
+    match choice {
+        FidelityChoice::Auto => {
+            let v = fbgforge::prediction::validity();
+            println!(
+                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE with the design's [module.contact] elsewhere.",
+                v.tolerance * 100.0,
+                v.diameter_range_mm.0,
+                v.diameter_range_mm.1,
+                v.max_wall_to_radius_case_ii,
+                if v.max_wall_to_radius_case_i > 0.0 {
+                    format!("core t/R ≤ {}", v.max_wall_to_radius_case_i)
+                } else {
+                    "never".to_string()
+                }
+            );
+        }
+        FidelityChoice::ClosedForm => {
+            println!("model: closed form forced (--fidelity closed-form).")
+        }
+        FidelityChoice::Fem => println!("model: finite elements forced (--fidelity fem)."),
+    }
+}
+
+/// Run `fbgforge predict`.
+pub fn run_predict(a: PredictArgs) -> Result<()> {
+    check_predict_args(&a)?;
     let design = fbgforge::design::load(&a.design)?;
     let case = a.case.map(LoadCase::from);
     if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
@@ -114,117 +240,18 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         "{}: predicted sensitivity at F = {} N",
         design.name, a.force_n
     );
-    let mut notes: Vec<String> = Vec::new();
-    let temp = a.delta_t_k != 0.0;
-    let band = !a.no_band;
-    let mut models: Vec<String> = Vec::new();
-    print!(
-        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
-        "grating",
-        "core",
-        "case",
-        "insert",
-        "model",
-        "E1 MPa",
-        "K pm/N",
-        "shift pm",
-        "strain µε",
-        "share"
-    );
-    if band {
-        print!(" {:>21}", "band pm/N");
-    }
-    if temp {
-        print!(" {:>11} {:>12}", "raw pm", "compens. pm");
-    }
-    println!("  warnings");
+    let (band, temp) = (!a.no_band, a.delta_t_k != 0.0);
+    let mut notes = Footnotes::default();
+    let mut models = Footnotes::default();
+    print_predict_header(band, temp);
     for row in &rows {
-        let d = &row.detail;
-        let p = &d.prediction;
-        let refs: Vec<String> = p
-            .warnings
-            .iter()
-            .map(|w| {
-                let i = notes.iter().position(|n| n == w).unwrap_or_else(|| {
-                    notes.push(w.clone());
-                    notes.len() - 1
-                });
-                format!("[{}]", i + 1)
-            })
-            .collect();
-        let share = if d.core_load_share.is_finite() {
-            format!("{:.4}", d.core_load_share)
-        } else {
-            "-".to_string()
-        };
-        let m = models
-            .iter()
-            .position(|n| n == &row.model_description)
-            .unwrap_or_else(|| {
-                models.push(row.model_description.clone());
-                models.len() - 1
-            });
-        print!(
-            "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
-            p.grating,
-            p.core,
-            p.case.to_string(),
-            p.insert.as_deref().unwrap_or("-"),
-            format!("{} (m{})", model_name(row.model), m + 1),
-            d.core_modulus_mpa,
-            p.sensitivity_pm_per_n,
-            p.shift_pm,
-            p.strain * 1e6,
-            share
-        );
-        if band {
-            let b = row
-                .band_pm_per_n
-                .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
-            print!(" {b:>21}");
-        }
-        if temp {
-            let comp = d
-                .compensated_shift_pm
-                .map_or("-".to_string(), |c| format!("{c:+.2}"));
-            print!(" {:>+11.2} {:>12}", d.raw_shift_pm, comp);
-        }
-        println!("  {}", refs.join(""));
+        print_predict_row(row, (band, temp), &mut notes, &mut models);
     }
-    for (i, m) in models.iter().enumerate() {
+    for (i, m) in models.0.iter().enumerate() {
         println!("m{}: {m}", i + 1);
     }
-    println!("K > 0: red shift (core cylinder in tension); K < 0: blue shift.");
-    if band {
-        println!(
-            "band: K between the bounding contact readings (FE): pillars bonded to the cap (most coupled) and cylinders sliding with the domes touching over the apex patch only (least coupled); docs/model.md §5.6."
-        );
-    }
-    println!(
-        "share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only)."
-    );
-    match choice {
-        FidelityChoice::Auto => {
-            let v = fbgforge::prediction::validity();
-            println!(
-                "model (--fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE with the design's [module.contact] elsewhere.",
-                v.tolerance * 100.0,
-                v.diameter_range_mm.0,
-                v.diameter_range_mm.1,
-                v.max_wall_to_radius_case_ii,
-                if v.max_wall_to_radius_case_i > 0.0 {
-                    format!("core t/R ≤ {}", v.max_wall_to_radius_case_i)
-                } else {
-                    "never".to_string()
-                }
-            );
-        }
-        FidelityChoice::ClosedForm => {
-            println!("model: closed form forced (--fidelity closed-form).")
-        }
-        FidelityChoice::Fem => println!("model: finite elements forced (--fidelity fem)."),
-    }
-    for (i, n) in notes.iter().enumerate() {
+    print_predict_legend(band, choice);
+    for (i, n) in notes.0.iter().enumerate() {
         println!("[{}] {n}", i + 1);
     }
     Ok(())

@@ -731,14 +731,28 @@ fn mesh_insert(
         .collect()
 }
 
-/// Build the module problem for one core (and insert in Case I), loaded by 1 N.
-pub fn build(
-    design: &Design,
+/// The module read from the design and checked: what the mesher builds from.
+struct ModuleInputs<'a> {
+    module: &'a crate::spec::Module,
+    profile: ModuleProfile,
+    cap: ElasticConstants,
+    core: ElasticConstants,
+    /// The insert's material (Case I only).
+    insert: Option<ElasticConstants>,
+    /// Radius of the apex contact patch between the domes, mm.
+    patch_radius_mm: f64,
+    /// Height of the clip band when the cap is not bonded to the pillars, mm.
+    clip_mm: Option<f64>,
+}
+
+/// Read the module, its materials and the contact geometry, and check the mesh options.
+fn module_inputs<'a>(
+    design: &'a Design,
     core_material: &str,
     insert_material: Option<&str>,
     case: LoadCase,
     opt: &FemOptions,
-) -> Result<ModuleModel> {
+) -> Result<ModuleInputs<'a>> {
     let m = design
         .module
         .as_ref()
@@ -757,9 +771,7 @@ pub fn build(
         (LoadCase::I, None) => bail!("Case I needs an insert, and none was given"),
         (LoadCase::II, _) => None,
     };
-    let h = opt.element_size_mm;
-    let fiber_r = p.fiber_hole_center_radius_mm;
-    let patch_r = match opt.dome_contact_radius_mm {
+    let patch_radius_mm = match opt.dome_contact_radius_mm {
         None => p.apex_flat_radius_mm + 0.5 * m.cap_wall_mm,
         Some(r) if r.is_finite() && r > 0.0 && r < p.core_dome_outer_sphere_radius_mm => r,
         Some(r) => bail!(
@@ -767,161 +779,212 @@ pub fn build(
             p.core_dome_outer_sphere_radius_mm
         ),
     };
-    let clip = match opt.pillar_coupling {
+    let clip_mm = match opt.pillar_coupling {
         PillarCoupling::Bonded => None,
         _ => Some(opt.clip_height_mm.unwrap_or(m.cap_wall_mm)),
     };
-    let s = make_stations(&p, h, opt.dome_element_size_mm, fiber_r, patch_r, clip)?;
-    let zc = p.dome_center_z_mm;
-    let t_el = m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64;
-    let n_through = |thk: f64| ((thk / t_el).round() as usize).max(1);
-
-    // Materials: 0 cap, 1 clearance ring, 2 groove ring, 3 web ring, 4 core, 5 insert.
-    let materials = smeared_materials(
-        m,
-        &p,
+    Ok(ModuleInputs {
+        module: m,
+        profile: p,
         cap,
         core,
         insert,
-        opt.pillar_coupling != PillarCoupling::Bonded,
-    );
+        patch_radius_mm,
+        clip_mm,
+    })
+}
 
-    // Layered walls on shared "d-lines" (curves of constant offset).
-    let mut dlines: Vec<Surface> = vec![Surface {
-        r: p.cap_outer_radius_mm,
-        rho: p.cap_dome_outer_sphere_radius_mm,
-    }];
-    let mut layers: Vec<(usize, usize, usize, usize)> = Vec::new(); // (first dline, n, j_end, material)
-    let mut add_layer =
-        |inner: Surface, thk: f64, j_end: usize, material: usize, dl: &mut Vec<Surface>| {
-            let nn = n_through(thk);
-            let outer = *dl.last().expect("at least one d-line");
-            let first = dl.len() - 1;
-            for k in 1..=2 * nn {
-                dl.push(lerp_surface(outer, inner, k as f64 / (2 * nn) as f64));
-            }
-            layers.push((first, nn, j_end, material));
-            dl.len() - 1
-        };
+/// One wall layer: its outer d-line, elements through it, last station, material.
+#[derive(Debug, Clone, Copy)]
+struct Layer {
+    first: usize,
+    n: usize,
+    j_end: usize,
+    material: usize,
+}
+
+/// The layered walls on shared "d-lines" (curves of constant offset), outside in.
+struct Walls {
+    dlines: Vec<Surface>,
+    layers: Vec<Layer>,
+    /// Element thickness through a wall, mm.
+    t_el: f64,
+    /// With a sliding pillar coupling: the cap side's d-line on the pillars' outer
+    /// face (the core side's is the next one).
+    split: Option<usize>,
+    web_layer: usize,
+    cap_inner: usize,
+    core_outer: usize,
+    core_inner: usize,
+}
+
+impl Walls {
+    /// Add a layer from the innermost d-line to `inner`, `thk` mm thick; returns its
+    /// inner d-line.
+    fn add_layer(&mut self, inner: Surface, thk: f64, j_end: usize, material: usize) -> usize {
+        let n = ((thk / self.t_el).round() as usize).max(1);
+        let outer = *self.dlines.last().expect("at least one d-line");
+        let first = self.dlines.len() - 1;
+        for k in 1..=2 * n {
+            self.dlines
+                .push(lerp_surface(outer, inner, k as f64 / (2 * n) as f64));
+        }
+        self.layers.push(Layer {
+            first,
+            n,
+            j_end,
+            material,
+        });
+        self.dlines.len() - 1
+    }
+}
+
+/// Lay out the walls: cap, clearance ring, groove ring, web ring, core (materials 0–4).
+fn wall_layers(
+    m: &crate::spec::Module,
+    p: &ModuleProfile,
+    s: &Stations,
+    opt: &FemOptions,
+) -> Walls {
     let cyl = |r: f64| Surface {
         r,
         rho: f64::INFINITY,
     };
-    let dl_cap_inner = add_layer(
-        Surface {
-            r: p.cap_inner_radius_mm,
-            rho: p.cap_dome_inner_sphere_radius_mm,
-        },
-        m.cap_wall_mm,
-        s.j_axis,
-        0,
-        &mut dlines,
-    );
-    if p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9 {
-        add_layer(
-            cyl(p.pillar_outer_radius_mm),
-            m.cap_core_clearance_mm,
-            s.j_pillar_top,
-            1,
-            &mut dlines,
-        );
+    let has_clearance = p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9;
+    let mut w = Walls {
+        dlines: vec![Surface {
+            r: p.cap_outer_radius_mm,
+            rho: p.cap_dome_outer_sphere_radius_mm,
+        }],
+        layers: Vec::new(),
+        t_el: m.cap_wall_mm.min(m.core_wall_mm) / opt.elements_through_wall as f64,
+        split: None,
+        web_layer: 2 + usize::from(has_clearance),
+        cap_inner: 0,
+        core_outer: 0,
+        core_inner: 0,
+    };
+    let cap_inner = Surface {
+        r: p.cap_inner_radius_mm,
+        rho: p.cap_dome_inner_sphere_radius_mm,
+    };
+    w.cap_inner = w.add_layer(cap_inner, m.cap_wall_mm, s.j_axis, 0);
+    if has_clearance {
+        let clearance = m.cap_core_clearance_mm;
+        w.add_layer(cyl(p.pillar_outer_radius_mm), clearance, s.j_pillar_top, 1);
     }
     // Base clip: the cap side (cap + its alignment pillars) and the core side (core
     // pillars) get separate nodes on the pillar's outer face, tied below.
-    let split = if opt.pillar_coupling != PillarCoupling::Bonded {
-        let outer = *dlines.last().expect("d-lines");
-        dlines.push(outer);
-        Some(dlines.len() - 2)
-    } else {
-        None
+    if opt.pillar_coupling != PillarCoupling::Bonded {
+        let outer = *w.dlines.last().expect("d-lines");
+        w.dlines.push(outer);
+        w.split = Some(w.dlines.len() - 2);
+    }
+    let groove = m.pillars.groove_depth_mm;
+    w.add_layer(cyl(p.groove_bottom_radius_mm), groove, s.j_pillar_top, 2);
+    let core_outer = Surface {
+        r: p.core_outer_radius_mm,
+        rho: p.core_dome_outer_sphere_radius_mm,
     };
-    add_layer(
-        cyl(p.groove_bottom_radius_mm),
-        m.pillars.groove_depth_mm,
-        s.j_pillar_top,
-        2,
-        &mut dlines,
-    );
-    let web_layer = 2 + usize::from(p.cap_inner_radius_mm - p.pillar_outer_radius_mm > 1e-9);
-    let dl_core_outer = add_layer(
-        Surface {
-            r: p.core_outer_radius_mm,
-            rho: p.core_dome_outer_sphere_radius_mm,
-        },
-        p.groove_bottom_radius_mm - p.core_outer_radius_mm,
-        s.j_pillar_top,
-        3,
-        &mut dlines,
-    );
-    let dl_core_inner = add_layer(
-        Surface {
-            r: p.core_inner_radius_mm,
-            rho: p.core_dome_inner_sphere_radius_mm,
-        },
-        m.core_wall_mm,
-        s.j_hole,
-        4,
-        &mut dlines,
-    );
+    let web = p.groove_bottom_radius_mm - p.core_outer_radius_mm;
+    w.core_outer = w.add_layer(core_outer, web, s.j_pillar_top, 3);
+    let core_inner = Surface {
+        r: p.core_inner_radius_mm,
+        rho: p.core_dome_inner_sphere_radius_mm,
+    };
+    w.core_inner = w.add_layer(core_inner, m.core_wall_mm, s.j_hole, 4);
+    w
+}
 
-    let mut mesh = Mesh::default();
-    let mut node_of: HashMap<(usize, usize), usize> = HashMap::new();
-    let mut get = |mesh: &mut Mesh, dl: usize, j: usize| -> usize {
-        *node_of.entry((dl, j)).or_insert_with(|| {
-            let q = point(dlines[dl], s.st[j], zc);
-            mesh.add_node(q[0], q[1])
-        })
-    };
-    let mut web_elements = 0..0;
-    let mut base_nodes = Vec::new();
-    for (li, &(first, nn, j_end, material)) in layers.iter().enumerate() {
-        let ids: Vec<Vec<usize>> = (0..=2 * nn)
-            .map(|i| (0..=j_end).map(|j| get(&mut mesh, first + i, j)).collect())
-            .collect();
-        for col in &ids {
-            base_nodes.push(col[0]);
-        }
-        let range = mesh.add_block(&ids, material);
-        if li == web_layer {
-            web_elements = range;
-        }
+/// The mesh being built, with the node at each (d-line, station) made once.
+struct WallMesh<'a> {
+    mesh: Mesh,
+    node_of: HashMap<(usize, usize), usize>,
+    dlines: &'a [Surface],
+    stations: &'a Stations,
+    zc: f64,
+}
+
+impl WallMesh<'_> {
+    /// The node on d-line `dl` at station `j`.
+    fn node(&mut self, dl: usize, j: usize) -> usize {
+        let (mesh, q) = (
+            &mut self.mesh,
+            point(self.dlines[dl], self.stations.st[j], self.zc),
+        );
+        *self
+            .node_of
+            .entry((dl, j))
+            .or_insert_with(|| mesh.add_node(q[0], q[1]))
     }
-    let mut fixed = Vec::new();
-    let mut ties = Vec::new();
-    if case == LoadCase::II {
-        for &b in &base_nodes {
-            fixed.push((b, Z));
-        }
-    }
-    let mut contact_pairs = Vec::new();
-    if let Some(dl) = split {
-        let clip = opt.clip_height_mm.unwrap_or(m.cap_wall_mm);
-        if !(clip.is_finite() && clip > 0.0) {
-            bail!("the clip band's height must be a positive number of mm, got {clip}");
-        }
-        // Bonded only in the clip band at the base, so the cap slides axially over the
-        // core above it: in radial contact (a bilateral tie) or in unilateral contact
-        // across the printed clearance.
-        for j in 0..=s.j_pillar_top {
-            let (a, b) = (get(&mut mesh, dl, j), get(&mut mesh, dl + 1, j));
-            let in_clip = mesh.nodes[a][1] <= clip + 1e-9;
-            if in_clip {
-                ties.push((a, b, R));
-                ties.push((a, b, Z));
-            } else if opt.pillar_coupling == PillarCoupling::BaseClipContact {
-                // The cap side lies outside: the normal from it to the core points inwards.
-                contact_pairs.push(ContactPair {
-                    a,
-                    b: Some(b),
-                    normal: [-1.0, 0.0],
-                    gap_mm: m.cap_core_clearance_mm,
-                });
-            } else {
-                ties.push((a, b, R));
+
+    /// Mesh every wall layer; returns the web ring's elements and the nodes on the base.
+    fn mesh_layers(&mut self, walls: &Walls) -> (Range<usize>, Vec<usize>) {
+        let mut web_elements = 0..0;
+        let mut base_nodes = Vec::new();
+        for (li, l) in walls.layers.iter().enumerate() {
+            let ids: Vec<Vec<usize>> = (0..=2 * l.n)
+                .map(|i| (0..=l.j_end).map(|j| self.node(l.first + i, j)).collect())
+                .collect();
+            base_nodes.extend(ids.iter().map(|col| col[0]));
+            let range = self.mesh.add_block(&ids, l.material);
+            if li == walls.web_layer {
+                web_elements = range;
             }
         }
+        (web_elements, base_nodes)
     }
-    let cylinder_pairs = contact_pairs.len();
+}
+
+/// Supports and couplings: fixed components, ties and unilateral contact pairs.
+#[derive(Default)]
+struct Couplings {
+    fixed: Vec<(usize, usize)>,
+    ties: Vec<(usize, usize, usize)>,
+    contact_pairs: Vec<ContactPair>,
+}
+
+/// Couple the cap side to the core side of the pillars' outer face (d-lines `dl`,
+/// `dl + 1`): bonded in the clip band at the base, and above it either tied radially
+/// or in unilateral contact across the printed clearance.
+fn clip_band_coupling(
+    wm: &mut WallMesh,
+    dl: usize,
+    m: &crate::spec::Module,
+    opt: &FemOptions,
+    c: &mut Couplings,
+) -> Result<()> {
+    let clip = opt.clip_height_mm.unwrap_or(m.cap_wall_mm);
+    if !(clip.is_finite() && clip > 0.0) {
+        bail!("the clip band's height must be a positive number of mm, got {clip}");
+    }
+    // Bonded only in the clip band at the base, so the cap slides axially over the
+    // core above it.
+    for j in 0..=wm.stations.j_pillar_top {
+        let (a, b) = (wm.node(dl, j), wm.node(dl + 1, j));
+        let in_clip = wm.mesh.nodes[a][1] <= clip + 1e-9;
+        if in_clip {
+            c.ties.push((a, b, R));
+            c.ties.push((a, b, Z));
+        } else if opt.pillar_coupling == PillarCoupling::BaseClipContact {
+            // The cap side lies outside: the normal from it to the core points inwards.
+            c.contact_pairs.push(ContactPair {
+                a,
+                b: Some(b),
+                normal: [-1.0, 0.0],
+                gap_mm: m.cap_core_clearance_mm,
+            });
+        } else {
+            c.ties.push((a, b, R));
+        }
+    }
+    Ok(())
+}
+
+/// Couple the cap's dome to the core's dome above the pillars as `opt.dome_contact`
+/// says: a gap, unilateral contact, or ties over the whole dome or the apex patch.
+fn dome_coupling(wm: &mut WallMesh, walls: &Walls, opt: &FemOptions, c: &mut Couplings) {
+    let s = wm.stations;
     let tie_from = match opt.dome_contact {
         DomeContact::Gap | DomeContact::Unilateral => None,
         DomeContact::Tied => Some(s.j_pillar_top + 1),
@@ -929,17 +992,17 @@ pub fn build(
     };
     if opt.dome_contact == DomeContact::Unilateral {
         for j in s.j_pillar_top + 1..=s.j_hole {
-            let a = get(&mut mesh, dl_cap_inner, j);
-            let b = get(&mut mesh, dl_core_outer, j);
+            let a = wm.node(walls.cap_inner, j);
+            let b = wm.node(walls.core_outer, j);
             // Facing nodes lie on one ray from the dome centre (or one horizontal line
             // below it): the normal points along it, inwards, from the cap to the core.
             let normal = match s.st[j] {
                 Station::Z(_) => [-1.0, 0.0],
                 Station::Theta(t) => [-t.cos(), -t.sin()],
             };
-            let (xa, xb) = (mesh.nodes[a], mesh.nodes[b]);
+            let (xa, xb) = (wm.mesh.nodes[a], wm.mesh.nodes[b]);
             let gap = normal[0] * (xb[0] - xa[0]) + normal[1] * (xb[1] - xa[1]);
-            contact_pairs.push(ContactPair {
+            c.contact_pairs.push(ContactPair {
                 a,
                 b: Some(b),
                 normal,
@@ -949,45 +1012,47 @@ pub fn build(
     }
     if let Some(j0) = tie_from {
         for j in j0..=s.j_hole {
-            let a = get(&mut mesh, dl_cap_inner, j);
-            let b = get(&mut mesh, dl_core_outer, j);
-            ties.push((a, b, R));
-            ties.push((a, b, Z));
+            let a = wm.node(walls.cap_inner, j);
+            let b = wm.node(walls.core_outer, j);
+            c.ties.push((a, b, R));
+            c.ties.push((a, b, Z));
         }
     }
+}
 
-    // Case I: the solid insert (rectangle below the seam, O-grid above it).
-    if insert.is_some() {
-        let surface = mesh_insert(&mut mesh, &mut fixed, &p, &s, h, zc);
-        for (j, &b) in surface.iter().enumerate().take(s.j_hole + 1) {
-            let a = get(&mut mesh, dl_core_inner, j);
-            let on_cylinder = mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
-            ties.push((a, b, R));
-            if !(on_cylinder && opt.insert_contact == InsertContact::SlidingWall) {
-                ties.push((a, b, Z));
-            }
+/// Case I: mesh the solid insert and tie the core's inner wall to it (on the cylinder
+/// radially only when the insert contact slides).
+fn insert_coupling(
+    wm: &mut WallMesh,
+    walls: &Walls,
+    p: &ModuleProfile,
+    h: f64,
+    opt: &FemOptions,
+    c: &mut Couplings,
+) {
+    let s = wm.stations;
+    let surface = mesh_insert(&mut wm.mesh, &mut c.fixed, p, s, h, wm.zc);
+    for (j, &b) in surface.iter().enumerate().take(s.j_hole + 1) {
+        let a = wm.node(walls.core_inner, j);
+        let on_cylinder = wm.mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
+        c.ties.push((a, b, R));
+        if !(on_cylinder && opt.insert_contact == InsertContact::SlidingWall) {
+            c.ties.push((a, b, Z));
         }
     }
+}
 
-    // Axis: no radial motion.
-    for (i, q) in mesh.nodes.iter().enumerate() {
-        if q[0].abs() < 1e-9 {
-            fixed.push((i, R));
-        }
-    }
-
-    // Apex load, 1 N downward, as uniform pressure on the projected apex patch.
+/// The apex load, 1 N downward, as uniform pressure on the projected apex patch of
+/// the cap's outer surface.
+fn apex_load(wm: &mut WallMesh, p: &ModuleProfile) -> Vec<(usize, usize, f64)> {
     let a = p.apex_flat_radius_mm;
     let pressure = 1.0 / (PI * a * a);
     let mut loads = Vec::new();
-    let mut j = s.j_axis;
+    let mut j = wm.stations.j_axis;
     while j >= 2 {
-        let ids = [
-            get(&mut mesh, 0, j - 2),
-            get(&mut mesh, 0, j - 1),
-            get(&mut mesh, 0, j),
-        ];
-        let xy = [mesh.nodes[ids[0]], mesh.nodes[ids[1]], mesh.nodes[ids[2]]];
+        let ids = [wm.node(0, j - 2), wm.node(0, j - 1), wm.node(0, j)];
+        let nodes = &wm.mesh.nodes;
+        let xy = [nodes[ids[0]], nodes[ids[1]], nodes[ids[2]]];
         if xy[2][0] >= a {
             break;
         }
@@ -1005,23 +1070,76 @@ pub fn build(
         }
         j -= 2;
     }
+    loads
+}
 
+/// Build the module problem for one core (and insert in Case I), loaded by 1 N.
+pub fn build(
+    design: &Design,
+    core_material: &str,
+    insert_material: Option<&str>,
+    case: LoadCase,
+    opt: &FemOptions,
+) -> Result<ModuleModel> {
+    let inputs = module_inputs(design, core_material, insert_material, case, opt)?;
+    let (m, p) = (inputs.module, &inputs.profile);
+    let (h, fiber_r) = (opt.element_size_mm, p.fiber_hole_center_radius_mm);
+    let dome_h = opt.dome_element_size_mm;
+    let s = make_stations(
+        p,
+        h,
+        dome_h,
+        fiber_r,
+        inputs.patch_radius_mm,
+        inputs.clip_mm,
+    )?;
+    let sliding = opt.pillar_coupling != PillarCoupling::Bonded;
+    let materials = smeared_materials(m, p, inputs.cap, inputs.core, inputs.insert, sliding);
+    let walls = wall_layers(m, p, &s, opt);
+    let mut wm = WallMesh {
+        mesh: Mesh::default(),
+        node_of: HashMap::new(),
+        dlines: &walls.dlines,
+        stations: &s,
+        zc: p.dome_center_z_mm,
+    };
+    let (web_elements, base_nodes) = wm.mesh_layers(&walls);
+    let mut c = Couplings::default();
+    if case == LoadCase::II {
+        c.fixed.extend(base_nodes.iter().map(|&b| (b, Z)));
+    }
+    if let Some(dl) = walls.split {
+        clip_band_coupling(&mut wm, dl, m, opt, &mut c)?;
+    }
+    let cylinder_pairs = c.contact_pairs.len();
+    dome_coupling(&mut wm, &walls, opt, &mut c);
+    if inputs.insert.is_some() {
+        insert_coupling(&mut wm, &walls, p, h, opt, &mut c);
+    }
+    // Axis: no radial motion.
+    for (i, q) in wm.mesh.nodes.iter().enumerate() {
+        if q[0].abs() < 1e-9 {
+            c.fixed.push((i, R));
+        }
+    }
+    let loads = apex_load(&mut wm, p);
+    let mesh = wm.mesh;
     Ok(ModuleModel {
         problem: Problem {
             mesh,
             materials,
             formulation: opt.formulation,
-            fixed,
-            ties,
+            fixed: c.fixed,
+            ties: c.ties,
             loads,
         },
         web_elements,
         fiber_radius_mm: fiber_r,
         z_breaks_mm: s.z_breaks,
-        pair_on_cylinders: (0..contact_pairs.len())
+        pair_on_cylinders: (0..c.contact_pairs.len())
             .map(|i| i < cylinder_pairs)
             .collect(),
-        contact_pairs,
+        contact_pairs: c.contact_pairs,
     })
 }
 

@@ -306,9 +306,10 @@ impl Interpreter {
         })
     }
 
-    fn for_module(design: &Design, opts: &InterpretOptions) -> Result<Self> {
+    /// The core plugged in: the one named (checked), else the design's first.
+    fn module_core(design: &Design, opts: &InterpretOptions) -> Result<String> {
         let m = design.module.as_ref().expect("checked by the caller");
-        let core = match &opts.core {
+        match &opts.core {
             Some(c) => {
                 if !m.cores.iter().any(|k| &k.name == c) {
                     let names: Vec<&str> = m.cores.iter().map(|k| k.name.as_str()).collect();
@@ -318,14 +319,20 @@ impl Interpreter {
                         names.join(", ")
                     );
                 }
-                c.clone()
+                Ok(c.clone())
             }
             None => m
                 .cores
                 .first()
                 .map(|k| k.name.clone())
-                .ok_or_else(|| anyhow!("design `{}` lists no core", design.name))?,
-        };
+                .ok_or_else(|| anyhow!("design `{}` lists no core", design.name)),
+        }
+    }
+
+    /// The load case (I with an insert, II without, unless named), checked against the
+    /// insert given and the design's inserts.
+    fn module_case(design: &Design, opts: &InterpretOptions) -> Result<LoadCase> {
+        let m = design.module.as_ref().expect("checked by the caller");
         let case = opts.case.unwrap_or(if opts.insert.is_some() {
             LoadCase::I
         } else {
@@ -334,8 +341,9 @@ impl Interpreter {
         if case == LoadCase::II && opts.insert.is_some() {
             bail!("--insert names the insert of Case I; Case II has none");
         }
+        let insert_names = || -> Vec<&str> { m.inserts.iter().map(|i| i.name.as_str()).collect() };
         if case == LoadCase::I && opts.insert.is_none() {
-            let names: Vec<&str> = m.inserts.iter().map(|i| i.name.as_str()).collect();
+            let names = insert_names();
             bail!(
                 "Case I needs --insert; the design's inserts are: {}",
                 if names.is_empty() {
@@ -347,18 +355,27 @@ impl Interpreter {
         }
         if let Some(ins) = &opts.insert {
             if !m.inserts.iter().any(|i| &i.name == ins) {
-                let names: Vec<&str> = m.inserts.iter().map(|i| i.name.as_str()).collect();
                 bail!(
                     "design `{}` has no insert named `{ins}`; its inserts are: {}",
                     design.name,
-                    names.join(", ")
+                    insert_names().join(", ")
                 );
             }
         }
+        Ok(case)
+    }
+
+    /// The core's strain gratings (at least one), with every calibrated K naming one.
+    fn module_strain_gratings<'a>(
+        design: &'a Design,
+        core: &str,
+        opts: &InterpretOptions,
+    ) -> Result<Vec<&'a crate::spec::ModuleGrating>> {
+        let m = design.module.as_ref().expect("checked by the caller");
         let strain: Vec<&crate::spec::ModuleGrating> = m
             .gratings
             .iter()
-            .filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(core.as_str()))
+            .filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(core))
             .collect();
         if strain.is_empty() {
             bail!(
@@ -375,6 +392,69 @@ impl Interpreter {
                 );
             }
         }
+        Ok(strain)
+    }
+
+    /// The policy's K per strain grating of `core` in `case`, pm/N.
+    fn predicted_k(
+        design: &Design,
+        core: &str,
+        case: LoadCase,
+        opts: &InterpretOptions,
+    ) -> Result<BTreeMap<String, f64>> {
+        let request = PredictionRequest {
+            force_n: 1.0,
+            case: Some(case),
+            fidelity: opts.fidelity,
+            ..PredictionRequest::default()
+        };
+        Ok(crate::prediction::predict(design, &request)
+            .with_context(|| format!("design `{}`: cannot predict K", design.name))?
+            .into_iter()
+            .filter(|r| {
+                r.detail.prediction.core == core && r.detail.prediction.insert == opts.insert
+            })
+            .map(|r| {
+                (
+                    r.detail.prediction.grating.clone(),
+                    r.detail.prediction.sensitivity_pm_per_n,
+                )
+            })
+            .collect())
+    }
+
+    /// K of each strain grating, pm/N: calibrated where given, else predicted; a K
+    /// that reads no force is refused.
+    fn strain_k(
+        strain: &[&crate::spec::ModuleGrating],
+        opts: &InterpretOptions,
+        predicted: &BTreeMap<String, f64>,
+    ) -> Result<Vec<f64>> {
+        let mut ks = Vec::with_capacity(strain.len());
+        for g in strain {
+            let k = match opts.calibrated_k_pm_per_n.get(&g.name) {
+                Some(&k) => k,
+                None => *predicted
+                    .get(&g.name)
+                    .ok_or_else(|| anyhow!("the model gave no K for grating `{}`", g.name))?,
+            };
+            if !(k.is_finite() && k != 0.0) {
+                bail!(
+                    "K of grating `{}` is {k} pm/N: no force can be read from it",
+                    g.name
+                );
+            }
+            ks.push(k);
+        }
+        Ok(ks)
+    }
+
+    /// Prepare a module: its core and load case, K per strain grating, the reference.
+    fn for_module(design: &Design, opts: &InterpretOptions) -> Result<Self> {
+        let m = design.module.as_ref().expect("checked by the caller");
+        let core = Self::module_core(design, opts)?;
+        let case = Self::module_case(design, opts)?;
+        let strain = Self::module_strain_gratings(design, &core, opts)?;
         // A reference named after this core first, else one bonded to no core.
         let reference = m
             .gratings
@@ -390,51 +470,14 @@ impl Interpreter {
         let need_prediction = strain
             .iter()
             .any(|g| !opts.calibrated_k_pm_per_n.contains_key(&g.name));
-        let predicted: BTreeMap<String, f64> = if need_prediction {
-            crate::prediction::predict(
-                design,
-                &PredictionRequest {
-                    force_n: 1.0,
-                    case: Some(case),
-                    fidelity: opts.fidelity,
-                    ..PredictionRequest::default()
-                },
-            )
-            .with_context(|| format!("design `{}`: cannot predict K", design.name))?
-            .into_iter()
-            .filter(|r| {
-                r.detail.prediction.core == core && r.detail.prediction.insert == opts.insert
-            })
-            .map(|r| {
-                (
-                    r.detail.prediction.grating.clone(),
-                    r.detail.prediction.sensitivity_pm_per_n,
-                )
-            })
-            .collect()
+        let predicted = if need_prediction {
+            Self::predicted_k(design, &core, case, opts)?
         } else {
             BTreeMap::new()
         };
-        let mut names = Vec::new();
-        let mut nominal = Vec::new();
-        let mut ks = Vec::new();
-        for g in &strain {
-            let k = match opts.calibrated_k_pm_per_n.get(&g.name) {
-                Some(&k) => k,
-                None => *predicted
-                    .get(&g.name)
-                    .ok_or_else(|| anyhow!("the model gave no K for grating `{}`", g.name))?,
-            };
-            if !(k.is_finite() && k != 0.0) {
-                bail!(
-                    "K of grating `{}` is {k} pm/N: no force can be read from it",
-                    g.name
-                );
-            }
-            names.push(g.name.clone());
-            nominal.push(g.bragg_wavelength_nm);
-            ks.push(k);
-        }
+        let ks = Self::strain_k(&strain, opts, &predicted)?;
+        let mut names: Vec<String> = strain.iter().map(|g| g.name.clone()).collect();
+        let mut nominal: Vec<f64> = strain.iter().map(|g| g.bragg_wavelength_nm).collect();
         let outputs = names.clone();
         let reference_idx = reference.map(|r| {
             names.push(r.name.clone());

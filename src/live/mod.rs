@@ -24,11 +24,11 @@ pub mod synth;
 pub mod view;
 
 use anyhow::Result;
-use interpret::{InterpretOptions, Interpreter, Skip};
+use interpret::{InterpretOptions, Interpreter, Prepared, Skip};
 use source::{Outlet, SourceEvent, SourceSpec};
 use stats::{Dropped, LiveSummary, Stats};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -75,20 +75,20 @@ fn wall_now_s() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64())
 }
 
-/// Watch a stream until it ends, `stop` is set, or a limit of the request is reached;
-/// every reading, bad frame and event goes to `sink`. Returns the summary (also given to
-/// the sink). Errors only for a bad request (design, options); nothing in the stream is
-/// fatal.
-pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Result<LiveSummary> {
+/// Check the request's limits and queue size.
+fn check_request(req: &LiveRequest) -> Result<()> {
     if let Some(d) = req.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
         anyhow::bail!("--duration-s must be a positive number of seconds, got {d}");
     }
     if req.queue_frames == 0 {
         anyhow::bail!("the queue must hold at least one frame");
     }
-    let design = crate::design::load(&req.design)?;
-    let mut interp = Interpreter::new(&design, &req.interpret)?;
-    let info = LiveInfo {
+    Ok(())
+}
+
+/// What the sink is told before the first frame: the design, the source and the outputs.
+fn live_info(design: &crate::spec::Design, interp: &Interpreter, req: &LiveRequest) -> LiveInfo {
+    LiveInfo {
         design: design.name.clone(),
         kind: if interp.array_grid().is_some() {
             "array"
@@ -103,138 +103,134 @@ pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Res
         method: interp.method().map(|m| m.name().to_string()),
         sensitivities_pm_per_n: interp.sensitivities_pm_per_n(),
         tare_frames: req.interpret.tare_frames,
-    };
-    let (tx, rx) = sync_channel(req.queue_frames);
-    let source_stop = Arc::new(AtomicBool::new(false));
-    let outlet = Outlet::new(tx, source_stop.clone());
-    let overflow = outlet.overflow.clone();
-    // The source thread is not joined: one blocked on standard input cannot be woken;
-    // every other source sees `source_stop` within 200 ms and exits.
-    let _reader = source::spawn(req.source.clone(), outlet);
-
-    let mut stats = Stats::default();
-    let mut connections = 0u64;
-    let started = Instant::now();
-    let mut first_frame: Option<Instant> = None;
-    let mut last_frame: Option<Instant> = None;
-    let mut ended: Option<String> = None;
-    let mut batch: Vec<SourceEvent> = Vec::with_capacity(BATCH);
-    let mut prepared = Vec::with_capacity(BATCH);
-    let mut meta: Vec<(Option<u64>, Option<f64>, bool, Instant)> = Vec::with_capacity(BATCH);
-    let sink_error = |e: std::io::Error| format!("output closed ({e})");
-    if let Err(e) = sink.start(&info) {
-        ended = Some(sink_error(e));
     }
-    while ended.is_none() {
-        if stop.load(Ordering::Relaxed) {
-            ended = Some("stopped".into());
-            break;
-        }
-        if let Some(d) = req.duration_s {
-            if started.elapsed().as_secs_f64() >= d {
-                ended = Some(format!("--duration-s {d} reached"));
-                break;
-            }
-        }
-        batch.clear();
-        match rx.recv_timeout(Duration::from_millis(50)) {
-            Ok(ev) => batch.push(ev),
-            Err(RecvTimeoutError::Timeout) => {
-                let el = first_frame.map_or(Duration::ZERO, |t| t.elapsed());
-                stats.dropped.queue_overflow = overflow.load(Ordering::Relaxed);
-                if let Err(e) = sink.tick(&stats, el) {
-                    ended = Some(sink_error(e));
-                }
-                continue;
-            }
-            Err(RecvTimeoutError::Disconnected) => {
-                ended = Some("the source stopped".into());
-                break;
-            }
-        }
-        while batch.len() < BATCH {
-            match rx.try_recv() {
-                Ok(ev) => batch.push(ev),
-                Err(_) => break,
-            }
-        }
-        prepared.clear();
-        meta.clear();
+}
+
+/// Why the watch ends: the output closed.
+fn sink_error(e: std::io::Error) -> String {
+    format!("output closed ({e})")
+}
+
+/// Where and when a prepared frame was read.
+struct FrameMeta {
+    serial: Option<u64>,
+    time_s: Option<f64>,
+    wall_clock: bool,
+    received: Instant,
+}
+
+/// A watch in progress: the interpreter, the counters, the frames of the current batch
+/// and why the watch ended, once it has.
+struct Watch<'a> {
+    interp: Interpreter,
+    sink: &'a mut dyn LiveSink,
+    stats: Stats,
+    overflow: Arc<AtomicU64>,
+    connections: u64,
+    first_frame: Option<Instant>,
+    last_frame: Option<Instant>,
+    ended: Option<String>,
+    prepared: Vec<Prepared>,
+    meta: Vec<FrameMeta>,
+    max_frames: Option<u64>,
+}
+
+impl Watch<'_> {
+    /// Interpret one batch of source events and pass their readings on.
+    fn batch(&mut self, batch: &mut Vec<SourceEvent>) {
+        self.prepared.clear();
+        self.meta.clear();
         let mut out_err: Option<std::io::Error> = None;
         for ev in batch.drain(..) {
-            let r = match ev {
-                SourceEvent::Frame(f) => {
-                    first_frame.get_or_insert(f.received);
-                    last_frame = Some(f.received);
-                    stats.frames_in += 1;
-                    let (p, ambiguous) = interp.prepare(&f);
-                    stats.ambiguous_frames += ambiguous as u64;
-                    match p {
-                        Ok(p) => {
-                            prepared.push(p);
-                            meta.push((f.serial, f.time_s, f.wall_clock, f.received));
-                            Ok(())
-                        }
-                        Err(Skip::Tare) => {
-                            stats.tare_frames += 1;
-                            Ok(())
-                        }
-                        Err(Skip::Bad(kind, message)) => {
-                            stats.bad_frames += 1;
-                            let m = message.clone();
-                            stats.bad.add(kind, || m);
-                            sink.bad(kind, &message)
-                        }
-                    }
-                }
-                SourceEvent::Bad { kind, message } => {
-                    stats.bad_frames += 1;
-                    let m = message.clone();
-                    stats.bad.add(&kind, || m);
-                    sink.bad(&kind, &message)
-                }
-                SourceEvent::Missed(n) => {
-                    stats.dropped.serial_gaps += n;
-                    Ok(())
-                }
-                SourceEvent::Connected(what) => {
-                    connections += 1;
-                    if connections > 1 {
-                        stats.reconnects += 1;
-                    }
-                    sink.event(
-                        if connections > 1 {
-                            "reconnected"
-                        } else {
-                            "connected"
-                        },
-                        &what,
-                    )
-                }
-                SourceEvent::Disconnected(why) => {
-                    let m = why.clone();
-                    stats.bad.add("disconnected", || m);
-                    sink.event("disconnected", &why)
-                }
-                SourceEvent::End(why) => {
-                    ended = Some(why);
-                    Ok(())
-                }
-            };
-            if let Err(e) = r {
+            if let Err(e) = self.event(ev) {
                 out_err = Some(e);
                 break;
             }
         }
-        let readings = interp.solve(&prepared);
+        self.readings(&mut out_err);
+        self.tick(out_err);
+    }
+
+    /// Count one source event and prepare a frame; an error when the output closed.
+    fn event(&mut self, ev: SourceEvent) -> std::io::Result<()> {
+        match ev {
+            SourceEvent::Frame(f) => self.frame(&f),
+            SourceEvent::Bad { kind, message } => self.bad(&kind, message),
+            SourceEvent::Missed(n) => {
+                self.stats.dropped.serial_gaps += n;
+                Ok(())
+            }
+            SourceEvent::Connected(what) => {
+                self.connections += 1;
+                if self.connections > 1 {
+                    self.stats.reconnects += 1;
+                }
+                let event = if self.connections > 1 {
+                    "reconnected"
+                } else {
+                    "connected"
+                };
+                self.sink.event(event, &what)
+            }
+            SourceEvent::Disconnected(why) => {
+                let m = why.clone();
+                self.stats.bad.add("disconnected", || m);
+                self.sink.event("disconnected", &why)
+            }
+            SourceEvent::End(why) => {
+                self.ended = Some(why);
+                Ok(())
+            }
+        }
+    }
+
+    /// Prepare one frame: a tare frame, a bad one, or shifts to solve with the batch.
+    fn frame(&mut self, f: &source::Frame) -> std::io::Result<()> {
+        self.first_frame.get_or_insert(f.received);
+        self.last_frame = Some(f.received);
+        self.stats.frames_in += 1;
+        let (p, ambiguous) = self.interp.prepare(f);
+        self.stats.ambiguous_frames += ambiguous as u64;
+        match p {
+            Ok(p) => {
+                self.prepared.push(p);
+                self.meta.push(FrameMeta {
+                    serial: f.serial,
+                    time_s: f.time_s,
+                    wall_clock: f.wall_clock,
+                    received: f.received,
+                });
+                Ok(())
+            }
+            Err(Skip::Tare) => {
+                self.stats.tare_frames += 1;
+                Ok(())
+            }
+            Err(Skip::Bad(kind, message)) => self.bad(kind, message),
+        }
+    }
+
+    /// Count a bad frame by kind and pass it on.
+    fn bad(&mut self, kind: &str, message: String) -> std::io::Result<()> {
+        self.stats.bad_frames += 1;
+        let m = message.clone();
+        self.stats.bad.add(kind, || m);
+        self.sink.bad(kind, &message)
+    }
+
+    /// Solve the batch's prepared frames and pass each reading on with its latency,
+    /// until the output closes or the frame limit is reached.
+    fn readings(&mut self, out_err: &mut Option<std::io::Error>) {
+        let readings = self.interp.solve(&self.prepared);
         let now = Instant::now();
         let wall = wall_now_s();
-        for (reading, &(serial, time_s, wall_clock, received)) in readings.into_iter().zip(&meta) {
+        for (reading, m) in readings.into_iter().zip(&self.meta) {
             if out_err.is_some() {
                 break;
             }
-            let latency_us = now.duration_since(received).as_secs_f64() * 1e6;
-            let age_us = time_s.filter(|_| wall_clock).map(|t| (wall - t) * 1e6);
+            let stats = &mut self.stats;
+            let latency_us = now.duration_since(m.received).as_secs_f64() * 1e6;
+            let age_us = m.time_s.filter(|_| m.wall_clock).map(|t| (wall - t) * 1e6);
             stats.latency.add(latency_us);
             if let Some(a) = age_us {
                 stats.age.add(a);
@@ -247,64 +243,145 @@ pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Res
             }
             stats.frames_out += 1;
             let r = FrameReading {
-                serial,
-                time_s,
+                serial: m.serial,
+                time_s: m.time_s,
                 reading,
                 latency_us,
                 age_us,
             };
-            if let Err(e) = sink.reading(&r) {
-                out_err = Some(e);
+            if let Err(e) = self.sink.reading(&r) {
+                *out_err = Some(e);
             }
-            if req.max_frames.is_some_and(|m| stats.frames_out >= m) {
-                ended.get_or_insert_with(|| format!("{} frames read", stats.frames_out));
+            if self
+                .max_frames
+                .is_some_and(|limit| stats.frames_out >= limit)
+            {
+                let n = stats.frames_out;
+                self.ended.get_or_insert_with(|| format!("{n} frames read"));
                 break;
             }
         }
-        stats.dropped.queue_overflow = overflow.load(Ordering::Relaxed);
-        let el = first_frame.map_or(Duration::ZERO, |t| t.elapsed());
+    }
+
+    /// Give the sink the counters so far; the watch ends if the output closed.
+    fn tick(&mut self, out_err: Option<std::io::Error>) {
+        self.stats.dropped.queue_overflow = self.overflow.load(Ordering::Relaxed);
+        let el = self.first_frame.map_or(Duration::ZERO, |t| t.elapsed());
         if let Some(e) = out_err {
-            ended = Some(sink_error(e));
-        } else if let Err(e) = sink.tick(&stats, el) {
-            ended = Some(sink_error(e));
+            self.ended = Some(sink_error(e));
+        } else if let Err(e) = self.sink.tick(&self.stats, el) {
+            self.ended = Some(sink_error(e));
         }
+    }
+
+    /// The watch's summary: counts, rate over the frames themselves (not the wait for
+    /// a source that ended), drops, latency.
+    fn summary(&mut self, design: String, source: String) -> LiveSummary {
+        let stats = &mut self.stats;
+        stats.dropped.queue_overflow = self.overflow.load(Ordering::Relaxed);
+        let elapsed_s = self.first_frame.map_or(0.0, |t| t.elapsed().as_secs_f64());
+        let span_s = match (self.first_frame, self.last_frame) {
+            (Some(a), Some(b)) => b.duration_since(a).as_secs_f64(),
+            _ => 0.0,
+        };
+        let d = stats.dropped;
+        LiveSummary {
+            design,
+            source,
+            ended: self.ended.take().unwrap_or_else(|| "stopped".into()),
+            elapsed_s,
+            frames_in: stats.frames_in,
+            frames_out: stats.frames_out,
+            rate_hz: if span_s > 0.0 {
+                (stats.frames_in.saturating_sub(1)) as f64 / span_s
+            } else {
+                0.0
+            },
+            tare_frames: stats.tare_frames,
+            bad_frames: stats.bad_frames,
+            bad: stats.bad.clone(),
+            ambiguous_frames: stats.ambiguous_frames,
+            dropped: Dropped {
+                total: d.serial_gaps + d.queue_overflow,
+                ..d
+            },
+            reconnects: stats.reconnects,
+            not_converged: stats.not_converged,
+            latency: stats.latency.summary(),
+            age: stats.age.summary(),
+        }
+    }
+}
+
+/// Watch a stream until it ends, `stop` is set, or a limit of the request is reached;
+/// every reading, bad frame and event goes to `sink`. Returns the summary (also given to
+/// the sink). Errors only for a bad request (design, options); nothing in the stream is
+/// fatal.
+pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Result<LiveSummary> {
+    check_request(req)?;
+    let design = crate::design::load(&req.design)?;
+    let interp = Interpreter::new(&design, &req.interpret)?;
+    let info = live_info(&design, &interp, req);
+    let (tx, rx) = sync_channel(req.queue_frames);
+    let source_stop = Arc::new(AtomicBool::new(false));
+    let outlet = Outlet::new(tx, source_stop.clone());
+    let overflow = outlet.overflow.clone();
+    // The source thread is not joined: one blocked on standard input cannot be woken;
+    // every other source sees `source_stop` within 200 ms and exits.
+    let _reader = source::spawn(req.source.clone(), outlet);
+    let mut w = Watch {
+        interp,
+        sink,
+        stats: Stats::default(),
+        overflow,
+        connections: 0,
+        first_frame: None,
+        last_frame: None,
+        ended: None,
+        prepared: Vec::with_capacity(BATCH),
+        meta: Vec::with_capacity(BATCH),
+        max_frames: req.max_frames,
+    };
+    let started = Instant::now();
+    let mut batch: Vec<SourceEvent> = Vec::with_capacity(BATCH);
+    if let Err(e) = w.sink.start(&info) {
+        w.ended = Some(sink_error(e));
+    }
+    while w.ended.is_none() {
+        if stop.load(Ordering::Relaxed) {
+            w.ended = Some("stopped".into());
+            break;
+        }
+        if let Some(d) = req.duration_s {
+            if started.elapsed().as_secs_f64() >= d {
+                w.ended = Some(format!("--duration-s {d} reached"));
+                break;
+            }
+        }
+        batch.clear();
+        match rx.recv_timeout(Duration::from_millis(50)) {
+            Ok(ev) => batch.push(ev),
+            Err(RecvTimeoutError::Timeout) => {
+                w.tick(None);
+                continue;
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                w.ended = Some("the source stopped".into());
+                break;
+            }
+        }
+        while batch.len() < BATCH {
+            match rx.try_recv() {
+                Ok(ev) => batch.push(ev),
+                Err(_) => break,
+            }
+        }
+        w.batch(&mut batch);
     }
     source_stop.store(true, Ordering::Relaxed);
     drop(rx);
-    stats.dropped.queue_overflow = overflow.load(Ordering::Relaxed);
-    let elapsed_s = first_frame.map_or(0.0, |t| t.elapsed().as_secs_f64());
-    // The rate over the frames themselves (not the wait for a source that ended).
-    let span_s = match (first_frame, last_frame) {
-        (Some(a), Some(b)) => b.duration_since(a).as_secs_f64(),
-        _ => 0.0,
-    };
-    let d = stats.dropped;
-    let summary = LiveSummary {
-        design: design.name.clone(),
-        source: req.source.describe(),
-        ended: ended.unwrap_or_else(|| "stopped".into()),
-        elapsed_s,
-        frames_in: stats.frames_in,
-        frames_out: stats.frames_out,
-        rate_hz: if span_s > 0.0 {
-            (stats.frames_in.saturating_sub(1)) as f64 / span_s
-        } else {
-            0.0
-        },
-        tare_frames: stats.tare_frames,
-        bad_frames: stats.bad_frames,
-        bad: stats.bad.clone(),
-        ambiguous_frames: stats.ambiguous_frames,
-        dropped: Dropped {
-            total: d.serial_gaps + d.queue_overflow,
-            ..d
-        },
-        reconnects: stats.reconnects,
-        not_converged: stats.not_converged,
-        latency: stats.latency.summary(),
-        age: stats.age.summary(),
-    };
+    let summary = w.summary(design.name.clone(), req.source.describe());
     // The output may be gone (a closed pipe): the summary is still returned.
-    let _ = sink.finish(&summary);
+    let _ = w.sink.finish(&summary);
     Ok(summary)
 }

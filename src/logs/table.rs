@@ -659,19 +659,9 @@ fn layout_of(det: &Detected, bytes: &[u8], path: &Path) -> Result<(Layout, Vec<S
     })
 }
 
-/// Parse a wavelength log held in memory.
-pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
-    let det = detect_format(bytes, path, opts.format)?;
-    let (layout, column_names) = layout_of(&det, bytes, path)?;
-    let channels = match layout {
-        Layout::Peaks { channels } => channels,
-        Layout::Sensors { columns } | Layout::Csv { columns } => columns,
-        Layout::Imon { .. } => 1,
-    };
-    let dc = det.delimiter != b',';
-    let body = &bytes[det.body_offset.min(bytes.len())..];
-
-    // Split at line boundaries; count lines per chunk to number them.
+/// Cut the table body at line boundaries into chunks to parse in parallel (one chunk
+/// for a body under 4 MiB).
+fn chunk_bounds(body: &[u8]) -> Vec<(usize, usize)> {
     let n_chunks = if body.len() > (4 << 20) {
         rayon::current_num_threads() * 8
     } else {
@@ -691,34 +681,48 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     }
     bounds.push(body.len());
     bounds.dedup();
-    let chunks: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).collect();
-    let partials: Vec<Partial> = chunks
-        .par_iter()
-        .map(|&(a, b)| parse_chunk(&body[a..b], layout, det.delimiter, dc))
-        .collect();
-    // Chunk-local line numbers become file line numbers.
-    let mut first_lines = Vec::with_capacity(partials.len());
-    let mut acc = det.body_line;
-    for p in &partials {
-        first_lines.push(acc);
-        acc += p.n_lines;
-    }
-    // Merge in order.
+    bounds.windows(2).map(|w| (w[0], w[1])).collect()
+}
+
+/// The chunks' rows merged in file order, with the dates interned once and the
+/// unreadable lines counted.
+struct Merged {
+    dates: Vec<RawDate>,
+    date_of_row: Vec<u32>,
+    sec: Vec<f64>,
+    row_start: Vec<usize>,
+    peaks: Vec<f64>,
+    chans: Vec<u16>,
+    lines: Vec<u32>,
+    warnings: LogWarnings,
+    /// Lines unreadable as rows (not counting short or truncated ones).
+    bad: usize,
+    first_bad: Option<String>,
+    table_lines: usize,
+}
+
+/// Merge the chunks in order: chunk-local line numbers become file line numbers,
+/// chunk-local date indices global ones, and each issue a named warning.
+fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merged {
     let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
     let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
-    let table_lines: usize = partials.iter().map(|p| p.table_lines).sum();
-    let mut warnings = LogWarnings::default();
-    let mut dates: Vec<RawDate> = Vec::new();
-    let mut date_of_row: Vec<u32> = Vec::with_capacity(rows);
-    let mut sec: Vec<f64> = Vec::with_capacity(rows);
-    let mut row_start = Vec::with_capacity(rows + 1);
-    row_start.push(0usize);
-    let mut peaks = Vec::with_capacity(n_peaks);
-    let mut chans = Vec::with_capacity(n_peaks);
-    let mut lines = Vec::with_capacity(rows);
-    let mut bad = 0usize;
-    let mut first_bad: Option<String> = None;
-    for (p, first_line) in partials.into_iter().zip(first_lines) {
+    let mut m = Merged {
+        dates: Vec::new(),
+        date_of_row: Vec::with_capacity(rows),
+        sec: Vec::with_capacity(rows),
+        row_start: Vec::with_capacity(rows + 1),
+        peaks: Vec::with_capacity(n_peaks),
+        chans: Vec::with_capacity(n_peaks),
+        lines: Vec::with_capacity(rows),
+        warnings: LogWarnings::default(),
+        bad: 0,
+        first_bad: None,
+        table_lines: partials.iter().map(|p| p.table_lines).sum(),
+    };
+    m.row_start.push(0usize);
+    let mut first_line = body_line;
+    for p in partials {
+        let dates = &mut m.dates;
         let remap: Vec<u32> = p
             .times
             .dates
@@ -731,129 +735,176 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
                 }
             })
             .collect();
-        date_of_row.extend(p.times.date_of_row.iter().map(|&i| {
+        m.date_of_row.extend(p.times.date_of_row.iter().map(|&i| {
             if i == NO_DATE {
                 NO_DATE
             } else {
                 remap[i as usize]
             }
         }));
-        sec.extend_from_slice(&p.times.sec);
-        let base = peaks.len();
-        row_start.extend(p.row_start.iter().map(|&s| s + base));
-        peaks.extend_from_slice(&p.peaks);
-        chans.extend_from_slice(&p.chans);
-        lines.extend(p.lines.iter().map(|&l| l + first_line as u32));
+        m.sec.extend_from_slice(&p.times.sec);
+        let base = m.peaks.len();
+        m.row_start.extend(p.row_start.iter().map(|&s| s + base));
+        m.peaks.extend_from_slice(&p.peaks);
+        m.chans.extend_from_slice(&p.chans);
+        m.lines
+            .extend(p.lines.iter().map(|&l| l + first_line as u32));
         for (local, iss) in p.issues {
             let line_no = local + first_line;
             if iss.kind != "short_row" && iss.kind != "truncated_last_line" {
-                bad += 1;
-                if first_bad.is_none() {
-                    first_bad = Some(format!("{}: {}", at(path, line_no), iss.message));
+                m.bad += 1;
+                if m.first_bad.is_none() {
+                    m.first_bad = Some(format!("{}: {}", at(path, line_no), iss.message));
                 }
             }
             let msg = format!("{}: {}", at(path, line_no), iss.message);
-            warnings.add(iss.kind, || msg);
+            m.warnings.add(iss.kind, || msg);
         }
+        first_line += p.n_lines;
     }
-    if rows == 0 || bad * 2 > table_lines {
-        bail!(
-            "{}: {} of {} table lines are unreadable as {} rows{}",
-            path.display(),
-            bad,
-            table_lines,
-            det.format.name(),
-            first_bad
-                .map(|m| format!("; first: {m}"))
-                .unwrap_or_default()
-        );
-    }
-    super::require_rows(path, rows, "the log")?;
+    m
+}
 
-    // Resolve times.
-    let with_dates = date_of_row.iter().filter(|&&d| d != NO_DATE).count();
-    let (mut time_s, clock) = if with_dates == 0 {
+/// The rows' times in seconds and their clock: plain seconds (wall-clock when they
+/// are that large), or dates resolved in the day/month order the file tells or the
+/// user names.
+fn wavelength_times(
+    m: &mut Merged,
+    format: LogFormat,
+    date_order: Option<DateOrder>,
+    path: &Path,
+) -> Result<(Vec<f64>, Clock)> {
+    let rows = m.lines.len();
+    let with_dates = m.date_of_row.iter().filter(|&&d| d != NO_DATE).count();
+    if with_dates == 0 {
+        let sec = std::mem::take(&mut m.sec);
         let clock = if sec.first().is_some_and(|&s| s > 1e8) {
             Clock::Absolute
         } else {
             Clock::Relative
         };
-        (sec, clock)
+        return Ok((sec, clock));
+    }
+    if with_dates != rows {
+        let i = m
+            .date_of_row
+            .iter()
+            .position(|&d| d == NO_DATE)
+            .unwrap_or(0);
+        bail!(
+            "{}: this row has a plain number for time while other rows have dates",
+            at(path, m.lines[i] as usize)
+        );
+    }
+    let default = if format == LogFormat::Imon {
+        DateOrder::MonthDayYear
     } else {
-        if with_dates != rows {
-            let i = date_of_row.iter().position(|&d| d == NO_DATE).unwrap_or(0);
-            bail!(
-                "{}: this row has a plain number for time while other rows have dates",
-                at(path, lines[i] as usize)
-            );
-        }
-        let default = if det.format == LogFormat::Imon {
-            DateOrder::MonthDayYear
-        } else {
-            DateOrder::DayMonthYear
-        };
-        let order = match opts.date_order {
-            Some(o) => o,
-            None => num::resolve_order(&dates, default).map_err(|e| {
-                anyhow!("{}: {e}; name the order with --date-order", path.display())
-            })?,
-        };
-        let mut days = Vec::with_capacity(dates.len());
-        for (k, d) in dates.iter().enumerate() {
-            match num::date_to_days(d, order) {
-                Ok(v) => days.push(v),
-                Err(e) => {
-                    let i = date_of_row
-                        .iter()
-                        .position(|&x| x as usize == k)
-                        .unwrap_or(0);
-                    bail!("{}: {e} (read as {:?})", at(path, lines[i] as usize), order);
-                }
+        DateOrder::DayMonthYear
+    };
+    let order = match date_order {
+        Some(o) => o,
+        None => num::resolve_order(&m.dates, default)
+            .map_err(|e| anyhow!("{}: {e}; name the order with --date-order", path.display()))?,
+    };
+    let mut days = Vec::with_capacity(m.dates.len());
+    for (k, d) in m.dates.iter().enumerate() {
+        match num::date_to_days(d, order) {
+            Ok(v) => days.push(v),
+            Err(e) => {
+                let i = m
+                    .date_of_row
+                    .iter()
+                    .position(|&x| x as usize == k)
+                    .unwrap_or(0);
+                bail!(
+                    "{}: {e} (read as {:?})",
+                    at(path, m.lines[i] as usize),
+                    order
+                );
             }
         }
-        let t = date_of_row
-            .iter()
-            .zip(&sec)
-            .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
-            .collect();
-        (t, Clock::Absolute)
-    };
+    }
+    let t = m
+        .date_of_row
+        .iter()
+        .zip(&m.sec)
+        .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
+        .collect();
+    Ok((t, Clock::Absolute))
+}
 
+/// Put the log's rows (peaks, channels, lines, times) in the order `order`.
+fn reorder_rows(log: &mut PeakLog, time_s: &mut Vec<f64>, order: &[usize]) {
+    let rows = order.len();
+    let mut rs = Vec::with_capacity(rows + 1);
+    rs.push(0);
+    let mut pk = Vec::with_capacity(log.peaks_nm.len());
+    let mut ch = Vec::with_capacity(log.peaks_nm.len());
+    let mut ln = Vec::with_capacity(rows);
+    let mut ts = Vec::with_capacity(rows);
+    for &i in order {
+        let (a, b) = (log.row_start[i], log.row_start[i + 1]);
+        pk.extend_from_slice(&log.peaks_nm[a..b]);
+        ch.extend_from_slice(&log.peak_channel[a..b]);
+        rs.push(pk.len());
+        ln.push(log.line_of_row[i]);
+        ts.push(time_s[i]);
+    }
+    log.row_start = rs;
+    log.peaks_nm = pk;
+    log.peak_channel = ch;
+    log.line_of_row = ln;
+    *time_s = ts;
+}
+
+/// Parse a wavelength log held in memory.
+pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
+    let det = detect_format(bytes, path, opts.format)?;
+    let (layout, column_names) = layout_of(&det, bytes, path)?;
+    let channels = match layout {
+        Layout::Peaks { channels } => channels,
+        Layout::Sensors { columns } | Layout::Csv { columns } => columns,
+        Layout::Imon { .. } => 1,
+    };
+    let dc = det.delimiter != b',';
+    let body = &bytes[det.body_offset.min(bytes.len())..];
+    let partials: Vec<Partial> = chunk_bounds(body)
+        .par_iter()
+        .map(|&(a, b)| parse_chunk(&body[a..b], layout, det.delimiter, dc))
+        .collect();
+    let mut m = merge_partials(partials, det.body_line, path);
+    let rows = m.lines.len();
+    if rows == 0 || m.bad * 2 > m.table_lines {
+        bail!(
+            "{}: {} of {} table lines are unreadable as {} rows{}",
+            path.display(),
+            m.bad,
+            m.table_lines,
+            det.format.name(),
+            m.first_bad
+                .map(|msg| format!("; first: {msg}"))
+                .unwrap_or_default()
+        );
+    }
+    super::require_rows(path, rows, "the log")?;
+    let (mut time_s, clock) = wavelength_times(&mut m, det.format, opts.date_order, path)?;
     let mut log = PeakLog {
         source: path.to_path_buf(),
         format: det.format,
         time_s: Vec::new(),
         clock,
-        row_start,
-        peaks_nm: peaks,
-        peak_channel: chans,
+        row_start: m.row_start,
+        peaks_nm: m.peaks,
+        peak_channel: m.chans,
         channels,
         column_names,
-        line_of_row: lines,
+        line_of_row: m.lines,
         time_uncertainty_s: 0.0,
-        warnings,
+        warnings: m.warnings,
     };
     if let Some(order) = super::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
     {
-        let mut rs = Vec::with_capacity(rows + 1);
-        rs.push(0);
-        let mut pk = Vec::with_capacity(log.peaks_nm.len());
-        let mut ch = Vec::with_capacity(log.peaks_nm.len());
-        let mut ln = Vec::with_capacity(rows);
-        let mut ts = Vec::with_capacity(rows);
-        for &i in &order {
-            let (a, b) = (log.row_start[i], log.row_start[i + 1]);
-            pk.extend_from_slice(&log.peaks_nm[a..b]);
-            ch.extend_from_slice(&log.peak_channel[a..b]);
-            rs.push(pk.len());
-            ln.push(log.line_of_row[i]);
-            ts.push(time_s[i]);
-        }
-        log.row_start = rs;
-        log.peaks_nm = pk;
-        log.peak_channel = ch;
-        log.line_of_row = ln;
-        time_s = ts;
+        reorder_rows(&mut log, &mut time_s, &order);
     }
     log.time_uncertainty_s = super::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
@@ -915,23 +966,29 @@ fn check_force_times_increase(path: &Path, time_s: &[f64], line_nos: &[u32]) -> 
     Ok(())
 }
 
-/// Parse a force-stand CSV held in memory.
-pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
-    let (b, _) = strip_bom(bytes);
-    let mut lines = lines_with_offsets(b).enumerate().filter(|(_, (_, l))| {
-        let t = trim(l);
-        !t.is_empty() && !t.starts_with(b"#")
-    });
-    let Some((h_idx, (_, header_line))) = lines.next() else {
-        bail!("{}: the force log is empty", path.display());
-    };
-    let delim = guess_delimiter(header_line);
-    let dc = delim != b',';
-    let header = fields(header_line, delim);
-    let headerless = header_line.split(|&c| c == delim).all(is_time_field);
-    let mut warnings = LogWarnings::default();
-    let find = |wanted: &Option<String>, defaults: &[&str], what: &str| -> Result<usize> {
-        if headerless {
+/// A force log's header line: where it is, its delimiter and its column names.
+struct ForceHeader<'a> {
+    /// Index of the header line (0-based).
+    idx: usize,
+    line: &'a [u8],
+    names: Vec<String>,
+    /// True when the first line is already data (no header).
+    headerless: bool,
+}
+
+impl ForceHeader<'_> {
+    /// The column holding `what`: the one named by the user, else a default name, else a
+    /// default with a unit suffix (`force [N]`, `Time (s)`); columns 1 and 2 without a
+    /// header.
+    fn column(
+        &self,
+        wanted: &Option<String>,
+        defaults: &[&str],
+        what: &str,
+        path: &Path,
+    ) -> Result<usize> {
+        let header = &self.names;
+        if self.headerless {
             return Ok(if what == "time" { 0 } else { 1 });
         }
         if let Some(w) = wanted {
@@ -941,7 +998,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
                 .ok_or_else(|| {
                     anyhow!(
                         "{}: no {what} column named `{w}`; the header has: {}",
-                        at(path, h_idx + 1),
+                        at(path, self.idx + 1),
                         header.join(", ")
                     )
                 });
@@ -951,7 +1008,6 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
                 return Ok(i);
             }
         }
-        // Unit-suffixed names such as `force [N]` or `Time (s)`.
         for d in defaults {
             if let Some(i) = header.iter().position(|h| {
                 let l = h.to_ascii_lowercase();
@@ -963,102 +1019,127 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
         }
         bail!(
             "{}: cannot tell which column holds {what}; the header has: {}; name it with --force-{what}-column",
-            at(path, h_idx + 1),
+            at(path, self.idx + 1),
             header.join(", ")
         )
+    }
+}
+
+/// Which columns of a force log hold time and force, and how to read them.
+struct ForceLayout {
+    delim: u8,
+    /// Numbers use a decimal comma (any delimiter but a comma).
+    dc: bool,
+    ti: usize,
+    fi: usize,
+    time_column: String,
+    force_column: String,
+}
+
+impl ForceLayout {
+    /// The time column's factor to seconds and the force column's to newtons, from
+    /// their names or the units row (`(s),(mm),(kN)`); newtons assumed, with a warning,
+    /// when nothing names the force's unit.
+    fn scales(
+        &self,
+        units: &[String],
+        cols: &ForceColumns,
+        path: &Path,
+        warnings: &mut LogWarnings,
+    ) -> (f64, f64) {
+        let unit_of = |i: usize, name: &str| {
+            units
+                .get(i)
+                .filter(|u| !u.is_empty())
+                .map(|u| format!("{name} {u}"))
+                .unwrap_or_else(|| name.to_string())
+        };
+        let time_named = unit_of(self.ti, &self.time_column);
+        let force_named = unit_of(self.fi, &self.force_column);
+        let time_scale_s = super::time_unit_scale(&time_named).unwrap_or(1.0);
+        let scale = match (cols.scale_to_n, super::force_unit_scale(&force_named)) {
+            (Some(s), _) => s,
+            (None, Some(s)) => s,
+            (None, None) => {
+                let force_column = &self.force_column;
+                warnings.add("force_unit_assumed", || {
+                    format!(
+                        "{}: force column `{force_column}` names no unit; newtons assumed",
+                        path.display()
+                    )
+                });
+                1.0
+            }
+        };
+        (time_scale_s, scale)
+    }
+}
+
+/// The readable rows of a force log.
+struct ForceRows {
+    times: TimeAcc,
+    /// Force, N.
+    force: Vec<f64>,
+    /// File line of each row.
+    line_nos: Vec<u32>,
+}
+
+/// Read the force log's rows; an unreadable line is counted and named, and more than
+/// half of them unreadable (or none readable) is an error.
+fn read_force_rows<'a>(
+    b: &[u8],
+    body: impl Iterator<Item = (usize, (usize, &'a [u8]))>,
+    lay: &ForceLayout,
+    scale: f64,
+    path: &Path,
+    warnings: &mut LogWarnings,
+) -> Result<ForceRows> {
+    let (time_column, force_column) = (&lay.time_column, &lay.force_column);
+    let mut rows = ForceRows {
+        times: TimeAcc::default(),
+        force: Vec::new(),
+        line_nos: Vec::new(),
     };
-    let ti = find(
-        &cols.time,
-        &["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"],
-        "time",
-    )?;
-    let fi = find(&cols.force, &["force_N", "force", "F", "load"], "force")?;
-    let time_column = header.get(ti).cloned().unwrap_or_else(|| "column 1".into());
-    let force_column = header.get(fi).cloned().unwrap_or_else(|| "column 2".into());
-    let mut lines = lines.peekable();
-    // A units row (`(s),(mm),(kN)`) names the units the header leaves out.
-    let units: Vec<String> = match lines.peek() {
-        Some((_, (_, l))) if !headerless && is_units_row(l, delim) => {
-            let u = fields(l, delim);
-            lines.next();
-            u
-        }
-        _ => Vec::new(),
-    };
-    let unit_of = |i: usize, name: &str| {
-        units
-            .get(i)
-            .filter(|u| !u.is_empty())
-            .map(|u| format!("{name} {u}"))
-            .unwrap_or_else(|| name.to_string())
-    };
-    let (time_named, force_named) = (unit_of(ti, &time_column), unit_of(fi, &force_column));
-    let time_scale_s = super::time_unit_scale(&time_named).unwrap_or(1.0);
-    let scale = match (cols.scale_to_n, super::force_unit_scale(&force_named)) {
-        (Some(s), _) => s,
-        (None, Some(s)) => s,
-        (None, None) => {
-            warnings.add("force_unit_assumed", || {
-                format!(
-                    "{}: force column `{force_column}` names no unit; newtons assumed",
-                    path.display()
-                )
-            });
-            1.0
-        }
-    };
-    let mut times = TimeAcc::default();
-    let mut force = Vec::new();
-    let mut line_nos = Vec::new();
     let mut bad = 0usize;
     let mut total = 0usize;
     let mut first_bad = None;
-    type Lines<'a> = Box<dyn Iterator<Item = (usize, (usize, &'a [u8]))> + 'a>;
-    let body: Lines = if headerless {
-        Box::new(std::iter::once((h_idx, (0, header_line))).chain(lines))
-    } else {
-        Box::new(lines)
-    };
     let unterminated = !b.ends_with(b"\n");
     let n_lines = b.iter().filter(|&&c| c == b'\n').count() + usize::from(unterminated);
     for (idx, (_, line)) in body {
         total += 1;
         let parts: Vec<&[u8]> = line
-            .split(|&c| c == delim)
+            .split(|&c| c == lay.delim)
             .map(|f| unquote(trim(f)))
             .collect();
-        let t = parts.get(ti).and_then(|f| parse_time_field(f, dc));
+        let t = parts.get(lay.ti).and_then(|f| parse_time_field(f, lay.dc));
         let f = parts
-            .get(fi)
-            .and_then(|f| num::parse_f64(f, dc))
+            .get(lay.fi)
+            .and_then(|f| num::parse_f64(f, lay.dc))
             .filter(|v| v.is_finite());
-        match (t, f) {
-            (Some(t), Some(f)) => {
-                times.push(t);
-                force.push(f * scale);
-                line_nos.push((idx + 1) as u32);
-            }
-            _ => {
-                let kind = if unterminated && idx + 1 == n_lines {
-                    "truncated_last_line"
-                } else {
-                    "unreadable_line"
-                };
-                if kind == "unreadable_line" {
-                    bad += 1;
-                }
-                let msg = format!(
-                    "{}: expected a time in `{time_column}` and a number in `{force_column}`",
-                    at(path, idx + 1)
-                );
-                if first_bad.is_none() {
-                    first_bad = Some(msg.clone());
-                }
-                warnings.add(kind, || msg);
-            }
+        if let (Some(t), Some(f)) = (t, f) {
+            rows.times.push(t);
+            rows.force.push(f * scale);
+            rows.line_nos.push((idx + 1) as u32);
+            continue;
         }
+        let kind = if unterminated && idx + 1 == n_lines {
+            "truncated_last_line"
+        } else {
+            "unreadable_line"
+        };
+        if kind == "unreadable_line" {
+            bad += 1;
+        }
+        let msg = format!(
+            "{}: expected a time in `{time_column}` and a number in `{force_column}`",
+            at(path, idx + 1)
+        );
+        if first_bad.is_none() {
+            first_bad = Some(msg.clone());
+        }
+        warnings.add(kind, || msg);
     }
-    if force.is_empty() || bad * 2 > total {
+    if rows.force.is_empty() || bad * 2 > total {
         bail!(
             "{}: {bad} of {total} rows are unreadable{}",
             path.display(),
@@ -1067,55 +1148,124 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Resu
                 .unwrap_or_default()
         );
     }
-    super::require_rows(path, force.len(), "the force log")?;
-    let (mut time_s, clock) = if times.dates.is_empty() {
-        // Plain numbers in the column's unit (`time_ms`, `Time [ms]`, a units row).
+    Ok(rows)
+}
+
+/// The force log's times in seconds and their clock: plain numbers in the column's
+/// unit (`time_ms`, `Time [ms]`, a units row), or dates resolved to wall-clock time.
+fn force_times(
+    times: &TimeAcc,
+    time_scale_s: f64,
+    date_order: Option<DateOrder>,
+    path: &Path,
+) -> Result<(Vec<f64>, Clock)> {
+    if times.dates.is_empty() {
         let sec: Vec<f64> = times.sec.iter().map(|t| t * time_scale_s).collect();
         let clock = if sec[0] > 1e8 {
             Clock::Absolute
         } else {
             Clock::Relative
         };
-        (sec, clock)
-    } else {
-        if times.date_of_row.contains(&NO_DATE) {
-            bail!(
-                "{}: the time column mixes dates and plain numbers",
-                path.display()
-            );
-        }
-        let order = match cols.date_order {
-            Some(o) => o,
-            None => num::resolve_order(&times.dates, DateOrder::DayMonthYear)
-                .map_err(|e| anyhow!("{}: {e}", path.display()))?,
-        };
-        let days: Vec<i64> = times
-            .dates
-            .iter()
-            .map(|d| num::date_to_days(d, order).map_err(|e| anyhow!("{}: {e}", path.display())))
-            .collect::<Result<_>>()?;
-        (
-            times
-                .date_of_row
-                .iter()
-                .zip(&times.sec)
-                .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
-                .collect(),
-            Clock::Absolute,
-        )
+        return Ok((sec, clock));
+    }
+    if times.date_of_row.contains(&NO_DATE) {
+        bail!(
+            "{}: the time column mixes dates and plain numbers",
+            path.display()
+        );
+    }
+    let order = match date_order {
+        Some(o) => o,
+        None => num::resolve_order(&times.dates, DateOrder::DayMonthYear)
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?,
     };
+    let days: Vec<i64> = times
+        .dates
+        .iter()
+        .map(|d| num::date_to_days(d, order).map_err(|e| anyhow!("{}: {e}", path.display())))
+        .collect::<Result<_>>()?;
+    let t = times
+        .date_of_row
+        .iter()
+        .zip(&times.sec)
+        .map(|(&d, &s)| days[d as usize] as f64 * 86400.0 + s)
+        .collect();
+    Ok((t, Clock::Absolute))
+}
+
+/// Parse a force-stand CSV held in memory.
+pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
+    let (b, _) = strip_bom(bytes);
+    let mut lines = lines_with_offsets(b).enumerate().filter(|(_, (_, l))| {
+        let t = trim(l);
+        !t.is_empty() && !t.starts_with(b"#")
+    });
+    let Some((h_idx, (_, header_line))) = lines.next() else {
+        bail!("{}: the force log is empty", path.display());
+    };
+    let delim = guess_delimiter(header_line);
+    let header = ForceHeader {
+        idx: h_idx,
+        line: header_line,
+        names: fields(header_line, delim),
+        headerless: header_line.split(|&c| c == delim).all(is_time_field),
+    };
+    let mut warnings = LogWarnings::default();
+    let time_defaults = ["time_s", "RelTime", "time", "t", "AbsTime", "Timestamp"];
+    let ti = header.column(&cols.time, &time_defaults, "time", path)?;
+    let fi = header.column(
+        &cols.force,
+        &["force_N", "force", "F", "load"],
+        "force",
+        path,
+    )?;
+    let name_of = |i: usize, fallback: &str| {
+        header
+            .names
+            .get(i)
+            .cloned()
+            .unwrap_or_else(|| fallback.into())
+    };
+    let lay = ForceLayout {
+        delim,
+        dc: delim != b',',
+        ti,
+        fi,
+        time_column: name_of(ti, "column 1"),
+        force_column: name_of(fi, "column 2"),
+    };
+    let mut lines = lines.peekable();
+    // A units row (`(s),(mm),(kN)`) names the units the header leaves out.
+    let units: Vec<String> = match lines.peek() {
+        Some((_, (_, l))) if !header.headerless && is_units_row(l, delim) => {
+            let u = fields(l, delim);
+            lines.next();
+            u
+        }
+        _ => Vec::new(),
+    };
+    let (time_scale_s, scale) = lay.scales(&units, cols, path, &mut warnings);
+    type Lines<'a> = Box<dyn Iterator<Item = (usize, (usize, &'a [u8]))> + 'a>;
+    let body: Lines = if header.headerless {
+        Box::new(std::iter::once((header.idx, (0, header.line))).chain(lines))
+    } else {
+        Box::new(lines)
+    };
+    let rows = read_force_rows(b, body, &lay, scale, path, &mut warnings)?;
+    super::require_rows(path, rows.force.len(), "the force log")?;
+    let (mut time_s, clock) = force_times(&rows.times, time_scale_s, cols.date_order, path)?;
     // A force stand writes its samples in time order: a time that runs backwards is a
     // corrupted or mis-parsed value, and sorting it in would stretch the log over the
     // wrong span (one time of -1e308 among 1836 samples gave K = -13 867 pm/N).
-    check_force_times_increase(path, &time_s, &line_nos)?;
+    check_force_times_increase(path, &time_s, &rows.line_nos)?;
     let time_uncertainty_s = super::dequantize(path, &mut time_s, &mut warnings);
     Ok(ForceLog {
         source: path.to_path_buf(),
         time_s,
         clock,
-        force_n: force,
-        time_column,
-        force_column,
+        force_n: rows.force,
+        time_column: lay.time_column,
+        force_column: lay.force_column,
         scale_to_n: scale,
         time_uncertainty_s,
         warnings,

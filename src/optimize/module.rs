@@ -1145,16 +1145,8 @@ pub fn start_choice(base: &Design) -> anyhow::Result<Choice> {
     })
 }
 
-/// Optimise a module design. `progress` is called once per finished choice.
-pub fn optimise_module(
-    base: &Design,
-    lib: &MaterialLibrary,
-    settings: &ModuleSettings,
-    measured: Option<&MeasuredPrototype>,
-    predictor: Predictor,
-    progress: &(dyn Fn(usize) + Sync),
-) -> anyhow::Result<ModuleOutcome> {
-    let t0 = Instant::now();
+/// Check the settings an optimisation cannot run without.
+fn check_settings(lib: &MaterialLibrary, settings: &ModuleSettings) -> anyhow::Result<()> {
     anyhow::ensure!(!lib.materials.is_empty(), "the material library is empty");
     anyhow::ensure!(
         settings.max_force_n.is_finite() && settings.max_force_n > 0.0,
@@ -1167,24 +1159,45 @@ pub fn optimise_module(
         settings.max_grating_strain
     );
     anyhow::ensure!(!settings.solvers.is_empty(), "no solver selected");
-    let start_ch = start_choice(base)?;
-    // The start problem: evaluates the start, and calibrates the Q model on it when a
-    // verifier JSON of this design is given.
-    let mut cal = Calibration::identity(&settings.quality);
-    let start_problem = |cal| {
+    Ok(())
+}
+
+/// What every choice's problem is built from.
+struct ProblemInputs<'a> {
+    base: &'a Design,
+    lib: &'a MaterialLibrary,
+    settings: &'a ModuleSettings,
+    predictor: Predictor,
+    /// Calibration of the Q model (identity unless a prototype was measured).
+    cal: Calibration,
+}
+
+impl ProblemInputs<'_> {
+    /// The problem of one discrete choice.
+    fn problem(&self, choice: Choice) -> anyhow::Result<ModuleProblem> {
         ModuleProblem::new(
-            base,
-            start_ch.clone(),
-            lib,
-            settings,
-            cal,
-            predictor.clone(),
+            self.base,
+            choice,
+            self.lib,
+            self.settings,
+            self.cal,
+            self.predictor.clone(),
         )
-    };
-    let probe = start_problem(cal)?;
-    let x0 = probe.start_point();
-    let mut start = probe.evaluate(&x0);
-    if let (Some(meas), false) = (measured, start.gratings.is_empty()) {
+    }
+
+    /// Evaluate the start design, and calibrate the Q model on it when a verifier JSON
+    /// of this design is given.
+    fn evaluate_start(
+        &mut self,
+        start_ch: &Choice,
+        measured: Option<&MeasuredPrototype>,
+    ) -> anyhow::Result<Evaluation> {
+        let probe = self.problem(start_ch.clone())?;
+        let x0 = probe.start_point();
+        let start = probe.evaluate(&x0);
+        let (Some(meas), false) = (measured, start.gratings.is_empty()) else {
+            return Ok(start);
+        };
         // The lag is the same for every grating of a core; stiffening differs a little,
         // so the verifier's mean R² is matched against the mean model value.
         let n = start.gratings.len() as f64;
@@ -1194,9 +1207,162 @@ pub fn optimise_module(
             .map(|g| g.r_squared_linearity)
             .sum::<f64>()
             / n;
-        cal = meas.calibrate(start.gratings[0].lag_s, lin, &settings.quality);
-        start = start_problem(cal)?.evaluate(&x0);
+        let quality = &self.settings.quality;
+        self.cal = meas.calibrate(start.gratings[0].lag_s, lin, quality);
+        Ok(self.problem(start_ch.clone())?.evaluate(&x0))
     }
+
+    /// Search one choice from several starts with every solver; keep its best feasible
+    /// point (or the least violating one) and a summary of each run.
+    fn optimise_choice(&self, ci: usize, ch: &Choice, scale: f64) -> anyhow::Result<ChoiceResult> {
+        let settings = self.settings;
+        let mut p = self.problem(ch.clone())?;
+        p.set_scale(scale);
+        let (lo, hi) = p.box_bounds();
+        let seed = settings.seed ^ ci as u64;
+        let starts = start_points(&p.start_point(), &lo, &hi, settings.extra_starts, seed);
+        let seed = settings.seed.wrapping_add(ci as u64);
+        let runs: Vec<Run> = multi_start(&p, &settings.solvers, &starts, seed, &settings.run)?;
+        // The best point of each run comes from argmin's state; the start point
+        // is a candidate too (every Nelder–Mead run starts there).
+        let evals: Vec<Evaluation> = std::iter::once(p.evaluate(&p.start_point()))
+            .chain(runs.iter().map(|r| p.evaluate(&r.best_x)))
+            .collect();
+        let summaries = runs
+            .into_iter()
+            .zip(&evals[1..])
+            .map(|(r, e)| RunSummary {
+                solver: r.solver,
+                start: r.start,
+                iterations: r.iterations,
+                evaluations: r.evaluations,
+                time_s: r.time_s,
+                objective: if e.feasible() { e.objective } else { 0.0 },
+                feasible: e.feasible(),
+                termination: r.termination,
+                history: r.history,
+            })
+            .collect();
+        let best = p.best_feasible(&evals).cloned();
+        let least = if best.is_none() {
+            p.least_violating(&evals).cloned()
+        } else {
+            None
+        };
+        Ok(ChoiceResult {
+            choice: ch.clone(),
+            best,
+            least_violating: least,
+            runs: summaries,
+        })
+    }
+
+    /// Refine the answer on the policy: try the choices of `order` (the best by
+    /// estimated merit, `bi`, first) until one holds under the policy's own prediction.
+    fn policy_refined(
+        &self,
+        choices: &[ChoiceResult],
+        order: &[usize],
+        bi: usize,
+    ) -> anyhow::Result<(usize, ModuleProblem, Evaluation)> {
+        let mut why = Vec::new();
+        for &i in order
+            .iter()
+            .filter(|&&i| i == bi)
+            .chain(order.iter().filter(|&&i| i != bi))
+        {
+            let p = self.problem(choices[i].choice.clone())?;
+            let found = choices[i]
+                .best
+                .clone()
+                .unwrap_or_else(|| p.evaluate(&p.start_point()));
+            match policy_answer(p, found, self.settings) {
+                Ok((p, e)) => return Ok((i, p, e)),
+                Err(e) => why.push(format!("{}: {e:#}", choices[i].choice)),
+            }
+        }
+        anyhow::bail!(
+            "infeasible under the model policy's own prediction: {}",
+            why.join("; ")
+        )
+    }
+}
+
+/// The feasible choices in the order the policy tries them: by estimated merit (at
+/// most four), then the start's own choice. Every choice shares the start point and
+/// the box, so merits compare across choices too.
+fn policy_order(choices: &[ChoiceResult], ranker: &ModuleProblem, start_ch: &Choice) -> Vec<usize> {
+    let mut order: Vec<usize> = choices
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.best.is_some())
+        .map(|(i, _)| i)
+        .collect();
+    order.sort_by(|&a, &b| {
+        let m = |i: usize| ranker.merit(choices[i].best.as_ref().expect("filtered"));
+        m(b).total_cmp(&m(a))
+    });
+    order.truncate(4);
+    if let Some(si) = choices.iter().position(|c| &c.choice == start_ch) {
+        if !order.contains(&si) {
+            order.push(si);
+        }
+    }
+    order
+}
+
+/// The optimised design at the winner's point, named and described after its start,
+/// and validated.
+fn optimised_design(
+    base: &Design,
+    settings: &ModuleSettings,
+    (p, best, win): (&ModuleProblem, &Evaluation, &Choice),
+    start_objective: f64,
+) -> anyhow::Result<Design> {
+    let mut design = p.design_at(&best.x);
+    design.name = format!("{}-optimised", base.name.trim_end_matches("-optimised"));
+    design.description = Some(format!(
+        "Optimised by fbgforge optimize from `{}` for {} ({}): {} = {:.4} {} (start {:.4})",
+        base.name,
+        match settings.objective {
+            Objective::Q => "Q",
+            Objective::Sensitivity => "sensitivity",
+        },
+        win,
+        match settings.objective {
+            Objective::Q => "Q",
+            Objective::Sensitivity => "|K|",
+        },
+        best.objective,
+        settings.objective.unit(),
+        start_objective
+    ));
+    design
+        .validate()
+        .map_err(|e| anyhow::anyhow!("internal: the optimised design does not validate: {e}"))?;
+    Ok(design)
+}
+
+/// Optimise a module design. `progress` is called once per finished choice.
+pub fn optimise_module(
+    base: &Design,
+    lib: &MaterialLibrary,
+    settings: &ModuleSettings,
+    measured: Option<&MeasuredPrototype>,
+    predictor: Predictor,
+    progress: &(dyn Fn(usize) + Sync),
+) -> anyhow::Result<ModuleOutcome> {
+    let t0 = Instant::now();
+    check_settings(lib, settings)?;
+    let start_ch = start_choice(base)?;
+    let mut inputs = ProblemInputs {
+        base,
+        lib,
+        settings,
+        predictor,
+        cal: Calibration::identity(&settings.quality),
+    };
+    let start = inputs.evaluate_start(&start_ch, measured)?;
     let scale = if start.feasible() && start.objective > 0.0 {
         start.objective
     } else {
@@ -1208,63 +1374,14 @@ pub fn optimise_module(
         .par_iter()
         .enumerate()
         .map(|(ci, ch)| {
-            let mut p =
-                ModuleProblem::new(base, ch.clone(), lib, settings, cal, predictor.clone())?;
-            p.set_scale(scale);
-            let (lo, hi) = p.box_bounds();
-            let starts = start_points(
-                &p.start_point(),
-                &lo,
-                &hi,
-                settings.extra_starts,
-                settings.seed ^ ci as u64,
-            );
-            let runs: Vec<Run> = multi_start(
-                &p,
-                &settings.solvers,
-                &starts,
-                settings.seed.wrapping_add(ci as u64),
-                &settings.run,
-            )?;
-            // The best point of each run comes from argmin's state; the start point
-            // is a candidate too (every Nelder–Mead run starts there).
-            let evals: Vec<Evaluation> = std::iter::once(p.evaluate(&p.start_point()))
-                .chain(runs.iter().map(|r| p.evaluate(&r.best_x)))
-                .collect();
-            let summaries = runs
-                .into_iter()
-                .zip(&evals[1..])
-                .map(|(r, e)| RunSummary {
-                    solver: r.solver,
-                    start: r.start,
-                    iterations: r.iterations,
-                    evaluations: r.evaluations,
-                    time_s: r.time_s,
-                    objective: if e.feasible() { e.objective } else { 0.0 },
-                    feasible: e.feasible(),
-                    termination: r.termination,
-                    history: r.history,
-                })
-                .collect();
-            let best = p.best_feasible(&evals).cloned();
-            let least = if best.is_none() {
-                p.least_violating(&evals).cloned()
-            } else {
-                None
-            };
+            let r = inputs.optimise_choice(ci, ch, scale)?;
             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
-            Ok(ChoiceResult {
-                choice: ch.clone(),
-                best,
-                least_violating: least,
-                runs: summaries,
-            })
+            Ok(r)
         })
         .collect();
-    let choices_done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
-    // Every choice shares the start point and the box, so merits compare across
-    // choices too: near-ties go to the least change from the start.
-    let mut ranker = start_problem(cal)?;
+    let mut choices_done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
+    // Near-ties of merit go to the least change from the start.
+    let mut ranker = inputs.problem(start_ch.clone())?;
     ranker.set_scale(scale);
     let best_choice = choices_done
         .iter()
@@ -1275,86 +1392,15 @@ pub fn optimise_module(
     let Some(bi) = best_choice else {
         return Err(infeasible_error(&choices_done, settings));
     };
-    let mut choices_done = choices_done;
     // Away from its anchor the optimiser's K is an estimate (closed-form trend, FE level
     // at the anchor); the answer is refined on the policy itself, so what is reported
-    // and written is the policy's own prediction of the design. Choices are tried in
-    // the order of their estimated merit until one holds under the policy (at most
-    // four), then the start's own choice.
-    let mut order: Vec<usize> = choices_done
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| c.best.is_some())
-        .map(|(i, _)| i)
-        .collect();
-    order.sort_by(|&a, &b| {
-        let m = |i: usize| ranker.merit(choices_done[i].best.as_ref().expect("filtered"));
-        m(b).total_cmp(&m(a))
-    });
-    order.truncate(4);
-    if let Some(si) = choices_done.iter().position(|c| c.choice == start_ch) {
-        if !order.contains(&si) {
-            order.push(si);
-        }
-    }
-    let mut answer = None;
-    let mut why = Vec::new();
-    for &i in order
-        .iter()
-        .filter(|&&i| i == bi)
-        .chain(order.iter().filter(|&&i| i != bi))
-    {
-        let p = ModuleProblem::new(
-            base,
-            choices_done[i].choice.clone(),
-            lib,
-            settings,
-            cal,
-            predictor.clone(),
-        )?;
-        let found = choices_done[i]
-            .best
-            .clone()
-            .unwrap_or_else(|| p.evaluate(&p.start_point()));
-        match policy_answer(p, found, settings) {
-            Ok(a) => {
-                answer = Some((i, a));
-                break;
-            }
-            Err(e) => why.push(format!("{}: {e:#}", choices_done[i].choice)),
-        }
-    }
-    let Some((bi, (p, best_eval))) = answer else {
-        anyhow::bail!(
-            "infeasible under the model policy's own prediction: {}",
-            why.join("; ")
-        );
-    };
+    // and written is the policy's own prediction of the design.
+    let order = policy_order(&choices_done, &ranker, &start_ch);
+    let (bi, p, best_eval) = inputs.policy_refined(&choices_done, &order, bi)?;
     // The other choices keep their estimated answers; the winner's is the policy's.
     choices_done[bi].best = Some(best_eval.clone());
-    let win = &choices_done[bi];
-    let best_eval = &best_eval;
-    let mut design = p.design_at(&best_eval.x);
-    design.name = format!("{}-optimised", base.name.trim_end_matches("-optimised"));
-    design.description = Some(format!(
-        "Optimised by fbgforge optimize from `{}` for {} ({}): {} = {:.4} {} (start {:.4})",
-        base.name,
-        match settings.objective {
-            Objective::Q => "Q",
-            Objective::Sensitivity => "sensitivity",
-        },
-        win.choice,
-        match settings.objective {
-            Objective::Q => "Q",
-            Objective::Sensitivity => "|K|",
-        },
-        best_eval.objective,
-        settings.objective.unit(),
-        start.objective
-    ));
-    design
-        .validate()
-        .map_err(|e| anyhow::anyhow!("internal: the optimised design does not validate: {e}"))?;
+    let winner = (&p, &best_eval, &choices_done[bi].choice);
+    let design = optimised_design(base, settings, winner, start.objective)?;
     Ok(ModuleOutcome {
         objective: settings.objective,
         objective_unit: settings.objective.unit(),
@@ -1368,7 +1414,7 @@ pub fn optimise_module(
         choices: choices_done,
         design,
         time_s: t0.elapsed().as_secs_f64(),
-        calibration: cal,
+        calibration: inputs.cal,
     })
 }
 

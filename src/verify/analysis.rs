@@ -373,18 +373,22 @@ fn xcorr_offset(
     Some((best.0, best.2))
 }
 
-/// Run the analysis.
-pub fn analyse(
+/// The gratings a verification reads: the strain gratings (of one core, if asked),
+/// the temperature reference, and their wavelength windows.
+struct GratingSelection<'a> {
+    strain: Vec<&'a crate::spec::ModuleGrating>,
+    reference: Option<&'a crate::spec::ModuleGrating>,
+    windows: Vec<GratingWindow>,
+    /// Window half-width, nm.
+    hw: f64,
+}
+
+/// Check the core asked for, and pick the gratings and their wavelength windows.
+fn select_gratings<'a>(
     design: &Design,
-    log: &PeakLog,
-    force: &ForceLog,
+    module: &'a crate::spec::Module,
     opts: &AnalysisOptions,
-) -> Result<(Measurement, Series)> {
-    let Some(module) = &design.module else {
-        bail!("design `{}` has no [module]: verify judges a clip-on module; for a flat array use calibrate-array", design.name);
-    };
-    let mut warnings = log.warnings.clone();
-    warnings.merge(force.warnings.clone());
+) -> Result<GratingSelection<'a>> {
     if let Some(c) = &opts.core {
         if !module.cores.iter().any(|x| &x.name == c) {
             let names: Vec<&str> = module.cores.iter().map(|c| c.name.as_str()).collect();
@@ -422,39 +426,84 @@ pub fn analyse(
     if let Some(r) = reference {
         windows.push(GratingWindow::new(&r.name, r.bragg_wavelength_nm, hw));
     }
-    let tracks = assign::assign(log, &windows);
-    let rows = log.rows();
-    let min_rows = (rows / 10).max(2);
-    let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
-
-    let ref_track = reference_track(
-        &Tracked {
-            design,
-            log,
-            tracks: &tracks,
-            min_rows,
-            hw,
-        },
+    Ok(GratingSelection {
+        strain,
         reference,
-        &tw,
-        &mut warnings,
-    );
+        windows,
+        hw,
+    })
+}
 
+/// The strain gratings' shifts: peaks assigned to gratings, temperature removed.
+struct GratingShifts<'a> {
+    selection: GratingSelection<'a>,
+    tracks: Vec<GratingTrack>,
+    /// The reference grating used, if any.
+    reference_grating: Option<String>,
+    /// (strain grating index, compensated shift in pm per row) of each grating used.
+    used: Vec<(usize, Vec<f64>)>,
+}
+
+/// Assign the peaks to the gratings and remove temperature with the reference grating.
+fn grating_shifts<'a>(
+    design: &Design,
+    module: &'a crate::spec::Module,
+    log: &PeakLog,
+    opts: &AnalysisOptions,
+    tw: &[f64],
+    warnings: &mut LogWarnings,
+) -> Result<GratingShifts<'a>> {
+    let selection = select_gratings(design, module, opts)?;
+    let tracks = assign::assign(log, &selection.windows);
+    let tracked = Tracked {
+        design,
+        log,
+        tracks: &tracks,
+        min_rows: (log.rows() / 10).max(2),
+        hw: selection.hw,
+    };
+    let ref_track = reference_track(&tracked, selection.reference, tw, warnings);
+    let core_named = opts.core.is_some();
     let used = strain_shifts(
-        &Tracked {
-            design,
-            log,
-            tracks: &tracks,
-            min_rows,
-            hw,
-        },
-        &strain,
+        &tracked,
+        &selection.strain,
         ref_track.as_ref(),
-        opts.core.is_some(),
-        &mut warnings,
+        core_named,
+        warnings,
     )?;
+    let reference_grating = ref_track.as_ref().map(|(t, _)| t.window.name.clone());
+    Ok(GratingShifts {
+        selection,
+        tracks,
+        reference_grating,
+        used,
+    })
+}
 
-    // Prior for the clock offset.
+/// The force log's times on the wavelength log's clock, before the residual offset.
+struct ForceFrame {
+    /// Prior for the clock offset: 0 for two wall clocks, aligned starts otherwise, s.
+    prior: f64,
+    /// How far the estimated offset may lie from the prior, s.
+    range: f64,
+    /// Force times in the wavelength frame, before the residual offset, s.
+    u: Vec<f64>,
+    /// Force, N (compression positive).
+    fval: Vec<f64>,
+    /// The span searched for the offset, s.
+    a: f64,
+    b: f64,
+}
+
+/// Place the force log on the wavelength log's clock by the prior offset, check that
+/// the two logs can overlap, and turn the force compression-positive.
+fn force_frame(
+    log: &PeakLog,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+    tw: &[f64],
+    warnings: &mut LogWarnings,
+) -> Result<ForceFrame> {
     let w0 = log.time_s[0];
     let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute {
         0.0
@@ -462,9 +511,7 @@ pub fn analyse(
         force.time_s[0] - w0
     };
     let range = opts.max_clock_offset_s.max(0.0);
-    // Force times in the wavelength frame, before the residual offset.
     let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
-    let fval = compression_positive(force, &mut warnings);
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (u[0], u[u.len() - 1]);
     let gap = (fa - wb).max(wa - fb);
@@ -484,37 +531,67 @@ pub fn analyse(
             if opts.clock_offset_s.is_none() { format!(", even allowing ±{range} s of clock offset (--max-offset-s)") } else { String::new() }
         );
     }
-    let a = wa.max(fa - range).max(wa);
-    let b = wb.min(fb + range);
+    Ok(ForceFrame {
+        prior,
+        range,
+        u,
+        fval: compression_positive(force, warnings),
+        a: wa.max(fa - range).max(wa),
+        b: wb.min(fb + range),
+    })
+}
 
-    // Primary grating: the largest response.
+/// The primary grating: the one with the largest response.
+fn primary_grating(used: &[(usize, Vec<f64>)]) -> usize {
     let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
-    let primary = (0..used.len())
+    (0..used.len())
         .max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1)))
-        .unwrap_or(0);
+        .unwrap_or(0)
+}
 
-    // Clock offset.
-    let (delta, source) = match opts.clock_offset_s {
+/// The two clocks aligned.
+struct AlignedClocks {
+    /// Force clock − wavelength clock, s.
+    offset: f64,
+    /// `estimated` or `given`.
+    source: &'static str,
+    /// Force log times on the wavelength clock, s.
+    fu: Vec<f64>,
+    /// First and last force time on the wavelength clock, s.
+    fa: f64,
+    fb: f64,
+    /// Duration both logs cover, s.
+    overlap: f64,
+}
+
+/// Take the given clock offset or estimate it, and check the aligned logs overlap.
+fn align_clocks(
+    frame: &ForceFrame,
+    tw: &[f64],
+    shift_pm: &[f64],
+    (log, force): (&PeakLog, &ForceLog),
+    given_s: Option<f64>,
+    warnings: &mut LogWarnings,
+) -> Result<AlignedClocks> {
+    let prior = frame.prior;
+    let (delta, source) = match given_s {
         Some(o) => (o - prior, "given"),
-        None => (
-            estimate_clock_offset(
-                &Alignment {
-                    tw: &tw,
-                    shift_pm: &used[primary].1,
-                    u: &u,
-                    fval: &fval,
-                    a,
-                    b,
-                    range,
-                },
-                &mut warnings,
-            )?,
-            "estimated",
-        ),
+        None => {
+            let al = Alignment {
+                tw,
+                shift_pm,
+                u: &frame.u,
+                fval: &frame.fval,
+                a: frame.a,
+                b: frame.b,
+                range: frame.range,
+            };
+            (estimate_clock_offset(&al, warnings)?, "estimated")
+        }
     };
     let offset = prior + delta;
-    // Force in the wavelength frame, aligned.
-    let fu: Vec<f64> = u.iter().map(|x| x - delta).collect();
+    let fu: Vec<f64> = frame.u.iter().map(|x| x - delta).collect();
+    let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (fu[0], fu[fu.len() - 1]);
     let overlap = (wb.min(fb) - wa.max(fa)).max(0.0);
     let min_len = (wb - wa).min(fb - fa);
@@ -525,23 +602,40 @@ pub fn analyse(
             log.source.display()
         );
     }
+    Ok(AlignedClocks {
+        offset,
+        source,
+        fu,
+        fa,
+        fb,
+        overlap,
+    })
+}
 
-    // Common time base: force at the wavelength log's rows.
+/// The force at the wavelength log's rows (the common time base), NaN outside the
+/// force log.
+fn force_at_rows(tw: &[f64], clocks: &AlignedClocks, fval: &[f64]) -> Vec<f64> {
     let mut h = 0;
-    let fc: Vec<f64> = tw
-        .iter()
+    tw.iter()
         .map(|&t| {
-            if t < fa || t > fb {
+            if t < clocks.fa || t > clocks.fb {
                 f64::NAN
             } else {
-                fit::interp(&fu, &fval, t, &mut h)
+                fit::interp(&clocks.fu, fval, t, &mut h)
             }
         })
-        .collect();
-    let resolution_pm = opts
-        .resolution_pm
-        .unwrap_or_else(|| log.format.typical_resolution_pm());
-    let seg = super::segment::segment(&force.time_s, &fval);
+        .collect()
+}
+
+/// Cut the force log into its loading pulses and segments, and check that the
+/// wavelength log covers at least one pulse (else K would be fitted to rest alone).
+fn loading_pulses(
+    (log, force): (&PeakLog, &ForceLog),
+    fval: &[f64],
+    fu: &[f64],
+    (wa, wb): (f64, f64),
+) -> Result<Segmentation> {
+    let seg = super::segment::segment(&force.time_s, fval);
     let pulses = &seg.pulses;
     if pulses.is_empty() {
         bail!(
@@ -549,7 +643,6 @@ pub fn analyse(
             force.source.display()
         );
     }
-    // The wavelength log must cover at least one pulse, or K is fitted to rest alone.
     if !pulses.iter().any(|p| fu[p.start] < wb && fu[p.end] > wa) {
         bail!(
             "the wavelength log {} (0 s to {wb:.3} s) covers none of the {} loading pulses of the force log {} ({:.3} s to {:.3} s on the wavelength log's clock): nothing to fit",
@@ -560,10 +653,19 @@ pub fn analyse(
             fu[pulses[pulses.len() - 1].end]
         );
     }
-    // Whole-second timestamps leave each log's absolute times uncertain; a given
-    // offset carries that into the lags, an estimated one absorbs it.
+    Ok(seg)
+}
+
+/// The logs' timing uncertainty, s, with a warning when a given offset carries it into
+/// the lags (whole-second timestamps leave each log's absolute times uncertain; an
+/// estimated offset absorbs it).
+fn timing_uncertainty_s(
+    log: &PeakLog,
+    force: &ForceLog,
+    relative: bool,
+    warnings: &mut LogWarnings,
+) -> f64 {
     let timing = log.time_uncertainty_s.hypot(force.time_uncertainty_s);
-    let relative = source == "estimated";
     if timing > 0.0 && !relative {
         warnings.add("timing_uncertain", || {
             format!(
@@ -571,53 +673,95 @@ pub fn analyse(
             )
         });
     }
+    timing
+}
 
-    // Per grating: the primary first (its τ and r seed the others), the rest in parallel.
-    let ctx = GratingContext {
-        module,
-        strain: &strain,
-        tracks: &tracks,
-        used: &used,
-        tw: &tw,
-        fu: &fu,
-        fval: &fval,
-        fc: &fc,
-        span: (wa.max(fa), wb.min(fb)),
-        seg: &seg,
-        resolution_pm,
-        hw,
-        timing_s: if relative { 0.0 } else { timing },
-    };
-    let measure = |k: usize, prev: Option<(f64, f64, f64)>| measure_grating(&ctx, k, prev);
-    let first = measure(primary, None)?;
+/// Measure every grating: the primary first (its τ and r seed the others), the rest
+/// in parallel.
+#[allow(clippy::type_complexity)]
+fn measure_all(
+    ctx: &GratingContext,
+    primary: usize,
+) -> Result<((GratingResult, Vec<f64>, f64, f64), Vec<Measured>)> {
+    let first = measure_grating(ctx, primary, None)?;
     let seed = Some((
         first.0.transport_delay_s,
         first.0.sls_time_constant_s,
         first.0.sls_instant_fraction,
     ));
-    let rest: Vec<Measured> = (0..used.len())
+    let rest: Vec<Measured> = (0..ctx.used.len())
         .filter(|&k| k != primary)
         .collect::<Vec<_>>()
         .par_iter()
-        .map(|&k| measure(k, seed))
+        .map(|&k| measure_grating(ctx, k, seed))
         .collect();
-    let (results, series) = collect_results(first, rest, &strain, &tw, &fc, &mut warnings)?;
+    Ok((first, rest))
+}
+
+/// Run the analysis.
+pub fn analyse(
+    design: &Design,
+    log: &PeakLog,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+) -> Result<(Measurement, Series)> {
+    let Some(module) = &design.module else {
+        bail!("design `{}` has no [module]: verify judges a clip-on module; for a flat array use calibrate-array", design.name);
+    };
+    let mut warnings = log.warnings.clone();
+    warnings.merge(force.warnings.clone());
+    let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
+    let shifts = grating_shifts(design, module, log, opts, &tw, &mut warnings)?;
+    let (sel, used) = (&shifts.selection, &shifts.used);
+    // Clocks aligned on the primary grating, the force on the common time base.
+    let frame = force_frame(log, force, opts, &tw, &mut warnings)?;
+    let fval = &frame.fval;
+    let primary = primary_grating(used);
+    let logs = (log, force);
+    let (shift_pm, given_s) = (&used[primary].1, opts.clock_offset_s);
+    let clocks = align_clocks(&frame, &tw, shift_pm, logs, given_s, &mut warnings)?;
+    let fc = force_at_rows(&tw, &clocks, fval);
+    let resolution_pm = opts
+        .resolution_pm
+        .unwrap_or_else(|| log.format.typical_resolution_pm());
+    let (wa, wb) = (tw[0], tw[tw.len() - 1]);
+    let seg = loading_pulses(logs, fval, &clocks.fu, (wa, wb))?;
+    let relative = clocks.source == "estimated";
+    let timing = timing_uncertainty_s(log, force, relative, &mut warnings);
+    // Per grating.
+    let ctx = GratingContext {
+        module,
+        strain: &sel.strain,
+        tracks: &shifts.tracks,
+        used,
+        tw: &tw,
+        fu: &clocks.fu,
+        fval,
+        fc: &fc,
+        span: (wa.max(clocks.fa), wb.min(clocks.fb)),
+        seg: &seg,
+        resolution_pm,
+        hw: sel.hw,
+        timing_s: if relative { 0.0 } else { timing },
+    };
+    let (first, rest) = measure_all(&ctx, primary)?;
+    let (results, series) = collect_results(first, rest, &sel.strain, &tw, &fc, &mut warnings)?;
     let m = Measurement {
         wavelength_log: log.source.display().to_string(),
         wavelength_format: log.format.name().into(),
-        wavelength_rows: rows,
+        wavelength_rows: log.rows(),
         wavelength_rate_hz: 1.0 / log.median_period_s(),
         force_log: force.source.display().to_string(),
         force_samples: force.force_n.len(),
         force_rate_hz: 1.0 / median_period(&force.time_s),
-        clock_offset_s: offset,
-        clock_offset_source: source.into(),
+        clock_offset_s: clocks.offset,
+        clock_offset_source: clocks.source.into(),
         lag_is_relative: relative,
-        force_log_start_s: fa,
-        overlap_s: overlap,
-        reference_grating: ref_track.as_ref().map(|(t, _)| t.window.name.clone()),
+        force_log_start_s: clocks.fa,
+        overlap_s: clocks.overlap,
+        reference_grating: shifts.reference_grating,
         interrogator_resolution_pm: resolution_pm,
-        pulse_count: pulses.len(),
+        pulse_count: seg.pulses.len(),
         protocol: seg.protocol,
         segment_count: seg.segments.len(),
         timing_uncertainty_s: timing,
@@ -902,17 +1046,17 @@ struct GratingContext<'a> {
 /// A measured grating, its drift-free shift series and its straight-line fit.
 type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
 
-/// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
-/// seeds the delay, τ and r from an already measured grating.
-fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>) -> Measured {
-    let (module, strain, tracks, used) = (ctx.module, ctx.strain, ctx.tracks, ctx.used);
-    let (tw, fu, fval, fc, hw, resolution_pm) =
-        (ctx.tw, ctx.fu, ctx.fval, ctx.fc, ctx.hw, ctx.resolution_pm);
+/// Fit the lag model to one grating's shift `s` with the clocks aligned: delay, τ and
+/// r searched on a strided copy of the overlap (from `prev`'s values, or three time
+/// constants for the first grating), then evaluated on every sample.
+fn fit_lag_model(
+    ctx: &GratingContext,
+    s: &[f64],
+    name: &str,
+    prev: Option<(f64, f64, f64)>,
+) -> Result<LagModelFit> {
+    let (tw, fu, fval, fc) = (ctx.tw, ctx.fu, ctx.fval, ctx.fc);
     let (span_a, span_b) = ctx.span;
-    let (gi, s) = &used[k];
-    let g = strain[*gi];
-    let t = &tracks[*gi];
-    // Delay, τ and r with the clocks aligned.
     let sub = FitData::new(tw, s, fu, fval, span_a, span_b, 20_000, 50_000, 30.0);
     let max_delay = max_transport_delay_s(ctx);
     let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0, 0.0], f64::MAX);
@@ -928,12 +1072,8 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         .map(|&(d0, tau0, r0)| {
             let r0 = r0.clamp(1e-6, 1.0 - 1e-6);
             let start = [-d0, tau0.max(fit::TAU_MIN_S).ln(), (r0 / (1.0 - r0)).ln()];
-            fit::nelder_mead(
-                sub.cost_with_delay(max_delay),
-                &start,
-                &[step_delay, 1.0, 1.5],
-                300,
-            )
+            let cost = sub.cost_with_delay(max_delay);
+            fit::nelder_mead(cost, &start, &[step_delay, 1.0, 1.5], 300)
         })
         .collect();
     for r in tries {
@@ -942,9 +1082,9 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         }
     }
     let probe = sub.cost_with_delay(max_delay);
-    let lm0 = probe.fit_at(&best.0).ok_or_else(|| {
-        anyhow::anyhow!("the lag model could not be fitted for grating `{}`", g.name)
-    })?;
+    let lm0 = probe
+        .fit_at(&best.0)
+        .ok_or_else(|| anyhow::anyhow!("the lag model could not be fitted for grating `{name}`"))?;
     // Final evaluation on every sample (NaN shifts and samples outside the force
     // log are skipped inside the cost).
     let n_used = (0..tw.len())
@@ -952,12 +1092,9 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         .count();
     if n_used < 10 {
         bail!(
-            "grating `{}` has only {} samples where the force log overlaps the wavelength log",
-            g.name,
-            n_used
+            "grating `{name}` has only {n_used} samples where the force log overlaps the wavelength log"
         );
     }
-    let t_mid = (span_a + span_b) / 2.0;
     let full = LagModelCost {
         shift_t: tw,
         shift_pm: s,
@@ -965,13 +1102,18 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         force_n: fval,
         fixed_offset_s: Some(0.0),
         offset_range_s: None,
-        t_mid,
+        t_mid: (span_a + span_b) / 2.0,
     };
-    let lm: LagModelFit = full
+    Ok(full
         .evaluate(lm0.offset_s, lm0.tau_s, lm0.instant_fraction)
-        .unwrap_or(lm0);
-    let delay = -lm.offset_s;
-    let d: Vec<f64> = (0..tw.len())
+        .unwrap_or(lm0))
+}
+
+/// The shift with the lag model's baseline and drift removed, NaN outside the force log.
+fn drift_free_shift(ctx: &GratingContext, s: &[f64], lm: &LagModelFit) -> Vec<f64> {
+    let (tw, fc) = (ctx.tw, ctx.fc);
+    let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
+    (0..tw.len())
         .map(|i| {
             if fc[i].is_finite() {
                 s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)
@@ -979,7 +1121,95 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
                 f64::NAN
             }
         })
+        .collect()
+}
+
+/// A grating's lags: per segment, and summarised.
+struct LagFigures {
+    /// Per segment, with the systematic allowance in each uncertainty.
+    pulses: Vec<PulseResult>,
+    summary: Option<lag::LagSummary>,
+    mean_lag_s: f64,
+    /// Δt_max and its uncertainty (timing included), s.
+    max_lag_s: f64,
+    max_lag_uncertainty_s: f64,
+}
+
+/// Measure the lag of every segment and summarise them. A segment seen in a few
+/// samples is fitted nearly exactly, so 2 % of the sample period (0.01 s at 2 Hz) is
+/// allowed on top of the noise.
+fn lag_figures(ctx: &GratingContext, d: &[f64], lm: &LagModelFit, delay: f64) -> LagFigures {
+    let mut pres = segment_lags(ctx, d, lm, delay);
+    let systematic = 0.02 * median_period(ctx.tw);
+    let lags: Vec<(f64, f64)> = pres
+        .iter()
+        .map(|p| (p.lag_s, p.lag_uncertainty_s))
         .collect();
+    let summary = lag::summarise(&lags, systematic);
+    for p in &mut pres {
+        p.lag_uncertainty_s = p.lag_uncertainty_s.hypot(systematic);
+    }
+    let mean_lag_s = if pres.is_empty() {
+        f64::NAN
+    } else {
+        pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64
+    };
+    let (max_lag_s, max_lag_uncertainty_s) = summary.map_or((f64::NAN, f64::NAN), |s| {
+        // The timing bound is the half-width of a uniform error: its standard
+        // uncertainty is bound/√3.
+        (
+            s.max_lag_s,
+            s.max_lag_uncertainty_s.hypot(ctx.timing_s / 3f64.sqrt()),
+        )
+    });
+    LagFigures {
+        pulses: pres,
+        summary,
+        mean_lag_s,
+        max_lag_s,
+        max_lag_uncertainty_s,
+    }
+}
+
+/// Q = |K|·R²/Δt_max and its uncertainty, when Δt_max is clearly above zero.
+fn quality_q(k: f64, se_k: f64, r_squared: f64, lags: &LagFigures) -> (Option<f64>, Option<f64>) {
+    let (max_lag, max_lag_u) = (lags.max_lag_s, lags.max_lag_uncertainty_s);
+    if max_lag > 2.0 * max_lag_u && max_lag > 0.0 {
+        let q = k.abs() * r_squared / max_lag;
+        (
+            Some(q),
+            Some(q * (max_lag_u / max_lag).hypot(se_k / k.abs())),
+        )
+    } else {
+        (None, None)
+    }
+}
+
+/// The intercept of the chart's line of slope `k` through the centre of the data, so
+/// that the plot and the table never show two numbers (`fallback` without data).
+fn chart_intercept(fc: &[f64], d: &[f64], k: f64, fallback: f64) -> f64 {
+    let (sum, count) = fc
+        .iter()
+        .zip(d)
+        .filter(|(f, v)| f.is_finite() && v.is_finite())
+        .fold((0.0, 0usize), |(s, n), (f, v)| (s + v - k * f, n + 1));
+    if count > 0 {
+        sum / count as f64
+    } else {
+        fallback
+    }
+}
+
+/// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
+/// seeds the delay, τ and r from an already measured grating.
+fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>) -> Measured {
+    let (gi, s) = &ctx.used[k];
+    let g = ctx.strain[*gi];
+    let t = &ctx.tracks[*gi];
+    let fc = ctx.fc;
+    let lm = fit_lag_model(ctx, s, &g.name, prev)?;
+    let delay = -lm.offset_s;
+    let d = drift_free_shift(ctx, s, &lm);
     let line = fit::fit_line(fc, &d).ok_or_else(|| {
         anyhow::anyhow!(
             "grating `{}`: the force does not vary; no line can be fitted",
@@ -989,53 +1219,21 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
     let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
     let (rho, n, n_eff) = residual_independence(fc, &d, line.slope, line.intercept);
     let k = lm.k_pm_per_n;
-    let pres = segment_lags(ctx, &d, &lm, delay);
+    let lags = lag_figures(ctx, &d, &lm, delay);
     let se_k_eff = lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt();
-    // A segment seen in a few samples is fitted nearly exactly: allow 2 % of the
-    // sample period on top of the noise (0.01 s at 2 Hz).
-    let systematic = 0.02 * median_period(tw);
-    let lags: Vec<(f64, f64)> = pres
-        .iter()
-        .map(|p| (p.lag_s, p.lag_uncertainty_s))
-        .collect();
-    let summary = lag::summarise(&lags, systematic);
-    let mut pres = pres;
-    for p in &mut pres {
-        p.lag_uncertainty_s = p.lag_uncertainty_s.hypot(systematic);
-    }
-    let mean_lag = if pres.is_empty() {
-        f64::NAN
-    } else {
-        pres.iter().map(|p| p.lag_s).sum::<f64>() / pres.len() as f64
-    };
-    let (max_lag, max_lag_u) = summary.map_or((f64::NAN, f64::NAN), |s| {
-        // The timing bound is the half-width of a uniform error: its standard
-        // uncertainty is bound/√3.
-        (
-            s.max_lag_s,
-            s.max_lag_uncertainty_s.hypot(ctx.timing_s / 3f64.sqrt()),
-        )
-    });
-    let (q, q_u) = if max_lag > 2.0 * max_lag_u && max_lag > 0.0 {
-        let q = k.abs() * line.r_squared / max_lag;
-        (
-            Some(q),
-            Some(q * (max_lag_u / max_lag).hypot(se_k_eff / k.abs())),
-        )
-    } else {
-        (None, None)
-    };
+    let (q, q_u) = quality_q(k, se_k_eff, line.r_squared, &lags);
     let plateau = plateau_sensitivity(ctx, &d);
+    let summary = lags.summary;
     let result = GratingResult {
         grating: g.name.clone(),
         core: g.core.clone(),
         core_material: g
             .core
             .as_ref()
-            .and_then(|c| module.cores.iter().find(|x| &x.name == c))
+            .and_then(|c| ctx.module.cores.iter().find(|x| &x.name == c))
             .map(|c| c.material.clone()),
         nominal_nm: g.bragg_wavelength_nm,
-        window_half_width_nm: hw,
+        window_half_width_nm: ctx.hw,
         rows_with_peak: t.rows_present,
         rows_ambiguous: t.rows_ambiguous,
         sensitivity_pm_per_n: k,
@@ -1043,18 +1241,22 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         residual_autocorrelation: rho,
         effective_samples: n_eff,
         sensitivity_std_error_effective_pm_per_n: se_k_eff,
-        peak_force_n: pres.iter().map(|p| p.peak_force_n).fold(f64::NAN, f64::max),
+        peak_force_n: lags
+            .pulses
+            .iter()
+            .map(|p| p.peak_force_n)
+            .fold(f64::NAN, f64::max),
         linear_slope_pm_per_n: line.slope,
         r_squared: line.r_squared,
         lag_model_r_squared: lm.r_squared,
         hysteresis_percent_span: hyst,
         nonlinearity_percent_span: nonlin,
-        resolution_n: resolution_pm / k.abs(),
-        resolution_g: resolution_pm / k.abs() / 9.80665e-3,
-        max_lag_s: max_lag,
-        max_lag_uncertainty_s: max_lag_u,
+        resolution_n: ctx.resolution_pm / k.abs(),
+        resolution_g: ctx.resolution_pm / k.abs() / 9.80665e-3,
+        max_lag_s: lags.max_lag_s,
+        max_lag_uncertainty_s: lags.max_lag_uncertainty_s,
         max_lag_method: summary.map_or("none", |s| s.max_lag_method).into(),
-        mean_lag_s: mean_lag,
+        mean_lag_s: lags.mean_lag_s,
         median_lag_s: summary.map_or(f64::NAN, |s| s.median_lag_s),
         lag_spread_s: summary.map_or(f64::NAN, |s| s.lag_spread_s),
         quality_q_pm_per_n_s: q,
@@ -1067,21 +1269,10 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         sls_instant_fraction: lm.instant_fraction,
         drift_pm_per_s: lm.drift_pm_per_s,
         residual_rms_pm: lm.rms_pm,
-        pulses: pres,
+        pulses: lags.pulses,
     };
-    // The chart draws the table's K (the lag model's static sensitivity), through the
-    // centre of the data, so the plot and the table never show two numbers.
-    let k = result.sensitivity_pm_per_n;
-    let (sum, count) = fc
-        .iter()
-        .zip(&d)
-        .filter(|(f, v)| f.is_finite() && v.is_finite())
-        .fold((0.0, 0usize), |(s, n), (f, v)| (s + v - k * f, n + 1));
-    let intercept = if count > 0 {
-        sum / count as f64
-    } else {
-        line.intercept
-    };
+    // The chart draws the table's K (the lag model's static sensitivity).
+    let intercept = chart_intercept(fc, &d, k, line.intercept);
     Ok((result, d, k, intercept))
 }
 

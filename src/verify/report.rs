@@ -186,10 +186,18 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     crate::output::ensure_dir(dir)?;
     write_json(&dir.join("report.json"), r)?;
     let m = &r.measurement;
+    write_timeseries_csv(dir, series)?;
+    write_pulses_csv(dir, m)?;
+    plot_shift_vs_force(dir, series)?;
+    plot_against_time(dir, series)?;
+    let lag_plot = plot_lag_per_pulse(dir, m)?;
+    write_atomic(&dir.join("report.md"), markdown(r, lag_plot).as_bytes())
+}
+
+/// `timeseries.csv`: time, force and each grating's shift, at most 20 000 rows.
+fn write_timeseries_csv(dir: &Path, series: &Series) -> Result<()> {
     let step = decimate(series.time_s.len(), 20_000);
     let idx: Vec<usize> = (0..series.time_s.len()).step_by(step).collect();
-
-    // Time series CSV.
     let mut header: Vec<String> = vec!["time_s".into(), "force_n".into()];
     header.extend(series.shift_pm.iter().map(|(n, _)| format!("{n}_shift_pm")));
     let rows: Vec<Vec<String>> = idx
@@ -204,7 +212,11 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
         })
         .collect();
     let h: Vec<&str> = header.iter().map(|s| s.as_str()).collect();
-    write_csv(&dir.join("timeseries.csv"), &h, &rows)?;
+    write_csv(&dir.join("timeseries.csv"), &h, &rows)
+}
+
+/// `pulses.csv`: per grating and segment, the peaks of force and shift and the lag.
+fn write_pulses_csv(dir: &Path, m: &Measurement) -> Result<()> {
     let prow: Vec<Vec<String>> = m
         .gratings
         .iter()
@@ -247,13 +259,16 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             "lag_uncertainty_s",
         ],
         &prow,
-    )?;
+    )
+}
 
-    // Plots: at most 2 500 markers per series and 8 000 line points keep the SVGs
-    // small enough to open; the CSVs hold the denser data.
+// Plots: at most 2 500 markers per series and 8 000 line points keep the SVGs small
+// enough to open; the CSVs hold the denser data.
+
+/// `shift_vs_force.svg`: each grating's shift against force, with its fitted line.
+fn plot_shift_vs_force(dir: &Path, series: &Series) -> Result<()> {
     let n = series.time_s.len();
     let scatter: Vec<usize> = (0..n).step_by(decimate(n, 2_500)).collect();
-    let line: Vec<usize> = (0..n).step_by(decimate(n, 8_000)).collect();
     let mut c = Chart::new("Shift against force", "force F (N)", "shift Δλ (pm)");
     for ((name, v), (_, slope, intercept)) in series.shift_pm.iter().zip(&series.fit) {
         let pts: Vec<(f64, f64)> = scatter
@@ -273,7 +288,13 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             ));
         }
     }
-    c.write_svg(&dir.join("shift_vs_force.svg"))?;
+    c.write_svg(&dir.join("shift_vs_force.svg"))
+}
+
+/// `force_vs_time.svg` and `shift_vs_time.svg` on the wavelength clock.
+fn plot_against_time(dir: &Path, series: &Series) -> Result<()> {
+    let n = series.time_s.len();
+    let line: Vec<usize> = (0..n).step_by(decimate(n, 8_000)).collect();
     let fpts: Vec<(f64, f64)> = line
         .iter()
         .map(|&i| (series.time_s[i], series.force_n[i]))
@@ -297,7 +318,11 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             Mark::Line,
         ));
     }
-    c.write_svg(&dir.join("shift_vs_time.svg"))?;
+    c.write_svg(&dir.join("shift_vs_time.svg"))
+}
+
+/// `lag_per_pulse.svg` when any segment has a lag; returns whether it was written.
+fn plot_lag_per_pulse(dir: &Path, m: &Measurement) -> Result<bool> {
     let mut c = Chart::new(
         "Lag of the shift behind the force, per segment",
         "segment",
@@ -312,9 +337,29 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
     if any {
         c.write_svg(&dir.join("lag_per_pulse.svg"))?;
     }
+    Ok(any)
+}
 
-    // Markdown.
+/// `report.md`: the verdict, the logs, the table per grating, notes and the plots.
+fn markdown(r: &VerifyReport, lag_plot: bool) -> String {
     let mut md = String::new();
+    markdown_header(&mut md, r);
+    markdown_table(&mut md, r);
+    markdown_notes(&mut md, r);
+    let _ = writeln!(md, "\n## Plots\n\n![shift against force](shift_vs_force.svg)\n\n![force against time](force_vs_time.svg)\n\n![shift against time](shift_vs_time.svg)\n");
+    if lag_plot {
+        let _ = writeln!(md, "![lag per pulse](lag_per_pulse.svg)\n");
+    }
+    let _ = writeln!(
+        md,
+        "Numbers behind the plots: `timeseries.csv`, `pulses.csv`, `report.json`."
+    );
+    md
+}
+
+/// The report's title, verdict line and what was measured from which logs.
+fn markdown_header(md: &mut String, r: &VerifyReport) {
+    let m = &r.measurement;
     let _ = writeln!(md, "# Verification of `{}`\n", r.design);
     let _ = writeln!(
         md,
@@ -358,6 +403,11 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             .unwrap_or("none (not compensated)"),
         m.interrogator_resolution_pm
     );
+}
+
+/// The table of figures of merit, one row per grating.
+fn markdown_table(md: &mut String, r: &VerifyReport) {
+    let m = &r.measurement;
     let _ = writeln!(md, "| grating | K pm/N | ± se | model pm/N | error % | status | R² | hysteresis % | non-linearity % | resolution N | Δt_max s | Q pm/(N·s) | τ s | r | delay s | plateau K pm/N |");
     let _ = writeln!(
         md,
@@ -390,6 +440,11 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             )
         );
     }
+}
+
+/// Why a grating was not judged, the model used, the contact bands and the warnings.
+fn markdown_notes(md: &mut String, r: &VerifyReport) {
+    let m = &r.measurement;
     for v in &r.verdict.gratings {
         if let Some(reason) = &v.reason {
             let what = match v.status {
@@ -417,13 +472,4 @@ pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()>
             let _ = writeln!(md, "- `{k}` × {}: {}", w.count, w.first);
         }
     }
-    let _ = writeln!(md, "\n## Plots\n\n![shift against force](shift_vs_force.svg)\n\n![force against time](force_vs_time.svg)\n\n![shift against time](shift_vs_time.svg)\n");
-    if any {
-        let _ = writeln!(md, "![lag per pulse](lag_per_pulse.svg)\n");
-    }
-    let _ = writeln!(
-        md,
-        "Numbers behind the plots: `timeseries.csv`, `pulses.csv`, `report.json`."
-    );
-    write_atomic(&dir.join("report.md"), md.as_bytes())
 }

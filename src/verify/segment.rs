@@ -196,76 +196,84 @@ const MIN_HOLD_SHARE: f64 = 0.2;
 /// Back-to-back pulses (a gap shorter than this share of the pulse) are sine cycles.
 const MAX_CYCLE_GAP_SHARE: f64 = 0.25;
 
-/// Cut the force log (times `t`, s, ascending; force `f`, N, compression positive)
-/// into its protocol's segments.
-pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
-    let pulses = detect_pulses(f);
-    let mut out = Segmentation {
-        protocol: Protocol::Impulse,
-        pulses: pulses.clone(),
-        pulse_protocols: Vec::new(),
-        segments: Vec::new(),
-        plateaus: Vec::new(),
-    };
-    if pulses.is_empty() || t.len() != f.len() {
-        return out;
-    }
+/// The force's resting level, scale and noise, and the smoothed force the steadiness
+/// test reads.
+struct ForceLevels {
+    /// Resting level, N.
+    base: f64,
+    /// Median sample period, s.
+    dt: f64,
+    /// Force smoothed over ±0.05 s, N.
+    sm: Vec<f64>,
+    /// How far a held level may wander, N.
+    delta: f64,
+}
+
+/// Rest, scale and noise of the force, and its light smoothing (±0.05 s) so that the
+/// steadiness test sees the level, not the noise.
+fn force_levels(t: &[f64], f: &[f64]) -> ForceLevels {
     let base = percentile(f, 0.1);
     let amp = percentile(f, 0.999) - base;
     let sigma = noise_sigma(f);
     let dt = crate::logs::median_period(t).max(1e-9);
-    // Light smoothing (±0.05 s) so that the steadiness test sees the level, not the noise.
     let m = ((0.05 / dt).round() as usize).min(50);
     let sm = moving_average(f, m);
     let delta = (0.02 * amp).max(6.0 * sigma / ((2 * m + 1) as f64).sqrt());
-    let at = |x: f64| t.partition_point(|&v| v < x).min(t.len() - 1);
-
-    // Per pulse: its held levels and its oscillation.
-    struct Shape {
-        plateaus: Vec<Plateau>,
-        splits: Vec<usize>,
-        class: Protocol,
+    ForceLevels {
+        base,
+        dt,
+        sm,
+        delta,
     }
-    let shapes: Vec<Shape> = pulses
+}
+
+/// One pulse's shape: its held levels, its oscillation and its class.
+struct Shape {
+    plateaus: Vec<Plateau>,
+    splits: Vec<usize>,
+    class: Protocol,
+}
+
+/// Classify one pulse by its held levels and oscillation.
+fn pulse_shape(t: &[f64], f: &[f64], lv: &ForceLevels, p: &PulseSpan) -> Shape {
+    let (sm, delta) = (&lv.sm, lv.delta);
+    let dur = t[p.end] - t[p.start];
+    let h = (((0.25f64).max(0.01 * dur) / lv.dt).ceil() as usize).max(1);
+    let plateaus = merge_levels(t, held_levels(t, f, sm, p.start, p.end, h, delta), delta);
+    let longest = plateaus
         .iter()
-        .map(|p| {
-            let dur = t[p.end] - t[p.start];
-            let h = (((0.25f64).max(0.01 * dur) / dt).ceil() as usize).max(1);
-            let plateaus = merge_levels(t, held_levels(t, f, &sm, p.start, p.end, h, delta), delta);
-            let longest = plateaus
-                .iter()
-                .map(|q| t[q.end] - t[q.start])
-                .fold(0.0, f64::max);
-            let top = sm[p.start..=p.end]
-                .iter()
-                .fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-            let splits = oscillation_minima(&sm, p.start, p.end, 0.3 * (top - base));
-            let mut levels: Vec<f64> = plateaus.iter().map(|q| q.level_n).collect();
-            levels.sort_by(f64::total_cmp);
-            levels.dedup_by(|a, b| (*a - *b).abs() <= 2.0 * delta);
-            let class = if !splits.is_empty() {
-                Protocol::Sine
-            } else if levels.len() >= 2 {
-                Protocol::Staircase
-            } else if plateaus.len() == 1 && longest >= MIN_HOLD_SHARE * dur {
-                Protocol::PressHoldRelease
-            } else {
-                Protocol::Impulse
-            };
-            let plateaus = if matches!(class, Protocol::Staircase | Protocol::PressHoldRelease) {
-                plateaus
-            } else {
-                Vec::new()
-            };
-            Shape {
-                plateaus,
-                splits,
-                class,
-            }
-        })
-        .collect();
-    let mut classes: Vec<Protocol> = shapes.iter().map(|s| s.class).collect();
-    // Runs of at least three back-to-back presses are the cycles of a sine.
+        .map(|q| t[q.end] - t[q.start])
+        .fold(0.0, f64::max);
+    let top = sm[p.start..=p.end]
+        .iter()
+        .fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+    let splits = oscillation_minima(sm, p.start, p.end, 0.3 * (top - lv.base));
+    let mut levels: Vec<f64> = plateaus.iter().map(|q| q.level_n).collect();
+    levels.sort_by(f64::total_cmp);
+    levels.dedup_by(|a, b| (*a - *b).abs() <= 2.0 * delta);
+    let class = if !splits.is_empty() {
+        Protocol::Sine
+    } else if levels.len() >= 2 {
+        Protocol::Staircase
+    } else if plateaus.len() == 1 && longest >= MIN_HOLD_SHARE * dur {
+        Protocol::PressHoldRelease
+    } else {
+        Protocol::Impulse
+    };
+    let plateaus = if matches!(class, Protocol::Staircase | Protocol::PressHoldRelease) {
+        plateaus
+    } else {
+        Vec::new()
+    };
+    Shape {
+        plateaus,
+        splits,
+        class,
+    }
+}
+
+/// Reclassify runs of at least three back-to-back presses as the cycles of a sine.
+fn mark_sine_runs(t: &[f64], pulses: &[PulseSpan], classes: &mut [Protocol]) {
     let back_to_back = |i: usize| {
         i + 1 < pulses.len() && {
             let gap = t[pulses[i + 1].start] - t[pulses[i].end];
@@ -289,145 +297,213 @@ pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
         }
         i = j + 1;
     }
+}
 
-    // Bounds of the rest around pulse k: from the previous pulse's end to this start,
-    // and from this end to the next start (force indices).
-    let prev_end = |k: usize| if k == 0 { 0 } else { pulses[k - 1].end + 1 };
-    let next_start = |k: usize| {
-        pulses
-            .get(k + 1)
-            .map_or(t.len() - 1, |q| q.start.saturating_sub(1))
-    };
-    let mid = |a: usize, b: usize| at((t[a] + t[b]) / 2.0);
-    for (k, p) in pulses.iter().enumerate() {
-        let dur = t[p.end] - t[p.start];
-        // Rest before the pulse (the one after is the next pulse's rest before).
-        let (ra, rb) = (prev_end(k), p.start.saturating_sub(1));
-        if rb > ra && t[rb] - t[ra] >= MIN_PLATEAU_S {
-            out.plateaus.push(Plateau {
-                start: ra,
-                end: rb,
-                level_n: percentile(&f[ra..=rb], 0.5),
-                rest: true,
-            });
+/// The rest between force indices `ra` and `rb` as a plateau, if it lasts long enough.
+fn rest_plateau(t: &[f64], f: &[f64], ra: usize, rb: usize) -> Option<Plateau> {
+    (rb > ra && t[rb] - t[ra] >= MIN_PLATEAU_S).then(|| Plateau {
+        start: ra,
+        end: rb,
+        level_n: percentile(&f[ra..=rb], 0.5),
+        rest: true,
+    })
+}
+
+/// What the segments of each pulse are cut from.
+struct Cutter<'a> {
+    t: &'a [f64],
+    pulses: &'a [PulseSpan],
+    classes: &'a [Protocol],
+    shapes: &'a [Shape],
+    /// Resting level, N.
+    base: f64,
+}
+
+impl Cutter<'_> {
+    /// The force index at time `x` (clamped to the log).
+    fn at(&self, x: f64) -> usize {
+        self.t.partition_point(|&v| v < x).min(self.t.len() - 1)
+    }
+
+    /// The force index halfway in time between indices `a` and `b`.
+    fn mid(&self, a: usize, b: usize) -> usize {
+        self.at((self.t[a] + self.t[b]) / 2.0)
+    }
+
+    /// Start of the rest before pulse k (the previous pulse's end + 1).
+    fn prev_end(&self, k: usize) -> usize {
+        if k == 0 {
+            0
+        } else {
+            self.pulses[k - 1].end + 1
         }
-        let (lo, hi) = (prev_end(k).min(p.start), next_start(k).max(p.end));
-        match classes[k] {
+    }
+
+    /// End of the rest after pulse k (the next pulse's start − 1).
+    fn next_start(&self, k: usize) -> usize {
+        self.pulses
+            .get(k + 1)
+            .map_or(self.t.len() - 1, |q| q.start.saturating_sub(1))
+    }
+
+    /// The segments of pulse k by its class.
+    fn segments(&self, k: usize) -> Vec<Segment> {
+        let p = &self.pulses[k];
+        let (lo, hi) = (self.prev_end(k).min(p.start), self.next_start(k).max(p.end));
+        match self.classes[k] {
             Protocol::Impulse => {
-                let a = at(t[p.start] - dur / 2.0).max(lo);
-                let b = at(t[p.end] + (2.0 * dur).max(2.0)).min(hi);
-                out.segments.push(Segment {
+                let (t, dur) = (self.t, self.t[p.end] - self.t[p.start]);
+                let a = self.at(t[p.start] - dur / 2.0).max(lo);
+                let b = self.at(t[p.end] + (2.0 * dur).max(2.0)).min(hi);
+                vec![Segment {
                     kind: SegmentKind::Pulse,
                     pulse: k,
                     start: p.start,
                     end: p.end,
                     window: (a, b),
+                }]
+            }
+            Protocol::Sine => self.cycles(k, lo, hi),
+            Protocol::PressHoldRelease | Protocol::Staircase => self.level_changes(k, lo, hi),
+            Protocol::Mixed => Vec::new(),
+        }
+    }
+
+    /// The cycles of a sine pulse k: bounded by the middle of the gaps between
+    /// back-to-back pulses, or by the troughs of an oscillation inside one pulse.
+    fn cycles(&self, k: usize, lo: usize, hi: usize) -> Vec<Segment> {
+        let (t, pulses, classes) = (self.t, self.pulses, self.classes);
+        let p = &pulses[k];
+        let dur = t[p.end] - t[p.start];
+        let a = if k > 0 && classes[k - 1] == Protocol::Sine {
+            self.mid(pulses[k - 1].end, p.start)
+        } else {
+            self.at(t[p.start] - dur / 2.0).max(lo)
+        };
+        let b = if k + 1 < pulses.len() && classes[k + 1] == Protocol::Sine {
+            self.mid(p.end, pulses[k + 1].start)
+        } else {
+            self.at(t[p.end] + dur / 2.0).min(hi)
+        };
+        let cuts: Vec<usize> = std::iter::once(a)
+            .chain(self.shapes[k].splits.iter().copied())
+            .chain(std::iter::once(b))
+            .collect();
+        cuts.windows(2)
+            .filter(|w| w[1] > w[0] + 2)
+            .map(|w| Segment {
+                kind: SegmentKind::Cycle,
+                pulse: k,
+                start: w[0].max(p.start),
+                end: w[1].min(p.end),
+                window: (w[0], w[1]),
+            })
+            .collect()
+    }
+
+    /// The changes of level of a press-hold-release or staircase pulse k: from the
+    /// rest before to the first level, level to level, and from the last level to
+    /// the rest after.
+    fn level_changes(&self, k: usize, lo: usize, hi: usize) -> Vec<Segment> {
+        let (t, p) = (self.t, &self.pulses[k]);
+        let levels = &self.shapes[k].plateaus;
+        let first = levels[0];
+        let last = levels[levels.len() - 1];
+        let half_first = (t[first.end] - t[first.start]) / 2.0;
+        let half_last = (t[last.end] - t[last.start]) / 2.0;
+        // (window start, start, end, window end, level from, level to)
+        let mut bounds: Vec<(usize, usize, usize, usize, f64, f64)> = Vec::new();
+        let pre = self.at(t[p.start] - half_first).max(lo);
+        let first_mid = self.mid(first.start, first.end);
+        bounds.push((
+            pre,
+            p.start,
+            first.start,
+            first_mid,
+            self.base,
+            first.level_n,
+        ));
+        for w in levels.windows(2) {
+            bounds.push((
+                self.mid(w[0].start, w[0].end),
+                w[0].end,
+                w[1].start,
+                self.mid(w[1].start, w[1].end),
+                w[0].level_n,
+                w[1].level_n,
+            ));
+        }
+        let post = self.at(t[p.end] + half_last).min(hi);
+        let last_mid = self.mid(last.start, last.end);
+        bounds.push((last_mid, last.end, p.end, post, last.level_n, self.base));
+        let hold = self.classes[k] == Protocol::PressHoldRelease;
+        let mut out = Vec::new();
+        for (j, (wa, s, e, wb, from, to)) in bounds.into_iter().enumerate() {
+            let kind = match (hold, j == 0, to > from) {
+                (true, true, _) => SegmentKind::Press,
+                (true, false, _) => SegmentKind::Release,
+                (false, _, true) => SegmentKind::StepUp,
+                (false, _, false) => SegmentKind::StepDown,
+            };
+            if wb > wa + 2 {
+                out.push(Segment {
+                    kind,
+                    pulse: k,
+                    start: s.min(e),
+                    end: e.max(s),
+                    window: (wa, wb),
                 });
             }
-            Protocol::Sine => {
-                // Cycle bounds: the middle of the gaps between back-to-back pulses, or
-                // the troughs of an oscillation inside one pulse.
-                let a = if k > 0 && classes[k - 1] == Protocol::Sine {
-                    mid(pulses[k - 1].end, p.start)
-                } else {
-                    at(t[p.start] - dur / 2.0).max(lo)
-                };
-                let b = if k + 1 < pulses.len() && classes[k + 1] == Protocol::Sine {
-                    mid(p.end, pulses[k + 1].start)
-                } else {
-                    at(t[p.end] + dur / 2.0).min(hi)
-                };
-                let cuts: Vec<usize> = std::iter::once(a)
-                    .chain(shapes[k].splits.iter().copied())
-                    .chain(std::iter::once(b))
-                    .collect();
-                for w in cuts.windows(2) {
-                    if w[1] > w[0] + 2 {
-                        out.segments.push(Segment {
-                            kind: SegmentKind::Cycle,
-                            pulse: k,
-                            start: w[0].max(p.start),
-                            end: w[1].min(p.end),
-                            window: (w[0], w[1]),
-                        });
-                    }
-                }
-            }
-            Protocol::PressHoldRelease | Protocol::Staircase => {
-                let levels = &shapes[k].plateaus;
-                let first = levels[0];
-                let last = levels[levels.len() - 1];
-                let half_first = (t[first.end] - t[first.start]) / 2.0;
-                let half_last = (t[last.end] - t[last.start]) / 2.0;
-                // From the rest before to the first level, level to level, and from
-                // the last level to the rest after.
-                let mut bounds: Vec<(usize, usize, usize, usize, f64, f64)> = Vec::new();
-                let pre = at(t[p.start] - half_first).max(lo);
-                bounds.push((
-                    pre,
-                    p.start,
-                    first.start,
-                    mid(first.start, first.end),
-                    base,
-                    first.level_n,
-                ));
-                for w in levels.windows(2) {
-                    bounds.push((
-                        mid(w[0].start, w[0].end),
-                        w[0].end,
-                        w[1].start,
-                        mid(w[1].start, w[1].end),
-                        w[0].level_n,
-                        w[1].level_n,
-                    ));
-                }
-                let post = at(t[p.end] + half_last).min(hi);
-                bounds.push((
-                    mid(last.start, last.end),
-                    last.end,
-                    p.end,
-                    post,
-                    last.level_n,
-                    base,
-                ));
-                for (j, (wa, s, e, wb, from, to)) in bounds.into_iter().enumerate() {
-                    let kind = if classes[k] == Protocol::PressHoldRelease {
-                        if j == 0 {
-                            SegmentKind::Press
-                        } else {
-                            SegmentKind::Release
-                        }
-                    } else if to > from {
-                        SegmentKind::StepUp
-                    } else {
-                        SegmentKind::StepDown
-                    };
-                    if wb > wa + 2 {
-                        out.segments.push(Segment {
-                            kind,
-                            pulse: k,
-                            start: s.min(e),
-                            end: e.max(s),
-                            window: (wa, wb),
-                        });
-                    }
-                }
-                out.plateaus.extend(levels.iter().copied());
-            }
-            Protocol::Mixed => {}
+        }
+        out
+    }
+}
+
+/// Cut the force log (times `t`, s, ascending; force `f`, N, compression positive)
+/// into its protocol's segments.
+pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
+    let pulses = detect_pulses(f);
+    let mut out = Segmentation {
+        protocol: Protocol::Impulse,
+        pulses: pulses.clone(),
+        pulse_protocols: Vec::new(),
+        segments: Vec::new(),
+        plateaus: Vec::new(),
+    };
+    if pulses.is_empty() || t.len() != f.len() {
+        return out;
+    }
+    let levels = force_levels(t, f);
+    let shapes: Vec<Shape> = pulses
+        .iter()
+        .map(|p| pulse_shape(t, f, &levels, p))
+        .collect();
+    let mut classes: Vec<Protocol> = shapes.iter().map(|s| s.class).collect();
+    mark_sine_runs(t, &pulses, &mut classes);
+    let cutter = Cutter {
+        t,
+        pulses: &pulses,
+        classes: &classes,
+        shapes: &shapes,
+        base: levels.base,
+    };
+    for (k, p) in pulses.iter().enumerate() {
+        // Rest before the pulse (the one after is the next pulse's rest before).
+        out.plateaus.extend(rest_plateau(
+            t,
+            f,
+            cutter.prev_end(k),
+            p.start.saturating_sub(1),
+        ));
+        out.segments.extend(cutter.segments(k));
+        if matches!(classes[k], Protocol::PressHoldRelease | Protocol::Staircase) {
+            out.plateaus.extend(shapes[k].plateaus.iter().copied());
         }
     }
     // The rest after the last pulse.
     if let Some(p) = pulses.last() {
-        let (ra, rb) = (p.end + 1, t.len() - 1);
-        if rb > ra && t[rb] - t[ra] >= MIN_PLATEAU_S {
-            out.plateaus.push(Plateau {
-                start: ra,
-                end: rb,
-                level_n: percentile(&f[ra..=rb], 0.5),
-                rest: true,
-            });
-        }
+        out.plateaus
+            .extend(rest_plateau(t, f, p.end + 1, t.len() - 1));
     }
     out.protocol = majority(&classes);
     out.pulse_protocols = classes;

@@ -287,14 +287,8 @@ pub struct SynthForce {
     pub force_n: Vec<f64>,
 }
 
-/// Generate a run.
-pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthForce, SynthTruth)> {
-    let Some(m) = &design.module else {
-        bail!(
-            "design `{}` has no [module] to synthesise a log for",
-            design.name
-        )
-    };
+/// Check the run's settings against the design; returns the core whose gratings respond.
+fn check_config(design: &Design, m: &crate::spec::Module, cfg: &SynthConfig) -> Result<String> {
     let core = cfg
         .core
         .clone()
@@ -335,20 +329,27 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     if !(0.0..=1.0).contains(&cfg.instant_fraction) || !(0.0..1.0).contains(&cfg.dropout_fraction) {
         bail!("the instant fraction must be in [0, 1] and the dropout fraction in [0, 1)");
     }
-    let strain: Vec<_> = m
-        .gratings
-        .iter()
-        .filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(&core))
-        .collect();
-    let reference = m
-        .gratings
-        .iter()
-        .find(|g| g.role == GratingRole::TemperatureReference);
-    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
-    let normal = Normal::new(0.0, 1.0).expect("unit normal");
+    Ok(core)
+}
 
-    // Noise-free response on a fine grid.
-    // Fine enough for the lag truth, capped at 4 million steps for long runs.
+/// The noise-free response on a fine time grid, with the true lags it gives.
+struct FineResponse {
+    /// Grid times, s.
+    ts: Vec<f64>,
+    /// Response y (shift per unit K), delayed by the transport delay.
+    ys: Vec<f64>,
+    /// The verifier's segmentation of the noise-free force.
+    seg: segment::Segmentation,
+    /// True lag per segment, s.
+    lags: Vec<f64>,
+    /// True Δt_max, s.
+    max_lag: f64,
+}
+
+/// The noise-free response on a grid fine enough for the lag truth (capped at 4
+/// million steps for long runs), and the true lags: the verifier's segments of the
+/// noise-free force and its lag measure on the noise-free response.
+fn fine_response(cfg: &SynthConfig) -> FineResponse {
     let dt_sim = (1.0 / (10.0 * cfg.sample_rate_hz))
         .min(cfg.tau_s / 20.0)
         .min(1e-2)
@@ -370,8 +371,6 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
             }
         })
         .collect();
-    // True lags: the verifier's segments of the noise-free force and its lag measure
-    // on the noise-free response, both on the fine grid (continuous time).
     let seg = segment::segment(&ts, &fs);
     let model_lag = cfg.transport_delay_s.abs() + (1.0 - cfg.instant_fraction) * cfg.tau_s;
     let lags: Vec<f64> = seg
@@ -381,56 +380,111 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
         .filter(|s| ts[s.end] < cfg.duration_s)
         .filter_map(|s| {
             let w = (ts[s.window.0], ts[s.window.1]);
-            lag::segment_lag(
-                &ts,
-                &ys,
-                &ts,
-                &fs,
-                w,
-                lag::search_range_s(w, model_lag),
-                1.0,
-            )
-            .map(|l| l.lag_s)
+            let range = lag::search_range_s(w, model_lag);
+            lag::segment_lag(&ts, &ys, &ts, &fs, w, range, 1.0).map(|l| l.lag_s)
         })
         .collect();
     let max_lag = lags.iter().copied().fold(f64::NAN, f64::max);
+    FineResponse {
+        ts,
+        ys,
+        seg,
+        lags,
+        max_lag,
+    }
+}
 
-    let n = (cfg.duration_s * cfg.sample_rate_hz).floor() as usize;
-    let t_rel: Vec<f64> = (0..n).map(|i| i as f64 / cfg.sample_rate_hz).collect();
-    let mut h = 0;
-    let y_rows: Vec<f64> = t_rel
-        .iter()
-        .map(|&t| fit::interp(&ts, &ys, t, &mut h))
-        .collect();
-    let f_rows: Vec<f64> = t_rel.iter().map(|&t| force_at(&cfg.pulses, t)).collect();
-    let fo = design.fiber;
-    let half = cfg.duration_s / 2.0;
-    let tri = |t: f64| if t < half { t } else { 2.0 * half - t };
+/// The seeded noise of a run, drawn in a fixed order so that a seed gives one run.
+struct Noise {
+    rng: ChaCha8Rng,
+    normal: Normal<f64>,
+}
 
-    let mut names = Vec::new();
-    let mut columns = Vec::new();
-    let mut truth_gratings = Vec::new();
-    let ref_l = reference.map(|r| r.bragg_wavelength_nm);
-    for (k, g) in strain.iter().enumerate() {
+impl Noise {
+    /// Whether this peak is dropped from its row.
+    fn dropped(&mut self, fraction: f64) -> bool {
+        self.rng.random::<f64>() < fraction
+    }
+
+    /// One draw of the unit normal.
+    fn unit(&mut self) -> f64 {
+        self.normal.sample(&mut self.rng)
+    }
+}
+
+/// What every grating's column is computed from: the rows of the wavelength log.
+struct Rows<'a> {
+    cfg: &'a SynthConfig,
+    fiber: crate::grating::FiberOptics,
+    /// Row times, s from the first row.
+    t_rel: Vec<f64>,
+    /// Noise-free response at the rows.
+    y_rows: Vec<f64>,
+    /// Force at the rows, N.
+    f_rows: Vec<f64>,
+    /// The reference grating's nominal wavelength, nm.
+    reference_nm: Option<f64>,
+}
+
+impl Rows<'_> {
+    /// The temperature profile's time factor: it rises for the first half of the run
+    /// and falls back in the second.
+    fn ramp_time_s(&self, t: f64) -> f64 {
+        let half = self.cfg.duration_s / 2.0;
+        if t < half {
+            t
+        } else {
+            2.0 * half - t
+        }
+    }
+
+    /// The k-th strain grating's column (nm, NaN = dropped) and its truth.
+    fn strain_column(
+        &self,
+        k: usize,
+        g: &crate::spec::ModuleGrating,
+        fine: &FineResponse,
+        noise: &mut Noise,
+    ) -> Result<(Vec<f64>, SynthGrating)> {
+        let cfg = self.cfg;
+        let n = self.t_rel.len();
         let kg = cfg.sensitivity_pm_per_n * (1.0 - 0.15 * k as f64);
         let l0 = g.bragg_wavelength_nm;
-        let ts_pm = fo.temperature_sensitivity_pm_per_k(l0);
+        let ts_pm = self.fiber.temperature_sensitivity_pm_per_k(l0);
         let col: Vec<f64> = (0..n)
             .map(|i| {
-                if rng.random::<f64>() < cfg.dropout_fraction {
+                if noise.dropped(cfg.dropout_fraction) {
                     return f64::NAN;
                 }
-                let t = t_rel[i];
-                let pm = kg * y_rows[i]
+                let t = self.t_rel[i];
+                let pm = kg * self.y_rows[i]
                     + cfg.drift_pm_per_s * t
-                    + ts_pm * cfg.temperature_ramp_k_per_s * tri(t)
-                    + cfg.noise_pm * normal.sample(&mut rng);
+                    + ts_pm * cfg.temperature_ramp_k_per_s * self.ramp_time_s(t)
+                    + cfg.noise_pm * noise.unit();
                 l0 + pm * 1e-3
             })
             .collect();
-        // Expected R²: noise-free scatter of K·y about the best line in F, plus noise.
-        let clean: Vec<f64> = y_rows.iter().map(|y| kg * y).collect();
-        let Some(line) = fit::fit_line(&f_rows, &clean) else {
+        let r2 = self.expected_r_squared(kg, l0)?;
+        let truth = SynthGrating {
+            name: g.name.clone(),
+            nominal_nm: l0,
+            sensitivity_pm_per_n: kg,
+            lags_s: fine.lags.clone(),
+            max_lag_s: fine.max_lag,
+            r_squared_expected: r2,
+            quality_q_expected: kg.abs() * r2 / fine.max_lag,
+            reference: false,
+        };
+        Ok((col, truth))
+    }
+
+    /// Expected R² of a grating with sensitivity `kg` at `l0`: the noise-free scatter
+    /// of K·y about the best line in F, plus the noise of it and the reference.
+    fn expected_r_squared(&self, kg: f64, l0: f64) -> Result<f64> {
+        let cfg = self.cfg;
+        let n = self.t_rel.len();
+        let clean: Vec<f64> = self.y_rows.iter().map(|y| kg * y).collect();
+        let Some(line) = fit::fit_line(&self.f_rows, &clean) else {
             bail!(
                 "no pulse falls inside the {} s log: the force does not vary",
                 cfg.duration_s
@@ -439,38 +493,31 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
         let mean = clean.iter().sum::<f64>() / n as f64;
         let sst0: f64 = clean.iter().map(|v| (v - mean).powi(2)).sum();
         let ssr0 = (1.0 - line.r_squared) * sst0;
-        let ratio = ref_l.map_or(0.0, |lr| l0 / lr);
+        let ratio = self.reference_nm.map_or(0.0, |lr| l0 / lr);
         let var = cfg.noise_pm.powi(2) * (1.0 + ratio * ratio) * n as f64;
-        let r2 = 1.0 - (ssr0 + var) / (sst0 + var);
-        names.push(g.name.clone());
-        columns.push(col);
-        truth_gratings.push(SynthGrating {
-            name: g.name.clone(),
-            nominal_nm: l0,
-            sensitivity_pm_per_n: kg,
-            lags_s: lags.clone(),
-            max_lag_s: max_lag,
-            r_squared_expected: r2,
-            quality_q_expected: kg.abs() * r2 / max_lag,
-            reference: false,
-        });
+        Ok(1.0 - (ssr0 + var) / (sst0 + var))
     }
-    if let Some(r) = reference {
+
+    /// The reference grating's column (temperature and noise only) and its truth.
+    fn reference_column(
+        &self,
+        r: &crate::spec::ModuleGrating,
+        noise: &mut Noise,
+    ) -> (Vec<f64>, SynthGrating) {
+        let cfg = self.cfg;
         let l0 = r.bragg_wavelength_nm;
-        let ts_pm = fo.temperature_sensitivity_pm_per_k(l0);
-        let col: Vec<f64> = (0..n)
+        let ts_pm = self.fiber.temperature_sensitivity_pm_per_k(l0);
+        let col: Vec<f64> = (0..self.t_rel.len())
             .map(|i| {
-                if rng.random::<f64>() < cfg.dropout_fraction {
+                if noise.dropped(cfg.dropout_fraction) {
                     return f64::NAN;
                 }
-                l0 + (ts_pm * cfg.temperature_ramp_k_per_s * tri(t_rel[i])
-                    + cfg.noise_pm * normal.sample(&mut rng))
+                l0 + (ts_pm * cfg.temperature_ramp_k_per_s * self.ramp_time_s(self.t_rel[i])
+                    + cfg.noise_pm * noise.unit())
                     * 1e-3
             })
             .collect();
-        names.push(r.name.clone());
-        columns.push(col);
-        truth_gratings.push(SynthGrating {
+        let truth = SynthGrating {
             name: r.name.clone(),
             nominal_nm: l0,
             sensitivity_pm_per_n: 0.0,
@@ -479,18 +526,13 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
             r_squared_expected: f64::NAN,
             quality_q_expected: f64::NAN,
             reference: true,
-        });
+        };
+        (col, truth)
     }
-    let wavelength_nm: Vec<Vec<f64>> = (0..n)
-        .map(|i| columns.iter().map(|c| c[i]).collect())
-        .collect();
-    let log = SynthLog {
-        time_s: t_rel.clone(),
-        names,
-        wavelength_nm,
-    };
+}
 
-    // Force log, on its own clock, covering the wavelength log.
+/// The force log, on its own clock, covering the wavelength log.
+fn force_log(cfg: &SynthConfig, noise: &mut Noise) -> SynthForce {
     let nf = ((cfg.duration_s - cfg.force_start_s).max(cfg.duration_s) * cfg.force_rate_hz).floor()
         as usize
         + 1;
@@ -499,29 +541,83 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
     for k in 0..nf {
         let tf = k as f64 / cfg.force_rate_hz;
         ft.push(tf);
-        ff.push(
-            force_at(&cfg.pulses, tf + cfg.force_start_s)
-                + cfg.force_noise_n * normal.sample(&mut rng),
-        );
+        ff.push(force_at(&cfg.pulses, tf + cfg.force_start_s) + cfg.force_noise_n * noise.unit());
     }
+    SynthForce {
+        time_s: ft,
+        force_n: ff,
+    }
+}
+
+/// Generate a run.
+pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthForce, SynthTruth)> {
+    let Some(m) = &design.module else {
+        bail!(
+            "design `{}` has no [module] to synthesise a log for",
+            design.name
+        )
+    };
+    let core = check_config(design, m, cfg)?;
+    let strain: Vec<_> = m
+        .gratings
+        .iter()
+        .filter(|g| g.role == GratingRole::Strain && g.core.as_deref() == Some(&core))
+        .collect();
+    let reference = m
+        .gratings
+        .iter()
+        .find(|g| g.role == GratingRole::TemperatureReference);
+    let mut noise = Noise {
+        rng: ChaCha8Rng::seed_from_u64(cfg.seed),
+        normal: Normal::new(0.0, 1.0).expect("unit normal"),
+    };
+    let fine = fine_response(cfg);
+    // The wavelength log's rows.
+    let n = (cfg.duration_s * cfg.sample_rate_hz).floor() as usize;
+    let t_rel: Vec<f64> = (0..n).map(|i| i as f64 / cfg.sample_rate_hz).collect();
+    let mut h = 0;
+    let rows = Rows {
+        cfg,
+        fiber: design.fiber,
+        y_rows: t_rel
+            .iter()
+            .map(|&t| fit::interp(&fine.ts, &fine.ys, t, &mut h))
+            .collect(),
+        f_rows: t_rel.iter().map(|&t| force_at(&cfg.pulses, t)).collect(),
+        t_rel,
+        reference_nm: reference.map(|r| r.bragg_wavelength_nm),
+    };
+    let mut columns = Vec::new();
+    let mut truth_gratings = Vec::new();
+    for (k, g) in strain.iter().enumerate() {
+        let (col, truth) = rows.strain_column(k, g, &fine, &mut noise)?;
+        columns.push(col);
+        truth_gratings.push(truth);
+    }
+    if let Some(r) = reference {
+        let (col, truth) = rows.reference_column(r, &mut noise);
+        columns.push(col);
+        truth_gratings.push(truth);
+    }
+    let log = SynthLog {
+        names: truth_gratings.iter().map(|g| g.name.clone()).collect(),
+        wavelength_nm: (0..n)
+            .map(|i| columns.iter().map(|c| c[i]).collect())
+            .collect(),
+        time_s: rows.t_rel,
+    };
+    let force = force_log(cfg, &mut noise);
     let truth = SynthTruth {
         clock_offset_s: -cfg.force_start_s,
         sls_time_constant_s: cfg.tau_s,
         sls_instant_fraction: cfg.instant_fraction,
         transport_delay_s: cfg.transport_delay_s,
-        protocol: seg.protocol.name().into(),
+        protocol: fine.seg.protocol.name().into(),
         sample_period_s: 1.0 / cfg.sample_rate_hz,
         pulses: cfg.pulses.clone(),
         gratings: truth_gratings,
     };
-    Ok((
-        log,
-        SynthForce {
-            time_s: ft,
-            force_n: ff,
-        },
-        truth,
-    ))
+    Ok((log, force, truth))
 }
 
 /// The clock offset the verifier reports for a log written in `format`: the force
