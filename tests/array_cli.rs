@@ -173,8 +173,14 @@ fn bad_input_exits_with_a_clear_error() {
         (vec!["--penalty", "2"], vec!["--penalty", "--method"]),
         (vec!["--budget-us", "0"], vec!["--budget-us", "positive"]),
         (vec!["--max-loads", "0"], vec!["--max-loads", "at least 1"]),
-        (vec!["--resolution-pm", "0"], vec!["--resolution-pm", "positive"]),
-        (vec!["--resolution-pm", "nan"], vec!["--resolution-pm", "positive"]),
+        (
+            vec!["--resolution-pm", "0"],
+            vec!["--resolution-pm", "positive"],
+        ),
+        (
+            vec!["--resolution-pm", "nan"],
+            vec!["--resolution-pm", "positive"],
+        ),
     ] {
         let mut all = vec!["reconstruct", "--matrix", m, "--shifts", s, "--out", o];
         all.extend(args);
@@ -291,10 +297,24 @@ fn the_interrogator_resolution_sets_the_l0_penalty() {
         )
     };
     assert_eq!(penalty(&["--method", "bnb"]).1, 4.0);
-    assert_eq!(penalty(&["--method", "bnb", "--resolution-pm", "0.25"]).1, 1.0);
-    assert_eq!(penalty(&["--method", "support", "--resolution-pm", "1"]).1, 16.0);
     assert_eq!(
-        penalty(&["--method", "bnb", "--resolution-pm", "0.25", "--penalty", "2.5"]).1,
+        penalty(&["--method", "bnb", "--resolution-pm", "0.25"]).1,
+        1.0
+    );
+    assert_eq!(
+        penalty(&["--method", "support", "--resolution-pm", "1"]).1,
+        16.0
+    );
+    assert_eq!(
+        penalty(&[
+            "--method",
+            "bnb",
+            "--resolution-pm",
+            "0.25",
+            "--penalty",
+            "2.5"
+        ])
+        .1,
         2.5
     );
     // Methods without an ℓ0 penalty keep their own.
