@@ -305,65 +305,105 @@ pub fn choose_method(
             "the per-frame budget must be a positive time in µs, got {budget_us}"
         )));
     }
-    // Probe frames spread evenly over the caller's stream (a stream's first frames
-    // are often alike: one load, or none), unusable frames left out.
+    let mut chooser = Chooser::new(problem, budget_us, probe);
+    for method in PREFERENCE {
+        if let Some(choice) = chooser.try_method(method, settings_for(method)) {
+            return Ok(choice);
+        }
+    }
+    chooser.cheapest_choice()
+}
+
+/// Probe frames spread evenly over the caller's stream, unusable frames left out.
+fn usable_probe_frames(problem: &SensingProblem, probe: Option<&[Vec<f64>]>) -> Vec<Vec<f64>> {
+    // A stream's first frames are often alike (one load, or none), hence the spread.
     let given: Vec<&Vec<f64>> = probe
         .unwrap_or(&[])
         .iter()
         .filter(|y| problem.check_shifts(y).is_ok())
         .collect();
-    let usable: Vec<Vec<f64>> = (0..given.len().min(PROBE_FRAMES))
+    (0..given.len().min(PROBE_FRAMES))
         .map(|i| given[i * given.len() / given.len().min(PROBE_FRAMES)].clone())
-        .collect();
-    let probed_on_data = !usable.is_empty();
-    let (m, n) = (problem.n_gratings(), problem.n_cells());
-    let mut candidates: Vec<Candidate> = Vec::new();
-    // The cheapest estimate so far, in case none meets the budget.
-    // (An enumeration over budget is not built unless it is that one.)
-    type Cheapest = (usize, f64, Option<Box<dyn Reconstructor>>, MethodSettings);
-    let mut cheapest: Option<Cheapest> = None;
-    let source = if probed_on_data {
-        " of the data"
-    } else {
-        ", synthetic"
-    };
-    for method in PREFERENCE {
-        let settings = settings_for(method);
-        let frames = if probed_on_data {
-            usable.clone()
+        .collect()
+}
+
+/// The cheapest estimate so far, in case none meets the budget: candidate index,
+/// estimate (µs), reconstructor and settings. (An enumeration over budget is not
+/// built unless it is that one.)
+type Cheapest = (usize, f64, Option<Box<dyn Reconstructor>>, MethodSettings);
+
+/// A candidate built and run on the probe frames.
+struct Built {
+    /// Its reconstructor.
+    r: Box<dyn Reconstructor>,
+    /// The settings it was built with (`bnb`: perhaps a fitted work budget).
+    settings: MethodSettings,
+    /// Time spent building, ms.
+    setup_ms: f64,
+    /// What the probe frames gave.
+    p: Probe,
+    /// "work budget … to fit the time budget; " when `bnb` was refitted, else empty.
+    fitted: String,
+}
+
+/// The state of the choice while the methods are tried in order.
+struct Chooser<'a> {
+    problem: &'a SensingProblem,
+    budget_us: f64,
+    /// The caller's usable probe frames (empty: synthesise per method).
+    usable: Vec<Vec<f64>>,
+    probed_on_data: bool,
+    /// " of the data" or ", synthetic", for the notes.
+    source: &'static str,
+    m: usize,
+    n: usize,
+    candidates: Vec<Candidate>,
+    cheapest: Option<Cheapest>,
+}
+
+impl<'a> Chooser<'a> {
+    /// Pick the probe frames and start with no candidates.
+    fn new(problem: &'a SensingProblem, budget_us: f64, probe: Option<&[Vec<f64>]>) -> Self {
+        let usable = usable_probe_frames(problem, probe);
+        let probed_on_data = !usable.is_empty();
+        Chooser {
+            problem,
+            budget_us,
+            usable,
+            probed_on_data,
+            source: if probed_on_data {
+                " of the data"
+            } else {
+                ", synthetic"
+            },
+            m: problem.n_gratings(),
+            n: problem.n_cells(),
+            candidates: Vec::new(),
+            cheapest: None,
+        }
+    }
+
+    /// Judge one method; the choice if it is within the budget.
+    fn try_method(&mut self, method: Method, settings: MethodSettings) -> Option<MethodChoice> {
+        let frames = if self.probed_on_data {
+            self.usable.clone()
         } else {
-            synthetic_probe_frames(problem, settings.max_loads)
+            synthetic_probe_frames(self.problem, settings.max_loads)
         };
-        let kmax = settings.max_loads.min(m).min(n);
+        let kmax = settings.max_loads.min(self.m).min(self.n);
         // An enumeration does the same work on every frame: no need to run it.
-        let enumeration = ns_per_support(method).map(|ns| (support_count(n, kmax), ns));
+        let enumeration = ns_per_support(method).map(|ns| (support_count(self.n, kmax), ns));
         if let Some((count, ns)) = enumeration {
             let estimate_us = 1e-3 * count * ns;
-            if estimate_us > budget_us {
-                candidates.push(Candidate {
-                    method,
-                    status: "estimated over budget",
-                    probe_us_per_frame: Some(estimate_us),
-                    measured_us_per_frame: None,
-                    setup_ms: None,
-                    note: format!(
-                        "{count:.0} supports of up to {kmax} loads × {ns} ns: ~{estimate_us:.0} µs per frame"
-                    ),
-                });
-                if cheapest
-                    .as_ref()
-                    .is_none_or(|(_, t, _, _)| estimate_us < *t)
-                {
-                    cheapest = Some((candidates.len() - 1, estimate_us, None, settings));
-                }
-                continue;
+            if estimate_us > self.budget_us {
+                self.enumeration_over_budget(method, settings, (count, ns), kmax, estimate_us);
+                return None;
             }
         }
-        let t0 = Instant::now();
-        let r = match build(method, problem, settings) {
-            Ok(r) => r,
+        match self.build_and_probe(method, settings, &frames) {
+            Ok(built) => self.judge_probed(method, built, enumeration),
             Err(e) => {
-                candidates.push(Candidate {
+                self.candidates.push(Candidate {
                     method,
                     status: "not applicable",
                     probe_us_per_frame: None,
@@ -371,60 +411,107 @@ pub fn choose_method(
                     setup_ms: None,
                     note: e.to_string(),
                 });
-                continue;
-            }
-        };
-        let mut setup_ms = 1e3 * t0.elapsed().as_secs_f64();
-        let mut r = r;
-        let mut settings = settings;
-        let mut p = probe_frames(r.as_ref(), &settings, (m, n), &frames);
-        // `bnb` over the budget: give it the work budget that fits, with a margin for
-        // the incumbent's search, which runs before the budget is checked (its
-        // answer is then the best support found, certified only where the search
-        // completed).
-        let mut fitted = String::new();
-        if method == Method::BranchAndBound && p.estimate_us > budget_us {
-            let units = (0.7 * budget_us * 1e3 / ns_per_bnb_unit(n))
-                .floor()
-                .max(50.0) as u64;
-            if units < settings.node_budget {
-                settings.node_budget = units;
-                let t1 = Instant::now();
-                if let Ok(rb) = build(method, problem, settings) {
-                    setup_ms += 1e3 * t1.elapsed().as_secs_f64();
-                    r = rb;
-                    p = probe_frames(r.as_ref(), &settings, (m, n), &frames);
-                    fitted = format!("work budget {units} units to fit the time budget; ");
-                }
+                None
             }
         }
-        let us = p.estimate_us;
-        let within = us <= budget_us;
-        let work = match enumeration {
-            Some((count, ns)) => format!("{count:.0} supports × {ns} ns"),
-            None if method == Method::BranchAndBound => format!(
-                "median {:.0} work units × {:.2} ns",
-                p.median_work,
-                ns_per_bnb_unit(n)
+    }
+
+    /// Record an enumeration whose estimate is over the budget, without building it.
+    fn enumeration_over_budget(
+        &mut self,
+        method: Method,
+        settings: MethodSettings,
+        (count, ns): (f64, f64),
+        kmax: usize,
+        estimate_us: f64,
+    ) {
+        self.candidates.push(Candidate {
+            method,
+            status: "estimated over budget",
+            probe_us_per_frame: Some(estimate_us),
+            measured_us_per_frame: None,
+            setup_ms: None,
+            note: format!(
+                "{count:.0} supports of up to {kmax} loads × {ns} ns: ~{estimate_us:.0} µs per frame"
             ),
-            None => format!("median {:.0} iterations", p.median_work),
+        });
+        if self
+            .cheapest
+            .as_ref()
+            .is_none_or(|(_, t, _, _)| estimate_us < *t)
+        {
+            self.cheapest = Some((self.candidates.len() - 1, estimate_us, None, settings));
+        }
+    }
+
+    /// Build `method` and run it on the probe frames (`bnb` over the budget: refitted).
+    fn build_and_probe(
+        &self,
+        method: Method,
+        settings: MethodSettings,
+        frames: &[Vec<f64>],
+    ) -> Result<Built, ArrayError> {
+        let t0 = Instant::now();
+        let r = build(method, self.problem, settings)?;
+        let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
+        let p = probe_frames(r.as_ref(), &settings, (self.m, self.n), frames);
+        let mut built = Built {
+            r,
+            settings,
+            setup_ms,
+            p,
+            fitted: String::new(),
         };
-        let note = format!(
-            "{fitted}estimated {us:.1} µs per frame ({work}, {} probe frames{source}; measured here {:.1} µs){}",
-            p.frames,
-            p.measured_us,
-            if p.stopped > 0 && method == Method::BranchAndBound {
-                format!(
-                    "; stopped at its work budget on {} of {} (best support found, not certified)",
-                    p.stopped, p.frames
-                )
-            } else if p.stopped > 0 {
-                format!("; not converged on {} of {}", p.stopped, p.frames)
-            } else {
-                String::new()
+        if method == Method::BranchAndBound && built.p.estimate_us > self.budget_us {
+            self.fit_bnb_budget(&mut built, frames);
+        }
+        Ok(built)
+    }
+
+    /// `bnb` over the budget: give it the work budget that fits, with a margin for
+    /// the incumbent's search, which runs before the budget is checked (its answer
+    /// is then the best support found, certified only where the search completed).
+    fn fit_bnb_budget(&self, built: &mut Built, frames: &[Vec<f64>]) {
+        let units = (0.7 * self.budget_us * 1e3 / ns_per_bnb_unit(self.n))
+            .floor()
+            .max(50.0) as u64;
+        if units < built.settings.node_budget {
+            built.settings.node_budget = units;
+            let t1 = Instant::now();
+            if let Ok(rb) = build(Method::BranchAndBound, self.problem, built.settings) {
+                built.setup_ms += 1e3 * t1.elapsed().as_secs_f64();
+                built.r = rb;
+                built.p = probe_frames(built.r.as_ref(), &built.settings, (self.m, self.n), frames);
+                built.fitted = format!("work budget {units} units to fit the time budget; ");
             }
+        }
+    }
+
+    /// Record a probed candidate; the choice if its estimate is within the budget.
+    fn judge_probed(
+        &mut self,
+        method: Method,
+        built: Built,
+        enumeration: Option<(f64, f64)>,
+    ) -> Option<MethodChoice> {
+        let Built {
+            r,
+            settings,
+            setup_ms,
+            p,
+            fitted,
+        } = built;
+        let us = p.estimate_us;
+        let within = us <= self.budget_us;
+        let work = work_summary(method, enumeration, &p, self.n);
+        let note = format!(
+            "{fitted}estimated {us:.1} µs per frame ({work}, {} probe frames{}; measured here {:.1} µs){}",
+            p.frames,
+            self.source,
+            p.measured_us,
+            stopped_note(method, &p)
         );
-        candidates.push(Candidate {
+        self.candidates.push(Candidate {
             method,
             status: if within { "picked" } else { "over budget" },
             probe_us_per_frame: Some(us),
@@ -433,56 +520,99 @@ pub fn choose_method(
             note,
         });
         if within {
+            let (budget_us, m, n, source) = (self.budget_us, self.m, self.n, self.source);
             let reason = format!(
                 "{} is the most accurate method within {budget_us} µs per frame for {m} gratings × {n} cells ({fitted}estimated {us:.1} µs per frame on the reference machine from its operation count: {work}, {} probe frames{source}){}",
                 method.name(),
                 p.frames,
-                skipped_summary(&candidates, "more accurate but over budget")
+                skipped_summary(&self.candidates, "more accurate but over budget")
             );
-            return Ok(MethodChoice {
+            return Some(MethodChoice {
                 method,
                 reconstructor: r,
                 settings,
                 budget_us,
                 reason,
-                candidates,
-                probed_on_data,
+                candidates: std::mem::take(&mut self.candidates),
+                probed_on_data: self.probed_on_data,
             });
         }
-        if cheapest.as_ref().is_none_or(|(_, t, _, _)| us < *t) {
-            cheapest = Some((candidates.len() - 1, us, Some(r), settings));
+        if self.cheapest.as_ref().is_none_or(|(_, t, _, _)| us < *t) {
+            self.cheapest = Some((self.candidates.len() - 1, us, Some(r), settings));
         }
+        None
     }
-    let Some((idx, us, r, settings)) = cheapest else {
-        return Err(ArrayError::Input(
-            "no reconstruction method could be built for this matrix".into(),
-        ));
-    };
-    let method = candidates[idx].method;
-    let r = match r {
-        Some(r) => r,
-        None => {
-            let t0 = Instant::now();
-            let r = build(method, problem, settings)?;
-            candidates[idx].setup_ms = Some(1e3 * t0.elapsed().as_secs_f64());
-            r
-        }
-    };
-    candidates[idx].status = "picked";
-    let reason = format!(
-        "no method met {budget_us} µs per frame for {m} gratings × {n} cells; {} has the smallest estimate ({us:.1} µs per frame on the reference machine, from its operation count on the probe frames){}",
-        method.name(),
-        skipped_summary(&candidates, "the others")
-    );
-    Ok(MethodChoice {
-        method,
-        reconstructor: r,
-        settings,
-        budget_us,
-        reason,
-        candidates,
-        probed_on_data,
-    })
+
+    /// No method met the budget: the one with the smallest estimate, built if need be.
+    fn cheapest_choice(self) -> Result<MethodChoice, ArrayError> {
+        let Chooser {
+            problem,
+            budget_us,
+            probed_on_data,
+            m,
+            n,
+            mut candidates,
+            cheapest,
+            ..
+        } = self;
+        let Some((idx, us, r, settings)) = cheapest else {
+            return Err(ArrayError::Input(
+                "no reconstruction method could be built for this matrix".into(),
+            ));
+        };
+        let method = candidates[idx].method;
+        let r = match r {
+            Some(r) => r,
+            None => {
+                let t0 = Instant::now();
+                let r = build(method, problem, settings)?;
+                candidates[idx].setup_ms = Some(1e3 * t0.elapsed().as_secs_f64());
+                r
+            }
+        };
+        candidates[idx].status = "picked";
+        let reason = format!(
+            "no method met {budget_us} µs per frame for {m} gratings × {n} cells; {} has the smallest estimate ({us:.1} µs per frame on the reference machine, from its operation count on the probe frames){}",
+            method.name(),
+            skipped_summary(&candidates, "the others")
+        );
+        Ok(MethodChoice {
+            method,
+            reconstructor: r,
+            settings,
+            budget_us,
+            reason,
+            candidates,
+            probed_on_data,
+        })
+    }
+}
+
+/// The work behind an estimate, in words ("… supports × … ns", "median … iterations").
+fn work_summary(method: Method, enumeration: Option<(f64, f64)>, p: &Probe, n: usize) -> String {
+    match enumeration {
+        Some((count, ns)) => format!("{count:.0} supports × {ns} ns"),
+        None if method == Method::BranchAndBound => format!(
+            "median {:.0} work units × {:.2} ns",
+            p.median_work,
+            ns_per_bnb_unit(n)
+        ),
+        None => format!("median {:.0} iterations", p.median_work),
+    }
+}
+
+/// "; stopped at its work budget on …" or "; not converged on …" when frames stopped.
+fn stopped_note(method: Method, p: &Probe) -> String {
+    if p.stopped > 0 && method == Method::BranchAndBound {
+        format!(
+            "; stopped at its work budget on {} of {} (best support found, not certified)",
+            p.stopped, p.frames
+        )
+    } else if p.stopped > 0 {
+        format!("; not converged on {} of {}", p.stopped, p.frames)
+    } else {
+        String::new()
+    }
 }
 
 /// "; <label>: wsupport 900 µs, support (estimated over budget)" for the reason.

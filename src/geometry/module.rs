@@ -556,33 +556,93 @@ pub fn core(
     groove_width_mm: f64,
 ) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new("core");
-    let (r_co, r_ci) = (p.core_outer_radius_mm, p.core_inner_radius_mm);
-    let (r_po, r_gb) = (p.pillar_outer_radius_mm, p.groove_bottom_radius_mm);
-    let (hw, hg) = (pillar_width_mm / 2.0, groove_width_mm / 2.0);
-    let rh = fiber_hole_diameter_mm / 2.0;
-    let r_fh = p.fiber_hole_center_radius_mm;
-    let top = p.pillar_top_mm;
-    let bottom = pp.pillar_bottom_mm;
-    let zc = p.dome_center_z_mm;
-    let beta = (hw / r_co).asin();
-    let (th, phi, hs) = (
-        pp.reference_exit_angle_rad,
-        pp.core_slot_half_angle_rad,
-        pp.core_slot_top_mm,
+    let f = CoreFrame::new(
+        p,
+        pp,
+        pillar_width_mm,
+        fiber_hole_diameter_mm,
+        groove_width_mm,
     );
-    let mut special: Vec<f64> = p
-        .pillar_angles_rad
-        .iter()
-        .flat_map(|&t| [t - beta, t + beta])
-        .collect();
-    special.extend([th - phi, th + phi]);
-    let cuts = Cuts::new(&special);
-    let ang = &cuts.ang;
-    let n = p.pillar_angles_rad.len();
-    let (s0, s1) = (cuts.at(th - phi), cuts.at(th + phi));
+    f.slotted_base(&mut asm)?;
+    f.pillars(&mut asm)?;
+    let upper = f.dome(&mut asm)?;
+    Ok(BuiltSolid {
+        solid: asm.solid()?,
+        exact_volume_mm3: f.band_volume_mm3() + upper,
+    })
+}
 
-    // Pillar outline from its −t edge to its +t edge on the core wall.
-    let rib = |t: f64| -> Vec<S2> {
+/// The core's radii, heights and cut angles, shared by the steps that build it.
+struct CoreFrame<'a> {
+    p: &'a ModuleProfile,
+    cuts: Cuts,
+    r_co: f64,
+    r_ci: f64,
+    r_po: f64,
+    r_gb: f64,
+    /// Half widths of a pillar and of its groove, mm.
+    hw: f64,
+    hg: f64,
+    /// Fiber hole radius, mm.
+    rh: f64,
+    r_fh: f64,
+    top: f64,
+    bottom: f64,
+    /// Half angle of a pillar on the core wall.
+    beta: f64,
+    /// Reference fiber slot: angle, half angle, roof height.
+    th: f64,
+    phi: f64,
+    hs: f64,
+}
+
+impl<'a> CoreFrame<'a> {
+    /// Read the dimensions and cut every circle at the pillar and slot edges.
+    fn new(
+        p: &'a ModuleProfile,
+        pp: &PartsProfile,
+        pillar_width_mm: f64,
+        fiber_hole_diameter_mm: f64,
+        groove_width_mm: f64,
+    ) -> Self {
+        let (r_co, r_ci) = (p.core_outer_radius_mm, p.core_inner_radius_mm);
+        let (r_po, r_gb) = (p.pillar_outer_radius_mm, p.groove_bottom_radius_mm);
+        let (hw, hg) = (pillar_width_mm / 2.0, groove_width_mm / 2.0);
+        let beta = (hw / r_co).asin();
+        let (th, phi, hs) = (
+            pp.reference_exit_angle_rad,
+            pp.core_slot_half_angle_rad,
+            pp.core_slot_top_mm,
+        );
+        let mut special: Vec<f64> = p
+            .pillar_angles_rad
+            .iter()
+            .flat_map(|&t| [t - beta, t + beta])
+            .collect();
+        special.extend([th - phi, th + phi]);
+        CoreFrame {
+            p,
+            cuts: Cuts::new(&special),
+            r_co,
+            r_ci,
+            r_po,
+            r_gb,
+            hw,
+            hg,
+            rh: fiber_hole_diameter_mm / 2.0,
+            r_fh: p.fiber_hole_center_radius_mm,
+            top: p.pillar_top_mm,
+            bottom: pp.pillar_bottom_mm,
+            beta,
+            th,
+            phi,
+            hs,
+        }
+    }
+
+    /// Pillar outline from its −t edge to its +t edge on the core wall.
+    fn rib(&self, t: f64) -> Vec<S2> {
+        let (r_co, r_po, r_gb, hw, hg) = (self.r_co, self.r_po, self.r_gb, self.hw, self.hg);
         let (rh_, th_) = ((t.cos(), t.sin()), (-t.sin(), t.cos()));
         let e = |s: f64, q: f64| (s * rh_.0 + q * th_.0, s * rh_.1 + q * th_.1);
         let s1 = (r_co * r_co - hw * hw).sqrt();
@@ -614,98 +674,125 @@ pub fn core(
             },
             S2::Line(e(s2, hw), e(s1, hw)),
         ]
-    };
-    let hole = |t: f64| -> Vec<S2> {
-        let c = (r_fh * t.cos(), r_fh * t.sin());
+    }
+
+    /// The fiber through-hole of the pillar at angle t, as four quarter arcs.
+    fn hole(&self, t: f64) -> Vec<S2> {
+        let c = (self.r_fh * t.cos(), self.r_fh * t.sin());
         (0..4)
             .map(|k| S2::Arc {
                 c,
-                r: rh,
+                r: self.rh,
                 a0: t - k as f64 * FRAC_PI_2,
                 a1: t - (k + 1) as f64 * FRAC_PI_2,
             })
             .collect()
-    };
-    let radial = |a: f64, r0: f64, r1: f64| {
-        S2::Line((r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin()))
-    };
-
-    // Base band: the wall with the reference fiber's slot.
-    let mut c_loop = ring_ccw(ang, r_co, s1, s0);
-    c_loop.push(radial(th - phi, r_co, r_ci));
-    c_loop.extend(ring_cw(ang, r_ci, s0, s1));
-    c_loop.push(radial(th + phi, r_ci, r_co));
-    asm.plane("base", &[at(&c_loop, 0.0)], -Vector3::unit_z())?;
-    band_sides(&mut asm, std::slice::from_ref(&c_loop), 0.0, hs)?;
-    sector(&mut asm, ang, (r_ci, r_co), (s0, s1), hs, false)?;
-    // Plain wall up to the pillar bottoms (outside) and the pillar top (inside).
-    band_sides(&mut asm, &[ring_ccw(ang, r_co, 0, 0)], hs, bottom)?;
-    band_sides(&mut asm, &[ring_cw(ang, r_ci, 0, 0)], hs, top)?;
-    // Pillars: bottom faces, sides and holes, tops.
-    let pillar_edges: Vec<(usize, usize)> = p
-        .pillar_angles_rad
-        .iter()
-        .map(|&t| (cuts.at(t - beta), cuts.at(t + beta)))
-        .collect();
-    let mut outer = Vec::new();
-    for i in 0..n {
-        outer.extend(rib(p.pillar_angles_rad[i]));
-        outer.extend(ring_ccw(
-            ang,
-            r_co,
-            pillar_edges[i].1,
-            pillar_edges[(i + 1) % n].0,
-        ));
-    }
-    let holes: Vec<Vec<S2>> = p.pillar_angles_rad.iter().map(|&t| hole(t)).collect();
-    let mut loops = vec![outer];
-    loops.extend(holes.iter().cloned());
-    band_sides(&mut asm, &loops, bottom, top)?;
-    for i in 0..n {
-        let mut l = rib(p.pillar_angles_rad[i]);
-        l.extend(ring_cw(ang, r_co, pillar_edges[i].1, pillar_edges[i].0));
-        asm.plane(
-            "pillar bottom",
-            &[at(&l, bottom), at(&holes[i], bottom)],
-            -Vector3::unit_z(),
-        )?;
-        asm.plane(
-            "pillar top",
-            &[at(&l, top), at(&holes[i], top)],
-            Vector3::unit_z(),
-        )?;
     }
 
-    let tr = p.top_hole_radius_mm;
-    let (rs_o, rs_i) = (
-        p.core_dome_outer_sphere_radius_mm,
-        p.core_dome_inner_sphere_radius_mm,
-    );
-    let (z_oj, z_ij) = (p.core_outer_junction_z_mm, p.core_inner_junction_z_mm);
-    let (z_oh, z_ih) = (sphere_z(p, rs_o, tr), sphere_z(p, rs_i, tr));
-    let [outer_wall, outer_dome] = domed_wall(r_co, top, z_oj, rs_o, (tr, z_oh), true);
-    let [inner_dome, inner_wall] = domed_wall(r_ci, top, z_ij, rs_i, (tr, z_ih), false);
-    let top_hole = Prof {
-        a: (tr, z_oh),
-        b: (tr, z_ih),
-        sphere: None,
-        out: -1.0,
-    };
-    let chain = [outer_wall, outer_dome, top_hole, inner_dome, inner_wall];
-    revolve_chain_above(&mut asm, &chain, zc, ang, top)?;
+    /// Base band (the wall with the reference fiber's slot), then the plain wall up to
+    /// the pillar bottoms (outside) and the pillar top (inside).
+    fn slotted_base(&self, asm: &mut Assembler) -> Result<(), BrepError> {
+        let (r_co, r_ci, th, phi, hs) = (self.r_co, self.r_ci, self.th, self.phi, self.hs);
+        let ang = &self.cuts.ang;
+        let (s0, s1) = (self.cuts.at(th - phi), self.cuts.at(th + phi));
+        let radial = |a: f64, r0: f64, r1: f64| {
+            S2::Line((r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin()))
+        };
+        let mut c_loop = ring_ccw(ang, r_co, s1, s0);
+        c_loop.push(radial(th - phi, r_co, r_ci));
+        c_loop.extend(ring_cw(ang, r_ci, s0, s1));
+        c_loop.push(radial(th + phi, r_ci, r_co));
+        asm.plane("base", &[at(&c_loop, 0.0)], -Vector3::unit_z())?;
+        band_sides(asm, std::slice::from_ref(&c_loop), 0.0, hs)?;
+        sector(asm, ang, (r_ci, r_co), (s0, s1), hs, false)?;
+        band_sides(asm, &[ring_ccw(ang, r_co, 0, 0)], hs, self.bottom)?;
+        band_sides(asm, &[ring_cw(ang, r_ci, 0, 0)], hs, self.top)
+    }
 
-    let rib_area =
-        slice_area(r_po, hw) - slice_area(r_co, hw) - (slice_area(r_po, hg) - slice_area(r_gb, hg));
-    let band = top * PI * (r_co * r_co - r_ci * r_ci)
-        + (top - bottom) * n as f64 * (rib_area - PI * rh * rh)
-        - hs * phi * (r_co * r_co - r_ci * r_ci);
-    let upper = capped_cylinder_volume(r_co, top, z_oj, rs_o, zc, z_oh)
-        - capped_cylinder_volume(r_ci, top, z_ij, rs_i, zc, z_ih)
-        - PI * tr * tr * (z_oh - z_ih);
-    Ok(BuiltSolid {
-        solid: asm.solid()?,
-        exact_volume_mm3: band + upper,
-    })
+    /// Pillars: sides and holes, then each one's bottom and top faces.
+    fn pillars(&self, asm: &mut Assembler) -> Result<(), BrepError> {
+        let (ang, angles) = (&self.cuts.ang, &self.p.pillar_angles_rad);
+        let (bottom, top) = (self.bottom, self.top);
+        let n = angles.len();
+        let pillar_edges: Vec<(usize, usize)> = angles
+            .iter()
+            .map(|&t| (self.cuts.at(t - self.beta), self.cuts.at(t + self.beta)))
+            .collect();
+        let mut outer = Vec::new();
+        for i in 0..n {
+            outer.extend(self.rib(angles[i]));
+            outer.extend(ring_ccw(
+                ang,
+                self.r_co,
+                pillar_edges[i].1,
+                pillar_edges[(i + 1) % n].0,
+            ));
+        }
+        let holes: Vec<Vec<S2>> = angles.iter().map(|&t| self.hole(t)).collect();
+        let mut loops = vec![outer];
+        loops.extend(holes.iter().cloned());
+        band_sides(asm, &loops, bottom, top)?;
+        for i in 0..n {
+            let mut l = self.rib(angles[i]);
+            l.extend(ring_cw(
+                ang,
+                self.r_co,
+                pillar_edges[i].1,
+                pillar_edges[i].0,
+            ));
+            asm.plane(
+                "pillar bottom",
+                &[at(&l, bottom), at(&holes[i], bottom)],
+                -Vector3::unit_z(),
+            )?;
+            asm.plane(
+                "pillar top",
+                &[at(&l, top), at(&holes[i], top)],
+                Vector3::unit_z(),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The revolved body above the pillar top (walls, domes, top hole); its volume, mm³.
+    fn dome(&self, asm: &mut Assembler) -> Result<f64, BrepError> {
+        let (p, top) = (self.p, self.top);
+        let zc = p.dome_center_z_mm;
+        let tr = p.top_hole_radius_mm;
+        let (rs_o, rs_i) = (
+            p.core_dome_outer_sphere_radius_mm,
+            p.core_dome_inner_sphere_radius_mm,
+        );
+        let (z_oj, z_ij) = (p.core_outer_junction_z_mm, p.core_inner_junction_z_mm);
+        let (z_oh, z_ih) = (sphere_z(p, rs_o, tr), sphere_z(p, rs_i, tr));
+        let [outer_wall, outer_dome] = domed_wall(self.r_co, top, z_oj, rs_o, (tr, z_oh), true);
+        let [inner_dome, inner_wall] = domed_wall(self.r_ci, top, z_ij, rs_i, (tr, z_ih), false);
+        let top_hole = Prof {
+            a: (tr, z_oh),
+            b: (tr, z_ih),
+            sphere: None,
+            out: -1.0,
+        };
+        let chain = [outer_wall, outer_dome, top_hole, inner_dome, inner_wall];
+        revolve_chain_above(asm, &chain, zc, &self.cuts.ang, top)?;
+        Ok(capped_cylinder_volume(self.r_co, top, z_oj, rs_o, zc, z_oh)
+            - capped_cylinder_volume(self.r_ci, top, z_ij, rs_i, zc, z_ih)
+            - PI * tr * tr * (z_oh - z_ih))
+    }
+
+    /// Exact volume of the band z ∈ [0, pillar top]: wall and pillars less holes and slot.
+    fn band_volume_mm3(&self) -> f64 {
+        let (r_co, r_ci, r_po, r_gb, hw, hg) =
+            (self.r_co, self.r_ci, self.r_po, self.r_gb, self.hw, self.hg);
+        let (top, bottom, rh) = (self.top, self.bottom, self.rh);
+        let n = self.p.pillar_angles_rad.len();
+        let rib_area = slice_area(r_po, hw)
+            - slice_area(r_co, hw)
+            - (slice_area(r_po, hg) - slice_area(r_gb, hg));
+        top * PI * (r_co * r_co - r_ci * r_ci)
+            + (top - bottom) * n as f64 * (rib_area - PI * rh * rh)
+            - self.hs * self.phi * (r_co * r_co - r_ci * r_ci)
+    }
 }
 
 /// Volume swept about the axis by the region between radius `r_out` and a chain of
@@ -725,79 +812,133 @@ fn ring_volume(r_out: f64, chain: &[(f64, f64)]) -> f64 {
 /// ring just below them; and a radial slot open to the base for every fiber.
 pub fn cap(p: &ModuleProfile, pp: &PartsProfile) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new("cap");
-    let (r_o, r_ci, r_pi) = (
-        p.cap_outer_radius_mm,
-        p.cap_inner_radius_mm,
-        p.cap_pillar_inner_radius_mm,
-    );
-    let hc = p.cap_pillar_width_mm / 2.0;
-    let top = p.pillar_top_mm;
-    let bottom = pp.pillar_bottom_mm;
-    let zc = p.dome_center_z_mm;
-    let beta = (hc / r_ci).asin();
-    let (phi, hs) = (pp.cap_slot_half_angle_rad, pp.cap_slot_top_mm);
-    let mut slots: Vec<f64> = p.pillar_angles_rad.clone();
-    slots.push(pp.reference_exit_angle_rad);
-    let mut special: Vec<f64> = p
-        .pillar_angles_rad
-        .iter()
-        .flat_map(|&t| [t - beta, t + beta])
-        .collect();
-    special.extend(slots.iter().flat_map(|&t| [t - phi, t + phi]));
-    let cuts = Cuts::new(&special);
-    let ang = &cuts.ang;
-    let n = p.pillar_angles_rad.len();
-    // Slots as index ranges, sorted by angle; the fingers lie between them.
-    let mut slot_idx: Vec<(usize, usize)> = slots
-        .iter()
-        .map(|&t| (cuts.at(t - phi), cuts.at(t + phi)))
-        .collect();
-    slot_idx.sort();
+    let f = CapFrame::new(p, pp);
+    f.slotted_base(&mut asm)?;
+    let inner_chain = f.inner_wall(&mut asm, pp)?;
+    f.pillars(&mut asm)?;
+    let upper = f.dome(&mut asm)?;
+    Ok(BuiltSolid {
+        solid: asm.solid()?,
+        exact_volume_mm3: f.band_volume_mm3(&inner_chain) + upper,
+    })
+}
 
-    // Fingers between the slots, from the base to the slot roofs.
-    let radial = |k: usize, r0: f64, r1: f64| {
-        let a = ang.interval(k).0;
-        S2::Line((r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin()))
-    };
-    let mut fingers = Vec::new();
-    for j in 0..slot_idx.len() {
-        let (from, to) = (slot_idx[j].1, slot_idx[(j + 1) % slot_idx.len()].0);
-        let mut l = ring_ccw(ang, r_o, from, to);
-        l.push(radial(to, r_o, r_ci));
-        l.extend(ring_cw(ang, r_ci, to, from));
-        l.push(radial(from, r_ci, r_o));
-        fingers.push(l);
-    }
-    let bottoms: Vec<Vec<Seg>> = fingers.iter().map(|l| at(l, 0.0)).collect();
-    for b in &bottoms {
-        asm.plane("base", std::slice::from_ref(b), -Vector3::unit_z())?;
-    }
-    band_sides(&mut asm, &fingers, 0.0, hs)?;
-    for &(a, b) in &slot_idx {
-        sector(&mut asm, ang, (r_ci, r_o), (a, b), hs, false)?;
-    }
-    // Outer wall above the slots.
-    band_sides(&mut asm, &[ring_ccw(ang, r_o, 0, 0)], hs, top)?;
-    // Inner wall from the slot roofs to the pillar bottoms, with the snap bead.
-    let mut inner_chain = vec![(r_ci, hs)];
-    if let Some(s) = &pp.snap {
-        let rc = s.crest_radius_mm;
-        inner_chain.extend([
-            (r_ci, s.lead_in_z_mm),
-            (rc, s.crest_bottom_z_mm),
-            (rc, s.crest_top_z_mm),
-            (r_ci, s.retention_top_z_mm),
-        ]);
-    }
-    inner_chain.push((r_ci, bottom));
-    let profs: Vec<Prof> = inner_chain
-        .windows(2)
-        .map(|w| wall(w[0].0, w[0].1, w[1].0, w[1].1, -1.0))
-        .collect();
-    revolve_chain(&mut asm, &profs, zc, ang)?;
+/// The cap's radii, heights, slots and cut angles, shared by the steps that build it.
+struct CapFrame<'a> {
+    p: &'a ModuleProfile,
+    cuts: Cuts,
+    r_o: f64,
+    r_ci: f64,
+    r_pi: f64,
+    /// Half width of an alignment pillar, mm.
+    hc: f64,
+    top: f64,
+    bottom: f64,
+    /// Half angle of an alignment pillar on the inner wall.
+    beta: f64,
+    /// Slot half angle and roof height.
+    phi: f64,
+    hs: f64,
+    /// Slot angles: one per pillar, then the reference fiber's.
+    slots: Vec<f64>,
+}
 
-    // Alignment pillars from the pillar bottoms to the pillar top.
-    let rib = |t: f64| -> Vec<S2> {
+impl<'a> CapFrame<'a> {
+    /// Read the dimensions and cut every circle at the pillar and slot edges.
+    fn new(p: &'a ModuleProfile, pp: &PartsProfile) -> Self {
+        let hc = p.cap_pillar_width_mm / 2.0;
+        let r_ci = p.cap_inner_radius_mm;
+        let beta = (hc / r_ci).asin();
+        let phi = pp.cap_slot_half_angle_rad;
+        let mut slots: Vec<f64> = p.pillar_angles_rad.clone();
+        slots.push(pp.reference_exit_angle_rad);
+        let mut special: Vec<f64> = p
+            .pillar_angles_rad
+            .iter()
+            .flat_map(|&t| [t - beta, t + beta])
+            .collect();
+        special.extend(slots.iter().flat_map(|&t| [t - phi, t + phi]));
+        CapFrame {
+            p,
+            cuts: Cuts::new(&special),
+            r_o: p.cap_outer_radius_mm,
+            r_ci,
+            r_pi: p.cap_pillar_inner_radius_mm,
+            hc,
+            top: p.pillar_top_mm,
+            bottom: pp.pillar_bottom_mm,
+            beta,
+            phi,
+            hs: pp.cap_slot_top_mm,
+            slots,
+        }
+    }
+
+    /// Fingers between the slots from the base to the slot roofs, the slot roofs, and
+    /// the outer wall above the slots.
+    fn slotted_base(&self, asm: &mut Assembler) -> Result<(), BrepError> {
+        let (ang, r_o, r_ci, hs) = (&self.cuts.ang, self.r_o, self.r_ci, self.hs);
+        // Slots as index ranges, sorted by angle; the fingers lie between them.
+        let mut slot_idx: Vec<(usize, usize)> = self
+            .slots
+            .iter()
+            .map(|&t| (self.cuts.at(t - self.phi), self.cuts.at(t + self.phi)))
+            .collect();
+        slot_idx.sort();
+        let radial = |k: usize, r0: f64, r1: f64| {
+            let a = ang.interval(k).0;
+            S2::Line((r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin()))
+        };
+        let mut fingers = Vec::new();
+        for j in 0..slot_idx.len() {
+            let (from, to) = (slot_idx[j].1, slot_idx[(j + 1) % slot_idx.len()].0);
+            let mut l = ring_ccw(ang, r_o, from, to);
+            l.push(radial(to, r_o, r_ci));
+            l.extend(ring_cw(ang, r_ci, to, from));
+            l.push(radial(from, r_ci, r_o));
+            fingers.push(l);
+        }
+        let bottoms: Vec<Vec<Seg>> = fingers.iter().map(|l| at(l, 0.0)).collect();
+        for b in &bottoms {
+            asm.plane("base", std::slice::from_ref(b), -Vector3::unit_z())?;
+        }
+        band_sides(asm, &fingers, 0.0, hs)?;
+        for &(a, b) in &slot_idx {
+            sector(asm, ang, (r_ci, r_o), (a, b), hs, false)?;
+        }
+        band_sides(asm, &[ring_ccw(ang, r_o, 0, 0)], hs, self.top)
+    }
+
+    /// Inner wall from the slot roofs to the pillar bottoms, with the snap bead; its
+    /// (r, z) chain, for the volume.
+    fn inner_wall(
+        &self,
+        asm: &mut Assembler,
+        pp: &PartsProfile,
+    ) -> Result<Vec<(f64, f64)>, BrepError> {
+        let r_ci = self.r_ci;
+        let mut inner_chain = vec![(r_ci, self.hs)];
+        if let Some(s) = &pp.snap {
+            let rc = s.crest_radius_mm;
+            inner_chain.extend([
+                (r_ci, s.lead_in_z_mm),
+                (rc, s.crest_bottom_z_mm),
+                (rc, s.crest_top_z_mm),
+                (r_ci, s.retention_top_z_mm),
+            ]);
+        }
+        inner_chain.push((r_ci, self.bottom));
+        let profs: Vec<Prof> = inner_chain
+            .windows(2)
+            .map(|w| wall(w[0].0, w[0].1, w[1].0, w[1].1, -1.0))
+            .collect();
+        revolve_chain(asm, &profs, self.p.dome_center_z_mm, &self.cuts.ang)?;
+        Ok(inner_chain)
+    }
+
+    /// Alignment pillar outline at angle t, from its +t edge to its −t edge.
+    fn rib(&self, t: f64) -> Vec<S2> {
+        let (r_ci, r_pi, hc) = (self.r_ci, self.r_pi, self.hc);
         let (rh_, th_) = ((t.cos(), t.sin()), (-t.sin(), t.cos()));
         let e = |s: f64, q: f64| (s * rh_.0 + q * th_.0, s * rh_.1 + q * th_.1);
         let s1 = (r_ci * r_ci - hc * hc).sqrt();
@@ -813,50 +954,64 @@ pub fn cap(p: &ModuleProfile, pp: &PartsProfile) -> Result<BuiltSolid, BrepError
             },
             S2::Line(e(s2, -hc), e(s1, -hc)),
         ]
-    };
-    let rib_idx: Vec<(usize, usize)> = p
-        .pillar_angles_rad
-        .iter()
-        .map(|&t| (cuts.at(t - beta), cuts.at(t + beta)))
-        .collect();
-    let mut inner = Vec::new();
-    for i in (0..n).rev() {
-        inner.extend(rib(p.pillar_angles_rad[i]));
-        inner.extend(ring_cw(ang, r_ci, rib_idx[i].0, rib_idx[(i + n - 1) % n].1));
-    }
-    band_sides(&mut asm, &[inner], bottom, top)?;
-    for (&t, &(from, to)) in p.pillar_angles_rad.iter().zip(&rib_idx) {
-        let mut l = rib(t);
-        l.extend(ring_ccw(ang, r_ci, from, to));
-        asm.plane("pillar bottom", &[at(&l, bottom)], -Vector3::unit_z())?;
-        asm.plane("pillar top", &[at(&l, top)], Vector3::unit_z())?;
     }
 
-    let a = p.apex_flat_radius_mm;
-    let (rs_o, rs_i) = (
-        p.cap_dome_outer_sphere_radius_mm,
-        p.cap_dome_inner_sphere_radius_mm,
-    );
-    let (z_oj, z_ij) = (p.cap_outer_junction_z_mm, p.cap_inner_junction_z_mm);
-    let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
-    let outer_chain = domed_wall(r_o, top, z_oj, rs_o, (a, z_oa), true);
-    let inner_dome = domed_wall(r_ci, top, z_ij, rs_i, (a, z_ia), false);
-    revolve_chain_above(&mut asm, &outer_chain, zc, ang, top)?;
-    revolve_chain_above(&mut asm, &inner_dome, zc, ang, top)?;
-    let coarse = ang.coarse().0;
-    disc(&mut asm, &coarse, a, z_oa, true)?;
-    disc(&mut asm, &coarse, a, z_ia, false)?;
+    /// Alignment pillars from the pillar bottoms to the pillar top.
+    fn pillars(&self, asm: &mut Assembler) -> Result<(), BrepError> {
+        let (ang, angles) = (&self.cuts.ang, &self.p.pillar_angles_rad);
+        let (r_ci, bottom, top) = (self.r_ci, self.bottom, self.top);
+        let n = angles.len();
+        let rib_idx: Vec<(usize, usize)> = angles
+            .iter()
+            .map(|&t| (self.cuts.at(t - self.beta), self.cuts.at(t + self.beta)))
+            .collect();
+        let mut inner = Vec::new();
+        for i in (0..n).rev() {
+            inner.extend(self.rib(angles[i]));
+            inner.extend(ring_cw(ang, r_ci, rib_idx[i].0, rib_idx[(i + n - 1) % n].1));
+        }
+        band_sides(asm, &[inner], bottom, top)?;
+        for (&t, &(from, to)) in angles.iter().zip(&rib_idx) {
+            let mut l = self.rib(t);
+            l.extend(ring_ccw(ang, r_ci, from, to));
+            asm.plane("pillar bottom", &[at(&l, bottom)], -Vector3::unit_z())?;
+            asm.plane("pillar top", &[at(&l, top)], Vector3::unit_z())?;
+        }
+        Ok(())
+    }
 
-    let rib_area = slice_area(r_ci, hc) - slice_area(r_pi, hc);
-    let band = top * PI * (r_o * r_o - r_ci * r_ci) + (top - bottom) * n as f64 * rib_area
-        - hs * slots.len() as f64 * phi * (r_o * r_o - r_ci * r_ci)
-        + ring_volume(r_ci, &inner_chain);
-    let upper = capped_cylinder_volume(r_o, top, z_oj, rs_o, zc, z_oa)
-        - capped_cylinder_volume(r_ci, top, z_ij, rs_i, zc, z_ia);
-    Ok(BuiltSolid {
-        solid: asm.solid()?,
-        exact_volume_mm3: band + upper,
-    })
+    /// The revolved body above the pillar top (walls, domes, apex flats); its volume, mm³.
+    fn dome(&self, asm: &mut Assembler) -> Result<f64, BrepError> {
+        let (p, top, ang) = (self.p, self.top, &self.cuts.ang);
+        let zc = p.dome_center_z_mm;
+        let a = p.apex_flat_radius_mm;
+        let (rs_o, rs_i) = (
+            p.cap_dome_outer_sphere_radius_mm,
+            p.cap_dome_inner_sphere_radius_mm,
+        );
+        let (z_oj, z_ij) = (p.cap_outer_junction_z_mm, p.cap_inner_junction_z_mm);
+        let (z_oa, z_ia) = (sphere_z(p, rs_o, a), sphere_z(p, rs_i, a));
+        let outer_chain = domed_wall(self.r_o, top, z_oj, rs_o, (a, z_oa), true);
+        let inner_dome = domed_wall(self.r_ci, top, z_ij, rs_i, (a, z_ia), false);
+        revolve_chain_above(asm, &outer_chain, zc, ang, top)?;
+        revolve_chain_above(asm, &inner_dome, zc, ang, top)?;
+        let coarse = ang.coarse().0;
+        disc(asm, &coarse, a, z_oa, true)?;
+        disc(asm, &coarse, a, z_ia, false)?;
+        Ok(capped_cylinder_volume(self.r_o, top, z_oj, rs_o, zc, z_oa)
+            - capped_cylinder_volume(self.r_ci, top, z_ij, rs_i, zc, z_ia))
+    }
+
+    /// Exact volume of the band z ∈ [0, pillar top]: wall and pillars less the slots,
+    /// plus the snap bead swept along `inner_chain`.
+    fn band_volume_mm3(&self, inner_chain: &[(f64, f64)]) -> f64 {
+        let (r_o, r_ci, phi) = (self.r_o, self.r_ci, self.phi);
+        let n = self.p.pillar_angles_rad.len();
+        let rib_area = slice_area(r_ci, self.hc) - slice_area(self.r_pi, self.hc);
+        self.top * PI * (r_o * r_o - r_ci * r_ci) + (self.top - self.bottom) * n as f64 * rib_area
+            - self.hs * self.slots.len() as f64 * phi * (r_o * r_o - r_ci * r_ci)
+            + ring_volume(r_ci, inner_chain)
+    }
 }
 
 #[cfg(test)]

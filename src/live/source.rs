@@ -279,87 +279,35 @@ fn tail_file(
     const POLL: Duration = Duration::from_millis(1);
     let started = Instant::now();
     let mut last_growth = Instant::now();
-    let idle_done = |last: Instant| idle_exit_s.is_some_and(|s| last.elapsed().as_secs_f64() >= s);
     // Wait for the file and its table header.
-    let (mut reader, mut offset, mut file) = loop {
-        if out.stopped() {
-            return;
-        }
-        if let Ok(bytes) = std::fs::read(path) {
-            let complete = bytes.iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
-            if let Ok((reader, body)) = RowReader::new(&bytes[..complete], path, read) {
-                let offset = if from_start {
-                    body as u64
-                } else {
-                    complete as u64
-                };
-                match std::fs::File::open(path) {
-                    Ok(f) => break (reader, offset, f),
-                    Err(e) => {
-                        out.event(SourceEvent::End(format!(
-                            "cannot open {}: {e}",
-                            path.display()
-                        )));
-                        return;
-                    }
-                }
-            }
-        }
-        if idle_done(started) {
-            out.event(SourceEvent::End(format!(
-                "{} holds no log table (ENLIGHT, I-MON or CSV header) after {:.1} s",
-                path.display(),
-                started.elapsed().as_secs_f64()
-            )));
-            return;
-        }
-        std::thread::sleep(Duration::from_millis(20));
+    let Some((reader, offset, file)) =
+        wait_for_table(path, from_start, idle_exit_s, read, out, started)
+    else {
+        return;
     };
     out.event(SourceEvent::Connected(format!(
         "{} ({})",
         path.display(),
         reader.format().name()
     )));
-    let mut pending: Vec<u8> = Vec::new();
+    let mut tail = Tail {
+        path,
+        read,
+        from_start,
+        out,
+        reader,
+        offset,
+        file,
+        pending: Vec::new(),
+        line_no: None,
+    };
     let mut chunk = vec![0u8; 1 << 16];
-    let mut line_no: Option<u64> = None;
     loop {
         if out.stopped() {
             return;
         }
-        // A file shorter than what was read was truncated or replaced: start again.
-        if let Ok(meta) = std::fs::metadata(path) {
-            if meta.len() < offset {
-                out.event(SourceEvent::Bad {
-                    kind: "file_truncated".into(),
-                    message: format!(
-                        "{} shrank from {offset} to {} bytes; reading it again from its table",
-                        path.display(),
-                        meta.len()
-                    ),
-                });
-                match std::fs::read(path)
-                    .ok()
-                    .and_then(|b| RowReader::new(&b, path, read).ok())
-                {
-                    Some((r, body)) => {
-                        reader = r;
-                        offset = body as u64;
-                    }
-                    None => offset = 0,
-                }
-                pending.clear();
-                line_no = None;
-                if let Ok(f) = std::fs::File::open(path) {
-                    file = f;
-                }
-            }
-        }
-        use std::io::Seek;
-        let got = file
-            .seek(std::io::SeekFrom::Start(offset))
-            .and_then(|_| file.read(&mut chunk));
-        let n = match got {
+        tail.restart_if_truncated();
+        let n = match tail.read_more(&mut chunk) {
             Ok(n) => n,
             Err(e) => {
                 out.event(SourceEvent::End(format!(
@@ -370,7 +318,7 @@ fn tail_file(
             }
         };
         if n == 0 {
-            if idle_done(last_growth) {
+            if idle_for(last_growth, idle_exit_s) {
                 out.event(SourceEvent::End(format!(
                     "{} did not grow for {:.1} s",
                     path.display(),
@@ -382,22 +330,143 @@ fn tail_file(
             continue;
         }
         last_growth = Instant::now();
-        offset += n as u64;
-        pending.extend_from_slice(&chunk[..n]);
-        let Some(end) = pending.iter().rposition(|&c| c == b'\n') else {
-            continue;
+        tail.offset += n as u64;
+        tail.pending.extend_from_slice(&chunk[..n]);
+        if !tail.send_complete_lines() {
+            return;
+        }
+    }
+}
+
+/// Whether `idle_exit_s` (if any) has passed since `since`.
+fn idle_for(since: Instant, idle_exit_s: Option<f64>) -> bool {
+    idle_exit_s.is_some_and(|s| since.elapsed().as_secs_f64() >= s)
+}
+
+/// Poll until `path` holds a table header: its reader, the offset to read from and the
+/// open file. None when stopped or given up (the end already sent).
+fn wait_for_table(
+    path: &Path,
+    from_start: bool,
+    idle_exit_s: Option<f64>,
+    read: &ReadOptions,
+    out: &Outlet,
+    started: Instant,
+) -> Option<(RowReader, u64, std::fs::File)> {
+    loop {
+        if out.stopped() {
+            return None;
+        }
+        if let Ok(bytes) = std::fs::read(path) {
+            let complete = bytes.iter().rposition(|&c| c == b'\n').map_or(0, |p| p + 1);
+            if let Ok((reader, body)) = RowReader::new(&bytes[..complete], path, read) {
+                let offset = if from_start {
+                    body as u64
+                } else {
+                    complete as u64
+                };
+                match std::fs::File::open(path) {
+                    Ok(f) => return Some((reader, offset, f)),
+                    Err(e) => {
+                        out.event(SourceEvent::End(format!(
+                            "cannot open {}: {e}",
+                            path.display()
+                        )));
+                        return None;
+                    }
+                }
+            }
+        }
+        if idle_for(started, idle_exit_s) {
+            out.event(SourceEvent::End(format!(
+                "{} holds no log table (ENLIGHT, I-MON or CSV header) after {:.1} s",
+                path.display(),
+                started.elapsed().as_secs_f64()
+            )));
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A log file being followed: where reading has got to and the incomplete last line.
+struct Tail<'a> {
+    path: &'a Path,
+    read: &'a ReadOptions,
+    from_start: bool,
+    out: &'a Outlet,
+    reader: RowReader,
+    /// Bytes of the file read so far.
+    offset: u64,
+    file: std::fs::File,
+    /// Bytes read after the last complete line.
+    pending: Vec<u8>,
+    /// Body line number of the last line, when reading from the table's start.
+    line_no: Option<u64>,
+}
+
+impl Tail<'_> {
+    /// A file shorter than what was read was truncated or replaced: start again.
+    fn restart_if_truncated(&mut self) {
+        let (path, offset) = (self.path, self.offset);
+        let Ok(meta) = std::fs::metadata(path) else {
+            return;
         };
+        if meta.len() >= offset {
+            return;
+        }
+        self.out.event(SourceEvent::Bad {
+            kind: "file_truncated".into(),
+            message: format!(
+                "{} shrank from {offset} to {} bytes; reading it again from its table",
+                path.display(),
+                meta.len()
+            ),
+        });
+        match std::fs::read(path)
+            .ok()
+            .and_then(|b| RowReader::new(&b, path, self.read).ok())
+        {
+            Some((r, body)) => {
+                self.reader = r;
+                self.offset = body as u64;
+            }
+            None => self.offset = 0,
+        }
+        self.pending.clear();
+        self.line_no = None;
+        if let Ok(f) = std::fs::File::open(path) {
+            self.file = f;
+        }
+    }
+
+    /// Read what follows the offset into `chunk`; the number of bytes read.
+    fn read_more(&mut self, chunk: &mut [u8]) -> std::io::Result<usize> {
+        use std::io::Seek;
+        self.file
+            .seek(std::io::SeekFrom::Start(self.offset))
+            .and_then(|_| self.file.read(chunk))
+    }
+
+    /// Send the complete lines pending as frames or bad-line events, keeping the
+    /// incomplete rest. False when the consumer is gone.
+    fn send_complete_lines(&mut self) -> bool {
+        let Some(end) = self.pending.iter().rposition(|&c| c == b'\n') else {
+            return true;
+        };
+        let (path, out) = (self.path, self.out);
         let received = Instant::now();
         // Line numbers are known only when reading from the table's start.
-        for line in pending[..end].split(|&c| c == b'\n') {
-            line_no = line_no
-                .map(|l| l + 1)
-                .or(if from_start { Some(1) } else { None });
-            let origin = match line_no {
+        for line in self.pending[..end].split(|&c| c == b'\n') {
+            self.line_no =
+                self.line_no
+                    .map(|l| l + 1)
+                    .or(if self.from_start { Some(1) } else { None });
+            let origin = match self.line_no {
                 Some(l) => format!("{} body line {l}", path.display()),
                 None => format!("{}", path.display()),
             };
-            let ok = match reader.parse(line) {
+            let ok = match self.reader.parse(line) {
                 Ok(None) => true,
                 Ok(Some(row)) => out.frame(Frame {
                     serial: None,
@@ -413,10 +482,11 @@ fn tail_file(
                 }),
             };
             if !ok {
-                return;
+                return false;
             }
         }
-        pending.drain(..=end);
+        self.pending.drain(..=end);
+        true
     }
 }
 

@@ -263,90 +263,15 @@ pub fn render(
                 residual_pm,
                 ..
             }),
-            Some((nx, ny, ulimit)),
-        ) => {
-            const W: usize = 9;
-            let line = |l: char, m: char, r: char| {
-                let mut t = format!("     {l}");
-                for i in 0..nx {
-                    t.push_str(&"─".repeat(W));
-                    t.push(if i + 1 == nx { r } else { m });
-                }
-                t
-            };
-            let _ = writeln!(s, "{}", line('┌', '┬', '┐'));
-            for row in (0..ny).rev() {
-                let mut a = format!("{:>5}│", if row + 1 == ny { "+y" } else { "" });
-                let mut b = "     │".to_string();
-                for col in 0..nx {
-                    let k = row * nx + col;
-                    let name = info.outputs.get(k).map_or("?", |n| n.as_str());
-                    let v = loads_g.get(k).copied().unwrap_or(f64::NAN);
-                    let frac = v / ulimit;
-                    let _ = write!(a, " {name:<2}{:>5.0} │", v);
-                    let _ = write!(b, " {} │", bar(frac, W - 2));
-                }
-                let _ = writeln!(s, "{a}");
-                let _ = writeln!(s, "{b}");
-                let _ = writeln!(
-                    s,
-                    "{}",
-                    if row == 0 {
-                        line('└', '┴', '┘')
-                    } else {
-                        line('├', '┼', '┤')
-                    }
-                );
-            }
-            let total: f64 = loads_g.iter().sum();
-            let _ = writeln!(
-                s,
-                "      −x → +x   loads in g; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm"
-            );
-        }
+            Some(grid),
+        ) => write_load_grid(&mut s, info, loads_g, *residual_pm, grid),
         (
             Some(Reading::Forces {
                 forces_n,
                 delta_t_k,
             }),
             _,
-        ) => {
-            let scale = forces_n
-                .iter()
-                .flatten()
-                .fold(1.0f64, |m, f| m.max(f.abs()));
-            let _ = writeln!(s, "  {:<14} {:>10} {:>10}", "grating", "K pm/N", "force N");
-            for (i, name) in info.outputs.iter().enumerate() {
-                let k = info
-                    .sensitivities_pm_per_n
-                    .get(i)
-                    .copied()
-                    .unwrap_or(f64::NAN);
-                match forces_n.get(i).copied().flatten() {
-                    Some(f) => {
-                        let _ = writeln!(
-                            s,
-                            "  {name:<14} {k:>+10.3} {f:>+10.3}  {}",
-                            bar(f.abs() / scale, 30)
-                        );
-                    }
-                    None => {
-                        let _ = writeln!(s, "  {name:<14} {k:>+10.3} {:>10}  (no peak)", "–");
-                    }
-                }
-            }
-            match delta_t_k {
-                Some(t) => {
-                    let _ = writeln!(
-                        s,
-                        "  temperature change since the tare: {t:+.2} K (compensated)"
-                    );
-                }
-                None => {
-                    let _ = writeln!(s, "  no temperature reference: forces are not compensated");
-                }
-            }
-        }
+        ) => write_forces(&mut s, info, forces_n, *delta_t_k),
         _ => {
             let _ = writeln!(
                 s,
@@ -355,6 +280,108 @@ pub fn render(
             );
         }
     }
+    write_status(&mut s, last, stats, elapsed, events);
+    s
+}
+
+/// The array's loads as a grid of cells (name, load in g, bar of the load over ulimit).
+fn write_load_grid(
+    s: &mut String,
+    info: &LiveInfo,
+    loads_g: &[f64],
+    residual_pm: f64,
+    (nx, ny, ulimit): (usize, usize, f64),
+) {
+    use std::fmt::Write as _;
+    const W: usize = 9;
+    let line = |l: char, m: char, r: char| {
+        let mut t = format!("     {l}");
+        for i in 0..nx {
+            t.push_str(&"─".repeat(W));
+            t.push(if i + 1 == nx { r } else { m });
+        }
+        t
+    };
+    let _ = writeln!(s, "{}", line('┌', '┬', '┐'));
+    for row in (0..ny).rev() {
+        let mut a = format!("{:>5}│", if row + 1 == ny { "+y" } else { "" });
+        let mut b = "     │".to_string();
+        for col in 0..nx {
+            let k = row * nx + col;
+            let name = info.outputs.get(k).map_or("?", |n| n.as_str());
+            let v = loads_g.get(k).copied().unwrap_or(f64::NAN);
+            let frac = v / ulimit;
+            let _ = write!(a, " {name:<2}{:>5.0} │", v);
+            let _ = write!(b, " {} │", bar(frac, W - 2));
+        }
+        let _ = writeln!(s, "{a}");
+        let _ = writeln!(s, "{b}");
+        let _ = writeln!(
+            s,
+            "{}",
+            if row == 0 {
+                line('└', '┴', '┘')
+            } else {
+                line('├', '┼', '┤')
+            }
+        );
+    }
+    let total: f64 = loads_g.iter().sum();
+    let _ = writeln!(
+        s,
+        "      −x → +x   loads in g; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm"
+    );
+}
+
+/// The module's forces, one line per grating, and the temperature compensation.
+fn write_forces(s: &mut String, info: &LiveInfo, forces_n: &[Option<f64>], delta_t_k: Option<f64>) {
+    use std::fmt::Write as _;
+    let scale = forces_n
+        .iter()
+        .flatten()
+        .fold(1.0f64, |m, f| m.max(f.abs()));
+    let _ = writeln!(s, "  {:<14} {:>10} {:>10}", "grating", "K pm/N", "force N");
+    for (i, name) in info.outputs.iter().enumerate() {
+        let k = info
+            .sensitivities_pm_per_n
+            .get(i)
+            .copied()
+            .unwrap_or(f64::NAN);
+        match forces_n.get(i).copied().flatten() {
+            Some(f) => {
+                let _ = writeln!(
+                    s,
+                    "  {name:<14} {k:>+10.3} {f:>+10.3}  {}",
+                    bar(f.abs() / scale, 30)
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  {name:<14} {k:>+10.3} {:>10}  (no peak)", "–");
+            }
+        }
+    }
+    match delta_t_k {
+        Some(t) => {
+            let _ = writeln!(
+                s,
+                "  temperature change since the tare: {t:+.2} K (compensated)"
+            );
+        }
+        None => {
+            let _ = writeln!(s, "  no temperature reference: forces are not compensated");
+        }
+    }
+}
+
+/// The status lines: last frame, rate, latency, counts, then the recent events.
+fn write_status(
+    s: &mut String,
+    last: Option<&FrameReading>,
+    stats: &Stats,
+    elapsed: Duration,
+    events: &[String],
+) {
+    use std::fmt::Write as _;
     let secs = elapsed.as_secs_f64();
     let rate = if secs > 0.0 {
         stats.frames_in as f64 / secs
@@ -390,7 +417,6 @@ pub fn render(
     for e in events {
         let _ = writeln!(s, "  {e}");
     }
-    s
 }
 
 /// The end-of-run summary as text.

@@ -406,6 +406,7 @@ fn parse_peaks_row(
     Ok(())
 }
 
+/// One table row of any layout: its time, then its wavelengths (a bad row adds none).
 fn parse_line(
     line: &[u8],
     layout: Layout,
@@ -419,13 +420,33 @@ fn parse_line(
             return parse_peaks_row(line, channels, dc, out, counts);
         }
     }
-    let start = out.peaks.len();
     let mut it = line.split(|&c| c == delim);
-    let rollback = |out: &mut Partial| {
-        out.peaks.truncate(start);
-        out.chans.truncate(start);
-    };
-    let time = match layout {
+    let time = parse_row_time(&mut it, layout, dc)?;
+    match layout {
+        Layout::Peaks { channels } => parse_split_peaks(it, channels, dc, out, counts)?,
+        Layout::Sensors { columns } | Layout::Csv { columns } => {
+            parse_value_columns(it, columns, dc, out)?
+        }
+        Layout::Imon { pixels } => parse_imon_wavelengths(it, pixels, dc, out)?,
+    }
+    out.times.push(time);
+    out.row_start.push(out.peaks.len());
+    Ok(())
+}
+
+/// Drop the wavelengths a rejected row had already added (from `start` on).
+fn rollback(out: &mut Partial, start: usize) {
+    out.peaks.truncate(start);
+    out.chans.truncate(start);
+}
+
+/// A row's time: I-MON's date and time-of-day fields, else one timestamp field.
+fn parse_row_time<'a>(
+    it: &mut impl Iterator<Item = &'a [u8]>,
+    layout: Layout,
+    dc: bool,
+) -> Result<(Option<RawDate>, f64), LineIssue> {
+    Ok(match layout {
         Layout::Imon { .. } => {
             let d = it.next().unwrap_or(b"");
             let t = it
@@ -445,126 +466,149 @@ fn parse_line(
             parse_time_field(f, dc)
                 .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?
         }
-    };
-    match layout {
-        Layout::Peaks { channels } => {
-            counts.clear();
-            for c in 0..channels {
-                let f = it.next().ok_or_else(|| {
-                    issue(
-                        "missing_channel",
-                        format!("row ends before the peak count of channel {}", c + 1),
-                    )
-                })?;
-                counts.push(num::parse_usize(f).ok_or_else(|| {
-                    issue(
-                        "unreadable_line",
-                        format!("peak count of channel {} is not a whole number", c + 1),
-                    )
-                })?);
-            }
-            for (c, &n) in counts.iter().enumerate() {
-                for _ in 0..n {
-                    let Some(f) = it.next() else {
-                        rollback(out);
-                        return Err(issue(
-                            "peak_count_mismatch",
-                            "fewer wavelengths than the peak counts announce",
-                        ));
-                    };
-                    match num::parse_f64(f, dc) {
-                        Some(v) if v.is_finite() => {
-                            out.peaks.push(v);
-                            out.chans.push(c as u16);
-                        }
-                        _ => {
-                            rollback(out);
-                            return Err(issue("unreadable_line", "unreadable wavelength"));
-                        }
-                    }
-                }
-            }
-            if it.any(|f| !trim(f).is_empty()) {
-                rollback(out);
+    })
+}
+
+/// A peaks row split on a delimiter other than tab: counts per channel, then wavelengths.
+fn parse_split_peaks<'a>(
+    mut it: impl Iterator<Item = &'a [u8]>,
+    channels: usize,
+    dc: bool,
+    out: &mut Partial,
+    counts: &mut Vec<usize>,
+) -> Result<(), LineIssue> {
+    let start = out.peaks.len();
+    counts.clear();
+    for c in 0..channels {
+        let f = it.next().ok_or_else(|| {
+            issue(
+                "missing_channel",
+                format!("row ends before the peak count of channel {}", c + 1),
+            )
+        })?;
+        counts.push(num::parse_usize(f).ok_or_else(|| {
+            issue(
+                "unreadable_line",
+                format!("peak count of channel {} is not a whole number", c + 1),
+            )
+        })?);
+    }
+    for (c, &n) in counts.iter().enumerate() {
+        for _ in 0..n {
+            let Some(f) = it.next() else {
+                rollback(out, start);
                 return Err(issue(
                     "peak_count_mismatch",
-                    "more wavelengths than the peak counts announce",
+                    "fewer wavelengths than the peak counts announce",
                 ));
-            }
-        }
-        Layout::Sensors { columns } | Layout::Csv { columns } => {
-            let mut seen = 0;
-            for (c, f) in it.enumerate() {
-                let f = trim(f);
-                if c >= columns {
-                    if !f.is_empty() {
-                        rollback(out);
-                        return Err(issue(
-                            "unreadable_line",
-                            format!("more than the {columns} value columns of the header"),
-                        ));
-                    }
-                    continue;
-                }
-                seen = c + 1;
-                if f.is_empty() {
-                    continue;
-                }
-                match num::parse_f64(f, dc) {
-                    Some(v) if v.is_finite() && v > 0.0 => {
-                        out.peaks.push(v);
-                        out.chans.push(c as u16);
-                    }
-                    Some(_) => {}
-                    None => {
-                        rollback(out);
-                        return Err(issue(
-                            "unreadable_line",
-                            format!("column {} is not a number", c + 2),
-                        ));
-                    }
-                }
-            }
-            if seen < columns {
-                // Kept (the values present are good) but counted.
-                out.issues.push((
-                    usize::MAX,
-                    issue(
-                        "short_row",
-                        format!("row has {seen} of {columns} value columns"),
-                    ),
-                ));
-            }
-        }
-        Layout::Imon { pixels } => {
-            let rest: Vec<&[u8]> = it.map(trim).collect();
-            let mut n = rest.len();
-            while n > 0 && rest[n - 1].is_empty() {
-                n -= 1;
-            }
-            // Rows that also carry the spectrum end with `pixels` intensities.
-            let n_wl = if pixels > 0 && n > pixels {
-                n - pixels
-            } else {
-                n
             };
-            for f in &rest[..n_wl] {
-                match num::parse_f64(f, dc) {
-                    Some(v) if v.is_finite() && v > 0.0 => {
-                        out.peaks.push(v);
-                        out.chans.push(0);
-                    }
-                    Some(_) => {}
-                    None => {
-                        rollback(out);
-                        return Err(issue("unreadable_line", "unreadable wavelength"));
-                    }
+            match num::parse_f64(f, dc) {
+                Some(v) if v.is_finite() => {
+                    out.peaks.push(v);
+                    out.chans.push(c as u16);
+                }
+                _ => {
+                    rollback(out, start);
+                    return Err(issue("unreadable_line", "unreadable wavelength"));
                 }
             }
         }
     }
-    out.times.push(time);
-    out.row_start.push(out.peaks.len());
+    if it.any(|f| !trim(f).is_empty()) {
+        rollback(out, start);
+        return Err(issue(
+            "peak_count_mismatch",
+            "more wavelengths than the peak counts announce",
+        ));
+    }
+    Ok(())
+}
+
+/// A sensors or CSV row: one value per header column (empty or ≤ 0: no reading).
+fn parse_value_columns<'a>(
+    it: impl Iterator<Item = &'a [u8]>,
+    columns: usize,
+    dc: bool,
+    out: &mut Partial,
+) -> Result<(), LineIssue> {
+    let start = out.peaks.len();
+    let mut seen = 0;
+    for (c, f) in it.enumerate() {
+        let f = trim(f);
+        if c >= columns {
+            if !f.is_empty() {
+                rollback(out, start);
+                return Err(issue(
+                    "unreadable_line",
+                    format!("more than the {columns} value columns of the header"),
+                ));
+            }
+            continue;
+        }
+        seen = c + 1;
+        if f.is_empty() {
+            continue;
+        }
+        match num::parse_f64(f, dc) {
+            Some(v) if v.is_finite() && v > 0.0 => {
+                out.peaks.push(v);
+                out.chans.push(c as u16);
+            }
+            Some(_) => {}
+            None => {
+                rollback(out, start);
+                return Err(issue(
+                    "unreadable_line",
+                    format!("column {} is not a number", c + 2),
+                ));
+            }
+        }
+    }
+    if seen < columns {
+        // Kept (the values present are good) but counted.
+        out.issues.push((
+            usize::MAX,
+            issue(
+                "short_row",
+                format!("row has {seen} of {columns} value columns"),
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// An I-MON row's wavelengths (one channel), without the trailing spectrum if any.
+fn parse_imon_wavelengths<'a>(
+    it: impl Iterator<Item = &'a [u8]>,
+    pixels: usize,
+    dc: bool,
+    out: &mut Partial,
+) -> Result<(), LineIssue> {
+    let start = out.peaks.len();
+    let rest: Vec<&[u8]> = it.map(trim).collect();
+    let mut n = rest.len();
+    while n > 0 && rest[n - 1].is_empty() {
+        n -= 1;
+    }
+    // Rows that also carry the spectrum end with `pixels` intensities.
+    let n_wl = if pixels > 0 && n > pixels {
+        n - pixels
+    } else {
+        n
+    };
+    for f in &rest[..n_wl] {
+        match num::parse_f64(f, dc) {
+            Some(v) if v.is_finite() && v > 0.0 => {
+                out.peaks.push(v);
+                out.chans.push(0);
+            }
+            Some(_) => {}
+            None => {
+                rollback(out, start);
+                return Err(issue("unreadable_line", "unreadable wavelength"));
+            }
+        }
+    }
     Ok(())
 }
 

@@ -5,8 +5,8 @@
 
 use super::materials::MaterialLibrary;
 use super::module::{
-    landscape, model_predictor, optimise_module, ModuleOutcome, ModuleProblem, ModuleSettings,
-    Objective, Predictor, Variable,
+    landscape, model_predictor, optimise_module, ChoiceResult, LandscapePoint, ModuleOutcome,
+    ModuleProblem, ModuleSettings, Objective, Predictor, Variable,
 };
 use super::place::{place, PlaceOutcome, PlaceSettings};
 use super::quality::MeasuredPrototype;
@@ -195,8 +195,37 @@ fn write_module_report(
     predictor: Predictor,
 ) -> Result<()> {
     write_json(&dir.join("summary.json"), o)?;
-    // Convergence of every run of the winning choice (best penalised cost per iteration).
     let win = &o.choices[o.best_choice];
+    write_convergence(dir, win)?;
+    // Landscape over two variables at the optimum of the winning choice.
+    let idx: Vec<usize> = landscape_vars
+        .iter()
+        .map(|v| {
+            o.variables.iter().position(|w| w == v).ok_or_else(|| {
+                anyhow::anyhow!("--landscape variable `{}` is not in --vary", v.name())
+            })
+        })
+        .collect::<Result<_>>()?;
+    if idx.len() == 2 {
+        let cal = o.calibration;
+        let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
+        let at = win
+            .best
+            .as_ref()
+            .map(|e| e.x.clone())
+            .unwrap_or_else(|| p.start_point());
+        let steps = 15;
+        let grid = landscape(&p, &at, idx[0], idx[1], steps);
+        let vars = (landscape_vars[0], landscape_vars[1]);
+        landscape_chart(o, win, &grid, vars, steps)?.write_svg(&dir.join("landscape.svg"))?;
+        write_landscape_csv(dir, &grid, vars)?;
+    }
+    Ok(())
+}
+
+/// Convergence of every run of the winning choice (best penalised cost per
+/// iteration): chart and CSV.
+fn write_convergence(dir: &Path, win: &ChoiceResult) -> Result<()> {
     let mut chart = Chart::new(
         format!("Convergence, {}", win.choice),
         "iteration",
@@ -229,95 +258,91 @@ fn write_module_report(
         &dir.join("convergence.csv"),
         &["solver", "start", "iteration", "best_cost"],
         &rows,
-    )?;
-    // Landscape over two variables at the optimum of the winning choice.
-    let idx: Vec<usize> = landscape_vars
-        .iter()
-        .map(|v| {
-            o.variables.iter().position(|w| w == v).ok_or_else(|| {
-                anyhow::anyhow!("--landscape variable `{}` is not in --vary", v.name())
-            })
-        })
-        .collect::<Result<_>>()?;
-    if idx.len() == 2 {
-        let cal = o.calibration;
-        let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
-        let at = win
-            .best
-            .as_ref()
-            .map(|e| e.x.clone())
-            .unwrap_or_else(|| p.start_point());
-        let steps = 15;
-        let grid = landscape(&p, &at, idx[0], idx[1], steps);
-        let (va, vb) = (landscape_vars[0], landscape_vars[1]);
-        let mut chart = Chart::new(
-            format!(
-                "{} landscape, {}",
-                if o.objective == Objective::Q {
-                    "Q"
-                } else {
-                    "|K|"
-                },
-                win.choice
-            ),
-            va.name(),
-            format!("objective, {}", o.objective_unit),
-        );
-        // Every third slice of the second variable, feasible points joined; the
-        // points the constraints cut off drawn apart.
-        for j in (0..steps).step_by(3) {
-            let vbj = grid[j].b;
-            let pts: Vec<(f64, f64)> = grid
-                .iter()
-                .filter(|g| (g.b - vbj).abs() < 1e-12 && g.feasible && g.objective.is_finite())
-                .map(|g| (g.a, g.objective))
-                .collect();
-            if !pts.is_empty() {
-                chart = chart.with(Series::new(
-                    format!("{} = {vbj:.3}, feasible", vb.name()),
-                    pts,
-                    Mark::LinePoints,
-                ));
-            }
-        }
-        let cut: Vec<(f64, f64)> = grid
+    )
+}
+
+/// The landscape chart: feasible slices of the second variable, infeasible points apart.
+fn landscape_chart(
+    o: &ModuleOutcome,
+    win: &ChoiceResult,
+    grid: &[LandscapePoint],
+    (va, vb): (Variable, Variable),
+    steps: usize,
+) -> Result<Chart> {
+    let mut chart = Chart::new(
+        format!(
+            "{} landscape, {}",
+            if o.objective == Objective::Q {
+                "Q"
+            } else {
+                "|K|"
+            },
+            win.choice
+        ),
+        va.name(),
+        format!("objective, {}", o.objective_unit),
+    );
+    // Every third slice of the second variable, feasible points joined; the
+    // points the constraints cut off drawn apart.
+    for j in (0..steps).step_by(3) {
+        let vbj = grid[j].b;
+        let pts: Vec<(f64, f64)> = grid
             .iter()
-            .filter(|g| !g.feasible && g.objective.is_finite())
+            .filter(|g| (g.b - vbj).abs() < 1e-12 && g.feasible && g.objective.is_finite())
             .map(|g| (g.a, g.objective))
             .collect();
-        if !cut.is_empty() {
+        if !pts.is_empty() {
             chart = chart.with(Series::new(
-                "infeasible (strain or window limit)",
-                cut,
-                Mark::Points,
+                format!("{} = {vbj:.3}, feasible", vb.name()),
+                pts,
+                Mark::LinePoints,
             ));
         }
-        if chart.series.is_empty() {
-            anyhow::bail!("the landscape has no point the model could evaluate");
-        }
-        chart.write_svg(&dir.join("landscape.svg"))?;
-        let rows: Vec<Vec<String>> = grid
-            .iter()
-            .map(|g| {
-                vec![
-                    g.a.to_string(),
-                    g.b.to_string(),
-                    if g.objective.is_finite() {
-                        g.objective.to_string()
-                    } else {
-                        String::new()
-                    },
-                    g.feasible.to_string(),
-                ]
-            })
-            .collect();
-        write_csv(
-            &dir.join("landscape.csv"),
-            &[va.name(), vb.name(), "objective", "feasible"],
-            &rows,
-        )?;
     }
-    Ok(())
+    let cut: Vec<(f64, f64)> = grid
+        .iter()
+        .filter(|g| !g.feasible && g.objective.is_finite())
+        .map(|g| (g.a, g.objective))
+        .collect();
+    if !cut.is_empty() {
+        chart = chart.with(Series::new(
+            "infeasible (strain or window limit)",
+            cut,
+            Mark::Points,
+        ));
+    }
+    if chart.series.is_empty() {
+        anyhow::bail!("the landscape has no point the model could evaluate");
+    }
+    Ok(chart)
+}
+
+/// The landscape's points as CSV (objective empty where the model could not evaluate).
+fn write_landscape_csv(
+    dir: &Path,
+    grid: &[LandscapePoint],
+    (va, vb): (Variable, Variable),
+) -> Result<()> {
+    let rows: Vec<Vec<String>> = grid
+        .iter()
+        .map(|g| {
+            vec![
+                g.a.to_string(),
+                g.b.to_string(),
+                if g.objective.is_finite() {
+                    g.objective.to_string()
+                } else {
+                    String::new()
+                },
+                g.feasible.to_string(),
+            ]
+        })
+        .collect();
+    write_csv(
+        &dir.join("landscape.csv"),
+        &[va.name(), vb.name(), "objective", "feasible"],
+        &rows,
+    )
 }
 
 fn write_place_report(dir: &Path, o: &PlaceOutcome) -> Result<()> {

@@ -379,15 +379,89 @@ impl SupportSearch {
     /// λ only absorbs what the Gaussian model gets wrong (uniform errors, the fit
     /// standing in for the true loads).
     fn search_likelihood(&self, y: &[f64], prior: NoisePrior) -> (Option<(usize, Vec<f64>)>, u64) {
+        let frame = LikelihoodFrame::new(&self.common, y, prior);
+        let mut best_cost = y.iter().map(|v| v * v / frame.var0).sum::<f64>() + frame.ln_var0_sum;
+        let mut best: Option<(usize, Vec<f64>)> = None;
+        let mut tried = 0u64;
+        // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
+        let mut l = [0.0f64; 64 * 64];
+        let mut z = [0.0f64; 64];
+        // Posterior standard deviations of the loads and a column of L⁻¹ (load range).
+        let (mut sd, mut w) = ([0.0f64; 64], [0.0f64; 64]);
+        for (e_idx, e) in self.entries.iter().enumerate() {
+            let k = e.cols.len();
+            let (g, b) = &frame.sets[usize::from(k >= 2)];
+            // Cholesky of the k × k weighted Gram matrix, then z = G⁻¹b.
+            if !cholesky_on(g, &e.cols, &mut l) {
+                continue;
+            }
+            let ln_det_g: f64 = (0..k).map(|r| 2.0 * l[r * k + r].ln()).sum();
+            let prior_cost = self.lambda * k as f64 + e.occam + ln_det_g;
+            // χ² ≥ 0 and ln det Σ ≥ m ln σ²: a lower bound of this support's score.
+            if prior_cost + frame.ln_var0_sum >= best_cost {
+                continue;
+            }
+            tried += 1;
+            cholesky_solve(&l, k, |r| b[e.cols[r]], &mut z);
+            if z[..k].iter().any(|&v| v < 0.0) {
+                continue; // a smaller support's solution, tried on its own
+            }
+            // Needed only for the load-range prior.
+            if frame.use_lower {
+                posterior_sds(&l, k, &mut sd, &mut w);
+            }
+            let cost = frame.score(e, &sd, prior_cost, &z[..k]);
+            // The unconstrained fit scores at least as well as the bounded one in
+            // practice (it minimises the weighted misfit; only the re-evaluated
+            // covariance could reverse that): a support that loses unconstrained is
+            // not given the costly bounded solve.
+            if cost >= best_cost {
+                continue;
+            }
+            let (cost, zs) = if (0..k).all(|a| z[a] <= frame.problem.upper[e.cols[a]]) {
+                (cost, z[..k].to_vec())
+            } else {
+                let gs = DMatrix::from_fn(k, k, |a, q| g[(e.cols[a], e.cols[q])]);
+                let bs = DVector::from_fn(k, |a, _| b[e.cols[a]]);
+                let zb = self.bounded_sub(&e.cols, &gs, &bs).0;
+                (frame.score(e, &sd, prior_cost, &zb), zb)
+            };
+            if cost < best_cost {
+                best_cost = cost;
+                best = Some((e_idx, zs));
+            }
+        }
+        (best, tried)
+    }
+}
+
+/// One frame's constants for the `wsupport` search: noise variances and the weighted
+/// normal equations.
+struct LikelihoodFrame<'a> {
+    problem: &'a SensingProblem,
+    y: &'a [f64],
+    prior: NoisePrior,
+    /// σ², pm².
+    var0: f64,
+    /// a²/3, the relative additivity variance.
+    add: f64,
+    /// m ln σ².
+    ln_var0_sum: f64,
+    /// Whether the load range's prior applies (`min_load_g` > 0).
+    use_lower: bool,
+    /// Weighted normal equations (ÂᵀWÂ, ÂᵀWy) for one load (index 0) and for several (index 1).
+    sets: Vec<(DMatrix<f64>, DVector<f64>)>,
+}
+
+impl<'a> LikelihoodFrame<'a> {
+    /// The noise variances and weighted normal equations for frame `y`.
+    fn new(common: &'a Common, y: &'a [f64], prior: NoisePrior) -> Self {
         let m = y.len();
-        let n = self.common.n();
-        let problem = &self.common.problem;
+        let n = common.n();
+        let problem = &common.problem;
         let a_w = &problem.working;
         let var0 = (prior.resolution_pm * prior.resolution_pm).max(1e-12);
         let add = prior.additivity_frac * prior.additivity_frac / 3.0;
-        let ln_var0_sum = m as f64 * var0.ln();
-        let use_lower = problem.min_load_g > 0.0;
-        // Weighted normal equations for one load (index 0) and for several (index 1).
         let sets: Vec<(DMatrix<f64>, DVector<f64>)> = [0.0, add]
             .iter()
             .map(|&rel| {
@@ -398,139 +472,115 @@ impl SupportSearch {
                 )
             })
             .collect();
-        let mut best_cost = y.iter().map(|v| v * v / var0).sum::<f64>() + ln_var0_sum;
-        let mut best: Option<(usize, Vec<f64>)> = None;
-        let mut tried = 0u64;
-        // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
-        let mut l = [0.0f64; 64 * 64];
-        let mut z = [0.0f64; 64];
-        // Posterior standard deviations of the loads and a column of L⁻¹ (load range).
-        let (mut sd, mut w) = ([0.0f64; 64], [0.0f64; 64]);
-        for (e_idx, e) in self.entries.iter().enumerate() {
-            let k = e.cols.len();
-            let (g, b) = &sets[usize::from(k >= 2)];
-            // Cholesky of the k × k weighted Gram matrix, then z = G⁻¹b.
-            let mut ok = true;
-            'rows: for r in 0..k {
-                for q in 0..=r {
-                    let mut v = g[(e.cols[r], e.cols[q])];
-                    for t in 0..q {
-                        v -= l[r * k + t] * l[q * k + t];
-                    }
-                    if r == q {
-                        if v <= 0.0 {
-                            ok = false;
-                            break 'rows;
-                        }
-                        l[r * k + r] = v.sqrt();
-                    } else {
-                        l[r * k + q] = v / l[q * k + q];
-                    }
+        LikelihoodFrame {
+            problem,
+            y,
+            prior,
+            var0,
+            add,
+            ln_var0_sum: m as f64 * var0.ln(),
+            use_lower: problem.min_load_g > 0.0,
+            sets,
+        }
+    }
+
+    /// The support `e`'s score at loads zs, with its own covariance (`sd`: the loads'
+    /// posterior standard deviations, used with a load range).
+    fn score(&self, e: &SupportEntry, sd: &[f64], prior_cost: f64, zs: &[f64]) -> f64 {
+        let (problem, y, var0, add) = (self.problem, self.y, self.var0, self.add);
+        let (m, k) = (y.len(), e.cols.len());
+        // Calibration noise: a column's entries carry σ/x_cal of noise, so a
+        // load x_j adds σ²(x_j/x_cal)² to every grating's variance.
+        let calibration_var: f64 = var0
+            * (0..k)
+                .map(|a| {
+                    let x_rel = zs[a] / problem.scale[e.cols[a]] / self.prior.calibration_load_g;
+                    x_rel * x_rel
+                })
+                .sum::<f64>();
+        let mut chi2 = 0.0;
+        let mut ln_det_sigma = 0.0;
+        for (i, yi) in y.iter().enumerate() {
+            let fit: f64 = (0..k).map(|a| e.cols_data[a * m + i] * zs[a]).sum();
+            let additivity_var = if k >= 2 { add * fit * fit } else { 0.0 };
+            let v = var0 + additivity_var + calibration_var;
+            chi2 += (yi - fit) * (yi - fit) / v;
+            ln_det_sigma += v.ln();
+        }
+        // Load-range prior: the evidence integrates the likelihood over the
+        // prior box [min_load, ulimit]; the Laplace posterior N(z, G⁻¹) puts
+        // the share Φ((z_a − l_a)/sd_a) of each load's mass above min_load
+        // (marginals, correlations neglected). −2 ln of that share charges a
+        // fit that needs a load well below min_load, allowing for noise.
+        let range: f64 = if self.use_lower {
+            (0..k)
+                .map(|a| {
+                    let lo = problem.lower[e.cols[a]];
+                    -2.0 * ln_normal_cdf((zs[a] - lo) / sd[a].max(1e-300))
+                })
+                .sum()
+        } else {
+            0.0
+        };
+        chi2 + ln_det_sigma + prior_cost + range
+    }
+}
+
+/// Cholesky factor L (row-major, k × k with k = `cols.len()`) of `g` restricted to
+/// `cols`; false if that matrix is not positive definite.
+fn cholesky_on(g: &DMatrix<f64>, cols: &[usize], l: &mut [f64]) -> bool {
+    let k = cols.len();
+    for r in 0..k {
+        for q in 0..=r {
+            let mut v = g[(cols[r], cols[q])];
+            for t in 0..q {
+                v -= l[r * k + t] * l[q * k + t];
+            }
+            if r == q {
+                if v <= 0.0 {
+                    return false;
                 }
-            }
-            if !ok {
-                continue;
-            }
-            let ln_det_g: f64 = (0..k).map(|r| 2.0 * l[r * k + r].ln()).sum();
-            let prior_cost = self.lambda * k as f64 + e.occam + ln_det_g;
-            // χ² ≥ 0 and ln det Σ ≥ m ln σ²: a lower bound of this support's score.
-            if prior_cost + ln_var0_sum >= best_cost {
-                continue;
-            }
-            tried += 1;
-            for r in 0..k {
-                let mut v = b[e.cols[r]];
-                for t in 0..r {
-                    v -= l[r * k + t] * z[t];
-                }
-                z[r] = v / l[r * k + r];
-            }
-            for r in (0..k).rev() {
-                let mut v = z[r];
-                for t in r + 1..k {
-                    v -= l[t * k + r] * z[t];
-                }
-                z[r] = v / l[r * k + r];
-            }
-            if z[..k].iter().any(|&v| v < 0.0) {
-                continue; // a smaller support's solution, tried on its own
-            }
-            // Posterior standard deviation of each load (working units): the diagonal
-            // of G⁻¹ = L⁻ᵀL⁻¹, column a of L⁻¹ by forward substitution. Needed only
-            // for the load-range prior.
-            if use_lower {
-                for (a, sd_a) in sd.iter_mut().enumerate().take(k) {
-                    let mut var = 0.0;
-                    for r in a..k {
-                        let mut v = if r == a { 1.0 } else { 0.0 };
-                        for t in a..r {
-                            v -= l[r * k + t] * w[t];
-                        }
-                        w[r] = v / l[r * k + r];
-                        var += w[r] * w[r];
-                    }
-                    *sd_a = var.sqrt();
-                }
-            }
-            // The support's score at loads zs, with its own covariance.
-            let score = |zs: &[f64]| -> f64 {
-                // Calibration noise: a column's entries carry σ/x_cal of noise, so a
-                // load x_j adds σ²(x_j/x_cal)² to every grating's variance.
-                let calibration_var: f64 = var0
-                    * (0..k)
-                        .map(|a| {
-                            let x_rel = zs[a] / problem.scale[e.cols[a]] / prior.calibration_load_g;
-                            x_rel * x_rel
-                        })
-                        .sum::<f64>();
-                let mut chi2 = 0.0;
-                let mut ln_det_sigma = 0.0;
-                for (i, yi) in y.iter().enumerate() {
-                    let fit: f64 = (0..k).map(|a| e.cols_data[a * m + i] * zs[a]).sum();
-                    let additivity_var = if k >= 2 { add * fit * fit } else { 0.0 };
-                    let v = var0 + additivity_var + calibration_var;
-                    chi2 += (yi - fit) * (yi - fit) / v;
-                    ln_det_sigma += v.ln();
-                }
-                // Load-range prior: the evidence integrates the likelihood over the
-                // prior box [min_load, ulimit]; the Laplace posterior N(z, G⁻¹) puts
-                // the share Φ((z_a − l_a)/sd_a) of each load's mass above min_load
-                // (marginals, correlations neglected). −2 ln of that share charges a
-                // fit that needs a load well below min_load, allowing for noise.
-                let range: f64 = if use_lower {
-                    (0..k)
-                        .map(|a| {
-                            let lo = problem.lower[e.cols[a]];
-                            -2.0 * ln_normal_cdf((zs[a] - lo) / sd[a].max(1e-300))
-                        })
-                        .sum()
-                } else {
-                    0.0
-                };
-                chi2 + ln_det_sigma + prior_cost + range
-            };
-            let cost = score(&z[..k]);
-            // The unconstrained fit scores at least as well as the bounded one in
-            // practice (it minimises the weighted misfit; only the re-evaluated
-            // covariance could reverse that): a support that loses unconstrained is
-            // not given the costly bounded solve.
-            if cost >= best_cost {
-                continue;
-            }
-            let (cost, zs) = if (0..k).all(|a| z[a] <= problem.upper[e.cols[a]]) {
-                (cost, z[..k].to_vec())
+                l[r * k + r] = v.sqrt();
             } else {
-                let gs = DMatrix::from_fn(k, k, |a, q| g[(e.cols[a], e.cols[q])]);
-                let bs = DVector::from_fn(k, |a, _| b[e.cols[a]]);
-                let zb = self.bounded_sub(&e.cols, &gs, &bs).0;
-                (score(&zb), zb)
-            };
-            if cost < best_cost {
-                best_cost = cost;
-                best = Some((e_idx, zs));
+                l[r * k + q] = v / l[q * k + q];
             }
         }
-        (best, tried)
+    }
+    true
+}
+
+/// z = (LLᵀ)⁻¹b by forward then back substitution, b given entry by entry.
+fn cholesky_solve(l: &[f64], k: usize, b: impl Fn(usize) -> f64, z: &mut [f64]) {
+    for r in 0..k {
+        let mut v = b(r);
+        for t in 0..r {
+            v -= l[r * k + t] * z[t];
+        }
+        z[r] = v / l[r * k + r];
+    }
+    for r in (0..k).rev() {
+        let mut v = z[r];
+        for t in r + 1..k {
+            v -= l[t * k + r] * z[t];
+        }
+        z[r] = v / l[r * k + r];
+    }
+}
+
+/// Posterior standard deviation of each load (working units): the diagonal of
+/// G⁻¹ = L⁻ᵀL⁻¹, column a of L⁻¹ by forward substitution (`w` is scratch).
+fn posterior_sds(l: &[f64], k: usize, sd: &mut [f64], w: &mut [f64]) {
+    for (a, sd_a) in sd.iter_mut().enumerate().take(k) {
+        let mut var = 0.0;
+        for r in a..k {
+            let mut v = if r == a { 1.0 } else { 0.0 };
+            for t in a..r {
+                v -= l[r * k + t] * w[t];
+            }
+            w[r] = v / l[r * k + r];
+            var += w[r] * w[r];
+        }
+        *sd_a = var.sqrt();
     }
 }
 
