@@ -48,23 +48,32 @@ pub struct ConfigurationResult {
     pub solve_time_s: f64,
 }
 
+/// With extrapolation asked for: the options of the fine and the coarse solve (both
+/// without extrapolation) and the Richardson factor 1/(2^order − 1) that takes
+/// fine + (fine − coarse)·factor; None without it.
+fn richardson_levels(opt: &FemOptions) -> Result<Option<(FemOptions, FemOptions, f64)>> {
+    let Some(order) = opt.richardson_order else {
+        return Ok(None);
+    };
+    if !(order.is_finite() && order > 0.0) {
+        bail!("Richardson order must be a positive number, got {order}");
+    }
+    let plain = FemOptions {
+        richardson_order: None,
+        ..*opt
+    };
+    Ok(Some((plain, opt.coarsened(), 1.0 / (2f64.powf(order) - 1.0))))
+}
+
 /// Solve one configuration with F = 1 N and read every grating of its core.
 pub fn solve_configuration(
     design: &Design,
     config: &Configuration,
     opt: &FemOptions,
 ) -> Result<ConfigurationResult> {
-    if let Some(order) = opt.richardson_order {
-        if !(order.is_finite() && order > 0.0) {
-            bail!("Richardson order must be a positive number, got {order}");
-        }
-        let plain = FemOptions {
-            richardson_order: None,
-            ..*opt
-        };
+    if let Some((plain, coarsened, factor)) = richardson_levels(opt)? {
         let fine = solve_configuration(design, config, &plain)?;
-        let coarse = solve_configuration(design, config, &opt.coarsened())?;
-        let factor = 1.0 / (2f64.powf(order) - 1.0);
+        let coarse = solve_configuration(design, config, &coarsened)?;
         let strain_per_n = fine
             .strain_per_n
             .iter()
@@ -209,17 +218,9 @@ pub fn solve_response(
     if forces_n.iter().any(|f| !f.is_finite()) {
         bail!("forces must be finite numbers of newtons");
     }
-    if let Some(order) = opt.richardson_order {
-        if !(order.is_finite() && order > 0.0) {
-            bail!("Richardson order must be a positive number, got {order}");
-        }
-        let plain = FemOptions {
-            richardson_order: None,
-            ..*opt
-        };
+    if let Some((plain, coarsened, factor)) = richardson_levels(opt)? {
         let fine = solve_response(design, config, &plain, forces_n)?;
-        let coarse = solve_response(design, config, &opt.coarsened(), forces_n)?;
-        let factor = 1.0 / (2f64.powf(order) - 1.0);
+        let coarse = solve_response(design, config, &coarsened, forces_n)?;
         let mut out = fine.clone();
         for (g, c) in out.gratings.iter_mut().zip(&coarse.gratings) {
             for (e, ec) in g.strain.iter_mut().zip(&c.strain) {
