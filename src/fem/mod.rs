@@ -62,7 +62,11 @@ fn richardson_levels(opt: &FemOptions) -> Result<Option<(FemOptions, FemOptions,
         richardson_order: None,
         ..*opt
     };
-    Ok(Some((plain, opt.coarsened(), 1.0 / (2f64.powf(order) - 1.0))))
+    Ok(Some((
+        plain,
+        opt.coarsened(),
+        1.0 / (2f64.powf(order) - 1.0),
+    )))
 }
 
 /// Solve one configuration with F = 1 N and read every grating of its core.
