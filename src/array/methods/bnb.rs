@@ -517,13 +517,7 @@ impl Search<'_> {
             let zb = match box_qp_by_upper_sets(&g, &bs, &u) {
                 Some(s) => s,
                 None => {
-                    let lip = g
-                        .clone()
-                        .symmetric_eigenvalues()
-                        .iter()
-                        .copied()
-                        .fold(0.0, f64::max)
-                        .max(1e-300);
+                    let lip = lipschitz(&g);
                     fista_box(&g, &bs, &u, 0.0, lip, DVector::zeros(k), 5000).0
                 }
             };

@@ -291,16 +291,21 @@ struct Common {
     lipschitz: f64,
 }
 
+/// Largest eigenvalue of a Gram matrix (the Lipschitz constant of its least-squares
+/// gradient, FISTA's step), kept above zero.
+pub(crate) fn lipschitz(g: &DMatrix<f64>) -> f64 {
+    g.clone()
+        .symmetric_eigenvalues()
+        .iter()
+        .copied()
+        .fold(0.0, f64::max)
+        .max(1e-300)
+}
+
 impl Common {
     fn new(problem: &SensingProblem) -> Self {
         let gram = problem.working.transpose() * &problem.working;
-        let lipschitz = gram
-            .clone()
-            .symmetric_eigenvalues()
-            .iter()
-            .copied()
-            .fold(0.0, f64::max)
-            .max(1e-300);
+        let lipschitz = lipschitz(&gram);
         Common {
             problem: problem.clone(),
             gram,
@@ -442,13 +447,7 @@ fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64
             return (z, true);
         }
     }
-    let lip = g
-        .clone()
-        .symmetric_eigenvalues()
-        .iter()
-        .copied()
-        .fold(0.0, f64::max)
-        .max(1e-300);
+    let lip = lipschitz(&g);
     let (s, _, ok) = fista_box(&g, &b, &u, 0.0, lip, DVector::zeros(k), 5000);
     for (a, &j) in cols.iter().enumerate() {
         z[j] = s[a];

@@ -291,13 +291,7 @@ impl SupportSearch {
             let quad = s.dot(&(g * &s)) - 2.0 * b.dot(&s);
             return (s.iter().copied().collect(), quad);
         }
-        let lip = g
-            .clone()
-            .symmetric_eigenvalues()
-            .iter()
-            .copied()
-            .fold(0.0, f64::max)
-            .max(1e-300);
+        let lip = lipschitz(g);
         let (s, _, _) = fista_box(g, b, &u, 0.0, lip, DVector::zeros(k), 5000);
         let quad = s.dot(&(g * &s)) - 2.0 * b.dot(&s);
         (s.iter().copied().collect(), quad)
