@@ -690,15 +690,13 @@ impl Design {
             self.validate_snap(m, snap)?;
         }
         self.validate_cores_and_inserts(m)?;
-        let mut names: Vec<&str> = Vec::new();
         for (i, g) in m.gratings.iter().enumerate() {
-            if names.contains(&g.name.as_str()) {
-                return Err(err(
-                    &format!("module.gratings[{i}].name"),
-                    format!("duplicate grating name `{}`", g.name),
-                ));
-            }
-            names.push(&g.name);
+            unique_name(
+                m.gratings[..i].iter().map(|o| o.name.as_str()),
+                &g.name,
+                &format!("module.gratings[{i}].name"),
+                "grating",
+            )?;
             Self::validate_module_grating(m, i, g)?;
         }
         Ok(())
@@ -824,21 +822,21 @@ impl Design {
         }
         for (i, c) in m.cores.iter().enumerate() {
             self.material(&c.material, &format!("module.cores[{i}].material"))?;
-            if m.cores[..i].iter().any(|o| o.name == c.name) {
-                return Err(err(
-                    &format!("module.cores[{i}].name"),
-                    format!("duplicate core name `{}`", c.name),
-                ));
-            }
+            unique_name(
+                m.cores[..i].iter().map(|o| o.name.as_str()),
+                &c.name,
+                &format!("module.cores[{i}].name"),
+                "core",
+            )?;
         }
         for (i, ins) in m.inserts.iter().enumerate() {
             self.material(&ins.material, &format!("module.inserts[{i}].material"))?;
-            if m.inserts[..i].iter().any(|o| o.name == ins.name) {
-                return Err(err(
-                    &format!("module.inserts[{i}].name"),
-                    format!("duplicate insert name `{}`", ins.name),
-                ));
-            }
+            unique_name(
+                m.inserts[..i].iter().map(|o| o.name.as_str()),
+                &ins.name,
+                &format!("module.inserts[{i}].name"),
+                "insert",
+            )?;
         }
         Ok(())
     }
@@ -970,15 +968,13 @@ impl Design {
         self.validate_sheet(a)?;
         self.validate_mold(a)?;
         self.validate_fiber_positions(a)?;
-        let mut names: Vec<&str> = Vec::new();
         for (i, g) in a.gratings.iter().enumerate() {
-            if names.contains(&g.name.as_str()) {
-                return Err(err(
-                    &format!("array.gratings[{i}].name"),
-                    format!("duplicate grating name `{}`", g.name),
-                ));
-            }
-            names.push(&g.name);
+            unique_name(
+                a.gratings[..i].iter().map(|o| o.name.as_str()),
+                &g.name,
+                &format!("array.gratings[{i}].name"),
+                "grating",
+            )?;
             Self::validate_array_grating(a, i, g)?;
         }
         if a.gratings.is_empty() {
@@ -1204,6 +1200,19 @@ pub fn err(field: &str, message: impl Into<String>) -> SpecError {
         field: field.to_string(),
         message: message.into(),
     }
+}
+
+/// `name` (the `what` at `field`) must differ from every earlier name in its list.
+fn unique_name<'a>(
+    earlier: impl IntoIterator<Item = &'a str>,
+    name: &str,
+    field: &str,
+    what: &str,
+) -> Result<(), SpecError> {
+    if earlier.into_iter().any(|o| o == name) {
+        return Err(err(field, format!("duplicate {what} name `{name}`")));
+    }
+    Ok(())
 }
 
 fn finite(field: &str, v: f64) -> Result<(), SpecError> {

@@ -169,3 +169,42 @@ fn unknown_keys_name_their_table_and_line() {
         "{missing}"
     );
 }
+
+#[test]
+fn duplicate_names_are_refused_naming_the_second() {
+    let t = paper_text();
+    for (from, to, field, what) in [
+        (
+            "name = \"psc2\"",
+            "name = \"psc1\"",
+            "module.cores[1].name",
+            "core",
+        ),
+        (
+            "name = \"green\"",
+            "name = \"blue\"",
+            "module.inserts[1].name",
+            "insert",
+        ),
+        (
+            "name = \"lambda_12\"",
+            "name = \"lambda_11\"",
+            "module.gratings[1].name",
+            "grating",
+        ),
+    ] {
+        let e = fbgforge::design::parse(&t.replacen(from, to, 1)).expect_err(field);
+        let msg = e.to_string();
+        assert!(
+            msg.contains(field) && msg.contains(&format!("duplicate {what} name")),
+            "{msg}"
+        );
+    }
+    let array = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml"),
+    )
+    .unwrap();
+    let e = fbgforge::design::parse(&array.replacen("name = \"fbg2\"", "name = \"fbg1\"", 1))
+        .expect_err("duplicate array grating");
+    assert!(e.to_string().contains("array.gratings[1].name"), "{e}");
+}
