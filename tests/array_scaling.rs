@@ -12,6 +12,7 @@ use fbgforge::array::kernel::{
 use fbgforge::array::methods::{build, l0_penalty_for_resolution, Method, MethodSettings};
 use fbgforge::array::problem::SensingProblem;
 use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
+use fbgforge::progress::Quiet;
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -429,7 +430,7 @@ fn the_default_solves_a_32x256_array_given_as_headerless_files() {
             dir.path().join("Y.csv"),
         )
     };
-    let s = reconstruct_file(&req).unwrap();
+    let s = reconstruct_file(&req, &Quiet).unwrap();
     assert_eq!((s.gratings, s.cells.len(), s.frames), (32, 256, 3));
     assert_eq!(s.cells[0], "A");
     let choice = s.choice.as_ref().expect("the default says how it chose");
@@ -466,7 +467,7 @@ fn headerless_files_are_read_with_generated_names_and_bad_ones_are_refused() {
         out: Some(path("out.csv")),
         ..ReconstructRequest::new(MatrixSource::Csv(path(m)), path(sh))
     };
-    let s = reconstruct_file(&req("A.csv", "Y.tsv")).unwrap();
+    let s = reconstruct_file(&req("A.csv", "Y.tsv"), &Quiet).unwrap();
     assert_eq!(s.cells, ["A", "B", "C", "D", "E", "F", "G", "H"]);
     let text = std::fs::read_to_string(path("out.csv")).unwrap();
     assert!(text.starts_with("time_s,A,B"), "{text}");
@@ -480,7 +481,8 @@ fn headerless_files_are_read_with_generated_names_and_bad_ones_are_refused() {
     for (got, want) in row[1..].iter().zip(&x) {
         assert!((got - want).abs() < 1e-3, "{row:?}");
     }
-    let err = |m: &str, sh: &str| format!("{:#}", reconstruct_file(&req(m, sh)).unwrap_err());
+    let err =
+        |m: &str, sh: &str| format!("{:#}", reconstruct_file(&req(m, sh), &Quiet).unwrap_err());
     // Ragged and NaN matrices name the line.
     std::fs::write(path("ragged.csv"), "0.1,0.2,0.3\n0.1,0.2\n").unwrap();
     let e = err("ragged.csv", "Y.tsv");

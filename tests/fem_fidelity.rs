@@ -284,9 +284,24 @@ fn closed_form_and_fe_figure_of(
     let fig = PAPER_FIGURES.iter().find(|f| f.id == id).unwrap();
     let fe =
         prediction::sweep_predictor(FidelityChoice::Fem, Some(case), FemOptions::level(0)).unwrap();
-    let mut reported = 0;
-    let r = run_paper_figure_with(&d, fig, steps, Some(&*fe), || reported += 1).unwrap();
-    (run_paper_figure(&d, fig, steps).unwrap(), r, reported)
+    let reported = Steps::default();
+    let r = run_paper_figure_with(&d, fig, steps, Some(&*fe), &reported).unwrap();
+    (
+        run_paper_figure(&d, fig, steps).unwrap(),
+        r,
+        reported.0.load(std::sync::atomic::Ordering::Relaxed) as usize,
+    )
+}
+
+/// Counts the steps a sweep reports.
+#[derive(Default)]
+struct Steps(std::sync::atomic::AtomicU64);
+
+impl fbgforge::progress::Progress for Steps {
+    fn advance(&self, steps: u64) {
+        self.0
+            .fetch_add(steps, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// `sweep --fidelity fem` answers every step with the FE model. Case II (Fig. 11a, the

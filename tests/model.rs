@@ -11,6 +11,7 @@ mod common;
 
 use fbgforge::model::sweep::{self, SweepError, PAPER_FIGURES};
 use fbgforge::model::{self, closed_form, LoadCase, ModelError, ModuleModelParams, PredictOptions};
+use fbgforge::progress::Quiet;
 use fbgforge::spec::Design;
 
 use common::shipped as design;
@@ -568,7 +569,7 @@ fn bad_input_gets_clear_errors() {
     );
     let mut bare = d.clone();
     bare.module.as_mut().unwrap().inserts.clear();
-    let e = sweep::run(&bare, e1, &[1.0, 2.0], 50.0, Some(LoadCase::I), || {}).unwrap_err();
+    let e = sweep::run(&bare, e1, &[1.0, 2.0], 50.0, Some(LoadCase::I), &Quiet).unwrap_err();
     assert!(
         matches!(e, SweepError::Nothing(_)) && e.to_string().contains("insert"),
         "{e}"
@@ -579,7 +580,7 @@ fn bad_input_gets_clear_errors() {
         "Case I figure without an insert"
     );
     let wall = sweep::find_param("cap_wall_mm").unwrap();
-    let e = sweep::run(&d, wall, &[1.0, 9.0], 50.0, None, || {}).unwrap_err();
+    let e = sweep::run(&d, wall, &[1.0, 9.0], 50.0, None, &Quiet).unwrap_err();
     assert!(e.to_string().contains("cap_wall_mm = 9"), "{e}");
 }
 

@@ -12,6 +12,7 @@ use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{model_predictor, Choice, ModuleProblem, ModuleSettings};
 use fbgforge::optimize::quality::Calibration;
 use fbgforge::prediction::{self, Fidelity, ModelledPrediction, PredictionRequest};
+use fbgforge::progress::Quiet;
 use fbgforge::spec::Design;
 
 use common::shipped as design;
@@ -287,7 +288,7 @@ fn sensitivity_optimum(d: &Design) -> (f64, f64, f64, Vec<f64>) {
         &s,
         None,
         model_predictor(),
-        &|_| {},
+        &Quiet,
     )
     .unwrap();
     let start_k = out.start.gratings[0].sensitivity_pm_per_n;

@@ -8,6 +8,7 @@ use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{
     optimise_module, parse_bounds, ModuleSettings, Objective, Predictor, Variable,
 };
+use fbgforge::progress::Quiet;
 use fbgforge::solvers::SolverKind;
 use fbgforge::spec::{Design, GratingRole};
 use std::sync::Arc;
@@ -85,7 +86,7 @@ fn finds_an_interior_analytic_optimum_with_both_solvers() {
         s.run.max_iters = 300;
         s.run.swarm_iters = 150;
         only_start_choice(&mut s);
-        let out = optimise_module(&base, &lib, &s, None, pred.clone(), &|_| {}).unwrap();
+        let out = optimise_module(&base, &lib, &s, None, pred.clone(), &Quiet).unwrap();
         let best = out.choices[out.best_choice].best.as_ref().unwrap();
         assert!(
             (best.x[0] - 16.0).abs() < 0.15,
@@ -132,7 +133,7 @@ fn strain_limit_sets_the_optimum_diameter() {
         ..ModuleSettings::default()
     };
     only_start_choice(&mut s);
-    let out = optimise_module(&base, &elastic_library(), &s, None, pred, &|_| {}).unwrap();
+    let out = optimise_module(&base, &elastic_library(), &s, None, pred, &Quiet).unwrap();
     let best = out.choices[out.best_choice].best.as_ref().unwrap();
     assert!(
         best.x[0] <= d_star + 1e-9,
@@ -175,7 +176,7 @@ fn every_returned_design_meets_every_constraint_loads_and_beats_the_start() {
             &s,
             None,
             pred.clone(),
-            &|_| {},
+            &Quiet,
         )
         .unwrap();
         for c in &out.choices {
@@ -228,7 +229,7 @@ fn an_infeasible_problem_names_the_constraint() {
         ..ModuleSettings::default()
     };
     only_start_choice(&mut s);
-    let e = optimise_module(&base, &lib, &s, None, synthetic(|_| 5.0), &|_| {})
+    let e = optimise_module(&base, &lib, &s, None, synthetic(|_| 5.0), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(
@@ -242,7 +243,7 @@ fn an_infeasible_problem_names_the_constraint() {
         ..ModuleSettings::default()
     };
     only_start_choice(&mut s);
-    let e = optimise_module(&base, &lib, &s, None, synthetic(|_| 400.0), &|_| {})
+    let e = optimise_module(&base, &lib, &s, None, synthetic(|_| 400.0), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(e.contains("`wavelength_window`"), "{e}");
@@ -252,7 +253,7 @@ fn an_infeasible_problem_names_the_constraint() {
         ..ModuleSettings::default()
     };
     only_start_choice(&mut s);
-    let e = optimise_module(&base, &lib, &s, None, synthetic(|_| 5.0), &|_| {})
+    let e = optimise_module(&base, &lib, &s, None, synthetic(|_| 5.0), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(e.contains("`printer_min_wall`"), "{e}");
@@ -275,7 +276,7 @@ fn bad_input_gets_a_clear_error() {
         bounds: parse_bounds("outer_diameter_mm=22:10").unwrap(),
         ..ModuleSettings::default()
     };
-    let e = optimise_module(&base, &lib, &s, None, pred.clone(), &|_| {})
+    let e = optimise_module(&base, &lib, &s, None, pred.clone(), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(
@@ -286,7 +287,7 @@ fn bad_input_gets_a_clear_error() {
         cores: Some(vec!["unobtainium".into()]),
         ..ModuleSettings::default()
     };
-    let e = optimise_module(&base, &lib, &s, None, pred.clone(), &|_| {})
+    let e = optimise_module(&base, &lib, &s, None, pred.clone(), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(e.contains("unknown material `unobtainium`"), "{e}");
@@ -294,7 +295,7 @@ fn bad_input_gets_a_clear_error() {
         cores: Some(vec![]),
         ..ModuleSettings::default()
     };
-    let e = optimise_module(&base, &lib, &s, None, pred.clone(), &|_| {})
+    let e = optimise_module(&base, &lib, &s, None, pred.clone(), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(e.contains("empty"), "{e}");
@@ -307,21 +308,14 @@ fn bad_input_gets_a_clear_error() {
         &ModuleSettings::default(),
         None,
         pred.clone(),
-        &|_| {},
+        &Quiet,
     )
     .unwrap_err()
     .to_string();
     assert!(e.contains("material library is empty"), "{e}");
     let array = design("tactile-array-60x80.toml");
-    let e = optimise_module(
-        &array,
-        &lib,
-        &ModuleSettings::default(),
-        None,
-        pred,
-        &|_| {},
-    )
-    .unwrap_err()
-    .to_string();
+    let e = optimise_module(&array, &lib, &ModuleSettings::default(), None, pred, &Quiet)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no [module] section"), "{e}");
 }

@@ -10,6 +10,7 @@ use fbgforge::optimize::module::{
     Objective,
 };
 use fbgforge::optimize::quality::{design_quality, Calibration};
+use fbgforge::progress::Quiet;
 use fbgforge::spec::Design;
 
 use common::shipped as design;
@@ -21,7 +22,7 @@ fn run(d: &Design, s: &ModuleSettings) -> ModuleOutcome {
         s,
         None,
         model_predictor(),
-        &|_| {},
+        &Quiet,
     )
     .unwrap()
 }

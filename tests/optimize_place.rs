@@ -6,6 +6,7 @@ mod common;
 use fbgforge::array::methods::Method;
 use fbgforge::optimize::place::{place, PlaceObjective, PlaceSettings, PlacementProblem};
 use fbgforge::profile::ArrayLayout;
+use fbgforge::progress::Quiet;
 use fbgforge::solvers::{RunSettings, SolverKind};
 
 use common::shipped as design;
@@ -34,7 +35,7 @@ fn placement_never_scores_below_the_papers_layout() {
     let base = design("tactile-array-60x80.toml");
     for objective in [PlaceObjective::Protocol, PlaceObjective::Coherence] {
         let s = quick(objective, false);
-        let out = place(&base, &s, &|_| {}).unwrap();
+        let out = place(&base, &s, &Quiet).unwrap();
         assert!(
             out.best_objective >= out.start_objective,
             "{objective:?}: {} < {}",
@@ -63,7 +64,7 @@ fn placement_never_scores_below_the_papers_layout() {
 fn moved_fibers_move_the_mold_slits_and_keep_printable_walls() {
     let base = design("tactile-array-60x80.toml");
     let s = quick(PlaceObjective::Coherence, true);
-    let out = place(&base, &s, &|_| {}).unwrap();
+    let out = place(&base, &s, &Quiet).unwrap();
     let a = out.design.array.as_ref().unwrap();
     let layout = ArrayLayout::from_array(a);
     // The slits are the fibers' x positions: the mold follows the optimised fibers.
@@ -94,7 +95,7 @@ fn spacing_violation_is_measured() {
 #[test]
 fn bad_placement_input_gets_a_clear_error() {
     let module = design("clip-on-34mm.toml");
-    let e = place(&module, &quick(PlaceObjective::Coherence, false), &|_| {})
+    let e = place(&module, &quick(PlaceObjective::Coherence, false), &Quiet)
         .unwrap_err()
         .to_string();
     assert!(e.contains("no [array] section"), "{e}");
@@ -103,7 +104,7 @@ fn bad_placement_input_gets_a_clear_error() {
         edge_margin_mm: 40.0,
         ..quick(PlaceObjective::Coherence, false)
     };
-    let e = place(&base, &s, &|_| {}).unwrap_err().to_string();
+    let e = place(&base, &s, &Quiet).unwrap_err().to_string();
     assert!(
         e.contains("infeasible") && e.contains("`edge_margin`"),
         "{e}"
@@ -112,7 +113,7 @@ fn bad_placement_input_gets_a_clear_error() {
         solvers: vec![],
         ..quick(PlaceObjective::Coherence, false)
     };
-    assert!(place(&base, &s, &|_| {})
+    assert!(place(&base, &s, &Quiet)
         .unwrap_err()
         .to_string()
         .contains("no solver"));

@@ -138,8 +138,11 @@ pub struct ReconstructSummary {
 }
 
 /// Read a sensing matrix (or derive it from a design) and a shifts file, reconstruct
-/// every frame, write the loads CSV and return the summary.
-pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
+/// every frame, write the loads CSV and return the summary; `progress` hears the frames.
+pub fn reconstruct_file(
+    a: &ReconstructRequest,
+    progress: &dyn crate::progress::Progress,
+) -> Result<ReconstructSummary> {
     let named = a.method.as_deref().map(Method::from_name).transpose()?;
     if a.penalty.is_some() && named.is_none() {
         bail!("--penalty is a weight of one method: name the method with --method");
@@ -211,7 +214,7 @@ pub fn reconstruct_file(a: &ReconstructRequest) -> Result<ReconstructSummary> {
     };
     let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let results = reconstruct_frames(reconstructor.as_ref(), &stream.frames_pm);
+    let results = reconstruct_frames(reconstructor.as_ref(), &stream.frames_pm, progress);
     let elapsed = t1.elapsed().as_secs_f64();
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
     let loads: Vec<Vec<f64>> = results.iter().map(|r| r.loads_g.clone()).collect();

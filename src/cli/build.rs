@@ -1,9 +1,11 @@
 //! `fbgforge build`: design spec to STL, STEP and manifest; `fbgforge` with no
 //! arguments builds every shipped design.
 
+use super::progress::Bar;
 use anyhow::{bail, Result};
 use clap::Args;
 use fbgforge::geometry;
+use fbgforge::progress::Progress;
 use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -67,16 +69,16 @@ pub fn run_default() -> Result<()> {
         );
     }
     let t = Instant::now();
-    let pb = fbgforge::progress::bar(designs.len() as u64, "build");
+    let pb = Bar::with("build", designs.len() as u64);
     let mut reports = Vec::new();
     for (_, d) in &designs {
         reports.push((
             d.name.clone(),
             geometry::build_design(d, &default_out(d), None, None)?,
         ));
-        pb.inc(1);
+        pb.advance(1);
     }
-    pb.finish_and_clear();
+    pb.end();
     for (name, r) in &reports {
         print_table(name, r);
     }

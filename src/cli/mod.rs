@@ -5,6 +5,7 @@ pub mod build;
 pub mod live;
 pub mod optimize;
 pub mod predict;
+pub mod progress;
 pub mod reconstruct;
 pub mod verify;
 

@@ -1,6 +1,7 @@
 //! `fbgforge optimize` and `fbgforge place`: design optimisation from the command
 //! line (the work is in `fbgforge::optimize::run`).
 
+use super::progress::Bar;
 use anyhow::Result;
 use clap::Args;
 use fbgforge::optimize::module::{
@@ -140,7 +141,7 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
         out: a.out.clone(),
         report_dir: a.report_dir.clone(),
     };
-    let run = run_module(&req)?;
+    let run = run_module(&req, &Bar::new())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&run.outcome)?);
     } else {
@@ -304,7 +305,7 @@ pub fn run_place(a: PlaceArgs) -> Result<()> {
         out: a.out.clone(),
         report_dir: a.report_dir.clone(),
     };
-    let run = run_placement(&req)?;
+    let run = run_placement(&req, &Bar::new())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&run.outcome)?);
     } else {

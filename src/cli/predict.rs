@@ -1,6 +1,7 @@
 //! `fbgforge predict` and `fbgforge sweep`: the opto-mechanical model from the command
 //! line.
 
+use super::progress::Bar;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use fbgforge::fem::FemOptions;
@@ -429,7 +430,6 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             a.design.display()
         );
     }
-    let pb = fbgforge::progress::bar(values.len() as u64, "sweep");
     let predictor = fbgforge::prediction::sweep_predictor_with_band(
         a.fidelity.into(),
         case,
@@ -443,10 +443,9 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         a.force_n,
         case,
         predictor.as_deref(),
-        || pb.inc(1),
+        &Bar::new(),
     )
     .with_context(|| format!("{}: sweep failed", a.design.display()))?;
-    pb.finish_and_clear();
     let stem = format!("{}-{}", design.name, param.name);
     let svg = a
         .plot
@@ -501,7 +500,7 @@ fn write_paper_figures(
 ) -> Result<()> {
     ensure_dir(dir)?;
     let steps = steps.max(2);
-    let pb = fbgforge::progress::bar((PAPER_FIGURES.len() * steps) as u64, "figures");
+    let pb = Bar::new();
     for fig in PAPER_FIGURES {
         let predictor = fbgforge::prediction::sweep_predictor_with_band(
             fidelity.into(),
@@ -509,9 +508,8 @@ fn write_paper_figures(
             FemOptions::default(),
             band,
         );
-        let r =
-            sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), || pb.inc(1))
-                .with_context(|| format!("paper figure {}", fig.id))?;
+        let r = sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), &pb)
+            .with_context(|| format!("paper figure {}", fig.id))?;
         let title = format!("{} ({})", fig.title, fidelity_label(fidelity));
         sweep_chart(&r, &title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
         sweep_csv(&r, &dir.join(format!("{}.csv", fig.id)))?;
@@ -525,7 +523,6 @@ fn write_paper_figures(
             first.label()
         );
     }
-    pb.finish_and_clear();
     println!(
         "wrote {} figures (SVG + CSV) to {}, model: {}",
         PAPER_FIGURES.len(),

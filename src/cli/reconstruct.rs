@@ -83,7 +83,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         out: a.out,
         ..ReconstructRequest::new(matrix, a.shifts)
     };
-    let summary = reconstruct_file(&req)?;
+    let summary = reconstruct_file(&req, &super::progress::Bar::new())?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {

@@ -6,6 +6,7 @@
 //! swept dimension moves the prediction exactly as it would move the printed solid.
 
 use super::{predict_with, GratingPrediction, LoadCase, PredictOptions};
+use crate::progress::{Progress, Quiet};
 use crate::spec::{Design, SpecError};
 use serde::Serialize;
 
@@ -373,16 +374,16 @@ pub struct SweepResult {
 }
 
 /// Sweep `param` over `values` at `force_n` with the closed form; `case` keeps only
-/// one loading case. `on_step` is called after each value (progress bars).
+/// one loading case. `progress` hears one stage of one step per value.
 pub fn run(
     design: &Design,
     param: &SweepParam,
     values: &[f64],
     force_n: f64,
     case: Option<LoadCase>,
-    on_step: impl FnMut(),
+    progress: &dyn Progress,
 ) -> Result<SweepResult, SweepError> {
-    run_with(design, param, values, force_n, case, None, on_step)
+    run_with(design, param, values, force_n, case, None, progress)
 }
 
 /// [`run`] with another model answering at each step (`None`: the closed form).
@@ -393,9 +394,10 @@ pub fn run_with(
     force_n: f64,
     case: Option<LoadCase>,
     predictor: Option<&Predictor>,
-    mut on_step: impl FnMut(),
+    progress: &dyn Progress,
 ) -> Result<SweepResult, SweepError> {
     let mut series: Vec<SweepSeries> = Vec::new();
+    progress.begin(param.name, values.len() as u64);
     let opts = PredictOptions {
         force_n,
         delta_t_k: 0.0,
@@ -447,8 +449,9 @@ pub fn run_with(
                 s.band_pm_per_n.push(b);
             }
         }
-        on_step();
+        progress.advance(1);
     }
+    progress.end();
     if series.is_empty() {
         return Err(SweepError::Nothing(match case {
             Some(LoadCase::I) => {
@@ -581,17 +584,17 @@ pub fn run_paper_figure(
     fig: &PaperFigure,
     steps: usize,
 ) -> Result<SweepResult, SweepError> {
-    run_paper_figure_with(design, fig, steps, None, || {})
+    run_paper_figure_with(design, fig, steps, None, &Quiet)
 }
 
 /// [`run_paper_figure`] with another model answering (`None`: the closed form);
-/// `on_step` is called after each value.
+/// `progress` hears one stage of one step per value.
 pub fn run_paper_figure_with(
     design: &Design,
     fig: &PaperFigure,
     steps: usize,
     predictor: Option<&Predictor>,
-    on_step: impl FnMut(),
+    progress: &dyn Progress,
 ) -> Result<SweepResult, SweepError> {
     let d = paper_figure_design(design, fig)?;
     let param = find_param(fig.param)?;
@@ -603,6 +606,6 @@ pub fn run_paper_figure_with(
         PAPER_FORCE_N,
         Some(fig.case),
         predictor,
-        on_step,
+        progress,
     )
 }

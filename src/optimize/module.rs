@@ -22,6 +22,7 @@ use crate::fem::FemOptions;
 use crate::model::{GratingPrediction, LoadCase};
 use crate::prediction::{Anchored, FidelityChoice};
 use crate::profile::ModuleProfile;
+use crate::progress::Progress;
 use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
 use crate::spec::{Core, Design, GratingRole, Insert, Module};
 use rayon::prelude::*;
@@ -1343,14 +1344,14 @@ fn optimised_design(
     Ok(design)
 }
 
-/// Optimise a module design. `progress` is called once per finished choice.
+/// Optimise a module design. `progress` hears one stage with one step per choice.
 pub fn optimise_module(
     base: &Design,
     lib: &MaterialLibrary,
     settings: &ModuleSettings,
     measured: Option<&MeasuredPrototype>,
     predictor: Predictor,
-    progress: &(dyn Fn(usize) + Sync),
+    progress: &dyn Progress,
 ) -> anyhow::Result<ModuleOutcome> {
     let t0 = Instant::now();
     check_settings(lib, settings)?;
@@ -1369,16 +1370,17 @@ pub fn optimise_module(
         1.0
     };
     let list = choices(base, lib, settings)?;
-    let done = std::sync::atomic::AtomicUsize::new(0);
+    progress.begin("optimise", list.len() as u64);
     let results: Vec<anyhow::Result<ChoiceResult>> = list
         .par_iter()
         .enumerate()
         .map(|(ci, ch)| {
             let r = inputs.optimise_choice(ci, ch, scale)?;
-            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+            progress.advance(1);
             Ok(r)
         })
         .collect();
+    progress.end();
     let mut choices_done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
     // Near-ties of merit go to the least change from the start.
     let mut ranker = inputs.problem(start_ch.clone())?;

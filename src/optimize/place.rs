@@ -19,6 +19,7 @@ use crate::array::kernel::{matrix_from_positions, mutual_coherence, DistanceKern
 use crate::array::methods::Method;
 use crate::array::protocol::{run_protocol, ProtocolConfig};
 use crate::profile::ArrayLayout;
+use crate::progress::Progress;
 use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
 use crate::spec::{Design, TactileArray};
 use rayon::prelude::*;
@@ -453,7 +454,7 @@ pub struct PlaceOutcome {
 pub fn place(
     design: &Design,
     settings: &PlaceSettings,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: &dyn Progress,
 ) -> anyhow::Result<PlaceOutcome> {
     let t0 = Instant::now();
     anyhow::ensure!(!settings.solvers.is_empty(), "no solver selected");
@@ -466,7 +467,8 @@ pub fn place(
     let start_objective = p.objective(&x0);
     let (lo, hi) = p.bounds();
     let starts = start_points(&x0, &lo, &hi, settings.extra_starts, settings.seed);
-    progress("searching");
+    progress.begin("place", 3);
+    progress.message("searching");
     let runs = multi_start(&p, &settings.solvers, &starts, settings.seed, &settings.run)?;
     let mut per_solver = Vec::new();
     for &k in &settings.solvers {
@@ -488,13 +490,15 @@ pub fn place(
     let (best_objective, best_x) = p
         .best_of(&x0, &runs)
         .unwrap_or((start_objective, x0.clone()));
-    progress("held-out protocol");
+    progress.advance(1);
+    progress.message("held-out protocol");
     let (start_test, best_test) = rayon::join(
         || p.protocol(&x0, &settings.test_seeds, true),
         || p.protocol(&best_x, &settings.test_seeds, true),
     );
     let agreement = if settings.agreement_samples >= 3 {
-        progress("proxy agreement");
+        progress.advance(1);
+        progress.message("proxy agreement");
         Some(proxy_agreement(
             &p,
             settings.agreement_samples,
@@ -503,6 +507,7 @@ pub fn place(
     } else {
         None
     };
+    progress.end();
     let mut out = design.clone();
     out.array = Some(p.array_at(&best_x));
     out.name = format!("{}-placed", design.name.trim_end_matches("-placed"));

@@ -12,6 +12,7 @@ use super::place::{place, PlaceOutcome, PlaceSettings};
 use super::quality::MeasuredPrototype;
 use crate::output::{write_atomic, write_csv, write_json};
 use crate::plot::{Chart, Mark, Series};
+use crate::progress::Progress;
 use crate::spec::Design;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
@@ -71,8 +72,9 @@ pub struct PlaceRun {
 }
 
 /// Optimise a module design: load it, search every material choice, write the
-/// optimised design and the report, and return what was done.
-pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
+/// optimised design and the report, and return what was done; `progress` hears one
+/// step per material choice.
+pub fn run_module(req: &ModuleRequest, progress: &dyn Progress) -> Result<ModuleRun> {
     let design = crate::design::load(&req.design)?;
     let lib = match &req.materials {
         Some(p) => MaterialLibrary::load(p)?,
@@ -100,8 +102,6 @@ pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
         .as_deref()
         .map(MeasuredPrototype::load)
         .transpose()?;
-    let n_choices = crate::optimize::module::choices(&design, &lib, settings)?.len();
-    let bar = crate::progress::bar(n_choices as u64, "optimise");
     let predictor = model_predictor();
     let outcome = optimise_module(
         &design,
@@ -109,9 +109,8 @@ pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
         settings,
         measured.as_ref(),
         predictor.clone(),
-        &|done| bar.set_position(done as u64),
+        progress,
     )?;
-    bar.finish_and_clear();
     let out = req.out.clone().unwrap_or_else(|| {
         PathBuf::from("out/optimize").join(format!("{}.toml", outcome.design.name))
     });
@@ -137,15 +136,10 @@ pub fn run_module(req: &ModuleRequest) -> Result<ModuleRun> {
 }
 
 /// Optimise grating placement: load the array design, search, write the design and
-/// the report.
-pub fn run_placement(req: &PlaceRequest) -> Result<PlaceRun> {
+/// the report; `progress` hears the search's three stages.
+pub fn run_placement(req: &PlaceRequest, progress: &dyn Progress) -> Result<PlaceRun> {
     let design = crate::design::load(&req.design)?;
-    let bar = crate::progress::bar(3, "place");
-    let outcome = place(&design, &req.settings, &|stage| {
-        bar.set_message(stage.to_string());
-        bar.inc(1)
-    })?;
-    bar.finish_and_clear();
+    let outcome = place(&design, &req.settings, progress)?;
     let out = req.out.clone().unwrap_or_else(|| {
         PathBuf::from("out/place").join(format!("{}.toml", outcome.design.name))
     });

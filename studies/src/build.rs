@@ -6,6 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use fbgforge::geometry::{self, mesh};
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::Progress;
 use fbgforge::spec::Design;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -80,7 +81,7 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
             new
         })
         .collect();
-    let pb = fbgforge::progress::bar((distinct.len() * tolerances.len()) as u64, "sweep");
+    let pb = crate::progress::Bar::with("sweep", (distinct.len() * tolerances.len()) as u64);
     let mut rows = Vec::new();
     for s in &distinct {
         for &tol in tolerances {
@@ -101,10 +102,10 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
                 volume_error_percent: (m.volume_mm3() - s.exact_volume_mm3) / s.exact_volume_mm3
                     * 100.0,
             });
-            pb.inc(1);
+            pb.advance(1);
         }
     }
-    pb.finish_and_clear();
+    pb.end();
 
     // 2. Every part of the module plus the mold at the default tolerance: B-rep,
     // meshes, checks (what `fbgforge build` does before writing).

@@ -13,6 +13,7 @@ use fbgforge::fem::{solve_configuration, Configuration, DomeContact, FemOptions,
 use fbgforge::model::LoadCase;
 use fbgforge::output::write_csv;
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::Progress;
 use fbgforge::spec::Design;
 use std::path::Path;
 use std::time::Instant;
@@ -153,7 +154,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         let max_level = if quick { max_level.min(2) } else { max_level };
         (c, max_level, dome)
     });
-    let pb = fbgforge::progress::bar(configs.iter().map(|c| c.1 as u64 + 1).sum(), "fem levels");
+    let pb = crate::progress::Bar::with("fem levels", configs.iter().map(|c| c.1 as u64 + 1).sum());
     let mut rows = Vec::new();
     let mut speed_rows = Vec::new();
     let mut chart = Chart::new(
@@ -185,7 +186,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
                 *dome,
             )?;
             levels.push(r.pop().expect("one level"));
-            pb.inc(1);
+            pb.advance(1);
         }
         let ks: Vec<f64> = levels.iter().map(|l| l.sensitivity_pm_per_n).collect();
         let (order, k_ref) = match observed_order(&ks) {
@@ -295,7 +296,7 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
             Err(e) => println!("{:<22} closed form: not available ({e})", config.label()),
         }
     }
-    pb.finish_and_clear();
+    pb.end();
     write_csv(
         &out_dir.join("fem_convergence.csv"),
         &[

@@ -15,6 +15,7 @@ use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::output::{write_atomic, write_csv};
 use fbgforge::plot::{Chart, Mark, Series};
 use fbgforge::profile::ModuleProfile;
+use fbgforge::progress::Progress;
 use fbgforge::spec::Design;
 use serde::Serialize;
 use std::path::Path;
@@ -156,19 +157,19 @@ pub fn run_comparison_on(
     walls_mm: &[f64],
 ) -> Result<Vec<ComparisonRow>> {
     let base = paper_design()?;
-    let pb = fbgforge::progress::bar((diameters_mm.len() * walls_mm.len()) as u64, "comparison");
+    let pb = crate::progress::Bar::with("comparison", (diameters_mm.len() * walls_mm.len()) as u64);
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
     for &d in diameters_mm {
         for &w in walls_mm {
-            pb.inc(1);
+            pb.advance(1);
             match scaled_design(&base, d, w) {
                 Ok(design) => rows.extend(compare_design(&design, 1)?),
                 Err(e) => skipped.push((d, w, e.to_string())),
             }
         }
     }
-    pb.finish_and_clear();
+    pb.end();
     let fmt_opt = |v: Option<f64>, prec: usize| {
         v.map(|x| format!("{x:.prec$}"))
             .unwrap_or_else(|| "n/a".into())

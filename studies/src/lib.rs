@@ -12,6 +12,9 @@ pub mod fem_compare;
 pub mod fem_contact;
 pub mod optimize;
 pub mod predict;
+/// Terminal bars: the binary's own implementation of the library's `Progress`.
+#[path = "../../src/cli/progress.rs"]
+pub mod progress;
 pub mod reconstruct;
 pub mod reconstruct_scaling;
 pub mod verify;

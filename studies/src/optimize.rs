@@ -9,6 +9,7 @@ use fbgforge::optimize::module::{model_predictor, optimise_module, ModuleSetting
 use fbgforge::optimize::place::{place, PlaceSettings};
 use fbgforge::output::{write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::Quiet;
 use fbgforge::solvers::SolverKind;
 use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
@@ -82,7 +83,7 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
                 ..ModuleSettings::default()
             };
             let t0 = Instant::now();
-            let o = optimise_module(&design, &lib, &s, None, model_predictor(), &|_| {})?;
+            let o = optimise_module(&design, &lib, &s, None, model_predictor(), &Quiet)?;
             let t = t0.elapsed().as_secs_f64();
             rows.push(BenchRow {
                 task: format!("optimize {file} ({} choices)", o.choices.len()),
@@ -117,7 +118,7 @@ fn bench_inner(a: &BenchOptimizeArgs) -> Result<()> {
             ..PlaceSettings::default()
         };
         let t0 = Instant::now();
-        let o = place(&array, &s, &|_| {})?;
+        let o = place(&array, &s, &Quiet)?;
         let t = t0.elapsed().as_secs_f64();
         rows.push(BenchRow {
             task: "place tactile-array-60x80.toml".into(),

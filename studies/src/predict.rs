@@ -7,6 +7,7 @@ use clap::Args;
 use fbgforge::model::{self, closed_form, LoadCase, ModuleModelParams, PredictOptions};
 use fbgforge::output::{ensure_dir, write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::Progress;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -64,7 +65,7 @@ pub fn run(a: &BenchPredictArgs) -> Result<()> {
     }
     let iters = if a.quick { 2_000 } else { a.iterations.max(1) };
     let mut rows = Vec::new();
-    let pb = fbgforge::progress::bar(designs.len() as u64, "bench");
+    let pb = crate::progress::Bar::with("bench", designs.len() as u64);
     for path in &designs {
         let design = fbgforge::design::load(path)?;
         let m = design
@@ -132,9 +133,9 @@ pub fn run(a: &BenchPredictArgs) -> Result<()> {
             params_from_design_ns: params_ns,
             full_predict_us: full_us,
         });
-        pb.inc(1);
+        pb.advance(1);
     }
-    pb.finish_and_clear();
+    pb.end();
     let profile = if cfg!(debug_assertions) {
         "dev"
     } else {

@@ -18,6 +18,7 @@ use fbgforge::array::protocol::{
 };
 use fbgforge::output::{write_atomic, write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::Progress;
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -247,11 +248,11 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     let cfgs: Vec<ProtocolConfig> = (0..opts.repeats)
         .map(|r| base_config(opts, opts.seed + r))
         .collect();
-    let bar = fbgforge::progress::bar(Method::ALL.len() as u64, "protocol");
+    let bar = crate::progress::Bar::with("protocol", Method::ALL.len() as u64);
     let mut runs = Vec::new();
     for m in Method::ALL {
         runs.push(pooled(&true_a, m, &cfgs)?);
-        bar.inc(1);
+        bar.advance(1);
     }
     // What `fbgforge reconstruct` delivers: the default method with its fixed default
     // penalty, no per-run tuning on the 22 validation cases.
@@ -265,7 +266,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     let mut default_run = pooled(&true_a, DEFAULT_METHOD, &fixed)?;
     default_run.method = format!("{} (fixed default penalty)", DEFAULT_METHOD.name());
     runs.push(default_run);
-    bar.finish_and_clear();
+    bar.end();
     writeln!(report, "\n## Protocol (Table 3 side by side)\n")?;
     writeln!(report, "| method | loads | SNR dB | SEM dB | error % | RR % | µs/frame mean | µs/frame median | not converged |\n|---|---|---|---|---|---|---|---|---|")?;
     let mut rows = Vec::new();
@@ -557,7 +558,7 @@ fn failure_studies(
     ];
     let total =
         Method::ALL.len() * (noise_factors.len() + 1 + layouts.len() + 2 + noise_models.len());
-    let bar = fbgforge::progress::bar(total as u64, "failure");
+    let bar = crate::progress::Bar::with("failure", total as u64);
     let mut points = Vec::new();
     let mut breakdown = Vec::new();
     for m in Method::ALL {
@@ -589,7 +590,7 @@ fn failure_studies(
                 rr_pct: r.overall.rr_pct,
                 not_converged: r.overall.not_converged,
             });
-            bar.inc(1);
+            bar.advance(1);
         }
         // Noise models (the default against the pessimistic full-span hysteresis).
         for (k, (name, model)) in noise_models.iter().enumerate() {
@@ -617,7 +618,7 @@ fn failure_studies(
                     not_converged: s.not_converged,
                 });
             }
-            bar.inc(1);
+            bar.advance(1);
         }
         // Number of loads 1..8.
         let c: Vec<ProtocolConfig> = cfgs
@@ -644,7 +645,7 @@ fn failure_studies(
                 not_converged: s.not_converged,
             });
         }
-        bar.inc(1);
+        bar.advance(1);
         // Layouts.
         for (k, (name, g)) in layouts.iter().enumerate() {
             let a = matrix_from_positions(&cells, g, &kernel);
@@ -661,7 +662,7 @@ fn failure_studies(
                 rr_pct: r.overall.rr_pct,
                 not_converged: r.overall.not_converged,
             });
-            bar.inc(1);
+            bar.advance(1);
         }
         // Column normalisation on/off.
         for norm in [true, false] {
@@ -686,11 +687,11 @@ fn failure_studies(
                 rr_pct: r.overall.rr_pct,
                 not_converged: r.overall.not_converged,
             });
-            bar.inc(1);
+            bar.advance(1);
         }
         breakdown.push(bd);
     }
-    bar.finish_and_clear();
+    bar.end();
     let layout_quality: Vec<(String, f64, f64, f64)> = layouts
         .iter()
         .map(|(name, g)| {

@@ -23,6 +23,7 @@ use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::output::{ensure_dir, write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::Progress;
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -302,7 +303,7 @@ pub fn run(
         Method::Nnls,
         Method::De,
     ];
-    let bar = fbgforge::progress::bar((SIZES.len() * (methods.len() + 1)) as u64, "scaling");
+    let bar = crate::progress::Bar::with("scaling", (SIZES.len() * (methods.len() + 1)) as u64);
     for &(m, n, cx, cy, nf, gpf) in &SIZES {
         let (cells, gratings) = fiber_grid_layout(cx, cy, nf, gpf);
         let a = matrix_from_positions(&cells, &gratings, &kernel);
@@ -323,7 +324,7 @@ pub fn run(
                 settings.node_budget = 50_000;
             }
             if build(method, &problem, settings).is_err() {
-                bar.inc(1);
+                bar.advance(1);
                 continue; // an enumeration too large for this size: not applicable
             }
             let subset;
@@ -362,7 +363,7 @@ pub fn run(
             let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
             let res = evaluate(r.as_ref(), frames_used);
             rows.extend(rows_of(m, n, method.name(), penalty, setup_ms, &res));
-            bar.inc(1);
+            bar.advance(1);
         }
         // The default: what `fbgforge reconstruct` picks without --method, told the
         // interrogator's resolution (0.25 pm here: λ = 16 σ² = 1 for `bnb`).
@@ -410,7 +411,11 @@ pub fn run(
             .map(|i| test.shifts_pm[i % test.shifts_pm.len()].clone())
             .collect();
         let t1 = Instant::now();
-        let _ = reconstruct_frames(choice.reconstructor.as_ref(), &stream);
+        let _ = reconstruct_frames(
+            choice.reconstructor.as_ref(),
+            &stream,
+            &fbgforge::progress::Quiet,
+        );
         let stream_us = 1e6 * t1.elapsed().as_secs_f64() / stream.len() as f64;
         picked.push((
             m,
@@ -419,9 +424,9 @@ pub fn run(
             choice.reason,
             stream_us,
         ));
-        bar.inc(1);
+        bar.advance(1);
     }
-    bar.finish_and_clear();
+    bar.end();
 
     // ---------------------------------------------------------------- tables
     writeln!(

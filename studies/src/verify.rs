@@ -8,6 +8,7 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use fbgforge::logs::{self, LogFormat, ReadOptions};
+use fbgforge::progress::Progress;
 use fbgforge::verify::synth::{self, LogStyle};
 use fbgforge::verify::{report, run as verify_run, VerifyRequest};
 use std::path::PathBuf;
@@ -107,9 +108,9 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
         a.minutes, a.rate_hz
     );
     // Stages: generate, write, parse ×3, end to end.
-    let pb = fbgforge::progress::bar(6, "bench verify");
+    let pb = crate::progress::Bar::with("bench verify", 6);
     let (log, force, truth) = synth::generate(&design, &cfg)?;
-    pb.inc(1);
+    pb.advance(1);
     let log_path = a.out.join("bench-peaks.txt");
     let force_path = a.out.join("bench-force.csv");
     synth::write_log(
@@ -120,7 +121,7 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
         &LogStyle::default(),
     )?;
     synth::write_force_csv(&force_path, &force)?;
-    pb.inc(1);
+    pb.advance(1);
     drop(log);
     let mb = std::fs::metadata(&log_path)?.len() as f64 / 1e6;
     let bytes = std::fs::read(&log_path)?;
@@ -138,12 +139,12 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
             parse_cpu = cpu_time_s().zip(c).map_or(f64::NAN, |(b, a)| b - a);
         }
         drop(pl);
-        pb.inc(1);
+        pb.advance(1);
     }
     drop(bytes);
 
     // Stage 2: end to end from the files.
-    pb.inc(1);
+    pb.advance(1);
     let cpu = || cpu_time_s().unwrap_or(f64::NAN);
     let (t_all, c_all) = (Instant::now(), cpu());
     let design_path = a.out.join("bench-design.toml");
@@ -168,7 +169,7 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
     report::write_report(&a.out.join("report"), rep, series)?;
     let reported = (t.elapsed().as_secs_f64(), cpu() - c);
     let total = (t_all.elapsed().as_secs_f64(), cpu() - c_all);
-    pb.finish_and_clear();
+    pb.end();
 
     let worst_k = rep
         .measurement

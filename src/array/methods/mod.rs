@@ -456,7 +456,7 @@ fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64
 }
 
 /// Reconstruct every frame of a stream with one method: in parallel (rayon) from 512
-/// frames on, with a progress bar on a terminal.
+/// frames on, reporting no progress.
 pub fn reconstruct_stream(
     problem: &SensingProblem,
     method: Method,
@@ -464,27 +464,35 @@ pub fn reconstruct_stream(
     frames: &[Vec<f64>],
 ) -> Result<Vec<Reconstruction>, ArrayError> {
     let r = build(method, problem, settings)?;
-    Ok(reconstruct_frames(r.as_ref(), frames))
+    Ok(reconstruct_frames(
+        r.as_ref(),
+        frames,
+        &crate::progress::Quiet,
+    ))
 }
 
 /// Reconstruct every frame with a reconstructor already built (its set-up paid):
-/// in parallel (rayon) from 512 frames on, with a progress bar on a terminal.
-pub fn reconstruct_frames(r: &dyn Reconstructor, frames: &[Vec<f64>]) -> Vec<Reconstruction> {
+/// in parallel (rayon) from 512 frames on, telling `progress` of each chunk done.
+pub fn reconstruct_frames(
+    r: &dyn Reconstructor,
+    frames: &[Vec<f64>],
+    progress: &dyn crate::progress::Progress,
+) -> Vec<Reconstruction> {
     use rayon::prelude::*;
     const PARALLEL_FROM: usize = 512;
     if frames.len() < PARALLEL_FROM {
         return frames.iter().map(|y| r.reconstruct(y)).collect();
     }
-    let bar = crate::progress::bar(frames.len() as u64, "reconstruct");
+    progress.begin("reconstruct", frames.len() as u64);
     let out: Vec<Reconstruction> = frames
         .par_chunks(256)
         .flat_map_iter(|chunk| {
             let v: Vec<Reconstruction> = chunk.iter().map(|y| r.reconstruct(y)).collect();
-            bar.inc(chunk.len() as u64);
+            progress.advance(chunk.len() as u64);
             v
         })
         .collect();
-    bar.finish_and_clear();
+    progress.end();
     out
 }
 
