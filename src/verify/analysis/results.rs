@@ -6,7 +6,7 @@ use crate::verify::segment::{Protocol, SegmentKind};
 use serde::Serialize;
 
 /// One segment of the loading (a press, a cycle, a ramp or a step; see
-/// [`super::segment`]) as seen by one grating. The JSON keeps the name `pulses` for
+/// [`crate::verify::segment`]) as seen by one grating. The JSON keeps the name `pulses` for
 /// the list.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PulseResult {
@@ -87,7 +87,7 @@ pub struct GratingResult {
     pub resolution_g: f64,
     /// Δt_max, s: the weighted mean of the segment lags when they agree within their
     /// uncertainties (`max_lag_method` = `pooled`), else the largest (`largest`); see
-    /// [`super::lag`].
+    /// [`crate::verify::lag`].
     pub max_lag_s: f64,
     /// Standard uncertainty of Δt_max, s: the noise, 2 % of the sample period, and the
     /// timestamps' resolution when the lags are absolute (`timing_uncertainty_s` of
