@@ -1,0 +1,119 @@
+//! What a module optimisation maximises and everything it needs besides the design
+//! (limits, band, variables, choices, solvers, budget, seed), with the checks it
+//! cannot run without.
+
+use super::variables::Variable;
+use crate::optimize::materials::MaterialLibrary;
+use crate::optimize::quality::QualitySettings;
+use crate::solvers::{RunSettings, SolverKind};
+use serde::Serialize;
+
+/// What to maximise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Objective {
+    /// Q = |K|·R²/Δt_max of the worst strain grating, pm/(N·s).
+    Q,
+    /// |K| of the worst strain grating, pm/N.
+    Sensitivity,
+}
+
+impl Objective {
+    /// Parse `q` or `sensitivity`.
+    pub fn parse(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "q" => Ok(Objective::Q),
+            "sensitivity" => Ok(Objective::Sensitivity),
+            _ => anyhow::bail!("unknown objective `{s}`; expected q or sensitivity"),
+        }
+    }
+
+    /// Unit of the objective value.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Objective::Q => "pm/(N·s)",
+            Objective::Sensitivity => "pm/N",
+        }
+    }
+}
+
+/// Everything the module optimisation needs besides the design.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModuleSettings {
+    /// What to maximise.
+    pub objective: Objective,
+    /// The user's largest force, N: strain and window constraints are checked there.
+    pub max_force_n: f64,
+    /// Largest allowed |axial strain| of a grating at the largest force.
+    pub max_grating_strain: f64,
+    /// Smallest printable fit clearance, mm (default: the printer's resolution).
+    pub min_fit_clearance_mm: Option<f64>,
+    /// Temperature excursion each window must also hold, ± K.
+    pub temperature_span_k: f64,
+    /// Gap kept between neighbouring gratings' ranges, nm.
+    pub guard_band_nm: f64,
+    /// Interrogator band, nm (SM125: 1510–1590 nm).
+    pub band_nm: (f64, f64),
+    /// Variables searched.
+    pub vary: Vec<Variable>,
+    /// User bounds replacing the defaults.
+    pub bounds: Vec<(Variable, f64, f64)>,
+    /// Core materials tried (None: the design's plus the library's for this printer).
+    pub cores: Option<Vec<String>>,
+    /// Insert materials tried; `none` is the hollow core (None: the design's plus the
+    /// library's, plus hollow).
+    pub inserts: Option<Vec<String>>,
+    /// Q model settings.
+    pub quality: QualitySettings,
+    /// Solvers compared.
+    pub solvers: Vec<SolverKind>,
+    /// Random starts besides the design's own point.
+    pub extra_starts: usize,
+    /// Budget of each run.
+    pub run: RunSettings,
+    /// Seed for the starts and the swarms.
+    pub seed: u64,
+}
+
+impl Default for ModuleSettings {
+    fn default() -> Self {
+        ModuleSettings {
+            objective: Objective::Q,
+            max_force_n: 20.0,
+            max_grating_strain: 3e-3,
+            min_fit_clearance_mm: None,
+            temperature_span_k: 10.0,
+            guard_band_nm: 0.2,
+            band_nm: (1510.0, 1590.0),
+            vary: Variable::DEFAULT.to_vec(),
+            bounds: Vec::new(),
+            cores: None,
+            inserts: None,
+            quality: QualitySettings::default(),
+            solvers: SolverKind::BOTH.to_vec(),
+            extra_starts: 2,
+            run: RunSettings::default(),
+            seed: 2024,
+        }
+    }
+}
+
+/// Check the settings an optimisation cannot run without.
+pub(super) fn check_settings(
+    lib: &MaterialLibrary,
+    settings: &ModuleSettings,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(!lib.materials.is_empty(), "the material library is empty");
+    anyhow::ensure!(
+        settings.max_force_n.is_finite() && settings.max_force_n > 0.0,
+        "--max-force-n must be a positive number of newtons, got {}",
+        settings.max_force_n
+    );
+    anyhow::ensure!(
+        settings.max_grating_strain.is_finite() && settings.max_grating_strain > 0.0,
+        "the grating strain limit must be positive, got {}",
+        settings.max_grating_strain
+    );
+    anyhow::ensure!(!settings.solvers.is_empty(), "no solver selected");
+    Ok(())
+}

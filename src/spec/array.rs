@@ -1,0 +1,107 @@
+//! `[array]`: the flat tactile array's TOML types (the sheet, its gratings, the casting
+//! mold) and the mold's derived slit dimensions.
+
+use super::Design;
+use serde::{Deserialize, Serialize};
+
+/// A grating of the flat array.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArrayGrating {
+    /// Name, e.g. `fbg1`.
+    pub name: String,
+    /// Index into `array.fiber_x_mm`.
+    pub fiber: u32,
+    /// Position of the grating centre along its fiber from the array centre, mm.
+    pub y_mm: f64,
+    /// Nominal Bragg wavelength at the reference temperature, nm.
+    pub bragg_wavelength_nm: f64,
+    /// Grating length, mm.
+    pub length_mm: f64,
+}
+
+/// The silicone-casting mold of the flat array.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mold {
+    /// Internal size of the cavity along x (the fibers cross the walls normal to y), mm.
+    pub internal_x_mm: f64,
+    /// Internal size of the cavity along y, mm.
+    pub internal_y_mm: f64,
+    /// Height of the walls above the cavity floor, mm.
+    pub wall_height_mm: f64,
+    /// Thickness of the walls, mm.
+    pub wall_thickness_mm: f64,
+    /// Thickness of the base plate, mm.
+    pub base_thickness_mm: f64,
+    /// Depth of each fiber slit from the top of the wall, mm. Derived when absent: the
+    /// slit stops where the coated fiber, resting on its bottom, has its axis at the
+    /// sheet's mid-thickness; a stated value must equal that.
+    #[serde(default = "unset")]
+    pub slit_depth_mm: f64,
+    /// Width of each fiber slit, mm. Derived when absent from the coated fiber and the
+    /// printer ([`FiberRouting::channel_width_mm`](super::FiberRouting::channel_width_mm)); a stated value may not be narrower.
+    #[serde(default = "unset")]
+    pub slit_width_mm: f64,
+    /// Print a plug per slit: the slit is then a narrow seat as high as the fiber and a
+    /// wider pocket above it that the plug fills, so the silicone cannot run out.
+    #[serde(default)]
+    pub plugs: bool,
+    /// Key into the material table for what the mold (and its plugs) is printed in;
+    /// the cast sheet's material is `array.material`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub print_material: Option<String>,
+}
+
+/// Marks a derived field not given in the file ([`Design::fill_derived`] fills it).
+fn unset() -> f64 {
+    f64::NAN
+}
+
+/// The flat tactile sensor array (TSA) and its mold.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TactileArray {
+    /// Size of the silicone sheet along x, mm.
+    pub size_x_mm: f64,
+    /// Size of the silicone sheet along y, mm.
+    pub size_y_mm: f64,
+    /// Sheet thickness, mm (the fibers lie at mid-thickness).
+    pub thickness_mm: f64,
+    /// Number of cells along x.
+    pub cells_x: u32,
+    /// Number of cells along y.
+    pub cells_y: u32,
+    /// Key into the material table for the cast sheet.
+    pub material: String,
+    /// Largest load per cell the reconstruction may return, g.
+    pub ulimit_g: f64,
+    /// x position of each fiber (fibers run along y), mm from the array centre.
+    pub fiber_x_mm: Vec<f64>,
+    /// Gratings on the fibers.
+    pub gratings: Vec<ArrayGrating>,
+    /// Casting mold.
+    pub mold: Mold,
+    /// Most cells loaded at once that reconstruction considers (default 4, the
+    /// paper's largest test; 1 to 64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_loads: Option<u32>,
+}
+
+/// Depth of a mold slit below the wall top that leaves the coated fiber, resting on
+/// the slit bottom, with its axis at the sheet's mid-thickness, mm.
+pub fn derived_slit_depth_mm(a: &TactileArray, coated_diameter_mm: f64) -> f64 {
+    a.mold.wall_height_mm - a.thickness_mm / 2.0 + coated_diameter_mm / 2.0
+}
+
+/// Width of the widest part of a slit: the plug pocket when the mold has plugs (a plug
+/// at least one printable wall thick, with a channel clearance each side), else the
+/// slit itself, mm.
+pub fn mold_slot_width_mm(d: &Design, mold: &Mold) -> f64 {
+    if mold.plugs {
+        mold.slit_width_mm
+            .max(d.printer.min_wall_mm + 2.0 * d.fiber_routing.channel_clearance_mm)
+    } else {
+        mold.slit_width_mm
+    }
+}

@@ -1,0 +1,133 @@
+//! What the parts are printed on and in: the printer (`[printer]`), the material table
+//! (`[materials.*]`) and the fiber routing (`[fiber_routing]`: the coated fiber and the
+//! channels the printer leaves open for it).
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Printing process; it sets sensible defaults but the numbers in [`Printer`] rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PrintProcess {
+    /// Material jetting (e.g. Stratasys J750): fine features, soft and rigid inks.
+    Polyjet,
+    /// Fused deposition modelling: coarser, walls limited by the nozzle width.
+    Fdm,
+}
+
+impl fmt::Display for PrintProcess {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            PrintProcess::Polyjet => "polyjet",
+            PrintProcess::Fdm => "fdm",
+        })
+    }
+}
+
+/// The printer the parts are made on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Printer {
+    /// Printing process.
+    pub process: PrintProcess,
+    /// Smallest in-plane feature the printer resolves, mm. The default meshing
+    /// tolerance is half of it: a chord error below what the printer can show.
+    pub resolution_mm: f64,
+    /// Thinnest wall the printer makes reliably, mm.
+    pub min_wall_mm: f64,
+    /// Nozzle diameter of an FDM printer, mm (default 0.4 mm for `fdm`; unused for
+    /// PolyJet). A printed gap narrower than the nozzle closes up, so fiber slits and
+    /// channels are never made narrower than this.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nozzle_diameter_mm: Option<f64>,
+}
+
+impl Printer {
+    /// Default meshing tolerance (maximum chord deviation), mm.
+    pub fn default_tolerance_mm(&self) -> f64 {
+        self.resolution_mm / 2.0
+    }
+
+    /// Narrowest gap (slit, channel) the printer keeps open, mm: the nozzle for FDM
+    /// (0.4 mm when not stated), the resolution for PolyJet.
+    pub fn min_gap_mm(&self) -> f64 {
+        match self.process {
+            PrintProcess::Fdm => self.nozzle_diameter_mm.unwrap_or(DEFAULT_FDM_NOZZLE_MM),
+            PrintProcess::Polyjet => self.resolution_mm,
+        }
+    }
+}
+
+/// Nozzle diameter assumed for an FDM printer that states none, mm.
+pub const DEFAULT_FDM_NOZZLE_MM: f64 = 0.4;
+
+/// An isotropic linear-elastic material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Young's modulus, MPa.
+    pub youngs_modulus_mpa: f64,
+    /// Poisson's ratio, dimensionless, in [0, 0.5).
+    pub poisson_ratio: f64,
+    /// Free text: where the numbers come from.
+    #[serde(default)]
+    pub note: Option<String>,
+    /// Largest strain a snap-fit may impose on this material, percent (a datasheet or
+    /// snap-fit-guide value; needed for the cap's material when the module has a
+    /// `[module.snap]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub permissible_strain_percent: Option<f64>,
+}
+
+/// How the fibers leave the module and the mold: the fiber's size and stiffness and
+/// the clearance the printed channels give it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FiberRouting {
+    /// Diameter of the coated fiber, mm (250 µm acrylate coating of standard SMF).
+    #[serde(default = "default_coated_diameter_mm")]
+    pub coated_diameter_mm: f64,
+    /// Smallest bend radius the fiber may take, mm (10 mm for standard SMF, G.652;
+    /// 7.5 or 5 mm for bend-insensitive G.657.A2 / B3 fiber).
+    #[serde(default = "default_min_bend_radius_mm")]
+    pub min_bend_radius_mm: f64,
+    /// Clearance between the coated fiber and a printed channel on each side, mm.
+    #[serde(default = "default_channel_clearance_mm")]
+    pub channel_clearance_mm: f64,
+    /// Height of the fiber axis above the base where a fiber leaving the module has
+    /// turned horizontal, mm.
+    #[serde(default = "default_exit_height_mm")]
+    pub exit_height_mm: f64,
+}
+
+fn default_coated_diameter_mm() -> f64 {
+    0.25
+}
+fn default_min_bend_radius_mm() -> f64 {
+    10.0
+}
+fn default_channel_clearance_mm() -> f64 {
+    0.1
+}
+fn default_exit_height_mm() -> f64 {
+    1.0
+}
+
+impl Default for FiberRouting {
+    fn default() -> Self {
+        FiberRouting {
+            coated_diameter_mm: default_coated_diameter_mm(),
+            min_bend_radius_mm: default_min_bend_radius_mm(),
+            channel_clearance_mm: default_channel_clearance_mm(),
+            exit_height_mm: default_exit_height_mm(),
+        }
+    }
+}
+
+impl FiberRouting {
+    /// Width of a fiber channel or slit on `printer`: the coated fiber plus its
+    /// clearance each side, but never narrower than the printer keeps open, mm.
+    pub fn channel_width_mm(&self, printer: &Printer) -> f64 {
+        (self.coated_diameter_mm + 2.0 * self.channel_clearance_mm).max(printer.min_gap_mm())
+    }
+}

@@ -1,0 +1,219 @@
+//! Checks on `[array]`: the sheet, the casting mold and its slits, the fibers'
+//! positions and the gratings.
+
+use super::rules::{positive, range, unique_name};
+use crate::spec::error::{err, SpecError};
+use crate::spec::{derived_slit_depth_mm, mold_slot_width_mm, ArrayGrating, Design, TactileArray};
+
+impl Design {
+    /// Check an array: the sheet, its mold, the fibers' positions and the gratings.
+    pub(super) fn validate_array(&self, a: &TactileArray) -> Result<(), SpecError> {
+        self.validate_sheet(a)?;
+        self.validate_mold(a)?;
+        self.validate_fiber_positions(a)?;
+        for (i, g) in a.gratings.iter().enumerate() {
+            unique_name(
+                a.gratings[..i].iter().map(|o| o.name.as_str()),
+                &g.name,
+                &format!("array.gratings[{i}].name"),
+                "grating",
+            )?;
+            Self::validate_array_grating(a, i, g)?;
+        }
+        if a.gratings.is_empty() {
+            return Err(err("array.gratings", "list at least one grating"));
+        }
+        if let Some(k) = a.max_loads {
+            if !(1..=64).contains(&k) {
+                return Err(err(
+                    "array.max_loads",
+                    format!("must be 1 to 64 simultaneous loads, got {k}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The sheet: size, thickness (the coated fiber fits in it), cells, material, load
+    /// limit, at least one fiber.
+    fn validate_sheet(&self, a: &TactileArray) -> Result<(), SpecError> {
+        positive("array.size_x_mm", a.size_x_mm, 1.0, 2000.0)?;
+        positive("array.size_y_mm", a.size_y_mm, 1.0, 2000.0)?;
+        positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
+        if self.fiber_routing.coated_diameter_mm >= a.thickness_mm {
+            return Err(err(
+                "fiber_routing.coated_diameter_mm",
+                format!(
+                    "{} mm does not fit in the {} mm sheet",
+                    self.fiber_routing.coated_diameter_mm, a.thickness_mm
+                ),
+            ));
+        }
+        if a.cells_x == 0 || a.cells_x > 64 {
+            return Err(err(
+                "array.cells_x",
+                format!("expected 1 to 64, got {}", a.cells_x),
+            ));
+        }
+        if a.cells_y == 0 || a.cells_y > 64 {
+            return Err(err(
+                "array.cells_y",
+                format!("expected 1 to 64, got {}", a.cells_y),
+            ));
+        }
+        self.material(&a.material, "array.material")?;
+        positive("array.ulimit_g", a.ulimit_g, 1e-3, 1e6)?;
+        if a.fiber_x_mm.is_empty() {
+            return Err(err("array.fiber_x_mm", "list at least one fiber"));
+        }
+        Ok(())
+    }
+
+    /// The casting mold: printable walls, a cavity that holds the sheet, and slits that
+    /// hold the coated fiber at the sheet's mid-thickness.
+    fn validate_mold(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let mold = &a.mold;
+        if let Some(pm) = &mold.print_material {
+            self.material(pm, "array.mold.print_material")?;
+        }
+        positive("array.mold.internal_x_mm", mold.internal_x_mm, 1.0, 3000.0)?;
+        positive("array.mold.internal_y_mm", mold.internal_y_mm, 1.0, 3000.0)?;
+        range(
+            "array.mold.wall_thickness_mm",
+            mold.wall_thickness_mm,
+            self.printer.min_wall_mm,
+            50.0,
+        )?;
+        range(
+            "array.mold.base_thickness_mm",
+            mold.base_thickness_mm,
+            self.printer.min_wall_mm,
+            50.0,
+        )?;
+        positive("array.mold.wall_height_mm", mold.wall_height_mm, 0.2, 200.0)?;
+        if mold.wall_height_mm < a.thickness_mm {
+            return Err(err(
+                "array.mold.wall_height_mm",
+                format!(
+                    "{} mm is lower than the sheet thickness {} mm",
+                    mold.wall_height_mm, a.thickness_mm
+                ),
+            ));
+        }
+        self.validate_mold_slits(a)?;
+        if a.size_x_mm > mold.internal_x_mm {
+            return Err(err(
+                "array.mold.internal_x_mm",
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_x_mm, a.size_x_mm
+                ),
+            ));
+        }
+        if a.size_y_mm > mold.internal_y_mm {
+            return Err(err(
+                "array.mold.internal_y_mm",
+                format!(
+                    "{} mm does not hold the {} mm sheet",
+                    mold.internal_y_mm, a.size_y_mm
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The mold's slits: as wide as the coated fiber and its clearance need, and as deep
+    /// as puts the fiber at the sheet's mid-thickness.
+    fn validate_mold_slits(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let mold = &a.mold;
+        range(
+            "array.mold.slit_depth_mm",
+            mold.slit_depth_mm,
+            0.01,
+            mold.wall_height_mm - self.printer.min_wall_mm.min(mold.wall_height_mm / 2.0),
+        )?;
+        range(
+            "array.mold.slit_width_mm",
+            mold.slit_width_mm,
+            self.printer.resolution_mm,
+            5.0,
+        )?;
+        // The slit holds the coated fiber with its clearance and stays open in print.
+        let need = self.fiber_routing.channel_width_mm(&self.printer);
+        if mold.slit_width_mm < need - 1e-9 {
+            return Err(err(
+                "array.mold.slit_width_mm",
+                format!(
+                    "{} mm is narrower than the {need:.3} mm the fiber needs (coated diameter {} mm + 2 × clearance {} mm, at least the printer's smallest open gap {} mm); leave the field out to derive it",
+                    mold.slit_width_mm,
+                    self.fiber_routing.coated_diameter_mm,
+                    self.fiber_routing.channel_clearance_mm,
+                    self.printer.min_gap_mm()
+                ),
+            ));
+        }
+        let depth = derived_slit_depth_mm(a, self.fiber_routing.coated_diameter_mm);
+        if (mold.slit_depth_mm - depth).abs() > 1e-6 {
+            return Err(err(
+                "array.mold.slit_depth_mm",
+                format!(
+                    "{} mm does not put the fiber at the sheet's mid-thickness; expected {depth:.4} mm (wall height − thickness/2 + coated diameter/2); leave the field out to derive it",
+                    mold.slit_depth_mm
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The fibers lie on the sheet, with a printable wall between neighbouring slits
+    /// (or plug pockets).
+    fn validate_fiber_positions(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let mold = &a.mold;
+        let half_x = a.size_x_mm / 2.0;
+        let mut xs: Vec<f64> = Vec::with_capacity(a.fiber_x_mm.len());
+        for (i, &x) in a.fiber_x_mm.iter().enumerate() {
+            let field = format!("array.fiber_x_mm[{i}]");
+            range(&field, x, -half_x, half_x)?;
+            xs.push(x);
+        }
+        xs.sort_by(|a, b| a.total_cmp(b));
+        let min_gap = mold_slot_width_mm(self, mold) + self.printer.min_wall_mm;
+        for w in xs.windows(2) {
+            if w[1] - w[0] < min_gap {
+                return Err(err(
+                    "array.fiber_x_mm",
+                    format!(
+                        "fibers at {} mm and {} mm are closer than slit width + min wall = {min_gap:.3} mm",
+                        w[0], w[1]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// One array grating (index `i`): on a listed fiber, on the sheet, a plausible
+    /// wavelength and length.
+    fn validate_array_grating(
+        a: &TactileArray,
+        i: usize,
+        g: &ArrayGrating,
+    ) -> Result<(), SpecError> {
+        let f = |s: &str| format!("array.gratings[{i}].{s}");
+        if g.fiber as usize >= a.fiber_x_mm.len() {
+            return Err(err(
+                &f("fiber"),
+                format!("expected 0 to {}, got {}", a.fiber_x_mm.len() - 1, g.fiber),
+            ));
+        }
+        range(&f("y_mm"), g.y_mm, -a.size_y_mm / 2.0, a.size_y_mm / 2.0)?;
+        range(
+            &f("bragg_wavelength_nm"),
+            g.bragg_wavelength_nm,
+            400.0,
+            2000.0,
+        )?;
+        positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,288 @@
+//! Checks on `[module]`: the shell and contact overrides, the pillars, the snap-fit,
+//! cores and inserts (known materials, distinct names) and the gratings.
+
+use super::rules::{finite, positive, range, unique_name};
+use crate::spec::error::{err, SpecError};
+use crate::spec::{Design, GratingRole, Module, ModuleGrating, Snap};
+
+impl Design {
+    /// Check a module: its shell, pillars, snap-fit, cores, inserts and gratings.
+    pub(super) fn validate_module(&self, m: &Module) -> Result<(), SpecError> {
+        self.validate_module_shell(m)?;
+        self.validate_pillars(m)?;
+        let r = m.outer_diameter_mm / 2.0;
+        positive(
+            "module.top_hole_diameter_mm",
+            m.top_hole_diameter_mm,
+            0.1,
+            0.5 * r,
+        )?;
+        positive(
+            "module.apex_flat_diameter_mm",
+            m.apex_flat_diameter_mm,
+            0.01,
+            0.5 * r,
+        )?;
+        if let Some(snap) = &m.snap {
+            self.validate_snap(m, snap)?;
+        }
+        self.validate_cores_and_inserts(m)?;
+        for (i, g) in m.gratings.iter().enumerate() {
+            unique_name(
+                m.gratings[..i].iter().map(|o| o.name.as_str()),
+                &g.name,
+                &format!("module.gratings[{i}].name"),
+                "grating",
+            )?;
+            Self::validate_module_grating(m, i, g)?;
+        }
+        Ok(())
+    }
+
+    /// The module's outer size, walls, clearances, cap material and contact overrides.
+    fn validate_module_shell(&self, m: &Module) -> Result<(), SpecError> {
+        let min_wall = self.printer.min_wall_mm;
+        positive("module.outer_diameter_mm", m.outer_diameter_mm, 4.0, 200.0)?;
+        let r = m.outer_diameter_mm / 2.0;
+        positive("module.overall_height_mm", m.overall_height_mm, 2.0, 500.0)?;
+        range("module.dome_height_mm", m.dome_height_mm, 0.1 * r, r)?;
+        range("module.cap_wall_mm", m.cap_wall_mm, min_wall, 0.25 * r)?;
+        range("module.core_wall_mm", m.core_wall_mm, min_wall, 0.25 * r)?;
+        range(
+            "module.cap_core_clearance_mm",
+            m.cap_core_clearance_mm,
+            0.0,
+            2.0,
+        )?;
+        range(
+            "module.core_insert_clearance_mm",
+            m.core_insert_clearance_mm,
+            0.0,
+            2.0,
+        )?;
+        self.material(&m.cap_material, "module.cap_material")?;
+        let c = &m.contact;
+        if let Some(h) = c.clip_height_mm {
+            positive(
+                "module.contact.clip_height_mm",
+                h,
+                1e-3,
+                m.overall_height_mm,
+            )?;
+        }
+        if let Some(g) = c.dome_clearance_mm {
+            range("module.contact.dome_clearance_mm", g, 0.0, 2.0)?;
+        }
+        if let Some(a) = c.dome_contact_radius_mm {
+            positive("module.contact.dome_contact_radius_mm", a, 1e-3, 0.5 * r)?;
+        }
+        Ok(())
+    }
+
+    /// The pillars: count, groove and fiber hole sized to leave printable walls.
+    fn validate_pillars(&self, m: &Module) -> Result<(), SpecError> {
+        let min_wall = self.printer.min_wall_mm;
+        let r = m.outer_diameter_mm / 2.0;
+        let pl = &m.pillars;
+        if !(3..=8).contains(&pl.count) {
+            return Err(err(
+                "module.pillars.count",
+                format!("expected 3 to 8 pillars, got {}", pl.count),
+            ));
+        }
+        finite(
+            "module.pillars.first_pillar_angle_deg",
+            pl.first_pillar_angle_deg,
+        )?;
+        positive(
+            "module.pillars.fiber_hole_diameter_mm",
+            pl.fiber_hole_diameter_mm,
+            0.13,
+            5.0,
+        )?;
+        positive(
+            "module.pillars.groove_depth_mm",
+            pl.groove_depth_mm,
+            0.05,
+            5.0,
+        )?;
+        positive(
+            "module.pillars.groove_width_mm",
+            pl.groove_width_mm,
+            0.1,
+            10.0,
+        )?;
+        // The groove must leave printable walls on both sides of it.
+        let max_groove_w = pl.width_mm - 2.0 * min_wall;
+        if pl.groove_width_mm > max_groove_w {
+            return Err(err(
+                "module.pillars.groove_width_mm",
+                format!(
+                    "{} mm leaves pillar walls thinner than the printer minimum {min_wall} mm; allowed up to {max_groove_w:.3} mm (pillar width − 2 × min wall)",
+                    pl.groove_width_mm
+                ),
+            ));
+        }
+        // The cap's alignment pillar is the groove less a clearance on each side.
+        if pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm < min_wall {
+            return Err(err(
+                "module.pillars.groove_width_mm",
+                format!(
+                    "the cap's alignment pillar (groove width − 2 × clearance = {:.3} mm) is thinner than the printer minimum {min_wall} mm",
+                    pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm
+                ),
+            ));
+        }
+        // The fiber hole sits between the core wall and the groove bottom.
+        let web = pl.height_mm - pl.groove_depth_mm;
+        let max_hole_radial = web - 2.0 * min_wall;
+        let max_hole_tangential = pl.width_mm - 2.0 * min_wall;
+        let max_hole = max_hole_radial.min(max_hole_tangential);
+        if pl.fiber_hole_diameter_mm > max_hole {
+            return Err(err(
+                "module.pillars.fiber_hole_diameter_mm",
+                format!(
+                    "{} mm is wider than its pillar allows; allowed up to {max_hole:.3} mm (pillar height − groove depth − 2 × min wall = {max_hole_radial:.3}, pillar width − 2 × min wall = {max_hole_tangential:.3})",
+                    pl.fiber_hole_diameter_mm
+                ),
+            ));
+        }
+        positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
+        positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
+        Ok(())
+    }
+
+    /// At least one core; cores and inserts of known materials and distinct names.
+    fn validate_cores_and_inserts(&self, m: &Module) -> Result<(), SpecError> {
+        if m.cores.is_empty() {
+            return Err(err("module.cores", "list at least one core"));
+        }
+        for (i, c) in m.cores.iter().enumerate() {
+            self.material(&c.material, &format!("module.cores[{i}].material"))?;
+            unique_name(
+                m.cores[..i].iter().map(|o| o.name.as_str()),
+                &c.name,
+                &format!("module.cores[{i}].name"),
+                "core",
+            )?;
+        }
+        for (i, ins) in m.inserts.iter().enumerate() {
+            self.material(&ins.material, &format!("module.inserts[{i}].material"))?;
+            unique_name(
+                m.inserts[..i].iter().map(|o| o.name.as_str()),
+                &ins.name,
+                &format!("module.inserts[{i}].name"),
+                "insert",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// One module grating (index `i`): wavelength, length, core, and what its role
+    /// needs (a strain grating its core, pillar and height; a reference none).
+    fn validate_module_grating(m: &Module, i: usize, g: &ModuleGrating) -> Result<(), SpecError> {
+        let pl = &m.pillars;
+        let f = |s: &str| format!("module.gratings[{i}].{s}");
+        range(
+            &f("bragg_wavelength_nm"),
+            g.bragg_wavelength_nm,
+            400.0,
+            2000.0,
+        )?;
+        positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
+        if let Some(core) = &g.core {
+            if !m.cores.iter().any(|c| &c.name == core) {
+                return Err(err(&f("core"), format!("no core named `{core}`")));
+            }
+        }
+        match g.role {
+            GratingRole::Strain => {
+                if g.core.is_none() {
+                    return Err(err(
+                        &f("core"),
+                        "a strain grating needs the core it is bonded in",
+                    ));
+                }
+                let pillar = g
+                    .pillar
+                    .ok_or_else(|| err(&f("pillar"), "a strain grating needs its pillar index"))?;
+                if pillar >= pl.count {
+                    return Err(err(
+                        &f("pillar"),
+                        format!("expected 0 to {}, got {pillar}", pl.count - 1),
+                    ));
+                }
+                // Its range along the pillar needs the derived profile:
+                // checked in crate::design.
+                g.center_height_mm.ok_or_else(|| {
+                    err(
+                        &f("center_height_mm"),
+                        "a strain grating needs its centre height",
+                    )
+                })?;
+            }
+            GratingRole::TemperatureReference => {
+                if g.pillar.is_some() || g.center_height_mm.is_some() {
+                    return Err(err(
+                        &f("pillar"),
+                        "a temperature-reference grating hangs free in the top hole: give it no pillar or centre height",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The snap-fit: a printable bead, a lead-in that does not jam, and a cap material
+    /// with a permissible strain to size it by.
+    fn validate_snap(&self, m: &Module, s: &Snap) -> Result<(), SpecError> {
+        let res = self.printer.resolution_mm;
+        positive(
+            "module.snap.undercut_mm",
+            s.undercut_mm,
+            res.min(0.01),
+            m.pillars.groove_depth_mm.max(res),
+        )?;
+        positive("module.snap.bead_height_mm", s.bead_height_mm, res, 20.0)?;
+        range(
+            "module.snap.friction_coefficient",
+            s.friction_coefficient,
+            0.0,
+            1.5,
+        )?;
+        range(
+            "module.snap.lead_in_angle_deg",
+            s.lead_in_angle_deg,
+            5.0,
+            80.0,
+        )?;
+        range(
+            "module.snap.retention_angle_deg",
+            s.retention_angle_deg,
+            5.0,
+            90.0,
+        )?;
+        // A lead-in steeper than the friction angle's complement jams: the joint
+        // could not be pushed together at any force.
+        let jam = s.friction_coefficient * s.lead_in_angle_deg.to_radians().tan();
+        if jam >= 1.0 {
+            return Err(err(
+                "module.snap.lead_in_angle_deg",
+                format!(
+                    "{}° with friction {} jams (μ·tan α = {jam:.3} ≥ 1); allowed below {:.1}°",
+                    s.lead_in_angle_deg,
+                    s.friction_coefficient,
+                    (1.0 / s.friction_coefficient.max(1e-9)).atan().to_degrees()
+                ),
+            ));
+        }
+        let cap = self.material(&m.cap_material, "module.cap_material")?;
+        if cap.permissible_strain_percent.is_none() {
+            return Err(err(
+                &format!("materials.{}.permissible_strain_percent", m.cap_material),
+                "the cap's material needs a permissible strain (percent) to size the snap-fit",
+            ));
+        }
+        Ok(())
+    }
+}

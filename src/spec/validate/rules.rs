@@ -1,0 +1,50 @@
+//! The rules every area's checks share: a number finite, in range, positive; a name
+//! unique in its list. Each error names the field and the allowed range.
+
+use crate::spec::error::{err, SpecError};
+
+/// `name` (the `what` at `field`) must differ from every earlier name in its list.
+pub(super) fn unique_name<'a>(
+    earlier: impl IntoIterator<Item = &'a str>,
+    name: &str,
+    field: &str,
+    what: &str,
+) -> Result<(), SpecError> {
+    if earlier.into_iter().any(|o| o == name) {
+        return Err(err(field, format!("duplicate {what} name `{name}`")));
+    }
+    Ok(())
+}
+
+/// `v` must be finite.
+pub(super) fn finite(field: &str, v: f64) -> Result<(), SpecError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(err(field, format!("expected a finite number, got {v}")))
+    }
+}
+
+/// `v` must be finite and within [lo, hi].
+pub fn range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
+    finite(field, v)?;
+    if v < lo || v > hi {
+        return Err(err(
+            field,
+            format!("{v} is out of range; allowed {lo:.4} to {hi:.4}"),
+        ));
+    }
+    Ok(())
+}
+
+/// `v` must be finite, strictly positive and within [lo, hi].
+pub fn positive(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
+    finite(field, v)?;
+    if v <= 0.0 {
+        return Err(err(
+            field,
+            format!("{v} must be positive; allowed {lo:.4} to {hi:.4}"),
+        ));
+    }
+    range(field, v, lo, hi)
+}
