@@ -283,7 +283,7 @@ pub fn build_solids(
             design.fiber_routing.channel_width_mm(&design.printer),
         );
         if names.iter().any(|n| n == "cap") {
-            let s = module::cap(&p, &pp)?;
+            let s = module::cap::cap(&p, &pp)?;
             out.push(PartSolid {
                 name: "cap".into(),
                 kind: PartKind::Cap,
@@ -293,7 +293,7 @@ pub fn build_solids(
         }
         if names.iter().any(|n| n == "core") {
             let pl = &m.pillars;
-            let s = module::core(
+            let s = module::core::core(
                 &p,
                 &pp,
                 pl.width_mm,
@@ -309,7 +309,7 @@ pub fn build_solids(
         }
         let inserts: Vec<&String> = names.iter().filter(|n| n.starts_with("insert-")).collect();
         if let Some(first) = inserts.first() {
-            let s = module::insert(&p, &pp, first)?;
+            let s = module::insert::insert(&p, &pp, first)?;
             for n in inserts {
                 out.push(PartSolid {
                     name: n.clone(),
