@@ -6,9 +6,12 @@ use super::angles::Cuts;
 use super::revolve::{domed_wall, revolve_chain, revolve_chain_above, wall, Prof};
 use super::section::{at, band_sides, disc, ring_ccw, ring_cw, sector, O, S2};
 use super::volume::{capped_cylinder_volume, ring_volume, slice_area, sphere_z};
-use super::BuiltSolid;
 use crate::geometry::brep::{Assembler, BrepError, Seg};
+use crate::geometry::design_profile::DesignProfile;
+use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
+use crate::spec::Design;
 use std::f64::consts::PI;
 use truck_modeling::Vector3;
 
@@ -216,5 +219,42 @@ impl<'a> CapFrame<'a> {
         self.top * PI * (r_o * r_o - r_ci * r_ci) + (self.top - self.bottom) * n as f64 * rib_area
             - self.hs * self.slots.len() as f64 * phi * (r_o * r_o - r_ci * r_ci)
             + ring_volume(r_ci, inner_chain)
+    }
+}
+
+/// The cap, in the registry: `cap` for every module design.
+pub struct CapPart;
+
+impl PrintablePart for CapPart {
+    fn kind(&self) -> PartKind {
+        PartKind::Cap
+    }
+
+    fn names(&self, design: &Design) -> Vec<String> {
+        design.module.iter().map(|_| "cap".to_string()).collect()
+    }
+
+    fn solid(&self, profile: &DesignProfile, _name: &str) -> Result<BuiltSolid, GeometryError> {
+        let m = profile
+            .module
+            .as_ref()
+            .expect("a cap only in a module design");
+        Ok(cap(&m.profile, &m.parts)?)
+    }
+
+    fn materials(&self, design: &Design, _name: &str) -> Vec<String> {
+        design
+            .module
+            .iter()
+            .map(|m| m.cap_material.clone())
+            .collect()
+    }
+
+    fn preview_colour(&self) -> &'static str {
+        "#1f77b4"
+    }
+
+    fn in_module(&self) -> bool {
+        true
     }
 }

@@ -6,9 +6,12 @@ use super::angles::Cuts;
 use super::revolve::{domed_wall, revolve_chain_above, Prof};
 use super::section::{at, band_sides, ring_ccw, ring_cw, sector, O, S2};
 use super::volume::{capped_cylinder_volume, slice_area, sphere_z};
-use super::BuiltSolid;
 use crate::geometry::brep::{Assembler, BrepError};
+use crate::geometry::design_profile::DesignProfile;
+use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
+use crate::spec::Design;
 use std::f64::consts::{FRAC_PI_2, PI};
 use truck_modeling::Vector3;
 
@@ -259,5 +262,51 @@ impl<'a> CoreFrame<'a> {
         top * PI * (r_co * r_co - r_ci * r_ci)
             + (top - bottom) * n as f64 * (rib_area - PI * rh * rh)
             - self.hs * self.phi * (r_co * r_co - r_ci * r_ci)
+    }
+}
+
+/// The core, in the registry: `core` for every module design (every listed core is
+/// printed from it).
+pub struct CorePart;
+
+impl PrintablePart for CorePart {
+    fn kind(&self) -> PartKind {
+        PartKind::Core
+    }
+
+    fn names(&self, design: &Design) -> Vec<String> {
+        design.module.iter().map(|_| "core".to_string()).collect()
+    }
+
+    fn solid(&self, profile: &DesignProfile, _name: &str) -> Result<BuiltSolid, GeometryError> {
+        let m = profile
+            .module
+            .as_ref()
+            .expect("a core only in a module design");
+        let pl = &m.spec.pillars;
+        Ok(core(
+            &m.profile,
+            &m.parts,
+            pl.width_mm,
+            pl.fiber_hole_diameter_mm,
+            pl.groove_width_mm,
+        )?)
+    }
+
+    fn materials(&self, design: &Design, _name: &str) -> Vec<String> {
+        design
+            .module
+            .iter()
+            .flat_map(|m| &m.cores)
+            .map(|c| format!("{} ({})", c.material, c.name))
+            .collect()
+    }
+
+    fn preview_colour(&self) -> &'static str {
+        "#2ca02c"
+    }
+
+    fn in_module(&self) -> bool {
+        true
     }
 }

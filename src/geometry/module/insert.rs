@@ -6,9 +6,12 @@ use super::angles::Cuts;
 use super::revolve::{domed_wall, revolve_chain, wall, MIN_SEGMENT_MM};
 use super::section::{at, band_sides, ring_ccw, ring_cw, S2};
 use super::volume::{capped_cylinder_volume, slice_area, sphere_z};
-use super::BuiltSolid;
 use crate::geometry::brep::{Assembler, BrepError};
+use crate::geometry::design_profile::DesignProfile;
+use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
+use crate::spec::{Design, Insert};
 use std::f64::consts::PI;
 use truck_modeling::Vector3;
 
@@ -80,4 +83,53 @@ pub fn insert(p: &ModuleProfile, pp: &PartsProfile, part: &str) -> Result<BuiltS
             - PI * rb * rb * z_top
             - slot_area * hs,
     })
+}
+
+/// The output name of an insert.
+fn name_of(insert: &Insert) -> String {
+    format!("insert-{}", insert.name)
+}
+
+/// The inserts, in the registry: `insert-<name>` for each listed insert, all printed
+/// from one solid in their own materials.
+pub struct InsertPart;
+
+impl PrintablePart for InsertPart {
+    fn kind(&self) -> PartKind {
+        PartKind::Insert
+    }
+
+    fn names(&self, design: &Design) -> Vec<String> {
+        design
+            .module
+            .iter()
+            .flat_map(|m| m.inserts.iter().map(name_of))
+            .collect()
+    }
+
+    fn solid(&self, profile: &DesignProfile, name: &str) -> Result<BuiltSolid, GeometryError> {
+        let m = profile
+            .module
+            .as_ref()
+            .expect("an insert only in a module design");
+        Ok(insert(&m.profile, &m.parts, name)?)
+    }
+
+    fn materials(&self, design: &Design, name: &str) -> Vec<String> {
+        design
+            .module
+            .iter()
+            .flat_map(|m| &m.inserts)
+            .filter(|i| name_of(i) == name)
+            .map(|i| i.material.clone())
+            .collect()
+    }
+
+    fn preview_colour(&self) -> &'static str {
+        "#9467bd"
+    }
+
+    fn in_module(&self) -> bool {
+        true
+    }
 }

@@ -11,7 +11,8 @@
 //! Loops and meridians run with the material on their left; the outward side of each
 //! face is stated explicitly and checked against the surface normal.
 //!
-//! One file per part (`cap`, `core`, `insert`); the faces they share are built by
+//! One file per part (`cap`, `core`, `insert`: its builder and its entry in the
+//! [`registry`](super::registry)); the faces they share are built by
 //! `section` (planar and extruded faces from cross-section loops) and `revolve`
 //! (faces of revolution from (r, z) profiles), on the cut angles of `angles`; the
 //! closed-form volumes are in `volume`.
@@ -25,13 +26,3 @@ mod section;
 mod volume;
 
 pub use volume::{slice_area, zone_volume};
-
-use truck_modeling::Solid;
-
-/// A solid with its exact volume.
-pub struct BuiltSolid {
-    /// The B-rep.
-    pub solid: Solid,
-    /// Exact volume from the closed form, mm³.
-    pub exact_volume_mm3: f64,
-}
