@@ -67,7 +67,7 @@ impl<'a> DesignProfile<'a> {
         let array = design.array.as_ref().map(|a| {
             let layout = ArrayLayout::from_array(a);
             let slot_width_mm = crate::spec::mold_slot_width_mm(design, &a.mold);
-            let pocket = a.mold.plugs.then(|| Pocket {
+            let pocket = a.mold.plugs.then_some(Pocket {
                 width_mm: slot_width_mm,
                 bottom_z_mm: layout.slit_bottom_z_mm + routing.coated_diameter_mm,
             });

@@ -281,13 +281,26 @@ pub fn check_assembly(
     check_assembly_for(&DesignProfile::new(design), built)
 }
 
-/// The designed radial gap between two neighbours in the assembled module, mm; a pair
-/// not listed is not nested and is always checked.
-const FITS: [(PartKind, PartKind, fn(&crate::spec::Module) -> f64); 2] = [
-    (PartKind::Cap, PartKind::Core, |m| m.cap_core_clearance_mm),
-    (PartKind::Core, PartKind::Insert, |m| {
-        m.core_insert_clearance_mm
-    }),
+/// Two nested neighbours in the assembled module and the radial gap designed between
+/// them, mm.
+struct Fit {
+    outer: PartKind,
+    inner: PartKind,
+    gap_mm: fn(&crate::spec::Module) -> f64,
+}
+
+/// The nested fits of the module; a pair not listed is not nested and always checked.
+const FITS: [Fit; 2] = [
+    Fit {
+        outer: PartKind::Cap,
+        inner: PartKind::Core,
+        gap_mm: |m| m.cap_core_clearance_mm,
+    },
+    Fit {
+        outer: PartKind::Core,
+        inner: PartKind::Insert,
+        gap_mm: |m| m.core_insert_clearance_mm,
+    },
 ];
 
 /// [`check_assembly`] from dimensions already derived.
@@ -319,12 +332,12 @@ pub fn check_assembly_for(
         .iter()
         .map(|b| b.mesh_tolerance_mm)
         .fold(0.0, f64::max);
-    let press = |a: PartKind, b: PartKind| {
+    let checked = |a: PartKind, b: PartKind| {
         FITS.iter()
-            .find(|f| (f.0, f.1) == (a, b) || (f.1, f.0) == (a, b))
-            .is_none_or(|f| f.2(m.spec) > 2.0 * tol)
+            .find(|f| (f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b))
+            .is_none_or(|f| (f.gap_mm)(m.spec) > 2.0 * tol)
     };
-    assembly::check_no_interference(&module, &press)?;
+    assembly::check_no_interference(&module, &checked)?;
     Ok(Some(assembly::trace_fibers_for(profile, &module)?))
 }
 
