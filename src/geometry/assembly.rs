@@ -7,7 +7,9 @@
 //! its chord tolerance, and a triangle test needs no B-rep boolean (which truck cannot
 //! do reliably, reference §4).
 
+use super::design_profile::DesignProfile;
 use super::mesh::TriMesh;
+use super::registry::{first_of_each_kind, PartKind};
 use super::BuiltPart;
 use crate::profile::{module_gratings, PartsProfile};
 use crate::spec::{Design, GratingRole};
@@ -256,13 +258,21 @@ pub fn min_bend_radius_mm(pts: &[P3]) -> f64 {
 /// fiber's radius (less the mesh's chord tolerance), starts inside material, dips
 /// below the plate, or bends tighter than the minimum.
 pub fn trace_fibers(design: &Design, parts: &[BuiltPart]) -> Result<Vec<FiberTrace>, RouteError> {
-    let Some((p, pp)) = PartsProfile::of_design(design) else {
+    trace_fibers_for(&DesignProfile::new(design), parts)
+}
+
+/// [`trace_fibers`] from dimensions already derived.
+pub fn trace_fibers_for(
+    profile: &DesignProfile,
+    parts: &[BuiltPart],
+) -> Result<Vec<FiberTrace>, RouteError> {
+    let Some(md) = &profile.module else {
         return Ok(Vec::new());
     };
-    let m = design.module.as_ref().expect("a module has a profile");
-    let solids: Vec<Solid> = parts
-        .iter()
-        .filter(|b| b.kind != super::PartKind::Insert || b.name == first_insert(parts))
+    let (m, p, pp) = (md.spec, &md.profile, &md.parts);
+    // Parts of one kind share a solid: the first stands for all.
+    let solids: Vec<Solid> = first_of_each_kind(parts, |b| b.kind)
+        .into_iter()
         .map(|b| Solid::new(&b.name, &b.mesh))
         .collect();
     let tol = parts
@@ -273,13 +283,13 @@ pub fn trace_fibers(design: &Design, parts: &[BuiltPart]) -> Result<Vec<FiberTra
     let r_out = p.cap_outer_radius_mm + 2.0 * pp.fiber_radius_mm + 0.5;
     let step = pp.fiber_radius_mm / 2.0;
     let mut out = Vec::new();
-    for g in module_gratings(m, &p) {
+    for g in module_gratings(m, p) {
         let (r0, theta) = match g.role {
             GratingRole::Strain => (g.radius_mm, g.angle_rad),
             GratingRole::TemperatureReference => (0.0, pp.reference_exit_angle_rad),
         };
         let z_mid = 0.5 * (g.z_start_mm + g.z_end_mm);
-        let pts = centreline(r0, theta, z_mid, &pp, r_out, step);
+        let pts = centreline(r0, theta, z_mid, pp, r_out, step);
         let blocked = |part: &str, at: P3, detail: String| RouteError::Blocked {
             grating: g.name.clone(),
             part: part.to_string(),
@@ -323,7 +333,7 @@ pub fn trace_fibers(design: &Design, parts: &[BuiltPart]) -> Result<Vec<FiberTra
             return Err(RouteError::Bend {
                 grating: g.name.clone(),
                 radius_mm: measured,
-                min_mm: design.fiber_routing.min_bend_radius_mm,
+                min_mm: profile.design.fiber_routing.min_bend_radius_mm,
             });
         }
         let exit = pts
@@ -343,13 +353,6 @@ pub fn trace_fibers(design: &Design, parts: &[BuiltPart]) -> Result<Vec<FiberTra
         });
     }
     Ok(out)
-}
-
-fn first_insert(parts: &[BuiltPart]) -> &str {
-    parts
-        .iter()
-        .find(|b| b.kind == super::PartKind::Insert)
-        .map_or("", |b| b.name.as_str())
 }
 
 /// Whether triangles t and u overlap (separating-axis test on the two normals and the
@@ -400,12 +403,9 @@ pub struct Interference {
 /// clearance) are skipped.
 pub fn check_no_interference(
     parts: &[BuiltPart],
-    check: &dyn Fn(super::PartKind, super::PartKind) -> bool,
+    check: &dyn Fn(PartKind, PartKind) -> bool,
 ) -> Result<(), Interference> {
-    let kept: Vec<&BuiltPart> = parts
-        .iter()
-        .filter(|b| b.kind != super::PartKind::Insert || b.name == first_insert(parts))
-        .collect();
+    let kept = first_of_each_kind(parts, |b| b.kind);
     let solids: Vec<Solid> = kept.iter().map(|b| Solid::new(&b.name, &b.mesh)).collect();
     for i in 0..solids.len() {
         for j in i + 1..solids.len() {

@@ -4,9 +4,8 @@
 //! [`crate::output`] (temporary file + rename) only after every part has been rendered,
 //! so a failure leaves no half-written or partial set of files.
 
+use super::design_profile::DesignProfile;
 use super::{BuiltPart, PartKind};
-use crate::profile::ModuleProfile;
-use crate::spec::Design;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -157,16 +156,15 @@ pub struct MoldReport {
     pub sealing: String,
 }
 
-fn mold_report(design: &Design) -> Option<MoldReport> {
-    let a = design.array.as_ref()?;
-    let l = crate::profile::ArrayLayout::from_array(a);
-    let pocket = super::mold_pocket(design);
-    let slits = 2 * a.fiber_x_mm.len();
+fn mold_report(profile: &DesignProfile) -> Option<MoldReport> {
+    let a = profile.array.as_ref()?;
+    let (l, pocket) = (&a.layout, a.pocket);
+    let slits = 2 * a.spec.fiber_x_mm.len();
     Some(MoldReport {
         silicone_level_mm: l.silicone_level_z_mm,
         fiber_axis_z_mm: l.fiber_z_mm,
         slit_bottom_z_mm: l.slit_bottom_z_mm,
-        slit_width_mm: a.mold.slit_width_mm,
+        slit_width_mm: a.spec.mold.slit_width_mm,
         pocket_width_mm: pocket.map(|q| q.width_mm),
         plugs_to_print: if pocket.is_some() { slits } else { 0 },
         sealing: if pocket.is_some() {
@@ -201,50 +199,16 @@ pub struct Manifest {
     pub previews: Vec<String>,
 }
 
-fn clearances(design: &Design) -> Option<Clearances> {
-    let m = design.module.as_ref()?;
-    let p = ModuleProfile::from_module(m);
+fn clearances(profile: &DesignProfile) -> Option<Clearances> {
+    let m = profile.module.as_ref()?;
+    let p = &m.profile;
     Some(Clearances {
         cap_core_radial_mm: p.cap_inner_radius_mm - p.pillar_outer_radius_mm,
         core_insert_radial_mm: p.core_inner_radius_mm - p.insert_radius_mm,
-        alignment_pillar_side_mm: (m.pillars.groove_width_mm - p.cap_pillar_width_mm) / 2.0,
+        alignment_pillar_side_mm: (m.spec.pillars.groove_width_mm - p.cap_pillar_width_mm) / 2.0,
         alignment_pillar_groove_bottom_mm: p.cap_pillar_inner_radius_mm - p.groove_bottom_radius_mm,
         dome_gap_mm: p.cap_dome_inner_sphere_radius_mm - p.core_dome_outer_sphere_radius_mm,
     })
-}
-
-fn materials(design: &Design, part: &BuiltPart) -> Vec<String> {
-    if matches!(part.kind, PartKind::Mold | PartKind::MoldPlug) {
-        // What the mold is printed in, not the silicone cast in it.
-        return design
-            .array
-            .iter()
-            .map(|a| {
-                a.mold
-                    .print_material
-                    .clone()
-                    .unwrap_or_else(|| "not stated (array.mold.print_material)".into())
-            })
-            .collect();
-    }
-    let Some(m) = &design.module else {
-        return Vec::new();
-    };
-    match part.kind {
-        PartKind::Cap => vec![m.cap_material.clone()],
-        PartKind::Core => m
-            .cores
-            .iter()
-            .map(|c| format!("{} ({})", c.material, c.name))
-            .collect(),
-        PartKind::Insert => m
-            .inserts
-            .iter()
-            .filter(|i| format!("insert-{}", i.name) == part.name)
-            .map(|i| i.material.clone())
-            .collect(),
-        PartKind::Mold | PartKind::MoldPlug => Vec::new(),
-    }
 }
 
 /// Everything to write for a design: (file name, bytes) plus the manifest.
@@ -258,11 +222,12 @@ pub struct Rendered {
 /// Render all parts in memory; `fibers` are the traced fiber paths when the whole
 /// module was built.
 pub fn render(
-    design: &Design,
+    profile: &DesignProfile,
     parts: &[BuiltPart],
     tolerance_mm: f64,
     fibers: Option<&[super::assembly::FiberTrace]>,
 ) -> Result<Rendered> {
+    let design = profile.design;
     let mut files = Vec::new();
     let mut listed = Vec::new();
     for p in parts {
@@ -283,28 +248,30 @@ pub fn render(
             volume_error_percent: p.volume_error() * 100.0,
             bbox_min_mm: lo,
             bbox_max_mm: hi,
-            materials: materials(design, p),
+            materials: p.kind.part().materials(design, &p.name),
         });
     }
     let mut previews = Vec::new();
-    if let Some(svg) = fibers.and_then(|f| super::preview::module_svg(design, parts, f)) {
+    if let Some(svg) = fibers.and_then(|f| super::preview::module_svg(profile, parts, f)) {
         previews.push("preview-module.svg".to_string());
         files.push(("preview-module.svg".into(), svg.into_bytes()));
     }
-    if let Some(svg) = super::preview::mold_svg(design, parts) {
+    if let Some(svg) = super::preview::mold_svg(profile, parts) {
         previews.push("preview-mold.svg".to_string());
         files.push(("preview-mold.svg".into(), svg.into_bytes()));
     }
-    let snap = crate::profile::PartsProfile::of_design(design)
-        .and_then(|(p, pp)| crate::profile::snap_report(design, &p, &pp));
+    let snap = profile
+        .module
+        .as_ref()
+        .and_then(|m| crate::profile::snap_report(design, &m.profile, &m.parts));
     let manifest = Manifest {
         design: design.name.clone(),
         tolerance_mm,
         parts: listed,
-        clearances: clearances(design),
+        clearances: clearances(profile),
         snap,
         fibers: fibers.map(<[_]>::to_vec),
-        mold: mold_report(design),
+        mold: mold_report(profile),
         previews,
     };
     Ok(Rendered { files, manifest })

@@ -1,26 +1,33 @@
 //! Printable parts of a design: B-rep solids, checked meshes and exact volumes.
 //!
-//! [`part_names`] lists what a design yields (`cap`, `core`, `insert-<name>` for each
-//! insert, `mold` for an array); [`build_solids`] builds their B-rep solids from
-//! [`crate::profile`]; [`build_parts`] meshes them at a chord tolerance and runs every
-//! mesh check, including agreement of the mesh volume with the closed-form volume.
-//! Nothing here writes files: [`export`] turns checked parts into STL, STEP and a
-//! manifest, and the CLI writes them only once every part has passed.
+//! [`DesignProfile`] derives every dimension of a design once per build;
+//! [`registry::PARTS`] lists the printable parts (`cap`, `core`, `insert-<name>` for
+//! each insert, `mold` and `mold-plug` for an array), each with its builder.
+//! [`build_solids_for`] builds the selected parts' B-rep solids from the profile;
+//! [`build_parts_for`] meshes them at a chord tolerance and runs every mesh check,
+//! including agreement of the mesh volume with the closed-form volume. Nothing here
+//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP and
+//! a manifest, written only once every part has passed.
 
 pub mod assembly;
 pub mod brep;
+pub mod design_profile;
 pub mod export;
-
 pub mod mesh;
 pub mod module;
 pub mod mold;
+pub mod mold_plug;
 pub mod preview;
+pub mod registry;
 
-use crate::profile::{ArrayLayout, ModuleProfile};
+pub use design_profile::DesignProfile;
+pub use registry::{part_names, BuiltSolid, PartKind, PrintablePart};
+
 use crate::spec::{Design, SpecError};
 use anyhow::Context;
 use mesh::{MeshError, TriMesh};
 use rayon::prelude::*;
+use registry::{first_of_each_kind, PARTS};
 use std::path::{Path, PathBuf};
 use truck_modeling::Solid;
 
@@ -28,22 +35,6 @@ use truck_modeling::Solid;
 /// default tolerance (0.5 %). A coarser tolerance scales it in proportion, since the
 /// chord error of a tessellation grows linearly with the tolerance.
 pub const VOLUME_TOLERANCE_AT_DEFAULT: f64 = 0.005;
-
-/// What kind of part; several parts can share one solid (all inserts are alike).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum PartKind {
-    /// Clip-on cap (CC).
-    Cap,
-    /// Plug-in sensor core (PSC); every listed core is printed from it.
-    Core,
-    /// Solid insert (PSC-solid).
-    Insert,
-    /// Casting mold of the flat array.
-    Mold,
-    /// Plug that closes a mold slit above its fiber (one file, printed once per slit).
-    MoldPlug,
-}
 
 /// A part's B-rep with its exact volume.
 #[derive(Debug, Clone)]
@@ -116,23 +107,6 @@ pub enum GeometryError {
     Tolerance(f64),
 }
 
-/// Names of the printable parts of a design, in build order.
-pub fn part_names(design: &Design) -> Vec<String> {
-    let mut names = Vec::new();
-    if let Some(m) = &design.module {
-        names.push("cap".to_string());
-        names.push("core".to_string());
-        names.extend(m.inserts.iter().map(|i| format!("insert-{}", i.name)));
-    }
-    if let Some(a) = &design.array {
-        names.push("mold".to_string());
-        if a.mold.plugs {
-            names.push("mold-plug".to_string());
-        }
-    }
-    names
-}
-
 fn check_selection(
     design: &Design,
     selection: Option<&[String]>,
@@ -150,200 +124,40 @@ fn check_selection(
     Ok(all.into_iter().filter(|n| sel.contains(n)).collect())
 }
 
-/// Geometric preconditions beyond the spec's ranges: every radius and height in the
-/// order the construction needs. The spec's validation should already guarantee these;
-/// this keeps the builder from panicking on a design that slips through.
-fn check_module_profile(p: &ModuleProfile) -> Result<(), SpecError> {
-    let e = |field: &str, msg: String| crate::spec::err(field, msg);
-    let radii = [
-        (
-            "module.cap_wall_mm",
-            p.cap_inner_radius_mm,
-            p.cap_outer_radius_mm,
-        ),
-        (
-            "module.pillars.groove_depth_mm",
-            p.cap_pillar_inner_radius_mm,
-            p.cap_inner_radius_mm,
-        ),
-        (
-            "module.pillars.groove_depth_mm",
-            p.groove_bottom_radius_mm,
-            p.pillar_outer_radius_mm,
-        ),
-        (
-            "module.pillars.height_mm",
-            p.core_outer_radius_mm,
-            p.groove_bottom_radius_mm,
-        ),
-        (
-            "module.core_wall_mm",
-            p.core_inner_radius_mm,
-            p.core_outer_radius_mm,
-        ),
-        (
-            "module.core_insert_clearance_mm",
-            p.insert_radius_mm,
-            p.core_inner_radius_mm,
-        ),
-        (
-            "module.top_hole_diameter_mm",
-            p.top_hole_radius_mm,
-            p.core_inner_radius_mm,
-        ),
-        (
-            "module.apex_flat_diameter_mm",
-            p.apex_flat_radius_mm,
-            p.insert_radius_mm,
-        ),
-    ];
-    for (field, lo, hi) in radii {
-        // A zero clearance (press fit) is a valid spec: the insert is its own solid, so
-        // its radius may equal the core's inner radius.
-        let fits = if field == "module.core_insert_clearance_mm" {
-            lo <= hi
-        } else {
-            lo < hi
-        };
-        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && fits) {
-            return Err(e(
-                field,
-                format!("leaves a radius of {lo:.4} mm that must lie between 0 and {hi:.4} mm"),
-            ));
-        }
-    }
-    let heights = [
-        p.pillar_top_mm,
-        p.core_outer_junction_z_mm,
-        p.cap_outer_junction_z_mm,
-        p.cap_inner_junction_z_mm,
-        p.insert_junction_z_mm,
-    ];
-    if heights.iter().any(|z| !z.is_finite() || *z <= 0.0)
-        || p.pillar_top_mm > p.core_outer_junction_z_mm + 1e-9
-        || p.pillar_top_mm > p.cap_inner_junction_z_mm + 1e-9
-    {
-        return Err(e(
-            "module.dome_height_mm",
-            "the dome leaves no cylindrical section for the pillars; make the module taller or the dome lower".into(),
-        ));
-    }
-    Ok(())
-}
-
-fn check_mold(design: &Design) -> Result<(), SpecError> {
-    let Some(a) = &design.array else {
-        return Ok(());
-    };
-    let half = a.mold.internal_x_mm / 2.0;
-    let sw = crate::spec::mold_slot_width_mm(design, &a.mold) / 2.0;
-    for (i, &x) in a.fiber_x_mm.iter().enumerate() {
-        if x.abs() + sw >= half - 1e-9 {
-            return Err(crate::spec::err(
-                &format!("array.fiber_x_mm[{i}]"),
-                format!(
-                    "{x} mm puts the slit (± {sw} mm) into the mold's corner; allowed within ±{:.3} mm",
-                    half - sw
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The plug pocket of the design's mold slits (None without plugs): as wide as a
-/// printable plug plus a channel clearance each side, from the coated fiber's top up.
-pub fn mold_pocket(design: &Design) -> Option<mold::Pocket> {
-    let a = design.array.as_ref()?;
-    if !a.mold.plugs {
-        return None;
-    }
-    let layout = ArrayLayout::from_array(a);
-    Some(mold::Pocket {
-        width_mm: crate::spec::mold_slot_width_mm(design, &a.mold),
-        bottom_z_mm: layout.slit_bottom_z_mm + design.fiber_routing.coated_diameter_mm,
-    })
-}
-
 /// Build the B-rep solids of the selected parts (all when `selection` is None).
-/// Parts of one kind share a solid: the inserts differ only in material.
 pub fn build_solids(
     design: &Design,
     selection: Option<&[String]>,
 ) -> Result<Vec<PartSolid>, GeometryError> {
-    let names = check_selection(design, selection)?;
-    let mut out = Vec::new();
-    if let Some(m) = &design.module {
-        let p = ModuleProfile::from_module(m);
-        check_module_profile(&p)?;
-        let pp = crate::profile::PartsProfile::new(
-            m,
-            &p,
-            &design.fiber_routing,
-            design.fiber_routing.channel_width_mm(&design.printer),
-        );
-        if names.iter().any(|n| n == "cap") {
-            let s = module::cap(&p, &pp)?;
-            out.push(PartSolid {
-                name: "cap".into(),
-                kind: PartKind::Cap,
-                solid: s.solid,
-                exact_volume_mm3: s.exact_volume_mm3,
-            });
-        }
-        if names.iter().any(|n| n == "core") {
-            let pl = &m.pillars;
-            let s = module::core(
-                &p,
-                &pp,
-                pl.width_mm,
-                pl.fiber_hole_diameter_mm,
-                pl.groove_width_mm,
-            )?;
-            out.push(PartSolid {
-                name: "core".into(),
-                kind: PartKind::Core,
-                solid: s.solid,
-                exact_volume_mm3: s.exact_volume_mm3,
-            });
-        }
-        let inserts: Vec<&String> = names.iter().filter(|n| n.starts_with("insert-")).collect();
-        if let Some(first) = inserts.first() {
-            let s = module::insert(&p, &pp, first)?;
-            for n in inserts {
-                out.push(PartSolid {
-                    name: n.clone(),
-                    kind: PartKind::Insert,
-                    solid: s.solid.clone(),
-                    exact_volume_mm3: s.exact_volume_mm3,
-                });
-            }
-        }
+    build_solids_for(&DesignProfile::new(design), selection)
+}
+
+/// [`build_solids`] from dimensions already derived. Parts of one kind share a solid:
+/// the inserts differ only in material.
+pub fn build_solids_for(
+    profile: &DesignProfile,
+    selection: Option<&[String]>,
+) -> Result<Vec<PartSolid>, GeometryError> {
+    let names = check_selection(profile.design, selection)?;
+    if let Some(m) = &profile.module {
+        m.check_buildable()?;
     }
-    if let Some(a) = &design.array {
-        let layout = ArrayLayout::from_array(a);
-        let pocket = mold_pocket(design);
-        if names.iter().any(|n| n == "mold") {
-            check_mold(design)?;
-            let s = mold::mold(&a.mold, &layout, pocket)?;
+    let mut out = Vec::new();
+    for part in PARTS {
+        let chosen: Vec<String> = part
+            .names(profile.design)
+            .into_iter()
+            .filter(|n| names.contains(n))
+            .collect();
+        let Some(first) = chosen.first() else {
+            continue;
+        };
+        let s = part.solid(profile, first)?;
+        for name in chosen {
             out.push(PartSolid {
-                name: "mold".into(),
-                kind: PartKind::Mold,
-                solid: s.solid,
-                exact_volume_mm3: s.exact_volume_mm3,
-            });
-        }
-        if let (true, Some(q)) = (names.iter().any(|n| n == "mold-plug"), pocket) {
-            let s = mold::plug(
-                &a.mold,
-                &layout,
-                q,
-                design.fiber_routing.channel_clearance_mm,
-            )?;
-            out.push(PartSolid {
-                name: "mold-plug".into(),
-                kind: PartKind::MoldPlug,
-                solid: s.solid,
+                name,
+                kind: part.kind(),
+                solid: s.solid.clone(),
                 exact_volume_mm3: s.exact_volume_mm3,
             });
         }
@@ -410,31 +224,33 @@ pub fn build_parts(
     tol_mm: Option<f64>,
     selection: Option<&[String]>,
 ) -> Result<Vec<BuiltPart>, GeometryError> {
-    let default = design.printer.default_tolerance_mm();
+    build_parts_for(&DesignProfile::new(design), tol_mm, selection)
+}
+
+/// [`build_parts`] from dimensions already derived.
+pub fn build_parts_for(
+    profile: &DesignProfile,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<Vec<BuiltPart>, GeometryError> {
+    let default = profile.design.printer.default_tolerance_mm();
     let tol = tol_mm.unwrap_or(default);
     if !(0.001..=1.0).contains(&tol) {
         return Err(GeometryError::Tolerance(tol));
     }
     let bound = volume_bound(tol, default);
-    let solids = build_solids(design, selection)?;
-    // Mesh each distinct solid once (inserts share theirs), in parallel.
-    let mut firsts: Vec<usize> = Vec::new();
-    for (i, s) in solids.iter().enumerate() {
-        if !(s.kind == PartKind::Insert
-            && firsts.iter().any(|&j| solids[j].kind == PartKind::Insert))
-        {
-            firsts.push(i);
-        }
-    }
-    let meshed: Vec<BuiltPart> = firsts
+    let solids = build_solids_for(profile, selection)?;
+    // Mesh each distinct solid once (one per kind: the inserts share theirs), in
+    // parallel.
+    let meshed: Vec<BuiltPart> = first_of_each_kind(&solids, |s| s.kind)
         .par_iter()
-        .map(|&i| mesh_part(&solids[i], tol, bound))
+        .map(|s| mesh_part(s, tol, bound))
         .collect::<Result<_, _>>()?;
     let mut out = Vec::with_capacity(solids.len());
     for s in &solids {
         let m = meshed
             .iter()
-            .find(|b| b.kind == s.kind && (b.name == s.name || s.kind == PartKind::Insert))
+            .find(|b| b.kind == s.kind)
             .expect("every kind was meshed");
         let mut b = m.clone();
         b.name = s.name.clone();
@@ -462,19 +278,50 @@ pub fn check_assembly(
     design: &Design,
     built: &[BuiltPart],
 ) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {
-    let Some(m) = &design.module else {
+    check_assembly_for(&DesignProfile::new(design), built)
+}
+
+/// Two nested neighbours in the assembled module and the radial gap designed between
+/// them, mm.
+struct Fit {
+    outer: PartKind,
+    inner: PartKind,
+    gap_mm: fn(&crate::spec::Module) -> f64,
+}
+
+/// The nested fits of the module; a pair not listed is not nested and always checked.
+const FITS: [Fit; 2] = [
+    Fit {
+        outer: PartKind::Cap,
+        inner: PartKind::Core,
+        gap_mm: |m| m.cap_core_clearance_mm,
+    },
+    Fit {
+        outer: PartKind::Core,
+        inner: PartKind::Insert,
+        gap_mm: |m| m.core_insert_clearance_mm,
+    },
+];
+
+/// [`check_assembly`] from dimensions already derived.
+pub fn check_assembly_for(
+    profile: &DesignProfile,
+    built: &[BuiltPart],
+) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {
+    let Some(m) = &profile.module else {
         return Ok(None);
     };
-    let has = |k: PartKind| built.iter().any(|b| b.kind == k);
-    if !has(PartKind::Cap)
-        || !has(PartKind::Core)
-        || (!m.inserts.is_empty() && !has(PartKind::Insert))
-    {
+    // Every module part the design has must have been built.
+    let whole = PARTS
+        .iter()
+        .filter(|p| p.in_module())
+        .all(|p| p.names(profile.design).is_empty() || built.iter().any(|b| b.kind == p.kind()));
+    if !whole {
         return Ok(None);
     }
     let module: Vec<BuiltPart> = built
         .iter()
-        .filter(|b| matches!(b.kind, PartKind::Cap | PartKind::Core | PartKind::Insert))
+        .filter(|b| b.kind.part().in_module())
         .cloned()
         .collect();
     // A mesh's chords cut into a concave wall by about its tolerance (truck keeps the
@@ -485,21 +332,18 @@ pub fn check_assembly(
         .iter()
         .map(|b| b.mesh_tolerance_mm)
         .fold(0.0, f64::max);
-    let press = |a: PartKind, b: PartKind| match (a, b) {
-        (PartKind::Cap, PartKind::Core) | (PartKind::Core, PartKind::Cap) => {
-            m.cap_core_clearance_mm > 2.0 * tol
-        }
-        (PartKind::Core, PartKind::Insert) | (PartKind::Insert, PartKind::Core) => {
-            m.core_insert_clearance_mm > 2.0 * tol
-        }
-        _ => true,
+    let checked = |a: PartKind, b: PartKind| {
+        FITS.iter()
+            .find(|f| (f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b))
+            .is_none_or(|f| (f.gap_mm)(m.spec) > 2.0 * tol)
     };
-    assembly::check_no_interference(&module, &press)?;
-    Ok(Some(assembly::trace_fibers(design, &module)?))
+    assembly::check_no_interference(&module, &checked)?;
+    Ok(Some(assembly::trace_fibers_for(profile, &module)?))
 }
 
 /// Build a loaded design into `dir`: every part is built, meshed and checked and every
-/// file rendered in memory before the first file is written.
+/// file rendered in memory before the first file is written. The design's dimensions
+/// are derived once, here, and lent to every step.
 pub fn build_design(
     design: &Design,
     dir: &Path,
@@ -507,10 +351,11 @@ pub fn build_design(
     parts: Option<&[String]>,
 ) -> anyhow::Result<BuildReport> {
     let nothing = || format!("design `{}`: nothing was written", design.name);
-    let built = build_parts(design, tolerance_mm, parts).with_context(nothing)?;
-    let fibers = check_assembly(design, &built).with_context(nothing)?;
+    let profile = DesignProfile::new(design);
+    let built = build_parts_for(&profile, tolerance_mm, parts).with_context(nothing)?;
+    let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
     let tol = tolerance_mm.unwrap_or(design.printer.default_tolerance_mm());
-    let rendered = export::render(design, &built, tol, fibers.as_deref())?;
+    let rendered = export::render(&profile, &built, tol, fibers.as_deref())?;
     let files = export::write_all(dir, &rendered)?;
     Ok(BuildReport {
         dir: dir.to_path_buf(),

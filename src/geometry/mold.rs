@@ -1,6 +1,5 @@
 //! Solid of the array's casting mold: base plate, four walls around the cavity, and
-//! one fiber slit per fiber through each of the two walls normal to y; and the plug
-//! that closes a slit above its fiber.
+//! one fiber slit per fiber through each of the two walls normal to y.
 //!
 //! Every face is planar, so the solid is a polyhedron assembled face by face: outer
 //! and inner wall faces are polygons with a notch per slit, the slits contribute their
@@ -8,15 +7,19 @@
 //! runs from the wall top down to where the coated fiber rests with its axis at the
 //! sheet's mid-thickness. With plugs it is stepped: a seat as wide as the slit and as
 //! high as the fiber, under a wider pocket up to the wall top that a printed plug
-//! fills, so below the silicone level only the fiber's own seat is open.
+//! fills, so below the silicone level only the fiber's own seat is open. The plug
+//! itself is `mold_plug`.
 
 use super::brep::{Assembler, BrepError, Seg};
-use super::module::BuiltSolid;
+use super::design_profile::{ArrayDims, DesignProfile};
+use super::registry::{BuiltSolid, PartKind, PrintablePart};
+use super::GeometryError;
 use crate::profile::ArrayLayout;
-use crate::spec::Mold;
+use crate::spec::{Design, Mold, SpecError};
 use truck_modeling::{Point3, Vector3};
 
-fn poly(pts: &[Point3]) -> Vec<Seg> {
+/// The closed polygon through `pts`, as line segments.
+pub(super) fn poly(pts: &[Point3]) -> Vec<Seg> {
     (0..pts.len())
         .map(|i| Seg::Line(pts[i], pts[(i + 1) % pts.len()]))
         .collect()
@@ -30,44 +33,6 @@ pub struct Pocket {
     pub width_mm: f64,
     /// Height of the pocket bottom above the mold's underside, mm.
     pub bottom_z_mm: f64,
-}
-
-/// The plug that fills one pocket: a block `fit_mm` narrower than the pocket on each
-/// side, from the pocket bottom to the wall top, as long as the wall is thick.
-pub fn plug(
-    m: &Mold,
-    layout: &ArrayLayout,
-    pocket: Pocket,
-    fit_mm: f64,
-) -> Result<BuiltSolid, BrepError> {
-    let mut asm = Assembler::new("mold-plug");
-    let w = pocket.width_mm - 2.0 * fit_mm;
-    let h = layout.mold_outer_mm.2 - pocket.bottom_z_mm;
-    let l = m.wall_thickness_mm;
-    let p = Point3::new;
-    let c = [
-        p(0.0, 0.0, 0.0),
-        p(w, 0.0, 0.0),
-        p(w, l, 0.0),
-        p(0.0, l, 0.0),
-    ];
-    let up = |q: Point3| p(q.x, q.y, h);
-    asm.plane("bottom", &[poly(&c)], -Vector3::unit_z())?;
-    asm.plane("top", &[poly(&c.map(up))], Vector3::unit_z())?;
-    let normals = [
-        -Vector3::unit_y(),
-        Vector3::unit_x(),
-        Vector3::unit_y(),
-        -Vector3::unit_x(),
-    ];
-    for i in 0..4 {
-        let (a, b) = (c[i], c[(i + 1) % 4]);
-        asm.plane("side", &[poly(&[a, b, up(b), up(a)])], normals[i])?;
-    }
-    Ok(BuiltSolid {
-        solid: asm.solid()?,
-        exact_volume_mm3: w * l * h,
-    })
 }
 
 /// The mold's dimensions as the faces need them, mm: half extents, heights and the
@@ -313,4 +278,66 @@ pub fn mold(
         solid: asm.solid()?,
         exact_volume_mm3: frame.exact_volume_mm3(m),
     })
+}
+
+/// A slit that would cut into the mold's corner is refused, naming the fiber.
+fn check_slits_in_cavity(a: &ArrayDims) -> Result<(), SpecError> {
+    let half = a.spec.mold.internal_x_mm / 2.0;
+    let sw = a.slot_width_mm / 2.0;
+    for (i, &x) in a.spec.fiber_x_mm.iter().enumerate() {
+        if x.abs() + sw >= half - 1e-9 {
+            return Err(crate::spec::err(
+                &format!("array.fiber_x_mm[{i}]"),
+                format!(
+                    "{x} mm puts the slit (± {sw} mm) into the mold's corner; allowed within ±{:.3} mm",
+                    half - sw
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The mold, in the registry: `mold` for every array design.
+pub struct MoldPart;
+
+impl PrintablePart for MoldPart {
+    fn kind(&self) -> PartKind {
+        PartKind::Mold
+    }
+
+    fn names(&self, design: &Design) -> Vec<String> {
+        design.array.iter().map(|_| "mold".to_string()).collect()
+    }
+
+    fn solid(&self, profile: &DesignProfile, _name: &str) -> Result<BuiltSolid, GeometryError> {
+        let a = profile
+            .array
+            .as_ref()
+            .expect("a mold only in an array design");
+        check_slits_in_cavity(a)?;
+        Ok(mold(&a.spec.mold, &a.layout, a.pocket)?)
+    }
+
+    fn materials(&self, design: &Design, _name: &str) -> Vec<String> {
+        print_material(design)
+    }
+
+    fn preview_colour(&self) -> &'static str {
+        "#7f7f7f"
+    }
+}
+
+/// What the mold and its plugs are printed in (not the silicone cast in them).
+pub(super) fn print_material(design: &Design) -> Vec<String> {
+    design
+        .array
+        .iter()
+        .map(|a| {
+            a.mold
+                .print_material
+                .clone()
+                .unwrap_or_else(|| "not stated (array.mold.print_material)".into())
+        })
+        .collect()
 }

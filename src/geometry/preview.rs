@@ -5,9 +5,9 @@
 //! STL files hold.
 
 use super::assembly::{axial_section, plane_section, FiberTrace};
+use super::design_profile::DesignProfile;
+use super::registry::first_of_each_kind;
 use super::{BuiltPart, PartKind};
-use crate::profile::{ArrayLayout, PartsProfile};
-use crate::spec::Design;
 use std::fmt::Write;
 
 type Seg2 = [(f64, f64); 2];
@@ -15,13 +15,7 @@ type Seg2 = [(f64, f64); 2];
 type Polyline = (String, &'static str, Vec<(f64, f64)>);
 
 fn colour(kind: PartKind) -> &'static str {
-    match kind {
-        PartKind::Cap => "#1f77b4",
-        PartKind::Core => "#2ca02c",
-        PartKind::Insert => "#9467bd",
-        PartKind::Mold => "#7f7f7f",
-        PartKind::MoldPlug => "#ff7f0e",
-    }
+    kind.part().preview_colour()
 }
 
 /// One panel: layers of segments in model coordinates (mm), drawn to fit `w`×`h` px.
@@ -180,16 +174,18 @@ fn draw(panels: &[Panel], caption: &str) -> String {
 
 /// The assembled module cut by the plane of pillar 0's fiber and by the plane of the
 /// reference fiber's exit, with every fiber in that plane drawn in red.
-pub fn module_svg(design: &Design, parts: &[BuiltPart], fibers: &[FiberTrace]) -> Option<String> {
-    let (p, pp) = PartsProfile::of_design(design)?;
-    let mut seen = Vec::new();
-    let shown: Vec<&BuiltPart> = parts
-        .iter()
-        .filter(|b| {
-            let first = !seen.contains(&b.kind);
-            seen.push(b.kind);
-            first && matches!(b.kind, PartKind::Cap | PartKind::Core | PartKind::Insert)
-        })
+pub fn module_svg(
+    profile: &DesignProfile,
+    parts: &[BuiltPart],
+    fibers: &[FiberTrace],
+) -> Option<String> {
+    let design = profile.design;
+    let m = profile.module.as_ref()?;
+    let (p, pp) = (&m.profile, &m.parts);
+    // Parts of one kind share a solid: one section each.
+    let shown: Vec<&BuiltPart> = first_of_each_kind(parts, |b| b.kind)
+        .into_iter()
+        .filter(|b| b.kind.part().in_module())
         .collect();
     let planes = [
         ("pillar 0 (strain fiber)", *p.pillar_angles_rad.first()?),
@@ -241,10 +237,11 @@ pub fn module_svg(design: &Design, parts: &[BuiltPart], fibers: &[FiberTrace]) -
 
 /// The mold (and its plugs in place) cut through the first fiber's slits, with the
 /// fiber and the silicone level.
-pub fn mold_svg(design: &Design, parts: &[BuiltPart]) -> Option<String> {
-    let a = design.array.as_ref()?;
+pub fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> {
+    let design = profile.design;
+    let a = profile.array.as_ref()?;
     let mold = parts.iter().find(|b| b.kind == PartKind::Mold)?;
-    let l = ArrayLayout::from_array(a);
+    let l = &a.layout;
     let x = *l.slit_x_mm.first()?;
     let mut layers = vec![(
         "mold".to_string(),
@@ -253,10 +250,10 @@ pub fn mold_svg(design: &Design, parts: &[BuiltPart]) -> Option<String> {
     )];
     if let (Some(plug), Some(pocket)) = (
         parts.iter().find(|b| b.kind == PartKind::MoldPlug),
-        super::mold_pocket(design),
+        a.pocket,
     ) {
         // The plug in place: its corner at the pocket's −x, inner-wall end, bottom.
-        let (iy, hy) = (a.mold.internal_y_mm / 2.0, l.mold_outer_mm.1 / 2.0);
+        let (iy, hy) = (a.spec.mold.internal_y_mm / 2.0, l.mold_outer_mm.1 / 2.0);
         let fit = design.fiber_routing.channel_clearance_mm;
         let x0 = x - pocket.width_mm / 2.0 + fit;
         for y0 in [iy, -hy] {
@@ -268,7 +265,7 @@ pub fn mold_svg(design: &Design, parts: &[BuiltPart]) -> Option<String> {
     }
     let hy = l.mold_outer_mm.1 / 2.0;
     let fiber = vec![(-hy - 3.0, l.fiber_z_mm), (hy + 3.0, l.fiber_z_mm)];
-    let iy = a.mold.internal_y_mm / 2.0;
+    let iy = a.spec.mold.internal_y_mm / 2.0;
     let top = l.mold_outer_mm.2;
     let whole = Panel {
         title: format!("{} mold cut at x = {x} mm (fiber 0)", design.name),

@@ -1,0 +1,85 @@
+//! The plug that closes a mold slit above its fiber: a block that fills the slit's
+//! pocket (one file, printed once per slit).
+
+use super::brep::{Assembler, BrepError};
+use super::design_profile::DesignProfile;
+use super::mold::{poly, print_material, Pocket};
+use super::registry::{BuiltSolid, PartKind, PrintablePart};
+use super::GeometryError;
+use crate::profile::ArrayLayout;
+use crate::spec::{Design, Mold};
+use truck_modeling::{Point3, Vector3};
+
+/// The plug that fills one pocket: a block `fit_mm` narrower than the pocket on each
+/// side, from the pocket bottom to the wall top, as long as the wall is thick.
+pub fn plug(
+    m: &Mold,
+    layout: &ArrayLayout,
+    pocket: Pocket,
+    fit_mm: f64,
+) -> Result<BuiltSolid, BrepError> {
+    let mut asm = Assembler::new("mold-plug");
+    let w = pocket.width_mm - 2.0 * fit_mm;
+    let h = layout.mold_outer_mm.2 - pocket.bottom_z_mm;
+    let l = m.wall_thickness_mm;
+    let p = Point3::new;
+    let c = [
+        p(0.0, 0.0, 0.0),
+        p(w, 0.0, 0.0),
+        p(w, l, 0.0),
+        p(0.0, l, 0.0),
+    ];
+    let up = |q: Point3| p(q.x, q.y, h);
+    asm.plane("bottom", &[poly(&c)], -Vector3::unit_z())?;
+    asm.plane("top", &[poly(&c.map(up))], Vector3::unit_z())?;
+    let normals = [
+        -Vector3::unit_y(),
+        Vector3::unit_x(),
+        Vector3::unit_y(),
+        -Vector3::unit_x(),
+    ];
+    for i in 0..4 {
+        let (a, b) = (c[i], c[(i + 1) % 4]);
+        asm.plane("side", &[poly(&[a, b, up(b), up(a)])], normals[i])?;
+    }
+    Ok(BuiltSolid {
+        solid: asm.solid()?,
+        exact_volume_mm3: w * l * h,
+    })
+}
+
+/// The mold plug, in the registry: `mold-plug` for an array whose mold has plugs.
+pub struct MoldPlugPart;
+
+impl PrintablePart for MoldPlugPart {
+    fn kind(&self) -> PartKind {
+        PartKind::MoldPlug
+    }
+
+    fn names(&self, design: &Design) -> Vec<String> {
+        design
+            .array
+            .iter()
+            .filter(|a| a.mold.plugs)
+            .map(|_| "mold-plug".to_string())
+            .collect()
+    }
+
+    fn solid(&self, profile: &DesignProfile, _name: &str) -> Result<BuiltSolid, GeometryError> {
+        let a = profile
+            .array
+            .as_ref()
+            .expect("a plug only in an array design");
+        let pocket = a.pocket.expect("a plug only for a mold with plugs");
+        let fit = profile.design.fiber_routing.channel_clearance_mm;
+        Ok(plug(&a.spec.mold, &a.layout, pocket, fit)?)
+    }
+
+    fn materials(&self, design: &Design, _name: &str) -> Vec<String> {
+        print_material(design)
+    }
+
+    fn preview_colour(&self) -> &'static str {
+        "#ff7f0e"
+    }
+}
