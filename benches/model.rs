@@ -2,7 +2,7 @@
 //! parameters (what the optimiser's inner loop pays), and one policy prediction of a
 //! whole design (`prediction::predict`, closed form). Run with `cargo bench --bench model`.
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion};
 use fbgforge::model::{closed_form, LoadCase, ModuleModelParams};
 use fbgforge::prediction::{FidelityChoice, PredictionRequest};
 use std::path::Path;
@@ -16,12 +16,22 @@ fn closed_form_k(c: &mut Criterion) {
     let mut g = c.benchmark_group("model");
     g.bench_function("closed-form K, Case I", |b| {
         b.iter(|| {
-            closed_form::sensitivity_pm_per_n(black_box(&case_i), LoadCase::I, 1546.295, &optics)
+            closed_form::sensitivity_pm_per_n(
+                std::hint::black_box(&case_i),
+                LoadCase::I,
+                1546.295,
+                &optics,
+            )
         })
     });
     g.bench_function("closed-form K, Case II", |b| {
         b.iter(|| {
-            closed_form::sensitivity_pm_per_n(black_box(&case_ii), LoadCase::II, 1540.06, &optics)
+            closed_form::sensitivity_pm_per_n(
+                std::hint::black_box(&case_ii),
+                LoadCase::II,
+                1540.06,
+                &optics,
+            )
         })
     });
     let req = PredictionRequest {
@@ -29,7 +39,7 @@ fn closed_form_k(c: &mut Criterion) {
         ..PredictionRequest::default()
     };
     g.bench_function("predict clip-on-34mm (closed form)", |b| {
-        b.iter(|| fbgforge::prediction::predict(black_box(&design), &req).unwrap())
+        b.iter(|| fbgforge::prediction::predict(std::hint::black_box(&design), &req).unwrap())
     });
     g.finish();
 }

@@ -4,7 +4,7 @@
 //! a 16 × 64 grid array (issue 14's goal for `bnb`: ≤ 100 µs per frame at exact
 //! accuracy) with one 4-load frame. Run with `cargo bench --bench reconstruct`.
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion};
 use fbgforge::array::kernel::matrix_from_design;
 use fbgforge::array::methods::{self, Method, MethodSettings};
 use fbgforge::array::problem::SensingProblem;
@@ -26,11 +26,13 @@ fn per_frame(c: &mut Criterion) {
     let mut g = c.benchmark_group("reconstruct per frame (6 × 8)");
     for method in Method::ALL.into_iter().filter(|m| *m != Method::De) {
         let r = methods::build(method, &problem, MethodSettings::for_method(method)).unwrap();
-        g.bench_function(method.name(), |b| b.iter(|| r.reconstruct(black_box(&y))));
+        g.bench_function(method.name(), |b| {
+            b.iter(|| r.reconstruct(std::hint::black_box(&y)))
+        });
     }
     g.sample_size(10);
     let r = methods::build(Method::De, &problem, MethodSettings::for_method(Method::De)).unwrap();
-    g.bench_function("de", |b| b.iter(|| r.reconstruct(black_box(&y))));
+    g.bench_function("de", |b| b.iter(|| r.reconstruct(std::hint::black_box(&y))));
     g.finish();
 }
 
@@ -57,7 +59,9 @@ fn per_frame_16x64(c: &mut Criterion) {
         Method::Nnls,
     ] {
         let r = methods::build(method, &problem, MethodSettings::for_method(method)).unwrap();
-        g.bench_function(method.name(), |b| b.iter(|| r.reconstruct(black_box(&y))));
+        g.bench_function(method.name(), |b| {
+            b.iter(|| r.reconstruct(std::hint::black_box(&y)))
+        });
     }
     g.finish();
 }

@@ -450,21 +450,46 @@ fn a_wall_changed_in_the_spec_changes_the_prediction() {
 #[test]
 fn temperature_compensation_recovers_the_strain_shift() {
     let d = design("clip-on-34mm.toml");
+    // The design has no [fiber] section: silica's standard constants apply, written out
+    // here (not read from the library) so that the expectation is computed by hand.
+    assert!(
+        !std::fs::read_to_string(common::shipped_path("clip-on-34mm.toml"))
+            .unwrap()
+            .contains("[fiber]")
+    );
+    let (pe, alpha_per_k, xi_per_k) = (0.22, 0.55e-6, 5.9e-6);
+    // The free reference grating of the design, 1560.146 nm.
+    let lambda_ref_nm = 1560.146;
+    let delta_t_k = 7.5;
     let opts = PredictOptions {
         force_n: 20.0,
-        delta_t_k: 7.5,
+        delta_t_k,
     };
-    for p in model::predict_with(&d, &opts).unwrap() {
+    let rows = model::predict_with(&d, &opts).unwrap();
+    assert!(!rows.is_empty());
+    for p in rows {
+        let lambda_pm = p.bragg_wavelength_nm * 1e3;
+        // Δλ = λ ((1 − p_e) ε + (α + ξ) ΔT): the thermal part alone, ≈ 10 pm/K at 1.55 µm.
         let thermal = p.raw_shift_pm - p.prediction.shift_pm;
-        let expect = d
-            .fiber
-            .temperature_sensitivity_pm_per_k(p.bragg_wavelength_nm)
-            * 7.5;
+        let expect = lambda_pm * (alpha_per_k + xi_per_k) * delta_t_k;
         assert!((thermal - expect).abs() < 1e-9, "{thermal} vs {expect}");
+        assert!((expect / delta_t_k - 10.0).abs() < 0.2, "{expect}");
+        // ... and the strain part from the row's own strain.
+        let mechanical = lambda_pm * (1.0 - pe) * p.prediction.strain;
+        assert!(
+            (p.prediction.shift_pm - mechanical).abs() < 1e-9 * mechanical.abs().max(1.0),
+            "{} vs {mechanical}",
+            p.prediction.shift_pm
+        );
+        // The reference sees λ_ref (α + ξ) ΔT; scaled to the sensor's wavelength and
+        // subtracted it leaves the mechanical shift.
+        let reference = lambda_ref_nm * 1e3 * (alpha_per_k + xi_per_k) * delta_t_k;
+        let by_hand = p.raw_shift_pm - reference * p.bragg_wavelength_nm / lambda_ref_nm;
         let c = p
             .compensated_shift_pm
             .expect("the design has a reference grating");
-        assert!((c - p.prediction.shift_pm).abs() < 1e-9);
+        assert!((c - by_hand).abs() < 1e-9, "{c} vs {by_hand}");
+        assert!((c - mechanical).abs() < 1e-9, "{c} vs {mechanical}");
     }
 }
 

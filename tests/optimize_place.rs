@@ -1,5 +1,6 @@
-//! Grating placement in the flat array: never worse than the start on the training
-//! protocol, valid designs whose mold follows the fibers, and clear errors.
+//! Grating placement in the flat array: a degenerate start is strictly improved, also on
+//! held-out protocol seeds; the reported objective is the written layout's; valid
+//! designs whose mold follows the fibers; clear errors.
 
 mod common;
 
@@ -30,26 +31,70 @@ fn quick(objective: PlaceObjective, vary_fibers: bool) -> PlaceSettings {
     }
 }
 
+/// The paper's array with every grating on the centre line, y = 0: each grating is then
+/// as far from the cell above it as from the cell below, so the sensing matrix has
+/// pairs of equal columns (mutual coherence exactly 1) and a load on one of the pair
+/// cannot be told from a load on the other.
+fn degenerate_layout() -> fbgforge::spec::Design {
+    let mut d = design("tactile-array-60x80.toml");
+    for g in &mut d.array.as_mut().unwrap().gratings {
+        g.y_mm = 0.0;
+    }
+    d.validate().unwrap();
+    d
+}
+
 #[test]
-fn placement_never_scores_below_the_papers_layout() {
+fn placement_strictly_improves_a_degenerate_layout_on_held_out_seeds() {
+    let base = degenerate_layout();
+    let s = quick(PlaceObjective::Coherence, false);
+    let p = PlacementProblem::new(&base, &s).unwrap();
+    let mu0 = p.coherence(&p.start_point());
+    assert!((mu0 - 1.0).abs() < 1e-12, "coherence of the start {mu0}");
+    let out = place(&base, &s, &Quiet).unwrap();
+    // The search leaves the start: the placed layout is not the degenerate one and its
+    // coherence is clearly below 1 (0.76 measured).
+    assert!(out.best_x.iter().any(|y| y.abs() > 1.0), "{:?}", out.best_x);
+    assert!(
+        out.best_objective > out.start_objective + 0.1,
+        "coherence {} -> {}",
+        -out.start_objective,
+        -out.best_objective
+    );
+    // On protocol seeds the search never saw (penalty tuned for each layout) the
+    // placed layout recovers clearly more tests than the start, which confuses the
+    // two cells of every column (19 % -> 68 % measured).
+    assert_ne!(s.test_seeds, s.train_seeds);
+    let (before, after) = (&out.start_test, &out.best_test);
+    assert!(
+        after.rr_pct > before.rr_pct + 25.0,
+        "held-out RR {:.1} % -> {:.1} %",
+        before.rr_pct,
+        after.rr_pct
+    );
+    assert!(
+        after.mean_snr_db > before.mean_snr_db,
+        "{before:?} -> {after:?}"
+    );
+}
+
+#[test]
+fn placement_reports_the_objective_of_the_layout_it_writes() {
     let base = design("tactile-array-60x80.toml");
     for objective in [PlaceObjective::Protocol, PlaceObjective::Coherence] {
         let s = quick(objective, false);
         let out = place(&base, &s, &Quiet).unwrap();
-        assert!(
-            out.best_objective >= out.start_objective,
-            "{objective:?}: {} < {}",
-            out.best_objective,
-            out.start_objective
-        );
         // The reported objective is the objective of the written layout.
         let p = PlacementProblem::new(&base, &s).unwrap();
         let again = p.objective(&out.best_x);
         assert!(
             (again - out.best_objective).abs() < 1e-9,
-            "{again} vs {}",
+            "{objective:?}: {again} vs {}",
             out.best_objective
         );
+        let written = ArrayLayout::from_array(out.design.array.as_ref().unwrap());
+        let ys: Vec<f64> = written.grating_positions_mm.iter().map(|q| q.1).collect();
+        assert_eq!(ys, out.best_x, "{objective:?}");
         // Each solver's best is no better than the overall best.
         for r in &out.runs {
             assert!(r.best_objective <= out.best_objective + 1e-9);
@@ -76,7 +121,6 @@ fn moved_fibers_move_the_mold_slits_and_keep_printable_walls() {
     for g in &a.gratings {
         assert!(g.y_mm.abs() + g.length_mm / 2.0 <= a.size_y_mm / 2.0 - s.edge_margin_mm + 1e-9);
     }
-    assert!(out.best_objective >= out.start_objective);
     out.design.validate().unwrap();
 }
 

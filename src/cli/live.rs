@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions};
 use fbgforge::live::source::SourceSpec;
-use fbgforge::live::synth::{self, SynthNoise, SynthRequest};
+use fbgforge::live::synth::{self, FrameClock, SynthNoise, SynthRequest};
 use fbgforge::live::view::{JsonlSink, LiveSink, TerminalSink};
 use fbgforge::live::{self, LiveRequest};
 use fbgforge::logs::{num::DateOrder, LogFormat, ReadOptions};
@@ -219,6 +219,11 @@ pub struct SynthStreamArgs {
     /// Drop the client's connection once at this time, s.
     #[arg(long)]
     pub drop_after_s: Option<f64>,
+    /// Whose clock numbers the frames: the instrument's (frames pass while no client
+    /// reads them, as with the real one) or the client's (the count stands still
+    /// without a client, so a client gets the same frames on any machine: for tests).
+    #[arg(long, value_enum, default_value_t = FrameClock::Instrument)]
+    pub frame_clock: FrameClock,
     /// Largest offset of a grating from its nominal wavelength, pm.
     #[arg(long, default_value_t = 80.0)]
     pub offset_pm: f64,
@@ -248,6 +253,7 @@ pub fn run_synth_stream(a: SynthStreamArgs) -> Result<ExitCode> {
         extra_peaks: a.extra_peaks,
         bad_every: a.bad_every,
         drop_after_s: a.drop_after_s,
+        clock: a.frame_clock,
         offset_pm: a.offset_pm,
         core: a.core,
         case: case(a.case),

@@ -10,9 +10,12 @@
 //! thermal shift on the reference. Each grating sits a fixed, seeded offset from its
 //! nominal wavelength (as a printed grating does), so a tare is needed.
 //!
-//! The server listens on 127.0.0.1 only, serves one client at a time, keeps numbering
-//! frames while no client is connected (a reconnecting client sees the gap), and stops
-//! by itself after its duration (at most [`MAX_DURATION_S`]).
+//! The server listens on 127.0.0.1 only, serves one client at a time and stops by itself
+//! after its duration (at most [`MAX_DURATION_S`]). Its frame counter ([`Pacer`]) runs
+//! on one of two clocks ([`FrameClock`]): the instrument's, which keeps numbering frames
+//! while no client is connected (a reconnecting client sees the gap), or the client's,
+//! which counts only while a client reads, so that what a client receives does not
+//! depend on when it connected or on the machine's load (the end-to-end tests' clock).
 
 use super::hyperion::{encode_peaks, PeaksFrame};
 use super::interpret::{InterpretOptions, Interpreter};
@@ -50,6 +53,26 @@ pub enum SynthNoise {
     /// Array: the reconstruction protocol's noise model (resolution, hysteresis,
     /// linearity, additivity of simultaneous loads); module: the resolution.
     Paper,
+}
+
+/// How long the server refuses connections after the deliberate drop, s.
+pub const REFUSAL_S: f64 = 0.25;
+/// With the client's clock: how long the server waits for a client before it gives up, s.
+pub const CLIENT_WAIT_S: f64 = 30.0;
+
+/// How the simulated instrument counts its frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrameClock {
+    /// As an instrument does: frame k is due k / rate after the server starts, read or
+    /// not. A client that connects late or reconnects misses frames, and how many
+    /// depends on when it (re)connects.
+    Instrument,
+    /// Only while a client reads: frame 0 goes to the first client, the count stands
+    /// still while no client is connected, the deliberate drop skips exactly
+    /// [`REFUSAL_S`] × rate frames, and the stream ends after exactly duration × rate
+    /// frames. What a client receives is the same on any machine under any load.
+    Client,
 }
 
 /// A load script: steps held for a time each, repeated.
@@ -240,8 +263,10 @@ pub struct SynthRequest {
     /// not match the peaks, in turn).
     pub bad_every: Option<u64>,
     /// Close the client's connection once at this time, s (and refuse connections for
-    /// a quarter of a second), to exercise reconnection.
+    /// [`REFUSAL_S`]), to exercise reconnection.
     pub drop_after_s: Option<f64>,
+    /// Whose clock numbers the frames.
+    pub clock: FrameClock,
     /// Largest fabrication offset of a grating from its nominal wavelength, pm.
     pub offset_pm: f64,
     /// Module: core, case and insert (as `live` takes them).
@@ -253,7 +278,8 @@ pub struct SynthRequest {
 }
 
 impl SynthRequest {
-    /// A request with every default: 1 kHz for 10 s, paper noise, seed 1.
+    /// A request with every default: 1 kHz for 10 s, paper noise, seed 1, the
+    /// instrument's clock.
     pub fn new(design: PathBuf) -> Self {
         SynthRequest {
             design,
@@ -266,6 +292,7 @@ impl SynthRequest {
             extra_peaks: 0,
             bad_every: None,
             drop_after_s: None,
+            clock: FrameClock::Instrument,
             offset_pm: 80.0,
             core: None,
             case: None,
@@ -518,6 +545,172 @@ fn wall_now_s() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64())
 }
 
+/// The frame counter of a simulated stream: which frames are due, when the deliberate
+/// drop happens, when connections are refused and when the stream ends. Every method
+/// is given the time, so the counter can be driven without waiting (its tests do).
+#[derive(Debug, Clone)]
+pub struct Pacer {
+    clock: FrameClock,
+    rate_hz: f64,
+    duration_s: f64,
+    drop_after_s: Option<f64>,
+    started: Instant,
+    last: Instant,
+    /// How long the counter has run, s: since the start (instrument's clock) or while a
+    /// client was connected (client's clock).
+    run_s: f64,
+    next_serial: u64,
+    /// Serials skipped at the drop (client's clock).
+    skipped: u64,
+    dropped: bool,
+    refuse_until: Option<Instant>,
+    /// The last time a client was connected, or the start.
+    last_client: Instant,
+}
+
+impl Pacer {
+    /// A counter starting at `now`.
+    pub fn new(req: &SynthRequest, now: Instant) -> Self {
+        Pacer {
+            clock: req.clock,
+            rate_hz: req.rate_hz,
+            duration_s: req.duration_s,
+            drop_after_s: req.drop_after_s,
+            started: now,
+            last: now,
+            run_s: 0.0,
+            next_serial: 0,
+            skipped: 0,
+            dropped: false,
+            refuse_until: None,
+            last_client: now,
+        }
+    }
+
+    /// Serial number of the next frame (= frames numbered so far).
+    pub fn next_serial(&self) -> u64 {
+        self.next_serial
+    }
+
+    /// With the client's clock, the frames a stream numbers: duration × rate.
+    fn total_frames(&self) -> u64 {
+        (self.duration_s * self.rate_hz).round() as u64
+    }
+
+    /// With the client's clock, the serial before which the client is dropped.
+    fn drop_serial(&self) -> Option<u64> {
+        self.drop_after_s.map(|d| (d * self.rate_hz).round() as u64)
+    }
+
+    /// Let the clock run to `now`; `connected`: whether a client was connected since
+    /// the last call.
+    pub fn advance(&mut self, now: Instant, connected: bool) {
+        match self.clock {
+            FrameClock::Instrument => {
+                self.run_s = now.saturating_duration_since(self.started).as_secs_f64();
+            }
+            FrameClock::Client if connected => {
+                self.run_s += now.saturating_duration_since(self.last).as_secs_f64();
+            }
+            FrameClock::Client => {}
+        }
+        if connected {
+            self.last_client = now;
+        }
+        self.last = now;
+    }
+
+    /// Whether the stream is over: its duration has passed (instrument's clock), or all
+    /// its frames are numbered or no client came for [`CLIENT_WAIT_S`] (client's clock).
+    pub fn finished(&self, now: Instant, connected: bool) -> bool {
+        match self.clock {
+            FrameClock::Instrument => self.run_s >= self.duration_s,
+            FrameClock::Client => {
+                let waited = now.saturating_duration_since(self.last_client);
+                self.next_serial >= self.total_frames()
+                    || (!connected && waited.as_secs_f64() >= CLIENT_WAIT_S)
+            }
+        }
+    }
+
+    /// Whether a connection may be accepted at `now` (not during the refusal).
+    pub fn accepting(&self, now: Instant) -> bool {
+        self.refuse_until.is_none_or(|u| now >= u)
+    }
+
+    /// Whether the connected client is to be dropped now (once per stream).
+    pub fn drop_due(&self) -> bool {
+        if self.dropped {
+            return false;
+        }
+        match (self.clock, self.drop_after_s) {
+            (_, None) => false,
+            (FrameClock::Instrument, Some(d)) => self.run_s >= d,
+            (FrameClock::Client, Some(_)) => {
+                self.drop_serial().is_some_and(|d| d <= self.next_serial)
+            }
+        }
+    }
+
+    /// The client was dropped at `now`: refuse connections for [`REFUSAL_S`]
+    /// (instrument's clock), or skip that many frames (client's clock).
+    pub fn dropped(&mut self, now: Instant) {
+        self.dropped = true;
+        match self.clock {
+            FrameClock::Instrument => {
+                self.refuse_until = Some(now + Duration::from_secs_f64(REFUSAL_S));
+            }
+            FrameClock::Client => {
+                let n = (REFUSAL_S * self.rate_hz).round() as u64;
+                self.skipped += n;
+                self.next_serial += n;
+            }
+        }
+    }
+
+    /// Number the frames due now and return their serials. With the client's clock
+    /// none is due without a client, none past the drop before the drop, and none past
+    /// the stream's end.
+    pub fn take_due(&mut self, connected: bool) -> std::ops::Range<u64> {
+        let on_clock = (self.run_s * self.rate_hz).floor() as u64 + 1;
+        let due = match self.clock {
+            FrameClock::Instrument => on_clock,
+            FrameClock::Client if !connected => self.next_serial,
+            FrameClock::Client => {
+                let mut due = (on_clock + self.skipped).min(self.total_frames());
+                if !self.dropped {
+                    due = due.min(self.drop_serial().unwrap_or(u64::MAX));
+                }
+                due
+            }
+        };
+        let first = self.next_serial;
+        self.next_serial = self.next_serial.max(due);
+        first..self.next_serial
+    }
+
+    /// How long to sleep before the next frame is due (at most 5 ms, so a client
+    /// arriving is accepted soon).
+    pub fn wait(&self) -> Duration {
+        let next_at_s = (self.next_serial - self.skipped) as f64 / self.rate_hz;
+        Duration::from_secs_f64((next_at_s - self.run_s).max(0.0)).min(Duration::from_millis(5))
+    }
+}
+
+/// Accept a waiting client, if any, set up for streaming.
+fn accept(listener: &TcpListener) -> Result<Option<TcpStream>> {
+    match listener.accept() {
+        Ok((s, _)) => {
+            s.set_nonblocking(false)?;
+            s.set_nodelay(true).ok();
+            s.set_write_timeout(Some(Duration::from_secs(2))).ok();
+            Ok(Some(s))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => Ok(None),
+        Err(e) => Err(e).context("accepting a client"),
+    }
+}
+
 /// Serve `req` on 127.0.0.1 until its duration is over. `on_listening` is called with
 /// the bound address before the first frame (with port 0 it tells the port chosen).
 pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Result<SynthSummary> {
@@ -539,54 +732,38 @@ pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Re
         ..SynthSummary::default()
     };
     let t0 = Instant::now();
+    let mut pacer = Pacer::new(req, t0);
     let mut client: Option<TcpStream> = None;
-    let mut refuse_until: Option<Instant> = None;
-    let mut next_serial = 0u64;
     let mut buf = Vec::new();
     loop {
         let now = Instant::now();
-        let el = now.duration_since(t0).as_secs_f64();
-        if el >= req.duration_s {
+        pacer.advance(now, client.is_some());
+        if pacer.finished(now, client.is_some()) {
             break;
         }
-        if client.is_none() && refuse_until.is_none_or(|u| now >= u) {
-            match listener.accept() {
-                Ok((s, _)) => {
-                    s.set_nonblocking(false)?;
-                    s.set_nodelay(true).ok();
-                    s.set_write_timeout(Some(Duration::from_secs(2))).ok();
-                    client = Some(s);
-                    summary.clients += 1;
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
-                Err(e) => return Err(e).context("accepting a client"),
-            }
+        if client.is_none() && pacer.accepting(now) {
+            client = accept(&listener)?;
+            summary.clients += u64::from(client.is_some());
         }
-        if let Some(d) = req.drop_after_s {
-            if !summary.dropped_connection && el >= d && client.is_some() {
-                if let Some(c) = client.take() {
-                    let _ = c.shutdown(std::net::Shutdown::Both);
-                }
-                summary.dropped_connection = true;
-                refuse_until = Some(now + Duration::from_millis(250));
+        if client.is_some() && pacer.drop_due() {
+            if let Some(c) = client.take() {
+                let _ = c.shutdown(std::net::Shutdown::Both);
             }
+            summary.dropped_connection = true;
+            pacer.dropped(now);
         }
-        let due = (el * req.rate_hz).floor() as u64 + 1;
-        buf.clear();
-        let mut batch_bad: Vec<&'static str> = Vec::new();
-        let stamp = wall_now_s();
-        let mut n_batch = 0;
-        while next_serial < due {
-            if client.is_some() {
-                let (bytes, bad) = gen.encoded(next_serial, stamp);
+        let serials = pacer.take_due(client.is_some());
+        summary.frames_generated = pacer.next_serial();
+        if let Some(c) = client.as_mut().filter(|_| !serials.is_empty()) {
+            buf.clear();
+            let mut batch_bad: Vec<&'static str> = Vec::new();
+            let stamp = wall_now_s();
+            let n_batch = serials.end - serials.start;
+            for serial in serials {
+                let (bytes, bad) = gen.encoded(serial, stamp);
                 buf.extend_from_slice(&bytes);
                 batch_bad.extend(bad);
-                n_batch += 1;
             }
-            next_serial += 1;
-        }
-        summary.frames_generated = next_serial;
-        if let (Some(c), false) = (client.as_mut(), buf.is_empty()) {
             match c.write_all(&buf) {
                 Ok(()) => {
                     summary.frames_sent += n_batch;
@@ -597,10 +774,7 @@ pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Re
                 Err(_) => client = None,
             }
         }
-        let next_at = t0 + Duration::from_secs_f64(next_serial as f64 / req.rate_hz);
-        let wait = next_at
-            .saturating_duration_since(Instant::now())
-            .min(Duration::from_millis(5));
+        let wait = pacer.wait();
         if !wait.is_zero() {
             std::thread::sleep(wait);
         }
@@ -658,6 +832,84 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("not a positive number of seconds"), "{e}");
+    }
+
+    /// Drive a pacer as `serve` does, on made-up time: `steps` are the seconds between
+    /// turns of the loop; a client connects once `connect_after_s` have passed and again
+    /// at the first turn it may after the drop. Returns the serials the client got and
+    /// the frames numbered.
+    fn drive(req: &SynthRequest, steps: &[f64], connect_after_s: f64) -> (Vec<u64>, u64) {
+        let t0 = Instant::now();
+        let mut p = Pacer::new(req, t0);
+        let (mut now, mut connected, mut got) = (t0, false, Vec::new());
+        for dt in steps.iter().cycle() {
+            now += Duration::from_secs_f64(*dt);
+            p.advance(now, connected);
+            if p.finished(now, connected) {
+                return (got, p.next_serial());
+            }
+            let late_enough = now.duration_since(t0).as_secs_f64() >= connect_after_s;
+            if !connected && late_enough && p.accepting(now) {
+                connected = true;
+            }
+            if connected && p.drop_due() {
+                connected = false;
+                p.dropped(now);
+            }
+            let serials = p.take_due(connected);
+            if connected {
+                got.extend(serials);
+            }
+        }
+        unreachable!("a cycle never ends")
+    }
+
+    /// Loop turns of a loaded machine: mostly a few ms apart, now and then stalled.
+    fn uneven_steps(seed: u64) -> Vec<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..500)
+            .map(|_| {
+                if rng.random_bool(0.02) {
+                    rng.random_range(0.1..1.5)
+                } else {
+                    rng.random_range(0.0..0.006)
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_clients_clock_gives_every_client_the_same_frames_under_any_timing() {
+        let mut req = SynthRequest::new(PathBuf::from("unused"));
+        req.rate_hz = 500.0;
+        req.duration_s = 2.0;
+        req.drop_after_s = Some(0.8);
+        req.clock = FrameClock::Client;
+        // 1000 frames; the client is dropped after 400 and 125 (0.25 s) are skipped.
+        let want: Vec<u64> = (0..400).chain(525..1000).collect();
+        for (seed, connect_after_s) in [(1, 0.0), (2, 3.0), (3, 0.37)] {
+            let (got, numbered) = drive(&req, &uneven_steps(seed), connect_after_s);
+            assert_eq!(numbered, 1000, "seed {seed}");
+            assert_eq!(got, want, "seed {seed}, client after {connect_after_s} s");
+        }
+        // Steady 1 ms turns give the same.
+        assert_eq!(drive(&req, &[1e-3], 0.0).0, want);
+    }
+
+    #[test]
+    fn the_instruments_clock_numbers_frames_nobody_reads() {
+        let mut req = SynthRequest::new(PathBuf::from("unused"));
+        req.rate_hz = 500.0;
+        req.duration_s = 2.0;
+        req.drop_after_s = Some(0.8);
+        let (got, numbered) = drive(&req, &[1e-3], 0.5);
+        // The frames of the first half second passed before the client came, and a
+        // quarter second's worth while it was refused after the drop.
+        assert!((249..=251).contains(&got[0]), "{}", got[0]);
+        let hole: u64 = got.windows(2).map(|w| w[1] - w[0] - 1).sum();
+        assert!((124..=127).contains(&hole), "{hole}");
+        assert!((999..=1001).contains(&numbered), "{numbered}");
+        assert_eq!(got.len() as u64, numbered - got[0] - hole);
     }
 
     #[test]

@@ -1,0 +1,267 @@
+//! The modelling choices of a finite-element solve of the module: mesh density, how
+//! cap, core and insert touch ([`InsertContact`], [`DomeContact`], [`PillarCoupling`],
+//! or one [`ContactReading`] for all three), extrapolation and the linear solver.
+
+use crate::fem::element::Formulation;
+use crate::fem::solve::{EnvelopeCholesky, LinearSolver, SparseCholesky};
+use crate::model::LoadCase;
+use crate::spec::CylinderCoupling;
+
+/// How the insert meets the core's inner wall (Case I).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InsertContact {
+    /// Bonded over the whole interface (no sliding anywhere).
+    Bonded,
+    /// Bonded on the dome, frictionless (radial tie only) along the cylinder.
+    SlidingWall,
+}
+
+/// Whether the cap's dome presses on the core's dome.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DomeContact {
+    /// The printed gap stays open: the force passes through the pillars only.
+    Gap,
+    /// Facing dome nodes tied over the whole dome (cap and core touch everywhere).
+    Tied,
+    /// Facing dome nodes tied within the apex contact patch only: the apex flat widened
+    /// through half the cap wall, radius = apex flat radius + cap wall / 2 (the same
+    /// patch as the closed form's direct path). Default.
+    ApexPatch,
+    /// Unilateral contact across the printed clearance: every facing pair of dome nodes
+    /// may touch and push but never pull, and touches only once its gap has closed
+    /// (`fem::contact`). The contact zone grows with the force.
+    Unilateral,
+}
+
+/// How the pillars couple cap and core along the cylinder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PillarCoupling {
+    /// Pillar rings bonded to cap and core over their whole length (the paper's "no
+    /// sliding between CC and PSC"). Default.
+    Bonded,
+    /// The cap slides axially over the core's pillars (radial contact only) and is
+    /// bonded to them only in a clip band at the base, one cap wall high: the load
+    /// path the closed form assumes (cap and core in series through the base clip).
+    BaseClip,
+    /// Bonded in the clip band at the base; above it cap and core meet in unilateral,
+    /// frictionless contact across the printed radial clearance (`fem::contact`): they
+    /// may push each other apart but not pull, and touch only once the gap has closed.
+    BaseClipContact,
+}
+
+/// A reading of how cap and core touch and are held together: the contact choices of
+/// [`FemOptions`] that the model policy (`crate::prediction`) solves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactReading {
+    /// The design's `[module.contact]`: cylinders sliding above the base clip (or
+    /// bonded); in Case I the domes bear on each other within the design's contact
+    /// radius, in Case II over the whole dome (no insert holds the hollow core's dome
+    /// up, so the cap's dome presses all of it). The nominal prediction.
+    Design,
+    /// Pillars bonded to cap and core along their length, domes tied over the apex
+    /// patch (the paper's literal "no sliding"): the most tightly coupled reading,
+    /// lower end of Case I's band.
+    BondedPillars,
+    /// Cylinders sliding above the base clip, the domes touching over the apex patch
+    /// only: the least coupled reading with the domes in contact, upper end of Case I's
+    /// band.
+    SlidingApexPatch,
+    /// Cylinders as the design says (sliding: unilateral contact across the printed
+    /// radial clearance above the clip), domes in unilateral contact across the printed
+    /// dome clearance: the contact zone grows with the force, so K depends on F.
+    Unilateral,
+}
+
+impl ContactReading {
+    /// Short description for tables and reports.
+    pub fn describe(self, m: &crate::spec::Module, case: LoadCase) -> String {
+        let clip = m.clip_height_mm();
+        let cyl = match m.contact.cylinders {
+            CylinderCoupling::Sliding => {
+                format!("cylinders sliding above a {clip:.2} mm base clip")
+            }
+            CylinderCoupling::Bonded => "pillars bonded to the cap".to_string(),
+        };
+        match self {
+            ContactReading::Design if case == LoadCase::II => {
+                format!("{cyl}, domes in contact over the whole dome (Case II)")
+            }
+            ContactReading::Design => format!(
+                "{cyl}, domes in contact within r = {:.3} mm",
+                m.dome_contact_radius_mm()
+            ),
+            ContactReading::BondedPillars => format!(
+                "pillars bonded to the cap, domes tied over the apex patch (r = {:.3} mm)",
+                m.apex_patch_radius_mm()
+            ),
+            ContactReading::SlidingApexPatch => format!(
+                "cylinders sliding above a {clip:.2} mm base clip, domes touching over the apex patch only (r = {:.3} mm)",
+                m.apex_patch_radius_mm()
+            ),
+            ContactReading::Unilateral => format!(
+                "{cyl}, unilateral contact across the printed {:.3} mm dome clearance",
+                m.dome_clearance_mm()
+            ),
+        }
+    }
+}
+
+/// Mesh density and modelling choices of a finite-element solve.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FemOptions {
+    /// Target element size along the cylinders (and radially in the insert), mm.
+    pub element_size_mm: f64,
+    /// Target element size along the domes' meridian, mm. The domes carry the load by
+    /// bending and membrane action near the apex contact and decide how the force is
+    /// shared, so they need finer elements than the cylinders' smooth far field.
+    pub dome_element_size_mm: f64,
+    /// Elements through the thinner of the cap and core walls (thinner layers get
+    /// at least one).
+    pub elements_through_wall: usize,
+    /// Insert/core contact in Case I.
+    pub insert_contact: InsertContact,
+    /// Cap/core dome contact.
+    pub dome_contact: DomeContact,
+    /// Cap/core coupling along the pillars.
+    pub pillar_coupling: PillarCoupling,
+    /// Radius of the zone around the apex over which the domes bear on each other with
+    /// [`DomeContact::ApexPatch`] (measured on the core's outer dome), mm; `None`: the
+    /// apex contact patch, apex flat radius + cap wall / 2.
+    #[serde(default)]
+    pub dome_contact_radius_mm: Option<f64>,
+    /// Height of the clip band at the base where cap and core are bonded when the
+    /// pillars are not ([`PillarCoupling::BaseClip`], [`PillarCoupling::BaseClipContact`]),
+    /// mm; `None`: one cap wall.
+    #[serde(default)]
+    pub clip_height_mm: Option<f64>,
+    /// Mixed (locking-free) or plain displacement elements.
+    #[serde(skip, default = "default_formulation")]
+    pub formulation: Formulation,
+    /// Linear solver.
+    pub solver: SolverKind,
+    /// When set, also solve a mesh twice as coarse and extrapolate each grating's
+    /// strain as ε_h + (ε_h − ε_2h) / (2^p − 1) with this order p (Richardson). The
+    /// apex-patch tie of Case I converges at a low order (0.5 to 1.2 measured), so
+    /// p = 1 removes most of the discretisation error for a 15 % longer solve.
+    #[serde(default)]
+    pub richardson_order: Option<f64>,
+}
+
+/// Which linear solver factorises the stiffness matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    /// [`EnvelopeCholesky`] (default: fastest here).
+    Envelope,
+    /// [`SparseCholesky`] from nalgebra-sparse.
+    Sparse,
+}
+
+impl SolverKind {
+    /// The solver behind the name.
+    pub fn solver(self) -> &'static dyn LinearSolver {
+        match self {
+            SolverKind::Envelope => &EnvelopeCholesky,
+            SolverKind::Sparse => &SparseCholesky,
+        }
+    }
+}
+
+fn default_formulation() -> Formulation {
+    Formulation::MixedQ9P1
+}
+
+impl Default for FemOptions {
+    /// Level 1 with two-level Richardson extrapolation (order 1) from level 0.
+    fn default() -> Self {
+        FemOptions {
+            richardson_order: Some(1.0),
+            ..FemOptions::level(1)
+        }
+    }
+}
+
+impl FemOptions {
+    /// The same options on a mesh twice as coarse (sizes doubled, half the elements
+    /// through a wall, at least one), without extrapolation.
+    pub fn coarsened(&self) -> Self {
+        FemOptions {
+            element_size_mm: 2.0 * self.element_size_mm,
+            dome_element_size_mm: 2.0 * self.dome_element_size_mm,
+            elements_through_wall: (self.elements_through_wall / 2).max(1),
+            richardson_order: None,
+            ..*self
+        }
+    }
+
+    /// These options (mesh, solver) with the contact choices of `reading` for module `m`
+    /// in `case`.
+    pub fn with_reading(
+        self,
+        m: &crate::spec::Module,
+        reading: ContactReading,
+        case: LoadCase,
+    ) -> Self {
+        let sliding = m.contact.cylinders == CylinderCoupling::Sliding;
+        let clip = Some(m.clip_height_mm());
+        let (pillar_coupling, dome_contact, radius) = match reading {
+            ContactReading::Design => (
+                if sliding {
+                    PillarCoupling::BaseClip
+                } else {
+                    PillarCoupling::Bonded
+                },
+                if case == LoadCase::II {
+                    DomeContact::Tied
+                } else {
+                    DomeContact::ApexPatch
+                },
+                Some(m.dome_contact_radius_mm()),
+            ),
+            ContactReading::BondedPillars => (PillarCoupling::Bonded, DomeContact::ApexPatch, None),
+            ContactReading::SlidingApexPatch => {
+                (PillarCoupling::BaseClip, DomeContact::ApexPatch, None)
+            }
+            ContactReading::Unilateral => (
+                if sliding {
+                    PillarCoupling::BaseClipContact
+                } else {
+                    PillarCoupling::Bonded
+                },
+                DomeContact::Unilateral,
+                None,
+            ),
+        };
+        FemOptions {
+            pillar_coupling,
+            dome_contact,
+            dome_contact_radius_mm: radius,
+            clip_height_mm: clip,
+            ..self
+        }
+    }
+
+    /// Refinement levels of the convergence study: level k has cylinder elements of
+    /// 4 / 2^k mm, dome elements a quarter of that, and 2^k elements through a wall:
+    /// every level halves every element size of the one before (level 1 = default).
+    pub fn level(k: u32) -> Self {
+        let h = 4.0 / 2f64.powi(k as i32);
+        FemOptions {
+            element_size_mm: h,
+            dome_element_size_mm: h / 4.0,
+            elements_through_wall: 1usize << k,
+            insert_contact: InsertContact::SlidingWall,
+            dome_contact: DomeContact::ApexPatch,
+            pillar_coupling: PillarCoupling::Bonded,
+            clip_height_mm: None,
+            dome_contact_radius_mm: None,
+            formulation: Formulation::MixedQ9P1,
+            solver: SolverKind::Envelope,
+            richardson_order: None,
+        }
+    }
+}

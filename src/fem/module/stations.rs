@@ -1,0 +1,185 @@
+//! The common meridian coordinate of the module's walls: every wall is an offset of
+//! the cap's outer surface, so one station s (a height below the dome centre, a polar
+//! angle above it) names facing points on all walls; the stations carry the break
+//! points (clip band, pillar top, 45°, apex patch, top hole) as nodes.
+
+use crate::profile::ModuleProfile;
+use anyhow::{bail, Result};
+use std::collections::HashMap;
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+
+/// Station of the common meridian coordinate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Station {
+    /// Height z ≤ z_c (cylinder section).
+    Z(f64),
+    /// Polar angle of a ray from the dome centre, radians (0 horizontal).
+    Theta(f64),
+}
+
+/// A wall surface: cylinder radius and sphere radius (∞ for a pure cylinder), mm.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Surface {
+    pub(super) r: f64,
+    pub(super) rho: f64,
+}
+
+pub(super) fn lerp_surface(a: Surface, b: Surface, t: f64) -> Surface {
+    let rho = if t == 0.0 {
+        a.rho
+    } else if t == 1.0 {
+        b.rho
+    } else if a.rho.is_infinite() || b.rho.is_infinite() {
+        f64::INFINITY
+    } else {
+        a.rho + (b.rho - a.rho) * t
+    };
+    Surface {
+        r: a.r + (b.r - a.r) * t,
+        rho,
+    }
+}
+
+pub(super) fn point(s: Surface, st: Station, zc: f64) -> [f64; 2] {
+    match st {
+        Station::Z(z) => [s.r, z],
+        Station::Theta(t) => {
+            if (FRAC_PI_2 - t).abs() < 1e-12 {
+                return [0.0, zc + s.rho];
+            }
+            let (sn, c) = t.sin_cos();
+            let len = (s.r / c).min(s.rho);
+            [len * c, zc + len * sn]
+        }
+    }
+}
+
+/// Doubled meridian stations and the doubled indices of the break points.
+pub(super) struct Stations {
+    pub(super) st: Vec<Station>,
+    pub(super) j_seam: usize,
+    pub(super) j_pillar_top: usize,
+    pub(super) j_45: usize,
+    pub(super) j_hole: usize,
+    pub(super) j_patch: usize,
+    pub(super) j_axis: usize,
+    /// Heights of the element boundaries below the seam (for strain integration).
+    pub(super) z_breaks: Vec<f64>,
+}
+
+pub(super) fn make_stations(
+    p: &ModuleProfile,
+    h: f64,
+    h_dome: f64,
+    fiber_r: f64,
+    patch_r: f64,
+    clip_mm: Option<f64>,
+) -> Result<Stations> {
+    let zc = p.dome_center_z_mm;
+    if zc <= 0.0 {
+        bail!(
+            "the finite-element mesher needs the dome centre above the base (dome centre at z = {zc:.3} mm): use a taller module or a higher dome"
+        );
+    }
+    // Element boundaries along the cylinders: uniform, with one on the clip band's top
+    // edge when there is one, so the bonded band ends on a node and K varies
+    // continuously with every dimension (a band edge between nodes jumps from node to
+    // node as the module changes).
+    let mut z_breaks: Vec<f64> = Vec::new();
+    let mut segment = |z0: f64, z1: f64, min: usize| {
+        let n = (((z1 - z0) / h).ceil() as usize).max(min);
+        for k in 0..n {
+            z_breaks.push(z0 + (z1 - z0) * k as f64 / n as f64);
+        }
+    };
+    match clip_mm.filter(|c| *c > 0.0 && *c < zc) {
+        Some(c) => {
+            segment(0.0, c, 1);
+            segment(c, zc, 1);
+        }
+        None => segment(0.0, zc, 2),
+    }
+    z_breaks.push(zc);
+    let mut st: Vec<Station> = Vec::with_capacity(2 * z_breaks.len());
+    for w in z_breaks.windows(2) {
+        st.push(Station::Z(w[0]));
+        st.push(Station::Z(0.5 * (w[0] + w[1])));
+    }
+    st.push(Station::Z(zc));
+    let j_seam = st.len() - 1;
+    // Ring top: the ray through the fiber radius at the pillar top.
+    // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
+    // onto their spheres, so the rings stay on the cylinders.
+    let corner = |r: f64, rho: f64| if r < rho { (r / rho).acos() } else { 0.0 };
+    let theta_p = if p.pillar_top_mm > zc + 1e-9 {
+        ((p.pillar_top_mm - zc) / fiber_r)
+            .atan()
+            .min(corner(
+                p.cap_inner_radius_mm,
+                p.cap_dome_inner_sphere_radius_mm,
+            ))
+            .min(corner(
+                p.core_outer_radius_mm,
+                p.core_dome_outer_sphere_radius_mm,
+            ))
+    } else {
+        0.0
+    };
+    // Core top hole: the ray through the hole edge at the core's mid-wall sphere.
+    let rho_mid = 0.5 * (p.core_dome_outer_sphere_radius_mm + p.core_dome_inner_sphere_radius_mm);
+    let theta_h = (p.top_hole_radius_mm / rho_mid).clamp(0.0, 1.0).acos();
+    // Apex contact patch edge on the core's outer dome (kept below the hole's ray).
+    let theta_c = (patch_r / p.core_dome_outer_sphere_radius_mm)
+        .clamp(0.0, 1.0)
+        .acos()
+        .min(theta_h);
+    let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_c, theta_h, FRAC_PI_2];
+    // For a dome flatter than a hemisphere each wall surface turns a corner where its
+    // cylinder meets its sphere; a station on each corner's ray keeps quadratic
+    // elements from spanning (and folding over) a corner.
+    for (r, rho) in [
+        (p.cap_outer_radius_mm, p.cap_dome_outer_sphere_radius_mm),
+        (p.cap_inner_radius_mm, p.cap_dome_inner_sphere_radius_mm),
+        (p.core_outer_radius_mm, p.core_dome_outer_sphere_radius_mm),
+        (p.core_inner_radius_mm, p.core_dome_inner_sphere_radius_mm),
+        (p.insert_radius_mm, p.insert_sphere_radius_mm),
+    ] {
+        if r < rho {
+            let t = (r / rho).acos();
+            if t > 1e-4 && t < theta_c {
+                breaks.push(t);
+            }
+        }
+    }
+    breaks.sort_by(|a, b| a.total_cmp(b));
+    breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+    let rho_ref = p.cap_dome_outer_sphere_radius_mm;
+    let mut idx = HashMap::new();
+    for w in breaks.windows(2) {
+        let n = ((rho_ref * (w[1] - w[0]) / h_dome).ceil() as usize).max(1);
+        for k in 1..=2 * n {
+            st.push(Station::Theta(
+                w[0] + (w[1] - w[0]) * k as f64 / (2 * n) as f64,
+            ));
+        }
+        idx.insert((w[1] * 1e6).round() as i64, st.len() - 1);
+    }
+    idx.insert(0, j_seam);
+    let find = |t: f64| -> usize {
+        breaks
+            .iter()
+            .find(|b| (**b - t).abs() < 1e-6)
+            .and_then(|b| idx.get(&((b * 1e6).round() as i64)).copied())
+            .unwrap_or(j_seam)
+    };
+    Ok(Stations {
+        j_patch: find(theta_c),
+        j_seam,
+        j_pillar_top: find(theta_p),
+        j_45: find(FRAC_PI_4),
+        j_hole: find(theta_h),
+        j_axis: st.len() - 1,
+        st,
+        z_breaks,
+    })
+}
