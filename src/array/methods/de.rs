@@ -17,7 +17,8 @@
 
 use super::*;
 use crate::solvers::differential_evolution::DifferentialEvolution;
-use argmin::core::{CostFunction, Error, Executor, State, TerminationReason};
+use crate::solvers::{execute, Unobserved};
+use argmin::core::{CostFunction, Error};
 use std::sync::Arc;
 
 /// The registry entry of `de`.
@@ -190,23 +191,18 @@ impl Reconstructor for De {
                     .with_seeds(self.greedy_seeds(&aty)),
                 Err(_) => return self.common.unusable(),
             };
-        let generations = self.settings.generations;
-        let res = match Executor::new(cost.clone(), solver)
-            .configure(|s| s.max_iters(generations))
-            .run()
-        {
-            Ok(res) => res,
-            Err(_) => return self.common.unusable(),
-        };
-        let st = res.state();
-        let collapsed = matches!(
-            st.get_termination_reason(),
-            Some(TerminationReason::SolverConverged)
-        );
-        let iterations = st.get_iter();
-        let Some(z) = st.get_best_param() else {
+        let Ok(found) = execute(
+            cost.clone(),
+            solver,
+            self.settings.generations,
+            None::<Unobserved>,
+        ) else {
             return self.common.unusable();
         };
+        // DE's own stop: the population's costs within 10⁻¹⁰ of each other.
+        let collapsed = found.solver_converged;
+        let iterations = found.iterations;
+        let z = &found.best_x;
         let polished = self.polish(&aty, z);
         let (z, value) = {
             let (a, b) = (cost.eval(z), cost.eval(&polished));
