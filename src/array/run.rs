@@ -172,21 +172,19 @@ pub fn reconstruct_file(
             method,
             penalty: a.penalty,
         },
-        None => MethodRequest::Default {
-            budget_us: a.budget_us.unwrap_or(DEFAULT_BUDGET_US),
-        },
+        None => {
+            let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
+            if !(budget_us.is_finite() && budget_us > 0.0) {
+                bail!("--budget-us: the per-frame budget must be a positive time in µs, got {budget_us}");
+            }
+            MethodRequest::Default { budget_us }
+        }
     };
     let frames = Frames {
         gratings: &matrix.gratings,
         shifts_pm: &stream.frames_pm,
     };
-    let done = reconstruct(&problem, frames, &prior, &request, progress).map_err(|e| {
-        if named.is_none() {
-            anyhow::anyhow!("--budget-us: {e}")
-        } else {
-            anyhow::anyhow!(e)
-        }
-    })?;
+    let done = reconstruct(&problem, frames, &prior, &request, progress)?;
     let results = &done.frames;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
     let loads: Vec<Vec<f64>> = results.iter().map(|r| r.loads_g.clone()).collect();
