@@ -234,7 +234,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// The array's default method for readings of this kind (`prior`: load cap and
 /// interrogator resolution): [`choose_method`] with each method's settings for the
 /// prior ([`MethodSettings::for_prior`]). Callers outside this module reach it
-/// through [`crate::array::reconstruct`], the one place a method is picked.
+/// through [`crate::array::reconstruct()`], the one place a method is picked.
 pub fn default_choice(
     problem: &SensingProblem,
     prior: &ReadingPrior,

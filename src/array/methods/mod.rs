@@ -6,7 +6,7 @@
 //! [`MethodSettings`] (each method has its own settings type, in its own file) into a
 //! `Box<dyn Reconstructor>` that has already precomputed whatever depends only on the
 //! matrix, so a long stream pays that cost once. Which method a caller gets, and with
-//! which settings, is decided in one place: [`crate::array::reconstruct`].
+//! which settings, is decided in one place: [`crate::array::reconstruct()`].
 //!
 //! * `support`: exact ℓ0-penalised bounded least squares — every support of up to
 //!   m cells is tried (246 for 8 cells and 6 gratings, pseudo-inverses precomputed), the one with the
@@ -87,7 +87,7 @@ pub const DEFAULT_METHOD: Method = Method::WeightedSupport;
 /// and its tuning grid. Each method file defines one entry and its own settings type
 /// (the knobs only it has); [`Method::ALL`] is the registry and [`MethodSettings`]
 /// has one variant per method, so a new method is one file, one line in `ALL` and
-/// one variant (with its two arms in [`MethodSettings::knobs`]).
+/// one variant (with its two arms in `MethodSettings::knobs`).
 pub struct MethodEntry {
     /// Name used on the command line and in tables.
     pub name: &'static str,
