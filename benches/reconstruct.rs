@@ -25,13 +25,13 @@ fn per_frame(c: &mut Criterion) {
     let problem = SensingProblem::new(a.clone(), ulimit_g, true).unwrap();
     let mut g = c.benchmark_group("reconstruct per frame (6 × 8)");
     for method in Method::ALL.into_iter().filter(|m| *m != Method::De) {
-        let r = methods::build(method, &problem, MethodSettings::for_method(method)).unwrap();
+        let r = methods::build(&problem, &MethodSettings::for_method(method)).unwrap();
         g.bench_function(method.name(), |b| {
             b.iter(|| r.reconstruct(std::hint::black_box(&y)))
         });
     }
     g.sample_size(10);
-    let r = methods::build(Method::De, &problem, MethodSettings::for_method(Method::De)).unwrap();
+    let r = methods::build(&problem, &MethodSettings::for_method(Method::De)).unwrap();
     g.bench_function("de", |b| b.iter(|| r.reconstruct(std::hint::black_box(&y))));
     g.finish();
 }
@@ -58,7 +58,7 @@ fn per_frame_16x64(c: &mut Criterion) {
         Method::Omp,
         Method::Nnls,
     ] {
-        let r = methods::build(method, &problem, MethodSettings::for_method(method)).unwrap();
+        let r = methods::build(&problem, &MethodSettings::for_method(method)).unwrap();
         g.bench_function(method.name(), |b| {
             b.iter(|| r.reconstruct(std::hint::black_box(&y)))
         });

@@ -6,7 +6,8 @@ use fbgforge::array::io::{read_matrix, read_shifts};
 use fbgforge::array::kernel::*;
 use fbgforge::array::methods::PenalisedCost;
 use fbgforge::array::methods::{
-    build, reconstruct_stream, Method, MethodSettings, NoisePrior, DEFAULT_METHOD,
+    build, reconstruct_stream, DeSettings, Method, MethodSettings, NoisePrior,
+    WeightedSupportSettings, DEFAULT_METHOD,
 };
 use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::*;
@@ -208,7 +209,8 @@ fn recover_all_with_min_load(
         .unwrap()
         .with_min_load_g(min_load_g)
         .unwrap();
-    let r = build(method, &p, settings).unwrap();
+    assert_eq!(settings.method(), method);
+    let r = build(&p, &settings).unwrap();
     let cases = sparse_cases(8, kmax);
     let exact = cases
         .iter()
@@ -228,17 +230,18 @@ fn recover_all_with_min_load(
 fn support_search_is_exact_on_every_noise_free_case_up_to_three_loads() {
     for method in [Method::Support, Method::WeightedSupport] {
         for normalise in [true, false] {
-            let mut s = MethodSettings::for_method(method);
-            s.penalty = 1e-6;
+            let mut s = MethodSettings::for_method(method).with_penalty(1e-6);
             // `wsupport` told the readings are (nearly) noise-free. With its default
             // prior it reads a 3-load frame as 2 loads in 2 of these 92 cases: the
             // misfit is inside the ± 4 % additivity error it allows for (see the test
             // below).
-            s.noise_prior = NoisePrior {
-                resolution_pm: 1e-3,
-                additivity_frac: 0.0,
-                calibration_load_g: 200.0,
-            };
+            if let MethodSettings::WeightedSupport(w) = &mut s {
+                w.noise_prior = NoisePrior {
+                    resolution_pm: 1e-3,
+                    additivity_frac: 0.0,
+                    calibration_load_g: 200.0,
+                };
+            }
             let (ok, n) = recover_all(method, 3, normalise, s);
             assert_eq!(ok, n, "{method:?} normalise={normalise}");
         }
@@ -268,13 +271,15 @@ fn load_range_prior_keeps_noise_free_recovery_exact() {
             recover_all_with_min_load(Method::WeightedSupport, 2, normalise, s, PAPER_MIN_LOAD_G);
         assert_eq!(ok, n, "normalise={normalise}");
     }
-    let mut s = s;
-    s.penalty = 1e-6;
-    s.noise_prior = NoisePrior {
-        resolution_pm: 1e-3,
-        additivity_frac: 0.0,
-        calibration_load_g: 200.0,
-    };
+    let s = MethodSettings::WeightedSupport(WeightedSupportSettings {
+        penalty: 1e-6,
+        noise_prior: NoisePrior {
+            resolution_pm: 1e-3,
+            additivity_frac: 0.0,
+            calibration_load_g: 200.0,
+        },
+        ..WeightedSupportSettings::default()
+    });
     let (ok, n) = recover_all_with_min_load(Method::WeightedSupport, 3, true, s, PAPER_MIN_LOAD_G);
     assert_eq!(ok, n);
 }
@@ -289,21 +294,20 @@ fn load_range_prior_rejects_a_planted_load_below_the_rated_range() {
     let a = paper_matrix();
     let x = [0.0, 100.0, 6.0, 0.0, 0.0, 0.0, 200.0, 0.0];
     let y = shifts(&a, &x);
-    let mut s = MethodSettings::for_method(Method::WeightedSupport);
-    s.noise_prior = NoisePrior {
-        resolution_pm: 0.05,
-        additivity_frac: 0.0,
-        calibration_load_g: 200.0,
-    };
+    let s = MethodSettings::WeightedSupport(WeightedSupportSettings {
+        noise_prior: NoisePrior {
+            resolution_pm: 0.05,
+            additivity_frac: 0.0,
+            calibration_load_g: 200.0,
+        },
+        ..WeightedSupportSettings::default()
+    });
     let solve = |min_load: f64| {
         let p = SensingProblem::new(a.clone(), 250.0, true)
             .unwrap()
             .with_min_load_g(min_load)
             .unwrap();
-        build(Method::WeightedSupport, &p, s)
-            .unwrap()
-            .reconstruct(&y)
-            .loads_g
+        build(&p, &s).unwrap().reconstruct(&y).loads_g
     };
     let without = solve(0.0);
     for (j, (e, t)) in without.iter().zip(x.iter()).enumerate() {
@@ -336,8 +340,7 @@ fn load_range_is_checked() {
 #[test]
 fn omp_and_nnls_are_exact_on_single_loads() {
     for method in [Method::Omp, Method::Nnls] {
-        let mut s = MethodSettings::for_method(method);
-        s.penalty = 1e-9;
+        let s = MethodSettings::for_method(method).with_penalty(1e-9);
         let (ok, n) = recover_all(method, 1, true, s);
         assert_eq!((ok, n), (8, 8), "{method:?}");
     }
@@ -347,9 +350,8 @@ fn omp_and_nnls_are_exact_on_single_loads() {
 fn lasso_with_small_penalty_recovers_single_loads_closely() {
     let a = paper_matrix();
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-    let mut s = MethodSettings::for_method(Method::Lasso);
-    s.penalty = 1e-4;
-    let r = build(Method::Lasso, &p, s).unwrap();
+    let s = MethodSettings::for_method(Method::Lasso).with_penalty(1e-4);
+    let r = build(&p, &s).unwrap();
     for x in sparse_cases(8, 1) {
         let rec = r.reconstruct(&shifts(&a, &x));
         assert!(rec.converged);
@@ -361,12 +363,14 @@ fn lasso_with_small_penalty_recovers_single_loads_closely() {
 fn de_replica_recovers_noise_free_sparse_cases() {
     let a = paper_matrix();
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-    let mut s = MethodSettings::for_method(Method::De);
     // Small run so the dev-profile test stays fast; the full 150 × 1500 is benchmarked.
-    s.de_population = 60;
-    s.de_generations = 600;
-    s.penalty = 0.5;
-    let r = build(Method::De, &p, s).unwrap();
+    let s = MethodSettings::De(DeSettings {
+        population: 60,
+        generations: 600,
+        penalty: 0.5,
+        ..DeSettings::default()
+    });
+    let r = build(&p, &s).unwrap();
     for x in [
         vec![0.0, 100.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         vec![200.0, 0.0, 0.0, 0.0, 0.0, 0.0, 50.0, 0.0],
@@ -424,9 +428,11 @@ fn every_method_respects_the_bounds_and_never_returns_nan() {
     ];
     for m in Method::ALL {
         let mut s = MethodSettings::for_method(m);
-        s.de_population = 20;
-        s.de_generations = 50;
-        let r = build(m, &p, s).unwrap();
+        if let MethodSettings::De(de) = &mut s {
+            de.population = 20;
+            de.generations = 50;
+        }
+        let r = build(&p, &s).unwrap();
         for y in &frames {
             let rec = r.reconstruct(y);
             assert_eq!(rec.loads_g.len(), 8);
@@ -459,8 +465,8 @@ fn parallel_stream_equals_frame_by_frame() {
         .map(|k| shifts(&a, &cases[k % cases.len()]))
         .collect();
     let s = MethodSettings::for_method(Method::Support);
-    let par = reconstruct_stream(&p, Method::Support, s, &frames).unwrap();
-    let r = build(Method::Support, &p, s).unwrap();
+    let par = reconstruct_stream(&p, &s, &frames).unwrap();
+    let r = build(&p, &s).unwrap();
     for (y, got) in frames.iter().zip(&par) {
         assert_eq!(&r.reconstruct(y), got);
     }
@@ -702,9 +708,8 @@ fn fixture_files_reconstruct_to_the_known_loads() {
     let s = read_shifts(&fixture("paper-model-shifts.csv"), &m.gratings).unwrap();
     assert_eq!(s.time_s.as_deref(), Some(&[0.0, 0.001, 0.002, 0.003][..]));
     let p = SensingProblem::new(m.sensitivity_pm_per_g.clone(), 250.0, true).unwrap();
-    let mut st = MethodSettings::for_method(Method::Support);
-    st.penalty = 1e-6;
-    let r = build(Method::Support, &p, st).unwrap();
+    let st = MethodSettings::for_method(Method::Support).with_penalty(1e-6);
+    let r = build(&p, &st).unwrap();
     let want = [
         [0.0, 100.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         [200.0, 0.0, 0.0, 0.0, 0.0, 0.0, 50.0, 0.0],
@@ -787,7 +792,6 @@ fn bad_values_give_clear_errors() {
         "{e}"
     );
     assert_eq!(Method::from_name("DE").unwrap(), Method::De);
-    let mut s = MethodSettings::for_method(Method::Lasso);
-    s.penalty = -1.0;
-    assert!(build(Method::Lasso, &p, s).is_err());
+    let s = MethodSettings::for_method(Method::Lasso).with_penalty(-1.0);
+    assert!(build(&p, &s).is_err());
 }

@@ -3,13 +3,13 @@
 //! objective than the truth, the load cap, the automatic method choice, and sensing
 //! matrices and shifts as users have them (numbers only, no header).
 
-use fbgforge::array::choice::{
-    choose_method, default_choice, default_choice_for_resolution, MethodChoice, PREFERENCE,
-};
+use fbgforge::array::choice::{choose_method, default_choice, MethodChoice, PREFERENCE};
 use fbgforge::array::kernel::{
     fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
 };
-use fbgforge::array::methods::{build, l0_penalty_for_resolution, Method, MethodSettings};
+use fbgforge::array::methods::{
+    build, l0_penalty_for_resolution, DeSettings, Method, MethodSettings, ReadingPrior,
+};
 use fbgforge::array::problem::SensingProblem;
 use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
 use fbgforge::progress::Quiet;
@@ -62,11 +62,8 @@ fn bnb_recovers_noise_free_frames_exactly_at_16x64_with_four_loads() {
     // Noise-free frames: the penalty must stay below the misfit of absorbing one load
     // into a neighbouring cell (coherence 0.996 here: about 1 pm² for a 100 g load),
     // else the ℓ0 optimum is rightly a smaller support. 0.1 pm² is well below.
-    let settings = MethodSettings {
-        penalty: 0.1,
-        ..MethodSettings::for_method(Method::BranchAndBound)
-    };
-    let r = build(Method::BranchAndBound, &p, settings).unwrap();
+    let settings = MethodSettings::for_method(Method::BranchAndBound).with_penalty(0.1);
+    let r = build(&p, &settings).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(64);
     for k in 1..=4 {
         for _ in 0..6 {
@@ -115,9 +112,9 @@ proptest! {
             .map(|v| v + rng.random_range(-3.0..3.0))
             .collect();
         let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-        let settings = |mm| MethodSettings { penalty: lambda, max_loads: kmax, ..MethodSettings::for_method(mm) };
-        let brute = build(Method::Support, &p, settings(Method::Support)).unwrap().reconstruct(&y);
-        let bb = build(Method::BranchAndBound, &p, settings(Method::BranchAndBound)).unwrap().reconstruct(&y);
+        let settings = |mm| MethodSettings::for_method(mm).with_penalty(lambda).with_max_loads(kmax);
+        let brute = build(&p, &settings(Method::Support)).unwrap().reconstruct(&y);
+        let bb = build(&p, &settings(Method::BranchAndBound)).unwrap().reconstruct(&y);
         prop_assert!(bb.converged);
         prop_assert!(bb.loads_g.iter().filter(|&&v| v > 0.0).count() <= kmax);
         let (cb, cs) = (l0_cost(&a, &y, &bb.loads_g, lambda), l0_cost(&a, &y, &brute.loads_g, lambda));
@@ -141,7 +138,7 @@ fn check_no_false_convergence(
     let n = a.ncols();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for &(method, settings) in methods {
-        let r = build(method, &p, settings).unwrap();
+        let r = build(&p, &settings).unwrap();
         let mut checked = 0;
         for f in 0..frames {
             let x = random_loads(n, 1 + f % 4, &mut rng);
@@ -190,11 +187,11 @@ fn no_method_claims_convergence_at_a_worse_objective_than_the_truth() {
     check_no_false_convergence(&grid_matrix(16, 16, 8, 4), &large, 8, 3);
     // DE with a population small enough to collapse early (on a wrong point, often):
     // its label must not claim convergence then.
-    let de = MethodSettings {
-        de_population: 6,
-        de_generations: 400,
-        ..s(Method::De)
-    };
+    let de = MethodSettings::De(DeSettings {
+        population: 6,
+        generations: 400,
+        ..DeSettings::default()
+    });
     check_no_false_convergence(&paper, &[(Method::De, de)], 24, 4);
     check_no_false_convergence(&grid_matrix(8, 8, 4, 4), &[(Method::De, de)], 8, 5);
 }
@@ -207,12 +204,12 @@ fn de_no_longer_returns_zeros_on_single_loads_of_a_large_array() {
     // than the true one: what counts is the objective, not the SNR.)
     let a = grid_matrix(16, 16, 8, 4);
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-    let settings = MethodSettings {
-        de_population: 20,
-        de_generations: 60,
-        ..MethodSettings::for_method(Method::De)
-    };
-    let r = build(Method::De, &p, settings).unwrap();
+    let settings = MethodSettings::De(DeSettings {
+        population: 20,
+        generations: 60,
+        ..DeSettings::default()
+    });
+    let r = build(&p, &settings).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     for _ in 0..3 {
         let x = random_loads(256, 1, &mut rng);
@@ -241,23 +238,18 @@ fn support_methods_never_use_more_loads_than_the_cap() {
         Method::WeightedSupport,
         Method::BranchAndBound,
     ] {
-        let settings = MethodSettings {
-            max_loads: 2,
-            penalty: 0.0,
-            ..MethodSettings::for_method(method)
-        };
-        let r = build(method, &p, settings).unwrap();
+        let settings = MethodSettings::for_method(method)
+            .with_max_loads(2)
+            .with_penalty(0.0);
+        let r = build(&p, &settings).unwrap();
         for _ in 0..10 {
             let x = random_loads(16, 4, &mut rng);
             let rec = r.reconstruct(&noisy(&a, &x, &mut rng));
             let used = rec.loads_g.iter().filter(|&&v| v > 0.0).count();
             assert!(used <= 2, "{} used {used} loads", method.name());
         }
-        let zero = MethodSettings {
-            max_loads: 0,
-            ..MethodSettings::for_method(method)
-        };
-        assert!(build(method, &p, zero).is_err(), "max_loads 0 is refused");
+        let zero = MethodSettings::for_method(method).with_max_loads(0);
+        assert!(build(&p, &zero).is_err(), "max_loads 0 is refused");
     }
 }
 
@@ -267,13 +259,14 @@ fn choice_takes_the_most_accurate_method_within_the_budget() {
     let a = matrix_from_positions(&c, &g, &DistanceKernel::paper());
     let p = SensingProblem::new(a, 250.0, true).unwrap();
     let settings = |m| MethodSettings::for_method(m);
+    let prior = ReadingPrior::paper();
     // A generous budget: the most accurate method.
-    let c = choose_method(&p, &settings, 1e9, None).unwrap();
+    let c = choose_method(&p, &prior, &settings, 1e9, None).unwrap();
     assert_eq!(c.method, PREFERENCE[0]);
     assert_eq!(c.candidates.len(), 1);
     assert!(c.reason.contains("most accurate"), "{}", c.reason);
     // An impossible budget: never refused, the fastest measured, and it says so.
-    let c = choose_method(&p, &settings, 1e-6, None).unwrap();
+    let c = choose_method(&p, &prior, &settings, 1e-6, None).unwrap();
     assert!(c.reason.contains("no method met"), "{}", c.reason);
     assert_eq!(c.candidates.len(), PREFERENCE.len());
     let picked = c.candidates.iter().find(|k| k.status == "picked").unwrap();
@@ -286,7 +279,7 @@ fn choice_takes_the_most_accurate_method_within_the_budget() {
     assert_eq!(picked.probe_us_per_frame, Some(fastest));
     // A bad budget is an error, not a panic.
     for bad in [0.0, -5.0, f64::NAN] {
-        assert!(choose_method(&p, &settings, bad, None).is_err());
+        assert!(choose_method(&p, &prior, &settings, bad, None).is_err());
     }
 }
 
@@ -308,15 +301,16 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
     // method, settings, reason and estimates, on synthetic and on given frames.
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+    let prior = ReadingPrior::paper();
     let mut rng = ChaCha8Rng::seed_from_u64(14);
     let frames: Vec<Vec<f64>> = (0..40)
         .map(|i| noisy(&a, &random_loads(64, 1 + i % 4, &mut rng), &mut rng))
         .collect();
     for probe in [None, Some(frames.as_slice())] {
-        let first = decision(&default_choice(&p, 4, 100.0, probe).unwrap());
+        let first = decision(&default_choice(&p, &prior, 100.0, probe).unwrap());
         assert_eq!(
             first,
-            decision(&default_choice(&p, 4, 100.0, probe).unwrap())
+            decision(&default_choice(&p, &prior, 100.0, probe).unwrap())
         );
         let stop = std::sync::atomic::AtomicBool::new(false);
         let busy = std::thread::scope(|s| {
@@ -330,7 +324,7 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
                     }
                 });
             }
-            let d = decision(&default_choice(&p, 4, 100.0, probe).unwrap());
+            let d = decision(&default_choice(&p, &prior, 100.0, probe).unwrap());
             stop.store(true, std::sync::atomic::Ordering::Relaxed);
             d
         });
@@ -345,23 +339,28 @@ fn the_choice_follows_the_estimate_at_the_budget() {
     // its full work budget; just below, it is over budget and gets a fitted one.
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a, 250.0, true).unwrap();
-    let c = default_choice(&p, 4, 3000.0, None).unwrap();
+    let prior = ReadingPrior::paper();
+    let c = default_choice(&p, &prior, 3000.0, None).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     assert_eq!(c.candidates[0].status, "estimated over budget");
     assert_eq!(c.candidates[1].status, "estimated over budget");
     let estimate = c.candidates[2].probe_us_per_frame.unwrap();
     assert!(estimate > 0.0 && estimate <= 3000.0, "{estimate}");
-    let at = default_choice(&p, 4, estimate, None).unwrap();
+    let at = default_choice(&p, &prior, estimate, None).unwrap();
     assert_eq!(
         (at.method, at.settings),
         (c.method, c.settings),
         "{}",
         at.reason
     );
-    let below = default_choice(&p, 4, 0.99 * estimate, None).unwrap();
+    let below = default_choice(&p, &prior, 0.99 * estimate, None).unwrap();
+    let node_budget = |s: &MethodSettings| match s {
+        MethodSettings::BranchAndBound(b) => b.node_budget,
+        other => panic!("not bnb: {other:?}"),
+    };
     assert!(
         below.method != Method::BranchAndBound
-            || below.settings.node_budget < c.settings.node_budget,
+            || node_budget(&below.settings) < node_budget(&c.settings),
         "{}",
         below.reason
     );
@@ -387,11 +386,15 @@ fn the_l0_penalty_follows_the_interrogator_resolution() {
     )
     .unwrap();
     // A budget where `support` is picked: its penalty is the resolution's.
-    let fine = default_choice_for_resolution(&p, 4, 0.25, 5.0, None).unwrap();
+    let prior = |resolution_pm| ReadingPrior {
+        max_loads: 4,
+        resolution_pm,
+    };
+    let fine = default_choice(&p, &prior(0.25), 5.0, None).unwrap();
     assert_eq!(fine.method, Method::Support, "{}", fine.reason);
-    assert_eq!(fine.settings.penalty, 1.0);
+    assert_eq!(fine.settings.penalty(), Some(1.0));
     for bad in [0.0, -1.0, f64::NAN] {
-        assert!(default_choice_for_resolution(&p, 4, bad, 100.0, None).is_err());
+        assert!(default_choice(&p, &prior(bad), 100.0, None).is_err());
     }
 }
 

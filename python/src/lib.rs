@@ -4,12 +4,10 @@
 //! every error is an `fbgforge.FbgforgeError` (a `ValueError`) carrying the command
 //! line's message. Heavy work runs with the GIL released.
 
-use fbgforge::array::choice::{
-    check_resolution, default_choice_for_resolution, default_settings, DEFAULT_BUDGET_US,
-};
 use fbgforge::array::kernel::matrix_from_design;
-use fbgforge::array::methods::{self as array_methods, Method};
+use fbgforge::array::methods::{self as array_methods, Method, ReadingPrior};
 use fbgforge::array::problem::{default_min_load_g, SensingProblem};
+use fbgforge::array::reconstruct::{Frames, MethodRequest, DEFAULT_BUDGET_US};
 use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::prediction::{FidelityChoice, PredictionRequest};
@@ -492,38 +490,38 @@ fn reconstruct<'py>(
     if max_loads == 0 {
         return Err(fail("max_loads must be at least 1".to_string()));
     }
-    // A named method is built as named; otherwise the array's default choice, the one
-    // `fbgforge reconstruct` makes, timed on the caller's own frames.
-    let (method, settings, reason, r) = py
-        .detach(|| -> Result<_, fbgforge::array::ArrayError> {
-            check_resolution(resolution_pm)?;
-            match method {
-                Some(name) => {
-                    let method = Method::from_name(name)?;
-                    let mut settings = default_settings(method, max_loads, resolution_pm);
-                    if let Some(p) = penalty {
-                        settings.penalty = p;
-                    }
-                    let r = array_methods::build(method, &problem, settings)?;
-                    Ok((method, settings, format!("{} as named", method.name()), r))
-                }
-                None => {
-                    let c = default_choice_for_resolution(
-                        &problem,
-                        max_loads,
-                        resolution_pm,
-                        DEFAULT_BUDGET_US,
-                        Some(&frames),
-                    )?;
-                    Ok((c.method, c.settings, c.reason, c.reconstructor))
-                }
-            }
+    let prior = ReadingPrior {
+        max_loads,
+        resolution_pm,
+    };
+    let request = match method {
+        Some(name) => MethodRequest::Named {
+            method: Method::from_name(name).map_err(|e| fail(e.to_string()))?,
+            penalty,
+        },
+        None => MethodRequest::Default {
+            budget_us: DEFAULT_BUDGET_US,
+        },
+    };
+    // A numpy matrix has no grating names: its rows are numbered as a matrix CSV
+    // without header is.
+    let gratings: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
+    let done = py
+        .detach(|| {
+            let frames = Frames {
+                gratings: &gratings,
+                shifts_pm: &frames,
+            };
+            fbgforge::array::reconstruct(
+                &problem,
+                frames,
+                &prior,
+                &request,
+                &fbgforge::progress::Quiet,
+            )
         })
         .map_err(|e| fail(e.to_string()))?;
-    let results: Vec<array_methods::Reconstruction> = py.detach(|| {
-        use rayon::prelude::*;
-        frames.par_iter().map(|f| r.reconstruct(f)).collect()
-    });
+    let results = &done.frames;
     let loads = Array2::from_shape_fn((results.len(), n), |(i, j)| results[i].loads_g[j]);
     let loads: Bound<'py, PyAny> = if one_frame {
         loads.row(0).to_owned().into_pyarray(py).into_any()
@@ -534,10 +532,10 @@ fn reconstruct<'py>(
         return Ok(loads);
     }
     let info = PyDict::new(py);
-    info.set_item("method", method.name())?;
-    info.set_item("reason", reason)?;
-    info.set_item("max_loads", settings.max_loads)?;
-    info.set_item("penalty", settings.penalty)?;
+    info.set_item("method", done.setup.method.name())?;
+    info.set_item("reason", &done.setup.reason)?;
+    info.set_item("max_loads", prior.max_loads)?;
+    info.set_item("penalty", done.setup.penalty())?;
     info.set_item(
         "converged",
         Array1::from_iter(results.iter().map(|r| r.converged)).into_pyarray(py),

@@ -20,9 +20,7 @@
 //! read as time on the reference machine; the measured time per probe frame is
 //! still reported, for information only.
 
-use super::methods::{
-    build, l0_penalty_for_resolution, Method, MethodSettings, NoisePrior, Reconstructor,
-};
+use super::methods::{build, BnbSettings, Method, MethodSettings, ReadingPrior, Reconstructor};
 use super::problem::SensingProblem;
 use super::ArrayError;
 use rand::{Rng, SeedableRng};
@@ -88,7 +86,7 @@ pub fn estimated_ns_per_frame(
 ) -> f64 {
     let (mf, nf, it) = (m as f64, n as f64, iterations as f64);
     if let Some(ns) = ns_per_support(method) {
-        support_count(n, settings.max_loads.min(m)) * ns
+        support_count(n, settings.max_loads().unwrap_or(m).min(m)) * ns
     } else if method == Method::BranchAndBound {
         it * ns_per_bnb_unit(n)
     } else if method == Method::Omp {
@@ -97,8 +95,11 @@ pub fn estimated_ns_per_frame(
         it * nf * 4.5 + nf * mf * 2.0
     } else if method == Method::Nnls {
         it.max(1.0) * nf * mf * 2.5 + 1e3
+    } else if let MethodSettings::De(de) = settings {
+        it * de.population as f64 * nf * mf
     } else {
-        it * settings.de_population as f64 * nf * mf
+        // A method without a calibrated cost: one n·m pass per iteration.
+        it.max(1.0) * nf * mf
     }
 }
 
@@ -230,72 +231,30 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// The array's default method, as every caller without a named method gets it
-/// (`reconstruct`, the live mode, the Python binding): [`choose_method`] with each
-/// method's default settings under a cap of `max_loads` simultaneous loads.
+/// The array's default method for readings of this kind (`prior`: load cap and
+/// interrogator resolution): [`choose_method`] with each method's settings for the
+/// prior ([`MethodSettings::for_prior`]). Callers outside this module reach it
+/// through [`crate::array::reconstruct()`], the one place a method is picked.
 pub fn default_choice(
     problem: &SensingProblem,
-    max_loads: usize,
+    prior: &ReadingPrior,
     budget_us: f64,
     probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
-    default_choice_for_resolution(
-        problem,
-        max_loads,
-        NoisePrior::paper().resolution_pm,
-        budget_us,
-        probe,
-    )
-}
-
-/// [`default_choice`] for an interrogator of a known resolution (noise standard
-/// deviation, pm): the ℓ0 penalty of `support` and `bnb` follows it
-/// ([`l0_penalty_for_resolution`]); the other methods keep their defaults.
-pub fn default_choice_for_resolution(
-    problem: &SensingProblem,
-    max_loads: usize,
-    resolution_pm: f64,
-    budget_us: f64,
-    probe: Option<&[Vec<f64>]>,
-) -> Result<MethodChoice, ArrayError> {
-    check_resolution(resolution_pm)?;
-    let settings_for = |m: Method| default_settings(m, max_loads, resolution_pm);
-    choose_method(problem, &settings_for, budget_us, probe)
-}
-
-/// A method's default settings for an array read with up to `max_loads` loads by an
-/// interrogator of `resolution_pm` (noise standard deviation, pm): the ℓ0 penalty of
-/// `support` and `bnb` from the resolution, every other setting the method's default.
-/// The one rule [`default_choice_for_resolution`] and a named method both follow.
-pub fn default_settings(method: Method, max_loads: usize, resolution_pm: f64) -> MethodSettings {
-    let mut s = MethodSettings {
-        max_loads,
-        ..MethodSettings::for_method(method)
-    };
-    if method == Method::Support || method == Method::BranchAndBound {
-        s.penalty = l0_penalty_for_resolution(resolution_pm);
-    }
-    s
-}
-
-/// A resolution must be a positive, finite noise in pm.
-pub fn check_resolution(resolution_pm: f64) -> Result<(), ArrayError> {
-    if resolution_pm.is_finite() && resolution_pm > 0.0 {
-        Ok(())
-    } else {
-        Err(ArrayError::Input(format!(
-            "the interrogator resolution must be a positive noise in pm, got {resolution_pm}"
-        )))
-    }
+    prior.check()?;
+    let settings_for = |m: Method| MethodSettings::for_prior(m, prior);
+    choose_method(problem, prior, &settings_for, budget_us, probe)
 }
 
 /// Choose the default method for `problem`: the first of [`PREFERENCE`] whose median
 /// estimated time per probe frame is within `budget_us`, else the one with the
 /// smallest estimate. Deterministic: it does not read the clock to decide.
 /// `settings_for` gives each method's settings (penalty, max loads); `probe` are the
-/// caller's frames (twelve spread over them are timed), or None to synthesise them.
+/// caller's frames (twelve spread over them are timed), or None to synthesise them
+/// with up to `prior.max_loads` loads (also when none of the caller's is usable).
 pub fn choose_method(
     problem: &SensingProblem,
+    prior: &ReadingPrior,
     settings_for: &dyn Fn(Method) -> MethodSettings,
     budget_us: f64,
     probe: Option<&[Vec<f64>]>,
@@ -305,7 +264,7 @@ pub fn choose_method(
             "the per-frame budget must be a positive time in µs, got {budget_us}"
         )));
     }
-    let mut chooser = Chooser::new(problem, budget_us, probe);
+    let mut chooser = Chooser::new(problem, budget_us, prior.max_loads, probe);
     for method in PREFERENCE {
         if let Some(choice) = chooser.try_method(method, settings_for(method)) {
             return Ok(choice);
@@ -350,8 +309,8 @@ struct Built {
 struct Chooser<'a> {
     problem: &'a SensingProblem,
     budget_us: f64,
-    /// The caller's usable probe frames (empty: synthesise per method).
-    usable: Vec<Vec<f64>>,
+    /// The probe frames: the caller's usable ones, else synthesised.
+    frames: Vec<Vec<f64>>,
     probed_on_data: bool,
     /// " of the data" or ", synthetic", for the notes.
     source: &'static str,
@@ -362,14 +321,25 @@ struct Chooser<'a> {
 }
 
 impl<'a> Chooser<'a> {
-    /// Pick the probe frames and start with no candidates.
-    fn new(problem: &'a SensingProblem, budget_us: f64, probe: Option<&[Vec<f64>]>) -> Self {
+    /// Pick the probe frames (synthesised with up to `max_loads` loads when the
+    /// caller has no usable one) and start with no candidates.
+    fn new(
+        problem: &'a SensingProblem,
+        budget_us: f64,
+        max_loads: usize,
+        probe: Option<&[Vec<f64>]>,
+    ) -> Self {
         let usable = usable_probe_frames(problem, probe);
         let probed_on_data = !usable.is_empty();
+        let frames = if probed_on_data {
+            usable
+        } else {
+            synthetic_probe_frames(problem, max_loads)
+        };
         Chooser {
             problem,
             budget_us,
-            usable,
+            frames,
             probed_on_data,
             source: if probed_on_data {
                 " of the data"
@@ -385,12 +355,11 @@ impl<'a> Chooser<'a> {
 
     /// Judge one method; the choice if it is within the budget.
     fn try_method(&mut self, method: Method, settings: MethodSettings) -> Option<MethodChoice> {
-        let frames = if self.probed_on_data {
-            self.usable.clone()
-        } else {
-            synthetic_probe_frames(self.problem, settings.max_loads)
-        };
-        let kmax = settings.max_loads.min(self.m).min(self.n);
+        let kmax = settings
+            .max_loads()
+            .unwrap_or(self.m)
+            .min(self.m)
+            .min(self.n);
         // An enumeration does the same work on every frame: no need to run it.
         let enumeration = ns_per_support(method).map(|ns| (support_count(self.n, kmax), ns));
         if let Some((count, ns)) = enumeration {
@@ -400,7 +369,7 @@ impl<'a> Chooser<'a> {
                 return None;
             }
         }
-        match self.build_and_probe(method, settings, &frames) {
+        match self.build_and_probe(settings, &self.frames) {
             Ok(built) => self.judge_probed(method, built, enumeration),
             Err(e) => {
                 self.candidates.push(Candidate {
@@ -444,15 +413,14 @@ impl<'a> Chooser<'a> {
         }
     }
 
-    /// Build `method` and run it on the probe frames (`bnb` over the budget: refitted).
+    /// Build a method and run it on the probe frames (`bnb` over the budget: refitted).
     fn build_and_probe(
         &self,
-        method: Method,
         settings: MethodSettings,
         frames: &[Vec<f64>],
     ) -> Result<Built, ArrayError> {
         let t0 = Instant::now();
-        let r = build(method, self.problem, settings)?;
+        let r = build(self.problem, &settings)?;
         let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
         let p = probe_frames(r.as_ref(), &settings, (self.m, self.n), frames);
         let mut built = Built {
@@ -462,7 +430,7 @@ impl<'a> Chooser<'a> {
             p,
             fitted: String::new(),
         };
-        if method == Method::BranchAndBound && built.p.estimate_us > self.budget_us {
+        if built.p.estimate_us > self.budget_us {
             self.fit_bnb_budget(&mut built, frames);
         }
         Ok(built)
@@ -471,14 +439,22 @@ impl<'a> Chooser<'a> {
     /// `bnb` over the budget: give it the work budget that fits, with a margin for
     /// the incumbent's search, which runs before the budget is checked (its answer
     /// is then the best support found, certified only where the search completed).
+    /// Any other method is left as it is.
     fn fit_bnb_budget(&self, built: &mut Built, frames: &[Vec<f64>]) {
+        let MethodSettings::BranchAndBound(bnb) = built.settings else {
+            return;
+        };
         let units = (0.7 * self.budget_us * 1e3 / ns_per_bnb_unit(self.n))
             .floor()
             .max(50.0) as u64;
-        if units < built.settings.node_budget {
-            built.settings.node_budget = units;
+        if units < bnb.node_budget {
+            let settings = MethodSettings::BranchAndBound(BnbSettings {
+                node_budget: units,
+                ..bnb
+            });
             let t1 = Instant::now();
-            if let Ok(rb) = build(Method::BranchAndBound, self.problem, built.settings) {
+            if let Ok(rb) = build(self.problem, &settings) {
+                built.settings = settings;
                 built.setup_ms += 1e3 * t1.elapsed().as_secs_f64();
                 built.r = rb;
                 built.p = probe_frames(built.r.as_ref(), &built.settings, (self.m, self.n), frames);
@@ -565,7 +541,7 @@ impl<'a> Chooser<'a> {
             Some(r) => r,
             None => {
                 let t0 = Instant::now();
-                let r = build(method, problem, settings)?;
+                let r = build(problem, &settings)?;
                 candidates[idx].setup_ms = Some(1e3 * t0.elapsed().as_secs_f64());
                 r
             }

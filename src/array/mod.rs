@@ -15,7 +15,10 @@
 //!   ([`methods::Method::ALL`]), with one result type ([`methods::Reconstruction`]);
 //! * [`choice`]: the default method — the most accurate one within a per-frame time
 //!   budget for the array's size ([`choice::choose_method`]);
-//! * [`run`]: the use case, [`reconstruct_file`];
+//! * [`mod@reconstruct`]: the one place a method is picked (named, or the default
+//!   choice) and frames are reconstructed, in memory: [`fn@reconstruct`] and
+//!   [`reconstruct::prepare`] (the live mode's);
+//! * [`run`]: the file use case, [`reconstruct_file`];
 //! * [`protocol`]: the paper's 84-test protocol simulated with a seeded noise model,
 //!   and the metrics of Table 3 (SNR, SEM, relative error, RR).
 //!
@@ -27,6 +30,7 @@ pub mod kernel;
 pub mod methods;
 pub mod problem;
 pub mod protocol;
+pub mod reconstruct;
 pub mod run;
 
 use nalgebra::DMatrix;
@@ -77,4 +81,5 @@ pub enum ArrayError {
         known: String,
     },
 }
+pub use reconstruct::{reconstruct, Frames, MethodRequest};
 pub use run::reconstruct_file;

@@ -565,14 +565,13 @@ pub struct ProtocolRun {
     pub cases: Vec<CaseResult>,
 }
 
-/// Run `cases` through one method; returns per-case results.
+/// Run `cases` through one method (named by its settings); returns per-case results.
 pub fn evaluate(
-    method: Method,
     problem: &SensingProblem,
-    settings: MethodSettings,
+    settings: &MethodSettings,
     cases: &[TestCase],
 ) -> Result<Vec<CaseResult>> {
-    let r = build(method, problem, settings)?;
+    let r = build(problem, settings)?;
     Ok(cases
         .iter()
         .map(|c| {
@@ -592,26 +591,18 @@ pub fn evaluate(
 
 /// Tune the penalty on a validation set: the grid value with the highest mean SNR
 /// (the paper tunes σ on 22 validation measurements; its criterion is not stated).
+/// A method without a penalty keeps its settings.
 pub fn tune_penalty(
-    method: Method,
     problem: &SensingProblem,
     base: MethodSettings,
     validation: &[TestCase],
-) -> Result<f64> {
-    if !method.has_penalty() {
-        return Ok(base.penalty);
-    }
-    let mut best = (f64::NEG_INFINITY, base.penalty);
-    for pen in method.penalty_grid() {
-        let res = evaluate(
-            method,
-            problem,
-            MethodSettings {
-                penalty: pen,
-                ..base
-            },
-            validation,
-        )?;
+) -> Result<MethodSettings> {
+    let Some(start) = base.penalty() else {
+        return Ok(base);
+    };
+    let mut best = (f64::NEG_INFINITY, start);
+    for pen in base.method().penalty_grid() {
+        let res = evaluate(problem, &base.with_penalty(pen), validation)?;
         let s = summarise(&res, 0);
         // Rank by RR first, then by mean SNR, so one outlier cannot dominate.
         let score = s.rr_pct * 1e3 + s.mean_snr_db;
@@ -619,7 +610,7 @@ pub fn tune_penalty(
             best = (score, pen);
         }
     }
-    Ok(best.1)
+    Ok(base.with_penalty(best.1))
 }
 
 /// Run the seeded protocol for one method on the array whose true matrix is `true_a`.
@@ -636,21 +627,22 @@ pub fn run_protocol(
     let validation = validation_cases(true_a, cfg, &mut rng_val);
     let problem = SensingProblem::new(measured.clone(), cfg.ulimit_g, cfg.normalise)?
         .with_min_load_g(cfg.min_load_g)?;
-    let mut settings = MethodSettings::for_method(method);
-    settings.de_generations = cfg.de_generations;
-    settings.de_population = cfg.de_population;
-    settings.max_loads = cfg.max_loads;
-    settings.seed ^= cfg.seed;
-    if cfg.tune_penalty {
-        settings.penalty = tune_penalty(method, &problem, settings, &validation)?;
+    let mut settings = MethodSettings::for_method(method).with_max_loads(cfg.max_loads);
+    if let MethodSettings::De(de) = &mut settings {
+        de.generations = cfg.de_generations;
+        de.population = cfg.de_population;
+        de.seed ^= cfg.seed;
     }
-    let results = evaluate(method, &problem, settings, &cases)?;
+    if cfg.tune_penalty {
+        settings = tune_penalty(&problem, settings, &validation)?;
+    }
+    let results = evaluate(&problem, &settings, &cases)?;
     let mut counts: Vec<usize> = results.iter().map(|r| r.n_loads).collect();
     counts.sort_unstable();
     counts.dedup();
     Ok(ProtocolRun {
         method,
-        penalty: settings.penalty,
+        penalty: settings.penalty().unwrap_or(0.0),
         normalised: cfg.normalise,
         by_load_count: counts.iter().map(|&k| summarise(&results, k)).collect(),
         overall: summarise(&results, 0),

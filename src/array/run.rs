@@ -1,20 +1,18 @@
 //! The reconstruction use case: a sensing matrix (measured CSV or a design's model)
 //! and a file of grating shifts in, the loads CSV and a summary out. `fbgforge
-//! reconstruct` calls [`reconstruct_file`].
+//! reconstruct` calls [`reconstruct_file`]; the method is picked and the frames
+//! reconstructed by [`super::reconstruct()`].
 
-use super::choice::{
-    check_resolution, default_choice_for_resolution, default_settings, Candidate, DEFAULT_BUDGET_US,
-};
 use super::io::{read_matrix_file, read_shifts_for, write_loads};
 use super::kernel::matrix_from_design;
-use super::methods::{
-    build, reconstruct_frames, Method, MethodSettings, NoisePrior, Reconstructor, DEFAULT_MAX_LOADS,
-};
+use super::methods::{check_resolution, Method, NoisePrior, ReadingPrior, DEFAULT_MAX_LOADS};
 use super::problem::{default_min_load_g, SensingProblem};
+use super::reconstruct::{reconstruct, Frames, MethodRequest, DEFAULT_BUDGET_US};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+
+pub use super::reconstruct::ChoiceSummary;
 
 /// The paper's ulimit, used when neither the request nor a design gives one, g.
 pub const PAPER_ULIMIT_G: f64 = 250.0;
@@ -81,19 +79,6 @@ impl ReconstructRequest {
             out: None,
         }
     }
-}
-
-/// How the default method was chosen (absent when a method was named).
-#[derive(Debug, Serialize)]
-pub struct ChoiceSummary {
-    /// Per-frame budget, µs.
-    pub budget_us: f64,
-    /// Which method and why, in one sentence.
-    pub reason: String,
-    /// Whether the probe frames were frames of the data (else synthetic).
-    pub probed_on_data: bool,
-    /// Every method considered, most accurate first.
-    pub candidates: Vec<Candidate>,
 }
 
 /// JSON summary of a reconstruction run.
@@ -178,52 +163,37 @@ pub fn reconstruct_file(
         .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?;
     let resolution_pm = a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm);
     check_resolution(resolution_pm).map_err(|e| anyhow::anyhow!("--resolution-pm: {e}"))?;
-    let settings_for = |m: Method| default_settings(m, max_loads, resolution_pm);
-    let t0 = Instant::now();
-    let (method, settings, reconstructor, choice): (
-        Method,
-        MethodSettings,
-        Box<dyn Reconstructor>,
-        Option<ChoiceSummary>,
-    ) = match named {
-        Some(m) => {
-            let mut settings = settings_for(m);
-            if let Some(p) = a.penalty {
-                settings.penalty = p;
-            }
-            (m, settings, build(m, &problem, settings)?, None)
-        }
+    let prior = ReadingPrior {
+        max_loads,
+        resolution_pm,
+    };
+    let request = match named {
+        Some(method) => MethodRequest::Named {
+            method,
+            penalty: a.penalty,
+        },
         None => {
             let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
-            let c = default_choice_for_resolution(
-                &problem,
-                max_loads,
-                resolution_pm,
-                budget_us,
-                Some(&stream.frames_pm),
-            )
-            .map_err(|e| anyhow::anyhow!("--budget-us: {e}"))?;
-            let summary = ChoiceSummary {
-                budget_us,
-                reason: c.reason,
-                probed_on_data: c.probed_on_data,
-                candidates: c.candidates,
-            };
-            (c.method, c.settings, c.reconstructor, Some(summary))
+            if !(budget_us.is_finite() && budget_us > 0.0) {
+                bail!("--budget-us: the per-frame budget must be a positive time in µs, got {budget_us}");
+            }
+            MethodRequest::Default { budget_us }
         }
     };
-    let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
-    let t1 = Instant::now();
-    let results = reconstruct_frames(reconstructor.as_ref(), &stream.frames_pm, progress);
-    let elapsed = t1.elapsed().as_secs_f64();
+    let frames = Frames {
+        gratings: &matrix.gratings,
+        shifts_pm: &stream.frames_pm,
+    };
+    let done = reconstruct(&problem, frames, &prior, &request, progress)?;
+    let results = &done.frames;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
     let loads: Vec<Vec<f64>> = results.iter().map(|r| r.loads_g.clone()).collect();
     write_loads(&out, &matrix.cells, stream.time_s.as_deref(), &loads)?;
     let n = results.len().max(1) as f64;
     let summary = ReconstructSummary {
-        method: method.name(),
-        choice,
-        penalty: settings.penalty,
+        method: done.setup.method.name(),
+        penalty: done.setup.penalty(),
+        choice: done.setup.choice,
         max_loads: max_loads.min(matrix.n_gratings()).min(matrix.n_cells()),
         normalised: a.normalise,
         ulimit_g,
@@ -236,13 +206,9 @@ pub fn reconstruct_file(
             .collect(),
         cells: matrix.cells.clone(),
         max_residual_pm: results.iter().map(|r| r.residual_pm).fold(0.0, f64::max),
-        setup_ms,
-        time_per_frame_us: 1e6 * elapsed / n,
-        threads: if results.len() >= 512 {
-            rayon::current_num_threads()
-        } else {
-            1
-        },
+        setup_ms: done.setup.setup_ms,
+        time_per_frame_us: done.time_per_frame_us,
+        threads: done.threads,
         out: out.clone(),
     };
     Ok(summary)

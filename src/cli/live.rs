@@ -48,6 +48,15 @@ pub struct LiveArgs {
     /// Array: reconstruction method (default: the array's default method).
     #[arg(long)]
     pub method: Option<String>,
+    /// Array: the interrogator's resolution, the noise standard deviation of a shift,
+    /// pm; sets the ℓ0 penalty of support and bnb to 16 × resolution², as in
+    /// `reconstruct` (default: the paper's 0.5 pm, λ = 4).
+    #[arg(long, default_value_t = 0.5)]
+    pub resolution_pm: f64,
+    /// Array: per-frame time budget of the default method choice, µs (10 000
+    /// frames/s on one thread by default). Ignored with --method.
+    #[arg(long, default_value_t = 100.0)]
+    pub budget_us: f64,
     /// Module: the core plugged in (default: the design's first core).
     #[arg(long)]
     pub core: Option<String>,
@@ -143,6 +152,18 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
             a.give_up_s
         );
     }
+    if !(a.resolution_pm.is_finite() && a.resolution_pm > 0.0) {
+        bail!(
+            "--resolution-pm must be a positive noise in pm, got {}",
+            a.resolution_pm
+        );
+    }
+    if !(a.budget_us.is_finite() && a.budget_us > 0.0) {
+        bail!(
+            "--budget-us must be a positive time in µs, got {}",
+            a.budget_us
+        );
+    }
     if let Some(s) = a.idle_exit_s.filter(|s| !(s.is_finite() && *s >= 0.0)) {
         bail!("--idle-exit-s must be a number of seconds ≥ 0, got {s}");
     }
@@ -162,6 +183,8 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
         fidelity: a.fidelity.into(),
         calibrated_k_pm_per_n: calibrated,
         method: a.method.clone(),
+        resolution_pm: a.resolution_pm,
+        budget_us: a.budget_us,
     };
     req.max_frames = a.frames;
     req.duration_s = a.duration_s;

@@ -9,10 +9,12 @@
 //! unloaded (a printed grating is rarely at its nominal wavelength to the picometre).
 
 use super::source::Frame;
-use crate::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use crate::array::kernel::matrix_from_design;
-use crate::array::methods::{self, Method, MethodSettings, Reconstruction, Reconstructor};
+use crate::array::methods::{
+    self, Method, MethodSettings, NoisePrior, ReadingPrior, Reconstruction,
+};
 use crate::array::problem::{default_min_load_g, SensingProblem};
+use crate::array::reconstruct::{prepare, MethodRequest, Setup, DEFAULT_BUDGET_US};
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
@@ -40,6 +42,13 @@ pub struct InterpretOptions {
     pub calibrated_k_pm_per_n: BTreeMap<String, f64>,
     /// Array: the method (default: the library's default for the array).
     pub method: Option<String>,
+    /// Array: the interrogator's resolution, the noise standard deviation of a
+    /// shift, pm; it sets the ℓ0 penalty of `support` and `bnb` as in `reconstruct`
+    /// (default: the paper's 0.5 pm).
+    pub resolution_pm: f64,
+    /// Array: per-frame time budget of the default method choice, µs (default
+    /// [`DEFAULT_BUDGET_US`]); ignored when a method is named.
+    pub budget_us: f64,
 }
 
 impl Default for InterpretOptions {
@@ -53,6 +62,8 @@ impl Default for InterpretOptions {
             fidelity: FidelityChoice::Auto,
             calibrated_k_pm_per_n: BTreeMap::new(),
             method: None,
+            resolution_pm: NoisePrior::paper().resolution_pm,
+            budget_us: DEFAULT_BUDGET_US,
         }
     }
 }
@@ -184,9 +195,9 @@ impl Tare {
     }
 }
 
-/// The array part: problem and reconstructor.
+/// The array part: the method set up for the design's matrix.
 struct ArrayPart {
-    reconstructor: Box<dyn Reconstructor>,
+    setup: Setup,
     cells_x: usize,
     cells_y: usize,
     ulimit_g: f64,
@@ -261,23 +272,20 @@ impl Interpreter {
             .max_loads
             .map(|k| k as usize)
             .unwrap_or(methods::DEFAULT_MAX_LOADS);
-        // A named method is built as named; otherwise the array's default choice (the
-        // one `reconstruct` and the Python binding make), probed on synthetic frames
-        // because no frame has arrived yet.
-        let (method, reconstructor) = match &opts.method {
-            Some(m) => {
-                let method = Method::from_name(m)?;
-                let settings = MethodSettings {
-                    max_loads,
-                    ..MethodSettings::for_method(method)
-                };
-                (method, methods::build(method, &problem, settings)?)
-            }
-            None => {
-                let c = default_choice(&problem, max_loads, DEFAULT_BUDGET_US, None)?;
-                (c.method, c.reconstructor)
-            }
+        let prior = ReadingPrior {
+            max_loads,
+            resolution_pm: opts.resolution_pm,
         };
+        let request = match &opts.method {
+            Some(m) => MethodRequest::named(Method::from_name(m)?),
+            None => MethodRequest::Default {
+                budget_us: opts.budget_us,
+            },
+        };
+        // The same decision `reconstruct` and the Python binding make; the default
+        // choice is probed on synthetic frames because no frame has arrived yet.
+        let setup = prepare(&problem, &prior, &request, None)?;
+        let method = setup.method;
         let names: Vec<String> = a.gratings.iter().map(|g| g.name.clone()).collect();
         let nominal: Vec<f64> = a.gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
         let windows = Self::windows(&names, &nominal, opts)?;
@@ -288,7 +296,7 @@ impl Interpreter {
             nominal_nm: nominal,
             outputs: matrix.cells.clone(),
             array: Some(ArrayPart {
-                reconstructor,
+                setup,
                 cells_x: a.cells_x as usize,
                 cells_y: a.cells_y as usize,
                 ulimit_g,
@@ -297,11 +305,12 @@ impl Interpreter {
             method: Some(method),
             scratch: Vec::new(),
             description: format!(
-                "array {}×{} cells, {} gratings, method {}",
+                "array {}×{} cells, {} gratings, method {} (resolution {} pm)",
                 a.cells_x,
                 a.cells_y,
                 names.len(),
-                method.name()
+                method.name(),
+                prior.resolution_pm
             ),
         })
     }
@@ -563,6 +572,11 @@ impl Interpreter {
         self.method
     }
 
+    /// The settings the array's method was built with (array only).
+    pub fn method_settings(&self) -> Option<&MethodSettings> {
+        self.array.as_ref().map(|a| &a.setup.settings)
+    }
+
     /// K per strain grating, pm/N (module).
     pub fn sensitivities_pm_per_n(&self) -> Vec<f64> {
         self.module
@@ -659,7 +673,7 @@ impl Interpreter {
     /// reconstructed in parallel (rayon) when the batch is large enough to pay for it.
     pub fn solve(&mut self, batch: &[Prepared]) -> Vec<Reading> {
         if let Some(array) = &self.array {
-            let r = &array.reconstructor;
+            let r = &array.setup;
             let one = |p: &Prepared| -> Reading {
                 let Reconstruction {
                     loads_g,
@@ -760,6 +774,49 @@ mod tests {
                 assert_eq!(forces_n[1], None);
             }
             r => panic!("{r:?}"),
+        }
+    }
+
+    #[test]
+    fn the_array_method_follows_the_stated_resolution_as_reconstruct_does() {
+        let design =
+            crate::design::parse(include_str!("../../designs/tactile-array-60x80.toml")).unwrap();
+        let (m, ulimit_g) = matrix_from_design(&design).unwrap();
+        let problem = SensingProblem::new(m.sensitivity_pm_per_g.clone(), ulimit_g, true)
+            .unwrap()
+            .with_min_load_g(default_min_load_g(ulimit_g))
+            .unwrap();
+        let max_loads = design.array.as_ref().unwrap().max_loads;
+        let prior = |resolution_pm| ReadingPrior {
+            max_loads: max_loads.map_or(methods::DEFAULT_MAX_LOADS, |k| k as usize),
+            resolution_pm,
+        };
+        // λ = 16 σ²: 4 at the paper's 0.5 pm (the default), 1 at 0.25 pm.
+        for (resolution_pm, lambda) in [(0.5, 4.0), (0.25, 1.0)] {
+            for method in [Some("bnb"), None] {
+                let it = Interpreter::new(
+                    &design,
+                    &InterpretOptions {
+                        tare_frames: 0,
+                        method: method.map(str::to_string),
+                        resolution_pm,
+                        ..InterpretOptions::default()
+                    },
+                )
+                .unwrap();
+                let request = match method {
+                    Some(_) => MethodRequest::named(Method::BranchAndBound),
+                    None => MethodRequest::Default {
+                        budget_us: DEFAULT_BUDGET_US,
+                    },
+                };
+                let want = prepare(&problem, &prior(resolution_pm), &request, None).unwrap();
+                assert_eq!(it.method(), Some(want.method));
+                assert_eq!(it.method_settings(), Some(&want.settings));
+                if method.is_some() {
+                    assert_eq!(want.settings.penalty(), Some(lambda));
+                }
+            }
         }
     }
 

@@ -1,21 +1,32 @@
 //! The one solver layer, argmin style, for everything fbgforge minimises: a problem is
 //! a [`BoxProblem`] (a penalised cost over a box), the method is a [`SolverKind`]
-//! (Nelder–Mead, particle swarm, differential evolution) run by argmin's `Executor`,
-//! which owns iteration, stopping and the observer that records the convergence
-//! history; the best point is read from argmin's state. [`multi_start`] runs several
-//! starts of several solvers in parallel (rayon) and keeps every run for the report.
+//! (Nelder–Mead, particle swarm, differential evolution): an argmin `Solver`, a
+//! small type that only says how to start and how to step. One run loop,
+//! [`execute`], hands it to argmin's `Executor`, which owns iteration, stopping and
+//! the observer that records the convergence history, and reads the best point from
+//! the final state ([`RunState`]). [`multi_start`] runs several starts of several
+//! solvers in parallel (rayon) and keeps every run for the report.
 //!
 //! Users: module optimisation and grating placement ([`crate::optimize`]) through
 //! [`run_one`]/[`multi_start`]; the lag fit of the verifier through
-//! [`nelder_mead::minimise`]; the `de` reconstruction method through
+//! [`nelder_mead::minimise`]; the `de` reconstruction method through [`execute`] with
 //! [`differential_evolution::DifferentialEvolution`].
+//!
+//! A new solver: a file here with its argmin `Solver` (as
+//! [`differential_evolution`]), a [`SolverKind`] variant and the line in
+//! [`run_one`] that builds it; a new argmin state shape also implements
+//! [`RunState`].
 
 pub mod differential_evolution;
 pub mod nelder_mead;
 
 use argmin::core::observers::{Observe, ObserverMode};
-use argmin::core::{CostFunction, Error, Executor, State, KV};
-use argmin::solver::particleswarm::ParticleSwarm;
+use argmin::core::{
+    ArgminError, CostFunction, Error, Executor, IterState, PopulationState, Solver, State,
+    TerminationReason, KV,
+};
+use argmin::solver::neldermead::NelderMead;
+use argmin::solver::particleswarm::{Particle, ParticleSwarm};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -139,21 +150,21 @@ struct Boxed<'a, P: BoxProblem> {
     evaluations: Arc<AtomicU64>,
 }
 
-impl<P: BoxProblem> Boxed<'_, P> {
-    fn project(&self, x: &[f64]) -> (Vec<f64>, f64) {
-        let mut outside = 0.0;
-        let y = x
-            .iter()
-            .zip(self.lo.iter().zip(&self.hi))
-            .map(|(&v, (&l, &h))| {
-                let c = if v.is_finite() { v.clamp(l, h) } else { l };
-                let span = (h - l).max(1e-12);
-                outside += ((v - c) / span).powi(2);
-                c
-            })
-            .collect();
-        (y, outside)
-    }
+/// `x` clamped into [lo, hi] (a non-finite value goes to the lower bound), and the
+/// squared distance outside, each coordinate in units of its range.
+fn project(lo: &[f64], hi: &[f64], x: &[f64]) -> (Vec<f64>, f64) {
+    let mut outside = 0.0;
+    let y = x
+        .iter()
+        .zip(lo.iter().zip(hi))
+        .map(|(&v, (&l, &h))| {
+            let c = if v.is_finite() { v.clamp(l, h) } else { l };
+            let span = (h - l).max(1e-12);
+            outside += ((v - c) / span).powi(2);
+            c
+        })
+        .collect();
+    (y, outside)
 }
 
 impl<P: BoxProblem> CostFunction for Boxed<'_, P> {
@@ -161,12 +172,17 @@ impl<P: BoxProblem> CostFunction for Boxed<'_, P> {
     type Output = f64;
     fn cost(&self, x: &Vec<f64>) -> Result<f64, Error> {
         self.evaluations.fetch_add(1, Ordering::Relaxed);
-        let (y, outside) = self.project(x);
+        let (y, outside) = project(&self.lo, &self.hi, x);
         let c = self.problem.cost(&y);
         let c = if c.is_finite() { c } else { 1e12 };
         Ok(c + 1e3 * outside)
     }
 }
+
+/// The observer type for runs nobody watches (`None` in [`execute`]).
+pub struct Unobserved;
+
+impl<I> Observe<I> for Unobserved {}
 
 /// Records the best cost after every iteration.
 struct History(Arc<Mutex<Vec<f64>>>);
@@ -180,8 +196,90 @@ impl<I: State<Float = f64>> Observe<I> for History {
     }
 }
 
+/// What a run of the executor found, read from argmin's final state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Minimum {
+    /// Best point.
+    pub best_x: Vec<f64>,
+    /// Its cost.
+    pub best_cost: f64,
+    /// Iterations done.
+    pub iterations: u64,
+    /// Why it stopped, as argmin reports it.
+    pub termination: String,
+    /// Whether the solver's own convergence test stopped it (not the iteration
+    /// limit).
+    pub solver_converged: bool,
+}
+
+/// The state of a solver of this layer, as the run loop needs it: an iteration
+/// limit to set and a best point to read. argmin's states keep the best point in
+/// different shapes (a vector, a particle).
+pub trait RunState: State<Float = f64> {
+    /// The same state with an iteration limit.
+    fn with_max_iters(self, max_iters: u64) -> Self;
+    /// The best point so far.
+    fn best_point(&self) -> Option<Vec<f64>>;
+}
+
+impl RunState for IterState<Vec<f64>, (), (), (), (), f64> {
+    fn with_max_iters(self, max_iters: u64) -> Self {
+        self.max_iters(max_iters)
+    }
+    fn best_point(&self) -> Option<Vec<f64>> {
+        self.get_best_param().cloned()
+    }
+}
+
+impl RunState for PopulationState<Particle<Vec<f64>, f64>, f64> {
+    fn with_max_iters(self, max_iters: u64) -> Self {
+        self.max_iters(max_iters)
+    }
+    fn best_point(&self) -> Option<Vec<f64>> {
+        self.get_best_param().map(|p| p.position.clone())
+    }
+}
+
+/// The one run loop of the layer: argmin's executor runs `solver` on `cost` for at
+/// most `max_iters` iterations and owns the iteration, the stopping tests and the
+/// observer; the best point is read from its final state. Every solver (an argmin
+/// [`Solver`] whose state is a [`RunState`]) runs through here: the optimisers'
+/// through [`run_one`], the verifier's lag fit through [`nelder_mead::minimise`],
+/// the `de` reconstruction method frame by frame.
+pub fn execute<C, S, I, O>(
+    cost: C,
+    solver: S,
+    max_iters: u64,
+    observer: Option<O>,
+) -> Result<Minimum, Error>
+where
+    S: Solver<C, I>,
+    I: RunState,
+    O: Observe<I> + 'static,
+{
+    let mut exec = Executor::new(cost, solver).configure(|s| s.with_max_iters(max_iters));
+    if let Some(o) = observer {
+        exec = exec.add_observer(o, ObserverMode::Always);
+    }
+    let res = exec.run()?;
+    let st = res.state();
+    let best_x = st.best_point().ok_or_else(|| ArgminError::NotInitialized {
+        text: "the solver reported no best point".into(),
+    })?;
+    Ok(Minimum {
+        best_x,
+        best_cost: st.get_best_cost(),
+        iterations: st.get_iter(),
+        termination: st.get_termination_status().to_string(),
+        solver_converged: matches!(
+            st.get_termination_reason(),
+            Some(TerminationReason::SolverConverged)
+        ),
+    })
+}
+
 /// Run one solver on `problem` from `start` (Nelder–Mead) or over the box with `seed`
-/// (particle swarm).
+/// (particle swarm, differential evolution).
 pub fn run_one<P: BoxProblem>(
     problem: &P,
     kind: SolverKind,
@@ -202,15 +300,10 @@ pub fn run_one<P: BoxProblem>(
         hi: hi.clone(),
         evaluations: evaluations.clone(),
     };
-    let projector = Boxed {
-        problem,
-        lo: lo.clone(),
-        hi: hi.clone(),
-        evaluations: evaluations.clone(),
-    };
     let history = Arc::new(Mutex::new(Vec::new()));
+    let observer = Some(History(history.clone()));
     let t0 = Instant::now();
-    let (best_x, best_cost, iterations, termination) = match kind {
+    let found = match kind {
         SolverKind::NelderMead => {
             let steps: Vec<f64> = lo
                 .iter()
@@ -218,70 +311,33 @@ pub fn run_one<P: BoxProblem>(
                 .map(|(l, h)| settings.simplex_share * (h - l))
                 .collect();
             let simplex = nelder_mead::simplex_inside(start, &steps, &hi);
-            let observer = History(history.clone());
-            let m = nelder_mead::minimise(
-                boxed,
-                simplex,
-                settings.sd_tolerance,
-                settings.max_iters,
-                Some(observer),
-            )
-            .map_err(|e| anyhow::anyhow!("nelder-mead: {e}"))?;
-            (m.best_x, m.best_cost, m.iterations, m.termination)
+            let solver = NelderMead::new(simplex).with_sd_tolerance(settings.sd_tolerance);
+            solver.and_then(|s| execute(boxed, s, settings.max_iters, observer))
         }
         SolverKind::ParticleSwarm => {
             let solver = ParticleSwarm::new((lo.clone(), hi.clone()), settings.particles)
                 .with_rng_generator(rand::rngs::StdRng::seed_from_u64(seed));
-            let res = Executor::new(boxed, solver)
-                .configure(|s| s.max_iters(settings.swarm_iters))
-                .add_observer(History(history.clone()), ObserverMode::Always)
-                .run()
-                .map_err(|e| anyhow::anyhow!("particle-swarm: {e}"))?;
-            let st = res.state();
-            let x = st
-                .get_best_param()
-                .map(|p| p.position.clone())
-                .unwrap_or_else(|| start.to_vec());
-            (
-                x,
-                st.get_best_cost(),
-                st.get_iter(),
-                st.get_termination_status().to_string(),
-            )
+            execute(boxed, solver, settings.swarm_iters, observer)
         }
         SolverKind::DifferentialEvolution => {
             let solver =
-                differential_evolution::DifferentialEvolution::new(lo.clone(), hi.clone(), seed)?
-                    .with_population(settings.particles);
-            let res = Executor::new(boxed, solver)
-                .configure(|s| s.max_iters(settings.swarm_iters))
-                .add_observer(History(history.clone()), ObserverMode::Always)
-                .run()
-                .map_err(|e| anyhow::anyhow!("differential-evolution: {e}"))?;
-            let st = res.state();
-            let x = st
-                .get_best_param()
-                .cloned()
-                .unwrap_or_else(|| start.to_vec());
-            (
-                x,
-                st.get_best_cost(),
-                st.get_iter(),
-                st.get_termination_status().to_string(),
-            )
+                differential_evolution::DifferentialEvolution::new(lo.clone(), hi.clone(), seed)
+                    .map(|s| s.with_population(settings.particles));
+            solver.and_then(|s| execute(boxed, s, settings.swarm_iters, observer))
         }
-    };
-    let (best_x, _) = projector.project(&best_x);
+    }
+    .map_err(|e| anyhow::anyhow!("{}: {e}", kind.name()))?;
+    let (best_x, _) = project(&lo, &hi, &found.best_x);
     let history = history.lock().map(|h| h.clone()).unwrap_or_default();
     Ok(Run {
         solver: kind,
         start: start_index,
         best_x,
-        best_cost,
-        iterations,
+        best_cost: found.best_cost,
+        iterations: found.iterations,
         evaluations: evaluations.load(Ordering::Relaxed),
         time_s: t0.elapsed().as_secs_f64(),
-        termination,
+        termination: found.termination,
         history,
     })
 }
@@ -443,6 +499,39 @@ mod tests {
             assert!((r.best_x[0] - 5.0).abs() < 1e-3, "{kind:?}: {:?}", r.best_x);
             assert!((r.best_cost - 4.0).abs() < 1e-2);
         }
+    }
+
+    /// ‖x − (1, −2)‖² + 3 as an argmin cost, for the run loop alone.
+    struct Quadratic;
+    impl CostFunction for Quadratic {
+        type Param = Vec<f64>;
+        type Output = f64;
+        fn cost(&self, x: &Vec<f64>) -> Result<f64, Error> {
+            Ok((x[0] - 1.0).powi(2) + (x[1] + 2.0).powi(2) + 3.0)
+        }
+    }
+
+    #[test]
+    fn the_run_loop_says_whether_the_solver_or_the_limit_stopped_it() {
+        let de = || {
+            differential_evolution::DifferentialEvolution::new(vec![-5.0; 2], vec![5.0; 2], 9)
+                .unwrap()
+                .with_population(30)
+        };
+        // DE's own test (the population's costs together) stops it before the limit.
+        let m = execute(Quadratic, de(), 5000, None::<Unobserved>).unwrap();
+        assert!(m.solver_converged && m.iterations < 5000, "{m:?}");
+        assert!((m.best_x[0] - 1.0).abs() < 1e-4 && (m.best_x[1] + 2.0).abs() < 1e-4);
+        // Three generations: the limit stops it, and it says so.
+        let m = execute(Quadratic, de(), 3, None::<Unobserved>).unwrap();
+        assert!(!m.solver_converged && m.iterations == 3, "{m:?}");
+        // The swarm's best point is read from its particle: its cost is the cost there.
+        let swarm = ParticleSwarm::new((vec![-5.0; 2], vec![5.0; 2]), 20)
+            .with_rng_generator(rand::rngs::StdRng::seed_from_u64(4));
+        let m = execute(Quadratic, swarm, 40, None::<Unobserved>).unwrap();
+        assert_eq!(m.iterations, 40);
+        assert_eq!(m.best_cost, Quadratic.cost(&m.best_x).unwrap());
+        assert!(m.best_cost < 3.01, "{m:?}");
     }
 
     #[test]

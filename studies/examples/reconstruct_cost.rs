@@ -21,16 +21,20 @@ fn main() -> Result<()> {
     let cells: usize = arg(1).unwrap_or("64").parse()?;
     let mut settings = MethodSettings::for_method(method);
     if let Some(p) = arg(2) {
-        settings.penalty = p.parse()?;
+        settings = settings.with_penalty(p.parse()?);
     }
     if let Some(b) = arg(3) {
-        settings.node_budget = b.parse()?;
+        match &mut settings {
+            MethodSettings::BranchAndBound(bnb) => bnb.node_budget = b.parse()?,
+            MethodSettings::De(de) => de.reference_node_budget = b.parse()?,
+            _ => anyhow::bail!("a work budget belongs to bnb (or de's bnb reference)"),
+        }
     }
     let per_load: usize = arg(4).unwrap_or("50").parse()?;
     let reps: usize = arg(5).unwrap_or("3").parse::<usize>()?.max(1);
     let (problem, loads, truth, shifts) = scaling_problem_and_frames(cells, per_load, 1)?;
     let (m, n) = (problem.n_gratings(), problem.n_cells());
-    let r = build(method, &problem, settings)?;
+    let r = build(&problem, &settings)?;
     let (mut times, mut work) = (Vec::new(), Vec::new());
     let (mut recovered, mut snr_sum, mut not_converged) = ([0usize; 5], 0.0, 0usize);
     for ((y, x), &k) in shifts.iter().zip(&truth).zip(&loads) {
@@ -58,10 +62,13 @@ fn main() -> Result<()> {
     let ns_per_unit = 1e3 * mean_us / mean_work.max(1.0);
     times.sort_by(f64::total_cmp);
     println!(
-        "{} {m}×{n} λ {} budget {}: median {:.1} µs, mean {mean_us:.1} µs per frame; mean work {mean_work:.0}; {ns_per_unit:.2} ns per unit ({:.3} per n, {:.4} per n·m); recovered {:?} of {per_load} per load count; mean SNR {:.2} dB; {not_converged} not converged",
+        "{} {m}×{n} λ {:?} budget {:?}: median {:.1} µs, mean {mean_us:.1} µs per frame; mean work {mean_work:.0}; {ns_per_unit:.2} ns per unit ({:.3} per n, {:.4} per n·m); recovered {:?} of {per_load} per load count; mean SNR {:.2} dB; {not_converged} not converged",
         method.name(),
-        settings.penalty,
-        settings.node_budget,
+        settings.penalty(),
+        match settings {
+            MethodSettings::BranchAndBound(bnb) => Some(bnb.node_budget),
+            _ => None,
+        },
         times[times.len() / 2],
         ns_per_unit / n as f64,
         ns_per_unit / (n * m) as f64,

@@ -428,7 +428,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
             continue; // milliseconds per frame: a stream benchmark would take minutes
         }
         let t0 = Instant::now();
-        let res = reconstruct_stream(&problem, m, MethodSettings::for_method(m), &frames)?;
+        let res = reconstruct_stream(&problem, &MethodSettings::for_method(m), &frames)?;
         let dt = t0.elapsed().as_secs_f64();
         let fps = res.len() as f64 / dt;
         writeln!(report, "| {} | {:.0} | {:.2} |", m.name(), fps, 1e6 / fps)?;

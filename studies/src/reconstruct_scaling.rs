@@ -16,9 +16,9 @@
 //! stream throughput on every thread is measured as well.
 
 use anyhow::Result;
-use fbgforge::array::choice::{default_choice_for_resolution, DEFAULT_BUDGET_US};
+use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use fbgforge::array::kernel::{fiber_grid_layout, matrix_from_positions, DistanceKernel};
-use fbgforge::array::methods::{build, reconstruct_frames, Method, MethodSettings};
+use fbgforge::array::methods::{build, reconstruct_frames, Method, MethodSettings, ReadingPrior};
 use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::output::{ensure_dir, write_csv, write_json};
@@ -215,20 +215,13 @@ fn rows_of(
 }
 
 /// RR first, then mean SNR, over the validation frames.
-fn tune(method: Method, problem: &SensingProblem, base: MethodSettings, val: &Frames) -> f64 {
-    if !method.has_penalty() {
-        return base.penalty;
-    }
-    let mut best = (f64::NEG_INFINITY, base.penalty);
-    for pen in method.penalty_grid().into_iter().step_by(2) {
-        let Ok(r) = build(
-            method,
-            problem,
-            MethodSettings {
-                penalty: pen,
-                ..base
-            },
-        ) else {
+fn tune(problem: &SensingProblem, base: MethodSettings, val: &Frames) -> f64 {
+    let Some(start) = base.penalty() else {
+        return 0.0;
+    };
+    let mut best = (f64::NEG_INFINITY, start);
+    for pen in base.method().penalty_grid().into_iter().step_by(2) {
+        let Ok(r) = build(problem, &base.with_penalty(pen)) else {
             continue;
         };
         let res = evaluate(r.as_ref(), val);
@@ -320,10 +313,16 @@ pub fn run(
         for method in methods {
             let mut settings = MethodSettings::for_method(method);
             if quick {
-                settings.de_generations = 100;
-                settings.node_budget = 50_000;
+                match &mut settings {
+                    MethodSettings::De(de) => {
+                        de.generations = 100;
+                        de.reference_node_budget = 50_000;
+                    }
+                    MethodSettings::BranchAndBound(bnb) => bnb.node_budget = 50_000,
+                    _ => {}
+                }
             }
-            if build(method, &problem, settings).is_err() {
+            if build(&problem, &settings).is_err() {
                 bar.advance(1);
                 continue; // an enumeration too large for this size: not applicable
             }
@@ -339,27 +338,29 @@ pub fn run(
                     truth_g: keep.iter().map(|&i| test.truth_g[i].clone()).collect(),
                     shifts_pm: keep.iter().map(|&i| test.shifts_pm[i].clone()).collect(),
                 };
-                (&subset, l0_penalty.unwrap_or(settings.penalty))
+                (&subset, l0_penalty.unwrap_or(method.default_penalty()))
             } else if method == Method::Support || method == Method::BranchAndBound {
                 let p = match l0_penalty {
                     Some(p) => p,
                     None => {
                         let mut tuning = settings;
-                        tuning.node_budget = tuning.node_budget.min(200_000);
-                        let p = tune(method, &problem, tuning, &val);
+                        if let MethodSettings::BranchAndBound(bnb) = &mut tuning {
+                            bnb.node_budget = bnb.node_budget.min(200_000);
+                        }
+                        let p = tune(&problem, tuning, &val);
                         l0_penalty = Some(p);
                         p
                     }
                 };
                 (&test, p)
             } else if method == Method::WeightedSupport {
-                (&test, settings.penalty) // likelihood units, tuned on the protocol
+                (&test, method.default_penalty()) // likelihood units, tuned on the protocol
             } else {
-                (&test, tune(method, &problem, settings, &val))
+                (&test, tune(&problem, settings, &val))
             };
-            settings.penalty = penalty;
+            let settings = settings.with_penalty(penalty);
             let t0 = Instant::now();
-            let r = build(method, &problem, settings)?;
+            let r = build(&problem, &settings)?;
             let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
             let res = evaluate(r.as_ref(), frames_used);
             rows.extend(rows_of(m, n, method.name(), penalty, setup_ms, &res));
@@ -368,14 +369,12 @@ pub fn run(
         // The default: what `fbgforge reconstruct` picks without --method, told the
         // interrogator's resolution (0.25 pm here: λ = 16 σ² = 1 for `bnb`).
         // At 10× the budget too (the 1 ms goal at 32 × 256).
+        let prior = ReadingPrior {
+            max_loads: 4,
+            resolution_pm: NOISE_PM,
+        };
         let t_long = Instant::now();
-        let long = default_choice_for_resolution(
-            &problem,
-            4,
-            NOISE_PM,
-            10.0 * budget_us,
-            Some(&test.shifts_pm),
-        )?;
+        let long = default_choice(&problem, &prior, 10.0 * budget_us, Some(&test.shifts_pm))?;
         let long_setup_ms = 1e3 * t_long.elapsed().as_secs_f64();
         let res = evaluate(long.reconstructor.as_ref(), &test);
         let label = format!(
@@ -387,14 +386,13 @@ pub fn run(
             m,
             n,
             &label,
-            long.settings.penalty,
+            long.settings.penalty().unwrap_or(0.0),
             long_setup_ms,
             &res,
         ));
         long_picks.push((m, n, label, long.reason));
         let t0 = Instant::now();
-        let choice =
-            default_choice_for_resolution(&problem, 4, NOISE_PM, budget_us, Some(&test.shifts_pm))?;
+        let choice = default_choice(&problem, &prior, budget_us, Some(&test.shifts_pm))?;
         let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
         let res = evaluate(choice.reconstructor.as_ref(), &test);
         let label = format!("default → {}", choice.method.name());
@@ -402,7 +400,7 @@ pub fn run(
             m,
             n,
             &label,
-            choice.settings.penalty,
+            choice.settings.penalty().unwrap_or(0.0),
             setup_ms,
             &res,
         ));

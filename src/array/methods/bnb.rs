@@ -41,16 +41,63 @@ use super::*;
 /// The registry entry of `bnb`.
 pub(super) const ENTRY: MethodEntry = MethodEntry {
     name: "bnb",
-    default_penalty: 4.0,
-    has_penalty: true,
     penalty_grid: doubling_grid,
-    build: |common, s| {
-        if s.max_loads == 0 {
+    defaults: |prior| MethodSettings::BranchAndBound(BnbSettings::for_prior(prior)),
+};
+
+/// Default work budget of `bnb` per frame (units of [`BnbSettings::node_budget`];
+/// 7–35 ms on the reference machine from 32 × 256 down to 8 × 16, see
+/// `choice::ns_per_bnb_unit`).
+pub const DEFAULT_NODE_BUDGET: u64 = 2_000_000;
+
+/// Settings of `bnb`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BnbSettings {
+    /// λ per non-zero load, pm² (the `support` objective).
+    pub penalty: f64,
+    /// Most simultaneous loads a support may hold (K). Capped at the number of
+    /// gratings and cells.
+    pub max_loads: usize,
+    /// Work the search may do per frame before it stops with the best support found
+    /// so far, marked not converged (not certified), in work units: one per support
+    /// valued in O(1), and ~8 multiply-adds per unit for the pushes along a path and
+    /// the relaxation's steps (what `bnb` reports as its `iterations`).
+    pub node_budget: u64,
+}
+
+impl BnbSettings {
+    /// For readings of this kind: λ from the resolution (as `support`), the load cap
+    /// and [`DEFAULT_NODE_BUDGET`].
+    pub fn for_prior(prior: &ReadingPrior) -> Self {
+        BnbSettings {
+            penalty: l0_penalty_for_resolution(prior.resolution_pm),
+            max_loads: prior.max_loads,
+            node_budget: DEFAULT_NODE_BUDGET,
+        }
+    }
+}
+
+impl Default for BnbSettings {
+    /// The paper's readings.
+    fn default() -> Self {
+        Self::for_prior(&ReadingPrior::paper())
+    }
+}
+
+impl Knobs for BnbSettings {
+    fn method(&self) -> Method {
+        Method::BranchAndBound
+    }
+    fn build(&self, common: Common) -> Result<Box<dyn Reconstructor>, ArrayError> {
+        if self.max_loads == 0 {
             return Err(ArrayError::Input(
                 "max_loads must be at least 1 for `bnb`".into(),
             ));
         }
-        let kmax = s.max_loads.min(common.problem.n_gratings()).min(common.n());
+        let kmax = self
+            .max_loads
+            .min(common.problem.n_gratings())
+            .min(common.n());
         Ok(Box::new(BranchAndBound {
             gram_rows: (0..common.n())
                 .map(|i| common.gram.row(i).iter().copied().collect())
@@ -60,12 +107,18 @@ pub(super) const ENTRY: MethodEntry = MethodEntry {
                 m: common.problem.n_gratings(),
             },
             common,
-            lambda: s.penalty,
+            lambda: self.penalty,
             kmax,
-            node_budget: s.node_budget,
+            node_budget: self.node_budget,
         }))
-    },
-};
+    }
+    fn penalty_mut(&mut self) -> Option<&mut f64> {
+        Some(&mut self.penalty)
+    }
+    fn max_loads_mut(&mut self) -> Option<&mut usize> {
+        Some(&mut self.max_loads)
+    }
+}
 
 pub(super) struct BranchAndBound {
     pub(super) common: Common,

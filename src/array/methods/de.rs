@@ -17,35 +17,87 @@
 
 use super::*;
 use crate::solvers::differential_evolution::DifferentialEvolution;
-use argmin::core::{CostFunction, Error, Executor, State, TerminationReason};
+use crate::solvers::{execute, Unobserved};
+use argmin::core::{CostFunction, Error};
 use std::sync::Arc;
 
 /// The registry entry of `de`.
 pub(super) const ENTRY: MethodEntry = MethodEntry {
     name: "de",
-    default_penalty: 4.0,
-    has_penalty: true,
     penalty_grid: doubling_grid,
-    build: |common, s| {
-        let reference = (super::bnb::ENTRY.build)(
-            Common::new(&common.problem),
-            &MethodSettings {
-                node_budget: s.node_budget.min(1_000_000),
-                ..*s
-            },
-        )?;
+    defaults: |prior| MethodSettings::De(DeSettings::for_prior(prior)),
+};
+
+/// Settings of `de` (the paper's numbers by default).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DeSettings {
+    /// σ, pm² per unit of Σ zᵖ (working units).
+    pub penalty: f64,
+    /// Population size (paper: 150).
+    pub population: usize,
+    /// Generation limit (paper: 1500).
+    pub generations: u64,
+    /// Seed of the generator (mixed with the frame's content, so a frame always gets
+    /// the same answer).
+    pub seed: u64,
+    /// Most loads of the greedy seeds and of the independent `bnb` candidate the
+    /// answer is checked against.
+    pub max_loads: usize,
+    /// Work budget of that candidate per frame (`bnb` units).
+    pub reference_node_budget: u64,
+}
+
+impl DeSettings {
+    /// For readings of this kind: the load cap; σ = 4 and the paper's population and
+    /// generations.
+    pub fn for_prior(prior: &ReadingPrior) -> Self {
+        DeSettings {
+            penalty: 4.0,
+            population: 150,
+            generations: 1500,
+            seed: 0x5EED_F8C5,
+            max_loads: prior.max_loads,
+            reference_node_budget: 1_000_000,
+        }
+    }
+}
+
+impl Default for DeSettings {
+    /// The paper's readings.
+    fn default() -> Self {
+        Self::for_prior(&ReadingPrior::paper())
+    }
+}
+
+impl Knobs for DeSettings {
+    fn method(&self) -> Method {
+        Method::De
+    }
+    fn build(&self, common: Common) -> Result<Box<dyn Reconstructor>, ArrayError> {
+        let reference = BnbSettings {
+            penalty: self.penalty,
+            max_loads: self.max_loads,
+            node_budget: self.reference_node_budget,
+        }
+        .build(Common::new(&common.problem))?;
         Ok(Box::new(De {
             gram: row_major(&common.gram),
             common,
-            settings: *s,
+            settings: *self,
             reference,
         }))
-    },
-};
+    }
+    fn penalty_mut(&mut self) -> Option<&mut f64> {
+        Some(&mut self.penalty)
+    }
+    fn max_loads_mut(&mut self) -> Option<&mut usize> {
+        Some(&mut self.max_loads)
+    }
+}
 
 pub(super) struct De {
     pub(super) common: Common,
-    pub(super) settings: MethodSettings,
+    pub(super) settings: DeSettings,
     /// The common Gram matrix, row-major, computed once for the stream.
     gram: Arc<[f64]>,
     /// The independent candidate DE's answer is checked against (`bnb`, λ = σ).
@@ -135,27 +187,22 @@ impl Reconstructor for De {
         let solver =
             match DifferentialEvolution::new(lower, upper, frame_seed(self.settings.seed, y)) {
                 Ok(s) => s
-                    .with_population(self.settings.de_population)
+                    .with_population(self.settings.population)
                     .with_seeds(self.greedy_seeds(&aty)),
                 Err(_) => return self.common.unusable(),
             };
-        let generations = self.settings.de_generations;
-        let res = match Executor::new(cost.clone(), solver)
-            .configure(|s| s.max_iters(generations))
-            .run()
-        {
-            Ok(res) => res,
-            Err(_) => return self.common.unusable(),
-        };
-        let st = res.state();
-        let collapsed = matches!(
-            st.get_termination_reason(),
-            Some(TerminationReason::SolverConverged)
-        );
-        let iterations = st.get_iter();
-        let Some(z) = st.get_best_param() else {
+        let Ok(found) = execute(
+            cost.clone(),
+            solver,
+            self.settings.generations,
+            None::<Unobserved>,
+        ) else {
             return self.common.unusable();
         };
+        // DE's own stop: the population's costs within 10⁻¹⁰ of each other.
+        let collapsed = found.solver_converged;
+        let iterations = found.iterations;
+        let z = &found.best_x;
         let polished = self.polish(&aty, z);
         let (z, value) = {
             let (a, b) = (cost.eval(z), cost.eval(&polished));

@@ -23,20 +23,47 @@ use super::*;
 /// The registry entry of `lasso`.
 pub(super) const ENTRY: MethodEntry = MethodEntry {
     name: "lasso",
-    default_penalty: 0.16,
-    has_penalty: true,
     penalty_grid: || (0..13).map(|k| 0.01 * 2f64.powi(k)).collect(),
-    build: |common, s| {
+    defaults: |_| MethodSettings::Lasso(LassoSettings::default()),
+};
+
+/// Settings of `lasso`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LassoSettings {
+    /// λ of the ℓ1 term, pm (normalised columns).
+    pub penalty: f64,
+    /// Most coordinate sweeps per frame.
+    pub max_sweeps: u64,
+}
+
+impl Default for LassoSettings {
+    /// The tuned default λ = 0.16 and 20 000 sweeps.
+    fn default() -> Self {
+        LassoSettings {
+            penalty: 0.16,
+            max_sweeps: 20_000,
+        }
+    }
+}
+
+impl Knobs for LassoSettings {
+    fn method(&self) -> Method {
+        Method::Lasso
+    }
+    fn build(&self, common: Common) -> Result<Box<dyn Reconstructor>, ArrayError> {
         Ok(Box::new(Lasso {
             gram_rows: (0..common.n())
                 .map(|i| common.gram.row(i).iter().copied().collect())
                 .collect(),
             common,
-            lambda: s.penalty,
-            sweeps: s.fista_iterations,
+            lambda: self.penalty,
+            sweeps: self.max_sweeps,
         }))
-    },
-};
+    }
+    fn penalty_mut(&mut self) -> Option<&mut f64> {
+        Some(&mut self.penalty)
+    }
+}
 
 pub(super) struct Lasso {
     pub(super) common: Common,

@@ -2,9 +2,11 @@
 //!
 //! Every method solves the same [`SensingProblem`] (matrix, bounds, normalisation) for
 //! one frame of shifts at a time and returns a [`Reconstruction`] that says whether the
-//! method converged. Methods are interchangeable: [`build`] turns a [`Method`] name and
-//! its settings into a `Box<dyn Reconstructor>` that has already precomputed whatever
-//! depends only on the matrix, so a long stream pays that cost once.
+//! method converged. Methods are interchangeable: [`build`] turns a method's
+//! [`MethodSettings`] (each method has its own settings type, in its own file) into a
+//! `Box<dyn Reconstructor>` that has already precomputed whatever depends only on the
+//! matrix, so a long stream pays that cost once. Which method a caller gets, and with
+//! which settings, is decided in one place: [`crate::array::reconstruct()`].
 //!
 //! * `support`: exact ℓ0-penalised bounded least squares — every support of up to
 //!   m cells is tried (246 for 8 cells and 6 gratings, pseudo-inverses precomputed), the one with the
@@ -34,8 +36,12 @@ mod nnls;
 mod omp;
 mod support;
 
-pub use de::PenalisedCost;
-pub use support::NoisePrior;
+pub use bnb::{BnbSettings, DEFAULT_NODE_BUDGET};
+pub use de::{DeSettings, PenalisedCost};
+pub use lasso::LassoSettings;
+pub use nnls::NnlsSettings;
+pub use omp::OmpSettings;
+pub use support::{NoisePrior, SupportSettings, WeightedSupportSettings};
 
 use super::problem::SensingProblem;
 use super::ArrayError;
@@ -77,24 +83,20 @@ pub trait Reconstructor: Send + Sync {
 /// 10 000 frames/s (see the `reconstruct` study and docs/array.md).
 pub const DEFAULT_METHOD: Method = Method::WeightedSupport;
 
-/// A reconstruction method as registered: its name, its tuning defaults and how to
-/// build it. Each method file defines one entry; [`Method::ALL`] is the registry, so a
-/// new method is one file and one line there.
+/// A reconstruction method as registered: its name, its settings for given readings
+/// and its tuning grid. Each method file defines one entry and its own settings type
+/// (the knobs only it has); [`Method::ALL`] is the registry and [`MethodSettings`]
+/// has one variant per method, so a new method is one file, one line in `ALL` and
+/// one variant (with its two arms in `MethodSettings::knobs`).
 pub struct MethodEntry {
     /// Name used on the command line and in tables.
     pub name: &'static str,
-    /// Default penalty weight (working units; see [`MethodSettings::penalty`]).
-    pub default_penalty: f64,
-    /// Whether the method has a penalty weight to tune.
-    pub has_penalty: bool,
     /// Grid of penalty weights searched when tuning on a validation set.
     pub penalty_grid: fn() -> Vec<f64>,
-    /// Build the method's reconstructor from the matrix-only precomputation.
-    build: BuildFn,
+    /// The method's settings for readings of this kind (its defaults follow the
+    /// prior: e.g. the ℓ0 penalty of `support` and `bnb` follows the resolution).
+    defaults: fn(&ReadingPrior) -> MethodSettings,
 }
-
-/// How a registry entry builds its reconstructor.
-type BuildFn = fn(Common, &MethodSettings) -> Result<Box<dyn Reconstructor>, ArrayError>;
 
 /// A registered method: a handle on its [`MethodEntry`], compared by name.
 #[derive(Clone, Copy)]
@@ -150,16 +152,17 @@ impl Method {
 
     /// Whether the method has a penalty weight to tune.
     pub fn has_penalty(self) -> bool {
-        self.0.has_penalty
+        MethodSettings::for_method(self).penalty().is_some()
     }
 
-    /// Default penalty weight (working units; see [`MethodSettings::penalty`]): the
-    /// median of the values tuned on the validation sets of five seeded runs of the
-    /// paper's protocol with column normalisation (the `reconstruct` study prints the
-    /// tuned values); for `wsupport`, chosen on seeds 1001–1020 of the protocol
-    /// (disjoint from the study's 1–20) and checked on 2001–2040.
+    /// Default penalty weight (working units; see each method's settings), 0 for a
+    /// method without one: the median of the values tuned on the validation sets of
+    /// five seeded runs of the paper's protocol with column normalisation (the
+    /// `reconstruct` study prints the tuned values); for `wsupport`, chosen on seeds
+    /// 1001–1020 of the protocol (disjoint from the study's 1–20) and checked on
+    /// 2001–2040.
     pub fn default_penalty(self) -> f64 {
-        self.0.default_penalty
+        MethodSettings::for_method(self).penalty().unwrap_or(0.0)
     }
 
     /// Grid of penalty weights searched when tuning on a validation set.
@@ -199,37 +202,177 @@ fn doubling_grid() -> Vec<f64> {
     (0..13).map(|k| 0.0625 * 2f64.powi(k)).collect()
 }
 
-/// Settings shared by every method.
+/// What a reconstruction knows of the readings before it sees a frame: how many
+/// loads act at once at most and how noisy the interrogator is. Every method's
+/// defaults follow it ([`MethodSettings::for_prior`]); the default method choice
+/// synthesises its probe frames from it when it has none of the caller's.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct MethodSettings {
-    /// Penalty weight: λ per non-zero load in pm² (`support`, `omp`), in units of the
-    /// negative log-likelihood (`wsupport`), σ in pm² per unit
-    /// of Σ zᵖ (`de`), λ of the ℓ1 term in pm (`lasso`, normalised columns); ignored by
-    /// `nnls`. With normalised columns the working unknown is in pm.
-    pub penalty: f64,
-    /// Seed of the DE generator (mixed with the frame's content, so a frame always gets
-    /// the same answer).
-    pub seed: u64,
-    /// DE population size (paper: 150).
-    pub de_population: usize,
-    /// DE generation limit (paper: 1500).
-    pub de_generations: u64,
-    /// Iteration limit of the iterative solvers (FISTA steps of the `nnls` polish,
-    /// coordinate sweeps of `lasso`).
-    pub fista_iterations: u64,
-    /// Noise the `wsupport` method assumes.
-    pub noise_prior: NoisePrior,
-    /// Most simultaneous loads a support may hold (`support`, `wsupport`, `bnb`):
-    /// supports grow as C(n, ≤ K) instead of 2ⁿ. Capped at the number of gratings.
+pub struct ReadingPrior {
+    /// Most simultaneous loads (supports grow as C(n, ≤ K); capped at the number of
+    /// gratings by the methods).
     pub max_loads: usize,
-    /// Work `bnb` may do per frame before it stops with the best support found so
-    /// far, marked not converged (not certified), in work units: one per support
-    /// valued in O(1), and ~8 multiply-adds per unit for the pushes along a path and
-    /// the relaxation's steps (what `bnb` reports as its `iterations`).
-    pub node_budget: u64,
+    /// The interrogator's resolution: the noise standard deviation of a shift, pm.
+    pub resolution_pm: f64,
 }
 
-/// The penalty of the ℓ0 objective (`support`, `bnb`; σ of `de`) for an interrogator
+impl ReadingPrior {
+    /// The paper's readings: up to [`DEFAULT_MAX_LOADS`] loads, 0.5 pm resolution.
+    pub fn paper() -> Self {
+        ReadingPrior {
+            max_loads: DEFAULT_MAX_LOADS,
+            resolution_pm: NoisePrior::paper().resolution_pm,
+        }
+    }
+
+    /// Check both fields: at least one load, a positive finite resolution.
+    pub fn check(&self) -> Result<(), ArrayError> {
+        if self.max_loads == 0 {
+            return Err(ArrayError::Input("max_loads must be at least 1".into()));
+        }
+        check_resolution(self.resolution_pm)
+    }
+}
+
+impl Default for ReadingPrior {
+    fn default() -> Self {
+        ReadingPrior::paper()
+    }
+}
+
+/// A resolution must be a positive, finite noise in pm.
+pub fn check_resolution(resolution_pm: f64) -> Result<(), ArrayError> {
+    if resolution_pm.is_finite() && resolution_pm > 0.0 {
+        Ok(())
+    } else {
+        Err(ArrayError::Input(format!(
+            "the interrogator resolution must be a positive noise in pm, got {resolution_pm}"
+        )))
+    }
+}
+
+/// The settings of one method, each method's own type (defined in its file).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "method")]
+pub enum MethodSettings {
+    /// `support`.
+    #[serde(rename = "support")]
+    Support(SupportSettings),
+    /// `wsupport`.
+    #[serde(rename = "wsupport")]
+    WeightedSupport(WeightedSupportSettings),
+    /// `bnb`.
+    #[serde(rename = "bnb")]
+    BranchAndBound(BnbSettings),
+    /// `nnls`.
+    #[serde(rename = "nnls")]
+    Nnls(NnlsSettings),
+    /// `lasso`.
+    #[serde(rename = "lasso")]
+    Lasso(LassoSettings),
+    /// `omp`.
+    #[serde(rename = "omp")]
+    Omp(OmpSettings),
+    /// `de`.
+    #[serde(rename = "de")]
+    De(DeSettings),
+}
+
+/// What every method's settings type answers. A method without a penalty or a load
+/// cap keeps the `None` defaults.
+trait Knobs {
+    /// The method these settings are for.
+    fn method(&self) -> Method;
+    /// Build the method's reconstructor from the matrix-only precomputation.
+    fn build(&self, common: Common) -> Result<Box<dyn Reconstructor>, ArrayError>;
+    /// The penalty weight, if the method has one (working units).
+    fn penalty_mut(&mut self) -> Option<&mut f64> {
+        None
+    }
+    /// The most simultaneous loads it considers, if it has a cap.
+    fn max_loads_mut(&mut self) -> Option<&mut usize> {
+        None
+    }
+}
+
+impl MethodSettings {
+    /// The method's settings for the paper's readings ([`ReadingPrior::paper`]).
+    pub fn for_method(method: Method) -> Self {
+        Self::for_prior(method, &ReadingPrior::paper())
+    }
+
+    /// The method's settings for readings of this kind: its own rule (e.g. the ℓ0
+    /// penalty of `support` and `bnb` from the resolution,
+    /// [`l0_penalty_for_resolution`]), every other knob its default. The one rule a
+    /// named method and the default choice both follow.
+    pub fn for_prior(method: Method, prior: &ReadingPrior) -> Self {
+        (method.0.defaults)(prior)
+    }
+
+    /// Each variant as the trait every settings type implements.
+    fn knobs(&self) -> &dyn Knobs {
+        match self {
+            MethodSettings::Support(s) => s,
+            MethodSettings::WeightedSupport(s) => s,
+            MethodSettings::BranchAndBound(s) => s,
+            MethodSettings::Nnls(s) => s,
+            MethodSettings::Lasso(s) => s,
+            MethodSettings::Omp(s) => s,
+            MethodSettings::De(s) => s,
+        }
+    }
+
+    /// [`Self::knobs`], mutably.
+    fn knobs_mut(&mut self) -> &mut dyn Knobs {
+        match self {
+            MethodSettings::Support(s) => s,
+            MethodSettings::WeightedSupport(s) => s,
+            MethodSettings::BranchAndBound(s) => s,
+            MethodSettings::Nnls(s) => s,
+            MethodSettings::Lasso(s) => s,
+            MethodSettings::Omp(s) => s,
+            MethodSettings::De(s) => s,
+        }
+    }
+
+    /// The method these settings are for.
+    pub fn method(&self) -> Method {
+        self.knobs().method()
+    }
+
+    /// The penalty weight (working units), or None for a method without one (`nnls`).
+    pub fn penalty(&self) -> Option<f64> {
+        // Settings are Copy: read through the one accessor each type writes.
+        let mut copy = *self;
+        copy.knobs_mut().penalty_mut().map(|p| *p)
+    }
+
+    /// The same settings with the penalty weight `penalty` (a method without one is
+    /// returned unchanged: see [`Method::has_penalty`]).
+    pub fn with_penalty(mut self, penalty: f64) -> Self {
+        if let Some(p) = self.knobs_mut().penalty_mut() {
+            *p = penalty;
+        }
+        self
+    }
+
+    /// The most simultaneous loads the method considers, or None for a method that
+    /// has no cap (`nnls`, `lasso`, `omp`).
+    pub fn max_loads(&self) -> Option<usize> {
+        let mut copy = *self;
+        copy.knobs_mut().max_loads_mut().map(|k| *k)
+    }
+
+    /// The same settings with the load cap `max_loads` (a method without one is
+    /// returned unchanged).
+    pub fn with_max_loads(mut self, max_loads: usize) -> Self {
+        if let Some(k) = self.knobs_mut().max_loads_mut() {
+            *k = max_loads;
+        }
+        self
+    }
+}
+
+/// The penalty of the ℓ0 objective (`support`, `bnb`) for an interrogator
 /// whose readings have a noise of `resolution_pm` (standard deviation, pm):
 /// λ = 16 σ² (pm², the price of one more load in squared residual). The factor is the
 /// paper's calibration: λ = 4 was tuned on its protocol (σ = 0.5 pm, the default);
@@ -246,40 +389,20 @@ pub fn l0_penalty_for_resolution(resolution_pm: f64) -> f64 {
 /// paper tests up to four (reference §2, Table 3).
 pub const DEFAULT_MAX_LOADS: usize = 4;
 
-/// Default work budget of `bnb` per frame (units of [`MethodSettings::node_budget`];
-/// 7–35 ms on the reference machine from 32 × 256 down to 8 × 16, see
-/// `choice::ns_per_bnb_unit`).
-pub const DEFAULT_NODE_BUDGET: u64 = 2_000_000;
-
-impl MethodSettings {
-    /// The paper's settings and the method's default penalty.
-    pub fn for_method(method: Method) -> Self {
-        MethodSettings {
-            penalty: method.default_penalty(),
-            seed: 0x5EED_F8C5,
-            de_population: 150,
-            de_generations: 1500,
-            fista_iterations: 20_000,
-            noise_prior: NoisePrior::paper(),
-            max_loads: DEFAULT_MAX_LOADS,
-            node_budget: DEFAULT_NODE_BUDGET,
+/// Build a reconstructor for `problem` with a method's `settings` (which name the
+/// method), precomputing what depends only on the matrix.
+pub fn build(
+    problem: &SensingProblem,
+    settings: &MethodSettings,
+) -> Result<Box<dyn Reconstructor>, ArrayError> {
+    if let Some(p) = settings.penalty() {
+        if !(p.is_finite() && p >= 0.0) {
+            return Err(ArrayError::Input(format!(
+                "penalty must be a finite value ≥ 0, got {p}"
+            )));
         }
     }
-}
-
-/// Build a reconstructor for `problem`, precomputing what depends only on the matrix.
-pub fn build(
-    method: Method,
-    problem: &SensingProblem,
-    settings: MethodSettings,
-) -> Result<Box<dyn Reconstructor>, ArrayError> {
-    if !(settings.penalty.is_finite() && settings.penalty >= 0.0) {
-        return Err(ArrayError::Input(format!(
-            "penalty must be a finite value ≥ 0, got {}",
-            settings.penalty
-        )));
-    }
-    (method.0.build)(Common::new(problem), &settings)
+    settings.knobs().build(Common::new(problem))
 }
 
 /// What every method needs: the problem and the Gram matrix of its working matrix.
@@ -459,17 +582,19 @@ fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64
 /// frames on, reporting no progress.
 pub fn reconstruct_stream(
     problem: &SensingProblem,
-    method: Method,
-    settings: MethodSettings,
+    settings: &MethodSettings,
     frames: &[Vec<f64>],
 ) -> Result<Vec<Reconstruction>, ArrayError> {
-    let r = build(method, problem, settings)?;
+    let r = build(problem, settings)?;
     Ok(reconstruct_frames(
         r.as_ref(),
         frames,
         &crate::progress::Quiet,
     ))
 }
+
+/// Streams of at least this many frames are reconstructed in parallel (rayon).
+pub const PARALLEL_FROM: usize = 512;
 
 /// Reconstruct every frame with a reconstructor already built (its set-up paid):
 /// in parallel (rayon) from 512 frames on, telling `progress` of each chunk done.
@@ -479,7 +604,6 @@ pub fn reconstruct_frames(
     progress: &dyn crate::progress::Progress,
 ) -> Vec<Reconstruction> {
     use rayon::prelude::*;
-    const PARALLEL_FROM: usize = 512;
     if frames.len() < PARALLEL_FROM {
         return frames.iter().map(|y| r.reconstruct(y)).collect();
     }
@@ -526,6 +650,44 @@ mod tests {
         let far = ln_normal_cdf(-100.0);
         assert!(far.is_finite() && (far + 5000.0).abs() < 10.0, "{far}");
         assert!(ln_normal_cdf(40.0) <= 0.0 && ln_normal_cdf(40.0) > -1e-12);
+    }
+
+    #[test]
+    fn each_method_has_its_own_settings_and_follows_the_prior_by_its_own_rule() {
+        let prior = ReadingPrior {
+            max_loads: 3,
+            resolution_pm: 0.25,
+        };
+        for m in Method::ALL {
+            let s = MethodSettings::for_prior(m, &prior);
+            assert_eq!(s.method(), m);
+            // The JSON tag is the method's registered name.
+            let json = serde_json::to_value(s).unwrap();
+            assert_eq!(json["method"], m.name(), "{json}");
+            // ℓ0 penalty from the resolution for `support` and `bnb` only (λ = 1 at
+            // 0.25 pm); every other method keeps its tuned default.
+            let want = if m == Method::Support || m == Method::BranchAndBound {
+                Some(1.0)
+            } else if m == Method::Nnls {
+                None
+            } else {
+                Some(MethodSettings::for_method(m).penalty().unwrap())
+            };
+            assert_eq!(s.penalty(), want, "{m:?}");
+            assert_eq!(m.has_penalty(), want.is_some());
+            // The cap belongs to the methods that enumerate or seed supports.
+            let capped = [
+                Method::Support,
+                Method::WeightedSupport,
+                Method::BranchAndBound,
+                Method::De,
+            ]
+            .contains(&m);
+            assert_eq!(s.max_loads(), capped.then_some(3), "{m:?}");
+            // Replacing a knob the method lacks changes nothing.
+            assert_eq!(s.with_penalty(7.0).penalty(), want.map(|_| 7.0));
+            assert_eq!(s.with_max_loads(2).max_loads(), capped.then_some(2));
+        }
     }
 
     #[test]

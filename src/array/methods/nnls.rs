@@ -6,16 +6,37 @@ use super::*;
 /// The registry entry of `nnls`.
 pub(super) const ENTRY: MethodEntry = MethodEntry {
     name: "nnls",
-    default_penalty: 0.0,
-    has_penalty: false,
     penalty_grid: || vec![0.0],
-    build: |common, s| {
+    defaults: |_| MethodSettings::Nnls(NnlsSettings::default()),
+};
+
+/// Settings of `nnls` (no penalty: no sparsity prior beyond x ≥ 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NnlsSettings {
+    /// Iteration limit of the bounded projected-gradient polish that enforces the
+    /// upper bound.
+    pub polish_iterations: u64,
+}
+
+impl Default for NnlsSettings {
+    fn default() -> Self {
+        NnlsSettings {
+            polish_iterations: 20_000,
+        }
+    }
+}
+
+impl Knobs for NnlsSettings {
+    fn method(&self) -> Method {
+        Method::Nnls
+    }
+    fn build(&self, common: Common) -> Result<Box<dyn Reconstructor>, ArrayError> {
         Ok(Box::new(Nnls {
             common,
-            iterations: s.fista_iterations,
+            iterations: self.polish_iterations,
         }))
-    },
-};
+    }
+}
 
 pub(super) struct Nnls {
     pub(super) common: Common,

@@ -6,16 +6,38 @@ use super::*;
 /// The registry entry of `omp`.
 pub(super) const ENTRY: MethodEntry = MethodEntry {
     name: "omp",
-    default_penalty: 0.25,
-    has_penalty: true,
     penalty_grid: doubling_grid,
-    build: |common, s| {
+    defaults: |_| MethodSettings::Omp(OmpSettings::default()),
+};
+
+/// Settings of `omp`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OmpSettings {
+    /// λ, pm²: a cell is added only while it lowers ‖Âz − y‖² by more than this.
+    pub penalty: f64,
+}
+
+impl Default for OmpSettings {
+    /// The tuned default, 0.25.
+    fn default() -> Self {
+        OmpSettings { penalty: 0.25 }
+    }
+}
+
+impl Knobs for OmpSettings {
+    fn method(&self) -> Method {
+        Method::Omp
+    }
+    fn build(&self, common: Common) -> Result<Box<dyn Reconstructor>, ArrayError> {
         Ok(Box::new(Omp {
             common,
-            lambda: s.penalty,
+            lambda: self.penalty,
         }))
-    },
-};
+    }
+    fn penalty_mut(&mut self) -> Option<&mut f64> {
+        Some(&mut self.penalty)
+    }
+}
 
 pub(super) struct Omp {
     pub(super) common: Common,
