@@ -25,9 +25,9 @@ ARRAY = DESIGNS / "tactile-array-60x80.toml"
 
 @pytest.fixture(scope="session")
 def cli():
-    """The fbgforge command line: $FBGFORGE_BIN, or the debug build `cargo test` made
+    """The fbgforge command line: $FBGFORGE_BIN, or the release build `cargo test --release` made
     (built here if missing)."""
-    exe = os.environ.get("FBGFORGE_BIN") or str(ROOT / "target" / "debug" / "fbgforge")
+    exe = os.environ.get("FBGFORGE_BIN") or str(ROOT / "target" / "release" / "fbgforge")
     if not Path(exe).exists():
         subprocess.run(["cargo", "build", "--bin", "fbgforge"], cwd=ROOT, check=True)
 

@@ -2,8 +2,7 @@
 //! results that hold exactly or nearly for the meshed body, sign of each case, mesh
 //! convergence, and the prediction interface.
 
-mod common;
-
+use crate::common;
 use fbgforge::fem::{self, configurations, solve_configuration, Configuration, FemOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::profile::ModuleProfile;

@@ -7,8 +7,7 @@
 //! own validation (`prop_assume!`), so each property runs its full count of valid
 //! designs. 160 modules × 3 parts + 120 molds = 600 checked parts.
 
-mod common;
-
+use crate::common;
 use fbgforge::geometry;
 use fbgforge::spec::{Design, PrintProcess};
 use proptest::prelude::*;

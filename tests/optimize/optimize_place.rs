@@ -2,8 +2,7 @@
 //! held-out protocol seeds; the reported objective is the written layout's; valid
 //! designs whose mold follows the fibers; clear errors.
 
-mod common;
-
+use crate::common;
 use fbgforge::array::methods::Method;
 use fbgforge::optimize::place::{place, PlaceObjective, PlaceSettings, PlacementProblem};
 use fbgforge::profile::ArrayLayout;

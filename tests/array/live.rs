@@ -16,8 +16,7 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-mod common;
-
+use crate::common;
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_fbgforge"));
     c.current_dir(env!("CARGO_MANIFEST_DIR"));

@@ -2,8 +2,7 @@
 //! the returned design meets every constraint, never scores below a feasible start,
 //! loads back from its TOML with the same Q, and builds into watertight parts.
 
-mod common;
-
+use crate::common;
 use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{
     model_predictor, optimise_module, start_choice, ModuleOutcome, ModuleProblem, ModuleSettings,

@@ -1,8 +1,7 @@
 //! Geometry: the parts of the shipped designs against closed forms, the profile, each
 //! other (fits), and the files written; bad input and unwritable folders.
 
-mod common;
-
+use crate::common;
 use fbgforge::geometry::build_design;
 use fbgforge::geometry::{self, mesh, module, BuiltPart, PartKind};
 use fbgforge::profile::{ArrayLayout, ModuleProfile};

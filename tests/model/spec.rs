@@ -1,7 +1,6 @@
 //! Design spec: shipped designs load, bad specs are rejected with the field named.
 
-mod common;
-
+use crate::common;
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
 use std::path::Path;
 

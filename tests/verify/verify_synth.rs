@@ -1,7 +1,6 @@
 //! End-to-end recovery of known values from synthetic logs, in every format.
 
-mod common;
-
+use crate::common;
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
 use fbgforge::verify::synth::{self, LogStyle, SynthConfig, SynthTruth};

@@ -1,8 +1,7 @@
 //! Array calibration: a synthetic calibration run recovers the sensing matrix it was
 //! made from; bad schedules are named.
 
-mod common;
-
+use crate::common;
 use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::verify::calibrate::{self, Loading};
 use fbgforge::verify::synth::{self, LogStyle, SynthConfig};

@@ -3,8 +3,7 @@
 //! logs with known truth, K within 1 % and every lag within 0.05 s with the clock
 //! offset given; the protocol named; Q stable between gratings of identical dynamics.
 
-mod common;
-
+use crate::common;
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
 use fbgforge::verify::synth::{self, LogStyle, PulseShape, SynthConfig, SynthTruth};

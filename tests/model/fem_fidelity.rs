@@ -2,8 +2,7 @@
 //! model outside it. Each decision is checked against a fresh FE solve, through the
 //! library (`predict_with_fidelity`) and the CLI (`predict --fidelity`).
 
-mod common;
-
+use crate::common;
 use fbgforge::family::scaled_design;
 use fbgforge::fem::{self, Configuration, FemOptions};
 use fbgforge::model::{LoadCase, PredictOptions};

@@ -1,8 +1,7 @@
 //! Command-line tests of `fbgforge predict` and `fbgforge sweep`: output that parses
 //! and matches the library, files written where asked, clear errors on bad input.
 
-mod common;
-
+use crate::common;
 use std::path::Path;
 use std::process::{Command, Output};
 

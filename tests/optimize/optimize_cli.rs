@@ -1,8 +1,7 @@
 //! The `optimize` and `place` commands end to end: files written and loadable, and
 //! bad input reported as `error: ...` with exit status 1.
 
-mod common;
-
+use crate::common;
 use std::path::Path;
 use std::process::Command;
 

@@ -5,8 +5,7 @@
 //! and the reference bore are where the profile says, and bad routing or snap fields
 //! are errors naming the field.
 
-mod common;
-
+use crate::common;
 use common::shipped;
 use fbgforge::geometry::{self, assembly, BuiltPart, PartKind};
 use fbgforge::profile::{ramp_force_n, snap_report, PartsProfile};

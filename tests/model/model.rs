@@ -7,8 +7,7 @@
 //! above x*; "E2 has the greatest influence" when the span of Δλ(50 N) over the E2
 //! figure exceeds the span over every other modulus figure.
 
-mod common;
-
+use crate::common;
 use fbgforge::model::sweep::{self, SweepError, PAPER_FIGURES};
 use fbgforge::model::{self, closed_form, LoadCase, ModelError, ModuleModelParams, PredictOptions};
 use fbgforge::progress::Quiet;

@@ -4,8 +4,7 @@
 //! printed dome clearance closes under load at a knee, and along the cylinders the
 //! printed clearance never closes (so friction there would carry nothing).
 
-mod common;
-
+use crate::common;
 use fbgforge::fem::contact::{self, ContactPair};
 use fbgforge::fem::element::{ElasticConstants, Formulation};
 use fbgforge::fem::mesh::{edge_forces, Mesh};

@@ -1,8 +1,7 @@
 //! Module optimisation against synthetic models whose optimum is known in closed form,
 //! constraint handling, and bad input.
 
-mod common;
-
+use crate::common;
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{

@@ -1,8 +1,7 @@
 //! Bad inputs to the verifier: clear errors or counted warnings, never a panic; and
 //! the verdict rule applied to model predictions.
 
-mod common;
-
+use crate::common;
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions};

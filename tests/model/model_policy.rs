@@ -5,8 +5,7 @@
 //! measured log calibrates the contact so that `predict` reproduces it and `optimize`
 //! follows.
 
-mod common;
-
+use crate::common;
 use fbgforge::model::{configurations, LoadCase};
 use fbgforge::optimize::materials::MaterialLibrary;
 use fbgforge::optimize::module::{model_predictor, Choice, ModuleProblem, ModuleSettings};

@@ -1,0 +1,12 @@
+//! Integration tests: Sensing matrices, reconstruction methods and their scaling, the array CLI, the live mode.
+//!
+//! One test binary per area (issue 26: few binaries, one link each); each file below
+//! is one concern.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod array;
+mod array_cli;
+mod array_scaling;
+mod live;

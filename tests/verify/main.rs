@@ -1,0 +1,14 @@
+//! Integration tests: Interrogator and force logs, verification, calibration, synthetic logs.
+//!
+//! One test binary per area (issue 26: few binaries, one link each); each file below
+//! is one concern.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod logs_fixtures;
+mod verify_calibrate;
+mod verify_cli;
+mod verify_errors;
+mod verify_protocols;
+mod verify_synth;
