@@ -19,12 +19,14 @@
 //! A format is recognised in one place ([`detect_format`]); the row machinery every
 //! format shares (chunked parallel parse, merge) is in `rows.rs`, the times (dates,
 //! sorting, whole-second timestamps) in `time.rs`. Force-stand logs are read by
-//! [`read_force_log`] (`force.rs`).
+//! [`read_force_log`] (`force.rs`); the small hand-written CSV tables (schedules, load
+//! scripts, matrices) by [`csv_table`].
 //!
 //! Unreadable rows are skipped and counted ([`LogWarnings`]); a file where more than
 //! half of the table is unreadable, or with no table at all, is an error that names the
 //! file and the first bad line. Nothing here panics on user input.
 
+pub mod csv_table;
 mod detect;
 mod enlight;
 mod enlight_peaks;
