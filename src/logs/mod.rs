@@ -187,6 +187,13 @@ pub(crate) trait RowParser: Send + Sync {
         out: &mut Partial,
         scratch: &mut Vec<usize>,
     ) -> std::result::Result<(), LineIssue>;
+
+    /// Parse every line of `chunk`. Not to be overridden: the default is compiled for
+    /// each format, so one call through the trait object per chunk, not per line, and
+    /// [`RowParser::parse`] can inline into the loop over the lines.
+    fn parse_chunk(&self, chunk: &[u8]) -> Partial {
+        rows::parse_chunk(self, chunk)
+    }
 }
 
 /// Whether times are wall-clock readings or seconds from the start of a recording.

@@ -50,7 +50,10 @@ pub fn parse_f64(s: &[u8], decimal_comma: bool) -> Option<f64> {
 
 /// Parse the number at the start of `s` (no leading spaces); returns the value and
 /// the number of bytes it took, or None if `s` does not start with a number.
-#[inline]
+// Always inlined: it is the hot loop of every reader (one call per field); once
+// logs/ was split into files it was no longer inlined, and parsing took 3–4 % more
+// instructions.
+#[inline(always)]
 pub fn parse_f64_prefix(s: &[u8], decimal_comma: bool) -> Option<(f64, usize)> {
     let mut i = 0;
     let neg = match s.first() {

@@ -89,6 +89,7 @@ pub(crate) fn is_time_field(f: &[u8]) -> bool {
 }
 
 /// A time field: a date and time of day, or plain (finite) seconds.
+#[inline]
 pub(crate) fn parse_time_field(f: &[u8], decimal_comma: bool) -> Option<(Option<RawDate>, f64)> {
     if let Some((d, s)) = num::parse_datetime(f) {
         return Some((Some(d), s));
@@ -221,7 +222,9 @@ pub(crate) fn is_blank_or_comment(line: &[u8]) -> bool {
     line.is_empty() || line[0] == b'#' || trim(line).is_empty()
 }
 
-fn parse_chunk(chunk: &[u8], parser: &dyn RowParser) -> Partial {
+/// Parse every line of `chunk` with `parser` (see [`RowParser::parse_chunk`]).
+#[inline]
+pub(crate) fn parse_chunk<P: RowParser + ?Sized>(parser: &P, chunk: &[u8]) -> Partial {
     let mut out = Partial::default();
     let mut scratch = Vec::new();
     for (i, (_, line, terminated)) in lines_terminated(chunk).enumerate() {
@@ -302,7 +305,7 @@ pub(crate) fn parse_body(
 ) -> Merged {
     let partials: Vec<Partial> = chunk_bounds(body)
         .par_iter()
-        .map(|&(a, b)| parse_chunk(&body[a..b], parser))
+        .map(|&(a, b)| parser.parse_chunk(&body[a..b]))
         .collect();
     merge_partials(partials, body_line, path)
 }
