@@ -1,5 +1,6 @@
-//! Criterion throughput of the ENLIGHT peaks parser on a synthetic 8-grating log at
-//! 1 kHz (about 20 MB a minute): bytes per second. Run with `cargo bench --bench logs`.
+//! Criterion throughput of the wavelength log parsers on a synthetic 8-grating log at
+//! 1 kHz (ENLIGHT peaks: about 20 MB a minute), one case per format: bytes per second.
+//! Run with `cargo bench --bench logs`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use fbgforge::logs::{self, LogFormat, ReadOptions};
@@ -18,22 +19,23 @@ fn enlight_parse(c: &mut Criterion) {
     };
     let (log, _, _) = synth::generate(&design, &cfg).expect("synthetic log");
     let dir = tempfile::tempdir().expect("temporary folder");
-    let path = dir.path().join("peaks.txt");
-    synth::write_log(
-        &path,
-        LogFormat::EnlightPeaks,
-        &log,
-        &cfg,
-        &LogStyle::default(),
-    )
-    .expect("log written");
-    let bytes = std::fs::read(&path).expect("log read");
     let mut g = c.benchmark_group("logs");
     g.sample_size(10);
-    g.throughput(Throughput::Bytes(bytes.len() as u64));
-    g.bench_function("parse ENLIGHT peaks (memory)", |b| {
-        b.iter(|| logs::parse_wavelength_bytes(&bytes, &path, &ReadOptions::default()).unwrap())
-    });
+    for format in LogFormat::ALL {
+        let path = dir
+            .path()
+            .join(format!("{}.{}", format.name(), synth::extension(format)));
+        synth::write_log(&path, format, &log, &cfg, &LogStyle::default()).expect("log written");
+        let bytes = std::fs::read(&path).expect("log read");
+        g.throughput(Throughput::Bytes(bytes.len() as u64));
+        let name = match format {
+            LogFormat::EnlightPeaks => "parse ENLIGHT peaks (memory)".to_string(),
+            f => format!("parse {} (memory)", f.name()),
+        };
+        g.bench_function(name, |b| {
+            b.iter(|| logs::parse_wavelength_bytes(&bytes, &path, &ReadOptions::default()).unwrap())
+        });
+    }
     g.finish();
 }
 

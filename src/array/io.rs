@@ -13,9 +13,11 @@
 //! * reconstruction: header `time_s,<cell labels…>` (or `frame,…` when the shifts had
 //!   no time column), loads in g.
 //!
-//! Fields are separated by commas, tabs, or (numpy's default) runs of spaces, decided
-//! by the first data line. Lines starting with `#` are comments, a UTF-8 byte-order
-//! mark is ignored. Every error names the file and the line.
+//! Fields are separated by commas, tabs, semicolons or (numpy's default) runs of
+//! spaces, decided by the first data line; delimited fields may be quoted, as a
+//! spreadsheet writes them (read by [`crate::logs::csv_table`]). Lines starting with `#`
+//! are comments, a UTF-8 byte-order mark is ignored. Every error names the file and the
+//! line.
 
 use super::SensingMatrix;
 use anyhow::{anyhow, bail, Context, Result};
@@ -74,20 +76,8 @@ fn records(path: &Path) -> Result<Vec<(u64, Vec<String>)>> {
     let mut out = Vec::new();
     match sep {
         Separator::Byte(d) => {
-            let mut reader = csv::ReaderBuilder::new()
-                .comment(Some(b'#'))
-                .flexible(true)
-                .trim(csv::Trim::All)
-                .has_headers(false)
-                .delimiter(d)
-                .from_reader(text.as_bytes());
-            for rec in reader.records() {
-                let rec = rec.with_context(|| format!("cannot read {}", path.display()))?;
-                let line = rec.position().map_or(0, |p| p.line());
-                if rec.iter().all(|f| f.is_empty()) {
-                    continue;
-                }
-                out.push((line, rec.iter().map(str::to_string).collect()));
+            for r in crate::logs::csv_table::records(text, d, path)? {
+                out.push((r.line, r.fields));
             }
         }
         Separator::Whitespace => {
@@ -446,4 +436,63 @@ pub fn write_loads(
         c.flush()?;
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn quoted_matrices_and_shifts_read_as_plain_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let plain = read_matrix(&file(
+            d,
+            "m.csv",
+            "grating,A,B\nfbg1,0.5,0.25\nfbg2,0.125,1\n",
+        ))
+        .unwrap();
+        // As a spreadsheet saves it: every field quoted, a comma inside a name.
+        let quoted = read_matrix(&file(
+            d,
+            "mq.csv",
+            "\"grating\",\"A\",\"B\"\n\"fbg1\",\"0.5\",\"0.25\"\n\"fbg2\",\"0.125\",\"1\"\n",
+        ))
+        .unwrap();
+        assert_eq!(quoted, plain);
+        let named = read_matrix(&file(d, "mn.csv", "grating,A,B\n\"fbg 1, top\",1,2\n")).unwrap();
+        assert_eq!(named.gratings, vec!["fbg 1, top"]);
+        let s = read_shifts(
+            &file(
+                d,
+                "s.csv",
+                "\"time_s\",\"fbg2\",\"fbg1\"\n\"0.5\",\"3\",\"4\"\n",
+            ),
+            &plain.gratings,
+        )
+        .unwrap();
+        assert_eq!(s.time_s, Some(vec![0.5]));
+        assert_eq!(s.frames_pm, vec![vec![4.0, 3.0]]);
+        // A quoted bad value is named by file, line and column.
+        let e = read_shifts(
+            &file(
+                d,
+                "sb.csv",
+                "\"time_s\",\"fbg1\",\"fbg2\"\n0,1,2\n\"1\",\"x\",\"2\"\n",
+            ),
+            &plain.gratings,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("sb.csv:3") && e.contains("column `fbg1`") && e.contains("`x`"),
+            "{e}"
+        );
+    }
 }

@@ -21,6 +21,7 @@ use super::hyperion::{encode_peaks, PeaksFrame};
 use super::interpret::{InterpretOptions, Interpreter};
 use crate::array::kernel::matrix_from_design;
 use crate::array::protocol::NoiseModel;
+use crate::logs::csv_table;
 use crate::model::LoadCase;
 use crate::spec::Design;
 use anyhow::{bail, Context, Result};
@@ -132,21 +133,18 @@ pub fn read_script(path: &Path, design: &Design) -> Result<LoadScript> {
     parse_script(&text, path, design)
 }
 
-/// Parse a load script held in memory (see [`read_script`]).
+/// Parse a load script held in memory (see [`read_script`]); a CSV, so fields and the
+/// header may be quoted.
 pub fn parse_script(text: &str, path: &Path, design: &Design) -> Result<LoadScript> {
     let columns = script_columns(design)?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let Some((hline, header)) = lines.next() else {
+    let records = csv_table::records(text, b',', path)?;
+    let Some((header, rows)) = records.split_first() else {
         bail!(
             "{} is empty: expected a header `hold_s,<columns…>` and steps",
             path.display()
         );
     };
-    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let (hline, names) = (header.line, &header.fields);
     if names[0] != "hold_s" {
         bail!(
             "{}:{hline}: the header must start with `hold_s` (seconds each step is held), found `{}`",
@@ -173,8 +171,8 @@ pub fn parse_script(text: &str, path: &Path, design: &Design) -> Result<LoadScri
         "a number"
     };
     let mut steps = Vec::new();
-    for (line, l) in lines {
-        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
+    for rec in rows {
+        let (line, fields) = (rec.line, &rec.fields);
         if fields.len() != names.len() {
             bail!(
                 "{}:{line}: {} fields, expected {} (as the header)",
@@ -910,6 +908,34 @@ mod tests {
         assert!((124..=127).contains(&hole), "{hole}");
         assert!((999..=1001).contains(&numbered), "{numbered}");
         assert_eq!(got.len() as u64, numbered - got[0] - hole);
+    }
+
+    #[test]
+    fn a_quoted_script_reads_as_a_plain_one() {
+        let d = array();
+        let p = Path::new("s.csv");
+        let plain = parse_script("hold_s,C,A\n0.5,0,0\n1.0,100,25\n", p, &d).unwrap();
+        let quoted = parse_script(
+            "\u{feff}\"hold_s\",\"C\",\"A\"\r\n\"0.5\",\"0\",\"0\"\r\n\"1.0\",\"100\",\"25\"\r\n",
+            p,
+            &d,
+        )
+        .unwrap();
+        assert_eq!(quoted, plain);
+        let e = parse_script("\"hold_s\",\"A\"\n\n\"1\",\"-5\"\n", p, &d)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.csv:3") && e.contains("column `A`: `-5` is not a load in g"),
+            "{e}"
+        );
+        let e = parse_script("\"hold_s\",\"Z\"\n1,2\n", p, &d)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("s.csv:1") && e.contains("unknown column `Z`"),
+            "{e}"
+        );
     }
 
     #[test]

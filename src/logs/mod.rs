@@ -6,28 +6,55 @@
 //! later ([`crate::verify::assign`]) from the design's nominal wavelengths, so a
 //! reader never has to guess grating names.
 //!
-//! Formats (see `docs/verify.md` for examples of each):
-//! - [`LogFormat::EnlightPeaks`]: Micron Optics / Luna ENLIGHT "Peaks" export;
-//! - [`LogFormat::EnlightSensors`]: ENLIGHT "Sensors" export (one column per sensor);
-//! - [`LogFormat::Imon`]: Ibsen I-MON evaluation software log;
-//! - [`LogFormat::Csv`]: plain delimited text, a time column then wavelength columns.
+//! Formats (see `docs/verify.md` for examples of each), one file each behind the
+//! [`LogReader`] trait and registered in [`LogFormat::reader`]:
+//! - [`LogFormat::EnlightPeaks`]: Micron Optics / Luna ENLIGHT "Peaks" export
+//!   (`enlight_peaks.rs`);
+//! - [`LogFormat::EnlightSensors`]: ENLIGHT "Sensors" export, one column per sensor
+//!   (`enlight_sensors.rs`);
+//! - [`LogFormat::Imon`]: Ibsen I-MON evaluation software log (`imon.rs`);
+//! - [`LogFormat::Csv`]: plain delimited text, a time column then wavelength columns
+//!   (`plain_csv.rs`).
 //!
-//! Force-stand logs are read by [`read_force_log`].
+//! A format is recognised in one place ([`detect_format`]); the row machinery every
+//! format shares (chunked parallel parse, merge) is in `rows.rs`, the times (dates,
+//! sorting, whole-second timestamps) in `time.rs`. Force-stand logs are read by
+//! [`read_force_log`] (`force.rs`); the small hand-written CSV tables (schedules, load
+//! scripts, matrices) by [`csv_table`].
 //!
 //! Unreadable rows are skipped and counted ([`LogWarnings`]); a file where more than
 //! half of the table is unreadable, or with no table at all, is an error that names the
 //! file and the first bad line. Nothing here panics on user input.
 
+pub mod csv_table;
+mod detect;
+mod enlight;
+mod enlight_peaks;
+mod enlight_sensors;
+mod force;
+mod imon;
 pub mod num;
-mod table;
+mod plain_csv;
+mod row_reader;
+mod rows;
+mod time;
+mod write;
 
 use anyhow::{bail, Context, Result};
+use num::DateOrder;
+use rows::{LineIssue, Partial};
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-pub use table::{detect_format, parse_force_bytes, parse_wavelength_bytes};
-pub use table::{LogRow, RowReader};
+pub use detect::{detect_format, Detected};
+pub use force::{
+    force_unit_scale, parse_force_bytes, read_force_log, time_unit_scale, write_force_csv,
+    write_force_stand_csv, ForceColumns, ForceLog,
+};
+pub use row_reader::{LogRow, RowReader};
+pub use write::{write_log, LogStyle, LogTable};
 
 /// A supported wavelength log format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -44,7 +71,7 @@ pub enum LogFormat {
 }
 
 impl LogFormat {
-    /// Every format, for loops in tests and benchmarks.
+    /// Every format, in the order detection tries them.
     pub const ALL: [LogFormat; 4] = [
         LogFormat::EnlightPeaks,
         LogFormat::EnlightSensors,
@@ -52,23 +79,120 @@ impl LogFormat {
         LogFormat::Csv,
     ];
 
+    /// The registry: each format's reader, one file each.
+    pub(crate) fn reader(self) -> &'static dyn LogReader {
+        match self {
+            LogFormat::EnlightPeaks => &enlight_peaks::EnlightPeaks,
+            LogFormat::EnlightSensors => &enlight_sensors::EnlightSensors,
+            LogFormat::Imon => &imon::Imon,
+            LogFormat::Csv => &plain_csv::PlainCsv,
+        }
+    }
+
     /// Name as used on the command line.
     pub fn name(self) -> &'static str {
-        match self {
-            LogFormat::EnlightPeaks => "enlight-peaks",
-            LogFormat::EnlightSensors => "enlight-sensors",
-            LogFormat::Imon => "imon",
-            LogFormat::Csv => "csv",
-        }
+        self.reader().name()
     }
 
     /// Resolution of the interrogator that usually writes this format, pm (SM125:
     /// 1 pm; I-MON 512E: < 0.5 pm). Used for the resolution figure unless overridden.
     pub fn typical_resolution_pm(self) -> f64 {
-        match self {
-            LogFormat::Imon => 0.5,
-            _ => 1.0,
-        }
+        self.reader().typical_resolution_pm()
+    }
+
+    /// File extension of a log written in this format.
+    pub fn extension(self) -> &'static str {
+        self.reader().extension()
+    }
+
+    /// The clock of the times a log written in this format carries: wall-clock dates
+    /// ([`LogTable::start_epoch_s`] + the row's time) or seconds from the first row.
+    pub fn written_clock(self) -> Clock {
+        self.reader().written_clock()
+    }
+}
+
+/// One wavelength log format: how its table is recognised, how its rows are read, and
+/// how the project writes it (synthetic logs). A new format is one file implementing
+/// this, a [`LogFormat`] variant and its line in [`LogFormat::reader`].
+pub(crate) trait LogReader: Sync {
+    /// Name as used on the command line (`--format`).
+    fn name(&self) -> &'static str;
+
+    /// What the format is called in messages.
+    fn title(&self) -> &'static str;
+
+    /// What its table looks like, for the error when it is not found.
+    fn expected(&self) -> &'static str;
+
+    /// Resolution of the interrogator that usually writes it, pm.
+    fn typical_resolution_pm(&self) -> f64 {
+        1.0
+    }
+
+    /// The order of day and month in slash dates when the file does not tell.
+    fn default_date_order(&self) -> DateOrder {
+        DateOrder::DayMonthYear
+    }
+
+    /// The field delimiter when `head` is this format's table header (the table starts
+    /// on the next line), else None.
+    fn header_delimiter(&self, _head: &detect::HeadLine) -> Option<u8> {
+        None
+    }
+
+    /// For a format without a header line of its own: its table, when the file's first
+    /// table line starts one (`forced`: the user named this format). Asked only when no
+    /// format's header line is found.
+    fn table_at_first_line(&self, _first: &detect::FirstLine, _forced: bool) -> Option<Detected> {
+        None
+    }
+
+    /// How the rows of a detected table are read (`bytes`: the whole file).
+    fn rows(&self, det: &Detected, bytes: &[u8], path: &Path) -> Result<Rows>;
+
+    /// Write `table` in this format.
+    fn write(&self, w: &mut dyn Write, table: &LogTable, style: &LogStyle) -> std::io::Result<()>;
+
+    /// File extension of a written log.
+    fn extension(&self) -> &'static str {
+        "txt"
+    }
+
+    /// The clock of the times written.
+    fn written_clock(&self) -> Clock {
+        Clock::Absolute
+    }
+}
+
+/// The rows of a detected table: its channels (or value columns), their names, and the
+/// parser of one row.
+pub(crate) struct Rows {
+    /// Number of channels or value columns.
+    pub(crate) channels: usize,
+    /// Column names (Sensors, CSV), empty otherwise.
+    pub(crate) column_names: Vec<String>,
+    /// Reads one row.
+    pub(crate) parser: Box<dyn RowParser>,
+}
+
+/// Reads one table line of a format.
+pub(crate) trait RowParser: Send + Sync {
+    /// Parse `line` (neither blank nor a comment): add its peaks to `out` and close the
+    /// row ([`Partial::end_row`]), or add nothing and say why the line cannot be used.
+    /// `scratch` is kept from line to line.
+    fn parse(
+        &self,
+        line: &[u8],
+        out: &mut Partial,
+        scratch: &mut Vec<usize>,
+    ) -> std::result::Result<(), LineIssue>;
+
+    /// Parse every line of `chunk`. Not to be overridden: the default is compiled for
+    /// each format, so one call through the trait object per chunk, not per line, and
+    /// [`RowParser::parse`] can inline into the loop over the lines.
+    fn parse_chunk(&self, chunk: &[u8]) -> Partial {
+        rows::parse_chunk(self, chunk)
     }
 }
 
@@ -225,91 +349,56 @@ pub fn read_peak_log(path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
     parse_wavelength_bytes(&bytes, path, opts)
 }
 
-/// A force-stand log: time and force.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ForceLog {
-    /// The file read.
-    pub source: PathBuf,
-    /// Time of each sample, s, ascending.
-    pub time_s: Vec<f64>,
-    /// Absolute wall-clock or relative times.
-    pub clock: Clock,
-    /// Force, N (compression positive as the stand reports it).
-    pub force_n: Vec<f64>,
-    /// Name of the time column used.
-    pub time_column: String,
-    /// Name of the force column used.
-    pub force_column: String,
-    /// Factor applied to reach N (from the column's unit).
-    pub scale_to_n: f64,
-    /// Bound on the error of each sample's absolute time, s (see
-    /// [`PeakLog::time_uncertainty_s`]).
-    pub time_uncertainty_s: f64,
-    /// Counted problems.
-    pub warnings: LogWarnings,
-}
-
-/// Which columns of a force-stand CSV hold time and force.
-#[derive(Debug, Clone, Default)]
-pub struct ForceColumns {
-    /// Time column name (default: the first of `time_s`, `RelTime`, `time`, `t`,
-    /// `AbsTime`, `Timestamp`, matched without case).
-    pub time: Option<String>,
-    /// Force column name (default: the first of `force_N`, `force`, `F`, `load`).
-    pub force: Option<String>,
-    /// Factor to N; default from the unit in the column name (`_N`, `[kN]`, `(g)`, …)
-    /// or in a units row under the header (`(s),(mm),(kN)`, as Bluehill writes it).
-    pub scale_to_n: Option<f64>,
-    /// Order of day and month in slash dates (detected when the file tells, else
-    /// day first).
-    pub date_order: Option<num::DateOrder>,
-}
-
-/// Read a force-stand CSV.
-pub fn read_force_log(path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
-    let bytes = std::fs::read(path)
-        .with_context(|| format!("cannot read the force log {}", path.display()))?;
-    parse_force_bytes(&bytes, path, cols)
-}
-
-/// Factor to N from a force column name's unit, if it names one.
-pub fn force_unit_scale(name: &str) -> Option<f64> {
-    let lower = name.to_ascii_lowercase();
-    let unit = lower
-        .rsplit(['_', '[', '(', ' ', '/'])
-        .next()
-        .unwrap_or("")
-        .trim_end_matches([']', ')'])
-        .trim();
-    match unit {
-        "n" => Some(1.0),
-        "kn" => Some(1000.0),
-        "mn" => Some(1e-3),
-        "g" | "gf" => Some(9.80665e-3),
-        "kg" | "kgf" => Some(9.80665),
-        "lbf" => Some(4.448_221_615),
-        _ => None,
+/// Parse a wavelength log held in memory: detect its format, read its rows with that
+/// format's parser, resolve and order the times.
+pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
+    let det = detect_format(bytes, path, opts.format)?;
+    let reader = det.format.reader();
+    let table = reader.rows(&det, bytes, path)?;
+    let body = &bytes[det.body_offset.min(bytes.len())..];
+    let mut m = rows::parse_body(body, det.body_line, &*table.parser, path);
+    let rows = m.lines.len();
+    if rows == 0 || m.bad * 2 > m.table_lines {
+        bail!(
+            "{}: {} of {} table lines are unreadable as {} rows{}",
+            path.display(),
+            m.bad,
+            m.table_lines,
+            det.format.name(),
+            m.first_bad
+                .map(|msg| format!("; first: {msg}"))
+                .unwrap_or_default()
+        );
     }
-}
-
-/// Factor to seconds from a time column name's unit (`time_ms`, `Time [ms]`, `(s)`),
-/// if it names one.
-pub fn time_unit_scale(name: &str) -> Option<f64> {
-    let lower = name.to_lowercase();
-    let unit = lower
-        .rsplit(['_', '[', '(', ' ', '/'])
-        .next()
-        .unwrap_or("")
-        .trim_end_matches([']', ')'])
-        .trim();
-    match unit {
-        "s" | "sec" | "secs" | "seconds" => Some(1.0),
-        "ms" | "msec" => Some(1e-3),
-        "us" | "µs" | "μs" => Some(1e-6),
-        "min" => Some(60.0),
-        "h" | "hr" => Some(3600.0),
-        _ => None,
+    time::require_rows(path, rows, "the log")?;
+    let (mut time_s, clock) = time::wavelength_times(
+        &mut m.times,
+        &m.lines,
+        reader.default_date_order(),
+        opts.date_order,
+        path,
+    )?;
+    let mut log = PeakLog {
+        source: path.to_path_buf(),
+        format: det.format,
+        time_s: Vec::new(),
+        clock,
+        row_start: m.row_start,
+        peaks_nm: m.peaks,
+        peak_channel: m.chans,
+        channels: table.channels,
+        column_names: table.column_names,
+        line_of_row: m.lines,
+        time_uncertainty_s: 0.0,
+        warnings: m.warnings,
+    };
+    if let Some(order) = time::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
+    {
+        time::reorder_rows(&mut log, &mut time_s, &order);
     }
+    log.time_uncertainty_s = time::dequantize(path, &mut time_s, &mut log.warnings);
+    log.time_s = time_s;
+    Ok(log)
 }
 
 /// Resolved path display helper for messages.
@@ -317,109 +406,5 @@ pub(crate) fn at(path: &Path, line: usize) -> String {
     format!("{}:{line}", path.display())
 }
 
-/// Sort rows by time if needed (counting every backward step), and spread rows that
-/// share a whole-second timestamp (I-MON, 12-hour ENLIGHT exports) uniformly.
-pub(crate) fn finish_times(
-    path: &Path,
-    time_s: &mut [f64],
-    lines: &[u32],
-    warnings: &mut LogWarnings,
-) -> Option<Vec<usize>> {
-    let mut backward = 0;
-    let mut first_line = 0;
-    for i in 1..time_s.len() {
-        if time_s[i] < time_s[i - 1] {
-            if backward == 0 {
-                first_line = lines[i];
-            }
-            backward += 1;
-        }
-    }
-    let order = if backward > 0 {
-        warnings.add_n("non_monotonic_timestamp", backward, || {
-            format!(
-                "{}: time runs backwards; rows were sorted by time ({backward} backward steps)",
-                at(path, first_line as usize)
-            )
-        });
-        let mut idx: Vec<usize> = (0..time_s.len()).collect();
-        idx.sort_by(|&a, &b| time_s[a].total_cmp(&time_s[b]));
-        Some(idx)
-    } else {
-        None
-    };
-    order
-}
-
-/// Spread timestamps quantised to whole seconds (several rows per second) onto the
-/// uniform grid they were sampled on: t_i = t0 + i·dt with dt from the first and last
-/// change of the written second, and t0 the centre of the offsets allowed by
-/// floor(t_i) = written time. Returns the half-width of that range of offsets, the
-/// bound on each time's error (0.25 s at 2 Hz), or 0 when the times were left as
-/// they are.
-pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarnings) -> f64 {
-    let n = time_s.len();
-    if n < 4 || time_s.iter().any(|t| t.fract() != 0.0) {
-        return 0.0;
-    }
-    let repeats = time_s.windows(2).filter(|w| w[0] == w[1]).count();
-    if repeats * 2 < n {
-        return 0.0;
-    }
-    let base = time_s[0];
-    // The written second changes where the true time crosses a whole second; the
-    // first and last such crossings give the period without the bias a regression
-    // on floored values has.
-    let changes: Vec<usize> = (1..n).filter(|&i| time_s[i] != time_s[i - 1]).collect();
-    let dt = match (changes.first(), changes.last()) {
-        (Some(&a), Some(&b)) if b > a => (time_s[b] - time_s[a]) / (b - a) as f64,
-        _ => {
-            let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-            for (i, &t) in time_s.iter().enumerate() {
-                let (x, y) = (i as f64, t - base);
-                sx += x;
-                sy += y;
-                sxx += x * x;
-                sxy += x * y;
-            }
-            let nf = n as f64;
-            (nf * sxy - sx * sy) / (nf * sxx - sx * sx)
-        }
-    };
-    if dt.is_nan() || dt <= 0.0 {
-        return 0.0;
-    }
-    let (mut lo, mut hi) = (f64::MIN, f64::MAX);
-    for (i, &t) in time_s.iter().enumerate() {
-        let q = t - base - i as f64 * dt;
-        lo = lo.max(q);
-        hi = hi.min(q + 1.0);
-    }
-    let (t0, half) = if lo <= hi {
-        ((lo + hi) / 2.0, (hi - lo) / 2.0)
-    } else {
-        (lo, 0.5)
-    };
-    for (i, t) in time_s.iter_mut().enumerate() {
-        *t = base + t0 + i as f64 * dt;
-    }
-    warnings.add("whole_second_timestamps", || {
-        format!(
-            "{}: timestamps have a resolution of 1 s with several rows per second; rows were spread uniformly at {:.4} Hz, each time uncertain by up to ±{half:.3} s",
-            path.display(),
-            1.0 / dt
-        )
-    });
-    half
-}
-
-/// Reject logs with fewer rows than an analysis can use.
-pub(crate) fn require_rows(path: &Path, rows: usize, what: &str) -> Result<()> {
-    if rows < 2 {
-        bail!(
-            "{}: {what} holds {rows} readable rows; at least 2 are needed",
-            path.display()
-        );
-    }
-    Ok(())
-}
+#[cfg(test)]
+mod tests;

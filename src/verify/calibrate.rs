@@ -1,7 +1,8 @@
 //! Array calibration: the measured sensing matrix A (pm/g) of a flat array, from a
 //! wavelength log in which a known load sits on each cell in turn.
 //!
-//! Input besides the log: a schedule CSV with one line per loading,
+//! Input besides the log: a schedule CSV with one line per loading (fields may be
+//! quoted, as a spreadsheet writes them),
 //!
 //! ```text
 //! # times in s from the first row of the wavelength log
@@ -18,7 +19,7 @@
 //! the format `fbgforge reconstruct` reads.
 
 use crate::array::{kernel, SensingMatrix};
-use crate::logs::{num, PeakLog};
+use crate::logs::{csv_table, num, PeakLog};
 use crate::profile::{cell_label, ArrayLayout};
 use crate::spec::Design;
 use crate::verify::assign::{self, GratingWindow};
@@ -46,34 +47,31 @@ pub fn read_schedule(path: &Path, n_cells: usize) -> Result<Vec<Loading>> {
     parse_schedule(&text, path, n_cells)
 }
 
-/// Parse a schedule from text.
+/// Parse a schedule from text (a CSV: quoted fields, `#` comments and blank lines
+/// allowed).
 pub fn parse_schedule(text: &str, path: &Path, n_cells: usize) -> Result<Vec<Loading>> {
     let labels: Vec<String> = (0..n_cells).map(cell_label).collect();
     let mut out = Vec::new();
-    let mut header_seen = false;
-    for (i, line) in text.trim_start_matches('\u{feff}').lines().enumerate() {
-        let l = line.trim();
-        if l.is_empty() || l.starts_with('#') {
-            continue;
+    let records = csv_table::records(text, b',', path)?;
+    let mut records = records.iter();
+    if let Some(header) = records.next() {
+        let f = &header.fields;
+        if f.len() != 4
+            || !f[0].eq_ignore_ascii_case("start_s")
+            || !f[1].eq_ignore_ascii_case("end_s")
+            || !f[2].eq_ignore_ascii_case("cell")
+            || !f[3].eq_ignore_ascii_case("load_g")
+        {
+            bail!(
+                "{}:{}: expected the header `start_s,end_s,cell,load_g`",
+                path.display(),
+                header.line
+            );
         }
-        let f: Vec<&str> = l.split(',').map(str::trim).collect();
-        if !header_seen {
-            header_seen = true;
-            if f.len() != 4
-                || !f[0].eq_ignore_ascii_case("start_s")
-                || !f[1].eq_ignore_ascii_case("end_s")
-                || !f[2].eq_ignore_ascii_case("cell")
-                || !f[3].eq_ignore_ascii_case("load_g")
-            {
-                bail!(
-                    "{}:{}: expected the header `start_s,end_s,cell,load_g`",
-                    path.display(),
-                    i + 1
-                );
-            }
-            continue;
-        }
-        let at = || format!("{}:{}", path.display(), i + 1);
+    }
+    for rec in records {
+        let f = &rec.fields;
+        let at = || format!("{}:{}", path.display(), rec.line);
         if f.len() != 4 {
             bail!(
                 "{}: expected 4 fields `start_s,end_s,cell,load_g`, got {}",
@@ -87,9 +85,9 @@ pub fn parse_schedule(text: &str, path: &Path, n_cells: usize) -> Result<Vec<Loa
                 .with_context(|| format!("{}: {what} `{s}` is not a number", at()))
         };
         let (a, b, g) = (
-            num(f[0], "start_s")?,
-            num(f[1], "end_s")?,
-            num(f[3], "load_g")?,
+            num(&f[0], "start_s")?,
+            num(&f[1], "end_s")?,
+            num(&f[3], "load_g")?,
         );
         if b <= a {
             bail!("{}: end_s {b} is not after start_s {a}", at());
@@ -99,7 +97,7 @@ pub fn parse_schedule(text: &str, path: &Path, n_cells: usize) -> Result<Vec<Loa
         }
         let cell = labels
             .iter()
-            .position(|c| c.eq_ignore_ascii_case(f[2]))
+            .position(|c| c.eq_ignore_ascii_case(&f[2]))
             .with_context(|| {
                 format!(
                     "{}: unknown cell `{}`; the design has cells {}",
@@ -308,4 +306,41 @@ pub fn synth_calibration_log(
         names: a.gratings.iter().map(|g| g.name.clone()).collect(),
         wavelength_nm,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_quoted_schedule_reads_as_a_plain_one() {
+        let p = Path::new("sched.csv");
+        let plain = parse_schedule("start_s,end_s,cell,load_g\n0,10,A,200\n", p, 8).unwrap();
+        let quoted = parse_schedule(
+            "\"start_s\",\"end_s\",\"cell\",\"load_g\"\r\n\"0\",\"10\",\"A\",\"200\"\r\n",
+            p,
+            8,
+        )
+        .unwrap();
+        assert_eq!(quoted, plain);
+        // Errors keep the file, the line and the field, quoted or not.
+        let e = parse_schedule(
+            "# loads\n\"start_s\",\"end_s\",\"cell\",\"load_g\"\n\"0\",\"1,5\",\"A\",\"200\"\n",
+            p,
+            8,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("sched.csv:3") && e.contains("end_s `1,5` is not a number"),
+            "{e}"
+        );
+        let e = parse_schedule("\"start_s\",\"end\"\n", p, 8)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("sched.csv:1") && e.contains("start_s,end_s,cell,load_g"),
+            "{e}"
+        );
+    }
 }

@@ -9,8 +9,8 @@
 //! the model response, and the expected R² adds the white noise of the sensor and
 //! reference gratings to the noise-free scatter.
 
-use crate::logs::num::{civil_from_days, split_epoch};
-use crate::logs::LogFormat;
+pub use crate::logs::LogStyle;
+use crate::logs::{self, Clock, LogFormat, LogTable};
 use crate::output::write_atomic_with;
 use crate::spec::{Design, GratingRole};
 use crate::verify::{fit, lag, segment};
@@ -19,7 +19,6 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
-use std::io::Write;
 use std::path::Path;
 
 /// The shape of one loading pulse (a force-stand protocol).
@@ -131,30 +130,6 @@ pub fn shaped_train(
 /// Force of a pulse train at time t, N.
 pub fn force_at(pulses: &[Pulse], t: f64) -> f64 {
     pulses.iter().map(|p| p.force_at(t)).sum()
-}
-
-/// How the log text looks.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LogStyle {
-    /// Decimal commas (ENLIGHT: in every number; CSV: with `;` as the delimiter).
-    pub decimal_comma: bool,
-    /// Lead the file with a UTF-8 BOM.
-    pub bom: bool,
-    /// Lines of ENLIGHT metadata before the table header.
-    pub metadata_lines: usize,
-    /// ENLIGHT timestamps on a 12-hour clock (`3:44:56.500000 pm`).
-    pub twelve_hour: bool,
-}
-
-impl Default for LogStyle {
-    fn default() -> Self {
-        LogStyle {
-            decimal_comma: false,
-            bom: false,
-            metadata_lines: 45,
-            twelve_hour: false,
-        }
-    }
 }
 
 /// Everything a synthetic run is made of.
@@ -622,79 +597,17 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
 
 /// The clock offset the verifier reports for a log written in `format`: the force
 /// clock reads t − force_start, the wavelength clock `start_epoch_s` + t for formats
-/// with wall-clock timestamps and t for plain CSV.
+/// with wall-clock timestamps and t for the others (plain CSV).
 pub fn reported_offset_s(cfg: &SynthConfig, format: LogFormat) -> f64 {
-    let w0 = if format == LogFormat::Csv {
-        0.0
-    } else {
-        cfg.start_epoch_s
+    let w0 = match format.written_clock() {
+        Clock::Absolute => cfg.start_epoch_s,
+        Clock::Relative => 0.0,
     };
     -cfg.force_start_s - w0
 }
 
-fn num(w: &mut dyn Write, v: f64, decimals: usize, comma: bool) -> std::io::Result<()> {
-    if comma {
-        let s = format!("{v:.decimals$}").replace('.', ",");
-        w.write_all(s.as_bytes())
-    } else {
-        write!(w, "{v:.decimals$}")
-    }
-}
-
-fn enlight_timestamp(w: &mut dyn Write, t: f64, style: &LogStyle) -> std::io::Result<()> {
-    let (_, y, m, d, sod) = split_epoch(t);
-    let h = (sod / 3600.0).floor() as u32;
-    let mi = ((sod - h as f64 * 3600.0) / 60.0).floor() as u32;
-    let s = (sod - h as f64 * 3600.0 - mi as f64 * 60.0).max(0.0);
-    let sep = if style.decimal_comma { "," } else { "." };
-    let whole = s.floor() as u32;
-    let micros = ((s - whole as f64) * 1e6).round().min(999_999.0) as u32;
-    if style.twelve_hour {
-        let (h12, ampm) = match h {
-            0 => (12, "am"),
-            1..=11 => (h, "am"),
-            12 => (12, "pm"),
-            _ => (h - 12, "pm"),
-        };
-        write!(
-            w,
-            "{d:02}/{m:02}/{y:04} {h12}:{mi:02}:{whole:02}{sep}{micros:06} {ampm}"
-        )
-    } else {
-        write!(
-            w,
-            "{d:02}/{m:02}/{y:04} {h:02}:{mi:02}:{whole:02}{sep}{micros:06}"
-        )
-    }
-}
-
-fn enlight_metadata(w: &mut dyn Write, lines: usize, rate_hz: f64, t0: f64) -> std::io::Result<()> {
-    let (_, y, m, d, _) = split_epoch(t0);
-    let fixed = [
-        format!("Date:\t{d:02}/{m:02}/{y:04}"),
-        "Module Type:\tsm125-500".to_string(),
-        format!("HW Acquisition Rate: {rate_hz} Hz"),
-        "Timestamp Format: Full".to_string(),
-        "Data Interleave:\t1".to_string(),
-    ];
-    for (i, l) in fixed.iter().enumerate() {
-        if i < lines {
-            writeln!(w, "{l}")?;
-        }
-    }
-    for i in fixed.len()..lines {
-        let ch = i % 4 + 1;
-        writeln!(
-            w,
-            "CH {ch} Peak Detection Setting {}:\tThreshold {} dB",
-            i,
-            3 + i % 7
-        )?;
-    }
-    Ok(())
-}
-
-/// Write a wavelength log in `format`.
+/// Write a wavelength log in `format` (atomically), its first row at
+/// `cfg.start_epoch_s`.
 pub fn write_log(
     path: &Path,
     format: LogFormat,
@@ -702,135 +615,38 @@ pub fn write_log(
     cfg: &SynthConfig,
     style: &LogStyle,
 ) -> Result<()> {
-    let t0 = cfg.start_epoch_s;
-    write_atomic_with(path, |w| {
-        if style.bom {
-            w.write_all(b"\xEF\xBB\xBF")?;
-        }
-        let comma = style.decimal_comma;
-        match format {
-            LogFormat::EnlightPeaks => {
-                let channels = log.names.len().min(4);
-                enlight_metadata(w, style.metadata_lines, cfg.sample_rate_hz, t0)?;
-                write!(w, "Timestamp")?;
-                for c in 0..channels {
-                    write!(w, "\t# CH {}", c + 1)?;
-                }
-                writeln!(w, "\tWavelengths (nm)")?;
-                let chan_of: Vec<usize> = (0..log.names.len()).map(|g| g % channels).collect();
-                for (i, row) in log.wavelength_nm.iter().enumerate() {
-                    enlight_timestamp(w, t0 + log.time_s[i], style)?;
-                    for c in 0..channels {
-                        let n = row
-                            .iter()
-                            .enumerate()
-                            .filter(|(g, v)| chan_of[*g] == c && v.is_finite())
-                            .count();
-                        write!(w, "\t{n}")?;
-                    }
-                    for c in 0..channels {
-                        for (g, v) in row.iter().enumerate() {
-                            if chan_of[g] == c && v.is_finite() {
-                                w.write_all(b"\t")?;
-                                num(w, *v, 6, comma)?;
-                            }
-                        }
-                    }
-                    writeln!(w)?;
-                }
-            }
-            LogFormat::EnlightSensors => {
-                enlight_metadata(w, style.metadata_lines, cfg.sample_rate_hz, t0)?;
-                writeln!(w, "Timestamp\t{}", log.names.join("\t"))?;
-                for (i, row) in log.wavelength_nm.iter().enumerate() {
-                    enlight_timestamp(w, t0 + log.time_s[i], style)?;
-                    for v in row {
-                        w.write_all(b"\t")?;
-                        if v.is_finite() {
-                            num(w, *v, 6, comma)?;
-                        }
-                    }
-                    writeln!(w)?;
-                }
-            }
-            LogFormat::Imon => {
-                write!(w, "Date\tTime\tWavelength 1 [nm]")?;
-                for p in 1..=512 {
-                    write!(w, "\tPixel {p}")?;
-                }
-                writeln!(w, "\t")?;
-                writeln!(w)?;
-                for (i, row) in log.wavelength_nm.iter().enumerate() {
-                    let t = t0 + log.time_s[i];
-                    let days = (t / 86400.0).floor() as i64;
-                    let (y, m, d) = civil_from_days(days);
-                    let sod = (t - days as f64 * 86400.0).floor() as u32;
-                    let (h, mi, s) = (sod / 3600, sod / 60 % 60, sod % 60);
-                    let (h12, ampm) = match h {
-                        0 => (12, "AM"),
-                        1..=11 => (h, "AM"),
-                        12 => (12, "PM"),
-                        _ => (h - 12, "PM"),
-                    };
-                    write!(w, "{m}/{d}/{y}\t{h12}:{mi:02}:{s:02} {ampm}")?;
-                    let mut present: Vec<f64> =
-                        row.iter().copied().filter(|v| v.is_finite()).collect();
-                    present.sort_by(|a, b| a.total_cmp(b));
-                    for v in present {
-                        write!(w, "\t{:.7}E+3", v / 1e3)?;
-                    }
-                    writeln!(w, "\t")?;
-                }
-            }
-            LogFormat::Csv => {
-                let d = if comma { ";" } else { "," };
-                writeln!(w, "time_s{d}{}", log.names.join(d))?;
-                for (i, row) in log.wavelength_nm.iter().enumerate() {
-                    num(w, log.time_s[i], 6, comma)?;
-                    for v in row {
-                        w.write_all(d.as_bytes())?;
-                        if v.is_finite() {
-                            num(w, *v, 6, comma)?;
-                        }
-                    }
-                    writeln!(w)?;
-                }
-            }
-        }
-        Ok(())
-    })
+    let table = LogTable {
+        start_epoch_s: cfg.start_epoch_s,
+        time_s: &log.time_s,
+        names: &log.names,
+        wavelength_nm: &log.wavelength_nm,
+        sample_rate_hz: cfg.sample_rate_hz,
+    };
+    write_atomic_with(path, |w| Ok(logs::write_log(w, format, &table, style)?))
 }
 
-/// Write the force log as `time_s,force_N`.
+/// Write the force log as `time_s,force_N` (atomically).
 pub fn write_force_csv(path: &Path, force: &SynthForce) -> Result<()> {
     write_atomic_with(path, |w| {
-        writeln!(w, "time_s,force_N")?;
-        for (t, f) in force.time_s.iter().zip(&force.force_n) {
-            writeln!(w, "{t:.6},{f:.5}")?;
-        }
-        Ok(())
+        Ok(logs::write_force_csv(w, &force.time_s, &force.force_n)?)
     })
 }
 
-/// Write the force log as a force stand with a wall clock does:
+/// Write the force log as a force stand with a wall clock does (atomically):
 /// `AbsTime,RelTime,position,force,stress`, AbsTime in `dd/mm/yyyy HH:MM:SS.ffffff`
 /// from `start_epoch_s` (the wall-clock time of the force log's first sample).
 pub fn write_force_stand_csv(path: &Path, force: &SynthForce, start_epoch_s: f64) -> Result<()> {
     write_atomic_with(path, |w| {
-        writeln!(w, "AbsTime,RelTime,position,force,stress")?;
-        for (t, f) in force.time_s.iter().zip(&force.force_n) {
-            let abs = crate::logs::num::format_dmy_24h(start_epoch_s + t);
-            // Position and stress of a linear stand, for realism only.
-            writeln!(w, "{abs},{t:.6},{:.5},{f:.5},{:.5}", f * 0.01, f / 78.5)?;
-        }
-        Ok(())
+        Ok(logs::write_force_stand_csv(
+            w,
+            &force.time_s,
+            &force.force_n,
+            start_epoch_s,
+        )?)
     })
 }
 
 /// File extension for a format.
 pub fn extension(format: LogFormat) -> &'static str {
-    match format {
-        LogFormat::Csv => "csv",
-        _ => "txt",
-    }
+    format.extension()
 }

@@ -1,0 +1,379 @@
+//! The line and row machinery every log format shares: lines with their offsets,
+//! fields, the rows parsed so far ([`Partial`]), the chunked parallel parse of a table
+//! body and the merge of its chunks in file order.
+//!
+//! The table body is split at line boundaries into chunks parsed in parallel (rayon);
+//! each line is cut into fields by slicing, and numbers are parsed from the bytes
+//! ([`super::num`]), so no row allocates. Dates are interned per chunk (a log rarely
+//! spans more than a few dates) and resolved once the whole file is known
+//! ([`super::time`]).
+
+use super::num::{self, trim, RawDate};
+use super::time::{TimeAcc, NO_DATE};
+use super::{at, LogWarnings, RowParser};
+use rayon::prelude::*;
+use std::path::Path;
+
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// The bytes without a leading UTF-8 byte-order mark, and the mark's length.
+pub(crate) fn strip_bom(b: &[u8]) -> (&[u8], usize) {
+    if b.starts_with(BOM) {
+        (&b[3..], 3)
+    } else {
+        (b, 0)
+    }
+}
+
+/// Lines of `b` with their byte offsets (line without `\n` and trailing `\r`).
+pub(crate) fn lines_with_offsets(b: &[u8]) -> impl Iterator<Item = (usize, &[u8])> {
+    lines_terminated(b).map(|(o, l, _)| (o, l))
+}
+
+/// Lines with offsets and whether each ended with a newline.
+fn lines_terminated(b: &[u8]) -> impl Iterator<Item = (usize, &[u8], bool)> {
+    let mut pos = 0;
+    std::iter::from_fn(move || {
+        if pos >= b.len() {
+            return None;
+        }
+        let start = pos;
+        let found = memchr::memchr(b'\n', &b[pos..]);
+        let end = found.map_or(b.len(), |p| pos + p);
+        pos = end + 1;
+        let mut line = &b[start..end];
+        if let [rest @ .., b'\r'] = line {
+            line = rest;
+        }
+        Some((start, line, found.is_some()))
+    })
+}
+
+/// Offset in `b` of the line after the one at `offset` (`line` as
+/// [`lines_with_offsets`] gives it), or the end of `b`.
+pub(crate) fn next_line_offset(b: &[u8], offset: usize, line: &[u8]) -> usize {
+    let end = offset + line.len();
+    memchr::memchr(b'\n', &b[end..]).map_or(b.len(), |p| end + p + 1)
+}
+
+/// The fields of a line, trimmed and without surrounding double quotes.
+pub(crate) fn fields(line: &[u8], delim: u8) -> Vec<String> {
+    line.split(|&c| c == delim)
+        .map(|f| String::from_utf8_lossy(unquote(trim(f))).into_owned())
+        .collect()
+}
+
+/// A field without the double quotes Excel and Bluehill put around it.
+pub(crate) fn unquote(f: &[u8]) -> &[u8] {
+    match f {
+        [b'"', inner @ .., b'"'] => inner,
+        _ => f,
+    }
+}
+
+/// The delimiter of a delimited line: a tab if it has one, else a semicolon, else a
+/// comma.
+pub(crate) fn guess_delimiter(line: &[u8]) -> u8 {
+    if memchr::memchr(b'\t', line).is_some() {
+        b'\t'
+    } else if memchr::memchr(b';', line).is_some() {
+        b';'
+    } else {
+        b','
+    }
+}
+
+/// A field holding a time: a number of seconds or a date and time.
+pub(crate) fn is_time_field(f: &[u8]) -> bool {
+    num::parse_f64(f, false).is_some() || num::parse_datetime(f).is_some()
+}
+
+/// A time field: a date and time of day, or plain (finite) seconds.
+#[inline]
+pub(crate) fn parse_time_field(f: &[u8], decimal_comma: bool) -> Option<(Option<RawDate>, f64)> {
+    if let Some((d, s)) = num::parse_datetime(f) {
+        return Some((Some(d), s));
+    }
+    num::parse_f64(f, decimal_comma)
+        .filter(|v| v.is_finite())
+        .map(|v| (None, v))
+}
+
+/// A line that could not be used: warning kind and message.
+pub(crate) struct LineIssue {
+    pub(crate) kind: &'static str,
+    pub(crate) message: String,
+}
+
+/// A [`LineIssue`] of `kind`.
+pub(crate) fn issue(kind: &'static str, message: impl Into<String>) -> LineIssue {
+    LineIssue {
+        kind,
+        message: message.into(),
+    }
+}
+
+/// Rows parsed from one chunk of a table (or one line, for the live reader).
+#[derive(Default)]
+pub(crate) struct Partial {
+    pub(crate) times: TimeAcc,
+    /// End of each row's peaks in `peaks` (the start of the next).
+    pub(crate) row_start: Vec<usize>,
+    /// Peak wavelengths, nm.
+    pub(crate) peaks: Vec<f64>,
+    /// Channel or column of each peak.
+    pub(crate) chans: Vec<u16>,
+    /// Chunk-local line index of each row.
+    pub(crate) lines: Vec<u32>,
+    /// (chunk-local line, issue); a row parser pushes kept-but-counted issues with the
+    /// line `usize::MAX`, which [`parse_chunk`] replaces.
+    pub(crate) issues: Vec<(usize, LineIssue)>,
+    table_lines: usize,
+    n_lines: usize,
+}
+
+impl Partial {
+    /// Close a row read whole: its time, after its peaks.
+    #[inline]
+    pub(crate) fn end_row(&mut self, time: (Option<RawDate>, f64)) {
+        self.times.push(time);
+        self.row_start.push(self.peaks.len());
+    }
+
+    /// Drop the wavelengths a rejected row had already added (from `start` on).
+    #[inline]
+    pub(crate) fn rollback(&mut self, start: usize) {
+        self.peaks.truncate(start);
+        self.chans.truncate(start);
+    }
+}
+
+/// Rows of one value per column after the time (ENLIGHT Sensors, plain CSV): an empty
+/// value or one ≤ 0 is no reading.
+pub(crate) struct ValueColumns {
+    pub(crate) delimiter: u8,
+    pub(crate) decimal_comma: bool,
+    /// Number of value columns the header declares.
+    pub(crate) columns: usize,
+}
+
+impl RowParser for ValueColumns {
+    fn parse(
+        &self,
+        line: &[u8],
+        out: &mut Partial,
+        _scratch: &mut Vec<usize>,
+    ) -> Result<(), LineIssue> {
+        let (columns, dc) = (self.columns, self.decimal_comma);
+        let mut it = line.split(|&c| c == self.delimiter);
+        let time = parse_time_field(it.next().unwrap_or(b""), dc)
+            .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?;
+        let start = out.peaks.len();
+        let mut seen = 0;
+        for (c, f) in it.enumerate() {
+            let f = trim(f);
+            if c >= columns {
+                if !f.is_empty() {
+                    out.rollback(start);
+                    return Err(issue(
+                        "unreadable_line",
+                        format!("more than the {columns} value columns of the header"),
+                    ));
+                }
+                continue;
+            }
+            seen = c + 1;
+            if f.is_empty() {
+                continue;
+            }
+            match num::parse_f64(f, dc) {
+                Some(v) if v.is_finite() && v > 0.0 => {
+                    out.peaks.push(v);
+                    out.chans.push(c as u16);
+                }
+                Some(_) => {}
+                None => {
+                    out.rollback(start);
+                    return Err(issue(
+                        "unreadable_line",
+                        format!("column {} is not a number", c + 2),
+                    ));
+                }
+            }
+        }
+        if seen < columns {
+            // Kept (the values present are good) but counted.
+            out.issues.push((
+                usize::MAX,
+                issue(
+                    "short_row",
+                    format!("row has {seen} of {columns} value columns"),
+                ),
+            ));
+        }
+        out.end_row(time);
+        Ok(())
+    }
+}
+
+/// Whether a line is blank or a `#` comment (not a table line).
+#[inline]
+pub(crate) fn is_blank_or_comment(line: &[u8]) -> bool {
+    line.is_empty() || line[0] == b'#' || trim(line).is_empty()
+}
+
+/// Parse every line of `chunk` with `parser` (see [`RowParser::parse_chunk`]).
+#[inline]
+pub(crate) fn parse_chunk<P: RowParser + ?Sized>(parser: &P, chunk: &[u8]) -> Partial {
+    let mut out = Partial::default();
+    let mut scratch = Vec::new();
+    for (i, (_, line, terminated)) in lines_terminated(chunk).enumerate() {
+        out.n_lines = i + 1;
+        if is_blank_or_comment(line) {
+            continue;
+        }
+        out.table_lines += 1;
+        let before = out.issues.len();
+        match parser.parse(line, &mut out, &mut scratch) {
+            Ok(()) => {
+                out.lines.push(i as u32);
+                for iss in &mut out.issues[before..] {
+                    iss.0 = i;
+                }
+            }
+            Err(mut e) => {
+                if !terminated {
+                    e.kind = "truncated_last_line";
+                }
+                out.issues.push((i, e));
+            }
+        }
+    }
+    out
+}
+
+/// Cut the table body at line boundaries into chunks to parse in parallel (one chunk
+/// for a body under 4 MiB).
+fn chunk_bounds(body: &[u8]) -> Vec<(usize, usize)> {
+    let n_chunks = if body.len() > (4 << 20) {
+        rayon::current_num_threads() * 8
+    } else {
+        1
+    };
+    let mut bounds = vec![0usize];
+    for k in 1..n_chunks {
+        let target = body.len() * k / n_chunks;
+        let last = *bounds.last().unwrap_or(&0);
+        if target <= last {
+            continue;
+        }
+        match memchr::memchr(b'\n', &body[target..]) {
+            Some(p) => bounds.push(target + p + 1),
+            None => break,
+        }
+    }
+    bounds.push(body.len());
+    bounds.dedup();
+    bounds.windows(2).map(|w| (w[0], w[1])).collect()
+}
+
+/// A table's rows in file order, with the dates interned once and the unreadable
+/// lines counted.
+pub(crate) struct Merged {
+    pub(crate) times: TimeAcc,
+    pub(crate) row_start: Vec<usize>,
+    pub(crate) peaks: Vec<f64>,
+    pub(crate) chans: Vec<u16>,
+    /// File line (1-based) of each row.
+    pub(crate) lines: Vec<u32>,
+    pub(crate) warnings: LogWarnings,
+    /// Lines unreadable as rows (not counting short or truncated ones).
+    pub(crate) bad: usize,
+    /// The first unreadable line, named.
+    pub(crate) first_bad: Option<String>,
+    /// Lines that are neither blank nor comments.
+    pub(crate) table_lines: usize,
+}
+
+/// Parse a table body (its first line is file line `body_line`) with `parser`, in
+/// parallel chunks merged in file order.
+pub(crate) fn parse_body(
+    body: &[u8],
+    body_line: usize,
+    parser: &dyn RowParser,
+    path: &Path,
+) -> Merged {
+    let partials: Vec<Partial> = chunk_bounds(body)
+        .par_iter()
+        .map(|&(a, b)| parser.parse_chunk(&body[a..b]))
+        .collect();
+    merge_partials(partials, body_line, path)
+}
+
+/// Merge the chunks in order: chunk-local line numbers become file line numbers,
+/// chunk-local date indices global ones, and each issue a named warning.
+fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merged {
+    let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
+    let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
+    let mut m = Merged {
+        times: TimeAcc {
+            dates: Vec::new(),
+            date_of_row: Vec::with_capacity(rows),
+            sec: Vec::with_capacity(rows),
+        },
+        row_start: Vec::with_capacity(rows + 1),
+        peaks: Vec::with_capacity(n_peaks),
+        chans: Vec::with_capacity(n_peaks),
+        lines: Vec::with_capacity(rows),
+        warnings: LogWarnings::default(),
+        bad: 0,
+        first_bad: None,
+        table_lines: partials.iter().map(|p| p.table_lines).sum(),
+    };
+    m.row_start.push(0usize);
+    let mut first_line = body_line;
+    for p in partials {
+        let dates = &mut m.times.dates;
+        let remap: Vec<u32> = p
+            .times
+            .dates
+            .iter()
+            .map(|d| match dates.iter().position(|x| x == d) {
+                Some(i) => i as u32,
+                None => {
+                    dates.push(*d);
+                    (dates.len() - 1) as u32
+                }
+            })
+            .collect();
+        m.times
+            .date_of_row
+            .extend(p.times.date_of_row.iter().map(|&i| {
+                if i == NO_DATE {
+                    NO_DATE
+                } else {
+                    remap[i as usize]
+                }
+            }));
+        m.times.sec.extend_from_slice(&p.times.sec);
+        let base = m.peaks.len();
+        m.row_start.extend(p.row_start.iter().map(|&s| s + base));
+        m.peaks.extend_from_slice(&p.peaks);
+        m.chans.extend_from_slice(&p.chans);
+        m.lines
+            .extend(p.lines.iter().map(|&l| l + first_line as u32));
+        for (local, iss) in p.issues {
+            let line_no = local + first_line;
+            if iss.kind != "short_row" && iss.kind != "truncated_last_line" {
+                m.bad += 1;
+                if m.first_bad.is_none() {
+                    m.first_bad = Some(format!("{}: {}", at(path, line_no), iss.message));
+                }
+            }
+            let msg = format!("{}: {}", at(path, line_no), iss.message);
+            m.warnings.add(iss.kind, || msg);
+        }
+        first_line += p.n_lines;
+    }
+    m
+}
