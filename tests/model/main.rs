@@ -6,11 +6,11 @@
 #[path = "../common/mod.rs"]
 mod common;
 
-mod model;
-mod model_cli;
-mod model_policy;
 mod fem_contact;
 mod fem_exact;
 mod fem_fidelity;
 mod fem_module;
+mod model;
+mod model_cli;
+mod model_policy;
 mod spec;
