@@ -157,16 +157,13 @@ fn module_choices(d: &mut Document, o: &ModuleOutcome) {
     let mut rows: Vec<&ChoiceResult> = o.choices.iter().collect();
     let score = |c: &ChoiceResult| c.best.as_ref().map_or(f64::NEG_INFINITY, |e| e.objective);
     rows.sort_by(|a, b| score(b).total_cmp(&score(a)));
-    let mut t = Table::new(
-        [
-            "choice".to_string(),
-            format!("objective {unit}"),
-            "weakest K pm/N".into(),
-            "evaluations".into(),
-            "variables".into(),
-        ]
-        .into_iter(),
-    );
+    let mut t = Table::new([
+        "choice".to_string(),
+        format!("objective {unit}"),
+        "weakest K pm/N".into(),
+        "evaluations".into(),
+        "variables".into(),
+    ]);
     for c in rows {
         let evals: u64 = c.runs.iter().map(|r| r.evaluations).sum();
         match &c.best {

@@ -163,7 +163,7 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<Tick> {
         let count = (last - first + 1) as usize;
         let stride = count.div_ceil(8).max(1);
         let mut ticks: Vec<Tick> = (first..=last)
-            .filter(|k| (k - first) as usize % stride == 0)
+            .filter(|k| ((k - first) as usize).is_multiple_of(stride))
             .map(|k| {
                 let value = 10f64.powi(k);
                 Tick {
