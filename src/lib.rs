@@ -8,7 +8,8 @@
 //! binary or a study; `docs/architecture.md` draws the rooms and the data path):
 //!
 //! 1. foundations: [`grating`] (Bragg physics), [`output`] (atomic writes),
-//!    [`progress`], [`plot`], [`logs`] (interrogator and force logs);
+//!    [`progress`], [`plot`] (SVG charts), [`html`] (self-contained HTML reports),
+//!    [`logs`] (interrogator and force logs);
 //! 2. the spec: [`spec`] (TOML types, field checks);
 //! 3. derived: [`profile`] (every derived dimension, read by solids, model and FE),
 //!    [`design`] (loading: parse and check, profile rules included), [`family`]
@@ -25,6 +26,7 @@ pub mod family;
 pub mod fem;
 pub mod geometry;
 pub mod grating;
+pub mod html;
 pub mod live;
 pub mod logs;
 pub mod model;

@@ -152,21 +152,51 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
     Ok(())
 }
 
-fn x_text(vars: &[Variable], x: &[f64]) -> String {
-    vars.iter()
-        .zip(x)
-        .map(|(v, x)| format!("{}={x:.3}", v.name()))
-        .collect::<Vec<_>>()
-        .join(" ")
+/// Width the printed tables keep to, columns (a terminal's default).
+const WIDTH: usize = 80;
+
+/// Append `text` word-wrapped to [`WIDTH`] columns; continuation lines are indented
+/// by `indent` spaces.
+fn wrapped(out: &mut String, text: &str, indent: usize) {
+    let lead = text.len() - text.trim_start_matches(' ').len();
+    let mut line = " ".repeat(lead);
+    let mut fresh = true;
+    for word in text.split(' ').filter(|w| !w.is_empty()) {
+        if !fresh && line.chars().count() + 1 + word.chars().count() > WIDTH {
+            out.push_str(&line);
+            out.push('\n');
+            line = " ".repeat(indent);
+            fresh = true;
+        }
+        if !fresh {
+            line.push(' ');
+        }
+        line.push_str(word);
+        fresh = false;
+    }
+    out.push_str(&line);
+    out.push('\n');
 }
 
-fn print_module_table(o: &ModuleOutcome) {
+/// The module optimisation as text, every line within [`WIDTH`] columns: the start,
+/// one row per material choice with its variables on the lines below, the best.
+pub fn module_table(o: &ModuleOutcome) -> String {
+    use std::fmt::Write as _;
     let unit = o.objective_unit;
-    println!(
-        "start ({}): objective {:.4} {unit}, feasible {}",
-        o.start_choice,
-        o.start.objective,
-        o.start.feasible()
+    let mut s = String::new();
+    wrapped(
+        &mut s,
+        &format!(
+            "start ({}): objective {:.4} {unit}, {}",
+            o.start_choice,
+            o.start.objective,
+            if o.start.feasible() {
+                "feasible"
+            } else {
+                "infeasible"
+            }
+        ),
+        4,
     );
     let mut rows: Vec<&fbgforge::optimize::module::ChoiceResult> = o.choices.iter().collect();
     rows.sort_by(|a, b| {
@@ -175,15 +205,23 @@ fn print_module_table(o: &ModuleOutcome) {
         };
         f(b).total_cmp(&f(a))
     });
-    println!(
-        "{:<52} {:>12} {:>10} {:>7}  variables",
-        "choice",
+    // choice 44 + objective 13 + K 10 + evaluations 8 = 75 columns.
+    let _ = writeln!(
+        s,
+        "{:<44} {:>12} {:>9} {:>7}",
+        "choice (variables below)",
         format!("obj {unit}"),
         "K pm/N",
         "evals"
     );
     for c in rows {
         let evals: u64 = c.runs.iter().map(|r| r.evaluations).sum();
+        let mut name = c.choice.to_string();
+        if name.chars().count() > 44 {
+            // A long choice gets its own line; the numbers go on the next.
+            let _ = writeln!(s, "{name}");
+            name = String::new();
+        }
         match &c.best {
             Some(e) => {
                 let k = e
@@ -197,22 +235,16 @@ fn print_module_table(o: &ModuleOutcome) {
                             a
                         }
                     });
-                println!(
-                    "{:<52} {:>12.4} {:>10.3} {:>7}  {}",
-                    c.choice.to_string(),
-                    e.objective,
-                    k,
-                    evals,
-                    x_text(&o.variables, &e.x)
+                let _ = writeln!(
+                    s,
+                    "{name:<44} {:>12.4} {:>9.3} {:>7}",
+                    e.objective, k, evals
                 );
+                wrapped(&mut s, &format!("    {}", x_text(&o.variables, &e.x)), 4);
             }
-            None => println!(
-                "{:<52} {:>12} {:>10} {:>7}  infeasible",
-                c.choice.to_string(),
-                "-",
-                "-",
-                evals
-            ),
+            None => {
+                let _ = writeln!(s, "{name:<44} {:>12} {:>9} {:>7}", "infeasible", "-", evals);
+            }
         }
     }
     let best = &o.choices[o.best_choice];
@@ -232,19 +264,49 @@ fn print_module_table(o: &ModuleOutcome) {
             .collect();
         format!("the start is infeasible, {}", broken.join("; "))
     };
-    println!(
-        "best: {} objective {value:.4} {unit} ({versus}) in {:.2} s",
-        best.choice, o.time_s
+    wrapped(
+        &mut s,
+        &format!(
+            "best: {} objective {value:.4} {unit} ({versus}) in {:.2} s",
+            best.choice, o.time_s
+        ),
+        6,
     );
-    println!(
-        "model: {} (other choices: scored with the policy anchored on their start)",
-        o.model
+    wrapped(
+        &mut s,
+        &format!(
+            "model: {} (other choices: scored with the policy anchored on their start)",
+            o.model
+        ),
+        6,
     );
-    let m = o.design.module.as_ref().expect("module designs only");
-    println!(
-        "      D {:.3} mm, H {:.3} mm, dome {:.3} mm, cap wall {:.3} mm, core wall {:.3} mm",
-        m.outer_diameter_mm, m.overall_height_mm, m.dome_height_mm, m.cap_wall_mm, m.core_wall_mm
-    );
+    if let Some(m) = o.design.module.as_ref() {
+        wrapped(
+            &mut s,
+            &format!(
+                "      D {:.3} mm, H {:.3} mm, dome {:.3} mm, cap wall {:.3} mm, core wall {:.3} mm",
+                m.outer_diameter_mm,
+                m.overall_height_mm,
+                m.dome_height_mm,
+                m.cap_wall_mm,
+                m.core_wall_mm
+            ),
+            6,
+        );
+    }
+    s
+}
+
+fn x_text(vars: &[Variable], x: &[f64]) -> String {
+    vars.iter()
+        .zip(x)
+        .map(|(v, x)| format!("{}={x:.3}", v.name()))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn print_module_table(o: &ModuleOutcome) {
+    print!("{}", module_table(o));
 }
 
 /// Arguments of `fbgforge place`.
@@ -317,30 +379,49 @@ pub fn run_place(a: PlaceArgs) -> Result<()> {
 }
 
 fn print_place_table(o: &PlaceOutcome) {
-    println!(
-        "objective {:?}, method {}: start {:.4}, optimised {:.4} (training seeds)",
-        o.objective, o.method, o.start_objective, o.best_objective
+    print!("{}", place_table(o));
+}
+
+/// The placement as text, every line within [`WIDTH`] columns.
+pub fn place_table(o: &PlaceOutcome) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    wrapped(
+        &mut s,
+        &format!(
+            "objective {:?}, method {}: start {:.4}, optimised {:.4} (training seeds)",
+            o.objective, o.method, o.start_objective, o.best_objective
+        ),
+        4,
     );
     if let Some(a) = &o.design.array {
-        println!(
+        let _ = writeln!(
+            s,
             "{:<10} {:>8} {:>12} {:>12}",
             "grating", "fiber", "start y mm", "y mm"
         );
         for (i, g) in a.gratings.iter().enumerate() {
-            println!(
+            let _ = writeln!(
+                s,
                 "{:<10} {:>8} {:>12.2} {:>12.2}",
                 g.name, g.fiber, o.start_x[i], g.y_mm
             );
         }
         let xs: Vec<String> = a.fiber_x_mm.iter().map(|x| format!("{x:.2}")).collect();
-        println!("fiber x mm (mold slits): {}", xs.join(", "));
+        wrapped(
+            &mut s,
+            &format!("fiber x mm (mold slits): {}", xs.join(", ")),
+            4,
+        );
     }
-    println!(
+    let _ = writeln!(
+        s,
         "{:<16} {:>14} {:>10} {:>10} {:>10}",
         "solver", "best objective", "iters", "evals", "time s"
     );
     for r in &o.runs {
-        println!(
+        let _ = writeln!(
+            s,
             "{:<16} {:>14.4} {:>10} {:>10} {:>10.2}",
             r.solver.name(),
             r.best_objective,
@@ -349,17 +430,28 @@ fn print_place_table(o: &PlaceOutcome) {
             r.time_s
         );
     }
-    println!("held-out protocol (penalty tuned):  RR %   mean SNR dB   coherence");
-    let row = |name: &str, s: &fbgforge::optimize::place::LayoutScore| {
-        println!(
+    let _ = writeln!(
+        s,
+        "held-out protocol (penalty tuned):  RR %   mean SNR dB   coherence"
+    );
+    let row = |s: &mut String, name: &str, t: &fbgforge::optimize::place::LayoutScore| {
+        let _ = writeln!(
+            s,
             "  {name:<32} {:>6.1} {:>12.2} {:>11.3}",
-            s.rr_pct, s.mean_snr_db, s.mutual_coherence
-        )
+            t.rr_pct, t.mean_snr_db, t.mutual_coherence
+        );
     };
-    row("start layout", &o.start_test);
-    row("optimised layout", &o.best_test);
-    println!(
-        "  by number of loads (paper Table 3: RR 100/100/100/90 %, SNR 25.4/25.2/23.3/19.7 dB):"
+    row(&mut s, "start layout", &o.start_test);
+    row(&mut s, "optimised layout", &o.best_test);
+    wrapped(
+        &mut s,
+        "  by number of loads (paper Table 3: RR 100/100/100/90 %, SNR 25.4/25.2/23.3/19.7 dB):",
+        4,
+    );
+    let _ = writeln!(
+        s,
+        "    {:<8} {:>12} {:>12} {:>12} {:>12}",
+        "loads", "start RR %", "SNR dB", "optim. RR %", "SNR dB"
     );
     for (a, b) in o
         .start_test
@@ -367,16 +459,22 @@ fn print_place_table(o: &PlaceOutcome) {
         .iter()
         .zip(&o.best_test.by_load_count)
     {
-        println!(
-            "    {} load(s): start RR {:>5.1} % SNR {:>5.2} dB   optimised RR {:>5.1} % SNR {:>5.2} dB",
+        let _ = writeln!(
+            s,
+            "    {:<8} {:>12.1} {:>12.2} {:>12.1} {:>12.2}",
             a.0, a.1, a.2, b.1, b.2
         );
     }
     if let Some(ag) = &o.agreement {
-        println!(
-            "coherence proxy vs protocol score: Spearman {:.2} over {} random layouts",
-            ag.spearman_coherence_vs_score, ag.samples
+        wrapped(
+            &mut s,
+            &format!(
+                "coherence proxy vs protocol score: Spearman {:.2} over {} random layouts",
+                ag.spearman_coherence_vs_score, ag.samples
+            ),
+            4,
         );
     }
-    println!("in {:.1} s", o.time_s);
+    let _ = writeln!(s, "in {:.1} s", o.time_s);
+    s
 }

@@ -8,7 +8,7 @@ use fbgforge::fem::FemOptions;
 use fbgforge::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use fbgforge::model::LoadCase;
 use fbgforge::output::{ensure_dir, write_csv};
-use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::plot::{Chart, Mark, Series, Stroke};
 use fbgforge::prediction::{Fidelity, FidelityChoice, ModelledPrediction};
 use std::path::{Path, PathBuf};
 
@@ -296,6 +296,13 @@ pub struct SweepArgs {
     /// Number of values, including both ends.
     #[arg(long, default_value_t = 41)]
     pub steps: usize,
+    /// Space the values evenly in log (a log x axis); the default when --to is more
+    /// than 20 × --from.
+    #[arg(long, conflicts_with = "linear")]
+    pub log: bool,
+    /// Space the values evenly (a linear x axis), even over a range wider than 20 ×.
+    #[arg(long)]
+    pub linear: bool,
     /// Apex force, N.
     #[arg(long, default_value_t = 50.0)]
     pub force_n: f64,
@@ -331,32 +338,100 @@ fn fidelity_label(f: FidelityArg) -> &'static str {
     }
 }
 
-fn sweep_chart(r: &SweepResult, title: &str) -> Chart {
+/// A range wider than this factor is swept in log steps unless `--linear` is given.
+const AUTO_LOG_RATIO: f64 = 20.0;
+
+/// Whether a sweep over `from..to` uses log spacing: asked for, refused, or by default
+/// over a range of more than [`AUTO_LOG_RATIO`] ×.
+fn log_spacing(from: f64, to: f64, log: bool, linear: bool) -> bool {
+    log || (!linear && from > 0.0 && to / from > AUTO_LOG_RATIO)
+}
+
+/// `steps` values from `from` to `to` with equal ratios between neighbours.
+fn log_values(from: f64, to: f64, steps: usize) -> Vec<f64> {
+    let r = (to / from).ln();
+    (0..steps)
+        .map(|i| {
+            if i + 1 == steps {
+                to
+            } else {
+                from * (r * i as f64 / (steps - 1) as f64).exp()
+            }
+        })
+        .collect()
+}
+
+/// The sweep's chart: one colour per configuration (case and insert), one dash per
+/// grating within it, and one band per configuration (the envelope of its gratings'
+/// bands, outlined), with the legend beside the plot: twelve series stay readable.
+fn sweep_chart(r: &SweepResult, title: &str, log_x: bool) -> Chart {
     let mut c = Chart::new(
         title,
         r.label.clone(),
         format!("Δλ at {} N (pm)", r.force_n),
     );
+    c.x_log = log_x;
+    let mut groups: Vec<(LoadCase, Option<String>)> = Vec::new();
     for s in &r.series {
-        let mut line = Series::new(
-            s.label(),
-            s.x.iter()
-                .copied()
-                .zip(s.shift_pm.iter().copied())
-                .collect(),
-            Mark::Line,
-        );
-        if s.band_pm_per_n.len() == s.x.len() && !s.x.is_empty() {
-            // The band of K as a band of the shift at the sweep's force.
-            let f = r.force_n;
-            line = line.with_band(
-                s.x.iter()
-                    .zip(&s.band_pm_per_n)
-                    .map(|(&x, &[lo, hi])| (x, (lo * f).min(hi * f), (lo * f).max(hi * f)))
-                    .collect(),
+        let key = (s.case, s.insert.clone());
+        if !groups.contains(&key) {
+            groups.push(key);
+        }
+    }
+    let f = r.force_n;
+    for (gi, key) in groups.iter().enumerate() {
+        let members: Vec<_> = r
+            .series
+            .iter()
+            .filter(|s| (s.case, s.insert.clone()) == *key)
+            .collect();
+        for (k, s) in members.iter().enumerate() {
+            c = c.with(
+                Series::new(
+                    s.label(),
+                    s.x.iter()
+                        .copied()
+                        .zip(s.shift_pm.iter().copied())
+                        .collect(),
+                    Mark::Line,
+                )
+                .with_color(gi)
+                .with_stroke(Stroke::ALL[k % Stroke::ALL.len()])
+                .with_role("shift"),
             );
         }
-        c = c.with(line);
+        // The band of K as a band of the shift at the sweep's force, the envelope
+        // over the configuration's gratings.
+        let first = members[0];
+        let banded = members
+            .iter()
+            .all(|s| s.band_pm_per_n.len() == s.x.len() && s.x.len() == first.x.len());
+        if banded && !first.x.is_empty() {
+            let band: Vec<(f64, f64, f64)> = (0..first.x.len())
+                .map(|i| {
+                    let (lo, hi) = members.iter().fold((f64::MAX, f64::MIN), |(a, b), s| {
+                        let [p, q] = s.band_pm_per_n[i];
+                        (a.min(p * f).min(q * f), b.max(p * f).max(q * f))
+                    });
+                    (first.x[i], lo, hi)
+                })
+                .collect();
+            let what = match &key.1 {
+                Some(i) => format!("Case {} · {i}", key.0),
+                None => format!("Case {}", key.0),
+            };
+            c = c.with(
+                Series::new(
+                    format!("band, {what} (contact readings)"),
+                    Vec::new(),
+                    Mark::Line,
+                )
+                .with_band(band)
+                .with_color(gi)
+                .with_stroke(Stroke::Dotted)
+                .with_role("band"),
+            );
+        }
     }
     c
 }
@@ -422,7 +497,11 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             a.force_n
         );
     }
-    let values = sweep::sweep_values(param, from, to, a.steps)?;
+    let mut values = sweep::sweep_values(param, from, to, a.steps)?;
+    let log_x = log_spacing(from, to, a.log, a.linear);
+    if log_x {
+        values = log_values(from, to, a.steps);
+    }
     let case = a.case.map(LoadCase::from);
     if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
         bail!(
@@ -464,14 +543,16 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             param.name,
             fidelity_label(a.fidelity)
         ),
+        log_x,
     )
     .write_svg(&svg)?;
     sweep_csv(&r, &csv)?;
     println!(
-        "{}: {} over {from}..{to} ({} steps), F = {} N, model: {}",
+        "{}: {} over {from}..{to} ({} {} steps), F = {} N, model: {}",
         design.name,
         param.name,
         a.steps,
+        if log_x { "log" } else { "linear" },
         a.force_n,
         fidelity_label(a.fidelity)
     );
@@ -511,7 +592,7 @@ fn write_paper_figures(
         let r = sweep::run_paper_figure_with(design, fig, steps, predictor.as_deref(), &pb)
             .with_context(|| format!("paper figure {}", fig.id))?;
         let title = format!("{} ({})", fig.title, fidelity_label(fidelity));
-        sweep_chart(&r, &title).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
+        sweep_chart(&r, &title, false).write_svg(&dir.join(format!("{}.svg", fig.id)))?;
         sweep_csv(&r, &dir.join(format!("{}.csv", fig.id)))?;
         let first = &r.series[0];
         println!(

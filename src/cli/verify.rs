@@ -94,7 +94,8 @@ pub struct VerifyArgs {
     /// Print the report as JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Write report.md, report.json, SVG plots and CSVs into this folder.
+    /// Write report.html (self-contained), report.md, report.json, SVG plots and CSVs
+    /// into this folder.
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Fit the design's contact reading ([module.contact] dome_contact_radius_mm) to the
@@ -136,7 +137,7 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
     } else {
         print!("{}", report::summary(&report));
         if let Some(dir) = &a.report {
-            println!("report: {}", dir.join("report.md").display());
+            println!("report: {}", dir.join("report.html").display());
         }
     }
     if let (Some(c), Some(path)) = (&calibration, &a.calibrate_into) {

@@ -1,6 +1,8 @@
 //! What a live run shows: a terminal view (a text heat map of the array's cells, or a
 //! force table of the module's gratings, with rate, latency, drops and bad frames),
-//! redrawn a few times a second, or one JSON object per line for programs.
+//! redrawn a few times a second, or one JSON object per line for programs. The view
+//! and the end-of-run summary keep to [`WIDTH`] columns, a terminal's default: the
+//! grid's cells narrow with their number, and text lines wrap at spaces.
 
 use super::interpret::Reading;
 use super::stats::{LiveSummary, Stats};
@@ -244,7 +246,49 @@ fn us(v: f64) -> String {
     }
 }
 
-/// The terminal view as text.
+/// Columns the terminal view and the summary keep to.
+pub const WIDTH: usize = 80;
+
+/// `text` with every line longer than `width` columns wrapped at spaces (continuation
+/// lines indented by four), and a word longer than a line cut with `…`.
+pub fn fit_width(text: &str, width: usize) -> String {
+    let mut out = String::with_capacity(text.len());
+    for (n, line) in text.split('\n').enumerate() {
+        if n > 0 {
+            out.push('\n');
+        }
+        if line.chars().count() <= width {
+            out.push_str(line);
+            continue;
+        }
+        let lead = line.len() - line.trim_start_matches(' ').len();
+        let mut cur = " ".repeat(lead.min(width / 2));
+        let mut fresh = true;
+        for word in line.split(' ').filter(|w| !w.is_empty()) {
+            let room = width.saturating_sub(4).max(1);
+            let word: String = if word.chars().count() > room {
+                word.chars().take(room - 1).chain(['…']).collect()
+            } else {
+                word.to_string()
+            };
+            if !fresh && cur.chars().count() + 1 + word.chars().count() > width {
+                out.push_str(&cur);
+                out.push('\n');
+                cur = "    ".to_string();
+                fresh = true;
+            }
+            if !fresh {
+                cur.push(' ');
+            }
+            cur.push_str(&word);
+            fresh = false;
+        }
+        out.push_str(&cur);
+    }
+    out
+}
+
+/// The terminal view as text, within [`WIDTH`] columns.
 pub fn render(
     info: &LiveInfo,
     last: Option<&FrameReading>,
@@ -281,7 +325,7 @@ pub fn render(
         }
     }
     write_status(&mut s, last, stats, elapsed, events);
-    s
+    fit_width(&s, WIDTH)
 }
 
 /// The array's loads as a grid of cells (name, load in g, bar of the load over ulimit).
@@ -293,11 +337,24 @@ fn write_load_grid(
     (nx, ny, ulimit): (usize, usize, f64),
 ) {
     use std::fmt::Write as _;
-    const W: usize = 9;
+    // Cells 9 columns wide, narrower when many must fit in WIDTH (6 + nx × (W + 1));
+    // a grid too wide even then is listed instead.
+    let w = ((WIDTH - 6) / nx.max(1)).saturating_sub(1).min(9);
+    if w < 6 {
+        write_load_list(s, info, loads_g, residual_pm, ulimit);
+        return;
+    }
+    let name_w = info
+        .outputs
+        .iter()
+        .map(|n| n.chars().count())
+        .max()
+        .unwrap_or(1)
+        .max(2);
     let line = |l: char, m: char, r: char| {
         let mut t = format!("     {l}");
         for i in 0..nx {
-            t.push_str(&"─".repeat(W));
+            t.push_str(&"─".repeat(w));
             t.push(if i + 1 == nx { r } else { m });
         }
         t
@@ -311,8 +368,9 @@ fn write_load_grid(
             let name = info.outputs.get(k).map_or("?", |n| n.as_str());
             let v = loads_g.get(k).copied().unwrap_or(f64::NAN);
             let frac = v / ulimit;
-            let _ = write!(a, " {name:<2}{:>5.0} │", v);
-            let _ = write!(b, " {} │", bar(frac, W - 2));
+            let value_w = (w - 2).saturating_sub(name_w).max(1);
+            let _ = write!(a, " {name:<name_w$}{v:>value_w$.0} │");
+            let _ = write!(b, " {} │", bar(frac, w - 2));
         }
         let _ = writeln!(s, "{a}");
         let _ = writeln!(s, "{b}");
@@ -333,6 +391,35 @@ fn write_load_grid(
     );
 }
 
+/// A grid too wide for the terminal: the loaded cells, largest first.
+fn write_load_list(
+    s: &mut String,
+    info: &LiveInfo,
+    loads_g: &[f64],
+    residual_pm: f64,
+    ulimit: f64,
+) {
+    use std::fmt::Write as _;
+    let mut idx: Vec<usize> = (0..loads_g.len()).collect();
+    idx.sort_by(|&a, &b| loads_g[b].total_cmp(&loads_g[a]));
+    let _ = writeln!(s, "  {:<8} {:>9}", "cell", "load g");
+    for &k in idx.iter().filter(|&&k| loads_g[k] > 0.0).take(12) {
+        let name = info.outputs.get(k).map_or("?", |n| n.as_str());
+        let _ = writeln!(
+            s,
+            "  {name:<8} {:>9.0}  {}",
+            loads_g[k],
+            bar(loads_g[k] / ulimit, 40)
+        );
+    }
+    let total: f64 = loads_g.iter().sum();
+    let _ = writeln!(
+        s,
+        "  loaded cells of {}, largest first; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm",
+        loads_g.len()
+    );
+}
+
 /// The module's forces, one line per grating, and the temperature compensation.
 fn write_forces(s: &mut String, info: &LiveInfo, forces_n: &[Option<f64>], delta_t_k: Option<f64>) {
     use std::fmt::Write as _;
@@ -340,7 +427,18 @@ fn write_forces(s: &mut String, info: &LiveInfo, forces_n: &[Option<f64>], delta
         .iter()
         .flatten()
         .fold(1.0f64, |m, f| m.max(f.abs()));
-    let _ = writeln!(s, "  {:<14} {:>10} {:>10}", "grating", "K pm/N", "force N");
+    let name_w = info
+        .outputs
+        .iter()
+        .map(|n| n.chars().count())
+        .fold(14, usize::max);
+    let _ = writeln!(
+        s,
+        "  {:<name_w$} {:>10} {:>10}",
+        "grating", "K pm/N", "force N"
+    );
+    // The bar takes what the name and the two numbers leave of the line.
+    let bar_w = WIDTH.saturating_sub(name_w + 26).min(30);
     for (i, name) in info.outputs.iter().enumerate() {
         let k = info
             .sensitivities_pm_per_n
@@ -351,12 +449,12 @@ fn write_forces(s: &mut String, info: &LiveInfo, forces_n: &[Option<f64>], delta
             Some(f) => {
                 let _ = writeln!(
                     s,
-                    "  {name:<14} {k:>+10.3} {f:>+10.3}  {}",
-                    bar(f.abs() / scale, 30)
+                    "  {name:<name_w$} {k:>+10.3} {f:>+10.3}  {}",
+                    bar(f.abs() / scale, bar_w)
                 );
             }
             None => {
-                let _ = writeln!(s, "  {name:<14} {k:>+10.3} {:>10}  (no peak)", "–");
+                let _ = writeln!(s, "  {name:<name_w$} {k:>+10.3} {:>10}  (no peak)", "–");
             }
         }
     }
@@ -458,7 +556,7 @@ pub fn summary_text(x: &LiveSummary) -> String {
     for (kind, w) in &x.bad.counts {
         let _ = write!(s, "\n  {kind}: {} (first: {})", w.count, w.first);
     }
-    s
+    fit_width(&s, WIDTH)
 }
 
 #[cfg(test)]
@@ -473,5 +571,177 @@ mod tests {
         assert_eq!(bar(1.0 / 32.0, 4), "▏   ");
         assert_eq!(bar(f64::NAN, 3), "   ");
         assert_eq!(bar(7.0, 3).chars().count(), 3);
+    }
+
+    fn busy_stats() -> Stats {
+        let mut st = Stats {
+            frames_in: 123_456_789,
+            frames_out: 123_456_000,
+            tare_frames: 200,
+            bad_frames: 98_765,
+            reconnects: 12_345,
+            ..Stats::default()
+        };
+        st.dropped.serial_gaps = 4_567_890;
+        st.dropped.queue_overflow = 1_234_567;
+        for v in [12.0, 3_456.0, 98_765.0] {
+            st.latency.add(v);
+        }
+        st
+    }
+
+    fn array_info(nx: usize, ny: usize) -> LiveInfo {
+        LiveInfo {
+            design: "tactile-array-with-a-rather-long-name-60x80-placed-optimised".into(),
+            kind: "array",
+            source: "hyperion://192.168.100.200:51972 (reconnecting after a drop)".into(),
+            description: "array 8×2 cells, 6 gratings, method wsupport (resolution 0.5 pm), with a description long enough to wrap".into(),
+            outputs: (0..nx * ny).map(crate::profile::cell_label).collect(),
+            gratings: vec!["fbg1".into()],
+            grid: Some((nx, ny, 250.0)),
+            method: Some("wsupport".into()),
+            sensitivities_pm_per_n: Vec::new(),
+            tare_frames: 200,
+        }
+    }
+
+    fn assert_fits(text: &str) {
+        for line in text.lines() {
+            assert!(
+                line.chars().count() <= WIDTH,
+                "{} columns: {line}",
+                line.chars().count()
+            );
+        }
+    }
+
+    #[test]
+    fn the_array_view_fits_80_columns_at_any_grid_width() {
+        let events = vec![
+            "bad frame (wrong_peak_count): frame 123456 has 7 peaks in the window of fbg3 where one was expected, the frame was skipped".to_string(),
+        ];
+        // 4 cells across: the full 9-column cells; 8: narrower; 16: a list.
+        for nx in [4, 8, 16] {
+            let info = array_info(nx, 2);
+            let reading = FrameReading {
+                serial: Some(u64::MAX),
+                time_s: None,
+                reading: Reading::Loads {
+                    loads_g: (0..2 * nx).map(|k| 25.0 * k as f64).collect(),
+                    converged: true,
+                    residual_pm: 1234.5,
+                },
+                latency_us: 12.0,
+                age_us: None,
+            };
+            let text = render(
+                &info,
+                Some(&reading),
+                &busy_stats(),
+                Duration::from_secs(3),
+                &events,
+            );
+            assert_fits(&text);
+            // Every cell's label is still shown (in the grid or, for 16, the list of
+            // loaded cells, which holds the 12 largest).
+            let shown = info.outputs.iter().filter(|n| {
+                text.lines().any(|l| {
+                    l.split(|c: char| !c.is_alphanumeric())
+                        .any(|w| w == n.as_str())
+                })
+            });
+            assert_eq!(shown.count(), if nx == 16 { 12 } else { 2 * nx }, "{text}");
+        }
+        // The grid lines stay whole: no box line was wrapped.
+        let text = render(
+            &array_info(8, 2),
+            Some(&FrameReading {
+                serial: Some(1),
+                time_s: None,
+                reading: Reading::Loads {
+                    loads_g: vec![100.0; 16],
+                    converged: true,
+                    residual_pm: 0.1,
+                },
+                latency_us: 1.0,
+                age_us: None,
+            }),
+            &Stats::default(),
+            Duration::from_secs(1),
+            &[],
+        );
+        let top = text.lines().find(|l| l.contains('┌')).unwrap();
+        assert!(top.ends_with('┐') && top.chars().count() <= WIDTH, "{top}");
+    }
+
+    #[test]
+    fn the_module_view_and_the_summary_fit_80_columns() {
+        let info = LiveInfo {
+            design: "clip-on-34mm".into(),
+            kind: "module",
+            source: "stdin".into(),
+            description: "module core psc2, Case I (insert_light_green), K from the model policy (FE with the design's contact), reference lambda_temp".into(),
+            outputs: vec!["lambda_21_long_grating_name".into(), "lambda_22".into()],
+            gratings: vec![],
+            grid: None,
+            method: None,
+            sensitivities_pm_per_n: vec![-170.684, -169.647],
+            tare_frames: 50,
+        };
+        let reading = FrameReading {
+            serial: None,
+            time_s: Some(123456.789),
+            reading: Reading::Forces {
+                forces_n: vec![Some(-12345.678), None],
+                delta_t_k: Some(-12.5),
+            },
+            latency_us: 5.0,
+            age_us: None,
+        };
+        let text = render(
+            &info,
+            Some(&reading),
+            &busy_stats(),
+            Duration::from_secs(2),
+            &[],
+        );
+        assert_fits(&text);
+        assert!(text.contains("lambda_21_long_grating_name") && text.contains("(no peak)"));
+        let st = busy_stats();
+        let mut bad = crate::logs::LogWarnings::default();
+        bad.add("wrong_peak_count", || "frame 123456 has 7 peaks in the window of fbg3 where one was expected; the frame was skipped and counted".into());
+        let summary = LiveSummary {
+            design: info.design.clone(),
+            source: info.source.clone(),
+            ended: "gave up reconnecting to hyperion://192.168.100.200:51972 after 10 attempts over 30 s".into(),
+            elapsed_s: 123456.0,
+            frames_in: st.frames_in,
+            frames_out: st.frames_out,
+            rate_hz: 1000.0,
+            tare_frames: 200,
+            bad_frames: st.bad_frames,
+            bad,
+            ambiguous_frames: 77,
+            dropped: st.dropped,
+            reconnects: st.reconnects,
+            not_converged: 0,
+            latency: st.latency.summary(),
+            age: st.latency.summary(),
+        };
+        let text = summary_text(&summary);
+        assert_fits(&text);
+        // Wrapping moved words, it did not drop them.
+        for word in ["reconnects", "attempts", "counted", "max"] {
+            assert!(text.contains(word), "{word}: {text}");
+        }
+    }
+
+    #[test]
+    fn long_lines_wrap_at_spaces_and_short_ones_stay() {
+        assert_eq!(fit_width("aaaa bbbb cccc", 10), "aaaa bbbb\n    cccc");
+        assert_eq!(fit_width("short\nline", 80), "short\nline");
+        let cut = fit_width(&"x".repeat(30), 10);
+        assert_eq!(cut.chars().count(), 6, "{cut}");
+        assert!(cut.ends_with('…'));
     }
 }

@@ -8,10 +8,13 @@
 //! * [`module`]: the module problem: variables, constraints, discrete material choices.
 //! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
 //! * [`run`]: the use cases the CLI calls: optimise a module, place gratings; both write
-//!   the design and a report.
+//!   the design and a report ([`report_html`]: the HTML report; [`sheet`]: the placed
+//!   layout drawn on the sheet).
 
 pub mod materials;
 pub mod module;
 pub mod place;
 pub mod quality;
+pub mod report_html;
 pub mod run;
+pub mod sheet;

@@ -1,7 +1,8 @@
 //! The optimisation use cases: [`run_module`] (module design for Q or sensitivity)
 //! and [`run_placement`] (grating placement in a flat array). Each loads the design,
 //! runs the search, writes the optimised design as TOML (it loads, builds, predicts
-//! and verifies) and a report folder (summary JSON, SVG charts with their CSVs).
+//! and verifies) and a report folder (summary JSON, SVG charts with their CSVs, and
+//! `report.html` with the same charts inline: `report_html`).
 
 use super::materials::MaterialLibrary;
 use super::module::{
@@ -10,9 +11,12 @@ use super::module::{
 };
 use super::place::{place, PlaceOutcome, PlaceSettings};
 use super::quality::MeasuredPrototype;
+use super::report_html;
+use super::sheet;
 use crate::output::{write_atomic, write_csv, write_json};
-use crate::plot::{Chart, Mark, Series};
+use crate::plot::{Chart, Mark, Series, Stroke};
 use crate::progress::Progress;
+use crate::solvers::SolverKind;
 use crate::spec::Design;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
@@ -148,7 +152,7 @@ pub fn run_placement(req: &PlaceRequest, progress: &dyn Progress) -> Result<Plac
         .clone()
         .unwrap_or_else(|| report_beside(&out));
     write_design(&out, &outcome.design)?;
-    write_place_report(&report_dir, &outcome)?;
+    write_place_report(&report_dir, &design, &req.settings, &outcome)?;
     Ok(PlaceRun {
         outcome,
         design_path: out,
@@ -178,7 +182,8 @@ pub fn write_design(path: &Path, d: &Design) -> Result<()> {
     write_atomic(path, text.as_bytes())
 }
 
-/// Convergence chart, landscape chart, their CSVs, and the JSON summary.
+/// Convergence chart, landscape chart, their CSVs, the JSON summary and
+/// `report.html`.
 fn write_module_report(
     dir: &Path,
     base: &Design,
@@ -190,7 +195,7 @@ fn write_module_report(
 ) -> Result<()> {
     write_json(&dir.join("summary.json"), o)?;
     let win = &o.choices[o.best_choice];
-    write_convergence(dir, win)?;
+    let convergence = write_convergence(dir, win)?;
     // Landscape over two variables at the optimum of the winning choice.
     let idx: Vec<usize> = landscape_vars
         .iter()
@@ -200,6 +205,7 @@ fn write_module_report(
             })
         })
         .collect::<Result<_>>()?;
+    let mut landscape_chart_done = None;
     if idx.len() == 2 {
         let cal = o.calibration;
         let p = ModuleProblem::new(base, win.choice.clone(), lib, settings, cal, predictor)?;
@@ -211,48 +217,124 @@ fn write_module_report(
         let steps = 15;
         let grid = landscape(&p, &at, idx[0], idx[1], steps);
         let vars = (landscape_vars[0], landscape_vars[1]);
-        landscape_chart(o, win, &grid, vars, steps)?.write_svg(&dir.join("landscape.svg"))?;
+        let chart = landscape_chart(o, win, &grid, vars, steps)?;
+        chart.write_svg(&dir.join("landscape.svg"))?;
         write_landscape_csv(dir, &grid, vars)?;
+        landscape_chart_done = Some(chart);
     }
-    Ok(())
+    let mut figures: Vec<report_html::Figure> = vec![(&convergence, CONVERGENCE_CAPTION)];
+    if let Some(c) = &landscape_chart_done {
+        figures.push((c, "The objective over the two landscape variables, the others at the optimum: slices of the second variable; points the constraints cut off drawn apart."));
+    }
+    report_html::module_document(o, &figures)?.write(&dir.join("report.html"))
 }
 
-/// Convergence of every run of the winning choice (best penalised cost per
-/// iteration): chart and CSV.
-fn write_convergence(dir: &Path, win: &ChoiceResult) -> Result<()> {
+/// How to read a convergence chart.
+const CONVERGENCE_CAPTION: &str = "Convergence of every run: the best cost so far above the lowest cost any run reached, on a log axis (a run that reached the lowest ends on the bottom line, at a dot). Runs that end at the same cost stay apart while they converge; the cost is −objective/scale for a feasible design, above 1 for an infeasible one.";
+
+/// One run's history for [`convergence_chart`]: label, solver, start index, best cost
+/// per iteration.
+pub type RunHistory<'a> = (String, SolverKind, usize, &'a [f64]);
+
+/// The convergence chart of several runs: each run's best cost above the lowest cost
+/// any run reached, on a log axis, so runs that converge to nearly the same cost stay
+/// apart (on a linear axis of the cost they draw over one another); colour by start,
+/// dash by solver, a dot where each run ends. Returns the chart and, per run and
+/// iteration, the gap it draws.
+pub fn convergence_chart(title: &str, runs: &[RunHistory]) -> (Chart, Vec<Vec<f64>>) {
+    let lowest = runs
+        .iter()
+        .flat_map(|r| r.3.iter().copied())
+        .filter(|c| c.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    // The bottom line: a tenth of the smallest gap above the lowest, so a run that
+    // reached the lowest cost still has a place on the log axis.
+    let smallest = runs
+        .iter()
+        .flat_map(|r| r.3.iter().map(|c| c - lowest))
+        .filter(|g| g.is_finite() && *g > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let floor = if smallest.is_finite() {
+        smallest / 10.0
+    } else {
+        1e-12 * lowest.abs().max(1.0)
+    };
     let mut chart = Chart::new(
-        format!("Convergence, {}", win.choice),
+        title,
         "iteration",
-        "best cost (−objective / start objective)",
+        "best cost above the lowest reached (log)",
     );
-    let mut rows = Vec::new();
-    for r in &win.runs {
-        let pts: Vec<(f64, f64)> = r
-            .history
+    chart.y_log = true;
+    let mut gaps = Vec::new();
+    let mut ends = Vec::new();
+    for (label, solver, start, history) in runs {
+        let g: Vec<f64> = history.iter().map(|c| (c - lowest).max(floor)).collect();
+        let pts: Vec<(f64, f64)> = g
             .iter()
             .enumerate()
             .map(|(i, c)| (i as f64 + 1.0, *c))
             .collect();
-        for (i, c) in &pts {
+        let dash = match solver {
+            SolverKind::NelderMead => Stroke::Solid,
+            SolverKind::ParticleSwarm => Stroke::Dashed,
+            SolverKind::DifferentialEvolution => Stroke::DashDot,
+        };
+        if let Some(&last) = pts.last() {
+            ends.push((last, *start));
+        }
+        chart = chart.with(
+            Series::new(label.clone(), pts, Mark::Line)
+                .with_color(*start)
+                .with_stroke(dash)
+                .with_role("run"),
+        );
+        gaps.push(g);
+    }
+    for (p, start) in ends {
+        chart = chart.with(
+            Series::new("", vec![p], Mark::Points)
+                .with_color(start)
+                .with_role("run-end"),
+        );
+    }
+    (chart, gaps)
+}
+
+/// Convergence of every run of the winning choice (best penalised cost per
+/// iteration): chart and CSV.
+fn write_convergence(dir: &Path, win: &ChoiceResult) -> Result<Chart> {
+    let runs: Vec<RunHistory> = win
+        .runs
+        .iter()
+        .map(|r| {
+            (
+                format!("{} start {}", r.solver.name(), r.start),
+                r.solver,
+                r.start,
+                r.history.as_slice(),
+            )
+        })
+        .collect();
+    let (chart, gaps) = convergence_chart(&format!("Convergence, {}", win.choice), &runs);
+    let mut rows = Vec::new();
+    for (r, g) in win.runs.iter().zip(&gaps) {
+        for (i, (c, gap)) in r.history.iter().zip(g).enumerate() {
             rows.push(vec![
                 r.solver.name().to_string(),
                 r.start.to_string(),
-                i.to_string(),
+                (i + 1).to_string(),
                 c.to_string(),
+                gap.to_string(),
             ]);
         }
-        chart = chart.with(Series::new(
-            format!("{} start {}", r.solver.name(), r.start),
-            pts,
-            Mark::Line,
-        ));
     }
     chart.write_svg(&dir.join("convergence.svg"))?;
     write_csv(
         &dir.join("convergence.csv"),
-        &["solver", "start", "iteration", "best_cost"],
+        &["solver", "start", "iteration", "best_cost", "above_lowest"],
         &rows,
-    )
+    )?;
+    Ok(chart)
 }
 
 /// The landscape chart: feasible slices of the second variable, infeasible points apart.
@@ -339,36 +421,69 @@ fn write_landscape_csv(
     )
 }
 
-fn write_place_report(dir: &Path, o: &PlaceOutcome) -> Result<()> {
+/// The placement's report: summary JSON, the layout on the sheet (`layout.svg` and
+/// `layout.csv`), convergence, the proxy's agreement, and `report.html`.
+fn write_place_report(
+    dir: &Path,
+    start: &Design,
+    settings: &PlaceSettings,
+    o: &PlaceOutcome,
+) -> Result<()> {
     write_json(&dir.join("summary.json"), o)?;
-    let mut chart = Chart::new(
-        "Placement convergence",
-        "iteration",
-        "best cost (−objective)",
-    );
+    let (Some(from), Some(to)) = (&start.array, &o.design.array) else {
+        anyhow::bail!("internal: a placement without an [array] section");
+    };
+    // The start as the search saw it (clamped into the box), so start and chosen are
+    // drawn on the same terms.
+    let mut from = from.clone();
+    for (g, &y) in from.gratings.iter_mut().zip(&o.start_x) {
+        g.y_mm = y;
+    }
+    if o.start_x.len() == from.gratings.len() + from.fiber_x_mm.len() {
+        let n = from.gratings.len();
+        from.fiber_x_mm = o.start_x[n..].to_vec();
+    }
+    let title = format!("Layout of {}: start and chosen", o.design.name);
+    let (svg, _, _) = sheet::layout_svg(&from, to, &title, true);
+    write_atomic(&dir.join("layout.svg"), svg.as_bytes())?;
+    let (inline, _, _) = sheet::layout_svg(&from, to, &title, false);
+    write_csv(
+        &dir.join("layout.csv"),
+        &sheet::LAYOUT_HEADER,
+        &sheet::layout_rows(&from, to),
+    )?;
+    let runs: Vec<RunHistory> = o
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            (
+                r.solver.name().to_string(),
+                r.solver,
+                i,
+                r.history.as_slice(),
+            )
+        })
+        .collect();
+    let (chart, gaps) = convergence_chart("Placement convergence", &runs);
     let mut rows = Vec::new();
-    for r in &o.runs {
-        let pts: Vec<(f64, f64)> = r
-            .history
-            .iter()
-            .enumerate()
-            .map(|(i, c)| (i as f64 + 1.0, *c))
-            .collect();
-        for (i, c) in &pts {
+    for (r, g) in o.runs.iter().zip(&gaps) {
+        for (i, (c, gap)) in r.history.iter().zip(g).enumerate() {
             rows.push(vec![
                 r.solver.name().to_string(),
-                i.to_string(),
+                (i + 1).to_string(),
                 c.to_string(),
+                gap.to_string(),
             ]);
         }
-        chart = chart.with(Series::new(r.solver.name(), pts, Mark::Line));
     }
     chart.write_svg(&dir.join("convergence.svg"))?;
     write_csv(
         &dir.join("convergence.csv"),
-        &["solver", "iteration", "best_cost"],
+        &["solver", "iteration", "best_cost", "above_lowest"],
         &rows,
     )?;
+    let mut agreement = None;
     if let Some(ag) = &o.agreement {
         let chart = Chart::new(
             "Coherence proxy against the protocol",
@@ -391,6 +506,12 @@ fn write_place_report(dir: &Path, o: &PlaceOutcome) -> Result<()> {
             &["mutual_coherence", "protocol_score"],
             &rows,
         )?;
+        agreement = Some(chart);
     }
-    Ok(())
+    let mut figures: Vec<report_html::Figure> = vec![(&chart, CONVERGENCE_CAPTION)];
+    if let Some(c) = &agreement {
+        figures.push((c, "Random layouts: the coherence proxy against the protocol score (lower coherence should score higher)."));
+    }
+    report_html::place_document(o, settings.test_seeds.len(), &inline, &figures)?
+        .write(&dir.join("report.html"))
 }

@@ -3,9 +3,11 @@
 pub mod analysis;
 pub mod assign;
 pub mod calibrate;
+pub mod charts;
 pub mod fit;
 pub mod lag;
 pub mod report;
+pub mod report_html;
 pub mod run;
 pub mod segment;
 pub mod synth;

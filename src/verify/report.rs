@@ -1,9 +1,10 @@
 //! Reports of a verification: a short text summary for the terminal, JSON for
-//! scripts (and for the optimiser, which reads the lag-model fields), and a Markdown
-//! report with SVG plots and the CSV files behind them.
+//! scripts (and for the optimiser, which reads the lag-model fields), a Markdown
+//! report with SVG plots and the CSV files behind them, and the same as one
+//! self-contained HTML file (`report_html`).
 
+use super::charts;
 use crate::output::{write_atomic, write_csv, write_json};
-use crate::plot::{Chart, Mark, Series as PlotSeries};
 use crate::verify::analysis::{Measurement, Series};
 use crate::verify::verdict::{Status, Verdict};
 use anyhow::Result;
@@ -25,7 +26,7 @@ pub struct VerifyReport {
 /// Why an estimated clock offset leaves only relative lags, and what to do about it.
 pub const RELATIVE_LAG_NOTE: &str = "the clock offset was estimated from the logs, and an estimated offset absorbs any pure delay between force and wavelength, so the absolute lag cannot be told from this data; give the offset between the two recorders' clocks with --clock-offset-s for absolute lags";
 
-fn status_word(s: Status) -> &'static str {
+pub(super) fn status_word(s: Status) -> &'static str {
     match s {
         Status::Pass => "PASS",
         Status::Fail => "FAIL",
@@ -36,7 +37,7 @@ fn status_word(s: Status) -> &'static str {
 }
 
 /// `v ± u`, or `—` when v is missing.
-fn plus_minus(v: Option<f64>, u: Option<f64>, digits: usize) -> String {
+pub(super) fn plus_minus(v: Option<f64>, u: Option<f64>, digits: usize) -> String {
     match (v.filter(|x| x.is_finite()), u.filter(|x| x.is_finite())) {
         (Some(v), Some(u)) => format!("{v:.digits$} ± {u:.digits$}"),
         (Some(v), None) => format!("{v:.digits$}"),
@@ -45,7 +46,7 @@ fn plus_minus(v: Option<f64>, u: Option<f64>, digits: usize) -> String {
 }
 
 /// The protocol, its pulses and segments, and how the lags were measured.
-fn protocol_line(m: &Measurement) -> String {
+pub(super) fn protocol_line(m: &Measurement) -> String {
     let timing = if m.timing_uncertainty_s > 0.0 {
         format!(
             "; timestamps uncertain by ±{:.3} s{}",
@@ -67,7 +68,7 @@ fn protocol_line(m: &Measurement) -> String {
     )
 }
 
-fn opt(v: Option<f64>, digits: usize) -> String {
+pub(super) fn opt(v: Option<f64>, digits: usize) -> String {
     v.filter(|x| x.is_finite())
         .map_or("—".into(), |x| format!("{x:.digits$}"))
 }
@@ -181,17 +182,19 @@ fn decimate(n: usize, max: usize) -> usize {
     n.div_ceil(max.max(1)).max(1)
 }
 
-/// Write `report.json`, `report.md`, the SVG plots and their CSVs into `dir`.
+/// Write `report.json`, `report.md`, `report.html`, the SVG plots and their CSVs into
+/// `dir`.
 pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()> {
     crate::output::ensure_dir(dir)?;
     write_json(&dir.join("report.json"), r)?;
     let m = &r.measurement;
     write_timeseries_csv(dir, series)?;
     write_pulses_csv(dir, m)?;
-    plot_shift_vs_force(dir, series)?;
+    plot_shift_vs_force(dir, r, series)?;
     plot_against_time(dir, series)?;
     let lag_plot = plot_lag_per_pulse(dir, m)?;
-    write_atomic(&dir.join("report.md"), markdown(r, lag_plot).as_bytes())
+    write_atomic(&dir.join("report.md"), markdown(r, lag_plot).as_bytes())?;
+    super::report_html::write(&dir.join("report.html"), r, series)
 }
 
 /// `timeseries.csv`: time, force and each grating's shift, at most 20 000 rows.
@@ -262,82 +265,24 @@ fn write_pulses_csv(dir: &Path, m: &Measurement) -> Result<()> {
     )
 }
 
-// Plots: at most 2 500 markers per series and 8 000 line points keep the SVGs small
-// enough to open; the CSVs hold the denser data.
-
-/// `shift_vs_force.svg`: each grating's shift against force, with its fitted line.
-fn plot_shift_vs_force(dir: &Path, series: &Series) -> Result<()> {
-    let n = series.time_s.len();
-    let scatter: Vec<usize> = (0..n).step_by(decimate(n, 2_500)).collect();
-    let mut c = Chart::new("Shift against force", "force F (N)", "shift Δλ (pm)");
-    for ((name, v), (_, slope, intercept)) in series.shift_pm.iter().zip(&series.fit) {
-        let pts: Vec<(f64, f64)> = scatter
-            .iter()
-            .map(|&i| (series.force_n[i], v[i]))
-            .filter(|(a, b)| a.is_finite() && b.is_finite())
-            .collect();
-        let (lo, hi) = pts
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
-        c = c.with(PlotSeries::new(name.clone(), pts, Mark::Points));
-        if lo < hi {
-            c = c.with(PlotSeries::new(
-                format!("{name}: K = {slope:.3} pm/N (as in the table)"),
-                vec![(lo, intercept + slope * lo), (hi, intercept + slope * hi)],
-                Mark::Line,
-            ));
-        }
-    }
-    c.write_svg(&dir.join("shift_vs_force.svg"))
+/// `shift_vs_force.svg`: each grating's shift against force, its fitted line, and the
+/// model's K with its band (`super::charts`).
+fn plot_shift_vs_force(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()> {
+    charts::shift_vs_force(r, series).write_svg(&dir.join("shift_vs_force.svg"))
 }
 
 /// `force_vs_time.svg` and `shift_vs_time.svg` on the wavelength clock.
 fn plot_against_time(dir: &Path, series: &Series) -> Result<()> {
-    let n = series.time_s.len();
-    let line: Vec<usize> = (0..n).step_by(decimate(n, 8_000)).collect();
-    let fpts: Vec<(f64, f64)> = line
-        .iter()
-        .map(|&i| (series.time_s[i], series.force_n[i]))
-        .collect();
-    Chart::new(
-        "Force against time (wavelength clock)",
-        "time (s)",
-        "force F (N)",
-    )
-    .with(PlotSeries::new("force", fpts, Mark::Line))
-    .write_svg(&dir.join("force_vs_time.svg"))?;
-    let mut c = Chart::new(
-        "Shift against time (temperature and drift removed)",
-        "time (s)",
-        "shift Δλ (pm)",
-    );
-    for (name, v) in &series.shift_pm {
-        c = c.with(PlotSeries::new(
-            name.clone(),
-            line.iter().map(|&i| (series.time_s[i], v[i])).collect(),
-            Mark::Line,
-        ));
-    }
-    c.write_svg(&dir.join("shift_vs_time.svg"))
+    charts::force_vs_time(series).write_svg(&dir.join("force_vs_time.svg"))?;
+    charts::shift_vs_time(series).write_svg(&dir.join("shift_vs_time.svg"))
 }
 
 /// `lag_per_pulse.svg` when any segment has a lag; returns whether it was written.
 fn plot_lag_per_pulse(dir: &Path, m: &Measurement) -> Result<bool> {
-    let mut c = Chart::new(
-        "Lag of the shift behind the force, per segment",
-        "segment",
-        "lag (s)",
-    );
-    let mut any = false;
-    for g in &m.gratings {
-        let pts: Vec<(f64, f64)> = g.pulses.iter().map(|p| (p.index as f64, p.lag_s)).collect();
-        any |= !pts.is_empty();
-        c = c.with(PlotSeries::new(g.grating.clone(), pts, Mark::LinePoints));
+    match charts::lag_per_segment(m) {
+        Some(c) => c.write_svg(&dir.join("lag_per_pulse.svg")).map(|_| true),
+        None => Ok(false),
     }
-    if any {
-        c.write_svg(&dir.join("lag_per_pulse.svg"))?;
-    }
-    Ok(any)
 }
 
 /// `report.md`: the verdict, the logs, the table per grating, notes and the plots.

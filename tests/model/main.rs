@@ -14,3 +14,4 @@ mod model;
 mod model_cli;
 mod model_policy;
 mod spec;
+mod sweep_chart;

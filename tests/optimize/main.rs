@@ -3,6 +3,8 @@
 //! One test binary per area (issue 26: few binaries, one link each); each file below
 //! is one concern.
 
+#[path = "../common/chromium.rs"]
+mod chromium;
 #[path = "../common/mod.rs"]
 mod common;
 
@@ -10,3 +12,4 @@ mod optimize;
 mod optimize_cli;
 mod optimize_model;
 mod optimize_place;
+mod report_html;

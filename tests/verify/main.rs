@@ -3,10 +3,13 @@
 //! One test binary per area (issue 26: few binaries, one link each); each file below
 //! is one concern.
 
+#[path = "../common/chromium.rs"]
+mod chromium;
 #[path = "../common/mod.rs"]
 mod common;
 
 mod logs_fixtures;
+mod report_html;
 mod verify_calibrate;
 mod verify_cli;
 mod verify_errors;
