@@ -9,6 +9,7 @@ mod common;
 mod logs_fixtures;
 mod verify_calibrate;
 mod verify_cli;
+mod verify_edges;
 mod verify_errors;
 mod verify_protocols;
 mod verify_synth;
