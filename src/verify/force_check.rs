@@ -196,7 +196,7 @@ fn clipped_pulses(t: &[f64], f: &[f64], seg: &Segmentation) -> (Option<f64>, Vec
 /// in or touches.
 fn gaps(t: &[f64], seg: &Segmentation) -> Vec<ForceGap> {
     let dt = crate::logs::median_period(t);
-    if !(dt > 0.0) {
+    if dt.is_nan() || dt <= 0.0 {
         return Vec::new();
     }
     (0..t.len() - 1)

@@ -82,7 +82,7 @@ pub fn fit_skew(points: &[(f64, f64, f64)], pivot_s: Option<f64>) -> Option<Skew
         .zip(&w)
         .map(|((t, _, _), w)| w * (t - tm).powi(2))
         .sum();
-    if !(stt > 0.0) {
+    if stt.is_nan() || stt <= 0.0 {
         return None;
     }
     let slope = p

@@ -410,7 +410,7 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
         bail!("grating `{g}`: its sensitivity must be a finite number, got {k}");
     }
     let rows = cfg.rows();
-    if !(rows <= MAX_ROWS) {
+    if rows.is_nan() || rows > MAX_ROWS {
         bail!(
             "a run of {:e} s at {} Hz would be {rows:e} wavelength rows; a synthetic log has at most {MAX_ROWS:e} (shorten --pulse-s, --rest-s or the train, or lower --rate-hz)",
             cfg.duration_s,
@@ -425,7 +425,7 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
         );
     }
     let samples = cfg.force_samples();
-    if !(samples <= MAX_FORCE_SAMPLES) {
+    if samples.is_nan() || samples > MAX_FORCE_SAMPLES {
         bail!(
             "the force log would hold {samples:e} samples ({} Hz over {:e} s); at most {MAX_FORCE_SAMPLES:e} are written (lower --force-rate-hz, shorten the run or --force-start-s)",
             cfg.force_rate_hz,

@@ -640,7 +640,7 @@ fn place_in_band(
     let factor = band_factor(band);
     let inside = k >= band[0] && k <= band[1];
     let reachable = reach_words(k, reach, radii);
-    let wide = !(factor <= MAX_BAND_FACTOR) && !opts.contact.calibrated;
+    let wide = (factor.is_nan() || factor > MAX_BAND_FACTOR) && !opts.contact.calibrated;
     let words = band_words(k, band);
     if wide {
         if status == Status::Pass || inside || reachable.is_some() {

@@ -55,7 +55,7 @@ pub(super) fn force_frame(
     } else {
         0.0
     };
-    if !(gap <= allowed) {
+    if gap.is_nan() || gap > allowed {
         bail!(
             "the force log {} (covering {:.3} s to {:.3} s on the wavelength log's clock{}) does not overlap the wavelength log {} (0 s to {:.3} s){}",
             force.source.display(),
