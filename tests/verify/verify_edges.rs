@@ -822,3 +822,71 @@ fn a_negative_lag_never_passes_silently() {
     .unwrap();
     assert_eq!(out.report.measurement.warnings.count("negative_lag"), 0);
 }
+
+#[test]
+fn calibrate_contact_has_its_own_exit_status_and_words() {
+    // A part at the nominal Case I model's K (blue insert, a band wider than 3×).
+    let probe = verify_case_i(&paper_cfg());
+    let cfg = SynthConfig {
+        grating_sensitivity_pm_per_n: probe
+            .report
+            .verdict
+            .gratings
+            .iter()
+            .map(|g| (g.grating.clone(), g.predicted_sensitivity_pm_per_n.unwrap()))
+            .collect(),
+        ..paper_cfg()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (lp, fp) = write_logs(dir.path(), &cfg).unwrap();
+    let offset = synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+        .arg("verify")
+        .arg(common::shipped_path("clip-on-34mm.toml"))
+        .args(["--case", "I", "--insert", "blue", "--core", CORE, "--log"])
+        .arg(&lp)
+        .arg("--force")
+        .arg(&fp)
+        .arg(format!("--clock-offset-s={offset}"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(5),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("verdict: CALIBRATE CONTACT"), "{text}");
+    assert!(
+        text.contains("cannot be judged without calibrating the contact"),
+        "{text}"
+    );
+    // --help documents it.
+    let help = std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+        .args(["verify", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains("5  CALIBRATE CONTACT"), "{help}");
+}
+
+#[test]
+fn a_given_offset_that_misses_the_log_says_so() {
+    // Relative clocks on both logs (CSV), a given offset of 1000 s: the error names
+    // the given offset, not an alignment of the starts.
+    let d = common::shipped("clip-on-34mm.toml");
+    let cfg = paper_cfg();
+    let (log, force, _) = synth::generate(&d, &cfg).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let lp = dir.path().join("log.csv");
+    let fp = dir.path().join("force.csv");
+    synth::write_log(&lp, LogFormat::Csv, &log, &cfg, &LogStyle::default()).unwrap();
+    synth::write_force_csv(&fp, &force).unwrap();
+    let mut req = VerifyRequest::new(common::shipped_path("clip-on-34mm.toml"), lp, fp);
+    req.case = Some(LoadCase::II);
+    req.analysis.clock_offset_s = Some(1000.0);
+    let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
+    assert!(e.contains("placed by the given clock offset 1000"), "{e}");
+    assert!(!e.contains("starts aligned"), "{e}");
+}
