@@ -74,3 +74,62 @@ pub fn write_csv(path: &Path, header: &[&str], rows: &[Vec<String>]) -> Result<(
         Ok(())
     })
 }
+
+/// Fill the folder `dir` whole or not at all: `fill` writes into a fresh temporary
+/// folder beside it, which then replaces `dir` (a previous `dir` is moved aside and
+/// removed once the new one is in place). If `fill` fails, the temporary folder is
+/// removed and `dir` is left as it was.
+pub fn write_dir_atomic<F>(dir: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&Path) -> Result<()>,
+{
+    let parent = match dir.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    ensure_dir(&parent)?;
+    let name = dir
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let staged = |suffix: &str| {
+        tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(suffix)
+            .tempdir_in(&parent)
+            .with_context(|| format!("cannot write in output folder {}", parent.display()))
+    };
+    let tmp = staged(".tmp")?;
+    fill(tmp.path()).with_context(|| format!("while writing {}", dir.display()))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o755));
+    }
+    // The previous folder goes aside (inside a fresh temporary folder, so the move
+    // never lands on an existing name) and is removed once the new one is in place.
+    let aside = if dir.exists() {
+        let holder = staged(".old")?;
+        let to = holder.path().join(&name);
+        std::fs::rename(dir, &to).with_context(|| {
+            format!(
+                "cannot move the previous {} aside to replace it",
+                dir.display()
+            )
+        })?;
+        Some((holder, to))
+    } else {
+        None
+    };
+    let tmp = tmp.keep();
+    if let Err(e) = std::fs::rename(&tmp, dir) {
+        // Put the previous folder back; the new one is dropped.
+        if let Some((_, to)) = &aside {
+            let _ = std::fs::rename(to, dir);
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e)
+            .with_context(|| format!("cannot move the finished folder to {}", dir.display()));
+    }
+    drop(aside);
+    Ok(())
+}

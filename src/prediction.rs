@@ -604,6 +604,63 @@ pub struct ContactCalibration {
     pub evaluations: usize,
 }
 
+/// The dome contact radii a calibration searches, mm: from half to four times the apex
+/// patch (at most 0.6 × the core dome's outer radius).
+fn calibration_radii_mm(m: &crate::spec::Module) -> [f64; 2] {
+    let patch = m.apex_patch_radius_mm();
+    let profile = ModuleProfile::from_module(m);
+    [
+        0.5 * patch,
+        (4.0 * patch).min(0.6 * profile.core_dome_outer_sphere_radius_mm),
+    ]
+}
+
+/// What a contact calibration can reach: every grating's Case I K at the two ends of
+/// the radii [`calibrate_contact`] searches (two FE solves). A measured K between a
+/// grating's two values is one some contact radius reproduces.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationReach {
+    /// The radii searched, mm (small, large).
+    pub radii_mm: [f64; 2],
+    /// Per grating: K at the small and at the large radius, pm/N.
+    pub k_pm_per_n: Vec<(String, [f64; 2])>,
+}
+
+/// The K a contact calibration of `config` (Case I) can reach; see [`CalibrationReach`].
+pub fn calibration_reach(
+    design: &Design,
+    config: &Configuration,
+    fem_options: &FemOptions,
+) -> Result<CalibrationReach> {
+    let m = design
+        .module
+        .as_ref()
+        .context("the design has no [module] section")?;
+    anyhow::ensure!(
+        config.case == LoadCase::I,
+        "only Case I depends on the contact radius"
+    );
+    let radii = calibration_radii_mm(m);
+    let (small, large) = rayon::join(
+        || case_i_k_at(design, config, radii[0], fem_options),
+        || case_i_k_at(design, config, radii[1], fem_options),
+    );
+    let (small, large) = (small?, large?);
+    Ok(CalibrationReach {
+        radii_mm: radii,
+        k_pm_per_n: small
+            .into_iter()
+            .map(|(g, a)| {
+                let b = large
+                    .iter()
+                    .find(|(n, _)| *n == g)
+                    .map_or(f64::NAN, |(_, k)| *k);
+                (g, [a, b])
+            })
+            .collect(),
+    })
+}
+
 /// `design` with its domes' contact radius set to `radius_mm`.
 pub fn with_contact_radius(design: &Design, radius_mm: f64) -> Design {
     let mut d = design.clone();
@@ -670,10 +727,7 @@ pub fn calibrate_contact(
     }
     let previous = m.dome_contact_radius_mm();
     let before = case_i_k_at(design, config, previous, fem_options)?;
-    let patch = m.apex_patch_radius_mm();
-    let profile = ModuleProfile::from_module(m);
-    let lo = 0.5 * patch;
-    let hi = (4.0 * patch).min(0.6 * profile.core_dome_outer_sphere_radius_mm);
+    let [lo, hi] = calibration_radii_mm(m);
     let mut evaluations = 1;
     // Mean ratio of model to measurement, minus one: falls as the radius grows.
     let h = |ks: &[(String, f64)]| -> Result<f64> {

@@ -31,8 +31,25 @@ pub enum DateOrderArg {
     Mdy,
 }
 
+/// What `fbgforge verify`'s exit status says, for `--help`.
+pub const VERIFY_EXIT_STATUS_HELP: &str = "\
+Exit status (after every output is written):
+  0  PASS               every grating the model says responds was judged and passes
+  1  error              nothing judged (bad input, unreadable log, ...)
+  2  FAIL               a grating is off the model beyond the tolerance and the band,
+                        or a grating the model says responds shows no response (dead)
+  3  NOT JUDGED or      no prediction, a force that cannot be trusted (saturated
+     NO RESPONSE        channel or gaps in too many presses), a missing channel;
+                        or no grating responded to the force at all
+  4  IN BAND            off the nominal prediction but inside the band between the
+                        bounding contact readings: calibrate the contact
+  5  CALIBRATE CONTACT  the bounding contact readings span more than a factor 3:
+                        this configuration cannot be judged without calibrating the
+                        contact (--calibrate-into on a part known to be good)";
+
 /// Arguments of `fbgforge verify`.
 #[derive(Debug, Args)]
+#[command(after_help = VERIFY_EXIT_STATUS_HELP)]
 pub struct VerifyArgs {
     /// Design spec (TOML).
     pub design: PathBuf,
@@ -57,11 +74,13 @@ pub struct VerifyArgs {
     /// Analyse only this core's gratings.
     #[arg(long)]
     pub core: Option<String>,
-    /// Largest accepted relative error of K against the model, as a fraction
-    /// (0.08 = 8 %). (`build --tolerance` is a meshing tolerance in mm; this is not.)
+    /// Largest accepted relative error of K against the model, as a fraction in
+    /// (0, 0.5] (0.08 = 8 %). (`build --tolerance` is a meshing tolerance in mm; this
+    /// is not.)
     #[arg(long, default_value_t = verdict::DEFAULT_TOLERANCE)]
     pub k_tolerance: f64,
-    /// Half-width of the wavelength windows, nm (default: half the smallest spacing, at most 2.5 nm).
+    /// Half-width of the wavelength windows, nm, in (0, 10] (default: half the smallest
+    /// spacing, at most 2.5 nm).
     #[arg(long)]
     pub window_nm: Option<f64>,
     /// Known clock offset, force clock − wavelength clock, s (estimated if omitted).
@@ -72,10 +91,10 @@ pub struct VerifyArgs {
     /// absolute. An alternative to --clock-offset-s.
     #[arg(long)]
     pub force_start: Option<String>,
-    /// Search range of the estimated clock offset around the prior, s.
+    /// Search range of the estimated clock offset around the prior, s, in [0, 86400].
     #[arg(long, default_value_t = 60.0)]
     pub max_offset_s: f64,
-    /// Interrogator resolution, pm (default: 1 pm, 0.5 pm for I-MON logs).
+    /// Interrogator resolution, pm, in (0, 100] (default: 1 pm, 0.5 pm for I-MON logs).
     #[arg(long)]
     pub resolution_pm: Option<f64>,
     /// Name of the force log's time column.
@@ -88,14 +107,16 @@ pub struct VerifyArgs {
     /// Name of the force log's force column.
     #[arg(long)]
     pub force_force_column: Option<String>,
-    /// Factor from the force column's unit to N (default: from the column name, else 1).
+    /// Factor from the force column's unit to N, > 0 (default: from the column name,
+    /// else 1).
     #[arg(long)]
     pub force_scale_to_n: Option<f64>,
     /// Print the report as JSON instead of text.
     #[arg(long)]
     pub json: bool,
     /// Write report.html (self-contained), report.md, report.json, SVG plots and CSVs
-    /// into this folder.
+    /// into this folder, whole or not at all (it is replaced; a failed run removes a
+    /// previous report there).
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Fit the design's contact reading ([module.contact] dome_contact_radius_mm) to the
@@ -120,17 +141,34 @@ fn read_options(format: Option<LogFormat>, d: Option<DateOrderArg>) -> ReadOptio
 }
 
 /// Run `fbgforge verify`. After writing everything it returns status 0 for PASS, 2 for
-/// FAIL, 3 when nothing could be judged (NO RESPONSE or NOT JUDGED) and 4 for IN BAND
-/// (off the nominal prediction, inside the contact band), so scripts can tell a failed
-/// part, an undecided one, a contact reading to calibrate and an error (status 1) apart.
+/// FAIL, 3 when nothing could be judged (NO RESPONSE or NOT JUDGED), 4 for IN BAND
+/// (off the nominal prediction, inside the contact band) and 5 for CALIBRATE CONTACT
+/// (a configuration whose contact band is too wide to judge without calibrating it), so
+/// scripts can tell a failed part, an undecided one, a contact reading to calibrate and
+/// an error (status 1) apart ([`VERIFY_EXIT_STATUS_HELP`]).
 pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
+    if let Some(dir) = &a.report {
+        report::check_report_dir(dir)?;
+    }
+    // A failed run leaves no report behind: a previous one would pass for this run's.
+    let stale = |e: anyhow::Error| {
+        if let Some(dir) = &a.report {
+            if dir.exists() && report::remove_stale_report(dir).is_ok() {
+                eprintln!(
+                    "note: removed the previous report in {} (this run wrote none)",
+                    dir.display()
+                );
+            }
+        }
+        e
+    };
     let VerifyOutcome {
         report,
         series,
         calibration,
-    } = fbgforge::verify::run(&verify_request(&a))?;
+    } = fbgforge::verify::run(&verify_request(&a)).map_err(stale)?;
     if let Some(dir) = &a.report {
-        report::write_report(dir, &report, &series)?;
+        report::write_report(dir, &report, &series).map_err(stale)?;
     }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -168,6 +206,7 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
         Status::Pass => std::process::ExitCode::SUCCESS,
         Status::Fail => std::process::ExitCode::from(2),
         Status::InBand => std::process::ExitCode::from(4),
+        Status::CalibrateContact => std::process::ExitCode::from(5),
         Status::NotJudged | Status::NoResponse => std::process::ExitCode::from(3),
     })
 }
@@ -291,6 +330,19 @@ pub struct SynthLogArgs {
     /// follows the power-law kernel of reference §2 and `matrix_truth.csv` is written.
     #[arg(long)]
     pub schedule: Option<PathBuf>,
+    /// The interrogator's wavelength step, pm: peaks are rounded to it (an SM125
+    /// reports 1 pm steps); 0 leaves them unrounded.
+    #[arg(long, default_value_t = 0.0)]
+    pub step_pm: f64,
+    /// The force channel saturates at this force, N (a clipped load cell).
+    #[arg(long)]
+    pub force_saturation_n: Option<f64>,
+    /// The force stand's clock runs this many ppm fast against the interrogator's.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub force_skew_ppm: f64,
+    /// Set one grating's K, pm/N, as NAME=K (repeatable; 0 makes a dead grating).
+    #[arg(long, value_name = "NAME=K", allow_hyphen_values = true)]
+    pub grating_k: Vec<String>,
 }
 
 /// Pulse shape on the command line.
@@ -355,10 +407,21 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         },
         ShapeArg::Sine => synth::PulseShape::Sine { cycles: a.cycles },
     };
-    let pulses = synth::shaped_train(&a.pulses_n, a.pulse_s, a.rest_s, 5.0, shape);
-    let duration = pulses
-        .last()
-        .map_or(30.0, |p| p.start_s + p.duration_s + a.rest_s);
+    let (pulses, duration) = synth::train(&a.pulses_n, a.pulse_s, a.rest_s, 5.0, shape)?;
+    let grating_k = a
+        .grating_k
+        .iter()
+        .map(|g| {
+            let (name, k) = g
+                .split_once('=')
+                .with_context(|| format!("--grating-k `{g}`: expected NAME=K, e.g. lambda_21=0"))?;
+            let k: f64 = k
+                .trim()
+                .parse()
+                .with_context(|| format!("--grating-k `{g}`: `{k}` is not a number (pm/N)"))?;
+            Ok((name.trim().to_string(), k))
+        })
+        .collect::<Result<Vec<_>>>()?;
     let cfg = synth::SynthConfig {
         core: a.core.clone(),
         sensitivity_pm_per_n: a.k_pm_per_n,
@@ -376,6 +439,10 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         temperature_ramp_k_per_s: a.temperature_ramp_k_per_s,
         dropout_fraction: a.dropout,
         seed: a.seed,
+        quantization_pm: a.step_pm,
+        force_saturation_n: a.force_saturation_n,
+        force_clock_skew_ppm: a.force_skew_ppm,
+        grating_sensitivity_pm_per_n: grating_k,
         ..Default::default()
     };
     let (log, force, mut truth) = synth::generate(&design, &cfg)?;

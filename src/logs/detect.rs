@@ -4,7 +4,7 @@
 //! is asked only when no header is found.
 
 use super::num::trim;
-use super::rows::{fields, lines_with_offsets, next_line_offset, strip_bom};
+use super::rows::{fields, guess_delimiter, lines_with_offsets, next_line_offset, strip_bom};
 use super::LogFormat;
 use anyhow::{bail, Result};
 use std::path::Path;
@@ -65,6 +65,12 @@ pub(crate) struct FirstLine<'a> {
 pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Result<Detected> {
     let (b, bom) = strip_bom(bytes);
     let window = &b[..b.len().min(4 << 20)];
+    if let Some(kind) = spectrum_export(window) {
+        bail!(
+            "{}: this is a spectrum export ({kind}), not peaks: export Peaks instead (ENLIGHT: the Peaks data, `Timestamp` then `# CH n` columns, or the Sensors data; I-MON: the peak log, `Date`, `Time`, `Wavelength 1 [nm]`, …)",
+            path.display()
+        );
+    }
     let candidates: &[LogFormat] = match &forced {
         Some(f) => std::slice::from_ref(f),
         None => &LogFormat::ALL,
@@ -140,4 +146,85 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
             )
         }
     }
+}
+
+/// A spectrum (optical power against wavelength) rather than a peak log, and what it
+/// looks like: an ENLIGHT spectrum export (`Wvl (nm)` then one power column per
+/// channel), a spectrum CSV (`Wavelength (nm),Amplitude (AU)`, as I-MON tools save it),
+/// or a header-less table whose first column climbs through the infrared in steps
+/// under 0.1 nm while the next is not a wavelength. Only the head of the file is read.
+pub(crate) fn spectrum_export(window: &[u8]) -> Option<&'static str> {
+    let is_wavelength = |v: f64| (800.0..=1700.0).contains(&v);
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    for (_, line) in lines_with_offsets(window).take(400) {
+        let line = trim(line);
+        if line.is_empty() || line.starts_with(b"#") {
+            continue;
+        }
+        let delim = guess_delimiter(line);
+        let parts: Vec<&[u8]> = line.split(|&c| c == delim).map(trim).collect();
+        let first = parts[0].to_ascii_lowercase();
+        // A column header, not a metadata line (`Wavelength Tracking: 400 pm`).
+        let named_wavelength = !first.contains(&b':')
+            && parts.len() >= 2
+            && !parts[1].is_empty()
+            && (first.starts_with(b"wvl") || first.starts_with(b"wavelength"));
+        if named_wavelength {
+            let rest = parts[1..]
+                .iter()
+                .map(|p| p.to_ascii_lowercase())
+                .collect::<Vec<_>>();
+            let power = |w: &[u8]| {
+                [
+                    b"ch" as &[u8],
+                    b"amplitude",
+                    b"power",
+                    b"intensity",
+                    b"dbm",
+                    b"au",
+                ]
+                .iter()
+                .any(|k| w.windows(k.len()).any(|x| x == *k))
+            };
+            if rest.iter().any(|w| power(w)) {
+                return Some(if first.starts_with(b"wvl") {
+                    "ENLIGHT: wavelength against optical power per channel"
+                } else {
+                    "wavelength against amplitude"
+                });
+            }
+        }
+        let nums: Vec<Option<f64>> = parts
+            .iter()
+            .map(|p| super::num::parse_f64(p, delim != b','))
+            .collect();
+        match (
+            nums.first().copied().flatten(),
+            nums.get(1).copied().flatten(),
+        ) {
+            (Some(x), Some(y)) if nums.iter().all(Option::is_some) && nums.len() <= 9 => {
+                run.push((x, y));
+                if run.len() >= 50 {
+                    let climbs = run
+                        .windows(2)
+                        .all(|w| w[1].0 > w[0].0 && w[1].0 - w[0].0 < 0.1);
+                    let median_y = {
+                        let mut ys: Vec<f64> = run.iter().map(|p| p.1).collect();
+                        ys.sort_by(f64::total_cmp);
+                        ys[ys.len() / 2]
+                    };
+                    // A peak log's next column is a wavelength within a few nm.
+                    let y_is_peak = run
+                        .iter()
+                        .all(|p| is_wavelength(p.1) && (p.1 - median_y).abs() < 5.0);
+                    if climbs && run.iter().all(|p| is_wavelength(p.0)) && !y_is_peak {
+                        return Some("a table of wavelength against optical power");
+                    }
+                    return None;
+                }
+            }
+            _ => run.clear(),
+        }
+    }
+    None
 }

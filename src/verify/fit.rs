@@ -261,6 +261,10 @@ pub struct LagModelCost<'a> {
     pub offset_range_s: Option<(f64, f64)>,
     /// Mid time of the shifts (drift regressor origin).
     pub t_mid: f64,
+    /// Stretches of the force clock whose force cannot be trusted (a saturated channel,
+    /// a gap in the force log), s, sorted and disjoint: a shift sample whose time on
+    /// the force clock (t + offset) falls inside one is left out of the fit.
+    pub excluded_s: &'a [(f64, f64)],
 }
 
 /// Result of the lag-model fit at one parameter set.
@@ -316,12 +320,14 @@ impl LagModelCost<'_> {
         let mut hint = 0;
         let (mut sy, mut syy) = (0.0, 0.0);
         let (f0, f1) = (self.force_t[0], self.force_t[self.force_t.len() - 1]);
+        let mut ex = 0usize;
         for (&t, &s) in self.shift_t.iter().zip(self.shift_pm) {
             // Gaps and samples the force log does not cover carry no information.
             // (The fit subsets keep the force span wider than the shifts' so that
             // the sample set does not change with the offset.)
             if !s.is_finite()
                 || (self.fixed_offset_s.is_some() && (t + offset_s < f0 || t + offset_s > f1))
+                || self.is_excluded(t + offset_s, &mut ex)
             {
                 continue;
             }
@@ -350,6 +356,68 @@ impl LagModelCost<'_> {
     pub fn fit_at(&self, p: &[f64]) -> Option<LagModelFit> {
         let (o, t, r) = self.unpack(p);
         self.evaluate(o, t, r)
+    }
+
+    /// Whether force-clock time `x` lies in an excluded stretch; `cursor` walks the
+    /// stretches along increasing `x` (O(1) per sample).
+    #[inline]
+    fn is_excluded(&self, x: f64, cursor: &mut usize) -> bool {
+        let ex = self.excluded_s;
+        while *cursor < ex.len() && ex[*cursor].1 < x {
+            *cursor += 1;
+        }
+        *cursor < ex.len() && ex[*cursor].0 <= x
+    }
+
+    /// The residual of `fit` at every shift sample (shift − K·y − baseline − drift),
+    /// pm; NaN where the fit did not use the sample (a gap, outside the force log, an
+    /// excluded stretch).
+    pub fn residuals(&self, fit: &LagModelFit) -> Vec<f64> {
+        let mut y = Vec::new();
+        sls_response(
+            self.force_t,
+            self.force_n,
+            fit.tau_s,
+            fit.instant_fraction,
+            &mut y,
+        );
+        let (f0, f1) = (self.force_t[0], self.force_t[self.force_t.len() - 1]);
+        let (mut hint, mut ex) = (0, 0);
+        self.shift_t
+            .iter()
+            .zip(self.shift_pm)
+            .map(|(&t, &s)| {
+                let x = t + fit.offset_s;
+                if !s.is_finite()
+                    || (self.fixed_offset_s.is_some() && (x < f0 || x > f1))
+                    || self.is_excluded(x, &mut ex)
+                {
+                    return f64::NAN;
+                }
+                let yv = interp(self.force_t, &y, x, &mut hint);
+                s - fit.k_pm_per_n * yv - fit.baseline_pm - fit.drift_pm_per_s * (t - self.t_mid)
+            })
+            .collect()
+    }
+}
+
+/// Share of the variance left in `shift` after a baseline and a linear drift (the
+/// regressors 1 and t − `t_mid`, fitted over the samples where `residual` is finite)
+/// that the lag model's response explains: 1 − SSR(lag model) / SSR(baseline and
+/// drift alone). Unlike the lag model's own R², it gives no credit for the drift, so an
+/// unloaded log with a drifting baseline scores near 0.
+pub fn response_r_squared(t: &[f64], shift: &[f64], residual: &[f64], t_mid: f64) -> f64 {
+    let mut ne = NormalEq::new(2);
+    let mut ssr_full = 0.0;
+    for ((&ti, &s), &e) in t.iter().zip(shift).zip(residual) {
+        if e.is_finite() && s.is_finite() {
+            ne.add(&[1.0, ti - t_mid], s);
+            ssr_full += e * e;
+        }
+    }
+    match ne.solve() {
+        Some(o) if o.ssr > 0.0 => 1.0 - ssr_full / o.ssr,
+        _ => f64::NAN,
     }
 }
 
@@ -497,6 +565,7 @@ mod tests {
             fixed_offset_s: None,
             offset_range_s: None,
             t_mid: 14.0,
+            excluded_s: &[],
         };
         let (p, _) = nelder_mead(cost, &[1.1, (0.2f64).ln(), 0.0], &[0.1, 0.5, 1.0], 600);
         let cost = LagModelCost {
@@ -507,6 +576,7 @@ mod tests {
             fixed_offset_s: None,
             offset_range_s: None,
             t_mid: 14.0,
+            excluded_s: &[],
         };
         let fit = cost.fit_at(&p).unwrap();
         assert!((fit.offset_s - off).abs() < 0.01, "{fit:?}");

@@ -27,13 +27,78 @@ pub struct VerifyReport {
 pub const RELATIVE_LAG_NOTE: &str = "the clock offset was estimated from the logs, and an estimated offset absorbs any pure delay between force and wavelength, so the absolute lag cannot be told from this data; give the offset between the two recorders' clocks with --clock-offset-s for absolute lags";
 
 pub(super) fn status_word(s: Status) -> &'static str {
-    match s {
-        Status::Pass => "PASS",
-        Status::Fail => "FAIL",
-        Status::InBand => "IN BAND",
-        Status::NotJudged => "NOT JUDGED",
-        Status::NoResponse => "NO RESPONSE",
+    s.word()
+}
+
+/// Q as a value with its uncertainty, a bound (`≤ 524.1`, `≥ 12.3`), or `—`.
+pub(super) fn q_text(g: &crate::verify::analysis::GratingResult, digits: usize) -> String {
+    use crate::verify::analysis::BoundKind;
+    match (g.quality_q_pm_per_n_s, g.quality_q_bound) {
+        (Some(_), _) => plus_minus(
+            g.quality_q_pm_per_n_s,
+            g.quality_q_uncertainty_pm_per_n_s,
+            digits,
+        ),
+        (None, Some(b)) => format!(
+            "{} {:.digits$}",
+            match b.kind {
+                BoundKind::Upper => "≤",
+                BoundKind::Lower => "≥",
+            },
+            b.value_pm_per_n_s
+        ),
+        (None, None) => "—".into(),
     }
+}
+
+/// The clock skew in words, when it was estimated.
+pub(super) fn skew_line(m: &Measurement) -> Option<String> {
+    let (ppm, u) = (m.clock_skew_ppm?, m.clock_skew_uncertainty_ppm?);
+    Some(format!(
+        "{ppm:+.1} ± {u:.1} ppm (the force clock against the wavelength clock, from the drift of the segment lags; {})",
+        if m.clock_skew_corrected {
+            "corrected by a linear time warp"
+        } else {
+            "not significant, not corrected"
+        }
+    ))
+}
+
+/// The force log's saturation and gaps in words, when it has any.
+pub(super) fn force_line(m: &Measurement) -> Option<String> {
+    let f = &m.force_trust;
+    let list = |v: &[usize]| {
+        v.iter()
+            .map(|k| k.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut parts = Vec::new();
+    if let Some(top) = f.saturation_n {
+        parts.push(format!(
+            "saturates at {top:.4} N (flat tops in pulses {})",
+            list(&f.clipped_pulses)
+        ));
+    }
+    if !f.gapped_pulses.is_empty() {
+        parts.push(format!("gaps inside pulses {}", list(&f.gapped_pulses)));
+    }
+    if f.gaps_at_rest > 0 {
+        parts.push(format!("{} gaps at rest", f.gaps_at_rest));
+    }
+    if parts.is_empty() {
+        return None;
+    }
+    let what = match (&f.not_judged, f.excluded_pulses.is_empty()) {
+        (Some(_), _) => "too few trusted pulses left: NOT JUDGED".to_string(),
+        (None, false) => format!(
+            "pulses {} left out, {} used",
+            list(&f.excluded_pulses),
+            f.usable_pulses
+        ),
+        (None, true) => "the shift there is left out".to_string(),
+    };
+    Some(format!("{}; {what}", parts.join(", ")))
 }
 
 /// `v ± u`, or `—` when v is missing.
@@ -111,8 +176,17 @@ pub fn summary(r: &VerifyReport) -> String {
         m.reference_grating.as_deref().unwrap_or("none")
     );
     let _ = writeln!(s, "protocol: {}", protocol_line(m));
+    if let Some(line) = force_line(m) {
+        let _ = writeln!(s, "force: {line}");
+    }
+    if let Some(line) = skew_line(m) {
+        let _ = writeln!(s, "clock skew: {line}");
+    }
     if m.lag_is_relative {
-        let _ = writeln!(s, "lags, Δt_max and Q are RELATIVE: {RELATIVE_LAG_NOTE}");
+        let _ = writeln!(
+            s,
+            "lags and Δt_max are RELATIVE, Q only bounded above: {RELATIVE_LAG_NOTE}"
+        );
     }
     let _ = writeln!(
         s,
@@ -129,8 +203,7 @@ pub fn summary(r: &VerifyReport) -> String {
         "model pm/N"
     );
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
-        let _ =
-            writeln!(
+        let _ = writeln!(
             s,
             "{:<12} {:>14.4} {:>10.2e} {:>8.4} {:>9.2} {:>9.2} {:>17} {:>17} {:>8.3} {:>11}  {}{}",
             g.grating,
@@ -140,7 +213,7 @@ pub fn summary(r: &VerifyReport) -> String {
             g.hysteresis_percent_span,
             g.nonlinearity_percent_span,
             plus_minus(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
-            plus_minus(g.quality_q_pm_per_n_s, g.quality_q_uncertainty_pm_per_n_s, 3),
+            q_text(g, 3),
             g.sls_time_constant_s,
             opt(v.predicted_sensitivity_pm_per_n, 3),
             status_word(v.status),
@@ -168,13 +241,25 @@ pub fn summary(r: &VerifyReport) -> String {
             );
         }
     }
+    for g in &r.verdict.missing_gratings {
+        let _ = writeln!(s, "{:<12} missing: {}", g.grating, g.reason);
+    }
     if m.warnings.total() > 0 {
         let _ = writeln!(s, "warnings ({}):", m.warnings.total());
         for (k, w) in &m.warnings.counts {
             let _ = writeln!(s, "  {k} ×{}: {}", w.count, w.first);
         }
     }
-    let _ = writeln!(s, "verdict: {}", status_word(r.verdict.overall));
+    let _ = writeln!(
+        s,
+        "verdict: {}{}",
+        status_word(r.verdict.overall),
+        r.verdict
+            .reason
+            .as_deref()
+            .map(|why| format!(" ({why})"))
+            .unwrap_or_default()
+    );
     s
 }
 
@@ -183,8 +268,59 @@ fn decimate(n: usize, max: usize) -> usize {
 }
 
 /// Write `report.json`, `report.md`, `report.html`, the SVG plots and their CSVs into
-/// `dir`.
+/// the folder `dir`, whole or not at all: they are written into a temporary folder
+/// beside it, which then replaces `dir` (a failure leaves `dir` as it was). A `dir` that
+/// holds anything but a previous report is refused rather than replaced.
 pub fn write_report(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()> {
+    check_report_dir(dir)?;
+    crate::output::write_dir_atomic(dir, |tmp| write_report_files(tmp, r, series))
+}
+
+/// The names a report folder holds (a folder with anything else is not ours to replace).
+fn is_report_file(name: &str) -> bool {
+    name.starts_with("report.")
+        || name.ends_with(".svg")
+        || name.ends_with(".csv")
+        || name.ends_with(".html")
+        || name.ends_with(".json")
+}
+
+/// Refuse a report folder that exists and holds files a verify report does not write.
+pub fn check_report_dir(dir: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let foreign: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !is_report_file(n))
+        .collect();
+    if !foreign.is_empty() {
+        anyhow::bail!(
+            "the report folder {} holds files a verify report does not write ({}): it would be replaced whole; name a new or empty folder",
+            dir.display(),
+            foreign.iter().take(5).cloned().collect::<Vec<_>>().join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// Remove a previous report folder (after a failed run: its files would be mistaken
+/// for this run's). Only a folder holding nothing but report files is removed.
+pub fn remove_stale_report(dir: &Path) -> Result<()> {
+    if dir.is_dir() && check_report_dir(dir).is_ok() {
+        std::fs::remove_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot remove the stale report folder {}: {e}",
+                dir.display()
+            )
+        })?;
+    }
+    Ok(())
+}
+
+/// Write `report.json`, `report.md`, `report.html`, the SVG plots and their CSVs into `dir`.
+fn write_report_files(dir: &Path, r: &VerifyReport, series: &Series) -> Result<()> {
     crate::output::ensure_dir(dir)?;
     write_json(&dir.join("report.json"), r)?;
     let m = &r.measurement;
@@ -334,11 +470,20 @@ fn markdown_header(md: &mut String, r: &VerifyReport) {
     );
     let _ = writeln!(md, "- clock offset (force − wavelength clock): {:.4} s ({}); the force log starts at {:.4} s on the wavelength log's time axis; overlap {:.1} s", m.clock_offset_s, m.clock_offset_source, m.force_log_start_s, m.overlap_s);
     let _ = writeln!(md, "- protocol: {}", protocol_line(m));
+    if let Some(line) = force_line(m) {
+        let _ = writeln!(md, "- force: {line}");
+    }
+    if let Some(line) = skew_line(m) {
+        let _ = writeln!(md, "- clock skew: {line}");
+    }
     if m.lag_is_relative {
         let _ = writeln!(
             md,
-            "- **lags, Δt_max and Q are relative**: {RELATIVE_LAG_NOTE}"
+            "- **lags, Δt_max and Q are relative** (Q is only bounded above): {RELATIVE_LAG_NOTE}"
         );
+    }
+    if let Some(why) = &r.verdict.reason {
+        let _ = writeln!(md, "- verdict: {why}");
     }
     let _ = writeln!(
         md,
@@ -374,7 +519,7 @@ fn markdown_table(md: &mut String, r: &VerifyReport) {
             g.resolution_n,
             plus_minus(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
             g.max_lag_method,
-            plus_minus(g.quality_q_pm_per_n_s, g.quality_q_uncertainty_pm_per_n_s, 3),
+            q_text(g, 3),
             g.sls_time_constant_s,
             g.sls_instant_fraction,
             g.transport_delay_s,
@@ -394,9 +539,21 @@ fn markdown_notes(md: &mut String, r: &VerifyReport) {
         if let Some(reason) = &v.reason {
             let what = match v.status {
                 Status::InBand => "in band",
-                _ => "not judged",
+                Status::Fail => "fails",
+                Status::CalibrateContact => "needs the contact calibrated",
+                Status::NoResponse => "shows no response",
+                Status::Pass => "passes",
+                Status::NotJudged => "not judged",
             };
             let _ = writeln!(md, "\n`{}` {what}: {reason}", v.grating);
+        }
+    }
+    for g in &r.verdict.missing_gratings {
+        let _ = writeln!(md, "\n`{}` missing: {}", g.grating, g.reason);
+    }
+    for g in &m.gratings {
+        if let Some(note) = &g.quality_q_note {
+            let _ = writeln!(md, "\nQ of `{}`: {note}.", g.grating);
         }
     }
     if let Some(model) = r.verdict.gratings.iter().find_map(|v| v.model.as_ref()) {

@@ -6,7 +6,10 @@
 
 use super::analysis::Series;
 use super::charts;
-use super::report::{opt, plus_minus, protocol_line, status_word, VerifyReport, RELATIVE_LAG_NOTE};
+use super::report::{
+    force_line, opt, plus_minus, protocol_line, q_text, skew_line, status_word, VerifyReport,
+    RELATIVE_LAG_NOTE,
+};
 use super::verdict::{GratingVerdict, Status};
 use crate::html::{Cell, Document, Table, Tone};
 use crate::model::LoadCase;
@@ -18,7 +21,7 @@ fn tone(s: Status) -> Tone {
     match s {
         Status::Pass => Tone::Pass,
         Status::Fail | Status::NoResponse => Tone::Fail,
-        Status::InBand | Status::NotJudged => Tone::Warn,
+        Status::InBand | Status::NotJudged | Status::CalibrateContact => Tone::Warn,
     }
 }
 
@@ -60,7 +63,7 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
     let mut reasons: Vec<String> = r.verdict.gratings.iter().map(reason).collect();
     if m.lag_is_relative {
         reasons.push(format!(
-            "lags, Δt_max and Q are relative: {RELATIVE_LAG_NOTE}"
+            "lags and Δt_max are relative, Q only bounded above: {RELATIVE_LAG_NOTE}"
         ));
     }
     d.verdict(
@@ -137,11 +140,7 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
                 plus_minus(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
                 g.max_lag_method
             ),
-            plus_minus(
-                g.quality_q_pm_per_n_s,
-                g.quality_q_uncertainty_pm_per_n_s,
-                3,
-            ),
+            q_text(g, 3),
             format!("{:.3}", g.sls_time_constant_s),
             format!("{:.3}", g.sls_instant_fraction),
             format!("{:.3}", g.transport_delay_s),
@@ -186,6 +185,14 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
             },
         ),
         ("protocol", protocol_line(m)),
+        (
+            "force log trust",
+            force_line(m).unwrap_or_else(|| "no saturation, no gaps inside a press".into()),
+        ),
+        (
+            "clock skew",
+            skew_line(m).unwrap_or_else(|| "not estimated".into()),
+        ),
         (
             "temperature reference",
             m.reference_grating

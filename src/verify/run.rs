@@ -127,17 +127,15 @@ fn calibrate_into(
     let Some(insert) = req.insert.clone() else {
         bail!("--calibrate-into needs the insert used (--insert NAME)");
     };
+    if let Some(why) = &report.measurement.force_trust.not_judged {
+        bail!("--calibrate-into: the force cannot be trusted, so neither can K: {why}");
+    }
     let responded: Vec<_> = report
         .measurement
         .gratings
         .iter()
         .zip(&report.verdict.gratings)
-        .filter(|(_, v)| {
-            !matches!(
-                v.status,
-                verdict::Status::NoResponse | verdict::Status::NotJudged
-            )
-        })
+        .filter(|(_, v)| v.responded)
         .map(|(g, _)| g)
         .collect();
     let Some(core) = responded.first().and_then(|g| g.core.clone()) else {
@@ -182,21 +180,52 @@ fn calibrate_into(
     Ok(cal)
 }
 
-/// Stage 1: check the request against the design and read both logs.
-pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
-    if req.k_tolerance.is_nan() || req.k_tolerance <= 0.0 {
+/// Largest wavelength window half-width, nm (a grating's whole strain range; wider
+/// windows swallow the neighbours').
+pub const MAX_WINDOW_NM: f64 = 10.0;
+/// Largest interrogator resolution, pm.
+pub const MAX_RESOLUTION_PM: f64 = 100.0;
+/// Largest search range of an estimated clock offset, s (one day).
+pub const MAX_OFFSET_RANGE_S: f64 = 86_400.0;
+
+/// Check the request's numbers: each finite and in its range, the error naming the
+/// flag and the range.
+pub fn check_options(req: &VerifyRequest) -> Result<()> {
+    let tol = req.k_tolerance;
+    if !(tol > 0.0 && tol <= verdict::MAX_TOLERANCE) {
         bail!(
-            "the K tolerance must be a positive fraction (0.08 = 8 %), got {}",
-            req.k_tolerance
+            "the K tolerance (--k-tolerance) must be a fraction in (0, {}] (0.08 = 8 %), got {tol}",
+            verdict::MAX_TOLERANCE
         );
     }
     if let Some(o) = req.analysis.clock_offset_s.filter(|o| !o.is_finite()) {
         bail!("the clock offset (--clock-offset-s) must be a finite number of seconds, got {o}");
     }
     let range = req.analysis.max_clock_offset_s;
-    if !(range.is_finite() && range >= 0.0) {
-        bail!("the clock offset's search range (--max-offset-s) must be a finite number of seconds ≥ 0, got {range}");
+    if !(range.is_finite() && (0.0..=MAX_OFFSET_RANGE_S).contains(&range)) {
+        bail!("the clock offset's search range (--max-offset-s) must be a finite number of seconds in [0, {MAX_OFFSET_RANGE_S}], got {range}");
     }
+    if let Some(w) = req.analysis.window_half_width_nm {
+        if !(w > 0.0 && w <= MAX_WINDOW_NM) {
+            bail!("the wavelength window half-width (--window-nm) must be in (0, {MAX_WINDOW_NM}] nm, got {w}");
+        }
+    }
+    if let Some(r) = req.analysis.resolution_pm {
+        if !(r > 0.0 && r <= MAX_RESOLUTION_PM) {
+            bail!("the interrogator resolution (--resolution-pm) must be in (0, {MAX_RESOLUTION_PM}] pm, got {r}");
+        }
+    }
+    if let Some(f) = req.force_columns.scale_to_n {
+        if !(f > 0.0 && f.is_finite()) {
+            bail!("the force column's factor to N (--force-scale-to-n) must be a finite number > 0, got {f}");
+        }
+    }
+    Ok(())
+}
+
+/// Stage 1: check the request against the design and read both logs.
+pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
+    check_options(req)?;
     let design = crate::design::load(&req.design)?;
     check_insert(&design, req)?;
     let log = logs::read_peak_log(&req.log, &req.read)?;
@@ -268,6 +297,43 @@ pub fn model_predictions(
     )
 }
 
+/// Whether the design's contact reading was calibrated on a measured part: its
+/// `[module.contact]` note says so (as `--calibrate-into` writes it).
+pub fn contact_is_calibrated(design: &Design) -> bool {
+    design
+        .module
+        .as_ref()
+        .and_then(|m| m.contact.note.as_deref())
+        .is_some_and(|n| n.to_ascii_lowercase().contains("calibrated"))
+}
+
+/// What the verdict knows of the contact: calibrated or not, and in Case I (with the
+/// insert and the core known) the K a calibration can reach (two FE solves; unknown
+/// when they fail).
+fn contact_knowledge(
+    design: &Design,
+    req: &VerifyRequest,
+    core: Option<&str>,
+) -> verdict::ContactKnowledge {
+    let reach = match (req.load_case(), &req.insert, core) {
+        (LoadCase::I, Some(insert), Some(core)) => crate::prediction::calibration_reach(
+            design,
+            &crate::model::Configuration {
+                core: core.to_string(),
+                case: LoadCase::I,
+                insert: Some(insert.clone()),
+            },
+            &crate::fem::FemOptions::default(),
+        )
+        .ok(),
+        _ => None,
+    };
+    verdict::ContactKnowledge {
+        calibrated: contact_is_calibrated(design),
+        reach,
+    }
+}
+
 /// Stage 2: align, fit and judge read inputs against the model.
 pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome> {
     let design = &inputs.design;
@@ -279,14 +345,14 @@ pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome
     let core = (cores.len() == 1).then(|| cores[0].as_str());
     let preds = model_predictions(design, req.load_case(), req.insert.as_deref(), core)
         .map_err(|e| format!("{e:#}"));
-    let v = verdict::verdicts_with_band(
-        &m,
-        preds.as_deref().map_err(Clone::clone),
-        req.load_case(),
-        req.insert.as_deref(),
-        req.k_tolerance,
-        &verdict::ResponseGate::default(),
-    );
+    let opts = verdict::JudgeOptions {
+        case: req.load_case(),
+        insert: req.insert.as_deref(),
+        tolerance: req.k_tolerance,
+        gate: verdict::ResponseGate::default(),
+        contact: contact_knowledge(design, req, core),
+    };
+    let v = verdict::verdicts_with_policy(&m, preds.as_deref().map_err(Clone::clone), &opts);
     Ok(VerifyOutcome {
         report: VerifyReport {
             design: design.name.clone(),

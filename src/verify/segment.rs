@@ -510,6 +510,15 @@ pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
     out
 }
 
+/// The protocol of pulses of the given classes: the class of more than half of them,
+/// or [`Protocol::Mixed`] (impulse when there are none).
+pub fn protocol_of(classes: &[Protocol]) -> Protocol {
+    if classes.is_empty() {
+        return Protocol::Impulse;
+    }
+    majority(classes)
+}
+
 /// The class of more than half the pulses, or [`Protocol::Mixed`].
 fn majority(classes: &[Protocol]) -> Protocol {
     let kinds = [

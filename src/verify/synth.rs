@@ -172,7 +172,27 @@ pub struct SynthConfig {
     pub start_epoch_s: f64,
     /// Random seed.
     pub seed: u64,
+    /// Gratings whose K is set by name instead of the K·(1 − 0.15 k) rule, pm/N (0 for a
+    /// dead grating).
+    pub grating_sensitivity_pm_per_n: Vec<(String, f64)>,
+    /// The force channel saturates at this force, N: the logged force is
+    /// min(F + noise, this), flat tops with the noise collapsed (a clipped load cell).
+    pub force_saturation_n: Option<f64>,
+    /// How much faster the force stand's clock runs than the interrogator's, ppm: a
+    /// force sample taken t s after the force log's start is stamped t·(1 + ppm·1e-6).
+    pub force_clock_skew_ppm: f64,
+    /// Stretches of the wavelength log's time (s from its first row) the force log has
+    /// no samples for (a stalled logger).
+    pub force_gaps_s: Vec<(f64, f64)>,
+    /// The interrogator's wavelength step, pm: every peak is rounded to a multiple of
+    /// it (an SM125 reports 1 pm steps); 0 leaves them unrounded.
+    pub quantization_pm: f64,
 }
+
+/// Most wavelength rows a synthetic log may have (about 1 GB of ENLIGHT text).
+pub const MAX_ROWS: f64 = 1e7;
+/// Most force samples a synthetic force log may have.
+pub const MAX_FORCE_SAMPLES: f64 = 2e7;
 
 impl Default for SynthConfig {
     fn default() -> Self {
@@ -196,7 +216,25 @@ impl Default for SynthConfig {
             start_epoch_s: crate::logs::num::days_from_civil(2025, 4, 17) as f64 * 86400.0
                 + 56696.0,
             seed: 1,
+            grating_sensitivity_pm_per_n: Vec::new(),
+            force_saturation_n: None,
+            force_clock_skew_ppm: 0.0,
+            force_gaps_s: Vec::new(),
+            quantization_pm: 0.0,
         }
+    }
+}
+
+impl SynthConfig {
+    /// Wavelength rows the run writes.
+    pub fn rows(&self) -> f64 {
+        (self.duration_s * self.sample_rate_hz).floor()
+    }
+
+    /// Force samples the run writes.
+    pub fn force_samples(&self) -> f64 {
+        ((self.duration_s - self.force_start_s).max(self.duration_s) * self.force_rate_hz).floor()
+            + 1.0
     }
 }
 
@@ -262,8 +300,46 @@ pub struct SynthForce {
     pub force_n: Vec<f64>,
 }
 
-/// Check the run's settings against the design; returns the core whose gratings respond.
-fn check_config(design: &Design, m: &crate::spec::Module, cfg: &SynthConfig) -> Result<String> {
+/// Pulses of `shape` with the given peaks, each `pulse_s` long with `rest_s` between
+/// them, the first at `lead_s`, and the run's length (`rest_s` after the last pulse,
+/// 30 s without pulses): what `fbgforge synth-log --pulses-n --pulse-s --rest-s`
+/// describes. Refuses lengths that are not finite and positive, with the flag named.
+pub fn train(
+    peaks_n: &[f64],
+    pulse_s: f64,
+    rest_s: f64,
+    lead_s: f64,
+    shape: PulseShape,
+) -> Result<(Vec<Pulse>, f64)> {
+    if !(pulse_s > 0.0 && pulse_s.is_finite()) {
+        bail!("the pulse length (--pulse-s) must be a finite number of seconds > 0, got {pulse_s}");
+    }
+    if !(rest_s >= 0.0 && rest_s.is_finite()) {
+        bail!("the rest between pulses (--rest-s) must be a finite number of seconds ≥ 0, got {rest_s}");
+    }
+    if let Some(p) = peaks_n.iter().find(|p| !p.is_finite()) {
+        bail!("every peak force (--pulses-n) must be a finite number of newtons, got {p}");
+    }
+    let pulses = shaped_train(peaks_n, pulse_s, rest_s, lead_s, shape);
+    let duration = pulses
+        .last()
+        .map_or(30.0, |p| p.start_s + p.duration_s + rest_s);
+    if !duration.is_finite() {
+        bail!("{} pulses of {pulse_s} s with {rest_s} s between them make a run too long to write (--pulse-s, --rest-s)", peaks_n.len());
+    }
+    Ok((pulses, duration))
+}
+
+/// Check the run's settings against the design; returns the core whose gratings
+/// respond. Every number must be finite and in its range, and the log writable (at
+/// most [`MAX_ROWS`] rows and [`MAX_FORCE_SAMPLES`] force samples).
+pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
+    let Some(m) = &design.module else {
+        bail!(
+            "design `{}` has no [module] to synthesise a log for",
+            design.name
+        )
+    };
     let core = cfg
         .core
         .clone()
@@ -272,12 +348,89 @@ fn check_config(design: &Design, m: &crate::spec::Module, cfg: &SynthConfig) -> 
     if !m.cores.iter().any(|c| c.name == core) {
         bail!("design `{}` has no core named `{core}`", design.name);
     }
-    if !(cfg.sample_rate_hz > 0.0
-        && cfg.force_rate_hz > 0.0
-        && cfg.duration_s > 0.0
-        && cfg.tau_s > 0.0)
+    let positive = |v: f64| v > 0.0 && v.is_finite();
+    if !(positive(cfg.sample_rate_hz)
+        && positive(cfg.force_rate_hz)
+        && positive(cfg.duration_s)
+        && positive(cfg.tau_s))
     {
-        bail!("rates, duration and τ must be positive");
+        bail!(
+            "rates (--rate-hz {}, --force-rate-hz {}), the run's length ({} s) and τ (--tau-s {}) must be finite and positive",
+            cfg.sample_rate_hz,
+            cfg.force_rate_hz,
+            cfg.duration_s,
+            cfg.tau_s
+        );
+    }
+    for (name, v) in [
+        ("the sensitivity (--k-pm-per-n)", cfg.sensitivity_pm_per_n),
+        ("the force log's start (--force-start-s)", cfg.force_start_s),
+        ("the drift (--drift-pm-per-s)", cfg.drift_pm_per_s),
+        (
+            "the temperature ramp (--temperature-ramp-k-per-s)",
+            cfg.temperature_ramp_k_per_s,
+        ),
+        ("the first row's wall-clock time", cfg.start_epoch_s),
+        ("the force clock's skew", cfg.force_clock_skew_ppm),
+    ] {
+        if !v.is_finite() {
+            bail!("{name} must be a finite number, got {v}");
+        }
+    }
+    for (name, v) in [
+        ("the peak noise (--noise-pm)", cfg.noise_pm),
+        ("the force noise (--force-noise-n)", cfg.force_noise_n),
+        ("the wavelength step", cfg.quantization_pm),
+    ] {
+        if !(v >= 0.0 && v.is_finite()) {
+            bail!("{name} must be a finite number ≥ 0, got {v}");
+        }
+    }
+    if cfg.force_clock_skew_ppm.abs() >= 1e5 {
+        bail!(
+            "the force clock's skew must be below 100 000 ppm, got {}",
+            cfg.force_clock_skew_ppm
+        );
+    }
+    if let Some(f) = cfg.force_saturation_n.filter(|f| !f.is_finite()) {
+        bail!("the force saturation must be a finite number of newtons, got {f}");
+    }
+    if let Some((a, b)) = cfg
+        .force_gaps_s
+        .iter()
+        .find(|(a, b)| !(a.is_finite() && b.is_finite() && a < b))
+    {
+        bail!("a force gap must run from one finite time to a later one, got {a} s to {b} s");
+    }
+    if let Some((g, k)) = cfg
+        .grating_sensitivity_pm_per_n
+        .iter()
+        .find(|(_, k)| !k.is_finite())
+    {
+        bail!("grating `{g}`: its sensitivity must be a finite number, got {k}");
+    }
+    let rows = cfg.rows();
+    if rows.is_nan() || rows > MAX_ROWS {
+        bail!(
+            "a run of {:e} s at {} Hz would be {rows:e} wavelength rows; a synthetic log has at most {MAX_ROWS:e} (shorten --pulse-s, --rest-s or the train, or lower --rate-hz)",
+            cfg.duration_s,
+            cfg.sample_rate_hz
+        );
+    }
+    if rows < 10.0 {
+        bail!(
+            "a run of {} s at {} Hz would be {rows} wavelength rows; at least 10 are needed",
+            cfg.duration_s,
+            cfg.sample_rate_hz
+        );
+    }
+    let samples = cfg.force_samples();
+    if samples.is_nan() || samples > MAX_FORCE_SAMPLES {
+        bail!(
+            "the force log would hold {samples:e} samples ({} Hz over {:e} s); at most {MAX_FORCE_SAMPLES:e} are written (lower --force-rate-hz, shorten the run or --force-start-s)",
+            cfg.force_rate_hz,
+            (cfg.duration_s - cfg.force_start_s).max(cfg.duration_s)
+        );
     }
     if !(cfg.transport_delay_s.is_finite() && cfg.transport_delay_s >= 0.0) {
         bail!(
@@ -294,7 +447,12 @@ fn check_config(design: &Design, m: &crate::spec::Module, cfg: &SynthConfig) -> 
             }
             PulseShape::Sine { cycles } => cycles >= 1,
         };
-        if !(ok && p.duration_s > 0.0 && p.duration_s.is_finite() && p.peak_n.is_finite()) {
+        if !(ok
+            && p.duration_s > 0.0
+            && p.duration_s.is_finite()
+            && p.peak_n.is_finite()
+            && p.start_s.is_finite())
+        {
             bail!("pulse at {} s: its shape {:?} does not fit its duration {} s (ramps must be positive and fit; at least one step or cycle)", p.start_s, p.shape, p.duration_s);
         }
     }
@@ -423,7 +581,14 @@ impl Rows<'_> {
     ) -> Result<(Vec<f64>, SynthGrating)> {
         let cfg = self.cfg;
         let n = self.t_rel.len();
-        let kg = cfg.sensitivity_pm_per_n * (1.0 - 0.15 * k as f64);
+        let kg = cfg
+            .grating_sensitivity_pm_per_n
+            .iter()
+            .find(|(n, _)| *n == g.name)
+            .map_or(
+                cfg.sensitivity_pm_per_n * (1.0 - 0.15 * k as f64),
+                |(_, k)| *k,
+            );
         let l0 = g.bragg_wavelength_nm;
         let ts_pm = self.fiber.temperature_sensitivity_pm_per_k(l0);
         let col: Vec<f64> = (0..n)
@@ -436,7 +601,7 @@ impl Rows<'_> {
                     + cfg.drift_pm_per_s * t
                     + ts_pm * cfg.temperature_ramp_k_per_s * self.ramp_time_s(t)
                     + cfg.noise_pm * noise.unit();
-                l0 + pm * 1e-3
+                quantize_nm(l0, pm, cfg.quantization_pm)
             })
             .collect();
         let r2 = self.expected_r_squared(kg, l0)?;
@@ -487,9 +652,9 @@ impl Rows<'_> {
                 if noise.dropped(cfg.dropout_fraction) {
                     return f64::NAN;
                 }
-                l0 + (ts_pm * cfg.temperature_ramp_k_per_s * self.ramp_time_s(self.t_rel[i])
-                    + cfg.noise_pm * noise.unit())
-                    * 1e-3
+                let pm = ts_pm * cfg.temperature_ramp_k_per_s * self.ramp_time_s(self.t_rel[i])
+                    + cfg.noise_pm * noise.unit();
+                quantize_nm(l0, pm, cfg.quantization_pm)
             })
             .collect();
         let truth = SynthGrating {
@@ -506,17 +671,33 @@ impl Rows<'_> {
     }
 }
 
-/// The force log, on its own clock, covering the wavelength log.
+/// A peak at `l0` nm shifted by `pm`, rounded to a multiple of `step_pm` (none at 0), nm.
+fn quantize_nm(l0: f64, pm: f64, step_pm: f64) -> f64 {
+    if step_pm > 0.0 {
+        ((l0 * 1e3 + pm) / step_pm).round() * step_pm * 1e-3
+    } else {
+        l0 + pm * 1e-3
+    }
+}
+
+/// The force log, on its own clock (skewed when asked), covering the wavelength log:
+/// saturated and with gaps when asked.
 fn force_log(cfg: &SynthConfig, noise: &mut Noise) -> SynthForce {
-    let nf = ((cfg.duration_s - cfg.force_start_s).max(cfg.duration_s) * cfg.force_rate_hz).floor()
-        as usize
-        + 1;
+    let nf = cfg.force_samples() as usize;
     let mut ft = Vec::with_capacity(nf);
     let mut ff = Vec::with_capacity(nf);
+    let stamp = 1.0 + 1e-6 * cfg.force_clock_skew_ppm;
+    let cap = cfg.force_saturation_n.unwrap_or(f64::INFINITY);
     for k in 0..nf {
         let tf = k as f64 / cfg.force_rate_hz;
-        ft.push(tf);
-        ff.push(force_at(&cfg.pulses, tf + cfg.force_start_s) + cfg.force_noise_n * noise.unit());
+        // Drawn for every sample, so that the noise does not depend on the gaps.
+        let f = force_at(&cfg.pulses, tf + cfg.force_start_s) + cfg.force_noise_n * noise.unit();
+        let t = tf + cfg.force_start_s;
+        if cfg.force_gaps_s.iter().any(|(a, b)| t >= *a && t < *b) {
+            continue;
+        }
+        ft.push(tf * stamp);
+        ff.push(f.min(cap));
     }
     SynthForce {
         time_s: ft,
@@ -526,13 +707,13 @@ fn force_log(cfg: &SynthConfig, noise: &mut Noise) -> SynthForce {
 
 /// Generate a run.
 pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthForce, SynthTruth)> {
+    let core = check_config(design, cfg)?;
     let Some(m) = &design.module else {
         bail!(
             "design `{}` has no [module] to synthesise a log for",
             design.name
         )
     };
-    let core = check_config(design, m, cfg)?;
     let strain: Vec<_> = m
         .gratings
         .iter()
@@ -582,6 +763,9 @@ pub fn generate(design: &Design, cfg: &SynthConfig) -> Result<(SynthLog, SynthFo
         time_s: rows.t_rel,
     };
     let force = force_log(cfg, &mut noise);
+    if force.time_s.len() < 2 {
+        bail!("the force log would hold fewer than two samples (its gaps cover it)");
+    }
     let truth = SynthTruth {
         clock_offset_s: -cfg.force_start_s,
         sls_time_constant_s: cfg.tau_s,

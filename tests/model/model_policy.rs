@@ -355,10 +355,12 @@ fn a_measured_log_calibrates_the_contact_so_predict_reproduces_it_and_optimize_f
     req.analysis.core = Some("psc1".into());
     req.calibrate_into = Some(calibrated_path.clone());
     let out = fbgforge::verify::run(&req).unwrap();
-    // Far from the nominal K but inside the band: its own status, not a FAIL.
+    // Far from the nominal K but inside the band: its own status, not a FAIL. The
+    // band spans more than a factor 3 (10.7 … 221 pm/N), so the configuration cannot be
+    // judged until the contact is calibrated (issue 23).
     let g = &out.report.verdict.gratings[0];
-    assert_eq!(g.status, Status::InBand, "{g:?}");
-    assert_eq!(out.report.verdict.overall, Status::InBand);
+    assert_eq!(g.status, Status::CalibrateContact, "{g:?}");
+    assert_eq!(out.report.verdict.overall, Status::CalibrateContact);
     let cal = out.calibration.unwrap();
     assert!((cal.previous_radius_mm - 1.72).abs() < 1e-12);
     assert!(

@@ -12,6 +12,7 @@ mod logs_fixtures;
 mod report_html;
 mod verify_calibrate;
 mod verify_cli;
+mod verify_edges;
 mod verify_errors;
 mod verify_protocols;
 mod verify_synth;

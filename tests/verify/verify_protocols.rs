@@ -279,6 +279,12 @@ fn gratings_with_identical_dynamics_get_q_in_the_ratio_of_their_k() {
                 assert_eq!(m.warnings.count("q_undefined"), 2);
                 continue;
             }
+            if !given {
+                // Relative lags: Q is withheld for both, each with an upper bound.
+                assert!(a.quality_q_pm_per_n_s.is_none() && b.quality_q_pm_per_n_s.is_none());
+                assert!(a.quality_q_bound.is_some() && b.quality_q_bound.is_some());
+                continue;
+            }
             let q_ratio = a.quality_q_pm_per_n_s.unwrap() / b.quality_q_pm_per_n_s.unwrap();
             let k_ratio =
                 truth.gratings[0].sensitivity_pm_per_n / truth.gratings[1].sensitivity_pm_per_n;

@@ -24,19 +24,23 @@ pub(super) struct AlignedClocks {
     pub(super) overlap: f64,
 }
 
-/// Take the given clock offset or estimate it, and check the aligned logs overlap.
+/// Take the given clock offset or estimate it (leaving out the force-sample `spans`
+/// whose force is not trusted), and check the aligned logs overlap.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn align_clocks(
     frame: &ForceFrame,
     tw: &[f64],
     shift_pm: &[f64],
     (log, force): (&PeakLog, &ForceLog),
     given_s: Option<f64>,
+    spans: &[(usize, usize)],
     warnings: &mut LogWarnings,
 ) -> Result<AlignedClocks> {
     let prior = frame.prior;
     let (delta, source) = match given_s {
         Some(o) => (o - prior, "given"),
         None => {
+            let excluded = span_times(&frame.u, spans);
             let al = Alignment {
                 tw,
                 shift_pm,
@@ -45,6 +49,7 @@ pub(super) fn align_clocks(
                 a: frame.a,
                 b: frame.b,
                 range: frame.range,
+                excluded: &excluded,
             };
             (estimate_clock_offset(&al, warnings)?, "estimated")
         }
@@ -70,6 +75,37 @@ pub(super) fn align_clocks(
         fb,
         overlap,
     })
+}
+
+impl AlignedClocks {
+    /// The same clocks with the force log's times warped to remove a clock skew
+    /// (`(wa, wb)`: the wavelength log's span, for the overlap).
+    pub(super) fn warped(
+        &self,
+        skew: &crate::verify::skew::SkewFit,
+        (wa, wb): (f64, f64),
+    ) -> AlignedClocks {
+        let fu: Vec<f64> = self.fu.iter().map(|&u| skew.warp(u)).collect();
+        let (fa, fb) = (fu[0], fu[fu.len() - 1]);
+        let overlap = wb.min(fb) - wa.max(fa);
+        AlignedClocks {
+            offset: self.offset,
+            source: self.source,
+            fu,
+            fa,
+            fb,
+            overlap: overlap.max(0.0),
+        }
+    }
+}
+
+/// The times of force-sample index spans in the time base `t`, s.
+pub(super) fn span_times(t: &[f64], spans: &[(usize, usize)]) -> Vec<(f64, f64)> {
+    spans
+        .iter()
+        .filter(|(a, b)| a <= b && *b < t.len())
+        .map(|&(a, b)| (t[a], t[b]))
+        .collect()
 }
 
 /// The logs' timing uncertainty, s, with a warning when a given offset carries it into
@@ -103,6 +139,8 @@ struct Alignment<'a> {
     a: f64,
     b: f64,
     range: f64,
+    /// Force-clock stretches (in `u`) left out of the fit, s.
+    excluded: &'a [(f64, f64)],
 }
 
 /// Estimate the residual clock offset: cross-correlation for a start, then the lag
@@ -111,7 +149,7 @@ fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f
     let (tw, s, u, fval, a, b, range) = (al.tw, al.shift_pm, al.u, al.fval, al.a, al.b, al.range);
     let (dx, _) = xcorr_offset(tw, s, u, fval, a, b, range)
         .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
-    let coarse = FitData::new(tw, s, u, fval, a, b, 20_000, 50_000, 30.0);
+    let coarse = FitData::new(tw, s, u, fval, a, b, 20_000, 50_000, 30.0, al.excluded);
     let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
     let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
         .par_iter()
@@ -130,7 +168,18 @@ fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f
     let span = (b - a)
         .min(100_000.0 * median_period(u).max(1e-6))
         .min(50_000.0 * median_period(tw).max(1e-6));
-    let fine = FitData::new(tw, s, u, fval, a, a + span.max(1.0), 50_000, 100_000, 30.0);
+    let fine = FitData::new(
+        tw,
+        s,
+        u,
+        fval,
+        a,
+        a + span.max(1.0),
+        50_000,
+        100_000,
+        30.0,
+        al.excluded,
+    );
     let p = best.0.clone();
     let step = [
         2.0 * median_period(&fine.st).max(median_period(&fine.ft)),

@@ -15,12 +15,14 @@ pub(super) struct FitData {
     fv: Vec<f64>,
     /// Middle of the shift samples' span (the drift's origin), s.
     t_mid: f64,
+    /// Force-clock stretches left out of the fit (see [`LagModelCost::excluded_s`]), s.
+    excluded_s: Vec<(f64, f64)>,
 }
 
 impl FitData {
     /// Shift samples (tw, s) inside [a, b], strided to at most `max_wl`; force samples
     /// (u, f) over the same span plus `memory_s` before and after, strided to at most
-    /// `max_force`.
+    /// `max_force`; `excluded_s`: stretches of the force clock (u) left out of the fit.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         tw: &[f64],
@@ -32,6 +34,7 @@ impl FitData {
         max_wl: usize,
         max_force: usize,
         memory_s: f64,
+        excluded_s: &[(f64, f64)],
     ) -> Self {
         let idx: Vec<usize> = (0..tw.len())
             .filter(|&i| tw[i] >= a && tw[i] <= b && s[i].is_finite())
@@ -56,6 +59,7 @@ impl FitData {
             ft,
             fv,
             t_mid,
+            excluded_s: excluded_s.to_vec(),
         }
     }
 
@@ -68,6 +72,7 @@ impl FitData {
             fixed_offset_s: fixed,
             offset_range_s: None,
             t_mid: self.t_mid,
+            excluded_s: &self.excluded_s,
         }
     }
 

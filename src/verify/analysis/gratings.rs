@@ -44,8 +44,8 @@ fn select_gratings<'a>(
     let hw = opts
         .window_half_width_nm
         .unwrap_or_else(|| assign::default_half_width_nm(&all_nominals));
-    if hw.is_nan() || hw <= 0.0 {
-        bail!("the window half-width must be positive, got {hw} nm");
+    if !(hw > 0.0 && hw <= 10.0) {
+        bail!("the wavelength window half-width (--window-nm) must be in (0, 10] nm, got {hw}");
     }
     let strain: Vec<_> = module
         .gratings
@@ -79,6 +79,8 @@ pub(super) struct GratingShifts<'a> {
     pub(super) reference_grating: Option<String>,
     /// (strain grating index, compensated shift in pm per row) of each grating used.
     pub(super) used: Vec<(usize, Vec<f64>)>,
+    /// Strain gratings of the core under test with too few peaks (missing channels).
+    pub(super) missing: Vec<String>,
 }
 
 /// Assign the peaks to the gratings and remove temperature with the reference grating.
@@ -101,7 +103,7 @@ pub(super) fn grating_shifts<'a>(
     };
     let ref_track = reference_track(&tracked, selection.reference, tw, warnings);
     let core_named = opts.core.is_some();
-    let used = strain_shifts(
+    let (used, missing) = strain_shifts(
         &tracked,
         &selection.strain,
         ref_track.as_ref(),
@@ -114,6 +116,7 @@ pub(super) fn grating_shifts<'a>(
         tracks,
         reference_grating,
         used,
+        missing,
     })
 }
 
@@ -178,14 +181,16 @@ fn reference_track<'a>(
 }
 
 /// The temperature-compensated shift of every strain grating present in the log, by
-/// index into `strain`; a missing grating is a warning (an error when a core was named).
+/// index into `strain`, and the names of the missing ones; a missing grating is a
+/// warning (an error when a core was named).
+#[allow(clippy::type_complexity)]
 fn strain_shifts(
     tr: &Tracked,
     strain: &[&crate::spec::ModuleGrating],
     ref_track: Option<&(&GratingTrack, Vec<f64>)>,
     core_named: bool,
     warnings: &mut LogWarnings,
-) -> Result<Vec<(usize, Vec<f64>)>> {
+) -> Result<(Vec<(usize, Vec<f64>)>, Vec<String>)> {
     let (log, tracks, min_rows, hw) = (tr.log, tr.tracks, tr.min_rows, tr.hw);
     let rows = log.rows();
     // A core none of whose gratings appears is not the core under test (a module is
@@ -198,6 +203,7 @@ fn strain_shifts(
             .any(|(i, g)| &g.core == core && present(i))
     };
     let mut used: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut missing = Vec::new();
     for (i, g) in strain.iter().enumerate() {
         let t = &tracks[i];
         if !present(i) && !core_named && !core_in_log(&g.core) {
@@ -215,6 +221,7 @@ fn strain_shifts(
                 bail!("{msg}");
             }
             warnings.add("grating_missing", || msg);
+            missing.push(g.name.clone());
             continue;
         }
         // A peak that leaves its window under load is dropped, and the fit then sees
@@ -236,5 +243,5 @@ fn strain_shifts(
     if used.is_empty() {
         bail!("{}: none of the design's strain gratings has peaks in the log (windows ± {hw:.3} nm around their nominal wavelengths)", log.source.display());
     }
-    Ok(used)
+    Ok((used, missing))
 }

@@ -91,7 +91,8 @@ fn segment_lags(
     let mut pres = Vec::new();
     for s in &ctx.seg.segments {
         let (t_start, t_end) = (fu[s.start], fu[s.end]);
-        if t_start < first || t_end > last {
+        // Only changes of force the log covers whole, of pulses whose force is trusted.
+        if t_start < first || t_end > last || ctx.untrusted.contains(&s.pulse) {
             continue;
         }
         let window = (fu[s.window.0], fu[s.window.1]);

@@ -7,7 +7,7 @@ use super::linearity::hysteresis_and_linearity;
 use super::quality::quality_q;
 use super::results::GratingResult;
 use super::sensitivity::{
-    chart_intercept, drift_free_shift, fit_lag_model, plateau_sensitivity, residual_independence,
+    chart_intercept, drift_free_shift, fit_lag_model, lag1_independence, plateau_sensitivity,
 };
 use crate::verify::assign::GratingTrack;
 use crate::verify::fit;
@@ -38,6 +38,14 @@ pub(super) struct GratingContext<'a> {
     pub(super) hw: f64,
     /// Timing uncertainty carried into absolute lags (0 when the lags are relative), s.
     pub(super) timing_s: f64,
+    /// True when the clock offset was estimated (lags relative to it).
+    pub(super) relative: bool,
+    /// Stretches of the force clock (`fu`) whose shift is left out of every fit, s.
+    pub(super) excluded_s: &'a [(f64, f64)],
+    /// Rows of the wavelength log outside those stretches.
+    pub(super) row_ok: &'a [bool],
+    /// Pulses left out (untrusted force), indices from 0.
+    pub(super) untrusted: &'a [usize],
 }
 
 /// A measured grating, its drift-free shift series and its straight-line fit.
@@ -50,7 +58,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
     let g = ctx.strain[*gi];
     let t = &ctx.tracks[*gi];
     let fc = ctx.fc;
-    let lm = fit_lag_model(ctx, s, &g.name, prev)?;
+    let (lm, residual) = fit_lag_model(ctx, s, &g.name, prev)?;
     let delay = -lm.offset_s;
     let d = drift_free_shift(ctx, s, &lm);
     let line = fit::fit_line(fc, &d).ok_or_else(|| {
@@ -60,11 +68,15 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         )
     })?;
     let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
-    let (rho, n, n_eff) = residual_independence(fc, &d, line.slope, line.intercept);
+    // The response model's own fit: how much of the shift its response explains
+    // beyond baseline and drift, and how independent its residuals are.
+    let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
+    let response_r2 = fit::response_r_squared(ctx.tw, s, &residual, t_mid);
+    let (rho, n, n_eff) = lag1_independence(&residual);
     let k = lm.k_pm_per_n;
     let lags = lag_figures(ctx, &d, &lm, delay);
     let se_k_eff = lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt();
-    let (q, q_u) = quality_q(k, se_k_eff, line.r_squared, &lags);
+    let q = quality_q(k, se_k_eff, line.r_squared, &lags, ctx.relative);
     let plateau = plateau_sensitivity(ctx, &d);
     let summary = lags.summary;
     let result = GratingResult {
@@ -84,6 +96,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         residual_autocorrelation: rho,
         effective_samples: n_eff,
         sensitivity_std_error_effective_pm_per_n: se_k_eff,
+        sensitivity_t_statistic: k.abs() / se_k_eff,
         peak_force_n: lags
             .pulses
             .iter()
@@ -92,6 +105,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         linear_slope_pm_per_n: line.slope,
         r_squared: line.r_squared,
         lag_model_r_squared: lm.r_squared,
+        response_r_squared: response_r2,
         hysteresis_percent_span: hyst,
         nonlinearity_percent_span: nonlin,
         resolution_n: ctx.resolution_pm / k.abs(),
@@ -102,8 +116,10 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         mean_lag_s: lags.mean_lag_s,
         median_lag_s: summary.map_or(f64::NAN, |s| s.median_lag_s),
         lag_spread_s: summary.map_or(f64::NAN, |s| s.lag_spread_s),
-        quality_q_pm_per_n_s: q,
-        quality_q_uncertainty_pm_per_n_s: q_u,
+        quality_q_pm_per_n_s: q.value,
+        quality_q_uncertainty_pm_per_n_s: q.uncertainty,
+        quality_q_bound: q.bound,
+        quality_q_note: q.note,
         transport_delay_s: delay,
         plateau_sensitivity_pm_per_n: plateau.map(|p| p.0),
         plateau_sensitivity_std_error_pm_per_n: plateau.map(|p| p.1),

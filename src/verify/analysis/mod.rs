@@ -16,7 +16,12 @@
 //! 4. the force is resampled onto the wavelength log's times (the common time base),
 //!    and Δλ against F gives the linear slope, R², hysteresis and non-linearity;
 //! 5. pulses are found in the force log; per pulse the peak force, the peak shift and
-//!    the lag between the two peaks (vertices of parabolas through the top 5 %).
+//!    the lag between the two peaks (vertices of parabolas through the top 5 %);
+//! 6. before any fit, the force log is checked for saturation and gaps
+//!    ([`crate::verify::force_check`]): the pulses they touch are left out; after the
+//!    first measurement, a drift of the primary grating's segment lags over the run is
+//!    read as clock skew ([`crate::verify::skew`]) and, when it stands out of its
+//!    uncertainty, the force clock is warped and every grating measured again.
 //!
 //! One stage per file: the options (`options`) and the results (`results`); peaks to
 //! gratings with temperature removed (`gratings`); the force log on the wavelength
@@ -43,4 +48,6 @@ pub use super::segment::{detect_pulses, percentile, PulseSpan};
 pub use assemble::analyse;
 pub use linearity::hysteresis_and_linearity;
 pub use options::AnalysisOptions;
-pub use results::{GratingResult, Measurement, PulseResult, Series};
+pub use results::{
+    BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
+};

@@ -60,7 +60,7 @@ pub struct GratingResult {
     pub sensitivity_pm_per_n: f64,
     /// Standard error of K (white-noise assumption), pm/N.
     pub sensitivity_std_error_pm_per_n: f64,
-    /// Lag-1 autocorrelation of the straight-line residuals: near 1 when the residual
+    /// Lag-1 autocorrelation ρ of the lag model's residuals: near 1 when the residual
     /// wanders slowly (drift, an unrelated signal), which makes the samples far from
     /// independent.
     pub residual_autocorrelation: f64,
@@ -69,14 +69,20 @@ pub struct GratingResult {
     /// Standard error of K allowing for the autocorrelated residuals:
     /// `sensitivity_std_error_pm_per_n` × √(n / n_eff), pm/N.
     pub sensitivity_std_error_effective_pm_per_n: f64,
+    /// |K| / `sensitivity_std_error_effective_pm_per_n`: how far K stands from zero.
+    pub sensitivity_t_statistic: f64,
     /// Largest peak force of the pulses, N.
     pub peak_force_n: f64,
     /// Slope of a straight line through Δλ against F (no lag model), pm/N.
     pub linear_slope_pm_per_n: f64,
     /// R² of that straight line.
     pub r_squared: f64,
-    /// R² of the lag model.
+    /// R² of the lag model (baseline and drift included).
     pub lag_model_r_squared: f64,
+    /// Share of the shift left after baseline and drift that the lag model's response
+    /// explains: 1 − SSR(lag model) / SSR(baseline and drift alone). The response gate
+    /// reads it (the straight-line R² counts the lag itself as misfit).
+    pub response_r_squared: f64,
     /// Largest gap between loading and unloading branches, % of full-scale output.
     pub hysteresis_percent_span: f64,
     /// Largest deviation of the bin means from the straight line, % of full-scale output.
@@ -101,11 +107,19 @@ pub struct GratingResult {
     pub median_lag_s: f64,
     /// Robust spread of the segment lags (1.4826 × MAD), s.
     pub lag_spread_s: f64,
-    /// Q = |K|·R²/Δt_max, pm/(N·s); None when Δt_max is not resolved from zero
-    /// (Δt_max ≤ 2 × its uncertainty).
+    /// Q = |K|·R²/Δt_max, pm/(N·s); given only with absolute lags (a known clock
+    /// offset) and Δt_max resolved from zero (above 2 × its uncertainty). Otherwise
+    /// None, with `quality_q_bound` and `quality_q_note`.
     pub quality_q_pm_per_n_s: Option<f64>,
     /// Standard uncertainty of Q from those of Δt_max and K, pm/(N·s).
     pub quality_q_uncertainty_pm_per_n_s: Option<f64>,
+    /// What can be said of Q when it is not given: an upper bound (relative lags: an
+    /// estimated offset absorbs any pure delay, so the true Δt_max is at least the
+    /// relative one) or a lower bound (absolute Δt_max not resolved from zero), both
+    /// at 2σ of Δt_max; None when nothing can be said.
+    pub quality_q_bound: Option<QualityBound>,
+    /// Why Q is a bound or withheld (None when Q is given).
+    pub quality_q_note: Option<String>,
     /// Pure transport delay of the lag model (the shift follows the force delayed by
     /// this, on top of the SLS lag), s; relative to the clock offset.
     pub transport_delay_s: f64,
@@ -129,6 +143,44 @@ pub struct GratingResult {
     pub pulses: Vec<PulseResult>,
 }
 
+/// A bound on Q when Q itself cannot be given.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct QualityBound {
+    /// `upper` (Q ≤ value) or `lower` (Q ≥ value).
+    pub kind: BoundKind,
+    /// The bound, pm/(N·s).
+    pub value_pm_per_n_s: f64,
+}
+
+/// Which side a bound is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BoundKind {
+    /// The quantity is at most the value.
+    Upper,
+    /// The quantity is at least the value.
+    Lower,
+}
+
+/// The force log's trouble spots and what was done about them.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct ForceTrust {
+    /// The level the force channel saturates at, N (flat tops at a repeated maximum).
+    pub saturation_n: Option<f64>,
+    /// Pulses with a clipped top (numbered from 1).
+    pub clipped_pulses: Vec<usize>,
+    /// Pulses with a gap in the force log (numbered from 1).
+    pub gapped_pulses: Vec<usize>,
+    /// Gaps in the force log at rest.
+    pub gaps_at_rest: usize,
+    /// Pulses left out of the fits (numbered from 1).
+    pub excluded_pulses: Vec<usize>,
+    /// Pulses the fits use.
+    pub usable_pulses: usize,
+    /// Why the force log cannot be judged on (too few trusted pulses left), if so.
+    pub not_judged: Option<String>,
+}
+
 /// The whole measurement.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Measurement {
@@ -150,6 +202,15 @@ pub struct Measurement {
     pub clock_offset_s: f64,
     /// `estimated` or `given`.
     pub clock_offset_source: String,
+    /// How much faster the force clock runs than the wavelength clock, ppm, from the
+    /// drift of the primary grating's segment lags over the run (None with fewer than
+    /// three segment lags); see [`crate::verify::skew`].
+    pub clock_skew_ppm: Option<f64>,
+    /// Its standard uncertainty, ppm.
+    pub clock_skew_uncertainty_ppm: Option<f64>,
+    /// True when the skew stood out of its uncertainty and the force clock was warped
+    /// to remove it (every figure is then of the corrected clock).
+    pub clock_skew_corrected: bool,
     /// True when the clock offset was estimated: the estimate absorbs any pure delay
     /// between force and wavelength, so the lags, Δt_max and Q are relative to it, not
     /// absolute. Give the offset (`--clock-offset-s`) for absolute lags.
@@ -166,6 +227,13 @@ pub struct Measurement {
     pub interrogator_resolution_pm: f64,
     /// Pulses found in the force log.
     pub pulse_count: usize,
+    /// Largest force of the trusted pulses the wavelength log covers, N.
+    pub peak_force_n: f64,
+    /// Saturation and gaps of the force log, and the pulses left out for them.
+    pub force_trust: ForceTrust,
+    /// Strain gratings of the core under test without peaks in the log (missing
+    /// channels), not measured.
+    pub missing_gratings: Vec<String>,
     /// Loading protocol detected in the force log: `impulse`, `press-hold-release`,
     /// `staircase`, `sine` or `mixed`.
     pub protocol: Protocol,

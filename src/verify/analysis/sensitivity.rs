@@ -11,16 +11,28 @@ use rayon::prelude::*;
 
 /// Fit the lag model to one grating's shift `s` with the clocks aligned: delay, τ and
 /// r searched on a strided copy of the overlap (from `prev`'s values, or three time
-/// constants for the first grating), then evaluated on every sample.
+/// constants for the first grating), then evaluated on every sample. Returns the fit
+/// and its residual at every row (NaN where it was not used).
 pub(super) fn fit_lag_model(
     ctx: &GratingContext,
     s: &[f64],
     name: &str,
     prev: Option<(f64, f64, f64)>,
-) -> Result<LagModelFit> {
+) -> Result<(LagModelFit, Vec<f64>)> {
     let (tw, fu, fval, fc) = (ctx.tw, ctx.fu, ctx.fval, ctx.fc);
     let (span_a, span_b) = ctx.span;
-    let sub = FitData::new(tw, s, fu, fval, span_a, span_b, 20_000, 50_000, 30.0);
+    let sub = FitData::new(
+        tw,
+        s,
+        fu,
+        fval,
+        span_a,
+        span_b,
+        20_000,
+        50_000,
+        30.0,
+        ctx.excluded_s,
+    );
     let max_delay = max_transport_delay_s(ctx);
     let mut best: (Vec<f64>, f64) = (vec![0.0, 0.0, 0.0], f64::MAX);
     // The first grating searches from three time constants; the others from its
@@ -51,7 +63,7 @@ pub(super) fn fit_lag_model(
     // Final evaluation on every sample (NaN shifts and samples outside the force
     // log are skipped inside the cost).
     let n_used = (0..tw.len())
-        .filter(|&i| s[i].is_finite() && fc[i].is_finite())
+        .filter(|&i| s[i].is_finite() && fc[i].is_finite() && ctx.row_ok[i])
         .count();
     if n_used < 10 {
         bail!(
@@ -66,19 +78,23 @@ pub(super) fn fit_lag_model(
         fixed_offset_s: Some(0.0),
         offset_range_s: None,
         t_mid: (span_a + span_b) / 2.0,
+        excluded_s: ctx.excluded_s,
     };
-    Ok(full
+    let lm = full
         .evaluate(lm0.offset_s, lm0.tau_s, lm0.instant_fraction)
-        .unwrap_or(lm0))
+        .unwrap_or(lm0);
+    let residual = full.residuals(&lm);
+    Ok((lm, residual))
 }
 
-/// The shift with the lag model's baseline and drift removed, NaN outside the force log.
+/// The shift with the lag model's baseline and drift removed, NaN outside the force
+/// log and in the stretches left out for an untrusted force.
 pub(super) fn drift_free_shift(ctx: &GratingContext, s: &[f64], lm: &LagModelFit) -> Vec<f64> {
     let (tw, fc) = (ctx.tw, ctx.fc);
     let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
     (0..tw.len())
         .map(|i| {
-            if fc[i].is_finite() {
+            if fc[i].is_finite() && ctx.row_ok[i] {
                 s[i] - lm.baseline_pm - lm.drift_pm_per_s * (tw[i] - t_mid)
             } else {
                 f64::NAN
@@ -87,21 +103,10 @@ pub(super) fn drift_free_shift(ctx: &GratingContext, s: &[f64], lm: &LagModelFit
         .collect()
 }
 
-/// Lag-1 autocorrelation ρ of the straight-line residuals over consecutive samples
-/// where both force and shift exist, the number n of such samples and the effective
-/// number of independent ones, n (1 − ρ) / (1 + ρ) (an AR(1) reading of the residual;
-/// at least 2, at most n).
-pub(super) fn residual_independence(
-    force: &[f64],
-    shift: &[f64],
-    slope: f64,
-    intercept: f64,
-) -> (f64, usize, f64) {
-    let r: Vec<f64> = force
-        .iter()
-        .zip(shift)
-        .map(|(f, s)| s - (slope * f + intercept))
-        .collect();
+/// Lag-1 autocorrelation ρ of residuals `r` (NaN = not used) over consecutive
+/// samples, the number n of used samples and the effective number of independent
+/// ones, n (1 − ρ) / (1 + ρ) (an AR(1) reading of the residual; at least 2, at most n).
+pub(super) fn lag1_independence(r: &[f64]) -> (f64, usize, f64) {
     let (mut num, mut den, mut n) = (0.0, 0.0, 0usize);
     for (i, v) in r.iter().enumerate() {
         if !v.is_finite() {
