@@ -5,8 +5,10 @@
 //! the matrix predicts large responses. Over the strongest frames of a stream (at
 //! most [`ACTIVE_FRAMES`]), grating i is suspect when its reading hardly varies
 //! (standard deviation ≤ [`STILL_SIGMAS`] × the resolution) while the loads
-//! reconstructed *without it* predict readings that stray from its mean by an rms of
-//! at least [`PREDICTED_SIGMAS`] × the resolution. Leaving the grating out is what
+//! reconstructed *without it* predict readings that vary with a standard deviation
+//! of at least [`PREDICTED_SIGMAS`] × the resolution: the others say it should move
+//! a lot, and it does not. (Variation, not level: a grating whose matrix entries are
+//! merely off still moves with the loads, and a stuck one may sit at any value.) Leaving the grating out is what
 //! makes the test fair: with it, the fit is pulled towards its flat reading. Only
 //! gratings that pass the first (cheap) test are reconstructed without; the
 //! reconstruction then drops the suspects ([`crate::array::reconstruct()`]).
@@ -23,8 +25,8 @@ pub const ACTIVE_FRAMES: usize = 48;
 /// is at most this many resolutions.
 pub const STILL_SIGMAS: f64 = 3.0;
 
-/// "Large responses": the predictions without the grating stray from its mean
-/// reading by an rms of at least this many resolutions.
+/// "Large responses": the readings predicted without the grating vary with a
+/// standard deviation of at least this many resolutions.
 pub const PREDICTED_SIGMAS: f64 = 10.0;
 
 /// Fewest usable frames with a signal before the test is made.
@@ -39,8 +41,8 @@ pub struct SuspectGrating {
     pub name: String,
     /// Standard deviation of its reading over the active frames, pm.
     pub measured_sd_pm: f64,
-    /// Rms of the readings predicted without it, about its mean reading, pm.
-    pub predicted_rms_pm: f64,
+    /// Standard deviation of the readings predicted without it, pm.
+    pub predicted_sd_pm: f64,
     /// Active frames the test used.
     pub frames: usize,
 }
@@ -89,7 +91,7 @@ pub fn suspect_gratings(
         let r = build(&reduced, settings)?;
         let keep: Vec<usize> = (0..m).filter(|&q| q != i).collect();
         let w_i = problem.common_mode_weight(i, &keep);
-        let mut ss = 0.0;
+        let mut preds = Vec::with_capacity(active.len());
         for (_, y) in &active {
             let yr: Vec<f64> = keep.iter().map(|&q| y[q]).collect();
             let rec = r.reconstruct(&yr);
@@ -99,15 +101,17 @@ pub fn suspect_gratings(
             if let (Some(w), Some(t)) = (w_i, rec.common_mode_pm) {
                 pred += w * t;
             }
-            ss += (pred - mu) * (pred - mu);
+            preds.push(pred);
         }
-        let rms = (ss / active.len() as f64).sqrt();
-        if rms >= PREDICTED_SIGMAS * sigma {
+        let pm = mean(&preds);
+        let psd = (preds.iter().map(|v| (v - pm) * (v - pm)).sum::<f64>() / preds.len() as f64)
+            .sqrt();
+        if psd >= PREDICTED_SIGMAS * sigma {
             out.push(SuspectGrating {
                 index: i,
                 name: String::new(),
                 measured_sd_pm: sd,
-                predicted_rms_pm: rms,
+                predicted_sd_pm: psd,
                 frames: active.len(),
             });
         }

@@ -90,20 +90,17 @@ impl Uncertainty {
     }
 
     /// Per grating, the relative variance of a reading before it is solved: ρ² (the
-    /// additivity term, in full) plus the square of the median relative sd
-    /// s_ij / |A_ij| of the grating's row. Times y_i², it stands in for the matrix and
+    /// additivity term, in full) plus Σ_j s_ij² / Σ_j A_ij² (the matrix term as a
+    /// relative variance, each cell weighted by how much it moves the grating: p² for
+    /// a uniform relative sd p). Times y_i², it stands in for the matrix and
     /// additivity terms when the loads are not yet known (the ambiguity margin).
     pub fn row_relative_variances(&self, sensitivity: &DMatrix<f64>) -> Vec<f64> {
         let rho2 = self.additivity_sd_frac * self.additivity_sd_frac;
         (0..sensitivity.nrows())
             .map(|i| {
-                let mut rel: Vec<f64> = (0..sensitivity.ncols())
-                    .filter(|&j| sensitivity[(i, j)] != 0.0)
-                    .map(|j| self.matrix_sd_pm_per_g[(i, j)] / sensitivity[(i, j)].abs())
-                    .collect();
-                rel.sort_by(f64::total_cmp);
-                let p = rel.get(rel.len() / 2).copied().unwrap_or(0.0);
-                rho2 + p * p
+                let s2: f64 = self.matrix_sd_pm_per_g.row(i).iter().map(|v| v * v).sum();
+                let a2: f64 = sensitivity.row(i).iter().map(|v| v * v).sum();
+                rho2 + s2 / a2.max(1e-300)
             })
             .collect()
     }

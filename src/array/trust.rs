@@ -3,14 +3,21 @@
 //!
 //! * `inconsistent`: the residual is larger than the problem's [`Uncertainty`]
 //!   explains (interrogator noise, the matrix's own per-entry error, the additivity
-//!   error of simultaneous loads): χ² = Σ r_i²/v_i over the gratings, with
-//!   dof = gratings − loads (− 1 with a common-mode term), has a p-value below
-//!   [`FALSE_ALARM`]. A fault the model does not hold (a temperature offset, a
+//!   error of simultaneous loads): no loads on the answer's cells (within
+//!   [0, ulimit]) bring χ² = Σ r_i²/v_i, with v_i the variances at the answer, below
+//!   the χ² quantile at 1 − [`FALSE_ALARM`] with dof = gratings − loads (− 1 with a
+//!   common-mode term). The loads are refitted with the weights 1/v_i for the test:
+//!   the methods fit unweighted, and a grating with a large stated matrix error
+//!   would otherwise spread its misfit over the others. A fault the model does not hold (a temperature offset, a
 //!   dead grating, a matrix worse than stated) shows here.
 //! * `ceiling`: a load sits at the upper bound (ulimit): the true load may be larger.
-//! * `overload`: the bound is binding, not just touched: freeing the loads at the
-//!   ceiling on the answer's support lowers χ² by more than the 1-dof χ² quantile at
-//!   [`FALSE_ALARM`] (10.8) and puts a load above ulimit.
+//! * `overload`: the frame is consistent with a load above ulimit: on some subset of
+//!   the answer's cells that holds a load at the ceiling, the fit without the upper
+//!   bound has every load positive, one above ulimit, and passes the χ² test.
+//! * `below_range`: a loaded cell carries less than the array's rated minimum
+//!   (`min_load_g`, the paper's 25 g): a load the array is not rated to read,
+//!   typically one a fault (temperature offset, dead grating, additivity error)
+//!   made up to absorb a misfit.
 //! * `ambiguous`: another answer at least 12 dB away from this one fits the frame
 //!   about as well (the support searches' contenders, [`Reconstruction::rival_fits`]),
 //!   or a loaded cell's column is identical to another cell's (any method).
@@ -41,8 +48,10 @@ pub struct FrameFlags {
     pub inconsistent: bool,
     /// A load sits at ulimit.
     pub ceiling: bool,
-    /// The data ask for a load above ulimit.
+    /// The frame is consistent with a load above ulimit.
     pub overload: bool,
+    /// A loaded cell carries less than the rated minimum load.
+    pub below_range: bool,
     /// Another answer ≥ 12 dB away fits about as well, or identical columns.
     pub ambiguous: bool,
     /// The method did not converge (`bnb`: stopped at its work budget).
@@ -53,20 +62,22 @@ pub struct FrameFlags {
 
 impl FrameFlags {
     /// The flag words in the order they are written.
-    pub const WORDS: [&'static str; 6] = [
+    pub const WORDS: [&'static str; 7] = [
         "inconsistent",
         "ceiling",
         "overload",
+        "below_range",
         "ambiguous",
         "unconverged",
         "unusable",
     ];
 
-    fn bits(&self) -> [bool; 6] {
+    fn bits(&self) -> [bool; 7] {
         [
             self.inconsistent,
             self.ceiling,
             self.overload,
+            self.below_range,
             self.ambiguous,
             self.unconverged,
             self.unusable,
@@ -111,6 +122,8 @@ pub struct FlagCounts {
     pub ceiling: usize,
     /// Frames flagged `overload`.
     pub overload: usize,
+    /// Frames flagged `below_range`.
+    pub below_range: usize,
     /// Frames flagged `ambiguous`.
     pub ambiguous: usize,
     /// Frames flagged `unconverged`.
@@ -129,6 +142,7 @@ impl FlagCounts {
             c.inconsistent += usize::from(f.inconsistent);
             c.ceiling += usize::from(f.ceiling);
             c.overload += usize::from(f.overload);
+            c.below_range += usize::from(f.below_range);
             c.ambiguous += usize::from(f.ambiguous);
             c.unconverged += usize::from(f.unconverged);
             c.unusable += usize::from(f.unusable);
@@ -272,8 +286,10 @@ impl Checker {
         let var = p
             .uncertainty
             .reading_variances_pm2(x, predicted.as_slice());
-        let res = p.residual_vector_pm(x, shifts_pm);
-        let chi2: f64 = res.iter().zip(&var).map(|(r, v)| r * r / v).sum();
+        let chi2 = self.weighted_chi2(shifts_pm, &support, &var).unwrap_or_else(|| {
+            let res = p.residual_vector_pm(x, shifts_pm);
+            res.iter().zip(&var).map(|(r, v)| r * r / v).sum()
+        });
         let m = p.n_gratings();
         let dof = m.saturating_sub(support.len() + usize::from(p.common_mode.is_some()));
         let at_ceiling: Vec<usize> = support
@@ -286,50 +302,98 @@ impl Checker {
         r.flags = FrameFlags {
             inconsistent: dof > 0 && chi2_p_value(chi2, dof) < FALSE_ALARM,
             ceiling: !at_ceiling.is_empty(),
-            overload: !at_ceiling.is_empty()
-                && self.overload(shifts_pm, &support, &at_ceiling, &var, chi2),
+            overload: !at_ceiling.is_empty() && self.overload(shifts_pm, &support, &at_ceiling),
+            below_range: p.min_load_g > 0.0 && support.iter().any(|&j| x[j] < p.min_load_g),
             ambiguous: r.rival_fits == Some(true) || support.iter().any(|&j| self.has_twin[j]),
             unconverged: !r.converged,
             unusable: false,
         };
     }
 
-    /// Whether freeing the loads at the ceiling (the rest of the support fitted with
-    /// them, weights 1/v_i) lowers χ² significantly and puts a load above ulimit.
-    fn overload(
-        &self,
-        y: &[f64],
-        support: &[usize],
-        at_ceiling: &[usize],
-        var: &[f64],
-        chi2: f64,
-    ) -> bool {
+    /// The least χ² (weights 1/v_i) over loads on `support` within [0, ulimit]
+    /// (exact, [`crate::array::methods::bounded::box_qp`]); None if the support's
+    /// columns are dependent.
+    fn weighted_chi2(&self, y: &[f64], support: &[usize], var: &[f64]) -> Option<f64> {
         let p = &self.problem;
         let m = p.n_gratings();
         let k = support.len();
-        // Weighted least squares on the support without the upper bound (the lower
-        // bound stays: loads at 0 are not on the support).
-        let mut a = DMatrix::zeros(m, k);
-        let cols = p.sensitivity_pm_per_g.clone();
-        for (c, &j) in support.iter().enumerate() {
-            let col = p.project_frame(cols.column(j).as_slice());
-            for i in 0..m {
-                a[(i, c)] = col[i] / var[i].sqrt();
-            }
-        }
         let yp = p.project_frame(y);
         let yw = DVector::from_fn(m, |i, _| yp[i] / var[i].sqrt());
+        if k == 0 {
+            return Some(yw.norm_squared());
+        }
+        let cols: Vec<Vec<f64>> = support
+            .iter()
+            .map(|&j| p.project_frame(p.sensitivity_pm_per_g.column(j).as_slice()))
+            .collect();
+        let a = DMatrix::from_fn(m, k, |i, c| cols[c][i] / var[i].sqrt());
         let g = a.transpose() * &a;
         let b = a.transpose() * &yw;
-        let Some(free) = g.cholesky().map(|c| c.solve(&b)) else {
+        let z = crate::array::methods::bounded::box_qp(
+            &g,
+            &b,
+            &DVector::zeros(k),
+            &DVector::from_element(k, p.ulimit_g),
+        )?;
+        Some((&a * z - yw).norm_squared())
+    }
+
+    /// Whether some subset of the support holding a load at the ceiling, fitted
+    /// without the upper bound (weights 1/v_i at that fit), has every load positive,
+    /// one above ulimit, and passes the χ² test.
+    fn overload(&self, y: &[f64], support: &[usize], at_ceiling: &[usize]) -> bool {
+        let p = &self.problem;
+        let m = p.n_gratings();
+        let k = support.len();
+        if k > 12 {
             return false;
-        };
-        let above = support
+        }
+        let yp = p.project_frame(y);
+        let cols: Vec<Vec<f64>> = support
             .iter()
-            .zip(free.iter())
-            .any(|(j, &v)| at_ceiling.contains(j) && v > p.ulimit_g);
-        let chi2_free = (&a * &free - &yw).norm_squared();
-        above && chi2 - chi2_free > CHI2_1DOF_AT_FALSE_ALARM
+            .map(|&j| p.project_frame(p.sensitivity_pm_per_g.column(j).as_slice()))
+            .collect();
+        for mask in 1u32..(1 << k) {
+            let t: Vec<usize> = (0..k).filter(|a| mask & (1 << a) != 0).collect();
+            if !t.iter().any(|&a| at_ceiling.contains(&support[a])) {
+                continue;
+            }
+            let dof = m.saturating_sub(t.len() + usize::from(p.common_mode.is_some()));
+            // Two passes: ordinary least squares, then weighted by the variances at
+            // that fit.
+            let mut x = vec![0.0; p.n_cells()];
+            let mut var = vec![1.0f64; m];
+            let mut ok = false;
+            for _ in 0..2 {
+                let a = DMatrix::from_fn(m, t.len(), |i, c| cols[t[c]][i] / var[i].sqrt());
+                let yw = DVector::from_fn(m, |i, _| yp[i] / var[i].sqrt());
+                let Some(sol) = (a.transpose() * &a)
+                    .cholesky()
+                    .map(|ch| ch.solve(&(a.transpose() * &yw)))
+                else {
+                    break;
+                };
+                x.iter_mut().for_each(|v| *v = 0.0);
+                for (c, &q) in t.iter().enumerate() {
+                    x[support[q]] = sol[c];
+                }
+                let pred = &p.sensitivity_pm_per_g * DVector::from_column_slice(&x);
+                var = p.uncertainty.reading_variances_pm2(&x, pred.as_slice());
+                ok = true;
+            }
+            if !ok || t.iter().any(|&q| x[support[q]] <= 0.0) {
+                continue;
+            }
+            if !t.iter().any(|&q| x[support[q]] > p.ulimit_g) {
+                continue;
+            }
+            let res = p.residual_vector_pm(&x, y);
+            let chi2: f64 = res.iter().zip(&var).map(|(r, v)| r * r / v).sum();
+            if dof == 0 || chi2_p_value(chi2, dof) >= FALSE_ALARM {
+                return true;
+            }
+        }
+        false
     }
 }
 
