@@ -80,8 +80,8 @@ pub fn suspect_gratings(
     for i in 0..m {
         let reads: Vec<f64> = active.iter().map(|(_, y)| y[i]).collect();
         let mu = mean(&reads);
-        let sd = (reads.iter().map(|v| (v - mu) * (v - mu)).sum::<f64>() / reads.len() as f64)
-            .sqrt();
+        let sd =
+            (reads.iter().map(|v| (v - mu) * (v - mu)).sum::<f64>() / reads.len() as f64).sqrt();
         if sd > STILL_SIGMAS * sigma {
             continue;
         }
@@ -104,8 +104,8 @@ pub fn suspect_gratings(
             preds.push(pred);
         }
         let pm = mean(&preds);
-        let psd = (preds.iter().map(|v| (v - pm) * (v - pm)).sum::<f64>() / preds.len() as f64)
-            .sqrt();
+        let psd =
+            (preds.iter().map(|v| (v - pm) * (v - pm)).sum::<f64>() / preds.len() as f64).sqrt();
         if psd >= PREDICTED_SIGMAS * sigma {
             out.push(SuspectGrating {
                 index: i,

@@ -295,7 +295,10 @@ impl SensingProblem {
                 u.matrix_sd_pm_per_g.ncols()
             )));
         }
-        if u.matrix_sd_pm_per_g.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+        if u.matrix_sd_pm_per_g
+            .iter()
+            .any(|v| !(v.is_finite() && *v >= 0.0))
+        {
             return Err(ArrayError::Input(
                 "every entry of the matrix uncertainty must be a finite sd ≥ 0 in pm/g".into(),
             ));
@@ -327,13 +330,18 @@ impl SensingProblem {
                 "no grating would be left to reconstruct with".into(),
             ));
         }
-        let rows = |a: &DMatrix<f64>| DMatrix::from_fn(keep.len(), a.ncols(), |r, c| a[(keep[r], c)]);
-        let mut p = SensingProblem::new(rows(&self.sensitivity_pm_per_g), self.ulimit_g, self.normalised)?
-            .with_min_load_g(self.min_load_g)?
-            .with_uncertainty(Uncertainty {
-                matrix_sd_pm_per_g: rows(&self.uncertainty.matrix_sd_pm_per_g),
-                ..self.uncertainty.clone()
-            })?;
+        let rows =
+            |a: &DMatrix<f64>| DMatrix::from_fn(keep.len(), a.ncols(), |r, c| a[(keep[r], c)]);
+        let mut p = SensingProblem::new(
+            rows(&self.sensitivity_pm_per_g),
+            self.ulimit_g,
+            self.normalised,
+        )?
+        .with_min_load_g(self.min_load_g)?
+        .with_uncertainty(Uncertainty {
+            matrix_sd_pm_per_g: rows(&self.uncertainty.matrix_sd_pm_per_g),
+            ..self.uncertainty.clone()
+        })?;
         p.dead_grating_check = self.dead_grating_check;
         if let Some(w) = &self.common_mode {
             let kept: Vec<f64> = keep.iter().map(|&i| w[i]).collect();

@@ -166,8 +166,7 @@ pub fn reconstruct_file(
     if a.penalty.is_some() && named.is_none() {
         bail!("--penalty is a weight of one method: name the method with --method");
     }
-    let (matrix, generated_names, design_ulimit, design_max_loads, wavelengths) = match &a.matrix
-    {
+    let (matrix, generated_names, design_ulimit, design_max_loads, wavelengths) = match &a.matrix {
         MatrixSource::Csv(p) => {
             let f = read_matrix_file(p)?;
             (f.matrix, f.generated_names, None, None, None)
@@ -177,12 +176,10 @@ pub fn reconstruct_file(
             let (m, u) =
                 matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
             let k = design.array.as_ref().and_then(|arr| arr.max_loads);
-            let wl: Option<Vec<f64>> = design.array.as_ref().map(|arr| {
-                arr.gratings
-                    .iter()
-                    .map(|g| g.bragg_wavelength_nm)
-                    .collect()
-            });
+            let wl: Option<Vec<f64>> = design
+                .array
+                .as_ref()
+                .map(|arr| arr.gratings.iter().map(|g| g.bragg_wavelength_nm).collect());
             (m, false, Some(u), k.map(|k| k as usize), wl)
         }
     };
@@ -233,7 +230,8 @@ pub fn reconstruct_file(
             if !(pct.is_finite() && pct >= 0.0) {
                 bail!("--matrix-sd-pct must be a percentage ≥ 0, got {pct}");
             }
-            uncertainty.matrix_sd_pm_per_g = matrix.sensitivity_pm_per_g.map(|v| v.abs() * pct / 100.0);
+            uncertainty.matrix_sd_pm_per_g =
+                matrix.sensitivity_pm_per_g.map(|v| v.abs() * pct / 100.0);
         }
         (None, None) => {}
     }

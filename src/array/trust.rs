@@ -283,13 +283,13 @@ impl Checker {
         let x = &r.loads_g;
         let support: Vec<usize> = (0..x.len()).filter(|&j| x[j] > 0.0).collect();
         let predicted = &p.sensitivity_pm_per_g * DVector::from_column_slice(x);
-        let var = p
-            .uncertainty
-            .reading_variances_pm2(x, predicted.as_slice());
-        let chi2 = self.weighted_chi2(shifts_pm, &support, &var).unwrap_or_else(|| {
-            let res = p.residual_vector_pm(x, shifts_pm);
-            res.iter().zip(&var).map(|(r, v)| r * r / v).sum()
-        });
+        let var = p.uncertainty.reading_variances_pm2(x, predicted.as_slice());
+        let chi2 = self
+            .weighted_chi2(shifts_pm, &support, &var)
+            .unwrap_or_else(|| {
+                let res = p.residual_vector_pm(x, shifts_pm);
+                res.iter().zip(&var).map(|(r, v)| r * r / v).sum()
+            });
         let m = p.n_gratings();
         let dof = m.saturating_sub(support.len() + usize::from(p.common_mode.is_some()));
         let at_ceiling: Vec<usize> = support
@@ -406,7 +406,10 @@ mod tests {
         // dof 2: P = exp(−x/2); dof 1: P = erfc(√(x/2)), 3.841 → 0.05; dof 4: tables.
         for x in [0.1, 1.0, 5.0, 20.0] {
             let want = (-x / 2.0f64).exp();
-            assert!((chi2_p_value(x, 2) - want).abs() < 1e-12 * (1.0 + want), "{x}");
+            assert!(
+                (chi2_p_value(x, 2) - want).abs() < 1e-12 * (1.0 + want),
+                "{x}"
+            );
         }
         assert!((chi2_p_value(3.841_458_820_694_124, 1) - 0.05).abs() < 1e-10);
         assert!((chi2_p_value(CHI2_1DOF_AT_FALSE_ALARM, 1) - FALSE_ALARM).abs() < 1e-10);

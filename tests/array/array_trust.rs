@@ -32,7 +32,10 @@ fn cases(a: &DMatrix<f64>, count: usize, seed: u64) -> Vec<(Vec<f64>, Vec<f64>)>
             for _ in 0..1 + f % 2 {
                 x[rng.random_range(0..n)] = [50.0, 100.0, 200.0][rng.random_range(0..3)];
             }
-            let y = (a * DVector::from_column_slice(&x)).iter().copied().collect();
+            let y = (a * DVector::from_column_slice(&x))
+                .iter()
+                .copied()
+                .collect();
             (x, y)
         })
         .collect()
@@ -66,7 +69,10 @@ fn run_k(p: &SensingProblem, ys: &[Vec<f64>], method: Method, max_loads: usize) 
     .unwrap()
 }
 
-fn share(done: &Reconstructed, f: impl Fn(&fbgforge::array::methods::Reconstruction) -> bool) -> f64 {
+fn share(
+    done: &Reconstructed,
+    f: impl Fn(&fbgforge::array::methods::Reconstruction) -> bool,
+) -> f64 {
     done.frames.iter().filter(|r| f(r)).count() as f64 / done.frames.len() as f64
 }
 
@@ -75,20 +81,33 @@ fn clean_frames_pass_the_residual_test_and_a_common_offset_fails_it() {
     let a = paper_matrix();
     let mut rng = ChaCha8Rng::seed_from_u64(24);
     let truth = cases(&a, 200, 7);
-    let clean: Vec<Vec<f64>> = truth.iter().map(|(_, y)| add_noise(y, 0.5, &mut rng)).collect();
+    let clean: Vec<Vec<f64>> = truth
+        .iter()
+        .map(|(_, y)| add_noise(y, 0.5, &mut rng))
+        .collect();
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-    for method in [Method::Support, Method::BranchAndBound, Method::WeightedSupport] {
+    for method in [
+        Method::Support,
+        Method::BranchAndBound,
+        Method::WeightedSupport,
+    ] {
         let done = run(&p, &clean, method);
         // α = 10⁻³ per frame: 200 clean frames give ~0.2 false flags on average.
         let false_flags = share(&done, |r| r.flags.inconsistent);
         assert!(false_flags <= 0.01, "{method:?}: {false_flags}");
         assert!(done.frames.iter().all(|r| r.dof > 0 && r.chi2 >= 0.0));
-        assert_eq!(done.flag_counts.inconsistent, (false_flags * 200.0).round() as usize);
+        assert_eq!(
+            done.flag_counts.inconsistent,
+            (false_flags * 200.0).round() as usize
+        );
     }
     // A temperature change of 3 pm on every grating since the tare: without the
     // common-mode term spurious light loads absorb it (flagged below the rated
     // range) and frames are lost.
-    let warm: Vec<Vec<f64>> = clean.iter().map(|y| y.iter().map(|v| v + 3.0).collect()).collect();
+    let warm: Vec<Vec<f64>> = clean
+        .iter()
+        .map(|y| y.iter().map(|v| v + 3.0).collect())
+        .collect();
     let rr = |d: &Reconstructed| {
         d.frames
             .iter()
@@ -132,7 +151,11 @@ fn clean_frames_pass_the_residual_test_and_a_common_offset_fails_it() {
         .count();
     assert!(recovered >= 180, "recovered {recovered} of 200");
     assert!(recovered > rr(&blind));
-    let offsets: Vec<f64> = done.frames.iter().map(|r| r.common_mode_pm.unwrap()).collect();
+    let offsets: Vec<f64> = done
+        .frames
+        .iter()
+        .map(|r| r.common_mode_pm.unwrap())
+        .collect();
     let mean = offsets.iter().sum::<f64>() / offsets.len() as f64;
     assert!((mean - 3.0).abs() < 0.3, "mean fitted offset {mean} pm");
 }
@@ -144,12 +167,24 @@ fn a_load_above_the_ceiling_is_flagged_and_one_below_is_not() {
     let frame = |load: f64| -> Vec<f64> {
         let mut x = vec![0.0; 8];
         x[1] = load;
-        (&a * DVector::from_column_slice(&x)).iter().copied().collect()
+        (&a * DVector::from_column_slice(&x))
+            .iter()
+            .copied()
+            .collect()
     };
-    for method in [Method::Support, Method::BranchAndBound, Method::WeightedSupport, Method::Nnls] {
+    for method in [
+        Method::Support,
+        Method::BranchAndBound,
+        Method::WeightedSupport,
+        Method::Nnls,
+    ] {
         let done = run(&p, &[frame(400.0), frame(200.0), frame(1000.0)], method);
         let f = |k: usize| done.frames[k].flags;
-        assert!(f(0).ceiling && f(0).overload, "{method:?} 400 g: {:?}", f(0));
+        assert!(
+            f(0).ceiling && f(0).overload,
+            "{method:?} 400 g: {:?}",
+            f(0)
+        );
         assert!(f(2).overload, "{method:?} 1000 g: {:?}", f(2));
         assert!(f(1).trusted(), "{method:?} 200 g: {:?}", f(1));
     }
@@ -163,10 +198,16 @@ fn identical_columns_make_the_frame_ambiguous_for_every_method() {
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
     let mut x = vec![0.0; 8];
     x[2] = 120.0;
-    let y: Vec<f64> = (&a * DVector::from_column_slice(&x)).iter().copied().collect();
+    let y: Vec<f64> = (&a * DVector::from_column_slice(&x))
+        .iter()
+        .copied()
+        .collect();
     let mut other = vec![0.0; 8];
     other[0] = 100.0;
-    let y_other: Vec<f64> = (&a * DVector::from_column_slice(&other)).iter().copied().collect();
+    let y_other: Vec<f64> = (&a * DVector::from_column_slice(&other))
+        .iter()
+        .copied()
+        .collect();
     for method in [
         Method::Support,
         Method::BranchAndBound,
@@ -176,8 +217,16 @@ fn identical_columns_make_the_frame_ambiguous_for_every_method() {
         Method::Lasso,
     ] {
         let done = run(&p, &[y.clone(), y_other.clone()], method);
-        assert!(done.frames[0].flags.ambiguous, "{method:?}: {:?}", done.frames[0]);
-        assert!(!done.frames[1].flags.ambiguous, "{method:?}: {:?}", done.frames[1]);
+        assert!(
+            done.frames[0].flags.ambiguous,
+            "{method:?}: {:?}",
+            done.frames[0]
+        );
+        assert!(
+            !done.frames[1].flags.ambiguous,
+            "{method:?}: {:?}",
+            done.frames[1]
+        );
     }
 }
 
@@ -197,7 +246,11 @@ fn a_dead_grating_is_named_and_the_frames_are_solved_without_it() {
         .collect();
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
     let done = run(&p, &ys, Method::Support);
-    let names: Vec<&str> = done.suspect_gratings.iter().map(|s| s.name.as_str()).collect();
+    let names: Vec<&str> = done
+        .suspect_gratings
+        .iter()
+        .map(|s| s.name.as_str())
+        .collect();
     assert_eq!(names, vec!["fbg3"]);
     assert_eq!(done.setup.problem().n_gratings(), 5);
     let rr = |d: &Reconstructed| {
@@ -207,7 +260,11 @@ fn a_dead_grating_is_named_and_the_frames_are_solved_without_it() {
             .filter(|(r, (x, _))| snr_db(x, &r.loads_g) >= 12.0)
             .count()
     };
-    let without_check = run(&p.clone().with_dead_grating_check(false), &ys, Method::Support);
+    let without_check = run(
+        &p.clone().with_dead_grating_check(false),
+        &ys,
+        Method::Support,
+    );
     assert!(without_check.suspect_gratings.is_empty());
     assert!(
         rr(&done) > rr(&without_check),
@@ -216,8 +273,13 @@ fn a_dead_grating_is_named_and_the_frames_are_solved_without_it() {
         rr(&without_check)
     );
     // A healthy stream names none.
-    let healthy: Vec<Vec<f64>> = truth.iter().map(|(_, y)| add_noise(y, 0.5, &mut rng)).collect();
-    assert!(run(&p, &healthy, Method::Support).suspect_gratings.is_empty());
+    let healthy: Vec<Vec<f64>> = truth
+        .iter()
+        .map(|(_, y)| add_noise(y, 0.5, &mut rng))
+        .collect();
+    assert!(run(&p, &healthy, Method::Support)
+        .suspect_gratings
+        .is_empty());
 }
 
 #[test]
@@ -238,7 +300,10 @@ fn a_stated_matrix_uncertainty_explains_calibration_scatter() {
         .map(|f| {
             let mut x = vec![0.0; n];
             x[0] = 100.0 + f as f64;
-            let y: Vec<f64> = (&a * DVector::from_column_slice(&x)).iter().copied().collect();
+            let y: Vec<f64> = (&a * DVector::from_column_slice(&x))
+                .iter()
+                .copied()
+                .collect();
             add_noise(&y, 0.5, &mut rng)
         })
         .collect();
@@ -246,8 +311,12 @@ fn a_stated_matrix_uncertainty_explains_calibration_scatter() {
     let mut sd = Uncertainty::paper(m, n, 0.5);
     sd.matrix_sd_pm_per_g[(i, 0)] = a[(i, 0)];
     let aware = unaware.clone().with_uncertainty(sd).unwrap();
-    let f_unaware = share(&run_k(&unaware, &ys, Method::Support, 1), |r| r.flags.inconsistent);
-    let f_aware = share(&run_k(&aware, &ys, Method::Support, 1), |r| r.flags.inconsistent);
+    let f_unaware = share(&run_k(&unaware, &ys, Method::Support, 1), |r| {
+        r.flags.inconsistent
+    });
+    let f_aware = share(&run_k(&aware, &ys, Method::Support, 1), |r| {
+        r.flags.inconsistent
+    });
     assert!(f_unaware > 0.5, "unaware of the scatter: {f_unaware}");
     assert!(f_aware < 0.05, "aware of it: {f_aware}");
 }

@@ -836,11 +836,10 @@ impl Reconstructor for BranchAndBound {
         for &(c, v) in &search.best {
             full[c] = v;
         }
-        let rival = search.rivals.rival_fits(
-            search.best_cost,
-            &search.best,
-            &self.common.problem.scale,
-        );
+        let rival =
+            search
+                .rivals
+                .rival_fits(search.best_cost, &search.best, &self.common.problem.scale);
         let mut r = self
             .common
             .finish(&full, y, !search.exhausted, search.nodes + path.work);

@@ -451,7 +451,9 @@ impl Reconstructor for CommonMode {
         if self.problem.check_shifts(shifts_pm).is_err() {
             return self.inner.reconstruct(shifts_pm);
         }
-        let mut r = self.inner.reconstruct(&self.problem.project_frame(shifts_pm));
+        let mut r = self
+            .inner
+            .reconstruct(&self.problem.project_frame(shifts_pm));
         r.common_mode_pm = self.problem.common_offset_pm(&r.loads_g, shifts_pm);
         r
     }
