@@ -34,7 +34,7 @@ pub struct Uncertainty {
     /// The interrogator's noise, standard deviation of one shift, pm.
     pub resolution_pm: f64,
     /// Standard deviation of each entry of the sensing matrix, pm/g (rows gratings,
-    /// columns cells): from `calibrate-array`'s repeat scatter, a stated percentage,
+    /// columns cells): from the scatter of repeated calibrations, a stated percentage,
     /// or by default one calibration reading per column ([`Uncertainty::paper`]).
     pub matrix_sd_pm_per_g: DMatrix<f64>,
     /// Relative standard deviation of each reading when two or more loads act

@@ -65,8 +65,8 @@ pub struct ReconstructRequest {
     /// gratings' wavelengths, equally otherwise (off by default: docs/array.md §11).
     pub common_mode: bool,
     /// Per-entry standard deviation of the matrix, pm/g, as a CSV shaped like the
-    /// matrix (`calibrate-array` writes one beside the matrix from its repeat
-    /// scatter).
+    /// matrix (e.g. the scatter of repeated calibrations; `calibrate-array` does not
+    /// write one yet).
     pub matrix_sd: Option<PathBuf>,
     /// Per-entry standard deviation of the matrix as a percentage of each entry
     /// (instead of `matrix_sd`).

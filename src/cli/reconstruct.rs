@@ -60,7 +60,8 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub common_mode: bool,
     /// Per-entry standard deviation of the sensing matrix, pm/g: a CSV shaped like
-    /// the matrix (calibrate-array writes one from its repeat scatter). Used by the
+    /// the matrix (e.g. the scatter of repeated calibrations; calibrate-array does
+    /// not write one yet). Used by the
     /// per-frame residual test (flag `inconsistent`) and the `ambiguous` margin.
     #[arg(long, conflicts_with = "matrix_sd_pct")]
     pub matrix_sd: Option<PathBuf>,

@@ -127,7 +127,8 @@ pub struct FaultRow {
     pub array: String,
     /// Scenario name.
     pub scenario: &'static str,
-    /// Method (`default → <picked>`; `+cm`: with `--common-mode`).
+    /// Method (`default → <picked>`, picks of several streams joined by `/`; `+cm`:
+    /// with `--common-mode`).
     pub method: String,
     /// Frames.
     pub frames: usize,
@@ -268,6 +269,11 @@ fn stream(arr: &Array, sc: &Scenario, per_load: usize, rng: &mut ChaCha8Rng) -> 
     s
 }
 
+/// Per entry, over the streams: SNR per frame, flagged per frame, frames flagged
+/// (inconsistent, below_range, ambiguous), streams whose dead grating was named,
+/// gratings named that were not dead, the method's name.
+type Tally = (Vec<f64>, Vec<bool>, [usize; 3], usize, usize, String);
+
 /// What is run on every stream.
 #[derive(Debug, Clone, Copy)]
 enum Entry {
@@ -315,9 +321,7 @@ pub fn run(
     let mut rows = Vec::new();
     for arr in &arrays {
         for (si, sc) in SCENARIOS.iter().enumerate() {
-            // Per entry: (snr per frame, flagged per frame, flag kinds, dead named,
-            // false suspects, name).
-            let mut acc: Vec<(Vec<f64>, Vec<bool>, [usize; 3], usize, usize, String)> = entries
+            let mut acc: Vec<Tally> = entries
                 .iter()
                 .map(|_| (Vec::new(), Vec::new(), [0; 3], 0, 0, String::new()))
                 .collect();
@@ -355,8 +359,20 @@ pub fn run(
                         shifts_pm: &st.shifts_pm,
                     };
                     let done = reconstruct(&problem, frames, &prior, &request, &Quiet)?;
+                    // The default may pick differently per stream: every pick, in order.
                     a.5 = match *e {
-                        Entry::Default => format!("default → {}", done.setup.method.name()),
+                        Entry::Default if a.5.is_empty() => {
+                            format!("default → {}", done.setup.method.name())
+                        }
+                        Entry::Default => {
+                            let name = done.setup.method.name();
+                            let picks = a.5.trim_start_matches("default → ");
+                            if picks.split('/').any(|p| p == name) {
+                                a.5.clone()
+                            } else {
+                                format!("{}/{name}", a.5)
+                            }
+                        }
                         Entry::Named(method, true) => format!("{} +cm", method.name()),
                         Entry::Named(method, false) => method.name().to_string(),
                     };
