@@ -261,11 +261,10 @@ pub fn render(
             Some(Reading::Loads {
                 loads_g,
                 residual_pm,
-                flags,
                 ..
             }),
             Some(grid),
-        ) => write_load_grid(&mut s, info, loads_g, (*residual_pm, &flags.field()), grid),
+        ) => write_load_grid(&mut s, info, loads_g, *residual_pm, grid),
         (
             Some(Reading::Forces {
                 forces_n,
@@ -290,7 +289,7 @@ fn write_load_grid(
     s: &mut String,
     info: &LiveInfo,
     loads_g: &[f64],
-    (residual_pm, flags): (f64, &str),
+    residual_pm: f64,
     (nx, ny, ulimit): (usize, usize, f64),
 ) {
     use std::fmt::Write as _;
@@ -330,12 +329,7 @@ fn write_load_grid(
     let total: f64 = loads_g.iter().sum();
     let _ = writeln!(
         s,
-        "      −x → +x   loads in g; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm; {}",
-        if flags.is_empty() {
-            "trusted".to_string()
-        } else {
-            format!("FLAGS: {}", flags.replace(';', ", "))
-        }
+        "      −x → +x   loads in g; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm"
     );
 }
 
