@@ -428,8 +428,10 @@ fn methods() -> Vec<&'static str> {
 /// Reconstruct cell loads x (g) from grating shifts y (pm) with y = A x: `A` is
 /// gratings × cells (pm/g), `Y` one frame (1-D) or frames × gratings. Frames run in
 /// parallel with the GIL released. Returns loads (frames × cells, or 1-D for one
-/// frame), and with `return_info` also a dict of per-frame `converged`, `residual_pm`
-/// and the `method` and `penalty` used.
+/// frame), and with `return_info` also a dict of per-frame `converged`, `residual_pm`,
+/// `certified`, `chi2` and `flags` (a list of flag words per frame, empty when the
+/// frame can be trusted), the `suspect_gratings` left out (names `fbg<row>`), and
+/// the `method` and `penalty` used.
 #[pyfunction]
 #[pyo3(signature = (a, y, method=None, *, ulimit_g=250.0, min_load_g=None, penalty=None,
     max_loads=None, resolution_pm=0.5, normalise=true, return_info=false))]
@@ -544,6 +546,23 @@ fn reconstruct<'py>(
         "residual_pm",
         Array1::from_iter(results.iter().map(|r| r.residual_pm)).into_pyarray(py),
     )?;
+    // Issue 24: the per-frame trust the CLI and live carry.
+    info.set_item(
+        "certified",
+        Array1::from_iter(results.iter().map(|r| r.certified)).into_pyarray(py),
+    )?;
+    info.set_item(
+        "chi2",
+        Array1::from_iter(results.iter().map(|r| r.chi2)).into_pyarray(py),
+    )?;
+    let flags: Vec<Vec<&str>> = results.iter().map(|r| r.flags.words()).collect();
+    info.set_item("flags", flags)?;
+    let suspects: Vec<&str> = done
+        .suspect_gratings
+        .iter()
+        .map(|g| g.name.as_str())
+        .collect();
+    info.set_item("suspect_gratings", suspects)?;
     Ok((loads, info).into_pyobject(py)?.into_any())
 }
 

@@ -212,6 +212,15 @@ def test_reconstruct_recovers_known_loads_numpy_in_and_out():
     assert info["method"] in fbgforge.methods()
     assert info["converged"].dtype == np.bool_ and info["converged"].all()
     assert info["residual_pm"].shape == (4,) and (info["residual_pm"] < 0.1).all()
+    # Noise-free frames of the model pass the residual test, no grating is left
+    # out; a grating reading 25 pm below rest cannot be explained by loads.
+    assert len(info["flags"]) == 4 and info["suspect_gratings"] == []
+    assert not any("inconsistent" in f for f in info["flags"]), info["flags"]
+    assert info["certified"].dtype == np.bool_ and info["chi2"].shape == (4,)
+    bad = y[0].copy()
+    bad[0] -= 25.0
+    _, info = fbgforge.reconstruct(a, bad, return_info=True)
+    assert "inconsistent" in info["flags"][0], info["flags"]
     for method in ["support", "nnls", "omp"]:
         assert fbgforge.reconstruct(a, y[:1], method=method).shape == (1, 8)
 

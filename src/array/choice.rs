@@ -8,7 +8,14 @@
 //! matrix — counted in operations (supports enumerated, `bnb` work units, OMP atoms,
 //! coordinate sweeps, Lawson–Hanson steps) and converted with a per-method cost
 //! calibrated once on the reference machine ([`estimated_ns_per_frame`]). The first
-//! method whose median estimate is within the budget is taken. If none is, the one
+//! method whose *mean* estimate over the probe frames is within the budget is taken
+//! (the budget is kept on average, not only on a typical frame: a search whose work
+//! varies from frame to frame, `bnb`, has a mean well above its median on large
+//! arrays). `bnb` over the budget is given a work budget that fits it: it then
+//! returns its best support at that budget, marked not certified (`unconverged`).
+//! Where `support` is picked, `bnb` (the same objective, so the same answers when it
+//! completes) is taken instead if it completed on every probe frame with a smaller
+//! mean estimate. If no method is within the budget, the one
 //! with the smallest estimate is taken and the choice says so: an array is never
 //! refused because the budget is tight. Every candidate's fate is reported
 //! ([`MethodChoice::candidates`]) so the CLI and JSON can say which method was
@@ -108,9 +115,11 @@ pub fn estimated_ns_per_frame(
 pub struct Candidate {
     /// Method name.
     pub method: Method,
-    /// `picked`, `over budget`, `not applicable` or `estimated over budget`.
+    /// `picked`, `over budget`, `not applicable`, `estimated over budget`, or for
+    /// `support` against `bnb`: `same answers, slower` (support left for `bnb`),
+    /// `slower or incomplete` (`bnb` not preferred).
     pub status: &'static str,
-    /// Estimated time per frame on the reference machine, µs: the median over the
+    /// Estimated time per frame on the reference machine, µs: the mean over the
     /// probe frames of [`estimated_ns_per_frame`] (what the choice is made on).
     pub probe_us_per_frame: Option<f64>,
     /// Median measured time per probe frame here, µs (one thread), when it was run:
@@ -180,10 +189,10 @@ fn support_count(n: usize, kmax: usize) -> f64 {
 
 /// What running a candidate on the probe frames gave.
 struct Probe {
-    /// Median estimated time per frame on the reference machine, µs.
+    /// Mean estimated time per frame on the reference machine, µs.
     estimate_us: f64,
-    /// Median work per frame (the method's `iterations`).
-    median_work: f64,
+    /// Mean work per frame (the method's `iterations`).
+    mean_work: f64,
     /// Median measured time per frame here, µs (information only).
     measured_us: f64,
     /// Frames where the method reported no convergence (`bnb`: work budget reached).
@@ -211,8 +220,8 @@ fn probe_frames(
     }
     Probe {
         frames: frames.len(),
-        estimate_us: median(estimates),
-        median_work: median(works),
+        estimate_us: estimates.iter().sum::<f64>() / estimates.len().max(1) as f64,
+        mean_work: works.iter().sum::<f64>() / works.len().max(1) as f64,
         measured_us: median(times),
         stopped,
     }
@@ -246,8 +255,9 @@ pub fn default_choice(
     choose_method(problem, prior, &settings_for, budget_us, probe)
 }
 
-/// Choose the default method for `problem`: the first of [`PREFERENCE`] whose median
-/// estimated time per probe frame is within `budget_us`, else the one with the
+/// Choose the default method for `problem`: the first of [`PREFERENCE`] whose mean
+/// estimated time per probe frame is within `budget_us` (`support` giving way to
+/// `bnb` where that is faster and complete on the probe frames), else the one with the
 /// smallest estimate. Deterministic: it does not read the clock to decide.
 /// `settings_for` gives each method's settings (penalty, max loads); `probe` are the
 /// caller's frames (twelve spread over them are timed), or None to synthesise them
@@ -267,6 +277,9 @@ pub fn choose_method(
     let mut chooser = Chooser::new(problem, budget_us, prior.max_loads, probe);
     for method in PREFERENCE {
         if let Some(choice) = chooser.try_method(method, settings_for(method)) {
+            if method == Method::Support {
+                return Ok(chooser.prefer_bnb(choice, settings_for(Method::BranchAndBound)));
+            }
             return Ok(choice);
         }
     }
@@ -382,6 +395,69 @@ impl<'a> Chooser<'a> {
                 });
                 None
             }
+        }
+    }
+
+    /// `support` was picked: take `bnb` instead when it minimises the same objective
+    /// faster. It must have completed on every probe frame (so its answers there are
+    /// `support`'s) with a smaller mean estimate; else `support` stays.
+    fn prefer_bnb(&mut self, support: MethodChoice, settings: MethodSettings) -> MethodChoice {
+        let mut support = support;
+        let Some(support_us) = support.candidates.last().and_then(|c| c.probe_us_per_frame) else {
+            return support;
+        };
+        let Ok(built) = self.build_and_probe(settings, &self.frames) else {
+            return support;
+        };
+        let Built {
+            r,
+            settings,
+            setup_ms,
+            p,
+            ..
+        } = built;
+        let us = p.estimate_us;
+        let faster = p.stopped == 0 && us < support_us;
+        let work = work_summary(Method::BranchAndBound, None, &p, self.n);
+        support.candidates.push(Candidate {
+            method: Method::BranchAndBound,
+            status: if faster {
+                "picked"
+            } else {
+                "slower or incomplete"
+            },
+            probe_us_per_frame: Some(us),
+            measured_us_per_frame: Some(p.measured_us),
+            setup_ms: Some(setup_ms),
+            note: format!(
+                "the same objective as support; estimated {us:.1} µs per frame ({work}, {} probe frames{}; measured here {:.1} µs){}",
+                p.frames,
+                self.source,
+                p.measured_us,
+                stopped_note(Method::BranchAndBound, &p)
+            ),
+        });
+        if !faster {
+            return support;
+        }
+        let n_c = support.candidates.len();
+        support.candidates[n_c - 2].status = "same answers, slower";
+        let (budget_us, m, n, source) = (self.budget_us, self.m, self.n, self.source);
+        MethodChoice {
+            method: Method::BranchAndBound,
+            reconstructor: r,
+            settings,
+            budget_us,
+            reason: format!(
+                "bnb minimises support's objective (the same answers when it completes, as it did on all {} probe frames{source}) in less time: estimated {us:.1} µs per frame against support's {support_us:.1} µs on the reference machine for {m} gratings × {n} cells ({work}), within {budget_us} µs{}",
+                p.frames,
+                skipped_summary(
+                    &support.candidates[..n_c - 2],
+                    "more accurate but over budget"
+                )
+            ),
+            candidates: support.candidates,
+            probed_on_data: support.probed_on_data,
         }
     }
 
@@ -564,16 +640,16 @@ impl<'a> Chooser<'a> {
     }
 }
 
-/// The work behind an estimate, in words ("… supports × … ns", "median … iterations").
+/// The work behind an estimate, in words ("… supports × … ns", "mean … iterations").
 fn work_summary(method: Method, enumeration: Option<(f64, f64)>, p: &Probe, n: usize) -> String {
     match enumeration {
         Some((count, ns)) => format!("{count:.0} supports × {ns} ns"),
         None if method == Method::BranchAndBound => format!(
-            "median {:.0} work units × {:.2} ns",
-            p.median_work,
+            "mean {:.0} work units × {:.2} ns",
+            p.mean_work,
             ns_per_bnb_unit(n)
         ),
-        None => format!("median {:.0} iterations", p.median_work),
+        None => format!("mean {:.0} iterations", p.mean_work),
     }
 }
 

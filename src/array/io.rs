@@ -438,6 +438,38 @@ pub fn write_loads(
     })
 }
 
+/// Write reconstructed loads with each frame's trust: `time_s,<cells…>,residual_pm,flags`
+/// (loads in g, residual in pm, the flags as words joined by `;`, empty when the frame
+/// can be trusted), atomically; without times the first column is `frame`.
+pub fn write_loads_with_trust(
+    path: &Path,
+    cells: &[String],
+    time_s: Option<&[f64]>,
+    frames: &[crate::array::methods::Reconstruction],
+) -> Result<()> {
+    crate::output::write_atomic_with(path, |w| {
+        let mut c = csv::Writer::from_writer(w);
+        let first = if time_s.is_some() { "time_s" } else { "frame" };
+        let mut header = vec![first.to_string()];
+        header.extend(cells.iter().cloned());
+        header.push("residual_pm".into());
+        header.push("flags".into());
+        c.write_record(&header)?;
+        for (k, r) in frames.iter().enumerate() {
+            let mut row = vec![match time_s {
+                Some(t) => format!("{}", t[k]),
+                None => k.to_string(),
+            }];
+            row.extend(r.loads_g.iter().map(|v| format!("{v:.3}")));
+            row.push(format!("{:.4}", r.residual_pm));
+            row.push(r.flags.field());
+            c.write_record(&row)?;
+        }
+        c.flush()?;
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

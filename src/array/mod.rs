@@ -18,6 +18,10 @@
 //! * [`mod@reconstruct`]: the one place a method is picked (named, or the default
 //!   choice) and frames are reconstructed, in memory: [`fn@reconstruct`] and
 //!   [`reconstruct::prepare`] (the live mode's);
+//! * [`trust`]: whether a frame's answer can be trusted — the per-frame flags
+//!   (`inconsistent` by a χ² test, `ceiling`, `overload`, `ambiguous`, …);
+//! * [`faults`]: faults seen across frames (dead or stuck gratings) and the
+//!   temperature weights of the common-mode term;
 //! * [`run`]: the file use case, [`reconstruct_file`];
 //! * [`protocol`]: the paper's 84-test protocol simulated with a seeded noise model,
 //!   and the metrics of Table 3 (SNR, SEM, relative error, RR).
@@ -25,6 +29,7 @@
 //! Units: sensitivities in pm/g, shifts in pm, loads in g, distances in mm.
 
 pub mod choice;
+pub mod faults;
 pub mod io;
 pub mod kernel;
 pub mod methods;
@@ -32,6 +37,7 @@ pub mod problem;
 pub mod protocol;
 pub mod reconstruct;
 pub mod run;
+pub mod trust;
 
 use nalgebra::DMatrix;
 use serde::Serialize;

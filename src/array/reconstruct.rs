@@ -11,15 +11,21 @@
 //! frames held in memory. `fbgforge reconstruct`
 //! ([`crate::array::run::reconstruct_file`]), the Python binding and the live mode
 //! ([`crate::live::interpret`]) all come through here, so whatever is added to a
-//! reconstruction (per-frame flags, a common-mode term) is added once.
+//! reconstruction is added once: every frame's flags and χ² ([`super::trust`],
+//! filled by [`Setup::reconstruct`]), the common-mode term (a property of the
+//! [`SensingProblem`]), and, for a whole stream, the dead-grating check
+//! ([`super::faults`]): a grating found dead or stuck is named in
+//! [`Reconstructed::suspect_gratings`] and the frames are reconstructed without it.
 
 pub use super::choice::DEFAULT_BUDGET_US;
 use super::choice::{default_choice, Candidate};
+use super::faults::{suspect_gratings, SuspectGrating};
 use super::methods::{
     build, reconstruct_frames, Method, MethodSettings, ReadingPrior, Reconstruction, Reconstructor,
     PARALLEL_FROM,
 };
 use super::problem::SensingProblem;
+use super::trust::{Checker, FlagCounts};
 use super::ArrayError;
 use serde::Serialize;
 use std::time::Instant;
@@ -93,6 +99,7 @@ pub struct Setup {
     /// candidates too), ms. Not part of the per-frame time.
     pub setup_ms: f64,
     reconstructor: Box<dyn Reconstructor>,
+    checker: Checker,
 }
 
 impl std::fmt::Debug for Setup {
@@ -106,19 +113,35 @@ impl std::fmt::Debug for Setup {
 }
 
 impl Setup {
-    /// Reconstruct one frame (pm, one shift per grating in the matrix's row order).
+    /// Reconstruct one frame (pm, one shift per grating in the matrix's row order),
+    /// with its flags and χ².
     pub fn reconstruct(&self, shifts_pm: &[f64]) -> Reconstruction {
-        self.reconstructor.reconstruct(shifts_pm)
+        let mut r = self.reconstructor.reconstruct(shifts_pm);
+        self.checker.assess(shifts_pm, &mut r);
+        r
     }
 
     /// Reconstruct a stream of frames, in parallel from [`PARALLEL_FROM`] frames
-    /// on, telling `progress` of the frames done.
+    /// on, telling `progress` of the frames done; every frame with its flags.
     pub fn reconstruct_frames(
         &self,
         frames: &[Vec<f64>],
         progress: &dyn crate::progress::Progress,
     ) -> Vec<Reconstruction> {
-        reconstruct_frames(self.reconstructor.as_ref(), frames, progress)
+        use rayon::prelude::*;
+        let mut out = reconstruct_frames(self.reconstructor.as_ref(), frames, progress);
+        let assess = |(r, y): (&mut Reconstruction, &Vec<f64>)| self.checker.assess(y, r);
+        if out.len() >= PARALLEL_FROM {
+            out.par_iter_mut().zip(frames.par_iter()).for_each(assess);
+        } else {
+            out.iter_mut().zip(frames.iter()).for_each(assess);
+        }
+        out
+    }
+
+    /// The problem the method was built for (the gratings kept).
+    pub fn problem(&self) -> &SensingProblem {
+        self.checker.problem()
     }
 
     /// The penalty weight in use (0 for a method without one), as summaries print it.
@@ -173,6 +196,7 @@ pub fn prepare(
         choice,
         setup_ms: 1e3 * t0.elapsed().as_secs_f64(),
         reconstructor,
+        checker: Checker::new(problem),
     })
 }
 
@@ -187,6 +211,11 @@ pub struct Reconstructed {
     pub time_per_frame_us: f64,
     /// Threads used for the frames (in parallel from [`PARALLEL_FROM`] frames on).
     pub threads: usize,
+    /// Gratings found dead or stuck across the frames (names as given); the frames
+    /// were then reconstructed without them (empty: every grating was used).
+    pub suspect_gratings: Vec<SuspectGrating>,
+    /// How many frames carry each flag.
+    pub flag_counts: FlagCounts,
 }
 
 /// Reconstruct `frames` for `problem`: pick and build the method once ([`prepare`],
@@ -207,10 +236,54 @@ pub fn reconstruct(
             problem.n_gratings()
         )));
     }
-    let setup = prepare(problem, prior, request, Some(frames.shifts_pm))?;
+    let mut setup = prepare(problem, prior, request, Some(frames.shifts_pm))?;
     let t = Instant::now();
-    let results = setup.reconstruct_frames(frames.shifts_pm, progress);
-    let elapsed_s = t.elapsed().as_secs_f64();
+    let mut results = setup.reconstruct_frames(frames.shifts_pm, progress);
+    let mut elapsed_s = t.elapsed().as_secs_f64();
+    let mut suspects = Vec::new();
+    if problem.dead_grating_check {
+        suspects = suspect_gratings(problem, &setup.settings, frames.shifts_pm)?;
+        for s in &mut suspects {
+            s.name = frames.gratings[s.index].clone();
+        }
+        if !suspects.is_empty() {
+            // The same method and settings on the gratings left (a named method's
+            // penalty, the default's pick and fitted work budget alike).
+            let drop: Vec<usize> = suspects.iter().map(|s| s.index).collect();
+            let reduced = problem.without_gratings(&drop)?;
+            let keep: Vec<usize> = (0..problem.n_gratings())
+                .filter(|i| !drop.contains(i))
+                .collect();
+            let shifts: Vec<Vec<f64>> = frames
+                .shifts_pm
+                .iter()
+                .map(|y| {
+                    if y.len() == problem.n_gratings() {
+                        keep.iter().map(|&i| y[i]).collect()
+                    } else {
+                        y.clone()
+                    }
+                })
+                .collect();
+            let t0 = Instant::now();
+            let reconstructor = build(&reduced, &setup.settings)?;
+            setup.reconstructor = reconstructor;
+            setup.checker = Checker::new(&reduced);
+            setup.reason = format!(
+                "{}; gratings left out as dead or stuck: {}",
+                setup.reason,
+                suspects
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            setup.setup_ms += 1e3 * t0.elapsed().as_secs_f64();
+            let t = Instant::now();
+            results = setup.reconstruct_frames(&shifts, progress);
+            elapsed_s = t.elapsed().as_secs_f64();
+        }
+    }
     Ok(Reconstructed {
         setup,
         time_per_frame_us: 1e6 * elapsed_s / results.len().max(1) as f64,
@@ -219,6 +292,8 @@ pub fn reconstruct(
         } else {
             1
         },
+        flag_counts: FlagCounts::of(&results),
+        suspect_gratings: suspects,
         frames: results,
     })
 }
@@ -287,8 +362,11 @@ mod tests {
             assert!(done.setup.choice.is_none());
             // Exactly what building those settings by hand gives, frame by frame.
             let by_hand = build(&p, &MethodSettings::for_prior(method, &prior)).unwrap();
+            let checker = Checker::new(&p);
             for (y, got) in ys.iter().zip(&done.frames) {
-                assert_eq!(&by_hand.reconstruct(y), got);
+                let mut want = by_hand.reconstruct(y);
+                checker.assess(y, &mut want);
+                assert_eq!(&want, got);
             }
         }
         // A penalty given replaces the prior's; a method without one refuses it.
@@ -334,8 +412,11 @@ mod tests {
         );
         let summary = done.setup.choice.as_ref().unwrap();
         assert!(summary.probed_on_data && summary.reason == done.setup.reason);
+        let checker = Checker::new(&p);
         for (y, got) in ys.iter().zip(&done.frames) {
-            assert_eq!(&c.reconstructor.reconstruct(y), got);
+            let mut want = c.reconstructor.reconstruct(y);
+            checker.assess(y, &mut want);
+            assert_eq!(&want, got);
         }
     }
 

@@ -3,11 +3,13 @@
 //! reconstruct` calls [`reconstruct_file`]; the method is picked and the frames
 //! reconstructed by [`super::reconstruct()`].
 
-use super::io::{read_matrix_file, read_shifts_for, write_loads};
+use super::faults::{temperature_weights, SuspectGrating};
+use super::io::{read_matrix_file, read_shifts_for, write_loads_with_trust};
 use super::kernel::matrix_from_design;
 use super::methods::{check_resolution, Method, NoisePrior, ReadingPrior, DEFAULT_MAX_LOADS};
-use super::problem::{default_min_load_g, SensingProblem};
+use super::problem::{default_min_load_g, SensingProblem, Uncertainty, UncertaintySummary};
 use super::reconstruct::{reconstruct, Frames, MethodRequest, DEFAULT_BUDGET_US};
+use super::trust::FlagCounts;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -58,6 +60,20 @@ pub struct ReconstructRequest {
     pub resolution_pm: Option<f64>,
     /// Column-normalise the matrix (the paper does).
     pub normalise: bool,
+    /// Fit a per-frame common offset (a temperature change since the tare),
+    /// weighted by each grating's temperature sensitivity where the design gives the
+    /// gratings' wavelengths, equally otherwise (off by default: docs/array.md §11).
+    pub common_mode: bool,
+    /// Per-entry standard deviation of the matrix, pm/g, as a CSV shaped like the
+    /// matrix (e.g. the scatter of repeated calibrations; `calibrate-array` does not
+    /// write one yet).
+    pub matrix_sd: Option<PathBuf>,
+    /// Per-entry standard deviation of the matrix as a percentage of each entry
+    /// (instead of `matrix_sd`).
+    pub matrix_sd_pct: Option<f64>,
+    /// Look for dead or stuck gratings across the frames and leave them out (on by
+    /// default).
+    pub dead_grating_check: bool,
     /// Output CSV of loads (default: `out/reconstruct/<shifts name>-loads.csv`).
     pub out: Option<PathBuf>,
 }
@@ -76,6 +92,10 @@ impl ReconstructRequest {
             penalty: None,
             resolution_pm: None,
             normalise: true,
+            common_mode: false,
+            matrix_sd: None,
+            matrix_sd_pct: None,
+            dead_grating_check: true,
             out: None,
         }
     }
@@ -105,6 +125,20 @@ pub struct ReconstructSummary {
     /// Frames where the method did not converge (for `bnb`: stopped at its node
     /// budget, best support found but not certified).
     pub not_converged: usize,
+    /// Frames whose answer is the proven optimum of the method's objective.
+    pub certified: usize,
+    /// How many frames carry each flag (`trusted`: none).
+    pub flags: FlagCounts,
+    /// Gratings found dead or stuck across the frames; the frames were
+    /// reconstructed without them.
+    pub suspect_gratings: Vec<SuspectGrating>,
+    /// Whether a per-frame common offset was fitted, and its mean over the frames,
+    /// pm per unit mean temperature weight.
+    pub common_mode: bool,
+    /// Mean fitted common offset, pm (with `common_mode`).
+    pub mean_common_mode_pm: Option<f64>,
+    /// The uncertainty the flags were judged against.
+    pub uncertainty: UncertaintySummary,
     /// Cell labels.
     pub cells: Vec<String>,
     /// Mean load per cell over all frames, g.
@@ -132,17 +166,21 @@ pub fn reconstruct_file(
     if a.penalty.is_some() && named.is_none() {
         bail!("--penalty is a weight of one method: name the method with --method");
     }
-    let (matrix, generated_names, design_ulimit, design_max_loads) = match &a.matrix {
+    let (matrix, generated_names, design_ulimit, design_max_loads, wavelengths) = match &a.matrix {
         MatrixSource::Csv(p) => {
             let f = read_matrix_file(p)?;
-            (f.matrix, f.generated_names, None, None)
+            (f.matrix, f.generated_names, None, None, None)
         }
         MatrixSource::Design(d) => {
             let design = crate::design::load(d)?;
             let (m, u) =
                 matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
             let k = design.array.as_ref().and_then(|arr| arr.max_loads);
-            (m, false, Some(u), k.map(|k| k as usize))
+            let wl: Option<Vec<f64>> = design
+                .array
+                .as_ref()
+                .map(|arr| arr.gratings.iter().map(|g| g.bragg_wavelength_nm).collect());
+            (m, false, Some(u), k.map(|k| k as usize), wl)
         }
     };
     let ulimit_g = a.ulimit_g.or(design_ulimit).unwrap_or(PAPER_ULIMIT_G);
@@ -158,11 +196,61 @@ pub fn reconstruct_file(
     }
     let stream = read_shifts_for(&a.shifts, &matrix.gratings, generated_names)?;
     let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
-    let problem = SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
-        .with_min_load_g(min_load_g)
-        .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?;
     let resolution_pm = a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm);
     check_resolution(resolution_pm).map_err(|e| anyhow::anyhow!("--resolution-pm: {e}"))?;
+    let (m, n) = (matrix.n_gratings(), matrix.n_cells());
+    let mut uncertainty = Uncertainty::paper(m, n, resolution_pm);
+    match (&a.matrix_sd, a.matrix_sd_pct) {
+        (Some(_), Some(_)) => bail!("give --matrix-sd FILE or --matrix-sd-pct P, not both"),
+        (Some(path), None) => {
+            let sd = read_matrix_file(path)
+                .with_context(|| format!("--matrix-sd {}", path.display()))?
+                .matrix;
+            if sd.gratings != matrix.gratings || sd.cells != matrix.cells {
+                if sd.sensitivity_pm_per_g.shape() != (m, n) {
+                    bail!(
+                        "--matrix-sd {}: {} × {} entries, but the sensing matrix is {m} × {n}",
+                        path.display(),
+                        sd.n_gratings(),
+                        sd.n_cells()
+                    );
+                }
+                if !generated_names {
+                    bail!(
+                        "--matrix-sd {}: its gratings and cells must be the matrix's, in the same order ({} and {})",
+                        path.display(),
+                        matrix.gratings.join(", "),
+                        matrix.cells.join(", ")
+                    );
+                }
+            }
+            uncertainty.matrix_sd_pm_per_g = sd.sensitivity_pm_per_g;
+        }
+        (None, Some(pct)) => {
+            if !(pct.is_finite() && pct >= 0.0) {
+                bail!("--matrix-sd-pct must be a percentage ≥ 0, got {pct}");
+            }
+            uncertainty.matrix_sd_pm_per_g =
+                matrix.sensitivity_pm_per_g.map(|v| v.abs() * pct / 100.0);
+        }
+        (None, None) => {}
+    }
+    let mut problem =
+        SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
+            .with_min_load_g(min_load_g)
+            .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?
+            .with_uncertainty(uncertainty)
+            .map_err(|e| anyhow::anyhow!("--matrix-sd: {e}"))?
+            .with_dead_grating_check(a.dead_grating_check);
+    if a.common_mode {
+        let w = match &wavelengths {
+            Some(wl) => temperature_weights(wl),
+            None => vec![1.0; m],
+        };
+        problem = problem
+            .with_common_mode(&w)
+            .map_err(|e| anyhow::anyhow!("--common-mode: {e}"))?;
+    }
     let prior = ReadingPrior {
         max_loads,
         resolution_pm,
@@ -187,9 +275,9 @@ pub fn reconstruct_file(
     let done = reconstruct(&problem, frames, &prior, &request, progress)?;
     let results = &done.frames;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
-    let loads: Vec<Vec<f64>> = results.iter().map(|r| r.loads_g.clone()).collect();
-    write_loads(&out, &matrix.cells, stream.time_s.as_deref(), &loads)?;
+    write_loads_with_trust(&out, &matrix.cells, stream.time_s.as_deref(), results)?;
     let n = results.len().max(1) as f64;
+    let offsets: Vec<f64> = results.iter().filter_map(|r| r.common_mode_pm).collect();
     let summary = ReconstructSummary {
         method: done.setup.method.name(),
         penalty: done.setup.penalty(),
@@ -201,6 +289,13 @@ pub fn reconstruct_file(
         gratings: matrix.n_gratings(),
         frames: results.len(),
         not_converged: results.iter().filter(|r| !r.converged).count(),
+        certified: results.iter().filter(|r| r.certified).count(),
+        flags: done.flag_counts,
+        suspect_gratings: done.suspect_gratings.clone(),
+        common_mode: a.common_mode,
+        mean_common_mode_pm: (!offsets.is_empty())
+            .then(|| offsets.iter().sum::<f64>() / offsets.len() as f64),
+        uncertainty: problem.uncertainty_summary(),
         mean_load_g: (0..matrix.n_cells())
             .map(|j| results.iter().map(|r| r.loads_g[j]).sum::<f64>() / n)
             .collect(),

@@ -54,6 +54,26 @@ pub struct ReconstructArgs {
     /// Do not column-normalise the matrix (the paper normalises).
     #[arg(long)]
     pub no_normalise: bool,
+    /// Fit a per-frame common offset (a temperature change since the tare), weighted
+    /// by each grating's temperature sensitivity when --design gives the gratings'
+    /// wavelengths, equally with --matrix. Costs one grating's worth of information.
+    #[arg(long)]
+    pub common_mode: bool,
+    /// Per-entry standard deviation of the sensing matrix, pm/g: a CSV shaped like
+    /// the matrix (e.g. the scatter of repeated calibrations; calibrate-array does
+    /// not write one yet). Used by the
+    /// per-frame residual test (flag `inconsistent`) and the `ambiguous` margin.
+    #[arg(long, conflicts_with = "matrix_sd_pct")]
+    pub matrix_sd: Option<PathBuf>,
+    /// Per-entry standard deviation of the sensing matrix, % of each entry (default:
+    /// one calibration reading per column at 200 g, i.e. resolution / 200 g).
+    #[arg(long, allow_negative_numbers = true)]
+    pub matrix_sd_pct: Option<f64>,
+    /// Keep every grating: do not look for dead or stuck gratings across the frames
+    /// (by default a grating whose shift stays at the noise level while the others
+    /// predict large responses is named and left out).
+    #[arg(long)]
+    pub keep_all_gratings: bool,
     /// Output CSV of loads in g, `time_s,<cells…>`; when the shifts have no `time_s`
     /// column the first column is `frame`, the 0-based row index
     /// (default: out/reconstruct/<shifts name>-loads.csv).
@@ -80,6 +100,10 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         penalty: a.penalty,
         resolution_pm: a.resolution_pm,
         normalise: !a.no_normalise,
+        common_mode: a.common_mode,
+        matrix_sd: a.matrix_sd,
+        matrix_sd_pct: a.matrix_sd_pct,
+        dead_grating_check: !a.keep_all_gratings,
         out: a.out,
         ..ReconstructRequest::new(matrix, a.shifts)
     };
@@ -102,12 +126,32 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
             if summary.threads == 1 { "" } else { "s" },
             summary.not_converged,
             if summary.method == "bnb" {
-                "stopped at the node budget (best support found, not certified)"
+                "stopped at the work budget (best support found, not certified)"
             } else {
                 "not converged"
             },
             summary.out.display()
         );
+        let f = &summary.flags;
+        println!(
+            "trusted {} of {} frames ({} certified); flagged: inconsistent {}, ceiling {}, overload {}, below_range {}, ambiguous {}, unconverged {}, unusable {}",
+            f.trusted,
+            summary.frames,
+            summary.certified,
+            f.inconsistent,
+            f.ceiling,
+            f.overload,
+            f.below_range,
+            f.ambiguous,
+            f.unconverged,
+            f.unusable
+        );
+        for s in &summary.suspect_gratings {
+            println!(
+                "grating {} looks dead or stuck (its shift varies by {:.2} pm while the others predict {:.1} pm over {} frames): left out",
+                s.name, s.measured_sd_pm, s.predicted_sd_pm, s.frames
+            );
+        }
     }
     Ok(())
 }

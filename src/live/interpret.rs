@@ -15,6 +15,7 @@ use crate::array::methods::{
 };
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::array::reconstruct::{prepare, MethodRequest, Setup, DEFAULT_BUDGET_US};
+use crate::array::trust::FrameFlags;
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
@@ -119,6 +120,11 @@ pub enum Reading {
         converged: bool,
         /// ‖A x − y‖, pm.
         residual_pm: f64,
+        /// Whether the answer is the proven optimum of the method's objective.
+        certified: bool,
+        /// Why the frame should not be trusted, as words (`inconsistent`, `ceiling`,
+        /// …; empty when it can be): [`crate::array::trust`].
+        flags: FrameFlags,
     },
     /// Module: force from each strain grating.
     Forces {
@@ -679,12 +685,16 @@ impl Interpreter {
                     loads_g,
                     converged,
                     residual_pm,
+                    certified,
+                    flags,
                     ..
                 } = r.reconstruct(&p.shifts_pm);
                 Reading::Loads {
                     loads_g,
                     converged,
                     residual_pm,
+                    certified,
+                    flags,
                 }
             };
             const PARALLEL_FROM: usize = 8;

@@ -236,10 +236,11 @@ impl Watch<'_> {
                 stats.age.add(a);
             }
             if let interpret::Reading::Loads {
-                converged: false, ..
-            } = reading
+                converged, flags, ..
+            } = &reading
             {
-                stats.not_converged += 1;
+                stats.not_converged += u64::from(!converged);
+                stats.flagged += u64::from(!flags.trusted());
             }
             stats.frames_out += 1;
             let r = FrameReading {
@@ -307,6 +308,7 @@ impl Watch<'_> {
             },
             reconnects: stats.reconnects,
             not_converged: stats.not_converged,
+            flagged: stats.flagged,
             latency: stats.latency.summary(),
             age: stats.age.summary(),
         }

@@ -132,6 +132,8 @@ pub struct Stats {
     pub reconnects: u64,
     /// Array frames whose method did not converge.
     pub not_converged: u64,
+    /// Array frames carrying a trust flag (`inconsistent`, `ceiling`, …).
+    pub flagged: u64,
     /// Receive → reading, µs.
     pub latency: Histogram,
     /// Instrument timestamp → reading, µs (wall-clock sources only: meaningful when the
@@ -170,6 +172,8 @@ pub struct LiveSummary {
     pub reconnects: u64,
     /// Array frames whose method did not converge.
     pub not_converged: u64,
+    /// Array frames carrying a trust flag (`inconsistent`, `ceiling`, …).
+    pub flagged: u64,
     /// Receive → reading, µs.
     pub latency: LatencySummary,
     /// Instrument timestamp → reading, µs (when the source carries wall-clock times).

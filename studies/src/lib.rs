@@ -16,5 +16,6 @@ pub mod predict;
 #[path = "../../src/cli/progress.rs"]
 pub mod progress;
 pub mod reconstruct;
+pub mod reconstruct_faults;
 pub mod reconstruct_scaling;
 pub mod verify;

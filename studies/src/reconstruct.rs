@@ -48,7 +48,7 @@ pub struct BenchOptions {
     #[arg(long)]
     pub quick: bool,
     /// Which part to run: the paper's protocol and failure studies, the scaling
-    /// study (6 × 8 to 32 × 256 cells), or both.
+    /// study (6 × 8 to 32 × 256 cells), both, or the fault study alone.
     #[arg(long, value_enum, default_value_t = Part::All)]
     pub part: Part,
     /// Per-frame budget of the default method choice in the scaling part, µs
@@ -66,7 +66,14 @@ pub enum Part {
     Protocol,
     /// Time per frame and RR per method against the array's size.
     Scaling,
+    /// RR, flag recall and false-flag rate per method under the paper's faults
+    /// (calibration noise and placement, additivity, temperature offset, a dead
+    /// grating).
+    Faults,
 }
+
+/// Streams per scenario of the fault part (at most; `--repeats` lowers it).
+pub const FAULT_STREAMS: u64 = 3;
 
 /// RR below which a method counts as broken down, %.
 pub const BREAKDOWN_RR_PCT: f64 = 50.0;
@@ -123,6 +130,20 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         ..opts.clone()
     };
     fbgforge::output::ensure_dir(&opts.out)?;
+    if opts.part == Part::Faults {
+        let mut report = String::from("# fbgforge-studies reconstruct --part faults\n\n");
+        crate::reconstruct_faults::run(
+            &opts.out,
+            opts.quick,
+            opts.seed,
+            opts.repeats.min(FAULT_STREAMS),
+            &mut report,
+        )?;
+        write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
+        println!("{report}");
+        println!("written to {}", opts.out.display());
+        return Ok(());
+    }
     if opts.part == Part::Scaling {
         let mut report = String::from("# fbgforge-studies reconstruct --part scaling\n");
         crate::reconstruct_scaling::run(

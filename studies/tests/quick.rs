@@ -166,6 +166,52 @@ fn reconstruct_study_quick_recovers_every_single_load() {
 }
 
 #[test]
+fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::reconstruct::BenchOptions {
+        out: dir.path().to_path_buf(),
+        design: None,
+        seed: 1,
+        repeats: 1,
+        quick: true,
+        part: fbgforge_studies::reconstruct::Part::Faults,
+        budget_us: None,
+    };
+    fbgforge_studies::reconstruct::run(&a).unwrap();
+    let rows = read_json(&dir.path().join("faults.json"));
+    let rows = rows.as_array().unwrap();
+    // 2 arrays × 6 scenarios × (default, 6 methods, bnb with common mode).
+    assert_eq!(rows.len(), 2 * 6 * 8);
+    let row = |array: &str, scenario: &str, method: &str| {
+        rows.iter()
+            .find(|r| r["array"] == array && r["scenario"] == scenario && r["method"] == method)
+            .unwrap_or_else(|| panic!("{array} {scenario} {method}"))
+    };
+    let f = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
+    for array in ["6x8 paper", "10x20 grid"] {
+        // The dead grating is named in its stream, and no grating in a clean one.
+        for scenario in ["dead", "all"] {
+            let r = row(array, scenario, "bnb");
+            assert_eq!(r["dead_named"], r["streams"], "{r}");
+        }
+        assert_eq!(row(array, "clean", "bnb")["false_suspects"], 0);
+        // The common-mode term recovers what the offset costs bnb without it.
+        let (cm, plain) = (row(array, "offset", "bnb +cm"), row(array, "offset", "bnb"));
+        assert!(f(cm, "rr_pct") > f(plain, "rr_pct"), "{cm} against {plain}");
+        // With every fault, most missed frames carry a flag; few clean ones do.
+        let all = row(array, "all", "bnb");
+        assert!(f(all, "flag_recall_pct") >= 50.0, "{all}");
+        let clean = row(array, "clean", "bnb");
+        assert!(
+            clean["false_flag_pct"].as_f64().unwrap_or(0.0) <= 30.0,
+            "{clean}"
+        );
+    }
+    assert!(dir.path().join("faults.csv").exists());
+    assert!(dir.path().join("faults-10x20.svg").exists());
+}
+
+#[test]
 fn fem_study_quick_converges_under_refinement() {
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::fem::FemStudyArgs {

@@ -53,15 +53,30 @@ fn reconstruct_writes_the_known_loads_and_a_json_summary() {
     assert_eq!(summary["max_loads"], 4);
     assert_eq!(summary["frames"], 4);
     assert_eq!(summary["not_converged"], 0);
+    // Noise-free frames of known loads: all trusted and certified, no grating
+    // suspect, the flags counted in the summary.
+    assert_eq!(summary["flags"]["trusted"], 4, "{summary}");
+    // `wsupport` certifies a frame unless its heuristic skipped a bounded solve.
+    assert!(summary["certified"].as_u64().unwrap() <= 4);
+    assert_eq!(summary["suspect_gratings"], serde_json::json!([]));
     assert_eq!(
         summary["min_load_g"], 25.0,
         "the paper's rated range by default"
     );
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next().unwrap(), "time_s,A,B,C,D,E,F,G,H");
+    assert_eq!(
+        lines.next().unwrap(),
+        "time_s,A,B,C,D,E,F,G,H,residual_pm,flags"
+    );
+    // Noise-free frames of known loads: every one trusted (empty flags).
     let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), 11, "{l}");
+            assert_eq!(f[10], "", "{l}");
+            f[..10].iter().map(|v| v.parse().unwrap()).collect()
+        })
         .collect();
     let want = [
         [0.0, 0.0, 100.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
@@ -94,12 +109,13 @@ fn reconstruct_from_a_design_uses_the_model_matrix() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&out).unwrap();
-    // Frame 0 is 100 g on B.
+    // Frame 0 is 100 g on B; then its residual and (empty) flags.
     let row: Vec<f64> = text
         .lines()
         .nth(1)
         .unwrap()
         .split(',')
+        .take(10)
         .map(|v| v.parse().unwrap())
         .collect();
     assert!((row[2] - 100.0).abs() < 0.01, "{row:?}");
@@ -257,7 +273,7 @@ fn shifts_without_a_time_column_give_a_frame_column() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&out).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines[0], "frame,A,B,C,D,E,F,G,H");
+    assert_eq!(lines[0], "frame,A,B,C,D,E,F,G,H,residual_pm,flags");
     let frames: Vec<&str> = lines[1..]
         .iter()
         .map(|l| l.split(',').next().unwrap())

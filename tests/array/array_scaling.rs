@@ -3,7 +3,10 @@
 //! objective than the truth, the load cap, the automatic method choice, and sensing
 //! matrices and shifts as users have them (numbers only, no header).
 
-use fbgforge::array::choice::{choose_method, default_choice, MethodChoice, PREFERENCE};
+use fbgforge::array::choice::{
+    choose_method, default_choice, estimated_ns_per_frame, synthetic_probe_frames, MethodChoice,
+    PREFERENCE,
+};
 use fbgforge::array::kernel::{
     fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
 };
@@ -479,6 +482,7 @@ fn headerless_files_are_read_with_generated_names_and_bad_ones_are_refused() {
         .nth(1)
         .unwrap()
         .split(',')
+        .take(9)
         .map(|v| v.parse().unwrap())
         .collect();
     for (got, want) in row[1..].iter().zip(&x) {
@@ -518,4 +522,100 @@ fn headerless_files_are_read_with_generated_names_and_bad_ones_are_refused() {
     std::fs::write(&named, t).unwrap();
     let e = err("named.csv", "Y.tsv");
     assert!(e.contains("no header") && e.contains("fbg1"), "{e}");
+}
+
+#[test]
+fn the_estimate_is_the_mean_over_the_probe_frames_so_the_budget_holds_on_average() {
+    // 16 × 64: bnb's work varies from frame to frame; the choice is made on the mean
+    // of the per-frame estimates, which is what a stream's time per frame follows.
+    let a = grid_matrix(8, 8, 4, 4);
+    let p = SensingProblem::new(a, 250.0, true).unwrap();
+    let prior = ReadingPrior::paper();
+    let c = default_choice(&p, &prior, 3000.0, None).unwrap();
+    assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
+    let r = build(&p, &c.settings).unwrap();
+    let est: Vec<f64> = synthetic_probe_frames(&p, prior.max_loads)
+        .iter()
+        .map(|y| {
+            let rec = r.reconstruct(y);
+            1e-3 * estimated_ns_per_frame(
+                Method::BranchAndBound,
+                &c.settings,
+                16,
+                64,
+                rec.iterations,
+            )
+        })
+        .collect();
+    let mean = est.iter().sum::<f64>() / est.len() as f64;
+    let mut sorted = est.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = 0.5 * (sorted[est.len() / 2 - 1] + sorted[est.len() / 2]);
+    let got = c.candidates[2].probe_us_per_frame.unwrap();
+    assert!(
+        (got - mean).abs() <= 1e-9 * mean,
+        "{got} against mean {mean}"
+    );
+    assert!(
+        (mean - median).abs() > 1e-6 * mean,
+        "mean {mean} = median {median}"
+    );
+    // Just below that mean, bnb gets a fitted work budget (anytime: its best support
+    // at the budget, not certified), and its mean estimate is then within budget.
+    let tight = default_choice(&p, &prior, 0.5 * mean, None).unwrap();
+    if tight.method == Method::BranchAndBound {
+        let k = tight
+            .candidates
+            .iter()
+            .find(|k| k.method == Method::BranchAndBound)
+            .unwrap();
+        assert!(
+            k.probe_us_per_frame.unwrap() <= 0.5 * mean,
+            "{}",
+            tight.reason
+        );
+        assert!(tight.reason.contains("work budget"), "{}", tight.reason);
+    }
+}
+
+#[test]
+fn bnb_replaces_support_where_it_gives_the_same_answers_faster() {
+    // 10 × 20 (issue 24): both minimise the same objective; the enumeration fits the
+    // 100 µs budget, but bnb completes on every probe frame in less time.
+    let a = grid_matrix(5, 4, 2, 5);
+    assert_eq!(a.shape(), (10, 20));
+    let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+    let prior = ReadingPrior::paper();
+    let mut rng = ChaCha8Rng::seed_from_u64(24);
+    let frames: Vec<Vec<f64>> = (0..60)
+        .map(|i| noisy(&a, &random_loads(20, 1 + i % 4, &mut rng), &mut rng))
+        .collect();
+    let c = default_choice(&p, &prior, 100.0, Some(&frames)).unwrap();
+    assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
+    let support = c
+        .candidates
+        .iter()
+        .find(|k| k.method == Method::Support)
+        .unwrap();
+    let bnb = c.candidates.last().unwrap();
+    assert_eq!(support.status, "same answers, slower");
+    assert_eq!((bnb.method, bnb.status), (Method::BranchAndBound, "picked"));
+    assert!(bnb.probe_us_per_frame.unwrap() < support.probe_us_per_frame.unwrap());
+    assert!(c.reason.contains("same answers"), "{}", c.reason);
+    // The same answers indeed, wherever bnb completed.
+    let s = build(&p, &MethodSettings::for_prior(Method::Support, &prior)).unwrap();
+    let mut completed = 0;
+    for y in &frames {
+        let (rb, rs) = (c.reconstructor.reconstruct(y), s.reconstruct(y));
+        if rb.certified {
+            completed += 1;
+            let obj_b = s.objective(y, &rb.loads_g).unwrap();
+            let obj_s = s.objective(y, &rs.loads_g).unwrap();
+            assert!(
+                (obj_b - obj_s).abs() <= 1e-6 * (1.0 + obj_s),
+                "{obj_b} vs {obj_s}"
+            );
+        }
+    }
+    assert!(completed >= 55, "{completed} of 60 completed");
 }

@@ -455,6 +455,21 @@ fn standard_input_frames_are_read_and_a_bad_line_is_named() {
         text.push_str(&line.join(if k == 1 { "," } else { " " }));
         text.push('\n');
     }
+    // 80 g on the same cell, but the first grating reads 25 pm below its rest: no
+    // loads explain a negative shift, so the frame is flagged.
+    let line: Vec<String> = nominal
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let off = if i == 0 { -25.0 } else { 0.0 };
+            format!(
+                "{:.6}",
+                l + (m.sensitivity_pm_per_g[(i, 5)] * 80.0 + off) * 1e-3
+            )
+        })
+        .collect();
+    text.push_str(&line.join(" "));
+    text.push('\n');
     text.push_str("1520.8 oops 1526.7\n");
     let path = design("tactile-array-60x80.toml");
     let lines = live(
@@ -462,12 +477,16 @@ fn standard_input_frames_are_read_and_a_bad_line_is_named() {
         Some(&text),
     );
     let frames = of_type(&lines, "frame");
-    assert_eq!(frames.len(), 3);
+    assert_eq!(frames.len(), 4);
     for (f, load) in frames.iter().zip([0.0, 80.0, 160.0]) {
         let est = f64s(&f["loads_g"]);
         assert!((est[5] - load).abs() < 1.0, "{est:?}");
         assert!(f["serial"].is_null());
+        // Noise-free frames of the model: trusted, and said to be.
+        assert_eq!(f["flags"], serde_json::json!([]), "{f}");
     }
+    let flags = frames[3]["flags"].as_array().unwrap();
+    assert!(flags.iter().any(|w| w == "inconsistent"), "{}", frames[3]);
     let bad = of_type(&lines, "bad");
     assert_eq!(bad.len(), 1);
     assert_eq!(bad[0]["kind"], "unreadable_line");
@@ -475,12 +494,13 @@ fn standard_input_frames_are_read_and_a_bad_line_is_named() {
         bad[0]["message"]
             .as_str()
             .unwrap()
-            .contains("line 5: field 2 `oops`"),
+            .contains("line 6: field 2 `oops`"),
         "{}",
         bad[0]
     );
     let summary = *of_type(&lines, "summary").last().unwrap();
     assert_eq!(summary["ended"], "end of standard input");
+    assert_eq!(summary["flagged"], 1, "{summary}");
 }
 
 #[test]

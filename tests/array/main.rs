@@ -8,5 +8,7 @@ mod common;
 
 mod array;
 mod array_cli;
+mod array_exact;
 mod array_scaling;
+mod array_trust;
 mod live;

@@ -13,8 +13,16 @@
 //!   R(P) − (b_j − t_j)²/(G_jj − s_j), with s_j = Σ_r M_rj², t_j = Σ_r M_rj w_r,
 //!   b = Âᵀy, w = L⁻¹bₚ (incremental Cholesky). A support whose unconstrained loads
 //!   are all inside the box has that residual as its exact value; one with a
-//!   negative load is a smaller support's solution (valued on its own); one above the
-//!   upper bound gets the exact bounded solve.
+//!   negative load and none above its bound is a smaller support's solution (valued on
+//!   its own); one with a load above its bound gets the exact bounded solve
+//!   ([`bounded::box_qp`]), negative loads or not (at the ceiling a negative
+//!   unconstrained load can hide a bounded optimum with every load positive).
+//! * **Contenders.** Supports the search values within the ambiguity margin of the
+//!   incumbent are kept, so that it can say whether an answer ≥ 12 dB away from the
+//!   optimum fits about as well ([`Reconstruction::rival_fits`]). Pruning stays at
+//!   the incumbent (a wider cut made the 16 × 64 search many times longer), so the
+//!   contenders are those met on the way, not every one: `bnb` may miss a rival that
+//!   `support` (which values every support within the margin) finds.
 //! * **Bounds.** Every support below the child P ∪ {order[i]} lies within the cells
 //!   P ∪ {order[i], order[i+1], …}. The non-negative least-squares residual over those
 //!   cells (z ≥ 0 only: a relaxation of the box and of the cardinality) plus λ·|P ∪ c|
@@ -35,7 +43,6 @@
 //! `converged`) or after a work budget (the best support found so far, not certified:
 //! `converged = false`).
 
-use super::support::box_qp_by_upper_sets;
 use super::*;
 
 /// The registry entry of `bnb`.
@@ -63,6 +70,9 @@ pub struct BnbSettings {
     /// valued in O(1), and ~8 multiply-adds per unit for the pushes along a path and
     /// the relaxation's steps (what `bnb` reports as its `iterations`).
     pub node_budget: u64,
+    /// Keep the supports within the ambiguity margin of the optimum, so that the
+    /// frame can be flagged `ambiguous` (true by default; it prunes less).
+    pub check_rivals: bool,
 }
 
 impl BnbSettings {
@@ -73,6 +83,7 @@ impl BnbSettings {
             penalty: l0_penalty_for_resolution(prior.resolution_pm),
             max_loads: prior.max_loads,
             node_budget: DEFAULT_NODE_BUDGET,
+            check_rivals: true,
         }
     }
 }
@@ -110,6 +121,7 @@ impl Knobs for BnbSettings {
             lambda: self.penalty,
             kmax,
             node_budget: self.node_budget,
+            check_rivals: self.check_rivals,
         }))
     }
     fn penalty_mut(&mut self) -> Option<&mut f64> {
@@ -128,6 +140,8 @@ pub(super) struct BranchAndBound {
     /// Nodes (supports valued plus relaxation updates) before the search gives up
     /// its certificate.
     pub(super) node_budget: u64,
+    /// Whether contenders within the ambiguity margin are searched for.
+    pub(super) check_rivals: bool,
     /// ÂᵀÂ row by row.
     gram_rows: Vec<Vec<f64>>,
     /// Â by columns (the Lawson–Hanson gradient).
@@ -545,42 +559,55 @@ struct Search<'a> {
     tol: f64,
     /// Slack on comparisons against the incumbent (round-off only).
     slack: f64,
+    /// Answers within the ambiguity margin of the incumbent.
+    rivals: Contenders,
 }
 
 impl Search<'_> {
+    /// What a support must stay below to be valued: the incumbent (contenders are
+    /// those met on the way; see the module doc).
+    fn cut(&self) -> f64 {
+        self.best_cost
+    }
+
     /// Value the support of `path` (its unconstrained fit is known) and keep it if it
-    /// beats the incumbent.
+    /// beats the incumbent (or as a contender within the margin).
     fn consider(&mut self, path: &Path) {
         let k = path.depth();
         let floor = self.bb.lambda * k as f64;
-        if path.residual() + floor >= self.best_cost {
+        if path.residual() + floor >= self.best_cost + self.rivals.margin {
             return; // the bounded residual is at least the unconstrained one
         }
         let z = path.loads();
-        if z.iter().any(|&v| v < 0.0) {
+        let upper = &self.bb.common.problem.upper;
+        let above = bounded::needs_bounded_solve(&z, |a| upper[path.cells[a]]);
+        if !above && z.iter().any(|&v| v < 0.0) {
             return; // a smaller support's solution, valued on its own
         }
-        let upper = &self.bb.common.problem.upper;
-        let (z, residual) = if path.cells.iter().zip(&z).all(|(&c, &v)| v <= upper[c]) {
+        let (z, residual) = if !above {
             (z, path.residual())
         } else {
             let g = DMatrix::from_fn(k, k, |a, q| self.bb.gram_rows[path.cells[a]][path.cells[q]]);
             let bs = DVector::from_fn(k, |a, _| self.b[path.cells[a]]);
             let u = DVector::from_fn(k, |a, _| upper[path.cells[a]]);
-            let zb = match box_qp_by_upper_sets(&g, &bs, &u) {
-                Some(s) => s,
-                None => {
-                    let lip = lipschitz(&g);
-                    fista_box(&g, &bs, &u, 0.0, lip, DVector::zeros(k), 5000).0
-                }
+            let Some(zb) = bounded::box_qp(&g, &bs, &DVector::zeros(k), &u) else {
+                return;
             };
+            if zb.iter().any(|&v| v <= 0.0) {
+                return; // a smaller support's solution, valued on its own
+            }
             let quad = zb.dot(&(&g * &zb)) - 2.0 * bs.dot(&zb);
             (zb.iter().copied().collect(), (self.yty + quad).max(0.0))
         };
         let cost = residual + floor;
+        let answer: Vec<(usize, f64)> = path.cells.iter().copied().zip(z).collect();
         if cost < self.best_cost {
+            let old = std::mem::replace(&mut self.best, answer);
+            let old_cost = self.best_cost;
             self.best_cost = cost;
-            self.best = path.cells.iter().copied().zip(z).collect();
+            self.rivals.offer(old_cost, cost, &old);
+        } else {
+            self.rivals.offer(cost, self.best_cost, &answer);
         }
     }
 
@@ -654,7 +681,7 @@ impl Search<'_> {
                     let Some(r) = path.child_residual(g, &self.b, j) else {
                         continue;
                     };
-                    if r + floor < self.best_cost && path.push(g, &self.b, j) {
+                    if r + floor < self.cut() && path.push(g, &self.b, j) {
                         self.consider(path);
                         path.pop();
                     }
@@ -679,7 +706,7 @@ impl Search<'_> {
             let Some(r) = path.child_residual(g, &self.b, j) else {
                 continue;
             };
-            if r + floor < self.best_cost && path.push(g, &self.b, j) {
+            if r + floor < self.cut() && path.push(g, &self.b, j) {
                 self.consider(path);
                 path.pop();
             }
@@ -692,7 +719,7 @@ impl Search<'_> {
         let n = self.order.len();
         let depth = path.depth() + 1; // size of the children
         let floor = self.bb.lambda * depth as f64;
-        if floor >= self.best_cost {
+        if floor >= self.cut() {
             return;
         }
         if depth == self.bb.kmax {
@@ -720,13 +747,13 @@ impl Search<'_> {
                 });
             }
             let bound = relax.value + floor;
-            if bound >= self.best_cost + self.slack {
+            if bound >= self.cut() + self.slack {
                 return;
             }
             // The supports strictly below this child hold one more load: once even
             // that λ more reaches the incumbent, no sibling from here on needs its
             // subtree, only its own value (an O(1) scan, no more relaxations).
-            if bound + self.bb.lambda >= self.best_cost + self.slack {
+            if bound + self.bb.lambda >= self.cut() + self.slack {
                 self.leaves(path, i);
                 return;
             }
@@ -794,6 +821,11 @@ impl Reconstructor for BranchAndBound {
             exhausted: false,
             tol,
             slack: 1e-9 * (1.0 + yty),
+            rivals: Contenders::new(if self.check_rivals {
+                self.common.ambiguity_margin_pm2(y)
+            } else {
+                0.0
+            }),
         };
         let mut path = Path::new(n, self.kmax, yty);
         // The first incumbent: greedy, improved by swaps.
@@ -804,7 +836,15 @@ impl Reconstructor for BranchAndBound {
         for &(c, v) in &search.best {
             full[c] = v;
         }
-        self.common
-            .finish(&full, y, !search.exhausted, search.nodes + path.work)
+        let rival =
+            search
+                .rivals
+                .rival_fits(search.best_cost, &search.best, &self.common.problem.scale);
+        let mut r = self
+            .common
+            .finish(&full, y, !search.exhausted, search.nodes + path.work);
+        r.certified = !search.exhausted;
+        r.rival_fits = self.check_rivals.then_some(rival);
+        r
     }
 }

@@ -186,7 +186,10 @@ impl Reconstructor for Lasso {
                 z = exact;
             }
         }
-        self.common.finish(&z, y, converged, sweeps)
+        let mut r = self.common.finish(&z, y, converged, sweeps);
+        // A convex problem: meeting its optimality test proves the optimum.
+        r.certified = converged;
+        r
     }
 }
 

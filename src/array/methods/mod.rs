@@ -30,6 +30,7 @@
 //! not converged, and every load is clamped into [0, ulimit].
 
 mod bnb;
+pub(crate) mod bounded;
 mod de;
 mod lasso;
 mod nnls;
@@ -44,6 +45,7 @@ pub use omp::OmpSettings;
 pub use support::{NoisePrior, SupportSettings, WeightedSupportSettings};
 
 use super::problem::SensingProblem;
+use super::trust::FrameFlags;
 use super::ArrayError;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -56,10 +58,31 @@ pub struct Reconstruction {
     /// Whether the method met its own convergence test (exact methods: always, unless
     /// the input was unusable).
     pub converged: bool,
+    /// Whether the answer is the proven optimum of the method's own objective: the
+    /// exact searches when they completed (`support`; `bnb` within its work budget;
+    /// `wsupport` unless it skipped a bounded solve on its heuristic), the convex
+    /// methods when they met their optimality test (`nnls`, `lasso`); never `omp`
+    /// (greedy) or `de` (stochastic).
+    pub certified: bool,
     /// Iterations (DE generations, FISTA steps, OMP atoms, supports tried).
     pub iterations: u64,
-    /// ‖A x − y‖, pm.
+    /// ‖A x − y‖, pm (with a common-mode term: after the best common offset).
     pub residual_pm: f64,
+    /// Whether another answer at least 12 dB away from this one fits the frame
+    /// within the method's ambiguity margin (the methods that compare supports:
+    /// `support`, `wsupport`, `bnb`); None where the method does not compare answers.
+    pub rival_fits: Option<bool>,
+    /// χ² of the residual under the problem's uncertainty (filled by
+    /// [`crate::array::reconstruct()`]; 0 from a method alone).
+    pub chi2: f64,
+    /// Degrees of freedom of that χ²: gratings − loads (− 1 with a common-mode term).
+    pub dof: usize,
+    /// The frame's common offset, pm per unit of mean temperature weight (with a
+    /// common-mode term).
+    pub common_mode_pm: Option<f64>,
+    /// Why the frame should not be trusted; empty when it can be (filled by
+    /// [`crate::array::reconstruct()`]).
+    pub flags: FrameFlags,
 }
 
 /// One frame in, one reconstruction out; precomputed state lives in the implementor.
@@ -402,7 +425,45 @@ pub fn build(
             )));
         }
     }
-    settings.knobs().build(Common::new(problem))
+    let inner = settings.knobs().build(Common::new(problem))?;
+    Ok(match &problem.common_mode {
+        Some(_) => Box::new(CommonMode {
+            problem: problem.clone(),
+            inner,
+        }),
+        None => inner,
+    })
+}
+
+/// A method solving a problem with a common-mode term: every frame has the common
+/// direction projected out before the method sees it, and the frame's common offset
+/// is reported with the answer.
+struct CommonMode {
+    problem: SensingProblem,
+    inner: Box<dyn Reconstructor>,
+}
+
+impl Reconstructor for CommonMode {
+    fn method(&self) -> Method {
+        self.inner.method()
+    }
+    fn reconstruct(&self, shifts_pm: &[f64]) -> Reconstruction {
+        if self.problem.check_shifts(shifts_pm).is_err() {
+            return self.inner.reconstruct(shifts_pm);
+        }
+        let mut r = self
+            .inner
+            .reconstruct(&self.problem.project_frame(shifts_pm));
+        r.common_mode_pm = self.problem.common_offset_pm(&r.loads_g, shifts_pm);
+        r
+    }
+    fn objective(&self, shifts_pm: &[f64], loads_g: &[f64]) -> Option<f64> {
+        if self.problem.check_shifts(shifts_pm).is_err() {
+            return None;
+        }
+        self.inner
+            .objective(&self.problem.project_frame(shifts_pm), loads_g)
+    }
 }
 
 /// What every method needs: the problem and the Gram matrix of its working matrix.
@@ -412,6 +473,75 @@ struct Common {
     gram: DMatrix<f64>,
     /// Largest eigenvalue of ÂᵀÂ (the gradient's Lipschitz constant).
     lipschitz: f64,
+    /// Per grating, the relative variance of a reading before it is solved: the
+    /// additivity term plus the median relative matrix variance of its row (the
+    /// ambiguity margin's scale, [`Common::ambiguity_margin_pm2`]).
+    row_relative_var: Vec<f64>,
+}
+
+/// Two answers fit a frame equally well, for the `ambiguous` flag, when their
+/// objectives differ by less than this many units of χ² (a likelihood ratio of
+/// 20 : 1, 2 ln 20 ≈ 6.0). Not tuned on any test frames.
+pub const AMBIGUITY_CHI2: f64 = 5.991_464_547_107_979;
+
+/// Two answers are distinct when one read as the other's truth would miss the 12 dB
+/// recovery criterion: ‖x′ − x‖ > 10^(−12/20) ‖x‖.
+pub const DISTINCT_RATIO: f64 = 0.251_188_643_150_958;
+
+/// Answers within a margin of the best one, kept during a search so that, once the
+/// best is known, the search can say whether another answer at least 12 dB away from
+/// it fits the frame within that margin (the `ambiguous` flag).
+pub(super) struct Contenders {
+    /// Margin on the method's objective.
+    pub(super) margin: f64,
+    /// (objective, cells and working loads) of every answer offered within the margin
+    /// of the best at the time.
+    list: Vec<(f64, Vec<(usize, f64)>)>,
+}
+
+impl Contenders {
+    pub(super) fn new(margin: f64) -> Self {
+        Contenders {
+            margin: margin.max(0.0),
+            list: Vec::new(),
+        }
+    }
+
+    /// Keep an answer whose objective is within the margin of `best_cost`.
+    pub(super) fn offer(&mut self, cost: f64, best_cost: f64, answer: &[(usize, f64)]) {
+        if cost < best_cost + self.margin {
+            if self.list.len() >= 256 {
+                let cut = best_cost + self.margin;
+                self.list.retain(|(c, _)| *c < cut);
+            }
+            self.list.push((cost, answer.to_vec()));
+        }
+    }
+
+    /// Whether an answer within the margin of the best differs from it by more than
+    /// the recovery criterion (loads in g: working loads over `scale`).
+    pub(super) fn rival_fits(
+        &self,
+        best_cost: f64,
+        best: &[(usize, f64)],
+        scale: &DVector<f64>,
+    ) -> bool {
+        let n = scale.len();
+        let mut xb = vec![0.0; n];
+        for &(c, z) in best {
+            xb[c] = z / scale[c];
+        }
+        let norm2: f64 = xb.iter().map(|v| v * v).sum();
+        let cut = best_cost + self.margin;
+        self.list.iter().filter(|(c, _)| *c < cut).any(|(_, a)| {
+            let mut d2 = norm2;
+            for &(c, z) in a {
+                let x = z / scale[c];
+                d2 += (x - xb[c]) * (x - xb[c]) - xb[c] * xb[c];
+            }
+            d2 > DISTINCT_RATIO * DISTINCT_RATIO * norm2 * (1.0 + 1e-9) + 1e-18
+        })
+    }
 }
 
 /// Largest eigenvalue of a Gram matrix (the Lipschitz constant of its least-squares
@@ -430,10 +560,27 @@ impl Common {
         let gram = problem.working.transpose() * &problem.working;
         let lipschitz = lipschitz(&gram);
         Common {
+            row_relative_var: problem
+                .uncertainty
+                .row_relative_variances(&problem.sensitivity_pm_per_g),
             problem: problem.clone(),
             gram,
             lipschitz,
         }
+    }
+
+    /// The margin (pm², the ℓ0 objective's units) within which another answer fits
+    /// a frame as well: [`AMBIGUITY_CHI2`] × the frame's typical reading variance
+    /// (σ² plus the relative terms on the readings themselves).
+    fn ambiguity_margin_pm2(&self, y: &[f64]) -> f64 {
+        let s = self.problem.uncertainty.resolution_pm;
+        let rel: f64 = y
+            .iter()
+            .zip(&self.row_relative_var)
+            .map(|(v, r)| r * v * v)
+            .sum::<f64>()
+            / y.len().max(1) as f64;
+        AMBIGUITY_CHI2 * (s * s + rel)
     }
 
     fn n(&self) -> usize {
@@ -448,7 +595,8 @@ impl Common {
         Some(self.problem.working.transpose() * DVector::from_column_slice(y))
     }
 
-    /// Wrap working unknowns into a result.
+    /// Wrap working unknowns into a result (not certified: the exact methods say so
+    /// with [`Reconstruction::certified`] afterwards).
     fn finish(&self, z: &[f64], y: &[f64], converged: bool, iterations: u64) -> Reconstruction {
         let loads_g = self.problem.loads_from_working(z);
         let residual_pm = if y.len() == self.problem.n_gratings() {
@@ -459,12 +607,18 @@ impl Common {
         Reconstruction {
             loads_g,
             converged,
+            certified: false,
             iterations,
             residual_pm: if residual_pm.is_finite() {
                 residual_pm
             } else {
                 f64::MAX
             },
+            rival_fits: None,
+            chi2: 0.0,
+            dof: 0,
+            common_mode_pm: None,
+            flags: FrameFlags::default(),
         }
     }
 
@@ -494,8 +648,17 @@ impl Common {
         Reconstruction {
             loads_g: vec![0.0; self.n()],
             converged: false,
+            certified: false,
             iterations: 0,
             residual_pm: f64::MAX,
+            rival_fits: None,
+            chi2: 0.0,
+            dof: 0,
+            common_mode_pm: None,
+            flags: FrameFlags {
+                unusable: true,
+                ..FrameFlags::default()
+            },
         }
     }
 }
@@ -548,8 +711,8 @@ fn fista_box(
     (z, max_iter, false)
 }
 
-/// Bounded least squares restricted to the cells `cols`: the unconstrained solution
-/// when it is inside the box, else projected FISTA on the sub-problem. Returns the
+/// Bounded least squares restricted to the cells `cols`: exact by the active set
+/// ([`bounded::box_qp`]); projected FISTA only for dependent columns. Returns the
 /// full-length z (zeros off the support) and whether it converged.
 fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64>, bool) {
     let n = c.n();
@@ -561,6 +724,12 @@ fn bounded_ls_on(c: &Common, aty: &DVector<f64>, cols: &[usize]) -> (DVector<f64
     let g = DMatrix::from_fn(k, k, |a, b| c.gram[(cols[a], cols[b])]);
     let b = DVector::from_fn(k, |a, _| aty[cols[a]]);
     let u = DVector::from_fn(k, |a, _| c.problem.upper[cols[a]]);
+    if let Some(s) = bounded::box_qp(&g, &b, &DVector::zeros(k), &u) {
+        for (a, &j) in cols.iter().enumerate() {
+            z[j] = s[a];
+        }
+        return (z, true);
+    }
     if let Some(ch) = g.clone().cholesky() {
         let s = ch.solve(&b);
         if s.iter().zip(u.iter()).all(|(v, ub)| *v >= 0.0 && v <= ub) {
@@ -622,7 +791,7 @@ pub fn reconstruct_frames(
 
 #[cfg(test)]
 mod tests {
-    use super::support::{box_qp_by_upper_sets, ln_normal_cdf, SupportSearch};
+    use super::support::{ln_normal_cdf, SupportSearch};
     use super::*;
 
     #[test]
@@ -718,7 +887,7 @@ mod tests {
         let g = DMatrix::from_row_slice(3, 3, &[2.0, 0.5, 0.2, 0.5, 1.5, 0.3, 0.2, 0.3, 1.0]);
         let b = DVector::from_vec(vec![9.0, 6.0, 1.5]);
         let u = DVector::from_element(3, 2.5);
-        let exact = box_qp_by_upper_sets(&g, &b, &u).unwrap();
+        let exact = bounded::box_qp(&g, &b, &DVector::zeros(3), &u).unwrap();
         let (reference, _, ok) = fista_box(&g, &b, &u, 0.0, 3.0, DVector::zeros(3), 100_000);
         assert!(ok);
         assert!(

@@ -129,6 +129,9 @@ impl Reconstructor for Nnls {
             iterations += it;
             converged &= ok;
         }
-        self.common.finish(z.as_slice(), y, converged, iterations)
+        let mut r = self.common.finish(z.as_slice(), y, converged, iterations);
+        // A convex problem: meeting its optimality test proves the optimum.
+        r.certified = converged;
+        r
     }
 }

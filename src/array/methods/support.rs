@@ -183,60 +183,6 @@ pub(super) struct SupportSearch {
     pub(super) entries: Vec<SupportEntry>,
 }
 
-/// Exact minimiser of zᵀGz − 2bᵀz over 0 ≤ z ≤ u (G positive definite) when no load
-/// sits at 0: try every set U of loads held at their upper bound (smallest first),
-/// solve for the others, and return the first point that satisfies the KKT conditions
-/// (free loads inside the box, the gradient pushing every held load upwards). None when
-/// the optimum has a load at 0 or for more than 12 loads (the caller falls back to
-/// FISTA). 2^k small solves: far cheaper than FISTA for the k ≤ 6 of the paper's array.
-pub(super) fn box_qp_by_upper_sets(
-    g: &DMatrix<f64>,
-    b: &DVector<f64>,
-    u: &DVector<f64>,
-) -> Option<DVector<f64>> {
-    let k = b.len();
-    if k == 0 || k > 12 {
-        return None;
-    }
-    let mut masks: Vec<u32> = (1..(1u32 << k)).collect();
-    masks.sort_by_key(|m| m.count_ones());
-    for mask in masks {
-        let held = |a: usize| mask & (1 << a) != 0;
-        let free: Vec<usize> = (0..k).filter(|&a| !held(a)).collect();
-        let mut z = DVector::from_fn(k, |a, _| if held(a) { u[a] } else { 0.0 });
-        if !free.is_empty() {
-            let gf = DMatrix::from_fn(free.len(), free.len(), |p, q| g[(free[p], free[q])]);
-            let rhs = DVector::from_fn(free.len(), |p, _| {
-                let f = free[p];
-                b[f] - (0..k)
-                    .filter(|&a| held(a))
-                    .map(|a| g[(f, a)] * u[a])
-                    .sum::<f64>()
-            });
-            let Some(sol) = gf.cholesky().map(|c| c.solve(&rhs)) else {
-                continue;
-            };
-            if free
-                .iter()
-                .enumerate()
-                .any(|(p, &f)| sol[p] < 0.0 || sol[p] > u[f])
-            {
-                continue;
-            }
-            for (p, &f) in free.iter().enumerate() {
-                z[f] = sol[p];
-            }
-        }
-        // Held loads must want to grow: (Gz − b)_a ≤ 0.
-        let grad = g * &z - b;
-        let tol = 1e-12 * (1.0 + b.amax());
-        if (0..k).filter(|&a| held(a)).all(|a| grad[a] <= tol) {
-            return Some(z);
-        }
-    }
-    None
-}
-
 /// ln Φ(t), the log of the standard normal distribution function, accurate in the far
 /// left tail (where Φ underflows): ln Φ(t) = ln(½ erfc(−t/√2)), with erfc from the
 /// Chebyshev fit of Numerical Recipes (§6.2, relative error < 1.2e−7 everywhere),
@@ -365,77 +311,120 @@ impl SupportSearch {
         rr
     }
 
-    /// Bounded least squares on one support (upper bound active), from its Gram
-    /// matrix G = ÂₛᵀWÂₛ and b = ÂₛᵀWy; returns z and ½-free quadratic zᵀGz − 2bᵀz.
-    fn bounded_sub(&self, cols: &[usize], g: &DMatrix<f64>, b: &DVector<f64>) -> (Vec<f64>, f64) {
+    /// Bounded least squares on one support, exactly ([`bounded::box_qp`]), from its
+    /// Gram matrix G = ÂₛᵀWÂₛ and b = ÂₛᵀWy; None when the optimum has a load at 0
+    /// (a smaller support's solution, valued on its own) or G is singular.
+    fn bounded_sub(&self, cols: &[usize], g: &DMatrix<f64>, b: &DVector<f64>) -> Option<Vec<f64>> {
         let k = cols.len();
         let u = DVector::from_fn(k, |a, _| self.common.problem.upper[cols[a]]);
-        if let Some(s) = box_qp_by_upper_sets(g, b, &u) {
-            let quad = s.dot(&(g * &s)) - 2.0 * b.dot(&s);
-            return (s.iter().copied().collect(), quad);
+        let s = bounded::box_qp(g, b, &DVector::zeros(k), &u)?;
+        if s.iter().any(|&v| v <= 0.0) {
+            return None;
         }
-        let lip = lipschitz(g);
-        let (s, _, _) = fista_box(g, b, &u, 0.0, lip, DVector::zeros(k), 5000);
-        let quad = s.dot(&(g * &s)) - 2.0 * b.dot(&s);
-        (s.iter().copied().collect(), quad)
+        Some(s.iter().copied().collect())
     }
 
-    /// `support`: plain residuals, fixed penalty per load.
-    fn search_plain(&self, y: &[f64]) -> (Option<(usize, Vec<f64>)>, u64) {
+    /// The answer of entry `e_idx` (None: the empty support) as (cell, working load).
+    fn answer(&self, best: &Option<(usize, Vec<f64>)>) -> Vec<(usize, f64)> {
+        match best {
+            Some((e_idx, z)) => self.entries[*e_idx]
+                .cols
+                .iter()
+                .copied()
+                .zip(z.iter().copied())
+                .collect(),
+            None => Vec::new(),
+        }
+    }
+
+    /// Keep a valued support: the new best (the old one becomes a contender), or a
+    /// contender when within the margin.
+    fn record(
+        &self,
+        cost: f64,
+        e_idx: usize,
+        z: Vec<f64>,
+        best_cost: &mut f64,
+        best: &mut Option<(usize, Vec<f64>)>,
+        rivals: &mut Contenders,
+    ) {
+        if cost < *best_cost {
+            let old = self.answer(best);
+            let old_cost = *best_cost;
+            *best_cost = cost;
+            *best = Some((e_idx, z));
+            rivals.offer(old_cost, cost, &old);
+        } else {
+            let a: Vec<(usize, f64)> = self.entries[e_idx]
+                .cols
+                .iter()
+                .copied()
+                .zip(z.iter().copied())
+                .collect();
+            rivals.offer(cost, *best_cost, &a);
+        }
+    }
+
+    /// `support`: plain residuals, fixed penalty per load. Exact at the ceiling: a
+    /// support whose unconstrained fit has a negative load is skipped only when no
+    /// load is above its bound ([`bounded::needs_bounded_solve`]); every other
+    /// support that leaves the box gets the exact bounded solve. Supports within the
+    /// ambiguity margin of the best are kept as contenders. Returns the best support
+    /// and its loads, the supports tried and whether a distinct answer fits within
+    /// the margin.
+    fn search_plain(&self, y: &[f64]) -> (Option<(usize, Vec<f64>)>, u64, bool) {
         let m = y.len();
         let upper = &self.common.problem.upper;
         let mut best_cost: f64 = y.iter().map(|v| v * v).sum::<f64>();
         let mut best: Option<(usize, Vec<f64>)> = None;
+        let mut rivals = Contenders::new(self.common.ambiguity_margin_pm2(y));
+        let margin = rivals.margin;
         // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
         let mut z = [0.0f64; 64];
         let mut tried = 0u64;
+        let mut aty: Option<DVector<f64>> = None;
         for (e_idx, e) in self.entries.iter().enumerate() {
             let k = e.cols.len();
             let floor = self.lambda * k as f64;
-            if floor >= best_cost {
-                break; // sorted by size: no larger support can win
+            if floor >= best_cost + margin {
+                break; // sorted by size: no larger support can win or come close
             }
             tried += 1;
-            let mut inside = true;
-            let mut negative = false;
+            let (mut negative, mut above) = (false, false);
             for a in 0..k {
                 let row = &e.pinv[a * m..(a + 1) * m];
                 let v: f64 = row.iter().zip(y).map(|(p, yi)| p * yi).sum();
-                if v < 0.0 {
-                    negative = true;
-                    break;
-                }
-                if v > upper[e.cols[a]] {
-                    inside = false;
-                }
+                negative |= v < 0.0;
+                above |= v > upper[e.cols[a]];
                 z[a] = v;
             }
-            // A negative load means this support's bounded optimum has that load at 0,
-            // i.e. it is a smaller support's solution, which is tried on its own.
-            if negative {
+            // A negative load with every load below its bound: the bounded optimum
+            // has that load at 0, a smaller support's solution, tried on its own.
+            if negative && !above {
                 continue;
             }
             // The unconstrained misfit is a lower bound of the bounded one.
             let rr = Self::misfit_on(e, y, &z[..k]);
-            if rr + floor >= best_cost {
+            if rr + floor >= best_cost + margin {
                 continue;
             }
-            if inside {
-                best_cost = rr + floor;
-                best = Some((e_idx, z[..k].to_vec()));
+            let (cost, zs) = if !negative && !above {
+                (rr + floor, z[..k].to_vec())
             } else {
+                let aty = aty.get_or_insert_with(|| {
+                    self.common.problem.working.transpose() * DVector::from_column_slice(y)
+                });
                 let g = DMatrix::from_fn(k, k, |a, b| self.common.gram[(e.cols[a], e.cols[b])]);
-                let aty = self.common.problem.working.transpose() * DVector::from_column_slice(y);
                 let b = DVector::from_fn(k, |a, _| aty[e.cols[a]]);
-                let (zb, _) = self.bounded_sub(&e.cols, &g, &b);
-                let rb = Self::misfit_on(e, y, &zb);
-                if rb + floor < best_cost {
-                    best_cost = rb + floor;
-                    best = Some((e_idx, zb));
-                }
-            }
+                let Some(zb) = self.bounded_sub(&e.cols, &g, &b) else {
+                    continue;
+                };
+                (Self::misfit_on(e, y, &zb) + floor, zb)
+            };
+            self.record(cost, e_idx, zs, &mut best_cost, &mut best, &mut rivals);
         }
-        (best, tried)
+        let rival = rivals.rival_fits(best_cost, &self.answer(&best), &self.common.problem.scale);
+        (best, tried, rival)
     }
 
     /// `wsupport`: each support S is scored by −2 ln of its Laplace-approximated
@@ -455,11 +444,14 @@ impl SupportSearch {
     ///
     /// λ only absorbs what the Gaussian model gets wrong (uniform errors, the fit
     /// standing in for the true loads).
-    fn search_likelihood(&self, y: &[f64], prior: NoisePrior) -> (Option<(usize, Vec<f64>)>, u64) {
+    fn search_likelihood(&self, y: &[f64], prior: NoisePrior) -> LikelihoodOutcome {
         let frame = LikelihoodFrame::new(&self.common, y, prior);
         let mut best_cost = y.iter().map(|v| v * v / frame.var0).sum::<f64>() + frame.ln_var0_sum;
         let mut best: Option<(usize, Vec<f64>)> = None;
+        let mut rivals = Contenders::new(AMBIGUITY_CHI2);
+        let margin = rivals.margin;
         let mut tried = 0u64;
+        let mut skipped_on_heuristic = false;
         // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
         let mut l = [0.0f64; 64 * 64];
         let mut z = [0.0f64; 64];
@@ -475,41 +467,57 @@ impl SupportSearch {
             let ln_det_g: f64 = (0..k).map(|r| 2.0 * l[r * k + r].ln()).sum();
             let prior_cost = self.lambda * k as f64 + e.occam + ln_det_g;
             // χ² ≥ 0 and ln det Σ ≥ m ln σ²: a lower bound of this support's score.
-            if prior_cost + frame.ln_var0_sum >= best_cost {
+            if prior_cost + frame.ln_var0_sum >= best_cost + margin {
                 continue;
             }
             tried += 1;
             cholesky_solve(&l, k, |r| b[e.cols[r]], &mut z);
-            if z[..k].iter().any(|&v| v < 0.0) {
+            let negative = z[..k].iter().any(|&v| v < 0.0);
+            let above = (0..k).any(|a| z[a] > frame.problem.upper[e.cols[a]]);
+            if negative && !above {
                 continue; // a smaller support's solution, tried on its own
             }
             // Needed only for the load-range prior.
             if frame.use_lower {
                 posterior_sds(&l, k, &mut sd, &mut w);
             }
-            let cost = frame.score(e, &sd, prior_cost, &z[..k]);
-            // The unconstrained fit scores at least as well as the bounded one in
-            // practice (it minimises the weighted misfit; only the re-evaluated
-            // covariance could reverse that): a support that loses unconstrained is
-            // not given the costly bounded solve.
-            if cost >= best_cost {
-                continue;
-            }
-            let (cost, zs) = if (0..k).all(|a| z[a] <= frame.problem.upper[e.cols[a]]) {
-                (cost, z[..k].to_vec())
+            let (cost, zs) = if !negative && !above {
+                (frame.score(e, &sd, prior_cost, &z[..k]), z[..k].to_vec())
             } else {
+                // The unconstrained fit (without negative loads) scores at least as
+                // well as the bounded one in practice (it minimises the weighted
+                // misfit; only the re-evaluated covariance could reverse that): a
+                // support that loses unconstrained is not given the costly bounded
+                // solve, and the frame is then not certified.
+                if !negative && frame.score(e, &sd, prior_cost, &z[..k]) >= best_cost + margin {
+                    skipped_on_heuristic = true;
+                    continue;
+                }
                 let gs = DMatrix::from_fn(k, k, |a, q| g[(e.cols[a], e.cols[q])]);
                 let bs = DVector::from_fn(k, |a, _| b[e.cols[a]]);
-                let zb = self.bounded_sub(&e.cols, &gs, &bs).0;
+                let Some(zb) = self.bounded_sub(&e.cols, &gs, &bs) else {
+                    continue;
+                };
                 (frame.score(e, &sd, prior_cost, &zb), zb)
             };
-            if cost < best_cost {
-                best_cost = cost;
-                best = Some((e_idx, zs));
-            }
+            self.record(cost, e_idx, zs, &mut best_cost, &mut best, &mut rivals);
         }
-        (best, tried)
+        let rival = rivals.rival_fits(best_cost, &self.answer(&best), &self.common.problem.scale);
+        LikelihoodOutcome {
+            best,
+            tried,
+            rival,
+            certified: !skipped_on_heuristic,
+        }
     }
+}
+
+/// What the `wsupport` search found in one frame.
+struct LikelihoodOutcome {
+    best: Option<(usize, Vec<f64>)>,
+    tried: u64,
+    rival: bool,
+    certified: bool,
 }
 
 /// One frame's constants for the `wsupport` search: noise variances and the weighted
@@ -683,9 +691,15 @@ impl Reconstructor for SupportSearch {
         if self.common.problem.check_shifts(y).is_err() {
             return self.common.unusable();
         }
-        let (best, tried) = match self.prior {
-            Some(p) => self.search_likelihood(y, p),
-            None => self.search_plain(y),
+        let (best, tried, rival, certified) = match self.prior {
+            Some(p) => {
+                let o = self.search_likelihood(y, p);
+                (o.best, o.tried, o.rival, o.certified)
+            }
+            None => {
+                let (b, t, r) = self.search_plain(y);
+                (b, t, r, true)
+            }
         };
         let mut full = vec![0.0; self.common.n()];
         if let Some((e_idx, zb)) = best {
@@ -693,6 +707,9 @@ impl Reconstructor for SupportSearch {
                 full[j] = zb[a];
             }
         }
-        self.common.finish(&full, y, true, tried)
+        let mut r = self.common.finish(&full, y, true, tried);
+        r.certified = certified;
+        r.rival_fits = Some(rival);
+        r
     }
 }
