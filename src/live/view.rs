@@ -305,10 +305,21 @@ pub fn render(
             Some(Reading::Loads {
                 loads_g,
                 residual_pm,
+                flags,
                 ..
             }),
             Some(grid),
-        ) => write_load_grid(&mut s, info, loads_g, *residual_pm, grid),
+        ) => {
+            write_load_grid(&mut s, info, loads_g, *residual_pm, grid);
+            // The frame's trust flags (array::trust), the same words as reconstruct's CSV.
+            if !flags.trusted() {
+                let _ = writeln!(
+                    s,
+                    "  NOT TRUSTED: {} (see docs/array.md §11)",
+                    flags.words().join(", ")
+                );
+            }
+        }
         (
             Some(Reading::Forces {
                 forces_n,
@@ -630,6 +641,12 @@ mod tests {
                     loads_g: (0..2 * nx).map(|k| 25.0 * k as f64).collect(),
                     converged: true,
                     residual_pm: 1234.5,
+                    certified: false,
+                    flags: crate::array::trust::FrameFlags {
+                        ceiling: true,
+                        inconsistent: true,
+                        ..Default::default()
+                    },
                 },
                 latency_us: 12.0,
                 age_us: None,
@@ -642,6 +659,10 @@ mod tests {
                 &events,
             );
             assert_fits(&text);
+            assert!(
+                text.contains("NOT TRUSTED: inconsistent, ceiling"),
+                "the frame's flags are shown:\n{text}"
+            );
             // Every cell's label is still shown (in the grid or, for 16, the list of
             // loaded cells, which holds the 12 largest).
             let shown = info.outputs.iter().filter(|n| {
@@ -662,6 +683,8 @@ mod tests {
                     loads_g: vec![100.0; 16],
                     converged: true,
                     residual_pm: 0.1,
+                    certified: true,
+                    flags: Default::default(),
                 },
                 latency_us: 1.0,
                 age_us: None,
@@ -725,6 +748,7 @@ mod tests {
             dropped: st.dropped,
             reconnects: st.reconnects,
             not_converged: 0,
+            flagged: 12,
             latency: st.latency.summary(),
             age: st.latency.summary(),
         };
