@@ -100,8 +100,29 @@ pub fn interpolate(knots: &[Design], diameter_mm: f64) -> Result<Design, SpecErr
         "interpolated between {} and {} (t = {t:.3})",
         a.name, b.name
     ));
+    fit_snap(&mut d);
     d.validate()?;
     Ok(d)
+}
+
+/// Keep a scaled or interpolated module's snap within the rules: its undercut at
+/// least what the printer makes (1.5 × resolution) and at most what the cap's ring
+/// permits between the pillars; a module with no such undercut (small diameters:
+/// the ring is stiff for its size) is a sliding fit and loses its snap.
+fn fit_snap(d: &mut Design) {
+    let Some((p, pp)) = crate::profile::PartsProfile::of_design(d) else {
+        return;
+    };
+    let Some(r) = crate::profile::snap_report(d, &p, &pp) else {
+        return;
+    };
+    let m = d.module.as_mut().expect("a module, since it has a profile");
+    // (NaN bounds, from a design validation will refuse anyway, also drop it.)
+    if !(r.max_undercut_mm >= r.min_undercut_mm) {
+        m.snap = None;
+    } else if let Some(s) = m.snap.as_mut() {
+        s.undercut_mm = s.undercut_mm.clamp(r.min_undercut_mm, r.max_undercut_mm);
+    }
 }
 
 /// A member of the clip-on family: the paper's module scaled by D / 34 mm in every
@@ -174,6 +195,7 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
         fr.min_bend_radius_mm = fr.min_bend_radius_mm.min(5.0);
     }
     d.name = format!("clip-on-{diameter_mm}mm-wall-{wall_mm}mm");
+    fit_snap(&mut d);
     d.validate()?;
     Ok(d)
 }
