@@ -254,7 +254,7 @@ pub fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> 
     ) {
         // The plug in place: its corner at the pocket's −x, inner-wall end, bottom.
         let (iy, hy) = (a.spec.mold.internal_y_mm / 2.0, l.mold_outer_mm.1 / 2.0);
-        let fit = design.fiber_routing.channel_clearance_mm;
+        let fit = super::mold_plug::PLUG_FIT_MM;
         let x0 = x - pocket.width_mm / 2.0 + fit;
         for y0 in [iy, -hy] {
             let segs = plane_section(&plug.mesh, [1.0, 0.0, 0.0], x - x0, |q| {

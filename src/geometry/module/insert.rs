@@ -9,7 +9,7 @@ use super::section::{at, band_sides, disc, ring_ccw, ring_cw, S2};
 use super::volume::{capped_cylinder_volume, slice_area, sphere_z};
 use crate::geometry::brep::{Assembler, BrepError};
 use crate::geometry::design_profile::DesignProfile;
-use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::registry::{BuiltSolid, PartKind, Print, PrintablePart};
 use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::{Design, Insert};
@@ -138,6 +138,19 @@ impl PrintablePart for InsertPart {
             .flat_map(|m| &m.inserts)
             .filter(|i| name_of(i) == name)
             .map(|i| i.material.clone())
+            .collect()
+    }
+
+    fn prints(&self, design: &Design, name: &str) -> Vec<Print> {
+        design
+            .module
+            .iter()
+            .flat_map(|m| &m.inserts)
+            .filter(|i| name_of(i) == name)
+            .map(|i| Print {
+                label: name_of(i),
+                material: Some(i.material.clone()),
+            })
             .collect()
     }
 
