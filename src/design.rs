@@ -5,9 +5,7 @@
 //!
 //! This sits above both `spec` and `profile`, so neither imports the other's caller.
 
-use crate::profile::{
-    module_gratings, snap_report, ModuleProfile, PartsProfile, ReferenceChamber,
-};
+use crate::profile::{module_gratings, snap_report, ModuleProfile, PartsProfile, ReferenceChamber};
 use crate::spec::{err, range, Design, GratingRole, Module, SpecError};
 use std::path::{Path, PathBuf};
 
@@ -57,9 +55,14 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
     let advice = "raise the grating, lower fiber_routing.exit_height_mm, or use a fiber with a smaller fiber_routing.min_bend_radius_mm (bend-insensitive G.657 fiber: 7.5 or 5 mm)";
     for (i, g) in module_gratings(m, &p).iter().enumerate() {
         if g.z_start_mm < z_b + pp.fiber_radius_mm {
-            let field = match g.role {
-                GratingRole::Strain => format!("module.gratings[{i}].center_height_mm"),
-                GratingRole::TemperatureReference => format!("module.gratings[{i}].length_mm"),
+            // A reference grating hangs from the top: it is raised by shortening it
+            // or the fiber left past it.
+            let (field, advice) = match g.role {
+                GratingRole::Strain => (format!("module.gratings[{i}].center_height_mm"), advice.to_string()),
+                GratingRole::TemperatureReference => (
+                    format!("module.gratings[{i}].length_mm"),
+                    format!("shorten the grating or the fiber left past it (module.gratings[{i}].tail_mm, default {} mm), {}", crate::spec::DEFAULT_REFERENCE_TAIL_MM, advice.trim_start_matches("raise the grating, ")),
+                ),
             };
             return Err(err(
                 &field,

@@ -48,9 +48,16 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
         b.dome_contact_radius_mm(),
         t,
     ));
-    if let (Some(sa), Some(sb)) = (&mut m.snap, &b.snap) {
-        sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
-        sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
+    match (&mut m.snap, &b.snap) {
+        _ if t >= 1.0 => m.snap = b.snap.clone(),
+        (Some(sa), Some(sb)) => {
+            sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
+            sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
+        }
+        // One knot without a snap (the 10 mm module: no undercut fits its ring): the
+        // other's, which `fit_snap` keeps only if an undercut fits this member's ring.
+        (None, Some(sb)) => m.snap = Some(sb.clone()),
+        (Some(_), None) | (None, None) => {}
     }
     for (g, gb) in m.gratings.iter_mut().zip(&b.gratings) {
         g.length_mm = lerp(g.length_mm, gb.length_mm, t);
@@ -121,7 +128,13 @@ fn fit_snap(d: &mut Design) {
     if !(r.max_undercut_mm >= r.min_undercut_mm) {
         m.snap = None;
     } else if let Some(s) = m.snap.as_mut() {
-        s.undercut_mm = s.undercut_mm.clamp(r.min_undercut_mm, r.max_undercut_mm);
+        // Within rounding of a bound is on it (validation allows the same 1e-9), so
+        // a knot's own undercut comes back unchanged.
+        if s.undercut_mm < r.min_undercut_mm - 1e-9 {
+            s.undercut_mm = r.min_undercut_mm;
+        } else if s.undercut_mm > r.max_undercut_mm + 1e-9 {
+            s.undercut_mm = r.max_undercut_mm;
+        }
     }
 }
 

@@ -198,7 +198,12 @@ pub struct ReferenceSpan {
 
 /// The span of a reference grating of length `length_mm` with `tail_mm` of fiber
 /// past its end (see [`ReferenceSpan`]).
-pub fn reference_span(m: &Module, p: &ModuleProfile, length_mm: f64, tail_mm: f64) -> ReferenceSpan {
+pub fn reference_span(
+    m: &Module,
+    p: &ModuleProfile,
+    length_mm: f64,
+    tail_mm: f64,
+) -> ReferenceSpan {
     let rho = p.insert_sphere_radius_mm;
     let a = p.apex_flat_radius_mm;
     let apex_flat = p.dome_center_z_mm + (rho * rho - a * a).sqrt();
@@ -578,7 +583,10 @@ pub fn ramp_force_n(p: f64, mu: f64, alpha_deg: f64) -> Option<f64> {
 pub fn ring_point_load_coefficients(n: usize) -> (f64, f64) {
     let a = std::f64::consts::PI / n as f64;
     let (s, c) = a.sin_cos();
-    (1.0 / a - c / s, (a + s * c) / (4.0 * s * s) - 1.0 / (2.0 * a))
+    (
+        1.0 / a - c / s,
+        (a + s * c) / (4.0 * s * s) - 1.0 / (2.0 * a),
+    )
 }
 
 /// Largest strain in a ring of mean radius `r_mm` and wall `t_mm` pushed out by

@@ -188,7 +188,9 @@ fn mold_report(profile: &DesignProfile) -> Option<MoldReport> {
     let rf = design.fiber_routing.coated_diameter_mm / 2.0;
     let mid = a.spec.mold.base_thickness_mm + a.spec.thickness_mm / 2.0;
     let axis = l.slit_bottom_z_mm + rf;
-    let seat_top = pocket.map_or(l.silicone_level_z_mm, |q| q.bottom_z_mm.min(l.silicone_level_z_mm));
+    let seat_top = pocket.map_or(l.silicone_level_z_mm, |q| {
+        q.bottom_z_mm.min(l.silicone_level_z_mm)
+    });
     let open = a.spec.mold.slit_width_mm * (seat_top - l.slit_bottom_z_mm)
         - std::f64::consts::PI * rf * rf;
     Some(MoldReport {
@@ -429,19 +431,21 @@ fn package_3mf(
     }
     let base: Vec<super::threemf::BaseMaterial> = used
         .iter()
-        .map(|u| match u.as_ref().and_then(|k| materials.get(k).map(|m| (k, m))) {
-            Some((k, m)) => super::threemf::BaseMaterial {
-                name: match &m.vendor_name {
-                    Some(v) => format!("{k} ({v})"),
-                    None => k.clone(),
+        .map(
+            |u| match u.as_ref().and_then(|k| materials.get(k).map(|m| (k, m))) {
+                Some((k, m)) => super::threemf::BaseMaterial {
+                    name: match &m.vendor_name {
+                        Some(v) => format!("{k} ({v})"),
+                        None => k.clone(),
+                    },
+                    colour: m.display_colour.clone(),
                 },
-                colour: m.display_colour.clone(),
+                None => super::threemf::BaseMaterial {
+                    name: "not stated".into(),
+                    colour: "#BFBFBF".into(),
+                },
             },
-            None => super::threemf::BaseMaterial {
-                name: "not stated".into(),
-                colour: "#BFBFBF".into(),
-            },
-        })
+        )
         .collect();
     super::threemf::package(&super::threemf::model_xml(title, &base, &objects)?)
 }
@@ -489,11 +493,10 @@ fn render_packages(
     if whole_module {
         // Cap, the first core and the first insert, in place (the build frame is the
         // assembly).
-        let module: Vec<&BuiltPart> =
-            super::registry::first_of_each_kind(parts, |b| b.kind)
-                .into_iter()
-                .filter(|b| b.kind.part().in_module())
-                .collect();
+        let module: Vec<&BuiltPart> = super::registry::first_of_each_kind(parts, |b| b.kind)
+            .into_iter()
+            .filter(|b| b.kind.part().in_module())
+            .collect();
         let mut assembled = Vec::new();
         for p in &module {
             if let Some(first) = pieces(design, [*p]).into_iter().next() {

@@ -81,7 +81,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
     if let Some(s) = &pp.snap {
         let bead = bead_polyline(md);
         let z_b = pp.pillar_bottom_mm;
-        let bottom = ((p.core_outer_radius_mm, z_b), (p.pillar_outer_radius_mm, z_b));
+        let bottom = (
+            (p.core_outer_radius_mm, z_b),
+            (p.pillar_outer_radius_mm, z_b),
+        );
         let gap = bead
             .windows(2)
             .map(|w| segment_segment(bottom, (w[0], w[1])))
@@ -389,7 +392,10 @@ pub fn fiber_passages(profile: &DesignProfile) -> Vec<FiberPassages> {
                 along(&pillar),
                 "module.pillars.groove_depth_mm",
             );
-            let wall = [(p.core_outer_radius_mm, 0.0), (p.core_outer_radius_mm, pp.pillar_bottom_mm)];
+            let wall = [
+                (p.core_outer_radius_mm, 0.0),
+                (p.core_outer_radius_mm, pp.pillar_bottom_mm),
+            ];
             add(
                 "core",
                 "core wall below the pillars",
@@ -460,7 +466,10 @@ pub fn fiber_passages(profile: &DesignProfile) -> Vec<FiberPassages> {
             );
         }
         add("cap", "cap slot", Some(w), w / 2.0 - rf, clearance);
-        let next_up = pp.snap.as_ref().map_or(pp.pillar_bottom_mm, |s| s.lead_in_z_mm);
+        let next_up = pp
+            .snap
+            .as_ref()
+            .map_or(pp.pillar_bottom_mm, |s| s.lead_in_z_mm);
         let roof = [
             (p.cap_outer_radius_mm, pp.cap_slot_top_mm),
             (p.cap_inner_radius_mm, pp.cap_slot_top_mm),

@@ -166,7 +166,10 @@ pub fn package(model: &str) -> Result<Vec<u8>> {
         zip.write_all(text.as_bytes())
             .with_context(|| format!("3MF: writing {path}"))?;
     }
-    Ok(zip.finish().context("3MF: closing the package")?.into_inner())
+    Ok(zip
+        .finish()
+        .context("3MF: closing the package")?
+        .into_inner())
 }
 
 /// What a 3MF model file holds, as read back.
@@ -263,7 +266,10 @@ fn parse_model(xml: &str) -> Result<ReadModel> {
                 });
             }
             b"vertex" => {
-                let o = out.objects.last_mut().context("3MF: vertex outside an object")?;
+                let o = out
+                    .objects
+                    .last_mut()
+                    .context("3MF: vertex outside an object")?;
                 o.vertices.push([num("x")?, num("y")?, num("z")?]);
             }
             b"triangle" => {

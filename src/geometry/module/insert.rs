@@ -82,8 +82,15 @@ pub fn insert(p: &ModuleProfile, pp: &PartsProfile, part: &str) -> Result<BuiltS
     let mut cavity = PI * rb * rb * (bore_top - hs);
     match chamber {
         Some(c) => {
-            let (rc, z0, z1) = (c.radius_mm, c.span.chamber_bottom_z_mm, c.span.chamber_top_z_mm);
-            let floor = [at(&ring_ccw(ang, rc, 0, 0), z0), at(&ring_cw(ang, rb, 0, 0), z0)];
+            let (rc, z0, z1) = (
+                c.radius_mm,
+                c.span.chamber_bottom_z_mm,
+                c.span.chamber_top_z_mm,
+            );
+            let floor = [
+                at(&ring_ccw(ang, rc, 0, 0), z0),
+                at(&ring_cw(ang, rb, 0, 0), z0),
+            ];
             asm.plane("chamber floor", &floor, Vector3::unit_z())?;
             revolve_chain(&mut asm, &[wall(rc, z1, rc, z0, -1.0)], zc, ang)?;
             disc(&mut asm, ang, rc, z1, false)?;
