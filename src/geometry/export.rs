@@ -1,4 +1,5 @@
-//! Export of checked parts: binary STL, STEP, and the manifest that lists them.
+//! Export of checked parts: binary STL, STEP, the 3MF plate and assembled module, the
+//! dimensioned previews, and the manifest that lists them.
 //!
 //! Everything is rendered to memory first; [`write_all`] writes the files through
 //! [`crate::output`] (temporary file + rename) only after every part has been rendered,

@@ -6,8 +6,8 @@
 //! [`build_solids_for`] builds the selected parts' B-rep solids from the profile;
 //! [`build_parts_for`] meshes them at a chord tolerance and runs every mesh check,
 //! including agreement of the mesh volume with the closed-form volume. Nothing here
-//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP and
-//! a manifest, written only once every part has passed.
+//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP, 3MF,
+//! previews and a manifest, written only once every part has passed.
 
 pub mod assembly;
 pub mod brep;

@@ -85,8 +85,19 @@ impl PrintablePart for MoldPlugPart {
         print_material(design)
     }
 
+    /// One plug per slit (two walls × the fibers), so the 3MF plate holds every plug
+    /// to print: `mold-plug-1` … `mold-plug-<n>`.
     fn prints(&self, design: &Design, _name: &str) -> Vec<Print> {
+        let slits = design.array.as_ref().map_or(0, |a| 2 * a.fiber_x_mm.len());
         super::mold::print_pieces(design, "mold-plug")
+            .into_iter()
+            .flat_map(|p| {
+                (1..=slits).map(move |i| Print {
+                    label: format!("{}-{i}", p.label),
+                    material: p.material.clone(),
+                })
+            })
+            .collect()
     }
 
     fn preview_colour(&self) -> &'static str {

@@ -675,6 +675,58 @@ fn build_writes_a_3mf_per_plate_and_the_assembled_module() {
 }
 
 #[test]
+fn the_mold_plate_holds_the_mold_and_a_plug_per_slit() {
+    let d = shipped("tactile-array-60x80.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let r = geometry::build_design(&d, dir.path(), None, None).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
+            .unwrap();
+    let plugs = m["mold"]["plugs_to_print"].as_u64().unwrap() as usize;
+    assert_eq!(plugs, 2 * d.array.as_ref().unwrap().fiber_x_mm.len());
+    let plate = threemf::read(&std::fs::read(dir.path().join("parts.3mf")).unwrap()).unwrap();
+    let names: Vec<&str> = plate.objects.iter().map(|o| o.name.as_str()).collect();
+    let want: Vec<String> = std::iter::once("mold".to_string())
+        .chain((1..=plugs).map(|i| format!("mold-plug-{i}")))
+        .collect();
+    assert_eq!(names, want);
+    // Every plug is the plug's mesh, in the mold's print material; none overlaps
+    // another piece on the plate.
+    let plug = r
+        .parts
+        .iter()
+        .find(|p| p.kind == PartKind::MoldPlug)
+        .unwrap();
+    let pla = plate.materials[plate.objects[0].material].name.clone();
+    assert_eq!(pla, "pla");
+    let boxes: Vec<([f64; 2], [f64; 2])> = plate
+        .objects
+        .iter()
+        .zip(&plate.offsets_mm)
+        .map(|(o, off)| {
+            let xs = o.vertices.iter().map(|v| v[0] + off[0]);
+            let ys = o.vertices.iter().map(|v| v[1] + off[1]);
+            (
+                [
+                    xs.clone().fold(f64::MAX, f64::min),
+                    ys.clone().fold(f64::MAX, f64::min),
+                ],
+                [xs.fold(f64::MIN, f64::max), ys.fold(f64::MIN, f64::max)],
+            )
+        })
+        .collect();
+    for (i, o) in plate.objects.iter().enumerate().skip(1) {
+        assert_eq!(plate.materials[o.material].name, pla);
+        assert!((o.volume_mm3() - plug.mesh_volume_mm3).abs() < 1e-6 * plug.mesh_volume_mm3);
+        for j in 0..i {
+            let (a, b) = (boxes[i], boxes[j]);
+            let apart = a.1[0] < b.0[0] || b.1[0] < a.0[0] || a.1[1] < b.0[1] || b.1[1] < a.0[1];
+            assert!(apart, "{} and {} overlap on the plate", names[i], names[j]);
+        }
+    }
+}
+
+#[test]
 fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     let d = shipped("clip-on-34mm.toml");
     let dir = tempfile::tempdir().unwrap();

@@ -115,15 +115,23 @@ fn prusaslicer_slices_every_part_without_repair() {
             .map(|p| p.kind.part().prints(&design, &p.name).len())
             .sum();
         assert_eq!(blocks.len(), pieces, "{}\n{info}", design.name);
-        let volumes: Vec<f64> = m["parts"]
-            .as_array()
-            .unwrap()
+        // Each part's volume once per piece printed of it (a core per material, a
+        // plug per slit), in the manifest's order of parts.
+        let volumes: Vec<f64> = r
+            .parts
             .iter()
             .flat_map(|p| {
-                let n = p["materials"].as_array().unwrap().len().max(1);
-                std::iter::repeat_n(p["mesh_volume_mm3"].as_f64().unwrap(), n)
+                let listed = m["parts"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|q| q["name"] == p.name.as_str())
+                    .unwrap_or_else(|| panic!("{}: {} not in the manifest", design.name, p.name));
+                let n = p.kind.part().prints(&design, &p.name).len();
+                std::iter::repeat_n(listed["mesh_volume_mm3"].as_f64().unwrap(), n)
             })
             .collect();
+        assert_eq!(volumes.len(), pieces);
         for (b, v) in blocks.iter().zip(&volumes) {
             assert!(b.contains("manifold = yes"), "{}\n{b}", design.name);
             let vol: f64 = b
