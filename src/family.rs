@@ -125,7 +125,10 @@ fn fit_snap(d: &mut Design) {
     };
     let m = d.module.as_mut().expect("a module, since it has a profile");
     // (NaN bounds, from a design validation will refuse anyway, also drop it.)
-    if !(r.max_undercut_mm >= r.min_undercut_mm) {
+    if r.max_undercut_mm.is_nan()
+        || r.min_undercut_mm.is_nan()
+        || r.max_undercut_mm < r.min_undercut_mm
+    {
         m.snap = None;
     } else if let Some(s) = m.snap.as_mut() {
         // Within rounding of a bound is on it (validation allows the same 1e-9), so

@@ -517,7 +517,8 @@ pub fn check_exact(
     };
     let fits = module_fits(md);
     for f in &fits {
-        if !(f.gap_mm >= -PRESS_FIT_MM) {
+        // (A NaN gap, from a design validation refuses anyway, is refused too.)
+        if f.gap_mm.is_nan() || f.gap_mm < -PRESS_FIT_MM {
             return Err(err(
                 &f.field,
                 format!(
@@ -533,7 +534,7 @@ pub fn check_exact(
     let passages = fiber_passages(profile);
     for fp in &passages {
         for q in &fp.passages {
-            if !(q.surface_gap_mm >= 0.0) {
+            if q.surface_gap_mm.is_nan() || q.surface_gap_mm < 0.0 {
                 return Err(err(
                     &q.field,
                     format!(

@@ -2,12 +2,14 @@
 //! found, turned into a rule that refuses it or a check that measures it, on exact
 //! dimensions where the meshes could hide it.
 //!
-//! 1. a fiber passage narrower than the fiber; 2. a reference grating with no room
-//! past its end, or inside the insert's bore; 3. a meshing tolerance that lets mating
-//! meshes overlap; 4. the fiber clearance measured from the centreline; 5. mold plugs
-//! that leave gaps, seats off the layer grid; 6. thin sheets refused by a rule on a
-//! field the user never wrote, negative bounds; 7. a snap sized as if the ring
-//! stretched evenly; 8. files for a print workflow (3MF, assembly, materials, notes).
+//! 1. a fiber passage narrower than the fiber;
+//! 2. a reference grating with no room past its end, or inside the insert's bore;
+//! 3. a meshing tolerance that lets mating meshes overlap;
+//! 4. the fiber clearance measured from the centreline;
+//! 5. mold plugs that leave gaps, seats off the layer grid;
+//! 6. thin sheets refused by a rule on a field the user never wrote, negative bounds;
+//! 7. a snap sized as if the ring stretched evenly;
+//! 8. files for a print workflow (3MF, assembly, materials, notes).
 
 use crate::common;
 use common::{shipped, shipped_path};
