@@ -5,7 +5,7 @@
 //!
 //! This sits above both `spec` and `profile`, so neither imports the other's caller.
 
-use crate::profile::{module_gratings, snap_report, ModuleProfile, PartsProfile};
+use crate::profile::{module_gratings, snap_report, ModuleProfile, PartsProfile, ReferenceChamber};
 use crate::spec::{err, range, Design, GratingRole, Module, SpecError};
 use std::path::{Path, PathBuf};
 
@@ -55,9 +55,14 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
     let advice = "raise the grating, lower fiber_routing.exit_height_mm, or use a fiber with a smaller fiber_routing.min_bend_radius_mm (bend-insensitive G.657 fiber: 7.5 or 5 mm)";
     for (i, g) in module_gratings(m, &p).iter().enumerate() {
         if g.z_start_mm < z_b + pp.fiber_radius_mm {
-            let field = match g.role {
-                GratingRole::Strain => format!("module.gratings[{i}].center_height_mm"),
-                GratingRole::TemperatureReference => "module.overall_height_mm".into(),
+            // A reference grating hangs from the top: it is raised by shortening it
+            // or the fiber left past it.
+            let (field, advice) = match g.role {
+                GratingRole::Strain => (format!("module.gratings[{i}].center_height_mm"), advice.to_string()),
+                GratingRole::TemperatureReference => (
+                    format!("module.gratings[{i}].length_mm"),
+                    format!("shorten the grating or the fiber left past it (module.gratings[{i}].tail_mm, default {} mm), {}", crate::spec::DEFAULT_REFERENCE_TAIL_MM, advice.trim_start_matches("raise the grating, ")),
+                ),
             };
             return Err(err(
                 &field,
@@ -118,6 +123,9 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
         pp.pillar_bottom_mm,
         "the pillar bottoms",
     )?;
+    if let Some(c) = &pp.reference_chamber {
+        check_reference_chamber(m, &p, &pp, c, min_wall)?;
+    }
     if pp.insert_bore_radius_mm + min_wall > p.insert_radius_mm {
         return Err(err(
             "fiber_routing.coated_diameter_mm",
@@ -137,20 +145,71 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
         )?;
         if let Some(r) = snap_report(d, &p, &pp) {
             if r.cap_strain_percent > r.permissible_strain_percent {
+                let allowed = if r.max_undercut_mm >= r.min_undercut_mm {
+                    format!(
+                        "allowed {:.4} to {:.4} mm",
+                        r.min_undercut_mm, r.max_undercut_mm
+                    )
+                } else {
+                    format!(
+                        "no undercut fits: the printer needs at least {:.4} mm and the material allows at most {:.4} mm; remove [module.snap] (a sliding fit held by the fixture), thin module.cap_wall_mm or use a cap material that permits more strain",
+                        r.min_undercut_mm, r.max_undercut_mm
+                    )
+                };
                 return Err(err(
                     "module.snap.undercut_mm",
                     format!(
-                        "{} mm strains the cap's ring by {:.3} % (undercut / crest radius {:.3} mm), more than its material `{}` permits ({} %); allowed up to {:.4} mm",
+                        "{} mm strains the cap's ring by {:.3} % ({}), more than its material `{}` permits ({} %); {allowed}",
                         s.undercut_mm,
                         r.cap_strain_percent,
-                        r.crest_radius_mm,
+                        r.strain_model,
                         m.cap_material,
                         r.permissible_strain_percent,
-                        r.permissible_strain_percent / 100.0 * r.crest_radius_mm
                     ),
                 ));
             }
         }
+    }
+    Ok(())
+}
+
+/// The reference grating's chamber fits the insert: above the slot the reference fiber
+/// bends out through, with printable walls around it; and the grating starts above
+/// the bend (checked with the other gratings).
+fn check_reference_chamber(
+    m: &Module,
+    p: &ModuleProfile,
+    pp: &PartsProfile,
+    c: &ReferenceChamber,
+    min_wall: f64,
+) -> Result<(), SpecError> {
+    let i = c.grating;
+    let g = &m.gratings[i];
+    if m.inserts.is_empty() {
+        return Ok(());
+    }
+    if c.radius_mm + min_wall > p.insert_radius_mm {
+        return Err(err(
+            "fiber_routing.channel_clearance_mm",
+            format!(
+                "the reference grating's chamber (radius {:.3} mm, twice the bore's) leaves the insert (radius {:.3} mm) no printable wall",
+                c.radius_mm, p.insert_radius_mm
+            ),
+        ));
+    }
+    let floor = pp.insert_slot_top_mm + min_wall;
+    if c.span.chamber_bottom_z_mm < floor {
+        return Err(err(
+            &format!("module.gratings[{i}].length_mm"),
+            format!(
+                "reference grating `{}` ({} mm, with {} mm of fiber past it) hangs so low that its chamber (floor at {:.3} mm) meets the insert's slot for the fiber's exit (roof at {:.3} mm, + min wall {min_wall} mm); shorten the grating or its tail (module.gratings[{i}].tail_mm)",
+                g.name,
+                g.length_mm,
+                g.tail_mm(),
+                c.span.chamber_bottom_z_mm,
+                pp.insert_slot_top_mm
+            ),
+        ));
     }
     Ok(())
 }

@@ -48,9 +48,16 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
         b.dome_contact_radius_mm(),
         t,
     ));
-    if let (Some(sa), Some(sb)) = (&mut m.snap, &b.snap) {
-        sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
-        sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
+    match (&mut m.snap, &b.snap) {
+        _ if t >= 1.0 => m.snap = b.snap.clone(),
+        (Some(sa), Some(sb)) => {
+            sa.undercut_mm = lerp(sa.undercut_mm, sb.undercut_mm, t);
+            sa.bead_height_mm = lerp(sa.bead_height_mm, sb.bead_height_mm, t);
+        }
+        // One knot without a snap (the 10 mm module: no undercut fits its ring): the
+        // other's, which `fit_snap` keeps only if an undercut fits this member's ring.
+        (None, Some(sb)) => m.snap = Some(sb.clone()),
+        (Some(_), None) | (None, None) => {}
     }
     for (g, gb) in m.gratings.iter_mut().zip(&b.gratings) {
         g.length_mm = lerp(g.length_mm, gb.length_mm, t);
@@ -100,8 +107,38 @@ pub fn interpolate(knots: &[Design], diameter_mm: f64) -> Result<Design, SpecErr
         "interpolated between {} and {} (t = {t:.3})",
         a.name, b.name
     ));
+    fit_snap(&mut d);
     d.validate()?;
     Ok(d)
+}
+
+/// Keep a scaled or interpolated module's snap within the rules: its undercut at
+/// least what the printer makes (1.5 × resolution) and at most what the cap's ring
+/// permits between the pillars; a module with no such undercut (small diameters:
+/// the ring is stiff for its size) is a sliding fit and loses its snap.
+fn fit_snap(d: &mut Design) {
+    let Some((p, pp)) = crate::profile::PartsProfile::of_design(d) else {
+        return;
+    };
+    let Some(r) = crate::profile::snap_report(d, &p, &pp) else {
+        return;
+    };
+    let m = d.module.as_mut().expect("a module, since it has a profile");
+    // (NaN bounds, from a design validation will refuse anyway, also drop it.)
+    if r.max_undercut_mm.is_nan()
+        || r.min_undercut_mm.is_nan()
+        || r.max_undercut_mm < r.min_undercut_mm
+    {
+        m.snap = None;
+    } else if let Some(s) = m.snap.as_mut() {
+        // Within rounding of a bound is on it (validation allows the same 1e-9), so
+        // a knot's own undercut comes back unchanged.
+        if s.undercut_mm < r.min_undercut_mm - 1e-9 {
+            s.undercut_mm = r.min_undercut_mm;
+        } else if s.undercut_mm > r.max_undercut_mm + 1e-9 {
+            s.undercut_mm = r.max_undercut_mm;
+        }
+    }
 }
 
 /// A member of the clip-on family: the paper's module scaled by D / 34 mm in every
@@ -174,6 +211,7 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
         fr.min_bend_radius_mm = fr.min_bend_radius_mm.min(5.0);
     }
     d.name = format!("clip-on-{diameter_mm}mm-wall-{wall_mm}mm");
+    fit_snap(&mut d);
     d.validate()?;
     Ok(d)
 }

@@ -175,6 +175,52 @@ pub struct GratingPlacement {
     pub bragg_wavelength_nm: f64,
 }
 
+/// Where a reference grating hangs on the module's axis, mm above the base: in a
+/// closed chamber of the insert (or, without an insert, in the hollow core) whose top
+/// lies one core wall under the insert's apex flat (the load path over the apex keeps
+/// a wall as thick as the core's dome); the fiber's cleaved tip one core wall under
+/// the chamber's top (room past the tip: the cap, the core's dome and the insert's
+/// apex can all come down without reaching it); the grating `tail_mm` below the tip;
+/// and the chamber's floor one core wall under the grating's start.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ReferenceSpan {
+    /// Lower end of the grating, mm.
+    pub z_start_mm: f64,
+    /// Upper end of the grating, mm.
+    pub z_end_mm: f64,
+    /// The fiber's cleaved tip, mm.
+    pub tip_z_mm: f64,
+    /// Top of the insert's reference chamber, mm.
+    pub chamber_top_z_mm: f64,
+    /// Floor of the insert's reference chamber, mm.
+    pub chamber_bottom_z_mm: f64,
+}
+
+/// The span of a reference grating of length `length_mm` with `tail_mm` of fiber
+/// past its end (see [`ReferenceSpan`]).
+pub fn reference_span(
+    m: &Module,
+    p: &ModuleProfile,
+    length_mm: f64,
+    tail_mm: f64,
+) -> ReferenceSpan {
+    let rho = p.insert_sphere_radius_mm;
+    let a = p.apex_flat_radius_mm;
+    let apex_flat = p.dome_center_z_mm + (rho * rho - a * a).sqrt();
+    let wall = m.core_wall_mm;
+    let top = apex_flat - wall;
+    let tip = top - wall;
+    let z1 = tip - tail_mm;
+    let z0 = z1 - length_mm;
+    ReferenceSpan {
+        z_start_mm: z0,
+        z_end_mm: z1,
+        tip_z_mm: tip,
+        chamber_top_z_mm: top,
+        chamber_bottom_z_mm: z0 - wall,
+    }
+}
+
 /// Place every grating of a module.
 pub fn module_gratings(m: &Module, p: &ModuleProfile) -> Vec<GratingPlacement> {
     m.gratings
@@ -187,8 +233,11 @@ pub fn module_gratings(m: &Module, p: &ModuleProfile) -> Vec<GratingPlacement> {
                     zc - g.length_mm / 2.0,
                     zc + g.length_mm / 2.0,
                 ),
-                // The reference grating hangs below the top hole, strain free.
-                _ => (0.0, 0.0, p.core_apex_z_mm - g.length_mm, p.core_apex_z_mm),
+                // The reference grating hangs free on the axis, strain free.
+                _ => {
+                    let s = reference_span(m, p, g.length_mm, g.tail_mm());
+                    (0.0, 0.0, s.z_start_mm, s.z_end_mm)
+                }
             };
             GratingPlacement {
                 name: g.name.clone(),
@@ -325,6 +374,22 @@ pub struct PartsProfile {
     pub cap_slot_top_mm: f64,
     /// Snap bead, when the module has a `[module.snap]`.
     pub snap: Option<SnapProfile>,
+    /// The insert's chamber for the reference grating (when the module has one): a
+    /// coaxial cylinder of twice the bore's radius from its floor to its top (see
+    /// [`ReferenceSpan`]); the bore runs up to its floor and no further.
+    pub reference_chamber: Option<ReferenceChamber>,
+}
+
+/// The insert's chamber in which the reference grating hangs free.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ReferenceChamber {
+    /// Chamber radius: twice the bore's, mm.
+    pub radius_mm: f64,
+    /// Where the grating and the fiber's tip hang in it.
+    pub span: ReferenceSpan,
+    /// Name of the grating.
+    #[serde(skip)]
+    pub grating: usize,
 }
 
 /// The cap's snap bead: a ring on the cap's inner wall just below the pillar bottoms.
@@ -398,7 +463,21 @@ impl PartsProfile {
                 retention_top_z_mm: retention_top,
             }
         });
+        // The first reference grating fixes the chamber (a module has one reference).
+        let reference_chamber = m
+            .gratings
+            .iter()
+            .position(|g| g.role == GratingRole::TemperatureReference)
+            .map(|i| {
+                let g = &m.gratings[i];
+                ReferenceChamber {
+                    radius_mm: 2.0 * bore,
+                    span: reference_span(m, p, g.length_mm, g.tail_mm()),
+                    grating: i,
+                }
+            });
         PartsProfile {
+            reference_chamber,
             channel_width_mm: w,
             fiber_radius_mm: rf,
             bend_radius_mm: bend,
@@ -436,9 +515,21 @@ pub struct SnapReport {
     pub undercut_mm: f64,
     /// Radius of the bead's crest, mm.
     pub crest_radius_mm: f64,
-    /// Hoop strain of the cap's ring opened by the whole undercut (a rigid core):
-    /// y / crest radius, percent. This is the number checked.
+    /// Largest strain in the cap's ring when the core's pillars (taken as rigid: the
+    /// conservative bound) push it out by the whole undercut at the pillars and it
+    /// ovalises between them ([`ring_strain_per_undercut`]: bending plus the ring's
+    /// tension), percent. This is the number checked.
     pub cap_strain_percent: f64,
+    /// How the strain was found, in words.
+    pub strain_model: String,
+    /// Hoop strain were the ring opened evenly by the undercut (a continuous rigid
+    /// shaft): y / crest radius, percent; below the bending strain for separate
+    /// pillars, for comparison.
+    pub hoop_strain_percent: f64,
+    /// Largest undercut the cap's material permits by that strain, mm.
+    pub max_undercut_mm: f64,
+    /// Smallest undercut the printer can make reliably (1.5 × its resolution), mm.
+    pub min_undercut_mm: f64,
     /// The cap material's permissible strain, percent.
     pub permissible_strain_percent: f64,
     /// Lead-in and retention angles, degrees; friction coefficient.
@@ -481,6 +572,32 @@ pub fn ramp_force_n(p: f64, mu: f64, alpha_deg: f64) -> Option<f64> {
     let t = alpha_deg.to_radians().tan();
     let den = 1.0 - mu * t;
     (alpha_deg < 90.0 && den > 0.0).then(|| p * (mu + t) / den)
+}
+
+/// Roark's ring under `n` equal radial point loads W, equally spaced (Young &
+/// Budynas, Roark's Formulas, table 9.2; α = π / n, half the pitch): the bending moment
+/// at a load is M = (W R / 2)(1/α − cot α), the radial displacement at a load is
+/// δ = (W R³ / E I)[(α + sin α cos α) / (4 sin² α) − 1 / (2α)] (bending energy only),
+/// and the ring's tension between the loads is W / (2 sin α). Returns the moment
+/// coefficient (1/α − cot α) and the displacement coefficient.
+pub fn ring_point_load_coefficients(n: usize) -> (f64, f64) {
+    let a = std::f64::consts::PI / n as f64;
+    let (s, c) = a.sin_cos();
+    (
+        1.0 / a - c / s,
+        (a + s * c) / (4.0 * s * s) - 1.0 / (2.0 * a),
+    )
+}
+
+/// Largest strain in a ring of mean radius `r_mm` and wall `t_mm` pushed out by
+/// `undercut` at `n` equally spaced points (a rigid core's pillars), per unit of
+/// undercut: the bending strain at the loads, y t k_M / (4 R² k_δ), plus the ring's
+/// tension W / (2 sin α · E t b) with W from the displacement, y t² / (24 R³ k_δ sin α).
+/// Both are independent of the modulus and of the ring's axial width.
+pub fn ring_strain_per_undercut(n: usize, t_mm: f64, r_mm: f64) -> f64 {
+    let (k_m, k_d) = ring_point_load_coefficients(n);
+    let s = (std::f64::consts::PI / n as f64).sin();
+    t_mm * k_m / (4.0 * r_mm * r_mm * k_d) + t_mm * t_mm / (24.0 * r_mm.powi(3) * k_d * s)
 }
 
 /// Size the snap of `m` (None without `[module.snap]` or without the permissible
@@ -530,10 +647,18 @@ pub fn snap_report(
             })
         })
         .collect();
+    let n = p.pillar_angles_rad.len();
+    let per_mm = ring_strain_per_undercut(n, t, r);
     Some(SnapReport {
         undercut_mm: y,
         crest_radius_mm: sp.crest_radius_mm,
-        cap_strain_percent: 100.0 * y / sp.crest_radius_mm,
+        cap_strain_percent: 100.0 * y * per_mm,
+        strain_model: format!(
+            "ring bending between {n} rigid pillars: the cap's wall ({t} mm, mean radius {r:.3} mm) pushed out by the undercut at each pillar (Roark, ring under {n} equal radial loads), bending plus ring tension"
+        ),
+        hoop_strain_percent: 100.0 * y / sp.crest_radius_mm,
+        max_undercut_mm: eps_max / 100.0 / per_mm,
+        min_undercut_mm: crate::spec::MIN_UNDERCUT_PER_RESOLUTION * d.printer.resolution_mm,
         permissible_strain_percent: eps_max,
         lead_in_angle_deg: s.lead_in_angle_deg,
         retention_angle_deg: s.retention_angle_deg,

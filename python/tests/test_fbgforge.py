@@ -117,7 +117,7 @@ def test_build_writes_the_same_manifest_as_the_cli(cli, tmp_path):
     want = json.loads((tmp_path / "cli" / "manifest.json").read_text())
     assert got["manifest"] == want
     names = sorted(Path(f).name for f in got["files"])
-    assert names == ["cap.step", "cap.stl", "core.step", "core.stl", "manifest.json"]
+    assert names == ["cap.step", "cap.stl", "core.step", "core.stl", "manifest.json", "parts.3mf"]
     for f in got["files"]:
         assert Path(f).stat().st_size > 0
     # The STL files are byte for byte those of the command line.

@@ -1,4 +1,4 @@
-//! `fbgforge build`: design spec to STL, STEP and manifest; `fbgforge` with no
+//! `fbgforge build`: design spec to STL, STEP, 3MF, previews and manifest; `fbgforge` with no
 //! arguments builds every shipped design.
 
 use super::progress::Bar;
@@ -55,7 +55,10 @@ pub fn run(a: BuildArgs) -> Result<()> {
     let dir = a.out.clone().unwrap_or_else(|| default_out(&design));
     let r = geometry::build_design(&design, &dir, a.tolerance, a.parts.as_deref())?;
     print_table(&design.name, &r);
-    println!("  wrote {} files (STL, STEP, manifest.json)", r.files.len());
+    println!(
+        "  wrote {} files (STL, STEP, 3MF, SVG previews, manifest.json)",
+        r.files.len()
+    );
     Ok(())
 }
 

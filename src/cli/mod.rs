@@ -25,7 +25,7 @@ pub struct Cli {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Build the printable parts of a design as STL and STEP, with a manifest.
+    /// Build the printable parts of a design as STL, STEP and 3MF, with previews and a manifest.
     Build(build::BuildArgs),
     /// Predict each grating's sensitivity K (pm/N) from a design.
     Predict(predict::PredictArgs),

@@ -159,11 +159,18 @@ pub struct FiberTrace {
     pub bend_radius_mm: f64,
     /// Smallest radius of curvature measured along the sampled centreline, mm.
     pub min_measured_bend_radius_mm: f64,
-    /// Smallest distance from the centreline to any part's surface between the
-    /// grating and the outside, mm (the coated fiber's radius must fit in it).
-    pub min_clearance_mm: f64,
+    /// Smallest gap between the coated fiber's surface and any part's mesh between
+    /// the grating (the reference fiber's tip) and the outside: the centreline's
+    /// distance less the fiber's radius, mm. The mesh's chords may take up to its
+    /// tolerance off it.
+    pub min_surface_gap_mm: f64,
     /// The part nearest the centreline at that point.
     pub nearest_part: String,
+    /// The same gap on exact dimensions: the tightest of `passages`, mm.
+    pub min_exact_surface_gap_mm: f64,
+    /// Every passage of the fiber on exact dimensions (hole, slots, roofs, bore,
+    /// chamber, plate), with the field that sets it.
+    pub passages: Vec<super::fits::Passage>,
     /// Where the centreline leaves the module's outer radius (x, y, z), mm.
     pub exit_point_mm: P3,
     /// Centreline samples (x, y, z), mm: from the grating's centre to the outside.
@@ -280,6 +287,7 @@ pub fn trace_fibers_for(
         .map(|b| b.mesh_tolerance_mm)
         .fold(0.0, f64::max);
     let need = pp.fiber_radius_mm - tol;
+    let exact = super::fits::fiber_passages(profile);
     let r_out = p.cap_outer_radius_mm + 2.0 * pp.fiber_radius_mm + 0.5;
     let step = pp.fiber_radius_mm / 2.0;
     let mut out = Vec::new();
@@ -289,17 +297,23 @@ pub fn trace_fibers_for(
             GratingRole::TemperatureReference => (0.0, pp.reference_exit_angle_rad),
         };
         let z_mid = 0.5 * (g.z_start_mm + g.z_end_mm);
-        let pts = centreline(r0, theta, z_mid, pp, r_out, step);
+        // The reference fiber is traced from its tip, so its tail is checked too.
+        let z_from = match (g.role, &pp.reference_chamber) {
+            (GratingRole::TemperatureReference, Some(c)) => c.span.tip_z_mm,
+            _ => z_mid,
+        };
+        let pts = centreline(r0, theta, z_from, pp, r_out, step);
+        let centre = [r0 * theta.cos(), r0 * theta.sin(), z_mid];
         let blocked = |part: &str, at: P3, detail: String| RouteError::Blocked {
             grating: g.name.clone(),
             part: part.to_string(),
             at,
             detail,
         };
-        if let Some(s) = solids.iter().find(|s| s.contains(pts[0])) {
+        if let Some(s) = solids.iter().find(|s| s.contains(centre)) {
             return Err(blocked(
                 s.name,
-                pts[0],
+                centre,
                 "the grating lies inside the part".into(),
             ));
         }
@@ -341,13 +355,23 @@ pub fn trace_fibers_for(
             .copied()
             .find(|q| q[0].hypot(q[1]) >= p.cap_outer_radius_mm)
             .unwrap_or(pts[pts.len() - 1]);
+        let passages: Vec<super::fits::Passage> = exact
+            .iter()
+            .find(|f| f.grating == g.name)
+            .map(|f| f.passages.clone())
+            .unwrap_or_default();
         out.push(FiberTrace {
             grating: g.name.clone(),
             exit_angle_deg: theta.to_degrees(),
             bend_radius_mm: pp.bend_radius_mm,
             min_measured_bend_radius_mm: measured,
-            min_clearance_mm: min_clear,
+            min_surface_gap_mm: min_clear - pp.fiber_radius_mm,
             nearest_part: nearest,
+            min_exact_surface_gap_mm: passages
+                .iter()
+                .map(|q| q.surface_gap_mm)
+                .fold(f64::INFINITY, f64::min),
+            passages,
             exit_point_mm: exit,
             points: pts,
         });

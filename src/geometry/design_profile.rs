@@ -42,7 +42,8 @@ pub struct ArrayDims<'a> {
     /// slit), mm.
     pub slot_width_mm: f64,
     /// The plug pocket of every slit (None without plugs): as wide as a printable plug
-    /// plus a channel clearance each side, from the coated fiber's top up.
+    /// plus a channel clearance each side, from the layer boundary at or above the
+    /// coated fiber's top up.
     pub pocket: Option<Pocket>,
 }
 
@@ -67,9 +68,13 @@ impl<'a> DesignProfile<'a> {
         let array = design.array.as_ref().map(|a| {
             let layout = ArrayLayout::from_array(a);
             let slot_width_mm = crate::spec::mold_slot_width_mm(design, &a.mold);
+            // The pocket's ledge on the first layer boundary at or above the fiber's
+            // top: the plug rests on it, never on the fiber.
             let pocket = a.mold.plugs.then_some(Pocket {
                 width_mm: slot_width_mm,
-                bottom_z_mm: layout.slit_bottom_z_mm + routing.coated_diameter_mm,
+                bottom_z_mm: design
+                    .printer
+                    .layer_at_or_above_mm(layout.slit_bottom_z_mm + routing.coated_diameter_mm),
             });
             ArrayDims {
                 spec: a,

@@ -6,22 +6,25 @@
 //! [`build_solids_for`] builds the selected parts' B-rep solids from the profile;
 //! [`build_parts_for`] meshes them at a chord tolerance and runs every mesh check,
 //! including agreement of the mesh volume with the closed-form volume. Nothing here
-//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP and
-//! a manifest, written only once every part has passed.
+//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP, 3MF,
+//! previews and a manifest, written only once every part has passed.
 
 pub mod assembly;
 pub mod brep;
 pub mod design_profile;
 pub mod export;
+pub mod fits;
 pub mod mesh;
 pub mod module;
 pub mod mold;
 pub mod mold_plug;
 pub mod preview;
+pub mod print_notes;
 pub mod registry;
+pub mod threemf;
 
 pub use design_profile::DesignProfile;
-pub use registry::{part_names, BuiltSolid, PartKind, PrintablePart};
+pub use registry::{part_names, BuiltSolid, PartKind, Print, PrintablePart};
 
 use crate::spec::{Design, SpecError};
 use anyhow::Context;
@@ -102,6 +105,9 @@ pub enum GeometryError {
     /// Two assembled parts overlap.
     #[error(transparent)]
     Interference(#[from] assembly::Interference),
+    /// A tolerance too coarse for the clearances between mating parts.
+    #[error(transparent)]
+    MeshTolerance(#[from] fits::ToleranceTooCoarse),
     /// A tolerance outside the range truck can mesh with.
     #[error("meshing tolerance {0} mm is out of range; allowed 0.001 to 1 mm")]
     Tolerance(f64),
@@ -281,36 +287,18 @@ pub fn check_assembly(
     check_assembly_for(&DesignProfile::new(design), built)
 }
 
-/// Two nested neighbours in the assembled module and the radial gap designed between
-/// them, mm.
-struct Fit {
-    outer: PartKind,
-    inner: PartKind,
-    gap_mm: fn(&crate::spec::Module) -> f64,
-}
-
-/// The nested fits of the module; a pair not listed is not nested and always checked.
-const FITS: [Fit; 2] = [
-    Fit {
-        outer: PartKind::Cap,
-        inner: PartKind::Core,
-        gap_mm: |m| m.cap_core_clearance_mm,
-    },
-    Fit {
-        outer: PartKind::Core,
-        inner: PartKind::Insert,
-        gap_mm: |m| m.core_insert_clearance_mm,
-    },
-];
-
-/// [`check_assembly`] from dimensions already derived.
+/// [`check_assembly`] from dimensions already derived: the fits and every fiber's
+/// passages on exact dimensions first (independent of the meshes), then the meshing
+/// tolerance against the fits' clearances, then the meshes of every mating pair
+/// against each other (all but press fits, which meshes cannot show), then each
+/// fiber traced through the meshes.
 pub fn check_assembly_for(
     profile: &DesignProfile,
     built: &[BuiltPart],
 ) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {
-    let Some(m) = &profile.module else {
+    if profile.module.is_none() {
         return Ok(None);
-    };
+    }
     // Every module part the design has must have been built.
     let whole = PARTS
         .iter()
@@ -324,20 +312,23 @@ pub fn check_assembly_for(
         .filter(|b| b.kind.part().in_module())
         .cloned()
         .collect();
-    // A mesh's chords cut into a concave wall by about its tolerance (truck keeps the
-    // chord error near, not strictly under, it), so two parts
-    // designed closer than that (a press fit at zero clearance) cannot be told apart
-    // from overlapping ones: such a pair is not checked.
-    let tol = module
-        .iter()
-        .map(|b| b.mesh_tolerance_mm)
-        .fold(0.0, f64::max);
-    let checked = |a: PartKind, b: PartKind| {
-        FITS.iter()
-            .find(|f| (f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b))
-            .is_none_or(|f| (f.gap_mm)(m.spec) > 2.0 * tol)
+    let (fits, _) = fits::check_exact(profile)?;
+    fits::check_tolerance(&fits, |k| {
+        module
+            .iter()
+            .filter(|b| b.kind == k)
+            .map(|b| b.mesh_tolerance_mm)
+            .reduce(f64::max)
+    })?;
+    // A pair designed to touch somewhere (a press fit) is not compared on its meshes:
+    // its exact fit above is the check.
+    let press_fit = |a: PartKind, b: PartKind| {
+        fits.iter().any(|f| {
+            ((f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b))
+                && f.max_mesh_tolerance_mm.is_none()
+        })
     };
-    assembly::check_no_interference(&module, &checked)?;
+    assembly::check_no_interference(&module, &|a, b| !press_fit(a, b))?;
     Ok(Some(assembly::trace_fibers_for(profile, &module)?))
 }
 

@@ -12,7 +12,7 @@
 
 use super::brep::{Assembler, BrepError, Seg};
 use super::design_profile::{ArrayDims, DesignProfile};
-use super::registry::{BuiltSolid, PartKind, PrintablePart};
+use super::registry::{BuiltSolid, PartKind, Print, PrintablePart};
 use super::GeometryError;
 use crate::profile::ArrayLayout;
 use crate::spec::{Design, Mold, SpecError};
@@ -323,6 +323,10 @@ impl PrintablePart for MoldPart {
         print_material(design)
     }
 
+    fn prints(&self, design: &Design, _name: &str) -> Vec<Print> {
+        print_pieces(design, "mold")
+    }
+
     fn preview_colour(&self) -> &'static str {
         "#7f7f7f"
     }
@@ -338,6 +342,18 @@ pub(super) fn print_material(design: &Design) -> Vec<String> {
                 .print_material
                 .clone()
                 .unwrap_or_else(|| "not stated (array.mold.print_material)".into())
+        })
+        .collect()
+}
+
+/// The one piece of a mold part, in the mold's print material.
+pub(super) fn print_pieces(design: &Design, label: &str) -> Vec<Print> {
+    design
+        .array
+        .iter()
+        .map(|a| Print {
+            label: label.into(),
+            material: a.mold.print_material.clone(),
         })
         .collect()
 }

@@ -1,14 +1,21 @@
 //! The plug that closes a mold slit above its fiber: a block that fills the slit's
-//! pocket (one file, printed once per slit).
+//! pocket (one file, printed once per slit), line to line, so that with it in place
+//! nothing but the fiber's own seat is open through the wall below the silicone level.
 
 use super::brep::{Assembler, BrepError};
 use super::design_profile::DesignProfile;
 use super::mold::{poly, print_material, Pocket};
-use super::registry::{BuiltSolid, PartKind, PrintablePart};
+use super::registry::{BuiltSolid, PartKind, Print, PrintablePart};
 use super::GeometryError;
 use crate::profile::ArrayLayout;
 use crate::spec::{Design, Mold};
 use truck_modeling::{Point3, Vector3};
+
+/// Clearance between the plug and each side of its pocket, mm: none, a press fit. An
+/// FDM printer draws a pocket a little narrow and a block a little wide, so a
+/// line-to-line fit is tight; a plug that does not go in is sanded, never left loose
+/// (a 0.1 mm gap beside an 0.8 mm plug let silicone through the wall).
+pub const PLUG_FIT_MM: f64 = 0.0;
 
 /// The plug that fills one pocket: a block `fit_mm` narrower than the pocket on each
 /// side, from the pocket bottom to the wall top, as long as the wall is thick.
@@ -71,12 +78,26 @@ impl PrintablePart for MoldPlugPart {
             .as_ref()
             .expect("a plug only in an array design");
         let pocket = a.pocket.expect("a plug only for a mold with plugs");
-        let fit = profile.design.fiber_routing.channel_clearance_mm;
-        Ok(plug(&a.spec.mold, &a.layout, pocket, fit)?)
+        Ok(plug(&a.spec.mold, &a.layout, pocket, PLUG_FIT_MM)?)
     }
 
     fn materials(&self, design: &Design, _name: &str) -> Vec<String> {
         print_material(design)
+    }
+
+    /// One plug per slit (two walls × the fibers), so the 3MF plate holds every plug
+    /// to print: `mold-plug-1` … `mold-plug-<n>`.
+    fn prints(&self, design: &Design, _name: &str) -> Vec<Print> {
+        let slits = design.array.as_ref().map_or(0, |a| 2 * a.fiber_x_mm.len());
+        super::mold::print_pieces(design, "mold-plug")
+            .into_iter()
+            .flat_map(|p| {
+                (1..=slits).map(move |i| Print {
+                    label: format!("{}-{i}", p.label),
+                    material: p.material.clone(),
+                })
+            })
+            .collect()
     }
 
     fn preview_colour(&self) -> &'static str {

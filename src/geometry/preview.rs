@@ -26,6 +26,40 @@ struct Panel {
     levels: Vec<(String, f64)>,
     /// Model window (x0, x1, y0, y1) to show, mm; everything when None.
     view: Option<(f64, f64, f64, f64)>,
+    /// Dimensions drawn on the section: from, to (model mm) and what is measured.
+    dims: Vec<Dim>,
+}
+
+/// A dimension line between two model points, labelled with its name and length.
+#[derive(Debug, Clone)]
+struct Dim {
+    a: (f64, f64),
+    b: (f64, f64),
+    name: String,
+}
+
+impl Dim {
+    fn new(name: &str, a: (f64, f64), b: (f64, f64)) -> Self {
+        Dim {
+            a,
+            b,
+            name: name.into(),
+        }
+    }
+    fn length_mm(&self) -> f64 {
+        (self.b.0 - self.a.0).hypot(self.b.1 - self.a.1)
+    }
+}
+
+/// A round length for a scale bar near a fifth of `span_mm`: 1, 2 or 5 × 10ⁿ mm.
+pub fn scale_bar_mm(span_mm: f64) -> f64 {
+    let target = (span_mm / 5.0).max(1e-6);
+    let decade = 10f64.powf(target.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|k| k * decade)
+        .find(|&v| v <= target)
+        .unwrap_or(decade)
 }
 
 impl Panel {
@@ -67,7 +101,7 @@ fn draw(panels: &[Panel], caption: &str) -> String {
         })
         .fold(120.0, f64::max);
     let lines: Vec<&str> = caption.split("; ").collect();
-    let legend = 14.0 * panels.iter().map(|p| p.layers.len()).max().unwrap_or(1) as f64;
+    let legend = 14.0 * panels.iter().map(|p| p.layers.len()).max().unwrap_or(1) as f64 + 16.0;
     let total_h = h + legend + 20.0 + 16.0 * lines.len() as f64;
     let total_w = w * panels.len() as f64;
     let mut s = String::new();
@@ -137,7 +171,44 @@ fn draw(panels: &[Panel], caption: &str) -> String {
                 r#"<path d="{d}" stroke="{col}" stroke-width="1.6" fill="none"/>"#
             );
         }
+        for d in &p.dims {
+            let (x0, y0, x1, y1) = (tx(d.a.0), ty(d.a.1), tx(d.b.0), ty(d.b.1));
+            let len = d.length_mm();
+            // Ticks across the line at both ends; the label beside its middle.
+            let (dx, dy) = (x1 - x0, y1 - y0);
+            let l = dx.hypot(dy).max(1e-9);
+            let (nx, ny) = (-dy / l * 4.0, dx / l * 4.0);
+            let _ = writeln!(
+                s,
+                r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/><text x="{:.2}" y="{:.2}" font-size="10">{name} {len:.2}</text></g>"##,
+                x0 - nx,
+                y0 - ny,
+                x0 + nx,
+                y0 + ny,
+                x1 - nx,
+                y1 - ny,
+                x1 + nx,
+                y1 + ny,
+                x1.max(x0) + 6.0,
+                0.5 * (y0 + y1) + 3.0,
+                name = d.name,
+            );
+        }
         s.push_str("</g>\n");
+        // Scale bar under the panel's lower-left corner.
+        let bar = scale_bar_mm(x1 - x0);
+        let (bx, by) = (i as f64 * w + pad, h - pad + 16.0);
+        let _ = writeln!(
+            s,
+            r##"<g class="scale-bar" data-mm="{bar}" data-px="{:.4}"><path d="M{bx:.2} {by:.2}h{:.4}M{bx:.2} {:.2}v8M{:.2} {:.2}v8" stroke="#000" stroke-width="2" fill="none"/><text x="{:.2}" y="{:.2}">{bar} mm</text></g>"##,
+            bar * scale,
+            bar * scale,
+            by - 4.0,
+            bx + bar * scale,
+            by - 4.0,
+            bx + bar * scale + 6.0,
+            by + 4.0
+        );
         let _ = writeln!(
             s,
             r#"<text x="{}" y="20" font-weight="bold">{}</text>"#,
@@ -217,12 +288,33 @@ pub fn module_svg(
                     (format!("fiber {}", f.grating), "#d62728", line)
                 })
                 .collect();
+            let mut levels = vec![
+                ("plate".into(), 0.0),
+                (
+                    format!("bend start {:.2}", pp.bend_start_z_mm),
+                    pp.bend_start_z_mm,
+                ),
+            ];
+            let in_plane = |g: &crate::profile::GratingPlacement| {
+                g.radius_mm == 0.0
+                    || (g.angle_rad - theta).sin().abs() < 1e-6 && (g.angle_rad - theta).cos() > 0.0
+            };
+            let mut dims = module_dims(m);
+            for g in crate::profile::module_gratings(m.spec, p)
+                .iter()
+                .filter(|g| in_plane(g))
+            {
+                let s = g.radius_mm + 0.6 * pp.channel_width_mm;
+                dims.push(Dim::new(&g.name, (s, g.z_start_mm), (s, g.z_end_mm)));
+                levels.push((format!("{} from {:.2}", g.name, g.z_start_mm), g.z_start_mm));
+            }
             Panel {
                 title: format!("{} cut at {:.1}°: {title}", design.name, theta.to_degrees()),
                 layers,
                 polylines,
-                levels: vec![("plate".into(), 0.0)],
+                levels,
                 view: None,
+                dims,
             }
         })
         .collect::<Vec<_>>();
@@ -233,6 +325,36 @@ pub fn module_svg(
             pp.bend_radius_mm, pp.exit_height_mm
         ),
     ))
+}
+
+/// The module's walls and clearances as dimension lines in a section plane (s, z):
+/// on the +s side, below the pillars for the core and above them for the cap.
+fn module_dims(m: &super::design_profile::ModuleDims) -> Vec<Dim> {
+    let (p, pp) = (&m.profile, &m.parts);
+    let z_low = 0.5 * (pp.cap_slot_top_mm.max(pp.core_slot_top_mm) + pp.pillar_bottom_mm);
+    let z_up = 0.5 * (pp.pillar_bottom_mm + p.pillar_top_mm);
+    vec![
+        Dim::new(
+            "cap wall",
+            (p.cap_inner_radius_mm, z_up),
+            (p.cap_outer_radius_mm, z_up),
+        ),
+        Dim::new(
+            "cap/core clearance",
+            (p.pillar_outer_radius_mm, z_up + 2.0),
+            (p.cap_inner_radius_mm, z_up + 2.0),
+        ),
+        Dim::new(
+            "core wall",
+            (p.core_inner_radius_mm, z_low),
+            (p.core_outer_radius_mm, z_low),
+        ),
+        Dim::new(
+            "core/insert clearance",
+            (p.insert_radius_mm, z_low - 2.0),
+            (p.core_inner_radius_mm, z_low - 2.0),
+        ),
+    ]
 }
 
 /// The mold (and its plugs in place) cut through the first fiber's slits, with the
@@ -254,7 +376,7 @@ pub fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> 
     ) {
         // The plug in place: its corner at the pocket's −x, inner-wall end, bottom.
         let (iy, hy) = (a.spec.mold.internal_y_mm / 2.0, l.mold_outer_mm.1 / 2.0);
-        let fit = design.fiber_routing.channel_clearance_mm;
+        let fit = super::mold_plug::PLUG_FIT_MM;
         let x0 = x - pocket.width_mm / 2.0 + fit;
         for y0 in [iy, -hy] {
             let segs = plane_section(&plug.mesh, [1.0, 0.0, 0.0], x - x0, |q| {
@@ -267,19 +389,45 @@ pub fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> 
     let fiber = vec![(-hy - 3.0, l.fiber_z_mm), (hy + 3.0, l.fiber_z_mm)];
     let iy = a.spec.mold.internal_y_mm / 2.0;
     let top = l.mold_outer_mm.2;
+    let wall_z = 0.5 * (l.cavity_floor_z_mm + top);
     let whole = Panel {
         title: format!("{} mold cut at x = {x} mm (fiber 0)", design.name),
         layers: layers.clone(),
         polylines: vec![("fiber axis".into(), "#d62728", fiber.clone())],
         levels: vec![("silicone level".into(), l.silicone_level_z_mm)],
         view: None,
+        dims: vec![
+            Dim::new("wall", (-hy, wall_z), (-iy, wall_z)),
+            Dim::new("base", (0.0, 0.0), (0.0, l.cavity_floor_z_mm)),
+            Dim::new(
+                "sheet",
+                (-iy / 2.0, l.cavity_floor_z_mm),
+                (-iy / 2.0, l.silicone_level_z_mm),
+            ),
+        ],
     };
+    let axis = l.slit_bottom_z_mm + design.fiber_routing.coated_diameter_mm / 2.0;
     let detail = Panel {
         title: "detail: the +y wall's slit".into(),
         layers,
         polylines: vec![("fiber axis".into(), "#d62728", fiber)],
-        levels: vec![("silicone level".into(), l.silicone_level_z_mm)],
+        levels: vec![
+            ("silicone level".into(), l.silicone_level_z_mm),
+            (format!("fiber axis {axis:.3}"), axis),
+        ],
         view: Some((iy - 2.0, hy + 1.0, -0.5, top + 1.0)),
+        dims: vec![
+            Dim::new(
+                "fiber seat",
+                (iy - 1.0, 0.0),
+                (iy - 1.0, l.slit_bottom_z_mm),
+            ),
+            Dim::new(
+                "wall",
+                (iy, l.cavity_floor_z_mm - 0.3),
+                (hy, l.cavity_floor_z_mm - 0.3),
+            ),
+        ],
     };
     Some(draw(
         &[whole, detail],

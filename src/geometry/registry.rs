@@ -35,6 +35,15 @@ pub enum PartKind {
 pub const PARTS: &[&dyn PrintablePart] =
     &[&CapPart, &CorePart, &InsertPart, &MoldPart, &MoldPlugPart];
 
+/// One printed piece of a part: its label and material key.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Print {
+    /// Label, e.g. `cap`, `core-psc1`, `insert-blue`.
+    pub label: String,
+    /// Key into the design's material table.
+    pub material: Option<String>,
+}
+
 /// A solid with its exact volume.
 pub struct BuiltSolid {
     /// The B-rep.
@@ -60,6 +69,11 @@ pub trait PrintablePart: Sync {
     /// The materials the part called `name` is printed in (one print per material).
     fn materials(&self, design: &Design, name: &str) -> Vec<String>;
 
+    /// The pieces printed from the part called `name`, one per material: a label and
+    /// the key of its material in the design's table (None when the design names
+    /// none). The 3MF files hold one object per piece.
+    fn prints(&self, design: &Design, name: &str) -> Vec<Print>;
+
     /// Stroke colour of its sections in the cut-away previews (SVG colour).
     fn preview_colour(&self) -> &'static str;
 
@@ -71,6 +85,18 @@ pub trait PrintablePart: Sync {
 }
 
 impl PartKind {
+    /// The kind's name in words and in the manifest (`cap`, `core`, `insert`, `mold`,
+    /// `mold-plug`).
+    pub fn name(self) -> &'static str {
+        match self {
+            PartKind::Cap => "cap",
+            PartKind::Core => "core",
+            PartKind::Insert => "insert",
+            PartKind::Mold => "mold",
+            PartKind::MoldPlug => "mold-plug",
+        }
+    }
+
     /// The registry entry of this kind.
     pub fn part(self) -> &'static dyn PrintablePart {
         *PARTS

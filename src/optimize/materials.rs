@@ -119,6 +119,9 @@ impl LibraryMaterial {
             poisson_ratio: self.poisson_ratio,
             note: Some(self.source.clone()),
             permissible_strain_percent: None,
+            vendor_name: None,
+            shore_hardness: None,
+            display_colour: None,
         }
     }
 

@@ -1,7 +1,7 @@
 //! `[array]`: the flat tactile array's TOML types (the sheet, its gratings, the casting
 //! mold) and the mold's derived slit dimensions.
 
-use super::Design;
+use super::{Design, Printer};
 use serde::{Deserialize, Serialize};
 
 /// A grating of the flat array.
@@ -88,10 +88,20 @@ pub struct TactileArray {
     pub max_loads: Option<u32>,
 }
 
-/// Depth of a mold slit below the wall top that leaves the coated fiber, resting on
-/// the slit bottom, with its axis at the sheet's mid-thickness, mm.
-pub fn derived_slit_depth_mm(a: &TactileArray, coated_diameter_mm: f64) -> f64 {
-    a.mold.wall_height_mm - a.thickness_mm / 2.0 + coated_diameter_mm / 2.0
+/// Height of the fiber's seat (the slit bottom) above the mold's underside: where the
+/// coated fiber resting on it has its axis at the sheet's mid-thickness, put on the
+/// nearest layer boundary of `printer` (a slicer prints it there anyway; the fiber's
+/// axis is then off mid-sheet by at most half a layer, and the solid says by how
+/// much), mm.
+pub fn seat_z_mm(a: &TactileArray, coated_diameter_mm: f64, printer: &Printer) -> f64 {
+    let ideal = a.mold.base_thickness_mm + a.thickness_mm / 2.0 - coated_diameter_mm / 2.0;
+    printer.nearest_layer_mm(ideal)
+}
+
+/// Depth of a mold slit below the wall top down to the fiber's seat ([`seat_z_mm`]),
+/// mm.
+pub fn derived_slit_depth_mm(a: &TactileArray, coated_diameter_mm: f64, printer: &Printer) -> f64 {
+    a.mold.base_thickness_mm + a.mold.wall_height_mm - seat_z_mm(a, coated_diameter_mm, printer)
 }
 
 /// Width of the widest part of a slit: the plug pocket when the mold has plugs (a plug

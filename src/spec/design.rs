@@ -67,7 +67,7 @@ impl Design {
         let width = self.fiber_routing.channel_width_mm(&self.printer);
         let coated = self.fiber_routing.coated_diameter_mm;
         if let Some(a) = &mut self.array {
-            let depth = derived_slit_depth_mm(a, coated);
+            let depth = derived_slit_depth_mm(a, coated, &self.printer);
             if a.mold.slit_width_mm.is_nan() {
                 a.mold.slit_width_mm = width;
             }

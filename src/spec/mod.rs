@@ -25,10 +25,17 @@ mod module;
 mod printer;
 mod validate;
 
-pub use array::{derived_slit_depth_mm, mold_slot_width_mm, ArrayGrating, Mold, TactileArray};
+pub use array::{
+    derived_slit_depth_mm, mold_slot_width_mm, seat_z_mm, ArrayGrating, Mold, TactileArray,
+};
 pub use contact::{Contact, CylinderCoupling};
 pub use design::{parse_unvalidated, Design};
 pub use error::{err, SpecError};
-pub use module::{Core, GratingRole, Insert, Module, ModuleGrating, Pillars, Snap};
-pub use printer::{FiberRouting, Material, PrintProcess, Printer, DEFAULT_FDM_NOZZLE_MM};
-pub use validate::{positive, range};
+pub use module::{
+    Core, GratingRole, Insert, Module, ModuleGrating, Pillars, Snap, DEFAULT_REFERENCE_TAIL_MM,
+};
+pub use printer::{
+    FiberRouting, Material, PrintProcess, Printer, DEFAULT_FDM_LAYER_MM, DEFAULT_FDM_NOZZLE_MM,
+    DEFAULT_POLYJET_LAYER_MM,
+};
+pub use validate::{positive, range, MIN_UNDERCUT_PER_RESOLUTION};

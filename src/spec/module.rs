@@ -58,7 +58,9 @@ pub struct Insert {
 pub enum GratingRole {
     /// Bonded in a pillar's fiber hole: strain (force) sensing.
     Strain,
-    /// Free-hanging through the core's top hole: temperature only.
+    /// Free-hanging on the module's axis, strain free: in the insert's reference
+    /// chamber (Case I) or the hollow core (Case II); temperature only. See
+    /// docs/geometry.md, "The reference grating".
     TemperatureReference,
 }
 
@@ -84,6 +86,21 @@ pub struct ModuleGrating {
     /// Height of the grating's centre above the core's base, mm (strain gratings).
     #[serde(default)]
     pub center_height_mm: Option<f64>,
+    /// Bare fiber left past the grating's upper end up to the cleaved tip, mm
+    /// (reference gratings; default [`DEFAULT_REFERENCE_TAIL_MM`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tail_mm: Option<f64>,
+}
+
+/// Fiber left past a reference grating's end when the spec states none, mm: a grating
+/// is written a few millimetres from the cleaved tip.
+pub const DEFAULT_REFERENCE_TAIL_MM: f64 = 3.0;
+
+impl ModuleGrating {
+    /// Fiber past the grating's end, mm (the stated tail or the default).
+    pub fn tail_mm(&self) -> f64 {
+        self.tail_mm.unwrap_or(DEFAULT_REFERENCE_TAIL_MM)
+    }
 }
 
 /// The clip-on cylindrical module: cap (CC), cores (PSC), inserts (PSC-solid).

@@ -40,6 +40,12 @@ pub struct Printer {
     /// channels are never made narrower than this.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nozzle_diameter_mm: Option<f64>,
+    /// Layer height the parts are sliced at, mm (default 0.2 mm for `fdm`, 0.027 mm
+    /// for PolyJet, the J750's high-speed layer). The first layer is taken to be as
+    /// high; horizontal faces a fiber rests on (the mold's seats) are put on a layer
+    /// boundary so the slicer prints them where the solid has them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layer_height_mm: Option<f64>,
 }
 
 impl Printer {
@@ -56,7 +62,41 @@ impl Printer {
             PrintProcess::Polyjet => self.resolution_mm,
         }
     }
+
+    /// Layer height, mm: the stated one, else 0.2 mm (FDM) or 0.027 mm (PolyJet).
+    pub fn layer_height_mm(&self) -> f64 {
+        self.layer_height_mm.unwrap_or(match self.process {
+            PrintProcess::Fdm => DEFAULT_FDM_LAYER_MM,
+            PrintProcess::Polyjet => DEFAULT_POLYJET_LAYER_MM,
+        })
+    }
+
+    /// The layer boundary nearest `z_mm` (layers of [`layer_height_mm`](Self::layer_height_mm)
+    /// from z = 0): where a slicer, which samples each layer at its middle, prints a
+    /// horizontal face modelled at `z_mm`.
+    pub fn nearest_layer_mm(&self, z_mm: f64) -> f64 {
+        let h = self.layer_height_mm();
+        (z_mm / h).round() * h
+    }
+
+    /// The lowest layer boundary at or above `z_mm` (to within 1e-9 mm).
+    pub fn layer_at_or_above_mm(&self, z_mm: f64) -> f64 {
+        let h = self.layer_height_mm();
+        (z_mm / h - 1e-9).ceil() * h
+    }
+
+    /// The smallest width a fiber passage (hole, slot, bore) may have for a fiber of
+    /// `coated_diameter_mm`: the fiber plus the printer's resolution, so the printed
+    /// passage cannot close on the fiber, mm.
+    pub fn min_passage_mm(&self, coated_diameter_mm: f64) -> f64 {
+        coated_diameter_mm + self.resolution_mm
+    }
 }
+
+/// Layer height assumed for an FDM printer that states none, mm.
+pub const DEFAULT_FDM_LAYER_MM: f64 = 0.2;
+/// Layer height assumed for a PolyJet printer that states none (J750 high speed), mm.
+pub const DEFAULT_POLYJET_LAYER_MM: f64 = 0.027;
 
 /// Nozzle diameter assumed for an FDM printer that states none, mm.
 pub const DEFAULT_FDM_NOZZLE_MM: f64 = 0.4;
@@ -77,6 +117,18 @@ pub struct Material {
     /// `[module.snap]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub permissible_strain_percent: Option<f64>,
+    /// The vendor's name of the printing material (e.g. `VeroBlue RGD840`,
+    /// `Agilus30 FLX935`, `Prusament PLA`): what the printer's software calls it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vendor_name: Option<String>,
+    /// Shore hardness as the datasheet states it, scale last or first: `30A`, `85A`,
+    /// `D83`, `00-30`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shore_hardness: Option<String>,
+    /// Display colour of the material in the 3MF files and previews, `#RRGGBB`
+    /// (default: one of a fixed palette, by the material's place in the table).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub display_colour: Option<String>,
 }
 
 /// How the fibers leave the module and the mold: the fiber's size and stiffness and

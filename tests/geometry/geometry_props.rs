@@ -36,6 +36,7 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     let mut d = shipped("clip-on-34mm.toml");
     printer(fdm, &mut d);
     let w = d.printer.min_wall_mm;
+    let res = d.printer.resolution_mm;
     let m = d.module.as_mut().unwrap();
     m.gratings
         .retain(|g| g.role == fbgforge::spec::GratingRole::TemperatureReference);
@@ -43,28 +44,58 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     m.outer_diameter_mm = diameter;
     m.cap_wall_mm = lerp(w, 3.0_f64.min(0.25 * r), f[0]);
     m.core_wall_mm = lerp(w, 3.0_f64.min(0.25 * r), f[1]);
-    m.cap_core_clearance_mm = 0.3 * f[2];
-    m.core_insert_clearance_mm = 0.3 * f[3];
+    // Fit clearances: a press fit (0) for the lowest draws, else from the printer's
+    // resolution (the least gap it makes) to 0.3 mm.
+    let fit = |f: f64| if f < 0.05 { 0.0 } else { lerp(res, 0.3, f) };
+    m.cap_core_clearance_mm = fit(f[2]);
+    m.core_insert_clearance_mm = fit(f[3]);
     let pl = &mut m.pillars;
     pl.count = count;
-    pl.fiber_hole_diameter_mm = lerp(0.13, 1.2, f[4]);
+    let passage = d.printer.min_passage_mm(d.fiber_routing.coated_diameter_mm);
+    pl.fiber_hole_diameter_mm = lerp(passage, 1.2, f[4]);
     pl.groove_depth_mm = lerp(0.05, 1.0, f[5]);
-    pl.height_mm = pl.fiber_hole_diameter_mm + 2.0 * w + pl.groove_depth_mm + lerp(0.05, 1.5, f[6]);
+    // At most 0.3 × the radius (the field's range), so small modules stay valid.
+    pl.height_mm =
+        (pl.fiber_hole_diameter_mm + 2.0 * w + pl.groove_depth_mm + lerp(0.05, 1.5, f[6]))
+            .min(0.3 * r);
     pl.groove_width_mm = lerp(w + 2.0 * m.cap_core_clearance_mm, 2.0, f[7]).max(0.1);
     pl.width_mm =
         pl.groove_width_mm.max(pl.fiber_hole_diameter_mm) + 2.0 * w + lerp(0.01, 2.0, f[8]);
     pl.first_pillar_angle_deg = 360.0 * f[9];
     m.dome_height_mm = lerp(0.3 * r, r, f[10]);
     m.overall_height_mm = m.dome_height_mm + lerp(4.0, 3.0 * r + 4.0, f[11]);
-    m.top_hole_diameter_mm = lerp(0.1, 1.0, f[12]);
+    m.top_hole_diameter_mm = lerp(passage, 1.0, f[12]);
     m.apex_flat_diameter_mm = lerp(0.1, 1.0, f[13]);
     // Snap and fiber exit sized to the draw (reusing its fractions): an undercut under
     // 0.8 % of the radius, a bend radius a third of the cylinder's height (2 to 10 mm).
     let snap = m.snap.as_mut().unwrap();
-    snap.undercut_mm = (0.008 * r * lerp(0.25, 1.0, f[2])).min(m.pillars.groove_depth_mm);
     snap.bead_height_mm = lerp(0.1, 0.6, f[3]);
     let cylinder = m.overall_height_mm - m.dome_height_mm;
     d.fiber_routing.min_bend_radius_mm = (cylinder / 3.0).clamp(2.0, 10.0);
+    // The reference grating hangs from under the apex with its tail past it: a
+    // quarter of the cylinder (1 to 5 mm) and a tail from the least allowed (0.5 mm)
+    // to the default 3 mm, so it stays above the fiber's bend in most draws.
+    let g = &mut m.gratings[0];
+    g.length_mm = (0.25 * cylinder).clamp(1.0, 5.0);
+    g.tail_mm = Some(lerp(0.5, 3.0, f[13]));
+    // The undercut drawn between the least the printer makes and the most the ring
+    // permits; a module with no such undercut is a sliding fit (no snap).
+    let range = fbgforge::profile::PartsProfile::of_design(&d)
+        .and_then(|(p, pp)| fbgforge::profile::snap_report(&d, &p, &pp))
+        .map(|r| {
+            (
+                r.min_undercut_mm,
+                r.max_undercut_mm
+                    .min(d.module.as_ref().unwrap().pillars.groove_depth_mm),
+            )
+        });
+    let m = d.module.as_mut().unwrap();
+    match range {
+        Some((lo, hi)) if hi >= lo => {
+            m.snap.as_mut().unwrap().undercut_mm = lerp(lo, hi, f[2]);
+        }
+        _ => m.snap = None,
+    }
     d
 }
 
@@ -132,13 +163,14 @@ proptest! {
         m.wall_height_mm = a.thickness_mm + lerp(0.0, 5.0, f[6]);
         m.plugs = f[7] < 0.5;
         m.slit_width_mm = lerp(d.fiber_routing.channel_width_mm(&d.printer), 1.0, f[8]);
-        m.slit_depth_mm = m.wall_height_mm - a.thickness_mm / 2.0 + d.fiber_routing.coated_diameter_mm / 2.0;
+        m.slit_depth_mm = f64::NAN;
         // Fibers evenly over the sheet, away from its edges.
         let pitch = a.size_x_mm / fibers as f64;
         a.fiber_x_mm = (0..fibers).map(|i| -a.size_x_mm / 2.0 + (i as f64 + 0.5) * pitch).collect();
         let g = a.gratings[0].clone();
         a.gratings = vec![g];
         a.gratings[0].y_mm = 0.0;
+        d.fill_derived();
         prop_assume!(d.validate().is_ok());
         let parts = geometry::build_parts(&d, None, None)
             .map_err(|e| TestCaseError::fail(format!("{e}\n{}", d.to_toml())))?;
@@ -149,23 +181,31 @@ proptest! {
         let m = &a.mold;
         let outer = (m.internal_x_mm + 2.0 * m.wall_thickness_mm) * (m.internal_y_mm + 2.0 * m.wall_thickness_mm)
             * (m.base_thickness_mm + m.wall_height_mm);
-        // A slit: the seat (as wide as the slit, as high as the coated fiber) under a
+        // A slit: the seat (as wide as the slit, on the layer nearest where the fiber's
+        // axis is at mid-sheet, up to the layer at or above the fiber's top) under a
         // pocket as wide as a printable plug plus clearances, or one width throughout.
         let coated = d.fiber_routing.coated_diameter_mm;
+        let h = d.printer.layer_height_mm();
+        let top = m.base_thickness_mm + m.wall_height_mm;
+        let seat = ((m.base_thickness_mm + a.thickness_mm / 2.0 - coated / 2.0) / h).round() * h;
+        prop_assert!((top - m.slit_depth_mm - seat).abs() < 1e-9);
         let slit_area = if m.plugs {
             let pocket = m.slit_width_mm.max(d.printer.min_wall_mm + 2.0 * d.fiber_routing.channel_clearance_mm);
-            m.slit_width_mm * coated + pocket * (m.slit_depth_mm - coated)
+            let ledge = ((seat + coated) / h - 1e-9).ceil() * h;
+            m.slit_width_mm * (ledge - seat) + pocket * (top - ledge)
         } else {
             m.slit_width_mm * m.slit_depth_mm
         };
         let exact = outer - m.internal_x_mm * m.internal_y_mm * m.wall_height_mm
             - 2.0 * fibers as f64 * slit_area * m.wall_thickness_mm;
         prop_assert!((mold.mesh_volume_mm3 - exact).abs() < 1e-9 * exact, "{} vs {}", mold.mesh_volume_mm3, exact);
-        // The slits stop where the fiber's axis is at the sheet's mid-thickness.
+        // The slits stop on a layer boundary where the fiber's axis is within half a
+        // layer of the sheet's mid-thickness.
         let lowest = mold.mesh.positions.iter()
             .filter(|q| q[1].abs() > m.internal_y_mm / 2.0 + 1e-9 && q[2] > m.base_thickness_mm + 1e-9)
             .map(|q| q[2]).fold(f64::INFINITY, f64::min);
-        prop_assert!((lowest + coated / 2.0 - (m.base_thickness_mm + a.thickness_mm / 2.0)).abs() < 1e-9);
+        prop_assert!((lowest - seat).abs() < 1e-9);
+        prop_assert!((lowest + coated / 2.0 - (m.base_thickness_mm + a.thickness_mm / 2.0)).abs() <= h / 2.0 + 1e-9);
     }
 }
 

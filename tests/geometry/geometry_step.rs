@@ -1,7 +1,8 @@
 //! The STEP files checked by an outside CAD kernel: OpenCASCADE's DRAW interpreter
-//! (Debian package `occt-draw`) reads each shipped part's STEP, `checkshape` must find
-//! it valid, and the volume OpenCASCADE integrates on the exact B-rep (`vprops`) must
-//! equal our closed-form volume.
+//! (Debian package `occt-draw`) reads each shipped part's STEP and each assembled
+//! module's, `checkshape` must find it valid, and the volume OpenCASCADE integrates on
+//! the exact B-rep (`vprops`) must equal our closed-form volume (for the assembly, the
+//! sum of its parts').
 //!
 //! `.ci/run` installs `occt-draw`, so in CI (`CI` set) a missing checker fails the
 //! test; elsewhere it is skipped with a notice. The reader must also report no error
@@ -69,6 +70,26 @@ fn opencascade_reads_every_step_as_a_valid_solid_of_the_exact_volume() {
     for (_, design) in load_designs(&designs_dir()).unwrap() {
         let out = tmp.path().join(&design.name);
         let r = build_design(&design, &out, None, None).unwrap();
+        // The assembled module: one file, a solid per part, their volumes summed.
+        if !r.fibers.is_empty() {
+            let mut kinds = Vec::new();
+            let total: f64 = r
+                .parts
+                .iter()
+                .filter(|p| p.kind.part().in_module())
+                .filter(|p| {
+                    let first = !kinds.contains(&p.kind);
+                    kinds.push(p.kind);
+                    first
+                })
+                .map(|p| p.exact_volume_mm3)
+                .sum();
+            checks.push((
+                format!("{} assembled module", design.name),
+                out.join("module-assembled.step"),
+                total,
+            ));
+        }
         let mut seen = Vec::new();
         for p in &r.parts {
             if seen.contains(&p.kind) {
@@ -129,5 +150,5 @@ fn opencascade_reads_every_step_as_a_valid_solid_of_the_exact_volume() {
             "{what}: OpenCASCADE volume {mass} vs exact {exact}"
         );
     }
-    assert!(checks.len() >= 14);
+    assert!(checks.len() >= 17, "{} STEP files checked", checks.len());
 }

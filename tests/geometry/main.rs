@@ -11,4 +11,5 @@ mod geometry;
 mod geometry_parts;
 mod geometry_props;
 mod geometry_step;
+mod parts_rules;
 mod prusaslicer;

@@ -1,7 +1,9 @@
 //! Every distinct part of the shipped designs sliced by PrusaSlicer (Debian package
 //! `prusa-slicer`, 2.5), as a lab would before printing: `--info` must find one
 //! manifold part with nothing to repair, and `--export-gcode` (the slicer's default
-//! 0.4 mm FDM profile) must write G-code with extrusion moves.
+//! 0.4 mm FDM profile) must write G-code with extrusion moves. Each design's
+//! `parts.3mf` must read back with one manifold object per printed piece at the
+//! manifest's volumes, and the mold's plate must slice at its stated layer height.
 //!
 //! `.ci/run` installs the slicer, so in CI (`CI` set) a missing slicer fails the test;
 //! elsewhere it is skipped with a notice. Slicing the 14 distinct parts takes about a
@@ -34,6 +36,7 @@ fn prusaslicer_slices_every_part_without_repair() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let mut sliced = 0;
+    let mut read_3mf = 0;
     for (_, design) in load_designs(&designs_dir()).unwrap() {
         let out = tmp.path().join(&design.name);
         let r = build_design(&design, &out, None, None).unwrap();
@@ -88,6 +91,84 @@ fn prusaslicer_slices_every_part_without_repair() {
             assert!(moves > 10, "{what}: {moves} extrusion moves");
             sliced += 1;
         }
+        // The 3MF plate read back: one object per printed piece, each one manifold
+        // part of the manifest's mesh volume.
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap())
+                .unwrap();
+        let plate = out.join("parts.3mf");
+        let o = Command::new("prusa-slicer")
+            .arg("--info")
+            .arg(&plate)
+            .output()
+            .unwrap();
+        let info = String::from_utf8_lossy(&o.stdout).to_string();
+        assert!(
+            o.status.success(),
+            "{}: --info on parts.3mf\n{info}",
+            design.name
+        );
+        let blocks: Vec<&str> = info.split("[parts.3mf]").skip(1).collect();
+        let pieces: usize = r
+            .parts
+            .iter()
+            .map(|p| p.kind.part().prints(&design, &p.name).len())
+            .sum();
+        assert_eq!(blocks.len(), pieces, "{}\n{info}", design.name);
+        // Each part's volume once per piece printed of it (a core per material, a
+        // plug per slit), in the manifest's order of parts.
+        let volumes: Vec<f64> = r
+            .parts
+            .iter()
+            .flat_map(|p| {
+                let listed = m["parts"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|q| q["name"] == p.name.as_str())
+                    .unwrap_or_else(|| panic!("{}: {} not in the manifest", design.name, p.name));
+                let n = p.kind.part().prints(&design, &p.name).len();
+                std::iter::repeat_n(listed["mesh_volume_mm3"].as_f64().unwrap(), n)
+            })
+            .collect();
+        assert_eq!(volumes.len(), pieces);
+        for (b, v) in blocks.iter().zip(&volumes) {
+            assert!(b.contains("manifold = yes"), "{}\n{b}", design.name);
+            let vol: f64 = b
+                .lines()
+                .find_map(|l| l.strip_prefix("volume ="))
+                .unwrap()
+                .trim()
+                .parse()
+                .unwrap();
+            assert!((vol - v).abs() < 1e-4 * v, "{}: {vol} vs {v}", design.name);
+        }
+        read_3mf += 1;
+        if design.array.is_some() {
+            // The mold's plate sliced at the layer height its seats are placed for.
+            let h = design.printer.layer_height_mm().to_string();
+            let o = Command::new("prusa-slicer")
+                .args([
+                    "--export-gcode",
+                    "--layer-height",
+                    &h,
+                    "--first-layer-height",
+                    &h,
+                ])
+                .arg(&plate)
+                .arg("--output")
+                .arg(out.join("plate.gcode"))
+                .output()
+                .unwrap();
+            let log = String::from_utf8_lossy(&o.stdout).to_string()
+                + &String::from_utf8_lossy(&o.stderr);
+            assert!(
+                o.status.success(),
+                "{}: slicing parts.3mf\n{log}",
+                design.name
+            );
+        }
     }
     assert!(sliced >= 14, "only {sliced} parts sliced");
+    assert_eq!(read_3mf, 5, "every shipped design's parts.3mf read");
 }

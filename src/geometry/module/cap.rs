@@ -8,7 +8,7 @@ use super::section::{at, band_sides, disc, ring_ccw, ring_cw, sector, O, S2};
 use super::volume::{capped_cylinder_volume, ring_volume, slice_area, sphere_z};
 use crate::geometry::brep::{Assembler, BrepError, Seg};
 use crate::geometry::design_profile::DesignProfile;
-use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::registry::{BuiltSolid, PartKind, Print, PrintablePart};
 use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::Design;
@@ -247,6 +247,17 @@ impl PrintablePart for CapPart {
             .module
             .iter()
             .map(|m| m.cap_material.clone())
+            .collect()
+    }
+
+    fn prints(&self, design: &Design, _name: &str) -> Vec<Print> {
+        design
+            .module
+            .iter()
+            .map(|m| Print {
+                label: "cap".into(),
+                material: Some(m.cap_material.clone()),
+            })
             .collect()
     }
 

@@ -8,7 +8,7 @@ use super::section::{at, band_sides, ring_ccw, ring_cw, sector, O, S2};
 use super::volume::{capped_cylinder_volume, slice_area, sphere_z};
 use crate::geometry::brep::{Assembler, BrepError};
 use crate::geometry::design_profile::DesignProfile;
-use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::registry::{BuiltSolid, PartKind, Print, PrintablePart};
 use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::Design;
@@ -299,6 +299,18 @@ impl PrintablePart for CorePart {
             .iter()
             .flat_map(|m| &m.cores)
             .map(|c| format!("{} ({})", c.material, c.name))
+            .collect()
+    }
+
+    fn prints(&self, design: &Design, _name: &str) -> Vec<Print> {
+        design
+            .module
+            .iter()
+            .flat_map(|m| &m.cores)
+            .map(|c| Print {
+                label: format!("core-{}", c.name),
+                material: Some(c.material.clone()),
+            })
             .collect()
     }
 

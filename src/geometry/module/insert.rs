@@ -1,22 +1,25 @@
-//! The insert (PSC-solid): a solid cylinder with a spherical top and an apex flat, an
-//! axial bore for the reference fiber and a slot in its base through which that fiber
-//! bends out.
+//! The insert (PSC-solid): a solid cylinder with a spherical top and a whole apex flat
+//! (the force contact), an axial bore from its base for the reference fiber, a closed
+//! chamber at the bore's top in which the reference grating hangs free, and a slot in
+//! its base through which that fiber bends out.
 
 use super::angles::Cuts;
-use super::revolve::{domed_wall, revolve_chain, wall, MIN_SEGMENT_MM};
-use super::section::{at, band_sides, ring_ccw, ring_cw, S2};
+use super::revolve::{domed_wall, revolve_chain, wall};
+use super::section::{at, band_sides, disc, ring_ccw, ring_cw, S2};
 use super::volume::{capped_cylinder_volume, slice_area, sphere_z};
 use crate::geometry::brep::{Assembler, BrepError};
 use crate::geometry::design_profile::DesignProfile;
-use crate::geometry::registry::{BuiltSolid, PartKind, PrintablePart};
+use crate::geometry::registry::{BuiltSolid, PartKind, Print, PrintablePart};
 use crate::geometry::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::{Design, Insert};
 use std::f64::consts::PI;
 use truck_modeling::Vector3;
 
-/// The insert: solid cylinder with a spherical top and an apex flat, an axial bore for
-/// the reference fiber, and a slot in its base through which that fiber bends out.
+/// The insert: solid cylinder with a spherical top and a whole apex flat, an axial bore
+/// for the reference fiber up to the reference chamber (see
+/// [`ReferenceSpan`](crate::profile::ReferenceSpan)), and a slot in its base through
+/// which that fiber bends out.
 pub fn insert(p: &ModuleProfile, pp: &PartsProfile, part: &str) -> Result<BuiltSolid, BrepError> {
     let mut asm = Assembler::new(part);
     let r = p.insert_radius_mm;
@@ -63,24 +66,44 @@ pub fn insert(p: &ModuleProfile, pp: &PartsProfile, part: &str) -> Result<BuiltS
         (r * (th - bo).cos(), r * (th - bo).sin()),
     ));
     asm.plane("slot roof", &[at(&roof, hs)], -Vector3::unit_z())?;
-    // Above the roof: cylinder, dome, apex flat (if the bore leaves one) and the bore.
-    let top_r = a.max(rb);
-    let z_top = sphere_z(p, rho, top_r);
-    let chain = domed_wall(r, hs, zj, rho, (top_r, z_top), true);
+    // Above the roof: cylinder, dome and a whole apex flat.
+    let z_top = sphere_z(p, rho, a);
+    let chain = domed_wall(r, hs, zj, rho, (a, z_top), true);
     revolve_chain(&mut asm, &chain, zc, ang)?;
-    if rb < a - MIN_SEGMENT_MM {
-        let l = [
-            at(&ring_ccw(ang, a, 0, 0), z_top),
-            at(&ring_cw(ang, rb, 0, 0), z_top),
-        ];
-        asm.plane("apex flat", &l, Vector3::unit_z())?;
+    disc(&mut asm, ang, a, z_top, true)?;
+    // Inside: the bore from the slot roof up to the reference chamber's floor (or, with
+    // no reference grating, a blind bore ending one bore diameter under the apex), and
+    // the closed chamber in which the grating hangs free.
+    let (bore_top, chamber) = match pp.reference_chamber {
+        Some(c) => (c.span.chamber_bottom_z_mm, Some(c)),
+        None => (z_top - 4.0 * rb, None),
+    };
+    revolve_chain(&mut asm, &[wall(rb, bore_top, rb, hs, -1.0)], zc, ang)?;
+    let mut cavity = PI * rb * rb * (bore_top - hs);
+    match chamber {
+        Some(c) => {
+            let (rc, z0, z1) = (
+                c.radius_mm,
+                c.span.chamber_bottom_z_mm,
+                c.span.chamber_top_z_mm,
+            );
+            let floor = [
+                at(&ring_ccw(ang, rc, 0, 0), z0),
+                at(&ring_cw(ang, rb, 0, 0), z0),
+            ];
+            asm.plane("chamber floor", &floor, Vector3::unit_z())?;
+            revolve_chain(&mut asm, &[wall(rc, z1, rc, z0, -1.0)], zc, ang)?;
+            disc(&mut asm, ang, rc, z1, false)?;
+            cavity += PI * rc * rc * (z1 - z0);
+        }
+        None => disc(&mut asm, ang, rb, bore_top, false)?,
     }
-    revolve_chain(&mut asm, &[wall(rb, z_top, rb, hs, -1.0)], zc, ang)?;
     let slot_area = slice_area(r, hw) - slice_area(rb, hw);
     Ok(BuiltSolid {
         solid: asm.solid()?,
         exact_volume_mm3: capped_cylinder_volume(r, 0.0, zj, rho, zc, z_top)
-            - PI * rb * rb * z_top
+            - PI * rb * rb * hs
+            - cavity
             - slot_area * hs,
     })
 }
@@ -122,6 +145,19 @@ impl PrintablePart for InsertPart {
             .flat_map(|m| &m.inserts)
             .filter(|i| name_of(i) == name)
             .map(|i| i.material.clone())
+            .collect()
+    }
+
+    fn prints(&self, design: &Design, name: &str) -> Vec<Print> {
+        design
+            .module
+            .iter()
+            .flat_map(|m| &m.inserts)
+            .filter(|i| name_of(i) == name)
+            .map(|i| Print {
+                label: name_of(i),
+                material: Some(i.material.clone()),
+            })
             .collect()
     }
 

@@ -3,7 +3,9 @@
 
 use super::rules::{positive, range, unique_name};
 use crate::spec::error::{err, SpecError};
-use crate::spec::{derived_slit_depth_mm, mold_slot_width_mm, ArrayGrating, Design, TactileArray};
+use crate::spec::{
+    derived_slit_depth_mm, mold_slot_width_mm, seat_z_mm, ArrayGrating, Design, TactileArray,
+};
 
 impl Design {
     /// Check an array: the sheet, its mold, the fibers' positions and the gratings.
@@ -42,10 +44,12 @@ impl Design {
         positive("array.thickness_mm", a.thickness_mm, 0.2, 100.0)?;
         if self.fiber_routing.coated_diameter_mm >= a.thickness_mm {
             return Err(err(
-                "fiber_routing.coated_diameter_mm",
+                "array.thickness_mm",
                 format!(
-                    "{} mm does not fit in the {} mm sheet",
-                    self.fiber_routing.coated_diameter_mm, a.thickness_mm
+                    "{} mm does not hold the {} mm coated fiber (fiber_routing.coated_diameter_mm) at mid-thickness; allowed above {} mm",
+                    a.thickness_mm,
+                    self.fiber_routing.coated_diameter_mm,
+                    self.fiber_routing.coated_diameter_mm
                 ),
             ));
         }
@@ -126,12 +130,12 @@ impl Design {
     /// as puts the fiber at the sheet's mid-thickness.
     fn validate_mold_slits(&self, a: &TactileArray) -> Result<(), SpecError> {
         let mold = &a.mold;
-        range(
-            "array.mold.slit_depth_mm",
-            mold.slit_depth_mm,
-            0.01,
-            mold.wall_height_mm - self.printer.min_wall_mm.min(mold.wall_height_mm / 2.0),
-        )?;
+        // The slit's depth follows from the stack (base, sheet, fiber): its bottom, the
+        // fiber's seat, lies above the cavity floor for every sheet thicker than the
+        // fiber, so the base below it is the wall it needs. A stated depth must be the
+        // derived one (checked below); no range of its own, so an error never names
+        // a depth the user did not write.
+        finite_stated("array.mold.slit_depth_mm", mold.slit_depth_mm)?;
         range(
             "array.mold.slit_width_mm",
             mold.slit_width_mm,
@@ -152,15 +156,36 @@ impl Design {
                 ),
             ));
         }
-        let depth = derived_slit_depth_mm(a, self.fiber_routing.coated_diameter_mm);
+        let coated = self.fiber_routing.coated_diameter_mm;
+        let depth = derived_slit_depth_mm(a, coated, &self.printer);
         if (mold.slit_depth_mm - depth).abs() > 1e-6 {
             return Err(err(
                 "array.mold.slit_depth_mm",
                 format!(
-                    "{} mm does not put the fiber at the sheet's mid-thickness; expected {depth:.4} mm (wall height − thickness/2 + coated diameter/2); leave the field out to derive it",
-                    mold.slit_depth_mm
+                    "{} mm does not put the fiber at the sheet's mid-thickness; expected {depth:.4} mm (down to the layer boundary of {} mm nearest base + thickness/2 − coated diameter/2); leave the field out to derive it",
+                    mold.slit_depth_mm,
+                    self.printer.layer_height_mm()
                 ),
             ));
+        }
+        if mold.plugs {
+            // The plug fills the pocket from the layer at or above the fiber's top to
+            // the wall top: it must be a printable block.
+            let seat = seat_z_mm(a, coated, &self.printer);
+            let ledge = self.printer.layer_at_or_above_mm(seat + coated);
+            let top = mold.base_thickness_mm + mold.wall_height_mm;
+            let need = self.printer.min_wall_mm.max(self.printer.layer_height_mm());
+            if top - ledge < need - 1e-9 {
+                return Err(err(
+                    "array.mold.wall_height_mm",
+                    format!(
+                        "{} mm leaves the slit's plug {:.3} mm high above the fiber, less than the printable {need} mm; raise the walls to at least {:.3} mm or set array.mold.plugs = false",
+                        mold.wall_height_mm,
+                        (top - ledge).max(0.0),
+                        ledge + need - mold.base_thickness_mm
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -215,5 +240,14 @@ impl Design {
         )?;
         positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
         Ok(())
+    }
+}
+
+/// A field derived when left out must, when stated, be a finite number.
+fn finite_stated(field: &str, v: f64) -> Result<(), SpecError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(err(field, format!("expected a finite number, got {v}")))
     }
 }

@@ -11,6 +11,7 @@ mod rules;
 
 use super::error::{err, SpecError};
 use super::Design;
+pub use module::MIN_UNDERCUT_PER_RESOLUTION;
 pub use rules::{positive, range};
 
 impl Design {

@@ -5,6 +5,11 @@ use super::rules::{finite, positive, range, unique_name};
 use crate::spec::error::{err, SpecError};
 use crate::spec::{Design, GratingRole, Module, ModuleGrating, Snap};
 
+/// Smallest snap undercut per unit of the printer's resolution: the crest and the
+/// pillar faces may each print half a resolution off, so an undercut of 1.5 × the
+/// resolution keeps at least half a resolution of catch in the worst case.
+pub const MIN_UNDERCUT_PER_RESOLUTION: f64 = 1.5;
+
 impl Design {
     /// Check a module: its shell, pillars, snap-fit, cores, inserts and gratings.
     pub(super) fn validate_module(&self, m: &Module) -> Result<(), SpecError> {
@@ -48,17 +53,10 @@ impl Design {
         range("module.dome_height_mm", m.dome_height_mm, 0.1 * r, r)?;
         range("module.cap_wall_mm", m.cap_wall_mm, min_wall, 0.25 * r)?;
         range("module.core_wall_mm", m.core_wall_mm, min_wall, 0.25 * r)?;
-        range(
-            "module.cap_core_clearance_mm",
-            m.cap_core_clearance_mm,
-            0.0,
-            2.0,
-        )?;
-        range(
+        self.fit_clearance("module.cap_core_clearance_mm", m.cap_core_clearance_mm)?;
+        self.fit_clearance(
             "module.core_insert_clearance_mm",
             m.core_insert_clearance_mm,
-            0.0,
-            2.0,
         )?;
         self.material(&m.cap_material, "module.cap_material")?;
         let c = &m.contact;
@@ -71,7 +69,7 @@ impl Design {
             )?;
         }
         if let Some(g) = c.dome_clearance_mm {
-            range("module.contact.dome_clearance_mm", g, 0.0, 2.0)?;
+            self.fit_clearance("module.contact.dome_clearance_mm", g)?;
         }
         if let Some(a) = c.dome_contact_radius_mm {
             positive("module.contact.dome_contact_radius_mm", a, 1e-3, 0.5 * r)?;
@@ -79,7 +77,25 @@ impl Design {
         Ok(())
     }
 
-    /// The pillars: count, groove and fiber hole sized to leave printable walls.
+    /// A fit clearance: 0 (a press fit) or at least the printer's resolution (a gap
+    /// narrower than the printer resolves prints closed or not at all), at most 2 mm.
+    fn fit_clearance(&self, field: &str, c: f64) -> Result<(), SpecError> {
+        range(field, c, 0.0, 2.0)?;
+        let res = self.printer.resolution_mm;
+        if c > 0.0 && c < res - 1e-12 {
+            return Err(err(
+                field,
+                format!(
+                    "{c} mm is a gap the printer cannot make (resolution {res} mm): use 0 for a press fit or at least {res} mm"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The pillars: count, then their size (first, so a pillar too small for its
+    /// groove and hole is named as such), the groove, and the fiber hole: at least the
+    /// fiber plus the printer's resolution, at most what leaves printable walls.
     fn validate_pillars(&self, m: &Module) -> Result<(), SpecError> {
         let min_wall = self.printer.min_wall_mm;
         let r = m.outer_diameter_mm / 2.0;
@@ -95,12 +111,6 @@ impl Design {
             pl.first_pillar_angle_deg,
         )?;
         positive(
-            "module.pillars.fiber_hole_diameter_mm",
-            pl.fiber_hole_diameter_mm,
-            0.13,
-            5.0,
-        )?;
-        positive(
             "module.pillars.groove_depth_mm",
             pl.groove_depth_mm,
             0.05,
@@ -112,14 +122,35 @@ impl Design {
             0.1,
             10.0,
         )?;
-        // The groove must leave printable walls on both sides of it.
-        let max_groove_w = pl.width_mm - 2.0 * min_wall;
-        if pl.groove_width_mm > max_groove_w {
+        let coated = self.fiber_routing.coated_diameter_mm;
+        let passage = self.printer.min_passage_mm(coated);
+        positive(
+            "module.pillars.fiber_hole_diameter_mm",
+            pl.fiber_hole_diameter_mm,
+            0.13,
+            5.0,
+        )?;
+        // The pillar must hold the narrowest passable hole between two printable walls,
+        // radially below its groove and tangentially, and the groove between walls.
+        let min_height = pl.groove_depth_mm + passage + 2.0 * min_wall;
+        positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
+        if pl.height_mm < min_height - 1e-12 {
             return Err(err(
-                "module.pillars.groove_width_mm",
+                "module.pillars.height_mm",
                 format!(
-                    "{} mm leaves pillar walls thinner than the printer minimum {min_wall} mm; allowed up to {max_groove_w:.3} mm (pillar width − 2 × min wall)",
-                    pl.groove_width_mm
+                    "{} mm cannot hold its groove and fiber hole: at least {min_height:.3} mm (groove depth {} mm + the smallest fiber hole {passage:.3} mm + 2 × min wall {min_wall} mm)",
+                    pl.height_mm, pl.groove_depth_mm
+                ),
+            ));
+        }
+        let min_width = pl.groove_width_mm.max(passage) + 2.0 * min_wall;
+        positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
+        if pl.width_mm < min_width - 1e-12 {
+            return Err(err(
+                "module.pillars.width_mm",
+                format!(
+                    "{} mm cannot hold its groove ({} mm) and fiber hole ({passage:.3} mm at least) between printable walls: at least {min_width:.3} mm (the wider of the two + 2 × min wall {min_wall} mm)",
+                    pl.width_mm, pl.groove_width_mm
                 ),
             ));
         }
@@ -128,27 +159,36 @@ impl Design {
             return Err(err(
                 "module.pillars.groove_width_mm",
                 format!(
-                    "the cap's alignment pillar (groove width − 2 × clearance = {:.3} mm) is thinner than the printer minimum {min_wall} mm",
-                    pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm
+                    "the cap's alignment pillar (groove width − 2 × clearance = {:.3} mm) is thinner than the printer minimum {min_wall} mm; allowed from {:.3} mm",
+                    pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm,
+                    min_wall + 2.0 * m.cap_core_clearance_mm
                 ),
             ));
         }
-        // The fiber hole sits between the core wall and the groove bottom.
-        let web = pl.height_mm - pl.groove_depth_mm;
-        let max_hole_radial = web - 2.0 * min_wall;
+        // The minimum passage: the fiber plus what the printer resolves.
+        if pl.fiber_hole_diameter_mm < passage - 1e-12 {
+            return Err(err(
+                "module.pillars.fiber_hole_diameter_mm",
+                format!(
+                    "{} mm does not pass the {coated} mm coated fiber: a fiber passage needs at least the fiber + the printer's resolution {} mm = {passage:.3} mm",
+                    pl.fiber_hole_diameter_mm, self.printer.resolution_mm
+                ),
+            ));
+        }
+        // The fiber hole sits between the core wall and the groove bottom; both bounds
+        // are at least the passage once the pillar's size has passed.
+        let max_hole_radial = pl.height_mm - pl.groove_depth_mm - 2.0 * min_wall;
         let max_hole_tangential = pl.width_mm - 2.0 * min_wall;
         let max_hole = max_hole_radial.min(max_hole_tangential);
         if pl.fiber_hole_diameter_mm > max_hole {
             return Err(err(
                 "module.pillars.fiber_hole_diameter_mm",
                 format!(
-                    "{} mm is wider than its pillar allows; allowed up to {max_hole:.3} mm (pillar height − groove depth − 2 × min wall = {max_hole_radial:.3}, pillar width − 2 × min wall = {max_hole_tangential:.3})",
+                    "{} mm is wider than its pillar allows; allowed {passage:.3} to {max_hole:.3} mm (pillar height − groove depth − 2 × min wall = {max_hole_radial:.3}, pillar width − 2 × min wall = {max_hole_tangential:.3})",
                     pl.fiber_hole_diameter_mm
                 ),
             ));
         }
-        positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
-        positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
         Ok(())
     }
 
@@ -220,13 +260,22 @@ impl Design {
                         "a strain grating needs its centre height",
                     )
                 })?;
+                if g.tail_mm.is_some() {
+                    return Err(err(
+                        &f("tail_mm"),
+                        "the tail past the grating is a reference grating's; a strain grating's fiber ends in its hole",
+                    ));
+                }
             }
             GratingRole::TemperatureReference => {
                 if g.pillar.is_some() || g.center_height_mm.is_some() {
                     return Err(err(
                         &f("pillar"),
-                        "a temperature-reference grating hangs free in the top hole: give it no pillar or centre height",
+                        "a temperature-reference grating hangs free on the module's axis: give it no pillar or centre height",
                     ));
+                }
+                if let Some(t) = g.tail_mm {
+                    positive(&f("tail_mm"), t, 0.5, 50.0)?;
                 }
             }
         }
@@ -237,11 +286,16 @@ impl Design {
     /// with a permissible strain to size it by.
     fn validate_snap(&self, m: &Module, s: &Snap) -> Result<(), SpecError> {
         let res = self.printer.resolution_mm;
+        // Each of the two mating surfaces (the bead's crest, the pillar faces) prints
+        // within half the resolution of where it is drawn, so an undercut y may print
+        // as y − res; at least half the resolution must be left to catch.
+        let min_undercut = MIN_UNDERCUT_PER_RESOLUTION * res;
+        // (1e-9 mm of slack: 1.5 × 0.05 is 0.07500000000000001 in floating point.)
         positive(
             "module.snap.undercut_mm",
             s.undercut_mm,
-            res.min(0.01),
-            m.pillars.groove_depth_mm.max(res),
+            min_undercut - 1e-9,
+            m.pillars.groove_depth_mm.max(min_undercut),
         )?;
         positive("module.snap.bead_height_mm", s.bead_height_mm, res, 20.0)?;
         range(

@@ -28,6 +28,14 @@ pub(super) fn finite(field: &str, v: f64) -> Result<(), SpecError> {
 /// `v` must be finite and within [lo, hi].
 pub fn range(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> {
     finite(field, v)?;
+    if hi < lo {
+        // The rest of the design leaves this field no room: say so rather than give
+        // a range that ends below its start.
+        return Err(err(
+            field,
+            format!("{v}: no value fits the rest of the design (it would need to be at least {lo:.4} and at most {hi:.4}); change the fields that bound it"),
+        ));
+    }
     if v < lo || v > hi {
         return Err(err(
             field,
