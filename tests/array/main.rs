@@ -10,3 +10,4 @@ mod array;
 mod array_cli;
 mod array_scaling;
 mod live;
+mod live_end;
