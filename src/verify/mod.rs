@@ -3,6 +3,7 @@
 pub mod analysis;
 pub mod assign;
 pub mod calibrate;
+pub mod files;
 pub mod fit;
 pub mod lag;
 pub mod report;
