@@ -1,39 +1,99 @@
-"""fbgforge from Python: fiber Bragg grating tactile sensors, designed, built, modelled
-and verified by the same library as the ``fbgforge`` command line.
+"""fbgforge from Python: fiber Bragg grating tactile sensors designed, built, modelled,
+verified and read live by the same library as the ``fbgforge`` command line.
 
-Every function calls one library use case. Results are the JSON documents the command
-line prints (as dicts) or numpy arrays; errors are :class:`FbgforgeError` (a
-``ValueError``) with the command line's message. Heavy work releases the GIL.
+Every function calls one library use case and returns a small result object: numpy
+arrays with the grating and cell names beside them, ``to_dict()`` for the document
+the command line's ``--json`` prints, ``to_pandas()`` for a table. Shifts are matched
+to gratings by name (see :func:`reconstruct`). Errors subclass the built-ins they
+are kinds of (:mod:`fbgforge.errors`). Heavy work runs with the GIL released.
 
 >>> import fbgforge
->>> d = fbgforge.load_design("designs/clip-on-34mm.toml")
->>> rows = fbgforge.predict(d, force_n=1.0, case="II")["predictions"]
+>>> d = fbgforge.shipped_design("clip-on-34mm")
+>>> p = fbgforge.predict(d, force_n=1.0, case="II")
+>>> p.gratings[0], round(float(p.sensitivity_pm_per_n[0]), 1)
+('lambda_11', -165.5)
 """
 
-from ._fbgforge import (
-    Design,
-    FbgforgeError,
-    __version__,
+from . import errors
+from ._api import (
     build,
-    load_design,
+    calibrate_array,
     methods,
+    optimize,
+    place,
     predict,
     read_log,
     reconstruct,
     sensing_matrix,
+    sweep,
+    synth_log,
     verify,
+)
+from ._design import Design, load_design, shipped_design, shipped_designs
+from ._fbgforge import __version__
+from ._live import LiveStream, live
+from ._results import (
+    BuildResult,
+    LiveFrame,
+    Optimization,
+    PeakLog,
+    Placement,
+    Prediction,
+    Reconstruction,
+    SensingMatrix,
+    Sweep,
+    SynthLog,
+    VerifyReport,
+)
+from .errors import (
+    DesignError,
+    FbgforgeError,
+    FileError,
+    InputError,
+    InstrumentLostError,
+    MissingFileError,
 )
 
 __all__ = [
-    "Design",
-    "FbgforgeError",
     "__version__",
-    "build",
+    # designs
+    "Design",
     "load_design",
-    "methods",
+    "shipped_design",
+    "shipped_designs",
+    # use cases
     "predict",
+    "sweep",
+    "build",
     "read_log",
-    "reconstruct",
-    "sensing_matrix",
     "verify",
+    "synth_log",
+    "sensing_matrix",
+    "calibrate_array",
+    "methods",
+    "reconstruct",
+    "optimize",
+    "place",
+    "live",
+    # results
+    "Prediction",
+    "Sweep",
+    "BuildResult",
+    "PeakLog",
+    "VerifyReport",
+    "SynthLog",
+    "SensingMatrix",
+    "Reconstruction",
+    "Optimization",
+    "Placement",
+    "LiveStream",
+    "LiveFrame",
+    # errors
+    "errors",
+    "FbgforgeError",
+    "InputError",
+    "DesignError",
+    "FileError",
+    "MissingFileError",
+    "InstrumentLostError",
 ]

@@ -1,10 +1,20 @@
-"""Type stubs of the fbgforge Python package (see docs/python.md)."""
+"""Type stubs of the fbgforge Python package (see docs/python.md). A test checks that
+every public function here has the runtime's parameters, kinds and defaults."""
 
 import os
-from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
+from pathlib import Path
+from typing import Any, Dict, Iterator, List, Literal, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
+
+from . import errors as errors
+from .errors import DesignError as DesignError
+from .errors import FbgforgeError as FbgforgeError
+from .errors import FileError as FileError
+from .errors import InputError as InputError
+from .errors import InstrumentLostError as InstrumentLostError
+from .errors import MissingFileError as MissingFileError
 
 __version__: str
 
@@ -14,26 +24,176 @@ Case = Literal["I", "II", "i", "ii", "1", "2"]
 Fidelity = Literal["auto", "closed-form", "fem"]
 LogFormat = Literal["enlight-peaks", "enlight-sensors", "imon", "csv"]
 DateOrder = Literal["dmy", "mdy"]
-
-class FbgforgeError(ValueError):
-    """An fbgforge error: the message names the file, line or field and what was
-    expected, as the command line prints it."""
+Names = Union[str, Sequence[str]]
+FloatArray = npt.NDArray[np.float64]
 
 class Design:
-    """A loaded, checked design spec (``load_design``)."""
-
+    @classmethod
+    def from_toml(cls, text: str) -> "Design": ...
+    @classmethod
+    def from_dict(cls, spec: Mapping[str, Any]) -> "Design": ...
     @property
     def name(self) -> str: ...
-    @property
-    def path(self) -> str: ...
     @property
     def kind(self) -> Literal["module", "array", "module+array"]: ...
     @property
     def gratings(self) -> List[str]: ...
+    @property
+    def cells(self) -> List[str]: ...
+    @property
+    def path(self) -> Optional[Path]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    def to_toml(self) -> str: ...
+    def replace(self, changes: Optional[Mapping[str, Any]] = None, /, **fields: Any) -> "Design": ...
+    def __eq__(self, other: object) -> bool: ...
+    def __hash__(self) -> int: ...
+
+def load_design(path: PathLike) -> Design: ...
+def shipped_design(name: str) -> Design: ...
+def shipped_designs() -> List[str]: ...
+
+class Result:
     def to_dict(self) -> Dict[str, Any]: ...
 
-def load_design(path: PathLike) -> Design:
-    """Load and check a design spec (TOML); FbgforgeError names the field or line."""
+class Prediction(Result):
+    rows: List[Dict[str, Any]]
+    force_n: float
+    gratings: List[str]
+    cases: List[str]
+    inserts: List[Optional[str]]
+    cores: List[str]
+    models: List[str]
+    sensitivity_pm_per_n: FloatArray
+    shift_pm: FloatArray
+    strain: FloatArray
+    band_low_pm_per_n: FloatArray
+    band_high_pm_per_n: FloatArray
+    def to_pandas(self) -> Any: ...
+
+class BuildResult(Result):
+    dir: Path
+    files: List[Path]
+    manifest: Dict[str, Any]
+    parts: List[str]
+    def to_pandas(self) -> Any: ...
+
+class PeakLog(Result):
+    source: str
+    format: str
+    clock: str
+    channels: int
+    column_names: List[str]
+    rows: int
+    time_s: FloatArray
+    row_start: npt.NDArray[np.int64]
+    line_of_row: npt.NDArray[Any]
+    peaks: Dict[str, npt.NDArray[Any]]
+    warnings: Dict[str, Dict[str, Any]]
+    def to_pandas(self) -> Any: ...
+
+class VerifyReport(Result):
+    verdict: str
+    case: Optional[str]
+    measurement: Dict[str, Any]
+    gratings: List[str]
+    measured_sensitivity_pm_per_n: FloatArray
+    predicted_sensitivity_pm_per_n: FloatArray
+    statuses: List[str]
+    def to_pandas(self) -> Any: ...
+
+class SensingMatrix(Result):
+    def __init__(
+        self,
+        sensitivity_pm_per_g: npt.ArrayLike,
+        gratings: Optional[Sequence[str]] = None,
+        cells: Optional[Sequence[str]] = None,
+        ulimit_g: float = 250.0,
+    ) -> None: ...
+    gratings: List[str]
+    cells: List[str]
+    sensitivity_pm_per_g: FloatArray
+    shape: Tuple[int, int]
+    ulimit_g: float
+    warnings: Dict[str, Dict[str, Any]]
+    def to_pandas(self) -> Any: ...
+
+class Reconstruction(Result):
+    loads_g: FloatArray
+    cells: List[str]
+    gratings: List[str]
+    time_s: Optional[FloatArray]
+    per_frame: Dict[str, Any]
+    converged: npt.NDArray[np.bool_]
+    residual_pm: FloatArray
+    flags: List[List[str]]
+    certified: npt.NDArray[np.bool_]
+    suspect_gratings: List[Dict[str, Any]]
+    setup: Dict[str, Any]
+    method: str
+    reason: str
+    def __getattr__(self, name: str) -> Any: ...
+    def to_pandas(self) -> Any: ...
+
+class Sweep(Result):
+    param: str
+    label: str
+    force_n: float
+    series: List[str]
+    values: FloatArray
+    shift_pm: FloatArray
+    sensitivity_pm_per_n: FloatArray
+    band_low_pm_per_n: FloatArray
+    band_high_pm_per_n: FloatArray
+    def to_pandas(self) -> Any: ...
+
+class Optimization(Result):
+    design: Design
+    outcome: Dict[str, Any]
+    design_path: Path
+    report_dir: Path
+    objective_unit: Optional[str]
+    objective: float
+    def to_pandas(self) -> Any: ...
+
+class Placement(Optimization):
+    start_objective: float
+    best_objective: float
+    gratings: List[str]
+    start_y_mm: FloatArray
+    y_mm: FloatArray
+
+class SynthLog(Result):
+    log: Path
+    force: Optional[Path]
+    truth: Optional[Path]
+    matrix_truth: Optional[Path]
+    truth_values: Optional[Dict[str, Any]]
+    matrix: Optional[SensingMatrix]
+
+class LiveFrame(Result):
+    outputs: List[str]
+    serial: Optional[int]
+    time_s: float
+    loads_g: Optional[FloatArray]
+    forces_n: Optional[FloatArray]
+    converged: Optional[bool]
+    residual_pm: Optional[float]
+    delta_t_k: Optional[float]
+    latency_us: float
+    age_us: float
+    values: FloatArray
+    def __getattr__(self, name: str) -> Any: ...
+
+class LiveStream(Iterator[LiveFrame]):
+    info: Optional[Dict[str, Any]]
+    bad: List[Tuple[str, str]]
+    events: List[Tuple[str, str]]
+    summary: Optional[Dict[str, Any]]
+    def __iter__(self) -> "LiveStream": ...
+    def __next__(self) -> LiveFrame: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> "LiveStream": ...
+    def __exit__(self, *exc: Any) -> bool: ...
 
 def predict(
     design: DesignLike,
@@ -41,30 +201,19 @@ def predict(
     delta_t_k: float = 0.0,
     case: Optional[Case] = None,
     fidelity: Fidelity = "auto",
-) -> Dict[str, Any]:
-    """Each strain grating's K (pm/N) and shifts at ``force_n``: the dict
-    ``fbgforge predict --json`` prints (keys design, force_n, delta_t_k, fidelity,
-    predictions)."""
-
+    band: bool = True,
+) -> Prediction: ...
 def build(
     design: DesignLike,
     out_dir: PathLike,
     tolerance_mm: Optional[float] = None,
-    parts: Optional[Sequence[str]] = None,
-) -> Dict[str, Any]:
-    """Build the printable parts (STL, STEP, manifest.json) into ``out_dir``; returns
-    ``{"dir", "files", "manifest"}``."""
-
+    parts: Optional[Names] = None,
+) -> BuildResult: ...
 def read_log(
     path: PathLike,
     format: Optional[LogFormat] = None,
     date_order: Optional[DateOrder] = None,
-) -> Dict[str, Any]:
-    """Read an interrogator log. Keys: source, format, clock, channels, column_names,
-    rows, time_s (rows,), row_start (rows + 1,), line_of_row, warnings, and peaks: a
-    dict of equal-length columns row, time_s, channel, wavelength_nm
-    (``pandas.DataFrame(log["peaks"])``)."""
-
+) -> PeakLog: ...
 def verify(
     design: DesignLike,
     log: PathLike,
@@ -86,44 +235,135 @@ def verify(
     force_scale_to_n: Optional[float] = None,
     force_date_order: Optional[DateOrder] = None,
     report_dir: Optional[PathLike] = None,
-) -> Dict[str, Any]:
-    """Verify a printed part: the report ``fbgforge verify --json`` prints
-    (design, measurement, verdict)."""
-
-def sensing_matrix(design: DesignLike) -> Dict[str, Any]:
-    """The model sensing matrix of an array design: gratings, cells,
-    sensitivity_pm_per_g (gratings × cells ndarray), ulimit_g."""
-
-def methods() -> List[str]:
-    """Names of the reconstruction methods."""
-
-@overload
+) -> VerifyReport: ...
+def sensing_matrix(design: DesignLike) -> SensingMatrix: ...
+def methods() -> List[str]: ...
 def reconstruct(
-    a: npt.ArrayLike,
-    y: npt.ArrayLike,
-    method: Optional[str] = None,
+    model: Union[DesignLike, SensingMatrix, npt.ArrayLike],
+    shifts: Any,
     *,
-    ulimit_g: float = 250.0,
+    gratings: Optional[Union[Literal["matrix"], Sequence[str]]] = None,
+    method: Optional[str] = None,
+    ulimit_g: Optional[float] = None,
     min_load_g: Optional[float] = None,
     penalty: Optional[float] = None,
     max_loads: Optional[int] = None,
     resolution_pm: float = 0.5,
+    budget_us: float = 100.0,
     normalise: bool = True,
-    return_info: Literal[False] = False,
-) -> npt.NDArray[np.float64]: ...
-@overload
-def reconstruct(
-    a: npt.ArrayLike,
-    y: npt.ArrayLike,
-    method: Optional[str] = None,
+) -> Reconstruction: ...
+def sweep(
+    design: DesignLike,
+    param: str,
+    values: Optional[npt.ArrayLike] = None,
     *,
-    ulimit_g: float = 250.0,
-    min_load_g: Optional[float] = None,
-    penalty: Optional[float] = None,
-    max_loads: Optional[int] = None,
+    start: Optional[float] = None,
+    stop: Optional[float] = None,
+    steps: int = 41,
+    spacing: Literal["linear", "log"] = "linear",
+    force_n: float = 50.0,
+    case: Optional[Case] = None,
+    fidelity: Fidelity = "auto",
+    band: bool = True,
+) -> Sweep: ...
+def optimize(
+    design: DesignLike,
+    *,
+    objective: Literal["q", "sensitivity"] = "q",
+    vary: Names = ("outer_diameter_mm", "cap_wall_mm", "core_wall_mm", "dome_height_ratio"),
+    bounds: Optional[Union[str, Mapping[str, Tuple[float, float]]]] = None,
+    max_force_n: float = 20.0,
+    max_strain_microstrain: float = 3000.0,
+    min_clearance_mm: Optional[float] = None,
+    cores: Optional[Names] = None,
+    inserts: Optional[Names] = None,
+    materials: Optional[PathLike] = None,
+    measured: Optional[PathLike] = None,
+    solver: str = "both",
+    starts: int = 2,
+    max_iters: int = 200,
+    swarm_iters: int = 80,
+    seed: int = 2024,
+    landscape: Optional[Names] = None,
+    out: Optional[PathLike] = None,
+    report_dir: Optional[PathLike] = None,
+) -> Optimization: ...
+def place(
+    design: DesignLike,
+    *,
+    objective: Literal["protocol", "coherence"] = "protocol",
+    method: str = "wsupport",
+    vary_fibers: bool = False,
+    solver: str = "both",
+    max_iters: int = 90,
+    agreement_samples: int = 40,
+    out: Optional[PathLike] = None,
+    report_dir: Optional[PathLike] = None,
+) -> Placement: ...
+def synth_log(
+    design: DesignLike,
+    out_dir: PathLike,
+    *,
+    format: LogFormat = "enlight-peaks",
+    core: Optional[str] = None,
+    k_pm_per_n: float = 12.0,
+    rate_hz: float = 20.0,
+    force_rate_hz: float = 100.0,
+    pulses_n: Sequence[float] = (10, 20, 30, 40, 50, 25),
+    pulse_s: float = 4.0,
+    shape: Literal["haversine", "trapezoid", "staircase", "sine"] = "haversine",
+    ramp_s: float = 1.0,
+    steps: int = 10,
+    cycles: int = 8,
+    delay_s: float = 0.0,
+    rest_s: float = 6.0,
+    tau_s: float = 0.4,
+    instant_fraction: float = 0.3,
+    force_start_s: float = -1.7,
+    noise_pm: float = 0.3,
+    force_noise_n: float = 0.01,
+    drift_pm_per_s: float = 0.05,
+    temperature_ramp_k_per_s: float = 0.0,
+    dropout: float = 0.0,
+    seed: int = 1,
+    decimal_comma: bool = False,
+    bom: bool = False,
+    metadata_lines: int = 45,
+    twelve_hour: bool = False,
+    schedule: Optional[PathLike] = None,
+) -> SynthLog: ...
+def calibrate_array(
+    design: DesignLike,
+    log: PathLike,
+    schedule: PathLike,
+    *,
+    format: Optional[LogFormat] = None,
+    date_order: Optional[DateOrder] = None,
+    window_nm: Optional[float] = None,
+    out: Optional[PathLike] = None,
+) -> SensingMatrix: ...
+def live(
+    design: DesignLike,
+    source: PathLike,
+    *,
+    tare_frames: int = 50,
+    window_nm: Optional[float] = None,
+    method: Optional[str] = None,
     resolution_pm: float = 0.5,
-    normalise: bool = True,
-    return_info: Literal[True],
-) -> Tuple[npt.NDArray[np.float64], Dict[str, Any]]:
-    """Cell loads (g) from shifts (pm), y = A x: ``a`` gratings × cells (pm/g), ``y``
-    one frame or frames × gratings. Frames run in parallel with the GIL released."""
+    budget_us: float = 100.0,
+    core: Optional[str] = None,
+    case: Optional[Case] = None,
+    insert: Optional[str] = None,
+    fidelity: Fidelity = "auto",
+    k: Optional[Mapping[str, float]] = None,
+    calibration: Optional[PathLike] = None,
+    format: Optional[LogFormat] = None,
+    date_order: Optional[DateOrder] = None,
+    from_start: bool = False,
+    idle_exit_s: Optional[float] = None,
+    give_up_s: float = 30.0,
+    frames: Optional[int] = None,
+    duration_s: Optional[float] = None,
+    queue: int = 8192,
+    raise_on_lost: bool = True,
+) -> LiveStream: ...

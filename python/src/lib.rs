@@ -1,162 +1,61 @@
-//! Python bindings of fbgforge (PyO3): the library's use cases for labs that script
-//! their rigs in Python. Each function calls one library use case; results come back
-//! as the same JSON documents the command line prints (as dicts) or as numpy arrays;
-//! every error is an `fbgforge.FbgforgeError` (a `ValueError`) carrying the command
-//! line's message. Heavy work runs with the GIL released.
+//! Python bindings of fbgforge (PyO3): the compiled part `fbgforge._fbgforge` of the
+//! Python package. Each function takes a design handle ([`design::PyDesign`]) or paths
+//! plus the use case's settings, calls one library use case with the GIL released,
+//! and returns its result structs as Python objects ([`convert`]: dicts in field
+//! order, NaN kept, per-frame results as numpy columns). The Python layer
+//! (`python/fbgforge/`) matches names, builds the result objects and documents the
+//! API; errors are raised as the exceptions of `fbgforge.errors` ([`errors`]).
 
+mod convert;
+mod design;
+mod errors;
+mod live;
+
+use convert::{columns, to_py, value};
+use design::PyDesign;
+use errors::{err, err_named, input, must_exist};
 use fbgforge::array::kernel::matrix_from_design;
 use fbgforge::array::methods::{self as array_methods, Method, ReadingPrior};
 use fbgforge::array::problem::{default_min_load_g, SensingProblem};
-use fbgforge::array::reconstruct::{Frames, MethodRequest, DEFAULT_BUDGET_US};
-use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::array::reconstruct::{Frames, MethodRequest};
+use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, LogStyle, ReadOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::prediction::{FidelityChoice, PredictionRequest};
-use fbgforge::spec::Design;
 use fbgforge::verify::analysis::AnalysisOptions;
 use fbgforge::verify::VerifyRequest;
 use numpy::ndarray::{Array1, Array2};
-use numpy::{AllowTypeChange, IntoPyArray, PyArrayLike2, PyArrayLikeDyn, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 
-pyo3::create_exception!(
-    fbgforge,
-    FbgforgeError,
-    PyValueError,
-    "An fbgforge error: the message names the file, line or field and what was expected, as the command line prints it."
-);
-
-/// An anyhow error as the CLI prints it (`error: {e:#}` without the `error: `).
-fn err(e: anyhow::Error) -> PyErr {
-    FbgforgeError::new_err(format!("{e:#}"))
-}
-
-fn fail(msg: impl Into<String>) -> PyErr {
-    FbgforgeError::new_err(msg.into())
-}
-
-/// A serialisable value as Python objects, through the same JSON the CLI prints (so a
-/// NaN is `None` in both).
-fn to_py<'py, T: serde::Serialize>(py: Python<'py>, v: &T) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(v).map_err(|e| fail(e.to_string()))?;
-    py.import("json")?.call_method1("loads", (text,))
-}
-
-/// A loaded, checked design spec.
-#[pyclass(name = "Design", module = "fbgforge", frozen)]
-struct PyDesign {
-    path: PathBuf,
-    design: Design,
-}
-
-#[pymethods]
-impl PyDesign {
-    /// The design's name.
-    #[getter]
-    fn name(&self) -> String {
-        self.design.name.clone()
-    }
-
-    /// The file it was loaded from.
-    #[getter]
-    fn path(&self) -> String {
-        self.path.display().to_string()
-    }
-
-    /// `"module"`, `"array"` or `"module+array"`.
-    #[getter]
-    fn kind(&self) -> &'static str {
-        match (&self.design.module, &self.design.array) {
-            (Some(_), Some(_)) => "module+array",
-            (Some(_), None) => "module",
-            _ => "array",
-        }
-    }
-
-    /// Grating names, in spec order (module gratings, then array gratings).
-    #[getter]
-    fn gratings(&self) -> Vec<String> {
-        let mut v: Vec<String> = Vec::new();
-        if let Some(m) = &self.design.module {
-            v.extend(m.gratings.iter().map(|g| g.name.clone()));
-        }
-        if let Some(a) = &self.design.array {
-            v.extend(a.gratings.iter().map(|g| g.name.clone()));
-        }
-        v
-    }
-
-    /// The spec as a dict (the TOML's fields, defaults filled in).
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.design)
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "Design(name={:?}, kind={:?}, path={:?})",
-            self.design.name,
-            self.kind(),
-            self.path.display().to_string()
-        )
-    }
-}
-
-/// A design argument: a `Design` or a path.
-fn design_arg(obj: &Bound<'_, PyAny>) -> PyResult<(PathBuf, Design)> {
-    if let Ok(d) = obj.cast::<PyDesign>() {
-        let d = d.get();
-        return Ok((d.path.clone(), d.design.clone()));
-    }
-    let path = path_arg(obj)?;
-    let design = obj
-        .py()
-        .detach(|| fbgforge::design::load(&path))
-        .map_err(|e| err(e.into()))?;
-    Ok((path, design))
-}
-
-/// A path argument: `str` or `os.PathLike`.
-fn path_arg(obj: &Bound<'_, PyAny>) -> PyResult<PathBuf> {
-    let os = obj.py().import("os")?;
-    let p = os.call_method1("fspath", (obj,))?;
-    Ok(PathBuf::from(p.extract::<String>()?))
-}
-
-/// Load and check a design spec (TOML).
-#[pyfunction]
-fn load_design(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyDesign> {
-    let path = path_arg(path)?;
-    let design = py
-        .detach(|| fbgforge::design::load(&path))
-        .map_err(|e| err(e.into()))?;
-    Ok(PyDesign { path, design })
-}
-
-fn parse_case(case: Option<&str>) -> PyResult<Option<LoadCase>> {
+fn parse_case(py: Python<'_>, case: Option<&str>) -> PyResult<Option<LoadCase>> {
     match case.map(str::trim) {
         None => Ok(None),
         Some("I" | "i" | "1") => Ok(Some(LoadCase::I)),
         Some("II" | "ii" | "2") => Ok(Some(LoadCase::II)),
-        Some(other) => Err(fail(format!(
-            "case `{other}`: expected \"I\" (core on a solid insert) or \"II\" (hollow core)"
-        ))),
+        Some(other) => Err(input(
+            py,
+            format!(
+                "case `{other}`: expected \"I\" (core on a solid insert) or \"II\" (hollow core)"
+            ),
+        )),
     }
 }
 
-fn parse_fidelity(f: &str) -> PyResult<FidelityChoice> {
+fn parse_fidelity(py: Python<'_>, f: &str) -> PyResult<FidelityChoice> {
     match f {
         "auto" => Ok(FidelityChoice::Auto),
         "closed-form" => Ok(FidelityChoice::ClosedForm),
         "fem" => Ok(FidelityChoice::Fem),
-        other => Err(fail(format!(
-            "fidelity `{other}`: expected \"auto\", \"closed-form\" or \"fem\""
-        ))),
+        other => Err(input(
+            py,
+            format!("fidelity `{other}`: expected \"auto\", \"closed-form\" or \"fem\""),
+        )),
     }
 }
 
-fn parse_format(f: Option<&str>) -> PyResult<Option<LogFormat>> {
+fn parse_format(py: Python<'_>, f: Option<&str>) -> PyResult<Option<LogFormat>> {
     match f {
         None => Ok(None),
         Some(name) => LogFormat::ALL
@@ -164,100 +63,121 @@ fn parse_format(f: Option<&str>) -> PyResult<Option<LogFormat>> {
             .find(|x| x.name() == name)
             .map(Some)
             .ok_or_else(|| {
-                fail(format!(
-                    "format `{name}`: expected one of {}",
-                    LogFormat::ALL.map(|x| x.name()).join(", ")
-                ))
+                input(
+                    py,
+                    format!(
+                        "format `{name}`: expected one of {}",
+                        LogFormat::ALL.map(|x| x.name()).join(", ")
+                    ),
+                )
             }),
     }
 }
 
-fn parse_date_order(d: Option<&str>) -> PyResult<Option<DateOrder>> {
+fn parse_date_order(py: Python<'_>, d: Option<&str>) -> PyResult<Option<DateOrder>> {
     match d {
         None => Ok(None),
         Some("dmy") => Ok(Some(DateOrder::DayMonthYear)),
         Some("mdy") => Ok(Some(DateOrder::MonthDayYear)),
-        Some(other) => Err(fail(format!(
-            "date order `{other}`: expected \"dmy\" or \"mdy\""
-        ))),
+        Some(other) => Err(input(
+            py,
+            format!("date order `{other}`: expected \"dmy\" or \"mdy\""),
+        )),
     }
 }
 
-/// Predict each grating's sensitivity K (pm/N): the dict `fbgforge predict --json` prints.
+fn read_options(
+    py: Python<'_>,
+    format: Option<&str>,
+    date_order: Option<&str>,
+) -> PyResult<ReadOptions> {
+    Ok(ReadOptions {
+        format: parse_format(py, format)?,
+        date_order: parse_date_order(py, date_order)?,
+    })
+}
+
+fn finite(py: Python<'_>, name: &str, v: f64, unit: &str) -> PyResult<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(input(
+            py,
+            format!("{name} must be a finite number of {unit}, got {v}"),
+        ))
+    }
+}
+
+/// Predict each grating's K (pm/N): the rows of the model policy.
 #[pyfunction]
-#[pyo3(signature = (design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto"))]
+#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band))]
 fn predict<'py>(
     py: Python<'py>,
-    design: &Bound<'py, PyAny>,
+    design: &PyDesign,
     force_n: f64,
     delta_t_k: f64,
     case: Option<&str>,
     fidelity: &str,
+    band: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if !force_n.is_finite() {
-        return Err(fail(format!(
-            "--force-n must be a finite number of newtons, got {force_n}"
-        )));
-    }
-    if !delta_t_k.is_finite() {
-        return Err(fail(format!(
-            "--delta-t-k must be a finite number of kelvin, got {delta_t_k}"
-        )));
-    }
-    let (path, d) = design_arg(design)?;
-    let case = parse_case(case)?;
-    let choice = parse_fidelity(fidelity)?;
+    finite(py, "force_n", force_n, "newtons")?;
+    finite(py, "delta_t_k", delta_t_k, "kelvin")?;
+    let case = parse_case(py, case)?;
+    let choice = parse_fidelity(py, fidelity)?;
+    let d = &design.design;
     if case == Some(LoadCase::I) && d.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
-        return Err(fail(format!(
-            "{}: Case I needs a solid insert, but the design lists none under [[module.inserts]]",
-            path.display()
-        )));
+        return Err(input(
+            py,
+            format!(
+                "design `{}`: Case I needs a solid insert, but the design lists none under [[module.inserts]]",
+                d.name
+            ),
+        ));
     }
     let rows = py
         .detach(|| {
             fbgforge::prediction::predict(
-                &d,
+                d,
                 &PredictionRequest {
                     force_n,
                     delta_t_k,
                     case,
                     fidelity: choice,
-                    band: true,
+                    band,
                     ..Default::default()
                 },
             )
         })
-        .map_err(|e| err(e.context(format!("{}: cannot predict", path.display()))))?;
-    // The document `fbgforge predict --json` prints.
-    let doc = serde_json::json!({
-        "design": d.name,
-        "force_n": force_n,
-        "delta_t_k": delta_t_k,
-        "fidelity": choice,
-        "predictions": rows,
-    });
-    to_py(py, &doc)
+        .map_err(|e| {
+            err(
+                py,
+                e.context(format!("design `{}`: cannot predict", d.name)),
+            )
+        })?;
+    to_py(py, &rows)
 }
 
-/// Build the printable parts (STL, STEP, manifest.json) into `out_dir`; returns the
-/// manifest as a dict plus the files written.
+/// Build the printable parts into `out_dir`: the build report and manifest.json.
 #[pyfunction]
-#[pyo3(signature = (design, out_dir, tolerance_mm=None, parts=None))]
+#[pyo3(signature = (design, out_dir, tolerance_mm, parts))]
 fn build<'py>(
     py: Python<'py>,
-    design: &Bound<'py, PyAny>,
-    out_dir: &Bound<'py, PyAny>,
+    design: &PyDesign,
+    out_dir: PathBuf,
     tolerance_mm: Option<f64>,
     parts: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let (_, d) = design_arg(design)?;
-    let dir = path_arg(out_dir)?;
+    let d = &design.design;
     let report = py
-        .detach(|| fbgforge::geometry::build_design(&d, &dir, tolerance_mm, parts.as_deref()))
-        .map_err(err)?;
+        .detach(|| fbgforge::geometry::build_design(d, &out_dir, tolerance_mm, parts.as_deref()))
+        .map_err(|e| err_named(py, e, &[("tolerance", "tolerance_mm")]))?;
     let manifest_path = report.dir.join("manifest.json");
-    let manifest = std::fs::read_to_string(&manifest_path)
-        .map_err(|e| fail(format!("cannot read {}: {e}", manifest_path.display())))?;
+    let manifest = std::fs::read_to_string(&manifest_path).map_err(|e| {
+        err(
+            py,
+            anyhow::Error::new(e).context(format!("cannot read {}", manifest_path.display())),
+        )
+    })?;
     let out = PyDict::new(py);
     out.set_item("dir", report.dir.display().to_string())?;
     out.set_item(
@@ -275,23 +195,20 @@ fn build<'py>(
     Ok(out.into_any())
 }
 
-/// Read an interrogator log (ENLIGHT Peaks or Sensors, I-MON, CSV) into numpy columns.
+/// Read an interrogator log into numpy columns.
 #[pyfunction]
-#[pyo3(signature = (path, format=None, date_order=None))]
+#[pyo3(signature = (path, format, date_order))]
 fn read_log<'py>(
     py: Python<'py>,
-    path: &Bound<'py, PyAny>,
+    path: PathBuf,
     format: Option<&str>,
     date_order: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let path = path_arg(path)?;
-    let opts = ReadOptions {
-        format: parse_format(format)?,
-        date_order: parse_date_order(date_order)?,
-    };
+    must_exist(py, &path, "log")?;
+    let opts = read_options(py, format, date_order)?;
     let log = py
         .detach(|| fbgforge::logs::read_peak_log(&path, &opts))
-        .map_err(err)?;
+        .map_err(|e| err(py, e))?;
     let rows = log.rows();
     let mut peak_row = Vec::with_capacity(log.peaks_nm.len());
     let mut peak_time = Vec::with_capacity(log.peaks_nm.len());
@@ -317,7 +234,6 @@ fn read_log<'py>(
         "line_of_row",
         Array1::from(log.line_of_row.clone()).into_pyarray(py),
     )?;
-    // One row per peak: `pandas.DataFrame(log["peaks"])` is the long table.
     let peaks = PyDict::new(py);
     peaks.set_item("row", Array1::from(peak_row).into_pyarray(py))?;
     peaks.set_item("time_s", Array1::from(peak_time).into_pyarray(py))?;
@@ -334,19 +250,17 @@ fn read_log<'py>(
     Ok(out.into_any())
 }
 
-/// Verify a printed part from its logs: the dict `fbgforge verify --json` prints.
+/// Verify a printed part from its logs: the report (and the report folder written).
 #[pyfunction]
-#[pyo3(signature = (design, log, force, *, case=None, insert=None, core=None,
-    k_tolerance=0.08, window_nm=None, clock_offset_s=None, force_start=None,
-    max_offset_s=60.0, resolution_pm=None, format=None, date_order=None,
-    force_time_column=None, force_force_column=None, force_scale_to_n=None,
-    force_date_order=None, report_dir=None))]
+#[pyo3(signature = (design_path, log, force, case, insert, core, k_tolerance, window_nm,
+    clock_offset_s, force_start, max_offset_s, resolution_pm, format, date_order,
+    force_time_column, force_force_column, force_scale_to_n, force_date_order, report_dir))]
 #[allow(clippy::too_many_arguments)]
 fn verify<'py>(
     py: Python<'py>,
-    design: &Bound<'py, PyAny>,
-    log: &Bound<'py, PyAny>,
-    force: &Bound<'py, PyAny>,
+    design_path: PathBuf,
+    log: PathBuf,
+    force: PathBuf,
     case: Option<&str>,
     insert: Option<String>,
     core: Option<String>,
@@ -362,24 +276,19 @@ fn verify<'py>(
     force_force_column: Option<String>,
     force_scale_to_n: Option<f64>,
     force_date_order: Option<&str>,
-    report_dir: Option<&Bound<'py, PyAny>>,
+    report_dir: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let design_path = match design.cast::<PyDesign>() {
-        Ok(d) => d.get().path.clone(),
-        Err(_) => path_arg(design)?,
-    };
-    let mut req = VerifyRequest::new(design_path, path_arg(log)?, path_arg(force)?);
-    req.read = ReadOptions {
-        format: parse_format(format)?,
-        date_order: parse_date_order(date_order)?,
-    };
+    must_exist(py, &log, "log")?;
+    must_exist(py, &force, "force log")?;
+    let mut req = VerifyRequest::new(design_path, log, force);
+    req.read = read_options(py, format, date_order)?;
     req.force_columns = ForceColumns {
         time: force_time_column,
         force: force_force_column,
         scale_to_n: force_scale_to_n,
-        date_order: parse_date_order(force_date_order)?,
+        date_order: parse_date_order(py, force_date_order)?,
     };
-    req.case = parse_case(case)?;
+    req.case = parse_case(py, case)?;
     req.insert = insert;
     req.analysis = AnalysisOptions {
         core,
@@ -390,7 +299,6 @@ fn verify<'py>(
     };
     req.k_tolerance = k_tolerance;
     req.force_start = force_start;
-    let report_dir = report_dir.map(path_arg).transpose()?;
     let report = py
         .detach(|| -> anyhow::Result<_> {
             let outcome = fbgforge::verify::run(&req)?;
@@ -399,15 +307,28 @@ fn verify<'py>(
             }
             Ok(outcome.report)
         })
-        .map_err(err)?;
+        .map_err(|e| {
+            err_named(
+                py,
+                e,
+                &[("window-nm", "window_nm"), ("max-offset-s", "max_offset_s")],
+            )
+        })?;
     to_py(py, &report)
 }
 
-/// The model sensing matrix of an array design: gratings, cells, A (pm/g), ulimit (g).
+/// The model sensing matrix of an array design.
 #[pyfunction]
-fn sensing_matrix<'py>(py: Python<'py>, design: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-    let (_, d) = design_arg(design)?;
-    let (m, ulimit_g) = matrix_from_design(&d).map_err(err)?;
+fn sensing_matrix<'py>(py: Python<'py>, design: &PyDesign) -> PyResult<Bound<'py, PyAny>> {
+    let (m, ulimit_g) = matrix_from_design(&design.design).map_err(|e| err(py, e))?;
+    matrix_dict(py, &m, Some(ulimit_g))
+}
+
+fn matrix_dict<'py>(
+    py: Python<'py>,
+    m: &fbgforge::array::SensingMatrix,
+    ulimit_g: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
     let a = &m.sensitivity_pm_per_g;
     let arr = Array2::from_shape_fn((a.nrows(), a.ncols()), |(i, j)| a[(i, j)]);
     let out = PyDict::new(py);
@@ -418,79 +339,98 @@ fn sensing_matrix<'py>(py: Python<'py>, design: &Bound<'py, PyAny>) -> PyResult<
     Ok(out.into_any())
 }
 
-/// Names of the reconstruction methods, and the one used when none is named for a
-/// matrix `A` (when given).
+/// The library's rule for named shift columns: for each grating, the column index;
+/// and the `time_s` column, if any.
+#[pyfunction]
+fn shift_columns(
+    py: Python<'_>,
+    names: Vec<String>,
+    gratings: Vec<String>,
+) -> PyResult<(Option<usize>, Vec<usize>)> {
+    fbgforge::array::io::shift_columns(&names, &gratings)
+        .map(|c| (c.time, c.gratings))
+        .map_err(|e| input(py, format!("shifts: {e}")))
+}
+
+/// Names of the reconstruction methods.
 #[pyfunction]
 fn methods() -> Vec<&'static str> {
     Method::ALL.iter().map(|m| m.name()).collect()
 }
 
-/// Reconstruct cell loads x (g) from grating shifts y (pm) with y = A x: `A` is
-/// gratings × cells (pm/g), `Y` one frame (1-D) or frames × gratings. Frames run in
-/// parallel with the GIL released. Returns loads (frames × cells, or 1-D for one
-/// frame), and with `return_info` also a dict of per-frame `converged`, `residual_pm`,
-/// `certified`, `chi2` and `flags` (a list of flag words per frame, empty when the
-/// frame can be trusted), the `suspect_gratings` left out (names `fbg<row>`), and
-/// the `method` and `penalty` used.
+/// Reconstruct cell loads (g) from shifts (pm): `y` is frames × gratings, its columns
+/// in the order of `gratings` (the matrix's rows). Returns (loads, per-frame columns,
+/// set-up).
 #[pyfunction]
-#[pyo3(signature = (a, y, method=None, *, ulimit_g=250.0, min_load_g=None, penalty=None,
-    max_loads=None, resolution_pm=0.5, normalise=true, return_info=false))]
+#[pyo3(signature = (a, gratings, y, method, ulimit_g, min_load_g, penalty, max_loads,
+    resolution_pm, budget_us, normalise))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
-    a: PyArrayLike2<'py, f64, AllowTypeChange>,
-    y: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    a: PyReadonlyArray2<'py, f64>,
+    gratings: Vec<String>,
+    y: PyReadonlyArray2<'py, f64>,
     method: Option<&str>,
     ulimit_g: f64,
     min_load_g: Option<f64>,
     penalty: Option<f64>,
     max_loads: Option<usize>,
     resolution_pm: f64,
+    budget_us: f64,
     normalise: bool,
-    return_info: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     if penalty.is_some() && method.is_none() {
-        return Err(fail(
-            "penalty is a setting of a named method: give method= as well (the default choice tunes its own)".to_string(),
+        return Err(input(
+            py,
+            "penalty is a setting of a named method: give method= as well (the default choice tunes its own)",
         ));
     }
     let av = a.as_array();
     let (m, n) = av.dim();
+    if gratings.len() != m {
+        return Err(input(
+            py,
+            format!(
+                "{} grating names for a sensing matrix of {m} rows",
+                gratings.len()
+            ),
+        ));
+    }
     let matrix = nalgebra::DMatrix::from_fn(m, n, |i, j| av[(i, j)]);
-    let one_frame = y.ndim() == 1;
     let yv = y.as_array();
-    let frames: Vec<Vec<f64>> = match yv.ndim() {
-        1 => vec![yv.iter().copied().collect()],
-        2 => yv
-            .outer_iter()
-            .map(|r| r.iter().copied().collect())
-            .collect(),
-        k => {
-            return Err(fail(format!(
-                "Y has {k} dimensions; expected one frame (gratings,) or frames × gratings"
-            )))
-        }
-    };
+    if yv.ncols() != m {
+        return Err(input(
+            py,
+            format!(
+                "a frame holds {} shifts but the sensing matrix has {m} gratings",
+                yv.ncols()
+            ),
+        ));
+    }
+    let frames: Vec<Vec<f64>> = yv.outer_iter().map(|r| r.to_vec()).collect();
     for (f, row) in frames.iter().enumerate() {
-        if row.len() != m {
-            return Err(fail(format!(
-                "a frame holds {} shifts but the sensing matrix has {m} gratings (Y must be frames × gratings; A is gratings × cells)",
-                row.len()
-            )));
-        }
         if let Some(g) = row.iter().position(|v| !v.is_finite()) {
-            return Err(fail(format!(
-                "Y[{f}, {g}] is {}; expected a finite shift in pm",
-                row[g]
-            )));
+            return Err(input(
+                py,
+                format!(
+                    "shifts of frame {f}, grating `{}`: {} is not a finite shift in pm",
+                    gratings[g], row[g]
+                ),
+            ));
         }
+    }
+    if !(budget_us.is_finite() && budget_us > 0.0) {
+        return Err(input(
+            py,
+            format!("budget_us must be a positive time in µs, got {budget_us}"),
+        ));
     }
     let problem = SensingProblem::new(matrix, ulimit_g, normalise)
         .and_then(|p| p.with_min_load_g(min_load_g.unwrap_or(default_min_load_g(ulimit_g))))
-        .map_err(|e| fail(e.to_string()))?;
+        .map_err(|e| input(py, errors::python_words(&e.to_string(), &[])))?;
     let max_loads = max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS);
     if max_loads == 0 {
-        return Err(fail("max_loads must be at least 1".to_string()));
+        return Err(input(py, "max_loads must be at least 1"));
     }
     let prior = ReadingPrior {
         max_loads,
@@ -498,87 +438,469 @@ fn reconstruct<'py>(
     };
     let request = match method {
         Some(name) => MethodRequest::Named {
-            method: Method::from_name(name).map_err(|e| fail(e.to_string()))?,
+            method: Method::from_name(name).map_err(|e| input(py, e.to_string()))?,
             penalty,
         },
-        None => MethodRequest::Default {
-            budget_us: DEFAULT_BUDGET_US,
-        },
+        None => MethodRequest::Default { budget_us },
     };
-    // A numpy matrix has no grating names: its rows are numbered as a matrix CSV
-    // without header is.
-    let gratings: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
     let done = py
         .detach(|| {
-            let frames = Frames {
-                gratings: &gratings,
-                shifts_pm: &frames,
-            };
             fbgforge::array::reconstruct(
                 &problem,
-                frames,
+                Frames {
+                    gratings: &gratings,
+                    shifts_pm: &frames,
+                },
                 &prior,
                 &request,
                 &fbgforge::progress::Quiet,
             )
         })
-        .map_err(|e| fail(e.to_string()))?;
+        .map_err(|e| input(py, errors::python_words(&e.to_string(), &[])))?;
     let results = &done.frames;
     let loads = Array2::from_shape_fn((results.len(), n), |(i, j)| results[i].loads_g[j]);
-    let loads: Bound<'py, PyAny> = if one_frame {
-        loads.row(0).to_owned().into_pyarray(py).into_any()
-    } else {
-        loads.into_pyarray(py).into_any()
+    // Every per-frame field but the loads, as columns (new fields come along).
+    let records = results.iter().map(value).collect::<PyResult<Vec<_>>>()?;
+    let per_frame = columns(py, &records, &["loads_g"])?;
+    let setup = PyDict::new(py);
+    setup.set_item("method", done.setup.method.name())?;
+    setup.set_item("reason", &done.setup.reason)?;
+    setup.set_item("penalty", done.setup.penalty())?;
+    setup.set_item("max_loads", prior.max_loads)?;
+    setup.set_item("resolution_pm", prior.resolution_pm)?;
+    setup.set_item("setup_ms", done.setup.setup_ms)?;
+    setup.set_item("time_per_frame_us", done.time_per_frame_us)?;
+    setup.set_item("threads", done.threads)?;
+    setup.set_item("choice", to_py(py, &done.setup.choice)?)?;
+    // Issue 24: the gratings left out as dead or stuck, and the flag counts.
+    setup.set_item("suspect_gratings", to_py(py, &done.suspect_gratings)?)?;
+    setup.set_item("flag_counts", to_py(py, &done.flag_counts)?)?;
+    Ok((loads.into_pyarray(py), per_frame, setup)
+        .into_pyobject(py)?
+        .into_any())
+}
+
+/// Sweep one parameter: the predicted shift and K of every series at each value.
+#[pyfunction]
+#[pyo3(signature = (design, param, values, start, stop, steps, spacing, force_n, case, fidelity, band))]
+#[allow(clippy::too_many_arguments)]
+fn sweep<'py>(
+    py: Python<'py>,
+    design: &PyDesign,
+    param: &str,
+    values: Option<Vec<f64>>,
+    start: Option<f64>,
+    stop: Option<f64>,
+    steps: usize,
+    spacing: &str,
+    force_n: f64,
+    case: Option<&str>,
+    fidelity: &str,
+    band: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    use fbgforge::model::sweep;
+    let renames = [("from", "start"), ("to", "stop")];
+    let p = sweep::find_param(param).map_err(|e| input(py, e.to_string()))?;
+    finite(py, "force_n", force_n, "newtons")?;
+    let values = match (values, start, stop) {
+        (Some(v), None, None) => {
+            if v.is_empty() {
+                return Err(input(py, "values is empty: give at least one value"));
+            }
+            if let Some((i, x)) = v
+                .iter()
+                .enumerate()
+                .find(|(_, x)| !(x.is_finite() && **x > 0.0))
+            {
+                return Err(input(
+                    py,
+                    format!(
+                        "values[{i}] = {x}: {} must be a finite number above 0",
+                        p.name
+                    ),
+                ));
+            }
+            v
+        }
+        (None, Some(a), Some(b)) => {
+            let linear = sweep::sweep_values(p, a, b, steps)
+                .map_err(|e| input(py, errors::python_words(&e.to_string(), &renames)))?;
+            match spacing {
+                "linear" => linear,
+                "log" => (0..steps)
+                    .map(|i| a * (b / a).powf(i as f64 / (steps - 1) as f64))
+                    .collect(),
+                other => {
+                    return Err(input(
+                        py,
+                        format!("spacing `{other}`: expected \"linear\" or \"log\""),
+                    ))
+                }
+            }
+        }
+        _ => {
+            return Err(input(
+                py,
+                format!(
+                    "give either values= or both start= and stop= for a sweep of {}",
+                    p.name
+                ),
+            ))
+        }
     };
-    if !return_info {
-        return Ok(loads);
+    let case = parse_case(py, case)?;
+    let d = &design.design;
+    if case == Some(LoadCase::I) && d.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
+        return Err(input(
+            py,
+            format!(
+                "design `{}`: Case I needs a solid insert, but the design lists none",
+                d.name
+            ),
+        ));
     }
-    let info = PyDict::new(py);
-    info.set_item("method", done.setup.method.name())?;
-    info.set_item("reason", &done.setup.reason)?;
-    info.set_item("max_loads", prior.max_loads)?;
-    info.set_item("penalty", done.setup.penalty())?;
-    info.set_item(
-        "converged",
-        Array1::from_iter(results.iter().map(|r| r.converged)).into_pyarray(py),
+    let choice = parse_fidelity(py, fidelity)?;
+    let r = py
+        .detach(|| {
+            let predictor = fbgforge::prediction::sweep_predictor_with_band(
+                choice,
+                case,
+                fbgforge::fem::FemOptions::default(),
+                band,
+            );
+            sweep::run_with(
+                d,
+                p,
+                &values,
+                force_n,
+                case,
+                predictor.as_deref(),
+                &fbgforge::progress::Quiet,
+            )
+        })
+        .map_err(|e| {
+            err_named(
+                py,
+                anyhow::Error::new(e).context(format!("design `{}`: sweep failed", d.name)),
+                &renames,
+            )
+        })?;
+    to_py(py, &r)
+}
+
+/// Optimise a module design: the outcome, the optimised design, where it was written.
+#[pyfunction]
+#[pyo3(signature = (design_path, objective, vary, bounds, max_force_n, max_strain_microstrain,
+    min_clearance_mm, cores, inserts, materials, measured, solver, starts, max_iters,
+    swarm_iters, seed, landscape, out, report_dir))]
+#[allow(clippy::too_many_arguments)]
+fn optimize<'py>(
+    py: Python<'py>,
+    design_path: PathBuf,
+    objective: &str,
+    vary: &str,
+    bounds: Option<&str>,
+    max_force_n: f64,
+    max_strain_microstrain: f64,
+    min_clearance_mm: Option<f64>,
+    cores: Option<Vec<String>>,
+    inserts: Option<Vec<String>>,
+    materials: Option<PathBuf>,
+    measured: Option<PathBuf>,
+    solver: &str,
+    starts: usize,
+    max_iters: u64,
+    swarm_iters: u64,
+    seed: u64,
+    landscape: Option<&str>,
+    out: Option<PathBuf>,
+    report_dir: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use fbgforge::optimize::module::{parse_bounds, ModuleSettings, Objective, Variable};
+    use fbgforge::optimize::run::{run_module, ModuleRequest};
+    use fbgforge::solvers::SolverKind;
+    let e = |e: anyhow::Error| err(py, e);
+    if let Some(p) = &materials {
+        must_exist(py, p, "materials")?;
+    }
+    if let Some(p) = &measured {
+        must_exist(py, p, "measured")?;
+    }
+    if max_iters == 0 || swarm_iters == 0 {
+        return Err(input(py, "max_iters and swarm_iters must be at least 1"));
+    }
+    if let Some(c) = min_clearance_mm.filter(|c| !(c.is_finite() && *c > 0.0)) {
+        return Err(input(
+            py,
+            format!("min_clearance_mm must be a positive number of mm, got {c}"),
+        ));
+    }
+    let mut settings = ModuleSettings {
+        objective: Objective::parse(objective).map_err(e)?,
+        max_force_n,
+        max_grating_strain: max_strain_microstrain * 1e-6,
+        min_fit_clearance_mm: min_clearance_mm,
+        vary: Variable::parse_list(vary).map_err(e)?,
+        bounds: bounds
+            .map(parse_bounds)
+            .transpose()
+            .map_err(e)?
+            .unwrap_or_default(),
+        cores,
+        inserts,
+        solvers: SolverKind::parse(solver).map_err(e)?,
+        extra_starts: starts,
+        seed,
+        ..ModuleSettings::default()
+    };
+    settings.run.max_iters = max_iters;
+    settings.run.swarm_iters = swarm_iters;
+    let req = ModuleRequest {
+        design: design_path,
+        materials,
+        settings,
+        measured,
+        landscape: landscape.map(Variable::parse_list).transpose().map_err(e)?,
+        out,
+        report_dir,
+    };
+    let run = py
+        .detach(|| run_module(&req, &fbgforge::progress::Quiet))
+        .map_err(|x| err(py, x))?;
+    let doc = PyDict::new(py);
+    doc.set_item("outcome", to_py(py, &run.outcome)?)?;
+    doc.set_item(
+        "design",
+        PyDesign {
+            design: run.outcome.design.clone(),
+        },
     )?;
-    info.set_item(
-        "residual_pm",
-        Array1::from_iter(results.iter().map(|r| r.residual_pm)).into_pyarray(py),
+    doc.set_item("design_path", run.design_path.display().to_string())?;
+    doc.set_item("report_dir", run.report_dir.display().to_string())?;
+    Ok(doc.into_any())
+}
+
+/// Optimise grating placement in a flat array.
+#[pyfunction]
+#[pyo3(signature = (design_path, objective, method, vary_fibers, solver, max_iters,
+    agreement_samples, out, report_dir))]
+#[allow(clippy::too_many_arguments)]
+fn place<'py>(
+    py: Python<'py>,
+    design_path: PathBuf,
+    objective: &str,
+    method: &str,
+    vary_fibers: bool,
+    solver: &str,
+    max_iters: u64,
+    agreement_samples: usize,
+    out: Option<PathBuf>,
+    report_dir: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use fbgforge::optimize::place::{PlaceObjective, PlaceSettings};
+    use fbgforge::optimize::run::{run_placement, PlaceRequest};
+    use fbgforge::solvers::SolverKind;
+    let e = |e: anyhow::Error| err(py, e);
+    if max_iters == 0 {
+        return Err(input(py, "max_iters must be at least 1"));
+    }
+    let mut settings = PlaceSettings {
+        objective: PlaceObjective::parse(objective).map_err(e)?,
+        method: Method::from_name(method).map_err(|x| input(py, x.to_string()))?,
+        vary_fibers,
+        solvers: SolverKind::parse(solver).map_err(e)?,
+        agreement_samples,
+        ..PlaceSettings::default()
+    };
+    settings.run.max_iters = max_iters;
+    settings.run.swarm_iters = max_iters;
+    let req = PlaceRequest {
+        design: design_path,
+        settings,
+        out,
+        report_dir,
+    };
+    let run = py
+        .detach(|| run_placement(&req, &fbgforge::progress::Quiet))
+        .map_err(|x| err(py, x))?;
+    let doc = PyDict::new(py);
+    doc.set_item("outcome", to_py(py, &run.outcome)?)?;
+    doc.set_item(
+        "design",
+        PyDesign {
+            design: run.outcome.design.clone(),
+        },
     )?;
-    // Issue 24: the per-frame trust the CLI and live carry.
-    info.set_item(
-        "certified",
-        Array1::from_iter(results.iter().map(|r| r.certified)).into_pyarray(py),
-    )?;
-    info.set_item(
-        "chi2",
-        Array1::from_iter(results.iter().map(|r| r.chi2)).into_pyarray(py),
-    )?;
-    let flags: Vec<Vec<&str>> = results.iter().map(|r| r.flags.words()).collect();
-    info.set_item("flags", flags)?;
-    let suspects: Vec<&str> = done
-        .suspect_gratings
-        .iter()
-        .map(|g| g.name.as_str())
-        .collect();
-    info.set_item("suspect_gratings", suspects)?;
-    Ok((loads, info).into_pyobject(py)?.into_any())
+    doc.set_item("design_path", run.design_path.display().to_string())?;
+    doc.set_item("report_dir", run.report_dir.display().to_string())?;
+    Ok(doc.into_any())
+}
+
+/// Write a synthetic log set (module pulses, or an array calibration run).
+#[pyfunction]
+#[pyo3(signature = (design, out_dir, format, settings, style))]
+fn synth_log<'py>(
+    py: Python<'py>,
+    design: &PyDesign,
+    out_dir: PathBuf,
+    format: &str,
+    settings: &Bound<'py, PyDict>,
+    style: &Bound<'py, PyDict>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use fbgforge::verify::files::{write_synth_log, SynthLogRequest, SynthRun};
+    use fbgforge::verify::synth::{shaped_train, PulseShape, SynthConfig};
+    let get = |k: &str| -> PyResult<Bound<'py, PyAny>> {
+        settings
+            .get_item(k)?
+            .ok_or_else(|| pyo3::exceptions::PyKeyError::new_err(k.to_string()))
+    };
+    let f = |k: &str| -> PyResult<f64> { get(k)?.extract() };
+    let format = parse_format(py, Some(format))?.expect("a format was named");
+    let style = LogStyle {
+        decimal_comma: style
+            .get_item("decimal_comma")?
+            .map_or(Ok(false), |v| v.extract())?,
+        bom: style.get_item("bom")?.map_or(Ok(false), |v| v.extract())?,
+        metadata_lines: style
+            .get_item("metadata_lines")?
+            .map_or(Ok(45), |v| v.extract())?,
+        twelve_hour: style
+            .get_item("twelve_hour")?
+            .map_or(Ok(false), |v| v.extract())?,
+    };
+    let schedule: Option<PathBuf> = get("schedule")?.extract()?;
+    let seed: u64 = get("seed")?.extract()?;
+    let run = match schedule {
+        Some(schedule) => {
+            must_exist(py, &schedule, "schedule")?;
+            SynthRun::ArrayCalibration {
+                schedule,
+                sample_rate_hz: f("rate_hz")?,
+                noise_pm: f("noise_pm")?,
+                drift_pm_per_s: f("drift_pm_per_s")?,
+                seed,
+            }
+        }
+        None => {
+            let pulse_s = f("pulse_s")?;
+            let rest_s = f("rest_s")?;
+            let ramp_s = f("ramp_s")?;
+            let shape = match get("shape")?.extract::<String>()?.as_str() {
+                "haversine" => PulseShape::Haversine,
+                "trapezoid" => PulseShape::Trapezoid { ramp_s },
+                "staircase" => PulseShape::Staircase {
+                    steps: get("steps")?.extract()?,
+                    ramp_s,
+                },
+                "sine" => PulseShape::Sine {
+                    cycles: get("cycles")?.extract()?,
+                },
+                other => {
+                    return Err(input(
+                        py,
+                        format!("shape `{other}`: expected \"haversine\", \"trapezoid\", \"staircase\" or \"sine\""),
+                    ))
+                }
+            };
+            let pulses_n: Vec<f64> = get("pulses_n")?.extract()?;
+            let pulses = shaped_train(&pulses_n, pulse_s, rest_s, 5.0, shape);
+            let duration_s = pulses
+                .last()
+                .map_or(30.0, |p| p.start_s + p.duration_s + rest_s);
+            SynthRun::Module(SynthConfig {
+                core: get("core")?.extract()?,
+                sensitivity_pm_per_n: f("k_pm_per_n")?,
+                sample_rate_hz: f("rate_hz")?,
+                force_rate_hz: f("force_rate_hz")?,
+                pulses,
+                duration_s,
+                tau_s: f("tau_s")?,
+                instant_fraction: f("instant_fraction")?,
+                transport_delay_s: f("delay_s")?,
+                force_start_s: f("force_start_s")?,
+                noise_pm: f("noise_pm")?,
+                force_noise_n: f("force_noise_n")?,
+                drift_pm_per_s: f("drift_pm_per_s")?,
+                temperature_ramp_k_per_s: f("temperature_ramp_k_per_s")?,
+                dropout_fraction: f("dropout")?,
+                seed,
+                ..Default::default()
+            })
+        }
+    };
+    let req = SynthLogRequest {
+        format,
+        out_dir,
+        style,
+        run,
+    };
+    let d = &design.design;
+    let files = py
+        .detach(|| write_synth_log(d, &req))
+        .map_err(|e| err(py, e))?;
+    to_py(py, &files)
+}
+
+/// Measure an array's sensing matrix from a calibration log and schedule.
+#[pyfunction]
+#[pyo3(signature = (design, log, schedule, format, date_order, window_nm, out))]
+#[allow(clippy::too_many_arguments)]
+fn calibrate_array<'py>(
+    py: Python<'py>,
+    design: &PyDesign,
+    log: PathBuf,
+    schedule: PathBuf,
+    format: Option<&str>,
+    date_order: Option<&str>,
+    window_nm: Option<f64>,
+    out: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyAny>> {
+    must_exist(py, &log, "log")?;
+    must_exist(py, &schedule, "schedule")?;
+    let read = read_options(py, format, date_order)?;
+    let d = &design.design;
+    let cal = py
+        .detach(|| -> anyhow::Result<_> {
+            let cal =
+                fbgforge::verify::files::calibrate_array(d, &log, &schedule, &read, window_nm)?;
+            if let Some(out) = &out {
+                fbgforge::array::io::write_matrix_with_comments(
+                    out,
+                    &cal.matrix,
+                    &[format!(
+                        "measured sensing matrix, pm/g, from {} and {}",
+                        log.display(),
+                        schedule.display()
+                    )],
+                )?;
+            }
+            Ok(cal)
+        })
+        .map_err(|e| err(py, e))?;
+    let m = matrix_dict(py, &cal.matrix, None)?;
+    m.set_item("warnings", to_py(py, &cal.warnings.counts)?)?;
+    Ok(m)
 }
 
 /// The compiled part of the `fbgforge` package.
 #[pymodule]
 fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("FbgforgeError", m.py().get_type::<FbgforgeError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyDesign>()?;
-    m.add_function(wrap_pyfunction!(load_design, m)?)?;
+    m.add_class::<live::LiveStream>()?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(read_log, m)?)?;
     m.add_function(wrap_pyfunction!(verify, m)?)?;
     m.add_function(wrap_pyfunction!(sensing_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(shift_columns, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(optimize, m)?)?;
+    m.add_function(wrap_pyfunction!(place, m)?)?;
+    m.add_function(wrap_pyfunction!(synth_log, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate_array, m)?)?;
+    m.add_function(wrap_pyfunction!(live::live_stream, m)?)?;
     Ok(())
 }

@@ -289,34 +289,10 @@ pub fn read_shifts_for(
         return read_shifts_numbers(path, gratings, &recs);
     }
     let (hline, header) = &recs[0];
-    let time_col = header.iter().position(|h| h.eq_ignore_ascii_case("time_s"));
-    let mut seen = HashSet::new();
-    for (k, h) in header.iter().enumerate() {
-        if Some(k) == time_col {
-            continue;
-        }
-        if !seen.insert(h.as_str()) {
-            bail!("{}:{hline}: column `{h}` appears twice", path.display());
-        }
-        if !gratings.iter().any(|g| g == h) {
-            bail!(
-                "{}:{hline}: column `{h}` is not a grating of the sensing matrix (its gratings: {})",
-                path.display(),
-                gratings.join(", ")
-            );
-        }
-    }
-    let mut cols = Vec::with_capacity(gratings.len());
-    for g in gratings {
-        match header.iter().position(|h| h == g) {
-            Some(k) => cols.push(k),
-            None => bail!(
-                "{}:{hline}: no column for grating `{g}` of the sensing matrix (header: {})",
-                path.display(),
-                header.join(",")
-            ),
-        }
-    }
+    let ShiftColumns {
+        time: time_col,
+        gratings: cols,
+    } = shift_columns(header, gratings).map_err(|e| anyhow!("{}:{hline}: {e}", path.display()))?;
     if recs.len() < 2 {
         bail!("{}: no frames after the header", path.display());
     }
@@ -344,6 +320,54 @@ pub fn read_shifts_for(
     Ok(ShiftStream {
         time_s: time_col.map(|_| times),
         frames_pm: frames,
+    })
+}
+
+/// Where each grating's shifts are among named columns.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ShiftColumns {
+    /// The `time_s` column (any case), if there is one.
+    pub time: Option<usize>,
+    /// For each grating of the matrix, in its row order, the column that holds it.
+    pub gratings: Vec<usize>,
+}
+
+/// Match named shift columns to a matrix's gratings: one column per grating, in any
+/// order, plus an optional `time_s`. Every other column, a repeated column and a
+/// grating without a column are refused. The one rule for a shifts file's header and
+/// for the Python binding's DataFrame columns.
+pub fn shift_columns(names: &[String], gratings: &[String]) -> Result<ShiftColumns, String> {
+    let time = names.iter().position(|h| h.eq_ignore_ascii_case("time_s"));
+    let mut seen = HashSet::new();
+    for (k, h) in names.iter().enumerate() {
+        if Some(k) == time {
+            continue;
+        }
+        if !seen.insert(h.as_str()) {
+            return Err(format!("column `{h}` appears twice"));
+        }
+        if !gratings.iter().any(|g| g == h) {
+            return Err(format!(
+                "column `{h}` is not a grating of the sensing matrix (its gratings: {})",
+                gratings.join(", ")
+            ));
+        }
+    }
+    let mut cols = Vec::with_capacity(gratings.len());
+    for g in gratings {
+        match names.iter().position(|h| h == g) {
+            Some(k) => cols.push(k),
+            None => {
+                return Err(format!(
+                    "no column for grating `{g}` of the sensing matrix (header: {})",
+                    names.join(",")
+                ))
+            }
+        }
+    }
+    Ok(ShiftColumns {
+        time,
+        gratings: cols,
     })
 }
 

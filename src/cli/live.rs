@@ -20,8 +20,19 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+/// Exit status of `fbgforge live` when the source was lost: reconnecting (or
+/// connecting) to the instrument was given up after `--give-up-s`, or the followed log
+/// could no longer be read. A supervisor restarts on it; 0 is a clean end.
+pub const EXIT_SOURCE_LOST: u8 = 3;
+
 /// Arguments of `fbgforge live`.
 #[derive(Debug, Args)]
+#[command(
+    after_help = "Exit status: 0 when the stream was read to its end or a limit (--frames, \
+--duration-s, --idle-exit-s, Ctrl-C); 1 for a bad request (design, options); 3 when the source \
+was lost: the instrument could not be (re)connected within --give-up-s, or the followed log \
+could no longer be read."
+)]
 pub struct LiveArgs {
     /// Design spec (TOML): an array (cell loads) or a module (force per grating).
     pub design: PathBuf,
@@ -136,8 +147,9 @@ fn stop_flag() -> Arc<AtomicBool> {
     stop
 }
 
-/// Run `fbgforge live`. Exit status 0 when the stream was read to its end (bad and
-/// dropped frames are reported, not fatal).
+/// Run `fbgforge live`. Exit status 0 when the stream was read to its end or a limit
+/// (bad and dropped frames are reported, not fatal), [`EXIT_SOURCE_LOST`] when the
+/// source was lost.
 pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
     let read = ReadOptions {
         format: a.format,
@@ -205,6 +217,9 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
     if a.jsonl {
         // The summary is the last JSON line; say it for a person too.
         eprintln!("{}", live::view::summary_text(&summary));
+    }
+    if summary.source_lost {
+        return Ok(ExitCode::from(EXIT_SOURCE_LOST));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -2,12 +2,12 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use fbgforge::logs::{self, num::DateOrder, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::verify::analysis::AnalysisOptions;
 use fbgforge::verify::report;
 use fbgforge::verify::verdict::{self, Status};
-use fbgforge::verify::{calibrate, synth};
+use fbgforge::verify::{files, synth};
 use fbgforge::verify::{VerifyOutcome, VerifyRequest};
 use std::path::{Path, PathBuf};
 
@@ -367,35 +367,24 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         metadata_lines: a.metadata_lines,
         twelve_hour: a.twelve_hour,
     };
-    let log_path = a.out.join(format!("log.{}", synth::extension(a.format)));
     if let Some(schedule) = &a.schedule {
-        let n_cells = design
-            .array
-            .as_ref()
-            .map_or(0, |x| (x.cells_x * x.cells_y) as usize);
-        let sched = calibrate::read_schedule(schedule, n_cells)?;
-        let matrix = calibrate::power_law_matrix(&design)?;
-        let log = calibrate::synth_calibration_log(
+        let files = files::write_synth_log(
             &design,
-            &matrix,
-            &sched,
-            a.rate_hz,
-            a.noise_pm,
-            a.drift_pm_per_s,
-            a.seed,
+            &files::SynthLogRequest {
+                format: a.format,
+                out_dir: a.out.clone(),
+                style,
+                run: files::SynthRun::ArrayCalibration {
+                    schedule: schedule.clone(),
+                    sample_rate_hz: a.rate_hz,
+                    noise_pm: a.noise_pm,
+                    drift_pm_per_s: a.drift_pm_per_s,
+                    seed: a.seed,
+                },
+            },
         )?;
-        let cfg = synth::SynthConfig {
-            sample_rate_hz: a.rate_hz,
-            ..Default::default()
-        };
-        synth::write_log(&log_path, a.format, &log, &cfg, &style)?;
-        let truth = a.out.join("matrix_truth.csv");
-        fbgforge::array::io::write_matrix_with_comments(
-            &truth,
-            &matrix,
-            &["synthetic truth: power-law kernel fitted to Table 1, about 44.7 pm·mm²/g · d^-2.05 (reference §2)".into()],
-        )?;
-        println!("wrote {} and {}", log_path.display(), truth.display());
+        let truth = files.matrix_truth.unwrap_or_default();
+        println!("wrote {} and {}", files.log.display(), truth.display());
         return Ok(());
     }
     let shape = match a.shape {
@@ -445,17 +434,20 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         grating_sensitivity_pm_per_n: grating_k,
         ..Default::default()
     };
-    let (log, force, mut truth) = synth::generate(&design, &cfg)?;
-    truth.clock_offset_s = synth::reported_offset_s(&cfg, a.format);
-    synth::write_log(&log_path, a.format, &log, &cfg, &style)?;
-    let force_path = a.out.join("force.csv");
-    synth::write_force_csv(&force_path, &force)?;
-    fbgforge::output::write_json(&a.out.join("truth.json"), &truth)?;
+    let files = files::write_synth_log(
+        &design,
+        &files::SynthLogRequest {
+            format: a.format,
+            out_dir: a.out.clone(),
+            style,
+            run: files::SynthRun::Module(cfg),
+        },
+    )?;
     println!(
         "wrote {}, {} and {}",
-        log_path.display(),
-        force_path.display(),
-        a.out.join("truth.json").display()
+        files.log.display(),
+        files.force.unwrap_or_default().display(),
+        files.truth.unwrap_or_default().display()
     );
     Ok(())
 }
@@ -490,14 +482,14 @@ pub struct CalibrateArrayArgs {
 /// Run `fbgforge calibrate-array`.
 pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
-    let n_cells = design
-        .array
-        .as_ref()
-        .map(|x| (x.cells_x * x.cells_y) as usize)
-        .with_context(|| format!("design `{}` has no [array] to calibrate", design.name))?;
-    let sched = calibrate::read_schedule(&a.schedule, n_cells)?;
-    let log = logs::read_peak_log(&a.log, &read_options(a.format, a.date_order))?;
-    let m = calibrate::calibrate(&design, &log, &sched, a.window_nm)?;
+    let cal = files::calibrate_array(
+        &design,
+        &a.log,
+        &a.schedule,
+        &read_options(a.format, a.date_order),
+        a.window_nm,
+    )?;
+    let (m, warnings) = (cal.matrix, cal.warnings);
     let out = a.out.clone().unwrap_or_else(|| {
         Path::new("out")
             .join(&design.name)
@@ -524,7 +516,7 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
         }
         println!();
     }
-    for (k, w) in &log.warnings.counts {
+    for (k, w) in &warnings.counts {
         println!("warning {k} ×{}: {}", w.count, w.first);
     }
     println!("wrote {}", out.display());

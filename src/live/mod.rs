@@ -69,6 +69,34 @@ impl LiveRequest {
 /// Frames handled per batch at most (the interpreter solves a batch in parallel).
 const BATCH: usize = 256;
 
+/// How far a stream's timestamps may be from this machine's clock and still be taken
+/// for the wall clock, s: above any plausible lag of a live stream, below the 15 min
+/// step of time zones (a log written in local time elsewhere is not the wall clock).
+pub const WALL_CLOCK_TOLERANCE_S: f64 = 300.0;
+
+/// Whether the stream's timestamps are this machine's wall clock, decided on the
+/// first frame that claims so after each (re)connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StreamClock {
+    Undecided,
+    Wall,
+    Other,
+}
+
+/// A span of seconds as a person reads it: `42.0 s`, `7.5 min`, `3.2 h`, `1.2 days`.
+fn span_text(s: f64) -> String {
+    let a = s.abs();
+    if a < 120.0 {
+        format!("{a:.1} s")
+    } else if a < 7200.0 {
+        format!("{:.1} min", a / 60.0)
+    } else if a < 2.0 * 86400.0 {
+        format!("{:.1} h", a / 3600.0)
+    } else {
+        format!("{:.1} days", a / 86400.0)
+    }
+}
+
 fn wall_now_s() -> f64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -130,6 +158,8 @@ struct Watch<'a> {
     first_frame: Option<Instant>,
     last_frame: Option<Instant>,
     ended: Option<String>,
+    source_lost: bool,
+    clock: StreamClock,
     prepared: Vec<Prepared>,
     meta: Vec<FrameMeta>,
     max_frames: Option<u64>,
@@ -162,6 +192,7 @@ impl Watch<'_> {
             }
             SourceEvent::Connected(what) => {
                 self.connections += 1;
+                self.clock = StreamClock::Undecided;
                 if self.connections > 1 {
                     self.stats.reconnects += 1;
                 }
@@ -181,6 +212,11 @@ impl Watch<'_> {
                 self.ended = Some(why);
                 Ok(())
             }
+            SourceEvent::Lost(why) => {
+                self.ended = Some(why);
+                self.source_lost = true;
+                Ok(())
+            }
         }
     }
 
@@ -189,6 +225,7 @@ impl Watch<'_> {
         self.first_frame.get_or_insert(f.received);
         self.last_frame = Some(f.received);
         self.stats.frames_in += 1;
+        let wall_clock = self.clock_is_wall(f)?;
         let (p, ambiguous) = self.interp.prepare(f);
         self.stats.ambiguous_frames += ambiguous as u64;
         match p {
@@ -197,7 +234,7 @@ impl Watch<'_> {
                 self.meta.push(FrameMeta {
                     serial: f.serial,
                     time_s: f.time_s,
-                    wall_clock: f.wall_clock,
+                    wall_clock,
                     received: f.received,
                 });
                 Ok(())
@@ -208,6 +245,33 @@ impl Watch<'_> {
             }
             Err(Skip::Bad(kind, message)) => self.bad(kind, message),
         }
+    }
+
+    /// Whether `f`'s time is this machine's wall clock, so that its age means
+    /// something: the source must say so, and the first such frame of a connection
+    /// must be within [`WALL_CLOCK_TOLERANCE_S`] of this machine's clock (else an
+    /// event says why no age is measured).
+    fn clock_is_wall(&mut self, f: &source::Frame) -> std::io::Result<bool> {
+        let Some(t) = f.time_s.filter(|_| f.wall_clock) else {
+            return Ok(false);
+        };
+        if self.clock == StreamClock::Undecided {
+            let behind_s = wall_now_s() - t;
+            if behind_s.abs() <= WALL_CLOCK_TOLERANCE_S {
+                self.clock = StreamClock::Wall;
+            } else {
+                self.clock = StreamClock::Other;
+                let side = if behind_s > 0.0 { "behind" } else { "ahead of" };
+                self.sink.event(
+                    "clock",
+                    &format!(
+                        "the stream's timestamps are {} {side} this machine's clock (another clock, or a log in another time zone): frame age is not measured",
+                        span_text(behind_s)
+                    ),
+                )?;
+            }
+        }
+        Ok(self.clock == StreamClock::Wall)
     }
 
     /// Count a bad frame by kind and pass it on.
@@ -290,6 +354,7 @@ impl Watch<'_> {
             design,
             source,
             ended: self.ended.take().unwrap_or_else(|| "stopped".into()),
+            source_lost: self.source_lost,
             elapsed_s,
             frames_in: stats.frames_in,
             frames_out: stats.frames_out,
@@ -340,6 +405,8 @@ pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Res
         first_frame: None,
         last_frame: None,
         ended: None,
+        source_lost: false,
+        clock: StreamClock::Undecided,
         prepared: Vec::with_capacity(BATCH),
         meta: Vec::with_capacity(BATCH),
         max_frames: req.max_frames,

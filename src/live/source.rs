@@ -21,7 +21,10 @@ pub struct Frame {
     pub serial: Option<u64>,
     /// The frame's own time, s (instrument timestamp or log time), if it has one.
     pub time_s: Option<f64>,
-    /// Whether `time_s` is wall-clock time since 1970 (so its age can be measured).
+    /// Whether `time_s` claims to be wall-clock time since 1970, read as it was made
+    /// (an instrument's timestamp, a row appended to a followed log; not a row
+    /// replayed from a log's past): its age may then be measured, if the clock agrees
+    /// with this machine's (the watch decides).
     pub wall_clock: bool,
     /// Peak wavelengths, nm.
     pub peaks_nm: Vec<f64>,
@@ -49,8 +52,11 @@ pub enum SourceEvent {
     Connected(String),
     /// The connection dropped; the source will try again.
     Disconnected(String),
-    /// The source has ended (end of input, or reconnecting was given up).
+    /// The source has ended: end of input, or a limit the request set.
     End(String),
+    /// The source is lost: (re)connecting was given up, or the file being followed
+    /// could no longer be read. Ends the watch, which reports it apart from an end.
+    Lost(String),
 }
 
 /// Where to read from.
@@ -290,6 +296,8 @@ fn tail_file(
         path.display(),
         reader.format().name()
     )));
+    // Rows already in the file when the watch began are its past, not the stream.
+    let live_from = file.metadata().map_or(u64::MAX, |m| m.len());
     let mut tail = Tail {
         path,
         read,
@@ -299,6 +307,8 @@ fn tail_file(
         offset,
         file,
         pending: Vec::new(),
+        pending_from: offset,
+        live_from,
         line_no: None,
     };
     let mut chunk = vec![0u8; 1 << 16];
@@ -310,7 +320,7 @@ fn tail_file(
         let n = match tail.read_more(&mut chunk) {
             Ok(n) => n,
             Err(e) => {
-                out.event(SourceEvent::End(format!(
+                out.event(SourceEvent::Lost(format!(
                     "cannot read {}: {e}",
                     path.display()
                 )));
@@ -330,6 +340,9 @@ fn tail_file(
             continue;
         }
         last_growth = Instant::now();
+        if tail.pending.is_empty() {
+            tail.pending_from = tail.offset;
+        }
         tail.offset += n as u64;
         tail.pending.extend_from_slice(&chunk[..n]);
         if !tail.send_complete_lines() {
@@ -368,7 +381,7 @@ fn wait_for_table(
                 match std::fs::File::open(path) {
                     Ok(f) => return Some((reader, offset, f)),
                     Err(e) => {
-                        out.event(SourceEvent::End(format!(
+                        out.event(SourceEvent::Lost(format!(
                             "cannot open {}: {e}",
                             path.display()
                         )));
@@ -401,6 +414,10 @@ struct Tail<'a> {
     file: std::fs::File,
     /// Bytes read after the last complete line.
     pending: Vec<u8>,
+    /// File offset of the first pending byte.
+    pending_from: u64,
+    /// File length when the watch began: rows before it are replayed, not live.
+    live_from: u64,
     /// Body line number of the last line, when reading from the table's start.
     line_no: Option<u64>,
 }
@@ -434,6 +451,7 @@ impl Tail<'_> {
             None => self.offset = 0,
         }
         self.pending.clear();
+        self.pending_from = self.offset;
         self.line_no = None;
         if let Ok(f) = std::fs::File::open(path) {
             self.file = f;
@@ -456,8 +474,11 @@ impl Tail<'_> {
         };
         let (path, out) = (self.path, self.out);
         let received = Instant::now();
+        let mut line_from = self.pending_from;
         // Line numbers are known only when reading from the table's start.
         for line in self.pending[..end].split(|&c| c == b'\n') {
+            let live = line_from >= self.live_from;
+            line_from += line.len() as u64 + 1;
             self.line_no =
                 self.line_no
                     .map(|l| l + 1)
@@ -471,7 +492,7 @@ impl Tail<'_> {
                 Ok(Some(row)) => out.frame(Frame {
                     serial: None,
                     time_s: Some(row.time_s),
-                    wall_clock: row.time_s > 1e8,
+                    wall_clock: live && row.time_s > 1e8,
                     peaks_nm: row.peaks_nm,
                     received,
                     origin,
@@ -486,6 +507,7 @@ impl Tail<'_> {
             }
         }
         self.pending.drain(..=end);
+        self.pending_from += end as u64 + 1;
         true
     }
 }
@@ -512,7 +534,7 @@ fn hyperion_client(address: &str, give_up_s: f64, out: &Outlet) {
                     } else {
                         "connecting"
                     };
-                    out.event(SourceEvent::End(format!(
+                    out.event(SourceEvent::Lost(format!(
                         "{msg}; gave up {what} after {give_up_s} s"
                     )));
                     return;

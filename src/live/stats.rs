@@ -150,6 +150,9 @@ pub struct LiveSummary {
     pub source: String,
     /// Why the run ended.
     pub ended: String,
+    /// Whether it ended because the source was lost ((re)connecting given up, the
+    /// followed file unreadable) rather than at its end or a limit.
+    pub source_lost: bool,
     /// Wall time from the first frame to the end, s.
     pub elapsed_s: f64,
     /// Frames read.
@@ -176,7 +179,8 @@ pub struct LiveSummary {
     pub flagged: u64,
     /// Receive → reading, µs.
     pub latency: LatencySummary,
-    /// Instrument timestamp → reading, µs (when the source carries wall-clock times).
+    /// Instrument timestamp → reading, µs (only where the stream's clock is this
+    /// machine's wall clock).
     pub age: LatencySummary,
 }
 

@@ -749,6 +749,7 @@ mod tests {
             reconnects: st.reconnects,
             not_converged: 0,
             flagged: 12,
+            source_lost: true,
             latency: st.latency.summary(),
             age: st.latency.summary(),
         };

@@ -4,6 +4,7 @@ pub mod analysis;
 pub mod assign;
 pub mod calibrate;
 pub mod charts;
+pub mod files;
 pub mod fit;
 pub mod force_check;
 pub mod lag;

@@ -72,7 +72,10 @@ fn synth_summary(mut child: Child) -> Value {
     serde_json::from_str(&rest).unwrap_or_else(|e| panic!("{e}: {rest}"))
 }
 
-/// Run `live --jsonl` to its end; returns every JSON line.
+/// Run `live --jsonl` to its end; returns every JSON line. A run from a network
+/// stream ends when the simulated instrument stops serving and reconnecting is given
+/// up: exit status 3 with `source_lost` in the summary (`tests/array/live_end.rs`);
+/// any other run ends with 0.
 fn live(args: &[&str], stdin: Option<&str>) -> Vec<Value> {
     let mut c = bin();
     c.arg("live").args(args).arg("--jsonl");
@@ -88,16 +91,22 @@ fn live(args: &[&str], stdin: Option<&str>) -> Vec<Value> {
         w.write_all(text.as_bytes()).unwrap();
     }
     let o = child.wait_with_output().unwrap();
-    assert!(
-        o.status.success(),
-        "live failed: {}",
+    let network = args.iter().any(|a| a.starts_with("tcp://"));
+    let want = if network { 3 } else { 0 };
+    assert_eq!(
+        o.status.code(),
+        Some(want),
+        "live: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    String::from_utf8(o.stdout)
+    let lines: Vec<Value> = String::from_utf8(o.stdout)
         .unwrap()
         .lines()
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
-        .collect()
+        .collect();
+    let summary = lines.iter().rfind(|v| v["type"] == "summary").unwrap();
+    assert_eq!(summary["source_lost"], network, "{summary}");
+    lines
 }
 
 fn of_type<'a>(lines: &'a [Value], t: &str) -> Vec<&'a Value> {

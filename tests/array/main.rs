@@ -12,3 +12,4 @@ mod array_exact;
 mod array_scaling;
 mod array_trust;
 mod live;
+mod live_end;

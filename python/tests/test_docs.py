@@ -1,0 +1,135 @@
+"""The documentation runs as written: every ```python block of README.md and
+docs/python.md, the README's shell examples that a new user types first, every
+docstring example (doctest), and the type stubs agree with the functions."""
+
+import ast
+import doctest
+import importlib
+import inspect
+import os
+import re
+import shlex
+import subprocess
+import sys
+
+import pytest
+
+import fbgforge
+from conftest import ROOT
+
+DOCS = [ROOT / "README.md", ROOT / "docs" / "python.md"]
+
+
+def fenced(path, lang):
+    """The fenced blocks of one language in a Markdown file: (line, code)."""
+    text = path.read_text()
+    out = []
+    for m in re.finditer(rf"^```{lang}\n(.*?)^```", text, re.S | re.M):
+        out.append((text[: m.start()].count("\n") + 1, m.group(1)))
+    return out
+
+
+BLOCKS = [(p, line, code) for p in DOCS for line, code in fenced(p, "python")]
+
+
+def test_the_docs_have_python_examples():
+    assert {p.name for p, _, _ in BLOCKS} == {"README.md", "python.md"}
+
+
+@pytest.mark.parametrize("path, line, code", BLOCKS, ids=[f"{p.name}:{l}" for p, l, _ in BLOCKS])
+def test_every_python_example_runs_as_written(path, line, code, tmp_path):
+    """Each block runs on its own in a fresh interpreter from the repository root,
+    as a reader would paste it (its files go to out/, as the command line's do)."""
+    script = tmp_path / "example.py"
+    script.write_text(code)
+    p = subprocess.run([sys.executable, str(script)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, f"{path.name}:{line}\n{code}\n{p.stderr}"
+
+
+def shell_examples():
+    """The README's install and quick-start commands that must work as written:
+    lines of its ```sh blocks that call `fbgforge` or `python`, with their
+    `# →` expected output when given."""
+    out = []
+    for line, code in fenced(ROOT / "README.md", "sh"):
+        for k, cmd in enumerate(code.splitlines()):
+            cmd = cmd.split("  #")[0].strip()
+            if cmd.startswith("fbgforge predict") or cmd.startswith("python -c"):
+                out.append((line + 1 + k, cmd))
+    return out
+
+
+@pytest.mark.parametrize("line, cmd", shell_examples(), ids=[str(l) for l, _ in shell_examples()])
+def test_the_readme_quick_start_commands_run(cli, line, cmd):
+    args = shlex.split(cmd)
+    if args[0] == "fbgforge":
+        args[0] = cli.exe
+    elif args[0] == "python":
+        args[0] = sys.executable
+    p = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, f"README.md:{line}: {cmd}\n{p.stderr}"
+
+
+MODULES = ["fbgforge", "fbgforge._design", "fbgforge._api", "fbgforge._live", "fbgforge._results", "fbgforge.errors"]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_every_docstring_example_runs(name):
+    """The numpydoc Examples sections are doctests, run from the repository root."""
+    mod = importlib.import_module(name)
+    finder = doctest.DocTestFinder()
+    tests = [t for t in finder.find(mod, name) if t.examples]
+    assert tests, f"{name} has no examples"
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    for t in tests:
+        runner.run(t)
+    result = runner.summarize(verbose=False)
+    assert result.failed == 0, f"{result.failed} of {result.attempted} examples failed in {name}"
+
+
+def test_every_public_function_has_a_numpydoc_docstring():
+    for name in fbgforge.__all__:
+        obj = getattr(fbgforge, name)
+        if inspect.isfunction(obj):
+            doc = inspect.getdoc(obj) or ""
+            for section in ("Parameters", "Returns", "Examples"):
+                if section == "Parameters" and not inspect.signature(obj).parameters:
+                    continue
+                assert f"{section}\n---" in doc, f"{name}: no {section} section"
+
+
+def stub_functions():
+    stub = ast.parse((ROOT / "python" / "fbgforge" / "__init__.pyi").read_text())
+    return {n.name: n for n in stub.body if isinstance(n, ast.FunctionDef)}, stub
+
+
+def test_the_type_stubs_match_the_functions():
+    funcs, stub = stub_functions()
+    defined = set(funcs) | {n.name for n in stub.body if isinstance(n, ast.ClassDef)}
+    defined |= {n.target.id for n in stub.body if isinstance(n, ast.AnnAssign)}
+    defined |= {a.asname or a.name for n in stub.body if isinstance(n, ast.ImportFrom) for a in n.names}
+    assert set(fbgforge.__all__) <= defined, set(fbgforge.__all__) - defined
+    for name, node in funcs.items():
+        real = inspect.signature(getattr(fbgforge, name))
+        a = node.args
+        stub_params = [(x.arg, "POSITIONAL_ONLY") for x in a.posonlyargs]
+        stub_params += [(x.arg, "POSITIONAL_OR_KEYWORD") for x in a.args]
+        stub_params += [(x.arg, "KEYWORD_ONLY") for x in a.kwonlyargs]
+        real_params = [(p.name, p.kind.name) for p in real.parameters.values()]
+        assert stub_params == real_params, name
+        defaults = [ast.literal_eval(d) for d in a.defaults] + [
+            None if d is None else ast.literal_eval(d) for d in a.kw_defaults
+        ]
+        real_defaults = [p.default for p in real.parameters.values() if p.default is not inspect.Parameter.empty]
+        assert [d for d in defaults if d is not None] == [d for d in real_defaults if d is not None], name
+    assert (ROOT / "python" / "fbgforge" / "py.typed").exists()
+
+
+def test_the_wheel_is_abi3_and_ships_its_stubs():
+    """One build serves every CPython ≥ 3.9: the extension is built for the stable
+    ABI (its file name carries `abi3`), and the stubs and py.typed are installed."""
+    ext = importlib.import_module("fbgforge._fbgforge").__file__
+    assert ".abi3." in os.path.basename(ext), ext
+    pkg = os.path.dirname(fbgforge.__file__)
+    assert os.path.exists(os.path.join(pkg, "__init__.pyi")) and os.path.exists(os.path.join(pkg, "py.typed"))
+    assert fbgforge.__version__ == "0.1.0"
