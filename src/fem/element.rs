@@ -296,9 +296,9 @@ pub fn stiffness(
     let parts = stiffness_parts(xy, formulation)?;
     let (mu, kappa) = (mat.shear_modulus_mpa(), mat.bulk_modulus_mpa());
     let mut k = [[0.0; 18]; 18];
-    for a in 0..18 {
-        for c in 0..18 {
-            k[a][c] = mu * parts.shear[a][c] + kappa * parts.bulk[a][c];
+    for ((row, shear), bulk) in k.iter_mut().zip(&parts.shear).zip(&parts.bulk) {
+        for ((v, s), b) in row.iter_mut().zip(shear).zip(bulk) {
+            *v = mu * s + kappa * b;
         }
     }
     Ok(k)

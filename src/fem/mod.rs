@@ -85,6 +85,10 @@ pub fn solve_configuration(
         .expect("one result per request")
 }
 
+/// A geometry's structure, or why it could not be built (kept as text: shared by
+/// every unit of the geometry).
+type BuiltStructure = Result<std::sync::Arc<solve::ProblemStructure>, String>;
+
 /// One solve of a batch: a level of one request (the fine or the coarse mesh of a
 /// Richardson pair, or the only one).
 struct Unit {
@@ -195,14 +199,9 @@ pub fn solve_configurations(
             .map_or(0, |m| m.problem.mesh.elements.len())
     };
     order.sort_by_key(|&g| std::cmp::Reverse(size(&geometries[g])));
-    let mut structures: Vec<
-        Option<(Result<std::sync::Arc<solve::ProblemStructure>, String>, f64)>,
-    > = (0..geometries.len()).map(|_| None).collect();
-    let made: Vec<(
-        usize,
-        Result<std::sync::Arc<solve::ProblemStructure>, String>,
-        f64,
-    )> = order
+    let mut structures: Vec<Option<(BuiltStructure, f64)>> =
+        (0..geometries.len()).map(|_| None).collect();
+    let made: Vec<(usize, BuiltStructure, f64)> = order
         .par_iter()
         .filter_map(|&g| {
             let geo = &geometries[g];
