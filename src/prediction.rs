@@ -20,14 +20,13 @@
 //! FE model keep those details but take K, strain and shifts from the FE solve. Each FE
 //! configuration (core, case, insert, reading) is solved once, at 1 N, in parallel.
 
-use crate::fem::{solve_configuration, ContactReading, FemOptions};
+use crate::fem::{solve_configuration, solve_configurations, ContactReading, FemOptions};
 use crate::model::{
     self, Configuration, DetailedPrediction, GratingPrediction, LoadCase, PredictOptions,
 };
 use crate::profile::ModuleProfile;
 use crate::spec::Design;
 use anyhow::{Context, Result};
-use rayon::prelude::*;
 use serde::Serialize;
 
 /// The closed form's error bound claimed by the paper.
@@ -161,10 +160,21 @@ fn solve_jobs(
         .module
         .as_ref()
         .context("the design has no [module] section")?;
-    jobs.par_iter()
+    // One batch: the jobs of one load case and reading share a mesh and a symbolic
+    // factorisation, equal problems one numeric factorisation (`fem::solve_configurations`).
+    let requests: Vec<(Configuration, FemOptions)> = jobs
+        .iter()
         .map(|j| {
-            let opt = fem_options.with_reading(m, j.reading, j.config.case);
-            let r = solve_configuration(design, &j.config, &opt).with_context(|| {
+            (
+                j.config.clone(),
+                fem_options.with_reading(m, j.reading, j.config.case),
+            )
+        })
+        .collect();
+    jobs.iter()
+        .zip(solve_configurations(design, &requests))
+        .map(|(j, r)| {
+            let r = r.with_context(|| {
                 format!(
                     "finite-element solve of {} ({})",
                     j.config.label(),

@@ -30,9 +30,12 @@ pub struct PredictArgs {
     /// Which model answers: `auto` uses the closed form inside its measured validity
     /// region (docs/model.md, "Where the closed form holds") and the finite-element
     /// model outside it, per loading case; `closed-form` and `fem` force one model.
+    /// `closed-form` runs no finite-element solve at all, so it has no band (the band's
+    /// readings are FE solves).
     #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
     pub fidelity: FidelityArg,
-    /// Skip the prediction band (two more finite-element solves per configuration).
+    /// Skip the prediction band (two more finite-element solves per configuration;
+    /// implied by `--fidelity closed-form`).
     #[arg(long)]
     pub no_band: bool,
     /// Print JSON instead of a table.
@@ -45,7 +48,7 @@ pub struct PredictArgs {
 pub enum FidelityArg {
     /// Closed form inside its measured validity region, finite elements outside.
     Auto,
-    /// The closed form for every row (microseconds).
+    /// The closed form for every row, no finite-element solve (microseconds; no band).
     ClosedForm,
     /// The finite-element model for every row (a fraction of a second per configuration).
     Fem,
@@ -196,7 +199,7 @@ fn print_predict_legend(band: bool, choice: FidelityChoice) {
             );
         }
         FidelityChoice::ClosedForm => {
-            println!("model: closed form forced (--fidelity closed-form).")
+            println!("model: closed form forced (--fidelity closed-form): no finite-element solve, so no band (--fidelity auto gives it).")
         }
         FidelityChoice::Fem => println!("model: finite elements forced (--fidelity fem)."),
     }
@@ -214,6 +217,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         );
     }
     let choice = FidelityChoice::from(a.fidelity);
+    // The band's readings are FE solves: the closed form alone runs none.
+    let band = !a.no_band && choice != FidelityChoice::ClosedForm;
     let rows = fbgforge::prediction::predict(
         &design,
         &fbgforge::prediction::PredictionRequest {
@@ -221,7 +226,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             delta_t_k: a.delta_t_k,
             case,
             fidelity: choice,
-            band: !a.no_band,
+            band,
             ..Default::default()
         },
     )
@@ -241,7 +246,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         "{}: predicted sensitivity at F = {} N",
         design.name, a.force_n
     );
-    let (band, temp) = (!a.no_band, a.delta_t_k != 0.0);
+    let temp = a.delta_t_k != 0.0;
     let mut notes = Footnotes::default();
     let mut models = Footnotes::default();
     print_predict_header(band, temp);

@@ -131,13 +131,13 @@ pub fn reduce(
     let m = rows.len();
     let mut flexibility = DMatrix::zeros(m, m);
     let mut observe_per_force = Vec::with_capacity(m);
-    for (j, rj) in rows.iter().enumerate() {
-        // A unit force pressing pair j is the transpose of its row: +n on b, −n on a.
-        let sol = factored.solve_loads(rj)?;
+    // A unit force pressing pair j is the transpose of its row: +n on b, −n on a. All
+    // pairs' unit forces are solved as one block of right-hand sides on the one factor.
+    for (j, sol) in factored.solve_load_cases(&rows)?.iter().enumerate() {
         for (i, ri) in rows.iter().enumerate() {
-            flexibility[(i, j)] = row_value(&sol, ri);
+            flexibility[(i, j)] = row_value(sol, ri);
         }
-        observe_per_force.push(observe(&sol)?);
+        observe_per_force.push(observe(sol)?);
     }
     // Symmetrise the round-off.
     let w = 0.5 * (&flexibility + flexibility.transpose());

@@ -174,16 +174,26 @@ pub fn strain_at(xy: &[[f64; 2]; 9], u: &[[f64; 2]; 9], xi: f64, eta: f64) -> [f
     e
 }
 
-/// Element stiffness (18 × 18, row-major, dofs [u_r0, u_z0, u_r1, …]), N/mm.
-pub fn stiffness(
+/// An element's stiffness split by modulus: K = μ · `shear` + κ · `bulk`, N/mm per MPa.
+/// Both parts depend on the element's shape only, so a change of moduli (a sweep over
+/// E, another core or insert on the same mesh) re-uses them.
+#[derive(Debug, Clone, Copy)]
+pub struct StiffnessParts {
+    /// Stiffness per unit shear modulus μ (the deviatoric energy 2μ dev ε : dev ε).
+    pub shear: [[f64; 18]; 18],
+    /// Stiffness per unit bulk modulus κ (the volumetric energy).
+    pub bulk: [[f64; 18]; 18],
+}
+
+/// The two parts of an element's stiffness ([`StiffnessParts`]), dofs
+/// [u_r0, u_z0, u_r1, …].
+pub fn stiffness_parts(
     xy: &[[f64; 2]; 9],
-    mat: ElasticConstants,
     formulation: Formulation,
-) -> Result<[[f64; 18]; 18], ElementError> {
-    let mu = mat.shear_modulus_mpa();
-    let kappa = mat.bulk_modulus_mpa();
+) -> Result<StiffnessParts, ElementError> {
     let (gp, gw) = GAUSS3;
-    let mut k = [[0.0; 18]; 18];
+    let mut shear = [[0.0; 18]; 18];
+    let mut bulk = [[0.0; 18]; 18];
     // Centroid and size for a well-scaled pressure basis {1, (r - rc)/h, (z - zc)/h}.
     let rc = xy[4][0];
     let zc = xy[4][1];
@@ -206,38 +216,44 @@ pub fn stiffness(
             sign = det.signum();
             let dv = 2.0 * PI * g.r_mm * g.det_j * gw[i] * gw[j];
             let b = b_matrix(&g);
-            // Deviatoric part: σ_dev = 2μ dev(ε); the shear row carries μ γ.
+            // Deviatoric part per unit μ: σ_dev = 2 dev(ε); the shear row carries γ.
             let mut db = [[0.0; 18]; 4];
+            let mut tr = [0.0; 18];
             for c in 0..18 {
-                let tr = b[0][c] + b[1][c] + b[2][c];
-                // Plain displacement element: the full volumetric term κ tr(ε).
-                let vol = if formulation == Formulation::Displacement {
-                    kappa * tr
-                } else {
-                    0.0
-                };
+                tr[c] = b[0][c] + b[1][c] + b[2][c];
                 for (row, brow) in db.iter_mut().zip(&b).take(3) {
-                    row[c] = 2.0 * mu * (brow[c] - tr / 3.0) + vol;
+                    row[c] = 2.0 * (brow[c] - tr[c] / 3.0);
                 }
-                db[3][c] = mu * b[3][c];
+                db[3][c] = b[3][c];
             }
+            // Both parts are symmetric: the upper triangle here, mirrored below.
             for a in 0..18 {
-                for c in 0..18 {
+                for c in a..18 {
                     let mut s = 0.0;
                     for row in 0..4 {
                         s += b[row][a] * db[row][c];
                     }
-                    k[a][c] += s * dv;
+                    shear[a][c] += s * dv;
                 }
             }
-            if formulation == Formulation::MixedQ9P1 {
-                let np = [1.0, (g.r_mm - rc) / h, (g.z_mm - zc) / h];
-                for p in 0..3 {
-                    for q in 0..3 {
-                        m[p][q] += np[p] * np[q] * dv;
+            match formulation {
+                // Plain displacement element: the full volumetric energy κ tr(ε)².
+                Formulation::Displacement => {
+                    for a in 0..18 {
+                        for c in a..18 {
+                            bulk[a][c] += tr[a] * tr[c] * dv;
+                        }
                     }
-                    for c in 0..18 {
-                        gmat[p][c] += np[p] * (b[0][c] + b[1][c] + b[2][c]) * dv;
+                }
+                Formulation::MixedQ9P1 => {
+                    let np = [1.0, (g.r_mm - rc) / h, (g.z_mm - zc) / h];
+                    for p in 0..3 {
+                        for q in 0..3 {
+                            m[p][q] += np[p] * np[q] * dv;
+                        }
+                        for c in 0..18 {
+                            gmat[p][c] += np[p] * tr[c] * dv;
+                        }
                     }
                 }
             }
@@ -257,10 +273,32 @@ pub fn stiffness(
             }
         }
         for a in 0..18 {
-            for c in 0..18 {
-                let s: f64 = (0..3).map(|p| gmat[p][a] * mg[p][c]).sum();
-                k[a][c] += kappa * s;
+            for c in a..18 {
+                bulk[a][c] = (0..3).map(|p| gmat[p][a] * mg[p][c]).sum();
             }
+        }
+    }
+    for a in 0..18 {
+        for c in 0..a {
+            shear[a][c] = shear[c][a];
+            bulk[a][c] = bulk[c][a];
+        }
+    }
+    Ok(StiffnessParts { shear, bulk })
+}
+
+/// Element stiffness (18 × 18, row-major, dofs [u_r0, u_z0, u_r1, …]), N/mm.
+pub fn stiffness(
+    xy: &[[f64; 2]; 9],
+    mat: ElasticConstants,
+    formulation: Formulation,
+) -> Result<[[f64; 18]; 18], ElementError> {
+    let parts = stiffness_parts(xy, formulation)?;
+    let (mu, kappa) = (mat.shear_modulus_mpa(), mat.bulk_modulus_mpa());
+    let mut k = [[0.0; 18]; 18];
+    for ((row, shear), bulk) in k.iter_mut().zip(&parts.shear).zip(&parts.bulk) {
+        for ((v, s), b) in row.iter_mut().zip(shear).zip(bulk) {
+            *v = mu * s + kappa * b;
         }
     }
     Ok(k)

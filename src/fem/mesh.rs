@@ -9,7 +9,7 @@ use super::element::{lagrange3, lagrange3_d};
 use std::f64::consts::PI;
 
 /// A 9-node quadrilateral; node k = a + 3 b (a along the block's first index).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Element {
     /// Node indices.
     pub nodes: [usize; 9],

@@ -11,11 +11,15 @@
 //! [`crate::prediction`].
 //!
 //! Submodules: [`element`] (Q9/P1 element), [`mesh`] (mesh data, edge loads),
-//! [`mod@solve`] (dof map, ordering, assembly, Cholesky), [`module`] (the module's mesh,
-//! contacts, supports and load).
+//! [`mod@solve`] (dof map, assembly, the structure of a solve apart from its values),
+//! [`linear`] (the sparse Cholesky solvers), [`cache`] (structures re-used across
+//! solves that differ only in the moduli), [`contact`] (unilateral contact condensed on
+//! its pairs), [`module`] (the module's mesh, contacts, supports and load).
 
+pub mod cache;
 pub mod contact;
 pub mod element;
+pub mod linear;
 pub mod mesh;
 pub mod module;
 pub mod solve;
@@ -69,67 +73,298 @@ fn richardson_levels(opt: &FemOptions) -> Result<Option<(FemOptions, FemOptions,
     )))
 }
 
-/// Solve one configuration with F = 1 N and read every grating of its core.
+/// Solve one configuration with F = 1 N and read every grating of its core (the
+/// structure of its problem comes from, and goes to, [`cache::GeometryCache::global`]).
 pub fn solve_configuration(
     design: &Design,
     config: &Configuration,
     opt: &FemOptions,
 ) -> Result<ConfigurationResult> {
-    if let Some((plain, coarsened, factor)) = richardson_levels(opt)? {
-        let fine = solve_configuration(design, config, &plain)?;
-        let coarse = solve_configuration(design, config, &coarsened)?;
-        let strain_per_n = fine
-            .strain_per_n
+    solve_configurations(design, &[(config.clone(), *opt)])
+        .pop()
+        .expect("one result per request")
+}
+
+/// A geometry's structure, or why it could not be built (kept as text: shared by
+/// every unit of the geometry).
+type BuiltStructure = Result<std::sync::Arc<solve::ProblemStructure>, String>;
+
+/// One solve of a batch: a level of one request (the fine or the coarse mesh of a
+/// Richardson pair, or the only one).
+struct Unit {
+    config: Configuration,
+    opt: FemOptions,
+    /// Index into the batch's geometries.
+    geometry: usize,
+}
+
+/// How a request's result is made from its units.
+enum Plan {
+    Single(usize),
+    Richardson {
+        fine: usize,
+        coarse: usize,
+        factor: f64,
+    },
+}
+
+/// A mesh shared by the units of one load case and one set of options.
+struct Geometry {
+    case: crate::model::LoadCase,
+    opt: FemOptions,
+    /// The problem built for the first unit, with what is needed to read gratings.
+    model: Result<module::ModuleModel, String>,
+    build_time_s: f64,
+}
+
+/// Solve many configurations of one design, each with its own options, at F = 1 N:
+/// the same results as [`solve_configuration`] on each, in order, for much less work.
+///
+/// The configurations of one load case with one set of options share one mesh, built
+/// once; problems of one mesh share one [`solve::ProblemStructure`] (numbering,
+/// pattern, element stiffness per unit modulus, symbolic factorisation), built once
+/// through [`cache::GeometryCache::global`] (so later calls on the same geometry, e.g.
+/// the next step of a sweep over a modulus, skip it); problems equal in mesh and
+/// moduli share one numeric factorisation and solve. Distinct structures are built
+/// in parallel, largest first, then every factorisation in parallel. A
+/// configuration's `solve_time_s` is the work its own solve needs, counting shared
+/// work in full (what it would cost alone with a warm cache, plus the structure).
+/// Contact readings with unilateral pairs are solved one by one ([`solve_response`]).
+pub fn solve_configurations(
+    design: &Design,
+    requests: &[(Configuration, FemOptions)],
+) -> Vec<Result<ConfigurationResult>> {
+    use rayon::prelude::*;
+    // Requests → units (levels) → geometries.
+    let mut units: Vec<Unit> = Vec::new();
+    let mut geometries: Vec<Geometry> = Vec::new();
+    let mut plans: Vec<Result<Plan>> = Vec::with_capacity(requests.len());
+    let mut add_unit = |config: &Configuration, opt: FemOptions, units: &mut Vec<Unit>| {
+        let geometry = match geometries
             .iter()
-            .zip(&coarse.strain_per_n)
-            .map(|((name, lambda, ef), (_, _, ec))| {
-                (name.clone(), *lambda, ef + (ef - ec) * factor)
+            .position(|g| g.case == config.case && g.opt == opt)
+        {
+            Some(i) => i,
+            None => {
+                geometries.push(Geometry {
+                    case: config.case,
+                    opt,
+                    model: Err(String::new()),
+                    build_time_s: 0.0,
+                });
+                geometries.len() - 1
+            }
+        };
+        units.push(Unit {
+            config: config.clone(),
+            opt,
+            geometry,
+        });
+        units.len() - 1
+    };
+    for (config, opt) in requests {
+        plans.push(richardson_levels(opt).map(|levels| match levels {
+            Some((plain, coarsened, factor)) => Plan::Richardson {
+                fine: add_unit(config, plain, &mut units),
+                coarse: add_unit(config, coarsened, &mut units),
+                factor,
+            },
+            None => Plan::Single(add_unit(config, *opt, &mut units)),
+        }));
+    }
+    // One mesh per geometry, built for its first unit.
+    let firsts: Vec<usize> = (0..geometries.len())
+        .map(|g| units.iter().position(|u| u.geometry == g).expect("used"))
+        .collect();
+    let built: Vec<(Result<module::ModuleModel, String>, f64)> = firsts
+        .par_iter()
+        .map(|&u| {
+            let start = Instant::now();
+            let unit = &units[u];
+            let model = build_configuration(design, &unit.config, &unit.opt)
+                .map(|(model, _)| model)
+                .map_err(|e| format!("{e:#}"));
+            (model, start.elapsed().as_secs_f64())
+        })
+        .collect();
+    for (g, (model, t)) in geometries.iter_mut().zip(built) {
+        g.model = model;
+        g.build_time_s = t;
+    }
+    // Structures, largest first so the two halves of a 2-core machine end together.
+    let mut order: Vec<usize> = (0..geometries.len()).collect();
+    let size = |g: &Geometry| {
+        g.model
+            .as_ref()
+            .map_or(0, |m| m.problem.mesh.elements.len())
+    };
+    order.sort_by_key(|&g| std::cmp::Reverse(size(&geometries[g])));
+    let mut structures: Vec<Option<(BuiltStructure, f64)>> =
+        (0..geometries.len()).map(|_| None).collect();
+    let made: Vec<(usize, BuiltStructure, f64)> = order
+        .par_iter()
+        .filter_map(|&g| {
+            let geo = &geometries[g];
+            let model = geo.model.as_ref().ok()?;
+            if !model.contact_pairs.is_empty() {
+                return None;
+            }
+            let start = Instant::now();
+            let s = cache::GeometryCache::global()
+                .structure(&model.problem, geo.opt.solver.solver())
+                .map_err(|e| format!("{e:#}"));
+            Some((g, s, start.elapsed().as_secs_f64()))
+        })
+        .collect();
+    for (g, s, t) in made {
+        structures[g] = Some((s, t));
+    }
+    // Each unit's materials and gratings; units equal in geometry and materials share
+    // one factorisation and solve (a task).
+    struct Prepared {
+        materials: Vec<element::ElasticConstants>,
+        gratings: Vec<GratingPlacement>,
+    }
+    let prepared: Vec<Result<Prepared>> = units
+        .iter()
+        .map(|u| {
+            let (core_material, insert_material) = configuration_materials(design, &u.config)?;
+            let m = design
+                .module
+                .as_ref()
+                .expect("checked by configuration_materials");
+            Ok(Prepared {
+                materials: module::materials(
+                    design,
+                    &core_material,
+                    insert_material.as_deref(),
+                    u.config.case,
+                    &u.opt,
+                )?,
+                gratings: configuration_gratings(m, &u.config),
             })
-            .collect();
-        return Ok(ConfigurationResult {
-            strain_per_n,
-            solve_time_s: fine.solve_time_s + coarse.solve_time_s,
-            ..fine
-        });
-    }
+        })
+        .collect();
+    let mut tasks: Vec<(usize, &[element::ElasticConstants])> = Vec::new();
+    let task_of: Vec<Option<usize>> = units
+        .iter()
+        .zip(&prepared)
+        .map(|(u, p)| {
+            let p = p.as_ref().ok()?;
+            structures[u.geometry].as_ref()?;
+            let key = (u.geometry, p.materials.as_slice());
+            Some(match tasks.iter().position(|t| *t == key) {
+                Some(i) => i,
+                None => {
+                    tasks.push(key);
+                    tasks.len() - 1
+                }
+            })
+        })
+        .collect();
+    let solved: Vec<Result<(solve::Solution, f64), String>> = tasks
+        .par_iter()
+        .map(|&(g, materials)| {
+            let start = Instant::now();
+            let (s, _) = structures[g].as_ref().expect("a task has a structure");
+            let s = s.as_ref().map_err(Clone::clone)?;
+            let model = geometries[g].model.as_ref().map_err(Clone::clone)?;
+            let sol = s
+                .factor(materials)
+                .and_then(|f| f.solve_loads(&model.problem.loads))
+                .map_err(|e| format!("{e:#}"))?;
+            Ok((sol, start.elapsed().as_secs_f64()))
+        })
+        .collect();
+    // Read every unit's gratings (contact units: their own solve).
+    let unit_results: Vec<Result<ConfigurationResult>> = units
+        .par_iter()
+        .enumerate()
+        .map(|(i, u)| {
+            let prepared = prepared[i].as_ref().map_err(|e| anyhow!("{e:#}"))?;
+            let geo = &geometries[u.geometry];
+            let model = geo.model.as_ref().map_err(|e| anyhow!("{e}"))?;
+            if !model.contact_pairs.is_empty() {
+                return solve_contact_configuration(design, &u.config, &u.opt);
+            }
+            let start = Instant::now();
+            let task = task_of[i].expect("a unit without contact pairs has a task");
+            let (sol, solve_s) = solved[task].as_ref().map_err(|e| anyhow!("{e}"))?;
+            let mut strain_per_n = Vec::new();
+            for g in &prepared.gratings {
+                let e = model.mean_axial_strain(sol, g.z_start_mm, g.z_end_mm)?;
+                strain_per_n.push((g.name.clone(), g.bragg_wavelength_nm, e));
+            }
+            let structure_s = structures[u.geometry].as_ref().map_or(0.0, |(_, t)| *t);
+            Ok(ConfigurationResult {
+                configuration: u.config.clone(),
+                strain_per_n,
+                unknowns: sol.unknowns,
+                elements: model.problem.mesh.elements.len(),
+                solve_time_s: geo.build_time_s
+                    + structure_s
+                    + solve_s
+                    + start.elapsed().as_secs_f64(),
+            })
+        })
+        .collect();
+    let mut unit_results: Vec<Option<Result<ConfigurationResult>>> =
+        unit_results.into_iter().map(Some).collect();
+    let mut take = |i: usize| unit_results[i].take().expect("each unit used once");
+    plans
+        .into_iter()
+        .map(|plan| match plan? {
+            Plan::Single(u) => take(u),
+            Plan::Richardson {
+                fine,
+                coarse,
+                factor,
+            } => {
+                let (fine, coarse) = (take(fine)?, take(coarse)?);
+                let strain_per_n = fine
+                    .strain_per_n
+                    .iter()
+                    .zip(&coarse.strain_per_n)
+                    .map(|((name, lambda, ef), (_, _, ec))| {
+                        (name.clone(), *lambda, ef + (ef - ec) * factor)
+                    })
+                    .collect();
+                Ok(ConfigurationResult {
+                    strain_per_n,
+                    solve_time_s: fine.solve_time_s + coarse.solve_time_s,
+                    ..fine
+                })
+            }
+        })
+        .collect()
+}
+
+/// A configuration with unilateral contact pairs: the secant K at 1 N.
+fn solve_contact_configuration(
+    design: &Design,
+    config: &Configuration,
+    opt: &FemOptions,
+) -> Result<ConfigurationResult> {
     let start = Instant::now();
-    let (model, gratings) = build_configuration(design, config, opt)?;
-    if !model.contact_pairs.is_empty() {
-        // A contact reading: K depends on the force; this is the secant K at 1 N.
-        let r = solve_response(design, config, opt, &[1.0])?;
-        return Ok(ConfigurationResult {
-            configuration: config.clone(),
-            strain_per_n: r
-                .gratings
-                .iter()
-                .map(|g| (g.name.clone(), g.bragg_wavelength_nm, g.strain[0]))
-                .collect(),
-            unknowns: r.unknowns,
-            elements: r.elements,
-            solve_time_s: start.elapsed().as_secs_f64(),
-        });
-    }
-    let sol = model.problem.solve_with(opt.solver.solver())?;
-    let mut strain_per_n = Vec::new();
-    for g in gratings {
-        let e = model.mean_axial_strain(&sol, g.z_start_mm, g.z_end_mm)?;
-        strain_per_n.push((g.name, g.bragg_wavelength_nm, e));
-    }
+    let r = solve_response(design, config, opt, &[1.0])?;
     Ok(ConfigurationResult {
         configuration: config.clone(),
-        strain_per_n,
-        unknowns: sol.unknowns,
-        elements: model.problem.mesh.elements.len(),
+        strain_per_n: r
+            .gratings
+            .iter()
+            .map(|g| (g.name.clone(), g.bragg_wavelength_nm, g.strain[0]))
+            .collect(),
+        unknowns: r.unknowns,
+        elements: r.elements,
         solve_time_s: start.elapsed().as_secs_f64(),
     })
 }
 
-/// The module problem of one configuration and the strain gratings of its core.
-fn build_configuration(
+/// The material keys of a configuration's core and insert.
+fn configuration_materials(
     design: &Design,
     config: &Configuration,
-    opt: &FemOptions,
-) -> Result<(module::ModuleModel, Vec<GratingPlacement>)> {
+) -> Result<(String, Option<String>)> {
     let m = design
         .module
         .as_ref()
@@ -146,19 +381,43 @@ fn build_configuration(
                 .find(|i| &i.name == name)
                 .ok_or_else(|| anyhow!("no insert named `{name}`"))?
                 .material
-                .as_str(),
+                .clone(),
         ),
         None => None,
     };
-    let model = module::build(design, &core.material, insert_material, config.case, opt)?;
+    Ok((core.material.clone(), insert_material))
+}
+
+/// The strain gratings of a configuration's core.
+fn configuration_gratings(
+    m: &crate::spec::Module,
+    config: &Configuration,
+) -> Vec<GratingPlacement> {
     let profile = ModuleProfile::from_module(m);
-    let gratings = module_gratings(m, &profile)
+    module_gratings(m, &profile)
         .into_iter()
         .filter(|g| {
             g.role == GratingRole::Strain && g.core.as_deref() == Some(config.core.as_str())
         })
-        .collect();
-    Ok((model, gratings))
+        .collect()
+}
+
+/// The module problem of one configuration and the strain gratings of its core.
+fn build_configuration(
+    design: &Design,
+    config: &Configuration,
+    opt: &FemOptions,
+) -> Result<(module::ModuleModel, Vec<GratingPlacement>)> {
+    let (core_material, insert_material) = configuration_materials(design, config)?;
+    let m = design.module.as_ref().expect("checked above");
+    let model = module::build(
+        design,
+        &core_material,
+        insert_material.as_deref(),
+        config.case,
+        opt,
+    )?;
+    Ok((model, configuration_gratings(m, config)))
 }
 
 /// One grating's response over a force range.
@@ -240,7 +499,7 @@ pub fn solve_response(
     }
     let start = Instant::now();
     let (model, gratings) = build_configuration(design, config, opt)?;
-    let factored = model.problem.factor_with(opt.solver.solver())?;
+    let factored = cache::GeometryCache::global().factor(&model.problem, opt.solver.solver())?;
     let observe = |sol: &solve::Solution| -> Result<Vec<f64>> {
         gratings
             .iter()

@@ -1,25 +1,29 @@
 //! Linear static solve of an axisymmetric problem: degree-of-freedom map with ties and
-//! supports, reverse Cuthill–McKee ordering, sparse assembly and a sparse Cholesky
-//! factorisation (nalgebra-sparse `CscCholesky`).
-//!
-//! Two interchangeable linear solvers sit behind [`LinearSolver`]: nalgebra-sparse's
-//! general sparse Cholesky ([`SparseCholesky`]) and a hand-written envelope (skyline)
-//! Cholesky ([`EnvelopeCholesky`]) whose rows are contiguous, so its inner loops are
-//! plain dot products; after RCM the envelope holds the same fill as the sparse factor.
+//! supports, sparse assembly and a direct solve by one of the interchangeable sparse
+//! Cholesky solvers of [`crate::fem::linear`] (faer's, with an AMD ordering, by default).
 //!
 //! Ties join two nodes' displacement components into one unknown (bonded parts whose
 //! surfaces are a clearance apart, or a frictionless contact when only the normal
-//! component is tied). `CscCholesky` does no fill-reducing reordering of its own, so
-//! the unknowns are numbered by reverse Cuthill–McKee first: on the structured meshes
-//! used here the fill then stays inside a narrow band.
+//! component is tied).
+//!
+//! **Structure apart from values.** What does not depend on the moduli is computed
+//! once per problem shape, in a [`ProblemStructure`]: the numbering of the unknowns,
+//! the stiffness matrix's pattern, where each element's entries go in it, each
+//! element's stiffness per unit shear and bulk modulus
+//! ([`element::StiffnessParts`]) and the solver's symbolic analysis (ordering, factor
+//! structure). A change of moduli (another core or insert, a sweep over E) is then
+//! one pass over the elements to sum μ·shear + κ·bulk and one numeric factorisation
+//! ([`ProblemStructure::factor`]); `crate::fem::cache` keeps structures across solves.
 
 use super::element::{self, ElasticConstants, Formulation};
 use super::mesh::Mesh;
 use anyhow::{anyhow, bail, Context, Result};
-use nalgebra::DVector;
-use nalgebra_sparse::factorization::CscCholesky;
-use nalgebra_sparse::{CooMatrix, CscMatrix};
-use std::collections::VecDeque;
+use std::sync::Arc;
+
+pub use super::linear::{
+    reverse_cuthill_mckee, EnvelopeCholesky, Factorization, LinearSolver, LowerPattern,
+    SparseCholesky, SparseLlt, SymbolicFactorization,
+};
 
 /// Displacement component: 0 = radial u_r, 1 = axial u_z.
 pub type Component = usize;
@@ -113,62 +117,46 @@ fn dof_map(p: &Problem) -> Result<(Vec<Option<usize>>, usize)> {
     Ok((map, count))
 }
 
-/// Reverse Cuthill–McKee permutation of a graph given by adjacency lists:
-/// returns new index of each old vertex.
-pub fn reverse_cuthill_mckee(adj: &[Vec<usize>]) -> Vec<usize> {
-    let n = adj.len();
-    let mut order = Vec::with_capacity(n);
-    let mut seen = vec![false; n];
-    let degree: Vec<usize> = adj.iter().map(|a| a.len()).collect();
-    let mut by_degree: Vec<usize> = (0..n).collect();
-    by_degree.sort_by_key(|&v| degree[v]);
-    for &start in &by_degree {
-        if seen[start] {
-            continue;
-        }
-        // A pseudo-peripheral start: the last vertex reached by a BFS from `start`.
-        let mut root = start;
-        for _ in 0..2 {
-            let mut level = vec![usize::MAX; n];
-            let mut q = VecDeque::from([root]);
-            level[root] = 0;
-            let mut last = root;
-            while let Some(v) = q.pop_front() {
-                last = v;
-                for &w in &adj[v] {
-                    if level[w] == usize::MAX {
-                        level[w] = level[v] + 1;
-                        q.push_back(w);
-                    }
-                }
-            }
-            root = last;
-        }
-        let mut q = VecDeque::from([root]);
-        seen[root] = true;
-        while let Some(v) = q.pop_front() {
-            order.push(v);
-            let mut next: Vec<usize> = adj[v].iter().copied().filter(|&w| !seen[w]).collect();
-            next.sort_by_key(|&w| degree[w]);
-            for w in next {
-                if !seen[w] {
-                    seen[w] = true;
-                    q.push_back(w);
-                }
-            }
-        }
+/// Entries of an element matrix's upper triangle (diagonal included): 18 · 19 / 2.
+const ELEMENT_ENTRIES: usize = 171;
+
+/// The part of a problem's solve that does not depend on the moduli (see the module
+/// documentation): built once per mesh with its ties and supports, then factorised
+/// for any set of materials by [`ProblemStructure::factor`].
+pub struct ProblemStructure {
+    map: Vec<Option<usize>>,
+    unknowns: usize,
+    nodes: usize,
+    pattern: LowerPattern,
+    /// Material (region) index of each element.
+    element_material: Vec<usize>,
+    /// For each element, its [`ELEMENT_ENTRIES`] upper-triangle entries (a ≤ c): the
+    /// position in the pattern's values, `u32::MAX` when a component is held.
+    slots: Vec<u32>,
+    /// Those entries' stiffness per unit shear modulus, doubled where two of the
+    /// element's components share one unknown (both (a, c) and (c, a) land on it).
+    shear: Vec<f64>,
+    /// The same per unit bulk modulus.
+    bulk: Vec<f64>,
+    symbolic: Box<dyn SymbolicFactorization>,
+    solver: &'static str,
+}
+
+impl std::fmt::Debug for ProblemStructure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ProblemStructure")
+            .field("unknowns", &self.unknowns)
+            .field("pattern_nonzeros", &self.pattern.nonzeros())
+            .field("elements", &self.element_material.len())
+            .field("solver", &self.solver)
+            .finish()
     }
-    let mut new_index = vec![0; n];
-    for (k, &v) in order.iter().rev().enumerate() {
-        new_index[v] = k;
-    }
-    new_index
 }
 
 impl Problem {
-    /// Assemble and solve K u = f with the default solver ([`EnvelopeCholesky`]).
+    /// Assemble and solve K u = f with the default solver ([`SparseLlt`]).
     pub fn solve(&self) -> Result<Solution> {
-        self.solve_with(&EnvelopeCholesky)
+        self.solve_with(&SparseLlt::default())
     }
 
     /// Assemble and solve K u = f with the given linear solver.
@@ -180,11 +168,16 @@ impl Problem {
     /// Assemble and factorise K once; the factor then solves any number of load cases
     /// (the contact solver needs one solve per contact pair).
     pub fn factor_with(&self, solver: &dyn LinearSolver) -> Result<FactoredProblem> {
+        Arc::new(self.structure(solver)?).factor(&self.materials)
+    }
+
+    /// Everything of this problem's solve that does not depend on the moduli, with
+    /// `solver`'s symbolic analysis.
+    pub fn structure(&self, solver: &dyn LinearSolver) -> Result<ProblemStructure> {
         let (map, n) = dof_map(self)?;
         if n == 0 {
             bail!("the problem has no free unknowns");
         }
-        // Element dof lists and the unknowns' graph for the ordering.
         let elem_dofs: Vec<[Option<usize>; 18]> = self
             .mesh
             .elements
@@ -198,51 +191,111 @@ impl Problem {
                 d
             })
             .collect();
-        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for d in &elem_dofs {
-            for a in d.iter().flatten() {
-                for b in d.iter().flatten() {
-                    if a != b {
-                        adj[*a].push(*b);
-                    }
-                }
-            }
+        let pattern = LowerPattern::from_elements(n, &elem_dofs);
+        if pattern.nonzeros() >= u32::MAX as usize {
+            bail!(
+                "the stiffness matrix has {} stored entries, more than this solver addresses",
+                pattern.nonzeros()
+            );
         }
-        for a in adj.iter_mut() {
-            a.sort_unstable();
-            a.dedup();
-        }
-        let perm = reverse_cuthill_mckee(&adj);
-        drop(adj);
-
-        let mut coo = CooMatrix::new(n, n);
+        let ne = self.mesh.elements.len();
+        let mut slots = Vec::with_capacity(ne * ELEMENT_ENTRIES);
+        let mut shear = Vec::with_capacity(ne * ELEMENT_ENTRIES);
+        let mut bulk = Vec::with_capacity(ne * ELEMENT_ENTRIES);
         for (e, d) in self.mesh.elements.iter().zip(&elem_dofs) {
-            let xy = self.mesh.element_coords(e);
-            let mat = *self.materials.get(e.material).ok_or_else(|| {
-                anyhow!(
-                    "element refers to material {} which is not defined",
-                    e.material
-                )
-            })?;
-            let ke = element::stiffness(&xy, mat, self.formulation)?;
-            for (a, da) in d.iter().enumerate() {
-                let Some(ia) = da else { continue };
-                for (c, dc) in d.iter().enumerate() {
-                    let Some(ic) = dc else { continue };
-                    coo.push(perm[*ia], perm[*ic], ke[a][c]);
+            let parts = element::stiffness_parts(&self.mesh.element_coords(e), self.formulation)?;
+            for a in 0..18 {
+                for c in a..18 {
+                    let (slot, twice) = match (d[a], d[c]) {
+                        (Some(i), Some(j)) => {
+                            let at = pattern
+                                .position(i.max(j), i.min(j))
+                                .expect("every element entry is in the pattern");
+                            (at as u32, a != c && i == j)
+                        }
+                        _ => (u32::MAX, false),
+                    };
+                    let m = if twice { 2.0 } else { 1.0 };
+                    slots.push(slot);
+                    shear.push(m * parts.shear[a][c]);
+                    bulk.push(m * parts.bulk[a][c]);
                 }
             }
         }
-        let k = CscMatrix::from(&coo);
-        drop(coo);
-        let factor = solver
-            .factor(&k)
-            .context("the stiffness matrix is not positive definite: a part is not supported (rigid-body motion) or an element is degenerate")?;
-        Ok(FactoredProblem {
+        let symbolic = solver.analyse(&pattern)?;
+        Ok(ProblemStructure {
             map,
-            perm,
             unknowns: n,
             nodes: self.mesh.nodes.len(),
+            pattern,
+            element_material: self.mesh.elements.iter().map(|e| e.material).collect(),
+            slots,
+            shear,
+            bulk,
+            symbolic,
+            solver: solver.name(),
+        })
+    }
+}
+
+impl ProblemStructure {
+    /// Number of unknowns.
+    pub fn unknowns(&self) -> usize {
+        self.unknowns
+    }
+
+    /// The lower triangle's pattern of the stiffness matrix, in the numbering of the
+    /// unknowns.
+    pub fn pattern(&self) -> &LowerPattern {
+        &self.pattern
+    }
+
+    /// Name of the solver whose symbolic analysis this holds.
+    pub fn solver_name(&self) -> &'static str {
+        self.solver
+    }
+
+    /// Bytes this structure holds (without the solver's symbolic analysis), for the
+    /// cache's budget.
+    pub fn approximate_bytes(&self) -> usize {
+        self.map.len() * 16
+            + self.pattern.nonzeros() * 8
+            + self.element_material.len() * 8
+            + self.slots.len() * (4 + 8 + 8)
+    }
+
+    /// The values of K's lower triangle (in [`Self::pattern`]'s order) for these
+    /// materials (indexed by the elements' region numbers).
+    pub fn assemble(&self, materials: &[ElasticConstants]) -> Result<Vec<f64>> {
+        let mut values = vec![0.0; self.pattern.nonzeros()];
+        for (e, &m) in self.element_material.iter().enumerate() {
+            let mat = materials
+                .get(m)
+                .ok_or_else(|| anyhow!("element refers to material {m} which is not defined"))?;
+            let (mu, kappa) = (mat.shear_modulus_mpa(), mat.bulk_modulus_mpa());
+            let range = e * ELEMENT_ENTRIES..(e + 1) * ELEMENT_ENTRIES;
+            for ((&s, &a), &b) in self.slots[range.clone()]
+                .iter()
+                .zip(&self.shear[range.clone()])
+                .zip(&self.bulk[range])
+            {
+                if s != u32::MAX {
+                    values[s as usize] += mu * a + kappa * b;
+                }
+            }
+        }
+        Ok(values)
+    }
+
+    /// Assemble K for these materials and factorise it (numeric phase only).
+    pub fn factor(self: &Arc<Self>, materials: &[ElasticConstants]) -> Result<FactoredProblem> {
+        let values = self.assemble(materials)?;
+        let factor = self
+            .symbolic
+            .factor(&values)
+            .context("the stiffness matrix is not positive definite: a part is not supported (rigid-body motion) or an element is degenerate")?;
+        Ok(FactoredProblem {
+            structure: Arc::clone(self),
             factor,
         })
     }
@@ -250,47 +303,73 @@ impl Problem {
 
 /// An assembled and factorised stiffness matrix with its numbering of the unknowns.
 pub struct FactoredProblem {
-    map: Vec<Option<usize>>,
-    perm: Vec<usize>,
-    unknowns: usize,
-    nodes: usize,
+    structure: Arc<ProblemStructure>,
     factor: Box<dyn Factorization>,
 }
 
 impl FactoredProblem {
     /// Number of unknowns.
     pub fn unknowns(&self) -> usize {
-        self.unknowns
+        self.structure.unknowns
     }
 
     /// The position of (node, component) in the solver's vector, `None` when the
     /// component is held at zero.
     pub fn unknown_of(&self, node: usize, component: Component) -> Option<usize> {
-        self.map
+        self.structure
+            .map
             .get(2 * node + component)
             .copied()
             .flatten()
-            .map(|i| self.perm[i])
     }
 
-    /// Solve for nodal loads (node, component, N); loads on held components are dropped.
-    pub fn solve_loads(&self, loads: &[(usize, Component, f64)]) -> Result<Solution> {
-        let mut f = vec![0.0; self.unknowns];
+    /// The load vector of nodal loads (node, component, N); loads on held components
+    /// are dropped.
+    fn load_vector(&self, loads: &[(usize, Component, f64)], f: &mut [f64]) -> Result<()> {
         for &(node, c, value) in loads {
-            if node >= self.nodes || c > 1 {
+            if node >= self.structure.nodes || c > 1 {
                 bail!("load ({node}, {c}) refers to a node or component that does not exist");
             }
             if let Some(i) = self.unknown_of(node, c) {
                 f[i] += value;
             }
         }
+        Ok(())
+    }
+
+    /// Solve for nodal loads (node, component, N); loads on held components are dropped.
+    pub fn solve_loads(&self, loads: &[(usize, Component, f64)]) -> Result<Solution> {
+        let mut f = vec![0.0; self.unknowns()];
+        self.load_vector(loads, &mut f)?;
         self.factor.solve_in_place(&mut f);
         self.solution_from(&f)
     }
 
+    /// Solve several load cases at once (one blocked solve: faster than one at a time
+    /// with the supernodal solver).
+    pub fn solve_load_cases(
+        &self,
+        cases: &[Vec<(usize, Component, f64)>],
+    ) -> Result<Vec<Solution>> {
+        let n = self.unknowns();
+        let mut out = Vec::with_capacity(cases.len());
+        // Blocks of 32 right-hand sides keep the workspace small.
+        for block in cases.chunks(32) {
+            let mut f = vec![0.0; n * block.len()];
+            for (loads, col) in block.iter().zip(f.chunks_exact_mut(n)) {
+                self.load_vector(loads, col)?;
+            }
+            self.factor.solve_columns_in_place(&mut f, block.len());
+            for col in f.chunks_exact(n) {
+                out.push(self.solution_from(col)?);
+            }
+        }
+        Ok(out)
+    }
+
     /// Nodal displacements from a solution vector in the solver's numbering.
     pub fn solution_from(&self, u: &[f64]) -> Result<Solution> {
-        let mut disp = vec![[0.0; 2]; self.nodes];
+        let mut disp = vec![[0.0; 2]; self.structure.nodes];
         for (node, dd) in disp.iter_mut().enumerate() {
             for (c, v) in dd.iter_mut().enumerate() {
                 if let Some(i) = self.unknown_of(node, c) {
@@ -303,167 +382,9 @@ impl FactoredProblem {
         }
         Ok(Solution {
             displacement_mm: disp,
-            unknowns: self.unknowns,
+            unknowns: self.unknowns(),
             factor_nonzeros: self.factor.nonzeros(),
         })
-    }
-}
-
-/// A factorised symmetric positive definite matrix.
-pub trait Factorization: Send + Sync {
-    /// Overwrite `b` with the solution of K x = b.
-    fn solve_in_place(&self, b: &mut [f64]);
-    /// Non-zeros of the factor.
-    fn nonzeros(&self) -> usize;
-}
-
-/// A direct solver for a symmetric positive definite system K u = f.
-pub trait LinearSolver {
-    /// Short name for tables.
-    fn name(&self) -> &'static str;
-    /// Factorise K.
-    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>>;
-    /// Solve; returns u and the number of non-zeros of the factor.
-    fn solve(&self, k: &CscMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)> {
-        let factor = self.factor(k)?;
-        let mut u = f.clone();
-        factor.solve_in_place(u.as_mut_slice());
-        Ok((u, factor.nonzeros()))
-    }
-}
-
-/// nalgebra-sparse's `CscCholesky` (up-looking sparse Cholesky, no reordering of its own).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SparseCholesky;
-
-struct SparseFactor(CscCholesky<f64>);
-
-impl Factorization for SparseFactor {
-    fn solve_in_place(&self, b: &mut [f64]) {
-        let u = self.0.solve(&DVector::from_column_slice(b));
-        b.copy_from_slice(u.column(0).as_slice());
-    }
-    fn nonzeros(&self) -> usize {
-        self.0.l().nnz()
-    }
-}
-
-impl LinearSolver for SparseCholesky {
-    fn name(&self) -> &'static str {
-        "sparse Cholesky (nalgebra-sparse)"
-    }
-    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>> {
-        let chol = CscCholesky::factor(k).map_err(|e| anyhow!("sparse Cholesky failed: {e:?}"))?;
-        Ok(Box::new(SparseFactor(chol)))
-    }
-}
-
-/// Dot product with eight independent partial sums, so the compiler can vectorise it
-/// (a single running sum fixes the order of the additions and cannot be).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for k in 0..8 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    let mut s: f64 = acc.iter().sum();
-    for (x, y) in ra.iter().zip(rb) {
-        s += x * y;
-    }
-    s
-}
-
-/// Envelope (skyline) Cholesky: row i of L is stored densely from its first non-zero
-/// column to the diagonal; fill stays inside that envelope.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct EnvelopeCholesky;
-
-/// The envelope factor: row i of L from column `first[i]` to the diagonal, stored
-/// contiguously from `start[i]`.
-struct EnvelopeFactor {
-    first: Vec<usize>,
-    start: Vec<usize>,
-    l: Vec<f64>,
-}
-
-impl Factorization for EnvelopeFactor {
-    fn solve_in_place(&self, y: &mut [f64]) {
-        let (first, start, l) = (&self.first, &self.start, &self.l);
-        let n = first.len();
-        // Forward L y = f, then backward Lᵀ u = y.
-        for i in 0..n {
-            let row = &l[start[i]..start[i + 1]];
-            let fi = first[i];
-            let dot = dot(&row[..i - fi], &y[fi..i]);
-            y[i] = (y[i] - dot) / row[i - fi];
-        }
-        for i in (0..n).rev() {
-            let row = &l[start[i]..start[i + 1]];
-            let fi = first[i];
-            y[i] /= row[i - fi];
-            let yi = y[i];
-            for (k, &lik) in row[..i - fi].iter().enumerate() {
-                y[fi + k] -= lik * yi;
-            }
-        }
-    }
-    fn nonzeros(&self) -> usize {
-        self.l.len()
-    }
-}
-
-impl LinearSolver for EnvelopeCholesky {
-    fn name(&self) -> &'static str {
-        "envelope Cholesky"
-    }
-    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>> {
-        let n = k.nrows();
-        // First column of each row in the lower triangle (K is symmetric: use columns).
-        let mut first: Vec<usize> = (0..n).collect();
-        for (j, col) in k.col_iter().enumerate() {
-            for &i in col.row_indices() {
-                if i > j {
-                    first[i] = first[i].min(j);
-                }
-            }
-        }
-        let mut start = vec![0usize; n + 1];
-        for i in 0..n {
-            start[i + 1] = start[i] + (i - first[i] + 1);
-        }
-        let mut l = vec![0.0; start[n]];
-        for (j, col) in k.col_iter().enumerate() {
-            for (&i, &v) in col.row_indices().iter().zip(col.values()) {
-                if i >= j {
-                    l[start[i] + (j - first[i])] += v;
-                }
-            }
-        }
-        for i in 0..n {
-            let fi = first[i];
-            for j in fi..i {
-                let fj = first[j];
-                let lo = fi.max(fj);
-                let (head, row_i) = l.split_at_mut(start[i]);
-                let row_j = &head[start[j]..start[j] + (j - fj + 1)];
-                let a = &row_i[lo - fi..j - fi];
-                let b = &row_j[lo - fj..j - fj];
-                let dot = dot(a, b);
-                let d = row_j[j - fj];
-                row_i[j - fi] = (row_i[j - fi] - dot) / d;
-            }
-            let row_i = &mut l[start[i]..start[i + 1]];
-            let (off, diag) = row_i.split_at_mut(i - fi);
-            let s = diag[0] - off.iter().map(|x| x * x).sum::<f64>();
-            if s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !s.is_finite() {
-                bail!("envelope Cholesky: pivot {i} is not positive ({s:.3e})");
-            }
-            diag[0] = s.sqrt();
-        }
-        Ok(Box::new(EnvelopeFactor { first, start, l }))
     }
 }
 
@@ -512,50 +433,110 @@ impl Solution {
 mod tests {
     use super::*;
 
-    #[test]
-    fn envelope_and_sparse_cholesky_agree_on_a_banded_spd_matrix() {
-        // 1D Laplacian plus a long-range coupling: SPD, with a ragged envelope.
-        let n = 40;
-        let mut coo = CooMatrix::new(n, n);
-        for i in 0..n {
-            coo.push(i, i, 4.0);
-            if i + 1 < n {
-                coo.push(i, i + 1, -1.0);
-                coo.push(i + 1, i, -1.0);
-            }
-            if i + 7 < n && i % 3 == 0 {
-                coo.push(i, i + 7, -0.5);
-                coo.push(i + 7, i, -0.5);
+    /// Two stacked Q9 elements of a ring (r 2..4 mm, z 0..2 mm), base held in z, a tie
+    /// between two nodes and a load on top.
+    fn ring() -> Problem {
+        let mut mesh = Mesh::default();
+        let mut ids = vec![vec![0; 5]; 5];
+        for (i, row) in ids.iter_mut().enumerate() {
+            for (j, id) in row.iter_mut().enumerate() {
+                *id = mesh.add_node(2.0 + 0.5 * i as f64, 0.5 * j as f64);
             }
         }
-        let k = CscMatrix::from(&coo);
-        let f = DVector::from_fn(n, |i, _| (i as f64).sin() + 1.0);
-        let (a, _) = EnvelopeCholesky.solve(&k, &f).unwrap();
-        let (b, _) = SparseCholesky.solve(&k, &f).unwrap();
-        assert!((&a - &b).norm() < 1e-12 * b.norm());
-        // And the residual is small.
-        let r = &k * &a - &f;
-        assert!(r.norm() < 1e-12 * f.norm());
+        mesh.add_block(
+            &[
+                ids[0][..3].to_vec(),
+                ids[1][..3].to_vec(),
+                ids[2][..3].to_vec(),
+            ],
+            0,
+        );
+        mesh.add_block(
+            &[
+                ids[2][..3].to_vec(),
+                ids[3][..3].to_vec(),
+                ids[4][..3].to_vec(),
+            ],
+            1,
+        );
+        Problem {
+            mesh,
+            materials: vec![
+                ElasticConstants {
+                    youngs_modulus_mpa: 10.0,
+                    poisson_ratio: 0.3,
+                },
+                ElasticConstants {
+                    youngs_modulus_mpa: 3.0,
+                    poisson_ratio: 0.49,
+                },
+            ],
+            formulation: Formulation::MixedQ9P1,
+            fixed: (0..5)
+                .map(|i| (ids[i][0], Z))
+                .chain([(ids[0][0], R)])
+                .collect(),
+            ties: vec![],
+            loads: (0..5).map(|i| (ids[i][2], Z, -0.1)).collect(),
+        }
     }
 
     #[test]
-    fn envelope_cholesky_rejects_an_indefinite_matrix() {
-        let mut coo = CooMatrix::new(2, 2);
-        coo.push(0, 0, 1.0);
-        coo.push(0, 1, 2.0);
-        coo.push(1, 0, 2.0);
-        coo.push(1, 1, 1.0);
-        let k = CscMatrix::from(&coo);
-        assert!(EnvelopeCholesky
-            .solve(&k, &DVector::from_element(2, 1.0))
-            .is_err());
+    fn one_structure_serves_other_moduli_as_a_fresh_factorisation_would() {
+        let p = ring();
+        let structure = Arc::new(p.structure(&SparseLlt::default()).unwrap());
+        let mut q = p.clone();
+        q.materials[0].youngs_modulus_mpa = 70.0;
+        q.materials[1].poisson_ratio = 0.45;
+        for problem in [&p, &q] {
+            let reused = structure
+                .factor(&problem.materials)
+                .unwrap()
+                .solve_loads(&problem.loads)
+                .unwrap();
+            for solver in [&EnvelopeCholesky as &dyn LinearSolver, &SparseCholesky] {
+                let fresh = problem.solve_with(solver).unwrap();
+                let scale = fresh
+                    .displacement_mm
+                    .iter()
+                    .map(|d| d[0].abs().max(d[1].abs()))
+                    .fold(0.0, f64::max);
+                assert!(scale > 0.0);
+                for (a, b) in reused.displacement_mm.iter().zip(&fresh.displacement_mm) {
+                    assert!((a[0] - b[0]).abs() < 1e-12 * scale);
+                    assert!((a[1] - b[1]).abs() < 1e-12 * scale);
+                }
+            }
+        }
+        // The moduli moved the answer (so the comparison above could fail).
+        let a = p.solve().unwrap().displacement_mm[22][1];
+        let b = q.solve().unwrap().displacement_mm[22][1];
+        assert!((a - b).abs() > 1e-3 * a.abs());
     }
 
     #[test]
-    fn rcm_is_a_permutation() {
-        let adj = vec![vec![3], vec![2], vec![1, 3], vec![0, 2]];
-        let mut p = reverse_cuthill_mckee(&adj);
-        p.sort_unstable();
-        assert_eq!(p, vec![0, 1, 2, 3]);
+    fn a_missing_material_is_an_error_not_a_panic() {
+        let p = ring();
+        let s = Arc::new(p.structure(&SparseLlt::default()).unwrap());
+        let err = s.factor(&p.materials[..1]).err().unwrap();
+        assert!(err.to_string().contains("material 1"), "{err}");
+    }
+
+    #[test]
+    fn blocked_solves_equal_single_solves() {
+        let p = ring();
+        let f = p.factor_with(&SparseLlt::default()).unwrap();
+        let cases: Vec<Vec<(usize, Component, f64)>> = (0..40)
+            .map(|k| vec![(k % 25, k % 2, 1.0 + k as f64)])
+            .collect();
+        let all = f.solve_load_cases(&cases).unwrap();
+        for (c, s) in cases.iter().zip(&all) {
+            let one = f.solve_loads(c).unwrap();
+            assert_eq!(one.displacement_mm.len(), s.displacement_mm.len());
+            for (a, b) in one.displacement_mm.iter().zip(&s.displacement_mm) {
+                assert!((a[0] - b[0]).abs() <= 1e-12 * (1.0 + a[0].abs()));
+                assert!((a[1] - b[1]).abs() <= 1e-12 * (1.0 + a[1].abs()));
+            }
+        }
     }
 }

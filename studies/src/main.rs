@@ -19,6 +19,8 @@ struct Cli {
 enum Study {
     /// Meshing tolerance against triangles, time and volume error; build timings.
     Build(studies::build::BuildStudyArgs),
+    /// Time of the FE-backed commands (predict, a Case I sweep) from a cold cache.
+    FeSpeed(studies::fe_speed::FeSpeedArgs),
     /// Finite-element convergence, time against error, and closed form against FE.
     Fem(studies::fem::FemStudyArgs),
     /// Contact readings of the module and the unilateral contact solver: Hertz, K(F)
@@ -37,6 +39,7 @@ enum Study {
 fn main() -> ExitCode {
     let result = match Cli::parse().study {
         Study::Build(a) => studies::build::run(&a),
+        Study::FeSpeed(a) => studies::fe_speed::run(&a),
         Study::Fem(a) => studies::fem::run(&a),
         Study::Contact(a) => studies::fem_contact::run(&a),
         Study::Optimize(a) => studies::optimize::run(&a),

@@ -271,3 +271,34 @@ fn contact_study_quick_meets_hertz_and_finds_the_knee() {
     let r = w.iter().find(|r| r[0] == "1.72").unwrap();
     assert_eq!((r[7].as_str(), r[8].as_str()), ("true", "true"));
 }
+
+#[test]
+fn fe_speed_study_quick_reuses_every_structure_across_a_modulus_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::fe_speed::FeSpeedArgs {
+        design: root().join("designs/clip-on-34mm.toml"),
+        runs: 1,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::fe_speed::run(&a).unwrap();
+    let doc = read_json(&dir.path().join("fe_speed.json"));
+    let rows = doc["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    let (predict, closed, sweep) = (&rows[0], &rows[1], &rows[2]);
+    // The closed-form fast path builds no FE structure at all.
+    assert_eq!(closed["structures_built"].as_u64(), Some(0), "{closed}");
+    assert_eq!(closed["structures_reused"].as_u64(), Some(0), "{closed}");
+    // A sweep over E1 keeps every mesh: it builds the structures of one step (those of
+    // a Case I predict) and re-uses them at every further step.
+    let built = sweep["structures_built"].as_u64().unwrap();
+    assert!(built > 0, "{sweep}");
+    assert!(
+        built <= predict["structures_built"].as_u64().unwrap(),
+        "{predict} {sweep}"
+    );
+    assert!(
+        sweep["structures_reused"].as_u64().unwrap() >= 2 * built,
+        "{sweep}"
+    );
+}

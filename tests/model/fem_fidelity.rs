@@ -346,3 +346,52 @@ fn fe_case_i_shift_rises_with_the_cap_modulus_unlike_the_paper_figure() {
         assert!(fe1 > fe0 && fe1 > 0.0, "FE {fe0} → {fe1}");
     }
 }
+
+#[test]
+fn closed_form_fidelity_runs_no_fe_so_its_rows_have_no_band() {
+    // `--fidelity closed-form` runs no finite-element solve (issue 22): the band's
+    // readings are FE solves, so no row carries one, and every row is the closed form.
+    let out = bin()
+        .args([
+            "predict",
+            "designs/clip-on-34mm.toml",
+            "--fidelity",
+            "closed-form",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = doc["predictions"].as_array().unwrap();
+    assert_eq!(rows.len(), 16);
+    for r in rows {
+        assert_eq!(r["model"], "closed-form", "{r}");
+        assert!(r["band_pm_per_n"].is_null(), "{r}");
+        assert!(r["band_readings"].is_null(), "{r}");
+    }
+    // The default policy still gives every row its band.
+    let out = bin()
+        .args([
+            "predict",
+            "designs/clip-on-34mm.toml",
+            "--case",
+            "ii",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for r in doc["predictions"].as_array().unwrap() {
+        assert!(r["band_pm_per_n"].is_array(), "{r}");
+    }
+}

@@ -172,6 +172,28 @@ fn module_inputs<'a>(
     })
 }
 
+/// The region materials [`build`] gives the problem of this core (and insert): the
+/// mesh, ties and supports do not depend on them, so the problem of another core or
+/// insert on the same geometry is the same mesh with these materials.
+pub fn materials(
+    design: &Design,
+    core_material: &str,
+    insert_material: Option<&str>,
+    case: LoadCase,
+    opt: &FemOptions,
+) -> Result<Vec<ElasticConstants>> {
+    let inputs = module_inputs(design, core_material, insert_material, case, opt)?;
+    let sliding = opt.pillar_coupling != PillarCoupling::Bonded;
+    Ok(smeared_materials(
+        inputs.module,
+        &inputs.profile,
+        inputs.cap,
+        inputs.core,
+        inputs.insert,
+        sliding,
+    ))
+}
+
 /// Build the module problem for one core (and insert in Case I), loaded by 1 N.
 pub fn build(
     design: &Design,

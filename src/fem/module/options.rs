@@ -3,7 +3,7 @@
 //! or one [`ContactReading`] for all three), extrapolation and the linear solver.
 
 use crate::fem::element::Formulation;
-use crate::fem::solve::{EnvelopeCholesky, LinearSolver, SparseCholesky};
+use crate::fem::linear::{EnvelopeCholesky, LinearSolver, SparseCholesky, SparseLlt};
 use crate::model::LoadCase;
 use crate::spec::CylinderCoupling;
 
@@ -151,13 +151,17 @@ pub struct FemOptions {
     pub richardson_order: Option<f64>,
 }
 
-/// Which linear solver factorises the stiffness matrix.
+/// Which linear solver factorises the stiffness matrix (`crate::fem::linear`; timed
+/// against each other by the criterion bench `benches/fem.rs`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SolverKind {
-    /// [`EnvelopeCholesky`] (default: fastest here).
+    /// [`SparseLlt`]: faer's sparse Cholesky with an AMD ordering (default: fastest
+    /// in the bench).
+    Faer,
+    /// [`EnvelopeCholesky`]: hand-written envelope Cholesky after RCM.
     Envelope,
-    /// [`SparseCholesky`] from nalgebra-sparse.
+    /// [`SparseCholesky`] from nalgebra-sparse, after RCM.
     Sparse,
 }
 
@@ -165,11 +169,16 @@ impl SolverKind {
     /// The solver behind the name.
     pub fn solver(self) -> &'static dyn LinearSolver {
         match self {
+            SolverKind::Faer => &SPARSE_LLT,
             SolverKind::Envelope => &EnvelopeCholesky,
             SolverKind::Sparse => &SparseCholesky,
         }
     }
 }
+
+static SPARSE_LLT: SparseLlt = SparseLlt {
+    kernel: crate::fem::linear::LltKernel::Auto,
+};
 
 fn default_formulation() -> Formulation {
     Formulation::MixedQ9P1
@@ -260,7 +269,7 @@ impl FemOptions {
             clip_height_mm: None,
             dome_contact_radius_mm: None,
             formulation: Formulation::MixedQ9P1,
-            solver: SolverKind::Envelope,
+            solver: SolverKind::Faer,
             richardson_order: None,
         }
     }
