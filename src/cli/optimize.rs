@@ -5,10 +5,11 @@ use super::progress::Bar;
 use anyhow::Result;
 use clap::Args;
 use fbgforge::optimize::module::{
-    parse_bounds, ModuleOutcome, ModuleSettings, Objective, Variable,
+    parse_bounds, ModuleOutcome, ModuleSettings, Objective, Preference, Variable,
 };
 use fbgforge::optimize::place::{PlaceObjective, PlaceOutcome, PlaceSettings};
 use fbgforge::optimize::run::{run_module, run_placement, ModuleRequest, PlaceRequest};
+use fbgforge::prediction::Robustness;
 use fbgforge::solvers::SolverKind;
 use std::path::PathBuf;
 
@@ -68,6 +69,19 @@ pub struct OptimizeArgs {
     /// Seed of starts and swarms.
     #[arg(long, default_value_t = 2024)]
     pub seed: u64,
+    /// How K is scored over the model's own uncertainty about the domes' contact
+    /// (radius 1.30–1.48 × the apex patch): `worst` (smallest |K| scored, largest held
+    /// to the limits), `quantile:P` (e.g. quantile:0.1) or `nominal`.
+    #[arg(long, default_value = "worst")]
+    pub robust: String,
+    /// Interrogator sample rate, Hz: Δt_max is never below one sample period (default:
+    /// the design's interrogator_rate_hz, 2 Hz when absent, or the --measured log's).
+    #[arg(long)]
+    pub rate_hz: Option<f64>,
+    /// Which design of the Pareto front to write: knee, objective (the table's best by
+    /// --objective), sensitivity, force-range, lag or r-squared.
+    #[arg(long, default_value = "knee")]
+    pub prefer: String,
     /// The two variables of the Q landscape plot (default: the first two varied).
     #[arg(long)]
     pub landscape: Option<String>,
@@ -109,6 +123,9 @@ pub fn module_settings(a: &OptimizeArgs) -> Result<ModuleSettings> {
         solvers: SolverKind::parse(&a.solver)?,
         extra_starts: a.starts,
         seed: a.seed,
+        robustness: Robustness::parse(&a.robust)?,
+        rate_hz: a.rate_hz,
+        prefer: Preference::parse(&a.prefer)?,
         ..ModuleSettings::default()
     };
     s.run.max_iters = a.max_iters;
@@ -163,27 +180,34 @@ fn x_text(vars: &[Variable], x: &[f64]) -> String {
 fn print_module_table(o: &ModuleOutcome) {
     let unit = o.objective_unit;
     println!(
-        "start ({}): objective {:.4} {unit}, feasible {}",
+        "start ({}): objective {:.4} {unit} (nominal {:.4}), feasible {}",
         o.start_choice,
         o.start.objective,
+        o.start.nominal_objective,
         o.start.feasible()
     );
-    let mut rows: Vec<&fbgforge::optimize::module::ChoiceResult> = o.choices.iter().collect();
-    rows.sort_by(|a, b| {
-        let f = |c: &fbgforge::optimize::module::ChoiceResult| {
-            c.best.as_ref().map(|e| e.objective).unwrap_or(-1.0)
-        };
-        f(b).total_cmp(&f(a))
-    });
     println!(
-        "{:<52} {:>12} {:>10} {:>7}  variables",
+        "scored: {}; Δt_max floor at {:.3} Hz",
+        o.robustness, o.rate_hz
+    );
+    let mut rows: Vec<(usize, &fbgforge::optimize::module::ChoiceResult)> =
+        o.choices.iter().enumerate().collect();
+    let value = |c: &fbgforge::optimize::module::ChoiceResult| {
+        c.best.as_ref().map(|e| e.objective).unwrap_or(-1.0)
+    };
+    rows.sort_by(|a, b| value(b.1).total_cmp(&value(a.1)));
+    println!(
+        "{:<52} {:>12} {:>12} {:>9} {:>10} {:>7}  variables",
         "choice",
         format!("obj {unit}"),
+        "nominal",
+        "scored",
         "K pm/N",
         "evals"
     );
-    for c in rows {
+    for (i, c) in rows {
         let evals: u64 = c.runs.iter().map(|r| r.evaluations).sum();
+        let mark = if i == o.best_choice { "*" } else { " " };
         match &c.best {
             Some(e) => {
                 let k = e
@@ -198,20 +222,33 @@ fn print_module_table(o: &ModuleOutcome) {
                         }
                     });
                 println!(
-                    "{:<52} {:>12.4} {:>10.3} {:>7}  {}",
+                    "{mark}{:<51} {:>12.4} {:>12.4} {:>9} {:>10.3} {:>7}  {}",
                     c.choice.to_string(),
                     e.objective,
+                    e.nominal_objective,
+                    if e.exact { "policy" } else { "estimate" },
                     k,
                     evals,
                     x_text(&o.variables, &e.x)
                 );
             }
             None => println!(
-                "{:<52} {:>12} {:>10} {:>7}  infeasible",
+                "{mark}{:<51} {:>12} {:>12} {:>9} {:>10} {:>7}  infeasible{}",
                 c.choice.to_string(),
                 "-",
                 "-",
-                evals
+                if c.least_violating.as_ref().is_some_and(|e| e.exact) {
+                    "policy"
+                } else {
+                    "estimate"
+                },
+                "-",
+                evals,
+                c.least_violating
+                    .as_ref()
+                    .and_then(|e| e.constraints.iter().find(|k| k.violation > 0.0))
+                    .map(|k| format!(" ({}: {})", k.name, k.detail))
+                    .unwrap_or_default()
             ),
         }
     }
@@ -233,18 +270,67 @@ fn print_module_table(o: &ModuleOutcome) {
         format!("the start is infeasible, {}", broken.join("; "))
     };
     println!(
-        "best: {} objective {value:.4} {unit} ({versus}) in {:.2} s",
-        best.choice, o.time_s
+        "best of the table (*): {} objective {value:.4} {unit} ({versus}); 'policy' rows are scored on the model policy at their design, 'estimate' rows (the search's estimate) lie below the best",
+        best.choice
     );
     println!(
-        "model: {} (other choices: scored with the policy anchored on their start)",
-        o.model
+        "Pareto front ({} designs; objectives: sensitivity ↑, force range ↑, lag ↓, R² ↑):",
+        o.pareto_front.len()
     );
+    println!(
+        "  {:<3} {:<46} {:>10} {:>10} {:>9} {:>19} {:>8} {:>9}  variables",
+        "#", "choice", "|K| pm/N", "nominal", "range N", "limited by", "lag s", "R²"
+    );
+    for (i, f) in o.pareto_front.iter().enumerate() {
+        let ob = &f.objectives;
+        let tag = match (f.knee, o.written_front_index == Some(i)) {
+            (true, true) => " knee, written",
+            (true, false) => " knee",
+            (false, true) => " written",
+            _ => "",
+        };
+        println!(
+            "  {:<3} {:<46} {:>10.3} {:>10.3} {:>9.2} {:>19} {:>8.3} {:>9.6}  {}{tag}",
+            i,
+            f.choice.to_string(),
+            ob.sensitivity_pm_per_n,
+            ob.nominal_sensitivity_pm_per_n,
+            ob.force_range_n,
+            ob.force_range_limited_by,
+            ob.max_lag_s,
+            ob.r_squared,
+            x_text(&o.variables, &f.evaluation.x)
+        );
+    }
+    for t in &o.ties {
+        println!("tie: {t}");
+    }
+    println!(
+        "written: {} ({}), objective {:.4} {unit} scored, {:.4} nominal, in {:.2} s",
+        o.written_choice,
+        o.written_because,
+        o.written.objective,
+        o.written.nominal_objective,
+        o.time_s
+    );
+    for r in &o.written.readings {
+        let window = r
+            .contact_window_pm_per_n
+            .map_or("-".to_string(), |[a, b]| format!("{a:+.1} … {b:+.1}"));
+        println!(
+            "  {}: K {:+.3} pm/N nominal, contact window {window}, bounding readings {:+.1} (bonded) … {:+.1} (sliding) pm/N",
+            r.grating, r.nominal_pm_per_n, r.bonded_pillars_pm_per_n, r.sliding_apex_patch_pm_per_n
+        );
+    }
+    println!("model: {}", o.model);
     let m = o.design.module.as_ref().expect("module designs only");
     println!(
         "      D {:.3} mm, H {:.3} mm, dome {:.3} mm, cap wall {:.3} mm, core wall {:.3} mm",
         m.outer_diameter_mm, m.overall_height_mm, m.dome_height_mm, m.cap_wall_mm, m.core_wall_mm
     );
+    if m.contact_radius_is_default() && o.written_choice.insert_material.is_some() {
+        println!("note: {}", fbgforge::prediction::DEFAULT_CONTACT_WARNING);
+    }
 }
 
 /// Arguments of `fbgforge place`.

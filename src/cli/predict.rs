@@ -226,6 +226,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         },
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
+    let statements = fbgforge::prediction::check_paper_statements(&design, &rows);
     if a.json {
         let doc = serde_json::json!({
             "design": design.name,
@@ -233,6 +234,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             "delta_t_k": a.delta_t_k,
             "fidelity": choice,
             "predictions": rows,
+            "paper_statements": statements,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
@@ -255,7 +257,40 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     for (i, n) in notes.0.iter().enumerate() {
         println!("[{}] {n}", i + 1);
     }
+    if let Some(s) = statements {
+        print_statements(&s);
+    }
     Ok(())
+}
+
+/// The paper's Case I statements on this design, each with its verdict.
+fn print_statements(s: &fbgforge::prediction::PaperStatements) {
+    let failed = s.failures();
+    println!(
+        "paper's Case I statements (docs/model.md §7.2) on {}: {}",
+        s.design,
+        if failed.is_empty() {
+            "every one checked holds".to_string()
+        } else {
+            format!(
+                "{} FAIL{}",
+                failed
+                    .iter()
+                    .map(|c| c.statement)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if failed.len() == 1 { "S" } else { "" }
+            )
+        }
+    );
+    for c in &s.checks {
+        let v = match c.holds {
+            Some(true) => "holds",
+            Some(false) => "FAILS",
+            None => "not checked",
+        };
+        println!("  {:<34} {v:<12} {}", c.statement, c.detail);
+    }
 }
 
 /// Loading case filter.

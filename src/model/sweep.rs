@@ -276,9 +276,14 @@ pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
         .ok_or_else(|| SweepError::UnknownParam(name.to_string()))
 }
 
-/// A copy of `design` with `param` set to `value`, validated.
+/// A copy of `design` with `param` set to `value`, validated. The contact reading
+/// follows the swept geometry by the family rule (`spec::ContactRatios`): a contact
+/// length the design gives in mm is first restated as its ratio to its feature.
 pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Design, SweepError> {
     let mut d = design.clone();
+    if let Some(m) = d.module.as_mut() {
+        m.restate_contact_relative();
+    }
     (param.apply)(&mut d, value);
     d.validate().map_err(|reason| SweepError::InvalidDesign {
         param: param.name.to_string(),
