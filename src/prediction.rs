@@ -273,7 +273,13 @@ pub fn sweep_predictor_with_band(
         )
         .map(|rows| {
             rows.into_iter()
-                .map(|r| (r.detail.prediction, r.band_pm_per_n))
+                .map(|r| model::sweep::SweepPoint {
+                    readings_pm_per_n: r
+                        .band_readings
+                        .map(|b| [b.bonded_pillars_pm_per_n, b.sliding_apex_patch_pm_per_n]),
+                    band_pm_per_n: r.band_pm_per_n,
+                    prediction: r.detail.prediction,
+                })
                 .collect()
         })
         .map_err(|e| format!("{e:#}"))

@@ -18,7 +18,8 @@ use std::path::PathBuf;
 pub struct OptimizeArgs {
     /// Start design (TOML with a [module] section).
     pub design: PathBuf,
-    /// What to maximise: q (|K|·R²/Δt_max) or sensitivity (|K|).
+    /// What the table ranks by: q (|K|·R²/Δt_max), sensitivity (|K|) or force-range
+    /// (the largest force before the strain or wavelength limit).
     #[arg(long, default_value = "q")]
     pub objective: String,
     /// Variables to search, comma-separated (outer_diameter_mm, cap_wall_mm,
@@ -303,7 +304,7 @@ fn print_module_table(o: &ModuleOutcome) {
         );
     }
     for t in &o.ties {
-        println!("tie: {t}");
+        println!("ties and spreads: {t}");
     }
     println!(
         "written: {} ({}), objective {:.4} {unit} scored, {:.4} nominal, in {:.2} s",

@@ -379,10 +379,10 @@ fn landscape_chart(
     let mut chart = Chart::new(
         format!(
             "{} landscape, {}",
-            if o.objective == Objective::Q {
-                "Q"
-            } else {
-                "|K|"
+            match o.objective {
+                Objective::Q => "Q",
+                Objective::Sensitivity => "|K|",
+                Objective::ForceRange => "force range",
             },
             win.choice
         ),

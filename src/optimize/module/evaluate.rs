@@ -175,11 +175,13 @@ impl ModuleProblem {
         let mut readings = Vec::new();
         let mut objectives = None;
         if cons.iter().all(|c| c.violation <= 0.0) {
-            let preds = (self.model)(d, self.settings.max_force_n).map(|mut preds| {
+            // The estimate with the trust region's correction, and its trend without.
+            let preds = (self.model)(d, self.settings.max_force_n).map(|trend| {
+                let mut preds = trend.clone();
                 if let Some(c) = &self.correction {
                     c.apply(x, &mut preds);
                 }
-                preds
+                (preds, trend)
             });
             match preds {
                 Err(e) => push(
@@ -189,7 +191,7 @@ impl ModuleProblem {
                     1.0,
                     format!("{e:#}"),
                 ),
-                Ok(preds) => {
+                Ok((preds, trend)) => {
                     match design_quality(
                         d,
                         &preds,
@@ -214,7 +216,7 @@ impl ModuleProblem {
                             "no strain grating predicted".into(),
                         ),
                         Ok(q) => {
-                            let scored = self.score(d, &preds, &q);
+                            let scored = self.score(d, &preds, &trend, &q);
                             objective = scored.objective;
                             nominal_objective = scored.nominal_objective;
                             objectives = Some(scored.front);
@@ -264,7 +266,13 @@ impl ModuleProblem {
     /// The objective over the model's uncertainty, beside the nominal, and the front's
     /// objectives, from the predictions and the Q breakdown of the optimised
     /// configuration's gratings.
-    fn score(&self, d: &Design, preds: &[GratingPrediction], q: &[QualityBreakdown]) -> Scored {
+    fn score(
+        &self,
+        d: &Design,
+        preds: &[GratingPrediction],
+        trend: &[GratingPrediction],
+        q: &[QualityBreakdown],
+    ) -> Scored {
         let f = self.settings.max_force_n;
         let lim = self.settings.max_grating_strain;
         let mut rows = Vec::new();
@@ -286,7 +294,11 @@ impl ModuleProblem {
             }) else {
                 continue;
             };
-            let readings = self.uncertainty.readings_of(p);
+            let t = trend
+                .iter()
+                .find(|t| t.grating == p.grating && t.case == p.case && t.insert == p.insert)
+                .unwrap_or(p);
+            let readings = self.uncertainty.readings_of(p, t);
             let (k_scored, k_limit) = readings.abs_k_range(self.settings.robustness);
             let k_nominal = p.sensitivity_pm_per_n.abs();
             let to_limit = if k_nominal > 0.0 {
@@ -323,9 +335,16 @@ impl ModuleProblem {
             front.max_lag_s = front.max_lag_s.max(g.dt_max_s);
             front.r_squared = front.r_squared.min(g.r_squared);
             front.quality_pm_per_n_s = front.quality_pm_per_n_s.min(scored_q);
+            let nominal_range = if k_nominal > 0.0 {
+                (lim / (p.strain.abs() / f))
+                    .min(self.window_room_pm(d, &p.grating, p.sensitivity_pm_per_n) / k_nominal)
+            } else {
+                f64::INFINITY
+            };
             let (v, nv) = match self.settings.objective {
                 Objective::Q => (scored_q, g.quality_pm_per_n_s),
                 Objective::Sensitivity => (k_scored, k_nominal),
+                Objective::ForceRange => (f_strain.min(f_window), nominal_range),
             };
             objective = objective.min(v);
             nominal_objective = nominal_objective.min(nv);

@@ -14,6 +14,9 @@ use crate::prediction::KReadings;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// Below this prominence the front is called nearly straight in the report.
+const KNEE_PROMINENCE_MIN: f64 = 0.05;
+
 /// A scored design that may enter the front.
 #[derive(Debug, Clone)]
 pub struct FrontCandidate {
@@ -25,6 +28,11 @@ impl FrontCandidate {
     /// A candidate (its evaluation must carry the front's objectives).
     pub fn new(choice: Choice, evaluation: Evaluation) -> Self {
         FrontCandidate { choice, evaluation }
+    }
+
+    /// Its front objectives.
+    pub fn objectives(&self) -> Option<FrontObjectives> {
+        self.evaluation.objectives
     }
 }
 
@@ -64,9 +72,9 @@ fn dominates(a: &FrontObjectives, b: &FrontObjectives) -> bool {
 }
 
 /// The non-dominated candidates (duplicates once), by force range, with the knee
-/// marked: the design farthest beyond the chord between the front's most sensitive
-/// and its widest-range designs, with sensitivity and force range each normalised to
-/// 0…1 over the front (ties to the shorter lag, then the larger R²).
+/// marked when the front has one ([`knee_and_prominence`]: the design farthest beyond
+/// the chord between the most sensitive and the widest-range designs, on log scales
+/// normalised over the front; ties to the shorter lag, then the larger R²).
 pub fn pareto_front(candidates: Vec<FrontCandidate>, variables: &[Variable]) -> Vec<FrontDesign> {
     let scored: Vec<(FrontCandidate, FrontObjectives)> = candidates
         .into_iter()
@@ -113,27 +121,61 @@ pub fn pareto_front(candidates: Vec<FrontCandidate>, variables: &[Variable]) -> 
     front
 }
 
-/// The knee's index (see [`pareto_front`]).
+/// The knee's index (see [`pareto_front`]), when the front has one.
 fn knee(front: &[FrontDesign]) -> Option<usize> {
-    let span = |f: fn(&FrontObjectives) -> f64| {
-        let v = front.iter().map(|d| f(&d.objectives));
-        let lo = v.clone().fold(f64::INFINITY, f64::min);
-        let hi = v.fold(f64::NEG_INFINITY, f64::max);
-        (lo, hi)
+    knee_and_prominence(front)
+        .filter(|k| k.1 >= KNEE_PROMINENCE_MIN)
+        .map(|k| k.0)
+}
+
+/// The candidate knee and its prominence. Among the designs not dominated in
+/// sensitivity and force range alone (the others are on the front by lag or R²), with
+/// both objectives on log scales normalised to 0…1 over them (sensitivity and range
+/// trade in ratios: at the strain limit |K|·range is a constant, a straight line
+/// here), the design farthest beyond the chord from the most sensitive to the
+/// widest-range design, toward larger values of both; the prominence is that distance
+/// (0: no design beyond the chord, a front without a knee).
+fn knee_and_prominence(front: &[FrontDesign]) -> Option<(usize, f64)> {
+    let two_d: Vec<usize> = (0..front.len())
+        .filter(|&i| {
+            let a = &front[i].objectives;
+            !front.iter().any(|d| {
+                let b = &d.objectives;
+                b.sensitivity_pm_per_n >= a.sensitivity_pm_per_n
+                    && b.force_range_n >= a.force_range_n
+                    && (b.sensitivity_pm_per_n > a.sensitivity_pm_per_n * (1.0 + 1e-9)
+                        || b.force_range_n > a.force_range_n * (1.0 + 1e-9))
+            })
+        })
+        .collect();
+    let ln = |v: f64| v.max(1e-300).ln();
+    let span = |f: &dyn Fn(&FrontObjectives) -> f64| {
+        let v = two_d.iter().map(|&i| ln(f(&front[i].objectives)));
+        (
+            v.clone().fold(f64::INFINITY, f64::min),
+            v.fold(f64::NEG_INFINITY, f64::max),
+        )
     };
-    let (s0, s1) = span(|o| o.sensitivity_pm_per_n);
-    let (f0, f1) = span(|o| o.force_range_n);
-    let norm = |v: f64, lo: f64, hi: f64| if hi > lo { (v - lo) / (hi - lo) } else { 0.0 };
-    let score = |d: &FrontDesign| {
-        norm(d.objectives.sensitivity_pm_per_n, s0, s1) + norm(d.objectives.force_range_n, f0, f1)
+    let (s0, s1) = span(&|o| o.sensitivity_pm_per_n);
+    let (f0, f1) = span(&|o| o.force_range_n);
+    if two_d.len() < 3 || s1 <= s0 || f1 <= f0 {
+        return two_d.first().map(|&i| (i, 0.0));
+    }
+    // The chord runs from (s, f) = (1, 0) to (0, 1): distance beyond it (s + f − 1)/√2.
+    let beyond = |i: usize| {
+        let o = &front[i].objectives;
+        let s = (ln(o.sensitivity_pm_per_n) - s0) / (s1 - s0);
+        let f = (ln(o.force_range_n) - f0) / (f1 - f0);
+        (s + f - 1.0) / 2f64.sqrt()
     };
-    (0..front.len()).max_by(|&a, &b| {
+    let k = two_d.iter().copied().max_by(|&a, &b| {
         let (da, db) = (&front[a], &front[b]);
-        score(da)
-            .total_cmp(&score(db))
+        beyond(a)
+            .total_cmp(&beyond(b))
             .then(db.objectives.max_lag_s.total_cmp(&da.objectives.max_lag_s))
             .then(da.objectives.r_squared.total_cmp(&db.objectives.r_squared))
-    })
+    })?;
+    Some((k, beyond(k).max(0.0)))
 }
 
 /// The front's design `prefer` picks (`None`: the table's best, which is not on the
@@ -158,11 +200,18 @@ pub fn pick(
     });
     match prefer {
         Preference::Objective => (on_front, "--prefer objective: the best of the table".into()),
-        Preference::Knee => match front.iter().position(|f| f.knee) {
-            Some(i) => (
+        Preference::Knee => match knee_and_prominence(front) {
+            Some((i, prominence)) if prominence >= KNEE_PROMINENCE_MIN => (
                 Some(i),
-                "--prefer knee: the knee of the Pareto front (sensitivity against force range)"
-                    .into(),
+                format!(
+                    "--prefer knee: the knee of the Pareto front, {prominence:.3} beyond the chord of sensitivity against force range (log scales, in units of the front's spans)"
+                ),
+            ),
+            Some((_, prominence)) => (
+                on_front,
+                format!(
+                    "--prefer knee: the front has no knee (no design lies more than {KNEE_PROMINENCE_MIN} beyond the chord of sensitivity against force range on log scales; the most lies {prominence:.3}): its designs trade |K| for range at about one rate, as the strain limit makes |K|·range constant, so the best of the table is written, the most sensitive design that holds the required force"
+                ),
             ),
             None => (on_front, "the front is empty: the best of the table".into()),
         },

@@ -46,8 +46,10 @@ impl Correction {
                     .zip(x.iter().zip(&self.center))
                     .map(|(s, (x, c))| s * (x - c))
                     .sum::<f64>();
-            // A linear factor is trusted near its centre only; keep it positive.
-            let f = f.clamp(0.2, 5.0);
+            // A linear factor is trusted near its centre only (the trust region
+            // checks every step on the policy); it may cross zero, since the policy's K
+            // can change sign where the closed form's trend cannot.
+            let f = f.clamp(-5.0, 5.0);
             p.sensitivity_pm_per_n *= f;
             p.shift_pm *= f;
             p.strain *= f;

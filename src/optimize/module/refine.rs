@@ -45,7 +45,7 @@ impl ProblemInputs<'_> {
             };
             // The first row, and any row whose exact score beats the best, is refined.
             let refined = if best.is_none() || beats(&exact, &best) {
-                match policy_answer(exact_p.clone(), exact.clone(), self.settings) {
+                match policy_answer(exact_p.clone(), exact.clone(), self.settings, 24) {
                     Ok(r) => Some(r),
                     Err(_) => None,
                 }
@@ -103,12 +103,13 @@ impl ProblemInputs<'_> {
 /// variable; the readings' ratios to it held), search that estimate within a box
 /// around it, score the step exactly (anchored on it with its readings); accept it when
 /// the policy agrees it is better (and feasible), widen the box when the estimate was
-/// right, shrink it when not. `cur` is the answer scored exactly; when the policy finds
+/// right, shrink it when not (at most `max_steps` steps). `found` is the answer scored exactly; when the policy finds
 /// it infeasible the choice's start is tried too.
 pub(super) fn policy_answer(
     p: ModuleProblem,
     found: Evaluation,
     settings: &ModuleSettings,
+    max_steps: u64,
 ) -> anyhow::Result<(ModuleProblem, Evaluation)> {
     let (lo, hi) = p.box_bounds();
     let exact = |x: &[f64]| -> anyhow::Result<(ModuleProblem, Evaluation)> {
@@ -133,7 +134,7 @@ pub(super) fn policy_answer(
         }
     }
     let mut radius = 0.25;
-    for k in 0..24u64 {
+    for k in 0..max_steps {
         let xc = cur.1.x.clone();
         let (tl, th): (Vec<f64>, Vec<f64>) = xc
             .iter()

@@ -60,10 +60,14 @@ impl UncertaintyRatios {
         self
     }
 
-    /// The readings of a predicted row (its K as the nominal), or the nominal alone
-    /// when the anchor stated nothing for its grating and case.
-    pub fn readings_of(&self, p: &GratingPrediction) -> KReadings {
+    /// The readings of a predicted row: `p` is the estimate with the trust region's
+    /// correction (its K is the nominal, and the contact window's ends follow it),
+    /// `trend` the same row without it (the bounding readings follow the closed form's
+    /// trend from their anchor values, so that a nominal K crossing zero moves against
+    /// them). The nominal alone when the anchor stated nothing for its grating and case.
+    pub fn readings_of(&self, p: &GratingPrediction, trend: &GratingPrediction) -> KReadings {
         let k = p.sensitivity_pm_per_n;
+        let t = trend.sensitivity_pm_per_n;
         let row = self
             .rows
             .iter()
@@ -78,8 +82,8 @@ impl UncertaintyRatios {
             model: row.map_or(Fidelity::ClosedForm, |r| r.model),
             nominal_pm_per_n: k,
             contact_window_pm_per_n: row.and_then(|r| r.window).map(|[a, b]| [a * k, b * k]),
-            bonded_pillars_pm_per_n: row.map_or(k, |r| r.bonded * k),
-            sliding_apex_patch_pm_per_n: row.map_or(k, |r| r.sliding * k),
+            bonded_pillars_pm_per_n: row.map_or(k, |r| r.bonded * t),
+            sliding_apex_patch_pm_per_n: row.map_or(k, |r| r.sliding * t),
         }
     }
 }

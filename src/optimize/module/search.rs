@@ -9,8 +9,9 @@ use super::front::{pareto_front, pick, tie_notes, FrontCandidate};
 use super::outcome::{infeasible_error, ChoiceResult, ModuleOutcome, RunSummary};
 use super::predictor::Predictor;
 use super::problem::ModuleProblem;
+use super::refine::policy_answer;
 use super::robust::UncertaintyRatios;
-use super::settings::{check_settings, ModuleSettings, Objective, Preference};
+use super::settings::{check_settings, ModuleSettings, Objective};
 use crate::optimize::materials::MaterialLibrary;
 use crate::optimize::quality::{Calibration, MeasuredPrototype};
 use crate::progress::Progress;
@@ -18,6 +19,9 @@ use crate::solvers::{multi_start, start_points, Run};
 use crate::spec::Design;
 use rayon::prelude::*;
 use std::time::Instant;
+
+/// Trust-region steps on the policy for the other case's row of the front.
+const FRONT_REFINE_STEPS: u64 = 8;
 
 /// What every choice's problem is built from.
 pub(super) struct ProblemInputs<'a> {
@@ -192,6 +196,7 @@ fn optimised_design(
     let (name, short) = match settings.objective {
         Objective::Q => ("Q", "Q"),
         Objective::Sensitivity => ("sensitivity", "|K|"),
+        Objective::ForceRange => ("force range", "force range"),
     };
     design.description = Some(format!(
         "Optimised by fbgforge optimize from `{}` for {name} ({win}; {why}): {short} = {:.4} {} scored {}, nominal {:.4} (start {:.4})",
@@ -258,22 +263,89 @@ pub fn optimise_module(
     let Some((bi, win_problem)) = scored else {
         return Err(inputs.infeasible_under_policy(&choices_done));
     };
-    let best_eval = choices_done[bi]
-        .best
-        .clone()
-        .expect("the best row is feasible");
-    // The Pareto front: the table's exact rows and the winner's searches at wider
-    // force ranges, each scored on the policy.
+    // The Pareto front: the winner's choice and the best choice of the other case
+    // (insert or hollow), each searched from its table answer to the widest force
+    // range it reaches and at levels between, every design scored on the policy.
+    let mut front_choices = vec![bi];
+    let winner_hollow = choices_done[bi].choice.insert_material.is_none();
+    if let Some(oi) = (0..choices_done.len())
+        .filter(|&i| {
+            choices_done[i].best.is_some()
+                && choices_done[i].choice.insert_material.is_none() != winner_hollow
+        })
+        .max_by(|&a, &b| {
+            let o = |i: usize| choices_done[i].best.as_ref().map_or(0.0, |e| e.objective);
+            o(a).total_cmp(&o(b))
+        })
+    {
+        front_choices.push(oi);
+    }
+    // Every exact row of the table may enter the front too.
     let mut candidates: Vec<FrontCandidate> = choices_done
         .iter()
-        .filter_map(|c| {
+        .enumerate()
+        .filter(|(i, _)| !front_choices.contains(i))
+        .filter_map(|(_, c)| {
             c.best
                 .as_ref()
                 .filter(|e| e.exact && e.feasible())
                 .map(|e| FrontCandidate::new(c.choice.clone(), e.clone()))
         })
         .collect();
-    candidates.extend(inputs.front_levels(&choices_done[bi].choice, &win_problem, &best_eval)?);
+    let mut problems: Vec<(usize, ModuleProblem)> = vec![(bi, win_problem)];
+    for &ci in &front_choices {
+        let found = choices_done[ci].best.clone().expect("feasible rows only");
+        let p = match problems.iter().find(|(i, _)| *i == ci) {
+            Some((_, p)) => p.clone(),
+            None => {
+                let mut p = inputs.problem(choices_done[ci].choice.clone())?;
+                p.set_scale(scale);
+                let p = p.anchored_at(&found.x)?;
+                let e = p.evaluate(&found.x);
+                // Scored on the policy, and walked a few trust-region steps on it (a
+                // design the policy refuses is moved away by the constraints'
+                // magnitudes), the row keeps its exact value.
+                let (p, e) = policy_answer(p.clone(), e.clone(), settings, FRONT_REFINE_STEPS)
+                    .unwrap_or((p, e));
+                if !e.feasible() {
+                    choices_done[ci].best = None;
+                    choices_done[ci].least_violating = Some(e);
+                    continue;
+                }
+                choices_done[ci].best = Some(e);
+                problems.push((ci, p.clone()));
+                p
+            }
+        };
+        let row = choices_done[ci].best.clone().expect("feasible");
+        candidates.push(FrontCandidate::new(
+            choices_done[ci].choice.clone(),
+            row.clone(),
+        ));
+        candidates.extend(inputs.front_levels(&choices_done[ci].choice, &p, &row)?);
+    }
+    // The best of the table is its best exact row (a row scored for the front may beat
+    // the refined winner; every estimate lies below the winner).
+    let bi = (0..choices_done.len())
+        .filter(|&i| choices_done[i].best.as_ref().is_some_and(|e| e.exact))
+        .max_by(|&a, &b| {
+            let o = |i: usize| choices_done[i].best.as_ref().map_or(0.0, |e| e.objective);
+            o(a).total_cmp(&o(b))
+        })
+        .expect("the refined winner is an exact row");
+    let win_problem = match problems.iter().find(|(i, _)| *i == bi) {
+        Some((_, p)) => p.clone(),
+        None => {
+            let x = choices_done[bi].best.as_ref().expect("feasible").x.clone();
+            inputs
+                .problem(choices_done[bi].choice.clone())?
+                .anchored_at(&x)?
+        }
+    };
+    let best_eval = choices_done[bi]
+        .best
+        .clone()
+        .expect("the best row is feasible");
     let front = pareto_front(candidates, &win_problem.variables);
     let (written, why) = pick(
         &front,
@@ -349,39 +421,62 @@ pub fn optimise_module(
 }
 
 impl ProblemInputs<'_> {
-    /// The winner's searches at the front's wider force ranges: at each level the
-    /// best objective with the strain and wavelength limits held there (on the
-    /// estimate, with the winner's readings), scored exactly on the policy at the
-    /// user's force.
+    /// One choice's searches for the front: the widest force range it reaches (the
+    /// force range maximised, with the user's limits as constraints), then the best
+    /// objective with the limits held at `front_levels` forces evenly between the
+    /// user's largest force and that range. Each search runs on the estimate with the
+    /// readings of `exact` (the choice anchored on its table answer `row`); each answer
+    /// is scored on the policy at the user's force.
     fn front_levels(
         &self,
         choice: &Choice,
-        winner: &ModuleProblem,
-        best: &Evaluation,
+        exact: &ModuleProblem,
+        row: &Evaluation,
     ) -> anyhow::Result<Vec<FrontCandidate>> {
-        let levels: Vec<f64> = self.settings.front_force_factors.clone();
+        let f = self.settings.max_force_n;
+        let seed = self.settings.seed.wrapping_add(7919);
+        let score = |x: &[f64]| -> anyhow::Result<Option<FrontCandidate>> {
+            let e = exact.anchored_at(x)?.evaluate(x);
+            Ok(e.feasible().then(|| FrontCandidate::new(choice.clone(), e)))
+        };
+        let wide_settings = ModuleSettings {
+            objective: Objective::ForceRange,
+            ..self.settings.clone()
+        };
+        let mut p = self.problem_with(choice.clone(), &wide_settings, exact.uncertainty())?;
+        p.set_scale(f);
+        let (wide, _, _) = self.search(&p, std::slice::from_ref(&row.x), seed)?;
+        let Some(wide) = wide else {
+            return Ok(Vec::new());
+        };
+        let mut out: Vec<FrontCandidate> = score(&wide.x)?.into_iter().collect();
+        let widest = out
+            .first()
+            .and_then(|c| c.objectives())
+            .map_or(wide.objective, |o| o.force_range_n);
+        let n = self.settings.front_levels;
+        let levels: Vec<f64> = (1..=n)
+            .map(|j| f + (widest - f) * j as f64 / (n + 1) as f64)
+            .filter(|&l| l > f * 1.01)
+            .collect();
         let found: Vec<anyhow::Result<Option<Vec<f64>>>> = levels
             .par_iter()
             .enumerate()
-            .map(|(li, &factor)| {
+            .map(|(li, &level)| {
                 let s = ModuleSettings {
-                    max_force_n: factor * self.settings.max_force_n,
-                    prefer: Preference::Objective,
+                    max_force_n: level,
                     ..self.settings.clone()
                 };
-                let mut p = self.problem_with(choice.clone(), &s, winner.uncertainty())?;
-                p.set_scale(best.objective.max(1e-300));
-                let seed = self.settings.seed.wrapping_add(7919 * (li as u64 + 1));
-                let (b, _, _) = self.search(&p, std::slice::from_ref(&best.x), seed)?;
+                let mut p = self.problem_with(choice.clone(), &s, exact.uncertainty())?;
+                p.set_scale(row.objective.max(1e-300));
+                let seed = seed.wrapping_add(li as u64 + 1);
+                let (b, _, _) = self.search(&p, &[row.x.clone(), wide.x.clone()], seed)?;
                 Ok(b.map(|e| e.x))
             })
             .collect();
-        let mut out = Vec::new();
         for x in found {
-            let Some(x) = x? else { continue };
-            let e = winner.anchored_at(&x)?.evaluate(&x);
-            if e.feasible() {
-                out.push(FrontCandidate::new(choice.clone(), e));
+            if let Some(x) = x? {
+                out.extend(score(&x)?);
             }
         }
         Ok(out)
@@ -393,5 +488,6 @@ pub(super) fn objective_name(o: Objective) -> &'static str {
     match o {
         Objective::Q => "Q",
         Objective::Sensitivity => "|K|",
+        Objective::ForceRange => "force range",
     }
 }

@@ -17,6 +17,10 @@ pub enum Objective {
     Q,
     /// |K| of the worst strain grating, pm/N.
     Sensitivity,
+    /// The force range, N: the largest force before a grating reaches the strain limit
+    /// or leaves its wavelength window (the Pareto front's other end).
+    #[serde(rename = "force-range")]
+    ForceRange,
 }
 
 impl Objective {
@@ -25,7 +29,8 @@ impl Objective {
         match s {
             "q" => Ok(Objective::Q),
             "sensitivity" => Ok(Objective::Sensitivity),
-            _ => anyhow::bail!("unknown objective `{s}`; expected q or sensitivity"),
+            "force-range" => Ok(Objective::ForceRange),
+            _ => anyhow::bail!("unknown objective `{s}`; expected q, sensitivity or force-range"),
         }
     }
 
@@ -34,6 +39,7 @@ impl Objective {
         match self {
             Objective::Q => "pm/(N·s)",
             Objective::Sensitivity => "pm/N",
+            Objective::ForceRange => "N",
         }
     }
 }
@@ -43,8 +49,9 @@ impl Objective {
 #[serde(rename_all = "kebab-case")]
 pub enum Preference {
     /// The knee: the front's design farthest beyond the chord between its most
-    /// sensitive and its widest-range designs, in sensitivity and force range
-    /// normalised over the front.
+    /// sensitive and its widest-range designs, in sensitivity and force range on log
+    /// scales normalised over the front (the table's best when no design lies clearly
+    /// beyond it).
     Knee,
     /// The best of the table by the scalar objective (`--objective`).
     Objective,
@@ -141,10 +148,10 @@ pub struct ModuleSettings {
     pub rate_hz: Option<f64>,
     /// Which design of the Pareto front is written.
     pub prefer: Preference,
-    /// Force ranges the front is searched at besides `max_force_n`, as multiples of it
-    /// (each a search for the best objective with the strain and wavelength limits
-    /// held at that force).
-    pub front_force_factors: Vec<f64>,
+    /// Force levels the Pareto front is searched at between `max_force_n` and the
+    /// widest force range a choice reaches (evenly spaced; each a search for the best
+    /// objective with the strain and wavelength limits held at that force).
+    pub front_levels: usize,
 }
 
 impl Default for ModuleSettings {
@@ -169,7 +176,7 @@ impl Default for ModuleSettings {
             robustness: Robustness::WorstCase,
             rate_hz: None,
             prefer: Preference::Knee,
-            front_force_factors: vec![1.5, 2.5, 4.0],
+            front_levels: 3,
         }
     }
 }
@@ -195,12 +202,6 @@ pub(super) fn check_settings(
         anyhow::ensure!(
             f.is_finite() && f > 0.0,
             "--rate-hz must be a positive number of hertz, got {f}"
-        );
-    }
-    for &f in &settings.front_force_factors {
-        anyhow::ensure!(
-            f.is_finite() && f > 1.0,
-            "the Pareto front's force levels are multiples of --max-force-n above 1, got {f}"
         );
     }
     Ok(())
