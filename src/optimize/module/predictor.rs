@@ -79,6 +79,10 @@ impl Predictor {
     }
 }
 
+/// An anchored model: its function, its description, and the policy's readings at
+/// the anchor (`None`: no stated uncertainty).
+pub(super) type AnchoredModel = (PredictFn, String, Option<Arc<Vec<KReadings>>>);
+
 impl Predictor {
     /// The model anchored on `design` for `config` with the policy's readings of it
     /// there (`None` for a plain function: no stated uncertainty). One policy
@@ -88,7 +92,7 @@ impl Predictor {
         &self,
         design: &Design,
         config: &Configuration,
-    ) -> anyhow::Result<(PredictFn, String, Option<Arc<Vec<KReadings>>>)> {
+    ) -> anyhow::Result<AnchoredModel> {
         match self {
             Predictor::Function(f) => Ok((f.clone(), "custom predictor".into(), None)),
             Predictor::Policy {

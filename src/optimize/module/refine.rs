@@ -45,10 +45,7 @@ impl ProblemInputs<'_> {
             };
             // The first row, and any row whose exact score beats the best, is refined.
             let refined = if best.is_none() || beats(&exact, &best) {
-                match policy_answer(exact_p.clone(), exact.clone(), self.settings, 24) {
-                    Ok(r) => Some(r),
-                    Err(_) => None,
-                }
+                policy_answer(exact_p.clone(), exact.clone(), self.settings, 24).ok()
             } else {
                 None
             };
