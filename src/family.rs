@@ -12,11 +12,17 @@
 //! designs were sized by hand to stay printable, so a module of diameter D is made by
 //! piecewise-linear interpolation of every length (walls, clearances, pillars, holes,
 //! heights, grating lengths and heights) between the two shipped designs whose
-//! diameters bracket D, and so are the contact reading's lengths (`[module.contact]`).
+//! diameters bracket D.
+//!
+//! The contact reading (`[module.contact]`) follows the family rule of
+//! [`crate::spec::ContactRatios`] in both: each of its lengths keeps its ratio to the
+//! feature it scales with (the domes' contact zone to the apex patch, the clip band to
+//! the cap wall, the dome clearance to the fit clearance), interpolated between the
+//! knots' ratios; a length a design gives in mm is first restated as its ratio.
 //! Counts, names, materials and wavelengths come from the lower knot. The result is
 //! validated like any spec.
 
-use crate::spec::{Design, Module, SpecError};
+use crate::spec::{ContactRatios, Design, Module, SpecError};
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a * (1.0 - t) + b * t
@@ -40,14 +46,21 @@ fn lerp_module(a: &Module, b: &Module, t: f64) -> Module {
     m.pillars.groove_depth_mm = lerp(pa.groove_depth_mm, pb.groove_depth_mm, t);
     m.pillars.fiber_hole_diameter_mm =
         lerp(pa.fiber_hole_diameter_mm, pb.fiber_hole_diameter_mm, t);
-    // The contact reading's lengths as the knots resolve them.
-    m.contact.clip_height_mm = Some(lerp(a.clip_height_mm(), b.clip_height_mm(), t));
-    m.contact.dome_clearance_mm = Some(lerp(a.dome_clearance_mm(), b.dome_clearance_mm(), t));
-    m.contact.dome_contact_radius_mm = Some(lerp(
-        a.dome_contact_radius_mm(),
-        b.dome_contact_radius_mm(),
-        t,
-    ));
+    // The contact by the family rule: its ratios to their features, interpolated.
+    let (ra, rb) = (a.contact_ratios(), b.contact_ratios());
+    m.set_contact_ratios(&ContactRatios {
+        clip_height_to_cap_wall: lerp(ra.clip_height_to_cap_wall, rb.clip_height_to_cap_wall, t),
+        dome_clearance_to_fit_clearance: lerp(
+            ra.dome_clearance_to_fit_clearance,
+            rb.dome_clearance_to_fit_clearance,
+            t,
+        ),
+        dome_contact_radius_to_patch: lerp(
+            ra.dome_contact_radius_to_patch,
+            rb.dome_contact_radius_to_patch,
+            t,
+        ),
+    });
     match (&mut m.snap, &b.snap) {
         _ if t >= 1.0 => m.snap = b.snap.clone(),
         (Some(sa), Some(sb)) => {
@@ -150,6 +163,8 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
         .module
         .as_mut()
         .ok_or_else(|| crate::spec::err("module", "the base design has no module"))?;
+    // The contact keeps its ratios to its features (the family rule).
+    m.restate_contact_relative();
     let s = diameter_mm / m.outer_diameter_mm;
     let floor = |v: f64, min: f64| (v * s).max(min);
     m.outer_diameter_mm = diameter_mm;
@@ -176,23 +191,6 @@ pub fn scaled_design(base: &Design, diameter_mm: f64, wall_mm: f64) -> Result<De
             *z *= s;
         }
     }
-    // The contact reading keeps its proportions: the clip to the cap wall, the domes'
-    // contact zone to the apex patch; the dome clearance follows the cap/core one
-    // unless the base sets it apart.
-    let b = base.module.as_ref().expect("checked above");
-    m.contact.clip_height_mm = b
-        .contact
-        .clip_height_mm
-        .map(|h| h * wall_mm / b.cap_wall_mm);
-    m.contact.dome_clearance_mm = b
-        .contact
-        .dome_clearance_mm
-        .filter(|&c| c != b.cap_core_clearance_mm)
-        .map(|c| (c * s).max(0.0));
-    m.contact.dome_contact_radius_mm = b
-        .contact
-        .dome_contact_radius_mm
-        .map(|r| r / b.apex_patch_radius_mm() * m.apex_patch_radius_mm());
     if let Some(snap) = m.snap.as_mut() {
         snap.undercut_mm = floor(snap.undercut_mm, 0.05);
         snap.bead_height_mm = floor(snap.bead_height_mm, 0.3);

@@ -20,6 +20,15 @@
 //! FE model keep those details but take K, strain and shifts from the FE solve. Each FE
 //! configuration (core, case, insert, reading) is solved once, at 1 N, in parallel.
 
+mod statements;
+mod uncertainty;
+
+pub use statements::{check_paper_statements, PaperStatements, StatementCheck, UP_TO_TWICE_MAX};
+pub use uncertainty::{
+    readings, with_contact_ratio, KReadings, ReadingsRequest, Robustness,
+    CLOSED_FORM_BAND_TOLERANCE,
+};
+
 use crate::fem::{solve_configuration, solve_configurations, ContactReading, FemOptions};
 use crate::model::{
     self, Configuration, DetailedPrediction, GratingPrediction, LoadCase, PredictOptions,
@@ -31,6 +40,9 @@ use serde::Serialize;
 
 /// The closed form's error bound claimed by the paper.
 pub const TOLERANCE: f64 = 0.08;
+
+/// The warning every Case I row resting on the shipped default contact radius carries.
+pub const DEFAULT_CONTACT_WARNING: &str = "contact radius chosen to meet the paper's statements, not measured: calibrate with `verify --calibrate-into`";
 
 /// Outer diameters over which the closed form was compared with the FE model, mm
 /// (the `fem` study's grid, 10 to 40 mm).
@@ -271,7 +283,13 @@ pub fn sweep_predictor_with_band(
         )
         .map(|rows| {
             rows.into_iter()
-                .map(|r| (r.detail.prediction, r.band_pm_per_n))
+                .map(|r| model::sweep::SweepPoint {
+                    readings_pm_per_n: r
+                        .band_readings
+                        .map(|b| [b.bonded_pillars_pm_per_n, b.sliding_apex_patch_pm_per_n]),
+                    band_pm_per_n: r.band_pm_per_n,
+                    prediction: r.detail.prediction,
+                })
                 .collect()
         })
         .map_err(|e| format!("{e:#}"))
@@ -482,6 +500,7 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
         } else {
             (None, None)
         };
+        contact_warnings(&mut d, m, model, readings.as_ref());
         out.push(ModelledPrediction {
             model,
             model_description: description,
@@ -491,6 +510,41 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
         });
     }
     Ok(out)
+}
+
+/// The warnings of the policy's contact reading on one row: a Case I FE row that rests
+/// on the shipped default contact radius says so; a Case I row whose nominal K lies
+/// outside its bounding readings, or whose sign is not fixed across them, says that.
+fn contact_warnings(
+    d: &mut DetailedPrediction,
+    m: &crate::spec::Module,
+    model: Fidelity,
+    readings: Option<&BandReadings>,
+) {
+    let p = &mut d.prediction;
+    if p.case != LoadCase::I {
+        return;
+    }
+    if model == Fidelity::Fem && m.contact_radius_is_default() {
+        p.warnings.push(DEFAULT_CONTACT_WARNING.to_string());
+    }
+    if let Some(b) = readings {
+        let r = KReadings {
+            grating: p.grating.clone(),
+            configuration: config_of(p),
+            model,
+            nominal_pm_per_n: p.sensitivity_pm_per_n,
+            contact_window_pm_per_n: None,
+            bonded_pillars_pm_per_n: b.bonded_pillars_pm_per_n,
+            sliding_apex_patch_pm_per_n: b.sliding_apex_patch_pm_per_n,
+        };
+        let (v, why) = r.band_violation();
+        if v > 0.0 {
+            p.warnings.push(format!(
+                "{why}: this K is not supported by the physically bounding contact readings"
+            ));
+        }
+    }
 }
 
 /// The policy's predictions as the optimiser needs them: fast enough for an inner loop,
@@ -509,6 +563,8 @@ pub struct Anchored {
     /// (configuration, grating, FE K / closed-form K at the anchor).
     factors: Vec<(Configuration, String, f64)>,
     description: String,
+    /// The configurations it answers for (`None`: every configuration of a design).
+    only: Option<Vec<Configuration>>,
 }
 
 impl Anchored {
@@ -547,6 +603,58 @@ impl Anchored {
             fidelity,
             factors,
             description,
+            only: None,
+        })
+    }
+
+    /// Anchor the policy on `design` for the configurations of `readings` (the
+    /// nominal K of [`readings`] at that design), with no FE solve of its own; its
+    /// predictions hold those configurations' rows only.
+    pub fn from_readings(
+        design: &Design,
+        fidelity: FidelityChoice,
+        readings: &[KReadings],
+    ) -> Result<Self> {
+        let m = design
+            .module
+            .as_ref()
+            .context("the design has no [module] section")?;
+        let closed = model::predict(design, 1.0)?;
+        let mut factors = Vec::new();
+        let mut only: Vec<Configuration> = Vec::new();
+        let mut description = "closed form".to_string();
+        for r in readings {
+            if !only.contains(&r.configuration) {
+                only.push(r.configuration.clone());
+            }
+            if r.model != Fidelity::Fem {
+                continue;
+            }
+            let c = closed
+                .iter()
+                .find(|c| config_of(c) == r.configuration && c.grating == r.grating)
+                .with_context(|| {
+                    format!(
+                        "the closed form has no row for grating `{}` in {}",
+                        r.grating,
+                        r.configuration.label()
+                    )
+                })?;
+            factors.push((
+                r.configuration.clone(),
+                r.grating.clone(),
+                r.nominal_pm_per_n / c.sensitivity_pm_per_n,
+            ));
+            description = format!(
+                "closed form, FE rows scaled to the policy's FE, {} at the anchor design",
+                ContactReading::Design.describe(m, r.configuration.case)
+            );
+        }
+        Ok(Anchored {
+            fidelity,
+            factors,
+            description,
+            only: Some(only),
         })
     }
 
@@ -558,6 +666,9 @@ impl Anchored {
     /// Every grating of `design` at `force_n`, in [`model::predict`]'s order.
     pub fn predict(&self, design: &Design, force_n: f64) -> Result<Vec<GratingPrediction>> {
         let mut rows = model::predict(design, force_n)?;
+        if let Some(only) = &self.only {
+            rows.retain(|p| only.contains(&config_of(p)));
+        }
         for p in rows.iter_mut() {
             if self.fidelity.resolve(design, p.case) != Fidelity::Fem {
                 continue;
@@ -671,13 +782,13 @@ pub fn calibration_reach(
     })
 }
 
-/// `design` with its domes' contact radius set to `radius_mm`.
+/// `design` with its domes' contact radius set to `radius_mm`, stated relative to the
+/// apex patch (the family rule), so the design carries it to other sizes.
 pub fn with_contact_radius(design: &Design, radius_mm: f64) -> Design {
-    let mut d = design.clone();
-    if let Some(m) = d.module.as_mut() {
-        m.contact.dome_contact_radius_mm = Some(radius_mm);
+    match design.module.as_ref() {
+        Some(m) => with_contact_ratio(design, radius_mm / m.apex_patch_radius_mm()),
+        None => design.clone(),
     }
-    d
 }
 
 /// The policy's Case I K of every grating of `config` with the domes' contact radius

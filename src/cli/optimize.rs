@@ -5,10 +5,11 @@ use super::progress::Bar;
 use anyhow::Result;
 use clap::Args;
 use fbgforge::optimize::module::{
-    parse_bounds, ModuleOutcome, ModuleSettings, Objective, Variable,
+    parse_bounds, ModuleOutcome, ModuleSettings, Objective, Preference, Variable,
 };
 use fbgforge::optimize::place::{PlaceObjective, PlaceOutcome, PlaceSettings};
 use fbgforge::optimize::run::{run_module, run_placement, ModuleRequest, PlaceRequest};
+use fbgforge::prediction::Robustness;
 use fbgforge::solvers::SolverKind;
 use std::path::PathBuf;
 
@@ -17,7 +18,8 @@ use std::path::PathBuf;
 pub struct OptimizeArgs {
     /// Start design (TOML with a [module] section).
     pub design: PathBuf,
-    /// What to maximise: q (|K|·R²/Δt_max) or sensitivity (|K|).
+    /// What the table ranks by: q (|K|·R²/Δt_max), sensitivity (|K|) or force-range
+    /// (the largest force before the strain or wavelength limit).
     #[arg(long, default_value = "q")]
     pub objective: String,
     /// Variables to search, comma-separated (outer_diameter_mm, cap_wall_mm,
@@ -68,6 +70,19 @@ pub struct OptimizeArgs {
     /// Seed of starts and swarms.
     #[arg(long, default_value_t = 2024)]
     pub seed: u64,
+    /// How K is scored over the model's own uncertainty about the domes' contact
+    /// (radius 1.30–1.48 × the apex patch): `worst` (smallest |K| scored, largest held
+    /// to the limits), `quantile:P` (e.g. quantile:0.1) or `nominal`.
+    #[arg(long, default_value = "worst")]
+    pub robust: String,
+    /// Interrogator sample rate, Hz: Δt_max is never below one sample period (default:
+    /// the design's interrogator_rate_hz, 2 Hz when absent, or the --measured log's).
+    #[arg(long)]
+    pub rate_hz: Option<f64>,
+    /// Which design of the Pareto front to write: knee, objective (the table's best by
+    /// --objective), sensitivity, force-range, lag or r-squared.
+    #[arg(long, default_value = "knee")]
+    pub prefer: String,
     /// The two variables of the Q landscape plot (default: the first two varied).
     #[arg(long)]
     pub landscape: Option<String>,
@@ -109,6 +124,9 @@ pub fn module_settings(a: &OptimizeArgs) -> Result<ModuleSettings> {
         solvers: SolverKind::parse(&a.solver)?,
         extra_starts: a.starts,
         seed: a.seed,
+        robustness: Robustness::parse(&a.robust)?,
+        rate_hz: a.rate_hz,
+        prefer: Preference::parse(&a.prefer)?,
         ..ModuleSettings::default()
     };
     s.run.max_iters = a.max_iters;
@@ -181,15 +199,17 @@ fn wrapped(out: &mut String, text: &str, indent: usize) {
 /// The module optimisation as text, every line within [`WIDTH`] columns: the start,
 /// one row per material choice with its variables on the lines below, the best.
 pub fn module_table(o: &ModuleOutcome) -> String {
+    use fbgforge::optimize::module::ChoiceResult;
     use std::fmt::Write as _;
     let unit = o.objective_unit;
     let mut s = String::new();
     wrapped(
         &mut s,
         &format!(
-            "start ({}): objective {:.4} {unit}, {}",
+            "start ({}): objective {:.4} {unit} (nominal {:.4}), {}",
             o.start_choice,
             o.start.objective,
+            o.start.nominal_objective,
             if o.start.feasible() {
                 "feasible"
             } else {
@@ -198,52 +218,71 @@ pub fn module_table(o: &ModuleOutcome) -> String {
         ),
         4,
     );
-    let mut rows: Vec<&fbgforge::optimize::module::ChoiceResult> = o.choices.iter().collect();
-    rows.sort_by(|a, b| {
-        let f = |c: &fbgforge::optimize::module::ChoiceResult| {
-            c.best.as_ref().map(|e| e.objective).unwrap_or(-1.0)
-        };
-        f(b).total_cmp(&f(a))
-    });
-    // choice 44 + objective 13 + K 10 + evaluations 8 = 75 columns.
+    wrapped(
+        &mut s,
+        &format!(
+            "scored: {}; Δt_max floor at {:.3} Hz",
+            o.robustness, o.rate_hz
+        ),
+        4,
+    );
+    let mut rows: Vec<(usize, &ChoiceResult)> = o.choices.iter().enumerate().collect();
+    let value = |c: &ChoiceResult| c.best.as_ref().map(|e| e.objective).unwrap_or(-1.0);
+    rows.sort_by(|a, b| value(b.1).total_cmp(&value(a.1)));
+    // mark 1 + choice 28 + objective 13 + nominal 11 + scored 9 + K 10 + evals 7 = 79.
+    const NAME: usize = 28;
     let _ = writeln!(
         s,
-        "{:<44} {:>12} {:>9} {:>7}",
+        " {:<NAME$} {:>12} {:>10} {:>8} {:>9} {:>6}",
         "choice (variables below)",
         format!("obj {unit}"),
+        "nominal",
+        "scored",
         "K pm/N",
         "evals"
     );
-    for c in rows {
+    for (i, c) in rows {
         let evals: u64 = c.runs.iter().map(|r| r.evaluations).sum();
+        let mark = if i == o.best_choice { "*" } else { " " };
         let mut name = c.choice.to_string();
-        if name.chars().count() > 44 {
+        if name.chars().count() > NAME {
             // A long choice gets its own line; the numbers go on the next.
-            let _ = writeln!(s, "{name}");
+            let _ = writeln!(s, "{mark}{name}");
             name = String::new();
         }
+        let scored = |exact: bool| if exact { "policy" } else { "estimate" };
         match &c.best {
             Some(e) => {
                 let k = e
                     .gratings
                     .iter()
                     .map(|g| g.sensitivity_pm_per_n)
-                    .fold(f64::NAN, |a, b| {
-                        if a.is_nan() || b.abs() < a.abs() {
-                            b
-                        } else {
-                            a
-                        }
-                    });
+                    .fold(0.0f64, |a, k| if k.abs() > a.abs() { k } else { a });
                 let _ = writeln!(
                     s,
-                    "{name:<44} {:>12.4} {:>9.3} {:>7}",
-                    e.objective, k, evals
+                    "{mark}{name:<NAME$} {:>12.4} {:>10.4} {:>8} {:>9.3} {:>6}",
+                    e.objective,
+                    e.nominal_objective,
+                    scored(e.exact),
+                    k,
+                    evals
                 );
                 wrapped(&mut s, &format!("    {}", x_text(&o.variables, &e.x)), 4);
             }
             None => {
-                let _ = writeln!(s, "{name:<44} {:>12} {:>9} {:>7}", "infeasible", "-", evals);
+                let lv = c.least_violating.as_ref();
+                let _ = writeln!(
+                    s,
+                    "{mark}{name:<NAME$} {:>12} {:>10} {:>8} {:>9} {:>6}",
+                    "infeasible",
+                    "-",
+                    scored(lv.is_some_and(|e| e.exact)),
+                    "-",
+                    evals
+                );
+                if let Some(k) = lv.and_then(|e| e.constraints.iter().find(|k| k.violation > 0.0)) {
+                    wrapped(&mut s, &format!("    violates {}: {}", k.name, k.detail), 4);
+                }
             }
         }
     }
@@ -267,11 +306,75 @@ pub fn module_table(o: &ModuleOutcome) -> String {
     wrapped(
         &mut s,
         &format!(
-            "best: {} objective {value:.4} {unit} ({versus}) in {:.2} s",
-            best.choice, o.time_s
+            "best of the table (*): {} objective {value:.4} {unit} ({versus}); 'policy' rows are scored on the model policy at their design, 'estimate' rows (the search's estimate) lie below the best",
+            best.choice
         ),
         6,
     );
+    wrapped(
+        &mut s,
+        &format!(
+            "Pareto front ({} designs; objectives: sensitivity ↑, force range ↑, lag ↓, R² ↑):",
+            o.pareto_front.len()
+        ),
+        4,
+    );
+    for (i, f) in o.pareto_front.iter().enumerate() {
+        let ob = &f.objectives;
+        let tag = match (f.knee, o.written_front_index == Some(i)) {
+            (true, true) => " (knee, written)",
+            (true, false) => " (knee)",
+            (false, true) => " (written)",
+            _ => "",
+        };
+        wrapped(&mut s, &format!("  {i:<2} {}{tag}", f.choice), 7);
+        wrapped(
+            &mut s,
+            &format!(
+                "     |K| {:.3} pm/N (nominal {:.3}), range {:.2} N (limited by {}), lag {:.3} s, R² {:.6}",
+                ob.sensitivity_pm_per_n,
+                ob.nominal_sensitivity_pm_per_n,
+                ob.force_range_n,
+                ob.force_range_limited_by,
+                ob.max_lag_s,
+                ob.r_squared
+            ),
+            7,
+        );
+        wrapped(
+            &mut s,
+            &format!("     {}", x_text(&o.variables, &f.evaluation.x)),
+            7,
+        );
+    }
+    for t in &o.ties {
+        wrapped(&mut s, &format!("ties and spreads: {t}"), 4);
+    }
+    wrapped(
+        &mut s,
+        &format!(
+            "written: {} ({}), objective {:.4} {unit} scored, {:.4} nominal, in {:.2} s",
+            o.written_choice,
+            o.written_because,
+            o.written.objective,
+            o.written.nominal_objective,
+            o.time_s
+        ),
+        4,
+    );
+    for r in &o.written.readings {
+        let window = r
+            .contact_window_pm_per_n
+            .map_or("-".to_string(), |[a, b]| format!("{a:+.1} … {b:+.1}"));
+        wrapped(
+            &mut s,
+            &format!(
+                "  {}: K {:+.3} pm/N nominal, contact window {window}, bounding readings {:+.1} (bonded) … {:+.1} (sliding) pm/N",
+                r.grating, r.nominal_pm_per_n, r.bonded_pillars_pm_per_n, r.sliding_apex_patch_pm_per_n
+            ),
+            4,
+        );
+    }
     wrapped(
         &mut s,
         &format!(
@@ -293,6 +396,13 @@ pub fn module_table(o: &ModuleOutcome) -> String {
             ),
             6,
         );
+        if m.contact_radius_is_default() && o.written_choice.insert_material.is_some() {
+            wrapped(
+                &mut s,
+                &format!("note: {}", fbgforge::prediction::DEFAULT_CONTACT_WARNING),
+                6,
+            );
+        }
     }
     s
 }

@@ -231,6 +231,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         },
     )
     .with_context(|| format!("{}: cannot predict", a.design.display()))?;
+    let statements = fbgforge::prediction::check_paper_statements(&design, &rows);
     if a.json {
         let doc = serde_json::json!({
             "design": design.name,
@@ -238,6 +239,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             "delta_t_k": a.delta_t_k,
             "fidelity": choice,
             "predictions": rows,
+            "paper_statements": statements,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(());
@@ -260,7 +262,40 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     for (i, n) in notes.0.iter().enumerate() {
         println!("[{}] {n}", i + 1);
     }
+    if let Some(s) = statements {
+        print_statements(&s);
+    }
     Ok(())
+}
+
+/// The paper's Case I statements on this design, each with its verdict.
+fn print_statements(s: &fbgforge::prediction::PaperStatements) {
+    let failed = s.failures();
+    println!(
+        "paper's Case I statements (docs/model.md §7.2) on {}: {}",
+        s.design,
+        if failed.is_empty() {
+            "every one checked holds".to_string()
+        } else {
+            format!(
+                "{} FAIL{}",
+                failed
+                    .iter()
+                    .map(|c| c.statement)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if failed.len() == 1 { "S" } else { "" }
+            )
+        }
+    );
+    for c in &s.checks {
+        let v = match c.holds {
+            Some(true) => "holds",
+            Some(false) => "FAILS",
+            None => "not checked",
+        };
+        println!("  {:<34} {v:<12} {}", c.statement, c.detail);
+    }
 }
 
 /// Loading case filter.
@@ -573,8 +608,27 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             s.shift_pm.last().copied().unwrap_or(f64::NAN)
         );
     }
+    default_contact_note(
+        &design,
+        a.fidelity,
+        r.series.iter().any(|s| s.case == LoadCase::I),
+    );
     println!("wrote {} and {}", svg.display(), csv.display());
     Ok(())
+}
+
+/// Say so when Case I curves by the FE rest on the shipped default contact radius.
+fn default_contact_note(design: &fbgforge::spec::Design, f: FidelityArg, case_i: bool) {
+    let default = design
+        .module
+        .as_ref()
+        .is_some_and(|m| m.contact_radius_is_default());
+    if case_i && default && f != FidelityArg::ClosedForm {
+        println!(
+            "note: Case I: {}",
+            fbgforge::prediction::DEFAULT_CONTACT_WARNING
+        );
+    }
 }
 
 fn write_paper_figures(
@@ -587,6 +641,7 @@ fn write_paper_figures(
     ensure_dir(dir)?;
     let steps = steps.max(2);
     let pb = Bar::new();
+    let mut trends: Vec<Vec<String>> = Vec::new();
     for fig in PAPER_FIGURES {
         let predictor = fbgforge::prediction::sweep_predictor_with_band(
             fidelity.into(),
@@ -608,12 +663,69 @@ fn write_paper_figures(
             first.shift_pm[first.shift_pm.len() - 1],
             first.label()
         );
+        // Which of the paper's trends each model's curve reproduces: the nominal, and
+        // the bounding readings when the band was computed.
+        let mut curves: Vec<(String, Vec<f64>)> =
+            vec![(nominal_label(fidelity, fig.case), first.shift_pm.clone())];
+        if first.readings_pm_per_n.len() == first.x.len() {
+            for (k, name) in [
+                (0, "FE, pillars bonded (band's reading)"),
+                (
+                    1,
+                    "FE, cylinders sliding, domes on the apex patch (band's reading)",
+                ),
+            ] {
+                curves.push((
+                    name.to_string(),
+                    first
+                        .readings_pm_per_n
+                        .iter()
+                        .map(|r| r[k] * sweep::PAPER_FORCE_N)
+                        .collect(),
+                ));
+            }
+        }
+        for (name, y) in curves {
+            let v = sweep::paper_trend(fig, &first.x, &y);
+            println!(
+                "    {:<62} {:<14} {}",
+                name,
+                if v.reproduced {
+                    "reproduced"
+                } else {
+                    "NOT reproduced"
+                },
+                v.detail
+            );
+            trends.push(vec![
+                fig.id.to_string(),
+                name,
+                v.reproduced.to_string(),
+                v.detail,
+            ]);
+        }
     }
+    default_contact_note(design, fidelity, true);
+    write_csv(
+        &dir.join("trends.csv"),
+        &["figure", "model", "reproduced", "detail"],
+        &trends,
+    )?;
     println!(
-        "wrote {} figures (SVG + CSV) to {}, model: {}",
+        "wrote {} figures (SVG + CSV) and trends.csv to {}, model: {}",
         PAPER_FIGURES.len(),
         dir.display(),
         fidelity_label(fidelity)
     );
     Ok(())
+}
+
+/// The model of a figure's nominal curve, in words.
+fn nominal_label(f: FidelityArg, case: LoadCase) -> String {
+    match (f, case) {
+        (FidelityArg::ClosedForm, _) => "closed form".into(),
+        (FidelityArg::Fem, _) => "FE, design contact".into(),
+        (FidelityArg::Auto, LoadCase::I) => "policy: FE, design contact (default)".into(),
+        (FidelityArg::Auto, LoadCase::II) => "policy: closed form".into(),
+    }
 }

@@ -260,12 +260,23 @@ pub enum SweepError {
     },
 }
 
+/// One grating's answer at a sweep step from a model other than the closed form.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepPoint {
+    /// The prediction.
+    pub prediction: GratingPrediction,
+    /// The band of K (pm/N, low and high), when the model gives one.
+    pub band_pm_per_n: Option<[f64; 2]>,
+    /// The bounding readings behind the band (pm/N: pillars bonded, cylinders sliding
+    /// with the domes on the apex patch), when the model gives them.
+    pub readings_pm_per_n: Option<[f64; 2]>,
+}
+
 /// Where a step's predictions come from when not from the closed form: any model of
 /// the same design (the model policy, `crate::prediction`), returning every grating's
-/// prediction with its band of K (pm/N, low and high) when the model gives one, or a
-/// message. Keeps `model` free of a dependency on `fem`.
-pub type Predictor<'a> = dyn Fn(&Design, &PredictOptions) -> Result<Vec<(GratingPrediction, Option<[f64; 2]>)>, String>
-    + 'a;
+/// prediction with its band and readings when the model gives them, or a message.
+/// Keeps `model` free of a dependency on `fem`.
+pub type Predictor<'a> = dyn Fn(&Design, &PredictOptions) -> Result<Vec<SweepPoint>, String> + 'a;
 
 /// Look a parameter up by name or alias (case-insensitive).
 pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
@@ -276,9 +287,14 @@ pub fn find_param(name: &str) -> Result<&'static SweepParam, SweepError> {
         .ok_or_else(|| SweepError::UnknownParam(name.to_string()))
 }
 
-/// A copy of `design` with `param` set to `value`, validated.
+/// A copy of `design` with `param` set to `value`, validated. The contact reading
+/// follows the swept geometry by the family rule (`spec::ContactRatios`): a contact
+/// length the design gives in mm is first restated as its ratio to its feature.
 pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Design, SweepError> {
     let mut d = design.clone();
+    if let Some(m) = d.module.as_mut() {
+        m.restate_contact_relative();
+    }
     (param.apply)(&mut d, value);
     d.validate().map_err(|reason| SweepError::InvalidDesign {
         param: param.name.to_string(),
@@ -348,6 +364,10 @@ pub struct SweepSeries {
     /// Band of K at each value, pm/N (low, high); empty when the model gives none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub band_pm_per_n: Vec<[f64; 2]>,
+    /// The bounding readings at each value, pm/N (pillars bonded, cylinders sliding);
+    /// empty when the model gives none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub readings_pm_per_n: Vec<[f64; 2]>,
 }
 
 impl SweepSeries {
@@ -404,7 +424,7 @@ pub fn run_with(
     };
     for &v in values {
         let d = with_param(design, param, v)?;
-        let preds: Vec<(GratingPrediction, Option<[f64; 2]>)> = match predictor {
+        let preds: Vec<SweepPoint> = match predictor {
             None => predict_with(&d, &opts)
                 .map_err(|reason| SweepError::Model {
                     param: param.name.to_string(),
@@ -412,7 +432,11 @@ pub fn run_with(
                     reason,
                 })?
                 .into_iter()
-                .map(|d| (d.prediction, None))
+                .map(|d| SweepPoint {
+                    prediction: d.prediction,
+                    band_pm_per_n: None,
+                    readings_pm_per_n: None,
+                })
                 .collect(),
             Some(f) => f(&d, &opts).map_err(|reason| SweepError::Predictor {
                 param: param.name.to_string(),
@@ -420,9 +444,13 @@ pub fn run_with(
                 reason,
             })?,
         };
-        for (p, band) in preds
+        for SweepPoint {
+            prediction: p,
+            band_pm_per_n: band,
+            readings_pm_per_n: readings,
+        } in preds
             .into_iter()
-            .filter(|(p, _)| case.is_none_or(|c| c == p.case))
+            .filter(|q| case.is_none_or(|c| c == q.prediction.case))
         {
             let s = match series
                 .iter_mut()
@@ -438,6 +466,7 @@ pub fn run_with(
                         shift_pm: Vec::new(),
                         sensitivity_pm_per_n: Vec::new(),
                         band_pm_per_n: Vec::new(),
+                        readings_pm_per_n: Vec::new(),
                     });
                     series.last_mut().expect("just pushed")
                 }
@@ -447,6 +476,9 @@ pub fn run_with(
             s.sensitivity_pm_per_n.push(p.sensitivity_pm_per_n);
             if let Some(b) = band {
                 s.band_pm_per_n.push(b);
+            }
+            if let Some(r) = readings {
+                s.readings_pm_per_n.push(r);
             }
         }
         progress.advance(1);
@@ -488,6 +520,11 @@ pub struct PaperFigure {
     pub e2_mpa: Option<f64>,
     /// Fixed Es, MPa (None when swept or Case II).
     pub es_mpa: Option<f64>,
+    /// Where the paper says the curve levels off, MPa.
+    pub knee_mpa: f64,
+    /// Smallest share of the whole change of |Δλ| that must happen below the knee
+    /// (our reading of "falls sharply up to the knee, then levels off", docs/model.md §7).
+    pub min_share_below_knee: f64,
 }
 
 /// Force of the paper's parametric figures, N.
@@ -504,6 +541,8 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
         e1_mpa: None,
         e2_mpa: Some(44.0),
         es_mpa: Some(44.0),
+        knee_mpa: 800.0,
+        min_share_below_knee: 0.9,
     },
     PaperFigure {
         id: "fig9b_case1_e2",
@@ -514,6 +553,8 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
         e1_mpa: Some(1.4),
         e2_mpa: None,
         es_mpa: Some(44.0),
+        knee_mpa: 5.0,
+        min_share_below_knee: 0.6,
     },
     PaperFigure {
         id: "fig9c_case1_es",
@@ -524,6 +565,8 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
         e1_mpa: Some(1.4),
         e2_mpa: Some(44.0),
         es_mpa: None,
+        knee_mpa: 500.0,
+        min_share_below_knee: 0.75,
     },
     PaperFigure {
         id: "fig11a_case2_e1",
@@ -534,6 +577,8 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
         e1_mpa: None,
         e2_mpa: Some(44.0),
         es_mpa: None,
+        knee_mpa: 700.0,
+        min_share_below_knee: 0.9,
     },
     PaperFigure {
         id: "fig11b_case2_e2",
@@ -544,6 +589,8 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
         e1_mpa: Some(1.4),
         e2_mpa: None,
         es_mpa: None,
+        knee_mpa: 5.0,
+        min_share_below_knee: 0.6,
     },
 ];
 
@@ -608,4 +655,133 @@ pub fn run_paper_figure_with(
         predictor,
         progress,
     )
+}
+
+/// Whether one curve reproduces a paper figure's stated trend (docs/model.md §7): the
+/// figure's sign (Case I red, Case II blue) at every value, |Δλ| strictly falling, its
+/// mean slope below the paper's knee at least ten times its mean slope above, and at
+/// least the figure's share of the change below the knee.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrendVerdict {
+    /// Whether every part holds.
+    pub reproduced: bool,
+    /// The first part that fails, or the numbers when all hold.
+    pub detail: String,
+}
+
+/// Judge one curve (x ascending, Δλ in pm) against `fig`'s stated trend.
+pub fn paper_trend(fig: &PaperFigure, x: &[f64], shift_pm: &[f64]) -> TrendVerdict {
+    let fail = |detail: String| TrendVerdict {
+        reproduced: false,
+        detail,
+    };
+    let n = x.len().min(shift_pm.len());
+    if n < 3 || x[0] >= fig.knee_mpa || x[n - 1] <= fig.knee_mpa {
+        return fail(format!(
+            "the curve ({n} points) does not straddle the paper's knee at {} MPa",
+            fig.knee_mpa
+        ));
+    }
+    let (x, y) = (&x[..n], &shift_pm[..n]);
+    let red = fig.case == LoadCase::I;
+    if let Some(i) = (0..n).find(|&i| if red { y[i] <= 0.0 } else { y[i] >= 0.0 }) {
+        return fail(format!(
+            "Δλ = {:+.1} pm at {} MPa: a {} shift where the paper's Case {} is {}",
+            y[i],
+            x[i],
+            if y[i] > 0.0 { "red" } else { "blue" },
+            fig.case,
+            if red { "red" } else { "blue" }
+        ));
+    }
+    if let Some(i) = (1..n).find(|&i| y[i].abs() >= y[i - 1].abs()) {
+        return fail(format!(
+            "|Δλ| rises from {:.1} pm at {} MPa to {:.1} pm at {} MPa; the paper's falls",
+            y[i - 1].abs(),
+            x[i - 1],
+            y[i].abs(),
+            x[i]
+        ));
+    }
+    let at = |v: f64| {
+        let i = x
+            .windows(2)
+            .position(|w| w[0] <= v && v <= w[1])
+            .unwrap_or(0);
+        y[i] + (y[i + 1] - y[i]) * (v - x[i]) / (x[i + 1] - x[i])
+    };
+    let k = fig.knee_mpa;
+    let yk = at(k);
+    let below = (y[0] - yk).abs() / (k - x[0]);
+    let above = (yk - y[n - 1]).abs() / (x[n - 1] - k);
+    let ratio = below / above;
+    let share = (y[0].abs() - yk.abs()) / (y[0].abs() - y[n - 1].abs());
+    if ratio < 10.0 {
+        return fail(format!(
+            "mean slope below {k} MPa only {ratio:.1}× the slope above it (10× expected)"
+        ));
+    }
+    if share < fig.min_share_below_knee {
+        return fail(format!(
+            "{:.0} % of the change below {k} MPa ({:.0} % expected)",
+            100.0 * share,
+            100.0 * fig.min_share_below_knee
+        ));
+    }
+    TrendVerdict {
+        reproduced: true,
+        detail: format!(
+            "|Δλ| {:.0} → {:.0} pm, falling; slope ratio {ratio:.0} at {k} MPa, {:.0} % of the change below it",
+            y[0].abs(),
+            y[n - 1].abs(),
+            100.0 * share
+        ),
+    }
+}
+
+#[cfg(test)]
+mod trend_tests {
+    use super::*;
+
+    fn fig(id: &str) -> &'static PaperFigure {
+        PAPER_FIGURES.iter().find(|f| f.id == id).unwrap()
+    }
+
+    #[test]
+    fn a_curve_that_levels_off_at_the_knee_reproduces_and_others_do_not() {
+        let f = fig("fig9c_case1_es");
+        // Δλ = 100 + 1000 exp(−Es/100): falls, almost all of it below 500 MPa.
+        let x: Vec<f64> = (0..50).map(|i| 10.0 + 1990.0 * i as f64 / 49.0).collect();
+        let good: Vec<f64> = x
+            .iter()
+            .map(|e| 100.0 + 1000.0 * (-e / 100.0).exp())
+            .collect();
+        assert!(paper_trend(f, &x, &good).reproduced);
+        // A straight falling line: no knee.
+        let line: Vec<f64> = x.iter().map(|e| 3000.0 - e).collect();
+        let v = paper_trend(f, &x, &line);
+        assert!(!v.reproduced && v.detail.contains("slope"), "{}", v.detail);
+        // Rising: the Fig. 9b under the default model.
+        let rising: Vec<f64> = x.iter().map(|e| 100.0 + e).collect();
+        let v = paper_trend(f, &x, &rising);
+        assert!(!v.reproduced && v.detail.contains("rises"), "{}", v.detail);
+        // Turning blue: the Fig. 9a.
+        let blue: Vec<f64> = x.iter().map(|e| 500.0 - e).collect();
+        let v = paper_trend(f, &x, &blue);
+        assert!(!v.reproduced && v.detail.contains("blue"), "{}", v.detail);
+        // Case II must be blue.
+        let v = paper_trend(fig("fig11a_case2_e1"), &x, &good);
+        assert!(!v.reproduced && v.detail.contains("red"), "{}", v.detail);
+    }
+
+    #[test]
+    fn the_closed_form_reproduces_all_five_figures() {
+        let d = crate::design::parse(include_str!("../../designs/clip-on-34mm.toml")).unwrap();
+        for f in PAPER_FIGURES {
+            let r = run_paper_figure(&d, f, 201).unwrap();
+            let s = &r.series[0];
+            let v = paper_trend(f, &s.x, &s.shift_pm);
+            assert!(v.reproduced, "{}: {}", f.id, v.detail);
+        }
+    }
 }

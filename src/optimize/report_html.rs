@@ -17,20 +17,25 @@ use anyhow::Result;
 pub type Figure<'a> = (&'a Chart, &'a str);
 
 /// The module optimisation's report.
-pub fn module_document(o: &ModuleOutcome, figures: &[Figure]) -> Result<Document> {
+pub fn module_document(
+    o: &ModuleOutcome,
+    front: Option<&Chart>,
+    figures: &[Figure],
+) -> Result<Document> {
     let mut d = Document::new(format!("Optimised module: {}", o.design.name));
     module_verdict(&mut d, o);
     module_design(&mut d, o);
     module_constraints(&mut d, o);
     module_choices(&mut d, o);
-    // Hook: the Pareto front of the robust optimisation, when the outcome carries one,
-    // goes here as its own section function.
+    module_front(&mut d, o, front)?;
     d.section("Search");
     for (c, caption) in figures {
         d.chart(c, caption)?;
     }
     d.files(&[
         "summary.json",
+        "pareto_front.svg",
+        "pareto_front.csv",
         "convergence.svg",
         "convergence.csv",
         "landscape.svg",
@@ -189,6 +194,60 @@ fn module_choices(d: &mut Document, o: &ModuleOutcome) {
         }
     }
     d.table("choices", &t);
+}
+
+/// The Pareto front: the chart, one row per non-dominated design, the ties.
+fn module_front(d: &mut Document, o: &ModuleOutcome, front: Option<&Chart>) -> Result<()> {
+    d.section("Pareto front");
+    if let Some(c) = front {
+        d.chart(
+            c,
+            "Non-dominated designs: sensitivity (scored over the contact window) against the force range before the strain or wavelength limit, one series per Δt_max; the knee and the written design marked.",
+        )?;
+    }
+    let mut t = Table::new([
+        "#",
+        "choice",
+        "|K| pm/N",
+        "nominal pm/N",
+        "range N",
+        "limited by",
+        "lag s",
+        "R²",
+        "",
+    ]);
+    for (i, f) in o.pareto_front.iter().enumerate() {
+        let ob = &f.objectives;
+        let tag = match (f.knee, o.written_front_index == Some(i)) {
+            (true, true) => "knee, written",
+            (true, false) => "knee",
+            (false, true) => "written",
+            _ => "",
+        };
+        t.row([
+            i.to_string(),
+            f.choice.to_string(),
+            format!("{:.3}", ob.sensitivity_pm_per_n),
+            format!("{:.3}", ob.nominal_sensitivity_pm_per_n),
+            format!("{:.2}", ob.force_range_n),
+            ob.force_range_limited_by.to_string(),
+            format!("{:.3}", ob.max_lag_s),
+            format!("{:.6}", ob.r_squared),
+            tag.to_string(),
+        ]);
+    }
+    d.table("pareto-front", &t);
+    let mut notes: Vec<String> = o
+        .ties
+        .iter()
+        .map(|t| format!("ties and spreads: {t}"))
+        .collect();
+    notes.push(format!(
+        "written: {} ({})",
+        o.written_choice, o.written_because
+    ));
+    d.list(&notes);
+    Ok(())
 }
 
 /// Tests in one seed of the protocol the placement scores on.

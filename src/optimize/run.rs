@@ -196,6 +196,7 @@ fn write_module_report(
     write_json(&dir.join("summary.json"), o)?;
     let win = &o.choices[o.best_choice];
     let convergence = write_convergence(dir, win)?;
+    let front = write_front(dir, o)?;
     // Landscape over two variables at the optimum of the winning choice.
     let idx: Vec<usize> = landscape_vars
         .iter()
@@ -226,7 +227,7 @@ fn write_module_report(
     if let Some(c) = &landscape_chart_done {
         figures.push((c, "The objective over the two landscape variables, the others at the optimum: slices of the second variable; points the constraints cut off drawn apart."));
     }
-    report_html::module_document(o, &figures)?.write(&dir.join("report.html"))
+    report_html::module_document(o, front.as_ref(), &figures)?.write(&dir.join("report.html"))
 }
 
 /// How to read a convergence chart.
@@ -337,6 +338,122 @@ fn write_convergence(dir: &Path, win: &ChoiceResult) -> Result<Chart> {
     Ok(chart)
 }
 
+/// The Pareto front: sensitivity against force range, one colour per lag, the knee and
+/// the written design marked; chart and CSV of the same numbers.
+fn write_front(dir: &Path, o: &ModuleOutcome) -> Result<Option<Chart>> {
+    let mut chart = Chart::new(
+        format!(
+            "Pareto front ({} designs): sensitivity against force range, by lag",
+            o.pareto_front.len()
+        ),
+        "force range before the strain or wavelength limit (N)",
+        "sensitivity |K|, scored over the contact window (pm/N)",
+    );
+    let mut lags: Vec<f64> = o
+        .pareto_front
+        .iter()
+        .map(|f| (f.objectives.max_lag_s * 1e3).round() / 1e3)
+        .collect();
+    lags.sort_by(f64::total_cmp);
+    lags.dedup();
+    for lag in &lags {
+        let pts: Vec<(f64, f64)> = o
+            .pareto_front
+            .iter()
+            .filter(|f| ((f.objectives.max_lag_s * 1e3).round() / 1e3 - lag).abs() < 1e-12)
+            .map(|f| {
+                (
+                    f.objectives.force_range_n,
+                    f.objectives.sensitivity_pm_per_n,
+                )
+            })
+            .collect();
+        chart = chart.with(Series::new(
+            format!("Δt_max = {lag:.3} s"),
+            pts,
+            Mark::LinePoints,
+        ));
+    }
+    let marked = |pick: &dyn Fn(usize, &super::module::FrontDesign) -> bool| -> Vec<(f64, f64)> {
+        o.pareto_front
+            .iter()
+            .enumerate()
+            .filter(|(i, f)| pick(*i, f))
+            .map(|(_, f)| {
+                (
+                    f.objectives.force_range_n,
+                    f.objectives.sensitivity_pm_per_n,
+                )
+            })
+            .collect()
+    };
+    let knee = marked(&|_, f| f.knee);
+    if !knee.is_empty() {
+        chart = chart.with(Series::new("knee", knee, Mark::Points));
+    }
+    let written = marked(&|i, _| o.written_front_index == Some(i));
+    if !written.is_empty() {
+        chart = chart.with(Series::new(
+            format!("written (--prefer {})", o.prefer.name()),
+            written,
+            Mark::Points,
+        ));
+    }
+    let chart = if chart.series.is_empty() {
+        None
+    } else {
+        chart.write_svg(&dir.join("pareto_front.svg"))?;
+        Some(chart)
+    };
+    let mut header: Vec<String> = vec!["core_material".into(), "insert_material".into()];
+    header.extend(o.variables.iter().map(|v| v.name().to_string()));
+    header.extend(
+        [
+            "sensitivity_pm_per_n",
+            "nominal_sensitivity_pm_per_n",
+            "force_range_n",
+            "force_range_limited_by",
+            "max_lag_s",
+            "r_squared",
+            "quality_pm_per_n_s",
+            "knee",
+            "written",
+        ]
+        .map(String::from),
+    );
+    let rows: Vec<Vec<String>> = o
+        .pareto_front
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let ob = &f.objectives;
+            let mut r = vec![
+                f.choice.core_material.clone(),
+                f.choice
+                    .insert_material
+                    .clone()
+                    .unwrap_or_else(|| "none".into()),
+            ];
+            r.extend(f.evaluation.x.iter().map(|x| x.to_string()));
+            r.extend([
+                ob.sensitivity_pm_per_n.to_string(),
+                ob.nominal_sensitivity_pm_per_n.to_string(),
+                ob.force_range_n.to_string(),
+                ob.force_range_limited_by.to_string(),
+                ob.max_lag_s.to_string(),
+                ob.r_squared.to_string(),
+                ob.quality_pm_per_n_s.to_string(),
+                f.knee.to_string(),
+                (o.written_front_index == Some(i)).to_string(),
+            ]);
+            r
+        })
+        .collect();
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    write_csv(&dir.join("pareto_front.csv"), &header, &rows)?;
+    Ok(chart)
+}
+
 /// The landscape chart: feasible slices of the second variable, infeasible points apart.
 fn landscape_chart(
     o: &ModuleOutcome,
@@ -348,10 +465,10 @@ fn landscape_chart(
     let mut chart = Chart::new(
         format!(
             "{} landscape, {}",
-            if o.objective == Objective::Q {
-                "Q"
-            } else {
-                "|K|"
+            match o.objective {
+                Objective::Q => "Q",
+                Objective::Sensitivity => "|K|",
+                Objective::ForceRange => "force range",
             },
             win.choice
         ),

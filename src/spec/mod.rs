@@ -28,7 +28,7 @@ mod validate;
 pub use array::{
     derived_slit_depth_mm, mold_slot_width_mm, seat_z_mm, ArrayGrating, Mold, TactileArray,
 };
-pub use contact::{Contact, CylinderCoupling};
+pub use contact::{Contact, ContactRatios, CylinderCoupling};
 pub use design::{parse_unvalidated, Design};
 pub use error::{err, SpecError};
 pub use module::{

@@ -146,6 +146,22 @@ pub struct Module {
     /// Snap-fit between cap and core; without it the cap is a plain sliding fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub snap: Option<Snap>,
+    /// Wavelength sample rate of the interrogator the module is read with, Hz: the
+    /// floor of the lag Δt_max the optimiser predicts (one sample period). Absent: 2 Hz,
+    /// the paper's SM125.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interrogator_rate_hz: Option<f64>,
+}
+
+impl Module {
+    /// The paper's interrogator (Micron Optics SM125) samples at 2 Hz.
+    pub const DEFAULT_INTERROGATOR_RATE_HZ: f64 = 2.0;
+
+    /// The interrogator's sample rate, Hz (the design's, or the paper's 2 Hz).
+    pub fn interrogator_rate_hz(&self) -> f64 {
+        self.interrogator_rate_hz
+            .unwrap_or(Self::DEFAULT_INTERROGATOR_RATE_HZ)
+    }
 }
 
 /// The annular snap-fit that holds the cap on the core: a bead ring on the cap's inner

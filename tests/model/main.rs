@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod family_statements;
 mod fem_contact;
 mod fem_exact;
 mod fem_fidelity;

@@ -210,9 +210,11 @@ fn the_default_case_i_reading_meets_the_papers_statements_on_the_34mm_module() {
 #[test]
 fn module_contact_is_checked_field_by_field() {
     let base = std::fs::read_to_string(common::shipped_path("clip-on-34mm.toml")).unwrap();
-    let with = |line: &str| base.replace("dome_contact_radius_mm = 1.72", line);
+    let radius = "dome_contact_radius_to_patch = 1.376";
+    assert!(base.contains(radius));
+    let with = |line: &str| base.replace(radius, line);
     // An unknown field is refused, naming the table and the field.
-    let e = fbgforge::design::parse(&with("dome_contact_radius_mm = 1.72\nfriction = 0.3"))
+    let e = fbgforge::design::parse(&with(&format!("{radius}\nfriction = 0.3")))
         .unwrap_err()
         .to_string();
     assert!(
@@ -226,15 +228,29 @@ fn module_contact_is_checked_field_by_field() {
     assert!(e.contains("module.contact") && e.contains("glued"), "{e}");
     for (line, field) in [
         (
+            "dome_contact_radius_to_patch = -1.0",
+            "module.contact.dome_contact_radius_to_patch",
+        ),
+        (
+            "dome_contact_radius_to_patch = nan",
+            "module.contact.dome_contact_radius_to_patch",
+        ),
+        // 40 patches: a radius beyond half the module's radius.
+        (
+            "dome_contact_radius_to_patch = 40.0",
+            "module.contact.dome_contact_radius_to_patch",
+        ),
+        (
             "dome_contact_radius_mm = -1.0",
             "module.contact.dome_contact_radius_mm",
         ),
         (
-            "dome_contact_radius_mm = nan",
+            "dome_contact_radius_mm = 40.0",
             "module.contact.dome_contact_radius_mm",
         ),
+        // A length given both ways.
         (
-            "dome_contact_radius_mm = 40.0",
+            "dome_contact_radius_to_patch = 1.376\ndome_contact_radius_mm = 1.72",
             "module.contact.dome_contact_radius_mm",
         ),
     ] {
@@ -243,10 +259,16 @@ fn module_contact_is_checked_field_by_field() {
             .to_string();
         assert!(e.contains(field), "{line}: {e}");
     }
-    let e = fbgforge::design::parse(&base.replace("clip_height_mm = 1.5", "clip_height_mm = 0"))
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("module.contact.clip_height_mm"), "{e}");
+    let e = fbgforge::design::parse(&base.replace(
+        "clip_height_to_cap_wall = 1.0",
+        "clip_height_to_cap_wall = 0",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("module.contact.clip_height_to_cap_wall"), "{e}");
+    // A radius in mm is accepted at this size and means the same as its ratio.
+    let d = fbgforge::design::parse(&with("dome_contact_radius_mm = 1.72")).unwrap();
+    assert!((d.module.as_ref().unwrap().dome_contact_radius_mm() - 1.72).abs() < 1e-12);
     // Absent, the table takes its defaults: the same prediction as the shipped values.
     let bare = base.split("[module.contact]").next().unwrap().to_string();
     let d = fbgforge::design::parse(&bare).unwrap();

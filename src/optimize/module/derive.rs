@@ -1,6 +1,7 @@
 //! The derivation rules: the candidate design at a point. The overall height,
 //! pillars, holes, contact lengths and grating heights follow the variables by fixed
-//! rules (docs/optimize.md), floored at what the printer can make.
+//! rules (docs/optimize.md), floored at what the printer can make; the contact by the
+//! family rule (`spec::ContactRatios`).
 
 use super::problem::ModuleProblem;
 use super::variables::Variable;
@@ -44,15 +45,11 @@ impl ModuleProblem {
         p.height_mm = (bp.height_mm * s)
             .max(p.groove_depth_mm + p.fiber_hole_diameter_mm + 2.0 * min_wall + EPS);
         m.top_hole_diameter_mm = (b.top_hole_diameter_mm * s).max(0.4);
-        // The contact reading's lengths scale with the module too (the clip with the cap
-        // wall by default, the domes' contact zone with the diameter).
-        if let Some(r) = b.contact.dome_contact_radius_mm {
-            m.contact.dome_contact_radius_mm = Some(r * s);
-        }
-        if let Some(h) = b.contact.clip_height_mm {
-            m.contact.clip_height_mm = Some(h * m.cap_wall_mm / b.cap_wall_mm);
-        }
         m.apex_flat_diameter_mm = (b.apex_flat_diameter_mm * s).max(2.0 * d.printer.resolution_mm);
+        // The contact reading follows by the family rule: the template states it
+        // relative to its features (`Module::restate_contact_relative`), so the domes'
+        // contact zone stays the same multiple of the apex patch, the clip band of the
+        // cap wall, the dome clearance of the fit clearance.
         // Gratings keep their relative height, inside the cylindrical section.
         let prof = ModuleProfile::from_module_unchecked(m);
         let hs = m.overall_height_mm / b.overall_height_mm;

@@ -18,28 +18,39 @@
 //! variables and their bounds (`variables`), the discrete material choices (`choice`),
 //! the model the problem asks (`predictor`), the problem itself (`problem`: box, cost,
 //! merit), the derivation rules (`derive`), the constraints and the objective at a
-//! point (`evaluate`), the search over every choice (`search`), the refinement of the
-//! winner on the model policy (`refine`), the outcome types (`outcome`) and the
-//! landscape plot's grid (`landscape`).
+//! point (`evaluate`), the model's uncertainty carried through the search and the
+//! front's objectives (`robust`), the search over every choice (`search`), the table
+//! scored on the model policy and the winner's refinement (`refine`), the Pareto front
+//! and the preference that picks the written design (`front`), the outcome types
+//! (`outcome`) and the landscape plot's grid (`landscape`).
+//!
+//! K is scored over the model's own uncertainty (`ModuleSettings::robustness`: by
+//! default the worst case over the contact window, 1.30–1.48 × the apex patch) beside
+//! its nominal value, and a design whose nominal K lies outside its bounding contact
+//! readings, or whose sign is not fixed across them, is infeasible (`contact_band`).
 
 mod choice;
 mod derive;
 mod evaluate;
+mod front;
 mod landscape;
 mod outcome;
 mod predictor;
 mod problem;
 mod refine;
+mod robust;
 mod search;
 mod settings;
 mod variables;
 
 pub use choice::{choices, start_choice, Choice};
 pub use evaluate::{wavelength_windows, ConstraintValue, Evaluation, PHYSICS_CONSTRAINTS};
+pub use front::{pareto_front, FrontCandidate, FrontDesign};
 pub use landscape::{landscape, LandscapePoint};
 pub use outcome::{ChoiceResult, ModuleOutcome, RunSummary};
-pub use predictor::{model_predictor, AnchorCache, PredictFn, Predictor};
+pub use predictor::{model_predictor, AnchorCache, PredictFn, Predictor, ReadingsCache};
 pub use problem::{ModuleProblem, TIE_WEIGHT};
+pub use robust::{FrontObjectives, UncertaintyRatios};
 pub use search::optimise_module;
-pub use settings::{ModuleSettings, Objective};
+pub use settings::{ModuleSettings, Objective, Preference};
 pub use variables::{parse_bounds, Variable};

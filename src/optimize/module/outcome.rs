@@ -3,7 +3,8 @@
 
 use super::choice::Choice;
 use super::evaluate::Evaluation;
-use super::settings::{ModuleSettings, Objective};
+use super::front::FrontDesign;
+use super::settings::{ModuleSettings, Objective, Preference};
 use super::variables::Variable;
 use crate::optimize::quality::Calibration;
 use crate::solvers::SolverKind;
@@ -53,6 +54,10 @@ pub struct ModuleOutcome {
     pub objective: Objective,
     /// Unit of the objective.
     pub objective_unit: &'static str,
+    /// How K was scored over the model's uncertainty, in words.
+    pub robustness: String,
+    /// The interrogator's sample rate Δt_max was floored at, Hz.
+    pub rate_hz: f64,
     /// Variables, in the order of every `x`.
     pub variables: Vec<Variable>,
     /// Search bounds.
@@ -61,14 +66,34 @@ pub struct ModuleOutcome {
     pub upper_bounds: Vec<f64>,
     /// The start design's choice and evaluation.
     pub start_choice: Choice,
-    /// The start design evaluated (its objective is the bar to beat).
+    /// The start design evaluated on the policy (its objective is the bar to beat).
     pub start: Evaluation,
-    /// The model that scored the answer, in words (the policy anchored on it).
+    /// The model that scored the written design, in words (the policy anchored on it).
     pub model: String,
-    /// Index of the winning choice in `choices`.
+    /// Index of the table's best choice in `choices` (by the scalar objective, scored
+    /// on the policy: no row's value exceeds it).
     pub best_choice: usize,
-    /// Every choice.
+    /// Every choice: its best design, scored on the policy (`exact`) or, below the
+    /// best, the search's estimate.
     pub choices: Vec<ChoiceResult>,
+    /// The non-dominated designs over sensitivity, force range, lag and R², by force
+    /// range, each scored on the policy.
+    pub pareto_front: Vec<FrontDesign>,
+    /// Which design was written.
+    pub prefer: Preference,
+    /// Its index in `pareto_front` (`None`: the table's best, not on the front).
+    pub written_front_index: Option<usize>,
+    /// Its choice.
+    pub written_choice: Choice,
+    /// Its evaluation.
+    pub written: Evaluation,
+    /// Why it was written, in words.
+    pub written_because: String,
+    /// Where the objectives tie and why.
+    pub ties: Vec<String>,
+    /// What a lab should know before printing the written design (e.g. that its Case I
+    /// K rests on the shipped default contact, chosen, not measured).
+    pub warnings: Vec<String>,
     /// The optimised design.
     #[serde(skip)]
     pub design: Design,

@@ -6,9 +6,10 @@
 use super::choice::{module_of, Choice};
 use super::evaluate::{wavelength_windows, Evaluation};
 use super::predictor::{PredictFn, Predictor};
+use super::robust::UncertaintyRatios;
 use super::settings::ModuleSettings;
 use super::variables::Variable;
-use crate::model::{GratingPrediction, LoadCase};
+use crate::model::{Configuration, GratingPrediction, LoadCase};
 use crate::optimize::materials::MaterialLibrary;
 use crate::optimize::quality::Calibration;
 use crate::solvers::BoxProblem;
@@ -45,8 +46,10 @@ impl Correction {
                     .zip(x.iter().zip(&self.center))
                     .map(|(s, (x, c))| s * (x - c))
                     .sum::<f64>();
-            // A linear factor is trusted near its centre only; keep it positive.
-            let f = f.clamp(0.2, 5.0);
+            // A linear factor is trusted near its centre only (the trust region
+            // checks every step on the policy); it may cross zero, since the policy's K
+            // can change sign where the closed form's trend cannot.
+            let f = f.clamp(-5.0, 5.0);
             p.sensitivity_pm_per_n *= f;
             p.shift_pm *= f;
             p.strain *= f;
@@ -88,6 +91,12 @@ pub struct ModuleProblem {
     model_description: String,
     /// First-order correction of the anchored estimate (the trust region's).
     pub(super) correction: Option<Correction>,
+    /// The model's uncertainty about K as ratios to the nominal (from the readings at
+    /// the last full anchoring, or carried from the start's).
+    pub(super) uncertainty: UncertaintyRatios,
+    /// Where the model was last anchored with its readings (its numbers there are the
+    /// policy's own).
+    anchor_x: Option<Vec<f64>>,
     /// Each grating's wavelength window (name, lower, upper), nm.
     pub(super) windows_nm: Vec<(String, f64, f64)>,
     /// Normalises the objective in the cost.
@@ -113,6 +122,8 @@ impl ModuleProblem {
             .ok_or_else(|| anyhow::anyhow!("the design lists no core"))?;
         let mut t = base.clone();
         let tm = t.module.as_mut().expect("checked above");
+        // The family rule: every candidate keeps the start's contact ratios.
+        tm.restate_contact_relative();
         for key in std::iter::once(&choice.core_material).chain(choice.insert_material.iter()) {
             if !t.materials.contains_key(key) {
                 let lm = lib.materials.get(key).ok_or_else(|| {
@@ -216,6 +227,8 @@ impl ModuleProblem {
             model: Arc::new(|_: &Design, _: f64| anyhow::bail!("the model is not anchored yet")),
             model_description: String::new(),
             correction: None,
+            uncertainty: UncertaintyRatios::default(),
+            anchor_x: None,
             windows_nm,
             scale: 1.0,
             x0: Vec::new(),
@@ -225,13 +238,67 @@ impl ModuleProblem {
         Ok(p)
     }
 
-    /// The same problem with the model anchored on the design at `x` (the policy's
-    /// own K there).
+    /// The configuration under optimisation.
+    pub fn configuration(&self) -> Configuration {
+        Configuration {
+            core: self.core_name.clone(),
+            case: if self.insert_name.is_some() {
+                LoadCase::I
+            } else {
+                LoadCase::II
+            },
+            insert: self.insert_name.clone(),
+        }
+    }
+
+    /// The same problem with the model anchored on the design at `x` with the policy's
+    /// readings there: its K, the contact window's ends and the bounding readings at
+    /// `x` are the policy's own.
     pub fn anchored_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+        let mut p = self.clone();
+        let (model, name, readings) = self
+            .predictor
+            .anchored_with_readings(&self.design_at(x), &self.configuration())?;
+        (p.model, p.model_description) = (model, name);
+        if let Some(r) = readings {
+            p.uncertainty = self
+                .uncertainty
+                .clone()
+                .merged(&UncertaintyRatios::from_readings(&r));
+        }
+        p.correction = None;
+        p.anchor_x = Some(x.to_vec());
+        Ok(p)
+    }
+
+    /// The same problem with the model anchored on the design at `x` for its nominal K
+    /// only (one FE solve per configuration), keeping the uncertainty ratios it has.
+    pub fn anchored_nominal_at(&self, x: &[f64]) -> anyhow::Result<Self> {
         let mut p = self.clone();
         (p.model, p.model_description) = self.predictor.anchored_on(&self.design_at(x))?;
         p.correction = None;
+        p.anchor_x = None;
         Ok(p)
+    }
+
+    /// The same problem with `u` as its uncertainty ratios (e.g. the start's, carried
+    /// to another choice until its candidates are scored exactly).
+    pub fn with_uncertainty(&self, u: &UncertaintyRatios) -> Self {
+        let mut p = self.clone();
+        p.uncertainty = self.uncertainty.clone().merged(u);
+        p
+    }
+
+    /// The uncertainty ratios of the problem.
+    pub fn uncertainty(&self) -> &UncertaintyRatios {
+        &self.uncertainty
+    }
+
+    /// Whether an evaluation at `x` gives the model's own numbers, not an estimate: a
+    /// plain function is the model; the policy is only at its full anchor.
+    pub(super) fn is_exact_at(&self, x: &[f64]) -> bool {
+        matches!(self.predictor, Predictor::Function(_))
+            || (self.correction.is_none() && self.anchor_x.as_deref() == Some(x))
     }
 
     /// The model anchored at `x` with a first-order correction: the ratio of the
@@ -247,6 +314,8 @@ impl ModuleProblem {
             (q.model)(&q.design_at(x), 1.0)
         };
         let base = at(&p, x)?;
+        // The slopes need the nominal only: the readings' ratios to it are held
+        // within the trust region.
         let mut slopes: Vec<Vec<f64>> = vec![vec![0.0; x.len()]; base.len()];
         for v in 0..x.len() {
             let span = self.hi[v] - self.lo[v];
@@ -257,9 +326,12 @@ impl ModuleProblem {
             let mut xs = x.to_vec();
             xs[v] += h;
             let estimate = at(&p, &xs)?;
-            let exact = at(&p.anchored_at(&xs)?, &xs)?;
-            for (i, (e, t)) in estimate.iter().zip(&exact).enumerate() {
-                if e.sensitivity_pm_per_n != 0.0 {
+            let exact = at(&p.anchored_nominal_at(&xs)?, &xs)?;
+            for (i, e) in estimate.iter().enumerate() {
+                let t = exact
+                    .iter()
+                    .find(|t| t.grating == e.grating && t.case == e.case && t.insert == e.insert);
+                if let (Some(t), true) = (t, e.sensitivity_pm_per_n != 0.0) {
                     slopes[i][v] = (t.sensitivity_pm_per_n / e.sensitivity_pm_per_n - 1.0) / h;
                 }
             }

@@ -1,8 +1,10 @@
-//! Refining the winner on the model policy: away from its anchor the optimiser's K is
-//! an estimate, so the best choices are tried in order of merit and each answer is
-//! walked by a trust region on the policy's own prediction until one holds.
+//! Scoring the table on the model policy: away from its anchor the search's K is an
+//! estimate, so the choices are scored on the policy's own prediction (anchored on
+//! each answer, with its readings) in order of estimated objective until no estimate
+//! beats the best exact row; the winner's answer is walked by a trust region on the
+//! policy. The best row of the table is then the policy's own, and so is what is
+//! written.
 
-use super::choice::Choice;
 use super::evaluate::Evaluation;
 use super::outcome::ChoiceResult;
 use super::problem::ModuleProblem;
@@ -11,78 +13,100 @@ use super::settings::ModuleSettings;
 use crate::solvers::multi_start;
 
 impl ProblemInputs<'_> {
-    /// Refine the answer on the policy: try the choices of `order` (the best by
-    /// estimated merit, `bi`, first) until one holds under the policy's own prediction.
-    pub(super) fn policy_refined(
+    /// Score the table on the policy. Rows are taken in order of their (estimated)
+    /// objective; each is scored exactly at its answer while its estimate exceeds the
+    /// best exact row so far, and a row that becomes the best is refined by a trust
+    /// region. Rows left with estimates lie below the best exact row. Returns the best
+    /// row and its problem (anchored on its answer), or `None` when the policy finds no
+    /// row feasible.
+    pub(super) fn score_table(
         &self,
-        choices: &[ChoiceResult],
-        order: &[usize],
-        bi: usize,
-    ) -> anyhow::Result<(usize, ModuleProblem, Evaluation)> {
-        let mut why = Vec::new();
-        for &i in order
-            .iter()
-            .filter(|&&i| i == bi)
-            .chain(order.iter().filter(|&&i| i != bi))
-        {
-            let p = self.problem(choices[i].choice.clone())?;
-            let found = choices[i]
-                .best
-                .clone()
-                .unwrap_or_else(|| p.evaluate(&p.start_point()));
-            match policy_answer(p, found, self.settings) {
-                Ok((p, e)) => return Ok((i, p, e)),
-                Err(e) => why.push(format!("{}: {e:#}", choices[i].choice)),
+        choices: &mut [ChoiceResult],
+        scale: f64,
+    ) -> anyhow::Result<Option<(usize, ModuleProblem)>> {
+        let mut order: Vec<usize> = (0..choices.len())
+            .filter(|&i| choices[i].best.is_some())
+            .collect();
+        let est = |c: &ChoiceResult| c.best.as_ref().map_or(f64::NEG_INFINITY, |e| e.objective);
+        order.sort_by(|&a, &b| est(&choices[b]).total_cmp(&est(&choices[a])));
+        let mut best: Option<(usize, ModuleProblem, f64)> = None;
+        for i in order {
+            let estimate = est(&choices[i]);
+            if best.as_ref().is_some_and(|b| estimate <= b.2) {
+                break;
+            }
+            let found = choices[i].best.clone().expect("filtered");
+            let mut p = self.problem(choices[i].choice.clone())?;
+            p.set_scale(scale);
+            let exact_p = p.anchored_at(&found.x)?;
+            let exact = exact_p.evaluate(&found.x);
+            let beats = |e: &Evaluation, best: &Option<(usize, ModuleProblem, f64)>| {
+                e.feasible() && best.as_ref().is_none_or(|b| e.objective > b.2)
+            };
+            // The first row, and any row whose exact score beats the best, is refined.
+            let refined = if best.is_none() || beats(&exact, &best) {
+                policy_answer(exact_p.clone(), exact.clone(), self.settings, 24).ok()
+            } else {
+                None
+            };
+            let (rp, re) = refined.unwrap_or((exact_p, exact));
+            if beats(&re, &best) {
+                best = Some((i, rp, re.objective));
+            }
+            if re.feasible() {
+                choices[i].best = Some(re);
+                choices[i].least_violating = None;
+            } else {
+                choices[i].best = None;
+                choices[i].least_violating = Some(re);
             }
         }
-        anyhow::bail!(
+        Ok(best.map(|(i, p, _)| (i, p)))
+    }
+
+    /// The error when the policy finds no row of the table feasible.
+    pub(super) fn infeasible_under_policy(&self, choices: &[ChoiceResult]) -> anyhow::Error {
+        let why: Vec<String> = choices
+            .iter()
+            .filter_map(|c| {
+                c.least_violating
+                    .as_ref()
+                    .filter(|e| e.exact)
+                    .map(|e| (c, e))
+            })
+            .map(|(c, e)| {
+                format!(
+                    "{}: {}",
+                    c.choice,
+                    e.constraints
+                        .iter()
+                        .filter(|k| k.violation > 0.0)
+                        .map(|k| format!("{}: {}", k.name, k.detail))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                )
+            })
+            .collect();
+        anyhow::anyhow!(
             "infeasible under the model policy's own prediction: {}",
-            why.join("; ")
+            why.join(" | ")
         )
     }
 }
 
-/// The feasible choices in the order the policy tries them: by estimated merit (at
-/// most four), then the start's own choice. Every choice shares the start point and
-/// the box, so merits compare across choices too.
-pub(super) fn policy_order(
-    choices: &[ChoiceResult],
-    ranker: &ModuleProblem,
-    start_ch: &Choice,
-) -> Vec<usize> {
-    let mut order: Vec<usize> = choices
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| c.best.is_some())
-        .map(|(i, _)| i)
-        .collect();
-    order.sort_by(|&a, &b| {
-        let m = |i: usize| ranker.merit(choices[i].best.as_ref().expect("filtered"));
-        m(b).total_cmp(&m(a))
-    });
-    order.truncate(4);
-    if let Some(si) = choices.iter().position(|c| &c.choice == start_ch) {
-        if !order.contains(&si) {
-            order.push(si);
-        }
-    }
-    order
-}
-
-/// The winning choice's answer as the policy predicts it. Away from its anchor the
-/// optimiser's model is an estimate (closed-form trend, FE level at the anchor), and in
-/// Case I the closed form's trend can be far off the FE's. So the answer is refined by
-/// a trust region on the policy itself: anchor on the current design with a
-/// first-order correction (value and slope of the policy's K there, one anchoring per
-/// variable), search that estimate within a box around it, score the step by the
-/// policy anchored on the step; accept it when the policy agrees it is better (and
-/// feasible), widen the box when the estimate was right, shrink it when not. Each
-/// anchoring costs one FE solve per configuration. The global search's answer is a
-/// candidate too.
-fn policy_answer(
+/// The answer of one choice as the policy predicts it, walked by a trust region on
+/// the policy itself: anchor on the current design with a first-order correction
+/// (value and slope of the policy's nominal K there, one nominal anchoring per
+/// variable; the readings' ratios to it held), search that estimate within a box
+/// around it, score the step exactly (anchored on it with its readings); accept it when
+/// the policy agrees it is better (and feasible), widen the box when the estimate was
+/// right, shrink it when not (at most `max_steps` steps). `found` is the answer scored exactly; when the policy finds
+/// it infeasible the choice's start is tried too.
+pub(super) fn policy_answer(
     p: ModuleProblem,
     found: Evaluation,
     settings: &ModuleSettings,
+    max_steps: u64,
 ) -> anyhow::Result<(ModuleProblem, Evaluation)> {
     let (lo, hi) = p.box_bounds();
     let exact = |x: &[f64]| -> anyhow::Result<(ModuleProblem, Evaluation)> {
@@ -90,9 +114,6 @@ fn policy_answer(
         let e = q.evaluate(x);
         Ok((q, e))
     };
-    // The problem is anchored on its start, so the start is scored exactly.
-    let x0 = p.start_point();
-    let mut cur = (p.clone(), p.evaluate(&x0));
     // Feasible beats infeasible; between feasible designs the objective decides,
     // between infeasible ones the smaller violation (so a start the policy finds
     // infeasible can be walked into the feasible region).
@@ -102,12 +123,15 @@ fn policy_answer(
         (true, true) => a.objective > b.objective,
         (false, false) => a.total_violation() < b.total_violation(),
     };
-    let cand = exact(&found.x)?;
-    if better(&cand.1, &cur.1) {
-        cur = cand;
+    let mut cur = (p.clone(), found);
+    if !cur.1.feasible() {
+        let s = exact(&p.start_point())?;
+        if better(&s.1, &cur.1) {
+            cur = s;
+        }
     }
     let mut radius = 0.25;
-    for k in 0..24u64 {
+    for k in 0..max_steps {
         let xc = cur.1.x.clone();
         let (tl, th): (Vec<f64>, Vec<f64>) = xc
             .iter()

@@ -5,6 +5,7 @@
 use super::variables::Variable;
 use crate::optimize::materials::MaterialLibrary;
 use crate::optimize::quality::QualitySettings;
+use crate::prediction::Robustness;
 use crate::solvers::{RunSettings, SolverKind};
 use serde::Serialize;
 
@@ -16,6 +17,10 @@ pub enum Objective {
     Q,
     /// |K| of the worst strain grating, pm/N.
     Sensitivity,
+    /// The force range, N: the largest force before a grating reaches the strain limit
+    /// or leaves its wavelength window (the Pareto front's other end).
+    #[serde(rename = "force-range")]
+    ForceRange,
 }
 
 impl Objective {
@@ -24,7 +29,8 @@ impl Objective {
         match s {
             "q" => Ok(Objective::Q),
             "sensitivity" => Ok(Objective::Sensitivity),
-            _ => anyhow::bail!("unknown objective `{s}`; expected q or sensitivity"),
+            "force-range" => Ok(Objective::ForceRange),
+            _ => anyhow::bail!("unknown objective `{s}`; expected q, sensitivity or force-range"),
         }
     }
 
@@ -33,7 +39,68 @@ impl Objective {
         match self {
             Objective::Q => "pm/(N·s)",
             Objective::Sensitivity => "pm/N",
+            Objective::ForceRange => "N",
         }
+    }
+}
+
+/// Which design of the Pareto front is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Preference {
+    /// The knee: the front's design farthest beyond the chord between its most
+    /// sensitive and its widest-range designs, in sensitivity and force range on log
+    /// scales normalised over the front (the table's best when no design lies clearly
+    /// beyond it).
+    Knee,
+    /// The best of the table by the scalar objective (`--objective`).
+    Objective,
+    /// The largest sensitivity.
+    Sensitivity,
+    /// The widest force range.
+    ForceRange,
+    /// The shortest lag Δt_max.
+    Lag,
+    /// The largest R².
+    RSquared,
+}
+
+impl Preference {
+    /// Every preference, in the order of `--prefer`'s help.
+    pub const ALL: [Preference; 6] = [
+        Preference::Knee,
+        Preference::Objective,
+        Preference::Sensitivity,
+        Preference::ForceRange,
+        Preference::Lag,
+        Preference::RSquared,
+    ];
+
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preference::Knee => "knee",
+            Preference::Objective => "objective",
+            Preference::Sensitivity => "sensitivity",
+            Preference::ForceRange => "force-range",
+            Preference::Lag => "lag",
+            Preference::RSquared => "r-squared",
+        }
+    }
+
+    /// Parse a name, listing the known ones when it is unknown.
+    pub fn parse(s: &str) -> anyhow::Result<Self> {
+        Preference::ALL
+            .iter()
+            .copied()
+            .find(|p| p.name() == s)
+            .ok_or_else(|| {
+                let known: Vec<&str> = Preference::ALL.iter().map(|p| p.name()).collect();
+                anyhow::anyhow!(
+                    "unknown --prefer `{s}`; expected one of {}",
+                    known.join(", ")
+                )
+            })
     }
 }
 
@@ -73,6 +140,18 @@ pub struct ModuleSettings {
     pub run: RunSettings,
     /// Seed for the starts and the swarms.
     pub seed: u64,
+    /// How a design is scored over the model's uncertainty about K (the contact
+    /// window); the bounding readings' constraint applies in every case.
+    pub robustness: Robustness,
+    /// Interrogator sample rate, Hz: Δt_max's floor is one sample period. `None`: the
+    /// design's `interrogator_rate_hz` (2 Hz when absent), or a measured prototype's.
+    pub rate_hz: Option<f64>,
+    /// Which design of the Pareto front is written.
+    pub prefer: Preference,
+    /// Force levels the Pareto front is searched at between `max_force_n` and the
+    /// widest force range a choice reaches (evenly spaced; each a search for the best
+    /// objective with the strain and wavelength limits held at that force).
+    pub front_levels: usize,
 }
 
 impl Default for ModuleSettings {
@@ -94,6 +173,10 @@ impl Default for ModuleSettings {
             extra_starts: 2,
             run: RunSettings::default(),
             seed: 2024,
+            robustness: Robustness::WorstCase,
+            rate_hz: None,
+            prefer: Preference::Knee,
+            front_levels: 3,
         }
     }
 }
@@ -115,5 +198,11 @@ pub(super) fn check_settings(
         settings.max_grating_strain
     );
     anyhow::ensure!(!settings.solvers.is_empty(), "no solver selected");
+    if let Some(f) = settings.rate_hz {
+        anyhow::ensure!(
+            f.is_finite() && f > 0.0,
+            "--rate-hz must be a positive number of hertz, got {f}"
+        );
+    }
     Ok(())
 }

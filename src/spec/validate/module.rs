@@ -59,20 +59,107 @@ impl Design {
             m.core_insert_clearance_mm,
         )?;
         self.material(&m.cap_material, "module.cap_material")?;
+        if let Some(f) = m.interrogator_rate_hz {
+            positive("module.interrogator_rate_hz", f, 1e-3, 1e7)?;
+        }
+        self.validate_contact(m)
+    }
+
+    /// `[module.contact]`: each length stated once (relative or in mm), each ratio and
+    /// each resolved length in its range.
+    fn validate_contact(&self, m: &Module) -> Result<(), SpecError> {
         let c = &m.contact;
-        if let Some(h) = c.clip_height_mm {
+        let r = m.outer_diameter_mm / 2.0;
+        for (relative, absolute, rel_name, abs_name) in [
+            (
+                c.clip_height_to_cap_wall,
+                c.clip_height_mm,
+                "clip_height_to_cap_wall",
+                "clip_height_mm",
+            ),
+            (
+                c.dome_clearance_to_fit_clearance,
+                c.dome_clearance_mm,
+                "dome_clearance_to_fit_clearance",
+                "dome_clearance_mm",
+            ),
+            (
+                c.dome_contact_radius_to_patch,
+                c.dome_contact_radius_mm,
+                "dome_contact_radius_to_patch",
+                "dome_contact_radius_mm",
+            ),
+        ] {
+            if relative.is_some() && absolute.is_some() {
+                return Err(err(
+                    &format!("module.contact.{abs_name}"),
+                    format!(
+                        "give either `{rel_name}` (relative, scales with the module) or `{abs_name}` (at this size), not both"
+                    ),
+                ));
+            }
+        }
+        if let Some(k) = c.clip_height_to_cap_wall {
+            positive("module.contact.clip_height_to_cap_wall", k, 1e-3, 100.0)?;
+        }
+        if let Some(k) = c.dome_clearance_to_fit_clearance {
+            range(
+                "module.contact.dome_clearance_to_fit_clearance",
+                k,
+                0.0,
+                100.0,
+            )?;
+        }
+        if let Some(k) = c.dome_contact_radius_to_patch {
             positive(
-                "module.contact.clip_height_mm",
-                h,
+                "module.contact.dome_contact_radius_to_patch",
+                k,
+                1e-3,
+                100.0,
+            )?;
+        }
+        // The lengths they resolve to, for the fields the design states (the defaults
+        // follow features that are checked themselves).
+        let field = |rel: Option<f64>, rel_name: &str, abs_name: &str| {
+            if rel.is_some() {
+                format!("module.contact.{rel_name}")
+            } else {
+                format!("module.contact.{abs_name}")
+            }
+        };
+        if c.clip_height_to_cap_wall.is_some() || c.clip_height_mm.is_some() {
+            positive(
+                &field(
+                    c.clip_height_to_cap_wall,
+                    "clip_height_to_cap_wall",
+                    "clip_height_mm",
+                ),
+                m.clip_height_mm(),
                 1e-3,
                 m.overall_height_mm,
             )?;
         }
-        if let Some(g) = c.dome_clearance_mm {
-            self.fit_clearance("module.contact.dome_clearance_mm", g)?;
+        if c.dome_clearance_to_fit_clearance.is_some() || c.dome_clearance_mm.is_some() {
+            self.fit_clearance(
+                &field(
+                    c.dome_clearance_to_fit_clearance,
+                    "dome_clearance_to_fit_clearance",
+                    "dome_clearance_mm",
+                ),
+                m.dome_clearance_mm(),
+            )?;
         }
-        if let Some(a) = c.dome_contact_radius_mm {
-            positive("module.contact.dome_contact_radius_mm", a, 1e-3, 0.5 * r)?;
+        if c.dome_contact_radius_to_patch.is_some() || c.dome_contact_radius_mm.is_some() {
+            positive(
+                &field(
+                    c.dome_contact_radius_to_patch,
+                    "dome_contact_radius_to_patch",
+                    "dome_contact_radius_mm",
+                ),
+                m.dome_contact_radius_mm(),
+                1e-3,
+                0.5 * r,
+            )?;
         }
         Ok(())
     }
