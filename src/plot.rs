@@ -1,8 +1,8 @@
 //! SVG charts for results people would rather look at than read.
 //!
-//! One small chart type covers every plot fbgforge makes: named series of (x, y)
+//! One small chart type covers most plots fbgforge makes: named series of (x, y)
 //! points drawn as lines, markers or both, optionally with a shaded band, on linear
-//! or log10 axes. Charts are
+//! or log10 axes; [`HeatMaps`] draws values over a plane (a sensitivity map). Charts are
 //! rendered to a string with plotters' SVG backend and written atomically; the same
 //! numbers always go to a JSON or CSV beside the chart.
 
@@ -213,6 +213,151 @@ impl Chart {
                 .border_style(BLACK)
                 .draw()
                 .map_err(|e| anyhow!("plot: {e}"))?;
+            root.present().map_err(|e| anyhow!("plot: {e}"))?;
+        }
+        Ok(svg)
+    }
+
+    /// Render and write atomically to `path`.
+    pub fn write_svg(&self, path: &Path) -> Result<()> {
+        let svg = self.to_svg()?;
+        write_atomic(path, svg.as_bytes())
+    }
+}
+
+/// One panel of a [`HeatMaps`] figure: a value per grid cell, with marks on top.
+#[derive(Debug, Clone)]
+pub struct HeatPanel {
+    /// Panel title.
+    pub title: String,
+    /// Cell-centre x values of the grid, increasing, evenly spaced.
+    pub x: Vec<f64>,
+    /// Cell-centre y values of the grid, increasing, evenly spaced.
+    pub y: Vec<f64>,
+    /// Values, `values[j][i]` at (x[i], y[j]).
+    pub values: Vec<Vec<f64>>,
+    /// Points to mark (drawn as black dots).
+    pub points: Vec<(f64, f64)>,
+    /// Lines to draw (thin grey), each a polyline.
+    pub lines: Vec<Vec<(f64, f64)>>,
+}
+
+/// A figure of heat maps side by side (e.g. each grating's sensitivity over a sheet),
+/// each on a diverging scale (blue below zero, white at zero, red above) normalised to
+/// its own largest |value|.
+#[derive(Debug, Clone)]
+pub struct HeatMaps {
+    /// Title above every panel.
+    pub title: String,
+    /// Axis labels, with units.
+    pub x_label: String,
+    /// y-axis label.
+    pub y_label: String,
+    /// The panels, laid out in rows of up to three.
+    pub panels: Vec<HeatPanel>,
+}
+
+/// Diverging colour of t in [−1, 1].
+fn diverging(t: f64) -> RGBColor {
+    let t = if t.is_finite() { t.clamp(-1.0, 1.0) } else { 0.0 };
+    let mix = |a: (f64, f64, f64), b: (f64, f64, f64), f: f64| {
+        RGBColor(
+            (a.0 + (b.0 - a.0) * f).round() as u8,
+            (a.1 + (b.1 - a.1) * f).round() as u8,
+            (a.2 + (b.2 - a.2) * f).round() as u8,
+        )
+    };
+    let white = (255.0, 255.0, 255.0);
+    if t >= 0.0 {
+        mix(white, (178.0, 24.0, 43.0), t)
+    } else {
+        mix(white, (33.0, 102.0, 172.0), -t)
+    }
+}
+
+impl HeatMaps {
+    /// Render to an SVG string.
+    pub fn to_svg(&self) -> Result<String> {
+        if self.panels.is_empty() {
+            return Err(anyhow!("heat maps `{}` have no panel", self.title));
+        }
+        let cols = self.panels.len().min(3);
+        let rows = self.panels.len().div_ceil(cols);
+        let (pw, ph) = (420u32, 360u32);
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (pw * cols as u32, ph * rows as u32 + 40))
+                .into_drawing_area();
+            root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+            let root = root
+                .titled(&self.title, ("sans-serif", 20))
+                .map_err(|e| anyhow!("plot: {e}"))?;
+            let areas = root.split_evenly((rows, cols));
+            for (p, area) in self.panels.iter().zip(areas.iter()) {
+                let step = |v: &[f64]| {
+                    if v.len() >= 2 {
+                        (v[v.len() - 1] - v[0]) / (v.len() - 1) as f64
+                    } else {
+                        1.0
+                    }
+                };
+                let (dx, dy) = (step(&p.x), step(&p.y));
+                let (Some(&x0), Some(&x1), Some(&y0), Some(&y1)) =
+                    (p.x.first(), p.x.last(), p.y.first(), p.y.last())
+                else {
+                    continue;
+                };
+                let (x0, x1, y0, y1) = (x0 - dx / 2.0, x1 + dx / 2.0, y0 - dy / 2.0, y1 + dy / 2.0);
+                let peak = p
+                    .values
+                    .iter()
+                    .flatten()
+                    .filter(|v| v.is_finite())
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
+                let mut chart = ChartBuilder::on(area)
+                    .caption(&p.title, ("sans-serif", 15))
+                    .margin(8)
+                    .x_label_area_size(32)
+                    .y_label_area_size(40)
+                    .build_cartesian_2d(x0..x1, y0..y1)
+                    .map_err(|e| anyhow!("plot: {e}"))?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_desc(self.x_label.as_str())
+                    .y_desc(self.y_label.as_str())
+                    .x_labels(5)
+                    .y_labels(5)
+                    .draw()
+                    .map_err(|e| anyhow!("plot: {e}"))?;
+                let cells = p.y.iter().enumerate().flat_map(|(j, &y)| {
+                    p.x.iter().enumerate().map(move |(i, &x)| (i, j, x, y))
+                });
+                chart
+                    .draw_series(cells.map(|(i, j, x, y)| {
+                        let v = p.values.get(j).and_then(|r| r.get(i)).copied();
+                        let t = match v {
+                            Some(v) if peak > 0.0 => v / peak,
+                            _ => 0.0,
+                        };
+                        Rectangle::new(
+                            [(x - dx / 2.0, y - dy / 2.0), (x + dx / 2.0, y + dy / 2.0)],
+                            diverging(t).filled(),
+                        )
+                    }))
+                    .map_err(|e| anyhow!("plot: {e}"))?;
+                for l in &p.lines {
+                    chart
+                        .draw_series(std::iter::once(PathElement::new(
+                            l.clone(),
+                            RGBColor(120, 120, 120).stroke_width(1),
+                        )))
+                        .map_err(|e| anyhow!("plot: {e}"))?;
+                }
+                chart
+                    .draw_series(p.points.iter().map(|&q| Circle::new(q, 4, BLACK.filled())))
+                    .map_err(|e| anyhow!("plot: {e}"))?;
+            }
             root.present().map_err(|e| anyhow!("plot: {e}"))?;
         }
         Ok(svg)

@@ -25,7 +25,10 @@ mod module;
 mod printer;
 mod validate;
 
-pub use array::{derived_slit_depth_mm, mold_slot_width_mm, ArrayGrating, Mold, TactileArray};
+pub use array::{
+    derived_slit_depth_mm, mold_slot_width_mm, ArrayGrating, ArrayModelKind, BaseCondition, Mold,
+    TactileArray, PAPER_TANGENTIAL_STIFFNESS_N_PER_MM3,
+};
 pub use contact::{Contact, CylinderCoupling};
 pub use design::{parse_unvalidated, Design};
 pub use error::{err, SpecError};

@@ -17,4 +17,5 @@ pub mod predict;
 pub mod progress;
 pub mod reconstruct;
 pub mod reconstruct_scaling;
+pub mod sheet;
 pub mod verify;

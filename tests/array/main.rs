@@ -10,3 +10,5 @@ mod array;
 mod array_cli;
 mod array_scaling;
 mod live;
+mod sheet_exact;
+mod sheet_paper;
