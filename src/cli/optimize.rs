@@ -359,6 +359,23 @@ fn print_place_table(o: &PlaceOutcome) {
     row("start layout", &o.start_test);
     row("optimised layout", &o.best_test);
     println!(
+        "  gain on its own model ({}): RR {:+.1} points, RR + SNR {:+.2}",
+        o.model.name(),
+        o.best_test.rr_pct - o.start_test.rr_pct,
+        o.best_test.score() - o.start_test.score()
+    );
+    if let Some(g) = &o.perturbed {
+        row("start, perturbed model", &g.start);
+        row("optimised, perturbed model", &g.best);
+        println!(
+            "  gain on frames from a perturbed model ({:.0} % scatter per entry, {} draws): RR {:+.1} points, RR + SNR {:+.2}",
+            100.0 * g.scatter_per_entry,
+            g.draws,
+            g.gain_rr_pct,
+            g.gain_score
+        );
+    }
+    println!(
         "  by number of loads (paper Table 3: RR 100/100/100/90 %, SNR 25.4/25.2/23.3/19.7 dB):"
     );
     for (a, b) in o

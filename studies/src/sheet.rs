@@ -17,7 +17,7 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use fbgforge::array::kernel::{describe_kernel, DistanceKernel, TABLE1};
-use fbgforge::array::sheet::fit::{compare_with_paper, fit_table1, table1_model};
+use fbgforge::array::sheet::fit::{compare_with_paper, fit_table1, modulus_profile, table1_model};
 use fbgforge::array::sheet::{design_matrix, Resolution, SheetModel};
 use fbgforge::output::{write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
@@ -181,7 +181,31 @@ fn fit(design: &Design, a: &SheetStudyArgs) -> Result<()> {
         "fit to Table 1: E = {:.3} MPa, k_t = {:.4} N/mm³, rms log misfit {:.4} ({} solves, {s:.1} s)",
         f.youngs_modulus_mpa, f.tangential_stiffness_n_per_mm3, f.table1_rms_log, f.evaluations
     );
-    write_json(&a.out.join("fit.json"), &f)?;
+    let moduli = [0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0];
+    let profile = modulus_profile(design, &moduli)?;
+    println!("profile: the best interface for each modulus");
+    println!("{:>10} {:>14} {:>12} {:>10} {:>12} {:>10}", "E MPa", "k_t N/mm³", "k_t/μ 1/mm", "rms log", "shape %", "direct");
+    let mut rows = Vec::new();
+    for p in &profile {
+        let mut m = SheetModel::from_design(design)?;
+        m.youngs_modulus_mpa = p.youngs_modulus_mpa;
+        m.base = BaseCondition::Gripping {
+            tangential_stiffness_n_per_mm3: p.tangential_stiffness_n_per_mm3,
+        };
+        let c = compare_with_paper(&m, design)?;
+        println!(
+            "{:>10.3} {:>14.5} {:>12.4} {:>10.4} {:>12.1} {:>10.3}",
+            p.youngs_modulus_mpa,
+            p.tangential_stiffness_n_per_mm3,
+            p.stiffness_over_shear_modulus_per_mm,
+            p.table1_rms_log,
+            c.worst_shape_error_pct,
+            c.table2_model_mean_pm_per_g
+        );
+        rows.push(serde_json::json!({"profile": p, "worst_shape_error_pct": c.worst_shape_error_pct,
+            "common_scale": c.common_scale, "table2_model_mean_pm_per_g": c.table2_model_mean_pm_per_g}));
+    }
+    write_json(&a.out.join("fit.json"), &serde_json::json!({"fit": f, "profile": rows}))?;
     Ok(())
 }
 

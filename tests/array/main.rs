@@ -10,5 +10,6 @@ mod array;
 mod array_cli;
 mod array_scaling;
 mod live;
+mod sheet_cli;
 mod sheet_exact;
 mod sheet_paper;

@@ -32,6 +32,7 @@ pub mod fiber;
 pub mod fit;
 pub mod hankel;
 pub mod layer;
+pub mod layouts;
 
 use crate::profile::{cell_label, ArrayLayout};
 use crate::spec::Design;
