@@ -259,7 +259,11 @@ pub struct HeatMaps {
 
 /// Diverging colour of t in [−1, 1].
 fn diverging(t: f64) -> RGBColor {
-    let t = if t.is_finite() { t.clamp(-1.0, 1.0) } else { 0.0 };
+    let t = if t.is_finite() {
+        t.clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
     let mix = |a: (f64, f64, f64), b: (f64, f64, f64), f: f64| {
         RGBColor(
             (a.0 + (b.0 - a.0) * f).round() as u8,
@@ -330,9 +334,10 @@ impl HeatMaps {
                     .y_labels(5)
                     .draw()
                     .map_err(|e| anyhow!("plot: {e}"))?;
-                let cells = p.y.iter().enumerate().flat_map(|(j, &y)| {
-                    p.x.iter().enumerate().map(move |(i, &x)| (i, j, x, y))
-                });
+                let cells =
+                    p.y.iter().enumerate().flat_map(|(j, &y)| {
+                        p.x.iter().enumerate().map(move |(i, &x)| (i, j, x, y))
+                    });
                 chart
                     .draw_series(cells.map(|(i, j, x, y)| {
                         let v = p.values.get(j).and_then(|r| r.get(i)).copied();

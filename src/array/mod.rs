@@ -33,10 +33,10 @@ pub mod choice;
 pub mod io;
 pub mod kernel;
 pub mod methods;
+pub mod predict;
 pub mod problem;
 pub mod protocol;
 pub mod reconstruct;
-pub mod predict;
 pub mod run;
 pub mod sheet;
 

@@ -180,7 +180,12 @@ impl ArrayPredictor {
         Ok(LoadResponse {
             load_at_mm: [x_mm, y_mm],
             gratings: self.gratings.clone(),
-            sensitivity_pm_per_g: self.response(&[(x_mm, y_mm)]).column(0).iter().copied().collect(),
+            sensitivity_pm_per_g: self
+                .response(&[(x_mm, y_mm)])
+                .column(0)
+                .iter()
+                .copied()
+                .collect(),
         })
     }
 

@@ -5,11 +5,11 @@
 use super::progress::Bar;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use fbgforge::array::kernel::ArrayModelKind;
+use fbgforge::array::predict::{ArrayPredictor, SensitivityMap};
 use fbgforge::fem::FemOptions;
 use fbgforge::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use fbgforge::model::LoadCase;
-use fbgforge::array::kernel::ArrayModelKind;
-use fbgforge::array::predict::{ArrayPredictor, SensitivityMap};
 use fbgforge::output::{ensure_dir, write_csv};
 use fbgforge::plot::{Chart, HeatMaps, HeatPanel, Mark, Series};
 use fbgforge::prediction::{Fidelity, FidelityChoice, ModelledPrediction};
@@ -246,7 +246,9 @@ fn parse_load_at(s: &str) -> Result<(f64, f64)> {
     match parts.as_slice() {
         [x, y] => match (num(x), num(y)) {
             (Some(x), Some(y)) => Ok((x, y)),
-            _ => bail!("--load-at-mm expects two numbers X,Y in mm, e.g. `0,0` or `-10,5`; got `{s}`"),
+            _ => bail!(
+                "--load-at-mm expects two numbers X,Y in mm, e.g. `0,0` or `-10,5`; got `{s}`"
+            ),
         },
         _ => bail!("--load-at-mm expects two numbers X,Y in mm, e.g. `0,0` or `-10,5`; got `{s}`"),
     }
@@ -398,11 +400,7 @@ fn run_predict_array(a: &PredictArgs, design: &fbgforge::spec::Design) -> Result
             println!();
         }
     }
-    println!(
-        "sensitivity map: {} and {}",
-        svg.display(),
-        csv.display()
-    );
+    println!("sensitivity map: {} and {}", svg.display(), csv.display());
     Ok(())
 }
 

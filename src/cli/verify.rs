@@ -465,8 +465,9 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
     }
     println!("wrote {}", out.display());
     if a.fit_modulus {
-        let f = fbgforge::array::sheet::fit::fit_modulus(&design, &m)
-            .with_context(|| format!("{}: fitting the sheet model's modulus", a.design.display()))?;
+        let f = fbgforge::array::sheet::fit::fit_modulus(&design, &m).with_context(|| {
+            format!("{}: fitting the sheet model's modulus", a.design.display())
+        })?;
         let path = out.with_extension("modulus-fit.json");
         fbgforge::output::write_json(&path, &f)?;
         println!(

@@ -20,18 +20,18 @@
 //! automatically: its slits derive from `array.fiber_x_mm`.
 
 use crate::array::kernel::{matrix_from_positions, mutual_coherence, DistanceKernel};
-use crate::array::sheet::layouts::LayoutMatrices;
-use crate::array::sheet::GratingOnFiber;
-use crate::spec::ArrayModelKind;
-use nalgebra::DMatrix;
-use rand::SeedableRng;
-use rand_distr::Distribution;
 use crate::array::methods::Method;
 use crate::array::protocol::{run_protocol, ProtocolConfig};
+use crate::array::sheet::layouts::LayoutMatrices;
+use crate::array::sheet::GratingOnFiber;
 use crate::profile::ArrayLayout;
 use crate::progress::Progress;
 use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
+use crate::spec::ArrayModelKind;
 use crate::spec::{Design, TactileArray};
+use nalgebra::DMatrix;
+use rand::SeedableRng;
+use rand_distr::Distribution;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -329,7 +329,12 @@ impl PlacementProblem {
     }
 
     /// Protocol score of the true matrix `a` over `seeds`.
-    fn protocol_on(&self, a: &DMatrix<f64>, seeds: &[u64], tune: bool) -> anyhow::Result<LayoutScore> {
+    fn protocol_on(
+        &self,
+        a: &DMatrix<f64>,
+        seeds: &[u64],
+        tune: bool,
+    ) -> anyhow::Result<LayoutScore> {
         let mut rr = 0.0;
         let mut snr = 0.0;
         let mut by: Vec<(usize, f64, f64)> = Vec::new();
@@ -371,7 +376,10 @@ impl PlacementProblem {
         let sigma = self.settings.perturbed_scatter;
         let draws = self.settings.perturbed_draws;
         let seeds = &self.settings.test_seeds;
-        anyhow::ensure!(!seeds.is_empty(), "no held-out seed to score perturbed models on");
+        anyhow::ensure!(
+            !seeds.is_empty(),
+            "no held-out seed to score perturbed models on"
+        );
         let (a0, a1) = (self.matrix(start)?, self.matrix(best)?);
         let normal = rand_distr::Normal::new(0.0, 1.0).expect("unit normal");
         let scored: Vec<(LayoutScore, LayoutScore)> = (0..draws)

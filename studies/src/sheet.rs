@@ -69,7 +69,10 @@ fn paper(design: &Design, a: &SheetStudyArgs) -> Result<()> {
     let model = SheetModel::from_design(design)?;
     let c = compare_with_paper(&model, design)?;
     let k = DistanceKernel::paper();
-    println!("Table 1 (load at the centre), pm/g; model: sheet, {}", model.base.describe());
+    println!(
+        "Table 1 (load at the centre), pm/g; model: sheet, {}",
+        model.base.describe()
+    );
     println!(
         "{:<6} {:>8} {:>10} {:>10} {:>8} {:>10} {:>8}",
         "FBG", "d mm", "paper", "sheet", "err %", "kernel", "err %"
@@ -184,7 +187,10 @@ fn fit(design: &Design, a: &SheetStudyArgs) -> Result<()> {
     let moduli = [0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0];
     let profile = modulus_profile(design, &moduli)?;
     println!("profile: the best interface for each modulus");
-    println!("{:>10} {:>14} {:>12} {:>10} {:>12} {:>10}", "E MPa", "k_t N/mm³", "k_t/μ 1/mm", "rms log", "shape %", "direct");
+    println!(
+        "{:>10} {:>14} {:>12} {:>10} {:>12} {:>10}",
+        "E MPa", "k_t N/mm³", "k_t/μ 1/mm", "rms log", "shape %", "direct"
+    );
     let mut rows = Vec::new();
     for p in &profile {
         let mut m = SheetModel::from_design(design)?;
@@ -205,7 +211,10 @@ fn fit(design: &Design, a: &SheetStudyArgs) -> Result<()> {
         rows.push(serde_json::json!({"profile": p, "worst_shape_error_pct": c.worst_shape_error_pct,
             "common_scale": c.common_scale, "table2_model_mean_pm_per_g": c.table2_model_mean_pm_per_g}));
     }
-    write_json(&a.out.join("fit.json"), &serde_json::json!({"fit": f, "profile": rows}))?;
+    write_json(
+        &a.out.join("fit.json"),
+        &serde_json::json!({"fit": f, "profile": rows}),
+    )?;
     Ok(())
 }
 
@@ -239,7 +248,14 @@ fn speed(design: &Design, a: &SheetStudyArgs) -> Result<()> {
     let gratings = fbgforge::array::sheet::gratings_of(design)?;
     println!(
         "{:>7} {:>9} {:>9} {:>8} {:>11} {:>11} {:>14} {:>14}",
-        "factor", "segment", "panel", "ρ step", "min ms", "median ms", "err vs fine %", "Table 1 shape %"
+        "factor",
+        "segment",
+        "panel",
+        "ρ step",
+        "min ms",
+        "median ms",
+        "err vs fine %",
+        "Table 1 shape %"
     );
     let mut rows = Vec::new();
     let mut json = Vec::new();
@@ -312,7 +328,12 @@ fn speed(design: &Design, a: &SheetStudyArgs) -> Result<()> {
     )?;
     let pts = |i: usize| -> Vec<(f64, f64)> {
         rows.iter()
-            .map(|r| (r[4].parse().unwrap_or(f64::NAN), r[i].parse().unwrap_or(f64::NAN)))
+            .map(|r| {
+                (
+                    r[4].parse().unwrap_or(f64::NAN),
+                    r[i].parse().unwrap_or(f64::NAN),
+                )
+            })
             .collect()
     };
     let mut c = Chart::new(
@@ -357,9 +378,24 @@ fn trends(design: &Design, a: &SheetStudyArgs) -> Result<()> {
     }
     for (name, b) in [
         ("bonded", BaseCondition::Bonded),
-        ("gripping 0.1", BaseCondition::Gripping { tangential_stiffness_n_per_mm3: 0.1 }),
-        ("gripping 0.02", BaseCondition::Gripping { tangential_stiffness_n_per_mm3: 0.02 }),
-        ("gripping 0.005", BaseCondition::Gripping { tangential_stiffness_n_per_mm3: 0.005 }),
+        (
+            "gripping 0.1",
+            BaseCondition::Gripping {
+                tangential_stiffness_n_per_mm3: 0.1,
+            },
+        ),
+        (
+            "gripping 0.02",
+            BaseCondition::Gripping {
+                tangential_stiffness_n_per_mm3: 0.02,
+            },
+        ),
+        (
+            "gripping 0.005",
+            BaseCondition::Gripping {
+                tangential_stiffness_n_per_mm3: 0.005,
+            },
+        ),
         ("frictionless", BaseCondition::Frictionless),
     ] {
         let mut m = base.clone();

@@ -248,7 +248,9 @@ fn sheet_study_quick_compares_with_the_paper_and_times_the_matrix() {
     let e = |i: usize| rows[i]["max_error_vs_finest_pct"].as_f64().unwrap();
     assert!(t(2) > t(0), "refinement 2 is slower than 0.5");
     assert!(e(2) < e(0), "refinement 2 is closer to the finest than 0.5");
-    assert!(std::fs::read_to_string(dir.path().join("speed.svg")).unwrap().contains("<svg"));
+    assert!(std::fs::read_to_string(dir.path().join("speed.svg"))
+        .unwrap()
+        .contains("<svg"));
     let trends = std::fs::read_to_string(dir.path().join("trends.csv")).unwrap();
     assert_eq!(trends.lines().count(), 3);
 }

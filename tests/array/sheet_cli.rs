@@ -19,11 +19,7 @@ fn fbgforge(args: &[&str]) -> std::process::Output {
 }
 
 fn json(o: &std::process::Output) -> serde_json::Value {
-    assert!(
-        o.status.success(),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     serde_json::from_slice(&o.stdout).expect("JSON on stdout")
 }
 
@@ -61,27 +57,65 @@ fn predict_gives_the_array_matrix_and_one_loads_response_as_json() {
     }
     // One load at the centre: Table 1's situation, so the answer is the comparison's.
     let j = json(&fbgforge(&[
-        "predict", design, "--load-at-mm", "0,0", "--json", "--map-dir", map,
+        "predict",
+        design,
+        "--load-at-mm",
+        "0,0",
+        "--json",
+        "--map-dir",
+        map,
     ]));
     assert_eq!(j["load_at_mm"], serde_json::json!([0.0, 0.0]));
     assert_eq!(j["gratings"].as_array().unwrap().len(), 6);
     let c = compare_with_paper(&SheetModel::from_design(&d).unwrap(), &d).unwrap();
-    for (v, r) in j["sensitivity_pm_per_g"].as_array().unwrap().iter().zip(&c.table1) {
+    for (v, r) in j["sensitivity_pm_per_g"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(&c.table1)
+    {
         let v = v.as_f64().unwrap();
-        assert!((v - r.model_pm_per_g).abs() < 1e-6 * r.model_pm_per_g, "{v} vs {r:?}");
+        assert!(
+            (v - r.model_pm_per_g).abs() < 1e-6 * r.model_pm_per_g,
+            "{v} vs {r:?}"
+        );
     }
     // The empirical kernel on request: its own numbers and its name.
     let j = json(&fbgforge(&[
-        "predict", design, "--load-at-mm", "0,0", "--json", "--model", "kernel", "--map-dir", map,
+        "predict",
+        design,
+        "--load-at-mm",
+        "0,0",
+        "--json",
+        "--model",
+        "kernel",
+        "--map-dir",
+        map,
     ]));
     assert_eq!(j["model"], "kernel");
     let k = DistanceKernel::paper();
-    for (v, r) in j["sensitivity_pm_per_g"].as_array().unwrap().iter().zip(&c.table1) {
+    for (v, r) in j["sensitivity_pm_per_g"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(&c.table1)
+    {
         let want = k.sensitivity_pm_per_g(r.distance_mm);
-        assert!((v.as_f64().unwrap() - want).abs() < 1e-3 * want, "{v} vs {want}");
+        assert!(
+            (v.as_f64().unwrap() - want).abs() < 1e-3 * want,
+            "{v} vs {want}"
+        );
     }
     // A load off the sheet is refused with a reason, not answered.
-    let o = fbgforge(&["predict", design, "--load-at-mm", "200,0", "--json", "--map-dir", map]);
+    let o = fbgforge(&[
+        "predict",
+        design,
+        "--load-at-mm",
+        "200,0",
+        "--json",
+        "--map-dir",
+        map,
+    ]);
     assert!(!o.status.success());
     assert!(!String::from_utf8_lossy(&o.stderr).is_empty());
 }
@@ -91,7 +125,9 @@ fn the_modulus_of_a_matrix_of_known_modulus_is_fitted_back_and_a_bad_entry_stand
     let d = common::shipped("tactile-array-60x80.toml");
     let mut truth = d.clone();
     common::set_modulus(&mut truth, "silicone_quartz", 0.4);
-    let mut measured = model_matrix(&truth, Some(ArrayModelKind::Sheet)).unwrap().matrix;
+    let mut measured = model_matrix(&truth, Some(ArrayModelKind::Sheet))
+        .unwrap()
+        .matrix;
     let f = fit_modulus(&d, &measured).unwrap();
     assert_eq!(f.design_modulus_mpa, 1.0);
     assert!(
@@ -100,18 +136,26 @@ fn the_modulus_of_a_matrix_of_known_modulus_is_fitted_back_and_a_bad_entry_stand
         f.fitted_modulus_mpa
     );
     assert!(!f.at_search_limit);
-    assert!(f.fitted_rel_rms < 0.01 && f.design_rel_rms > 5.0 * f.fitted_rel_rms, "{f:?}");
+    assert!(
+        f.fitted_rel_rms < 0.01 && f.design_rel_rms > 5.0 * f.fitted_rel_rms,
+        "{f:?}"
+    );
     assert_eq!(f.entries.len(), 48);
     // One entry off by +50 %: the per-entry report shows it about −33 % off while
     // the others stay close (their median within 5 %).
     measured.sensitivity_pm_per_g[(2, 5)] *= 1.5;
     let f = fit_modulus(&d, &measured).unwrap();
-    let (bad, others): (Vec<_>, Vec<_>) = f.entries.iter().partition(|e| {
-        e.grating == measured.gratings[2] && e.cell == measured.cells[5]
-    });
+    let (bad, others): (Vec<_>, Vec<_>) = f
+        .entries
+        .iter()
+        .partition(|e| e.grating == measured.gratings[2] && e.cell == measured.cells[5]);
     let bad = bad[0].misfit_pct.unwrap();
     assert!((-40.0..-25.0).contains(&bad), "bad entry misfit {bad} %");
     let mut rest: Vec<f64> = others.iter().map(|e| e.misfit_pct.unwrap().abs()).collect();
     rest.sort_by(f64::total_cmp);
-    assert!(rest[rest.len() / 2] < 5.0, "median misfit of the others {} %", rest[rest.len() / 2]);
+    assert!(
+        rest[rest.len() / 2] < 5.0,
+        "median misfit of the others {} %",
+        rest[rest.len() / 2]
+    );
 }

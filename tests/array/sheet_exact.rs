@@ -193,7 +193,10 @@ fn disc_settlement(l: &Layer, a: f64) -> f64 {
         .k
         .iter()
         .map(|&k| {
-            let w = l.psv(k, 0.5 * l.thickness_mm, PsvLoad::SurfacePressure).at(0.0).w;
+            let w = l
+                .psv(k, 0.5 * l.thickness_mm, PsvLoad::SurfacePressure)
+                .at(0.0)
+                .w;
             w * 2.0 * libm::j1(k * a) / (k * a)
         })
         .collect();
@@ -228,7 +231,10 @@ fn a_disc_load_settles_a_half_space_and_a_thin_bonded_layer_as_exactly_known() {
     let thin = layer(h, e, nu, BaseCondition::Bonded);
     let exact = p * h * (1.0 + nu) * (1.0 - 2.0 * nu) / (e * (1.0 - nu));
     let got = disc_settlement(&thin, a);
-    assert!((got / exact - 1.0).abs() < 0.01, "thin layer: {got} vs {exact}");
+    assert!(
+        (got / exact - 1.0).abs() < 0.01,
+        "thin layer: {got} vs {exact}"
+    );
 }
 
 #[test]
@@ -267,8 +273,7 @@ fn a_fiber_with_a_local_interface_follows_coxs_shear_lag_closed_form() {
     let w = sys.strain_weights(0, y, lg);
     let got = w.dot(&f.column(0));
     let exact = eps
-        * (1.0
-            - l_shear * ((y + lg / 2.0) / l_shear).sinh() / lg / (len / (2.0 * l_shear)).cosh()
+        * (1.0 - l_shear * ((y + lg / 2.0) / l_shear).sinh() / lg / (len / (2.0 * l_shear)).cosh()
             + l_shear * ((y - lg / 2.0) / l_shear).sinh() / lg / (len / (2.0 * l_shear)).cosh());
     assert!((got - exact).abs() < 2e-3 * eps, "{got} vs {exact}");
 }

@@ -80,8 +80,12 @@ fn a_3_mm_sheet_changes_the_shape_of_the_response_not_only_its_scale() {
     // The slit depth was derived for 5 mm at load time; the 3 mm sheet's follows.
     a3.mold.slit_depth_mm = fbgforge::spec::derived_slit_depth_mm(a3, coated);
     d3.validate().unwrap();
-    let m5 = model_matrix(&d5, Some(ArrayModelKind::Sheet)).unwrap().matrix;
-    let m3 = model_matrix(&d3, Some(ArrayModelKind::Sheet)).unwrap().matrix;
+    let m5 = model_matrix(&d5, Some(ArrayModelKind::Sheet))
+        .unwrap()
+        .matrix;
+    let m3 = model_matrix(&d3, Some(ArrayModelKind::Sheet))
+        .unwrap()
+        .matrix;
     // Shape: a pure change of scale would multiply every entry by one factor; the
     // entry-wise ratios 3 mm / 5 mm spread by more than 1.3× instead.
     let ratios: Vec<f64> = m3
@@ -109,8 +113,12 @@ fn a_3_mm_sheet_changes_the_shape_of_the_response_not_only_its_scale() {
         s5[2] / s5[0]
     );
     // The empirical kernel reads no thickness: the same matrix for both.
-    let k5 = model_matrix(&d5, Some(ArrayModelKind::Kernel)).unwrap().matrix;
-    let k3 = model_matrix(&d3, Some(ArrayModelKind::Kernel)).unwrap().matrix;
+    let k5 = model_matrix(&d5, Some(ArrayModelKind::Kernel))
+        .unwrap()
+        .matrix;
+    let k3 = model_matrix(&d3, Some(ArrayModelKind::Kernel))
+        .unwrap()
+        .matrix;
     assert_eq!(k5.sensitivity_pm_per_g, k3.sensitivity_pm_per_g);
 }
 
@@ -140,7 +148,10 @@ fn sensitivity_and_its_fall_off_move_with_thickness_depth_modulus_base_and_direc
     let near: Vec<f64> = by_h.iter().map(|s| s.0[0]).collect();
     let fall: Vec<f64> = by_h.iter().map(|s| s.0[2] / s.0[0]).collect();
     let direct: Vec<f64> = by_h.iter().map(|s| s.1).collect();
-    assert!(increasing(&near) && increasing(&fall) && increasing(&direct), "{by_h:?}");
+    assert!(
+        increasing(&near) && increasing(&fall) && increasing(&direct),
+        "{by_h:?}"
+    );
     // Fiber depth in the 5 mm sheet: loads 15–40 mm away notice little (≤ 10 %); the
     // direct load does, and reads most near mid-depth, least near the loaded face.
     let by_z: Vec<([f64; 3], f64)> = [1.0, 2.5, 4.0]
@@ -211,9 +222,16 @@ fn sensitivity_and_its_fall_off_move_with_thickness_depth_modulus_base_and_direc
     let along: Vec<f64> = (0..dists.len()).map(|i| r[(0, 2 * i)]).collect();
     let across: Vec<f64> = (0..dists.len()).map(|i| r[(0, 2 * i + 1)]).collect();
     for i in 1..dists.len() {
-        assert!(across[i] > along[i], "{:?}: along {along:?} across {across:?}", dists[i]);
+        assert!(
+            across[i] > along[i],
+            "{:?}: along {along:?} across {across:?}",
+            dists[i]
+        );
     }
     assert!(across.iter().all(|&v| v > 0.0), "{across:?}");
     assert!(along[0] > 0.0 && along[3] < 0.0, "along {along:?}");
-    assert!(across[2] > 2.0 * along[2], "15 mm: along {along:?} across {across:?}");
+    assert!(
+        across[2] > 2.0 * along[2],
+        "15 mm: along {along:?} across {across:?}"
+    );
 }

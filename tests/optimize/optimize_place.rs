@@ -185,7 +185,10 @@ fn placement_scores_with_the_designs_model_and_reports_its_gain_on_perturbed_mod
         s.model = asked;
         let p = PlacementProblem::new(&base, &s).unwrap();
         assert_eq!(p.model_kind(), kind);
-        let want = model_matrix(&base, Some(kind)).unwrap().matrix.sensitivity_pm_per_g;
+        let want = model_matrix(&base, Some(kind))
+            .unwrap()
+            .matrix
+            .sensitivity_pm_per_g;
         let got = p.matrix(&p.start_point()).unwrap();
         assert!((&got - &want).norm() <= 1e-9 * want.norm(), "{kind:?}");
     }

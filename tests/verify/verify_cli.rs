@@ -202,13 +202,23 @@ fn calibrate_array_from_a_synthetic_run() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(stdout.contains("sheet model's modulus") && stdout.contains("largest misfit"), "{stdout}");
-    let fit: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(matrix.with_extension("modulus-fit.json")).unwrap())
-            .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("sheet model's modulus") && stdout.contains("largest misfit"),
+        "{stdout}"
+    );
+    let fit: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(matrix.with_extension("modulus-fit.json")).unwrap(),
+    )
+    .unwrap();
     let e = fit["fitted_modulus_mpa"].as_f64().unwrap();
     assert!(e > 0.05 && e < 50.0, "{fit}");
-    assert!(fit["fitted_rel_rms"].as_f64().unwrap() <= fit["design_rel_rms"].as_f64().unwrap() + 1e-12);
+    assert!(
+        fit["fitted_rel_rms"].as_f64().unwrap() <= fit["design_rel_rms"].as_f64().unwrap() + 1e-12
+    );
     assert_eq!(fit["entries"].as_array().unwrap().len(), 48);
 }

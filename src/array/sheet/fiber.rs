@@ -133,8 +133,7 @@ impl SiliconeCompliance<'_> {
                 let offsets: Vec<f64> = (0..2 * n - 1)
                     .map(|d| {
                         let off = (d as f64 - (n as f64 - 1.0)) * dy; // y_k − y_l
-                        let kel =
-                            kelvin_segment(mu, nu, r, off - 0.5 * dy, off + 0.5 * dy) / dy;
+                        let kel = kelvin_segment(mu, nu, r, off - 0.5 * dy, off + 0.5 * dy) / dy;
                         let corr: f64 = GL4
                             .iter()
                             .map(|&(x, w)| {

@@ -202,9 +202,7 @@ pub fn compare_with_paper(model: &SheetModel, design: &Design) -> Result<PaperCo
         .iter()
         .zip(&pos)
         .zip(&s)
-        .map(|((gr, &(x, y)), sc)| {
-            sol.silicone_strain_per_n(gr, x, y) * sc * NEWTONS_PER_GRAM
-        })
+        .map(|((gr, &(x, y)), sc)| sol.silicone_strain_per_n(gr, x, y) * sc * NEWTONS_PER_GRAM)
         .sum::<f64>()
         / g.len() as f64;
     Ok(PaperComparison {
@@ -287,7 +285,9 @@ pub fn fit_table1(design: &Design) -> Result<ConstantsFit> {
     };
     // The best ln E for one ln k_t, by golden section over 0.05–20 MPa.
     fn best_e_for(ln_kt: f64, misfit: &mut dyn FnMut(f64, f64) -> f64) -> (f64, f64) {
-        golden(0.05f64.ln(), 20f64.ln(), 14, &mut |ln_e| misfit(ln_e, ln_kt))
+        golden(0.05f64.ln(), 20f64.ln(), 14, &mut |ln_e| {
+            misfit(ln_e, ln_kt)
+        })
     }
     let mut scan = Vec::new();
     let n = 9;

@@ -219,7 +219,10 @@ impl Layer {
     /// Displacement along the wave vector at `obs_mm` per unit horizontal force per
     /// area along it on the plane `source_mm`, mm/MPa (the kernel A(k)).
     pub fn horizontal_force_along(&self, k: f64, source_mm: f64, obs_mm: f64) -> f64 {
-        -self.psv(k, source_mm, PsvLoad::HorizontalForce).at(obs_mm).u
+        -self
+            .psv(k, source_mm, PsvLoad::HorizontalForce)
+            .at(obs_mm)
+            .u
     }
 }
 

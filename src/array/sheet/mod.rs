@@ -415,7 +415,11 @@ impl SheetSolution {
 
     /// Fiber strain (averaged over each grating) per newton on each load: one row per
     /// grating, one column per load.
-    pub fn strain_per_n(&self, gratings: &[GratingOnFiber], loads_mm: &[(f64, f64)]) -> DMatrix<f64> {
+    pub fn strain_per_n(
+        &self,
+        gratings: &[GratingOnFiber],
+        loads_mm: &[(f64, f64)],
+    ) -> DMatrix<f64> {
         let f = self.forces(loads_mm);
         self.read(gratings, &f)
     }

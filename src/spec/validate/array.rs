@@ -90,12 +90,7 @@ impl Design {
             tangential_stiffness_n_per_mm3: k,
         }) = a.base
         {
-            positive(
-                "array.base.tangential_stiffness_n_per_mm3",
-                k,
-                1e-9,
-                1e6,
-            )?;
+            positive("array.base.tangential_stiffness_n_per_mm3", k, 1e-9, 1e6)?;
         }
         if let Some(d) = a.indenter_diameter_mm {
             positive(
