@@ -269,8 +269,8 @@ pub struct ArrayLayout {
     pub mold_outer_mm: (f64, f64, f64),
     /// Height of the cavity floor above the mold's underside, mm.
     pub cavity_floor_z_mm: f64,
-    /// Height of the fibers' axes above the mold's underside (mid-thickness of the
-    /// sheet), mm.
+    /// Height of the fibers' axes above the mold's underside (the cavity floor plus the
+    /// fiber depth below the loaded face, which is cast against the floor), mm.
     pub fiber_z_mm: f64,
     /// Height of the slit bottoms, where the coated fiber rests, mm.
     pub slit_bottom_z_mm: f64,
@@ -322,7 +322,7 @@ impl ArrayLayout {
                 m.base_thickness_mm + m.wall_height_mm,
             ),
             cavity_floor_z_mm: m.base_thickness_mm,
-            fiber_z_mm: m.base_thickness_mm + a.thickness_mm / 2.0,
+            fiber_z_mm: m.base_thickness_mm + a.fiber_depth(),
             slit_bottom_z_mm: m.base_thickness_mm + m.wall_height_mm - m.slit_depth_mm,
             silicone_level_z_mm: m.base_thickness_mm + a.thickness_mm,
         }

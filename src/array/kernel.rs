@@ -12,6 +12,11 @@
 //! together with c and n to Table 1 plus the Table 2 point at d = 0. For d ≫ d₀ it is
 //! the power law; at d = 0 it is finite. A load on a cell is modelled as a point load
 //! at the cell centre (the paper centres its contact disc on the cell).
+//!
+//! This file is also the one entry every caller of a model matrix goes through
+//! ([`model_matrix`], [`matrix_from_design`]): it answers with the model a design names
+//! (`array.model`, the physical [`super::sheet`] model by default) or the one asked for,
+//! and names it.
 
 use super::SensingMatrix;
 use crate::profile::{cell_label, ArrayLayout};
@@ -322,18 +327,86 @@ pub fn matrix_from_layout(
     }
 }
 
-/// Model sensing matrix of a design's array with the paper kernel, and its ulimit (g).
-pub fn matrix_from_design(design: &Design) -> Result<(SensingMatrix, f64)> {
+pub use crate::spec::ArrayModelKind;
+
+/// A model sensing matrix of a design, with the model that produced it.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelMatrix {
+    /// The matrix, pm/g.
+    pub matrix: SensingMatrix,
+    /// The array's ulimit, g.
+    pub ulimit_g: f64,
+    /// Which model.
+    pub model: ArrayModelKind,
+    /// The model and its constants in one line.
+    pub description: String,
+}
+
+/// One line naming the sheet model and the constants it used.
+pub fn describe_sheet(m: &super::sheet::SheetModel) -> String {
+    format!(
+        "sheet model: {} mm elastic sheet, E = {} MPa, ν = {}, {}; fibers at {} mm depth (bars, E·A = {:.0} N, gripped at r = {} mm); {} mm indenter (uniform pressure); docs/array.md §12",
+        m.thickness_mm,
+        m.youngs_modulus_mpa,
+        m.poisson_ratio,
+        m.base.describe(),
+        m.fiber_depth_mm,
+        m.fiber.axial_stiffness_n,
+        m.fiber.coupling_radius_mm,
+        m.indenter_diameter_mm
+    )
+}
+
+/// One line naming the empirical kernel.
+pub fn describe_kernel(k: &DistanceKernel) -> String {
+    format!(
+        "empirical kernel s(d) = c·(d² + d₀²)^(−n/2), c = {:.0} pm·mm^n/g, n = {:.3}, d₀ = {:.2} mm, fitted to the paper's Tables 1–2 (reads no sheet property); docs/array.md §1",
+        k.scale_pm_mm_n_per_g, k.exponent, k.core_radius_mm
+    )
+}
+
+/// The model sensing matrix of a design's array by `kind`, or by the model the design
+/// names (`array.model`; the sheet model by default) when `kind` is `None`.
+pub fn model_matrix(design: &Design, kind: Option<ArrayModelKind>) -> Result<ModelMatrix> {
     let a = design
         .array
         .as_ref()
         .ok_or_else(|| anyhow!("design `{}` has no [array] section", design.name))?;
+    let kind = kind.unwrap_or_else(|| a.model_kind());
     let layout = ArrayLayout::from_array(a);
     let names: Vec<String> = a.gratings.iter().map(|g| g.name.clone()).collect();
-    Ok((
-        matrix_from_layout(&layout, &names, &DistanceKernel::paper()),
-        a.ulimit_g,
-    ))
+    let (matrix, description) = match kind {
+        ArrayModelKind::Kernel => {
+            let k = DistanceKernel::paper();
+            (matrix_from_layout(&layout, &names, &k), describe_kernel(&k))
+        }
+        ArrayModelKind::Sheet => {
+            let (m, sol) = super::sheet::design_matrix(design)?;
+            (
+                SensingMatrix {
+                    gratings: names,
+                    cells: (0..layout.cell_centers_mm.len()).map(cell_label).collect(),
+                    sensitivity_pm_per_g: m,
+                },
+                describe_sheet(&sol.model),
+            )
+        }
+    };
+    Ok(ModelMatrix {
+        matrix,
+        ulimit_g: a.ulimit_g,
+        model: kind,
+        description,
+    })
+}
+
+/// Model sensing matrix of a design's array by the model the design names (the sheet
+/// model unless `array.model = "kernel"`), and its ulimit (g). Every caller that needs
+/// a design's model matrix (`reconstruct --design`, `live`, the Python binding, the
+/// synthetic stream) comes here.
+pub fn matrix_from_design(design: &Design) -> Result<(SensingMatrix, f64)> {
+    let m = model_matrix(design, None)?;
+    Ok((m.matrix, m.ulimit_g))
 }
 
 /// Cheap proxies of how well a matrix supports sparse recovery.

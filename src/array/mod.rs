@@ -5,8 +5,13 @@
 //! under-determined and the loads x are recovered by exploiting their sparsity and the
 //! bounds 0 ≤ x ≤ ulimit. This module is organised the argmin way:
 //!
-//! * [`kernel`]: the distance kernel fitted to the paper's Table 1 and the sensing
-//!   matrix it predicts for any layout (plus cheap layout-quality proxies);
+//! * [`kernel`]: the one entry for a design's model matrix ([`kernel::model_matrix`]),
+//!   the distance kernel fitted to the paper's Table 1 and the sensing matrix it
+//!   predicts for any layout (plus cheap layout-quality proxies);
+//! * [`sheet`]: the physical model of the sheet, its fibers and its table (the default
+//!   model of a design's matrix);
+//! * [`mod@predict`]: a design's predicted response by one named model: the matrix, one
+//!   load anywhere, the sensitivity map over the sheet;
 //! * [`io`]: measured sensing matrices and shift streams as CSV, reconstructions out;
 //! * [`problem`]: the problem — matrix, bounds, column normalisation — kept apart from
 //!   the methods that solve it;
@@ -33,10 +38,12 @@ pub mod faults;
 pub mod io;
 pub mod kernel;
 pub mod methods;
+pub mod predict;
 pub mod problem;
 pub mod protocol;
 pub mod reconstruct;
 pub mod run;
+pub mod sheet;
 pub mod trust;
 
 use nalgebra::DMatrix;

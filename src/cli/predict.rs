@@ -1,22 +1,41 @@
 //! `fbgforge predict` and `fbgforge sweep`: the opto-mechanical model from the command
-//! line.
+//! line. `predict` on an array design prints its predicted sensing matrix (or the
+//! response to one load) and maps each grating's sensitivity over the sheet.
 
 use super::progress::Bar;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use fbgforge::array::kernel::ArrayModelKind;
+use fbgforge::array::predict::{ArrayPredictor, SensitivityMap};
 use fbgforge::fem::FemOptions;
 use fbgforge::model::sweep::{self, SweepResult, PAPER_FIGURES};
 use fbgforge::model::LoadCase;
 use fbgforge::output::{ensure_dir, write_csv};
-use fbgforge::plot::{Chart, Mark, Series, Stroke};
+use fbgforge::plot::{Chart, HeatMaps, HeatPanel, Mark, Series, Stroke};
 use fbgforge::prediction::{Fidelity, FidelityChoice, ModelledPrediction};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `fbgforge predict`.
 #[derive(Debug, Args)]
 pub struct PredictArgs {
-    /// Design spec (TOML) with a [module] section.
+    /// Design spec (TOML) with a [module] or an [array] section.
     pub design: PathBuf,
+    /// Arrays: which model predicts the sensing matrix: `sheet` (the physical model of
+    /// the sheet, its fibers and its table) or `kernel` (the empirical distance kernel
+    /// fitted to the paper). Default: the design's `array.model`, else `sheet`.
+    #[arg(long, value_enum)]
+    pub model: Option<ArrayModelArg>,
+    /// Arrays: instead of the matrix, the response of each grating to 1 g on the
+    /// indenter centred at X,Y (mm from the sheet's centre), e.g. `--load-at-mm 0,0`.
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true)]
+    pub load_at_mm: Option<String>,
+    /// Arrays: folder for the sensitivity map (SVG and CSV of each grating's
+    /// sensitivity over the sheet; default out/predict).
+    #[arg(long)]
+    pub map_dir: Option<PathBuf>,
+    /// Arrays: grid step of the sensitivity map, mm.
+    #[arg(long, default_value_t = 2.0)]
+    pub map_step_mm: f64,
     /// Apex force at which shifts and strains are reported, N.
     #[arg(long, default_value_t = 10.0)]
     pub force_n: f64,
@@ -41,6 +60,24 @@ pub struct PredictArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--model` values (arrays).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ArrayModelArg {
+    /// The physical model of the sheet (docs/array.md §12).
+    Sheet,
+    /// The empirical kernel fitted to the paper's Tables 1–2 (docs/array.md §1).
+    Kernel,
+}
+
+impl From<ArrayModelArg> for ArrayModelKind {
+    fn from(m: ArrayModelArg) -> Self {
+        match m {
+            ArrayModelArg::Sheet => ArrayModelKind::Sheet,
+            ArrayModelArg::Kernel => ArrayModelKind::Kernel,
+        }
+    }
 }
 
 /// `--fidelity` values.
@@ -205,10 +242,184 @@ fn print_predict_legend(band: bool, choice: FidelityChoice) {
     }
 }
 
+/// Parse `--load-at-mm X,Y`.
+fn parse_load_at(s: &str) -> Result<(f64, f64)> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let num = |t: &str| t.parse::<f64>().ok().filter(|v| v.is_finite());
+    match parts.as_slice() {
+        [x, y] => match (num(x), num(y)) {
+            (Some(x), Some(y)) => Ok((x, y)),
+            _ => bail!(
+                "--load-at-mm expects two numbers X,Y in mm, e.g. `0,0` or `-10,5`; got `{s}`"
+            ),
+        },
+        _ => bail!("--load-at-mm expects two numbers X,Y in mm, e.g. `0,0` or `-10,5`; got `{s}`"),
+    }
+}
+
+/// The sensitivity map as heat maps, one panel per grating, with the fibers, the
+/// cells' borders and each grating marked.
+fn map_chart(
+    design: &fbgforge::spec::Design,
+    p: &ArrayPredictor,
+    map: &SensitivityMap,
+) -> HeatMaps {
+    let a = design.array.as_ref().expect("an array design");
+    let (sx, sy) = p.sheet_mm();
+    let mut lines: Vec<Vec<(f64, f64)>> = a
+        .fiber_x_mm
+        .iter()
+        .map(|&x| vec![(x, -sy / 2.0), (x, sy / 2.0)])
+        .collect();
+    for i in 1..a.cells_x {
+        let x = -sx / 2.0 + sx * i as f64 / a.cells_x as f64;
+        lines.push(vec![(x, -sy / 2.0), (x, sy / 2.0)]);
+    }
+    for j in 1..a.cells_y {
+        let y = -sy / 2.0 + sy * j as f64 / a.cells_y as f64;
+        lines.push(vec![(-sx / 2.0, y), (sx / 2.0, y)]);
+    }
+    let panels = map
+        .gratings
+        .iter()
+        .enumerate()
+        .map(|(g, name)| {
+            let v = &map.values_pm_per_g[g];
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            HeatPanel {
+                title: format!("{name}: {lo:.3} … {hi:.3} pm/g"),
+                x: map.x_mm.clone(),
+                y: map.y_mm.clone(),
+                values: (0..v.nrows())
+                    .map(|j| v.row(j).iter().copied().collect())
+                    .collect(),
+                points: vec![map.grating_xy_mm[g]],
+                lines: lines.clone(),
+            }
+        })
+        .collect();
+    HeatMaps {
+        title: format!(
+            "{}: sensitivity to 1 g on the indenter centred at (x, y), {} model (red: red shift, blue: blue shift)",
+            design.name,
+            p.kind().name()
+        ),
+        x_label: "x (mm)".into(),
+        y_label: "y (mm)".into(),
+        panels,
+    }
+}
+
+/// `fbgforge predict` on an array design.
+fn run_predict_array(a: &PredictArgs, design: &fbgforge::spec::Design) -> Result<()> {
+    let load = a.load_at_mm.as_deref().map(parse_load_at).transpose()?;
+    if !(a.map_step_mm.is_finite() && a.map_step_mm > 0.0) {
+        bail!(
+            "--map-step-mm must be a positive number of mm, got {}",
+            a.map_step_mm
+        );
+    }
+    let p = ArrayPredictor::new(design, a.model.map(ArrayModelKind::from))
+        .with_context(|| format!("{}: cannot predict the array", a.design.display()))?;
+    let map = p.map(a.map_step_mm)?;
+    let dir = a
+        .map_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out/predict"));
+    let stem = format!("{}-{}-sensitivity-map", design.name, p.kind().name());
+    let svg = dir.join(format!("{stem}.svg"));
+    let csv = dir.join(format!("{stem}.csv"));
+    map_chart(design, &p, &map).write_svg(&svg)?;
+    let (header, rows) = map.csv_rows();
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    write_csv(&csv, &header, &rows)?;
+    if let Some((x, y)) = load {
+        let r = p
+            .load_at(x, y)
+            .with_context(|| format!("{}: --load-at-mm", a.design.display()))?;
+        if a.json {
+            let doc = serde_json::json!({
+                "design": design.name,
+                "model": p.kind().name(),
+                "model_description": p.description(),
+                "load_at_mm": r.load_at_mm,
+                "gratings": r.gratings,
+                "sensitivity_pm_per_g": r.sensitivity_pm_per_g,
+                "map": {"svg": svg, "csv": csv},
+            });
+            println!("{}", serde_json::to_string_pretty(&doc)?);
+            return Ok(());
+        }
+        println!(
+            "{}: response to 1 g on the {} mm indenter centred at ({x}, {y}) mm",
+            design.name,
+            design
+                .array
+                .as_ref()
+                .map_or(20.0, |arr| arr.indenter_diameter())
+        );
+        println!("model: {}", p.description());
+        println!("{:<10} {:>12}", "grating", "pm/g");
+        for (g, v) in r.gratings.iter().zip(&r.sensitivity_pm_per_g) {
+            println!("{g:<10} {v:>12.5}");
+        }
+    } else {
+        let m = p.matrix();
+        if a.json {
+            let rows: Vec<Vec<f64>> = (0..m.n_gratings())
+                .map(|i| m.sensitivity_pm_per_g.row(i).iter().copied().collect())
+                .collect();
+            let doc = serde_json::json!({
+                "design": design.name,
+                "model": p.kind().name(),
+                "model_description": p.description(),
+                "gratings": m.gratings,
+                "cells": m.cells,
+                "sensitivity_pm_per_g": rows,
+                "map": {"svg": svg, "csv": csv},
+            });
+            println!("{}", serde_json::to_string_pretty(&doc)?);
+            return Ok(());
+        }
+        println!(
+            "{}: predicted sensing matrix, pm/g (gratings × cells, 1 g on the indenter centred on each cell)",
+            design.name
+        );
+        println!("model: {}", p.description());
+        print!("{:<10}", "grating");
+        for c in &m.cells {
+            print!("{c:>10}");
+        }
+        println!();
+        for (g, row) in m.gratings.iter().zip(m.sensitivity_pm_per_g.row_iter()) {
+            print!("{g:<10}");
+            for v in row.iter() {
+                print!("{v:>10.5}");
+            }
+            println!();
+        }
+    }
+    println!("sensitivity map: {} and {}", svg.display(), csv.display());
+    Ok(())
+}
+
 /// Run `fbgforge predict`.
 pub fn run_predict(a: PredictArgs) -> Result<()> {
     check_predict_args(&a)?;
     let design = fbgforge::design::load(&a.design)?;
+    if design.module.is_none() && design.array.is_some() {
+        return run_predict_array(&a, &design);
+    }
+    if a.model.is_some() || a.load_at_mm.is_some() {
+        bail!(
+            "{}: --model and --load-at-mm are for array designs; this design has no [array] section",
+            a.design.display()
+        );
+    }
     let case = a.case.map(LoadCase::from);
     if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
         bail!(

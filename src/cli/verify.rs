@@ -477,6 +477,10 @@ pub struct CalibrateArrayArgs {
     /// Output CSV (default: out/<design>/sensing_matrix.csv).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also fit the silicone's modulus of the sheet model to the measured matrix and
+    /// report the misfit of every entry (JSON beside the matrix: `<out>.modulus-fit.json`).
+    #[arg(long)]
+    pub fit_modulus: bool,
 }
 
 /// Run `fbgforge calibrate-array`.
@@ -520,5 +524,41 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
         println!("warning {k} ×{}: {}", w.count, w.first);
     }
     println!("wrote {}", out.display());
+    if a.fit_modulus {
+        let f = fbgforge::array::sheet::fit::fit_modulus(&design, &m).with_context(|| {
+            format!("{}: fitting the sheet model's modulus", a.design.display())
+        })?;
+        let path = out.with_extension("modulus-fit.json");
+        fbgforge::output::write_json(&path, &f)?;
+        println!(
+            "sheet model's modulus: design {} MPa (misfit {:.1} %), fitted {:.4} MPa (misfit {:.1} %; {:.1} % at half, {:.1} % at twice){}",
+            f.design_modulus_mpa,
+            100.0 * f.design_rel_rms,
+            f.fitted_modulus_mpa,
+            100.0 * f.fitted_rel_rms,
+            100.0 * f.rel_rms_at_half_and_double.0,
+            100.0 * f.rel_rms_at_half_and_double.1,
+            if f.at_search_limit {
+                " — at the end of the search range (0.05–50 MPa): the modulus alone cannot reach this matrix's level"
+            } else {
+                ""
+            }
+        );
+        let worst = f
+            .entries
+            .iter()
+            .filter_map(|e| e.misfit_pct.map(|p| (p, e)))
+            .max_by(|x, y| x.0.abs().total_cmp(&y.0.abs()));
+        if let Some((p, e)) = worst {
+            println!(
+                "largest misfit: {} × cell {}: measured {:.5}, model {:.5} pm/g ({p:+.1} %); every entry in {}",
+                e.grating,
+                e.cell,
+                e.measured_pm_per_g,
+                e.model_pm_per_g,
+                path.display()
+            );
+        }
+    }
     Ok(())
 }

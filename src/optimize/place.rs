@@ -2,7 +2,8 @@
 //! line (and optionally the fibers' x positions) so that sparse load reconstruction
 //! works best.
 //!
-//! Two objectives, both through the array module's forward model (paper kernel):
+//! Two objectives, both through the forward model the design names (`array.model`: the
+//! physical sheet model by default, docs/array.md §12, or the paper kernel):
 //! * `protocol`: the seeded simulation of the paper's 84-test protocol
 //!   ([`crate::array::protocol`]), scored as RR (%) + mean SNR (dB), averaged over a
 //!   few training seeds (common random numbers, so layouts are compared on the same
@@ -12,16 +13,25 @@
 //!   it agrees with the protocol is measured on random layouts ([`proxy_agreement`]).
 //!
 //! The optimised layout is compared with the start (the paper's layout) on held-out
-//! protocol seeds, with the penalty tuned per layout as the paper does. The mold
-//! follows the fibers automatically: its slits derive from `array.fiber_x_mm`.
+//! protocol seeds, with the penalty tuned per layout as the paper does, and again on
+//! frames drawn from a perturbed model (every matrix entry scattered by a stated
+//! fraction): a real sheet is not its model, and a layout tuned to the model's fine
+//! structure gains less there ([`PerturbedGain`]). The mold follows the fibers
+//! automatically: its slits derive from `array.fiber_x_mm`.
 
 use crate::array::kernel::{matrix_from_positions, mutual_coherence, DistanceKernel};
 use crate::array::methods::Method;
 use crate::array::protocol::{run_protocol, ProtocolConfig};
+use crate::array::sheet::layouts::LayoutMatrices;
+use crate::array::sheet::GratingOnFiber;
 use crate::profile::ArrayLayout;
 use crate::progress::Progress;
 use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
+use crate::spec::ArrayModelKind;
 use crate::spec::{Design, TactileArray};
+use nalgebra::DMatrix;
+use rand::SeedableRng;
+use rand_distr::Distribution;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -72,6 +82,14 @@ pub struct PlaceSettings {
     pub seed: u64,
     /// Random layouts used to measure the proxy's agreement with the protocol.
     pub agreement_samples: usize,
+    /// Forward model; `None`: the one the design names (`array.model`, the sheet
+    /// model by default).
+    pub model: Option<ArrayModelKind>,
+    /// Relative scatter of every matrix entry in the perturbed model the final layouts
+    /// are also scored on (0.10: 10 % per entry, independent normal draws).
+    pub perturbed_scatter: f64,
+    /// Perturbed models drawn (each scored on one held-out seed, in turn).
+    pub perturbed_draws: usize,
 }
 
 impl Default for PlaceSettings {
@@ -95,6 +113,9 @@ impl Default for PlaceSettings {
             },
             seed: 7,
             agreement_samples: 40,
+            model: None,
+            perturbed_scatter: 0.10,
+            perturbed_draws: 5,
         }
     }
 }
@@ -120,12 +141,20 @@ impl LayoutScore {
     }
 }
 
+/// The forward model placement scores layouts with.
+enum PlaceModel {
+    /// The empirical distance kernel.
+    Kernel(DistanceKernel),
+    /// The physical sheet model (boxed: it holds its solved fiber system).
+    Sheet(Box<LayoutMatrices>),
+}
+
 /// The placement problem: a [`BoxProblem`] over grating offsets (and fiber x).
 pub struct PlacementProblem {
     array: TactileArray,
     min_fiber_gap_mm: f64,
     cells: Vec<(f64, f64)>,
-    kernel: DistanceKernel,
+    model: PlaceModel,
     settings: PlaceSettings,
     lo: Vec<f64>,
     hi: Vec<f64>,
@@ -178,12 +207,26 @@ impl PlacementProblem {
             lo.extend(std::iter::repeat_n(-xmax, a.fiber_x_mm.len()));
             hi.extend(std::iter::repeat_n(xmax, a.fiber_x_mm.len()));
         }
+        anyhow::ensure!(
+            settings.perturbed_scatter.is_finite() && settings.perturbed_scatter >= 0.0,
+            "the perturbed model's scatter must be a non-negative fraction, got {}",
+            settings.perturbed_scatter
+        );
         let cells = ArrayLayout::from_array(&a).cell_centers_mm;
+        let model = match settings.model.unwrap_or_else(|| a.model_kind()) {
+            ArrayModelKind::Kernel => PlaceModel::Kernel(DistanceKernel::paper()),
+            // Moving fibers rebuilds the fiber system at every evaluation: the coarse
+            // resolution keeps that affordable (docs/array.md §12.4).
+            ArrayModelKind::Sheet => PlaceModel::Sheet(Box::new(LayoutMatrices::from_design(
+                design,
+                settings.vary_fibers,
+            )?)),
+        };
         Ok(PlacementProblem {
             array: a,
             min_fiber_gap_mm: min_gap,
             cells,
-            kernel: DistanceKernel::paper(),
+            model,
             settings: settings.clone(),
             lo,
             hi,
@@ -245,18 +288,53 @@ impl PlacementProblem {
         v
     }
 
-    /// Mutual coherence of the layout's sensing matrix.
+    /// Which forward model scores layouts.
+    pub fn model_kind(&self) -> ArrayModelKind {
+        match self.model {
+            PlaceModel::Kernel(_) => ArrayModelKind::Kernel,
+            PlaceModel::Sheet(_) => ArrayModelKind::Sheet,
+        }
+    }
+
+    /// The model sensing matrix (pm/g, gratings × cells) of layout `x`.
+    pub fn matrix(&self, x: &[f64]) -> anyhow::Result<DMatrix<f64>> {
+        match &self.model {
+            PlaceModel::Kernel(k) => Ok(matrix_from_positions(&self.cells, &self.positions(x), k)),
+            PlaceModel::Sheet(m) => {
+                let a = self.array_at(x);
+                let g: Vec<GratingOnFiber> = a
+                    .gratings
+                    .iter()
+                    .map(|g| GratingOnFiber {
+                        fiber: g.fiber as usize,
+                        y_mm: g.y_mm,
+                        length_mm: g.length_mm,
+                    })
+                    .collect();
+                m.matrix(&a.fiber_x_mm, &g)
+            }
+        }
+    }
+
+    /// Mutual coherence of the layout's sensing matrix (1, the worst, if the model
+    /// cannot be solved there).
     pub fn coherence(&self, x: &[f64]) -> f64 {
-        mutual_coherence(&matrix_from_positions(
-            &self.cells,
-            &self.positions(x),
-            &self.kernel,
-        ))
+        self.matrix(x).map(|a| mutual_coherence(&a)).unwrap_or(1.0)
     }
 
     /// Protocol score of layout `x` over `seeds`, penalty tuned or not.
     pub fn protocol(&self, x: &[f64], seeds: &[u64], tune: bool) -> anyhow::Result<LayoutScore> {
-        let a = matrix_from_positions(&self.cells, &self.positions(x), &self.kernel);
+        let a = self.matrix(x)?;
+        self.protocol_on(&a, seeds, tune)
+    }
+
+    /// Protocol score of the true matrix `a` over `seeds`.
+    fn protocol_on(
+        &self,
+        a: &DMatrix<f64>,
+        seeds: &[u64],
+        tune: bool,
+    ) -> anyhow::Result<LayoutScore> {
         let mut rr = 0.0;
         let mut snr = 0.0;
         let mut by: Vec<(usize, f64, f64)> = Vec::new();
@@ -264,7 +342,7 @@ impl PlacementProblem {
             let mut cfg = ProtocolConfig::paper(s);
             cfg.ulimit_g = self.array.ulimit_g;
             cfg.tune_penalty = tune;
-            let r = run_protocol(&a, self.settings.method, &cfg)?;
+            let r = run_protocol(a, self.settings.method, &cfg)?;
             rr += r.overall.rr_pct;
             snr += r.overall.mean_snr_db;
             for g in &r.by_load_count {
@@ -285,8 +363,53 @@ impl PlacementProblem {
         Ok(LayoutScore {
             rr_pct: rr / n,
             mean_snr_db: snr / n,
-            mutual_coherence: mutual_coherence(&a),
+            mutual_coherence: mutual_coherence(a),
             by_load_count: by,
+        })
+    }
+
+    /// The start and the optimised layouts scored on frames drawn from perturbed
+    /// models: for draw k, every entry of each layout's matrix is multiplied by
+    /// 1 + σ·z with z standard normal (the same z for both layouts: common random
+    /// numbers), and the protocol (penalty tuned) runs on held-out seed k.
+    pub fn perturbed_gain(&self, start: &[f64], best: &[f64]) -> anyhow::Result<PerturbedGain> {
+        let sigma = self.settings.perturbed_scatter;
+        let draws = self.settings.perturbed_draws;
+        let seeds = &self.settings.test_seeds;
+        anyhow::ensure!(
+            !seeds.is_empty(),
+            "no held-out seed to score perturbed models on"
+        );
+        let (a0, a1) = (self.matrix(start)?, self.matrix(best)?);
+        let normal = rand_distr::Normal::new(0.0, 1.0).expect("unit normal");
+        let scored: Vec<(LayoutScore, LayoutScore)> = (0..draws)
+            .into_par_iter()
+            .map(|k| {
+                let seed = seeds[k % seeds.len()];
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x5CA7_7E40 ^ k as u64);
+                let z: Vec<f64> = (0..a0.len()).map(|_| normal.sample(&mut rng)).collect();
+                let perturb = |a: &DMatrix<f64>| {
+                    let mut p = a.clone();
+                    for (v, zi) in p.iter_mut().zip(&z) {
+                        *v *= 1.0 + sigma * zi;
+                    }
+                    p
+                };
+                Ok((
+                    self.protocol_on(&perturb(&a0), &[seed], true)?,
+                    self.protocol_on(&perturb(&a1), &[seed], true)?,
+                ))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let (s, b): (Vec<_>, Vec<_>) = scored.into_iter().unzip();
+        let (start, best) = (mean_score(&s), mean_score(&b));
+        Ok(PerturbedGain {
+            scatter_per_entry: sigma,
+            draws,
+            gain_rr_pct: best.rr_pct - start.rr_pct,
+            gain_score: best.score() - start.score(),
+            start,
+            best,
         })
     }
 
@@ -327,6 +450,47 @@ impl BoxProblem for PlacementProblem {
         }
         -self.objective(x)
     }
+}
+
+/// The mean of several scores (per load count too).
+fn mean_score(v: &[LayoutScore]) -> LayoutScore {
+    let n = v.len().max(1) as f64;
+    let mut by: Vec<(usize, f64, f64)> = Vec::new();
+    for s in v {
+        for g in &s.by_load_count {
+            match by.iter_mut().find(|b| b.0 == g.0) {
+                Some(b) => {
+                    b.1 += g.1 / n;
+                    b.2 += g.2 / n;
+                }
+                None => by.push((g.0, g.1 / n, g.2 / n)),
+            }
+        }
+    }
+    LayoutScore {
+        rr_pct: v.iter().map(|s| s.rr_pct).sum::<f64>() / n,
+        mean_snr_db: v.iter().map(|s| s.mean_snr_db).sum::<f64>() / n,
+        mutual_coherence: v.iter().map(|s| s.mutual_coherence).sum::<f64>() / n,
+        by_load_count: by,
+    }
+}
+
+/// The start and optimised layouts on frames drawn from perturbed models: what the
+/// placement gains when the real sheet is not exactly its model.
+#[derive(Debug, Clone, Serialize)]
+pub struct PerturbedGain {
+    /// Relative scatter of every matrix entry (normal, independent per entry).
+    pub scatter_per_entry: f64,
+    /// Perturbed models drawn.
+    pub draws: usize,
+    /// The start layout, mean over draws.
+    pub start: LayoutScore,
+    /// The optimised layout, mean over draws.
+    pub best: LayoutScore,
+    /// RR gain, percentage points.
+    pub gain_rr_pct: f64,
+    /// Gain of RR + mean SNR (the protocol objective's scale).
+    pub gain_score: f64,
 }
 
 /// Agreement between the coherence proxy and the protocol on random layouts.
@@ -439,6 +603,11 @@ pub struct PlaceOutcome {
     pub start_test: LayoutScore,
     /// Optimum on held-out seeds, penalty tuned.
     pub best_test: LayoutScore,
+    /// The forward model the layouts were scored with.
+    pub model: ArrayModelKind,
+    /// Start and optimum on frames drawn from perturbed models (absent when no draw
+    /// was asked for).
+    pub perturbed: Option<PerturbedGain>,
     /// Per solver.
     pub runs: Vec<PlaceRun>,
     /// Proxy agreement, if measured.
@@ -496,6 +665,12 @@ pub fn place(
         || p.protocol(&x0, &settings.test_seeds, true),
         || p.protocol(&best_x, &settings.test_seeds, true),
     );
+    let perturbed = if settings.perturbed_draws > 0 {
+        progress.message("perturbed models");
+        Some(p.perturbed_gain(&x0, &best_x)?)
+    } else {
+        None
+    };
     let agreement = if settings.agreement_samples >= 3 {
         progress.advance(1);
         progress.message("proxy agreement");
@@ -528,6 +703,8 @@ pub fn place(
         best_objective,
         start_test: start_test?,
         best_test: best_test?,
+        model: p.model_kind(),
+        perturbed,
         runs: per_solver,
         agreement,
         time_s: t0.elapsed().as_secs_f64(),

@@ -1,6 +1,7 @@
 //! SVG charts for results people would rather look at than read.
 //!
-//! One small chart type covers every plot fbgforge makes: named series of (x, y)
+//! One small chart type covers most plots fbgforge makes ([`heat`] draws values over a
+//! plane): named series of (x, y)
 //! points drawn as lines, markers or both, optionally with a shaded band, on linear
 //! or log10 axes (ticks labelled with the values, decades with minor lines). The
 //! legend sits to the right of the plot area, never over the data; bands get lighter
@@ -11,11 +12,13 @@
 //! JSON or CSV beside the chart.
 
 pub mod axis;
+pub mod heat;
 pub mod svg;
 
 use crate::output::write_atomic;
 use anyhow::{anyhow, Result};
 use axis::Axis;
+pub use heat::{HeatMaps, HeatPanel};
 use std::fmt::Write as _;
 use std::path::Path;
 pub use svg::Stroke;

@@ -26,7 +26,8 @@ mod printer;
 mod validate;
 
 pub use array::{
-    derived_slit_depth_mm, mold_slot_width_mm, seat_z_mm, ArrayGrating, Mold, TactileArray,
+    derived_slit_depth_mm, mold_slot_width_mm, seat_z_mm, ArrayGrating, ArrayModelKind,
+    BaseCondition, Mold, TactileArray, PAPER_TANGENTIAL_STIFFNESS_N_PER_MM3,
 };
 pub use contact::{Contact, ContactRatios, CylinderCoupling};
 pub use design::{parse_unvalidated, Design};

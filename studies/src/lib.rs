@@ -19,4 +19,5 @@ pub mod progress;
 pub mod reconstruct;
 pub mod reconstruct_faults;
 pub mod reconstruct_scaling;
+pub mod sheet;
 pub mod verify;

@@ -32,6 +32,9 @@ enum Study {
     Predict(studies::predict::BenchPredictArgs),
     /// Reconstruction protocol: every method, speed against accuracy, failure studies.
     Reconstruct(studies::reconstruct::BenchOptions),
+    /// The array's sheet model: Tables 1–2, its fitted constants, speed against
+    /// accuracy, trends with the design.
+    Sheet(studies::sheet::SheetStudyArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
 }
@@ -45,6 +48,7 @@ fn main() -> ExitCode {
         Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
+        Study::Sheet(a) => studies::sheet::run(&a),
         Study::Verify(a) => studies::verify::run(&a),
     };
     match result {

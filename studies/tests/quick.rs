@@ -302,3 +302,31 @@ fn fe_speed_study_quick_reuses_every_structure_across_a_modulus_sweep() {
         "{sweep}"
     );
 }
+
+#[test]
+fn sheet_study_quick_compares_with_the_paper_and_times_the_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::sheet::SheetStudyArgs {
+        design: root().join("designs/tactile-array-60x80.toml"),
+        part: None,
+        repeats: 1,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::sheet::run(&a).unwrap();
+    let p = read_json(&dir.path().join("paper.json"));
+    // The mirror-averaged shape within 25 % of Table 1 after one common scale.
+    assert!(p["sheet"]["worst_shape_error_pct"].as_f64().unwrap() <= 25.0);
+    let s = read_json(&dir.path().join("speed.json"));
+    let rows = s["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    // Finer resolutions agree better with the finest (their cost is the study's table,
+    // not a timed test).
+    let e = |i: usize| rows[i]["max_error_vs_finest_pct"].as_f64().unwrap();
+    assert!(e(2) < e(0), "refinement 2 is closer to the finest than 0.5");
+    assert!(std::fs::read_to_string(dir.path().join("speed.svg"))
+        .unwrap()
+        .contains("<svg"));
+    let trends = std::fs::read_to_string(dir.path().join("trends.csv")).unwrap();
+    assert_eq!(trends.lines().count(), 3);
+}

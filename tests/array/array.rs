@@ -118,11 +118,20 @@ fn paper_layout_reproduces_table1_distances() {
 fn design_matrix_equals_the_paper_layout_matrix() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/tactile-array-60x80.toml");
     let design = fbgforge::design::load(&path).unwrap();
+    // The kernel on request is the paper layout's kernel matrix.
+    let k = model_matrix(&design, Some(ArrayModelKind::Kernel)).unwrap();
+    assert_eq!(k.ulimit_g, 250.0);
+    assert_eq!(k.matrix.cells, ["A", "B", "C", "D", "E", "F", "G", "H"]);
+    assert_eq!(k.matrix.gratings[0], "fbg1");
+    assert!((k.matrix.sensitivity_pm_per_g.clone() - paper_matrix()).amax() < 1e-12);
+    // The design names no model: its matrix is the sheet model's (docs/array.md §12).
     let (m, ulimit) = matrix_from_design(&design).unwrap();
-    assert_eq!(ulimit, 250.0);
-    assert_eq!(m.cells, ["A", "B", "C", "D", "E", "F", "G", "H"]);
-    assert_eq!(m.gratings[0], "fbg1");
-    assert!((m.sensitivity_pm_per_g.clone() - paper_matrix()).amax() < 1e-12);
+    assert_eq!(
+        (ulimit, &m.cells, &m.gratings),
+        (250.0, &k.matrix.cells, &k.matrix.gratings)
+    );
+    let sheet = model_matrix(&design, Some(ArrayModelKind::Sheet)).unwrap();
+    assert_eq!(m.sensitivity_pm_per_g, sheet.matrix.sensitivity_pm_per_g);
 }
 
 #[test]

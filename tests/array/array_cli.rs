@@ -96,10 +96,18 @@ fn reconstruct_from_a_design_uses_the_model_matrix() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("loads.csv");
     let s = fixture("paper-model-shifts.csv");
+    // The fixture's shifts come from the paper kernel: the design names that model
+    // (the default would be the sheet model, docs/array.md §12).
+    let design = dir.path().join("kernel-array.toml");
+    let text = std::fs::read_to_string(root().join("designs/tactile-array-60x80.toml"))
+        .unwrap()
+        .replacen("[array]\n", "[array]\nmodel = \"kernel\"\n", 1);
+    assert!(text.contains("model = \"kernel\""));
+    std::fs::write(&design, text).unwrap();
     let o = fbgforge(&[
         "reconstruct",
         "--design",
-        "designs/tactile-array-60x80.toml",
+        design.to_str().unwrap(),
         "--shifts",
         s.to_str().unwrap(),
         "--method",

@@ -13,3 +13,6 @@ mod array_scaling;
 mod array_trust;
 mod live;
 mod live_end;
+mod sheet_cli;
+mod sheet_exact;
+mod sheet_paper;

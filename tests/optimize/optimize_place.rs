@@ -166,3 +166,50 @@ fn bad_placement_input_gets_a_clear_error() {
         .contains("protocol or coherence"));
     assert!(SolverKind::parse("de").is_err());
 }
+
+#[test]
+fn placement_scores_with_the_designs_model_and_reports_its_gain_on_perturbed_models() {
+    use fbgforge::array::kernel::{model_matrix, ArrayModelKind};
+    let base = design("tactile-array-60x80.toml");
+    let mut s = quick(PlaceObjective::Coherence, false);
+    s.test_seeds = vec![11, 12];
+    s.perturbed_draws = 2;
+    s.perturbed_scatter = 0.0;
+    // The design names no model: the sheet model scores layouts, and its matrix at the
+    // start is the one every other caller gets.
+    for (kind, asked) in [
+        (ArrayModelKind::Sheet, None),
+        (ArrayModelKind::Kernel, Some(ArrayModelKind::Kernel)),
+    ] {
+        let mut s = s.clone();
+        s.model = asked;
+        let p = PlacementProblem::new(&base, &s).unwrap();
+        assert_eq!(p.model_kind(), kind);
+        let want = model_matrix(&base, Some(kind))
+            .unwrap()
+            .matrix
+            .sensitivity_pm_per_g;
+        let got = p.matrix(&p.start_point()).unwrap();
+        assert!((&got - &want).norm() <= 1e-9 * want.norm(), "{kind:?}");
+    }
+    // No scatter: the perturbed models are the model, so their scores are the held-out
+    // ones exactly (draw k runs on held-out seed k).
+    let out = place(&base, &s, &Quiet).unwrap();
+    assert_eq!(out.model, ArrayModelKind::Sheet);
+    let g = out.perturbed.clone().unwrap();
+    assert_eq!((g.scatter_per_entry, g.draws), (0.0, 2));
+    for (a, b) in [(&g.start, &out.start_test), (&g.best, &out.best_test)] {
+        assert!((a.rr_pct - b.rr_pct).abs() < 1e-9, "{a:?} {b:?}");
+        assert!((a.mean_snr_db - b.mean_snr_db).abs() < 1e-9, "{a:?} {b:?}");
+    }
+    // 10 % per entry: other frames, other scores, the gain stated on them.
+    s.perturbed_scatter = 0.10;
+    let p = PlacementProblem::new(&base, &s).unwrap();
+    let g = p.perturbed_gain(&out.start_x, &out.best_x).unwrap();
+    assert_ne!(g.start.mean_snr_db, out.start_test.mean_snr_db);
+    assert!((g.gain_score - (g.best.score() - g.start.score())).abs() < 1e-12);
+    // A negative scatter is refused.
+    s.perturbed_scatter = -0.1;
+    let e = PlacementProblem::new(&base, &s).err().unwrap().to_string();
+    assert!(e.contains("scatter"), "{e}");
+}

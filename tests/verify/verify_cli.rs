@@ -188,4 +188,37 @@ fn calibrate_array_from_a_synthetic_run() {
             assert!((a - b).abs() < 0.005f64.max(0.02 * b), "{a} vs {b}");
         }
     }
+    // The sheet model's modulus fitted to the measured matrix, every entry's misfit
+    // reported (the synthetic truth is the power law, not the sheet model, so the fit
+    // is inexact but finite and inside the search range).
+    let out = bin()
+        .args(["calibrate-array", design.to_str().unwrap(), "--log"])
+        .arg(dir.path().join("log.txt"))
+        .arg("--schedule")
+        .arg(&sched)
+        .arg("--out")
+        .arg(&matrix)
+        .arg("--fit-modulus")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("sheet model's modulus") && stdout.contains("largest misfit"),
+        "{stdout}"
+    );
+    let fit: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(matrix.with_extension("modulus-fit.json")).unwrap(),
+    )
+    .unwrap();
+    let e = fit["fitted_modulus_mpa"].as_f64().unwrap();
+    assert!(e > 0.05 && e < 50.0, "{fit}");
+    assert!(
+        fit["fitted_rel_rms"].as_f64().unwrap() <= fit["design_rel_rms"].as_f64().unwrap() + 1e-12
+    );
+    assert_eq!(fit["entries"].as_array().unwrap().len(), 48);
 }

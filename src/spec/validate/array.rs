@@ -70,11 +70,45 @@ impl Design {
         if a.fiber_x_mm.is_empty() {
             return Err(err("array.fiber_x_mm", "list at least one fiber"));
         }
+        self.validate_sheet_model(a)
+    }
+
+    /// What the sheet model reads besides the sheet: the fibers' depth (the coated
+    /// fiber inside the sheet), the table interface and the indenter.
+    fn validate_sheet_model(&self, a: &TactileArray) -> Result<(), SpecError> {
+        if let Some(d) = a.fiber_depth_mm {
+            let r = self.fiber_routing.coated_diameter_mm / 2.0;
+            if !(d.is_finite() && d > r && d < a.thickness_mm - r) {
+                return Err(err(
+                    "array.fiber_depth_mm",
+                    format!(
+                        "{d} mm does not keep the {} mm coated fiber inside the {} mm sheet; expected more than {r} mm and less than {} mm",
+                        self.fiber_routing.coated_diameter_mm,
+                        a.thickness_mm,
+                        a.thickness_mm - r
+                    ),
+                ));
+            }
+        }
+        if let Some(crate::spec::BaseCondition::Gripping {
+            tangential_stiffness_n_per_mm3: k,
+        }) = a.base
+        {
+            positive("array.base.tangential_stiffness_n_per_mm3", k, 1e-9, 1e6)?;
+        }
+        if let Some(d) = a.indenter_diameter_mm {
+            positive(
+                "array.indenter_diameter_mm",
+                d,
+                0.1,
+                a.size_x_mm.min(a.size_y_mm),
+            )?;
+        }
         Ok(())
     }
 
     /// The casting mold: printable walls, a cavity that holds the sheet, and slits that
-    /// hold the coated fiber at the sheet's mid-thickness.
+    /// hold the coated fiber at its depth in the sheet.
     fn validate_mold(&self, a: &TactileArray) -> Result<(), SpecError> {
         let mold = &a.mold;
         if let Some(pm) = &mold.print_material {
@@ -127,7 +161,7 @@ impl Design {
     }
 
     /// The mold's slits: as wide as the coated fiber and its clearance need, and as deep
-    /// as puts the fiber at the sheet's mid-thickness.
+    /// as puts the fiber at its depth (mid-thickness by default).
     fn validate_mold_slits(&self, a: &TactileArray) -> Result<(), SpecError> {
         let mold = &a.mold;
         // The slit's depth follows from the stack (base, sheet, fiber): its bottom, the
@@ -162,8 +196,9 @@ impl Design {
             return Err(err(
                 "array.mold.slit_depth_mm",
                 format!(
-                    "{} mm does not put the fiber at the sheet's mid-thickness; expected {depth:.4} mm (down to the layer boundary of {} mm nearest base + thickness/2 − coated diameter/2); leave the field out to derive it",
+                    "{} mm does not put the fiber at its depth of {} mm; expected {depth:.4} mm (down to the layer boundary of {} mm nearest base + fiber depth − coated diameter/2); leave the field out to derive it",
                     mold.slit_depth_mm,
+                    a.fiber_depth(),
                     self.printer.layer_height_mm()
                 ),
             ));
