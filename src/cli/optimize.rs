@@ -306,7 +306,7 @@ pub fn module_table(o: &ModuleOutcome) -> String {
     wrapped(
         &mut s,
         &format!(
-            "best of the table (*): {} objective {value:.4} {unit} ({versus}); 'policy' rows are scored on the model policy at their design, 'estimate' rows (the search's estimate) lie below the best",
+            "best: {} objective {value:.4} {unit} ({versus}), the table's best (*); 'policy' rows are scored on the model policy at their design, 'estimate' rows (the search's estimate) lie below the best",
             best.choice
         ),
         6,

@@ -223,7 +223,7 @@ pub fn mesh_part(
     unreachable!("the loop returns on its last attempt")
 }
 
-/// Build, mesh and check the selected parts at `tol_mm` (the printer's default when
+/// Build, mesh and check the selected parts at `tol_mm` ([`default_tolerance_for`] when
 /// None). Parts sharing a solid are meshed once. Fails on the first bad part.
 pub fn build_parts(
     design: &Design,
@@ -233,6 +233,21 @@ pub fn build_parts(
     build_parts_for(&DesignProfile::new(design), tol_mm, selection)
 }
 
+/// The meshing tolerance used when none is given, mm: the printer's (half its
+/// resolution), or finer where a designed gap between mating parts needs it (half the
+/// narrowest gap, [`fits::check_tolerance`]), so a design that validates always builds
+/// at its default. A given tolerance is never changed: a coarser one is refused.
+pub fn default_tolerance_for(profile: &DesignProfile) -> f64 {
+    let printer = profile.design.printer.default_tolerance_mm();
+    // Exact overlaps are reported by the assembly check; here they only leave the
+    // printer's default.
+    fits::check_exact(profile).map_or(printer, |(fits, _)| {
+        fits.iter()
+            .filter_map(|f| f.max_mesh_tolerance_mm)
+            .fold(printer, f64::min)
+    })
+}
+
 /// [`build_parts`] from dimensions already derived.
 pub fn build_parts_for(
     profile: &DesignProfile,
@@ -240,7 +255,7 @@ pub fn build_parts_for(
     selection: Option<&[String]>,
 ) -> Result<Vec<BuiltPart>, GeometryError> {
     let default = profile.design.printer.default_tolerance_mm();
-    let tol = tol_mm.unwrap_or(default);
+    let tol = tol_mm.unwrap_or_else(|| default_tolerance_for(profile));
     if !(0.001..=1.0).contains(&tol) {
         return Err(GeometryError::Tolerance(tol));
     }
@@ -345,7 +360,7 @@ pub fn build_design(
     let profile = DesignProfile::new(design);
     let built = build_parts_for(&profile, tolerance_mm, parts).with_context(nothing)?;
     let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
-    let tol = tolerance_mm.unwrap_or(design.printer.default_tolerance_mm());
+    let tol = tolerance_mm.unwrap_or_else(|| default_tolerance_for(&profile));
     let rendered = export::render(&profile, &built, tol, fibers.as_deref())?;
     let files = export::write_all(dir, &rendered)?;
     Ok(BuildReport {

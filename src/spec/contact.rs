@@ -135,16 +135,33 @@ impl Module {
 
     /// The contact reading relative to its features, at this module's geometry.
     pub fn contact_ratios(&self) -> ContactRatios {
+        // A stated ratio (or a default one) is returned as written: dividing the length
+        // it resolves to by its feature would round it, and a family knot would not
+        // come back exactly.
+        let c = &self.contact;
         let fit = self.cap_core_clearance_mm;
         ContactRatios {
-            clip_height_to_cap_wall: self.clip_height_mm() / self.cap_wall_mm,
-            dome_clearance_to_fit_clearance: if fit > 0.0 {
-                self.dome_clearance_mm() / fit
-            } else {
-                self.contact.dome_clearance_to_fit_clearance.unwrap_or(1.0)
+            clip_height_to_cap_wall: match (c.clip_height_to_cap_wall, c.clip_height_mm) {
+                (Some(k), _) => k,
+                (None, Some(h)) => h / self.cap_wall_mm,
+                (None, None) => 1.0,
             },
-            dome_contact_radius_to_patch: self.dome_contact_radius_mm()
-                / self.apex_patch_radius_mm(),
+            dome_clearance_to_fit_clearance: match (
+                c.dome_clearance_to_fit_clearance,
+                c.dome_clearance_mm,
+            ) {
+                (Some(k), _) => k,
+                (None, Some(g)) if fit > 0.0 => g / fit,
+                _ => 1.0,
+            },
+            dome_contact_radius_to_patch: match (
+                c.dome_contact_radius_to_patch,
+                c.dome_contact_radius_mm,
+            ) {
+                (Some(k), _) => k,
+                (None, Some(r)) => r / self.apex_patch_radius_mm(),
+                (None, None) => Contact::DEFAULT_CONTACT_TO_PATCH,
+            },
         }
     }
 
