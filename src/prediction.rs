@@ -394,7 +394,8 @@ pub struct PredictionRequest {
     /// Which model answers: [`FidelityChoice::Auto`] is the policy's default.
     pub fidelity: FidelityChoice,
     /// Also compute each row's prediction band (`band_pm_per_n`): two more FE solves
-    /// per configuration.
+    /// per configuration. Ignored under [`FidelityChoice::ClosedForm`], which runs no
+    /// FE at all (every front end asking for the closed form gets the same rows).
     pub band: bool,
     /// Mesh and solver of the FE solves (the contact choices come from the design).
     pub fem_options: FemOptions,
@@ -445,12 +446,13 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
         .iter()
         .map(|d| request.fidelity.resolve(design, d.prediction.case))
         .collect();
+    let with_band = request.band && request.fidelity != FidelityChoice::ClosedForm;
     for (d, model) in rows.iter().zip(&models) {
         let c = config_of(&d.prediction);
         if *model == Fidelity::Fem {
             want(c.clone(), ContactReading::Design);
         }
-        if request.band {
+        if with_band {
             want(c.clone(), ContactReading::BondedPillars);
             want(c, ContactReading::SlidingApexPatch);
         }
@@ -483,7 +485,7 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
                 )
             }
         };
-        let (band, readings) = if request.band {
+        let (band, readings) = if with_band {
             let bonded = k_of(&d, strain_of(&d.prediction, ContactReading::BondedPillars)?);
             let sliding = k_of(
                 &d,

@@ -56,6 +56,7 @@ class Result:
     def to_dict(self) -> Dict[str, Any]: ...
 
 class Prediction(Result):
+    paper_statements: Optional[Dict[str, Any]]
     rows: List[Dict[str, Any]]
     force_n: float
     gratings: List[str]

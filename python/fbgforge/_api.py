@@ -75,7 +75,8 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         Which model answers: the policy (Case I by the FE model), the closed form
         throughout, or the FE model throughout.
     band : bool, default True
-        Also compute each row's prediction band (two more FE solves for Case I).
+        Also compute each row's prediction band (two more FE solves for Case I;
+        none under ``fidelity="closed-form"``, which runs no FE).
 
     Returns
     -------
@@ -91,7 +92,7 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
     (['lambda_11', 'lambda_12'], -165.52)
     """
     d = as_design(design)
-    rows = _fbgforge.predict(d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band))
+    rows, statements = _fbgforge.predict(d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band))
     return Prediction(
         {
             "delta_t_k": float(delta_t_k),
@@ -99,6 +100,7 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
             "fidelity": fidelity,
             "force_n": float(force_n),
             "predictions": rows,
+            "paper_statements": statements,
         }
     )
 
@@ -115,7 +117,9 @@ def build(design, out_dir, tolerance_mm=None, parts=None):
     out_dir : path
         Output folder (made if missing).
     tolerance_mm : float, optional
-        Meshing tolerance, mm (default half the printer's resolution).
+        Meshing tolerance, mm (default half the printer's resolution, or finer where
+        a gap between mating parts needs it; a coarser one that would let mating
+        meshes overlap is refused).
     parts : str or list of str, optional
         A part (``"cap"``), a comma-separated list (``"cap,core"``) or a list
         (``["cap", "core"]``); default every part.
@@ -131,7 +135,7 @@ def build(design, out_dir, tolerance_mm=None, parts=None):
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     r = fbgforge.build("designs/clip-on-10mm.toml", tmp, parts="cap")
     ...     sorted(f.name for f in r.files)
-    ['cap.step', 'cap.stl', 'manifest.json']
+    ['cap.step', 'cap.stl', 'manifest.json', 'parts.3mf']
     """
     d = as_design(design)
     doc = _fbgforge.build(d._d, _path(out_dir, "out_dir"), tolerance_mm, _names(parts, "parts"))

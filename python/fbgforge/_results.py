@@ -106,6 +106,10 @@ class Prediction(Result):
     band_low_pm_per_n, band_high_pm_per_n : numpy.ndarray
         Per row: the prediction band between the bounding contact readings (NaN
         where there is none).
+    paper_statements : dict or None
+        Which of the paper's Case I statements the prediction keeps (K > 0,
+        1 < |K_II|/|K_I| ≲ 2, K_I rising as the insert softens), as
+        ``fbgforge predict --json`` gives them.
     """
 
     __slots__ = ()
@@ -113,6 +117,10 @@ class Prediction(Result):
     @property
     def rows(self):
         return self._doc["predictions"]
+
+    @property
+    def paper_statements(self):
+        return self._doc.get("paper_statements")
 
     @property
     def force_n(self):

@@ -154,7 +154,11 @@ fn predict<'py>(
                 e.context(format!("design `{}`: cannot predict", d.name)),
             )
         })?;
-    to_py(py, &rows)
+    // The same checks of the paper's statements as `fbgforge predict --json`.
+    let statements = fbgforge::prediction::check_paper_statements(d, &rows);
+    Ok((to_py(py, &rows)?, to_py(py, &statements)?)
+        .into_pyobject(py)?
+        .into_any())
 }
 
 /// Build the printable parts into `out_dir`: the build report and manifest.json.
@@ -667,16 +671,34 @@ fn optimize<'py>(
     let run = py
         .detach(|| run_module(&req, &fbgforge::progress::Quiet))
         .map_err(|x| err(py, x))?;
+    optimised(
+        py,
+        &run.outcome,
+        &run.outcome.design,
+        &run.design_path,
+        &run.report_dir,
+    )
+}
+
+/// An optimisation for Python: its outcome as a dict, the written design, and where
+/// the design file and the report went.
+fn optimised<'py, T: serde::Serialize>(
+    py: Python<'py>,
+    outcome: &T,
+    design: &fbgforge::spec::Design,
+    design_path: &std::path::Path,
+    report_dir: &std::path::Path,
+) -> PyResult<Bound<'py, PyAny>> {
     let doc = PyDict::new(py);
-    doc.set_item("outcome", to_py(py, &run.outcome)?)?;
+    doc.set_item("outcome", to_py(py, outcome)?)?;
     doc.set_item(
         "design",
         PyDesign {
-            design: run.outcome.design.clone(),
+            design: design.clone(),
         },
     )?;
-    doc.set_item("design_path", run.design_path.display().to_string())?;
-    doc.set_item("report_dir", run.report_dir.display().to_string())?;
+    doc.set_item("design_path", design_path.display().to_string())?;
+    doc.set_item("report_dir", report_dir.display().to_string())?;
     Ok(doc.into_any())
 }
 
@@ -723,17 +745,13 @@ fn place<'py>(
     let run = py
         .detach(|| run_placement(&req, &fbgforge::progress::Quiet))
         .map_err(|x| err(py, x))?;
-    let doc = PyDict::new(py);
-    doc.set_item("outcome", to_py(py, &run.outcome)?)?;
-    doc.set_item(
-        "design",
-        PyDesign {
-            design: run.outcome.design.clone(),
-        },
-    )?;
-    doc.set_item("design_path", run.design_path.display().to_string())?;
-    doc.set_item("report_dir", run.report_dir.display().to_string())?;
-    Ok(doc.into_any())
+    optimised(
+        py,
+        &run.outcome,
+        &run.outcome.design,
+        &run.design_path,
+        &run.report_dir,
+    )
 }
 
 /// Write a synthetic log set (module pulses, or an array calibration run).

@@ -18,9 +18,9 @@ def test_sweep_equals_the_cli_and_log_spacing_spans_decades(cli, tmp_path):
     # Case II's K falls as the core stiffens: more of the force goes through the core.
     assert np.all(np.diff(np.abs(s.sensitivity_pm_per_n), axis=1) < 0)
     # Linear steps: the same numbers as the command line's CSV.
-    lin = fbgforge.sweep(MODULE, "cap_wall_mm", start=1.0, stop=2.0, steps=3, case="II", fidelity="closed-form")
+    lin = fbgforge.sweep(MODULE, "cap_wall_mm", start=1.0, stop=1.5, steps=3, case="II", fidelity="closed-form")
     csv = tmp_path / "s.csv"
-    cli("sweep", MODULE, "--param", "cap_wall_mm", "--from", "1", "--to", "2", "--steps", "3", "--case", "II",
+    cli("sweep", MODULE, "--param", "cap_wall_mm", "--from", "1", "--to", "1.5", "--steps", "3", "--case", "II",
         "--fidelity", "closed-form", "--csv", csv, "--plot", tmp_path / "s.svg")
     import pandas as pd
 

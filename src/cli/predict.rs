@@ -428,7 +428,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         );
     }
     let choice = FidelityChoice::from(a.fidelity);
-    // The band's readings are FE solves: the closed form alone runs none.
+    // The band's readings are FE solves: the closed form alone runs none (the library
+    // skips them too; this also sets the table's columns).
     let band = !a.no_band && choice != FidelityChoice::ClosedForm;
     let rows = fbgforge::prediction::predict(
         &design,
