@@ -325,7 +325,20 @@ pub fn train(
         .last()
         .map_or(30.0, |p| p.start_s + p.duration_s + rest_s);
     if !duration.is_finite() {
-        bail!("{} pulses of {pulse_s} s with {rest_s} s between them make a run too long to write (--pulse-s, --rest-s)", peaks_n.len());
+        // A length of 1e308 s printed in full is 309 digits.
+        let s = |v: f64| {
+            if v.abs() < 1e9 {
+                format!("{v}")
+            } else {
+                format!("{v:e}")
+            }
+        };
+        bail!(
+            "{} pulses of {} s with {} s between them make a run too long to write (--pulse-s, --rest-s)",
+            peaks_n.len(),
+            s(pulse_s),
+            s(rest_s)
+        );
     }
     Ok((pulses, duration))
 }
