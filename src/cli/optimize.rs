@@ -321,11 +321,9 @@ pub fn module_table(o: &ModuleOutcome) -> String {
     );
     for (i, f) in o.pareto_front.iter().enumerate() {
         let ob = &f.objectives;
-        let tag = match (f.knee, o.written_front_index == Some(i)) {
-            (true, true) => " (knee, written)",
-            (true, false) => " (knee)",
-            (false, true) => " (written)",
-            _ => "",
+        let tag = match o.front_tag(i) {
+            "" => String::new(),
+            t => format!(" ({t})"),
         };
         wrapped(&mut s, &format!("  {i:<2} {}{tag}", f.choice), 7);
         wrapped(

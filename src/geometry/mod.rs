@@ -358,9 +358,10 @@ pub fn build_design(
 ) -> anyhow::Result<BuildReport> {
     let nothing = || format!("design `{}`: nothing was written", design.name);
     let profile = DesignProfile::new(design);
-    let built = build_parts_for(&profile, tolerance_mm, parts).with_context(nothing)?;
-    let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
+    // Derived once: the parts are meshed at it and the manifest states it.
     let tol = tolerance_mm.unwrap_or_else(|| default_tolerance_for(&profile));
+    let built = build_parts_for(&profile, Some(tol), parts).with_context(nothing)?;
+    let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
     let rendered = export::render(&profile, &built, tol, fibers.as_deref())?;
     let files = export::write_all(dir, &rendered)?;
     Ok(BuildReport {

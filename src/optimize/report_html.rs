@@ -218,12 +218,6 @@ fn module_front(d: &mut Document, o: &ModuleOutcome, front: Option<&Chart>) -> R
     ]);
     for (i, f) in o.pareto_front.iter().enumerate() {
         let ob = &f.objectives;
-        let tag = match (f.knee, o.written_front_index == Some(i)) {
-            (true, true) => "knee, written",
-            (true, false) => "knee",
-            (false, true) => "written",
-            _ => "",
-        };
         t.row([
             i.to_string(),
             f.choice.to_string(),
@@ -233,7 +227,7 @@ fn module_front(d: &mut Document, o: &ModuleOutcome, front: Option<&Chart>) -> R
             ob.force_range_limited_by.to_string(),
             format!("{:.3}", ob.max_lag_s),
             format!("{:.6}", ob.r_squared),
-            tag.to_string(),
+            o.front_tag(i).to_string(),
         ]);
     }
     d.table("pareto-front", &t);

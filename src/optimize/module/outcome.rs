@@ -103,6 +103,19 @@ pub struct ModuleOutcome {
     pub calibration: Calibration,
 }
 
+impl ModuleOutcome {
+    /// How front design `i` is marked in tables: `knee`, `written`, both, or nothing.
+    pub fn front_tag(&self, i: usize) -> &'static str {
+        let knee = self.pareto_front.get(i).is_some_and(|f| f.knee);
+        match (knee, self.written_front_index == Some(i)) {
+            (true, true) => "knee, written",
+            (true, false) => "knee",
+            (false, true) => "written",
+            (false, false) => "",
+        }
+    }
+}
+
 /// Name the constraint that cannot be met: across choices, the one violated at the
 /// least violating design (by its largest share of the violation).
 pub(super) fn infeasible_error(
