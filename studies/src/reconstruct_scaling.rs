@@ -8,8 +8,10 @@
 //! on distinct random cells, masses 50/100/200 g, each reading off by 3 % (Gaussian,
 //! relative) and 0.25 pm (Gaussian); a separate validation set tunes each penalised
 //! method's weight (RR first, then mean SNR). The methods see the true matrix. The
-//! frames are written as CSV (`scaling-frames/n<cells>/`) so that other tools can be
-//! measured on the same frames (docs/array.md quotes SciPy and scikit-learn).
+//! frames are written as CSV (`scaling-frames/n<cells>/`, the validation frames in its
+//! `val/`) so that other tools can be tuned and measured on the same frames:
+//! `studies/peers/scaling_vs_peers.py` runs this study and the SciPy / scikit-learn
+//! peers in one go and writes the side-by-side table of docs/array.md §10.8.
 //!
 //! Times are single-thread wall times of one `reconstruct` call (median over the
 //! frames), set-up (building the method for the matrix) apart; the default method's
@@ -268,7 +270,7 @@ fn write_frames(dir: &Path, a: &DMatrix<f64>, f: &Frames) -> Result<()> {
 
 /// Figures of the Python peers on the same kind of frames (SciPy, scikit-learn;
 /// measured for docs/array.md §10, quoted here so the table carries them).
-pub const PEER_FIGURES: &str = "Peers (docs/array.md §10): SciPy lsq_linear over every support of ≤ 4 loads with screening reaches RR 100/99/95/88 % at 12×32 and 100/100/80/76 % at 16×64 (1–4 loads); scikit-learn's batched positive Lasso takes 2.3–4.1 ms per frame at 32×256.";
+pub const PEER_FIGURES: &str = "Peers: `python3 studies/peers/scaling_vs_peers.py --seed S` runs this study and SciPy / scikit-learn on the same frames in one run, median and mean side by side (docs/array.md §10.8; seed 20261125: `bnb` returns SciPy's exhaustive enumeration's loads on every frame compared, 24–222× faster on average; `lasso` 3.3–6× faster than scikit-learn up to 24×128, 1.44× slower on average at 32×256).";
 
 /// Run the scaling study; appends its tables to `report` and returns every row.
 pub fn run(
@@ -304,7 +306,10 @@ pub fn run(
         let test = frames(&a, per_load, &mut rng);
         let mut rng_val = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1000) + 5000 + n as u64);
         let val = frames(&a, val_per_load, &mut rng_val);
-        write_frames(&out.join("scaling-frames").join(format!("n{n}")), &a, &test)?;
+        let frames_dir = out.join("scaling-frames").join(format!("n{n}"));
+        write_frames(&frames_dir, &a, &test)?;
+        // The validation frames too, so a peer tunes its penalty as this study does.
+        write_frames(&frames_dir.join("val"), &a, &val)?;
         let problem =
             SensingProblem::new(a.clone(), ULIMIT_G, true)?.with_min_load_g(PAPER_MIN_LOAD_G)?;
         // The support objective's λ is tuned once (on `support` where it can be

@@ -163,6 +163,30 @@ fn reconstruct_study_quick_recovers_every_single_load() {
     // The paper's Table 3: every single load is recovered (RR 100 %).
     assert_eq!(single["rr_pct"].as_f64().unwrap(), 100.0, "{single}");
     assert!(dir.path().join("speed_accuracy.svg").exists());
+    // The scaling part writes its test and validation frames for the peers
+    // (studies/peers/scaling_vs_peers.py tunes on the latter): same matrix, two frames
+    // per load count in a quick run, each truth with as many loads as it says.
+    let frames = dir.path().join("scaling-frames").join("n8");
+    let read = |p: PathBuf| std::fs::read_to_string(&p).unwrap();
+    assert_eq!(
+        read(frames.join("A.csv")),
+        read(frames.join("val").join("A.csv"))
+    );
+    for d in [frames.clone(), frames.join("val")] {
+        let truth = read(d.join("truth.csv"));
+        let loads = read(d.join("loads_per_frame.csv"));
+        let rows: Vec<&str> = truth.lines().skip(1).collect();
+        let counts: Vec<usize> = loads.lines().skip(1).map(|l| l.parse().unwrap()).collect();
+        assert_eq!(rows.len(), 8, "{}", d.display());
+        assert_eq!(read(d.join("shifts.csv")).lines().count(), 9);
+        for (row, k) in rows.iter().zip(&counts) {
+            let loaded = row
+                .split(',')
+                .filter(|v| v.parse::<f64>().unwrap() > 0.0)
+                .count();
+            assert_eq!(loaded, *k, "{row}");
+        }
+    }
 }
 
 #[test]
