@@ -8,6 +8,7 @@ use cli::{Cli, Command};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         None => cli::build::run_default().map(|()| ExitCode::SUCCESS),
@@ -19,6 +20,16 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Output to a closed pipe (`fbgforge predict … | head`) ends the process quietly, as
+/// it does other Unix tools; Rust ignores SIGPIPE, so `println!` would panic instead.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: sets a signal's disposition once, at start-up, before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

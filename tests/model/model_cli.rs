@@ -218,3 +218,20 @@ fn sweep_with_the_fe_model_says_so_and_writes_its_numbers() {
         );
     }
 }
+
+#[test]
+fn output_to_a_closed_pipe_ends_quietly_instead_of_panicking() {
+    // `fbgforge predict … | head -1`: the reader goes away before the table is written.
+    let path = design("clip-on-34mm.toml");
+    let mut child = bin()
+        .args(["predict", path.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("binary runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("the process ends");
+    let err = stderr(&out);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.status.success() || err.is_empty(), "{err}");
+}
