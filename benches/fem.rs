@@ -7,7 +7,8 @@
 //! - `factor+solve`: what every further problem on that geometry costs (another core,
 //!   insert or modulus: assembly from the stored parts, numeric factorisation, one solve).
 //!
-//! The default solver (`SolverKind::Faer`) is the fastest here (docs/fem.md §5).
+//! The default solver (`SolverKind::Faer`: faer's supernodal kernel) is the fastest
+//! here; faer's own kernel choice (`Auto`) is timed beside it (docs/fem.md §5.1–5.2).
 //! Run with `cargo bench --bench fem`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -23,7 +24,10 @@ fn solvers(c: &mut Criterion) {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/clip-on-34mm.toml");
     let design = fbgforge::design::load(&p).expect("shipped design loads");
     let m = design.module.as_ref().expect("a module design");
-    let linear: [&dyn LinearSolver; 3] = [
+    let linear: [&dyn LinearSolver; 4] = [
+        &SparseLlt {
+            kernel: fem::linear::LltKernel::Supernodal,
+        },
         &SparseLlt {
             kernel: fem::linear::LltKernel::Auto,
         },

@@ -24,6 +24,9 @@ use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex, OnceLock};
 
+/// An interpolation as compared: (node, component, [(master, weight bits)]).
+type InterpolationShape = (usize, Component, [(usize, u64); 3]);
+
 /// What fixes a problem's structure.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 struct ProblemShape {
@@ -31,6 +34,7 @@ struct ProblemShape {
     elements: Vec<Element>,
     fixed: Vec<(usize, Component)>,
     ties: Vec<(usize, usize, Component)>,
+    interpolations: Vec<InterpolationShape>,
     displacement_formulation: bool,
     solver: &'static str,
 }
@@ -47,6 +51,17 @@ impl ProblemShape {
             elements: p.mesh.elements.clone(),
             fixed: p.fixed.clone(),
             ties: p.ties.clone(),
+            interpolations: p
+                .interpolations
+                .iter()
+                .map(|f| {
+                    (
+                        f.node,
+                        f.component,
+                        f.masters.map(|(m, w)| (m, w.to_bits())),
+                    )
+                })
+                .collect(),
             displacement_formulation: p.formulation == Formulation::Displacement,
             solver: solver.name(),
         }
@@ -255,6 +270,7 @@ mod tests {
             formulation: Formulation::MixedQ9P1,
             fixed: (0..3).map(|i| (ids[i][0], Z)).collect(),
             ties: vec![],
+            interpolations: vec![],
             loads: (0..3).map(|i| (ids[i][2], Z, -1.0)).collect(),
         }
     }

@@ -4,7 +4,10 @@
 //!
 //! Ties join two nodes' displacement components into one unknown (bonded parts whose
 //! surfaces are a clearance apart, or a frictionless contact when only the normal
-//! component is tied).
+//! component is tied). An [`Interpolation`] makes a component follow three others (a
+//! node in the middle of a coarser neighbour's quadratic edge: the two meshes then
+//! stay conforming across a 2:1 change of element size); it is eliminated, not solved
+//! for (K̄ = Tᵀ K T).
 //!
 //! **Structure apart from values.** What does not depend on the moduli is computed
 //! once per problem shape, in a [`ProblemStructure`]: the numbering of the unknowns,
@@ -45,8 +48,23 @@ pub struct Problem {
     pub fixed: Vec<(usize, Component)>,
     /// Tied components: (node a, node b, component) share one unknown.
     pub ties: Vec<(usize, usize, Component)>,
+    /// Components that follow others (hanging nodes on a coarser edge).
+    pub interpolations: Vec<Interpolation>,
     /// Nodal forces (node, component, N), resultants over the full circumference.
     pub loads: Vec<(usize, Component, f64)>,
+}
+
+/// A component of one node that follows the same component of three others:
+/// u(node) = Σ weight · u(master), e.g. a node at s = ±½ on a quadratic edge whose
+/// nodes sit at s = −1, 0, 1 (weights ⅜, ¾, −⅛).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interpolation {
+    /// The following node.
+    pub node: usize,
+    /// Its component that follows (the masters' same component).
+    pub component: Component,
+    /// (master node, weight).
+    pub masters: [(usize, f64); 3],
 }
 
 /// The solved displacement field.
@@ -68,9 +86,60 @@ fn find(parent: &mut [usize], mut x: usize) -> usize {
     x
 }
 
-/// Map from (node, component) to unknown index (None = fixed at zero).
-fn dof_map(p: &Problem) -> Result<(Vec<Option<usize>>, usize)> {
+/// The unknowns a following component is made of: (unknown, weight), held masters
+/// left out, masters sharing an unknown merged.
+type Terms = Vec<(usize, f64)>;
+
+/// The numbering of a problem's unknowns: for each component (index 2·node + c) its
+/// unknown (None = fixed at zero, or following others), the number of unknowns, and
+/// the following components (by component index) with their terms.
+type DofMap = (Vec<Option<usize>>, usize, Vec<(usize, Terms)>);
+
+/// The [`DofMap`] of a problem: ties merged, supports held, interpolations resolved.
+fn dof_map(p: &Problem) -> Result<DofMap> {
     let n = p.mesh.nodes.len() * 2;
+    let mut follows = vec![false; n];
+    for f in &p.interpolations {
+        let ok = f.node < p.mesh.nodes.len()
+            && f.component <= 1
+            && f.masters
+                .iter()
+                .all(|&(m, w)| m < p.mesh.nodes.len() && w.is_finite());
+        if !ok {
+            bail!(
+                "interpolation of ({}, {}) refers to a node or component that does not exist",
+                f.node,
+                f.component
+            );
+        }
+        follows[2 * f.node + f.component] = true;
+    }
+    for f in &p.interpolations {
+        if f.masters.iter().any(|&(m, _)| follows[2 * m + f.component]) {
+            bail!(
+                "interpolation of ({}, {}): a master follows others too",
+                f.node,
+                f.component
+            );
+        }
+    }
+    let touched = |i: usize| {
+        p.ties
+            .iter()
+            .any(|&(a, b, c)| 2 * a + c == i || 2 * b + c == i)
+            || p.fixed.iter().any(|&(a, c)| 2 * a + c == i)
+    };
+    if let Some(f) = p
+        .interpolations
+        .iter()
+        .find(|f| touched(2 * f.node + f.component))
+    {
+        bail!(
+            "interpolation of ({}, {}): the component is also tied or held",
+            f.node,
+            f.component
+        );
+    }
     let mut parent: Vec<usize> = (0..n).collect();
     for &(a, b, c) in &p.ties {
         if a >= p.mesh.nodes.len() || b >= p.mesh.nodes.len() || c > 1 {
@@ -104,6 +173,9 @@ fn dof_map(p: &Problem) -> Result<(Vec<Option<usize>>, usize)> {
         if !used[i] {
             continue;
         }
+        if follows[i] {
+            continue;
+        }
         let r = find(&mut parent, i);
         if fixed_root[r] {
             continue;
@@ -114,7 +186,27 @@ fn dof_map(p: &Problem) -> Result<(Vec<Option<usize>>, usize)> {
         }
         map[i] = Some(root_index[r]);
     }
-    Ok((map, count))
+    let mut following: Vec<(usize, Terms)> = p
+        .interpolations
+        .iter()
+        .map(|f| {
+            let mut terms: Terms = Vec::with_capacity(3);
+            for &(m, w) in &f.masters {
+                if let Some(u) = map[2 * m + f.component] {
+                    match terms.iter_mut().find(|t| t.0 == u) {
+                        Some(t) => t.1 += w,
+                        None => terms.push((u, w)),
+                    }
+                }
+            }
+            (2 * f.node + f.component, terms)
+        })
+        .collect();
+    following.sort_by_key(|t| t.0);
+    if following.windows(2).any(|w| w[0].0 == w[1].0) {
+        bail!("a component follows two interpolations");
+    }
+    Ok((map, count, following))
 }
 
 /// Entries of an element matrix's upper triangle (diagonal included): 18 · 19 / 2.
@@ -125,6 +217,8 @@ const ELEMENT_ENTRIES: usize = 171;
 /// for any set of materials by [`ProblemStructure::factor`].
 pub struct ProblemStructure {
     map: Vec<Option<usize>>,
+    /// Components that follow others, by component index, with their terms.
+    following: Vec<(usize, Terms)>,
     unknowns: usize,
     nodes: usize,
     pattern: LowerPattern,
@@ -138,6 +232,9 @@ pub struct ProblemStructure {
     shear: Vec<f64>,
     /// The same per unit bulk modulus.
     bulk: Vec<f64>,
+    /// Entries that involve a following component (held out of `slots`): (slot,
+    /// element, stiffness per unit shear and bulk modulus, weights applied).
+    spread: Vec<(u32, u32, f64, f64)>,
     symbolic: Box<dyn SymbolicFactorization>,
     solver: &'static str,
 }
@@ -174,10 +271,16 @@ impl Problem {
     /// Everything of this problem's solve that does not depend on the moduli, with
     /// `solver`'s symbolic analysis.
     pub fn structure(&self, solver: &dyn LinearSolver) -> Result<ProblemStructure> {
-        let (map, n) = dof_map(self)?;
+        let (map, n, following) = dof_map(self)?;
         if n == 0 {
             bail!("the problem has no free unknowns");
         }
+        let terms_of = |i: usize| -> Option<&Terms> {
+            following
+                .binary_search_by_key(&i, |t| t.0)
+                .ok()
+                .map(|k| &following[k].1)
+        };
         let elem_dofs: Vec<[Option<usize>; 18]> = self
             .mesh
             .elements
@@ -191,7 +294,33 @@ impl Problem {
                 d
             })
             .collect();
-        let pattern = LowerPattern::from_elements(n, &elem_dofs);
+        // Every unknown an element couples, a following component's masters included
+        // (at most 3 per component).
+        let elem_unknowns: Vec<[Option<usize>; 54]> = self
+            .mesh
+            .elements
+            .iter()
+            .zip(&elem_dofs)
+            .map(|(e, d)| {
+                let mut u = [None; 54];
+                let mut k = 0;
+                for (local, &nd) in e.nodes.iter().enumerate() {
+                    for c in 0..2 {
+                        if let Some(i) = d[2 * local + c] {
+                            u[k] = Some(i);
+                            k += 1;
+                        } else if let Some(terms) = terms_of(2 * nd + c) {
+                            for &(i, _) in terms {
+                                u[k] = Some(i);
+                                k += 1;
+                            }
+                        }
+                    }
+                }
+                u
+            })
+            .collect();
+        let pattern = LowerPattern::from_elements(n, &elem_unknowns);
         if pattern.nonzeros() >= u32::MAX as usize {
             bail!(
                 "the stiffness matrix has {} stored entries, more than this solver addresses",
@@ -202,10 +331,53 @@ impl Problem {
         let mut slots = Vec::with_capacity(ne * ELEMENT_ENTRIES);
         let mut shear = Vec::with_capacity(ne * ELEMENT_ENTRIES);
         let mut bulk = Vec::with_capacity(ne * ELEMENT_ENTRIES);
-        for (e, d) in self.mesh.elements.iter().zip(&elem_dofs) {
+        let mut spread = Vec::new();
+        let slot_of = |p: usize, q: usize| -> u32 {
+            pattern
+                .position(p.max(q), p.min(q))
+                .expect("every element entry is in the pattern") as u32
+        };
+        for (ei, (e, d)) in self.mesh.elements.iter().zip(&elem_dofs).enumerate() {
             let parts = element::stiffness_parts(&self.mesh.element_coords(e), self.formulation)?;
+            // Each local component as terms (a plain unknown is one term of weight 1).
+            let local_terms: Vec<Option<Terms>> = (0..18)
+                .map(|k| {
+                    let dof = 2 * e.nodes[k / 2] + k % 2;
+                    match d[k] {
+                        Some(_) => None,
+                        None => terms_of(dof).cloned(),
+                    }
+                })
+                .collect();
             for a in 0..18 {
                 for c in a..18 {
+                    if local_terms[a].is_some() || local_terms[c].is_some() {
+                        // K̄ = Tᵀ K T over this entry (and its transpose when a < c).
+                        let one = |k: usize| -> Terms {
+                            match (&local_terms[k], d[k]) {
+                                (Some(t), _) => t.clone(),
+                                (None, Some(i)) => vec![(i, 1.0)],
+                                (None, None) => vec![],
+                            }
+                        };
+                        let (ta, tc) = (one(a), one(c));
+                        for (x, &(p, wp)) in ta.iter().enumerate() {
+                            let partners = if a == c { &tc[x..] } else { &tc[..] };
+                            for &(q, wq) in partners {
+                                let m = if a != c && p == q { 2.0 } else { 1.0 };
+                                spread.push((
+                                    slot_of(p, q),
+                                    ei as u32,
+                                    m * wp * wq * parts.shear[a][c],
+                                    m * wp * wq * parts.bulk[a][c],
+                                ));
+                            }
+                        }
+                        slots.push(u32::MAX);
+                        shear.push(0.0);
+                        bulk.push(0.0);
+                        continue;
+                    }
                     let (slot, twice) = match (d[a], d[c]) {
                         (Some(i), Some(j)) => {
                             let at = pattern
@@ -225,6 +397,8 @@ impl Problem {
         let symbolic = solver.analyse(&pattern)?;
         Ok(ProblemStructure {
             map,
+            following,
+            spread,
             unknowns: n,
             nodes: self.mesh.nodes.len(),
             pattern,
@@ -262,6 +436,8 @@ impl ProblemStructure {
             + self.pattern.nonzeros() * 8
             + self.element_material.len() * 8
             + self.slots.len() * (4 + 8 + 8)
+            + self.spread.len() * 24
+            + self.following.len() * 64
     }
 
     /// The values of K's lower triangle (in [`Self::pattern`]'s order) for these
@@ -283,6 +459,10 @@ impl ProblemStructure {
                     values[s as usize] += mu * a + kappa * b;
                 }
             }
+        }
+        for &(s, e, a, b) in &self.spread {
+            let mat = &materials[self.element_material[e as usize]];
+            values[s as usize] += mat.shear_modulus_mpa() * a + mat.bulk_modulus_mpa() * b;
         }
         Ok(values)
     }
@@ -314,13 +494,21 @@ impl FactoredProblem {
     }
 
     /// The position of (node, component) in the solver's vector, `None` when the
-    /// component is held at zero.
+    /// component is held at zero or follows others ([`Interpolation`]).
     pub fn unknown_of(&self, node: usize, component: Component) -> Option<usize> {
         self.structure
             .map
             .get(2 * node + component)
             .copied()
             .flatten()
+    }
+
+    /// The terms of a following component, `None` for any other.
+    fn following(&self, node: usize, component: Component) -> Option<&Terms> {
+        let f = &self.structure.following;
+        f.binary_search_by_key(&(2 * node + component), |t| t.0)
+            .ok()
+            .map(|k| &f[k].1)
     }
 
     /// The load vector of nodal loads (node, component, N); loads on held components
@@ -332,6 +520,10 @@ impl FactoredProblem {
             }
             if let Some(i) = self.unknown_of(node, c) {
                 f[i] += value;
+            } else if let Some(terms) = self.following(node, c) {
+                for &(i, w) in terms {
+                    f[i] += w * value;
+                }
             }
         }
         Ok(())
@@ -374,6 +566,8 @@ impl FactoredProblem {
             for (c, v) in dd.iter_mut().enumerate() {
                 if let Some(i) = self.unknown_of(node, c) {
                     *v = u[i];
+                } else if let Some(terms) = self.following(node, c) {
+                    *v = terms.iter().map(|&(i, w)| w * u[i]).sum();
                 }
             }
         }
@@ -477,6 +671,7 @@ mod tests {
                 .chain([(ids[0][0], R)])
                 .collect(),
             ties: vec![],
+            interpolations: vec![],
             loads: (0..5).map(|i| (ids[i][2], Z, -0.1)).collect(),
         }
     }

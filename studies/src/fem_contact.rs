@@ -104,6 +104,7 @@ fn hertz_solve(e: f64, nu: f64, rs: f64, d: f64, h: f64) -> Result<(f64, f64, us
         formulation: Formulation::MixedQ9P1,
         fixed,
         ties: vec![],
+        interpolations: vec![],
         loads: vec![],
     };
     let pairs: Vec<ContactPair> = surface

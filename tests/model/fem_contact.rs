@@ -83,6 +83,7 @@ fn a_gap_between_two_blocks_closes_at_the_exact_force_and_shares_the_load_exactl
             formulation: Formulation::MixedQ9P1,
             fixed,
             ties: vec![],
+            interpolations: vec![],
             loads: loads.clone(),
         };
         let pairs: Vec<ContactPair> = top_a
@@ -181,6 +182,7 @@ fn sphere_on_flat(e: f64, nu: f64, rs: f64, d: f64, h: f64) -> (f64, f64) {
         formulation: Formulation::MixedQ9P1,
         fixed,
         ties: vec![],
+        interpolations: vec![],
         loads: vec![],
     };
     // The sphere touches the surface at the axis; the gap under it at radius r.

@@ -8,7 +8,7 @@ use super::stations::Station;
 use super::walls::{WallMesh, Walls};
 use crate::fem::contact::ContactPair;
 use crate::fem::mesh::{edge_forces, edge_param_at_radius};
-use crate::fem::solve::{R, Z};
+use crate::fem::solve::{Interpolation, R, Z};
 use crate::profile::ModuleProfile;
 use anyhow::{bail, Result};
 use std::f64::consts::PI;
@@ -18,6 +18,7 @@ use std::f64::consts::PI;
 pub(super) struct Couplings {
     pub(super) fixed: Vec<(usize, usize)>,
     pub(super) ties: Vec<(usize, usize, usize)>,
+    pub(super) interpolations: Vec<Interpolation>,
     pub(super) contact_pairs: Vec<ContactPair>,
 }
 
@@ -99,6 +100,14 @@ pub(super) fn dome_coupling(wm: &mut WallMesh, walls: &Walls, opt: &FemOptions, 
 
 /// Case I: mesh the solid insert and tie the core's inner wall to it (on the cylinder
 /// radially only when the insert contact slides).
+///
+/// The insert is meshed on every other station of the walls (`Stations::halved`):
+/// it is a solid block whose O-grid would otherwise carry the dome's fine stations
+/// through its whole interior (81 % of the elements of the paper's module at level 1).
+/// Each insert node faces a node of the core's inner wall and is tied to it; the wall
+/// nodes between (the middle of a wall element, at s = ±½ on the insert's quadratic
+/// edge) follow the insert's edge ([`Interpolation`]: ⅜, ¾, −⅛), so core and insert
+/// stay conforming across the 2:1 change of element size.
 pub(super) fn insert_coupling(
     wm: &mut WallMesh,
     walls: &Walls,
@@ -108,13 +117,40 @@ pub(super) fn insert_coupling(
     c: &mut Couplings,
 ) {
     let s = wm.stations;
-    let surface = mesh_insert(&mut wm.mesh, &mut c.fixed, p, s, h, wm.zc);
-    for (j, &b) in surface.iter().enumerate().take(s.j_hole + 1) {
+    let (halved, wall_of) = s.halved();
+    let surface = mesh_insert(&mut wm.mesh, &mut c.fixed, p, &halved, h, wm.zc);
+    let tied_components = |b: usize, mesh: &crate::fem::mesh::Mesh| {
+        let on_cylinder = mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
+        if on_cylinder && opt.insert_contact == InsertContact::SlidingWall {
+            vec![R]
+        } else {
+            vec![R, Z]
+        }
+    };
+    let last = halved.j_hole;
+    for (k, (&j, &b)) in wall_of.iter().zip(&surface).enumerate().take(last + 1) {
         let a = wm.node(walls.core_inner, j);
-        let on_cylinder = wm.mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
-        c.ties.push((a, b, R));
-        if !(on_cylinder && opt.insert_contact == InsertContact::SlidingWall) {
-            c.ties.push((a, b, Z));
+        let components = tied_components(b, &wm.mesh);
+        for &comp in &components {
+            c.ties.push((a, b, comp));
+        }
+        // An insert element spanning two wall elements: its corners at k and k + 2,
+        // its middle node at k + 1; the wall nodes at j + 1 and j + 3 hang on its edge.
+        if k % 2 == 0 && k + 2 <= last && wall_of[k + 2] == j + 4 {
+            let edge = [surface[k], surface[k + 1], surface[k + 2]];
+            for (hang, w) in [
+                (j + 1, [0.375, 0.75, -0.125]),
+                (j + 3, [-0.125, 0.75, 0.375]),
+            ] {
+                let node = wm.node(walls.core_inner, hang);
+                for &comp in &tied_components(edge[1], &wm.mesh) {
+                    c.interpolations.push(Interpolation {
+                        node,
+                        component: comp,
+                        masters: [(edge[0], w[0]), (edge[1], w[1]), (edge[2], w[2])],
+                    });
+                }
+            }
         }
     }
 }

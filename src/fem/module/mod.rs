@@ -252,6 +252,7 @@ pub fn build(
             formulation: opt.formulation,
             fixed: c.fixed,
             ties: c.ties,
+            interpolations: c.interpolations,
             loads,
         },
         web_elements,

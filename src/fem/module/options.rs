@@ -177,7 +177,7 @@ impl SolverKind {
 }
 
 static SPARSE_LLT: SparseLlt = SparseLlt {
-    kernel: crate::fem::linear::LltKernel::Auto,
+    kernel: crate::fem::linear::LltKernel::Supernodal,
 };
 
 fn default_formulation() -> Formulation {

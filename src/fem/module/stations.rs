@@ -65,6 +65,52 @@ pub(super) struct Stations {
     pub(super) j_axis: usize,
     /// Heights of the element boundaries below the seam (for strain integration).
     pub(super) z_breaks: Vec<f64>,
+    /// Doubled index of every break point, in increasing order (0 and j_axis included).
+    pub(super) breaks: Vec<usize>,
+}
+
+impl Stations {
+    /// Stations twice as far apart between the same break points (a window with an odd
+    /// number of elements keeps one element of the original length at its end), and
+    /// for each of them its doubled index in `self`. Every station of the result is a
+    /// station of `self`: a part meshed on them (the insert) meets the walls node on
+    /// node at every one of its nodes.
+    pub(super) fn halved(&self) -> (Stations, Vec<usize>) {
+        let mut of: Vec<usize> = vec![0];
+        for w in self.breaks.windows(2) {
+            let (b0, b1) = (w[0], w[1]);
+            let mut c = b0;
+            while c < b1 {
+                let span = if b1 - c >= 4 { 4 } else { b1 - c };
+                of.push(c + span / 2);
+                of.push(c + span);
+                c += span;
+            }
+        }
+        let at = |j: usize| of.iter().position(|&k| k == j).expect("a break is kept");
+        let st: Vec<Station> = of.iter().map(|&j| self.st[j]).collect();
+        let z_breaks = of
+            .iter()
+            .step_by(2)
+            .filter(|&&j| j <= self.j_seam)
+            .filter_map(|&j| match self.st[j] {
+                Station::Z(z) => Some(z),
+                Station::Theta(_) => None,
+            })
+            .collect();
+        let halved = Stations {
+            j_seam: at(self.j_seam),
+            j_pillar_top: at(self.j_pillar_top),
+            j_45: at(self.j_45),
+            j_hole: at(self.j_hole),
+            j_patch: at(self.j_patch),
+            j_axis: at(self.j_axis),
+            breaks: self.breaks.iter().map(|&b| at(b)).collect(),
+            st,
+            z_breaks,
+        };
+        (halved, of)
+    }
 }
 
 pub(super) fn make_stations(
@@ -91,13 +137,19 @@ pub(super) fn make_stations(
         for k in 0..n {
             z_breaks.push(z0 + (z1 - z0) * k as f64 / n as f64);
         }
+        n
     };
+    // Doubled index of every break point (the ends of the windows meshed uniformly).
+    let mut break_indices = vec![0];
     match clip_mm.filter(|c| *c > 0.0 && *c < zc) {
         Some(c) => {
-            segment(0.0, c, 1);
+            let below = segment(0.0, c, 1);
+            break_indices.push(2 * below);
             segment(c, zc, 1);
         }
-        None => segment(0.0, zc, 2),
+        None => {
+            segment(0.0, zc, 2);
+        }
     }
     z_breaks.push(zc);
     let mut st: Vec<Station> = Vec::with_capacity(2 * z_breaks.len());
@@ -107,6 +159,7 @@ pub(super) fn make_stations(
     }
     st.push(Station::Z(zc));
     let j_seam = st.len() - 1;
+    break_indices.push(j_seam);
     // Ring top: the ray through the fiber radius at the pillar top.
     // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
     // onto their spheres, so the rings stay on the cylinders.
@@ -163,6 +216,7 @@ pub(super) fn make_stations(
             ));
         }
         idx.insert((w[1] * 1e6).round() as i64, st.len() - 1);
+        break_indices.push(st.len() - 1);
     }
     idx.insert(0, j_seam);
     let find = |t: f64| -> usize {
@@ -173,6 +227,7 @@ pub(super) fn make_stations(
             .unwrap_or(j_seam)
     };
     Ok(Stations {
+        breaks: break_indices,
         j_patch: find(theta_c),
         j_seam,
         j_pillar_top: find(theta_p),
