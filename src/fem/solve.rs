@@ -100,14 +100,19 @@ fn dof_map(p: &Problem) -> Result<DofMap> {
     let n = p.mesh.nodes.len() * 2;
     let mut follows = vec![false; n];
     for f in &p.interpolations {
-        let ok = f.node < p.mesh.nodes.len()
+        let exists = f.node < p.mesh.nodes.len()
             && f.component <= 1
-            && f.masters
-                .iter()
-                .all(|&(m, w)| m < p.mesh.nodes.len() && w.is_finite());
-        if !ok {
+            && f.masters.iter().all(|&(m, _)| m < p.mesh.nodes.len());
+        if !exists {
             bail!(
                 "interpolation of ({}, {}) refers to a node or component that does not exist",
+                f.node,
+                f.component
+            );
+        }
+        if f.masters.iter().any(|&(_, w)| !w.is_finite()) {
+            bail!(
+                "interpolation of ({}, {}): every weight must be a finite number",
                 f.node,
                 f.component
             );
@@ -123,16 +128,24 @@ fn dof_map(p: &Problem) -> Result<DofMap> {
             );
         }
     }
-    let touched = |i: usize| {
-        p.ties
-            .iter()
-            .any(|&(a, b, c)| 2 * a + c == i || 2 * b + c == i)
-            || p.fixed.iter().any(|&(a, c)| 2 * a + c == i)
-    };
+    // A following component is eliminated, so it may be neither tied nor held.
+    let mut tied_or_held = vec![false; n];
+    for &(a, b, c) in &p.ties {
+        for i in [2 * a + c, 2 * b + c] {
+            if let Some(t) = tied_or_held.get_mut(i) {
+                *t = true;
+            }
+        }
+    }
+    for &(a, c) in &p.fixed {
+        if let Some(t) = tied_or_held.get_mut(2 * a + c) {
+            *t = true;
+        }
+    }
     if let Some(f) = p
         .interpolations
         .iter()
-        .find(|f| touched(2 * f.node + f.component))
+        .find(|f| tied_or_held[2 * f.node + f.component])
     {
         bail!(
             "interpolation of ({}, {}): the component is also tied or held",
@@ -707,6 +720,37 @@ mod tests {
         let a = p.solve().unwrap().displacement_mm[22][1];
         let b = q.solve().unwrap().displacement_mm[22][1];
         assert!((a - b).abs() > 1e-3 * a.abs());
+    }
+
+    #[test]
+    fn a_bad_interpolation_is_an_error_not_a_panic() {
+        let p = ring();
+        let held = p.fixed[0];
+        let cases = [
+            // Onto a held component.
+            (
+                held.0,
+                held.1,
+                [(1, 0.5), (2, 0.5), (3, 0.0)],
+                "tied or held",
+            ),
+            // A master that does not exist.
+            (7, R, [(1, 0.5), (999, 0.5), (3, 0.0)], "does not exist"),
+            // A weight that is not a number.
+            (7, R, [(1, f64::NAN), (2, 0.5), (3, 0.0)], "finite number"),
+            // A master that follows others itself.
+            (7, R, [(7, 1.0), (2, 0.0), (3, 0.0)], "a master follows"),
+        ];
+        for (node, component, masters, want) in cases {
+            let mut q = p.clone();
+            q.interpolations.push(Interpolation {
+                node,
+                component,
+                masters,
+            });
+            let err = q.structure(&SparseLlt::default()).err().unwrap();
+            assert!(err.to_string().contains(want), "{err}");
+        }
     }
 
     #[test]
