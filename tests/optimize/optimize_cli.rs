@@ -306,3 +306,44 @@ fn the_loop_closes_through_the_verifier() {
     );
     fbgforge::design::load(&next).unwrap();
 }
+
+#[test]
+fn the_interrogator_rate_moves_the_front_s_lag_off_the_sampling_floor() {
+    // At 2 Hz every design's Δt_max sits on the 0.5 s sampling floor (the ties issue 22
+    // found); at 100 Hz the floor is 10 ms and the lag tells designs apart.
+    let dir = tempfile::tempdir().unwrap();
+    let front_lags = |rate: &str| -> Vec<f64> {
+        let out = dir.path().join(format!("opt-{rate}.toml"));
+        let o = bin()
+            .args([
+                "optimize",
+                shipped("clip-on-10mm.toml").to_str().unwrap(),
+                "--rate-hz",
+                rate,
+                "--out",
+                out.to_str().unwrap(),
+                "--json",
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let front = doc["pareto_front"].as_array().unwrap();
+        assert!(front.len() >= 3, "{rate} Hz: {} designs", front.len());
+        front
+            .iter()
+            .map(|d| d["objectives"]["max_lag_s"].as_f64().unwrap())
+            .collect()
+    };
+    let slow = front_lags("2");
+    assert!(slow.iter().all(|&l| (l - 0.5).abs() < 1e-9), "{slow:?}");
+    let fast = front_lags("100");
+    assert!(fast.iter().all(|&l| l < 0.5 && l >= 0.01), "{fast:?}");
+    let (lo, hi) = fast
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &l| (a.min(l), b.max(l)));
+    assert!(
+        hi - lo > 1e-3,
+        "the lag separates designs at 100 Hz: {fast:?}"
+    );
+}
