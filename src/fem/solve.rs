@@ -353,21 +353,17 @@ impl Problem {
         for (ei, (e, d)) in self.mesh.elements.iter().zip(&elem_dofs).enumerate() {
             let parts = element::stiffness_parts(&self.mesh.element_coords(e), self.formulation)?;
             // Each local component as terms (a plain unknown is one term of weight 1).
-            let local_terms: Vec<Option<Terms>> = (0..18)
-                .map(|k| {
-                    let dof = 2 * e.nodes[k / 2] + k % 2;
-                    match d[k] {
-                        Some(_) => None,
-                        None => terms_of(dof).cloned(),
-                    }
-                })
-                .collect();
+            // (An array of references: no allocation for the elements without one.)
+            let local_terms: [Option<&Terms>; 18] = std::array::from_fn(|k| match d[k] {
+                Some(_) => None,
+                None => terms_of(2 * e.nodes[k / 2] + k % 2),
+            });
             for a in 0..18 {
                 for c in a..18 {
                     if local_terms[a].is_some() || local_terms[c].is_some() {
                         // K̄ = Tᵀ K T over this entry (and its transpose when a < c).
                         let one = |k: usize| -> Terms {
-                            match (&local_terms[k], d[k]) {
+                            match (local_terms[k], d[k]) {
                                 (Some(t), _) => t.clone(),
                                 (None, Some(i)) => vec![(i, 1.0)],
                                 (None, None) => vec![],
@@ -392,12 +388,7 @@ impl Problem {
                         continue;
                     }
                     let (slot, twice) = match (d[a], d[c]) {
-                        (Some(i), Some(j)) => {
-                            let at = pattern
-                                .position(i.max(j), i.min(j))
-                                .expect("every element entry is in the pattern");
-                            (at as u32, a != c && i == j)
-                        }
+                        (Some(i), Some(j)) => (slot_of(i, j), a != c && i == j),
                         _ => (u32::MAX, false),
                     };
                     let m = if twice { 2.0 } else { 1.0 };
