@@ -119,19 +119,18 @@ pub(super) fn insert_coupling(
     let s = wm.stations;
     let (halved, wall_of) = s.halved();
     let surface = mesh_insert(&mut wm.mesh, &mut c.fixed, p, &halved, h, wm.zc);
-    let tied_components = |b: usize, mesh: &crate::fem::mesh::Mesh| {
+    let tied_components = |b: usize, mesh: &crate::fem::mesh::Mesh| -> &'static [usize] {
         let on_cylinder = mesh.nodes[b][1] <= p.insert_junction_z_mm + 1e-9;
         if on_cylinder && opt.insert_contact == InsertContact::SlidingWall {
-            vec![R]
+            &[R]
         } else {
-            vec![R, Z]
+            &[R, Z]
         }
     };
     let last = halved.j_hole;
     for (k, (&j, &b)) in wall_of.iter().zip(&surface).enumerate().take(last + 1) {
         let a = wm.node(walls.core_inner, j);
-        let components = tied_components(b, &wm.mesh);
-        for &comp in &components {
+        for &comp in tied_components(b, &wm.mesh) {
             c.ties.push((a, b, comp));
         }
         // An insert element spanning two wall elements: its corners at k and k + 2,
@@ -143,7 +142,7 @@ pub(super) fn insert_coupling(
                 (j + 3, [-0.125, 0.75, 0.375]),
             ] {
                 let node = wm.node(walls.core_inner, hang);
-                for &comp in &tied_components(edge[1], &wm.mesh) {
+                for &comp in tied_components(edge[1], &wm.mesh) {
                     c.interpolations.push(Interpolation {
                         node,
                         component: comp,
