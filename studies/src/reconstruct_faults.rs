@@ -47,7 +47,6 @@ use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
 
-const MASSES_G: [f64; 3] = [50.0, 100.0, 200.0];
 const ULIMIT_G: f64 = 250.0;
 const RESOLUTION_PM: f64 = 0.5;
 const BASE_ADDITIVITY: f64 = 0.04;
@@ -214,17 +213,9 @@ fn stream(arr: &Array, sc: &Scenario, per_load: usize, rng: &mut ChaCha8Rng) -> 
     };
     for k in 1..=4usize {
         for _ in 0..per_load {
-            let mut cells: Vec<usize> = (0..n).collect();
-            for i in 0..k {
-                let j = rng.random_range(i..n);
-                cells.swap(i, j);
-            }
-            let mut x = vec![0.0; n];
-            for &c in &cells[..k] {
-                x[c] = MASSES_G[rng.random_range(0..MASSES_G.len())];
-            }
+            let (cells, x) = crate::reconstruct_scaling::random_loads(n, k, rng);
             // The columns the loads really act through (placed off their point).
-            let cols: Vec<(usize, DMatrix<f64>)> = cells[..k]
+            let cols: Vec<(usize, DMatrix<f64>)> = cells
                 .iter()
                 .map(|&c| {
                     let mut at = arr.cells[c];

@@ -100,15 +100,7 @@ fn frames(a: &DMatrix<f64>, per_load: usize, rng: &mut ChaCha8Rng) -> Frames {
     };
     for k in 1..=4usize {
         for _ in 0..per_load {
-            let mut cells: Vec<usize> = (0..n).collect();
-            for i in 0..k {
-                let j = rng.random_range(i..n);
-                cells.swap(i, j);
-            }
-            let mut x = vec![0.0; n];
-            for &c in &cells[..k] {
-                x[c] = MASSES_G[rng.random_range(0..MASSES_G.len())];
-            }
+            let (_, x) = random_loads(n, k, rng);
             let y: Vec<f64> = (0..m)
                 .map(|i| {
                     let clean: f64 = (0..n).map(|j| a[(i, j)] * x[j]).sum();
@@ -147,6 +139,22 @@ pub fn scaling_problem_and_frames(
 }
 
 /// A standard normal draw (Box–Muller).
+/// `k` loads on distinct random cells of `n`, each 50, 100 or 200 g: the loaded
+/// cells and the load vector, g (the draws of the scaling and fault studies).
+pub fn random_loads(n: usize, k: usize, rng: &mut ChaCha8Rng) -> (Vec<usize>, Vec<f64>) {
+    let mut cells: Vec<usize> = (0..n).collect();
+    for i in 0..k {
+        let j = rng.random_range(i..n);
+        cells.swap(i, j);
+    }
+    cells.truncate(k);
+    let mut x = vec![0.0; n];
+    for &c in &cells {
+        x[c] = MASSES_G[rng.random_range(0..MASSES_G.len())];
+    }
+    (cells, x)
+}
+
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = 1.0 - rng.random::<f64>();
     let u2: f64 = rng.random::<f64>();
