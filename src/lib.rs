@@ -1,41 +1,37 @@
 //! fbgforge: design, build, model and verify fiber Bragg grating (FBG) tactile sensors.
 //!
-//! One design spec drives everything. The library owns every use case; the `fbgforge`
-//! binary only turns flags into a request, calls one use case and prints the result;
-//! the `fbgforge-studies` crate beside it holds the benchmarks and paper studies.
+//! One design spec drives everything. This crate is the facade (fornjot's example): the
+//! house is a workspace of crates listed from the ground up, each with one job, and
+//! this crate hands their modules on under one name, so `fbgforge::verify::run` or
+//! `fbgforge::geometry::build_design` is where a front end (the `fbgforge` binary, the
+//! Python package, the studies) finds each use case. An import from a lower crate to
+//! a higher one is a compile error (`docs/architecture.md` draws the floors).
 //!
-//! Layers, bottom-up (a module imports only from layers below it, never from the
-//! binary or a study; `docs/architecture.md` draws the rooms and the data path):
-//!
-//! 1. foundations: [`grating`] (Bragg physics), [`output`] (atomic writes),
-//!    [`progress`], [`plot`] (SVG charts), [`html`] (self-contained HTML reports),
-//!    [`logs`] (interrogator and force logs);
-//! 2. the spec: [`spec`] (TOML types, field checks);
-//! 3. derived: [`profile`] (every derived dimension, read by solids, model and FE),
-//!    [`design`] (loading: parse and check, profile rules included), [`family`]
-//!    (a module at any diameter);
-//! 4. methods: [`solvers`] (Nelder–Mead, particle swarm, differential evolution),
-//!    [`model`] (closed form), [`fem`] (finite elements);
-//! 5. policy: [`prediction`] (the one model policy every command asks);
-//! 6. use cases: [`geometry`] (`build_design`), [`mod@array`] (`reconstruct_file`),
-//!    [`verify`] (`run`), [`optimize`] (`run::run_module`, `run::run_placement`).
+//! 1. ground ([`fbgforge_core`]): [`grating`], [`spec`], [`profile`], [`design`],
+//!    [`family`], [`logs`], [`output`], [`progress`];
+//! 2. drawing ([`fbgforge_plot`]): [`plot`] (SVG charts), [`html`] (self-contained
+//!    HTML documents);
+//! 3. parts ([`fbgforge_geometry`]): [`geometry`] (`build_design`);
+//! 4. models ([`fbgforge_model`]): [`solvers`], [`model`], [`fem`], [`prediction`];
+//! 5. use cases: [`mod@array`] ([`fbgforge_array`]), [`verify`] ([`fbgforge_verify`]),
+//!    [`optimize`] ([`fbgforge_optimize`]), [`live`] ([`fbgforge_live`]).
 
-pub mod array;
-pub mod design;
-pub mod family;
-pub mod fem;
-pub mod geometry;
-pub mod grating;
-pub mod html;
-pub mod live;
-pub mod logs;
-pub mod model;
-pub mod optimize;
-pub mod output;
-pub mod plot;
-pub mod prediction;
-pub mod profile;
-pub mod progress;
-pub mod solvers;
-pub mod spec;
-pub mod verify;
+pub use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+pub use fbgforge_model::{fem, model, prediction, solvers};
+pub use fbgforge_plot::html;
+
+pub use fbgforge_array as array;
+pub use fbgforge_geometry as geometry;
+pub use fbgforge_live as live;
+pub use fbgforge_optimize as optimize;
+pub use fbgforge_plot as plot;
+pub use fbgforge_verify as verify;
+
+pub use fbgforge_array;
+pub use fbgforge_core;
+pub use fbgforge_geometry;
+pub use fbgforge_live;
+pub use fbgforge_model;
+pub use fbgforge_optimize;
+pub use fbgforge_plot;
+pub use fbgforge_verify;

@@ -1,0 +1,320 @@
+//! The reconstruction use case: a sensing matrix (measured CSV or a design's model)
+//! and a file of grating shifts in, the loads CSV and a summary out. `fbgforge
+//! reconstruct` calls [`reconstruct_file`]; the method is picked and the frames
+//! reconstructed by [`super::reconstruct()`].
+
+use super::faults::{temperature_weights, SuspectGrating};
+use super::io::{read_matrix_file, read_shifts_for, write_loads_with_trust};
+use super::kernel::matrix_from_design;
+use super::methods::{check_resolution, Method, NoisePrior, ReadingPrior, DEFAULT_MAX_LOADS};
+use super::problem::{default_min_load_g, SensingProblem, Uncertainty, UncertaintySummary};
+use super::reconstruct::{reconstruct, Frames, MethodRequest, DEFAULT_BUDGET_US};
+use super::trust::FlagCounts;
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+pub use super::reconstruct::ChoiceSummary;
+
+/// The paper's ulimit, used when neither the request nor a design gives one, g.
+pub const PAPER_ULIMIT_G: f64 = 250.0;
+
+/// Where the sensing matrix comes from.
+#[derive(Debug, Clone)]
+pub enum MatrixSource {
+    /// A measured matrix CSV: header `grating,<cells…>`, one row per grating, pm/g;
+    /// or numbers only (no header, no names), as numpy.savetxt or MATLAB writematrix
+    /// write it.
+    Csv(PathBuf),
+    /// The model sensing matrix of an array design.
+    Design(PathBuf),
+}
+
+/// What to reconstruct and how; `None` fields take the method's or design's default.
+#[derive(Debug, Clone)]
+pub struct ReconstructRequest {
+    /// The sensing matrix.
+    pub matrix: MatrixSource,
+    /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
+    pub shifts: PathBuf,
+    /// Method name (default: the most accurate method within `budget_us`, see
+    /// [`crate::choice`]).
+    pub method: Option<String>,
+    /// Per-frame time budget of the automatic method choice, µs (default
+    /// [`DEFAULT_BUDGET_US`]); ignored when a method is named.
+    pub budget_us: Option<f64>,
+    /// Most simultaneous loads (default: the design's `max_loads`, else
+    /// [`DEFAULT_MAX_LOADS`]).
+    pub max_loads: Option<usize>,
+    /// Largest load per cell, g (default: the design's ulimit, else 250 g).
+    pub ulimit_g: Option<f64>,
+    /// Smallest load a loaded cell carries, g (default: the paper's 25 g, or 0 when
+    /// ulimit is not above 25 g).
+    pub min_load_g: Option<f64>,
+    /// Penalty weight (default: the method's tuned default, or for `support` and
+    /// `bnb` the one that follows `resolution_pm`).
+    pub penalty: Option<f64>,
+    /// The interrogator's resolution (noise standard deviation), pm; sets the ℓ0
+    /// penalty of `support` and `bnb` ([`crate::methods::l0_penalty_for_resolution`];
+    /// default: the paper's 0.5 pm, λ = 4).
+    pub resolution_pm: Option<f64>,
+    /// Column-normalise the matrix (the paper does).
+    pub normalise: bool,
+    /// Fit a per-frame common offset (a temperature change since the tare),
+    /// weighted by each grating's temperature sensitivity where the design gives the
+    /// gratings' wavelengths, equally otherwise (off by default: docs/array.md §11).
+    pub common_mode: bool,
+    /// Per-entry standard deviation of the matrix, pm/g, as a CSV shaped like the
+    /// matrix (e.g. the scatter of repeated calibrations; `calibrate-array` does not
+    /// write one yet).
+    pub matrix_sd: Option<PathBuf>,
+    /// Per-entry standard deviation of the matrix as a percentage of each entry
+    /// (instead of `matrix_sd`).
+    pub matrix_sd_pct: Option<f64>,
+    /// Look for dead or stuck gratings across the frames and leave them out (on by
+    /// default).
+    pub dead_grating_check: bool,
+    /// Output CSV of loads (default: `out/reconstruct/<shifts name>-loads.csv`).
+    pub out: Option<PathBuf>,
+}
+
+impl ReconstructRequest {
+    /// A request with every default.
+    pub fn new(matrix: MatrixSource, shifts: PathBuf) -> Self {
+        ReconstructRequest {
+            matrix,
+            shifts,
+            method: None,
+            budget_us: None,
+            max_loads: None,
+            ulimit_g: None,
+            min_load_g: None,
+            penalty: None,
+            resolution_pm: None,
+            normalise: true,
+            common_mode: false,
+            matrix_sd: None,
+            matrix_sd_pct: None,
+            dead_grating_check: true,
+            out: None,
+        }
+    }
+}
+
+/// JSON summary of a reconstruction run.
+#[derive(Debug, Serialize)]
+pub struct ReconstructSummary {
+    /// Method used.
+    pub method: &'static str,
+    /// How it was chosen, when no method was named.
+    pub choice: Option<ChoiceSummary>,
+    /// Penalty used.
+    pub penalty: f64,
+    /// Most simultaneous loads considered (support methods).
+    pub max_loads: usize,
+    /// Whether columns were normalised.
+    pub normalised: bool,
+    /// Upper bound per cell, g.
+    pub ulimit_g: f64,
+    /// Smallest load of a loaded cell (prior of `wsupport`), g.
+    pub min_load_g: f64,
+    /// Gratings (rows of the matrix).
+    pub gratings: usize,
+    /// Number of frames.
+    pub frames: usize,
+    /// Frames where the method did not converge (for `bnb`: stopped at its node
+    /// budget, best support found but not certified).
+    pub not_converged: usize,
+    /// Frames whose answer is the proven optimum of the method's objective.
+    pub certified: usize,
+    /// How many frames carry each flag (`trusted`: none).
+    pub flags: FlagCounts,
+    /// Gratings found dead or stuck across the frames; the frames were
+    /// reconstructed without them.
+    pub suspect_gratings: Vec<SuspectGrating>,
+    /// Whether a per-frame common offset was fitted, and its mean over the frames,
+    /// pm per unit mean temperature weight.
+    pub common_mode: bool,
+    /// Mean fitted common offset, pm (with `common_mode`).
+    pub mean_common_mode_pm: Option<f64>,
+    /// The uncertainty the flags were judged against.
+    pub uncertainty: UncertaintySummary,
+    /// Cell labels.
+    pub cells: Vec<String>,
+    /// Mean load per cell over all frames, g.
+    pub mean_load_g: Vec<f64>,
+    /// Largest residual ‖Ax − y‖ over the frames, pm.
+    pub max_residual_pm: f64,
+    /// One-off set-up: building the method for the matrix (and, for the automatic
+    /// choice, timing the candidates), ms. Not part of the per-frame time.
+    pub setup_ms: f64,
+    /// Wall time of reconstructing the frames alone, per frame, µs (all threads).
+    pub time_per_frame_us: f64,
+    /// Threads used for the frames (in parallel from 512 frames on).
+    pub threads: usize,
+    /// Output file.
+    pub out: PathBuf,
+}
+
+/// Read a sensing matrix (or derive it from a design) and a shifts file, reconstruct
+/// every frame, write the loads CSV and return the summary; `progress` hears the frames.
+pub fn reconstruct_file(
+    a: &ReconstructRequest,
+    progress: &dyn crate::progress::Progress,
+) -> Result<ReconstructSummary> {
+    let named = a.method.as_deref().map(Method::from_name).transpose()?;
+    if a.penalty.is_some() && named.is_none() {
+        bail!("--penalty is a weight of one method: name the method with --method");
+    }
+    let (matrix, generated_names, design_ulimit, design_max_loads, wavelengths) = match &a.matrix {
+        MatrixSource::Csv(p) => {
+            let f = read_matrix_file(p)?;
+            (f.matrix, f.generated_names, None, None, None)
+        }
+        MatrixSource::Design(d) => {
+            let design = crate::design::load(d)?;
+            let (m, u) =
+                matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
+            let k = design.array.as_ref().and_then(|arr| arr.max_loads);
+            let wl: Option<Vec<f64>> = design
+                .array
+                .as_ref()
+                .map(|arr| arr.gratings.iter().map(|g| g.bragg_wavelength_nm).collect());
+            (m, false, Some(u), k.map(|k| k as usize), wl)
+        }
+    };
+    let ulimit_g = a.ulimit_g.or(design_ulimit).unwrap_or(PAPER_ULIMIT_G);
+    if !(ulimit_g.is_finite() && ulimit_g > 0.0) {
+        bail!("--ulimit-g must be a positive load in g, got {ulimit_g}");
+    }
+    let max_loads = a
+        .max_loads
+        .or(design_max_loads)
+        .unwrap_or(DEFAULT_MAX_LOADS);
+    if max_loads == 0 {
+        bail!("--max-loads must be at least 1");
+    }
+    let stream = read_shifts_for(&a.shifts, &matrix.gratings, generated_names)?;
+    let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
+    let resolution_pm = a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm);
+    check_resolution(resolution_pm).map_err(|e| anyhow::anyhow!("--resolution-pm: {e}"))?;
+    let (m, n) = (matrix.n_gratings(), matrix.n_cells());
+    let mut uncertainty = Uncertainty::paper(m, n, resolution_pm);
+    match (&a.matrix_sd, a.matrix_sd_pct) {
+        (Some(_), Some(_)) => bail!("give --matrix-sd FILE or --matrix-sd-pct P, not both"),
+        (Some(path), None) => {
+            let sd = read_matrix_file(path)
+                .with_context(|| format!("--matrix-sd {}", path.display()))?
+                .matrix;
+            if sd.gratings != matrix.gratings || sd.cells != matrix.cells {
+                if sd.sensitivity_pm_per_g.shape() != (m, n) {
+                    bail!(
+                        "--matrix-sd {}: {} × {} entries, but the sensing matrix is {m} × {n}",
+                        path.display(),
+                        sd.n_gratings(),
+                        sd.n_cells()
+                    );
+                }
+                if !generated_names {
+                    bail!(
+                        "--matrix-sd {}: its gratings and cells must be the matrix's, in the same order ({} and {})",
+                        path.display(),
+                        matrix.gratings.join(", "),
+                        matrix.cells.join(", ")
+                    );
+                }
+            }
+            uncertainty.matrix_sd_pm_per_g = sd.sensitivity_pm_per_g;
+        }
+        (None, Some(pct)) => {
+            if !(pct.is_finite() && pct >= 0.0) {
+                bail!("--matrix-sd-pct must be a percentage ≥ 0, got {pct}");
+            }
+            uncertainty.matrix_sd_pm_per_g =
+                matrix.sensitivity_pm_per_g.map(|v| v.abs() * pct / 100.0);
+        }
+        (None, None) => {}
+    }
+    let mut problem =
+        SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
+            .with_min_load_g(min_load_g)
+            .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?
+            .with_uncertainty(uncertainty)
+            .map_err(|e| anyhow::anyhow!("--matrix-sd: {e}"))?
+            .with_dead_grating_check(a.dead_grating_check);
+    if a.common_mode {
+        let w = match &wavelengths {
+            Some(wl) => temperature_weights(wl),
+            None => vec![1.0; m],
+        };
+        problem = problem
+            .with_common_mode(&w)
+            .map_err(|e| anyhow::anyhow!("--common-mode: {e}"))?;
+    }
+    let prior = ReadingPrior {
+        max_loads,
+        resolution_pm,
+    };
+    let request = match named {
+        Some(method) => MethodRequest::Named {
+            method,
+            penalty: a.penalty,
+        },
+        None => {
+            let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
+            if !(budget_us.is_finite() && budget_us > 0.0) {
+                bail!("--budget-us: the per-frame budget must be a positive time in µs, got {budget_us}");
+            }
+            MethodRequest::Default { budget_us }
+        }
+    };
+    let frames = Frames {
+        gratings: &matrix.gratings,
+        shifts_pm: &stream.frames_pm,
+    };
+    let done = reconstruct(&problem, frames, &prior, &request, progress)?;
+    let results = &done.frames;
+    let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
+    write_loads_with_trust(&out, &matrix.cells, stream.time_s.as_deref(), results)?;
+    let n = results.len().max(1) as f64;
+    let offsets: Vec<f64> = results.iter().filter_map(|r| r.common_mode_pm).collect();
+    let summary = ReconstructSummary {
+        method: done.setup.method.name(),
+        penalty: done.setup.penalty(),
+        choice: done.setup.choice,
+        max_loads: max_loads.min(matrix.n_gratings()).min(matrix.n_cells()),
+        normalised: a.normalise,
+        ulimit_g,
+        min_load_g,
+        gratings: matrix.n_gratings(),
+        frames: results.len(),
+        not_converged: results.iter().filter(|r| !r.converged).count(),
+        certified: results.iter().filter(|r| r.certified).count(),
+        flags: done.flag_counts,
+        suspect_gratings: done.suspect_gratings.clone(),
+        common_mode: a.common_mode,
+        mean_common_mode_pm: (!offsets.is_empty())
+            .then(|| offsets.iter().sum::<f64>() / offsets.len() as f64),
+        uncertainty: problem.uncertainty_summary(),
+        mean_load_g: (0..matrix.n_cells())
+            .map(|j| results.iter().map(|r| r.loads_g[j]).sum::<f64>() / n)
+            .collect(),
+        cells: matrix.cells.clone(),
+        max_residual_pm: results.iter().map(|r| r.residual_pm).fold(0.0, f64::max),
+        setup_ms: done.setup.setup_ms,
+        time_per_frame_us: done.time_per_frame_us,
+        threads: done.threads,
+        out: out.clone(),
+    };
+    Ok(summary)
+}
+
+fn default_out(shifts: &Path) -> PathBuf {
+    let stem = shifts
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("shifts");
+    PathBuf::from("out")
+        .join("reconstruct")
+        .join(format!("{stem}-loads.csv"))
+}

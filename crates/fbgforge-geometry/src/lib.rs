@@ -1,0 +1,378 @@
+//! Printable parts of a design: B-rep solids, checked meshes and exact volumes.
+//!
+//! [`DesignProfile`] derives every dimension of a design once per build;
+//! [`registry::PARTS`] lists the printable parts (`cap`, `core`, `insert-<name>` for
+//! each insert, `mold` and `mold-plug` for an array), each with its builder.
+//! [`build_solids_for`] builds the selected parts' B-rep solids from the profile;
+//! [`build_parts_for`] meshes them at a chord tolerance and runs every mesh check,
+//! including agreement of the mesh volume with the closed-form volume. Nothing here
+//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP, 3MF,
+//! previews and a manifest, written only once every part has passed.
+
+
+// Sibling crates under the names the modules used inside one crate.
+#[allow(unused_imports)]
+use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+
+pub mod assembly;
+pub mod brep;
+pub mod design_profile;
+pub mod export;
+pub mod fits;
+pub mod mesh;
+pub mod module;
+pub mod mold;
+pub mod mold_plug;
+pub mod preview;
+pub mod print_notes;
+pub mod registry;
+pub mod threemf;
+
+pub use design_profile::DesignProfile;
+pub use registry::{part_names, BuiltSolid, PartKind, Print, PrintablePart};
+
+use crate::spec::{Design, SpecError};
+use anyhow::Context;
+use mesh::{MeshError, TriMesh};
+use rayon::prelude::*;
+use registry::{first_of_each_kind, PARTS};
+use std::path::{Path, PathBuf};
+use truck_modeling::Solid;
+
+/// Largest allowed relative difference between mesh and exact volume at the printer's
+/// default tolerance (0.5 %). A coarser tolerance scales it in proportion, since the
+/// chord error of a tessellation grows linearly with the tolerance.
+pub const VOLUME_TOLERANCE_AT_DEFAULT: f64 = 0.005;
+
+/// A part's B-rep with its exact volume.
+#[derive(Debug, Clone)]
+pub struct PartSolid {
+    /// Output name: `cap`, `core`, `insert-<name>`, `mold`.
+    pub name: String,
+    /// Kind.
+    pub kind: PartKind,
+    /// Closed, oriented B-rep.
+    pub solid: Solid,
+    /// Volume in closed form from the spec, mm³.
+    pub exact_volume_mm3: f64,
+}
+
+/// A part ready to export: solid, checked mesh, volumes.
+#[derive(Debug, Clone)]
+pub struct BuiltPart {
+    /// Output name.
+    pub name: String,
+    /// Kind.
+    pub kind: PartKind,
+    /// The B-rep (for STEP).
+    pub solid: Solid,
+    /// The checked triangle mesh (for STL).
+    pub mesh: TriMesh,
+    /// Exact volume, mm³.
+    pub exact_volume_mm3: f64,
+    /// Volume enclosed by the mesh, mm³.
+    pub mesh_volume_mm3: f64,
+    /// Chord tolerance the mesh was made at (the requested one, or finer if the
+    /// volume bound needed it), mm.
+    pub mesh_tolerance_mm: f64,
+}
+
+impl BuiltPart {
+    /// (mesh − exact) / exact.
+    pub fn volume_error(&self) -> f64 {
+        (self.mesh_volume_mm3 - self.exact_volume_mm3) / self.exact_volume_mm3
+    }
+}
+
+/// Why a design could not be turned into parts.
+#[derive(Debug, thiserror::Error)]
+pub enum GeometryError {
+    /// A dimension that passes the spec's own ranges but cannot be built.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    /// A solid could not be assembled.
+    #[error(transparent)]
+    Brep(#[from] brep::BrepError),
+    /// A mesh check failed.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// `--parts` named a part the design does not have.
+    #[error("unknown part `{name}`; this design has: {known}")]
+    UnknownPart {
+        /// Requested name.
+        name: String,
+        /// Comma-separated list of available parts.
+        known: String,
+    },
+    /// A fiber has no way out of the assembled module.
+    #[error(transparent)]
+    Route(#[from] assembly::RouteError),
+    /// Two assembled parts overlap.
+    #[error(transparent)]
+    Interference(#[from] assembly::Interference),
+    /// A tolerance too coarse for the clearances between mating parts.
+    #[error(transparent)]
+    MeshTolerance(#[from] fits::ToleranceTooCoarse),
+    /// A tolerance outside the range truck can mesh with.
+    #[error("meshing tolerance {0} mm is out of range; allowed 0.001 to 1 mm")]
+    Tolerance(f64),
+}
+
+fn check_selection(
+    design: &Design,
+    selection: Option<&[String]>,
+) -> Result<Vec<String>, GeometryError> {
+    let all = part_names(design);
+    let Some(sel) = selection else { return Ok(all) };
+    for s in sel {
+        if !all.contains(s) {
+            return Err(GeometryError::UnknownPart {
+                name: s.clone(),
+                known: all.join(", "),
+            });
+        }
+    }
+    Ok(all.into_iter().filter(|n| sel.contains(n)).collect())
+}
+
+/// Build the B-rep solids of the selected parts (all when `selection` is None).
+pub fn build_solids(
+    design: &Design,
+    selection: Option<&[String]>,
+) -> Result<Vec<PartSolid>, GeometryError> {
+    build_solids_for(&DesignProfile::new(design), selection)
+}
+
+/// [`build_solids`] from dimensions already derived. Parts of one kind share a solid:
+/// the inserts differ only in material.
+pub fn build_solids_for(
+    profile: &DesignProfile,
+    selection: Option<&[String]>,
+) -> Result<Vec<PartSolid>, GeometryError> {
+    let names = check_selection(profile.design, selection)?;
+    if let Some(m) = &profile.module {
+        m.check_buildable()?;
+    }
+    let mut out = Vec::new();
+    for part in PARTS {
+        let chosen: Vec<String> = part
+            .names(profile.design)
+            .into_iter()
+            .filter(|n| names.contains(n))
+            .collect();
+        let Some(first) = chosen.first() else {
+            continue;
+        };
+        let s = part.solid(profile, first)?;
+        for name in chosen {
+            out.push(PartSolid {
+                name,
+                kind: part.kind(),
+                solid: s.solid.clone(),
+                exact_volume_mm3: s.exact_volume_mm3,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The volume bound applied at tolerance `tol_mm` for a printer whose default is
+/// `default_mm` (see [`VOLUME_TOLERANCE_AT_DEFAULT`]).
+pub fn volume_bound(tol_mm: f64, default_mm: f64) -> f64 {
+    VOLUME_TOLERANCE_AT_DEFAULT * (tol_mm / default_mm).max(1.0)
+}
+
+/// How many times [`mesh_part`] may halve the tolerance to meet the volume bound.
+pub const MAX_REFINEMENTS: u32 = 3;
+
+/// Mesh one solid at `tol_mm` and run every check. If the mesh volume misses the
+/// exact volume by more than `volume_bound` (small parts: an inscribed polygon of
+/// chord error s loses about 4/3 · s/r of a circle's area), the tolerance is halved,
+/// up to [`MAX_REFINEMENTS`] times; the tolerance actually used is recorded.
+pub fn mesh_part(
+    part: &PartSolid,
+    tol_mm: f64,
+    volume_bound: f64,
+) -> Result<BuiltPart, GeometryError> {
+    let mut tol = tol_mm;
+    for attempt in 0..=MAX_REFINEMENTS {
+        let mesh = mesh::mesh_solid(&part.name, &part.solid, tol)?;
+        let v = mesh.volume_mm3();
+        let rel = (v - part.exact_volume_mm3) / part.exact_volume_mm3;
+        if rel.abs() <= volume_bound {
+            return Ok(BuiltPart {
+                name: part.name.clone(),
+                kind: part.kind,
+                solid: part.solid.clone(),
+                mesh,
+                exact_volume_mm3: part.exact_volume_mm3,
+                mesh_volume_mm3: v,
+                mesh_tolerance_mm: tol,
+            });
+        }
+        if attempt == MAX_REFINEMENTS || rel.is_nan() {
+            return Err(MeshError {
+                part: part.name.clone(),
+                check: "volume",
+                detail: format!(
+                    "mesh volume {v:.3} mm³ differs from the exact {:.3} mm³ by {:.3} % at tolerance {tol} mm (allowed {:.3} %)",
+                    part.exact_volume_mm3,
+                    rel * 100.0,
+                    volume_bound * 100.0
+                ),
+            }
+            .into());
+        }
+        tol /= 2.0;
+    }
+    unreachable!("the loop returns on its last attempt")
+}
+
+/// Build, mesh and check the selected parts at `tol_mm` ([`default_tolerance_for`] when
+/// None). Parts sharing a solid are meshed once. Fails on the first bad part.
+pub fn build_parts(
+    design: &Design,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<Vec<BuiltPart>, GeometryError> {
+    build_parts_for(&DesignProfile::new(design), tol_mm, selection)
+}
+
+/// The meshing tolerance used when none is given, mm: the printer's (half its
+/// resolution), or finer where a designed gap between mating parts needs it (half the
+/// narrowest gap, [`fits::check_tolerance`]), so a design that validates always builds
+/// at its default. A given tolerance is never changed: a coarser one is refused.
+pub fn default_tolerance_for(profile: &DesignProfile) -> f64 {
+    let printer = profile.design.printer.default_tolerance_mm();
+    // Exact overlaps are reported by the assembly check; here they only leave the
+    // printer's default.
+    fits::check_exact(profile).map_or(printer, |(fits, _)| {
+        fits.iter()
+            .filter_map(|f| f.max_mesh_tolerance_mm)
+            .fold(printer, f64::min)
+    })
+}
+
+/// [`build_parts`] from dimensions already derived.
+pub fn build_parts_for(
+    profile: &DesignProfile,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<Vec<BuiltPart>, GeometryError> {
+    let default = profile.design.printer.default_tolerance_mm();
+    let tol = tol_mm.unwrap_or_else(|| default_tolerance_for(profile));
+    if !(0.001..=1.0).contains(&tol) {
+        return Err(GeometryError::Tolerance(tol));
+    }
+    let bound = volume_bound(tol, default);
+    let solids = build_solids_for(profile, selection)?;
+    // Mesh each distinct solid once (one per kind: the inserts share theirs), in
+    // parallel.
+    let meshed: Vec<BuiltPart> = first_of_each_kind(&solids, |s| s.kind)
+        .par_iter()
+        .map(|s| mesh_part(s, tol, bound))
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::with_capacity(solids.len());
+    for s in &solids {
+        let m = meshed
+            .iter()
+            .find(|b| b.kind == s.kind)
+            .expect("every kind was meshed");
+        let mut b = m.clone();
+        b.name = s.name.clone();
+        out.push(b);
+    }
+    Ok(out)
+}
+
+/// What one design build wrote.
+#[derive(Debug, Clone)]
+pub struct BuildReport {
+    /// Output folder.
+    pub dir: PathBuf,
+    /// Parts built.
+    pub parts: Vec<BuiltPart>,
+    /// Every file written, manifest last.
+    pub files: Vec<PathBuf>,
+    /// Each fiber's traced way out (empty unless cap, core and an insert were built).
+    pub fibers: Vec<assembly::FiberTrace>,
+}
+
+/// Trace the fibers and check the assembly when the whole module was built (cap, core
+/// and, if the design has any, an insert); None otherwise.
+pub fn check_assembly(
+    design: &Design,
+    built: &[BuiltPart],
+) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {
+    check_assembly_for(&DesignProfile::new(design), built)
+}
+
+/// [`check_assembly`] from dimensions already derived: the fits and every fiber's
+/// passages on exact dimensions first (independent of the meshes), then the meshing
+/// tolerance against the fits' clearances, then the meshes of every mating pair
+/// against each other (all but press fits, which meshes cannot show), then each
+/// fiber traced through the meshes.
+pub fn check_assembly_for(
+    profile: &DesignProfile,
+    built: &[BuiltPart],
+) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {
+    if profile.module.is_none() {
+        return Ok(None);
+    }
+    // Every module part the design has must have been built.
+    let whole = PARTS
+        .iter()
+        .filter(|p| p.in_module())
+        .all(|p| p.names(profile.design).is_empty() || built.iter().any(|b| b.kind == p.kind()));
+    if !whole {
+        return Ok(None);
+    }
+    let module: Vec<BuiltPart> = built
+        .iter()
+        .filter(|b| b.kind.part().in_module())
+        .cloned()
+        .collect();
+    let (fits, _) = fits::check_exact(profile)?;
+    fits::check_tolerance(&fits, |k| {
+        module
+            .iter()
+            .filter(|b| b.kind == k)
+            .map(|b| b.mesh_tolerance_mm)
+            .reduce(f64::max)
+    })?;
+    // A pair designed to touch somewhere (a press fit) is not compared on its meshes:
+    // its exact fit above is the check.
+    let press_fit = |a: PartKind, b: PartKind| {
+        fits.iter().any(|f| {
+            ((f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b))
+                && f.max_mesh_tolerance_mm.is_none()
+        })
+    };
+    assembly::check_no_interference(&module, &|a, b| !press_fit(a, b))?;
+    Ok(Some(assembly::trace_fibers_for(profile, &module)?))
+}
+
+/// Build a loaded design into `dir`: every part is built, meshed and checked and every
+/// file rendered in memory before the first file is written. The design's dimensions
+/// are derived once, here, and lent to every step.
+pub fn build_design(
+    design: &Design,
+    dir: &Path,
+    tolerance_mm: Option<f64>,
+    parts: Option<&[String]>,
+) -> anyhow::Result<BuildReport> {
+    let nothing = || format!("design `{}`: nothing was written", design.name);
+    let profile = DesignProfile::new(design);
+    // Derived once: the parts are meshed at it and the manifest states it.
+    let tol = tolerance_mm.unwrap_or_else(|| default_tolerance_for(&profile));
+    let built = build_parts_for(&profile, Some(tol), parts).with_context(nothing)?;
+    let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
+    let rendered = export::render(&profile, &built, tol, fibers.as_deref())?;
+    let files = export::write_all(dir, &rendered)?;
+    Ok(BuildReport {
+        dir: dir.to_path_buf(),
+        parts: built,
+        files,
+        fibers: fibers.unwrap_or_default(),
+    })
+}

@@ -1,0 +1,467 @@
+//! The live mode: a running interrogator stream in, what the sensor feels out, frame
+//! by frame.
+//!
+//! * [`source`]: where frames come from — a log file still being written (tail), standard
+//!   input (one frame of peaks per line) or a Luna Hyperion peak stream over TCP
+//!   ([`hyperion`] holds the protocol), read on their own thread into a bounded queue;
+//! * [`interpret`]: each frame's peaks to gratings, shifts from a tare, then the
+//!   array's cell loads (its default reconstruction method) or the module's
+//!   temperature-compensated force per grating (predicted or calibrated K);
+//! * [`stats`]: frames, drops, bad frames by kind, reconnections, latency;
+//! * [`view`]: the terminal view (text heat map) and the JSON-lines stream;
+//! * [`synth`]: a simulated Hyperion on loopback, for tests and demos.
+//!
+//! The use case is [`run`]: `fbgforge live` and the tests call it. A bad frame is
+//! counted and named, never fatal; a dropped connection is reopened; frames that
+//! arrive faster than they can be read are dropped at the queue and counted, so the
+//! reader never falls behind the instrument.
+
+
+// Sibling crates under the names the modules used inside one crate.
+#[allow(unused_imports)]
+use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+#[allow(unused_imports)]
+use fbgforge_model::{fem, model, prediction, solvers};
+#[allow(unused_imports)]
+use fbgforge_array as array;
+#[allow(unused_imports)]
+use fbgforge_verify as verify;
+
+pub mod hyperion;
+pub mod interpret;
+pub mod source;
+pub mod stats;
+pub mod synth;
+pub mod view;
+
+use anyhow::Result;
+use interpret::{InterpretOptions, Interpreter, Prepared, Skip};
+use source::{Outlet, SourceEvent, SourceSpec};
+use stats::{Dropped, LiveSummary, Stats};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use view::{FrameReading, LiveInfo, LiveSink};
+
+/// What to watch and how.
+#[derive(Debug, Clone)]
+pub struct LiveRequest {
+    /// Design spec (TOML): an array or a module.
+    pub design: PathBuf,
+    /// Where the frames come from.
+    pub source: SourceSpec,
+    /// How frames are read.
+    pub interpret: InterpretOptions,
+    /// Stop after this many readings.
+    pub max_frames: Option<u64>,
+    /// Stop after this long, s.
+    pub duration_s: Option<f64>,
+    /// Frames the queue between reader and interpreter holds (beyond it frames are
+    /// dropped and counted).
+    pub queue_frames: usize,
+}
+
+impl LiveRequest {
+    /// A request with every default.
+    pub fn new(design: PathBuf, source: SourceSpec) -> Self {
+        LiveRequest {
+            design,
+            source,
+            interpret: InterpretOptions::default(),
+            max_frames: None,
+            duration_s: None,
+            queue_frames: 8192,
+        }
+    }
+}
+
+/// Frames handled per batch at most (the interpreter solves a batch in parallel).
+const BATCH: usize = 256;
+
+/// How far a stream's timestamps may be from this machine's clock and still be taken
+/// for the wall clock, s: above any plausible lag of a live stream, below the 15 min
+/// step of time zones (a log written in local time elsewhere is not the wall clock).
+pub const WALL_CLOCK_TOLERANCE_S: f64 = 300.0;
+
+/// Whether the stream's timestamps are this machine's wall clock, decided on the
+/// first frame that claims so after each (re)connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StreamClock {
+    Undecided,
+    Wall,
+    Other,
+}
+
+/// A span of seconds as a person reads it: `42.0 s`, `7.5 min`, `3.2 h`, `1.2 days`.
+fn span_text(s: f64) -> String {
+    let a = s.abs();
+    if a < 120.0 {
+        format!("{a:.1} s")
+    } else if a < 7200.0 {
+        format!("{:.1} min", a / 60.0)
+    } else if a < 2.0 * 86400.0 {
+        format!("{:.1} h", a / 3600.0)
+    } else {
+        format!("{:.1} days", a / 86400.0)
+    }
+}
+
+fn wall_now_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// Check the request's limits and queue size.
+fn check_request(req: &LiveRequest) -> Result<()> {
+    if let Some(d) = req.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        anyhow::bail!("--duration-s must be a positive number of seconds, got {d}");
+    }
+    if req.queue_frames == 0 {
+        anyhow::bail!("the queue must hold at least one frame");
+    }
+    Ok(())
+}
+
+/// What the sink is told before the first frame: the design, the source and the outputs.
+fn live_info(design: &crate::spec::Design, interp: &Interpreter, req: &LiveRequest) -> LiveInfo {
+    LiveInfo {
+        design: design.name.clone(),
+        kind: if interp.array_grid().is_some() {
+            "array"
+        } else {
+            "module"
+        },
+        source: req.source.describe(),
+        description: interp.description().to_string(),
+        outputs: interp.outputs().to_vec(),
+        gratings: interp.gratings(),
+        grid: interp.array_grid(),
+        method: interp.method().map(|m| m.name().to_string()),
+        sensitivities_pm_per_n: interp.sensitivities_pm_per_n(),
+        tare_frames: req.interpret.tare_frames,
+    }
+}
+
+/// Why the watch ends: the output closed.
+fn sink_error(e: std::io::Error) -> String {
+    format!("output closed ({e})")
+}
+
+/// Where and when a prepared frame was read.
+struct FrameMeta {
+    serial: Option<u64>,
+    time_s: Option<f64>,
+    wall_clock: bool,
+    received: Instant,
+}
+
+/// A watch in progress: the interpreter, the counters, the frames of the current batch
+/// and why the watch ended, once it has.
+struct Watch<'a> {
+    interp: Interpreter,
+    sink: &'a mut dyn LiveSink,
+    stats: Stats,
+    overflow: Arc<AtomicU64>,
+    connections: u64,
+    first_frame: Option<Instant>,
+    last_frame: Option<Instant>,
+    ended: Option<String>,
+    source_lost: bool,
+    clock: StreamClock,
+    prepared: Vec<Prepared>,
+    meta: Vec<FrameMeta>,
+    max_frames: Option<u64>,
+}
+
+impl Watch<'_> {
+    /// Interpret one batch of source events and pass their readings on.
+    fn batch(&mut self, batch: &mut Vec<SourceEvent>) {
+        self.prepared.clear();
+        self.meta.clear();
+        let mut out_err: Option<std::io::Error> = None;
+        for ev in batch.drain(..) {
+            if let Err(e) = self.event(ev) {
+                out_err = Some(e);
+                break;
+            }
+        }
+        self.readings(&mut out_err);
+        self.tick(out_err);
+    }
+
+    /// Count one source event and prepare a frame; an error when the output closed.
+    fn event(&mut self, ev: SourceEvent) -> std::io::Result<()> {
+        match ev {
+            SourceEvent::Frame(f) => self.frame(&f),
+            SourceEvent::Bad { kind, message } => self.bad(&kind, message),
+            SourceEvent::Missed(n) => {
+                self.stats.dropped.serial_gaps += n;
+                Ok(())
+            }
+            SourceEvent::Connected(what) => {
+                self.connections += 1;
+                self.clock = StreamClock::Undecided;
+                if self.connections > 1 {
+                    self.stats.reconnects += 1;
+                }
+                let event = if self.connections > 1 {
+                    "reconnected"
+                } else {
+                    "connected"
+                };
+                self.sink.event(event, &what)
+            }
+            SourceEvent::Disconnected(why) => {
+                let m = why.clone();
+                self.stats.bad.add("disconnected", || m);
+                self.sink.event("disconnected", &why)
+            }
+            SourceEvent::End(why) => {
+                self.ended = Some(why);
+                Ok(())
+            }
+            SourceEvent::Lost(why) => {
+                self.ended = Some(why);
+                self.source_lost = true;
+                Ok(())
+            }
+        }
+    }
+
+    /// Prepare one frame: a tare frame, a bad one, or shifts to solve with the batch.
+    fn frame(&mut self, f: &source::Frame) -> std::io::Result<()> {
+        self.first_frame.get_or_insert(f.received);
+        self.last_frame = Some(f.received);
+        self.stats.frames_in += 1;
+        let wall_clock = self.clock_is_wall(f)?;
+        let (p, ambiguous) = self.interp.prepare(f);
+        self.stats.ambiguous_frames += ambiguous as u64;
+        match p {
+            Ok(p) => {
+                self.prepared.push(p);
+                self.meta.push(FrameMeta {
+                    serial: f.serial,
+                    time_s: f.time_s,
+                    wall_clock,
+                    received: f.received,
+                });
+                Ok(())
+            }
+            Err(Skip::Tare) => {
+                self.stats.tare_frames += 1;
+                Ok(())
+            }
+            Err(Skip::Bad(kind, message)) => self.bad(kind, message),
+        }
+    }
+
+    /// Whether `f`'s time is this machine's wall clock, so that its age means
+    /// something: the source must say so, and the first such frame of a connection
+    /// must be within [`WALL_CLOCK_TOLERANCE_S`] of this machine's clock (else an
+    /// event says why no age is measured).
+    fn clock_is_wall(&mut self, f: &source::Frame) -> std::io::Result<bool> {
+        let Some(t) = f.time_s.filter(|_| f.wall_clock) else {
+            return Ok(false);
+        };
+        if self.clock == StreamClock::Undecided {
+            let behind_s = wall_now_s() - t;
+            if behind_s.abs() <= WALL_CLOCK_TOLERANCE_S {
+                self.clock = StreamClock::Wall;
+            } else {
+                self.clock = StreamClock::Other;
+                let side = if behind_s > 0.0 { "behind" } else { "ahead of" };
+                self.sink.event(
+                    "clock",
+                    &format!(
+                        "the stream's timestamps are {} {side} this machine's clock (another clock, or a log in another time zone): frame age is not measured",
+                        span_text(behind_s)
+                    ),
+                )?;
+            }
+        }
+        Ok(self.clock == StreamClock::Wall)
+    }
+
+    /// Count a bad frame by kind and pass it on.
+    fn bad(&mut self, kind: &str, message: String) -> std::io::Result<()> {
+        self.stats.bad_frames += 1;
+        let m = message.clone();
+        self.stats.bad.add(kind, || m);
+        self.sink.bad(kind, &message)
+    }
+
+    /// Solve the batch's prepared frames and pass each reading on with its latency,
+    /// until the output closes or the frame limit is reached.
+    fn readings(&mut self, out_err: &mut Option<std::io::Error>) {
+        let readings = self.interp.solve(&self.prepared);
+        let now = Instant::now();
+        let wall = wall_now_s();
+        for (reading, m) in readings.into_iter().zip(&self.meta) {
+            if out_err.is_some() {
+                break;
+            }
+            let stats = &mut self.stats;
+            let latency_us = now.duration_since(m.received).as_secs_f64() * 1e6;
+            let age_us = m.time_s.filter(|_| m.wall_clock).map(|t| (wall - t) * 1e6);
+            stats.latency.add(latency_us);
+            if let Some(a) = age_us {
+                stats.age.add(a);
+            }
+            if let interpret::Reading::Loads {
+                converged, flags, ..
+            } = &reading
+            {
+                stats.not_converged += u64::from(!converged);
+                stats.flagged += u64::from(!flags.trusted());
+            }
+            stats.frames_out += 1;
+            let r = FrameReading {
+                serial: m.serial,
+                time_s: m.time_s,
+                reading,
+                latency_us,
+                age_us,
+            };
+            if let Err(e) = self.sink.reading(&r) {
+                *out_err = Some(e);
+            }
+            if self
+                .max_frames
+                .is_some_and(|limit| stats.frames_out >= limit)
+            {
+                let n = stats.frames_out;
+                self.ended.get_or_insert_with(|| format!("{n} frames read"));
+                break;
+            }
+        }
+    }
+
+    /// Give the sink the counters so far; the watch ends if the output closed.
+    fn tick(&mut self, out_err: Option<std::io::Error>) {
+        self.stats.dropped.queue_overflow = self.overflow.load(Ordering::Relaxed);
+        let el = self.first_frame.map_or(Duration::ZERO, |t| t.elapsed());
+        if let Some(e) = out_err {
+            self.ended = Some(sink_error(e));
+        } else if let Err(e) = self.sink.tick(&self.stats, el) {
+            self.ended = Some(sink_error(e));
+        }
+    }
+
+    /// The watch's summary: counts, rate over the frames themselves (not the wait for
+    /// a source that ended), drops, latency.
+    fn summary(&mut self, design: String, source: String) -> LiveSummary {
+        let stats = &mut self.stats;
+        stats.dropped.queue_overflow = self.overflow.load(Ordering::Relaxed);
+        let elapsed_s = self.first_frame.map_or(0.0, |t| t.elapsed().as_secs_f64());
+        let span_s = match (self.first_frame, self.last_frame) {
+            (Some(a), Some(b)) => b.duration_since(a).as_secs_f64(),
+            _ => 0.0,
+        };
+        let d = stats.dropped;
+        LiveSummary {
+            design,
+            source,
+            ended: self.ended.take().unwrap_or_else(|| "stopped".into()),
+            source_lost: self.source_lost,
+            elapsed_s,
+            frames_in: stats.frames_in,
+            frames_out: stats.frames_out,
+            rate_hz: if span_s > 0.0 {
+                (stats.frames_in.saturating_sub(1)) as f64 / span_s
+            } else {
+                0.0
+            },
+            tare_frames: stats.tare_frames,
+            bad_frames: stats.bad_frames,
+            bad: stats.bad.clone(),
+            ambiguous_frames: stats.ambiguous_frames,
+            dropped: Dropped {
+                total: d.serial_gaps + d.queue_overflow,
+                ..d
+            },
+            reconnects: stats.reconnects,
+            not_converged: stats.not_converged,
+            flagged: stats.flagged,
+            latency: stats.latency.summary(),
+            age: stats.age.summary(),
+        }
+    }
+}
+
+/// Watch a stream until it ends, `stop` is set, or a limit of the request is reached;
+/// every reading, bad frame and event goes to `sink`. Returns the summary (also given to
+/// the sink). Errors only for a bad request (design, options); nothing in the stream is
+/// fatal.
+pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Result<LiveSummary> {
+    check_request(req)?;
+    let design = crate::design::load(&req.design)?;
+    let interp = Interpreter::new(&design, &req.interpret)?;
+    let info = live_info(&design, &interp, req);
+    let (tx, rx) = sync_channel(req.queue_frames);
+    let source_stop = Arc::new(AtomicBool::new(false));
+    let outlet = Outlet::new(tx, source_stop.clone());
+    let overflow = outlet.overflow.clone();
+    // The source thread is not joined: one blocked on standard input cannot be woken;
+    // every other source sees `source_stop` within 200 ms and exits.
+    let _reader = source::spawn(req.source.clone(), outlet);
+    let mut w = Watch {
+        interp,
+        sink,
+        stats: Stats::default(),
+        overflow,
+        connections: 0,
+        first_frame: None,
+        last_frame: None,
+        ended: None,
+        source_lost: false,
+        clock: StreamClock::Undecided,
+        prepared: Vec::with_capacity(BATCH),
+        meta: Vec::with_capacity(BATCH),
+        max_frames: req.max_frames,
+    };
+    let started = Instant::now();
+    let mut batch: Vec<SourceEvent> = Vec::with_capacity(BATCH);
+    if let Err(e) = w.sink.start(&info) {
+        w.ended = Some(sink_error(e));
+    }
+    while w.ended.is_none() {
+        if stop.load(Ordering::Relaxed) {
+            w.ended = Some("stopped".into());
+            break;
+        }
+        if let Some(d) = req.duration_s {
+            if started.elapsed().as_secs_f64() >= d {
+                w.ended = Some(format!("--duration-s {d} reached"));
+                break;
+            }
+        }
+        batch.clear();
+        match rx.recv_timeout(Duration::from_millis(50)) {
+            Ok(ev) => batch.push(ev),
+            Err(RecvTimeoutError::Timeout) => {
+                w.tick(None);
+                continue;
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                w.ended = Some("the source stopped".into());
+                break;
+            }
+        }
+        while batch.len() < BATCH {
+            match rx.try_recv() {
+                Ok(ev) => batch.push(ev),
+                Err(_) => break,
+            }
+        }
+        w.batch(&mut batch);
+    }
+    source_stop.store(true, Ordering::Relaxed);
+    drop(rx);
+    let summary = w.summary(design.name.clone(), req.source.describe());
+    // The output may be gone (a closed pipe): the summary is still returned.
+    let _ = w.sink.finish(&summary);
+    Ok(summary)
+}

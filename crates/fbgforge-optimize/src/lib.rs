@@ -1,0 +1,33 @@
+//! Design optimisation: maximise the predicted quality Q (or the sensitivity) of a
+//! clip-on module over printable designs, and place the gratings of a flat array so
+//! that reconstruction works best.
+//!
+//! * [`materials`]: the material library (E, ν and the Q model's viscoelastic numbers).
+//! * [`quality`]: the Q model, Q = |K|·R²/Δt_max, and its calibration by a verifier JSON.
+//! * the solvers are the crate's one solver layer, [`crate::solvers`].
+//! * [`module`]: the module problem: variables, constraints, discrete material choices.
+//! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
+//! * [`run`]: the use cases the CLI calls: optimise a module, place gratings; both write
+//!   the design and a report ([`report_html`]: the HTML report; [`sheet`]: the placed
+//!   layout drawn on the sheet).
+
+
+// Sibling crates under the names the modules used inside one crate.
+#[allow(unused_imports)]
+use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+#[allow(unused_imports)]
+use fbgforge_model::{fem, model, prediction, solvers};
+#[allow(unused_imports)]
+use fbgforge_plot as plot;
+#[allow(unused_imports)]
+use fbgforge_plot::html;
+#[allow(unused_imports)]
+use fbgforge_array as array;
+
+pub mod materials;
+pub mod module;
+pub mod place;
+pub mod quality;
+pub mod report_html;
+pub mod run;
+pub mod sheet;

@@ -1,0 +1,473 @@
+//! A candidate evaluated: every constraint (printer walls, fit clearances, the
+//! profile's rules, the spec, the model, the grating strain, the wavelength windows,
+//! the bounding contact readings) with how far it is broken, and the objective of the
+//! worst strain grating, scored over the model's uncertainty about K (the contact
+//! window) beside its nominal value.
+
+use super::problem::ModuleProblem;
+use super::robust::FrontObjectives;
+use super::settings::Objective;
+use crate::model::GratingPrediction;
+use crate::quality::{design_quality, QualityBreakdown};
+use crate::prediction::KReadings;
+use crate::spec::{Design, Module};
+use serde::Serialize;
+
+/// One constraint's value at a design.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ConstraintValue {
+    /// Constraint name (stable, used in errors).
+    pub name: String,
+    /// What it requires, in words with units.
+    pub requirement: String,
+    /// Normalised violation, 0 when met.
+    pub violation: f64,
+    /// The measured value, in words with units.
+    pub detail: String,
+}
+
+/// A design evaluated: objective, Q breakdown and constraints.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evaluation {
+    /// Variable values, in `ModuleProblem::variables` order.
+    pub x: Vec<f64>,
+    /// Objective value (worst strain grating) as scored under the robustness setting,
+    /// or 0 when the model failed.
+    pub objective: f64,
+    /// The objective with the nominal K.
+    pub nominal_objective: f64,
+    /// Whether the numbers are the model policy's own at this design (anchored on it),
+    /// not the search's estimate carried from an anchor elsewhere.
+    pub exact: bool,
+    /// Q breakdown per strain grating (nominal K).
+    pub gratings: Vec<QualityBreakdown>,
+    /// Per strain grating: the nominal K, the contact window's ends and the bounding
+    /// readings, pm/N.
+    pub readings: Vec<KReadings>,
+    /// The Pareto front's objectives, when the model predicted the design.
+    pub objectives: Option<FrontObjectives>,
+    /// Every constraint.
+    pub constraints: Vec<ConstraintValue>,
+}
+
+impl Evaluation {
+    /// Sum of normalised violations.
+    pub fn total_violation(&self) -> f64 {
+        self.constraints.iter().map(|c| c.violation).sum()
+    }
+    /// How far from feasible, for ranking infeasible designs: designs whose geometry,
+    /// spec or model fails rank behind designs that only break a physics constraint
+    /// (strain, wavelength window), since only the latter were checked in full.
+    pub fn infeasibility_rank(&self) -> (u8, f64) {
+        let geometric = self
+            .constraints
+            .iter()
+            .any(|c| c.violation > 0.0 && !PHYSICS_CONSTRAINTS.contains(&c.name.as_str()));
+        (u8::from(geometric), self.total_violation())
+    }
+
+    /// True when every constraint is met.
+    pub fn feasible(&self) -> bool {
+        self.constraints.iter().all(|c| c.violation <= 0.0)
+    }
+}
+
+/// Constraints checked on the model's prediction (only once the geometry is valid).
+pub const PHYSICS_CONSTRAINTS: [&str; 3] = ["grating_strain", "wavelength_window", "contact_band"];
+
+/// Add a constraint's value (a negative violation counts as met).
+fn push(
+    cons: &mut Vec<ConstraintValue>,
+    name: &str,
+    requirement: String,
+    violation: f64,
+    detail: String,
+) {
+    cons.push(ConstraintValue {
+        name: name.into(),
+        requirement,
+        violation: violation.max(0.0),
+        detail,
+    })
+}
+
+/// Wavelength windows: each grating owns the band between the midpoints to its
+/// neighbours, less half the guard band on each side; the outer gratings reach the
+/// interrogator's band edges.
+pub fn wavelength_windows(
+    m: &Module,
+    guard_nm: f64,
+    band_nm: (f64, f64),
+) -> Vec<(String, f64, f64)> {
+    let mut g: Vec<(String, f64)> = m
+        .gratings
+        .iter()
+        .map(|g| (g.name.clone(), g.bragg_wavelength_nm))
+        .collect();
+    g.sort_by(|a, b| a.1.total_cmp(&b.1));
+    (0..g.len())
+        .map(|i| {
+            let lo = if i == 0 {
+                band_nm.0
+            } else {
+                0.5 * (g[i - 1].1 + g[i].1) + guard_nm / 2.0
+            };
+            let hi = if i + 1 == g.len() {
+                band_nm.1
+            } else {
+                0.5 * (g[i].1 + g[i + 1].1) - guard_nm / 2.0
+            };
+            (g[i].0.clone(), lo, hi)
+        })
+        .collect()
+}
+
+impl ModuleProblem {
+    /// Evaluate the design at `x`: every constraint and the objective.
+    pub fn evaluate(&self, x: &[f64]) -> Evaluation {
+        let d = self.design_at(x);
+        self.evaluate_design(x, &d)
+    }
+
+    /// Evaluate a built candidate design.
+    pub fn evaluate_design(&self, x: &[f64], d: &Design) -> Evaluation {
+        let m = d.module.as_ref().expect("candidate has a module");
+        let min_wall = d.printer.min_wall_mm;
+        let mut cons = Vec::new();
+        let thinnest = m.cap_wall_mm.min(m.core_wall_mm);
+        push(
+            &mut cons,
+            "printer_min_wall",
+            format!("cap and core walls ≥ {min_wall} mm"),
+            (min_wall - thinnest) / min_wall,
+            format!("thinnest wall {thinnest:.3} mm"),
+        );
+        let fit = self.min_fit_clearance_mm();
+        let tight = m.cap_core_clearance_mm.min(m.core_insert_clearance_mm);
+        push(
+            &mut cons,
+            "fit_clearance",
+            format!("fit clearances ≥ {fit} mm"),
+            (fit - tight) / fit,
+            format!("tightest clearance {tight:.3} mm"),
+        );
+        // The spec's rules on the derived profile, each with how far it is broken:
+        // the same rules `design::load` enforces, as penalties.
+        for v in crate::design::profile_violations(m, min_wall) {
+            push(&mut cons, v.rule, v.requirement, v.excess, v.detail);
+        }
+        // Everything the spec itself checks (a design that fails here would not load).
+        let spec_violation = cons.iter().all(|c| c.violation <= 0.0);
+        if spec_violation {
+            if let Err(e) = d.validate() {
+                push(
+                    &mut cons,
+                    "spec_validation",
+                    "the design validates".into(),
+                    1.0,
+                    e.to_string(),
+                );
+            }
+        }
+        let mut objective = 0.0;
+        let mut nominal_objective = 0.0;
+        let mut gratings = Vec::new();
+        let mut readings = Vec::new();
+        let mut objectives = None;
+        if cons.iter().all(|c| c.violation <= 0.0) {
+            // The estimate with the trust region's correction, and its trend without.
+            let preds = (self.model)(d, self.settings.max_force_n).map(|trend| {
+                let mut preds = trend.clone();
+                if let Some(c) = &self.correction {
+                    c.apply(x, &mut preds);
+                }
+                (preds, trend)
+            });
+            match preds {
+                Err(e) => push(
+                    &mut cons,
+                    "model",
+                    "the model predicts the design".into(),
+                    1.0,
+                    format!("{e:#}"),
+                ),
+                Ok((preds, trend)) => {
+                    match design_quality(
+                        d,
+                        &preds,
+                        &self.lib,
+                        &self.core_name,
+                        self.insert_name.as_deref(),
+                        &self.settings.quality,
+                        &self.calibration,
+                    ) {
+                        Err(e) => push(
+                            &mut cons,
+                            "model",
+                            "the model predicts the design".into(),
+                            1.0,
+                            format!("{e:#}"),
+                        ),
+                        Ok(q) if q.is_empty() => push(
+                            &mut cons,
+                            "model",
+                            "the model predicts the design".into(),
+                            1.0,
+                            "no strain grating predicted".into(),
+                        ),
+                        Ok(q) => {
+                            let scored = self.score(d, &preds, &trend, &q);
+                            objective = scored.objective;
+                            nominal_objective = scored.nominal_objective;
+                            objectives = Some(scored.front);
+                            self.physics_constraints(d, &scored.rows, &mut cons);
+                            readings = scored.rows.into_iter().map(|r| r.readings).collect();
+                            gratings = q;
+                        }
+                    }
+                }
+            }
+        }
+        Evaluation {
+            x: x.to_vec(),
+            objective,
+            nominal_objective,
+            exact: self.is_exact_at(x),
+            gratings,
+            readings,
+            objectives,
+            constraints: cons,
+        }
+    }
+
+    /// Each grating's room in its wavelength window for a shift of sign `sign`, pm
+    /// (what is left once the thermal span is taken).
+    fn window_room_pm(&self, d: &Design, name: &str, sign: f64) -> f64 {
+        let m = d.module.as_ref().expect("candidate has a module");
+        let (Some(g), Some((_, lo, hi))) = (
+            m.gratings.iter().find(|g| g.name == name),
+            self.windows_nm.iter().find(|w| w.0 == name),
+        ) else {
+            return f64::INFINITY;
+        };
+        let thermal_nm = d
+            .fiber
+            .temperature_sensitivity_pm_per_k(g.bragg_wavelength_nm)
+            * self.settings.temperature_span_k
+            * 1e-3;
+        let room_nm = if sign >= 0.0 {
+            hi - g.bragg_wavelength_nm - thermal_nm
+        } else {
+            g.bragg_wavelength_nm - thermal_nm - lo
+        };
+        (room_nm * 1e3).max(0.0)
+    }
+
+    /// The objective over the model's uncertainty, beside the nominal, and the front's
+    /// objectives, from the predictions and the Q breakdown of the optimised
+    /// configuration's gratings.
+    fn score(
+        &self,
+        d: &Design,
+        preds: &[GratingPrediction],
+        trend: &[GratingPrediction],
+        q: &[QualityBreakdown],
+    ) -> Scored {
+        let f = self.settings.max_force_n;
+        let lim = self.settings.max_grating_strain;
+        let mut rows = Vec::new();
+        let mut front = FrontObjectives {
+            sensitivity_pm_per_n: f64::INFINITY,
+            nominal_sensitivity_pm_per_n: f64::INFINITY,
+            force_range_n: f64::INFINITY,
+            force_range_limited_by: "grating_strain",
+            max_lag_s: 0.0,
+            r_squared: f64::INFINITY,
+            quality_pm_per_n_s: f64::INFINITY,
+        };
+        let (mut objective, mut nominal_objective) = (f64::INFINITY, f64::INFINITY);
+        for g in q {
+            let Some(p) = preds.iter().find(|p| {
+                p.grating == g.grating
+                    && p.core == self.core_name
+                    && p.insert.as_deref() == self.insert_name.as_deref()
+            }) else {
+                continue;
+            };
+            let t = trend
+                .iter()
+                .find(|t| t.grating == p.grating && t.case == p.case && t.insert == p.insert)
+                .unwrap_or(p);
+            let readings = self.uncertainty.readings_of(p, t);
+            let (k_scored, k_limit) = readings.abs_k_range(self.settings.robustness);
+            let k_nominal = p.sensitivity_pm_per_n.abs();
+            let to_limit = if k_nominal > 0.0 {
+                k_limit / k_nominal
+            } else {
+                1.0
+            };
+            let scored_q = if k_nominal > 0.0 {
+                g.quality_pm_per_n_s * k_scored / k_nominal
+            } else {
+                0.0
+            };
+            let strain_per_n = p.strain.abs() / f * to_limit;
+            let f_strain = if strain_per_n > 0.0 {
+                lim / strain_per_n
+            } else {
+                f64::INFINITY
+            };
+            let f_window = if k_limit > 0.0 {
+                self.window_room_pm(d, &p.grating, p.sensitivity_pm_per_n) / k_limit
+            } else {
+                f64::INFINITY
+            };
+            front.sensitivity_pm_per_n = front.sensitivity_pm_per_n.min(k_scored);
+            front.nominal_sensitivity_pm_per_n = front.nominal_sensitivity_pm_per_n.min(k_nominal);
+            if f_strain.min(f_window) < front.force_range_n {
+                front.force_range_n = f_strain.min(f_window);
+                front.force_range_limited_by = if f_strain <= f_window {
+                    "grating_strain"
+                } else {
+                    "wavelength_window"
+                };
+            }
+            front.max_lag_s = front.max_lag_s.max(g.dt_max_s);
+            front.r_squared = front.r_squared.min(g.r_squared);
+            front.quality_pm_per_n_s = front.quality_pm_per_n_s.min(scored_q);
+            let nominal_range = if k_nominal > 0.0 {
+                (lim / (p.strain.abs() / f))
+                    .min(self.window_room_pm(d, &p.grating, p.sensitivity_pm_per_n) / k_nominal)
+            } else {
+                f64::INFINITY
+            };
+            let (v, nv) = match self.settings.objective {
+                Objective::Q => (scored_q, g.quality_pm_per_n_s),
+                Objective::Sensitivity => (k_scored, k_nominal),
+                Objective::ForceRange => (f_strain.min(f_window), nominal_range),
+            };
+            objective = objective.min(v);
+            nominal_objective = nominal_objective.min(nv);
+            rows.push(RobustRow {
+                readings,
+                strain_at_max_force: p.strain,
+                strain_limit_factor: to_limit,
+                k_limit,
+            });
+        }
+        let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
+        Scored {
+            objective: finite(objective),
+            nominal_objective: finite(nominal_objective),
+            front,
+            rows,
+        }
+    }
+
+    fn physics_constraints(&self, d: &Design, rows: &[RobustRow], cons: &mut Vec<ConstraintValue>) {
+        let m = d.module.as_ref().expect("candidate has a module");
+        let f = self.settings.max_force_n;
+        let lim = self.settings.max_grating_strain;
+        let preds_strain = |name: &str| {
+            rows.iter().find(|r| r.readings.grating == name).map(|r| {
+                (
+                    r.readings.nominal_pm_per_n,
+                    r.k_limit,
+                    r.strain_limit_factor,
+                )
+            })
+        };
+        let worst = rows
+            .iter()
+            .map(|r| {
+                (
+                    r.strain_at_max_force.abs() * r.strain_limit_factor,
+                    r.readings.grating.as_str(),
+                )
+            })
+            .fold((0.0, ""), |a, b| if b.0 > a.0 { b } else { a });
+        push(
+            cons,
+            "grating_strain",
+            format!("|grating strain| at {f} N ≤ {:.0} µε", lim * 1e6),
+            (worst.0 - lim) / lim,
+            format!("{:.0} µε at grating `{}`", worst.0 * 1e6, worst.1),
+        );
+        let mut excess_nm: f64 = 0.0;
+        let mut detail = String::from("every grating inside its window");
+        for (name, lo, hi) in &self.windows_nm {
+            let Some(g) = m.gratings.iter().find(|g| &g.name == name) else {
+                continue;
+            };
+            let shift_nm = preds_strain(name)
+                .map(|(k, k_limit, _)| k.signum() * k_limit * f * 1e-3)
+                .unwrap_or(0.0);
+            let thermal_nm = d
+                .fiber
+                .temperature_sensitivity_pm_per_k(g.bragg_wavelength_nm)
+                * self.settings.temperature_span_k
+                * 1e-3;
+            let low = g.bragg_wavelength_nm + shift_nm.min(0.0) - thermal_nm;
+            let high = g.bragg_wavelength_nm + shift_nm.max(0.0) + thermal_nm;
+            let e = (lo - low).max(high - hi).max(0.0);
+            if e > excess_nm {
+                excess_nm = e;
+                detail = format!(
+                    "grating `{name}` spans {low:.3}–{high:.3} nm, its window is {lo:.3}–{hi:.3} nm"
+                );
+            }
+        }
+        push(
+            cons,
+            "wavelength_window",
+            format!(
+                "each grating's range at {f} N ± {} K inside its window (guard {} nm)",
+                self.settings.temperature_span_k, self.settings.guard_band_nm
+            ),
+            excess_nm,
+            detail,
+        );
+        // The nominal K must be one the physically bounding readings support, with one
+        // sign across them (a magnitude, so the search can move away).
+        let (v, why) = rows.iter().map(|r| r.readings.band_violation()).fold(
+            (
+                0.0,
+                "every grating's nominal K within its bounding readings, one sign".to_string(),
+            ),
+            |a, b| {
+                if b.0 > a.0 {
+                    b
+                } else {
+                    a
+                }
+            },
+        );
+        push(
+            cons,
+            "contact_band",
+            "each grating's nominal K between its bounding contact readings (pillars bonded; cylinders sliding, domes on the apex patch), with one sign across them".into(),
+            v,
+            why,
+        );
+    }
+}
+
+/// One grating's robust numbers.
+pub(super) struct RobustRow {
+    /// Nominal, window and bounding readings.
+    pub(super) readings: KReadings,
+    /// The nominal strain at the largest force.
+    pub(super) strain_at_max_force: f64,
+    /// The largest |K| the limits hold for, over the nominal |K|.
+    pub(super) strain_limit_factor: f64,
+    /// That largest |K|, pm/N.
+    pub(super) k_limit: f64,
+}
+
+/// What [`ModuleProblem::score`] gives.
+struct Scored {
+    objective: f64,
+    nominal_objective: f64,
+    front: FrontObjectives,
+    rows: Vec<RobustRow>,
+}

@@ -1,0 +1,157 @@
+//! What a module optimisation reports: each run, each choice, the whole outcome, and
+//! the error that names the constraint no design could meet.
+
+use super::choice::Choice;
+use super::evaluate::Evaluation;
+use super::front::FrontDesign;
+use super::settings::{ModuleSettings, Objective, Preference};
+use super::variables::Variable;
+use crate::quality::Calibration;
+use crate::solvers::SolverKind;
+use crate::spec::Design;
+use serde::Serialize;
+
+/// Summary of one run for the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// Solver.
+    pub solver: SolverKind,
+    /// Start index.
+    pub start: usize,
+    /// Iterations.
+    pub iterations: u64,
+    /// Cost evaluations.
+    pub evaluations: u64,
+    /// Wall time, s.
+    pub time_s: f64,
+    /// Objective at the run's best point (0 if infeasible).
+    pub objective: f64,
+    /// Whether the run's best point is feasible.
+    pub feasible: bool,
+    /// Termination reason.
+    pub termination: String,
+    /// Best penalised cost after each iteration.
+    pub history: Vec<f64>,
+}
+
+/// Outcome of one discrete choice.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChoiceResult {
+    /// The choice.
+    pub choice: Choice,
+    /// Best feasible evaluation, if any.
+    pub best: Option<Evaluation>,
+    /// When nothing was feasible: the least violating evaluation.
+    pub least_violating: Option<Evaluation>,
+    /// Every run.
+    pub runs: Vec<RunSummary>,
+}
+
+/// Outcome of a module optimisation.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModuleOutcome {
+    /// Objective.
+    pub objective: Objective,
+    /// Unit of the objective.
+    pub objective_unit: &'static str,
+    /// How K was scored over the model's uncertainty, in words.
+    pub robustness: String,
+    /// The interrogator's sample rate Δt_max was floored at, Hz.
+    pub rate_hz: f64,
+    /// Variables, in the order of every `x`.
+    pub variables: Vec<Variable>,
+    /// Search bounds.
+    pub lower_bounds: Vec<f64>,
+    /// Search bounds.
+    pub upper_bounds: Vec<f64>,
+    /// The start design's choice and evaluation.
+    pub start_choice: Choice,
+    /// The start design evaluated on the policy (its objective is the bar to beat).
+    pub start: Evaluation,
+    /// The model that scored the written design, in words (the policy anchored on it).
+    pub model: String,
+    /// Index of the table's best choice in `choices` (by the scalar objective, scored
+    /// on the policy: no row's value exceeds it).
+    pub best_choice: usize,
+    /// Every choice: its best design, scored on the policy (`exact`) or, below the
+    /// best, the search's estimate.
+    pub choices: Vec<ChoiceResult>,
+    /// The non-dominated designs over sensitivity, force range, lag and R², by force
+    /// range, each scored on the policy.
+    pub pareto_front: Vec<FrontDesign>,
+    /// Which design was written.
+    pub prefer: Preference,
+    /// Its index in `pareto_front` (`None`: the table's best, not on the front).
+    pub written_front_index: Option<usize>,
+    /// Its choice.
+    pub written_choice: Choice,
+    /// Its evaluation.
+    pub written: Evaluation,
+    /// Why it was written, in words.
+    pub written_because: String,
+    /// Where the objectives tie and why.
+    pub ties: Vec<String>,
+    /// What a lab should know before printing the written design (e.g. that its Case I
+    /// K rests on the shipped default contact, chosen, not measured).
+    pub warnings: Vec<String>,
+    /// The optimised design.
+    #[serde(skip)]
+    pub design: Design,
+    /// Wall time of the whole optimisation, s.
+    pub time_s: f64,
+    /// Calibration used for the Q model.
+    pub calibration: Calibration,
+}
+
+impl ModuleOutcome {
+    /// How front design `i` is marked in tables: `knee`, `written`, both, or nothing.
+    pub fn front_tag(&self, i: usize) -> &'static str {
+        let knee = self.pareto_front.get(i).is_some_and(|f| f.knee);
+        match (knee, self.written_front_index == Some(i)) {
+            (true, true) => "knee, written",
+            (true, false) => "knee",
+            (false, true) => "written",
+            (false, false) => "",
+        }
+    }
+}
+
+/// Name the constraint that cannot be met: across choices, the one violated at the
+/// least violating design (by its largest share of the violation).
+pub(super) fn infeasible_error(
+    choices: &[ChoiceResult],
+    settings: &ModuleSettings,
+) -> anyhow::Error {
+    let least = choices
+        .iter()
+        .filter_map(|c| c.least_violating.as_ref().map(|e| (c, e)))
+        .min_by(|a, b| {
+            let (ra, rb) = (a.1.infeasibility_rank(), b.1.infeasibility_rank());
+            ra.0.cmp(&rb.0).then(ra.1.total_cmp(&rb.1))
+        });
+    match least {
+        None => anyhow::anyhow!("infeasible: no candidate design could be evaluated"),
+        Some((c, e)) => {
+            let worst = e
+                .constraints
+                .iter()
+                .filter(|c| c.violation > 0.0)
+                .max_by(|a, b| a.violation.total_cmp(&b.violation))
+                .expect("infeasible evaluations violate something");
+            let vars: Vec<String> = settings
+                .vary
+                .iter()
+                .zip(&e.x)
+                .map(|(v, x)| format!("{} = {x:.3}", v.name()))
+                .collect();
+            anyhow::anyhow!(
+                "infeasible: constraint `{}` cannot be met ({}); the closest design ({}, {}) has {}",
+                worst.name,
+                worst.requirement,
+                c.choice,
+                vars.join(", "),
+                worst.detail
+            )
+        }
+    }
+}

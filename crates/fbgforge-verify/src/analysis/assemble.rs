@@ -1,0 +1,289 @@
+//! The analysis assembled: the stages run in order ([`analyse`]), and the measured
+//! gratings collected into the measurement (spec order, the series behind the plots,
+//! the warnings their results call for).
+
+use super::clocks::{align_clocks, span_times, timing_uncertainty_s, AlignedClocks};
+use super::force::{check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force};
+use super::gratings::{grating_shifts, primary_grating};
+use super::measure::{measure_all, GratingContext, Measured};
+use super::options::AnalysisOptions;
+use super::quality::warn_q_undefined;
+use super::results::{GratingResult, Measurement, Series};
+use crate::logs::{median_period, ForceLog, LogWarnings, PeakLog};
+use crate::spec::Design;
+use crate::skew::{self, SkewFit};
+use anyhow::{bail, Result};
+
+/// Run the analysis.
+pub fn analyse(
+    design: &Design,
+    log: &PeakLog,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+) -> Result<(Measurement, Series)> {
+    let Some(module) = &design.module else {
+        bail!("design `{}` has no [module]: verify judges a clip-on module; for a flat array use calibrate-array", design.name);
+    };
+    let mut warnings = log.warnings.clone();
+    warnings.merge(force.warnings.clone());
+    let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
+    let shifts = grating_shifts(design, module, log, opts, &tw, &mut warnings)?;
+    let (sel, used) = (&shifts.selection, &shifts.used);
+    // The force on the wavelength clock (prior), cut into pulses and checked before any
+    // fit: the pulses a saturated channel or a gap leaves untrusted are left out.
+    let frame = force_frame(log, force, opts, &tw, &mut warnings)?;
+    let fval = &frame.fval;
+    let mut seg = loading_pulses(force, fval)?;
+    let trusted = trusted_force(force, fval, &mut seg, &mut warnings);
+    // Clocks aligned on the primary grating, the force on the common time base.
+    let primary = primary_grating(used);
+    let logs = (log, force);
+    let (shift_pm, given_s) = (&used[primary].1, opts.clock_offset_s);
+    let spans = &trusted.spans;
+    let mut clocks = align_clocks(&frame, &tw, shift_pm, logs, given_s, spans, &mut warnings)?;
+    let (wa, wb) = (tw[0], tw[tw.len() - 1]);
+    check_coverage(logs, &seg, &clocks.fu, (wa, wb))?;
+    let resolution_pm = opts
+        .resolution_pm
+        .unwrap_or_else(|| log.format.typical_resolution_pm());
+    let relative = clocks.source == "estimated";
+    let timing = timing_uncertainty_s(log, force, relative, &mut warnings);
+    // Per grating, on a given alignment of the clocks.
+    let measure = |clocks: &AlignedClocks| -> Result<Pass> {
+        let fc = force_at_rows(&tw, clocks, fval);
+        let excluded_s = span_times(&clocks.fu, spans);
+        let row_ok = rows_outside(&tw, &excluded_s);
+        let ctx = GratingContext {
+            module,
+            strain: &sel.strain,
+            tracks: &shifts.tracks,
+            used,
+            tw: &tw,
+            fu: &clocks.fu,
+            fval,
+            fc: &fc,
+            span: (wa.max(clocks.fa), wb.min(clocks.fb)),
+            seg: &seg,
+            resolution_pm,
+            hw: sel.hw,
+            timing_s: if relative { 0.0 } else { timing },
+            relative,
+            excluded_s: &excluded_s,
+            row_ok: &row_ok,
+            untrusted: &trusted.untrusted,
+        };
+        let (first, rest) = measure_all(&ctx, primary)?;
+        let peak_force_n = fc
+            .iter()
+            .zip(&row_ok)
+            .filter(|(f, ok)| **ok && f.is_finite())
+            .fold(f64::NAN, |a, (f, _)| a.max(*f));
+        Ok(Pass {
+            first,
+            rest,
+            fc,
+            peak_force_n,
+        })
+    };
+    let mut pass = measure(&clocks)?;
+    // Clock skew: the primary grating's segment lags drifting over the run. The warp
+    // holds the clocks together at the force log's start when the offset was given
+    // (it holds there), at the lags' mean time when it was estimated.
+    let pivot = (!relative).then_some(clocks.fa);
+    // An offset stuck at its search limit leaves the lags misaligned by an unknown
+    // amount: their drift says nothing about the clocks' rates.
+    let skew = if warnings.count("clock_offset_at_limit") > 0 {
+        None
+    } else {
+        skew_of(&pass.first.0, pivot)
+    };
+    let mut skew_corrected = false;
+    if let Some(sk) = skew.filter(SkewFit::significant) {
+        let warped = clocks.warped(&sk, (wa, wb));
+        pass = measure(&warped)?;
+        clocks = warped;
+        skew_corrected = true;
+        if sk.drift_over_run_s.abs() >= SKEW_WARN_DRIFT_S {
+            warnings.add("clock_skew", || {
+                format!(
+                    "the force log's clock runs {:+.1} ± {:.1} ppm against the wavelength log's: the segment lags drifted by {:+.3} s over the run; the force clock was warped to remove it (log both recorders on one PC clock, or synchronise them)",
+                    sk.ppm(),
+                    sk.uncertainty_ppm(),
+                    sk.drift_over_run_s
+                )
+            });
+        }
+    }
+    let Pass {
+        mut first,
+        mut rest,
+        fc,
+        peak_force_n,
+    } = pass;
+    if skew_corrected && relative {
+        // The offset was estimated on the skewed clock (an average alignment over the
+        // fitted stretch), so the relative lags no longer sit below the true ones: the
+        // upper bound on Q does not hold (it read 0.37–0.68 of the truth at ±1000 ppm).
+        withhold_q_bound(&mut first.0);
+        for r in rest.iter_mut().flatten() {
+            withhold_q_bound(&mut r.0);
+        }
+    }
+    let (results, series) = collect_results(first, rest, &sel.strain, &tw, &fc, &mut warnings)?;
+    if !relative {
+        warn_negative_lags(&results, skew.as_ref(), skew_corrected, &mut warnings);
+    }
+    let m = Measurement {
+        wavelength_log: log.source.display().to_string(),
+        wavelength_format: log.format.name().into(),
+        wavelength_rows: log.rows(),
+        wavelength_rate_hz: 1.0 / log.median_period_s(),
+        force_log: force.source.display().to_string(),
+        force_samples: force.force_n.len(),
+        force_rate_hz: 1.0 / median_period(&force.time_s),
+        clock_offset_s: clocks.offset,
+        clock_offset_source: clocks.source.into(),
+        clock_skew_ppm: skew.map(|s| s.ppm()),
+        clock_skew_uncertainty_ppm: skew.map(|s| s.uncertainty_ppm()),
+        clock_skew_corrected: skew_corrected,
+        lag_is_relative: relative,
+        force_log_start_s: clocks.fa,
+        overlap_s: clocks.overlap,
+        reference_grating: shifts.reference_grating,
+        interrogator_resolution_pm: resolution_pm,
+        pulse_count: seg.pulses.len(),
+        peak_force_n,
+        force_trust: trusted.trust,
+        missing_gratings: shifts.missing,
+        protocol: seg.protocol,
+        segment_count: seg.segments.len(),
+        timing_uncertainty_s: timing,
+        gratings: results,
+        warnings,
+    };
+    Ok((m, series))
+}
+
+/// A drift of the segment lags over the run that moves them by at least this much is
+/// warned about (and corrected whenever it stands out of its uncertainty), s.
+pub const SKEW_WARN_DRIFT_S: f64 = 0.05;
+
+/// One measurement of every grating on one alignment of the clocks.
+struct Pass {
+    first: (GratingResult, Vec<f64>, f64, f64),
+    rest: Vec<Measured>,
+    /// Force at the rows, N.
+    fc: Vec<f64>,
+    /// Largest trusted force at the rows, N.
+    peak_force_n: f64,
+}
+
+/// Drop the upper bound on Q of relative lags measured on a skew-corrected clock.
+fn withhold_q_bound(g: &mut GratingResult) {
+    if g.quality_q_pm_per_n_s.is_none() {
+        g.quality_q_bound = None;
+        g.quality_q_note = Some(
+            "the clock offset was estimated on clocks that ran at different rates (a clock skew, corrected afterwards), so the relative lags say nothing certain about the absolute ones: Q is withheld, with no bound; give the offset between the recorders' clocks (--clock-offset-s or --force-start) for Q".into(),
+        );
+    }
+}
+
+/// Which rows lie outside every excluded stretch (`excluded`: sorted, disjoint).
+fn rows_outside(tw: &[f64], excluded: &[(f64, f64)]) -> Vec<bool> {
+    let mut j = 0;
+    tw.iter()
+        .map(|&t| {
+            while j < excluded.len() && excluded[j].1 < t {
+                j += 1;
+            }
+            !(j < excluded.len() && excluded[j].0 <= t)
+        })
+        .collect()
+}
+
+/// The clock skew read from a grating's segment lags (time: the middle of each
+/// change of force).
+fn skew_of(g: &GratingResult, pivot: Option<f64>) -> Option<SkewFit> {
+    let pts: Vec<(f64, f64, f64)> = g
+        .pulses
+        .iter()
+        .map(|p| ((p.start_s + p.end_s) / 2.0, p.lag_s, p.lag_uncertainty_s))
+        .collect();
+    skew::fit_skew(&pts, pivot)
+}
+
+/// Absolute lags below zero beyond their uncertainty: the shift cannot lead the force
+/// in a passive part, so the clocks are wrong (offset or rate); never silent.
+fn warn_negative_lags(
+    results: &[GratingResult],
+    skew: Option<&SkewFit>,
+    corrected: bool,
+    warnings: &mut LogWarnings,
+) {
+    for g in results {
+        let neg: Vec<_> = g
+            .pulses
+            .iter()
+            .filter(|p| p.lag_s + 3.0 * p.lag_uncertainty_s < 0.0)
+            .collect();
+        if let Some(p) = neg.first() {
+            warnings.add_n("negative_lag", neg.len(), || {
+                format!(
+                    "grating `{}` segment {}: lag {:.3} ± {:.3} s: the shift leads the force, which a passive part cannot do; the clock offset (--clock-offset-s, --force-start) or the clocks' rates are wrong{}",
+                    g.grating,
+                    p.index,
+                    p.lag_s,
+                    p.lag_uncertainty_s,
+                    match skew {
+                        Some(s) => format!(
+                            " (clock skew {:+.1} ± {:.1} ppm, {})",
+                            s.ppm(),
+                            s.uncertainty_ppm(),
+                            if corrected { "corrected" } else { "not significant, not corrected" }
+                        ),
+                        None => String::new(),
+                    }
+                )
+            });
+        }
+    }
+}
+
+/// The measured gratings in spec order with their series, and the warnings their
+/// results call for.
+fn collect_results(
+    first: (GratingResult, Vec<f64>, f64, f64),
+    rest: Vec<Measured>,
+    strain: &[&crate::spec::ModuleGrating],
+    tw: &[f64],
+    fc: &[f64],
+    warnings: &mut LogWarnings,
+) -> Result<(Vec<GratingResult>, Series)> {
+    let mut series = Series {
+        time_s: tw.to_vec(),
+        force_n: fc.to_vec(),
+        ..Default::default()
+    };
+    let mut results = Vec::new();
+    for r in std::iter::once(Ok(first)).chain(rest) {
+        let (res, d, slope, intercept) = r?;
+        warn_q_undefined(&res, warnings);
+        series.shift_pm.push((res.grating.clone(), d));
+        series.fit.push((res.grating.clone(), slope, intercept));
+        results.push(res);
+    }
+    // Report gratings in spec order.
+    results.sort_by_key(|r| strain.iter().position(|g| g.name == r.grating));
+    series
+        .shift_pm
+        .sort_by_key(|(n, _)| strain.iter().position(|g| &g.name == n));
+    series
+        .fit
+        .sort_by_key(|(n, _, _)| strain.iter().position(|g| &g.name == n));
+    for r in &results {
+        if r.rows_ambiguous > 0 {
+            warnings.add_n("ambiguous_peaks", r.rows_ambiguous, || format!("grating `{}`: rows with more than one peak in its window (the nearest to the previous value was taken)", r.grating));
+        }
+    }
+    Ok((results, series))
+}

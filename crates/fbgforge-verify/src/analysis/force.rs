@@ -1,0 +1,267 @@
+//! The force log as the analysis uses it: placed on the wavelength log's clock by the
+//! prior offset (with the check that the two logs can overlap), compression positive,
+//! cut into loading pulses, checked for saturation and gaps (the pulses they touch
+//! left out), and resampled at the wavelength log's rows.
+
+use super::clocks::AlignedClocks;
+use super::options::AnalysisOptions;
+use super::results::ForceTrust;
+use crate::logs::{Clock, ForceLog, LogWarnings, PeakLog};
+use crate::segment::{percentile, Segmentation};
+use crate::{fit, force_check};
+use anyhow::{bail, Result};
+
+/// The force log's times on the wavelength log's clock, before the residual offset.
+pub(super) struct ForceFrame {
+    /// Prior for the clock offset: 0 for two wall clocks, aligned starts otherwise, s.
+    pub(super) prior: f64,
+    /// How far the estimated offset may lie from the prior, s.
+    pub(super) range: f64,
+    /// Force times in the wavelength frame, before the residual offset, s.
+    pub(super) u: Vec<f64>,
+    /// Force, N (compression positive).
+    pub(super) fval: Vec<f64>,
+    /// The span searched for the offset, s.
+    pub(super) a: f64,
+    pub(super) b: f64,
+}
+
+/// Place the force log on the wavelength log's clock by the prior offset, check that
+/// the two logs can overlap, and turn the force compression-positive.
+pub(super) fn force_frame(
+    log: &PeakLog,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+    tw: &[f64],
+    warnings: &mut LogWarnings,
+) -> Result<ForceFrame> {
+    let w0 = log.time_s[0];
+    let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute {
+        0.0
+    } else {
+        force.time_s[0] - w0
+    };
+    let range = opts.max_clock_offset_s.max(0.0);
+    let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
+    let (wa, wb) = (tw[0], tw[tw.len() - 1]);
+    let (fa, fb) = (u[0], u[u.len() - 1]);
+    // Where the force log lies on the wavelength clock: placed by the given offset, or
+    // by the prior (the estimate may then move it by up to the range).
+    let moved = opts.clock_offset_s.map_or(0.0, |o| o - prior);
+    let (ga, gb) = (fa - moved, fb - moved);
+    let gap = (ga - wb).max(wa - gb);
+    let allowed = if opts.clock_offset_s.is_none() {
+        range
+    } else {
+        0.0
+    };
+    if gap.is_nan() || gap > allowed {
+        bail!(
+            "the force log {} (covering {:.3} s to {:.3} s on the wavelength log's clock{}) does not overlap the wavelength log {} (0 s to {:.3} s){}",
+            force.source.display(),
+            ga,
+            gb,
+            match opts.clock_offset_s {
+                Some(o) => format!(", placed by the given clock offset {o} s (--clock-offset-s or --force-start)"),
+                None if prior != 0.0 => ", starts aligned".to_string(),
+                None => String::new(),
+            },
+            log.source.display(),
+            wb,
+            if opts.clock_offset_s.is_none() { format!(", even allowing ±{range} s of clock offset (--max-offset-s)") } else { String::new() }
+        );
+    }
+    Ok(ForceFrame {
+        prior,
+        range,
+        u,
+        fval: compression_positive(force, warnings),
+        a: wa.max(fa - range).max(wa),
+        b: wb.min(fb + range),
+    })
+}
+
+/// The force with compression positive: some stands log compression as negative
+/// force; if the force's excursions go down rather than up, flip it (and say so) so
+/// that pulses are peaks.
+fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64> {
+    // Some stands log compression as negative force: if the force's excursions go
+    // down rather than up, flip it (and say so) so that pulses are peaks.
+    let med = percentile(&force.force_n, 0.5);
+    let flip = (percentile(&force.force_n, 0.001) - med).abs()
+        > (percentile(&force.force_n, 0.999) - med).abs();
+    if flip {
+        warnings.add("force_sign_flipped", || {
+            format!(
+                "{}: the force pulses go negative (compression logged as negative); the force was negated",
+                force.source.display()
+            )
+        });
+        force.force_n.iter().map(|f| -f).collect()
+    } else {
+        force.force_n.clone()
+    }
+}
+
+/// Cut the force log into its loading pulses and segments (force clock, before any
+/// alignment).
+pub(super) fn loading_pulses(force: &ForceLog, fval: &[f64]) -> Result<Segmentation> {
+    let seg = crate::segment::segment(&force.time_s, fval);
+    if seg.pulses.is_empty() {
+        bail!(
+            "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
+            force.source.display()
+        );
+    }
+    Ok(seg)
+}
+
+/// The force log's trusted part: saturation and gaps found ([`force_check`]), the
+/// force-sample spans left out of the fits, and what the report says of them.
+pub(super) struct TrustedForce {
+    /// Force-sample index spans (inclusive) left out of the fits.
+    pub(super) spans: Vec<(usize, usize)>,
+    /// Pulses left out (indices from 0).
+    pub(super) untrusted: Vec<usize>,
+    /// For the report.
+    pub(super) trust: ForceTrust,
+}
+
+/// Check the force log for saturation and gaps, warn, and decide what is left out: the
+/// untrusted pulses, or nothing (and the run not judged) when fewer than
+/// [`force_check::MIN_USABLE_PULSES`] trusted pulses would be left.
+pub(super) fn trusted_force(
+    force: &ForceLog,
+    fval: &[f64],
+    seg: &mut Segmentation,
+    warnings: &mut LogWarnings,
+) -> TrustedForce {
+    let t = &force.time_s;
+    let c = force_check::check(t, fval, seg);
+    let file = force.source.display();
+    let untrusted = c.untrusted_pulses();
+    let total = seg.pulses.len();
+    let usable = total - untrusted.len();
+    let enough = untrusted.is_empty() || usable >= force_check::MIN_USABLE_PULSES;
+    let left_out = if enough {
+        "they are left out of the fits"
+    } else {
+        "too few pulses are left without them, so K is not judged"
+    };
+    if let (Some(top), false) = (c.saturation_n, c.clipped.is_empty()) {
+        let longest = c.clipped.iter().map(|p| p.flat_s).fold(0.0, f64::max);
+        warnings.add_n("force_clipped", c.clipped.len(), || {
+            format!(
+                "{file}: the force channel saturates at {top:.4} N: {} of {total} pulses have flat tops at that repeated maximum (up to {longest:.2} s, the noise collapsed there), so their true peak force is unknown; {left_out}",
+                c.clipped.len()
+            )
+        });
+    }
+    for g in &c.gaps {
+        let (a, b) = (t[g.before], t[(g.before + 1).min(t.len() - 1)]);
+        match g.pulse {
+            Some(k) => warnings.add("force_gap_in_press", || {
+                format!(
+                    "{file}: the force log has no samples for {:.3} s ({a:.3} s to {b:.3} s of its clock) inside press {}: the press's shape there is unknown (interpolating it bends K); {left_out}",
+                    g.length_s,
+                    k + 1
+                )
+            }),
+            None => warnings.add("force_gap", || {
+                format!(
+                    "{file}: the force log has no samples for {:.3} s ({a:.3} s to {b:.3} s of its clock) at rest; the shift there is left out of the fits",
+                    g.length_s
+                )
+            }),
+        }
+    }
+    let spans = if enough {
+        c.excluded_spans(t, seg)
+    } else {
+        Vec::new()
+    };
+    if enough && !untrusted.is_empty() {
+        // The protocol is the class of the pulses that are measured.
+        seg.protocol = crate::segment::protocol_of(
+            &seg.pulse_protocols
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !untrusted.contains(k))
+                .map(|(_, p)| *p)
+                .collect::<Vec<_>>(),
+        );
+    }
+    let number = |v: &[usize]| v.iter().map(|k| k + 1).collect::<Vec<_>>();
+    let not_judged = (!enough).then(|| {
+        let mut why = Vec::new();
+        if let Some(top) = c.saturation_n {
+            why.push(format!(
+                "the force channel saturates at {top:.4} N in {} of the {total} pulses (flat tops at a repeated maximum)",
+                c.clipped.len()
+            ));
+        }
+        let gapped = c.gaps.iter().filter(|g| g.pulse.is_some()).count();
+        if gapped > 0 {
+            why.push(format!("{gapped} gaps in the force log fall inside presses"));
+        }
+        format!(
+            "{}: only {usable} of {total} pulses have a trusted force (at least {} are needed), so K cannot be judged; the K shown is fitted to the untrusted force (keep the peak force within the load cell's range, or log without gaps)",
+            why.join(" and "),
+            force_check::MIN_USABLE_PULSES
+        )
+    });
+    TrustedForce {
+        trust: ForceTrust {
+            saturation_n: c.saturation_n,
+            clipped_pulses: number(&c.clipped.iter().map(|p| p.pulse).collect::<Vec<_>>()),
+            gapped_pulses: number(&c.gaps.iter().filter_map(|g| g.pulse).collect::<Vec<_>>()),
+            gaps_at_rest: c.gaps.iter().filter(|g| g.pulse.is_none()).count(),
+            excluded_pulses: if enough {
+                number(&untrusted)
+            } else {
+                Vec::new()
+            },
+            usable_pulses: if enough { usable } else { total },
+            not_judged,
+        },
+        untrusted: if enough { untrusted } else { Vec::new() },
+        spans,
+    }
+}
+
+/// Check that the wavelength log covers at least one pulse (else K would be fitted to
+/// rest alone).
+pub(super) fn check_coverage(
+    (log, force): (&PeakLog, &ForceLog),
+    seg: &Segmentation,
+    fu: &[f64],
+    (wa, wb): (f64, f64),
+) -> Result<()> {
+    let pulses = &seg.pulses;
+    if !pulses.iter().any(|p| fu[p.start] < wb && fu[p.end] > wa) {
+        bail!(
+            "the wavelength log {} (0 s to {wb:.3} s) covers none of the {} loading pulses of the force log {} ({:.3} s to {:.3} s on the wavelength log's clock): nothing to fit",
+            log.source.display(),
+            pulses.len(),
+            force.source.display(),
+            fu[pulses[0].start],
+            fu[pulses[pulses.len() - 1].end]
+        );
+    }
+    Ok(())
+}
+
+/// The force at the wavelength log's rows (the common time base), NaN outside the
+/// force log.
+pub(super) fn force_at_rows(tw: &[f64], clocks: &AlignedClocks, fval: &[f64]) -> Vec<f64> {
+    let mut h = 0;
+    tw.iter()
+        .map(|&t| {
+            if t < clocks.fa || t > clocks.fb {
+                f64::NAN
+            } else {
+                fit::interp(&clocks.fu, fval, t, &mut h)
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,158 @@
+//! One grating measured: what every grating shares ([`GratingContext`]), the lag
+//! model, the straight line, the segment lags, Q and the plateau K put together into a
+//! [`GratingResult`]; the primary grating first, the rest in parallel.
+
+use super::lags::lag_figures;
+use super::linearity::hysteresis_and_linearity;
+use super::quality::quality_q;
+use super::results::GratingResult;
+use super::sensitivity::{
+    chart_intercept, drift_free_shift, fit_lag_model, lag1_independence, plateau_sensitivity,
+};
+use crate::assign::GratingTrack;
+use crate::fit;
+use crate::segment::Segmentation;
+use anyhow::Result;
+use rayon::prelude::*;
+
+/// Measurement of one grating in a verification: what every grating shares.
+pub(super) struct GratingContext<'a> {
+    pub(super) module: &'a crate::spec::Module,
+    pub(super) strain: &'a [&'a crate::spec::ModuleGrating],
+    pub(super) tracks: &'a [GratingTrack],
+    pub(super) used: &'a [(usize, Vec<f64>)],
+    /// Wavelength log times, s from its first row.
+    pub(super) tw: &'a [f64],
+    /// Force log times, aligned to the wavelength clock, s.
+    pub(super) fu: &'a [f64],
+    /// Force, N (compression positive).
+    pub(super) fval: &'a [f64],
+    /// Force at the wavelength log's rows, N (NaN outside the force log).
+    pub(super) fc: &'a [f64],
+    /// Time span both logs cover, s.
+    pub(super) span: (f64, f64),
+    /// The force log's protocol and segments (force-sample indices).
+    pub(super) seg: &'a Segmentation,
+    pub(super) resolution_pm: f64,
+    /// Window half-width, nm.
+    pub(super) hw: f64,
+    /// Timing uncertainty carried into absolute lags (0 when the lags are relative), s.
+    pub(super) timing_s: f64,
+    /// True when the clock offset was estimated (lags relative to it).
+    pub(super) relative: bool,
+    /// Stretches of the force clock (`fu`) whose shift is left out of every fit, s.
+    pub(super) excluded_s: &'a [(f64, f64)],
+    /// Rows of the wavelength log outside those stretches.
+    pub(super) row_ok: &'a [bool],
+    /// Pulses left out (untrusted force), indices from 0.
+    pub(super) untrusted: &'a [usize],
+}
+
+/// A measured grating, its drift-free shift series and its straight-line fit.
+pub(super) type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
+
+/// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
+/// seeds the delay, τ and r from an already measured grating.
+fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>) -> Measured {
+    let (gi, s) = &ctx.used[k];
+    let g = ctx.strain[*gi];
+    let t = &ctx.tracks[*gi];
+    let fc = ctx.fc;
+    let (lm, residual) = fit_lag_model(ctx, s, &g.name, prev)?;
+    let delay = -lm.offset_s;
+    let d = drift_free_shift(ctx, s, &lm);
+    let line = fit::fit_line(fc, &d).ok_or_else(|| {
+        anyhow::anyhow!(
+            "grating `{}`: the force does not vary; no line can be fitted",
+            g.name
+        )
+    })?;
+    let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
+    // The response model's own fit: how much of the shift its response explains
+    // beyond baseline and drift, and how independent its residuals are.
+    let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
+    let response_r2 = fit::response_r_squared(ctx.tw, s, &residual, t_mid);
+    let (rho, n, n_eff) = lag1_independence(&residual);
+    let k = lm.k_pm_per_n;
+    let lags = lag_figures(ctx, &d, &lm, delay);
+    let se_k_eff = lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt();
+    let q = quality_q(k, se_k_eff, line.r_squared, &lags, ctx.relative);
+    let plateau = plateau_sensitivity(ctx, &d);
+    let summary = lags.summary;
+    let result = GratingResult {
+        grating: g.name.clone(),
+        core: g.core.clone(),
+        core_material: g
+            .core
+            .as_ref()
+            .and_then(|c| ctx.module.cores.iter().find(|x| &x.name == c))
+            .map(|c| c.material.clone()),
+        nominal_nm: g.bragg_wavelength_nm,
+        window_half_width_nm: ctx.hw,
+        rows_with_peak: t.rows_present,
+        rows_ambiguous: t.rows_ambiguous,
+        sensitivity_pm_per_n: k,
+        sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
+        residual_autocorrelation: rho,
+        effective_samples: n_eff,
+        sensitivity_std_error_effective_pm_per_n: se_k_eff,
+        sensitivity_t_statistic: k.abs() / se_k_eff,
+        peak_force_n: lags
+            .pulses
+            .iter()
+            .map(|p| p.peak_force_n)
+            .fold(f64::NAN, f64::max),
+        linear_slope_pm_per_n: line.slope,
+        r_squared: line.r_squared,
+        lag_model_r_squared: lm.r_squared,
+        response_r_squared: response_r2,
+        hysteresis_percent_span: hyst,
+        nonlinearity_percent_span: nonlin,
+        resolution_n: ctx.resolution_pm / k.abs(),
+        resolution_g: ctx.resolution_pm / k.abs() / 9.80665e-3,
+        max_lag_s: lags.max_lag_s,
+        max_lag_uncertainty_s: lags.max_lag_uncertainty_s,
+        max_lag_method: summary.map_or("none", |s| s.max_lag_method).into(),
+        mean_lag_s: lags.mean_lag_s,
+        median_lag_s: summary.map_or(f64::NAN, |s| s.median_lag_s),
+        lag_spread_s: summary.map_or(f64::NAN, |s| s.lag_spread_s),
+        quality_q_pm_per_n_s: q.value,
+        quality_q_uncertainty_pm_per_n_s: q.uncertainty,
+        quality_q_bound: q.bound,
+        quality_q_note: q.note,
+        transport_delay_s: delay,
+        plateau_sensitivity_pm_per_n: plateau.map(|p| p.0),
+        plateau_sensitivity_std_error_pm_per_n: plateau.map(|p| p.1),
+        plateau_count: plateau.map_or(0, |p| p.2),
+        sls_time_constant_s: lm.tau_s,
+        sls_instant_fraction: lm.instant_fraction,
+        drift_pm_per_s: lm.drift_pm_per_s,
+        residual_rms_pm: lm.rms_pm,
+        pulses: lags.pulses,
+    };
+    // The chart draws the table's K (the lag model's static sensitivity).
+    let intercept = chart_intercept(fc, &d, k, line.intercept);
+    Ok((result, d, k, intercept))
+}
+
+/// Measure every grating: the primary first (its τ and r seed the others), the rest
+/// in parallel.
+#[allow(clippy::type_complexity)]
+pub(super) fn measure_all(
+    ctx: &GratingContext,
+    primary: usize,
+) -> Result<((GratingResult, Vec<f64>, f64, f64), Vec<Measured>)> {
+    let first = measure_grating(ctx, primary, None)?;
+    let seed = Some((
+        first.0.transport_delay_s,
+        first.0.sls_time_constant_s,
+        first.0.sls_instant_fraction,
+    ));
+    let rest: Vec<Measured> = (0..ctx.used.len())
+        .filter(|&k| k != primary)
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|&k| measure_grating(ctx, k, seed))
+        .collect();
+    Ok((first, rest))
+}
