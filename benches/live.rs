@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughpu
 use fbgforge::live::hyperion::StreamDecoder;
 use fbgforge::live::interpret::{InterpretOptions, Interpreter};
 use fbgforge::live::source::Frame;
-use fbgforge::live::synth::{Generator, SynthNoise, SynthRequest};
+use fbgforge::synth::stream::{Generator, SynthNoise, SynthRequest};
 use std::path::Path;
 use std::time::Instant;
 
@@ -23,7 +23,7 @@ fn frames(design: &str, core: Option<&str>, extra: usize, n: u64) -> (Interprete
     req.extra_peaks = extra;
     req.noise = SynthNoise::Paper;
     req.core = core.map(str::to_string);
-    let script = fbgforge::live::synth::default_script(&d).unwrap();
+    let script = fbgforge::synth::stream::default_script(&d).unwrap();
     let mut g = Generator::with_script(&d, script, &req).unwrap();
     // Skip the rest period of the demo script: loaded frames.
     let bytes = (600..600 + n).map(|k| g.encoded(k, 0.0).0).collect();

@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use fbgforge::logs::{self, LogFormat, ReadOptions};
-use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
 use std::path::Path;
 
 fn enlight_parse(c: &mut Criterion) {

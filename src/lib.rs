@@ -14,7 +14,9 @@
 //! 3. parts ([`fbgforge_geometry`]): [`geometry`] (`build_design`);
 //! 4. models ([`fbgforge_model`]): [`solvers`], [`model`], [`fem`], [`prediction`];
 //! 5. use cases: [`mod@array`] ([`fbgforge_array`]), [`verify`] ([`fbgforge_verify`]),
-//!    [`optimize`] ([`fbgforge_optimize`]), [`live`] ([`fbgforge_live`]).
+//!    [`optimize`] ([`fbgforge_optimize`]), [`live`] ([`fbgforge_live`]);
+//! 6. known-truth data ([`fbgforge_synth`]): [`synth`] (synthetic logs, a simulated
+//!    interrogator).
 
 pub use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
 pub use fbgforge_model::{fem, model, prediction, solvers};
@@ -25,6 +27,7 @@ pub use fbgforge_geometry as geometry;
 pub use fbgforge_live as live;
 pub use fbgforge_optimize as optimize;
 pub use fbgforge_plot as plot;
+pub use fbgforge_synth as synth;
 pub use fbgforge_verify as verify;
 
 pub use fbgforge_array;
@@ -34,4 +37,5 @@ pub use fbgforge_live;
 pub use fbgforge_model;
 pub use fbgforge_optimize;
 pub use fbgforge_plot;
+pub use fbgforge_synth;
 pub use fbgforge_verify;

@@ -765,8 +765,8 @@ fn synth_log<'py>(
     settings: &Bound<'py, PyDict>,
     style: &Bound<'py, PyDict>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use fbgforge::verify::files::{write_synth_log, SynthLogRequest, SynthRun};
-    use fbgforge::verify::synth::{shaped_train, PulseShape, SynthConfig};
+    use fbgforge::synth::files::{write_synth_log, SynthLogRequest, SynthRun};
+    use fbgforge::synth::module_log::{shaped_train, PulseShape, SynthConfig};
     let get = |k: &str| -> PyResult<Bound<'py, PyAny>> {
         settings
             .get_item(k)?
@@ -880,7 +880,7 @@ fn calibrate_array<'py>(
     let cal = py
         .detach(|| -> anyhow::Result<_> {
             let cal =
-                fbgforge::verify::files::calibrate_array(d, &log, &schedule, &read, window_nm)?;
+                fbgforge::array::calibrate::calibrate_array(d, &log, &schedule, &read, window_nm)?;
             if let Some(out) = &out {
                 fbgforge::array::io::write_matrix_with_comments(
                     out,

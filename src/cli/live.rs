@@ -1,6 +1,6 @@
 //! `fbgforge live` and `fbgforge synth-stream`: a running interrogator stream read
 //! frame by frame (the work is `fbgforge::live::run`), and a simulated Hyperion on
-//! loopback to test it against (`fbgforge::live::synth::serve`).
+//! loopback to test it against (`fbgforge::synth::stream::serve`).
 
 use super::predict::{CaseArg, FidelityArg};
 use super::verify::DateOrderArg;
@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions};
 use fbgforge::live::source::SourceSpec;
-use fbgforge::live::synth::{self, FrameClock, SynthNoise, SynthRequest};
+use fbgforge::synth::stream::{self as synth, FrameClock, SynthNoise, SynthRequest};
 use fbgforge::live::view::{JsonlSink, LiveSink, TerminalSink};
 use fbgforge::live::{self, LiveRequest};
 use fbgforge::logs::{num::DateOrder, LogFormat, ReadOptions};

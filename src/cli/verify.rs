@@ -7,7 +7,8 @@ use fbgforge::model::LoadCase;
 use fbgforge::verify::analysis::AnalysisOptions;
 use fbgforge::verify::report;
 use fbgforge::verify::verdict::{self, Status};
-use fbgforge::verify::{files, synth};
+use fbgforge::array::calibrate;
+use fbgforge::synth::{files, module_log as synth};
 use fbgforge::verify::{VerifyOutcome, VerifyRequest};
 use std::path::{Path, PathBuf};
 
@@ -486,7 +487,7 @@ pub struct CalibrateArrayArgs {
 /// Run `fbgforge calibrate-array`.
 pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
-    let cal = files::calibrate_array(
+    let cal = calibrate::calibrate_array(
         &design,
         &a.log,
         &a.schedule,

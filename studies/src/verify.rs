@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::progress::Progress;
-use fbgforge::verify::synth::{self, LogStyle};
+use fbgforge::synth::module_log::{self as synth, LogStyle};
 use fbgforge::verify::{report, run as verify_run, VerifyRequest};
 use std::path::PathBuf;
 use std::time::Instant;

@@ -10,7 +10,7 @@
 //! growing log is read up to a frame count rather than to an idle timeout.
 
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
-use fbgforge::live::synth::{parse_script, LoadScript};
+use fbgforge::synth::stream::{parse_script, LoadScript};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};

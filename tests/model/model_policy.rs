@@ -334,7 +334,7 @@ fn sensitivity_optimum(d: &Design) -> (f64, f64, f64, Vec<f64>) {
 
 #[test]
 fn a_measured_log_calibrates_the_contact_so_predict_reproduces_it_and_optimize_follows() {
-    use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+    use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
     use fbgforge::verify::verdict::Status;
     let dir = tempfile::tempdir().unwrap();
     let d = one_grating_design();

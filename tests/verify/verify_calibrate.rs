@@ -3,8 +3,8 @@
 
 use crate::common;
 use fbgforge::logs::{self, LogFormat, ReadOptions};
-use fbgforge::verify::calibrate::{self, Loading};
-use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+use fbgforge::array::calibrate::{self, Loading};
+use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
 use std::path::Path;
 
 fn design() -> fbgforge::spec::Design {
@@ -40,7 +40,7 @@ fn calibration_recovers_the_power_law_matrix_in_every_format() {
         .fold(0.0f64, |a, &b| a.max(b));
     assert!(max > 0.1 && max < 0.5, "{max}");
     let sched = schedule();
-    let log = calibrate::synth_calibration_log(&d, &truth, &sched, 10.0, 0.2, 0.01, 3).unwrap();
+    let log = fbgforge::synth::array_log::synth_calibration_log(&d, &truth, &sched, 10.0, 0.2, 0.01, 3).unwrap();
     let cfg = SynthConfig {
         sample_rate_hz: 10.0,
         ..Default::default()
@@ -128,7 +128,7 @@ fn schedule_errors_name_the_line_and_the_cells() {
     let d = design();
     let truth = calibrate::power_law_matrix(&d).unwrap();
     let sched: Vec<Loading> = schedule().into_iter().filter(|l| l.cell != 5).collect();
-    let log = calibrate::synth_calibration_log(&d, &truth, &sched, 5.0, 0.1, 0.0, 1).unwrap();
+    let log = fbgforge::synth::array_log::synth_calibration_log(&d, &truth, &sched, 5.0, 0.1, 0.0, 1).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cal.csv");
     synth::write_log(

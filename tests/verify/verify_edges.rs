@@ -4,7 +4,7 @@
 use crate::common;
 use fbgforge::logs::LogFormat;
 use fbgforge::model::LoadCase;
-use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
 use fbgforge::verify::verdict::{GratingVerdict, Status};
 use fbgforge::verify::{VerifyOutcome, VerifyRequest};
 use std::path::Path;

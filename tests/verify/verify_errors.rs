@@ -5,7 +5,7 @@ use crate::common;
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions};
-use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
 use fbgforge::verify::verdict::{verdicts, Status};
 use std::path::Path;
 
@@ -505,19 +505,19 @@ fn a_corrupted_force_time_is_refused_naming_its_line_and_a_nan_offset_is_an_erro
     let d = common::shipped_path("clip-on-34mm.toml");
     let dir = tempfile::tempdir().unwrap();
     let design = common::shipped("clip-on-34mm.toml");
-    let cfg = fbgforge::verify::synth::SynthConfig::default();
-    let (log, force, _) = fbgforge::verify::synth::generate(&design, &cfg).unwrap();
+    let cfg = fbgforge::synth::module_log::SynthConfig::default();
+    let (log, force, _) = fbgforge::synth::module_log::generate(&design, &cfg).unwrap();
     let lp = dir.path().join("log.txt");
     let fp = dir.path().join("force.csv");
-    fbgforge::verify::synth::write_log(
+    fbgforge::synth::module_log::write_log(
         &lp,
         fbgforge::logs::LogFormat::EnlightPeaks,
         &log,
         &cfg,
-        &fbgforge::verify::synth::LogStyle::default(),
+        &fbgforge::synth::module_log::LogStyle::default(),
     )
     .unwrap();
-    fbgforge::verify::synth::write_force_csv(&fp, &force).unwrap();
+    fbgforge::synth::module_log::write_force_csv(&fp, &force).unwrap();
     let text = std::fs::read_to_string(&fp).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let rest = lines[5].split_once(',').unwrap().1.to_string();
@@ -545,7 +545,7 @@ fn a_corrupted_force_time_is_refused_naming_its_line_and_a_nan_offset_is_an_erro
 
 #[test]
 fn a_wavelength_log_that_ends_before_the_first_pulse_is_an_error_naming_both_ranges() {
-    use fbgforge::verify::synth::{self, LogStyle, SynthConfig};
+    use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
     let d = common::shipped_path("clip-on-34mm.toml");
     let design = common::shipped("clip-on-34mm.toml");
     let dir = tempfile::tempdir().unwrap();

@@ -6,7 +6,7 @@
 use crate::common;
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
-use fbgforge::verify::synth::{self, LogStyle, PulseShape, SynthConfig, SynthTruth};
+use fbgforge::synth::module_log::{self as synth, LogStyle, PulseShape, SynthConfig, SynthTruth};
 
 fn design() -> fbgforge::spec::Design {
     common::shipped("clip-on-34mm.toml")

@@ -3,7 +3,7 @@
 use crate::common;
 use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, BoundKind, Measurement};
-use fbgforge::verify::synth::{self, LogStyle, SynthConfig, SynthTruth};
+use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig, SynthTruth};
 
 fn design() -> fbgforge::spec::Design {
     common::shipped("clip-on-34mm.toml")

@@ -44,6 +44,7 @@ use fbgforge_plot as plot;
 #[allow(unused_imports)]
 use fbgforge_plot::html;
 
+pub mod calibrate;
 pub mod choice;
 pub mod faults;
 pub mod io;

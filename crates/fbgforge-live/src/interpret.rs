@@ -19,7 +19,7 @@ use crate::array::trust::FrameFlags;
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
-use crate::verify::assign::{default_half_width_nm, GratingWindow, PeakTracker};
+use crate::logs::assign::{default_half_width_nm, GratingWindow, PeakTracker};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::collections::BTreeMap;

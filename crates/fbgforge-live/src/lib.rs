@@ -9,7 +9,6 @@
 //!   temperature-compensated force per grating (predicted or calibrated K);
 //! * [`stats`]: frames, drops, bad frames by kind, reconnections, latency;
 //! * [`view`]: the terminal view (text heat map) and the JSON-lines stream;
-//! * [`synth`]: a simulated Hyperion on loopback, for tests and demos.
 //!
 //! The use case is [`run`]: `fbgforge live` and the tests call it. A bad frame is
 //! counted and named, never fatal; a dropped connection is reopened; frames that
@@ -24,14 +23,11 @@ use fbgforge_core::{design, family, grating, logs, output, profile, progress, sp
 use fbgforge_model::{fem, model, prediction, solvers};
 #[allow(unused_imports)]
 use fbgforge_array as array;
-#[allow(unused_imports)]
-use fbgforge_verify as verify;
 
 pub mod hyperion;
 pub mod interpret;
 pub mod source;
 pub mod stats;
-pub mod synth;
 pub mod view;
 
 use anyhow::Result;

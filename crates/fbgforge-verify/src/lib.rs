@@ -10,14 +10,9 @@ use fbgforge_model::{fem, model, prediction, solvers};
 use fbgforge_plot as plot;
 #[allow(unused_imports)]
 use fbgforge_plot::html;
-#[allow(unused_imports)]
-use fbgforge_array as array;
 
 pub mod analysis;
-pub mod assign;
-pub mod calibrate;
 pub mod charts;
-pub mod files;
 pub mod fit;
 pub mod force_check;
 pub mod lag;
@@ -26,6 +21,5 @@ pub mod report_html;
 pub mod run;
 pub mod segment;
 pub mod skew;
-pub mod synth;
 pub mod verdict;
 pub use run::{run, VerifyOutcome, VerifyRequest};

@@ -3,7 +3,7 @@
 //! Every wavelength log, whatever its format, becomes a [`PeakLog`]: one timestamp per
 //! row and a ragged list of peak wavelengths (nm) per row, each tagged with the
 //! channel (or column) it came from. Which peak belongs to which grating is decided
-//! later ([`crate::verify::assign`]) from the design's nominal wavelengths, so a
+//! later ([`crate::logs::assign`]) from the design's nominal wavelengths, so a
 //! reader never has to guess grating names.
 //!
 //! Formats (see `docs/verify.md` for examples of each), one file each behind the
@@ -26,6 +26,7 @@
 //! half of the table is unreadable, or with no table at all, is an error that names the
 //! file and the first bad line. Nothing here panics on user input.
 
+pub mod assign;
 pub mod csv_table;
 mod detect;
 mod enlight;

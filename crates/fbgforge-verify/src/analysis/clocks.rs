@@ -5,7 +5,8 @@
 use super::fit_data::FitData;
 use super::force::ForceFrame;
 use crate::logs::{median_period, ForceLog, LogWarnings, PeakLog};
-use crate::{assign, fit};
+use crate::fit;
+use crate::logs::assign;
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 

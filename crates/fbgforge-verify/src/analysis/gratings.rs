@@ -6,7 +6,7 @@
 use super::options::AnalysisOptions;
 use crate::logs::{LogWarnings, PeakLog};
 use crate::spec::{Design, GratingRole};
-use crate::assign::{self, GratingTrack, GratingWindow};
+use crate::logs::assign::{self, GratingTrack, GratingWindow};
 use crate::segment::percentile;
 use anyhow::{bail, Result};
 

@@ -9,7 +9,7 @@ use super::results::GratingResult;
 use super::sensitivity::{
     chart_intercept, drift_free_shift, fit_lag_model, lag1_independence, plateau_sensitivity,
 };
-use crate::assign::GratingTrack;
+use crate::logs::assign::GratingTrack;
 use crate::fit;
 use crate::segment::Segmentation;
 use anyhow::Result;

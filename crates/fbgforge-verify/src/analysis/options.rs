@@ -6,7 +6,7 @@
 pub struct AnalysisOptions {
     /// Analyse only the strain gratings of this core (all present ones otherwise).
     pub core: Option<String>,
-    /// Half-width of the wavelength windows, nm (default: see [`assign`](crate::assign)).
+    /// Half-width of the wavelength windows, nm (default: see [`assign`](crate::logs::assign)).
     pub window_half_width_nm: Option<f64>,
     /// A known clock offset (force clock − wavelength clock), s; estimated if None.
     pub clock_offset_s: Option<f64>,

@@ -1,5 +1,5 @@
 //! A simulated Hyperion interrogator on loopback: a design and a load script in, a
-//! peak stream on `127.0.0.1` out, in the instrument's framing ([`super::hyperion`]),
+//! peak stream on `127.0.0.1` out, in the instrument's framing ([`crate::live::hyperion`]),
 //! so the live mode can be tested end to end without hardware.
 //!
 //! Frame k is the sensor's state at t = k / rate on the script's clock (the script
@@ -17,8 +17,8 @@
 //! which counts only while a client reads, so that what a client receives does not
 //! depend on when it connected or on the machine's load (the end-to-end tests' clock).
 
-use super::hyperion::{encode_peaks, PeaksFrame};
-use super::interpret::{InterpretOptions, Interpreter};
+use crate::live::hyperion::{encode_peaks, PeaksFrame};
+use crate::live::interpret::{InterpretOptions, Interpreter};
 use crate::array::kernel::matrix_from_design;
 use crate::array::protocol::NoiseModel;
 use crate::logs::csv_table;
@@ -282,7 +282,7 @@ impl SynthRequest {
         SynthRequest {
             design,
             script: None,
-            port: super::hyperion::PEAK_STREAM_PORT,
+            port: crate::live::hyperion::PEAK_STREAM_PORT,
             rate_hz: 1000.0,
             duration_s: 10.0,
             noise: SynthNoise::Paper,
@@ -788,7 +788,7 @@ pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hyperion::StreamDecoder;
+    use crate::live::hyperion::StreamDecoder;
 
     fn array() -> Design {
         crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml")).unwrap()

@@ -13,7 +13,7 @@ pub use crate::logs::LogStyle;
 use crate::logs::{self, Clock, LogFormat, LogTable};
 use crate::output::write_atomic_with;
 use crate::spec::{Design, GratingRole};
-use crate::{fit, lag, segment};
+use crate::verify::{fit, lag, segment};
 use anyhow::{bail, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -247,7 +247,7 @@ pub struct SynthGrating {
     pub nominal_nm: f64,
     /// True static K, pm/N (0 for the reference).
     pub sensitivity_pm_per_n: f64,
-    /// True lag per segment (see [`crate::lag`]), s.
+    /// True lag per segment (see [`crate::verify::lag`]), s.
     pub lags_s: Vec<f64>,
     /// True Δt_max (the largest segment lag), s.
     pub max_lag_s: f64,

@@ -3,13 +3,14 @@
 //! set whose answers are known ([`write_synth_log`]) and measure an array's sensing
 //! matrix from a logged loading run ([`calibrate_array`]).
 
-use super::{calibrate, synth};
+use crate::array::calibrate;
+use crate::{array_log, module_log as synth};
 use crate::array::SensingMatrix;
-use crate::logs::{self, LogFormat, LogWarnings, ReadOptions};
+use crate::logs::{self, LogFormat};
 use crate::spec::Design;
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What a synthetic log set is made of.
 #[derive(Debug, Clone)]
@@ -81,7 +82,7 @@ pub fn write_synth_log(design: &Design, req: &SynthLogRequest) -> Result<SynthLo
                 .map_or(0, |x| (x.cells_x * x.cells_y) as usize);
             let sched = calibrate::read_schedule(schedule, n_cells)?;
             let matrix = calibrate::power_law_matrix(design)?;
-            let log = calibrate::synth_calibration_log(
+            let log = array_log::synth_calibration_log(
                 design,
                 &matrix,
                 &sched,
@@ -130,35 +131,3 @@ pub fn write_synth_log(design: &Design, req: &SynthLogRequest) -> Result<SynthLo
     }
 }
 
-/// A sensing matrix measured from a calibration run, with what reading its log found.
-#[derive(Debug, Clone, Serialize)]
-pub struct ArrayCalibration {
-    /// The measured matrix, pm/g.
-    pub matrix: SensingMatrix,
-    /// Counted, non-fatal problems of the wavelength log.
-    pub warnings: LogWarnings,
-}
-
-/// Measure the sensing matrix of `design`'s array from a wavelength log of a run
-/// that loaded the cells as `schedule` says; `window_nm` is the half-width of each
-/// grating's wavelength window (the verifier's rule when `None`).
-pub fn calibrate_array(
-    design: &Design,
-    log: &Path,
-    schedule: &Path,
-    read: &ReadOptions,
-    window_nm: Option<f64>,
-) -> Result<ArrayCalibration> {
-    let n_cells = design
-        .array
-        .as_ref()
-        .map(|x| (x.cells_x * x.cells_y) as usize)
-        .with_context(|| format!("design `{}` has no [array] to calibrate", design.name))?;
-    let sched = calibrate::read_schedule(schedule, n_cells)?;
-    let log = logs::read_peak_log(log, read)?;
-    let matrix = calibrate::calibrate(design, &log, &sched, window_nm)?;
-    Ok(ArrayCalibration {
-        matrix,
-        warnings: log.warnings,
-    })
-}

@@ -18,13 +18,15 @@
 //! Σ shift·load / Σ load². Output: `grating,A,B,…` with one row per grating in pm/g,
 //! the format `fbgforge reconstruct` reads.
 
-use crate::array::{kernel, SensingMatrix};
-use crate::logs::{csv_table, num, PeakLog};
+use crate::{kernel, SensingMatrix};
+use crate::logs::{csv_table, num, LogWarnings, PeakLog, ReadOptions};
+use crate::logs;
 use crate::profile::{cell_label, ArrayLayout};
 use crate::spec::Design;
-use crate::assign::{self, GratingWindow};
+use crate::logs::assign::{self, GratingWindow};
 use anyhow::{bail, Context, Result};
 use nalgebra::DMatrix;
+use serde::Serialize;
 use std::path::Path;
 
 /// One loading in the schedule.
@@ -264,47 +266,36 @@ pub fn power_law_matrix(design: &Design) -> Result<SensingMatrix> {
     })
 }
 
-/// A synthetic calibration log: each grating at its nominal wavelength plus
-/// A·load for the cell loaded at that time, a drift, and white noise.
-pub fn synth_calibration_log(
+/// A sensing matrix measured from a calibration run, with what reading its log found.
+#[derive(Debug, Clone, Serialize)]
+pub struct ArrayCalibration {
+    /// The measured matrix, pm/g.
+    pub matrix: SensingMatrix,
+    /// Counted, non-fatal problems of the wavelength log.
+    pub warnings: LogWarnings,
+}
+
+/// Measure the sensing matrix of `design`'s array from a wavelength log of a run
+/// that loaded the cells as `schedule` says; `window_nm` is the half-width of each
+/// grating's wavelength window (the verifier's rule when `None`).
+pub fn calibrate_array(
     design: &Design,
-    matrix: &SensingMatrix,
-    schedule: &[Loading],
-    sample_rate_hz: f64,
-    noise_pm: f64,
-    drift_pm_per_s: f64,
-    seed: u64,
-) -> Result<crate::synth::SynthLog> {
-    use rand::SeedableRng;
-    use rand_distr::Distribution;
-    let Some(a) = &design.array else {
-        bail!("design `{}` has no [array]", design.name)
-    };
-    let end = schedule.iter().map(|l| l.end_s).fold(0.0, f64::max) + 10.0;
-    let n = (end * sample_rate_hz).ceil() as usize;
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let normal = rand_distr::Normal::new(0.0, 1.0).expect("unit normal");
-    let time_s: Vec<f64> = (0..n).map(|i| i as f64 / sample_rate_hz).collect();
-    let wavelength_nm = time_s
-        .iter()
-        .map(|&t| {
-            let load = schedule.iter().find(|l| t >= l.start_s && t < l.end_s);
-            a.gratings
-                .iter()
-                .enumerate()
-                .map(|(g, gr)| {
-                    let s =
-                        load.map_or(0.0, |l| matrix.sensitivity_pm_per_g[(g, l.cell)] * l.load_g);
-                    gr.bragg_wavelength_nm
-                        + (s + drift_pm_per_s * t + noise_pm * normal.sample(&mut rng)) * 1e-3
-                })
-                .collect()
-        })
-        .collect();
-    Ok(crate::synth::SynthLog {
-        time_s,
-        names: a.gratings.iter().map(|g| g.name.clone()).collect(),
-        wavelength_nm,
+    log: &Path,
+    schedule: &Path,
+    read: &ReadOptions,
+    window_nm: Option<f64>,
+) -> Result<ArrayCalibration> {
+    let n_cells = design
+        .array
+        .as_ref()
+        .map(|x| (x.cells_x * x.cells_y) as usize)
+        .with_context(|| format!("design `{}` has no [array] to calibrate", design.name))?;
+    let sched = read_schedule(schedule, n_cells)?;
+    let log = logs::read_peak_log(log, read)?;
+    let matrix = calibrate(design, &log, &sched, window_nm)?;
+    Ok(ArrayCalibration {
+        matrix,
+        warnings: log.warnings,
     })
 }
 
