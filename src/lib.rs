@@ -8,7 +8,7 @@
 //! a higher one is a compile error (`docs/architecture.md` draws the floors).
 //!
 //! 1. ground ([`fbgforge_core`]): [`grating`], [`spec`], [`profile`], [`design`],
-//!    [`family`], [`logs`], [`output`], [`progress`];
+//!    [`family`], [`fields`], [`logs`], [`output`], [`progress`];
 //! 2. drawing ([`fbgforge_plot`]): [`plot`] (SVG charts), [`html`] (self-contained
 //!    HTML documents);
 //! 3. parts ([`fbgforge_geometry`]): [`geometry`] (`build_design`);
@@ -16,9 +16,11 @@
 //! 5. use cases: [`mod@array`] ([`fbgforge_array`]), [`verify`] ([`fbgforge_verify`]),
 //!    [`optimize`] ([`fbgforge_optimize`]), [`live`] ([`fbgforge_live`]);
 //! 6. known-truth data ([`fbgforge_synth`]): [`synth`] (synthetic logs, a simulated
-//!    interrogator).
+//!    interrogator);
+//! 7. printers ([`fbgforge_report`]): [`report`] (terminal tables, JSON, CSV, SVG/HTML
+//!    reports: the implementations of each use case's sink).
 
-pub use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+pub use fbgforge_core::{design, family, fields, grating, logs, output, profile, progress, spec};
 pub use fbgforge_model::{fem, model, prediction, solvers};
 pub use fbgforge_plot::html;
 
@@ -27,6 +29,7 @@ pub use fbgforge_geometry as geometry;
 pub use fbgforge_live as live;
 pub use fbgforge_optimize as optimize;
 pub use fbgforge_plot as plot;
+pub use fbgforge_report as report;
 pub use fbgforge_synth as synth;
 pub use fbgforge_verify as verify;
 
@@ -37,5 +40,6 @@ pub use fbgforge_live;
 pub use fbgforge_model;
 pub use fbgforge_optimize;
 pub use fbgforge_plot;
+pub use fbgforge_report;
 pub use fbgforge_synth;
 pub use fbgforge_verify;

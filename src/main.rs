@@ -17,7 +17,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", cli::hiargs::in_flag_words(&format!("{e:#}")));
             ExitCode::FAILURE
         }
     }

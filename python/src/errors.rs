@@ -27,9 +27,31 @@ fn raise(py: Python<'_>, class: &str, message: String, extra: &[(&str, Option<St
     }
 }
 
-/// Rewrite the command line's `--flag-name` as the Python parameter `flag_name`
-/// (`renames` maps flags whose parameter is named otherwise, e.g. `from` → `start`).
+/// Request fields whose Python parameter is named otherwise than the field
+/// (`Type.field` → parameter); every other field is its own parameter name.
+pub const PARAMS: &[(&str, &str)] = &[];
+
+/// A library message in the Python package's words: every request field the library
+/// names (`VerifyRequest.force_start`, see `fbgforge::fields`) as its parameter
+/// (`force_start`, or its entry in [`PARAMS`]), then any command-line `--flag-name`
+/// left as the parameter `flag_name` (`renames` maps flags whose parameter is named
+/// otherwise, e.g. `from` → `start`).
 pub fn python_words(message: &str, renames: &[(&str, &str)]) -> String {
+    let names = fbgforge::fields::field_names(message);
+    let words: Vec<(String, String)> = names
+        .into_iter()
+        .map(|name| {
+            let param = PARAMS
+                .iter()
+                .find(|(f, _)| *f == name)
+                .map(|(_, p)| p.to_string())
+                .unwrap_or_else(|| name.rsplit('.').next().unwrap_or(&name).to_string());
+            (name, param)
+        })
+        .collect();
+    let pairs: Vec<(&str, &str)> = words.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+    let message = fbgforge::fields::in_words(message, &pairs);
+    let message = message.as_str();
     let mut out = String::with_capacity(message.len());
     let mut rest = message;
     while let Some(i) = rest.find("--") {

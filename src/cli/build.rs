@@ -10,6 +10,9 @@ use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[];
+
 /// Arguments of `fbgforge build`.
 #[derive(Debug, Args)]
 pub struct BuildArgs {

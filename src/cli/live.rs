@@ -20,6 +20,9 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[];
+
 /// Exit status of `fbgforge live` when the source was lost: reconnecting (or
 /// connecting) to the instrument was given up after `--give-up-s`, or the followed log
 /// could no longer be read. A supervisor restarts on it; 0 is a clean end.

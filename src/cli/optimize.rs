@@ -13,6 +13,9 @@ use fbgforge::prediction::Robustness;
 use fbgforge::solvers::SolverKind;
 use std::path::PathBuf;
 
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[];
+
 /// Arguments of `fbgforge optimize`.
 #[derive(Debug, Args)]
 pub struct OptimizeArgs {

@@ -15,6 +15,9 @@ use fbgforge::plot::{Chart, HeatMaps, HeatPanel, Mark, Series, Stroke};
 use fbgforge::prediction::{Fidelity, FidelityChoice, ModelledPrediction};
 use std::path::{Path, PathBuf};
 
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[];
+
 /// Arguments of `fbgforge predict`.
 #[derive(Debug, Args)]
 pub struct PredictArgs {

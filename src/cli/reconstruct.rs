@@ -6,6 +6,9 @@ use clap::Args;
 use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
 use std::path::PathBuf;
 
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[];
+
 /// Arguments of `fbgforge reconstruct`.
 #[derive(Debug, Args)]
 pub struct ReconstructArgs {

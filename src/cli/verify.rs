@@ -12,6 +12,9 @@ use fbgforge::synth::{files, module_log as synth};
 use fbgforge::verify::{VerifyOutcome, VerifyRequest};
 use std::path::{Path, PathBuf};
 
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[];
+
 /// Load case on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CaseArg {

@@ -2,7 +2,6 @@
 //! clear `error: …` with exit code 1 on bad input.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -13,7 +12,7 @@ fn fixture(name: &str) -> PathBuf {
 }
 
 fn fbgforge(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    crate::common::bin()
         .args(args)
         .current_dir(root())
         .output()

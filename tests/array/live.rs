@@ -14,14 +14,10 @@ use fbgforge::synth::stream::{parse_script, LoadScript};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Stdio};
 
 use crate::common;
-fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_fbgforge"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    c
-}
+use crate::common::bin;
 
 fn design(name: &str) -> PathBuf {
     common::shipped_path(name)

@@ -6,13 +6,13 @@
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use crate::common;
 
 fn live(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    crate::common::bin()
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .arg("live")
         .args(args)
@@ -44,7 +44,7 @@ fn a_lost_instrument_exits_with_its_own_status_a_clean_end_with_0() {
     let array = common::shipped_path("tactile-array-60x80.toml");
     let a = array.to_str().unwrap();
     // A stream that serves for a while, then is gone for good: read, then lost.
-    let mut server = Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    let mut server = crate::common::bin()
         .args(["synth-stream", a, "--port", "0", "--duration-s", "1"])
         .args(["--frame-clock", "client", "--json"])
         .stdout(Stdio::piped())
@@ -88,7 +88,7 @@ fn a_lost_instrument_exits_with_its_own_status_a_clean_end_with_0() {
         .unwrap()
         .contains("gave up connecting"));
     // Standard input read to its end: a clean end, status 0.
-    let mut c = Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    let mut c = crate::common::bin()
         .args(["live", a, "--from", "-", "--jsonl", "--no-tare"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -104,7 +104,7 @@ fn a_lost_instrument_exits_with_its_own_status_a_clean_end_with_0() {
     assert_eq!(o.status.code(), Some(0));
     assert_eq!(summary(&o)["source_lost"], false);
     // --help says so.
-    let help = Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    let help = crate::common::bin()
         .args(["live", "--help"])
         .output()
         .unwrap();

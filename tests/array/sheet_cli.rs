@@ -8,10 +8,9 @@ use fbgforge::array::kernel::{model_matrix, ArrayModelKind, DistanceKernel};
 use fbgforge::array::sheet::fit::{compare_with_paper, fit_modulus};
 use fbgforge::array::sheet::SheetModel;
 use std::path::Path;
-use std::process::Command;
 
 fn fbgforge(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    crate::common::bin()
         .args(args)
         .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")))
         .output()

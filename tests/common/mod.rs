@@ -4,6 +4,15 @@
 
 use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The `fbgforge` binary that `cargo test` built beside the tests, run from the
+/// repository's root (so shipped designs and fixtures resolve as a user types them).
+pub fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_fbgforge"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
 
 /// Path of a shipped design (`designs/<name>`), independent of the working directory.
 pub fn shipped_path(name: &str) -> PathBuf {

@@ -185,9 +185,7 @@ fn forced_fidelity_overrides_the_region() {
     }
 }
 
-fn bin() -> std::process::Command {
-    std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
-}
+use crate::common::bin;
 
 /// The paper's spec text with the inserts removed and the outer diameter replaced.
 fn hollow_design_toml(diameter_mm: f64) -> String {

@@ -3,11 +3,9 @@
 
 use crate::common;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
-}
+use crate::common::bin;
 
 use common::shipped_path as design;
 

@@ -5,13 +5,12 @@
 use crate::common::shipped_path as shipped;
 use std::collections::BTreeSet;
 use std::path::Path;
-use std::process::Command;
 
 /// Sweep e1_mpa of the 34 mm design with the closed form; returns (stdout, swept
 /// values in CSV order without repeats, the SVG).
 fn sweep(dir: &Path, from: f64, to: f64, extra: &[&str]) -> (String, Vec<f64>, String) {
     let (svg, csv) = (dir.join("s.svg"), dir.join("s.csv"));
-    let out = Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    let out = crate::common::bin()
         .args(["sweep", shipped("clip-on-34mm.toml").to_str().unwrap()])
         .args(["--param", "e1_mpa", "--from", &from.to_string()])
         .args(["--to", &to.to_string(), "--steps", "5"])

@@ -8,9 +8,7 @@ use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
-}
+use crate::common::bin;
 
 fn run_ok(c: &mut Command) -> String {
     let out = c.output().unwrap();

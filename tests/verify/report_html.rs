@@ -5,11 +5,8 @@
 use crate::chromium::{self, attr, elements, pixel_to_data, points};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
-}
+use crate::common::bin;
 
 fn design() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/clip-on-34mm.toml")

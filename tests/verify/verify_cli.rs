@@ -1,11 +1,8 @@
 //! The `synth-log`, `verify` and `calibrate-array` commands end to end.
 
 use std::path::Path;
-use std::process::Command;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbgforge"))
-}
+use crate::common::bin;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))

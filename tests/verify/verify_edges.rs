@@ -601,7 +601,7 @@ fn the_cli_refuses_options_out_of_range_naming_the_flag() {
         ("--resolution-pm", "0", "(0, 100]"),
         ("--max-offset-s=-1", "", "[0, 86400]"),
     ] {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+        let out = crate::common::bin()
             .arg("verify")
             .arg(&design)
             .args(["--case", "II", "--core", CORE, "--log"])
@@ -631,7 +631,7 @@ fn synth_log_refuses_lengths_it_cannot_write() {
         ("--pulse-s", "1e9"),
         ("--pulse-s", "inf"),
     ] {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+        let out = crate::common::bin()
             .arg("synth-log")
             .arg(&design)
             .args([flag, value, "--out"])
@@ -755,7 +755,7 @@ fn a_failed_report_run_leaves_no_stale_report() {
     let design = common::shipped_path("clip-on-34mm.toml");
     let report = dir.path().join("report");
     let run = |force: &Path| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+        crate::common::bin()
             .arg("verify")
             .arg(&design)
             .args(["--case", "II", "--core", CORE, "--log"])
@@ -840,7 +840,7 @@ fn calibrate_contact_has_its_own_exit_status_and_words() {
     let dir = tempfile::tempdir().unwrap();
     let (lp, fp) = write_logs(dir.path(), &cfg).unwrap();
     let offset = synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks);
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    let out = crate::common::bin()
         .arg("verify")
         .arg(common::shipped_path("clip-on-34mm.toml"))
         .args(["--case", "I", "--insert", "blue", "--core", CORE, "--log"])
@@ -863,7 +863,7 @@ fn calibrate_contact_has_its_own_exit_status_and_words() {
         "{text}"
     );
     // --help documents it.
-    let help = std::process::Command::new(env!("CARGO_BIN_EXE_fbgforge"))
+    let help = crate::common::bin()
         .args(["verify", "--help"])
         .output()
         .unwrap();
