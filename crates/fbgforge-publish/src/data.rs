@@ -167,7 +167,10 @@ mod tests {
         let refused = TareState::Refused {
             moving_gratings: vec!["lambda_1".into(), "lambda_4".into()],
         };
-        assert_eq!(refused.to_string(), "refused: moving gratings lambda_1, lambda_4");
+        assert_eq!(
+            refused.to_string(),
+            "refused: moving gratings lambda_1, lambda_4"
+        );
         assert_eq!(refused.word(), "refused");
     }
 }

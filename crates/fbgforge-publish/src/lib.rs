@@ -12,14 +12,13 @@
 //! The crate takes plain data (frame time in ns, forces and loads in N, positions in m,
 //! peaks in nm, flags as words, the tare state): it does not depend on `fbgforge`.
 
-pub mod ros2;
-pub mod mcap;
 mod data;
+pub mod mcap;
+pub mod ros2;
 
 pub use crate::data::{
-    core_frame_id, ros_name_token, wrench_topic, PublishError, TareState, DIM_CELLS,
-    DIM_GRATINGS, FRAME_ID_ARRAY, TOPIC_CELLS, TOPIC_CONTACT, TOPIC_FLAGS, TOPIC_PEAKS,
-    TOPIC_PREFIX, TOPIC_TARE,
+    core_frame_id, ros_name_token, wrench_topic, PublishError, TareState, DIM_CELLS, DIM_GRATINGS,
+    FRAME_ID_ARRAY, TOPIC_CELLS, TOPIC_CONTACT, TOPIC_FLAGS, TOPIC_PEAKS, TOPIC_PREFIX, TOPIC_TARE,
 };
 pub use crate::mcap::{
     ArrayReading, McapRecorder, ModuleReading, RecorderSetup, RecordingSummary, SensorLayout,

@@ -183,7 +183,9 @@ fn check_labels(what: &str, labels: &[String]) -> Result<(), PublishError> {
             return Err(PublishError::Labels(format!("an empty {what} label")));
         }
         if !seen.insert(l.as_str()) {
-            return Err(PublishError::Labels(format!("{what} label {l:?} given twice")));
+            return Err(PublishError::Labels(format!(
+                "{what} label {l:?} given twice"
+            )));
         }
     }
     Ok(())
@@ -320,7 +322,10 @@ impl McapRecorder {
         let extra = [("format", "trust flags, comma-separated; empty when trusted")];
         self.flags = self.add_channel::<StringMessage>(TOPIC_FLAGS, &extra)?;
         let extra = [
-            ("format", "resting | waiting | nominal | refused: moving gratings …"),
+            (
+                "format",
+                "resting | waiting | nominal | refused: moving gratings …",
+            ),
             ("published", "on the first frame and on each change"),
         ];
         self.tare = self.add_channel::<StringMessage>(TOPIC_TARE, &extra)?;
@@ -337,7 +342,10 @@ impl McapRecorder {
             ("kind", kind),
             (key, &json_labels(labels)),
             ("grating_labels", &json_labels(&self.setup.grating_labels)),
-            ("units", "force N, load N, position m, wavelength nm, time ns"),
+            (
+                "units",
+                "force N, load N, position m, wavelength nm, time ns",
+            ),
         ]);
         let record = ::mcap::records::Metadata {
             name: "fbgforge".into(),
@@ -420,7 +428,11 @@ impl McapRecorder {
         tare: &TareState,
     ) -> Result<(), PublishError> {
         let peaks = peaks_nm.iter().map(|p| p.unwrap_or(f64::NAN)).collect();
-        self.put(self.peaks, time_ns, &Float64MultiArray::labelled_1d(DIM_GRATINGS, peaks))?;
+        self.put(
+            self.peaks,
+            time_ns,
+            &Float64MultiArray::labelled_1d(DIM_GRATINGS, peaks),
+        )?;
         let text = StringMessage {
             data: flags.join(", "),
         };
@@ -454,7 +466,11 @@ impl McapRecorder {
         self.ready("module")?;
         let cores = self.reading_channels.len();
         Self::check_len("core_forces_n", cores, r.core_forces_n.len())?;
-        Self::check_len("peaks_nm", self.setup.grating_labels.len(), r.peaks_nm.len())?;
+        Self::check_len(
+            "peaks_nm",
+            self.setup.grating_labels.len(),
+            r.peaks_nm.len(),
+        )?;
         let stamp = Time::from_ns(r.frame_time_ns).ok_or(PublishError::FrameTimeOutOfRange {
             frame_time_ns: r.frame_time_ns,
         })?;
@@ -490,7 +506,11 @@ impl McapRecorder {
             SensorLayout::Module { .. } => unreachable!("checked by ready"),
         };
         Self::check_len("cell_loads_n", cells, r.cell_loads_n.len())?;
-        Self::check_len("peaks_nm", self.setup.grating_labels.len(), r.peaks_nm.len())?;
+        Self::check_len(
+            "peaks_nm",
+            self.setup.grating_labels.len(),
+            r.peaks_nm.len(),
+        )?;
         let stamp = Time::from_ns(r.frame_time_ns).ok_or(PublishError::FrameTimeOutOfRange {
             frame_time_ns: r.frame_time_ns,
         })?;
@@ -533,7 +553,11 @@ impl McapRecorder {
         // The rename itself is made durable by syncing the directory (best effort: not
         // every platform can open a directory).
         if let Some(dir) = self.final_path.parent() {
-            let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+            let dir = if dir.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                dir
+            };
             if let Ok(d) = File::open(dir) {
                 let _ = d.sync_all();
             }

@@ -129,7 +129,10 @@ impl fmt::Display for CdrError {
                 write!(f, "CDR encapsulation header {h:02x?} is not 00 01 00 00")
             }
             CdrError::BadString { offset } => {
-                write!(f, "CDR string at byte {offset} lacks its NUL or is not UTF-8")
+                write!(
+                    f,
+                    "CDR string at byte {offset} lacks its NUL or is not UTF-8"
+                )
             }
             CdrError::TrailingBytes { count } => {
                 write!(f, "{count} bytes after the CDR message's last field")

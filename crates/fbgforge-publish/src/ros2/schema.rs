@@ -12,7 +12,11 @@ use std::collections::BTreeSet;
 
 /// The `.msg` text of each type this crate writes, and its direct dependencies.
 const DEFINITIONS: &[(&str, &str, &[&str])] = &[
-    ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n", &[]),
+    (
+        "builtin_interfaces/Time",
+        "int32 sec\nuint32 nanosec\n",
+        &[],
+    ),
     (
         "std_msgs/Header",
         "builtin_interfaces/Time stamp\nstring frame_id\n",
@@ -33,7 +37,11 @@ const DEFINITIONS: &[(&str, &str, &[&str])] = &[
         "std_msgs/Header header\nWrench wrench\n",
         &["geometry_msgs/Wrench", "std_msgs/Header"],
     ),
-    ("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n", &[]),
+    (
+        "geometry_msgs/Point",
+        "float64 x\nfloat64 y\nfloat64 z\n",
+        &[],
+    ),
     (
         "geometry_msgs/PointStamped",
         "std_msgs/Header header\nPoint point\n",
@@ -132,7 +140,10 @@ mod tests {
     fn each_dependency_is_written_once() {
         let text = full_text("geometry_msgs/msg/PointStamped").unwrap();
         assert_eq!(text.matches("MSG: ").count(), 3, "{text}");
-        assert!(text.find("MSG: geometry_msgs/Point").unwrap() < text.find("MSG: std_msgs/Header").unwrap());
+        assert!(
+            text.find("MSG: geometry_msgs/Point").unwrap()
+                < text.find("MSG: std_msgs/Header").unwrap()
+        );
         let text = full_text("std_msgs/msg/Float64MultiArray").unwrap();
         assert_eq!(
             text,

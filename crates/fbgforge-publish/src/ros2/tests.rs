@@ -24,10 +24,20 @@ fn time() {
     // 0: sec 1_700_000_000 = 0x6553F100 → 00 F1 53 65
     // 4: nanosec 5 → 05 00 00 00                                    (8 bytes)
     let t = Time::from_ns(1_700_000_000_000_000_005).unwrap();
-    assert_eq!(t, Time { sec: 1_700_000_000, nanosec: 5 });
+    assert_eq!(
+        t,
+        Time {
+            sec: 1_700_000_000,
+            nanosec: 5
+        }
+    );
     roundtrip(&t, &with_header(&[0x00, 0xF1, 0x53, 0x65, 0x05, 0, 0, 0]));
     assert_eq!(t.to_ns(), Some(1_700_000_000_000_000_005));
-    assert_eq!(Time::from_ns(u64::MAX), None, "past 2038 does not fit int32");
+    assert_eq!(
+        Time::from_ns(u64::MAX),
+        None,
+        "past 2038 does not fit int32"
+    );
 }
 
 #[test]
@@ -40,15 +50,24 @@ fn wrench_stamped_pads_after_the_frame_id_to_eight() {
     // 16: force.x 0, 24: force.y 0, 32: force.z 5.0, 40..64: torque 0 0 0  (64 bytes)
     let m = WrenchStamped {
         header: Header {
-            stamp: Time { sec: 2, nanosec: 500_000_000 },
+            stamp: Time {
+                sec: 2,
+                nanosec: 500_000_000,
+            },
             frame_id: "f".into(),
         },
         wrench: Wrench {
-            force: Vector3 { x: 0.0, y: 0.0, z: 5.0 },
+            force: Vector3 {
+                x: 0.0,
+                y: 0.0,
+                z: 5.0,
+            },
             torque: Vector3::default(),
         },
     };
-    let mut p = vec![2, 0, 0, 0, 0x00, 0x65, 0xCD, 0x1D, 2, 0, 0, 0, b'f', 0, 0, 0];
+    let mut p = vec![
+        2, 0, 0, 0, 0x00, 0x65, 0xCD, 0x1D, 2, 0, 0, 0, b'f', 0, 0, 0,
+    ];
     p.extend_from_slice(&[0; 16]); // force.x, force.y
     p.extend_from_slice(&[0, 0, 0, 0, 0, 0, 0x14, 0x40]); // force.z = 5.0
     p.extend_from_slice(&[0; 24]); // torque
@@ -65,7 +84,11 @@ fn point_stamped_with_an_empty_frame_id() {
     // 16: x 1.5, 24: y -2.0, 32: z 0              (40 bytes)
     let m = PointStamped {
         header: Header::default(),
-        point: Point { x: 1.5, y: -2.0, z: 0.0 },
+        point: Point {
+            x: 1.5,
+            y: -2.0,
+            z: 0.0,
+        },
     };
     let mut p = vec![0; 8];
     p.extend_from_slice(&[1, 0, 0, 0, 0, 0, 0, 0]);
@@ -149,10 +172,14 @@ fn malformed_bytes_are_errors() {
         Err(CdrError::TrailingBytes { count: 1 })
     );
     // A count of 2^32 - 1 dimensions in a short message is caught before allocating.
-    assert!(MultiArrayLayout::from_cdr(&with_header(&[0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0, 0])).is_err());
+    assert!(
+        MultiArrayLayout::from_cdr(&with_header(&[0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0, 0])).is_err()
+    );
     // An empty string written as length 0 (some serializers) still reads.
     assert_eq!(
-        StringMessage::from_cdr(&with_header(&[0, 0, 0, 0])).unwrap().data,
+        StringMessage::from_cdr(&with_header(&[0, 0, 0, 0]))
+            .unwrap()
+            .data,
         ""
     );
 }
@@ -161,10 +188,14 @@ fn malformed_bytes_are_errors() {
 fn type_names_and_schemas() {
     assert_eq!(WrenchStamped::TYPE_NAME, "geometry_msgs/msg/WrenchStamped");
     assert_eq!(PointStamped::TYPE_NAME, "geometry_msgs/msg/PointStamped");
-    assert_eq!(Float64MultiArray::TYPE_NAME, "std_msgs/msg/Float64MultiArray");
+    assert_eq!(
+        Float64MultiArray::TYPE_NAME,
+        "std_msgs/msg/Float64MultiArray"
+    );
     assert_eq!(StringMessage::TYPE_NAME, "std_msgs/msg/String");
     assert!(WrenchStamped::schema_text().starts_with("std_msgs/Header header\nWrench wrench\n"));
-    assert!(Header::schema_text().ends_with("MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"));
+    assert!(Header::schema_text()
+        .ends_with("MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"));
     assert_eq!(Time::schema_text(), "int32 sec\nuint32 nanosec\n");
     assert_eq!(Wrench::schema_text().matches("MSG: ").count(), 1);
     assert_eq!(Vector3::schema_text(), Point::schema_text());
