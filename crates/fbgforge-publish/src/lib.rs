@@ -15,6 +15,7 @@
 mod data;
 pub mod mcap;
 pub mod ros2;
+pub mod web;
 
 pub use crate::data::{
     core_frame_id, ros_name_token, wrench_topic, PublishError, TareState, DIM_CELLS, DIM_GRATINGS,
@@ -23,3 +24,4 @@ pub use crate::data::{
 pub use crate::mcap::{
     ArrayReading, McapRecorder, ModuleReading, RecorderSetup, RecordingSummary, SensorLayout,
 };
+pub use crate::web::{serve, WebView};
