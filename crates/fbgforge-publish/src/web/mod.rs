@@ -5,9 +5,9 @@
 //!   nothing but `/events`, and its `Content-Security-Policy` forbids anything else),
 //!   with the latest frame already in it;
 //! * `GET /events`: a Server-Sent Events stream, one `data:` line of JSON per frame
-//!   ([`FrameView::to_json`]); as soon as a client connects it gets the frames of the
-//!   last 10 s of frame time (at most 600; the last is the latest frame), so that a
-//!   module's traces start full, then every frame pushed;
+//!   ([`FrameView::to_json`]); as soon as a client connects it gets the latest frame
+//!   (for a module, the frames of the last 10 s of frame time, at most 600 and 8 MiB,
+//!   so that its traces start full), then every frame pushed;
 //! * `GET /frame.json`: the latest frame (`204 No Content` before the first).
 //!
 //! The page draws an array's heat map (each cell coloured by its load, the value printed

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::{self, JoinHandle};
 use std::time::Duration;
 
-use super::{page_html, FrameView, WebOptions};
+use super::{page_html, FrameView, ReadingView, WebOptions};
 use crate::data::PublishError;
 
 /// How often the acceptor looks for new connections and for the stop flag.
@@ -19,11 +19,17 @@ const ACCEPT_POLL: Duration = Duration::from_millis(20);
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(2);
 /// A comment line on an idle event stream, so that a dead client is noticed.
 const KEEPALIVE: Duration = Duration::from_secs(15);
-/// How far back (in frame time) a newly connected page is sent frames, so that a
-/// module's traces start full; at most [`HISTORY_MAX_FRAMES`] frames.
+/// How far back (in frame time) a newly connected page is sent a module's frames, so
+/// that its traces start full; at most [`HISTORY_MAX_FRAMES`] frames and
+/// [`HISTORY_MAX_BYTES`] of JSON. An array's page gets the latest frame only.
 const HISTORY_NS: u64 = 10_000_000_000;
 /// The most frames sent to a newly connected page.
 const HISTORY_MAX_FRAMES: usize = 600;
+/// The most JSON kept for newly connected pages.
+const HISTORY_MAX_BYTES: usize = 8 << 20;
+/// Connections open at once (page requests, idle sockets and event streams), as a
+/// multiple of [`WebOptions::max_clients`]; a connection beyond is closed at once.
+const MAX_CONNECTIONS_PER_CLIENT: usize = 4;
 /// The largest request read.
 const MAX_REQUEST_BYTES: usize = 8192;
 /// No fetch but to this server; inline script and style only.
@@ -39,7 +45,8 @@ pub struct ViewStats {
     pub clients_dropped_slow: u64,
     /// Clients that went away (closed tab, network error).
     pub clients_disconnected: u64,
-    /// Clients refused because [`WebOptions::max_clients`] were connected.
+    /// Connections refused: an event stream beyond [`WebOptions::max_clients`], or any
+    /// connection beyond four times as many open at once.
     pub clients_refused: u64,
     /// Frames pushed.
     pub frames_pushed: u64,
@@ -148,7 +155,8 @@ impl WebView {
         self.shared.frames_pushed.fetch_add(1, Ordering::Relaxed);
         let mut state = self.shared.state();
         state.latest = Some(Arc::clone(&json));
-        remember(&mut state.recent, frame.frame_time_ns, &json);
+        let history = matches!(frame.reading, ReadingView::Module(_));
+        remember(&mut state.recent, frame.frame_time_ns, &json, history);
         state
             .clients
             .retain(|c| match c.tx.try_send(Arc::clone(&json)) {
@@ -203,16 +211,22 @@ impl Drop for WebView {
     }
 }
 
-/// Keeps the frames of the last [`HISTORY_NS`] before `time_ns` (all of them after the
-/// stream's clock went back), at most [`HISTORY_MAX_FRAMES`].
-fn remember(recent: &mut VecDeque<(u64, Arc<str>)>, time_ns: u64, json: &Arc<str>) {
-    if recent.back().is_some_and(|&(t, _)| t > time_ns) {
+/// Adds the frame `json` at `time_ns`; with `history`, keeps the frames of the last
+/// [`HISTORY_NS`] before it (none from before the stream's clock went back), within
+/// [`HISTORY_MAX_FRAMES`] and [`HISTORY_MAX_BYTES`]; without, only this one.
+fn remember(recent: &mut VecDeque<(u64, Arc<str>)>, time_ns: u64, json: &Arc<str>, history: bool) {
+    if !history || recent.back().is_some_and(|&(t, _)| t > time_ns) {
         recent.clear();
     }
     recent.push_back((time_ns, Arc::clone(json)));
     let from = time_ns.saturating_sub(HISTORY_NS);
-    while recent.len() > HISTORY_MAX_FRAMES || recent.front().is_some_and(|&(t, _)| t < from) {
-        recent.pop_front();
+    let mut bytes: usize = recent.iter().map(|(_, j)| j.len()).sum();
+    while recent.len() > 1
+        && (recent.len() > HISTORY_MAX_FRAMES
+            || bytes > HISTORY_MAX_BYTES
+            || recent.front().is_some_and(|&(t, _)| t < from))
+    {
+        bytes -= recent.pop_front().map_or(0, |(_, j)| j.len());
     }
 }
 
@@ -233,6 +247,11 @@ fn accept_loop(listener: &TcpListener, shared: &Arc<Shared>) {
 }
 
 fn spawn_connection(stream: TcpStream, shared: &Arc<Shared>) -> io::Result<()> {
+    let limit = shared.options.max_clients.max(1) * MAX_CONNECTIONS_PER_CLIENT;
+    if shared.connections().len() >= limit {
+        shared.refused.fetch_add(1, Ordering::Relaxed);
+        return Ok(()); // dropped: closed at once
+    }
     stream.set_nonblocking(false)?;
     stream.set_nodelay(true)?;
     stream.set_read_timeout(Some(REQUEST_TIMEOUT))?;

@@ -300,31 +300,48 @@ fn too_many_viewers_get_503_and_drop_stops_everything_at_once() {
 }
 
 #[test]
-fn a_new_page_gets_the_last_10_s_of_frames() {
+fn a_new_page_gets_a_modules_last_10_s_and_an_arrays_latest_frame() {
     let view = serve("127.0.0.1:0").unwrap();
     let at = |s: u64| FrameView {
+        design_name: "clip-on-10mm".into(),
         frame_time_ns: s * 1_000_000_000,
-        ..array_frame(s as f64, 1)
+        reading: ReadingView::Module(ModuleView {
+            core_labels: vec!["psc1".into()],
+            core_forces_n: vec![Some(s as f64)],
+        }),
+        flags: vec![],
+        tare: TareState::Resting,
     };
     for s in 0..=15 {
         view.push(&at(s)).unwrap();
     }
     let mut c = Sse::connect(view.local_addr());
-    let loads: Vec<f64> = c
+    let forces: Vec<f64> = c
         .events(11)
         .iter()
-        .map(|e| e["array"]["loads"][1].as_f64().unwrap())
+        .map(|e| e["module"]["forces_n"][0].as_f64().unwrap())
         .collect();
-    assert_eq!(loads, (5..=15).map(|s| s as f64).collect::<Vec<_>>());
+    assert_eq!(forces, (5..=15).map(|s| s as f64).collect::<Vec<_>>());
     // The stream's clock went back (a restarted instrument): the history restarts.
     view.push(&at(3)).unwrap();
     let mut d = Sse::connect(view.local_addr());
     let first = d.events(1);
-    assert_eq!(first[0]["array"]["loads"][1], 3.0);
+    assert_eq!(first[0]["module"]["forces_n"][0], 3.0);
     std::thread::sleep(Duration::from_millis(100));
     d.stream
         .set_read_timeout(Some(Duration::from_millis(100)))
         .unwrap();
     let mut more = [0u8; 256];
     assert!(d.stream.read(&mut more).is_err(), "only the one frame");
+
+    // An array: the latest frame only.
+    for s in 20..25 {
+        view.push(&array_frame(s as f64, 1)).unwrap();
+    }
+    let mut e = Sse::connect(view.local_addr());
+    assert_eq!(e.events(1)[0]["array"]["loads"][1], 24.0);
+    e.stream
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    assert!(e.stream.read(&mut more).is_err(), "only the latest frame");
 }
