@@ -108,10 +108,11 @@ impl SynthSpectrum {
     }
 
     /// One Gaussian peak of amplitude 1 at `center_nm` with FWHM `fwhm_samples`·pitch and
-    /// the given SNR (σ = 1/SNR), on a grid of ±(15 FWHM + 10 samples).
+    /// the given SNR (σ = 1/SNR), on a grid of ±(15 FWHM + 10 samples) at whole
+    /// multiples of the pitch (so the centre keeps its sub-sample position).
     pub fn gaussian_case(center_nm: f64, fwhm_samples: f64, pitch_nm: f64, snr: f64) -> Self {
         let half = (15.0 * fwhm_samples).ceil() as usize + 10;
-        let start = center_nm - pitch_nm * half as f64;
+        let start = ((center_nm / pitch_nm).round() - half as f64) * pitch_nm;
         SynthSpectrum::uniform(start, pitch_nm, 2 * half + 1, 1.0 / snr)
             .with_peak(SynthPeak::gaussian(center_nm, fwhm_samples * pitch_nm, 1.0))
     }

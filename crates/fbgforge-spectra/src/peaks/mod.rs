@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::SpectrumError;
 
 pub use centroid::Centroid;
-pub use crb::{gaussian_position_crb_closed_form_pm, gaussian_position_crb_pm, FWHM_PER_SIGMA};
+pub use crb::{gaussian_position_crb_closed_form_pm, gaussian_position_crb_joint_pm, gaussian_position_crb_pm, FWHM_PER_SIGMA};
 pub use finder::{find_peaks, find_peaks_in, EstimatorChoice, FindOptions};
 pub use gaussian::{fit_gaussians, GaussianComponent, GaussianFit, GaussianLeastSquares};
 pub use matching::{find_grating_peaks, match_gratings, ExpectedGrating, MatchedPeak};

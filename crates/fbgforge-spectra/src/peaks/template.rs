@@ -6,9 +6,8 @@
 //! grid of a quarter sample), then refined by least squares on (a, δ, b). The peak
 //! wavelength is the template's reference wavelength + δ.
 
-use super::gaussian::fit_gaussians;
 use super::lm::{self, Model};
-use super::{PeakEstimate, PeakEstimator, PeakWindow};
+use super::{GaussianLeastSquares, PeakEstimate, PeakEstimator, PeakWindow};
 use crate::error::SpectrumError;
 use crate::spectrum::Spectrum;
 
@@ -80,18 +79,19 @@ pub struct Template {
 
 impl Template {
     /// A template from linear-power samples; its reference wavelength and FWHM are those
-    /// of a Gaussian least-squares fit to it.
+    /// of a Gaussian least-squares fit to it (the floor started at its lowest sample).
     pub fn new(wavelengths_nm: Vec<f64>, power: Vec<f64>) -> Result<Self, SpectrumError> {
         let spectrum = Spectrum::new("template", wavelengths_nm, power, crate::PowerUnit::Linear)?;
-        let (lo, hi) = (spectrum.power.iter().copied().fold(f64::INFINITY, f64::min), spectrum.power.iter().copied().fold(f64::NEG_INFINITY, f64::max));
-        let i = spectrum.power.iter().position(|&p| p == hi).unwrap_or(0);
-        let fit = fit_gaussians(&spectrum.wavelengths_nm, &spectrum.power, &[(hi - lo, spectrum.wavelengths_nm[i], 0.3 * (spectrum.wavelengths_nm[spectrum.len() - 1] - spectrum.wavelengths_nm[0]))], lo)?;
-        let c = fit.components[0];
+        let p = &spectrum.power;
+        let floor = p.iter().copied().fold(f64::INFINITY, f64::min);
+        let i = (0..p.len()).max_by(|&a, &b| p[a].total_cmp(&p[b])).unwrap_or(0);
+        let window = PeakWindow { wavelengths_nm: &spectrum.wavelengths_nm, power: p, max_index: i, baseline: floor, noise_sigma: 0.0 };
+        let c = GaussianLeastSquares.estimate(&window)?;
         Ok(Template {
-            reference_nm: c.center_nm,
+            reference_nm: c.wavelength_nm,
             fwhm_nm: c.fwhm_nm,
             height: c.amplitude,
-            floor: fit.baseline,
+            floor: c.baseline,
             spline: Spline::new(spectrum.wavelengths_nm, spectrum.power),
         })
     }
