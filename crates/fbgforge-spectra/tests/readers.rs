@@ -245,10 +245,10 @@ fn malformed_imon_logs_name_the_line() {
     let header = "Date\tTime\tWavelength 1 [nm]\tPixel 1\tPixel 3\t\n\n";
     assert_eq!(line_of(&read_imon(header, Some(&cal)).unwrap_err()), 1);
     // Missing polynomial: a clear error that says what to pass.
-    let e = read_imon(&imon_text(4, &[good.clone()]), None).unwrap_err();
+    let e = read_imon(&imon_text(4, std::slice::from_ref(&good)), None).unwrap_err();
     assert!(matches!(e, SpectrumError::MissingCalibration { pixels: 4 }));
     assert!(e.to_string().contains("a0,a1"), "{e}");
-    let e = read_spectrum_log(&imon_text(4, &[good.clone()]), &ReadOptions::default()).unwrap_err();
+    let e = read_spectrum_log(&imon_text(4, std::slice::from_ref(&good)), &ReadOptions::default()).unwrap_err();
     assert!(matches!(e, SpectrumError::MissingCalibration { pixels: 4 }));
     // A polynomial that folds back over the pixels.
     let folded = PixelCalibration::new(vec![1500.0, 20.0, -5.0]).unwrap();

@@ -55,6 +55,10 @@ pub struct FindOptions {
     /// A candidate's height above the floor and its prominence must both reach this many
     /// noise σ (6: about one false peak in 10⁵ spectra of 20,000 white-noise samples).
     pub detection_sigma: f64,
+    /// A candidate's prominence must also reach this fraction of its height above the
+    /// floor (0.1): noise on the top of a strong peak, which in dB-recorded spectra is far
+    /// larger than the floor's, does not make extra candidates.
+    pub min_prominence_fraction: f64,
     /// A local maximum closer than `overlap_fwhm` FWHM to one more than 1/`lobe_fraction`
     /// times higher is that peak's side lobe, not a peak (0.25, i.e. −6 dB).
     pub lobe_fraction: f64,
@@ -82,6 +86,7 @@ impl Default for FindOptions {
         FindOptions {
             estimator: EstimatorChoice::default(),
             detection_sigma: 6.0,
+            min_prominence_fraction: 0.1,
             lobe_fraction: 0.25,
             overlap_fwhm: 4.0,
             window_fwhm: 2.0,
@@ -108,7 +113,9 @@ struct Candidate {
 /// The noise σ is the robust estimate 1.4826·MAD(Δy)/√2 of the first differences
 /// (slow baselines and sparse peaks do not move it); the floor is the median power.
 /// Candidates are local maxima whose height above the floor and prominence both reach
-/// `detection_sigma`·σ; side lobes (see [`FindOptions::lobe_fraction`]) are dropped;
+/// `detection_sigma`·σ (and the prominence `min_prominence_fraction` of the height),
+/// found on the spectrum smoothed by a Gaussian of half the narrowest peak's FWHM when
+/// that is 4 samples or more (σ scaled to the smoothed noise); side lobes (see [`FindOptions::lobe_fraction`]) are dropped;
 /// candidates within `overlap_fwhm` FWHM are decomposed by one joint multi-Gaussian fit
 /// (`overlap` flag, shared `overlap_group`); lone ones by the chosen estimator on a
 /// window of ±`window_fwhm` FWHM.
@@ -186,13 +193,51 @@ fn candidate_fwhm(x: &[f64], y: &[f64], i: usize, floor: f64) -> f64 {
     right - left
 }
 
+/// Gaussian smoothing kernel of FWHM `fwhm_samples` (normalised, ±3σ).
+fn kernel(fwhm_samples: f64) -> Vec<f64> {
+    let s = fwhm_samples / super::FWHM_PER_SIGMA;
+    let half = (3.0 * s).ceil() as isize;
+    let k: Vec<f64> = (-half..=half).map(|j| (-0.5 * (j as f64 / s).powi(2)).exp()).collect();
+    let total: f64 = k.iter().sum();
+    k.into_iter().map(|v| v / total).collect()
+}
+
+fn smooth(y: &[f64], k: &[f64]) -> Vec<f64> {
+    let half = (k.len() / 2) as isize;
+    let n = y.len() as isize;
+    (0..n)
+        .map(|i| k.iter().enumerate().map(|(j, w)| w * y[(i + j as isize - half).clamp(0, n - 1) as usize]).sum())
+        .collect()
+}
+
+/// Candidates: local maxima of the spectrum smoothed by a Gaussian of half the narrowest
+/// peak's FWHM (a matched filter; no smoothing below 4 samples per FWHM), whose height
+/// and prominence pass the thresholds at the smoothed noise level; each then moved to
+/// the highest raw sample within the kernel's reach. Smoothing keeps noise on a strong
+/// peak's top (large in dB-recorded spectra) from making extra candidates.
 fn candidates(x: &[f64], y: &[f64], floor: f64, sigma: f64, o: &FindOptions) -> Vec<Candidate> {
     let threshold = o.detection_sigma * sigma;
-    let mut found: Vec<Candidate> = (1..y.len() - 1)
-        .filter(|&i| y[i] > y[i - 1] && y[i] >= y[i + 1] && y[i] - floor >= threshold)
-        .filter(|&i| prominence(y, i) >= threshold)
-        .map(|i| Candidate { index: i, height: y[i] - floor, fwhm_nm: candidate_fwhm(x, y, i, floor) })
+    let raw_maxima: Vec<usize> = (1..y.len() - 1).filter(|&i| y[i] > y[i - 1] && y[i] >= y[i + 1] && y[i] - floor >= threshold).collect();
+    let pitch = (x[x.len() - 1] - x[0]) / (x.len() - 1) as f64;
+    let narrowest = raw_maxima.iter().map(|&i| candidate_fwhm(x, y, i, floor) / pitch).fold(f64::INFINITY, f64::min);
+    let (ys, sigma_s, reach) = if narrowest.is_finite() && narrowest >= 4.0 {
+        let k = kernel(0.5 * narrowest);
+        let gain = k.iter().map(|w| w * w).sum::<f64>().sqrt();
+        (smooth(y, &k), sigma * gain, k.len() / 2)
+    } else {
+        (y.to_vec(), sigma, 0)
+    };
+    let threshold_s = o.detection_sigma * sigma_s;
+    let mut found: Vec<Candidate> = (1..ys.len() - 1)
+        .filter(|&i| ys[i] > ys[i - 1] && ys[i] >= ys[i + 1] && ys[i] - floor >= threshold_s)
+        .filter(|&i| prominence(&ys, i) >= threshold_s.max(o.min_prominence_fraction * (ys[i] - floor)))
+        .map(|i| {
+            let (lo, hi) = (i.saturating_sub(reach).max(1), (i + reach).min(y.len() - 2));
+            let best = (lo..=hi).max_by(|&a, &b| y[a].total_cmp(&y[b])).unwrap_or(i);
+            Candidate { index: best, height: y[best] - floor, fwhm_nm: candidate_fwhm(x, y, best, floor) }
+        })
         .collect();
+    found.dedup_by_key(|c| c.index);
     // Side lobes: near a peak more than 1/lobe_fraction times higher.
     let all = found.clone();
     found.retain(|c| {
