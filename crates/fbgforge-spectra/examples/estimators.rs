@@ -13,8 +13,8 @@
 use std::time::Instant;
 
 use fbgforge_spectra::peaks::{
-    gaussian_position_crb_joint_pm, gaussian_position_crb_pm, Centroid, GaussianLeastSquares, Parabola, PeakEstimator, PeakWindow, Template,
-    TemplateMatch,
+    gaussian_position_crb_joint_pm, gaussian_position_crb_pm, Centroid, GaussianLeastSquares,
+    Parabola, PeakEstimator, PeakWindow, Template, TemplateMatch,
 };
 use fbgforge_spectra::stats::noise_sigma_mad_diff;
 use fbgforge_spectra::synth::SynthSpectrum;
@@ -45,13 +45,30 @@ fn case(snr: f64, fwhm_samples: f64, rng: &mut ChaCha8Rng, seed: u64) -> Case {
     // The finder's window: candidate = highest sample near the centre.
     let near = w.partition_point(|&x| x < center - 2.0 * fwhm_samples * PITCH_NM);
     let far = w.partition_point(|&x| x <= center + 2.0 * fwhm_samples * PITCH_NM);
-    let max_index = (near..far).max_by(|&a, &b| p[a].total_cmp(&p[b])).unwrap_or(near);
+    let max_index = (near..far)
+        .max_by(|&a, &b| p[a].total_cmp(&p[b]))
+        .unwrap_or(near);
     let half = 2.0 * fwhm_samples * PITCH_NM;
-    let lo = w.partition_point(|&x| x < w[max_index] - half).min(max_index - 5);
-    let hi = w.partition_point(|&x| x <= w[max_index] + half).max(max_index + 6);
-    let crb_pm = gaussian_position_crb_pm(&w[lo..hi], center, fwhm_samples * PITCH_NM, 1.0, 1.0 / snr);
-    let crb_joint_pm = gaussian_position_crb_joint_pm(&w[lo..hi], center, fwhm_samples * PITCH_NM, 1.0, 1.0 / snr);
-    Case { wavelengths: w, power: p, range: lo..hi, max_index, sigma, center, crb_pm, crb_joint_pm }
+    let lo = w
+        .partition_point(|&x| x < w[max_index] - half)
+        .min(max_index - 5);
+    let hi = w
+        .partition_point(|&x| x <= w[max_index] + half)
+        .max(max_index + 6);
+    let crb_pm =
+        gaussian_position_crb_pm(&w[lo..hi], center, fwhm_samples * PITCH_NM, 1.0, 1.0 / snr);
+    let crb_joint_pm =
+        gaussian_position_crb_joint_pm(&w[lo..hi], center, fwhm_samples * PITCH_NM, 1.0, 1.0 / snr);
+    Case {
+        wavelengths: w,
+        power: p,
+        range: lo..hi,
+        max_index,
+        sigma,
+        center,
+        crb_pm,
+        crb_joint_pm,
+    }
 }
 
 struct Row {
@@ -74,14 +91,31 @@ fn templates(fwhm_samples: f64, rng: &mut ChaCha8Rng) -> TemplateMatch {
     let synth = SynthSpectrum::gaussian_case(reference, fwhm_samples, PITCH_NM, 1e12);
     let t = synth.truth().expect("template");
     let k = synth.wavelengths_nm.len() / 2;
-    let template = Template::new(synth.wavelengths_nm[k - half..=k + half].to_vec(), t[k - half..=k + half].to_vec()).expect("template");
-    TemplateMatch { templates: vec![template] }
+    let template = Template::new(
+        synth.wavelengths_nm[k - half..=k + half].to_vec(),
+        t[k - half..=k + half].to_vec(),
+    )
+    .expect("template");
+    TemplateMatch {
+        templates: vec![template],
+    }
 }
 
 fn measure(estimator: &dyn PeakEstimator, cases: &[Case], snr: f64, fwhm_samples: f64) -> Row {
     let windows: Vec<PeakWindow> = cases
         .iter()
-        .map(|c| PeakWindow::new(&c.wavelengths, &c.power, c.range.clone(), c.max_index, 1.5 * fwhm_samples * PITCH_NM, 10.0 / snr, c.sigma).expect("window"))
+        .map(|c| {
+            PeakWindow::new(
+                &c.wavelengths,
+                &c.power,
+                c.range.clone(),
+                c.max_index,
+                1.5 * fwhm_samples * PITCH_NM,
+                10.0 / snr,
+                c.sigma,
+            )
+            .expect("window")
+        })
         .collect();
     let start = Instant::now();
     let estimates: Vec<_> = windows.iter().map(|w| estimator.estimate(w)).collect();
@@ -111,15 +145,25 @@ fn measure(estimator: &dyn PeakEstimator, cases: &[Case], snr: f64, fwhm_samples
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let out = args.get(1).cloned().unwrap_or_else(|| "target/spectra-estimators.csv".into());
+    let out = args
+        .get(1)
+        .cloned()
+        .unwrap_or_else(|| "target/spectra-estimators.csv".into());
     let realisations: usize = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(2000);
     let mut rng = ChaCha8Rng::seed_from_u64(36);
     let mut rows = Vec::new();
     for &snr in &SNRS {
         for &fwhm in &FWHMS {
-            let cases: Vec<Case> = (0..realisations).map(|k| case(snr, fwhm, &mut rng, 1000 * k as u64 + 7)).collect();
+            let cases: Vec<Case> = (0..realisations)
+                .map(|k| case(snr, fwhm, &mut rng, 1000 * k as u64 + 7))
+                .collect();
             let xcorr = templates(fwhm, &mut rng);
-            let estimators: [&dyn PeakEstimator; 4] = [&GaussianLeastSquares, &Parabola::default(), &Centroid::default(), &xcorr];
+            let estimators: [&dyn PeakEstimator; 4] = [
+                &GaussianLeastSquares,
+                &Parabola::default(),
+                &Centroid::default(),
+                &xcorr,
+            ];
             for e in estimators {
                 rows.push(measure(e, &cases, snr, fwhm));
             }
@@ -159,7 +203,11 @@ fn print_ratio_table(rows: &[Row], bound: &dyn Fn(&Row) -> f64, with_time: bool)
         }
     }
     println!();
-    println!("|---|{}{}", if with_time { "---|" } else { "" }, "---|".repeat(SNRS.len() * FWHMS.len()));
+    println!(
+        "|---|{}{}",
+        if with_time { "---|" } else { "" },
+        "---|".repeat(SNRS.len() * FWHMS.len())
+    );
     for name in ["gaussian", "parabola", "centroid", "xcorr"] {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.estimator == name).collect();
         let time = mine.iter().map(|r| r.time_us).sum::<f64>() / mine.len() as f64;
@@ -189,7 +237,10 @@ fn print_table(rows: &[Row], realisations: usize) {
         let line: Vec<String> = FWHMS
             .iter()
             .map(|&f| {
-                let r = rows.iter().find(|r| r.snr == snr && r.fwhm_samples == f).expect("row");
+                let r = rows
+                    .iter()
+                    .find(|r| r.snr == snr && r.fwhm_samples == f)
+                    .expect("row");
                 format!("{f}: {:.4}/{:.4}", r.crb_pm, r.crb_joint_pm)
             })
             .collect();
@@ -201,18 +252,35 @@ fn choose_default(rows: &[Row]) -> &'static str {
     let mut names: Vec<(&'static str, f64)> = ["gaussian", "parabola", "centroid", "xcorr"]
         .iter()
         .map(|&n| {
-            let t: Vec<f64> = rows.iter().filter(|r| r.estimator == n).map(|r| r.time_us).collect();
+            let t: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.estimator == n)
+                .map(|r| r.time_us)
+                .collect();
             (n, t.iter().sum::<f64>() / t.len() as f64)
         })
         .collect();
     names.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let ratio = |r: &Row| if r.failures > 0 { f64::INFINITY } else { r.rms_pm / r.crb_pm };
+    let ratio = |r: &Row| {
+        if r.failures > 0 {
+            f64::INFINITY
+        } else {
+            r.rms_pm / r.crb_pm
+        }
+    };
     for (name, _) in names {
         let ok = SNRS.iter().all(|&snr| {
             FWHMS.iter().all(|&f| {
-                let cell: Vec<&Row> = rows.iter().filter(|r| r.snr == snr && r.fwhm_samples == f).collect();
+                let cell: Vec<&Row> = rows
+                    .iter()
+                    .filter(|r| r.snr == snr && r.fwhm_samples == f)
+                    .collect();
                 let attainable = cell.iter().any(|r| ratio(r) <= 2.0);
-                let mine = cell.iter().find(|r| r.estimator == name).map(|r| ratio(r)).unwrap_or(f64::INFINITY);
+                let mine = cell
+                    .iter()
+                    .find(|r| r.estimator == name)
+                    .map(|r| ratio(r))
+                    .unwrap_or(f64::INFINITY);
                 !attainable || mine <= 2.0
             })
         });

@@ -74,5 +74,9 @@ pub(crate) fn shorten(text: &str) -> String {
 }
 
 pub(crate) fn parse_error(line: usize, expected: impl Into<String>, found: &str) -> SpectrumError {
-    SpectrumError::Parse { line, expected: expected.into(), found: shorten(found) }
+    SpectrumError::Parse {
+        line,
+        expected: expected.into(),
+        found: shorten(found),
+    }
 }

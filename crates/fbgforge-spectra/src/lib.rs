@@ -21,9 +21,9 @@ pub mod stats;
 
 pub use error::SpectrumError;
 pub use formats::{
-    detect, read_enlight, read_imon, read_osa_csv, read_spectrum_log, read_spectrum_log_from, write_enlight,
-    write_imon, write_osa_csv, write_spectrum_log, ImonWriteOptions, PixelCalibration, ReadOptions,
-    SpectrumFormat,
+    detect, read_enlight, read_imon, read_osa_csv, read_spectrum_log, read_spectrum_log_from,
+    write_enlight, write_imon, write_osa_csv, write_spectrum_log, ImonWriteOptions,
+    PixelCalibration, ReadOptions, SpectrumFormat,
 };
 pub use spectrum::{PowerUnit, Spectrum, SpectrumLog, SpectrumRow};
 pub mod grating;
@@ -31,10 +31,10 @@ pub mod peaks;
 pub mod synth;
 
 pub use grating::{
-    clean_peak_limit, grating_spectrum, spectrum_shape, Apodisation, CleanPeakCriteria, CleanPeakLimit, Grating,
-    LoadCase, SpectrumShape, StrainProfile,
+    clean_peak_limit, grating_spectrum, spectrum_shape, Apodisation, CleanPeakCriteria,
+    CleanPeakLimit, Grating, LoadCase, SpectrumShape, StrainProfile,
 };
 pub use peaks::{
-    find_grating_peaks, find_peaks, match_gratings, EstimatorChoice, ExpectedGrating, FindOptions, MatchedPeak, Peak,
-    PeakEstimate, PeakEstimator, PeakFlags, PeakWindow,
+    find_grating_peaks, find_peaks, match_gratings, EstimatorChoice, ExpectedGrating, FindOptions,
+    MatchedPeak, Peak, PeakEstimate, PeakEstimator, PeakFlags, PeakWindow,
 };

@@ -81,7 +81,13 @@ impl Spectrum {
         power: Vec<f64>,
         unit: PowerUnit,
     ) -> Result<Self, SpectrumError> {
-        let spectrum = Spectrum { channel: channel.into(), wavelengths_nm, power, unit, metadata: Vec::new() };
+        let spectrum = Spectrum {
+            channel: channel.into(),
+            wavelengths_nm,
+            power,
+            unit,
+            metadata: Vec::new(),
+        };
         spectrum.validate()?;
         Ok(spectrum)
     }
@@ -98,7 +104,10 @@ impl Spectrum {
             )));
         }
         if self.wavelengths_nm.len() < 2 {
-            return Err(SpectrumError::Invalid(format!("spectrum {}: fewer than 2 samples", self.channel)));
+            return Err(SpectrumError::Invalid(format!(
+                "spectrum {}: fewer than 2 samples",
+                self.channel
+            )));
         }
         for (i, w) in self.wavelengths_nm.windows(2).enumerate() {
             if !(w[1] > w[0]) || !w[0].is_finite() || !w[1].is_finite() {
@@ -126,7 +135,10 @@ impl Spectrum {
 
     /// Power converted to linear units (dBm → mW, dB → ratio; others unchanged).
     pub fn linear_power(&self) -> Vec<f64> {
-        self.power.iter().map(|&p| self.unit.to_linear_value(p)).collect()
+        self.power
+            .iter()
+            .map(|&p| self.unit.to_linear_value(p))
+            .collect()
     }
 
     /// The same spectrum with linear power (see [`Spectrum::linear_power`]).
@@ -142,13 +154,20 @@ impl Spectrum {
 
     /// Median sample pitch, nm.
     pub fn median_pitch_nm(&self) -> f64 {
-        let mut d: Vec<f64> = self.wavelengths_nm.windows(2).map(|w| w[1] - w[0]).collect();
+        let mut d: Vec<f64> = self
+            .wavelengths_nm
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .collect();
         crate::stats::median(&mut d)
     }
 
     /// The value of a metadata key, if present.
     pub fn meta(&self, key: &str) -> Option<&str> {
-        self.metadata.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+        self.metadata
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
     }
 }
 
@@ -179,7 +198,10 @@ pub struct SpectrumLog {
 impl SpectrumLog {
     /// The value of a header metadata key, if present.
     pub fn meta(&self, key: &str) -> Option<&str> {
-        self.metadata.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+        self.metadata
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
     }
 
     /// Every spectrum converted to linear power.
@@ -201,6 +223,9 @@ impl SpectrumLog {
 
     /// Channel labels of the first row.
     pub fn channels(&self) -> Vec<String> {
-        self.rows.first().map(|r| r.spectra.iter().map(|s| s.channel.clone()).collect()).unwrap_or_default()
+        self.rows
+            .first()
+            .map(|r| r.spectra.iter().map(|s| s.channel.clone()).collect())
+            .unwrap_or_default()
     }
 }

@@ -12,7 +12,10 @@ pub fn median(values: &mut [f64]) -> f64 {
     if n % 2 == 1 {
         upper
     } else {
-        let lower = values[..mid].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let lower = values[..mid]
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
         0.5 * (lower + upper)
     }
 }

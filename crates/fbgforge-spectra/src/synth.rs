@@ -13,7 +13,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::error::SpectrumError;
-use crate::formats::{write_enlight, write_imon, write_osa_csv, ImonWriteOptions, PixelCalibration, SpectrumFormat};
+use crate::formats::{
+    write_enlight, write_imon, write_osa_csv, ImonWriteOptions, PixelCalibration, SpectrumFormat,
+};
 use crate::grating::{grating_spectrum, Grating, StrainProfile};
 use crate::peaks::FWHM_PER_SIGMA;
 use crate::spectrum::{PowerUnit, Spectrum, SpectrumLog, SpectrumRow};
@@ -50,12 +52,21 @@ pub struct SynthPeak {
 impl SynthPeak {
     /// A Gaussian peak.
     pub fn gaussian(center_nm: f64, fwhm_nm: f64, amplitude: f64) -> Self {
-        SynthPeak { amplitude, shape: SynthShape::Gaussian { center_nm, fwhm_nm } }
+        SynthPeak {
+            amplitude,
+            shape: SynthShape::Gaussian { center_nm, fwhm_nm },
+        }
     }
 
     /// A transfer-matrix grating peak.
     pub fn grating(grating: Grating, strain: StrainProfile, amplitude: f64) -> Self {
-        SynthPeak { amplitude, shape: SynthShape::Grating { grating: Box::new(grating), strain } }
+        SynthPeak {
+            amplitude,
+            shape: SynthShape::Grating {
+                grating: Box::new(grating),
+                strain,
+            },
+        }
     }
 
     fn add_to(&self, wavelengths_nm: &[f64], power: &mut [f64]) -> Result<(), SpectrumError> {
@@ -98,7 +109,9 @@ impl SynthSpectrum {
     /// `samples` wavelengths from `start_nm` at `pitch_nm`, floor 10σ, in mW.
     pub fn uniform(start_nm: f64, pitch_nm: f64, samples: usize, noise_sigma: f64) -> Self {
         SynthSpectrum {
-            wavelengths_nm: (0..samples).map(|i| start_nm + pitch_nm * i as f64).collect(),
+            wavelengths_nm: (0..samples)
+                .map(|i| start_nm + pitch_nm * i as f64)
+                .collect(),
             floor: 10.0 * noise_sigma,
             noise_sigma,
             peaks: Vec::new(),
@@ -118,7 +131,11 @@ impl SynthSpectrum {
     }
 
     /// The I-MON pixel grid of a calibration (sorted to increase), in counts, floor 10σ.
-    pub fn imon(calibration: &PixelCalibration, pixels: usize, noise_sigma: f64) -> Result<Self, SpectrumError> {
+    pub fn imon(
+        calibration: &PixelCalibration,
+        pixels: usize,
+        noise_sigma: f64,
+    ) -> Result<Self, SpectrumError> {
         let mut w = calibration.pixel_wavelengths_nm(pixels)?;
         if w[1] < w[0] {
             w.reverse();
@@ -159,7 +176,11 @@ impl SynthSpectrum {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let normal = Normal::new(0.0, self.noise_sigma.max(0.0))
             .map_err(|e| SpectrumError::Invalid(format!("noise σ {}: {e}", self.noise_sigma)))?;
-        Ok(self.truth()?.into_iter().map(|v| v + normal.sample(&mut rng)).collect())
+        Ok(self
+            .truth()?
+            .into_iter()
+            .map(|v| v + normal.sample(&mut rng))
+            .collect())
     }
 
     /// A noisy spectrum in linear units.
@@ -167,12 +188,18 @@ impl SynthSpectrum {
     /// # Panics
     /// Never for a valid grid; use [`SynthSpectrum::try_spectrum`] to get errors instead.
     pub fn spectrum(&self, seed: u64) -> Spectrum {
-        self.try_spectrum(seed).expect("synthetic spectrum: invalid grid, grating or noise")
+        self.try_spectrum(seed)
+            .expect("synthetic spectrum: invalid grid, grating or noise")
     }
 
     /// A noisy spectrum in linear units.
     pub fn try_spectrum(&self, seed: u64) -> Result<Spectrum, SpectrumError> {
-        Spectrum::new(self.channel.clone(), self.wavelengths_nm.clone(), self.noisy(seed)?, self.unit)
+        Spectrum::new(
+            self.channel.clone(),
+            self.wavelengths_nm.clone(),
+            self.noisy(seed)?,
+            self.unit,
+        )
     }
 
     /// A noisy spectrum in `unit` (dB and dBm: 10·log10 of the linear value, clamped
@@ -182,30 +209,52 @@ impl SynthSpectrum {
         if unit.is_logarithmic() {
             let truth_max = self.truth()?.into_iter().fold(0.0f64, f64::max);
             let least = 1e-6 * truth_max.max(f64::MIN_POSITIVE);
-            s.power = s.power.iter().map(|&v| 10.0 * v.max(least).log10()).collect();
+            s.power = s
+                .power
+                .iter()
+                .map(|&v| 10.0 * v.max(least).log10())
+                .collect();
         }
         s.unit = unit;
         Ok(s)
     }
 
     /// A single-acquisition file: ENLIGHT (dBm) or OSA CSV (in `osa_unit`).
-    pub fn write(&self, format: SpectrumFormat, seed: u64, osa_unit: PowerUnit) -> Result<String, SpectrumError> {
+    pub fn write(
+        &self,
+        format: SpectrumFormat,
+        seed: u64,
+        osa_unit: PowerUnit,
+    ) -> Result<String, SpectrumError> {
         let one = |s: Spectrum| SpectrumLog {
             format,
             metadata: vec![("Source".into(), "fbgforge-spectra synthetic".into())],
-            rows: vec![SpectrumRow { time_s: 1_700_000_000.0, spectra: vec![s], reported_peaks_nm: Vec::new() }],
+            rows: vec![SpectrumRow {
+                time_s: 1_700_000_000.0,
+                spectra: vec![s],
+                reported_peaks_nm: Vec::new(),
+            }],
         };
         match format {
-            SpectrumFormat::EnlightSpectrum => write_enlight(&one(self.spectrum_in(seed, PowerUnit::Dbm)?)),
+            SpectrumFormat::EnlightSpectrum => {
+                write_enlight(&one(self.spectrum_in(seed, PowerUnit::Dbm)?))
+            }
             SpectrumFormat::OsaCsv => write_osa_csv(&one(self.spectrum_in(seed, osa_unit)?)),
-            SpectrumFormat::ImonPixels => Err(SpectrumError::Invalid("an I-MON log: use SynthSpectrum::imon_log".into())),
+            SpectrumFormat::ImonPixels => Err(SpectrumError::Invalid(
+                "an I-MON log: use SynthSpectrum::imon_log".into(),
+            )),
         }
     }
 
     /// An I-MON log of `rows` acquisitions one second apart (fresh noise each; seeds
     /// `seed`, `seed + 1`, …), each reporting the true Gaussian centres as its peak
     /// wavelengths.
-    pub fn imon_log(&self, calibration: &PixelCalibration, rows: usize, seed: u64) -> Result<String, SpectrumError> {
+    pub fn imon_log(
+        &self,
+        calibration: &PixelCalibration,
+        rows: usize,
+        seed: u64,
+    ) -> Result<String, SpectrumError> {
         let reported: Vec<f64> = self
             .peaks
             .iter()
@@ -221,10 +270,20 @@ impl SynthSpectrum {
                 .map(|k| {
                     let mut s = self.try_spectrum(seed + k as u64)?;
                     s.unit = PowerUnit::Counts;
-                    Ok(SpectrumRow { time_s: 1_604_076_250.0 + k as f64, spectra: vec![s], reported_peaks_nm: reported.clone() })
+                    Ok(SpectrumRow {
+                        time_s: 1_604_076_250.0 + k as f64,
+                        spectra: vec![s],
+                        reported_peaks_nm: reported.clone(),
+                    })
                 })
                 .collect::<Result<Vec<_>, SpectrumError>>()?,
         };
-        write_imon(&log, &ImonWriteOptions { calibration: calibration.clone(), wavelength_cells: reported.len().max(1) })
+        write_imon(
+            &log,
+            &ImonWriteOptions {
+                calibration: calibration.clone(),
+                wavelength_cells: reported.len().max(1),
+            },
+        )
     }
 }

@@ -3,13 +3,14 @@
 
 use fbgforge_spectra::grating::{grating_spectrum, Grating, StrainProfile};
 use fbgforge_spectra::peaks::{
-    gaussian_position_crb_joint_pm, gaussian_position_crb_pm, Parabola, PeakEstimator, PeakWindow, Template, TemplateMatch,
+    gaussian_position_crb_joint_pm, gaussian_position_crb_pm, Parabola, PeakEstimator, PeakWindow,
+    Template, TemplateMatch,
 };
 use fbgforge_spectra::stats::mean_std;
 use fbgforge_spectra::synth::{SynthPeak, SynthSpectrum};
 use fbgforge_spectra::{
-    find_peaks, match_gratings, read_spectrum_log, EstimatorChoice, ExpectedGrating, FindOptions, ImonWriteOptions, Peak,
-    PixelCalibration, PowerUnit, ReadOptions, SpectrumFormat,
+    find_peaks, match_gratings, read_spectrum_log, EstimatorChoice, ExpectedGrating, FindOptions,
+    ImonWriteOptions, Peak, PixelCalibration, PowerUnit, ReadOptions, SpectrumFormat,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -23,9 +24,19 @@ fn only_peak(peaks: &[Peak]) -> &Peak {
 
 /// RMS error and RMS bound (pm) of `estimator` over `n` noisy realisations of a Gaussian
 /// peak with random sub-sample position.
-fn rms_against_bound(choice: EstimatorChoice, snr: f64, fwhm_samples: f64, n: usize, seed: u64) -> (f64, f64) {
+fn rms_against_bound(
+    choice: EstimatorChoice,
+    snr: f64,
+    fwhm_samples: f64,
+    n: usize,
+    seed: u64,
+) -> (f64, f64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let options = FindOptions { estimator: choice, check_disagreement: false, ..FindOptions::default() };
+    let options = FindOptions {
+        estimator: choice,
+        check_disagreement: false,
+        ..FindOptions::default()
+    };
     let (mut err2, mut crb2) = (0.0, 0.0);
     for k in 0..n {
         let center = 1550.0 + PITCH * rng.random_range(-0.5..0.5);
@@ -34,7 +45,14 @@ fn rms_against_bound(choice: EstimatorChoice, snr: f64, fwhm_samples: f64, n: us
         let p = only_peak(&find_peaks(&s, &options).unwrap()).clone();
         err2 += (1e3 * (p.wavelength_nm - center)).powi(2);
         // The bound at the truth, on the whole grid.
-        crb2 += gaussian_position_crb_pm(&s.wavelengths_nm, center, fwhm_samples * PITCH, 1.0, 1.0 / snr).powi(2);
+        crb2 += gaussian_position_crb_pm(
+            &s.wavelengths_nm,
+            center,
+            fwhm_samples * PITCH,
+            1.0,
+            1.0 / snr,
+        )
+        .powi(2);
     }
     ((err2 / n as f64).sqrt(), (crb2 / n as f64).sqrt())
 }
@@ -46,7 +64,10 @@ fn gaussian_estimator_reaches_the_cramer_rao_bound_on_well_sampled_peaks() {
         let ratio = rms / crb;
         // Within 3× the bound as required; and not below 0.8× (nothing unbiased beats it:
         // 400 draws put the sampling spread of the ratio near ±4 %).
-        assert!((0.8..=3.0).contains(&ratio), "SNR {snr}, FWHM {fwhm} samples: RMS {rms:.5} pm, CRB {crb:.5} pm, ratio {ratio:.3}");
+        assert!(
+            (0.8..=3.0).contains(&ratio),
+            "SNR {snr}, FWHM {fwhm} samples: RMS {rms:.5} pm, CRB {crb:.5} pm, ratio {ratio:.3}"
+        );
     }
 }
 
@@ -59,7 +80,11 @@ fn other_estimators_behave_as_the_study_says() {
     assert!(rms / crb > 2.0, "parabola at 6 samples: {}", rms / crb);
     // Centroid over the half maximum: pixel-locked on narrow peaks at high SNR.
     let (rms, crb) = rms_against_bound(EstimatorChoice::Centroid, 3000.0, 2.0, 300, 4);
-    assert!(rms / crb > 10.0, "centroid at 2 samples, SNR 3000: {}", rms / crb);
+    assert!(
+        rms / crb > 10.0,
+        "centroid at 2 samples, SNR 3000: {}",
+        rms / crb
+    );
 }
 
 #[test]
@@ -67,36 +92,74 @@ fn std_error_matches_the_scatter_over_repeated_noisy_rows_in_every_format() {
     let truth = 1550.0031;
     // ENLIGHT and OSA: one acquisition per file, 300 files with fresh noise (floor 10σ so
     // the dB conversion never clamps).
-    let synth = SynthSpectrum::uniform(1549.2, PITCH, 200, 1e-4).with_peak(SynthPeak::gaussian(truth, 4.0 * PITCH, 1e-2));
-    for (format, unit) in [(SpectrumFormat::EnlightSpectrum, PowerUnit::Dbm), (SpectrumFormat::OsaCsv, PowerUnit::Db)] {
+    let synth = SynthSpectrum::uniform(1549.2, PITCH, 200, 1e-4).with_peak(SynthPeak::gaussian(
+        truth,
+        4.0 * PITCH,
+        1e-2,
+    ));
+    for (format, unit) in [
+        (SpectrumFormat::EnlightSpectrum, PowerUnit::Dbm),
+        (SpectrumFormat::OsaCsv, PowerUnit::Db),
+    ] {
         let mut rows = Vec::new();
         for seed in 0..300 {
             let text = synth.write(format, seed, unit).unwrap();
             let log = read_spectrum_log(&text, &ReadOptions::default()).unwrap();
-            rows.push(only_peak(&find_peaks(&log.rows[0].spectra[0], &FindOptions::default()).unwrap()).clone());
+            rows.push(
+                only_peak(&find_peaks(&log.rows[0].spectra[0], &FindOptions::default()).unwrap())
+                    .clone(),
+            );
         }
         check_scatter(&rows, truth, &format!("{format:?}"));
     }
     // I-MON: one log of 300 rows, 166 pm pixels, a 3-pixel FWHM peak.
     let cal = PixelCalibration::linear(1595.0, 1510.0, 512).unwrap();
     let pixel = 85.0 / 511.0;
-    let imon = SynthSpectrum::imon(&cal, 512, 15.0).unwrap().with_floor(1350.0).with_peak(SynthPeak::gaussian(1530.3003, 3.0 * pixel, 9000.0));
+    let imon = SynthSpectrum::imon(&cal, 512, 15.0)
+        .unwrap()
+        .with_floor(1350.0)
+        .with_peak(SynthPeak::gaussian(1530.3003, 3.0 * pixel, 9000.0));
     let text = imon.imon_log(&cal, 300, 100).unwrap();
-    let log = read_spectrum_log(&text, &ReadOptions { imon_calibration: Some(cal), ..ReadOptions::default() }).unwrap();
-    let rows: Vec<Peak> = log.rows.iter().map(|r| only_peak(&find_peaks(&r.spectra[0], &FindOptions::default()).unwrap()).clone()).collect();
+    let log = read_spectrum_log(
+        &text,
+        &ReadOptions {
+            imon_calibration: Some(cal),
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap();
+    let rows: Vec<Peak> = log
+        .rows
+        .iter()
+        .map(|r| only_peak(&find_peaks(&r.spectra[0], &FindOptions::default()).unwrap()).clone())
+        .collect();
     check_scatter(&rows, 1530.3003, "I-MON");
 }
 
 fn check_scatter(rows: &[Peak], truth: f64, what: &str) {
-    let w: Vec<f64> = rows.iter().map(|p| 1e3 * (p.wavelength_nm - truth)).collect();
+    let w: Vec<f64> = rows
+        .iter()
+        .map(|p| 1e3 * (p.wavelength_nm - truth))
+        .collect();
     let (mean_pm, scatter_pm) = mean_std(&w);
     let se2: f64 = rows.iter().map(|p| p.std_error_pm.powi(2)).sum::<f64>() / rows.len() as f64;
     let ratio = se2.sqrt() / scatter_pm;
-    assert!((0.7..=1.4).contains(&ratio), "{what}: std_error {:.4} pm vs scatter {scatter_pm:.4} pm (ratio {ratio:.3})", se2.sqrt());
+    assert!(
+        (0.7..=1.4).contains(&ratio),
+        "{what}: std_error {:.4} pm vs scatter {scatter_pm:.4} pm (ratio {ratio:.3})",
+        se2.sqrt()
+    );
     // And the estimate is unbiased within its own scatter.
-    assert!(mean_pm.abs() < 4.0 * scatter_pm / (rows.len() as f64).sqrt(), "{what}: bias {mean_pm} pm");
+    assert!(
+        mean_pm.abs() < 4.0 * scatter_pm / (rows.len() as f64).sqrt(),
+        "{what}: bias {mean_pm} pm"
+    );
     for p in rows {
-        assert!(!p.flags.undersampled && !p.flags.overlap && !p.flags.low_snr, "{what}: {:?}", p.flags);
+        assert!(
+            !p.flags.undersampled && !p.flags.overlap && !p.flags.low_snr,
+            "{what}: {:?}",
+            p.flags
+        );
     }
 }
 
@@ -110,7 +173,11 @@ fn narrow_peaks_are_flagged_undersampled_and_weak_ones_low_snr() {
         let p = only_peak(&find_peaks(&s, &FindOptions::default()).unwrap()).clone();
         assert!(!p.flags.undersampled && !p.flags.low_snr, "{fwhm}: {p:?}");
         assert!((p.snr / 300.0 - 1.0).abs() < 0.2, "SNR {}", p.snr);
-        assert!((p.fwhm_pm / (1e3 * fwhm * PITCH) - 1.0).abs() < 0.1, "FWHM {}", p.fwhm_pm);
+        assert!(
+            (p.fwhm_pm / (1e3 * fwhm * PITCH) - 1.0).abs() < 0.1,
+            "FWHM {}",
+            p.fwhm_pm
+        );
     }
     let weak = SynthSpectrum::gaussian_case(1550.0021, 4.0, PITCH, 12.0).spectrum(3);
     let p = only_peak(&find_peaks(&weak, &FindOptions::default()).unwrap()).clone();
@@ -141,18 +208,37 @@ fn overlapping_peaks_are_decomposed_by_the_joint_fit() {
         let crb = errors[k].1;
         // The joint bound (every parameter of both peaks unknown) is met within 1.5×, and
         // it is larger than the lone-peak bound: the overlap costs precision.
-        assert!(rms < 1.5 * crb && rms > 0.7 * crb, "peak at {truth}: RMS {rms} pm, joint CRB {crb} pm");
+        assert!(
+            rms < 1.5 * crb && rms > 0.7 * crb,
+            "peak at {truth}: RMS {rms} pm, joint CRB {crb} pm"
+        );
         let amplitude = if k == 0 { 1.0 } else { 0.7 };
-        let lone = gaussian_position_crb_pm(&synth.wavelengths_nm, *truth, fwhm, amplitude, 1.0 / 300.0);
+        let lone =
+            gaussian_position_crb_pm(&synth.wavelengths_nm, *truth, fwhm, amplitude, 1.0 / 300.0);
         assert!(crb > 1.05 * lone, "joint {crb} vs lone {lone}");
     }
     // A lone Gaussian fit on the first peak alone would be pulled towards the second.
     let s = synth.spectrum(0);
     let x = &s.wavelengths_nm;
     let i = x.partition_point(|&v| v < a);
-    let w = PeakWindow::new(x, &s.power, i - 12..i + 13, i, 9.0 * PITCH, 10.0 / 300.0, 1.0 / 300.0).unwrap();
-    let lone = fbgforge_spectra::peaks::GaussianLeastSquares.estimate(&w).unwrap();
-    assert!(1e3 * (lone.wavelength_nm - a) > 5.0 * errors[0].1, "lone fit bias {} pm", 1e3 * (lone.wavelength_nm - a));
+    let w = PeakWindow::new(
+        x,
+        &s.power,
+        i - 12..i + 13,
+        i,
+        9.0 * PITCH,
+        10.0 / 300.0,
+        1.0 / 300.0,
+    )
+    .unwrap();
+    let lone = fbgforge_spectra::peaks::GaussianLeastSquares
+        .estimate(&w)
+        .unwrap();
+    assert!(
+        1e3 * (lone.wavelength_nm - a) > 5.0 * errors[0].1,
+        "lone fit bias {} pm",
+        1e3 * (lone.wavelength_nm - a)
+    );
 }
 
 #[test]
@@ -167,7 +253,11 @@ fn estimators_disagree_on_a_skewed_peak_and_agree_on_a_gaussian() {
     let mut flagged = 0;
     for seed in 0..100 {
         let s = SynthSpectrum::gaussian_case(1550.0, 3.0, PITCH, 300.0).spectrum(seed);
-        flagged += usize::from(only_peak(&find_peaks(&s, &FindOptions::default()).unwrap()).flags.estimator_disagreement);
+        flagged += usize::from(
+            only_peak(&find_peaks(&s, &FindOptions::default()).unwrap())
+                .flags
+                .estimator_disagreement,
+        );
     }
     assert!(flagged <= 3, "{flagged} of 100 clean Gaussians flagged");
 }
@@ -182,9 +272,21 @@ fn matching_assigns_gratings_and_merges_split_lobes() {
     let peaks = find_peaks(&synth.spectrum(2), &FindOptions::default()).unwrap();
     assert_eq!(peaks.len(), 3);
     let expected = [
-        ExpectedGrating { name: "A".into(), nominal_nm: 1550.0, window_nm: 1.0 },
-        ExpectedGrating { name: "B".into(), nominal_nm: 1553.1, window_nm: 1.0 },
-        ExpectedGrating { name: "C".into(), nominal_nm: 1556.0, window_nm: 1.0 },
+        ExpectedGrating {
+            name: "A".into(),
+            nominal_nm: 1550.0,
+            window_nm: 1.0,
+        },
+        ExpectedGrating {
+            name: "B".into(),
+            nominal_nm: 1553.1,
+            window_nm: 1.0,
+        },
+        ExpectedGrating {
+            name: "C".into(),
+            nominal_nm: 1556.0,
+            window_nm: 1.0,
+        },
     ];
     let m = match_gratings(&peaks, &expected);
     let a = m[0].peak.as_ref().unwrap();
@@ -209,16 +311,39 @@ fn cross_correlation_tracks_a_strained_grating_by_its_unloaded_spectrum() {
     let grid: Vec<f64> = (0..700).map(|i| 1549.3 + 0.004 * i as f64).collect();
     let unloaded = grating_spectrum(&g, &StrainProfile::Uniform(0.0), &grid).unwrap();
     let template = Template::from_spectrum(&unloaded, 1550.0, 0.4).unwrap();
-    let choice = EstimatorChoice::CrossCorrelation(TemplateMatch { templates: vec![template.clone()] });
-    let options = FindOptions { estimator: choice, ..FindOptions::default() };
+    let choice = EstimatorChoice::CrossCorrelation(TemplateMatch {
+        templates: vec![template.clone()],
+    });
+    let options = FindOptions {
+        estimator: choice,
+        ..FindOptions::default()
+    };
     for microstrain in [37.0, 250.0, 600.0] {
-        let strained = SynthSpectrum { wavelengths_nm: grid.clone(), floor: 0.01, noise_sigma: 1e-3, peaks: vec![], unit: PowerUnit::Linear, channel: "CH 1".into() }
-            .with_peak(SynthPeak::grating(g.clone(), StrainProfile::Uniform(microstrain * 1e-6), 1.0));
+        let strained = SynthSpectrum {
+            wavelengths_nm: grid.clone(),
+            floor: 0.01,
+            noise_sigma: 1e-3,
+            peaks: vec![],
+            unit: PowerUnit::Linear,
+            channel: "CH 1".into(),
+        }
+        .with_peak(SynthPeak::grating(
+            g.clone(),
+            StrainProfile::Uniform(microstrain * 1e-6),
+            1.0,
+        ));
         let peaks = find_peaks(&strained.spectrum(9), &options).unwrap();
-        let p = peaks.iter().max_by(|a, b| a.amplitude.total_cmp(&b.amplitude)).unwrap();
+        let p = peaks
+            .iter()
+            .max_by(|a, b| a.amplitude.total_cmp(&b.amplitude))
+            .unwrap();
         let shift_pm = 1e3 * (p.wavelength_nm - template.reference_nm);
         let expected_pm = microstrain * g.strain_sensitivity_pm_per_microstrain();
-        assert!((shift_pm - expected_pm).abs() < 4.0 * p.std_error_pm.max(0.05), "{microstrain} µε: {shift_pm} pm vs {expected_pm} pm (±{} pm)", p.std_error_pm);
+        assert!(
+            (shift_pm - expected_pm).abs() < 4.0 * p.std_error_pm.max(0.05),
+            "{microstrain} µε: {shift_pm} pm vs {expected_pm} pm (±{} pm)",
+            p.std_error_pm
+        );
     }
 }
 
@@ -231,7 +356,10 @@ fn window_bound_and_joint_bound_on_an_off_grid_narrow_peak() {
     let joint = gaussian_position_crb_joint_pm(&grid, 1550.0 + 0.4 * PITCH, PITCH, 1.0, 0.01);
     assert!(joint > 1.5 * one, "{joint} vs {one}");
     let _ = Parabola::default();
-    let _ = ImonWriteOptions { calibration: PixelCalibration::linear(1.0, 2.0, 2).unwrap(), wavelength_cells: 1 };
+    let _ = ImonWriteOptions {
+        calibration: PixelCalibration::linear(1.0, 2.0, 2).unwrap(),
+        wavelength_cells: 1,
+    };
 }
 
 #[test]
@@ -247,7 +375,13 @@ fn a_hyperion_like_dbm_spectrum_gives_one_peak_per_grating() {
         .iter()
         .map(|&x| {
             let mw = 10f64.powf(-5.9)
-                + centres.iter().map(|c| 10f64.powf(-2.1) * (-4.0 * std::f64::consts::LN_2 * ((x - c) / 0.2).powi(2)).exp()).sum::<f64>();
+                + centres
+                    .iter()
+                    .map(|c| {
+                        10f64.powf(-2.1)
+                            * (-4.0 * std::f64::consts::LN_2 * ((x - c) / 0.2).powi(2)).exp()
+                    })
+                    .sum::<f64>();
             10.0 * mw.log10() + rand_distr::Distribution::sample(&normal, &mut rng)
         })
         .collect();
@@ -257,7 +391,10 @@ fn a_hyperion_like_dbm_spectrum_gives_one_peak_per_grating() {
     for (p, c) in peaks.iter().zip(centres) {
         // 0.3 dB ≈ 7 % noise per sample over ~25 samples per FWHM: a few pm at most, and
         // the residual-based standard error says so.
-        assert!((p.wavelength_nm - c).abs() < 5.0 * p.std_error_pm * 1e-3 + 1e-4, "{p:?} vs {c}");
+        assert!(
+            (p.wavelength_nm - c).abs() < 5.0 * p.std_error_pm * 1e-3 + 1e-4,
+            "{p:?} vs {c}"
+        );
         assert!((p.fwhm_pm - 200.0).abs() < 20.0, "{p:?}");
         // The bound from the floor's noise is far below the error the peak-top noise
         // allows: the standard error exceeds it.

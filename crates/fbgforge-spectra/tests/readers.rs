@@ -3,15 +3,27 @@
 
 use fbgforge_spectra::synth::{SynthPeak, SynthSpectrum};
 use fbgforge_spectra::{
-    detect, read_enlight, read_imon, read_osa_csv, read_spectrum_log, write_enlight, write_imon, write_osa_csv,
-    ImonWriteOptions, PixelCalibration, PowerUnit, ReadOptions, Spectrum, SpectrumError, SpectrumFormat, SpectrumLog,
-    SpectrumRow,
+    detect, read_enlight, read_imon, read_osa_csv, read_spectrum_log, write_enlight, write_imon,
+    write_osa_csv, ImonWriteOptions, PixelCalibration, PowerUnit, ReadOptions, Spectrum,
+    SpectrumError, SpectrumFormat, SpectrumLog, SpectrumRow,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-fn one_row(format: SpectrumFormat, spectra: Vec<Spectrum>, metadata: Vec<(String, String)>) -> SpectrumLog {
-    SpectrumLog { format, metadata, rows: vec![SpectrumRow { time_s: 1_744_905_663.0, spectra, reported_peaks_nm: vec![] }] }
+fn one_row(
+    format: SpectrumFormat,
+    spectra: Vec<Spectrum>,
+    metadata: Vec<(String, String)>,
+) -> SpectrumLog {
+    SpectrumLog {
+        format,
+        metadata,
+        rows: vec![SpectrumRow {
+            time_s: 1_744_905_663.0,
+            spectra,
+            reported_peaks_nm: vec![],
+        }],
+    }
 }
 
 /// |a − b| within half a unit of the last printed decimal (plus rounding of the binary value).
@@ -27,13 +39,25 @@ fn imon_calibration() -> PixelCalibration {
 
 #[test]
 fn enlight_round_trip_is_exact_to_four_decimals() {
-    let synth = SynthSpectrum::uniform(1545.0, 0.008, 1500, 1e-5).with_floor(1.2e-6 * 1e3).with_peak(SynthPeak::gaussian(1550.0, 0.25, 0.01));
+    let synth = SynthSpectrum::uniform(1545.0, 0.008, 1500, 1e-5)
+        .with_floor(1.2e-6 * 1e3)
+        .with_peak(SynthPeak::gaussian(1550.0, 0.25, 0.01));
     let ch1 = synth.spectrum_in(1, PowerUnit::Dbm).unwrap();
     let mut ch2 = synth.spectrum_in(2, PowerUnit::Dbm).unwrap();
     ch2.channel = "CH 2".into();
-    ch2.metadata = vec![("Detect Valley".into(), "False".into()), ("Detection Setting ID".into(), "128".into())];
-    let metadata = vec![("Module Type".into(), "Hyperion".into()), ("HW Acquisition Rate".into(), "1000 Hz".into())];
-    let log = one_row(SpectrumFormat::EnlightSpectrum, vec![ch1.clone(), ch2.clone()], metadata);
+    ch2.metadata = vec![
+        ("Detect Valley".into(), "False".into()),
+        ("Detection Setting ID".into(), "128".into()),
+    ];
+    let metadata = vec![
+        ("Module Type".into(), "Hyperion".into()),
+        ("HW Acquisition Rate".into(), "1000 Hz".into()),
+    ];
+    let log = one_row(
+        SpectrumFormat::EnlightSpectrum,
+        vec![ch1.clone(), ch2.clone()],
+        metadata,
+    );
     let text = write_enlight(&log).unwrap();
     assert_eq!(detect(&text), Some(SpectrumFormat::EnlightSpectrum));
     let back = read_spectrum_log(&text, &ReadOptions::default()).unwrap();
@@ -46,8 +70,17 @@ fn enlight_round_trip_is_exact_to_four_decimals() {
     for (read, written) in row.spectra.iter().zip([&ch1, &ch2]) {
         assert_eq!(read.unit, PowerUnit::Dbm);
         for k in 0..written.len() {
-            assert!(within_printed(read.wavelengths_nm[k], written.wavelengths_nm[k], 4));
-            assert!(within_printed(read.power[k], written.power[k], 4), "{} vs {}", read.power[k], written.power[k]);
+            assert!(within_printed(
+                read.wavelengths_nm[k],
+                written.wavelengths_nm[k],
+                4
+            ));
+            assert!(
+                within_printed(read.power[k], written.power[k], 4),
+                "{} vs {}",
+                read.power[k],
+                written.power[k]
+            );
         }
     }
     // Reading back what was written and writing it again gives the same text.
@@ -65,7 +98,10 @@ fn enlight_reads_the_public_layout_with_bom_crlf_and_decreasing_rows() {
     assert_eq!(log.meta("Port"), Some("51971"));
     assert_eq!(s.meta("Detect Valley"), Some("False"));
     // 2025-04-17 15:44:56 = 20195 days after 1970-01-01.
-    assert_eq!(log.rows[0].time_s, 20_195.0 * 86_400.0 + 15.0 * 3600.0 + 44.0 * 60.0 + 56.0);
+    assert_eq!(
+        log.rows[0].time_s,
+        20_195.0 * 86_400.0 + 15.0 * 3600.0 + 44.0 * 60.0 + 56.0
+    );
     let linear = s.linear_power();
     assert!((linear[0] - 10f64.powf(-5.84822)).abs() < 1e-18);
 }
@@ -74,13 +110,19 @@ fn enlight_reads_the_public_layout_with_bom_crlf_and_decreasing_rows() {
 fn imon_round_trip_keeps_pixel_order_counts_times_and_reported_peaks() {
     let calibration = imon_calibration();
     let truth_nm = 1530.3003;
-    let synth = SynthSpectrum::imon(&calibration, 512, 15.0).unwrap().with_floor(1350.0).with_peak(SynthPeak::gaussian(truth_nm, 0.33, 38_000.0));
+    let synth = SynthSpectrum::imon(&calibration, 512, 15.0)
+        .unwrap()
+        .with_floor(1350.0)
+        .with_peak(SynthPeak::gaussian(truth_nm, 0.33, 38_000.0));
     let text = synth.imon_log(&calibration, 5, 11).unwrap();
     assert!(text.starts_with("Date\tTime\tWavelength 1 [nm]\tPixel 1\tPixel 2\t"));
     assert!(text.lines().next().unwrap().ends_with("Pixel 512\t"));
     assert_eq!(text.lines().nth(1), Some(""));
     assert_eq!(detect(&text), Some(SpectrumFormat::ImonPixels));
-    let options = ReadOptions { imon_calibration: Some(calibration.clone()), ..ReadOptions::default() };
+    let options = ReadOptions {
+        imon_calibration: Some(calibration.clone()),
+        ..ReadOptions::default()
+    };
     let log = read_spectrum_log(&text, &options).unwrap();
     assert_eq!(log.rows.len(), 5);
     let expected_w = {
@@ -103,9 +145,22 @@ fn imon_round_trip_keeps_pixel_order_counts_times_and_reported_peaks() {
     }
     // The highest count sits at the true wavelength: pixels were put back in wavelength order.
     let s = &log.rows[0].spectra[0];
-    let k = (0..s.len()).max_by(|&a, &b| s.power[a].total_cmp(&s.power[b])).unwrap();
-    assert!((s.wavelengths_nm[k] - truth_nm).abs() < 0.17, "{}", s.wavelengths_nm[k]);
-    let again = write_imon(&log, &ImonWriteOptions { calibration, wavelength_cells: 1 }).unwrap();
+    let k = (0..s.len())
+        .max_by(|&a, &b| s.power[a].total_cmp(&s.power[b]))
+        .unwrap();
+    assert!(
+        (s.wavelengths_nm[k] - truth_nm).abs() < 0.17,
+        "{}",
+        s.wavelengths_nm[k]
+    );
+    let again = write_imon(
+        &log,
+        &ImonWriteOptions {
+            calibration,
+            wavelength_cells: 1,
+        },
+    )
+    .unwrap();
     assert_eq!(again, text);
 }
 
@@ -116,9 +171,15 @@ fn imon_reads_rows_with_padded_wavelength_cells() {
                 10/30/2020\t4:44:10 PM\t1.5303003E+3\t0.000E+0\t1.349E+3\t3.938E+4\t1.365E+3\n\
                 10/30/2020\t4:44:11 PM\t1.5303003E+3\t1.5400000E+3\t0.0000000E+0\t1.0E+0\t2.0E+0\t3.0E+0\t4.0E+0\n";
     let log = read_imon(text, Some(&calibration)).unwrap();
-    assert_eq!(log.rows[0].spectra[0].power, vec![1365.0, 39380.0, 1349.0, 0.0]);
+    assert_eq!(
+        log.rows[0].spectra[0].power,
+        vec![1365.0, 39380.0, 1349.0, 0.0]
+    );
     let w = &log.rows[0].spectra[0].wavelengths_nm;
-    for (a, b) in w.iter().zip([1510.0, 1510.0 + 85.0 / 3.0, 1510.0 + 170.0 / 3.0, 1595.0]) {
+    for (a, b) in w
+        .iter()
+        .zip([1510.0, 1510.0 + 85.0 / 3.0, 1510.0 + 170.0 / 3.0, 1595.0])
+    {
         assert!((a - b).abs() < 1e-9, "{w:?}");
     }
     assert_eq!(log.rows[1].reported_peaks_nm, vec![1530.3003, 1540.0]);
@@ -128,15 +189,33 @@ fn imon_reads_rows_with_padded_wavelength_cells() {
 
 #[test]
 fn osa_round_trip_in_db_mw_and_linear_units() {
-    let synth = SynthSpectrum::uniform(1549.0, 0.0024, 900, 1e-3).with_peak(SynthPeak::gaussian(1550.0, 0.2, 0.5));
-    for unit in [PowerUnit::Db, PowerUnit::Dbm, PowerUnit::Mw, PowerUnit::Linear] {
+    let synth = SynthSpectrum::uniform(1549.0, 0.0024, 900, 1e-3)
+        .with_peak(SynthPeak::gaussian(1550.0, 0.2, 0.5));
+    for unit in [
+        PowerUnit::Db,
+        PowerUnit::Dbm,
+        PowerUnit::Mw,
+        PowerUnit::Linear,
+    ] {
         let mut rx = synth.spectrum_in(3, unit).unwrap();
         rx.channel = "Rx".into();
         let mut tx = synth.spectrum_in(4, unit).unwrap();
         tx.channel = "Tx".into();
-        let log = one_row(SpectrumFormat::OsaCsv, vec![rx.clone(), tx], vec![("Instrument".into(), "swept laser".into())]);
+        let log = one_row(
+            SpectrumFormat::OsaCsv,
+            vec![rx.clone(), tx],
+            vec![("Instrument".into(), "swept laser".into())],
+        );
         let text = write_osa_csv(&log).unwrap();
-        assert!(text.contains(&format!("Wavelength (nm),Rx ({}),Tx ({})", unit.label(), unit.label())), "{}", &text[..80]);
+        assert!(
+            text.contains(&format!(
+                "Wavelength (nm),Rx ({}),Tx ({})",
+                unit.label(),
+                unit.label()
+            )),
+            "{}",
+            &text[..80]
+        );
         assert_eq!(detect(&text), Some(SpectrumFormat::OsaCsv));
         let back = read_spectrum_log(&text, &ReadOptions::default()).unwrap();
         assert_eq!(back.meta("Instrument"), Some("swept laser"));
@@ -147,7 +226,9 @@ fn osa_round_trip_in_db_mw_and_linear_units() {
             if unit.is_logarithmic() {
                 assert!(within_printed(s.power[k], rx.power[k], 4));
             } else {
-                assert!((s.power[k] - rx.power[k]).abs() <= 5e-7 * rx.power[k].abs() * (1.0 + 1e-9));
+                assert!(
+                    (s.power[k] - rx.power[k]).abs() <= 5e-7 * rx.power[k].abs() * (1.0 + 1e-9)
+                );
             }
         }
         assert_eq!(write_osa_csv(&back).unwrap(), text);
@@ -159,14 +240,23 @@ fn osa_detects_units_and_reverses_decreasing_sweeps() {
     let text = "Wavelength (nm);Amplitude (AU)\n1550,002;0,5\n1550,001;0,25\n1550,000;0,125\n";
     let log = read_osa_csv(text).unwrap();
     let s = &log.rows[0].spectra[0];
-    assert_eq!((s.channel.as_str(), s.unit), ("Amplitude", PowerUnit::Linear));
+    assert_eq!(
+        (s.channel.as_str(), s.unit),
+        ("Amplitude", PowerUnit::Linear)
+    );
     assert_eq!(s.wavelengths_nm, vec![1550.0, 1550.001, 1550.002]);
     assert_eq!(s.power, vec![0.125, 0.25, 0.5]);
     let w = read_osa_csv("\"Wavelength (um)\",\"Power (uW)\"\n1.55,2\n1.551,4\n").unwrap();
     let s = &w.rows[0].spectra[0];
     assert_eq!(s.unit, PowerUnit::Mw);
     assert!((s.wavelengths_nm[1] - 1551.0).abs() < 1e-9 && (s.power[1] - 0.004).abs() < 1e-15);
-    for (label, unit) in [("Rx (dB)", PowerUnit::Db), ("P [dBm]", PowerUnit::Dbm), ("P (mW)", PowerUnit::Mw), ("Signal", PowerUnit::Linear), ("I (counts)", PowerUnit::Counts)] {
+    for (label, unit) in [
+        ("Rx (dB)", PowerUnit::Db),
+        ("P [dBm]", PowerUnit::Dbm),
+        ("P (mW)", PowerUnit::Mw),
+        ("Signal", PowerUnit::Linear),
+        ("I (counts)", PowerUnit::Counts),
+    ] {
         let log = read_osa_csv(&format!("Wavelength (nm),{label}\n1550,1\n1551,2\n")).unwrap();
         assert_eq!(log.rows[0].spectra[0].unit, unit, "{label}");
     }
@@ -179,14 +269,19 @@ fn detect_leaves_peak_logs_and_force_files_alone() {
     let force = "time_s,force_N\n0.0,0.1\n";
     for text in [peaks, imon_peaks, force, ""] {
         assert_eq!(detect(text), None, "{text}");
-        assert!(matches!(read_spectrum_log(text, &ReadOptions::default()), Err(SpectrumError::UnknownFormat(_))));
+        assert!(matches!(
+            read_spectrum_log(text, &ReadOptions::default()),
+            Err(SpectrumError::UnknownFormat(_))
+        ));
     }
 }
 
 /// The error's line number, and its message names it.
 fn line_of(e: &SpectrumError) -> usize {
     let line = match e {
-        SpectrumError::Parse { line, .. } | SpectrumError::Ragged { line, .. } | SpectrumError::NotMonotonic { line, .. } => *line,
+        SpectrumError::Parse { line, .. }
+        | SpectrumError::Ragged { line, .. }
+        | SpectrumError::NotMonotonic { line, .. } => *line,
         other => panic!("expected an error with a line, got {other}"),
     };
     assert!(e.to_string().contains(&format!("line {line}")), "{e}");
@@ -206,11 +301,18 @@ fn malformed_enlight_files_name_the_line() {
     let e = read_enlight(&text).unwrap_err();
     assert!(matches!(&e, SpectrumError::Parse { found, .. } if found == "-5x8.3"));
     assert_eq!(line_of(&e), 8);
-    let text = format!("{ENLIGHT_HEAD}1460.0000\t-58.1\t-58.2\n1460.0080\t-58.3\t-58.0\n1460.0040\t-58.3\t-58.0\n");
+    let text = format!(
+        "{ENLIGHT_HEAD}1460.0000\t-58.1\t-58.2\n1460.0080\t-58.3\t-58.0\n1460.0040\t-58.3\t-58.0\n"
+    );
     let e = read_enlight(&text).unwrap_err();
-    assert!(matches!(e, SpectrumError::NotMonotonic { previous_nm, current_nm, .. } if previous_nm == 1460.008 && current_nm == 1460.004));
+    assert!(
+        matches!(e, SpectrumError::NotMonotonic { previous_nm, current_nm, .. } if previous_nm == 1460.008 && current_nm == 1460.004)
+    );
     assert_eq!(line_of(&e), 9);
-    let e = read_enlight(&format!("{ENLIGHT_HEAD}1460.0000\t-58.1\t-58.2\n1460.0000\t-58.3\t-58.0\n")).unwrap_err();
+    let e = read_enlight(&format!(
+        "{ENLIGHT_HEAD}1460.0000\t-58.1\t-58.2\n1460.0000\t-58.3\t-58.0\n"
+    ))
+    .unwrap_err();
     assert_eq!(line_of(&e), 8);
 }
 
@@ -237,10 +339,18 @@ fn malformed_imon_logs_name_the_line() {
     assert!(matches!(e, SpectrumError::Ragged { found: 6, .. }), "{e}");
     assert_eq!(line_of(&e), 4);
     let bad = "10/30/2020\t4:44:11 PM\t1.5303003E+3\t1.0E+3\tn/a\t3.0E+3\t4.0E+3".to_string();
-    let e = read_imon(&imon_text(4, &[good.clone(), good.clone(), bad]), Some(&cal)).unwrap_err();
+    let e = read_imon(
+        &imon_text(4, &[good.clone(), good.clone(), bad]),
+        Some(&cal),
+    )
+    .unwrap_err();
     assert_eq!(line_of(&e), 5);
-    let bad_time = "10/30/2020\t16:44:11 PM\t1.5303003E+3\t1.0E+3\t2.0E+3\t3.0E+3\t4.0E+3".to_string();
-    assert_eq!(line_of(&read_imon(&imon_text(4, &[bad_time]), Some(&cal)).unwrap_err()), 3);
+    let bad_time =
+        "10/30/2020\t16:44:11 PM\t1.5303003E+3\t1.0E+3\t2.0E+3\t3.0E+3\t4.0E+3".to_string();
+    assert_eq!(
+        line_of(&read_imon(&imon_text(4, &[bad_time]), Some(&cal)).unwrap_err()),
+        3
+    );
     // Pixel columns must run 1, 2, …
     let header = "Date\tTime\tWavelength 1 [nm]\tPixel 1\tPixel 3\t\n\n";
     assert_eq!(line_of(&read_imon(header, Some(&cal)).unwrap_err()), 1);
@@ -248,22 +358,34 @@ fn malformed_imon_logs_name_the_line() {
     let e = read_imon(&imon_text(4, std::slice::from_ref(&good)), None).unwrap_err();
     assert!(matches!(e, SpectrumError::MissingCalibration { pixels: 4 }));
     assert!(e.to_string().contains("a0,a1"), "{e}");
-    let e = read_spectrum_log(&imon_text(4, std::slice::from_ref(&good)), &ReadOptions::default()).unwrap_err();
+    let e = read_spectrum_log(
+        &imon_text(4, std::slice::from_ref(&good)),
+        &ReadOptions::default(),
+    )
+    .unwrap_err();
     assert!(matches!(e, SpectrumError::MissingCalibration { pixels: 4 }));
     // A polynomial that folds back over the pixels.
     let folded = PixelCalibration::new(vec![1500.0, 20.0, -5.0]).unwrap();
-    assert!(matches!(read_imon(&imon_text(4, &[good]), Some(&folded)), Err(SpectrumError::Calibration(_))));
+    assert!(matches!(
+        read_imon(&imon_text(4, &[good]), Some(&folded)),
+        Err(SpectrumError::Calibration(_))
+    ));
     assert!(PixelCalibration::parse("1595.2, -0.1662").is_ok());
-    assert!(matches!(PixelCalibration::parse("1595.2;-0.1662"), Err(SpectrumError::Calibration(_))));
+    assert!(matches!(
+        PixelCalibration::parse("1595.2;-0.1662"),
+        Err(SpectrumError::Calibration(_))
+    ));
 }
 
 #[test]
 fn malformed_osa_files_name_the_line() {
-    let e = read_osa_csv("# sweep\nWavelength (nm),Rx (dB),Tx (dB)\n1550.000,-1,-2\n1550.001,-1\n").unwrap_err();
+    let e = read_osa_csv("# sweep\nWavelength (nm),Rx (dB),Tx (dB)\n1550.000,-1,-2\n1550.001,-1\n")
+        .unwrap_err();
     assert_eq!(line_of(&e), 4);
     let e = read_osa_csv("Wavelength (nm),Rx (dB)\n1550.000,-1\n1550.001,abc\n").unwrap_err();
     assert_eq!(line_of(&e), 3);
-    let e = read_osa_csv("Wavelength (nm),Rx (dB)\n1550.000,-1\n1550.002,-1\n1550.001,-1\n").unwrap_err();
+    let e = read_osa_csv("Wavelength (nm),Rx (dB)\n1550.000,-1\n1550.002,-1\n1550.001,-1\n")
+        .unwrap_err();
     assert_eq!(line_of(&e), 4);
     let e = read_osa_csv("Wavelength (nm),Rx (furlongs)\n1550.000,-1\n").unwrap_err();
     assert_eq!(line_of(&e), 1);
@@ -272,16 +394,26 @@ fn malformed_osa_files_name_the_line() {
 #[test]
 fn no_reader_panics_on_mangled_files() {
     let cal = imon_calibration();
-    let synth = SynthSpectrum::uniform(1549.5, 0.01, 100, 1e-3).with_peak(SynthPeak::gaussian(1550.0, 0.05, 0.1));
+    let synth = SynthSpectrum::uniform(1549.5, 0.01, 100, 1e-3)
+        .with_peak(SynthPeak::gaussian(1550.0, 0.05, 0.1));
     let imon_synth = SynthSpectrum::imon(&cal, 512, 10.0).unwrap();
     let files = [
-        synth.write(SpectrumFormat::EnlightSpectrum, 1, PowerUnit::Dbm).unwrap(),
-        synth.write(SpectrumFormat::OsaCsv, 1, PowerUnit::Db).unwrap(),
+        synth
+            .write(SpectrumFormat::EnlightSpectrum, 1, PowerUnit::Dbm)
+            .unwrap(),
+        synth
+            .write(SpectrumFormat::OsaCsv, 1, PowerUnit::Db)
+            .unwrap(),
         imon_synth.imon_log(&cal, 2, 1).unwrap(),
     ];
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let options = ReadOptions { imon_calibration: Some(cal), ..ReadOptions::default() };
-    let junk = ['\t', '\n', ',', ';', '.', '-', 'E', '0', ' ', 'x', '\u{feff}', ':'];
+    let options = ReadOptions {
+        imon_calibration: Some(cal),
+        ..ReadOptions::default()
+    };
+    let junk = [
+        '\t', '\n', ',', ';', '.', '-', 'E', '0', ' ', 'x', '\u{feff}', ':',
+    ];
     for file in &files {
         let chars: Vec<char> = file.chars().collect();
         for _ in 0..300 {
@@ -302,8 +434,18 @@ fn no_reader_panics_on_mangled_files() {
             let text: String = c.into_iter().collect();
             // Any result is fine; a panic fails the test.
             let _ = read_spectrum_log(&text, &options);
-            for f in [SpectrumFormat::EnlightSpectrum, SpectrumFormat::ImonPixels, SpectrumFormat::OsaCsv] {
-                let _ = read_spectrum_log(&text, &ReadOptions { format: Some(f), ..options.clone() });
+            for f in [
+                SpectrumFormat::EnlightSpectrum,
+                SpectrumFormat::ImonPixels,
+                SpectrumFormat::OsaCsv,
+            ] {
+                let _ = read_spectrum_log(
+                    &text,
+                    &ReadOptions {
+                        format: Some(f),
+                        ..options.clone()
+                    },
+                );
             }
         }
     }

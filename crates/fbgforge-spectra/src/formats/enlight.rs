@@ -19,7 +19,9 @@ use crate::formats::SpectrumFormat;
 use crate::spectrum::{PowerUnit, Spectrum, SpectrumLog, SpectrumRow};
 
 pub(crate) fn is_header(line: &str) -> bool {
-    line.split('\t').next().is_some_and(|f| f.trim().eq_ignore_ascii_case("wvl (nm)"))
+    line.split('\t')
+        .next()
+        .is_some_and(|f| f.trim().eq_ignore_ascii_case("wvl (nm)"))
 }
 
 /// The header block: top-level key/values and one block per channel.
@@ -64,7 +66,11 @@ impl Header {
     }
 
     fn channel_metadata(&self, label: &str) -> Vec<(String, String)> {
-        self.channel_blocks.iter().find(|(l, _)| l == label).map(|(_, b)| b.clone()).unwrap_or_default()
+        self.channel_blocks
+            .iter()
+            .find(|(l, _)| l == label)
+            .map(|(_, b)| b.clone())
+            .unwrap_or_default()
     }
 }
 
@@ -79,14 +85,22 @@ pub fn read_enlight(text: &str) -> Result<SpectrumLog, SpectrumError> {
     let mut channels: Option<Vec<String>> = None;
     for (_, line) in lines.by_ref() {
         if is_header(line) {
-            channels = Some(text::fields(line, '\t')[1..].iter().map(|s| s.to_string()).collect());
+            channels = Some(
+                text::fields(line, '\t')[1..]
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect(),
+            );
             break;
         }
         header.take(line);
     }
-    let channels = channels.ok_or_else(|| SpectrumError::UnknownFormat("no `Wvl (nm)` header line".into()))?;
+    let channels =
+        channels.ok_or_else(|| SpectrumError::UnknownFormat("no `Wvl (nm)` header line".into()))?;
     if channels.is_empty() || channels.iter().any(|c| c.is_empty()) {
-        return Err(SpectrumError::Invalid("`Wvl (nm)` header line names no channel column".into()));
+        return Err(SpectrumError::Invalid(
+            "`Wvl (nm)` header line names no channel column".into(),
+        ));
     }
     let mut wavelengths = Vec::new();
     let mut line_numbers = Vec::new();
@@ -99,7 +113,12 @@ pub fn read_enlight(text: &str) -> Result<SpectrumLog, SpectrumError> {
         if f.len() != channels.len() + 1 {
             return Err(SpectrumError::Ragged {
                 line: number,
-                expected: format!("{} (wavelength + {} channel{})", channels.len() + 1, channels.len(), plural(channels.len())),
+                expected: format!(
+                    "{} (wavelength + {} channel{})",
+                    channels.len() + 1,
+                    channels.len(),
+                    plural(channels.len())
+                ),
                 found: f.len(),
             });
         }
@@ -133,7 +152,11 @@ pub fn read_enlight(text: &str) -> Result<SpectrumLog, SpectrumError> {
     Ok(SpectrumLog {
         format: SpectrumFormat::EnlightSpectrum,
         metadata: header.metadata,
-        rows: vec![SpectrumRow { time_s, spectra, reported_peaks_nm: Vec::new() }],
+        rows: vec![SpectrumRow {
+            time_s,
+            spectra,
+            reported_peaks_nm: Vec::new(),
+        }],
     })
 }
 
@@ -150,7 +173,11 @@ fn plural(n: usize) -> &'static str {
 fn parse_date(value: &str) -> Option<f64> {
     let (date, time) = value.trim().split_once(' ')?;
     let parts = text::date_parts(date)?;
-    let order = if parts.1 > 12 { DateOrder::MonthFirst } else { DateOrder::DayFirst };
+    let order = if parts.1 > 12 {
+        DateOrder::MonthFirst
+    } else {
+        DateOrder::DayFirst
+    };
     text::date_time_s(parts, time, order)
 }
 
@@ -169,12 +196,17 @@ pub fn write_enlight(log: &SpectrumLog) -> Result<String, SpectrumError> {
             )))
         }
     };
-    let first = row.spectra.first().ok_or_else(|| SpectrumError::Invalid("the row holds no spectrum".into()))?;
+    let first = row
+        .spectra
+        .first()
+        .ok_or_else(|| SpectrumError::Invalid("the row holds no spectrum".into()))?;
     let mut columns = Vec::with_capacity(row.spectra.len());
     for s in &row.spectra {
         s.validate()?;
         if s.wavelengths_nm != first.wavelengths_nm {
-            return Err(SpectrumError::Invalid("ENLIGHT export: every channel must share one wavelength grid".into()));
+            return Err(SpectrumError::Invalid(
+                "ENLIGHT export: every channel must share one wavelength grid".into(),
+            ));
         }
         columns.push(dbm_values(s)?);
     }
@@ -217,7 +249,10 @@ fn dbm_values(s: &Spectrum) -> Result<Vec<f64>, SpectrumError> {
                 if p > 0.0 {
                     Ok(10.0 * p.log10())
                 } else {
-                    Err(SpectrumError::Invalid(format!("channel {}: {p} mW cannot be written in dBm", s.channel)))
+                    Err(SpectrumError::Invalid(format!(
+                        "channel {}: {p} mW cannot be written in dBm",
+                        s.channel
+                    )))
                 }
             })
             .collect(),

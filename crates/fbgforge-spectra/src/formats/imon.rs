@@ -46,9 +46,12 @@ impl PixelCalibration {
         let coefficients = text
             .split(',')
             .map(|c| {
-                c.trim()
-                    .parse::<f64>()
-                    .map_err(|_| SpectrumError::Calibration(format!("`{}` in `{text}` is not a number", c.trim())))
+                c.trim().parse::<f64>().map_err(|_| {
+                    SpectrumError::Calibration(format!(
+                        "`{}` in `{text}` is not a number",
+                        c.trim()
+                    ))
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Self::new(coefficients)
@@ -56,7 +59,11 @@ impl PixelCalibration {
 
     /// The linear map with `Pixel 1` at `first_pixel_nm` and `Pixel P` at `last_pixel_nm`
     /// (for an I-MON 512 about 1595 → 1510 nm: reverse order).
-    pub fn linear(first_pixel_nm: f64, last_pixel_nm: f64, pixels: usize) -> Result<Self, SpectrumError> {
+    pub fn linear(
+        first_pixel_nm: f64,
+        last_pixel_nm: f64,
+        pixels: usize,
+    ) -> Result<Self, SpectrumError> {
         if pixels < 2 {
             return Err(SpectrumError::Calibration("need at least 2 pixels".into()));
         }
@@ -66,7 +73,10 @@ impl PixelCalibration {
 
     /// λ(p), nm.
     pub fn wavelength_nm(&self, pixel: f64) -> f64 {
-        self.coefficients_nm.iter().rev().fold(0.0, |acc, &c| acc * pixel + c)
+        self.coefficients_nm
+            .iter()
+            .rev()
+            .fold(0.0, |acc, &c| acc * pixel + c)
     }
 
     /// λ(1), …, λ(P) in the file's pixel order; an error unless strictly monotonic.
@@ -85,7 +95,11 @@ impl PixelCalibration {
 
 impl std::fmt::Display for PixelCalibration {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let parts: Vec<String> = self.coefficients_nm.iter().map(|c| format!("{c}")).collect();
+        let parts: Vec<String> = self
+            .coefficients_nm
+            .iter()
+            .map(|c| format!("{c}"))
+            .collect();
         write!(f, "{}", parts.join(","))
     }
 }
@@ -107,14 +121,21 @@ pub(crate) fn is_pixel_header(line: &str) -> bool {
 
 /// Number of `Pixel n` columns, checked to run 1, 2, …, P at the end of the header.
 fn pixel_columns(header: &[&str], line: usize) -> Result<usize, SpectrumError> {
-    let first = header.iter().position(|f| f.starts_with("Pixel ")).ok_or_else(|| {
-        SpectrumError::UnknownFormat(
-            "I-MON header without `Pixel n` columns: a peak log, not a spectrum log".into(),
-        )
-    })?;
+    let first = header
+        .iter()
+        .position(|f| f.starts_with("Pixel "))
+        .ok_or_else(|| {
+            SpectrumError::UnknownFormat(
+                "I-MON header without `Pixel n` columns: a peak log, not a spectrum log".into(),
+            )
+        })?;
     for (k, field) in header[first..].iter().enumerate() {
         if *field != format!("Pixel {}", k + 1) {
-            return Err(parse_error(line, format!("header column `Pixel {}`", k + 1), field));
+            return Err(parse_error(
+                line,
+                format!("header column `Pixel {}`", k + 1),
+                field,
+            ));
         }
     }
     Ok(header.len() - first)
@@ -138,7 +159,8 @@ fn read_row(line: &str, number: usize, pixels: usize) -> Result<RawRow, Spectrum
             found: n,
         });
     }
-    let date = text::date_parts(f[0]).ok_or_else(|| parse_error(number, "a date like 10/30/2020", f[0]))?;
+    let date = text::date_parts(f[0])
+        .ok_or_else(|| parse_error(number, "a date like 10/30/2020", f[0]))?;
     if text::time_of_day_s(f[1]).is_none() {
         return Err(parse_error(number, "a time like 4:44:10 PM", f[1]));
     }
@@ -154,7 +176,13 @@ fn read_row(line: &str, number: usize, pixels: usize) -> Result<RawRow, Spectrum
         .iter()
         .map(|field| text::parse_number(field, number, "pixel count", true))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(RawRow { line: number, date, time: f[1].to_string(), reported, pixels: counts })
+    Ok(RawRow {
+        line: number,
+        date,
+        time: f[1].to_string(),
+        reported,
+        pixels: counts,
+    })
 }
 
 /// Reads an I-MON evaluation log with pixel columns: one row per acquisition, one
@@ -162,12 +190,21 @@ fn read_row(line: &str, number: usize, pixels: usize) -> Result<RawRow, Spectrum
 /// increase (the pixel values follow). The row's own peak wavelengths (non-zero cells)
 /// go to `reported_peaks_nm`. Dates are month-first unless one in the file has a first
 /// number above 12.
-pub fn read_imon(text: &str, calibration: Option<&PixelCalibration>) -> Result<SpectrumLog, SpectrumError> {
+pub fn read_imon(
+    text: &str,
+    calibration: Option<&PixelCalibration>,
+) -> Result<SpectrumLog, SpectrumError> {
     let mut lines = text::numbered_lines(text).filter(|(_, l)| !l.trim().is_empty());
-    let (header_line, header) = lines.next().ok_or_else(|| SpectrumError::UnknownFormat("empty file".into()))?;
+    let (header_line, header) = lines
+        .next()
+        .ok_or_else(|| SpectrumError::UnknownFormat("empty file".into()))?;
     let header_fields = text::fields(header, '\t');
     if header_fields.len() < 3 || header_fields[0] != "Date" || header_fields[1] != "Time" {
-        return Err(parse_error(header_line, "the I-MON header `Date<TAB>Time<TAB>Wavelength 1 [nm]<TAB>Pixel 1…`", header));
+        return Err(parse_error(
+            header_line,
+            "the I-MON header `Date<TAB>Time<TAB>Wavelength 1 [nm]<TAB>Pixel 1…`",
+            header,
+        ));
     }
     let pixels = pixel_columns(&header_fields, header_line)?;
     let calibration = calibration.ok_or(SpectrumError::MissingCalibration { pixels })?;
@@ -176,12 +213,23 @@ pub fn read_imon(text: &str, calibration: Option<&PixelCalibration>) -> Result<S
     if reverse {
         wavelengths.reverse();
     }
-    let raw = lines.map(|(n, l)| read_row(l, n, pixels)).collect::<Result<Vec<_>, _>>()?;
-    let order = if raw.iter().any(|r| r.date.0 > 12) { DateOrder::DayFirst } else { DateOrder::MonthFirst };
+    let raw = lines
+        .map(|(n, l)| read_row(l, n, pixels))
+        .collect::<Result<Vec<_>, _>>()?;
+    let order = if raw.iter().any(|r| r.date.0 > 12) {
+        DateOrder::DayFirst
+    } else {
+        DateOrder::MonthFirst
+    };
     let mut rows = Vec::with_capacity(raw.len());
     for r in raw {
-        let time_s = text::date_time_s(r.date, &r.time, order)
-            .ok_or_else(|| parse_error(r.line, "a valid date and time", &format!("{}/{}/{} {}", r.date.0, r.date.1, r.date.2, r.time)))?;
+        let time_s = text::date_time_s(r.date, &r.time, order).ok_or_else(|| {
+            parse_error(
+                r.line,
+                "a valid date and time",
+                &format!("{}/{}/{} {}", r.date.0, r.date.1, r.date.2, r.time),
+            )
+        })?;
         let mut power = r.pixels;
         if reverse {
             power.reverse();
@@ -193,7 +241,11 @@ pub fn read_imon(text: &str, calibration: Option<&PixelCalibration>) -> Result<S
             unit: PowerUnit::Counts,
             metadata: Vec::new(),
         };
-        rows.push(SpectrumRow { time_s, spectra: vec![spectrum], reported_peaks_nm: r.reported });
+        rows.push(SpectrumRow {
+            time_s,
+            spectra: vec![spectrum],
+            reported_peaks_nm: r.reported,
+        });
     }
     Ok(SpectrumLog {
         format: SpectrumFormat::ImonPixels,
@@ -226,12 +278,20 @@ pub fn write_imon(log: &SpectrumLog, options: &ImonWriteOptions) -> Result<Strin
     for (i, row) in log.rows.iter().enumerate() {
         let s = match row.spectra.as_slice() {
             [s] => s,
-            other => return Err(SpectrumError::Invalid(format!("row {i}: an I-MON row holds one spectrum, not {}", other.len()))),
+            other => {
+                return Err(SpectrumError::Invalid(format!(
+                    "row {i}: an I-MON row holds one spectrum, not {}",
+                    other.len()
+                )))
+            }
         };
         check_on_pixels(s, &file_order, reverse, i)?;
         let (date, time) = text::format_date_time(row.time_s, DateOrder::MonthFirst, false);
         out.push_str(&format!("{date}\t{time}"));
-        let cells = options.wavelength_cells.max(row.reported_peaks_nm.len()).max(1);
+        let cells = options
+            .wavelength_cells
+            .max(row.reported_peaks_nm.len())
+            .max(1);
         for k in 0..cells {
             let w = row.reported_peaks_nm.get(k).copied().unwrap_or(0.0);
             out.push('\t');
@@ -251,16 +311,32 @@ pub fn write_imon(log: &SpectrumLog, options: &ImonWriteOptions) -> Result<Strin
     Ok(out)
 }
 
-fn check_on_pixels(s: &Spectrum, file_order: &[f64], reverse: bool, row: usize) -> Result<(), SpectrumError> {
+fn check_on_pixels(
+    s: &Spectrum,
+    file_order: &[f64],
+    reverse: bool,
+    row: usize,
+) -> Result<(), SpectrumError> {
     if !matches!(s.unit, PowerUnit::Counts | PowerUnit::Linear) {
-        return Err(SpectrumError::Invalid(format!("row {row}: I-MON pixels are counts, the spectrum is in {}", s.unit.label())));
+        return Err(SpectrumError::Invalid(format!(
+            "row {row}: I-MON pixels are counts, the spectrum is in {}",
+            s.unit.label()
+        )));
     }
     if s.len() != file_order.len() {
-        return Err(SpectrumError::Invalid(format!("row {row}: {} samples, the first row has {}", s.len(), file_order.len())));
+        return Err(SpectrumError::Invalid(format!(
+            "row {row}: {} samples, the first row has {}",
+            s.len(),
+            file_order.len()
+        )));
     }
     let n = file_order.len();
     for (k, w) in s.wavelengths_nm.iter().enumerate() {
-        let expected = if reverse { file_order[n - 1 - k] } else { file_order[k] };
+        let expected = if reverse {
+            file_order[n - 1 - k]
+        } else {
+            file_order[k]
+        };
         if (w - expected).abs() > 1e-9 * expected.abs().max(1.0) {
             return Err(SpectrumError::Invalid(format!(
                 "row {row}: sample {k} at {w} nm is not on the calibration's pixel wavelength {expected} nm"

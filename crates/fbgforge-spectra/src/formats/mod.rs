@@ -44,9 +44,13 @@ impl SpectrumFormat {
 
     /// The format of a name given by [`SpectrumFormat::name`].
     pub fn from_name(name: &str) -> Option<Self> {
-        [SpectrumFormat::EnlightSpectrum, SpectrumFormat::ImonPixels, SpectrumFormat::OsaCsv]
-            .into_iter()
-            .find(|f| f.name() == name)
+        [
+            SpectrumFormat::EnlightSpectrum,
+            SpectrumFormat::ImonPixels,
+            SpectrumFormat::OsaCsv,
+        ]
+        .into_iter()
+        .find(|f| f.name() == name)
     }
 }
 
@@ -124,7 +128,10 @@ pub fn read_spectrum_log(text: &str, options: &ReadOptions) -> Result<SpectrumLo
 }
 
 /// [`read_spectrum_log`] over a reader (the whole input is read first).
-pub fn read_spectrum_log_from<R: BufRead>(mut reader: R, options: &ReadOptions) -> Result<SpectrumLog, SpectrumError> {
+pub fn read_spectrum_log_from<R: BufRead>(
+    mut reader: R,
+    options: &ReadOptions,
+) -> Result<SpectrumLog, SpectrumError> {
     let mut bytes = Vec::new();
     reader.read_to_end(&mut bytes)?;
     let text = String::from_utf8_lossy(&bytes);
@@ -142,7 +149,9 @@ pub fn write_spectrum_log(
         SpectrumFormat::OsaCsv => write_osa_csv(log),
         SpectrumFormat::ImonPixels => match imon {
             Some(options) => write_imon(log, options),
-            None => Err(SpectrumError::Invalid("writing an I-MON log needs its pixel calibration".into())),
+            None => Err(SpectrumError::Invalid(
+                "writing an I-MON log needs its pixel calibration".into(),
+            )),
         },
     }
 }

@@ -42,7 +42,11 @@ fn split_unit(label: &str) -> (String, Option<String>) {
 }
 
 /// Power unit of a column and the factor that brings its values to that unit.
-fn power_unit(unit: Option<&str>, line: usize, label: &str) -> Result<(PowerUnit, f64), SpectrumError> {
+fn power_unit(
+    unit: Option<&str>,
+    line: usize,
+    label: &str,
+) -> Result<(PowerUnit, f64), SpectrumError> {
     let u = unit.unwrap_or("").to_ascii_lowercase();
     let u = u.trim();
     Ok(match u {
@@ -52,7 +56,9 @@ fn power_unit(unit: Option<&str>, line: usize, label: &str) -> Result<(PowerUnit
         "w" => (PowerUnit::Mw, 1e3),
         "uw" | "µw" | "μw" => (PowerUnit::Mw, 1e-3),
         "nw" => (PowerUnit::Mw, 1e-6),
-        "" | "au" | "a.u." | "arb" | "arb." | "arb. units" | "a.u" | "linear" | "ratio" => (PowerUnit::Linear, 1.0),
+        "" | "au" | "a.u." | "arb" | "arb." | "arb. units" | "a.u" | "linear" | "ratio" => {
+            (PowerUnit::Linear, 1.0)
+        }
         "counts" | "count" => (PowerUnit::Counts, 1.0),
         _ => {
             return Err(parse_error(
@@ -96,8 +102,8 @@ pub fn read_osa_csv(text: &str) -> Result<SpectrumLog, SpectrumError> {
             metadata.push((k.to_string(), rest.join(", ")));
         }
     }
-    let (header_line, header) =
-        header.ok_or_else(|| SpectrumError::UnknownFormat("no `Wavelength (nm),…` CSV header".into()))?;
+    let (header_line, header) = header
+        .ok_or_else(|| SpectrumError::UnknownFormat("no `Wavelength (nm),…` CSV header".into()))?;
     let delimiter = delimiter_of(header);
     let labels = text::fields(header, delimiter);
     let (_, wl_unit) = split_unit(labels[0]);
@@ -116,13 +122,19 @@ pub fn read_osa_csv(text: &str) -> Result<SpectrumLog, SpectrumError> {
         }
         let f = text::fields(line, delimiter);
         if f.len() != labels.len() {
-            return Err(SpectrumError::Ragged { line: number, expected: format!("{} as in the header", labels.len()), found: f.len() });
+            return Err(SpectrumError::Ragged {
+                line: number,
+                expected: format!("{} as in the header", labels.len()),
+                found: f.len(),
+            });
         }
         let comma = delimiter != ',';
         wavelengths.push(wl_scale * text::parse_number(f[0], number, "wavelength", comma)?);
         line_numbers.push(number);
         for (k, (name, _, scale, values)) in columns.iter_mut().enumerate() {
-            values.push(*scale * text::parse_number(f[k + 1], number, &format!("power ({name})"), comma)?);
+            values.push(
+                *scale * text::parse_number(f[k + 1], number, &format!("power ({name})"), comma)?,
+            );
         }
     }
     let reverse = text::check_monotonic(&wavelengths, &line_numbers)?;
@@ -135,13 +147,23 @@ pub fn read_osa_csv(text: &str) -> Result<SpectrumLog, SpectrumError> {
             if reverse {
                 power.reverse();
             }
-            Spectrum { channel: name, wavelengths_nm: wavelengths.clone(), power, unit, metadata: Vec::new() }
+            Spectrum {
+                channel: name,
+                wavelengths_nm: wavelengths.clone(),
+                power,
+                unit,
+                metadata: Vec::new(),
+            }
         })
         .collect();
     Ok(SpectrumLog {
         format: SpectrumFormat::OsaCsv,
         metadata,
-        rows: vec![SpectrumRow { time_s: 0.0, spectra, reported_peaks_nm: Vec::new() }],
+        rows: vec![SpectrumRow {
+            time_s: 0.0,
+            spectra,
+            reported_peaks_nm: Vec::new(),
+        }],
     })
 }
 
@@ -152,16 +174,29 @@ pub fn read_osa_csv(text: &str) -> Result<SpectrumLog, SpectrumError> {
 pub fn write_osa_csv(log: &SpectrumLog) -> Result<String, SpectrumError> {
     let row = match log.rows.as_slice() {
         [row] => row,
-        rows => return Err(SpectrumError::Invalid(format!("an OSA CSV holds one acquisition; the log has {}", rows.len()))),
+        rows => {
+            return Err(SpectrumError::Invalid(format!(
+                "an OSA CSV holds one acquisition; the log has {}",
+                rows.len()
+            )))
+        }
     };
-    let first = row.spectra.first().ok_or_else(|| SpectrumError::Invalid("the row holds no spectrum".into()))?;
+    let first = row
+        .spectra
+        .first()
+        .ok_or_else(|| SpectrumError::Invalid("the row holds no spectrum".into()))?;
     for s in &row.spectra {
         s.validate()?;
         if s.wavelengths_nm != first.wavelengths_nm {
-            return Err(SpectrumError::Invalid("OSA CSV: every column must share one wavelength grid".into()));
+            return Err(SpectrumError::Invalid(
+                "OSA CSV: every column must share one wavelength grid".into(),
+            ));
         }
         if s.channel.contains([',', '(', ')', '"']) {
-            return Err(SpectrumError::Invalid(format!("OSA CSV: channel label `{}` holds , ( ) or \"", s.channel)));
+            return Err(SpectrumError::Invalid(format!(
+                "OSA CSV: channel label `{}` holds , ( ) or \"",
+                s.channel
+            )));
         }
     }
     let mut out = String::new();

@@ -5,7 +5,9 @@ use crate::error::{parse_error, SpectrumError};
 /// Lines with their 1-based numbers; a leading UTF-8 BOM and trailing `\r` removed.
 pub(crate) fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    text.split('\n').enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
+    text.split('\n')
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
 }
 
 /// Fields of a delimited line; trailing empty fields (a trailing delimiter) dropped,
@@ -20,7 +22,10 @@ pub(crate) fn fields(line: &str, delimiter: char) -> Vec<&str> {
 
 pub(crate) fn clean_field(field: &str) -> &str {
     let f = field.trim();
-    f.strip_prefix('"').and_then(|g| g.strip_suffix('"')).map(str::trim).unwrap_or(f)
+    f.strip_prefix('"')
+        .and_then(|g| g.strip_suffix('"'))
+        .map(str::trim)
+        .unwrap_or(f)
 }
 
 /// A finite number; with `decimal_comma` a lone `,` is read as the decimal point.
@@ -156,7 +161,11 @@ pub(crate) fn date_time_s(parts: (i64, i64, i64), time: &str, order: DateOrder) 
 /// `(date, time)` strings for whole seconds since 1970: `a/b/yyyy` (order given,
 /// unpadded month and day as in `10/30/2020`) and `h:mm:ss AM` (12-hour clock; lower
 /// case `am/pm` with `lower_meridiem`).
-pub(crate) fn format_date_time(time_s: f64, order: DateOrder, lower_meridiem: bool) -> (String, String) {
+pub(crate) fn format_date_time(
+    time_s: f64,
+    order: DateOrder,
+    lower_meridiem: bool,
+) -> (String, String) {
     let total = time_s.floor() as i64;
     let days = total.div_euclid(86_400);
     let secs = total.rem_euclid(86_400);
@@ -187,7 +196,11 @@ pub(crate) fn check_monotonic(wavelengths: &[f64], lines: &[usize]) -> Result<bo
     }
     let decreasing = wavelengths[1] < wavelengths[0];
     for i in 1..wavelengths.len() {
-        let ok = if decreasing { wavelengths[i] < wavelengths[i - 1] } else { wavelengths[i] > wavelengths[i - 1] };
+        let ok = if decreasing {
+            wavelengths[i] < wavelengths[i - 1]
+        } else {
+            wavelengths[i] > wavelengths[i - 1]
+        };
         if !ok {
             return Err(SpectrumError::NotMonotonic {
                 line: lines[i],
@@ -217,7 +230,10 @@ mod tests {
     fn twelve_hour_clock() {
         assert_eq!(time_of_day_s("12:00:00 AM"), Some(0.0));
         assert_eq!(time_of_day_s("12:00:01 pm"), Some(43_201.0));
-        assert_eq!(time_of_day_s("4:44:10 PM"), Some(16.0 * 3600.0 + 44.0 * 60.0 + 10.0));
+        assert_eq!(
+            time_of_day_s("4:44:10 PM"),
+            Some(16.0 * 3600.0 + 44.0 * 60.0 + 10.0)
+        );
         assert_eq!(time_of_day_s("13:00:00 PM"), None);
         let t = date_time_s((10, 30, 2020), "4:44:10 PM", DateOrder::MonthFirst).unwrap();
         let (d, h) = format_date_time(t, DateOrder::MonthFirst, false);

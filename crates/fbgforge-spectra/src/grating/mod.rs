@@ -31,7 +31,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::SpectrumError;
 use crate::spectrum::{PowerUnit, Spectrum};
 
-pub use shape::{auto_grid, clean_peak_limit, reflection_shape, spectrum_shape, CleanPeakCriteria, CleanPeakLimit, LoadCase, SpectrumShape};
+pub use shape::{
+    auto_grid, clean_peak_limit, reflection_shape, spectrum_shape, CleanPeakCriteria,
+    CleanPeakLimit, LoadCase, SpectrumShape,
+};
 
 /// How the index modulation varies along the grating (z from 0 to L).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -54,7 +57,9 @@ impl Apodisation {
         let u = (z_mm - 0.5 * length_mm) / length_mm;
         match self {
             Apodisation::Uniform => 1.0,
-            Apodisation::Gaussian { fwhm_fraction } => (-4.0 * std::f64::consts::LN_2 * (u / fwhm_fraction).powi(2)).exp(),
+            Apodisation::Gaussian { fwhm_fraction } => {
+                (-4.0 * std::f64::consts::LN_2 * (u / fwhm_fraction).powi(2)).exp()
+            }
             Apodisation::RaisedCosine => 0.5 * (1.0 + (2.0 * std::f64::consts::PI * u).cos()),
         }
     }
@@ -112,7 +117,9 @@ impl Grating {
         if ok {
             Ok(())
         } else {
-            Err(SpectrumError::Invalid(format!("grating parameters out of range: {self:?}")))
+            Err(SpectrumError::Invalid(format!(
+                "grating parameters out of range: {self:?}"
+            )))
         }
     }
 
@@ -131,7 +138,8 @@ impl Grating {
     pub fn uniform_bandwidth_nm(&self) -> f64 {
         let kl = self.kappa_per_mm() * self.length_mm;
         let lambda_mm = self.bragg_wavelength_nm * 1e-6;
-        1e6 * lambda_mm * lambda_mm / (std::f64::consts::PI * self.n_eff * self.length_mm) * (kl * kl + std::f64::consts::PI.powi(2)).sqrt()
+        1e6 * lambda_mm * lambda_mm / (std::f64::consts::PI * self.n_eff * self.length_mm)
+            * (kl * kl + std::f64::consts::PI.powi(2)).sqrt()
     }
 
     /// Strain sensitivity λ_B·(1 − p_e), pm/µε.
@@ -170,8 +178,12 @@ pub enum StrainProfile {
 impl StrainProfile {
     /// A sampled profile; checks lengths and strictly increasing positions.
     pub fn samples(z_mm: Vec<f64>, strain: Vec<f64>) -> Result<Self, SpectrumError> {
-        if z_mm.is_empty() || z_mm.len() != strain.len() || z_mm.windows(2).any(|w| !(w[1] > w[0])) {
-            return Err(SpectrumError::Invalid("strain profile: need equally many strictly increasing positions and strains".into()));
+        if z_mm.is_empty() || z_mm.len() != strain.len() || z_mm.windows(2).any(|w| !(w[1] > w[0]))
+        {
+            return Err(SpectrumError::Invalid(
+                "strain profile: need equally many strictly increasing positions and strains"
+                    .into(),
+            ));
         }
         Ok(StrainProfile::Samples { z_mm, strain })
     }
@@ -198,7 +210,9 @@ impl StrainProfile {
     /// The profile sampled at the centres of `sections` equal pieces of the grating.
     pub fn at_sections(&self, length_mm: f64, sections: usize) -> Vec<f64> {
         let dz = length_mm / sections as f64;
-        (0..sections).map(|j| self.at((j as f64 + 0.5) * dz, length_mm)).collect()
+        (0..sections)
+            .map(|j| self.at((j as f64 + 0.5) * dz, length_mm))
+            .collect()
     }
 }
 
@@ -216,7 +230,9 @@ impl Sections {
         Sections {
             dz_mm: dz,
             bragg_mm: eps.iter().map(|&e| g.local_bragg_nm(e) * 1e-6).collect(),
-            apodisation: (0..g.sections).map(|j| g.apodisation.profile((j as f64 + 0.5) * dz, g.length_mm)).collect(),
+            apodisation: (0..g.sections)
+                .map(|j| g.apodisation.profile((j as f64 + 0.5) * dz, g.length_mm))
+                .collect(),
         }
     }
 
@@ -269,14 +285,32 @@ pub fn reflectivity(grating: &Grating, strain: &StrainProfile, wavelength_nm: f6
 /// assert!((s.wavelengths_nm[k] - 1550.1209).abs() < 0.002);
 /// assert!((r_max - g.uniform_peak_reflectivity()).abs() < 1e-3);
 /// ```
-pub fn grating_spectrum(grating: &Grating, strain: &StrainProfile, wavelengths_nm: &[f64]) -> Result<Spectrum, SpectrumError> {
+pub fn grating_spectrum(
+    grating: &Grating,
+    strain: &StrainProfile,
+    wavelengths_nm: &[f64],
+) -> Result<Spectrum, SpectrumError> {
     grating.validate()?;
     let sections = Sections::new(grating, strain);
-    let power = wavelengths_nm.iter().map(|&w| sections.reflectivity(grating, w)).collect();
-    let mut s = Spectrum::new("reflectivity", wavelengths_nm.to_vec(), power, PowerUnit::Linear)?;
+    let power = wavelengths_nm
+        .iter()
+        .map(|&w| sections.reflectivity(grating, w))
+        .collect();
+    let mut s = Spectrum::new(
+        "reflectivity",
+        wavelengths_nm.to_vec(),
+        power,
+        PowerUnit::Linear,
+    )?;
     s.metadata = vec![
-        ("model".into(), "transfer-matrix (coupled-mode), Erdogan 1997".into()),
-        ("grating".into(), serde_json::to_string(grating).unwrap_or_default()),
+        (
+            "model".into(),
+            "transfer-matrix (coupled-mode), Erdogan 1997".into(),
+        ),
+        (
+            "grating".into(),
+            serde_json::to_string(grating).unwrap_or_default(),
+        ),
     ];
     Ok(s)
 }

@@ -32,7 +32,11 @@ pub struct CleanPeakCriteria {
 
 impl Default for CleanPeakCriteria {
     fn default() -> Self {
-        CleanPeakCriteria { side_lobe_margin_db: 6.0, max_fwhm_growth_pct: 50.0, min_lobe_prominence_db: 1.0 }
+        CleanPeakCriteria {
+            side_lobe_margin_db: 6.0,
+            max_fwhm_growth_pct: 50.0,
+            min_lobe_prominence_db: 1.0,
+        }
     }
 }
 
@@ -91,23 +95,42 @@ pub fn reflection_shape(
 ) -> Result<SpectrumShape, SpectrumError> {
     let (x, r) = (wavelengths_nm, reflectivity);
     if x.len() != r.len() || x.len() < 3 {
-        return Err(SpectrumError::Invalid("reflection shape: need 3 or more samples".into()));
+        return Err(SpectrumError::Invalid(
+            "reflection shape: need 3 or more samples".into(),
+        ));
     }
-    let (k, peak) = r.iter().enumerate().fold((0, f64::NEG_INFINITY), |m, (k, &v)| if v > m.1 { (k, v) } else { m });
+    let (k, peak) =
+        r.iter().enumerate().fold(
+            (0, f64::NEG_INFINITY),
+            |m, (k, &v)| if v > m.1 { (k, v) } else { m },
+        );
     if !(peak > 0.0) {
-        return Err(SpectrumError::Invalid("reflection shape: no reflection".into()));
+        return Err(SpectrumError::Invalid(
+            "reflection shape: no reflection".into(),
+        ));
     }
     let peak_nm = if k > 0 && k + 1 < x.len() {
         let (y0, y1, y2) = (r[k - 1], r[k], r[k + 1]);
         let denom = y0 - 2.0 * y1 + y2;
-        if denom < 0.0 { x[k] + 0.5 * (y0 - y2) / denom * 0.5 * (x[k + 1] - x[k - 1]) } else { x[k] }
+        if denom < 0.0 {
+            x[k] + 0.5 * (y0 - y2) / denom * 0.5 * (x[k + 1] - x[k - 1])
+        } else {
+            x[k]
+        }
     } else {
         x[k]
     };
     let half = 0.5 * peak;
     let cross = |a: usize, b: usize| x[a] + (half - r[a]) / (r[b] - r[a]) * (x[b] - x[a]);
-    let left = (0..k).rev().find(|&j| r[j] < half).map(|j| cross(j, j + 1)).unwrap_or(x[0]);
-    let right = (k + 1..r.len()).find(|&j| r[j] < half).map(|j| cross(j - 1, j)).unwrap_or(x[x.len() - 1]);
+    let left = (0..k)
+        .rev()
+        .find(|&j| r[j] < half)
+        .map(|j| cross(j, j + 1))
+        .unwrap_or(x[0]);
+    let right = (k + 1..r.len())
+        .find(|&j| r[j] < half)
+        .map(|j| cross(j - 1, j))
+        .unwrap_or(x[x.len() - 1]);
     let fwhm = right - left;
     let mut lobes = 1;
     let mut highest: Option<f64> = None;
@@ -145,8 +168,14 @@ pub fn reflection_shape(
 /// points).
 pub fn auto_grid(grating: &Grating, strain: &StrainProfile) -> Vec<f64> {
     let eps = strain.at_sections(grating.length_mm, grating.sections);
-    let lo = eps.iter().map(|&e| grating.local_bragg_nm(e)).fold(f64::INFINITY, f64::min);
-    let hi = eps.iter().map(|&e| grating.local_bragg_nm(e)).fold(f64::NEG_INFINITY, f64::max);
+    let lo = eps
+        .iter()
+        .map(|&e| grating.local_bragg_nm(e))
+        .fold(f64::INFINITY, f64::min);
+    let hi = eps
+        .iter()
+        .map(|&e| grating.local_bragg_nm(e))
+        .fold(f64::NEG_INFINITY, f64::max);
     let bw = grating.uniform_bandwidth_nm();
     let (start, end) = (lo - 4.0 * bw, hi + 4.0 * bw);
     let n = (((end - start) / (bw / 100.0)).ceil() as usize).clamp(200, 40_000);
@@ -154,11 +183,19 @@ pub fn auto_grid(grating: &Grating, strain: &StrainProfile) -> Vec<f64> {
     (0..n).map(|i| start + step * i as f64).collect()
 }
 
-fn shape_on_grid(grating: &Grating, strain: &StrainProfile, reference: Option<(f64, f64)>, criteria: &CleanPeakCriteria) -> Result<SpectrumShape, SpectrumError> {
+fn shape_on_grid(
+    grating: &Grating,
+    strain: &StrainProfile,
+    reference: Option<(f64, f64)>,
+    criteria: &CleanPeakCriteria,
+) -> Result<SpectrumShape, SpectrumError> {
     grating.validate()?;
     let grid = auto_grid(grating, strain);
     let sections = Sections::new(grating, strain);
-    let r: Vec<f64> = grid.iter().map(|&w| sections.reflectivity(grating, w)).collect();
+    let r: Vec<f64> = grid
+        .iter()
+        .map(|&w| sections.reflectivity(grating, w))
+        .collect();
     reflection_shape(&grid, &r, reference, criteria)
 }
 
@@ -171,7 +208,11 @@ fn shape_on_grid(grating: &Grating, strain: &StrainProfile, reference: Option<(f
 /// assert!((s.peak_shift_pm - 200.0 * g.strain_sensitivity_pm_per_microstrain()).abs() < 1.0);
 /// assert!(s.clean && s.fwhm_change_pct.abs() < 1.0);
 /// ```
-pub fn spectrum_shape(grating: &Grating, strain: &StrainProfile, criteria: &CleanPeakCriteria) -> Result<SpectrumShape, SpectrumError> {
+pub fn spectrum_shape(
+    grating: &Grating,
+    strain: &StrainProfile,
+    criteria: &CleanPeakCriteria,
+) -> Result<SpectrumShape, SpectrumError> {
     let unstrained = shape_on_grid(grating, &StrainProfile::Uniform(0.0), None, criteria)?;
     let reference = (unstrained.peak_wavelength_nm, 1e-3 * unstrained.fwhm_pm);
     shape_on_grid(grating, strain, Some(reference), criteria)
@@ -201,27 +242,47 @@ pub struct CleanPeakLimit {
 
 /// Given the strain profiles at increasing forces, the force at which the grating's
 /// reflection stops being one clean peak (zero force is taken as zero strain).
-pub fn clean_peak_limit(grating: &Grating, cases: &[LoadCase], criteria: &CleanPeakCriteria) -> Result<CleanPeakLimit, SpectrumError> {
+pub fn clean_peak_limit(
+    grating: &Grating,
+    cases: &[LoadCase],
+    criteria: &CleanPeakCriteria,
+) -> Result<CleanPeakLimit, SpectrumError> {
     let unstrained = shape_on_grid(grating, &StrainProfile::Uniform(0.0), None, criteria)?;
     let reference = Some((unstrained.peak_wavelength_nm, 1e-3 * unstrained.fwhm_pm));
     let mut sorted: Vec<&LoadCase> = cases.iter().collect();
     sorted.sort_by(|a, b| a.force_n.total_cmp(&b.force_n));
     let mut shapes = Vec::with_capacity(sorted.len());
     for c in &sorted {
-        shapes.push((c.force_n, shape_on_grid(grating, &c.strain, reference, criteria)?));
+        shapes.push((
+            c.force_n,
+            shape_on_grid(grating, &c.strain, reference, criteria)?,
+        ));
     }
     if !unstrained.clean {
-        return Ok(CleanPeakLimit { force_n: Some(0.0), unstrained_clean: false, shapes });
+        return Ok(CleanPeakLimit {
+            force_n: Some(0.0),
+            unstrained_clean: false,
+            shapes,
+        });
     }
     let Some(first_bad) = shapes.iter().position(|(_, s)| !s.clean) else {
-        return Ok(CleanPeakLimit { force_n: None, unstrained_clean: true, shapes });
+        return Ok(CleanPeakLimit {
+            force_n: None,
+            unstrained_clean: true,
+            shapes,
+        });
     };
     let n = grating.sections;
     let upper = sorted[first_bad].strain.at_sections(grating.length_mm, n);
     let (f_lo, lower) = if first_bad == 0 {
         (0.0, vec![0.0; n])
     } else {
-        (sorted[first_bad - 1].force_n, sorted[first_bad - 1].strain.at_sections(grating.length_mm, n))
+        (
+            sorted[first_bad - 1].force_n,
+            sorted[first_bad - 1]
+                .strain
+                .at_sections(grating.length_mm, n),
+        )
     };
     let f_hi = sorted[first_bad].force_n;
     let dz = grating.length_mm / n as f64;
@@ -229,13 +290,25 @@ pub fn clean_peak_limit(grating: &Grating, cases: &[LoadCase], criteria: &CleanP
     let (mut a, mut b) = (0.0, 1.0);
     for _ in 0..30 {
         let t = 0.5 * (a + b);
-        let eps: Vec<f64> = lower.iter().zip(&upper).map(|(l, u)| l + t * (u - l)).collect();
-        let profile = if n == 1 { StrainProfile::Uniform(eps[0]) } else { StrainProfile::samples(z.clone(), eps)? };
+        let eps: Vec<f64> = lower
+            .iter()
+            .zip(&upper)
+            .map(|(l, u)| l + t * (u - l))
+            .collect();
+        let profile = if n == 1 {
+            StrainProfile::Uniform(eps[0])
+        } else {
+            StrainProfile::samples(z.clone(), eps)?
+        };
         if shape_on_grid(grating, &profile, reference, criteria)?.clean {
             a = t;
         } else {
             b = t;
         }
     }
-    Ok(CleanPeakLimit { force_n: Some(f_lo + b * (f_hi - f_lo)), unstrained_clean: true, shapes })
+    Ok(CleanPeakLimit {
+        force_n: Some(f_lo + b * (f_hi - f_lo)),
+        unstrained_clean: true,
+        shapes,
+    })
 }

@@ -15,7 +15,9 @@ pub struct Centroid {
 
 impl Default for Centroid {
     fn default() -> Self {
-        Centroid { threshold_fraction: 0.5 }
+        Centroid {
+            threshold_fraction: 0.5,
+        }
     }
 }
 
@@ -28,7 +30,10 @@ impl PeakEstimator for Centroid {
         let (x, y, i) = (w.wavelengths_nm, w.power, w.max_index);
         let height = w.height();
         if !(height > 0.0) {
-            return Err(SpectrumError::Estimate { estimator: "centroid", reason: "the maximum is not above the floor".into() });
+            return Err(SpectrumError::Estimate {
+                estimator: "centroid",
+                reason: "the maximum is not above the floor".into(),
+            });
         }
         let t = w.baseline + self.threshold_fraction * height;
         let mut lo = i;
@@ -40,8 +45,16 @@ impl PeakEstimator for Centroid {
             hi += 1;
         }
         let pitch = |k: usize| {
-            let left = if k > 0 { x[k] - x[k - 1] } else { x[k + 1] - x[k] };
-            let right = if k + 1 < x.len() { x[k + 1] - x[k] } else { left };
+            let left = if k > 0 {
+                x[k] - x[k - 1]
+            } else {
+                x[k + 1] - x[k]
+            };
+            let right = if k + 1 < x.len() {
+                x[k + 1] - x[k]
+            } else {
+                left
+            };
             0.5 * (left + right)
         };
         let (mut sw, mut swx) = (0.0, 0.0);

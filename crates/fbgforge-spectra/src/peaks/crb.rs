@@ -68,7 +68,12 @@ pub fn gaussian_position_crb_joint_pm(
 }
 
 /// The well-sampled closed form (σ/A)·√(2sΔ/√π), pm, for a uniform pitch Δ (nm).
-pub fn gaussian_position_crb_closed_form_pm(pitch_nm: f64, fwhm_nm: f64, amplitude: f64, noise_sigma: f64) -> f64 {
+pub fn gaussian_position_crb_closed_form_pm(
+    pitch_nm: f64,
+    fwhm_nm: f64,
+    amplitude: f64,
+    noise_sigma: f64,
+) -> f64 {
     let s = fwhm_nm / FWHM_PER_SIGMA;
     1e3 * (noise_sigma / amplitude) * (2.0 * s * pitch_nm / std::f64::consts::PI.sqrt()).sqrt()
 }
@@ -85,7 +90,10 @@ mod tests {
             let fwhm = fwhm_samples * pitch;
             let numeric = gaussian_position_crb_pm(&grid, 1553.0031, fwhm, 1.0, 0.01);
             let closed = gaussian_position_crb_closed_form_pm(pitch, fwhm, 1.0, 0.01);
-            assert!((numeric / closed - 1.0).abs() < 1e-3, "{fwhm_samples}: {numeric} vs {closed}");
+            assert!(
+                (numeric / closed - 1.0).abs() < 1e-3,
+                "{fwhm_samples}: {numeric} vs {closed}"
+            );
         }
         // Pixel-locking: one sample per FWHM, the bound moves with the sub-sample position.
         let on = gaussian_position_crb_pm(&grid, 1553.0, pitch, 1.0, 0.01);
@@ -101,13 +109,19 @@ mod tests {
             let fwhm = fwhm_samples * pitch;
             let one = gaussian_position_crb_pm(&grid, 1550.0, fwhm, 1.0, 0.01);
             let joint = gaussian_position_crb_joint_pm(&grid, 1550.0, fwhm, 1.0, 0.01);
-            assert!((joint / one - 1.0).abs() < 1e-6, "{fwhm_samples}: {joint} vs {one}");
+            assert!(
+                (joint / one - 1.0).abs() < 1e-6,
+                "{fwhm_samples}: {joint} vs {one}"
+            );
             let off = 1550.0 + 0.3 * pitch;
             let one = gaussian_position_crb_pm(&grid, off, fwhm, 1.0, 0.01);
             let joint = gaussian_position_crb_joint_pm(&grid, off, fwhm, 1.0, 0.01);
             // Never below the position-only bound; well above it at one sample per FWHM,
             // equal to it (to rounding) when well sampled.
-            assert!(joint >= one * (1.0 - 1e-9), "{fwhm_samples}: {joint} vs {one}");
+            assert!(
+                joint >= one * (1.0 - 1e-9),
+                "{fwhm_samples}: {joint} vs {one}"
+            );
             if fwhm_samples == 1.0 {
                 assert!(joint > 1.2 * one, "{joint} vs {one}");
             } else if fwhm_samples == 5.0 {

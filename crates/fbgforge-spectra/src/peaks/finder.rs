@@ -4,7 +4,10 @@
 
 use super::crb::gaussian_position_crb_pm;
 use super::gaussian::fit_gaussians;
-use super::{Centroid, GaussianLeastSquares, Parabola, Peak, PeakEstimate, PeakEstimator, PeakFlags, PeakWindow, TemplateMatch};
+use super::{
+    Centroid, GaussianLeastSquares, Parabola, Peak, PeakEstimate, PeakEstimator, PeakFlags,
+    PeakWindow, TemplateMatch,
+};
 use crate::error::SpectrumError;
 use crate::spectrum::Spectrum;
 use crate::stats;
@@ -30,7 +33,9 @@ impl EstimatorChoice {
         match self {
             EstimatorChoice::Gaussian => &GaussianLeastSquares,
             EstimatorChoice::Parabola => &Parabola { log_power: true },
-            EstimatorChoice::Centroid => &Centroid { threshold_fraction: 0.5 },
+            EstimatorChoice::Centroid => &Centroid {
+                threshold_fraction: 0.5,
+            },
             EstimatorChoice::CrossCorrelation(t) => t,
         }
     }
@@ -138,9 +143,15 @@ pub fn find_peaks(spectrum: &Spectrum, options: &FindOptions) -> Result<Vec<Peak
 }
 
 /// [`find_peaks`] on raw arrays: strictly increasing wavelengths (nm), linear power.
-pub fn find_peaks_in(wavelengths_nm: &[f64], power: &[f64], options: &FindOptions) -> Result<Vec<Peak>, SpectrumError> {
+pub fn find_peaks_in(
+    wavelengths_nm: &[f64],
+    power: &[f64],
+    options: &FindOptions,
+) -> Result<Vec<Peak>, SpectrumError> {
     if wavelengths_nm.len() != power.len() || wavelengths_nm.len() < 3 {
-        return Err(SpectrumError::Invalid("find_peaks: need equally long wavelength and power arrays of 3 samples or more".into()));
+        return Err(SpectrumError::Invalid(
+            "find_peaks: need equally long wavelength and power arrays of 3 samples or more".into(),
+        ));
     }
     let scale = power.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let sigma = options
@@ -158,7 +169,15 @@ pub fn find_peaks_in(wavelengths_nm: &[f64], power: &[f64], options: &FindOption
                 peaks.push(p);
             }
         } else {
-            peaks.extend(joint_peaks(wavelengths_nm, power, &cluster, floor, sigma, options, group)?);
+            peaks.extend(joint_peaks(
+                wavelengths_nm,
+                power,
+                &cluster,
+                floor,
+                sigma,
+                options,
+                group,
+            )?);
             group += 1;
         }
     }
@@ -188,8 +207,15 @@ fn prominence(y: &[f64], i: usize) -> f64 {
 fn candidate_fwhm(x: &[f64], y: &[f64], i: usize, floor: f64) -> f64 {
     let half = floor + 0.5 * (y[i] - floor);
     let cross = |a: usize, b: usize| x[a] + (half - y[a]) / (y[b] - y[a]) * (x[b] - x[a]);
-    let left = (0..i).rev().find(|&j| y[j] < half).map(|j| cross(j, j + 1)).unwrap_or(x[0]);
-    let right = (i + 1..y.len()).find(|&j| y[j] < half).map(|j| cross(j - 1, j)).unwrap_or(x[x.len() - 1]);
+    let left = (0..i)
+        .rev()
+        .find(|&j| y[j] < half)
+        .map(|j| cross(j, j + 1))
+        .unwrap_or(x[0]);
+    let right = (i + 1..y.len())
+        .find(|&j| y[j] < half)
+        .map(|j| cross(j - 1, j))
+        .unwrap_or(x[x.len() - 1]);
     right - left
 }
 
@@ -197,7 +223,9 @@ fn candidate_fwhm(x: &[f64], y: &[f64], i: usize, floor: f64) -> f64 {
 fn kernel(fwhm_samples: f64) -> Vec<f64> {
     let s = fwhm_samples / super::FWHM_PER_SIGMA;
     let half = (3.0 * s).ceil() as isize;
-    let k: Vec<f64> = (-half..=half).map(|j| (-0.5 * (j as f64 / s).powi(2)).exp()).collect();
+    let k: Vec<f64> = (-half..=half)
+        .map(|j| (-0.5 * (j as f64 / s).powi(2)).exp())
+        .collect();
     let total: f64 = k.iter().sum();
     k.into_iter().map(|v| v / total).collect()
 }
@@ -206,7 +234,12 @@ fn smooth(y: &[f64], k: &[f64]) -> Vec<f64> {
     let half = (k.len() / 2) as isize;
     let n = y.len() as isize;
     (0..n)
-        .map(|i| k.iter().enumerate().map(|(j, w)| w * y[(i + j as isize - half).clamp(0, n - 1) as usize]).sum())
+        .map(|i| {
+            k.iter()
+                .enumerate()
+                .map(|(j, w)| w * y[(i + j as isize - half).clamp(0, n - 1) as usize])
+                .sum()
+        })
         .collect()
 }
 
@@ -217,9 +250,14 @@ fn smooth(y: &[f64], k: &[f64]) -> Vec<f64> {
 /// peak's top (large in dB-recorded spectra) from making extra candidates.
 fn candidates(x: &[f64], y: &[f64], floor: f64, sigma: f64, o: &FindOptions) -> Vec<Candidate> {
     let threshold = o.detection_sigma * sigma;
-    let raw_maxima: Vec<usize> = (1..y.len() - 1).filter(|&i| y[i] > y[i - 1] && y[i] >= y[i + 1] && y[i] - floor >= threshold).collect();
+    let raw_maxima: Vec<usize> = (1..y.len() - 1)
+        .filter(|&i| y[i] > y[i - 1] && y[i] >= y[i + 1] && y[i] - floor >= threshold)
+        .collect();
     let pitch = (x[x.len() - 1] - x[0]) / (x.len() - 1) as f64;
-    let narrowest = raw_maxima.iter().map(|&i| candidate_fwhm(x, y, i, floor) / pitch).fold(f64::INFINITY, f64::min);
+    let narrowest = raw_maxima
+        .iter()
+        .map(|&i| candidate_fwhm(x, y, i, floor) / pitch)
+        .fold(f64::INFINITY, f64::min);
     let (ys, sigma_s, reach) = if narrowest.is_finite() && narrowest >= 4.0 {
         let k = kernel(0.5 * narrowest);
         let gain = k.iter().map(|w| w * w).sum::<f64>().sqrt();
@@ -230,11 +268,19 @@ fn candidates(x: &[f64], y: &[f64], floor: f64, sigma: f64, o: &FindOptions) -> 
     let threshold_s = o.detection_sigma * sigma_s;
     let mut found: Vec<Candidate> = (1..ys.len() - 1)
         .filter(|&i| ys[i] > ys[i - 1] && ys[i] >= ys[i + 1] && ys[i] - floor >= threshold_s)
-        .filter(|&i| prominence(&ys, i) >= threshold_s.max(o.min_prominence_fraction * (ys[i] - floor)))
+        .filter(|&i| {
+            prominence(&ys, i) >= threshold_s.max(o.min_prominence_fraction * (ys[i] - floor))
+        })
         .map(|i| {
             let (lo, hi) = (i.saturating_sub(reach).max(1), (i + reach).min(y.len() - 2));
-            let best = (lo..=hi).max_by(|&a, &b| y[a].total_cmp(&y[b])).unwrap_or(i);
-            Candidate { index: best, height: y[best] - floor, fwhm_nm: candidate_fwhm(x, y, best, floor) }
+            let best = (lo..=hi)
+                .max_by(|&a, &b| y[a].total_cmp(&y[b]))
+                .unwrap_or(i);
+            Candidate {
+                index: best,
+                height: y[best] - floor,
+                fwhm_nm: candidate_fwhm(x, y, best, floor),
+            }
         })
         .collect();
     found.dedup_by_key(|c| c.index);
@@ -252,7 +298,10 @@ fn candidates(x: &[f64], y: &[f64], floor: f64, sigma: f64, o: &FindOptions) -> 
 fn clusters(x: &[f64], candidates: &[Candidate], overlap_fwhm: f64) -> Vec<Vec<Candidate>> {
     let mut out: Vec<Vec<Candidate>> = Vec::new();
     for &c in candidates {
-        if let Some(last) = out.last_mut().and_then(|cl| cl.last().copied().map(|l| (l, cl))) {
+        if let Some(last) = out
+            .last_mut()
+            .and_then(|cl| cl.last().copied().map(|l| (l, cl)))
+        {
             let (l, cl) = last;
             if x[c.index] - x[l.index] < overlap_fwhm * 0.5 * (l.fwhm_nm + c.fwhm_nm) {
                 cl.push(c);
@@ -265,13 +314,30 @@ fn clusters(x: &[f64], candidates: &[Candidate], overlap_fwhm: f64) -> Vec<Vec<C
 }
 
 /// Index range of ±`half_nm` around `center`, with at least `MIN_SIDE_SAMPLES` each side.
-fn window_range(x: &[f64], lo_nm: f64, hi_nm: f64, first: usize, last: usize) -> std::ops::Range<usize> {
-    let lo = x.partition_point(|&v| v < lo_nm).min(first.saturating_sub(MIN_SIDE_SAMPLES));
-    let hi = x.partition_point(|&v| v <= hi_nm).max((last + MIN_SIDE_SAMPLES + 1).min(x.len()));
+fn window_range(
+    x: &[f64],
+    lo_nm: f64,
+    hi_nm: f64,
+    first: usize,
+    last: usize,
+) -> std::ops::Range<usize> {
+    let lo = x
+        .partition_point(|&v| v < lo_nm)
+        .min(first.saturating_sub(MIN_SIDE_SAMPLES));
+    let hi = x
+        .partition_point(|&v| v <= hi_nm)
+        .max((last + MIN_SIDE_SAMPLES + 1).min(x.len()));
     lo..hi
 }
 
-fn lone_peak(x: &[f64], y: &[f64], c: Candidate, floor: f64, sigma: f64, o: &FindOptions) -> Result<Option<Peak>, SpectrumError> {
+fn lone_peak(
+    x: &[f64],
+    y: &[f64],
+    c: Candidate,
+    floor: f64,
+    sigma: f64,
+    o: &FindOptions,
+) -> Result<Option<Peak>, SpectrumError> {
     let half = o.window_fwhm * c.fwhm_nm;
     let range = window_range(x, x[c.index] - half, x[c.index] + half, c.index, c.index);
     let window = PeakWindow::new(x, y, range, c.index, 0.75 * half, floor, sigma)?;
@@ -285,18 +351,35 @@ fn lone_peak(x: &[f64], y: &[f64], c: Candidate, floor: f64, sigma: f64, o: &Fin
     };
     let mut peak = assemble(&estimate, &window, name, sigma, o);
     if o.check_disagreement {
-        let second: &dyn PeakEstimator = if primary.name() == "gaussian" { &Parabola { log_power: true } } else { &GaussianLeastSquares };
+        let second: &dyn PeakEstimator = if primary.name() == "gaussian" {
+            &Parabola { log_power: true }
+        } else {
+            &GaussianLeastSquares
+        };
         if let Ok(other) = second.estimate(&window) {
             let difference_pm = 1e3 * (other.wavelength_nm - estimate.wavelength_nm).abs();
             let noise_pm = (peak.std_error_pm.powi(2) + other.std_error_pm.powi(2)).sqrt();
-            peak.flags.estimator_disagreement = difference_pm > o.disagreement_factor * peak.crb_pm.max(noise_pm);
+            peak.flags.estimator_disagreement =
+                difference_pm > o.disagreement_factor * peak.crb_pm.max(noise_pm);
         }
     }
     Ok(Some(peak))
 }
 
-fn assemble(e: &PeakEstimate, w: &PeakWindow, estimator: String, sigma: f64, o: &FindOptions) -> Peak {
-    let crb_pm = gaussian_position_crb_pm(w.wavelengths_nm, e.wavelength_nm, e.fwhm_nm, e.amplitude, sigma);
+fn assemble(
+    e: &PeakEstimate,
+    w: &PeakWindow,
+    estimator: String,
+    sigma: f64,
+    o: &FindOptions,
+) -> Peak {
+    let crb_pm = gaussian_position_crb_pm(
+        w.wavelengths_nm,
+        e.wavelength_nm,
+        e.fwhm_nm,
+        e.amplitude,
+        sigma,
+    );
     let snr = e.amplitude / sigma;
     Peak {
         wavelength_nm: e.wavelength_nm,
@@ -327,21 +410,38 @@ fn joint_peaks(
     group: usize,
 ) -> Result<Vec<Peak>, SpectrumError> {
     let (first, last) = (cluster[0], cluster[cluster.len() - 1]);
-    let range = window_range(x, x[first.index] - o.window_fwhm * first.fwhm_nm, x[last.index] + o.window_fwhm * last.fwhm_nm, first.index, last.index);
+    let range = window_range(
+        x,
+        x[first.index] - o.window_fwhm * first.fwhm_nm,
+        x[last.index] + o.window_fwhm * last.fwhm_nm,
+        first.index,
+        last.index,
+    );
     let (wx, wy) = (&x[range.clone()], &y[range.clone()]);
     let mut outer: Vec<f64> = wx
         .iter()
         .zip(wy)
-        .filter(|(v, _)| cluster.iter().all(|c| (**v - x[c.index]).abs() > 1.5 * c.fwhm_nm))
+        .filter(|(v, _)| {
+            cluster
+                .iter()
+                .all(|c| (**v - x[c.index]).abs() > 1.5 * c.fwhm_nm)
+        })
         .map(|(_, p)| *p)
         .collect();
-    let baseline = if outer.len() >= 4 { stats::median(&mut outer) } else { floor };
+    let baseline = if outer.len() >= 4 {
+        stats::median(&mut outer)
+    } else {
+        floor
+    };
     let initial: Vec<(f64, f64, f64)> = cluster
         .iter()
         .enumerate()
         .map(|(k, c)| {
             let gap = |j: usize| (x[cluster[j].index] - x[c.index]).abs();
-            let nearest = (0..cluster.len()).filter(|&j| j != k).map(gap).fold(f64::INFINITY, f64::min);
+            let nearest = (0..cluster.len())
+                .filter(|&j| j != k)
+                .map(gap)
+                .fold(f64::INFINITY, f64::min);
             (y[c.index] - baseline, x[c.index], c.fwhm_nm.min(nearest))
         })
         .collect();
@@ -393,11 +493,38 @@ fn separate_peaks(
 ) -> Result<Vec<Peak>, SpectrumError> {
     let mut out = Vec::new();
     for (k, c) in cluster.iter().enumerate() {
-        let lo = if k > 0 { (cluster[k - 1].index + c.index) / 2 } else { c.index.saturating_sub(MIN_SIDE_SAMPLES) };
-        let hi = if k + 1 < cluster.len() { (cluster[k + 1].index + c.index).div_ceil(2) } else { (c.index + MIN_SIDE_SAMPLES + 1).min(x.len()) };
-        let window = PeakWindow::new(x, y, lo..hi.max(c.index + 1), c.index, f64::INFINITY, floor, sigma)?;
-        if let Ok(e) = o.estimator.estimator().estimate(&window).or_else(|_| Centroid::default().estimate(&window)) {
-            let mut p = assemble(&e, &window, format!("{} (overlap, separate)", o.estimator.estimator().name()), sigma, o);
+        let lo = if k > 0 {
+            (cluster[k - 1].index + c.index) / 2
+        } else {
+            c.index.saturating_sub(MIN_SIDE_SAMPLES)
+        };
+        let hi = if k + 1 < cluster.len() {
+            (cluster[k + 1].index + c.index).div_ceil(2)
+        } else {
+            (c.index + MIN_SIDE_SAMPLES + 1).min(x.len())
+        };
+        let window = PeakWindow::new(
+            x,
+            y,
+            lo..hi.max(c.index + 1),
+            c.index,
+            f64::INFINITY,
+            floor,
+            sigma,
+        )?;
+        if let Ok(e) = o
+            .estimator
+            .estimator()
+            .estimate(&window)
+            .or_else(|_| Centroid::default().estimate(&window))
+        {
+            let mut p = assemble(
+                &e,
+                &window,
+                format!("{} (overlap, separate)", o.estimator.estimator().name()),
+                sigma,
+                o,
+            );
             p.flags.overlap = true;
             p.overlap_group = Some(group);
             out.push(p);

@@ -73,7 +73,10 @@ pub fn fit_gaussians(
     initial: &[(f64, f64, f64)],
     baseline: f64,
 ) -> Result<GaussianFit, SpectrumError> {
-    let fail = |reason: &str| SpectrumError::Estimate { estimator: "gaussian", reason: reason.to_string() };
+    let fail = |reason: &str| SpectrumError::Estimate {
+        estimator: "gaussian",
+        reason: reason.to_string(),
+    };
     if initial.is_empty() {
         return Err(fail("no peak to fit"));
     }
@@ -83,13 +86,21 @@ pub fn fit_gaussians(
     }
     p0.push(baseline);
     let model = MultiGaussian { k: initial.len() };
-    let fit = lm::fit(&model, wavelengths_nm, power, p0).ok_or_else(|| fail("least squares did not converge (too few samples or a singular fit)"))?;
+    let fit = lm::fit(&model, wavelengths_nm, power, p0).ok_or_else(|| {
+        fail("least squares did not converge (too few samples or a singular fit)")
+    })?;
     let (lo, hi) = (wavelengths_nm[0], wavelengths_nm[wavelengths_nm.len() - 1]);
     let mut components = Vec::with_capacity(initial.len());
     for j in 0..initial.len() {
-        let (a, mu, s) = (fit.params[3 * j], fit.params[3 * j + 1], fit.params[3 * j + 2]);
+        let (a, mu, s) = (
+            fit.params[3 * j],
+            fit.params[3 * j + 1],
+            fit.params[3 * j + 2],
+        );
         if !(lo..=hi).contains(&mu) || s > hi - lo {
-            return Err(fail("the fitted centre left the window or the width exceeds it"));
+            return Err(fail(
+                "the fitted centre left the window or the width exceeds it",
+            ));
         }
         components.push(GaussianComponent {
             amplitude: a,
@@ -121,8 +132,15 @@ impl PeakEstimator for GaussianLeastSquares {
         let height = w.height();
         let pitch = w.pitch_nm();
         let fwhm0 = w.measured_fwhm_nm().max(0.8 * pitch);
-        let center0 = log_parabola_vertex(w).map(|(c, _)| c).unwrap_or(w.wavelengths_nm[w.max_index]);
-        let fit = fit_gaussians(w.wavelengths_nm, w.power, &[(height.max(f64::MIN_POSITIVE), center0, fwhm0)], w.baseline)?;
+        let center0 = log_parabola_vertex(w)
+            .map(|(c, _)| c)
+            .unwrap_or(w.wavelengths_nm[w.max_index]);
+        let fit = fit_gaussians(
+            w.wavelengths_nm,
+            w.power,
+            &[(height.max(f64::MIN_POSITIVE), center0, fwhm0)],
+            w.baseline,
+        )?;
         let c = fit.components[0];
         Ok(PeakEstimate {
             wavelength_nm: c.center_nm,

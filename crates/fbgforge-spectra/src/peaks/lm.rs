@@ -37,7 +37,13 @@ impl Fit {
     }
 }
 
-fn normal_equations(model: &impl Model, x: &[f64], y: &[f64], p: &[f64], grad: &mut [f64]) -> (DMatrix<f64>, DVector<f64>, f64) {
+fn normal_equations(
+    model: &impl Model,
+    x: &[f64],
+    y: &[f64],
+    p: &[f64],
+    grad: &mut [f64],
+) -> (DMatrix<f64>, DVector<f64>, f64) {
     let m = p.len();
     let mut jtj = DMatrix::<f64>::zeros(m, m);
     let mut jtr = DVector::<f64>::zeros(m);
@@ -61,7 +67,10 @@ fn normal_equations(model: &impl Model, x: &[f64], y: &[f64], p: &[f64], grad: &
 }
 
 fn residual_sum(model: &impl Model, x: &[f64], y: &[f64], p: &[f64], grad: &mut [f64]) -> f64 {
-    x.iter().zip(y).map(|(&xi, &yi)| (yi - model.eval(xi, p, grad)).powi(2)).sum()
+    x.iter()
+        .zip(y)
+        .map(|(&xi, &yi)| (yi - model.eval(xi, p, grad)).powi(2))
+        .sum()
 }
 
 /// Minimises Σ (yᵢ − f(xᵢ; p))² from `p0`; `None` if there are not more samples than
@@ -91,9 +100,16 @@ pub(crate) fn fit(model: &impl Model, x: &[f64], y: &[f64], p0: Vec<f64>) -> Opt
         };
         let step = chol.solve(&jtr);
         let trial: Vec<f64> = p.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-        let trial_rss = if model.valid(&trial) { residual_sum(model, x, y, &trial, &mut grad) } else { f64::INFINITY };
+        let trial_rss = if model.valid(&trial) {
+            residual_sum(model, x, y, &trial, &mut grad)
+        } else {
+            f64::INFINITY
+        };
         if trial_rss.is_finite() && trial_rss <= rss {
-            let small_step = step.iter().zip(&p).all(|(d, q)| d.abs() <= 1e-10 * (q.abs() + 1e-12));
+            let small_step = step
+                .iter()
+                .zip(&p)
+                .all(|(d, q)| d.abs() <= 1e-10 * (q.abs() + 1e-12));
             let small_gain = rss - trial_rss <= 1e-13 * rss;
             p = trial;
             (jtj, jtr, rss) = normal_equations(model, x, y, &p, &mut grad);
@@ -111,7 +127,13 @@ pub(crate) fn fit(model: &impl Model, x: &[f64], y: &[f64], p0: Vec<f64>) -> Opt
     let dof = n - m;
     let inverse = jtj.clone().cholesky()?.inverse();
     let sigma2 = rss / dof as f64;
-    Some(Fit { params: p, covariance: &inverse * sigma2, jtj_inverse: inverse, rss, dof })
+    Some(Fit {
+        params: p,
+        covariance: &inverse * sigma2,
+        jtj_inverse: inverse,
+        rss,
+        dof,
+    })
 }
 
 #[cfg(test)]
@@ -134,14 +156,21 @@ mod tests {
     fn straight_line_matches_the_closed_form() {
         // Ordinary least squares of a line: slope = Sxy/Sxx, its variance σ̂²/Sxx.
         let x: Vec<f64> = (0..10).map(f64::from).collect();
-        let y: Vec<f64> = x.iter().map(|&v| 2.0 + 0.5 * v + if (v as i32) % 2 == 0 { 0.1 } else { -0.1 }).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .map(|&v| 2.0 + 0.5 * v + if (v as i32) % 2 == 0 { 0.1 } else { -0.1 })
+            .collect();
         let f = fit(&Line, &x, &y, vec![0.0, 0.0]).unwrap();
         let (mx, my) = (x.iter().sum::<f64>() / 10.0, y.iter().sum::<f64>() / 10.0);
         let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
         let sxy: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
         let slope = sxy / sxx;
         assert!((f.params[1] - slope).abs() < 1e-9);
-        let rss: f64 = x.iter().zip(&y).map(|(a, b)| (b - (my - slope * mx) - slope * a).powi(2)).sum();
+        let rss: f64 = x
+            .iter()
+            .zip(&y)
+            .map(|(a, b)| (b - (my - slope * mx) - slope * a).powi(2))
+            .sum();
         assert!((f.std_error(1) - (rss / 8.0 / sxx).sqrt()).abs() < 1e-9);
     }
 }

@@ -40,7 +40,11 @@ pub fn match_gratings(peaks: &[Peak], expected: &[ExpectedGrating]) -> Vec<Match
             .iter()
             .enumerate()
             .filter(|(_, g)| (p.wavelength_nm - g.nominal_nm).abs() <= g.window_nm)
-            .min_by(|(_, a), (_, b)| (p.wavelength_nm - a.nominal_nm).abs().total_cmp(&(p.wavelength_nm - b.nominal_nm).abs()));
+            .min_by(|(_, a), (_, b)| {
+                (p.wavelength_nm - a.nominal_nm)
+                    .abs()
+                    .total_cmp(&(p.wavelength_nm - b.nominal_nm).abs())
+            });
         if let Some((k, _)) = nearest {
             assigned[k].push(p);
         }
@@ -56,14 +60,23 @@ pub fn match_gratings(peaks: &[Peak], expected: &[ExpectedGrating]) -> Vec<Match
                     let mut merged = merge_lobes(many);
                     // Another peak (another grating's) in one of the lobes' joint fits?
                     let shared = many.iter().filter_map(|p| p.overlap_group).any(|group| {
-                        peaks.iter().filter(|p| p.overlap_group == Some(group)).count()
-                            > many.iter().filter(|p| p.overlap_group == Some(group)).count()
+                        peaks
+                            .iter()
+                            .filter(|p| p.overlap_group == Some(group))
+                            .count()
+                            > many
+                                .iter()
+                                .filter(|p| p.overlap_group == Some(group))
+                                .count()
                     });
                     merged.flags.overlap = shared;
                     Some(merged)
                 }
             };
-            MatchedPeak { grating: g.name.clone(), peak }
+            MatchedPeak {
+                grating: g.name.clone(),
+                peak,
+            }
         })
         .collect()
 }
@@ -71,14 +84,38 @@ pub fn match_gratings(peaks: &[Peak], expected: &[ExpectedGrating]) -> Vec<Match
 fn merge_lobes(lobes: &[&Peak]) -> Peak {
     let total: f64 = lobes.iter().map(|p| p.amplitude).sum();
     let weights: Vec<f64> = lobes.iter().map(|p| p.amplitude / total).collect();
-    let combine = |f: &dyn Fn(&Peak) -> f64| lobes.iter().zip(&weights).map(|(p, w)| (w * f(p)).powi(2)).sum::<f64>().sqrt();
-    let lo = lobes.iter().map(|p| p.wavelength_nm - 0.5e-3 * p.fwhm_pm).fold(f64::INFINITY, f64::min);
-    let hi = lobes.iter().map(|p| p.wavelength_nm + 0.5e-3 * p.fwhm_pm).fold(f64::NEG_INFINITY, f64::max);
-    let strongest = lobes.iter().max_by(|a, b| a.amplitude.total_cmp(&b.amplitude)).expect("two or more lobes");
-    let mut flags = lobes.iter().fold(Default::default(), |f: super::PeakFlags, p| f.union(p.flags));
+    let combine = |f: &dyn Fn(&Peak) -> f64| {
+        lobes
+            .iter()
+            .zip(&weights)
+            .map(|(p, w)| (w * f(p)).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let lo = lobes
+        .iter()
+        .map(|p| p.wavelength_nm - 0.5e-3 * p.fwhm_pm)
+        .fold(f64::INFINITY, f64::min);
+    let hi = lobes
+        .iter()
+        .map(|p| p.wavelength_nm + 0.5e-3 * p.fwhm_pm)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let strongest = lobes
+        .iter()
+        .max_by(|a, b| a.amplitude.total_cmp(&b.amplitude))
+        .expect("two or more lobes");
+    let mut flags = lobes
+        .iter()
+        .fold(Default::default(), |f: super::PeakFlags, p| {
+            f.union(p.flags)
+        });
     flags.split = true;
     Peak {
-        wavelength_nm: lobes.iter().zip(&weights).map(|(p, w)| w * p.wavelength_nm).sum(),
+        wavelength_nm: lobes
+            .iter()
+            .zip(&weights)
+            .map(|(p, w)| w * p.wavelength_nm)
+            .sum(),
         std_error_pm: combine(&|p| p.std_error_pm),
         crb_pm: combine(&|p| p.crb_pm),
         fwhm_pm: 1e3 * (hi - lo),

@@ -17,7 +17,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::SpectrumError;
 
 pub use centroid::Centroid;
-pub use crb::{gaussian_position_crb_closed_form_pm, gaussian_position_crb_joint_pm, gaussian_position_crb_pm, FWHM_PER_SIGMA};
+pub use crb::{
+    gaussian_position_crb_closed_form_pm, gaussian_position_crb_joint_pm, gaussian_position_crb_pm,
+    FWHM_PER_SIGMA,
+};
 pub use finder::{find_peaks, find_peaks_in, EstimatorChoice, FindOptions};
 pub use gaussian::{fit_gaussians, GaussianComponent, GaussianFit, GaussianLeastSquares};
 pub use matching::{find_grating_peaks, match_gratings, ExpectedGrating, MatchedPeak};
@@ -53,7 +56,10 @@ impl<'a> PeakWindow<'a> {
         fallback_baseline: f64,
         noise_sigma: f64,
     ) -> Result<Self, SpectrumError> {
-        if range.end > wavelengths_nm.len() || power.len() != wavelengths_nm.len() || !range.contains(&max_index) {
+        if range.end > wavelengths_nm.len()
+            || power.len() != wavelengths_nm.len()
+            || !range.contains(&max_index)
+        {
             return Err(SpectrumError::Invalid(format!(
                 "peak window {range:?} with maximum {max_index} does not fit {} samples",
                 wavelengths_nm.len()
@@ -62,10 +68,24 @@ impl<'a> PeakWindow<'a> {
         let w = &wavelengths_nm[range.clone()];
         let p = &power[range.clone()];
         let k = max_index - range.start;
-        let mut outer: Vec<f64> =
-            w.iter().zip(p).filter(|(x, _)| (*x - w[k]).abs() > core_nm).map(|(_, y)| *y).collect();
-        let baseline = if outer.len() >= 4 { crate::stats::median(&mut outer) } else { fallback_baseline };
-        Ok(PeakWindow { wavelengths_nm: w, power: p, max_index: k, baseline, noise_sigma })
+        let mut outer: Vec<f64> = w
+            .iter()
+            .zip(p)
+            .filter(|(x, _)| (*x - w[k]).abs() > core_nm)
+            .map(|(_, y)| *y)
+            .collect();
+        let baseline = if outer.len() >= 4 {
+            crate::stats::median(&mut outer)
+        } else {
+            fallback_baseline
+        };
+        Ok(PeakWindow {
+            wavelengths_nm: w,
+            power: p,
+            max_index: k,
+            baseline,
+            noise_sigma,
+        })
     }
 
     /// Number of samples.
@@ -101,8 +121,15 @@ impl<'a> PeakWindow<'a> {
         let (w, p, i) = (self.wavelengths_nm, self.power, self.max_index);
         let half = self.baseline + 0.5 * self.height();
         let cross = |a: usize, b: usize| w[a] + (half - p[a]) / (p[b] - p[a]) * (w[b] - w[a]);
-        let left = (0..i).rev().find(|&j| p[j] < half).map(|j| cross(j, j + 1)).unwrap_or(w[0]);
-        let right = (i + 1..w.len()).find(|&j| p[j] < half).map(|j| cross(j - 1, j)).unwrap_or(w[w.len() - 1]);
+        let left = (0..i)
+            .rev()
+            .find(|&j| p[j] < half)
+            .map(|j| cross(j, j + 1))
+            .unwrap_or(w[0]);
+        let right = (i + 1..w.len())
+            .find(|&j| p[j] < half)
+            .map(|j| cross(j - 1, j))
+            .unwrap_or(w[w.len() - 1]);
         right - left
     }
 }
@@ -150,15 +177,32 @@ pub struct PeakFlags {
 }
 
 impl PeakFlags {
-    const NAMES: [&'static str; 5] = ["undersampled", "estimator_disagreement", "overlap", "low_snr", "split"];
+    const NAMES: [&'static str; 5] = [
+        "undersampled",
+        "estimator_disagreement",
+        "overlap",
+        "low_snr",
+        "split",
+    ];
 
     fn values(&self) -> [bool; 5] {
-        [self.undersampled, self.estimator_disagreement, self.overlap, self.low_snr, self.split]
+        [
+            self.undersampled,
+            self.estimator_disagreement,
+            self.overlap,
+            self.low_snr,
+            self.split,
+        ]
     }
 
     /// Names of the flags that are set.
     pub fn names(&self) -> Vec<&'static str> {
-        Self::NAMES.iter().zip(self.values()).filter(|(_, v)| *v).map(|(n, _)| *n).collect()
+        Self::NAMES
+            .iter()
+            .zip(self.values())
+            .filter(|(_, v)| *v)
+            .map(|(n, _)| *n)
+            .collect()
     }
 
     /// True when no flag is set.
@@ -195,7 +239,11 @@ impl<'de> Deserialize<'de> for PeakFlags {
                 "overlap" => f.overlap = true,
                 "low_snr" => f.low_snr = true,
                 "split" => f.split = true,
-                other => return Err(serde::de::Error::custom(format!("unknown peak flag `{other}`"))),
+                other => {
+                    return Err(serde::de::Error::custom(format!(
+                        "unknown peak flag `{other}`"
+                    )))
+                }
             }
         }
         Ok(f)

@@ -29,7 +29,11 @@ fn three(w: &PeakWindow) -> Option<([f64; 3], [f64; 3])> {
         return None;
     }
     Some((
-        [w.wavelengths_nm[i - 1], w.wavelengths_nm[i], w.wavelengths_nm[i + 1]],
+        [
+            w.wavelengths_nm[i - 1],
+            w.wavelengths_nm[i],
+            w.wavelengths_nm[i + 1],
+        ],
         [w.power[i - 1], w.power[i], w.power[i + 1]],
     ))
 }
@@ -82,9 +86,14 @@ impl PeakEstimator for Parabola {
     }
 
     fn estimate(&self, w: &PeakWindow) -> Result<PeakEstimate, SpectrumError> {
-        let fail = |reason: &str| SpectrumError::Estimate { estimator: "parabola", reason: reason.to_string() };
+        let fail = |reason: &str| SpectrumError::Estimate {
+            estimator: "parabola",
+            reason: reason.to_string(),
+        };
         let (x, y) = three(w).ok_or_else(|| fail("the highest sample is at the window's edge"))?;
-        let (xv, a, yv, logarithmic) = self.vertex_of(x, y, w.baseline).ok_or_else(|| fail("the three samples are not concave"))?;
+        let (xv, a, yv, logarithmic) = self
+            .vertex_of(x, y, w.baseline)
+            .ok_or_else(|| fail("the three samples are not concave"))?;
         // Noise propagation by central differences of the vertex in each sample.
         let mut var = 0.0;
         for k in 0..3 {
@@ -93,7 +102,10 @@ impl PeakEstimator for Parabola {
             let mut down = y;
             up[k] += h;
             down[k] -= h;
-            match (self.vertex_of(x, up, w.baseline), self.vertex_of(x, down, w.baseline)) {
+            match (
+                self.vertex_of(x, up, w.baseline),
+                self.vertex_of(x, down, w.baseline),
+            ) {
                 (Some(u), Some(d)) => var += ((u.0 - d.0) / (2.0 * h)).powi(2),
                 _ => return Err(fail("the vertex is unstable at this noise level")),
             }
@@ -121,8 +133,17 @@ mod tests {
     fn log_parabola_is_exact_for_a_gaussian_on_a_known_floor() {
         let x: Vec<f64> = (0..9).map(|i| 1550.0 + 0.1 * i as f64).collect();
         let (c, s, b) = (1550.4137, 0.08, 2.0);
-        let y: Vec<f64> = x.iter().map(|v| b + 5.0 * (-0.5 * ((v - c) / s).powi(2)).exp()).collect();
-        let w = PeakWindow { wavelengths_nm: &x, power: &y, max_index: 4, baseline: b, noise_sigma: 0.0 };
+        let y: Vec<f64> = x
+            .iter()
+            .map(|v| b + 5.0 * (-0.5 * ((v - c) / s).powi(2)).exp())
+            .collect();
+        let w = PeakWindow {
+            wavelengths_nm: &x,
+            power: &y,
+            max_index: 4,
+            baseline: b,
+            noise_sigma: 0.0,
+        };
         let e = Parabola::default().estimate(&w).unwrap();
         assert!((e.wavelength_nm - c).abs() < 1e-10);
         assert!((e.fwhm_nm - FWHM_PER_SIGMA * s).abs() < 1e-10);

@@ -53,8 +53,19 @@ impl Spline {
         if t >= self.x[n - 1] {
             return (self.y[n - 1], 0.0);
         }
-        let j = self.x.partition_point(|&v| v <= t).saturating_sub(1).min(n - 2);
-        let (x0, x1, y0, y1, m0, m1) = (self.x[j], self.x[j + 1], self.y[j], self.y[j + 1], self.m[j], self.m[j + 1]);
+        let j = self
+            .x
+            .partition_point(|&v| v <= t)
+            .saturating_sub(1)
+            .min(n - 2);
+        let (x0, x1, y0, y1, m0, m1) = (
+            self.x[j],
+            self.x[j + 1],
+            self.y[j],
+            self.y[j + 1],
+            self.m[j],
+            self.m[j + 1],
+        );
         let h = x1 - x0;
         let (a, b) = (x1 - t, t - x0);
         let c0 = y0 / h - m0 * h / 6.0;
@@ -84,8 +95,16 @@ impl Template {
         let spectrum = Spectrum::new("template", wavelengths_nm, power, crate::PowerUnit::Linear)?;
         let p = &spectrum.power;
         let floor = p.iter().copied().fold(f64::INFINITY, f64::min);
-        let i = (0..p.len()).max_by(|&a, &b| p[a].total_cmp(&p[b])).unwrap_or(0);
-        let window = PeakWindow { wavelengths_nm: &spectrum.wavelengths_nm, power: p, max_index: i, baseline: floor, noise_sigma: 0.0 };
+        let i = (0..p.len())
+            .max_by(|&a, &b| p[a].total_cmp(&p[b]))
+            .unwrap_or(0);
+        let window = PeakWindow {
+            wavelengths_nm: &spectrum.wavelengths_nm,
+            power: p,
+            max_index: i,
+            baseline: floor,
+            noise_sigma: 0.0,
+        };
         let c = GaussianLeastSquares.estimate(&window)?;
         Ok(Template {
             reference_nm: c.wavelength_nm,
@@ -98,7 +117,11 @@ impl Template {
 
     /// The part of a spectrum within `half_width_nm` of `center_nm` (converted to linear
     /// power) as a template.
-    pub fn from_spectrum(spectrum: &Spectrum, center_nm: f64, half_width_nm: f64) -> Result<Self, SpectrumError> {
+    pub fn from_spectrum(
+        spectrum: &Spectrum,
+        center_nm: f64,
+        half_width_nm: f64,
+    ) -> Result<Self, SpectrumError> {
         let linear = spectrum.linear_power();
         let (w, p): (Vec<f64>, Vec<f64>) = spectrum
             .wavelengths_nm
@@ -107,7 +130,9 @@ impl Template {
             .filter(|(w, _)| (**w - center_nm).abs() <= half_width_nm)
             .unzip();
         if w.len() < 5 {
-            return Err(SpectrumError::Invalid(format!("template around {center_nm} nm: fewer than 5 samples")));
+            return Err(SpectrumError::Invalid(format!(
+                "template around {center_nm} nm: fewer than 5 samples"
+            )));
         }
         Self::new(w, p)
     }
@@ -144,7 +169,11 @@ fn linear_fit(t: &[f64], y: &[f64]) -> (f64, f64, f64) {
     let sty: f64 = t.iter().zip(y).map(|(a, b)| (a - mt) * (b - my)).sum();
     let a = if stt > 0.0 { sty / stt } else { 0.0 };
     let b = my - a * mt;
-    let rss = t.iter().zip(y).map(|(tv, yv)| (yv - a * tv - b).powi(2)).sum();
+    let rss = t
+        .iter()
+        .zip(y)
+        .map(|(tv, yv)| (yv - a * tv - b).powi(2))
+        .sum();
     (a, b, rss)
 }
 
@@ -162,12 +191,19 @@ impl PeakEstimator for TemplateMatch {
     }
 
     fn estimate(&self, w: &PeakWindow) -> Result<PeakEstimate, SpectrumError> {
-        let fail = |reason: &str| SpectrumError::Estimate { estimator: "xcorr", reason: reason.to_string() };
+        let fail = |reason: &str| SpectrumError::Estimate {
+            estimator: "xcorr",
+            reason: reason.to_string(),
+        };
         let x_max = w.wavelengths_nm[w.max_index];
         let template = self
             .templates
             .iter()
-            .min_by(|a, b| (a.reference_nm - x_max).abs().total_cmp(&(b.reference_nm - x_max).abs()))
+            .min_by(|a, b| {
+                (a.reference_nm - x_max)
+                    .abs()
+                    .total_cmp(&(b.reference_nm - x_max).abs())
+            })
             .ok_or_else(|| fail("no template"))?;
         let pitch = w.pitch_nm();
         let step = 0.25 * pitch;
@@ -188,8 +224,13 @@ impl PeakEstimator for TemplateMatch {
         if !best.0.is_finite() {
             return Err(fail("the window does not correlate with the template"));
         }
-        let fit = lm::fit(&Shifted { template }, w.wavelengths_nm, w.power, vec![best.1, best.2, best.3])
-            .ok_or_else(|| fail("least squares did not converge"))?;
+        let fit = lm::fit(
+            &Shifted { template },
+            w.wavelengths_nm,
+            w.power,
+            vec![best.1, best.2, best.3],
+        )
+        .ok_or_else(|| fail("least squares did not converge"))?;
         let (a, delta, b) = (fit.params[0], fit.params[1], fit.params[2]);
         Ok(PeakEstimate {
             wavelength_nm: template.reference_nm + delta,
