@@ -268,9 +268,27 @@ fn matching_assigns_gratings_and_merges_split_lobes() {
     let synth = SynthSpectrum::uniform(1548.0, PITCH, 800, 1e-3)
         .with_peak(SynthPeak::gaussian(1549.85, 0.1, 1.0))
         .with_peak(SynthPeak::gaussian(1550.15, 0.1, 0.8))
-        .with_peak(SynthPeak::gaussian(1553.0, 0.1, 1.0));
+        .with_peak(SynthPeak::gaussian(1553.0, 0.1, 1.0))
+        .with_peak(SynthPeak::gaussian(1553.6, 0.1, 0.1));
     let peaks = find_peaks(&synth.spectrum(2), &FindOptions::default()).unwrap();
+    // The −10 dB bump 0.6 nm (6 FWHM) from B is taken for B's side lobe by the finder.
     assert_eq!(peaks.len(), 3);
+    // Without that rule it is a peak, and matching still does not call B split.
+    let wide = FindOptions {
+        side_lobe_fwhm: 0.0,
+        ..FindOptions::default()
+    };
+    let all = find_peaks(&synth.spectrum(2), &wide).unwrap();
+    assert_eq!(all.len(), 4);
+    let b = match_gratings(
+        &all,
+        &[ExpectedGrating {
+            name: "B".into(),
+            nominal_nm: 1553.1,
+            window_nm: 1.0,
+        }],
+    );
+    assert!(!b[0].peak.as_ref().unwrap().flags.split);
     let expected = [
         ExpectedGrating {
             name: "A".into(),

@@ -64,9 +64,12 @@ pub struct FindOptions {
     /// floor (0.1): noise on the top of a strong peak, which in dB-recorded spectra is far
     /// larger than the floor's, does not make extra candidates.
     pub min_prominence_fraction: f64,
-    /// A local maximum closer than `overlap_fwhm` FWHM to one more than 1/`lobe_fraction`
+    /// A local maximum closer than `side_lobe_fwhm` FWHM to one more than 1/`lobe_fraction`
     /// times higher is that peak's side lobe, not a peak (0.25, i.e. −6 dB).
     pub lobe_fraction: f64,
+    /// Reach of that side-lobe rule, in FWHM of the higher peak (10: a uniform grating's
+    /// side lobes decay slowly; the tenth FWHM away they are ~−25 dB).
+    pub side_lobe_fwhm: f64,
     /// Peaks closer than this many FWHM (mean of the two) overlap and are fitted jointly (4).
     pub overlap_fwhm: f64,
     /// Half-width of a lone peak's window, in FWHM (2; at least 5 samples each side).
@@ -93,6 +96,7 @@ impl Default for FindOptions {
             detection_sigma: 6.0,
             min_prominence_fraction: 0.1,
             lobe_fraction: 0.25,
+            side_lobe_fwhm: 10.0,
             overlap_fwhm: 4.0,
             window_fwhm: 2.0,
             low_snr: 20.0,
@@ -289,7 +293,7 @@ fn candidates(x: &[f64], y: &[f64], floor: f64, sigma: f64, o: &FindOptions) -> 
     found.retain(|c| {
         !all.iter().any(|d| {
             let distance = (x[d.index] - x[c.index]).abs();
-            d.height * o.lobe_fraction > c.height && distance < o.overlap_fwhm * d.fwhm_nm
+            d.height * o.lobe_fraction > c.height && distance < o.side_lobe_fwhm * d.fwhm_nm
         })
     });
     found

@@ -26,9 +26,14 @@ pub struct MatchedPeak {
     pub peak: Option<Peak>,
 }
 
-/// Assigns each peak to the nearest grating whose window holds it. A grating with one
-/// peak gets it; with several (a grating split into lobes, e.g. by transverse stress or
-/// a strong chirp) it gets one peak flagged `split`: the amplitude-weighted mean
+/// A second lobe in a grating's window counts when its amplitude is at least this
+/// fraction of the strongest (0.25: −6 dB, as `CleanPeakCriteria::side_lobe_margin_db`).
+pub const SPLIT_LOBE_FRACTION: f64 = 0.25;
+
+/// Assigns each peak to the nearest grating whose window holds it; in a window, peaks
+/// below [`SPLIT_LOBE_FRACTION`] of the strongest one there are ignored (side lobes). A
+/// grating with one peak left gets it; with several (a grating split into lobes, e.g. by
+/// transverse stress or a strong chirp) it gets one peak flagged `split`: the amplitude-weighted mean
 /// wavelength of the lobes, their standard errors and bounds combined with the same
 /// weights (amplitudes taken as exact), the FWHM spanning the outer lobes' half-maximum
 /// points, the highest SNR and the union of the flags. Such a merged peak keeps
@@ -48,6 +53,10 @@ pub fn match_gratings(peaks: &[Peak], expected: &[ExpectedGrating]) -> Vec<Match
         if let Some((k, _)) = nearest {
             assigned[k].push(p);
         }
+    }
+    for lobes in assigned.iter_mut() {
+        let strongest = lobes.iter().map(|p| p.amplitude).fold(0.0, f64::max);
+        lobes.retain(|p| p.amplitude >= SPLIT_LOBE_FRACTION * strongest);
     }
     expected
         .iter()

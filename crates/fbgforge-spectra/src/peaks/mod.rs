@@ -23,7 +23,9 @@ pub use crb::{
 };
 pub use finder::{find_peaks, find_peaks_in, EstimatorChoice, FindOptions};
 pub use gaussian::{fit_gaussians, GaussianComponent, GaussianFit, GaussianLeastSquares};
-pub use matching::{find_grating_peaks, match_gratings, ExpectedGrating, MatchedPeak};
+pub use matching::{
+    find_grating_peaks, match_gratings, ExpectedGrating, MatchedPeak, SPLIT_LOBE_FRACTION,
+};
 pub use parabola::Parabola;
 pub use template::{Template, TemplateMatch};
 
