@@ -9,7 +9,8 @@
 
 use super::design_profile::DesignProfile;
 use super::mesh::TriMesh;
-use super::registry::{first_of_each_kind, PartKind};
+use super::part::PartKind;
+use super::registry::first_of_each_kind;
 use super::BuiltPart;
 use crate::profile::{module_gratings, PartsProfile};
 use crate::spec::{Design, GratingRole};

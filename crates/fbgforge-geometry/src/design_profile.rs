@@ -5,9 +5,18 @@
 //! the mold's slit pockets; the part builders, the assembly check, the previews and the
 //! manifest all borrow the result.
 
-use super::mold::Pocket;
 use crate::profile::{ArrayLayout, ModuleProfile, PartsProfile};
 use crate::spec::{Design, Module, SpecError, TactileArray};
+
+/// The stepped slit's pocket for a plug: its width and the height of its bottom
+/// (the fiber's top), mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pocket {
+    /// Pocket width, mm.
+    pub width_mm: f64,
+    /// Height of the pocket bottom above the mold's underside, mm.
+    pub bottom_z_mm: f64,
+}
 
 /// The design and its derived dimensions.
 #[derive(Debug, Clone)]

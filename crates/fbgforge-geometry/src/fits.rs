@@ -11,7 +11,7 @@
 //! measured across the plane: half their width less the fiber's radius.
 
 use super::design_profile::{DesignProfile, ModuleDims};
-use super::registry::PartKind;
+use super::part::PartKind;
 use crate::profile::module_gratings;
 use crate::spec::{err, GratingRole, SpecError};
 use serde::Serialize;

@@ -23,13 +23,15 @@ pub mod mesh;
 pub mod module;
 pub mod mold;
 pub mod mold_plug;
+pub mod part;
 pub mod preview;
 pub mod print_notes;
 pub mod registry;
 pub mod threemf;
 
 pub use design_profile::DesignProfile;
-pub use registry::{part_names, BuiltSolid, PartKind, Print, PrintablePart};
+pub use part::{BuiltSolid, PartKind, Print, PrintablePart};
+pub use registry::part_names;
 
 use crate::spec::{Design, SpecError};
 use anyhow::Context;

@@ -11,8 +11,8 @@
 //! itself is `mold_plug`.
 
 use super::brep::{Assembler, BrepError, Seg};
-use super::design_profile::{ArrayDims, DesignProfile};
-use super::registry::{BuiltSolid, PartKind, Print, PrintablePart};
+use super::design_profile::{ArrayDims, DesignProfile, Pocket};
+use super::part::{BuiltSolid, PartKind, Print, PrintablePart};
 use super::GeometryError;
 use crate::profile::ArrayLayout;
 use crate::spec::{Design, Mold, SpecError};
@@ -23,16 +23,6 @@ pub(super) fn poly(pts: &[Point3]) -> Vec<Seg> {
     (0..pts.len())
         .map(|i| Seg::Line(pts[i], pts[(i + 1) % pts.len()]))
         .collect()
-}
-
-/// The stepped slit's pocket for a plug: its width and the height of its bottom
-/// (the fiber's top), mm.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pocket {
-    /// Pocket width, mm.
-    pub width_mm: f64,
-    /// Height of the pocket bottom above the mold's underside, mm.
-    pub bottom_z_mm: f64,
 }
 
 /// The mold's dimensions as the faces need them, mm: half extents, heights and the

@@ -3,9 +3,9 @@
 //! nothing but the fiber's own seat is open through the wall below the silicone level.
 
 use super::brep::{Assembler, BrepError};
-use super::design_profile::DesignProfile;
-use super::mold::{poly, print_material, Pocket};
-use super::registry::{BuiltSolid, PartKind, Print, PrintablePart};
+use super::design_profile::{DesignProfile, Pocket};
+use super::mold::{poly, print_material};
+use super::part::{BuiltSolid, PartKind, Print, PrintablePart};
 use super::GeometryError;
 use crate::profile::ArrayLayout;
 use crate::spec::{Design, Mold};

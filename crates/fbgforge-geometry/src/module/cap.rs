@@ -8,7 +8,7 @@ use super::section::{at, band_sides, disc, ring_ccw, ring_cw, sector, O, S2};
 use super::volume::{capped_cylinder_volume, ring_volume, slice_area, sphere_z};
 use crate::brep::{Assembler, BrepError, Seg};
 use crate::design_profile::DesignProfile;
-use crate::registry::{BuiltSolid, PartKind, Print, PrintablePart};
+use crate::part::{BuiltSolid, PartKind, Print, PrintablePart};
 use crate::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::Design;

@@ -9,7 +9,7 @@ use super::section::{at, band_sides, disc, ring_ccw, ring_cw, S2};
 use super::volume::{capped_cylinder_volume, slice_area, sphere_z};
 use crate::brep::{Assembler, BrepError};
 use crate::design_profile::DesignProfile;
-use crate::registry::{BuiltSolid, PartKind, Print, PrintablePart};
+use crate::part::{BuiltSolid, PartKind, Print, PrintablePart};
 use crate::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::{Design, Insert};

@@ -4,76 +4,14 @@
 //! worst strain grating, scored over the model's uncertainty about K (the contact
 //! window) beside its nominal value.
 
+use super::outcome::{ConstraintValue, Evaluation};
 use super::problem::ModuleProblem;
 use super::robust::FrontObjectives;
 use super::settings::Objective;
 use crate::model::GratingPrediction;
 use crate::quality::{design_quality, QualityBreakdown};
 use crate::prediction::KReadings;
-use crate::spec::{Design, Module};
-use serde::Serialize;
-
-/// One constraint's value at a design.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ConstraintValue {
-    /// Constraint name (stable, used in errors).
-    pub name: String,
-    /// What it requires, in words with units.
-    pub requirement: String,
-    /// Normalised violation, 0 when met.
-    pub violation: f64,
-    /// The measured value, in words with units.
-    pub detail: String,
-}
-
-/// A design evaluated: objective, Q breakdown and constraints.
-#[derive(Debug, Clone, Serialize)]
-pub struct Evaluation {
-    /// Variable values, in `ModuleProblem::variables` order.
-    pub x: Vec<f64>,
-    /// Objective value (worst strain grating) as scored under the robustness setting,
-    /// or 0 when the model failed.
-    pub objective: f64,
-    /// The objective with the nominal K.
-    pub nominal_objective: f64,
-    /// Whether the numbers are the model policy's own at this design (anchored on it),
-    /// not the search's estimate carried from an anchor elsewhere.
-    pub exact: bool,
-    /// Q breakdown per strain grating (nominal K).
-    pub gratings: Vec<QualityBreakdown>,
-    /// Per strain grating: the nominal K, the contact window's ends and the bounding
-    /// readings, pm/N.
-    pub readings: Vec<KReadings>,
-    /// The Pareto front's objectives, when the model predicted the design.
-    pub objectives: Option<FrontObjectives>,
-    /// Every constraint.
-    pub constraints: Vec<ConstraintValue>,
-}
-
-impl Evaluation {
-    /// Sum of normalised violations.
-    pub fn total_violation(&self) -> f64 {
-        self.constraints.iter().map(|c| c.violation).sum()
-    }
-    /// How far from feasible, for ranking infeasible designs: designs whose geometry,
-    /// spec or model fails rank behind designs that only break a physics constraint
-    /// (strain, wavelength window), since only the latter were checked in full.
-    pub fn infeasibility_rank(&self) -> (u8, f64) {
-        let geometric = self
-            .constraints
-            .iter()
-            .any(|c| c.violation > 0.0 && !PHYSICS_CONSTRAINTS.contains(&c.name.as_str()));
-        (u8::from(geometric), self.total_violation())
-    }
-
-    /// True when every constraint is met.
-    pub fn feasible(&self) -> bool {
-        self.constraints.iter().all(|c| c.violation <= 0.0)
-    }
-}
-
-/// Constraints checked on the model's prediction (only once the geometry is valid).
-pub const PHYSICS_CONSTRAINTS: [&str; 3] = ["grating_strain", "wavelength_window", "contact_band"];
+use crate::spec::Design;
 
 /// Add a constraint's value (a negative violation counts as met).
 fn push(
@@ -89,37 +27,6 @@ fn push(
         violation: violation.max(0.0),
         detail,
     })
-}
-
-/// Wavelength windows: each grating owns the band between the midpoints to its
-/// neighbours, less half the guard band on each side; the outer gratings reach the
-/// interrogator's band edges.
-pub fn wavelength_windows(
-    m: &Module,
-    guard_nm: f64,
-    band_nm: (f64, f64),
-) -> Vec<(String, f64, f64)> {
-    let mut g: Vec<(String, f64)> = m
-        .gratings
-        .iter()
-        .map(|g| (g.name.clone(), g.bragg_wavelength_nm))
-        .collect();
-    g.sort_by(|a, b| a.1.total_cmp(&b.1));
-    (0..g.len())
-        .map(|i| {
-            let lo = if i == 0 {
-                band_nm.0
-            } else {
-                0.5 * (g[i - 1].1 + g[i].1) + guard_nm / 2.0
-            };
-            let hi = if i + 1 == g.len() {
-                band_nm.1
-            } else {
-                0.5 * (g[i].1 + g[i + 1].1) - guard_nm / 2.0
-            };
-            (g[i].0.clone(), lo, hi)
-        })
-        .collect()
 }
 
 impl ModuleProblem {

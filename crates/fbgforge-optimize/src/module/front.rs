@@ -4,15 +4,10 @@
 //! notes that say where the objectives tie and why.
 
 use super::choice::Choice;
-use super::evaluate::Evaluation;
-use super::outcome::ChoiceResult;
+use super::outcome::{ChoiceResult, Evaluation, FrontDesign};
 use super::robust::FrontObjectives;
-use super::search::objective_name;
 use super::settings::{ModuleSettings, Preference};
 use super::variables::Variable;
-use crate::prediction::KReadings;
-use serde::Serialize;
-use std::collections::BTreeMap;
 
 /// Below this prominence the front is called nearly straight in the report.
 const KNEE_PROMINENCE_MIN: f64 = 0.05;
@@ -34,26 +29,6 @@ impl FrontCandidate {
     pub fn objectives(&self) -> Option<FrontObjectives> {
         self.evaluation.objectives
     }
-}
-
-/// One design of the Pareto front.
-#[derive(Debug, Clone, Serialize)]
-pub struct FrontDesign {
-    /// Core material and insert.
-    pub choice: Choice,
-    /// The design's variables under their names (`outer_diameter_mm`, `cap_wall_mm`,
-    /// `core_wall_mm`, `dome_height_ratio`, ...).
-    pub variables: BTreeMap<String, f64>,
-    /// Its objectives: `sensitivity_pm_per_n`, `force_range_n`, `max_lag_s`,
-    /// `r_squared` (with the nominal |K| and Q beside them).
-    pub objectives: FrontObjectives,
-    /// Per grating: nominal K, the contact window's ends and the bounding readings.
-    pub readings: Vec<KReadings>,
-    /// Whether it is the knee of the front.
-    pub knee: bool,
-    /// The evaluation behind it.
-    #[serde(skip)]
-    pub evaluation: Evaluation,
 }
 
 /// `a` dominates `b`: at least as good in every objective, better in one.
@@ -306,7 +281,7 @@ pub fn tie_notes(
         .fold((f64::INFINITY, f64::NEG_INFINITY), |a, r| {
             (a.0.min(r.1.objective), a.1.max(r.1.objective))
         });
-    let name = objective_name(settings.objective);
+    let name = settings.objective.symbol();
     if spread((q0, q1)) < 0.005 && n > 1 {
         notes.push(format!(
             "{name} ties: the {n} choices scored on the policy span {q0:.4}–{q1:.4} {} ({:.2} %), within half a per cent; R² ({r0:.5}–{r1:.5}) is what separates them, so the Pareto front, not {name}, is the choice to make",

@@ -44,13 +44,31 @@ mod settings;
 mod variables;
 
 pub use choice::{choices, start_choice, Choice};
-pub use evaluate::{wavelength_windows, ConstraintValue, Evaluation, PHYSICS_CONSTRAINTS};
-pub use front::{pareto_front, FrontCandidate, FrontDesign};
+pub use front::{pareto_front, FrontCandidate};
 pub use landscape::{landscape, LandscapePoint};
-pub use outcome::{ChoiceResult, ModuleOutcome, RunSummary};
+pub use outcome::{
+    ChoiceResult, ConstraintValue, Evaluation, FrontDesign, ModuleOutcome, RunSummary,
+    PHYSICS_CONSTRAINTS,
+};
 pub use predictor::{model_predictor, AnchorCache, PredictFn, Predictor, ReadingsCache};
-pub use problem::{ModuleProblem, TIE_WEIGHT};
+pub use problem::{wavelength_windows, ModuleProblem, TIE_WEIGHT};
 pub use robust::{FrontObjectives, UncertaintyRatios};
 pub use search::optimise_module;
 pub use settings::{ModuleSettings, Objective, Preference};
 pub use variables::{parse_bounds, Variable};
+
+use crate::materials::MaterialLibrary;
+use crate::quality::Calibration;
+use crate::spec::Design;
+
+/// What every choice's problem is built from.
+struct ProblemInputs<'a> {
+    base: &'a Design,
+    lib: &'a MaterialLibrary,
+    settings: &'a ModuleSettings,
+    predictor: Predictor,
+    /// Calibration of the Q model (identity unless a prototype was measured).
+    cal: Calibration,
+    /// The model's uncertainty at the start, carried to every choice's search.
+    start_uncertainty: UncertaintyRatios,
+}

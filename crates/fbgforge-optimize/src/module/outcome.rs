@@ -2,14 +2,97 @@
 //! the error that names the constraint no design could meet.
 
 use super::choice::Choice;
-use super::evaluate::Evaluation;
-use super::front::FrontDesign;
+use super::robust::FrontObjectives;
 use super::settings::{ModuleSettings, Objective, Preference};
 use super::variables::Variable;
-use crate::quality::Calibration;
+use crate::prediction::KReadings;
+use crate::quality::{Calibration, QualityBreakdown};
 use crate::solvers::SolverKind;
 use crate::spec::Design;
 use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// One constraint's value at a design.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ConstraintValue {
+    /// Constraint name (stable, used in errors).
+    pub name: String,
+    /// What it requires, in words with units.
+    pub requirement: String,
+    /// Normalised violation, 0 when met.
+    pub violation: f64,
+    /// The measured value, in words with units.
+    pub detail: String,
+}
+
+/// A design evaluated: objective, Q breakdown and constraints.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evaluation {
+    /// Variable values, in `ModuleProblem::variables` order.
+    pub x: Vec<f64>,
+    /// Objective value (worst strain grating) as scored under the robustness setting,
+    /// or 0 when the model failed.
+    pub objective: f64,
+    /// The objective with the nominal K.
+    pub nominal_objective: f64,
+    /// Whether the numbers are the model policy's own at this design (anchored on it),
+    /// not the search's estimate carried from an anchor elsewhere.
+    pub exact: bool,
+    /// Q breakdown per strain grating (nominal K).
+    pub gratings: Vec<QualityBreakdown>,
+    /// Per strain grating: the nominal K, the contact window's ends and the bounding
+    /// readings, pm/N.
+    pub readings: Vec<KReadings>,
+    /// The Pareto front's objectives, when the model predicted the design.
+    pub objectives: Option<FrontObjectives>,
+    /// Every constraint.
+    pub constraints: Vec<ConstraintValue>,
+}
+
+impl Evaluation {
+    /// Sum of normalised violations.
+    pub fn total_violation(&self) -> f64 {
+        self.constraints.iter().map(|c| c.violation).sum()
+    }
+    /// How far from feasible, for ranking infeasible designs: designs whose geometry,
+    /// spec or model fails rank behind designs that only break a physics constraint
+    /// (strain, wavelength window), since only the latter were checked in full.
+    pub fn infeasibility_rank(&self) -> (u8, f64) {
+        let geometric = self
+            .constraints
+            .iter()
+            .any(|c| c.violation > 0.0 && !PHYSICS_CONSTRAINTS.contains(&c.name.as_str()));
+        (u8::from(geometric), self.total_violation())
+    }
+
+    /// True when every constraint is met.
+    pub fn feasible(&self) -> bool {
+        self.constraints.iter().all(|c| c.violation <= 0.0)
+    }
+}
+
+/// Constraints checked on the model's prediction (only once the geometry is valid).
+pub const PHYSICS_CONSTRAINTS: [&str; 3] = ["grating_strain", "wavelength_window", "contact_band"];
+
+/// One design of the Pareto front.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrontDesign {
+    /// Core material and insert.
+    pub choice: Choice,
+    /// The design's variables under their names (`outer_diameter_mm`, `cap_wall_mm`,
+    /// `core_wall_mm`, `dome_height_ratio`, ...).
+    pub variables: BTreeMap<String, f64>,
+    /// Its objectives: `sensitivity_pm_per_n`, `force_range_n`, `max_lag_s`,
+    /// `r_squared` (with the nominal |K| and Q beside them).
+    pub objectives: FrontObjectives,
+    /// Per grating: nominal K, the contact window's ends and the bounding readings.
+    pub readings: Vec<KReadings>,
+    /// Whether it is the knee of the front.
+    pub knee: bool,
+    /// The evaluation behind it.
+    #[serde(skip)]
+    pub evaluation: Evaluation,
+}
 
 /// Summary of one run for the report.
 #[derive(Debug, Clone, Serialize)]

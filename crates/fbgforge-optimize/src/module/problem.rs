@@ -4,7 +4,7 @@
 //! designs.
 
 use super::choice::{module_of, Choice};
-use super::evaluate::{wavelength_windows, Evaluation};
+use super::outcome::Evaluation;
 use super::predictor::{PredictFn, Predictor};
 use super::robust::UncertaintyRatios;
 use super::settings::ModuleSettings;
@@ -13,8 +13,39 @@ use crate::model::{Configuration, GratingPrediction, LoadCase};
 use crate::materials::MaterialLibrary;
 use crate::quality::Calibration;
 use crate::solvers::BoxProblem;
-use crate::spec::{Core, Design, GratingRole, Insert};
+use crate::spec::{Core, Design, GratingRole, Insert, Module};
 use std::sync::Arc;
+
+/// Wavelength windows: each grating owns the band between the midpoints to its
+/// neighbours, less half the guard band on each side; the outer gratings reach the
+/// interrogator's band edges.
+pub fn wavelength_windows(
+    m: &Module,
+    guard_nm: f64,
+    band_nm: (f64, f64),
+) -> Vec<(String, f64, f64)> {
+    let mut g: Vec<(String, f64)> = m
+        .gratings
+        .iter()
+        .map(|g| (g.name.clone(), g.bragg_wavelength_nm))
+        .collect();
+    g.sort_by(|a, b| a.1.total_cmp(&b.1));
+    (0..g.len())
+        .map(|i| {
+            let lo = if i == 0 {
+                band_nm.0
+            } else {
+                0.5 * (g[i - 1].1 + g[i].1) + guard_nm / 2.0
+            };
+            let hi = if i + 1 == g.len() {
+                band_nm.1
+            } else {
+                0.5 * (g[i].1 + g[i + 1].1) - guard_nm / 2.0
+            };
+            (g[i].0.clone(), lo, hi)
+        })
+        .collect()
+}
 
 /// Weight of the tie-break toward the start design (see [`ModuleProblem::merit`]).
 pub const TIE_WEIGHT: f64 = 1e-3;

@@ -5,10 +5,9 @@
 //! policy. The best row of the table is then the policy's own, and so is what is
 //! written.
 
-use super::evaluate::Evaluation;
-use super::outcome::ChoiceResult;
+use super::outcome::{ChoiceResult, Evaluation};
 use super::problem::ModuleProblem;
-use super::search::ProblemInputs;
+use super::ProblemInputs;
 use super::settings::ModuleSettings;
 use crate::solvers::multi_start;
 

@@ -4,12 +4,12 @@
 //! (`front`) and write the design the preference picks.
 
 use super::choice::{choices, start_choice, Choice};
-use super::evaluate::Evaluation;
 use super::front::{pareto_front, pick, tie_notes, FrontCandidate};
-use super::outcome::{infeasible_error, ChoiceResult, ModuleOutcome, RunSummary};
+use super::outcome::{infeasible_error, ChoiceResult, Evaluation, ModuleOutcome, RunSummary};
 use super::predictor::Predictor;
 use super::problem::ModuleProblem;
 use super::refine::policy_answer;
+use super::ProblemInputs;
 use super::robust::UncertaintyRatios;
 use super::settings::{check_settings, ModuleSettings, Objective};
 use crate::materials::MaterialLibrary;
@@ -22,18 +22,6 @@ use std::time::Instant;
 
 /// Trust-region steps on the policy for the other case's row of the front.
 const FRONT_REFINE_STEPS: u64 = 8;
-
-/// What every choice's problem is built from.
-pub(super) struct ProblemInputs<'a> {
-    base: &'a Design,
-    lib: &'a MaterialLibrary,
-    pub(super) settings: &'a ModuleSettings,
-    predictor: Predictor,
-    /// Calibration of the Q model (identity unless a prototype was measured).
-    cal: Calibration,
-    /// The model's uncertainty at the start, carried to every choice's search.
-    start_uncertainty: UncertaintyRatios,
-}
 
 impl ProblemInputs<'_> {
     /// The problem of one discrete choice, with the start's uncertainty ratios.
@@ -480,14 +468,5 @@ impl ProblemInputs<'_> {
             }
         }
         Ok(out)
-    }
-}
-
-/// The scalar objective's name for reports.
-pub(super) fn objective_name(o: Objective) -> &'static str {
-    match o {
-        Objective::Q => "Q",
-        Objective::Sensitivity => "|K|",
-        Objective::ForceRange => "force range",
     }
 }

@@ -42,6 +42,15 @@ impl Objective {
             Objective::ForceRange => "N",
         }
     }
+
+    /// The scalar objective's name for reports (`Q`, `|K|`, `force range`).
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Objective::Q => "Q",
+            Objective::Sensitivity => "|K|",
+            Objective::ForceRange => "force range",
+        }
+    }
 }
 
 /// Which design of the Pareto front is written.
