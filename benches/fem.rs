@@ -1,7 +1,8 @@
 //! Criterion timing of the finite-element solve's linear algebra on the module's own
-//! matrices (the paper's 34 mm design, default level 1 mesh): the three interchangeable
-//! sparse Cholesky solvers of `fem::linear` (faer's with AMD, the hand-written envelope
-//! after RCM, nalgebra-sparse's after RCM), each in its two phases:
+//! matrices (the paper's 34 mm design, default level 1 mesh): the interchangeable
+//! sparse Cholesky solvers of `fem::linear` (faer's with AMD, with its supernodal kernel
+//! and with its own kernel choice, and the hand-written envelope after RCM), each in
+//! its two phases:
 //! - `structure`: what a new geometry costs once (numbering, pattern, element stiffness
 //!   per unit modulus, the solver's symbolic analysis);
 //! - `factor+solve`: what every further problem on that geometry costs (another core,
@@ -12,7 +13,7 @@
 //! Run with `cargo bench --bench fem`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use fbgforge::fem::linear::{EnvelopeCholesky, LinearSolver, SparseCholesky, SparseLlt};
+use fbgforge::fem::linear::{EnvelopeCholesky, LinearSolver, SparseLlt};
 use fbgforge::fem::{self, ContactReading, FemOptions};
 use fbgforge::model::LoadCase;
 use std::hint::black_box;
@@ -24,7 +25,7 @@ fn solvers(c: &mut Criterion) {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("designs/clip-on-34mm.toml");
     let design = fbgforge::design::load(&p).expect("shipped design loads");
     let m = design.module.as_ref().expect("a module design");
-    let linear: [&dyn LinearSolver; 4] = [
+    let linear: [&dyn LinearSolver; 3] = [
         &SparseLlt {
             kernel: fem::linear::LltKernel::Supernodal,
         },
@@ -32,7 +33,6 @@ fn solvers(c: &mut Criterion) {
             kernel: fem::linear::LltKernel::Auto,
         },
         &EnvelopeCholesky,
-        &SparseCholesky,
     ];
     for (label, case, insert, reading) in [
         (

@@ -253,23 +253,23 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
                 ));
             }
         }
-        // The same levels with nalgebra-sparse's Cholesky: same K, other time.
-        let sparse_levels = (*max_level).min(2);
-        let sparse = convergence(
+        // The same levels with faer's Cholesky (the default solver): same K, other time.
+        let faer_levels = (*max_level).min(2);
+        let faer = convergence(
             &design,
             config,
-            0..=sparse_levels,
+            0..=faer_levels,
             1,
-            SolverKind::Sparse,
+            SolverKind::Faer,
             *dome,
         )?;
-        let mut spts = Vec::new();
-        for l in &sparse {
-            report_level(l, k_ref, "nalgebra-sparse", &mut speed_rows, &mut spts);
+        let mut fpts = Vec::new();
+        for l in &faer {
+            report_level(l, k_ref, "faer", &mut speed_rows, &mut fpts);
         }
         chart = chart.with(Series::new(
-            format!("FE nalgebra-sparse, {name}"),
-            spts,
+            format!("FE faer, {name}"),
+            fpts,
             Mark::LinePoints,
         ));
 

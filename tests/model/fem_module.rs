@@ -182,7 +182,7 @@ fn both_linear_solvers_give_the_same_sensitivity() {
     let c = config("psc1", LoadCase::I, Some("light_green"));
     let mut opt = FemOptions::level(0);
     let a = strain(&d, &c, &opt);
-    opt.solver = fem::SolverKind::Sparse;
+    opt.solver = fem::SolverKind::Envelope;
     let b = strain(&d, &c, &opt);
     assert!(((a - b) / b).abs() < 1e-9, "{a} vs {b}");
 }

@@ -13,12 +13,12 @@
 //!   ordering and a supernodal (dense-block) factorisation when the factor is dense
 //!   enough, simplicial otherwise;
 //! - [`EnvelopeCholesky`]: hand-written envelope (skyline) Cholesky after a reverse
-//!   Cuthill–McKee ordering; rows are contiguous, so its inner loops are dot products;
-//! - [`SparseCholesky`]: nalgebra-sparse's `CscCholesky` (up-looking, no ordering of its
-//!   own) after the same reverse Cuthill–McKee ordering.
+//!   Cuthill–McKee ordering; rows are contiguous, so its inner loops are dot products
+//!   (the independent check of the default: the two agree to round-off).
 //!
-//! The criterion bench `benches/fem.rs` times the three on the module's matrices
-//! (docs/fem.md §5).
+//! The criterion bench `benches/fem.rs` times the two on the module's matrices
+//! (docs/fem.md §5). nalgebra-sparse's `CscCholesky`, a third solver once, was 24×
+//! slower than the default and is gone with that dependency.
 //!
 //! Matrices are handed over as the lower triangle of K in compressed columns
 //! ([`LowerPattern`] plus a value slice in the pattern's order); each solver permutes
@@ -34,10 +34,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::{amd, SupernodalThreshold};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use nalgebra::DVector;
-use nalgebra_sparse::factorization::{CscCholesky, CscSymbolicCholesky};
-use nalgebra_sparse::pattern::SparsityPattern;
-use nalgebra_sparse::CscMatrix;
+use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
 use std::sync::Arc;
 
@@ -54,8 +51,9 @@ pub struct LowerPattern {
 }
 
 impl LowerPattern {
-    /// The lower triangle of a square CSC matrix: its pattern and values.
-    pub fn from_csc(k: &CscMatrix<f64>) -> Result<(Self, Vec<f64>)> {
+    /// The lower triangle of a square dense matrix: the pattern of its nonzero
+    /// entries (the whole diagonal always) and their values.
+    pub fn from_dense(k: &DMatrix<f64>) -> Result<(Self, Vec<f64>)> {
         if k.nrows() != k.ncols() {
             bail!("the matrix is not square ({} × {})", k.nrows(), k.ncols());
         }
@@ -63,9 +61,10 @@ impl LowerPattern {
         let mut col_ptr = Vec::with_capacity(n + 1);
         col_ptr.push(0);
         let (mut row_idx, mut values) = (Vec::new(), Vec::new());
-        for (j, col) in k.col_iter().enumerate() {
-            for (&i, &v) in col.row_indices().iter().zip(col.values()) {
-                if i >= j {
+        for j in 0..n {
+            for i in j..n {
+                let v = k[(i, j)];
+                if i == j || v != 0.0 {
                     row_idx.push(i);
                     values.push(v);
                 }
@@ -232,12 +231,12 @@ pub trait LinearSolver: Sync {
     /// The symbolic phase for a pattern.
     fn analyse(&self, pattern: &LowerPattern) -> Result<Box<dyn SymbolicFactorization>>;
     /// Factorise K (both phases; only its lower triangle is read).
-    fn factor(&self, k: &CscMatrix<f64>) -> Result<Box<dyn Factorization>> {
-        let (pattern, values) = LowerPattern::from_csc(k)?;
+    fn factor(&self, k: &DMatrix<f64>) -> Result<Box<dyn Factorization>> {
+        let (pattern, values) = LowerPattern::from_dense(k)?;
         self.analyse(&pattern)?.factor(&values)
     }
     /// Solve; returns u and the number of stored entries of the factor.
-    fn solve(&self, k: &CscMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)> {
+    fn solve(&self, k: &DMatrix<f64>, f: &DVector<f64>) -> Result<(DVector<f64>, usize)> {
         let factor = self.factor(k)?;
         let mut u = f.clone();
         factor.solve_in_place(u.as_mut_slice());
@@ -499,115 +498,6 @@ impl Factorization for FaerFactor {
 }
 
 // ---------------------------------------------------------------------------------
-// nalgebra-sparse: CscCholesky after RCM.
-
-/// nalgebra-sparse's `CscCholesky` (left-looking sparse Cholesky with no ordering of its
-/// own), after a reverse Cuthill–McKee ordering.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SparseCholesky;
-
-struct NalgebraSymbolic {
-    n: usize,
-    perm: Arc<Vec<usize>>,
-    symbolic: CscSymbolicCholesky,
-    /// For each entry of the caller's lower pattern: its two positions (i, j) and (j, i)
-    /// in the permuted full pattern (the same one twice on the diagonal).
-    positions: Vec<[usize; 2]>,
-    full_nonzeros: usize,
-}
-
-struct NalgebraFactor {
-    perm: Arc<Vec<usize>>,
-    chol: CscCholesky<f64>,
-}
-
-impl LinearSolver for SparseCholesky {
-    fn name(&self) -> &'static str {
-        "sparse Cholesky, RCM (nalgebra-sparse)"
-    }
-    fn analyse(&self, pattern: &LowerPattern) -> Result<Box<dyn SymbolicFactorization>> {
-        let n = pattern.n;
-        let perm = reverse_cuthill_mckee(&pattern.adjacency());
-        // The permuted pattern, both triangles, by columns.
-        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for j in 0..n {
-            for &i in &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]] {
-                let (pi, pj) = (perm[i], perm[j]);
-                cols[pj].push(pi);
-                if pi != pj {
-                    cols[pi].push(pj);
-                }
-            }
-        }
-        let mut offsets = Vec::with_capacity(n + 1);
-        offsets.push(0);
-        let mut indices = Vec::new();
-        for c in cols.iter_mut() {
-            c.sort_unstable();
-            indices.extend_from_slice(c);
-            offsets.push(indices.len());
-        }
-        let at = |i: usize, j: usize| -> usize {
-            let s = &indices[offsets[j]..offsets[j + 1]];
-            offsets[j] + s.binary_search(&i).expect("entry of the permuted pattern")
-        };
-        let mut positions = Vec::with_capacity(pattern.nonzeros());
-        for j in 0..n {
-            for &i in &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]] {
-                let (pi, pj) = (perm[i], perm[j]);
-                positions.push([at(pi, pj), at(pj, pi)]);
-            }
-        }
-        let full_nonzeros = indices.len();
-        let sp = SparsityPattern::try_from_offsets_and_indices(n, n, offsets, indices)
-            .map_err(|e| anyhow!("sparse Cholesky (nalgebra-sparse): bad pattern: {e}"))?;
-        Ok(Box::new(NalgebraSymbolic {
-            n,
-            perm: Arc::new(perm),
-            symbolic: CscSymbolicCholesky::factor(sp),
-            positions,
-            full_nonzeros,
-        }))
-    }
-}
-
-impl SymbolicFactorization for NalgebraSymbolic {
-    fn factor(&self, values: &[f64]) -> Result<Box<dyn Factorization>> {
-        if values.len() != self.positions.len() {
-            bail!(
-                "{} values for a pattern of {} entries",
-                values.len(),
-                self.positions.len()
-            );
-        }
-        let mut full = vec![0.0; self.full_nonzeros];
-        for (v, [a, b]) in values.iter().zip(&self.positions) {
-            full[*a] = *v;
-            full[*b] = *v;
-        }
-        let chol = CscCholesky::factor_numerical(self.symbolic.clone(), &full)
-            .map_err(|e| anyhow!("sparse Cholesky failed: {e:?}"))?;
-        debug_assert_eq!(chol.l().nrows(), self.n);
-        Ok(Box::new(NalgebraFactor {
-            perm: Arc::clone(&self.perm),
-            chol,
-        }))
-    }
-}
-
-impl Factorization for NalgebraFactor {
-    fn solve_in_place(&self, b: &mut [f64]) {
-        let mut y = DVector::zeros(b.len());
-        permute(&self.perm, b, y.as_mut_slice());
-        self.chol.solve_mut(&mut y);
-        unpermute(&self.perm, y.as_slice(), b);
-    }
-    fn nonzeros(&self) -> usize {
-        self.chol.l().nnz()
-    }
-}
-
-// ---------------------------------------------------------------------------------
 // Envelope (skyline) Cholesky after RCM.
 
 /// Dot product with eight independent partial sums, so the compiler can vectorise it
@@ -762,35 +652,35 @@ impl Factorization for EnvelopeFactor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra_sparse::CooMatrix;
 
     /// 1D Laplacian plus long-range couplings: SPD, with a ragged envelope, given in
     /// a scrambled numbering so that the orderings have work to do.
-    fn test_matrix(n: usize) -> CscMatrix<f64> {
+    fn test_matrix(n: usize) -> DMatrix<f64> {
         let scramble = |i: usize| (i * 7) % n;
-        let mut coo = CooMatrix::new(n, n);
+        let mut k = DMatrix::zeros(n, n);
         for i in 0..n {
-            coo.push(scramble(i), scramble(i), 4.0);
+            k[(scramble(i), scramble(i))] += 4.0;
             if i + 1 < n {
-                coo.push(scramble(i), scramble(i + 1), -1.0);
-                coo.push(scramble(i + 1), scramble(i), -1.0);
+                k[(scramble(i), scramble(i + 1))] += -1.0;
+                k[(scramble(i + 1), scramble(i))] += -1.0;
             }
             if i + 7 < n && i % 3 == 0 {
-                coo.push(scramble(i), scramble(i + 7), -0.5);
-                coo.push(scramble(i + 7), scramble(i), -0.5);
+                k[(scramble(i), scramble(i + 7))] += -0.5;
+                k[(scramble(i + 7), scramble(i))] += -0.5;
             }
         }
-        CscMatrix::from(&coo)
+        k
     }
 
     #[test]
-    fn the_three_solvers_agree_and_leave_a_round_off_residual() {
+    fn the_solvers_agree_and_leave_a_round_off_residual() {
         let n = 40; // coprime with the scramble's 7
         let k = test_matrix(n);
         let f = DVector::from_fn(n, |i, _| (i as f64).sin() + 1.0);
         let (a, _) = EnvelopeCholesky.solve(&k, &f).unwrap();
-        let (b, _) = SparseCholesky.solve(&k, &f).unwrap();
         let (c, _) = SparseLlt::default().solve(&k, &f).unwrap();
+        // The dense LU of the whole matrix: a third, independent answer.
+        let b = k.clone().lu().solve(&f).unwrap();
         assert!((&a - &b).norm() < 1e-12 * b.norm());
         assert!((&c - &b).norm() < 1e-12 * b.norm());
         for u in [&a, &b, &c] {
@@ -803,12 +693,11 @@ mod tests {
     fn one_symbolic_phase_serves_new_values_and_many_right_hand_sides() {
         let n = 40;
         let k = test_matrix(n);
-        let (pattern, values) = LowerPattern::from_csc(&k).unwrap();
+        let (pattern, values) = LowerPattern::from_dense(&k).unwrap();
         // Scaling K by 3 scales the solution by 1/3: same pattern, new numeric phase.
         let scaled: Vec<f64> = values.iter().map(|v| 3.0 * v).collect();
         for solver in [
             &EnvelopeCholesky as &dyn LinearSolver,
-            &SparseCholesky,
             &SparseLlt::default(),
         ] {
             let sym = solver.analyse(&pattern).unwrap();
@@ -834,15 +723,9 @@ mod tests {
 
     #[test]
     fn every_solver_rejects_an_indefinite_matrix() {
-        let mut coo = CooMatrix::new(2, 2);
-        coo.push(0, 0, 1.0);
-        coo.push(0, 1, 2.0);
-        coo.push(1, 0, 2.0);
-        coo.push(1, 1, 1.0);
-        let k = CscMatrix::from(&coo);
+        let k = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         for solver in [
             &EnvelopeCholesky as &dyn LinearSolver,
-            &SparseCholesky,
             &SparseLlt::default(),
         ] {
             assert!(

@@ -3,7 +3,7 @@
 //! or one [`ContactReading`] for all three), extrapolation and the linear solver.
 
 use crate::fem::element::Formulation;
-use crate::fem::linear::{EnvelopeCholesky, LinearSolver, SparseCholesky, SparseLlt};
+use crate::fem::linear::{EnvelopeCholesky, LinearSolver, SparseLlt};
 use crate::model::LoadCase;
 use crate::spec::CylinderCoupling;
 
@@ -161,8 +161,6 @@ pub enum SolverKind {
     Faer,
     /// [`EnvelopeCholesky`]: hand-written envelope Cholesky after RCM.
     Envelope,
-    /// [`SparseCholesky`] from nalgebra-sparse, after RCM.
-    Sparse,
 }
 
 impl SolverKind {
@@ -171,7 +169,6 @@ impl SolverKind {
         match self {
             SolverKind::Faer => &SPARSE_LLT,
             SolverKind::Envelope => &EnvelopeCholesky,
-            SolverKind::Sparse => &SparseCholesky,
         }
     }
 }
