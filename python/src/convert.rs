@@ -25,6 +25,28 @@ pub fn to_py<'py, T: serde::Serialize + ?Sized>(
     value_to_py(py, &value(v)?)
 }
 
+/// A serialisable result as Python objects, its text in the Python package's words
+/// (`ModuleSettings.prefer` as `prefer`: see `errors::python_words`).
+pub fn to_py_in_words<'py, T: serde::Serialize + ?Sized>(
+    py: Python<'py>,
+    v: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut v = value(v)?;
+    in_words(&mut v);
+    value_to_py(py, &v)
+}
+
+/// Every text of `v` in the Python package's words.
+fn in_words(v: &mut Value) {
+    match v {
+        Value::Text(s) => *s = crate::errors::in_python_words(s),
+        Value::Tag(_, inner) => in_words(inner),
+        Value::Array(items) => items.iter_mut().for_each(in_words),
+        Value::Map(entries) => entries.iter_mut().for_each(|(_, x)| in_words(x)),
+        _ => {}
+    }
+}
+
 /// One intermediate value as a Python object.
 pub fn value_to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
     Ok(match v {

@@ -29,7 +29,16 @@ fn raise(py: Python<'_>, class: &str, message: String, extra: &[(&str, Option<St
 
 /// Request fields whose Python parameter is named otherwise than the field
 /// (`Type.field` → parameter); every other field is its own parameter name.
-pub const PARAMS: &[(&str, &str)] = &[];
+pub const PARAMS: &[(&str, &str)] = &[(
+    "ModuleSettings.min_fit_clearance_mm",
+    "min_clearance_mm",
+)];
+
+/// A library text (a message, a report's prose) in the Python package's words: the
+/// front end's vocabulary the report printers take (`fbgforge::report::optimize::InWords`).
+pub fn in_python_words(text: &str) -> String {
+    python_words(text, &[])
+}
 
 /// A library message in the Python package's words: every request field the library
 /// names (`VerifyRequest.force_start`, see `fbgforge::fields`) as its parameter

@@ -20,7 +20,7 @@ use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::array::reconstruct::{Frames, MethodRequest};
 use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, LogStyle, ReadOptions};
 use fbgforge::model::LoadCase;
-use fbgforge::prediction::{FidelityChoice, PredictionRequest};
+use fbgforge::prediction::{FidelityChoice, PredictionRequest, RunError};
 use fbgforge::verify::analysis::AnalysisOptions;
 use fbgforge::verify::VerifyRequest;
 use numpy::ndarray::{Array1, Array2};
@@ -28,6 +28,14 @@ use numpy::{IntoPyArray, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
+
+/// The finite-element structures of this process's solves: the Python package owns
+/// one cache for its process (the library keeps none), so a notebook's repeated
+/// predictions and sweeps on one geometry share their structures.
+fn fe_cache() -> &'static fbgforge::fem::GeometryCache {
+    static CACHE: std::sync::OnceLock<fbgforge::fem::GeometryCache> = std::sync::OnceLock::new();
+    CACHE.get_or_init(fbgforge::fem::GeometryCache::default)
+}
 
 fn parse_case(py: Python<'_>, case: Option<&str>) -> PyResult<Option<LoadCase>> {
     match case.map(str::trim) {
@@ -97,15 +105,15 @@ fn read_options(
     })
 }
 
-fn finite(py: Python<'_>, name: &str, v: f64, unit: &str) -> PyResult<()> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(input(
-            py,
-            format!("{name} must be a finite number of {unit}, got {v}"),
-        ))
-    }
+/// A use case's error as its Python exception, with the design named before what does
+/// not fit it and `failed` (e.g. "cannot predict") before what the model could not do.
+fn run_err(py: Python<'_>, e: RunError, design: &str, failed: &str) -> PyErr {
+    let e = match e {
+        RunError::Request(e) | RunError::Output(e) => e,
+        RunError::Design(e) => e.context(format!("design `{design}`")),
+        RunError::Model(e) => e.context(format!("design `{design}`: {failed}")),
+    };
+    err(py, e)
 }
 
 /// Predict each grating's K (pm/N): the rows of the model policy.
@@ -120,42 +128,22 @@ fn predict<'py>(
     fidelity: &str,
     band: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    finite(py, "force_n", force_n, "newtons")?;
-    finite(py, "delta_t_k", delta_t_k, "kelvin")?;
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
     let d = &design.design;
-    if case == Some(LoadCase::I) && d.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
-        return Err(input(
-            py,
-            format!(
-                "design `{}`: Case I needs a solid insert, but the design lists none under [[module.inserts]]",
-                d.name
-            ),
-        ));
-    }
-    let rows = py
-        .detach(|| {
-            fbgforge::prediction::predict(
-                d,
-                &PredictionRequest {
-                    force_n,
-                    delta_t_k,
-                    case,
-                    fidelity: choice,
-                    band,
-                    ..Default::default()
-                },
-            )
-        })
-        .map_err(|e| {
-            err(
-                py,
-                e.context(format!("design `{}`: cannot predict", d.name)),
-            )
-        })?;
-    // The same checks of the paper's statements as `fbgforge predict --json`.
-    let statements = fbgforge::prediction::check_paper_statements(d, &rows);
+    let request = PredictionRequest {
+        force_n,
+        delta_t_k,
+        case,
+        fidelity: choice,
+        band,
+        cache: fe_cache().clone(),
+        ..Default::default()
+    };
+    // The rows with the same checks of the paper's statements as the command line's.
+    let (rows, statements) = py
+        .detach(|| fbgforge::prediction::predict_into(d, &request, &mut ()))
+        .map_err(|e| run_err(py, e, &d.name, "cannot predict"))?;
     Ok((to_py(py, &rows)?, to_py(py, &statements)?)
         .into_pyobject(py)?
         .into_any())
@@ -173,7 +161,15 @@ fn build<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let d = &design.design;
     let report = py
-        .detach(|| fbgforge::geometry::build_design(d, &out_dir, tolerance_mm, parts.as_deref()))
+        .detach(|| {
+            let request = fbgforge::geometry::BuildRequest {
+                tolerance_mm,
+                parts,
+            };
+            // The same files as the command line's build, previews included.
+            let mut previews = fbgforge::report::build::Previews;
+            fbgforge::geometry::build_design(d, &out_dir, &request, &mut previews)
+        })
         .map_err(|e| err_named(py, e, &[("tolerance", "tolerance_mm")]))?;
     let manifest_path = report.dir.join("manifest.json");
     let manifest = std::fs::read_to_string(&manifest_path).map_err(|e| {
@@ -503,9 +499,7 @@ fn sweep<'py>(
     band: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     use fbgforge::model::sweep;
-    let renames = [("from", "start"), ("to", "stop")];
     let p = sweep::find_param(param).map_err(|e| input(py, e.to_string()))?;
-    finite(py, "force_n", force_n, "newtons")?;
     let values = match (values, start, stop) {
         (Some(v), None, None) => {
             if v.is_empty() {
@@ -528,7 +522,7 @@ fn sweep<'py>(
         }
         (None, Some(a), Some(b)) => {
             let linear = sweep::sweep_values(p, a, b, steps)
-                .map_err(|e| input(py, errors::python_words(&e.to_string(), &renames)))?;
+                .map_err(|e| input(py, errors::in_python_words(&e.to_string())))?;
             match spacing {
                 "linear" => linear,
                 "log" => (0..steps)
@@ -554,41 +548,26 @@ fn sweep<'py>(
     };
     let case = parse_case(py, case)?;
     let d = &design.design;
-    if case == Some(LoadCase::I) && d.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
-        return Err(input(
-            py,
-            format!(
-                "design `{}`: Case I needs a solid insert, but the design lists none",
-                d.name
-            ),
-        ));
-    }
     let choice = parse_fidelity(py, fidelity)?;
+    let request = fbgforge::prediction::SweepRequest {
+        param: p,
+        start: values.first().copied().unwrap_or(f64::NAN),
+        stop: values.last().copied().unwrap_or(f64::NAN),
+        steps: values.len(),
+        spacing: fbgforge::prediction::Spacing::Linear,
+        values: Some(values),
+        force_n,
+        case,
+        fidelity: choice,
+        band,
+        fem_options: fbgforge::fem::FemOptions::default(),
+        cache: fe_cache().clone(),
+    };
     let r = py
         .detach(|| {
-            let predictor = fbgforge::prediction::sweep_predictor_with_band(
-                choice,
-                case,
-                fbgforge::fem::FemOptions::default(),
-                band,
-            );
-            sweep::run_with(
-                d,
-                p,
-                &values,
-                force_n,
-                case,
-                predictor.as_deref(),
-                &fbgforge::progress::Quiet,
-            )
+            fbgforge::prediction::sweep(d, &request, &fbgforge::progress::Quiet, &mut ())
         })
-        .map_err(|e| {
-            err_named(
-                py,
-                anyhow::Error::new(e).context(format!("design `{}`: sweep failed", d.name)),
-                &renames,
-            )
-        })?;
+        .map_err(|e| run_err(py, e, &d.name, "sweep failed"))?;
     to_py(py, &r)
 }
 
@@ -630,15 +609,6 @@ fn optimize<'py>(
     if let Some(p) = &measured {
         must_exist(py, p, "measured")?;
     }
-    if max_iters == 0 || swarm_iters == 0 {
-        return Err(input(py, "max_iters and swarm_iters must be at least 1"));
-    }
-    if let Some(c) = min_clearance_mm.filter(|c| !(c.is_finite() && *c > 0.0)) {
-        return Err(input(
-            py,
-            format!("min_clearance_mm must be a positive number of mm, got {c}"),
-        ));
-    }
     let mut settings = ModuleSettings {
         objective: Objective::parse(objective).map_err(e)?,
         max_force_n,
@@ -667,9 +637,11 @@ fn optimize<'py>(
         landscape: landscape.map(Variable::parse_list).transpose().map_err(e)?,
         out,
         report_dir,
+        words: errors::in_python_words,
     };
+    let mut folder = fbgforge::report::optimize::ModuleReportFolder::new(errors::in_python_words);
     let run = py
-        .detach(|| run_module(&req, &fbgforge::progress::Quiet))
+        .detach(|| run_module(&req, &fbgforge::progress::Quiet, &mut folder))
         .map_err(|x| err(py, x))?;
     optimised(
         py,
@@ -690,7 +662,7 @@ fn optimised<'py, T: serde::Serialize>(
     report_dir: &std::path::Path,
 ) -> PyResult<Bound<'py, PyAny>> {
     let doc = PyDict::new(py);
-    doc.set_item("outcome", to_py(py, outcome)?)?;
+    doc.set_item("outcome", convert::to_py_in_words(py, outcome)?)?;
     doc.set_item(
         "design",
         PyDesign {
@@ -723,9 +695,6 @@ fn place<'py>(
     use fbgforge::optimize::run::{run_placement, PlaceRequest};
     use fbgforge::solvers::SolverKind;
     let e = |e: anyhow::Error| err(py, e);
-    if max_iters == 0 {
-        return Err(input(py, "max_iters must be at least 1"));
-    }
     let mut settings = PlaceSettings {
         objective: PlaceObjective::parse(objective).map_err(e)?,
         method: Method::from_name(method).map_err(|x| input(py, x.to_string()))?,
@@ -742,8 +711,9 @@ fn place<'py>(
         out,
         report_dir,
     };
+    let mut folder = fbgforge::report::place::PlaceReportFolder::new(errors::in_python_words);
     let run = py
-        .detach(|| run_placement(&req, &fbgforge::progress::Quiet))
+        .detach(|| run_placement(&req, &fbgforge::progress::Quiet, &mut folder))
         .map_err(|x| err(py, x))?;
     optimised(
         py,

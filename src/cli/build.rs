@@ -4,14 +4,15 @@
 use super::progress::Bar;
 use anyhow::{bail, Result};
 use clap::Args;
-use fbgforge::geometry;
+use fbgforge::geometry::{self, BuildRequest};
 use fbgforge::progress::Progress;
+use fbgforge::report::build::{BuildTable, BuildTables, Previews};
 use fbgforge::spec::Design;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
-pub const FLAGS: &[(&str, &str)] = &[];
+pub const FLAGS: &[(&str, &str)] = &[("BuildRequest.parts", "--parts")];
 
 /// Arguments of `fbgforge build`.
 #[derive(Debug, Args)]
@@ -33,35 +34,16 @@ fn default_out(design: &Design) -> PathBuf {
     Path::new("out").join(&design.name)
 }
 
-fn print_table(design: &str, r: &geometry::BuildReport) {
-    println!("{design} -> {}", r.dir.display());
-    println!(
-        "  {:<20} {:>9} {:>14} {:>14} {:>9} {:>9}",
-        "part", "triangles", "mesh mm³", "exact mm³", "error %", "tol mm"
-    );
-    for p in &r.parts {
-        println!(
-            "  {:<20} {:>9} {:>14.3} {:>14.3} {:>9.4} {:>9.4}",
-            p.name,
-            p.mesh.triangles.len(),
-            p.mesh_volume_mm3,
-            p.exact_volume_mm3,
-            p.volume_error() * 100.0,
-            p.mesh_tolerance_mm
-        );
-    }
-}
-
 /// `fbgforge build`.
 pub fn run(a: BuildArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
     let dir = a.out.clone().unwrap_or_else(|| default_out(&design));
-    let r = geometry::build_design(&design, &dir, a.tolerance, a.parts.as_deref())?;
-    print_table(&design.name, &r);
-    println!(
-        "  wrote {} files (STL, STEP, 3MF, SVG previews, manifest.json)",
-        r.files.len()
-    );
+    let request = BuildRequest {
+        tolerance_mm: a.tolerance,
+        parts: a.parts.clone(),
+    };
+    let mut sink = (Previews, BuildTable::new(std::io::stdout()));
+    geometry::build_design(&design, &dir, &request, &mut sink)?;
     Ok(())
 }
 
@@ -76,24 +58,12 @@ pub fn run_default() -> Result<()> {
     }
     let t = Instant::now();
     let pb = Bar::with("build", designs.len() as u64);
-    let mut reports = Vec::new();
+    let mut tables = BuildTables::new(std::io::stdout());
     for (_, d) in &designs {
-        reports.push((
-            d.name.clone(),
-            geometry::build_design(d, &default_out(d), None, None)?,
-        ));
+        let mut sink = (Previews, &mut tables);
+        geometry::build_design(d, &default_out(d), &BuildRequest::default(), &mut sink)?;
         pb.advance(1);
     }
     pb.end();
-    for (name, r) in &reports {
-        print_table(name, r);
-    }
-    let files: usize = reports.iter().map(|(_, r)| r.files.len()).sum();
-    println!(
-        "built {} designs, {} files in {:.2} s; open the STL files in your slicer (see README)",
-        reports.len(),
-        files,
-        t.elapsed().as_secs_f64()
-    );
-    Ok(())
+    tables.finish(t.elapsed())
 }

@@ -1,7 +1,8 @@
 //! Study `fe-speed` (`cargo run --release -p fbgforge-studies -- fe-speed`): the time of
 //! the finite-element-backed commands, measured on the library calls behind them, each
-//! run from a cold geometry cache (`fem::cache::GeometryCache::global` cleared), so a
-//! run pays every mesh, symbolic analysis and factorisation a fresh process would:
+//! run from a cold geometry cache (a new `fem::GeometryCache` per run: the command
+//! owns one, as the CLI's commands do), so a run pays every mesh, symbolic analysis
+//! and factorisation a fresh process would:
 //! - `predict` of the design with the default model policy and band (what
 //!   `fbgforge predict DESIGN` computes), against the closed-form fast path
 //!   (`--fidelity closed-form --no-band`), and their ratio (issue 22's goal: ≤ 20×);
@@ -75,20 +76,23 @@ pub struct SpeedReport {
     pub predict_over_closed_form: f64,
 }
 
-/// Time `f` `runs` times from a cold cache; the cache counters of the last run.
-fn time_cold(command: String, runs: usize, mut f: impl FnMut() -> Result<()>) -> Result<SpeedRow> {
-    let cache = GeometryCache::global();
+/// Time `f` `runs` times, each with a cold cache of its own; the cache counters of
+/// the last run.
+fn time_cold(
+    command: String,
+    runs: usize,
+    mut f: impl FnMut(&GeometryCache) -> Result<()>,
+) -> Result<SpeedRow> {
     let mut t = Vec::with_capacity(runs);
     let (mut built, mut reused) = (0, 0);
     for _ in 0..runs {
-        cache.clear();
-        let before = cache.stats();
+        let cache = GeometryCache::default();
         let start = Instant::now();
-        f()?;
+        f(&cache)?;
         t.push(start.elapsed().as_secs_f64());
         let after = cache.stats();
-        built = after.misses - before.misses;
-        reused = after.hits - before.hits;
+        built = after.misses;
+        reused = after.hits;
     }
     t.sort_by(f64::total_cmp);
     Ok(SpeedRow {
@@ -108,41 +112,47 @@ pub fn run(a: &FeSpeedArgs) -> Result<()> {
     let path = a.design.display().to_string();
     let runs = if a.quick { 1 } else { a.runs.max(1) };
     let steps = if a.quick { 3 } else { 21 };
-    let default_request = PredictionRequest {
+    let default_request = |cache: &GeometryCache| PredictionRequest {
         band: true,
+        cache: cache.clone(),
         ..PredictionRequest::default()
     };
-    let closed_request = PredictionRequest {
+    let closed_request = |cache: &GeometryCache| PredictionRequest {
         fidelity: FidelityChoice::ClosedForm,
         band: false,
+        cache: cache.clone(),
         ..PredictionRequest::default()
     };
     // Warm the thread pool (a process pays that too, but once, and so does this).
-    black_box(prediction::predict(&design, &closed_request)?);
-    let predict = time_cold(format!("fbgforge predict {path}"), runs, || {
-        black_box(prediction::predict(&design, &default_request)?);
+    black_box(prediction::predict(
+        &design,
+        &closed_request(&GeometryCache::default()),
+    )?);
+    let predict = time_cold(format!("fbgforge predict {path}"), runs, |cache| {
+        black_box(prediction::predict(&design, &default_request(cache))?);
         Ok(())
     })?;
     let closed = time_cold(
         format!("fbgforge predict {path} --fidelity closed-form --no-band"),
         runs,
-        || {
-            black_box(prediction::predict(&design, &closed_request)?);
+        |cache| {
+            black_box(prediction::predict(&design, &closed_request(cache))?);
             Ok(())
         },
     )?;
     let param = sweep::find_param("e1_mpa")?;
     let values = sweep::sweep_values(param, 1.0, 5.0, steps)?;
-    let predictor = prediction::sweep_predictor_with_band(
-        FidelityChoice::Auto,
-        Some(LoadCase::I),
-        FemOptions::default(),
-        true,
-    );
     let sweep_row = time_cold(
         format!("fbgforge sweep {path} --param e1_mpa --from 1 --to 5 --steps {steps} --case i"),
         runs,
-        || {
+        |cache| {
+            let predictor = prediction::sweep_predictor_with_band(
+                FidelityChoice::Auto,
+                Some(LoadCase::I),
+                FemOptions::default(),
+                true,
+                cache.clone(),
+            );
             black_box(
                 sweep::run_with(
                     &design,

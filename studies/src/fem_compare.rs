@@ -10,7 +10,9 @@
 
 use anyhow::{anyhow, Result};
 use fbgforge::family::scaled_design;
-use fbgforge::fem::{configurations, solve_configuration, Configuration, FemOptions};
+use fbgforge::fem::{
+    configurations, solve_configuration, Configuration, FemOptions, GeometryCache,
+};
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::output::{write_atomic, write_csv};
 use fbgforge::plot::{Chart, Mark, Series};
@@ -98,8 +100,13 @@ pub fn scaled_options(design: &Design, level: u32) -> FemOptions {
     opt
 }
 
-/// Compare the closed form and the FE model on every paper configuration of `design`.
-pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>> {
+/// Compare the closed form and the FE model on every paper configuration of `design`
+/// (the FE structures from and to `cache`).
+pub fn compare_design(
+    design: &Design,
+    level: u32,
+    cache: &GeometryCache,
+) -> Result<Vec<ComparisonRow>> {
     let m = design
         .module
         .as_ref()
@@ -110,7 +117,7 @@ pub fn compare_design(design: &Design, level: u32) -> Result<Vec<ComparisonRow>>
     let mut rows = Vec::new();
     for c in paper_configurations(design)? {
         let k_of = |opt: &FemOptions| -> Result<f64> {
-            let fe = solve_configuration(design, &c, opt)?;
+            let fe = solve_configuration(design, &c, opt, cache)?;
             let (_, lambda, e) = fe
                 .strain_per_n
                 .first()
@@ -160,11 +167,12 @@ pub fn run_comparison_on(
     let pb = crate::progress::Bar::with("comparison", (diameters_mm.len() * walls_mm.len()) as u64);
     let mut rows = Vec::new();
     let mut skipped = Vec::new();
+    let cache = GeometryCache::default();
     for &d in diameters_mm {
         for &w in walls_mm {
             pb.advance(1);
             match scaled_design(&base, d, w) {
-                Ok(design) => rows.extend(compare_design(&design, 1)?),
+                Ok(design) => rows.extend(compare_design(&design, 1, &cache)?),
                 Err(e) => skipped.push((d, w, e.to_string())),
             }
         }

@@ -21,7 +21,7 @@ use fbgforge::fem::element::{ElasticConstants, Formulation};
 use fbgforge::fem::mesh::Mesh;
 use fbgforge::fem::solve::{EnvelopeCholesky, Problem, R, Z};
 use fbgforge::fem::{
-    solve_configuration, solve_response, Configuration, ContactReading, FemOptions,
+    solve_configuration, solve_response, Configuration, ContactReading, FemOptions, GeometryCache,
 };
 use fbgforge::model::LoadCase;
 use fbgforge::output::{ensure_dir, write_csv};
@@ -45,11 +45,13 @@ pub struct ContactStudyArgs {
 pub fn run(a: &ContactStudyArgs) -> Result<()> {
     ensure_dir(&a.out)?;
     let design = paper_design()?;
+    // The study's own FE cache, for every solve below.
+    let cache = GeometryCache::default();
     hertz(&a.out, a.quick)?;
-    curves(&design, &a.out, a.quick)?;
-    timing(&design, a.quick)?;
-    readings(&design, &a.out, a.quick)?;
-    window(&design, &a.out, a.quick)?;
+    curves(&design, &a.out, a.quick, &cache)?;
+    timing(&design, a.quick, &cache)?;
+    readings(&design, &a.out, a.quick, &cache)?;
+    window(&design, &a.out, a.quick, &cache)?;
     Ok(())
 }
 
@@ -193,7 +195,7 @@ fn forces(n: usize) -> Vec<f64> {
         .collect()
 }
 
-fn curves(design: &Design, out: &Path, quick: bool) -> Result<()> {
+fn curves(design: &Design, out: &Path, quick: bool, cache: &GeometryCache) -> Result<()> {
     let m = design.module.as_ref().context("module")?;
     let fs = forces(if quick { 12 } else { 31 });
     let levels: Vec<Option<u32>> = if quick {
@@ -226,7 +228,7 @@ fn curves(design: &Design, out: &Path, quick: bool) -> Result<()> {
                 None => FemOptions::default(),
             };
             let opt = base.with_reading(m, ContactReading::Unilateral, LoadCase::I);
-            let r = solve_response(design, &config(insert), &opt, &fs)?;
+            let r = solve_response(design, &config(insert), &opt, &fs, cache)?;
             let shift = r.shift_pm(&design.fiber, 0);
             let mesh = level.map_or("default".to_string(), |l| format!("level {l}"));
             let tangent: Vec<(f64, f64)> = fs
@@ -319,7 +321,7 @@ fn curves(design: &Design, out: &Path, quick: bool) -> Result<()> {
     tangent_chart.write_svg(&out.join("contact_tangent.svg"))
 }
 
-fn timing(design: &Design, quick: bool) -> Result<()> {
+fn timing(design: &Design, quick: bool, cache: &GeometryCache) -> Result<()> {
     let m = design.module.as_ref().context("module")?;
     let opt = FemOptions::default().with_reading(m, ContactReading::Unilateral, LoadCase::I);
     let fs = forces(31);
@@ -327,7 +329,7 @@ fn timing(design: &Design, quick: bool) -> Result<()> {
     let mut times = Vec::new();
     for _ in 0..repeats {
         let t = Instant::now();
-        let r = solve_response(design, &config("blue"), &opt, &fs)?;
+        let r = solve_response(design, &config("blue"), &opt, &fs, cache)?;
         times.push(t.elapsed().as_secs_f64());
         std::hint::black_box(r);
     }
@@ -341,13 +343,13 @@ fn timing(design: &Design, quick: bool) -> Result<()> {
     Ok(())
 }
 
-fn k_of(design: &Design, insert: &str, opt: &FemOptions) -> Result<f64> {
-    let r = solve_configuration(design, &config(insert), opt)?;
+fn k_of(design: &Design, insert: &str, opt: &FemOptions, cache: &GeometryCache) -> Result<f64> {
+    let r = solve_configuration(design, &config(insert), opt, cache)?;
     let (_, lambda, e) = r.strain_per_n.first().cloned().context("grating")?;
     Ok(design.fiber.shift_pm(lambda, e, 0.0))
 }
 
-fn readings(design: &Design, out: &Path, quick: bool) -> Result<()> {
+fn readings(design: &Design, out: &Path, quick: bool, cache: &GeometryCache) -> Result<()> {
     let m = design.module.as_ref().context("module")?;
     let max = if quick { 1 } else { 2 };
     println!("\nConvergence of the contact readings, PSC 1 Case I, λ11, K in pm/N:");
@@ -363,7 +365,7 @@ fn readings(design: &Design, out: &Path, quick: bool) -> Result<()> {
             for level in 0..=max {
                 let t = Instant::now();
                 let opt = FemOptions::level(level).with_reading(m, reading, LoadCase::I);
-                let k = k_of(design, insert, &opt)?;
+                let k = k_of(design, insert, &opt, cache)?;
                 line += &format!(" L{level} {k:+.3} ({:.2} s)", t.elapsed().as_secs_f64());
                 ks.push(k);
                 rows.push(vec![
@@ -374,7 +376,7 @@ fn readings(design: &Design, out: &Path, quick: bool) -> Result<()> {
                 ]);
             }
             let opt = FemOptions::default().with_reading(m, reading, LoadCase::I);
-            let k = k_of(design, insert, &opt)?;
+            let k = k_of(design, insert, &opt, cache)?;
             rows.push(vec![
                 format!("{reading:?}"),
                 insert.to_string(),
@@ -401,7 +403,7 @@ fn readings(design: &Design, out: &Path, quick: bool) -> Result<()> {
     )
 }
 
-fn window(design: &Design, out: &Path, quick: bool) -> Result<()> {
+fn window(design: &Design, out: &Path, quick: bool, cache: &GeometryCache) -> Result<()> {
     let m = design.module.as_ref().context("module")?;
     let k_ii = fbgforge::model::sensitivity_pm_per_n(design, LoadCase::II, None, "lambda_21")?;
     let paper_model =
@@ -434,7 +436,7 @@ fn window(design: &Design, out: &Path, quick: bool) -> Result<()> {
         let opt = FemOptions::default().with_reading(dm, ContactReading::Design, LoadCase::I);
         let ks: Vec<f64> = ["blue", "green", "light_green"]
             .iter()
-            .map(|i| k_of(&d, i, &opt))
+            .map(|i| k_of(&d, i, &opt, cache))
             .collect::<Result<_>>()?;
         let ratios: Vec<f64> = ks.iter().map(|k| k_ii.abs() / k).collect();
         let rising = ks[0] < ks[1] && ks[1] < ks[2];

@@ -2,21 +2,6 @@
 //! numbers are checked, so the studies cannot rot.
 
 use std::path::{Path, PathBuf};
-use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
-
-/// The FE geometry cache is one per process and the `fe_speed` test counts its hits and
-/// misses, so it runs alone: every other test shares this lock, `fe_speed` takes it
-/// whole (a solve in a concurrent test was counted as its own: 8 structures built
-/// where its sweep builds 6).
-static GEOMETRY_CACHE: RwLock<()> = RwLock::new(());
-
-fn shared_cache() -> RwLockReadGuard<'static, ()> {
-    GEOMETRY_CACHE.read().unwrap_or_else(|e| e.into_inner())
-}
-
-fn exclusive_cache() -> RwLockWriteGuard<'static, ()> {
-    GEOMETRY_CACHE.write().unwrap_or_else(|e| e.into_inner())
-}
 
 /// The repository root, where the shipped designs live.
 fn root() -> PathBuf {
@@ -25,7 +10,6 @@ fn root() -> PathBuf {
 
 #[test]
 fn build_study_quick_writes_a_sweep_with_shrinking_volume_error() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::build::BuildStudyArgs {
         design: root().join("designs/clip-on-34mm.toml"),
@@ -64,7 +48,6 @@ fn read_json(path: &Path) -> serde_json::Value {
 
 #[test]
 fn predict_study_quick_times_every_shipped_module() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let designs: Vec<PathBuf> = ["clip-on-10mm.toml", "clip-on-34mm.toml"]
         .iter()
@@ -90,7 +73,6 @@ fn predict_study_quick_times_every_shipped_module() {
 
 #[test]
 fn verify_study_quick_recovers_k_of_its_synthetic_log() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::verify::BenchVerifyArgs {
         out: dir.path().to_path_buf(),
@@ -138,7 +120,6 @@ fn verify_study_quick_recovers_k_of_its_synthetic_log() {
 
 #[test]
 fn optimize_study_quick_never_ends_below_its_start() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::optimize::BenchOptimizeArgs {
         threads: 2,
@@ -155,7 +136,6 @@ fn optimize_study_quick_never_ends_below_its_start() {
 
 #[test]
 fn reconstruct_study_quick_recovers_every_single_load() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::reconstruct::BenchOptions {
         out: dir.path().to_path_buf(),
@@ -211,7 +191,6 @@ fn reconstruct_study_quick_recovers_every_single_load() {
 
 #[test]
 fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::reconstruct::BenchOptions {
         out: dir.path().to_path_buf(),
@@ -258,7 +237,6 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
 
 #[test]
 fn fem_study_quick_converges_under_refinement() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::fem::FemStudyArgs {
         out: dir.path().to_path_buf(),
@@ -286,7 +264,6 @@ fn fem_study_quick_converges_under_refinement() {
 
 #[test]
 fn contact_study_quick_meets_hertz_and_finds_the_knee() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::fem_contact::ContactStudyArgs {
         out: dir.path().to_path_buf(),
@@ -321,7 +298,6 @@ fn contact_study_quick_meets_hertz_and_finds_the_knee() {
 
 #[test]
 fn fe_speed_study_quick_reuses_every_structure_across_a_modulus_sweep() {
-    let _cache = exclusive_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::fe_speed::FeSpeedArgs {
         design: root().join("designs/clip-on-34mm.toml"),
@@ -353,7 +329,6 @@ fn fe_speed_study_quick_reuses_every_structure_across_a_modulus_sweep() {
 
 #[test]
 fn sheet_study_quick_compares_with_the_paper_and_times_the_matrix() {
-    let _cache = shared_cache();
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::sheet::SheetStudyArgs {
         design: root().join("designs/tactile-array-60x80.toml"),

@@ -6,7 +6,6 @@
 //! skipped with a notice otherwise.
 
 use fbgforge::design::{designs_dir, load_designs};
-use fbgforge::geometry::build_design;
 use std::process::Command;
 
 /// The numbers admesh prints, by label.
@@ -41,7 +40,7 @@ fn admesh_accepts_every_shipped_stl() {
     let mut checked = 0;
     for (_, design) in load_designs(&designs_dir()).unwrap() {
         let out = dir.path().join(&design.name);
-        build_design(&design, &out, None, None).unwrap();
+        crate::build(&design, &out, None).unwrap();
         let manifest: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap())
                 .unwrap();

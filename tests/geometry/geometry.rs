@@ -2,7 +2,6 @@
 //! other (fits), and the files written; bad input and unwritable folders.
 
 use crate::common;
-use fbgforge::geometry::build_design;
 use fbgforge::geometry::{self, mesh, module, BuiltPart, PartKind};
 use fbgforge::profile::{ArrayLayout, ModuleProfile};
 use fbgforge::spec::Design;
@@ -288,7 +287,7 @@ fn core_has_fiber_holes_through_every_pillar_and_a_top_hole() {
 fn build_writes_stl_step_and_a_consistent_manifest() {
     let d = shipped("clip-on-16mm.toml");
     let dir = tempfile::tempdir().unwrap();
-    let r = build_design(&d, dir.path(), None, None).unwrap();
+    let r = crate::build(&d, dir.path(), None).unwrap();
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
             .unwrap();
@@ -416,7 +415,7 @@ fn impossible_geometry_is_rejected_with_the_field_and_nothing_is_written() {
     d.validate().unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("mold");
-    let e = format!("{:#}", build_design(&d, &out, None, None).unwrap_err());
+    let e = format!("{:#}", crate::build(&d, &out, None).unwrap_err());
     assert!(
         e.contains("array.fiber_x_mm[5]") && e.contains("nothing was written"),
         "{e}"
@@ -433,7 +432,7 @@ fn an_unwritable_output_folder_is_reported_and_leaves_no_file() {
     let blocker = dir.path().join("not-a-folder");
     std::fs::write(&blocker, b"x").unwrap();
     let out = blocker.join("parts");
-    let e = format!("{:#}", build_design(&d, &out, None, None).unwrap_err());
+    let e = format!("{:#}", crate::build(&d, &out, None).unwrap_err());
     assert!(
         e.contains("cannot create output folder") && e.contains("not-a-folder"),
         "{e}"

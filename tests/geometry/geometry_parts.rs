@@ -334,7 +334,7 @@ fn routing_and_snap_errors_name_the_field() {
 fn the_manifest_reports_snap_fibers_and_the_mold_for_a_lab() {
     let dir = tempfile::tempdir().unwrap();
     let d = shipped("clip-on-34mm.toml");
-    let r = geometry::build_design(&d, dir.path(), None, None).unwrap();
+    let r = crate::build(&d, dir.path(), None).unwrap();
     assert_eq!(r.fibers.len(), 5);
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
@@ -351,7 +351,7 @@ fn the_manifest_reports_snap_fibers_and_the_mold_for_a_lab() {
 
     let dir = tempfile::tempdir().unwrap();
     let d = shipped("tactile-array-60x80.toml");
-    geometry::build_design(&d, dir.path(), None, None).unwrap();
+    crate::build(&d, dir.path(), None).unwrap();
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
             .unwrap();

@@ -12,7 +12,6 @@
 //! to the versioned libraries.
 
 use fbgforge::design::{designs_dir, load_designs};
-use fbgforge::geometry::build_design;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -69,7 +68,7 @@ fn opencascade_reads_every_step_as_a_valid_solid_of_the_exact_volume() {
     let mut checks: Vec<(String, PathBuf, f64)> = Vec::new();
     for (_, design) in load_designs(&designs_dir()).unwrap() {
         let out = tmp.path().join(&design.name);
-        let r = build_design(&design, &out, None, None).unwrap();
+        let r = crate::build(&design, &out, None).unwrap();
         // The assembled module: one file, a solid per part, their volumes summed.
         if !r.fibers.is_empty() {
             let mut kinds = Vec::new();

@@ -13,3 +13,17 @@ mod geometry_props;
 mod geometry_step;
 mod parts_rules;
 mod prusaslicer;
+
+/// Build every part of `design` into `dir` as the command line does (with its
+/// previews), at `tolerance_mm` or the design's default.
+fn build(
+    design: &fbgforge::spec::Design,
+    dir: &std::path::Path,
+    tolerance_mm: Option<f64>,
+) -> anyhow::Result<fbgforge::geometry::BuildReport> {
+    let request = fbgforge::geometry::BuildRequest {
+        tolerance_mm,
+        parts: None,
+    };
+    fbgforge::geometry::build_design(design, dir, &request, &mut fbgforge::report::build::Previews)
+}

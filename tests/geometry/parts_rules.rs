@@ -230,7 +230,7 @@ fn a_tolerance_that_would_let_mating_meshes_overlap_is_refused() {
         let out = dir.path().join(format!("t{tol}"));
         let e = format!(
             "{:#}",
-            geometry::build_design(&d, &out, Some(tol), None).unwrap_err()
+            crate::build(&d, &out, Some(tol)).unwrap_err()
         );
         assert!(
             e.contains("meshing tolerance")
@@ -243,7 +243,7 @@ fn a_tolerance_that_would_let_mating_meshes_overlap_is_refused() {
         assert!(!out.exists() || std::fs::read_dir(&out).unwrap().count() == 0);
     }
     // At half the clearance it builds, and the manifest lists the fits it checked.
-    let r = geometry::build_design(&d, dir.path(), Some(0.05), None).unwrap();
+    let r = crate::build(&d, dir.path(), Some(0.05)).unwrap();
     assert!(!r.fibers.is_empty());
 }
 
@@ -315,7 +315,7 @@ fn exact_fits_are_the_clearances_and_the_tolerance_rule_is_half_of_each() {
 fn the_manifest_gives_the_fiber_surface_gap_not_the_centreline_distance() {
     let d = shipped("clip-on-34mm.toml");
     let dir = tempfile::tempdir().unwrap();
-    let r = geometry::build_design(&d, dir.path(), None, None).unwrap();
+    let r = crate::build(&d, dir.path(), None).unwrap();
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
             .unwrap();
@@ -389,7 +389,7 @@ fn the_plugs_seal_their_pockets_and_the_seat_is_on_a_layer() {
     // With the plug in, the open section below the silicone level is the seat less
     // the fiber, as the manifest states.
     let dir = tempfile::tempdir().unwrap();
-    geometry::build_design(&d, dir.path(), None, None).unwrap();
+    crate::build(&d, dir.path(), None).unwrap();
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
             .unwrap();
@@ -546,7 +546,7 @@ fn build_writes_a_3mf_per_plate_and_the_assembled_module() {
     core.vendor_name = Some("Agilus30 FLX935".into());
     core.shore_hardness = Some("30A".into());
     let dir = tempfile::tempdir().unwrap();
-    let r = geometry::build_design(&d, dir.path(), None, None).unwrap();
+    let r = crate::build(&d, dir.path(), None).unwrap();
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
             .unwrap();
@@ -680,7 +680,7 @@ fn build_writes_a_3mf_per_plate_and_the_assembled_module() {
 fn the_mold_plate_holds_the_mold_and_a_plug_per_slit() {
     let d = shipped("tactile-array-60x80.toml");
     let dir = tempfile::tempdir().unwrap();
-    let r = geometry::build_design(&d, dir.path(), None, None).unwrap();
+    let r = crate::build(&d, dir.path(), None).unwrap();
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("manifest.json")).unwrap())
             .unwrap();
@@ -732,7 +732,7 @@ fn the_mold_plate_holds_the_mold_and_a_plug_per_slit() {
 fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     let d = shipped("clip-on-34mm.toml");
     let dir = tempfile::tempdir().unwrap();
-    geometry::build_design(&d, dir.path(), None, None).unwrap();
+    crate::build(&d, dir.path(), None).unwrap();
     let svg = std::fs::read_to_string(dir.path().join("preview-module.svg")).unwrap();
     let attr = |el: &str, k: &str| -> f64 {
         let i = el.find(&format!("{k}=\"")).unwrap() + k.len() + 2;
@@ -765,12 +765,7 @@ fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     }
     assert!(p.cap_outer_radius_mm > 0.0);
     let mold = tempfile::tempdir().unwrap();
-    geometry::build_design(
-        &shipped("tactile-array-60x80.toml"),
-        mold.path(),
-        None,
-        None,
-    )
+    crate::build(&shipped("tactile-array-60x80.toml"), mold.path(), None)
     .unwrap();
     let svg = std::fs::read_to_string(mold.path().join("preview-mold.svg")).unwrap();
     assert!(svg.contains("data-name=\"wall\"") && svg.contains("class=\"scale-bar\""));

@@ -10,7 +10,6 @@
 //! minute on the 2-core machine (the 34 mm cap alone ~10 s).
 
 use fbgforge::design::{designs_dir, load_designs};
-use fbgforge::geometry::build_design;
 use std::process::Command;
 
 /// Numbers PrusaSlicer reports when it had to repair a mesh; any present must be 0.
@@ -39,7 +38,7 @@ fn prusaslicer_slices_every_part_without_repair() {
     let mut read_3mf = 0;
     for (_, design) in load_designs(&designs_dir()).unwrap() {
         let out = tmp.path().join(&design.name);
-        let r = build_design(&design, &out, None, None).unwrap();
+        let r = crate::build(&design, &out, None).unwrap();
         let mut seen = Vec::new();
         for p in &r.parts {
             if seen.contains(&p.kind) {

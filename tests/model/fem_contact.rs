@@ -248,7 +248,7 @@ fn the_module_s_dome_clearance_closes_at_a_knee_and_the_cylinders_stay_apart() {
         insert: Some("blue".into()),
     };
     let forces = [0.1, 0.2, 0.3, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0];
-    let r = solve_response(&d, &config, &opt, &forces).unwrap();
+    let r = solve_response(&d, &config, &opt, &forces, crate::fe_cache()).unwrap();
     let knee = r.knee_force_n.unwrap();
     assert!(knee > 0.1 && knee < 2.0, "knee at {knee} N");
     let shift = r.shift_pm(&d.fiber, 0);

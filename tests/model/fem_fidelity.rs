@@ -24,7 +24,7 @@ fn closed_form_error(d: &Design, c: &Configuration) -> f64 {
         .find(|p| p.core == c.core && p.case == c.case && p.insert == c.insert)
         .map(|p| p.sensitivity_pm_per_n)
         .unwrap();
-    let r = fem::solve_configuration(d, c, &FemOptions::level(1)).unwrap();
+    let r = fem::solve_configuration(d, c, &FemOptions::level(1), crate::fe_cache()).unwrap();
     let (_, lambda, e) = r.strain_per_n[0].clone();
     let k_fe = d.fiber.shift_pm(lambda, e, 0.0);
     (k_cf - k_fe) / k_fe.abs()
@@ -80,7 +80,7 @@ fn scaled_family_rejects_walls_too_thick_for_the_diameter() {
 fn fem_k(d: &Design, conf: &Configuration, grating: &str, opt: &FemOptions) -> f64 {
     let m = d.module.as_ref().unwrap();
     let opt = opt.with_reading(m, fem::ContactReading::Design, conf.case);
-    let r = fem::solve_configuration(d, conf, &opt).unwrap();
+    let r = fem::solve_configuration(d, conf, &opt, crate::fe_cache()).unwrap();
     let (_, lambda, e) = r
         .strain_per_n
         .iter()
@@ -280,7 +280,13 @@ fn closed_form_and_fe_figure_of(
     use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
     let fig = PAPER_FIGURES.iter().find(|f| f.id == id).unwrap();
     let fe =
-        prediction::sweep_predictor(FidelityChoice::Fem, Some(case), FemOptions::level(0)).unwrap();
+        prediction::sweep_predictor(
+        FidelityChoice::Fem,
+        Some(case),
+        FemOptions::level(0),
+        crate::fe_cache().clone(),
+    )
+    .unwrap();
     let reported = Steps::default();
     let r = run_paper_figure_with(&d, fig, steps, Some(&*fe), &reported).unwrap();
     (

@@ -21,7 +21,7 @@ fn config(core: &str, case: LoadCase, insert: Option<&str>) -> Configuration {
 }
 
 fn strain(d: &Design, c: &Configuration, opt: &FemOptions) -> f64 {
-    solve_configuration(d, c, opt).unwrap().strain_per_n[0].2
+    solve_configuration(d, c, opt, crate::fe_cache()).unwrap().strain_per_n[0].2
 }
 
 #[test]
@@ -82,7 +82,7 @@ fn case_i_is_a_red_shift_and_case_ii_a_blue_shift() {
     let d = design();
     let opt = FemOptions::level(0);
     for c in configurations(&d).unwrap() {
-        let r = solve_configuration(&d, &c, &opt).unwrap();
+        let r = solve_configuration(&d, &c, &opt, crate::fe_cache()).unwrap();
         for (name, _, e) in &r.strain_per_n {
             match c.case {
                 LoadCase::I => assert!(*e > 0.0, "{name} {:?}: {e}", c.insert),
@@ -139,7 +139,7 @@ fn sensitivity_converges_under_refinement() {
 #[test]
 fn predict_returns_every_grating_with_the_fiber_constants() {
     let d = design();
-    let out = fem::predict(&d, 10.0, &FemOptions::level(0)).unwrap();
+    let out = fem::predict(&d, 10.0, &FemOptions::level(0), crate::fe_cache()).unwrap();
     // 2 cores × (Case II + 3 inserts) × 2 gratings each.
     assert_eq!(out.len(), 16);
     for g in &out {
@@ -158,7 +158,7 @@ fn predict_returns_every_grating_with_the_fiber_constants() {
             (g.shift_pm - 10.0 * g.sensitivity_pm_per_n).abs() < 1e-9 * g.shift_pm.abs().max(1.0)
         );
     }
-    assert!(fem::predict(&d, f64::NAN, &FemOptions::level(0)).is_err());
+    assert!(fem::predict(&d, f64::NAN, &FemOptions::level(0), crate::fe_cache()).is_err());
 }
 
 #[test]
@@ -232,7 +232,7 @@ fn default_options_extrapolate_level_1_with_level_0() {
         richardson_order: Some(0.0),
         ..FemOptions::default()
     };
-    assert!(solve_configuration(&d, &c, &bad).is_err());
+    assert!(solve_configuration(&d, &c, &bad, crate::fe_cache()).is_err());
 }
 
 /// Where a solver could fail: moduli at the ends of the range the spec accepts
@@ -249,7 +249,7 @@ fn case_ii_holds_at_the_extremes_of_the_modulus_range() {
             common::set_modulus(&mut d, "core_rubber_case_ii", e1);
             common::set_modulus(&mut d, "cap_digital_abs", e2);
             d.validate().unwrap();
-            let r = solve_configuration(&d, &c, &FemOptions::level(0)).unwrap();
+            let r = solve_configuration(&d, &c, &FemOptions::level(0), crate::fe_cache()).unwrap();
             let (name, lambda, e) = r.strain_per_n[0].clone();
             let k_fe = d.fiber.shift_pm(lambda, e, 0.0);
             let k_cf =

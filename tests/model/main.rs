@@ -16,3 +16,11 @@ mod model_cli;
 mod model_policy;
 mod spec;
 mod sweep_chart;
+
+/// The finite-element structures of this test binary's solves: the tests own one
+/// cache (the library keeps none of its own), so solves of one geometry share their
+/// structure across tests as a sweep's steps do.
+fn fe_cache() -> &'static fbgforge::fem::GeometryCache {
+    static CACHE: std::sync::OnceLock<fbgforge::fem::GeometryCache> = std::sync::OnceLock::new();
+    CACHE.get_or_init(fbgforge::fem::GeometryCache::default)
+}

@@ -28,6 +28,16 @@ pub fn in_words(message: &str, words: &[(&str, &str)]) -> String {
     out
 }
 
+/// A front end's words for the library's: the text with every field name the front end
+/// knows written its way (the binary's flags, the Python package's parameters). A
+/// printer takes one, so what it prints reads in the words its user typed.
+pub type InWords = fn(&str) -> String;
+
+/// The library's own words: the text unchanged.
+pub fn own_words(text: &str) -> String {
+    text.to_string()
+}
+
 /// Every `Type.field` name in `message` whose type name ends with one of the request
 /// suffixes the library uses ([`REQUEST_SUFFIXES`]), in order of appearance. Front ends
 /// test with it that their table covers every name the library can say.

@@ -328,12 +328,14 @@ pub struct Rendered {
 }
 
 /// Render all parts in memory; `fibers` are the traced fiber paths when the whole
-/// module was built.
+/// module was built, `drawings` the caller's pictures of the parts (file name, bytes:
+/// the previews), listed in the manifest.
 pub fn render(
     profile: &DesignProfile,
     parts: &[BuiltPart],
     tolerance_mm: f64,
     fibers: Option<&[super::assembly::FiberTrace]>,
+    drawings: Vec<(String, Vec<u8>)>,
 ) -> Result<Rendered> {
     let design = profile.design;
     let mut files = Vec::new();
@@ -359,15 +361,8 @@ pub fn render(
             materials: p.kind.part().materials(design, &p.name),
         });
     }
-    let mut previews = Vec::new();
-    if let Some(svg) = fibers.and_then(|f| super::preview::module_svg(profile, parts, f)) {
-        previews.push("preview-module.svg".to_string());
-        files.push(("preview-module.svg".into(), svg.into_bytes()));
-    }
-    if let Some(svg) = super::preview::mold_svg(profile, parts) {
-        previews.push("preview-mold.svg".to_string());
-        files.push(("preview-mold.svg".into(), svg.into_bytes()));
-    }
+    let previews: Vec<String> = drawings.iter().map(|(name, _)| name.clone()).collect();
+    files.extend(drawings);
     let snap = profile
         .module
         .as_ref()

@@ -555,7 +555,7 @@ pub fn check_exact(
 
 /// A meshing tolerance too coarse for the gaps between mating parts.
 #[derive(Debug, thiserror::Error)]
-#[error("meshing tolerance {tolerance_mm} mm would let the {outer} and {inner} meshes overlap across their {gap_mm} mm clearance ({what}, {field}): a mesh's chords cut up to about its tolerance into a concave wall; the largest tolerance allowed is {max_mm} mm, half the clearance (or build the parts apart with --parts)")]
+#[error("meshing tolerance {tolerance_mm} mm would let the {outer} and {inner} meshes overlap across their {gap_mm} mm clearance ({what}, {field}): a mesh's chords cut up to about its tolerance into a concave wall; the largest tolerance allowed is {max_mm} mm, half the clearance (or build the parts apart with BuildRequest.parts)")]
 pub struct ToleranceTooCoarse {
     /// The tolerance of the two meshes (the coarser), mm.
     pub tolerance_mm: f64,

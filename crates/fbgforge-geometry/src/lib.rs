@@ -6,8 +6,9 @@
 //! [`build_solids_for`] builds the selected parts' B-rep solids from the profile;
 //! [`build_parts_for`] meshes them at a chord tolerance and runs every mesh check,
 //! including agreement of the mesh volume with the closed-form volume. Nothing here
-//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP, 3MF,
-//! previews and a manifest, written only once every part has passed.
+//! writes files but [`build_design`]: [`export`] turns checked parts into STL, STEP, 3MF
+//! and a manifest, with the drawings the caller's [`BuildSink`] makes of them (the
+//! cut-away previews are `fbgforge-report`'s), written only once every part has passed.
 
 
 // Sibling crates under the names the modules used inside one crate.
@@ -24,7 +25,6 @@ pub mod module;
 pub mod mold;
 pub mod mold_plug;
 pub mod part;
-pub mod preview;
 pub mod print_notes;
 pub mod registry;
 pub mod threemf;
@@ -287,6 +287,64 @@ pub fn build_parts_for(
     Ok(out)
 }
 
+/// What a build is asked for besides the design and the folder.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BuildRequest {
+    /// Meshing chord tolerance, mm ([`default_tolerance_for`] when `None`).
+    pub tolerance_mm: Option<f64>,
+    /// The parts to build, by name (`cap`, `core`, `insert-<name>`, `mold`,
+    /// `mold-plug`; every part of the design when `None`).
+    pub parts: Option<Vec<String>>,
+}
+
+/// A build's checked parts before any file is written: what its drawings are made of.
+#[derive(Debug, Clone, Copy)]
+pub struct CheckedBuild<'a> {
+    /// The design and its derived dimensions.
+    pub profile: &'a DesignProfile<'a>,
+    /// Every part built, meshed and checked.
+    pub parts: &'a [BuiltPart],
+    /// Each fiber's traced way out, when the whole module was built.
+    pub fibers: Option<&'a [assembly::FiberTrace]>,
+}
+
+/// Where a build's results go; every method has a no-op default.
+pub trait BuildSink {
+    /// Drawings of the checked parts to write beside them, as (file name, bytes):
+    /// asked once every part has passed and before the first file is written, so the
+    /// manifest lists them (`previews`).
+    fn drawings(&mut self, _build: &CheckedBuild) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+        Ok(Vec::new())
+    }
+    /// The build, once written.
+    fn built(&mut self, _design: &Design, _report: &BuildReport) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+impl BuildSink for () {}
+
+impl<A: BuildSink, B: BuildSink> BuildSink for (A, B) {
+    fn drawings(&mut self, build: &CheckedBuild) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+        let mut d = self.0.drawings(build)?;
+        d.extend(self.1.drawings(build)?);
+        Ok(d)
+    }
+    fn built(&mut self, design: &Design, report: &BuildReport) -> anyhow::Result<()> {
+        self.0.built(design, report)?;
+        self.1.built(design, report)
+    }
+}
+
+impl<S: BuildSink + ?Sized> BuildSink for &mut S {
+    fn drawings(&mut self, build: &CheckedBuild) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+        (**self).drawings(build)
+    }
+    fn built(&mut self, design: &Design, report: &BuildReport) -> anyhow::Result<()> {
+        (**self).built(design, report)
+    }
+}
+
 /// What one design build wrote.
 #[derive(Debug, Clone)]
 pub struct BuildReport {
@@ -355,26 +413,56 @@ pub fn check_assembly_for(
 }
 
 /// Build a loaded design into `dir`: every part is built, meshed and checked and every
-/// file rendered in memory before the first file is written. The design's dimensions
-/// are derived once, here, and lent to every step.
+/// file rendered in memory (with the drawings `sink` makes of the checked parts) before
+/// the first file is written; then `sink` hears what was written. The design's
+/// dimensions are derived once, here, and lent to every step.
+///
+/// ```
+/// use fbgforge_geometry::{build_design, BuildRequest};
+///
+/// let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+/// let design = fbgforge_core::design::load(&root.join("designs/clip-on-10mm.toml"))?;
+/// let dir = tempfile::tempdir()?;
+/// let request = BuildRequest {
+///     tolerance_mm: None,
+///     parts: Some(vec!["cap".into()]),
+/// };
+/// let r = build_design(&design, dir.path(), &request, &mut ())?;
+/// // One part, its mesh within the volume bound of the exact solid, and its files
+/// // (STL, STEP, the 3MF plate, the manifest last) written.
+/// assert_eq!(r.parts.len(), 1);
+/// assert!(r.parts[0].volume_error().abs() <= fbgforge_geometry::VOLUME_TOLERANCE_AT_DEFAULT);
+/// assert!(r.files.iter().all(|f| f.is_file()));
+/// assert!(r.files.last().unwrap().ends_with("manifest.json"));
+/// # Ok::<(), anyhow::Error>(())
+/// ```
 pub fn build_design(
     design: &Design,
     dir: &Path,
-    tolerance_mm: Option<f64>,
-    parts: Option<&[String]>,
+    request: &BuildRequest,
+    sink: &mut dyn BuildSink,
 ) -> anyhow::Result<BuildReport> {
     let nothing = || format!("design `{}`: nothing was written", design.name);
     let profile = DesignProfile::new(design);
     // Derived once: the parts are meshed at it and the manifest states it.
-    let tol = tolerance_mm.unwrap_or_else(|| default_tolerance_for(&profile));
-    let built = build_parts_for(&profile, Some(tol), parts).with_context(nothing)?;
+    let tol = request
+        .tolerance_mm
+        .unwrap_or_else(|| default_tolerance_for(&profile));
+    let built = build_parts_for(&profile, Some(tol), request.parts.as_deref()).with_context(nothing)?;
     let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
-    let rendered = export::render(&profile, &built, tol, fibers.as_deref())?;
+    let drawings = sink.drawings(&CheckedBuild {
+        profile: &profile,
+        parts: &built,
+        fibers: fibers.as_deref(),
+    })?;
+    let rendered = export::render(&profile, &built, tol, fibers.as_deref(), drawings)?;
     let files = export::write_all(dir, &rendered)?;
-    Ok(BuildReport {
+    let report = BuildReport {
         dir: dir.to_path_buf(),
         parts: built,
         files,
         fibers: fibers.unwrap_or_default(),
-    })
+    };
+    sink.built(design, &report)?;
+    Ok(report)
 }

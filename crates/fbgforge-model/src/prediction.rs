@@ -20,16 +20,23 @@
 //! FE model keep those details but take K, strain and shifts from the FE solve. Each FE
 //! configuration (core, case, insert, reading) is solved once, at 1 N, in parallel.
 
+mod run;
 mod statements;
 mod uncertainty;
 
+pub use run::{
+    paper_figures, predict_into, sweep, FigureSwept, PaperFiguresRequest, PredictSink, Predicted,
+    RunError, Spacing, SweepRequest, SweepSink, Swept, Trend, AUTO_LOG_RATIO,
+};
 pub use statements::{check_paper_statements, PaperStatements, StatementCheck, UP_TO_TWICE_MAX};
 pub use uncertainty::{
     readings, with_contact_ratio, KReadings, ReadingsRequest, Robustness,
     CLOSED_FORM_BAND_TOLERANCE,
 };
 
-use crate::fem::{solve_configuration, solve_configurations, ContactReading, FemOptions};
+use crate::fem::{
+    solve_configuration, solve_configurations, ContactReading, FemOptions, GeometryCache,
+};
 use crate::model::{
     self, Configuration, DetailedPrediction, GratingPrediction, LoadCase, PredictOptions,
 };
@@ -150,6 +157,7 @@ pub fn predict_with_fidelity(
             fidelity: choice,
             band: false,
             fem_options: *fem_options,
+            cache: GeometryCache::default(),
         },
     )
 }
@@ -167,6 +175,7 @@ fn solve_jobs(
     design: &Design,
     jobs: &[FeJob],
     fem_options: &FemOptions,
+    cache: &GeometryCache,
 ) -> Result<Vec<Vec<(String, f64)>>> {
     let m = design
         .module
@@ -184,7 +193,7 @@ fn solve_jobs(
         })
         .collect();
     jobs.iter()
-        .zip(solve_configurations(design, &requests))
+        .zip(solve_configurations(design, &requests, cache))
         .map(|(j, r)| {
             let r = r.with_context(|| {
                 format!(
@@ -248,13 +257,15 @@ fn apply_fem_strain(
 }
 
 /// The predictor a parametric sweep uses for `choice` (`None` for the closed form,
-/// which the sweep calls itself): each step answered as `predict --fidelity` would.
+/// which the sweep calls itself): each step answered as `predict --fidelity` would,
+/// its FE structures kept in `cache` from step to step (the sweep owns it).
 pub fn sweep_predictor(
     choice: FidelityChoice,
     case: Option<LoadCase>,
     fem_options: FemOptions,
+    cache: GeometryCache,
 ) -> Option<Box<model::sweep::Predictor<'static>>> {
-    sweep_predictor_with_band(choice, case, fem_options, false)
+    sweep_predictor_with_band(choice, case, fem_options, false, cache)
 }
 
 /// [`sweep_predictor`], with each step's band when `band` is set (two more FE solves
@@ -264,6 +275,7 @@ pub fn sweep_predictor_with_band(
     case: Option<LoadCase>,
     fem_options: FemOptions,
     band: bool,
+    cache: GeometryCache,
 ) -> Option<Box<model::sweep::Predictor<'static>>> {
     if choice == FidelityChoice::ClosedForm {
         return None;
@@ -278,6 +290,7 @@ pub fn sweep_predictor_with_band(
                 fidelity: choice,
                 band,
                 fem_options,
+                cache: cache.clone(),
                 ..Default::default()
             },
         )
@@ -399,6 +412,9 @@ pub struct PredictionRequest {
     pub band: bool,
     /// Mesh and solver of the FE solves (the contact choices come from the design).
     pub fem_options: FemOptions,
+    /// Where the FE solves' structures come from and go (the caller's, so solves of
+    /// one geometry share them across calls; the default is a fresh, empty cache).
+    pub cache: GeometryCache,
 }
 
 impl Default for PredictionRequest {
@@ -412,6 +428,7 @@ impl Default for PredictionRequest {
             fidelity: FidelityChoice::Auto,
             band: false,
             fem_options: FemOptions::default(),
+            cache: GeometryCache::default(),
         }
     }
 }
@@ -457,7 +474,7 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
             want(c, ContactReading::SlidingApexPatch);
         }
     }
-    let solved = solve_jobs(design, &jobs, &request.fem_options)?;
+    let solved = solve_jobs(design, &jobs, &request.fem_options, &request.cache)?;
     let strain_of = |p: &GratingPrediction, reading: ContactReading| -> Result<f64> {
         let config = config_of(p);
         let i = jobs
@@ -570,17 +587,20 @@ pub struct Anchored {
 }
 
 impl Anchored {
-    /// Anchor the policy on `design` (one FE solve per configuration that needs one).
+    /// Anchor the policy on `design` (one FE solve per configuration that needs one,
+    /// on `cache`'s structures).
     pub fn new(
         design: &Design,
         fidelity: FidelityChoice,
         fem_options: &FemOptions,
+        cache: &GeometryCache,
     ) -> Result<Self> {
         let rows = predict(
             design,
             &PredictionRequest {
                 fidelity,
                 fem_options: *fem_options,
+                cache: cache.clone(),
                 ..PredictionRequest::default()
             },
         )?;
@@ -764,9 +784,11 @@ pub fn calibration_reach(
         "only Case I depends on the contact radius"
     );
     let radii = calibration_radii_mm(m);
+    // This call owns the cache of its solves.
+    let cache = GeometryCache::default();
     let (small, large) = rayon::join(
-        || case_i_k_at(design, config, radii[0], fem_options),
-        || case_i_k_at(design, config, radii[1], fem_options),
+        || case_i_k_at(design, config, radii[0], fem_options, &cache),
+        || case_i_k_at(design, config, radii[1], fem_options, &cache),
     );
     let (small, large) = (small?, large?);
     Ok(CalibrationReach {
@@ -800,6 +822,7 @@ fn case_i_k_at(
     config: &Configuration,
     radius_mm: f64,
     fem_options: &FemOptions,
+    cache: &GeometryCache,
 ) -> Result<Vec<(String, f64)>> {
     let d = with_contact_radius(design, radius_mm);
     let m = d
@@ -810,6 +833,7 @@ fn case_i_k_at(
         &d,
         config,
         &fem_options.with_reading(m, ContactReading::Design, config.case),
+        cache,
     )?;
     Ok(r.strain_per_n
         .into_iter()
@@ -849,7 +873,9 @@ pub fn calibrate_contact(
         );
     }
     let previous = m.dome_contact_radius_mm();
-    let before = case_i_k_at(design, config, previous, fem_options)?;
+    // The calibration owns the cache of its solves.
+    let cache = GeometryCache::default();
+    let before = case_i_k_at(design, config, previous, fem_options, &cache)?;
     let [lo, hi] = calibration_radii_mm(m);
     let mut evaluations = 1;
     // Mean ratio of model to measurement, minus one: falls as the radius grows.
@@ -870,8 +896,8 @@ pub fn calibrate_contact(
         }
         Ok(sum / measured.len() as f64 - 1.0)
     };
-    let k_lo = case_i_k_at(design, config, lo, fem_options)?;
-    let k_hi = case_i_k_at(design, config, hi, fem_options)?;
+    let k_lo = case_i_k_at(design, config, lo, fem_options, &cache)?;
+    let k_hi = case_i_k_at(design, config, hi, fem_options, &cache)?;
     evaluations += 2;
     let (mut a, mut fa) = (lo, h(&k_lo)?);
     let (mut b, mut fb) = (hi, h(&k_hi)?);
@@ -889,7 +915,7 @@ pub fn calibrate_contact(
     let mut best = (a, fa.abs());
     for _ in 0..40 {
         let c = (a * fb - b * fa) / (fb - fa);
-        let fc = h(&case_i_k_at(design, config, c, fem_options)?)?;
+        let fc = h(&case_i_k_at(design, config, c, fem_options, &cache)?)?;
         evaluations += 1;
         if fc.abs() < best.1 {
             best = (c, fc.abs());
@@ -914,7 +940,7 @@ pub fn calibrate_contact(
         }
     }
     let radius = best.0;
-    let after = case_i_k_at(design, config, radius, fem_options)?;
+    let after = case_i_k_at(design, config, radius, fem_options, &cache)?;
     evaluations += 1;
     let k_of = |ks: &[(String, f64)], g: &str| {
         ks.iter()

@@ -7,20 +7,16 @@
 //! * the solvers are the crate's one solver layer, [`crate::solvers`].
 //! * [`module`]: the module problem: variables, constraints, discrete material choices.
 //! * [`place`]: grating placement in the flat array, scored on the reconstruction protocol.
-//! * [`run`]: the use cases the CLI calls: optimise a module, place gratings; both write
-//!   the design and a report ([`report_html`]: the HTML report; [`sheet`]: the placed
-//!   layout drawn on the sheet).
+//! * [`run`]: the use cases the front ends call: optimise a module, place gratings; both
+//!   write the design and hand what they found to a sink (`run::ModuleSink`,
+//!   `run::PlaceSink`; the report folders, tables and JSON are in `fbgforge-report`).
 
 
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
-use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+use fbgforge_core::{design, family, fields, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
-use fbgforge_plot as plot;
-#[allow(unused_imports)]
-use fbgforge_plot::html;
 #[allow(unused_imports)]
 use fbgforge_array as array;
 
@@ -28,6 +24,4 @@ pub mod materials;
 pub mod module;
 pub mod place;
 pub mod quality;
-pub mod report_html;
 pub mod run;
-pub mod sheet;

@@ -92,6 +92,17 @@ pub struct PlaceSettings {
     pub perturbed_draws: usize,
 }
 
+impl PlaceSettings {
+    /// Check the numbers a front end gives before anything is loaded.
+    pub fn check(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.run.max_iters > 0 && self.run.swarm_iters > 0,
+            "RunSettings.max_iters must be at least 1"
+        );
+        Ok(())
+    }
+}
+
 impl Default for PlaceSettings {
     fn default() -> Self {
         PlaceSettings {

@@ -23,8 +23,11 @@ use fbgforge_geometry as geometry;
 #[allow(unused_imports)]
 use fbgforge_verify as verify;
 #[allow(unused_imports)]
-use fbgforge_optimize as optimize;
-#[allow(unused_imports)]
 use fbgforge_live as live;
 #[allow(unused_imports)]
 use fbgforge_synth as synth;
+
+pub mod optimize;
+pub mod place;
+pub mod predict;
+pub mod build;

@@ -15,6 +15,12 @@
 //! served a stale structure. Concurrent requests for one shape build it once (the
 //! others wait for it). Entries are dropped least recently used first beyond a memory
 //! budget.
+//!
+//! There is no process-wide cache: whoever runs the solves owns one and passes it
+//! (faer, too, leaves the symbolic factorisation with its caller). A use case keeps
+//! one for its run (a sweep's steps, an optimisation's evaluations), the Python
+//! package one per process, a study or a test its own; a [`GeometryCache`] is a
+//! handle, so clones share one store. A request that names none gets a fresh one.
 
 use super::element::Formulation;
 use super::mesh::Element;
@@ -104,36 +110,62 @@ pub struct CacheStats {
     pub bytes: usize,
 }
 
-/// Problem structures by shape, least recently used dropped first beyond a budget.
+/// Problem structures by shape, least recently used dropped first beyond a budget: a
+/// handle (clones share one store), owned by whoever runs the solves.
+#[derive(Clone)]
 pub struct GeometryCache {
+    shared: Arc<Shared>,
+}
+
+struct Shared {
     inner: Mutex<Inner>,
     budget_bytes: usize,
 }
 
-/// Budget of the process-wide cache, bytes: about 20 structures of the default
-/// level-1 Case I mesh, far more than one `predict` needs (10).
-pub const GLOBAL_BUDGET_BYTES: usize = 768 << 20;
+/// Budget of a default cache, bytes: about 20 structures of the default level-1 Case I
+/// mesh, far more than one `predict` needs (10).
+pub const DEFAULT_BUDGET_BYTES: usize = 768 << 20;
+
+impl Default for GeometryCache {
+    /// An empty cache of [`DEFAULT_BUDGET_BYTES`].
+    fn default() -> Self {
+        GeometryCache::new(DEFAULT_BUDGET_BYTES)
+    }
+}
+
+impl std::fmt::Debug for GeometryCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self.stats();
+        f.debug_struct("GeometryCache")
+            .field("entries", &s.entries)
+            .field("bytes", &s.bytes)
+            .field("budget_bytes", &self.shared.budget_bytes)
+            .finish()
+    }
+}
+
+impl PartialEq for GeometryCache {
+    /// The same store (a clone of one handle).
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.shared, &other.shared)
+    }
+}
 
 impl GeometryCache {
     /// An empty cache holding about `budget_bytes` (at least the latest structure).
     pub fn new(budget_bytes: usize) -> Self {
         GeometryCache {
-            inner: Mutex::new(Inner::default()),
-            budget_bytes,
+            shared: Arc::new(Shared {
+                inner: Mutex::new(Inner::default()),
+                budget_bytes,
+            }),
         }
-    }
-
-    /// The process-wide cache the FE entry points (`fem::solve_configuration`,
-    /// `fem::solve_response`) use.
-    pub fn global() -> &'static GeometryCache {
-        static GLOBAL: OnceLock<GeometryCache> = OnceLock::new();
-        GLOBAL.get_or_init(|| GeometryCache::new(GLOBAL_BUDGET_BYTES))
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Inner> {
         // A panic elsewhere while holding the lock leaves consistent data (every
         // update is a push, a field write or a removal), so recover it.
-        self.inner.lock().unwrap_or_else(|e| e.into_inner())
+        self.shared.inner.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// The structure of `problem` for `solver`: the stored one when a problem of the
@@ -209,7 +241,7 @@ impl GeometryCache {
     fn evict(&self, g: &mut Inner, keep: &Slot) {
         loop {
             let total: usize = g.entries.iter().map(|e| e.bytes).sum();
-            if total <= self.budget_bytes {
+            if total <= self.shared.budget_bytes {
                 break;
             }
             let oldest = g

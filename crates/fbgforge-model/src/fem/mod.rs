@@ -16,6 +16,7 @@
 //! solves that differ only in the moduli), [`contact`] (unilateral contact condensed on
 //! its pairs), [`module`] (the module's mesh, contacts, supports and load).
 
+mod batch;
 pub mod cache;
 pub mod contact;
 pub mod element;
@@ -29,6 +30,8 @@ pub use module::{
 };
 
 use crate::model::GratingPrediction;
+pub use batch::solve_configurations;
+pub use cache::GeometryCache;
 pub use crate::model::{configurations, Configuration};
 use crate::profile::{module_gratings, GratingPlacement, ModuleProfile};
 use crate::spec::{Design, GratingRole};
@@ -74,269 +77,16 @@ fn richardson_levels(opt: &FemOptions) -> Result<Option<(FemOptions, FemOptions,
 }
 
 /// Solve one configuration with F = 1 N and read every grating of its core (the
-/// structure of its problem comes from, and goes to, [`cache::GeometryCache::global`]).
+/// structure of its problem comes from, and goes to, the caller's `cache`).
 pub fn solve_configuration(
     design: &Design,
     config: &Configuration,
     opt: &FemOptions,
+    cache: &GeometryCache,
 ) -> Result<ConfigurationResult> {
-    solve_configurations(design, &[(config.clone(), *opt)])
+    solve_configurations(design, &[(config.clone(), *opt)], cache)
         .pop()
         .expect("one result per request")
-}
-
-/// A geometry's structure, or why it could not be built (kept as text: shared by
-/// every unit of the geometry).
-type BuiltStructure = Result<std::sync::Arc<solve::ProblemStructure>, String>;
-
-/// One solve of a batch: a level of one request (the fine or the coarse mesh of a
-/// Richardson pair, or the only one).
-struct Unit {
-    config: Configuration,
-    opt: FemOptions,
-    /// Index into the batch's geometries.
-    geometry: usize,
-}
-
-/// How a request's result is made from its units.
-enum Plan {
-    Single(usize),
-    Richardson {
-        fine: usize,
-        coarse: usize,
-        factor: f64,
-    },
-}
-
-/// A mesh shared by the units of one load case and one set of options.
-struct Geometry {
-    case: crate::model::LoadCase,
-    opt: FemOptions,
-    /// The problem built for the first unit, with what is needed to read gratings.
-    model: Result<module::ModuleModel, String>,
-    build_time_s: f64,
-}
-
-/// Solve many configurations of one design, each with its own options, at F = 1 N:
-/// the same results as [`solve_configuration`] on each, in order, for much less work.
-///
-/// The configurations of one load case with one set of options share one mesh, built
-/// once; problems of one mesh share one [`solve::ProblemStructure`] (numbering,
-/// pattern, element stiffness per unit modulus, symbolic factorisation), built once
-/// through [`cache::GeometryCache::global`] (so later calls on the same geometry, e.g.
-/// the next step of a sweep over a modulus, skip it); problems equal in mesh and
-/// moduli share one numeric factorisation and solve. Distinct structures are built
-/// in parallel, largest first, then every factorisation in parallel. A
-/// configuration's `solve_time_s` is the work its own solve needs, counting shared
-/// work in full (what it would cost alone with a warm cache, plus the structure).
-/// Contact readings with unilateral pairs are solved one by one ([`solve_response`]).
-pub fn solve_configurations(
-    design: &Design,
-    requests: &[(Configuration, FemOptions)],
-) -> Vec<Result<ConfigurationResult>> {
-    use rayon::prelude::*;
-    // Requests → units (levels) → geometries.
-    let mut units: Vec<Unit> = Vec::new();
-    let mut geometries: Vec<Geometry> = Vec::new();
-    let mut plans: Vec<Result<Plan>> = Vec::with_capacity(requests.len());
-    let mut add_unit = |config: &Configuration, opt: FemOptions, units: &mut Vec<Unit>| {
-        let geometry = match geometries
-            .iter()
-            .position(|g| g.case == config.case && g.opt == opt)
-        {
-            Some(i) => i,
-            None => {
-                geometries.push(Geometry {
-                    case: config.case,
-                    opt,
-                    model: Err(String::new()),
-                    build_time_s: 0.0,
-                });
-                geometries.len() - 1
-            }
-        };
-        units.push(Unit {
-            config: config.clone(),
-            opt,
-            geometry,
-        });
-        units.len() - 1
-    };
-    for (config, opt) in requests {
-        plans.push(richardson_levels(opt).map(|levels| match levels {
-            Some((plain, coarsened, factor)) => Plan::Richardson {
-                fine: add_unit(config, plain, &mut units),
-                coarse: add_unit(config, coarsened, &mut units),
-                factor,
-            },
-            None => Plan::Single(add_unit(config, *opt, &mut units)),
-        }));
-    }
-    // One mesh per geometry, built for its first unit.
-    let firsts: Vec<usize> = (0..geometries.len())
-        .map(|g| units.iter().position(|u| u.geometry == g).expect("used"))
-        .collect();
-    let built: Vec<(Result<module::ModuleModel, String>, f64)> = firsts
-        .par_iter()
-        .map(|&u| {
-            let start = Instant::now();
-            let unit = &units[u];
-            let model = build_configuration(design, &unit.config, &unit.opt)
-                .map(|(model, _)| model)
-                .map_err(|e| format!("{e:#}"));
-            (model, start.elapsed().as_secs_f64())
-        })
-        .collect();
-    for (g, (model, t)) in geometries.iter_mut().zip(built) {
-        g.model = model;
-        g.build_time_s = t;
-    }
-    // Structures, largest first so the two halves of a 2-core machine end together.
-    let mut order: Vec<usize> = (0..geometries.len()).collect();
-    let size = |g: &Geometry| {
-        g.model
-            .as_ref()
-            .map_or(0, |m| m.problem.mesh.elements.len())
-    };
-    order.sort_by_key(|&g| std::cmp::Reverse(size(&geometries[g])));
-    let mut structures: Vec<Option<(BuiltStructure, f64)>> =
-        (0..geometries.len()).map(|_| None).collect();
-    let made: Vec<(usize, BuiltStructure, f64)> = order
-        .par_iter()
-        .filter_map(|&g| {
-            let geo = &geometries[g];
-            let model = geo.model.as_ref().ok()?;
-            if !model.contact_pairs.is_empty() {
-                return None;
-            }
-            let start = Instant::now();
-            let s = cache::GeometryCache::global()
-                .structure(&model.problem, geo.opt.solver.solver())
-                .map_err(|e| format!("{e:#}"));
-            Some((g, s, start.elapsed().as_secs_f64()))
-        })
-        .collect();
-    for (g, s, t) in made {
-        structures[g] = Some((s, t));
-    }
-    // Each unit's materials and gratings; units equal in geometry and materials share
-    // one factorisation and solve (a task).
-    struct Prepared {
-        materials: Vec<element::ElasticConstants>,
-        gratings: Vec<GratingPlacement>,
-    }
-    let prepared: Vec<Result<Prepared>> = units
-        .iter()
-        .map(|u| {
-            let (core_material, insert_material) = configuration_materials(design, &u.config)?;
-            let m = design
-                .module
-                .as_ref()
-                .expect("checked by configuration_materials");
-            Ok(Prepared {
-                materials: module::materials(
-                    design,
-                    &core_material,
-                    insert_material.as_deref(),
-                    u.config.case,
-                    &u.opt,
-                )?,
-                gratings: configuration_gratings(m, &u.config),
-            })
-        })
-        .collect();
-    let mut tasks: Vec<(usize, &[element::ElasticConstants])> = Vec::new();
-    let task_of: Vec<Option<usize>> = units
-        .iter()
-        .zip(&prepared)
-        .map(|(u, p)| {
-            let p = p.as_ref().ok()?;
-            structures[u.geometry].as_ref()?;
-            let key = (u.geometry, p.materials.as_slice());
-            Some(match tasks.iter().position(|t| *t == key) {
-                Some(i) => i,
-                None => {
-                    tasks.push(key);
-                    tasks.len() - 1
-                }
-            })
-        })
-        .collect();
-    let solved: Vec<Result<(solve::Solution, f64), String>> = tasks
-        .par_iter()
-        .map(|&(g, materials)| {
-            let start = Instant::now();
-            let (s, _) = structures[g].as_ref().expect("a task has a structure");
-            let s = s.as_ref().map_err(Clone::clone)?;
-            let model = geometries[g].model.as_ref().map_err(Clone::clone)?;
-            let sol = s
-                .factor(materials)
-                .and_then(|f| f.solve_loads(&model.problem.loads))
-                .map_err(|e| format!("{e:#}"))?;
-            Ok((sol, start.elapsed().as_secs_f64()))
-        })
-        .collect();
-    // Read every unit's gratings (contact units: their own solve).
-    let unit_results: Vec<Result<ConfigurationResult>> = units
-        .par_iter()
-        .enumerate()
-        .map(|(i, u)| {
-            let prepared = prepared[i].as_ref().map_err(|e| anyhow!("{e:#}"))?;
-            let geo = &geometries[u.geometry];
-            let model = geo.model.as_ref().map_err(|e| anyhow!("{e}"))?;
-            if !model.contact_pairs.is_empty() {
-                return solve_contact_configuration(design, &u.config, &u.opt);
-            }
-            let start = Instant::now();
-            let task = task_of[i].expect("a unit without contact pairs has a task");
-            let (sol, solve_s) = solved[task].as_ref().map_err(|e| anyhow!("{e}"))?;
-            let mut strain_per_n = Vec::new();
-            for g in &prepared.gratings {
-                let e = model.mean_axial_strain(sol, g.z_start_mm, g.z_end_mm)?;
-                strain_per_n.push((g.name.clone(), g.bragg_wavelength_nm, e));
-            }
-            let structure_s = structures[u.geometry].as_ref().map_or(0.0, |(_, t)| *t);
-            Ok(ConfigurationResult {
-                configuration: u.config.clone(),
-                strain_per_n,
-                unknowns: sol.unknowns,
-                elements: model.problem.mesh.elements.len(),
-                solve_time_s: geo.build_time_s
-                    + structure_s
-                    + solve_s
-                    + start.elapsed().as_secs_f64(),
-            })
-        })
-        .collect();
-    let mut unit_results: Vec<Option<Result<ConfigurationResult>>> =
-        unit_results.into_iter().map(Some).collect();
-    let mut take = |i: usize| unit_results[i].take().expect("each unit used once");
-    plans
-        .into_iter()
-        .map(|plan| match plan? {
-            Plan::Single(u) => take(u),
-            Plan::Richardson {
-                fine,
-                coarse,
-                factor,
-            } => {
-                let (fine, coarse) = (take(fine)?, take(coarse)?);
-                let strain_per_n = fine
-                    .strain_per_n
-                    .iter()
-                    .zip(&coarse.strain_per_n)
-                    .map(|((name, lambda, ef), (_, _, ec))| {
-                        (name.clone(), *lambda, ef + (ef - ec) * factor)
-                    })
-                    .collect();
-                Ok(ConfigurationResult {
-                    strain_per_n,
-                    solve_time_s: fine.solve_time_s + coarse.solve_time_s,
-                    ..fine
-                })
-            }
-        })
-        .collect()
 }
 
 /// A configuration with unilateral contact pairs: the secant K at 1 N.
@@ -344,9 +94,10 @@ fn solve_contact_configuration(
     design: &Design,
     config: &Configuration,
     opt: &FemOptions,
+    cache: &GeometryCache,
 ) -> Result<ConfigurationResult> {
     let start = Instant::now();
-    let r = solve_response(design, config, opt, &[1.0])?;
+    let r = solve_response(design, config, opt, &[1.0], cache)?;
     Ok(ConfigurationResult {
         configuration: config.clone(),
         strain_per_n: r
@@ -470,20 +221,22 @@ impl ConfigurationResponse {
 }
 
 /// Solve one configuration at each of `forces_n` (N, in increasing order): the
-/// stiffness is factorised once and the contact problem, when the options ask for
-/// one, is condensed on its pairs and solved exactly at every force (`contact`).
+/// stiffness is factorised once (on the structure `cache` holds or builds) and the
+/// contact problem, when the options ask for one, is condensed on its pairs and
+/// solved exactly at every force (`contact`).
 pub fn solve_response(
     design: &Design,
     config: &Configuration,
     opt: &FemOptions,
     forces_n: &[f64],
+    cache: &GeometryCache,
 ) -> Result<ConfigurationResponse> {
     if forces_n.iter().any(|f| !f.is_finite()) {
         bail!("forces must be finite numbers of newtons");
     }
     if let Some((plain, coarsened, factor)) = richardson_levels(opt)? {
-        let fine = solve_response(design, config, &plain, forces_n)?;
-        let coarse = solve_response(design, config, &coarsened, forces_n)?;
+        let fine = solve_response(design, config, &plain, forces_n, cache)?;
+        let coarse = solve_response(design, config, &coarsened, forces_n, cache)?;
         let mut out = fine.clone();
         for (g, c) in out.gratings.iter_mut().zip(&coarse.gratings) {
             for (e, ec) in g.strain.iter_mut().zip(&c.strain) {
@@ -499,7 +252,7 @@ pub fn solve_response(
     }
     let start = Instant::now();
     let (model, gratings) = build_configuration(design, config, opt)?;
-    let factored = cache::GeometryCache::global().factor(&model.problem, opt.solver.solver())?;
+    let factored = cache.factor(&model.problem, opt.solver.solver())?;
     let observe = |sol: &solve::Solution| -> Result<Vec<f64>> {
         gratings
             .iter()
@@ -557,14 +310,20 @@ pub fn solve_response(
 pub const LINEAR_STRAIN_LIMIT: f64 = 0.01;
 
 /// Finite-element prediction of every strain grating, for Case II and for Case I with
-/// each insert, at `force_n` (same output type and order as [`crate::model::predict`]).
-pub fn predict(design: &Design, force_n: f64, opt: &FemOptions) -> Result<Vec<GratingPrediction>> {
+/// each insert, at `force_n` (same output type and order as [`crate::model::predict`]);
+/// the solves' structures come from, and go to, `cache`.
+pub fn predict(
+    design: &Design,
+    force_n: f64,
+    opt: &FemOptions,
+    cache: &GeometryCache,
+) -> Result<Vec<GratingPrediction>> {
     if !force_n.is_finite() {
         bail!("force must be a finite number of newtons, got {force_n}");
     }
     let mut out = Vec::new();
     for config in configurations(design)? {
-        let res = solve_configuration(design, &config, opt)?;
+        let res = solve_configuration(design, &config, opt, cache)?;
         for (name, lambda_nm, e) in res.strain_per_n {
             let k = design.fiber.shift_pm(lambda_nm, e, 0.0);
             let strain = e * force_n;

@@ -23,6 +23,15 @@ pub struct SweepParam {
     apply: fn(&mut Design, f64),
 }
 
+impl std::fmt::Debug for SweepParam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SweepParam")
+            .field("name", &self.name)
+            .field("label", &self.label)
+            .finish_non_exhaustive()
+    }
+}
+
 fn set_core_moduli(d: &mut Design, v: f64) {
     let keys: Vec<String> = d
         .module
@@ -316,28 +325,28 @@ pub fn sweep_values(
 ) -> Result<Vec<f64>, SweepError> {
     if !from.is_finite() || !to.is_finite() {
         return Err(SweepError::BadRange(format!(
-            "--from {from} and --to {to} must be finite numbers"
+            "SweepRequest.start {from} and SweepRequest.stop {to} must be finite numbers"
         )));
     }
     if to <= from {
         return Err(SweepError::BadRange(format!(
-            "--from {from} must be smaller than --to {to} (an empty or reversed range)"
+            "SweepRequest.start {from} must be smaller than SweepRequest.stop {to} (an empty or reversed range)"
         )));
     }
     if !(2..=MAX_STEPS).contains(&steps) {
         return Err(SweepError::BadRange(format!(
-            "--steps must be between 2 and {MAX_STEPS}, got {steps}"
+            "SweepRequest.steps must be between 2 and {MAX_STEPS}, got {steps}"
         )));
     }
     if param.is_modulus && from <= 0.0 {
         return Err(SweepError::BadRange(format!(
-            "{} is a modulus: the range must stay above 0 MPa, got --from {from}",
+            "{} is a modulus: the range must stay above 0 MPa, got SweepRequest.start {from}",
             param.name
         )));
     }
     if from <= 0.0 {
         return Err(SweepError::BadRange(format!(
-            "{} must stay above 0 (a length or ratio), got --from {from}",
+            "{} must stay above 0 (a length or ratio), got SweepRequest.start {from}",
             param.name
         )));
     }

@@ -10,7 +10,7 @@
 //! or whose sign is not fixed across them ([`KReadings::band_violation`]).
 
 use super::{predict, Fidelity, FidelityChoice, PredictionRequest};
-use crate::fem::FemOptions;
+use crate::fem::{FemOptions, GeometryCache};
 use crate::model::{Configuration, LoadCase};
 use crate::spec::{Contact, Design};
 use anyhow::{Context, Result};
@@ -209,6 +209,9 @@ pub struct ReadingsRequest {
     pub fidelity: FidelityChoice,
     /// Mesh and solver of the FE solves.
     pub fem_options: FemOptions,
+    /// Where the FE solves' structures come from and go (see
+    /// [`super::PredictionRequest::cache`]).
+    pub cache: GeometryCache,
 }
 
 impl Default for ReadingsRequest {
@@ -219,6 +222,7 @@ impl Default for ReadingsRequest {
             core: None,
             fidelity: FidelityChoice::Auto,
             fem_options: FemOptions::default(),
+            cache: GeometryCache::default(),
         }
     }
 }
@@ -243,6 +247,7 @@ pub fn readings(design: &Design, request: &ReadingsRequest) -> Result<Vec<KReadi
         core: request.core.clone(),
         fidelity: request.fidelity,
         fem_options: request.fem_options,
+        cache: request.cache.clone(),
         ..PredictionRequest::default()
     };
     let rows = predict(

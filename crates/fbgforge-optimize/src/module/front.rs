@@ -174,37 +174,37 @@ pub fn pick(
                 .all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(1.0))
     });
     match prefer {
-        Preference::Objective => (on_front, "--prefer objective: the best of the table".into()),
+        Preference::Objective => (on_front, "ModuleSettings.prefer objective: the best of the table".into()),
         Preference::Knee => match knee_and_prominence(front) {
             Some((i, prominence)) if prominence >= KNEE_PROMINENCE_MIN => (
                 Some(i),
                 format!(
-                    "--prefer knee: the knee of the Pareto front, {prominence:.3} beyond the chord of sensitivity against force range (log scales, in units of the front's spans)"
+                    "ModuleSettings.prefer knee: the knee of the Pareto front, {prominence:.3} beyond the chord of sensitivity against force range (log scales, in units of the front's spans)"
                 ),
             ),
             Some((_, prominence)) => (
                 on_front,
                 format!(
-                    "--prefer knee: the front has no knee (no design lies more than {KNEE_PROMINENCE_MIN} beyond the chord of sensitivity against force range on log scales; the most lies {prominence:.3}): its designs trade |K| for range at about one rate, as the strain limit makes |K|·range constant, so the best of the table is written, the most sensitive design that holds the required force"
+                    "ModuleSettings.prefer knee: the front has no knee (no design lies more than {KNEE_PROMINENCE_MIN} beyond the chord of sensitivity against force range on log scales; the most lies {prominence:.3}): its designs trade |K| for range at about one rate, as the strain limit makes |K|·range constant, so the best of the table is written, the most sensitive design that holds the required force"
                 ),
             ),
             None => (on_front, "the front is empty: the best of the table".into()),
         },
         Preference::Sensitivity => (
             by(&|o| o.sensitivity_pm_per_n),
-            "--prefer sensitivity: the front's most sensitive design".into(),
+            "ModuleSettings.prefer sensitivity: the front's most sensitive design".into(),
         ),
         Preference::ForceRange => (
             by(&|o| o.force_range_n),
-            "--prefer force-range: the front's widest force range".into(),
+            "ModuleSettings.prefer force-range: the front's widest force range".into(),
         ),
         Preference::Lag => (
             by(&|o| -o.max_lag_s + 1e-9 * o.sensitivity_pm_per_n),
-            "--prefer lag: the front's shortest lag".into(),
+            "ModuleSettings.prefer lag: the front's shortest lag".into(),
         ),
         Preference::RSquared => (
             by(&|o| o.r_squared),
-            "--prefer r-squared: the front's largest R²".into(),
+            "ModuleSettings.prefer r-squared: the front's largest R²".into(),
         ),
     }
 }
@@ -251,7 +251,7 @@ pub fn tie_notes(
         .count();
     if on_floor == n {
         notes.push(format!(
-            "max_lag_s ties: all {n} choices scored on the policy sit on the {period:.3} s floor of a {:.3} Hz interrogator (the model's lag T is {:.3}–{:.3} s, below one sample period), so lag does not separate them; a faster interrogator (--rate-hz) would",
+            "max_lag_s ties: all {n} choices scored on the policy sit on the {period:.3} s floor of a {:.3} Hz interrogator (the model's lag T is {:.3}–{:.3} s, below one sample period), so lag does not separate them; a faster interrogator (ModuleSettings.rate_hz) would",
             1.0 / period,
             lags.iter().copied().fold(f64::INFINITY, f64::min),
             lags.iter().copied().fold(f64::NEG_INFINITY, f64::max)

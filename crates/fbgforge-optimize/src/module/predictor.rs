@@ -3,7 +3,7 @@
 //! its readings, the policy also states its own uncertainty about K at the design
 //! (`prediction::readings`: the contact window's ends and the bounding readings).
 
-use crate::fem::FemOptions;
+use crate::fem::{FemOptions, GeometryCache};
 use crate::model::{Configuration, GratingPrediction};
 use crate::prediction::{readings, Anchored, FidelityChoice, KReadings, ReadingsRequest};
 use crate::spec::Design;
@@ -33,6 +33,8 @@ pub enum Predictor {
         cache: AnchorCache,
         /// Readings (K with its uncertainty) computed so far.
         readings: ReadingsCache,
+        /// The FE structures of the optimisation's solves (its own, for its run).
+        structures: GeometryCache,
     },
     /// Any function (synthetic models in tests).
     Function(PredictFn),
@@ -51,7 +53,10 @@ impl Predictor {
         match self {
             Predictor::Function(f) => Ok((f.clone(), "custom predictor".into())),
             Predictor::Policy {
-                fidelity, cache, ..
+                fidelity,
+                cache,
+                structures,
+                ..
             } => {
                 let key = design.to_toml();
                 let found = cache
@@ -64,7 +69,8 @@ impl Predictor {
                     Some(a) => a,
                     None => {
                         let a = Arc::new(
-                            Anchored::new(design, *fidelity, &FemOptions::default()).map_err(
+                            Anchored::new(design, *fidelity, &FemOptions::default(), structures)
+                                .map_err(
                                 |e| e.context("anchoring the model policy on the start design"),
                             )?,
                         );
@@ -98,6 +104,7 @@ impl Predictor {
             Predictor::Policy {
                 fidelity,
                 readings: cache,
+                structures,
                 ..
             } => {
                 let key = format!("{}\n{}", config.label(), design.to_toml());
@@ -119,6 +126,7 @@ impl Predictor {
                                     core: Some(config.core.clone()),
                                     fidelity: *fidelity,
                                     fem_options: FemOptions::default(),
+                                    cache: structures.clone(),
                                 },
                             )
                             .map_err(|e| e.context("the model policy's readings of a candidate"))?,
@@ -139,11 +147,13 @@ impl Predictor {
     }
 }
 
-/// The opto-mechanical model policy as a [`Predictor`].
+/// The opto-mechanical model policy as a [`Predictor`], with an FE cache of its own
+/// (every problem set up from it shares the cache).
 pub fn model_predictor() -> Predictor {
     Predictor::Policy {
         fidelity: FidelityChoice::Auto,
         cache: Arc::new(Mutex::new(Vec::new())),
         readings: Arc::new(Mutex::new(Vec::new())),
+        structures: GeometryCache::default(),
     }
 }

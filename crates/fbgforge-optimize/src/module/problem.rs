@@ -237,7 +237,7 @@ impl ModuleProblem {
         for (v, _, _) in &settings.bounds {
             if !settings.vary.contains(v) {
                 anyhow::bail!(
-                    "a bound is given for `{}`, which is not in --vary",
+                    "a bound is given for `{}`, which is not in ModuleSettings.vary",
                     v.name()
                 );
             }

@@ -106,7 +106,7 @@ impl Preference {
             .ok_or_else(|| {
                 let known: Vec<&str> = Preference::ALL.iter().map(|p| p.name()).collect();
                 anyhow::anyhow!(
-                    "unknown --prefer `{s}`; expected one of {}",
+                    "unknown ModuleSettings.prefer `{s}`; expected one of {}",
                     known.join(", ")
                 )
             })
@@ -190,6 +190,25 @@ impl Default for ModuleSettings {
     }
 }
 
+impl ModuleSettings {
+    /// Check the numbers a front end gives before anything is loaded: the solvers'
+    /// iteration limits and the smallest fit clearance ([`check_settings`] checks the
+    /// rest against the material library).
+    pub fn check(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.run.max_iters > 0 && self.run.swarm_iters > 0,
+            "RunSettings.max_iters and RunSettings.swarm_iters must be at least 1"
+        );
+        if let Some(c) = self.min_fit_clearance_mm {
+            anyhow::ensure!(
+                c.is_finite() && c > 0.0,
+                "ModuleSettings.min_fit_clearance_mm must be a positive number of mm, got {c}"
+            );
+        }
+        Ok(())
+    }
+}
+
 /// Check the settings an optimisation cannot run without.
 pub(super) fn check_settings(
     lib: &MaterialLibrary,
@@ -198,7 +217,7 @@ pub(super) fn check_settings(
     anyhow::ensure!(!lib.materials.is_empty(), "the material library is empty");
     anyhow::ensure!(
         settings.max_force_n.is_finite() && settings.max_force_n > 0.0,
-        "--max-force-n must be a positive number of newtons, got {}",
+        "ModuleSettings.max_force_n must be a positive number of newtons, got {}",
         settings.max_force_n
     );
     anyhow::ensure!(
@@ -210,7 +229,7 @@ pub(super) fn check_settings(
     if let Some(f) = settings.rate_hz {
         anyhow::ensure!(
             f.is_finite() && f > 0.0,
-            "--rate-hz must be a positive number of hertz, got {f}"
+            "ModuleSettings.rate_hz must be a positive number of hertz, got {f}"
         );
     }
     Ok(())

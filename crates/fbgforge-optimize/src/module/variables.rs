@@ -60,16 +60,16 @@ impl Variable {
                 .ok_or_else(|| {
                     let known: Vec<&str> = Variable::ALL.iter().map(|v| v.name()).collect();
                     anyhow::anyhow!(
-                        "unknown variable `{name}` in --vary; known: {}",
+                        "unknown variable `{name}` in ModuleSettings.vary; known: {}",
                         known.join(", ")
                     )
                 })?;
             if out.contains(&v) {
-                anyhow::bail!("variable `{name}` is listed twice in --vary");
+                anyhow::bail!("variable `{name}` is listed twice in ModuleSettings.vary");
             }
             out.push(v);
         }
-        anyhow::ensure!(!out.is_empty(), "--vary lists no variable");
+        anyhow::ensure!(!out.is_empty(), "ModuleSettings.vary lists no variable");
         Ok(out)
     }
 

@@ -4,10 +4,10 @@
 //! silicone level drawn in. Sections of the checked meshes, so the picture is what the
 //! STL files hold.
 
-use super::assembly::{axial_section, plane_section, FiberTrace};
-use super::design_profile::DesignProfile;
-use super::registry::first_of_each_kind;
-use super::{BuiltPart, PartKind};
+use fbgforge_geometry::assembly::{axial_section, plane_section, FiberTrace};
+use fbgforge_geometry::design_profile::{DesignProfile, ModuleDims};
+use fbgforge_geometry::registry::first_of_each_kind;
+use fbgforge_geometry::{BuiltPart, PartKind};
 use std::fmt::Write;
 
 type Seg2 = [(f64, f64); 2];
@@ -83,6 +83,37 @@ impl Panel {
     }
 }
 
+/// Where panel `i` sits in the picture and how its model millimetres map to px.
+struct PanelFrame {
+    /// Panel index (panels stand side by side).
+    i: usize,
+    /// Panel width, the panels' common height and the padding, px.
+    w: f64,
+    h: f64,
+    pad: f64,
+    /// px per mm.
+    scale: f64,
+    /// The panel's model window: x from, x to, y from (mm).
+    x0: f64,
+    x1: f64,
+    y0: f64,
+}
+
+impl PanelFrame {
+    /// Left edge of the drawing, px.
+    fn ox(&self) -> f64 {
+        self.i as f64 * self.w
+            + self.pad
+            + 0.5 * (self.w - 2.0 * self.pad - self.scale * (self.x1 - self.x0))
+    }
+    fn tx(&self, x: f64) -> f64 {
+        self.ox() + (x - self.x0) * self.scale
+    }
+    fn ty(&self, y: f64) -> f64 {
+        self.h - self.pad - (y - self.y0) * self.scale
+    }
+}
+
 fn draw(panels: &[Panel], caption: &str) -> String {
     let (w, max_h, pad) = (520.0, 560.0, 40.0);
     let scales: Vec<f64> = panels
@@ -112,7 +143,16 @@ fn draw(panels: &[Panel], caption: &str) -> String {
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     for (i, p) in panels.iter().enumerate() {
         let (x0, x1, y0, _) = p.bounds();
-        let scale = scales[i];
+        let f = PanelFrame {
+            i,
+            w,
+            h,
+            pad,
+            scale: scales[i],
+            x0,
+            x1,
+            y0,
+        };
         let _ = writeln!(
             s,
             r#"<clipPath id="c{i}"><rect x="{}" y="{}" width="{}" height="{}"/></clipPath><g clip-path="url(#c{i})">"#,
@@ -121,116 +161,10 @@ fn draw(panels: &[Panel], caption: &str) -> String {
             w - 2.0 * pad + 4.0,
             h - 2.0 * pad + 4.0
         );
-        let ox = i as f64 * w + pad + 0.5 * (w - 2.0 * pad - scale * (x1 - x0));
-        let tx = |x: f64| ox + (x - x0) * scale;
-        let ty = |y: f64| h - pad - (y - y0) * scale;
-        for (name, y) in &p.levels {
-            let _ = writeln!(
-                s,
-                r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/><text x="{}" y="{:.2}" fill="#17becf">{name}</text>"##,
-                tx(x0),
-                ty(*y),
-                tx(x1),
-                ty(*y),
-                tx(x0),
-                ty(*y) - 3.0
-            );
-        }
-        for (name, col, segs) in &p.layers {
-            let mut d = String::new();
-            for sg in segs {
-                let _ = write!(
-                    d,
-                    "M{:.2} {:.2}L{:.2} {:.2}",
-                    tx(sg[0].0),
-                    ty(sg[0].1),
-                    tx(sg[1].0),
-                    ty(sg[1].1)
-                );
-            }
-            let _ = writeln!(
-                s,
-                r#"<path d="{d}" stroke="{col}" stroke-width="1.2" fill="none"><title>{name}</title></path>"#
-            );
-        }
-        for (_, col, line) in &p.polylines {
-            let d: String = line
-                .iter()
-                .enumerate()
-                .map(|(j, &(x, y))| {
-                    format!(
-                        "{}{:.2} {:.2}",
-                        if j == 0 { "M" } else { "L" },
-                        tx(x),
-                        ty(y)
-                    )
-                })
-                .collect();
-            let _ = writeln!(
-                s,
-                r#"<path d="{d}" stroke="{col}" stroke-width="1.6" fill="none"/>"#
-            );
-        }
-        for d in &p.dims {
-            let (x0, y0, x1, y1) = (tx(d.a.0), ty(d.a.1), tx(d.b.0), ty(d.b.1));
-            let len = d.length_mm();
-            // Ticks across the line at both ends; the label beside its middle.
-            let (dx, dy) = (x1 - x0, y1 - y0);
-            let l = dx.hypot(dy).max(1e-9);
-            let (nx, ny) = (-dy / l * 4.0, dx / l * 4.0);
-            let _ = writeln!(
-                s,
-                r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/><text x="{:.2}" y="{:.2}" font-size="10">{name} {len:.2}</text></g>"##,
-                x0 - nx,
-                y0 - ny,
-                x0 + nx,
-                y0 + ny,
-                x1 - nx,
-                y1 - ny,
-                x1 + nx,
-                y1 + ny,
-                x1.max(x0) + 6.0,
-                0.5 * (y0 + y1) + 3.0,
-                name = d.name,
-            );
-        }
+        draw_sections(&mut s, p, &f);
+        draw_dims(&mut s, p, &f);
         s.push_str("</g>\n");
-        // Scale bar under the panel's lower-left corner.
-        let bar = scale_bar_mm(x1 - x0);
-        let (bx, by) = (i as f64 * w + pad, h - pad + 16.0);
-        let _ = writeln!(
-            s,
-            r##"<g class="scale-bar" data-mm="{bar}" data-px="{:.4}"><path d="M{bx:.2} {by:.2}h{:.4}M{bx:.2} {:.2}v8M{:.2} {:.2}v8" stroke="#000" stroke-width="2" fill="none"/><text x="{:.2}" y="{:.2}">{bar} mm</text></g>"##,
-            bar * scale,
-            bar * scale,
-            by - 4.0,
-            bx + bar * scale,
-            by - 4.0,
-            bx + bar * scale + 6.0,
-            by + 4.0
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="20" font-weight="bold">{}</text>"#,
-            i as f64 * w + pad,
-            p.title
-        );
-        for (k, (name, col, _)) in p.layers.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                r#"<text x="{}" y="{}" fill="{col}">{name}</text>"#,
-                i as f64 * w + pad,
-                h + 10.0 + 14.0 * k as f64
-            );
-        }
-        for (k, (name, col, _)) in p.polylines.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                r#"<text x="{}" y="{}" fill="{col}">{name}</text>"#,
-                i as f64 * w + w / 2.0,
-                h + 10.0 + 14.0 * k as f64
-            );
-        }
+        draw_labels(&mut s, p, &f);
     }
     for (k, l) in lines.iter().enumerate() {
         let _ = writeln!(
@@ -241,6 +175,125 @@ fn draw(panels: &[Panel], caption: &str) -> String {
     }
     s.push_str("</svg>\n");
     s
+}
+
+/// A panel's levels, section layers and polylines.
+fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame) {
+    let (x0, x1) = (f.x0, f.x1);
+    for (name, y) in &p.levels {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/><text x="{}" y="{:.2}" fill="#17becf">{name}</text>"##,
+            f.tx(x0),
+            f.ty(*y),
+            f.tx(x1),
+            f.ty(*y),
+            f.tx(x0),
+            f.ty(*y) - 3.0
+        );
+    }
+    for (name, col, segs) in &p.layers {
+        let mut d = String::new();
+        for sg in segs {
+            let _ = write!(
+                d,
+                "M{:.2} {:.2}L{:.2} {:.2}",
+                f.tx(sg[0].0),
+                f.ty(sg[0].1),
+                f.tx(sg[1].0),
+                f.ty(sg[1].1)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r#"<path d="{d}" stroke="{col}" stroke-width="1.2" fill="none"><title>{name}</title></path>"#
+        );
+    }
+    for (_, col, line) in &p.polylines {
+        let d: String = line
+            .iter()
+            .enumerate()
+            .map(|(j, &(x, y))| {
+                format!(
+                    "{}{:.2} {:.2}",
+                    if j == 0 { "M" } else { "L" },
+                    f.tx(x),
+                    f.ty(y)
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<path d="{d}" stroke="{col}" stroke-width="1.6" fill="none"/>"#
+        );
+    }
+}
+
+/// A panel's dimension lines: ticks across the line at both ends, the label beside its
+/// middle.
+fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
+    for d in &p.dims {
+        let (x0, y0, x1, y1) = (f.tx(d.a.0), f.ty(d.a.1), f.tx(d.b.0), f.ty(d.b.1));
+        let len = d.length_mm();
+        let (dx, dy) = (x1 - x0, y1 - y0);
+        let l = dx.hypot(dy).max(1e-9);
+        let (nx, ny) = (-dy / l * 4.0, dx / l * 4.0);
+        let _ = writeln!(
+            s,
+            r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/><text x="{:.2}" y="{:.2}" font-size="10">{name} {len:.2}</text></g>"##,
+            x0 - nx,
+            y0 - ny,
+            x0 + nx,
+            y0 + ny,
+            x1 - nx,
+            y1 - ny,
+            x1 + nx,
+            y1 + ny,
+            x1.max(x0) + 6.0,
+            0.5 * (y0 + y1) + 3.0,
+            name = d.name,
+        );
+    }
+}
+
+/// A panel's scale bar (under its lower-left corner), title and legend.
+fn draw_labels(s: &mut String, p: &Panel, f: &PanelFrame) {
+    let (i, w, h, pad, scale) = (f.i, f.w, f.h, f.pad, f.scale);
+    let bar = scale_bar_mm(f.x1 - f.x0);
+    let (bx, by) = (i as f64 * w + pad, h - pad + 16.0);
+    let _ = writeln!(
+        s,
+        r##"<g class="scale-bar" data-mm="{bar}" data-px="{:.4}"><path d="M{bx:.2} {by:.2}h{:.4}M{bx:.2} {:.2}v8M{:.2} {:.2}v8" stroke="#000" stroke-width="2" fill="none"/><text x="{:.2}" y="{:.2}">{bar} mm</text></g>"##,
+        bar * scale,
+        bar * scale,
+        by - 4.0,
+        bx + bar * scale,
+        by - 4.0,
+        bx + bar * scale + 6.0,
+        by + 4.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="20" font-weight="bold">{}</text>"#,
+        i as f64 * w + pad,
+        p.title
+    );
+    for (k, (name, col, _)) in p.layers.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" fill="{col}">{name}</text>"#,
+            i as f64 * w + pad,
+            h + 10.0 + 14.0 * k as f64
+        );
+    }
+    for (k, (name, col, _)) in p.polylines.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" fill="{col}">{name}</text>"#,
+            i as f64 * w + w / 2.0,
+            h + 10.0 + 14.0 * k as f64
+        );
+    }
 }
 
 /// The assembled module cut by the plane of pillar 0's fiber and by the plane of the
@@ -329,7 +382,7 @@ pub fn module_svg(
 
 /// The module's walls and clearances as dimension lines in a section plane (s, z):
 /// on the +s side, below the pillars for the core and above them for the cap.
-fn module_dims(m: &super::design_profile::ModuleDims) -> Vec<Dim> {
+fn module_dims(m: &ModuleDims) -> Vec<Dim> {
     let (p, pp) = (&m.profile, &m.parts);
     let z_low = 0.5 * (pp.cap_slot_top_mm.max(pp.core_slot_top_mm) + pp.pillar_bottom_mm);
     let z_up = 0.5 * (pp.pillar_bottom_mm + p.pillar_top_mm);
@@ -376,7 +429,7 @@ pub fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> 
     ) {
         // The plug in place: its corner at the pocket's −x, inner-wall end, bottom.
         let (iy, hy) = (a.spec.mold.internal_y_mm / 2.0, l.mold_outer_mm.1 / 2.0);
-        let fit = super::mold_plug::PLUG_FIT_MM;
+        let fit = fbgforge_geometry::mold_plug::PLUG_FIT_MM;
         let x0 = x - pocket.width_mm / 2.0 + fit;
         for y0 in [iy, -hy] {
             let segs = plane_section(&plug.mesh, [1.0, 0.0, 0.0], x - x0, |q| {

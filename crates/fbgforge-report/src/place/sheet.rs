@@ -40,30 +40,42 @@ fn centres(a: &TactileArray) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// The layout picture as SVG (`standalone`: with the namespace a file needs) and where
-/// its sheet and legend are, px.
-pub fn layout_svg(
-    start: &TactileArray,
-    chosen: &TactileArray,
-    title: &str,
-    standalone: bool,
-) -> (String, Rect, Rect) {
-    let (sx, sy) = (chosen.size_x_mm, chosen.size_y_mm);
-    let scale = (SHEET_W_PX / sx).min(SHEET_MAX_H_PX / sy);
-    let sheet = Rect {
-        x: LEFT,
-        y: TOP,
-        width: sx * scale,
-        height: sy * scale,
-    };
-    // mm (origin at the sheet's centre, +y up) to px.
-    let at = |x: f64, y: f64| {
+/// The sheet drawn to scale: where it sits, px, and how millimetres map onto it.
+struct Frame {
+    sheet: Rect,
+    scale: f64,
+    size_mm: (f64, f64),
+}
+
+impl Frame {
+    fn of(chosen: &TactileArray) -> Self {
+        let (sx, sy) = (chosen.size_x_mm, chosen.size_y_mm);
+        let scale = (SHEET_W_PX / sx).min(SHEET_MAX_H_PX / sy);
+        Frame {
+            sheet: Rect {
+                x: LEFT,
+                y: TOP,
+                width: sx * scale,
+                height: sy * scale,
+            },
+            scale,
+            size_mm: (sx, sy),
+        }
+    }
+
+    /// mm (origin at the sheet's centre, +y up) to px.
+    fn at(&self, x: f64, y: f64) -> (f64, f64) {
+        let (sx, sy) = self.size_mm;
         (
-            sheet.x + (x + sx / 2.0) * scale,
-            sheet.y + (sy / 2.0 - y) * scale,
+            self.sheet.x + (x + sx / 2.0) * self.scale,
+            self.sheet.y + (sy / 2.0 - y) * self.scale,
         )
-    };
-    let moved_fibers = start.fiber_x_mm != chosen.fiber_x_mm;
+    }
+}
+
+/// The legend's rows (the start's fibers only when they moved).
+fn legend_entries(chosen: &TactileArray, moved_fibers: bool) -> Vec<LegendEntry> {
+    let (sx, sy) = (chosen.size_x_mm, chosen.size_y_mm);
     let mut entries = vec![
         LegendEntry {
             swatch: Swatch::Area {
@@ -117,26 +129,17 @@ pub fn layout_svg(
             },
         );
     }
-    let (_, legend_w, legend_h) = svg::legend_size(&entries);
-    let legend_x = sheet.x + sheet.width + 28.0;
-    let width = legend_x + legend_w + 12.0;
-    let height = (sheet.y + sheet.height + BOTTOM).max(TOP + legend_h + 12.0);
+    entries
+}
 
-    let mut s = String::new();
-    svg::open(&mut s, "fbg-layout", width, height, standalone);
-    let _ = writeln!(s, "<title>{}</title>", escape(title));
-    let _ = writeln!(
-        s,
-        r#"<text class="chart-title" x="{}" y="26" text-anchor="middle" font-size="17">{}</text>"#,
-        px(sheet.x + sheet.width / 2.0),
-        escape(title)
-    );
-    // Cells.
+/// The cells, labelled as the reconstruction names them, and the sheet's outline.
+fn draw_cells(s: &mut String, f: &Frame, chosen: &TactileArray) {
     let cells = ArrayLayout::from_array(chosen);
     let (cw, ch) = cells.cell_size_mm;
+    let scale = f.scale;
     let _ = writeln!(s, r#"<g class="cells">"#);
     for (k, &(cx, cy)) in cells.cell_centers_mm.iter().enumerate() {
-        let (x0, y0) = at(cx - cw / 2.0, cy + ch / 2.0);
+        let (x0, y0) = f.at(cx - cw / 2.0, cy + ch / 2.0);
         let _ = writeln!(
             s,
             r##"<rect class="cell" x="{}" y="{}" width="{}" height="{}" fill="#f3f3f3" stroke="#c8c8c8"/><text class="cell-label" x="{}" y="{}" text-anchor="middle" font-size="{FONT_PX}" fill="#9a9a9a">{}</text>"##,
@@ -150,6 +153,8 @@ pub fn layout_svg(
         );
     }
     let _ = writeln!(s, "</g>");
+    let (sx, sy) = f.size_mm;
+    let sheet = &f.sheet;
     let _ = writeln!(
         s,
         r##"<rect class="sheet" x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#333333" stroke-width="1.5" data-size-x-mm="{sx}" data-size-y-mm="{sy}" data-px-per-mm="{scale}"/>"##,
@@ -158,31 +163,37 @@ pub fn layout_svg(
         px(sheet.width),
         px(sheet.height)
     );
-    // Fibers: the start's dashed where they moved, the chosen solid.
+}
+
+/// The fibers: the start's dashed where they moved, the chosen solid.
+fn draw_fibers(s: &mut String, f: &Frame, start: &TactileArray, chosen: &TactileArray) {
     let fiber = |s: &mut String, x: f64, class: &str, stroke: &str, dash: Stroke| {
-        let (u, _) = at(x, 0.0);
+        let (u, _) = f.at(x, 0.0);
         let _ = writeln!(
             s,
             r#"<line class="{class}" x1="{u}" y1="{}" x2="{u}" y2="{}" stroke="{stroke}" stroke-width="1.5"{} data-x-mm="{x}"/>"#,
-            px(sheet.y),
-            px(sheet.y + sheet.height),
+            px(f.sheet.y),
+            px(f.sheet.y + f.sheet.height),
             dash.dasharray(),
             u = px(u)
         );
     };
-    if moved_fibers {
+    if start.fiber_x_mm != chosen.fiber_x_mm {
         for &x in &start.fiber_x_mm {
-            fiber(&mut s, x, "fiber start", START_GREY, Stroke::Dashed);
+            fiber(s, x, "fiber start", START_GREY, Stroke::Dashed);
         }
     }
     for &x in &chosen.fiber_x_mm {
-        fiber(&mut s, x, "fiber chosen", "#333333", Stroke::Solid);
+        fiber(s, x, "fiber chosen", "#333333", Stroke::Solid);
     }
-    // Gratings: start outlines, moves, chosen fills with names.
+}
+
+/// The gratings: start outlines, the moves, chosen fills with their names.
+fn draw_gratings(s: &mut String, f: &Frame, start: &TactileArray, chosen: &TactileArray) {
     let (from, to) = (centres(start), centres(chosen));
-    let bar_w = (2.2 * scale).clamp(6.0, 12.0);
+    let bar_w = (2.2 * f.scale).clamp(6.0, 12.0);
     let grating = |s: &mut String, name: &str, (x, y): (f64, f64), len: f64, chosen: bool| {
-        let (u, v) = at(x, y + len / 2.0);
+        let (u, v) = f.at(x, y + len / 2.0);
         let style = if chosen {
             format!(r#"fill="{}" fill-opacity="0.85""#, color(CHOSEN))
         } else {
@@ -197,17 +208,17 @@ pub fn layout_svg(
             px(u - bar_w / 2.0),
             px(v),
             px(bar_w),
-            px((len * scale).max(3.0)),
+            px((len * f.scale).max(3.0)),
             escape(name),
             if chosen { "chosen" } else { "start" }
         );
     };
     for (i, g) in start.gratings.iter().enumerate() {
-        grating(&mut s, &g.name, from[i], g.length_mm, false);
+        grating(s, &g.name, from[i], g.length_mm, false);
     }
     for (i, g) in chosen.gratings.iter().enumerate() {
         if let Some(&a) = from.get(i) {
-            let (p, q) = (at(a.0, a.1), at(to[i].0, to[i].1));
+            let (p, q) = (f.at(a.0, a.1), f.at(to[i].0, to[i].1));
             if (p.0 - q.0).hypot(p.1 - q.1) > 1.0 {
                 let _ = writeln!(
                     s,
@@ -219,8 +230,8 @@ pub fn layout_svg(
                 );
             }
         }
-        grating(&mut s, &g.name, to[i], g.length_mm, true);
-        let (u, v) = at(to[i].0, to[i].1);
+        grating(s, &g.name, to[i], g.length_mm, true);
+        let (u, v) = f.at(to[i].0, to[i].1);
         let _ = writeln!(
             s,
             r#"<text class="grating-label" x="{}" y="{}" font-size="{FONT_PX}" fill="{}">{}</text>"#,
@@ -230,7 +241,12 @@ pub fn layout_svg(
             escape(&g.name)
         );
     }
-    // Millimetre ticks along the bottom and left edges.
+}
+
+/// Millimetre ticks along the bottom and left edges, with the axis labels.
+fn draw_ticks(s: &mut String, f: &Frame) {
+    let (sx, sy) = f.size_mm;
+    let sheet = &f.sheet;
     let xa = Axis {
         log: false,
         lo: -sx / 2.0,
@@ -244,7 +260,7 @@ pub fn layout_svg(
     let bottom = sheet.y + sheet.height;
     let _ = writeln!(s, r#"<g class="axis x-axis" data-scale="linear">"#);
     for t in xa.ticks() {
-        let (u, _) = at(t.value, 0.0);
+        let (u, _) = f.at(t.value, 0.0);
         let _ = writeln!(
             s,
             r##"<line x1="{u}" y1="{}" x2="{u}" y2="{}" stroke="#444444"/><text class="tick-label" x="{u}" y="{}" text-anchor="middle" font-size="{FONT_PX}">{}</text>"##,
@@ -263,7 +279,7 @@ pub fn layout_svg(
     );
     let _ = writeln!(s, r#"<g class="axis y-axis" data-scale="linear">"#);
     for t in ya.ticks() {
-        let (_, v) = at(0.0, t.value);
+        let (_, v) = f.at(0.0, t.value);
         let _ = writeln!(
             s,
             r##"<line x1="{}" y1="{v}" x2="{}" y2="{v}" stroke="#444444"/><text class="tick-label" x="{}" y="{}" text-anchor="end" font-size="{FONT_PX}">{}</text>"##,
@@ -282,6 +298,37 @@ pub fn layout_svg(
         px(cy),
         px(cy)
     );
+}
+
+/// The layout picture as SVG (`standalone`: with the namespace a file needs) and where
+/// its sheet and legend are, px.
+pub fn layout_svg(
+    start: &TactileArray,
+    chosen: &TactileArray,
+    title: &str,
+    standalone: bool,
+) -> (String, Rect, Rect) {
+    let f = Frame::of(chosen);
+    let sheet = f.sheet;
+    let entries = legend_entries(chosen, start.fiber_x_mm != chosen.fiber_x_mm);
+    let (_, legend_w, legend_h) = svg::legend_size(&entries);
+    let legend_x = sheet.x + sheet.width + 28.0;
+    let width = legend_x + legend_w + 12.0;
+    let height = (sheet.y + sheet.height + BOTTOM).max(TOP + legend_h + 12.0);
+
+    let mut s = String::new();
+    svg::open(&mut s, "fbg-layout", width, height, standalone);
+    let _ = writeln!(s, "<title>{}</title>", escape(title));
+    let _ = writeln!(
+        s,
+        r#"<text class="chart-title" x="{}" y="26" text-anchor="middle" font-size="17">{}</text>"#,
+        px(sheet.x + sheet.width / 2.0),
+        escape(title)
+    );
+    draw_cells(&mut s, &f, chosen);
+    draw_fibers(&mut s, &f, start, chosen);
+    draw_gratings(&mut s, &f, start, chosen);
+    draw_ticks(&mut s, &f);
     let legend = svg::draw_legend(&mut s, &entries, legend_x, TOP);
     let _ = writeln!(s, "</svg>");
     (s, sheet, legend)

@@ -1,0 +1,175 @@
+//! An array design's prediction: the sensitivity map over the sheet (SVG heat maps and
+//! their CSV), and the predicted sensing matrix or the response to one load, as a
+//! table or as JSON.
+
+use crate::output::write_csv;
+use crate::plot::{HeatMaps, HeatPanel};
+use crate::spec::Design;
+use anyhow::Result;
+use fbgforge_array::predict::{ArrayPredictor, SensitivityMap};
+use std::io::Write;
+use std::path::Path;
+
+/// The response of every grating to one load (`ArrayPredictor::load_at`).
+pub type LoadResponse = fbgforge_array::predict::LoadResponse;
+
+/// The sensitivity map as heat maps, one panel per grating, with the fibers, the
+/// cells' borders and each grating marked.
+pub fn map_chart(design: &Design, p: &ArrayPredictor, map: &SensitivityMap) -> HeatMaps {
+    let a = design.array.as_ref().expect("an array design");
+    let (sx, sy) = p.sheet_mm();
+    let mut lines: Vec<Vec<(f64, f64)>> = a
+        .fiber_x_mm
+        .iter()
+        .map(|&x| vec![(x, -sy / 2.0), (x, sy / 2.0)])
+        .collect();
+    for i in 1..a.cells_x {
+        let x = -sx / 2.0 + sx * i as f64 / a.cells_x as f64;
+        lines.push(vec![(x, -sy / 2.0), (x, sy / 2.0)]);
+    }
+    for j in 1..a.cells_y {
+        let y = -sy / 2.0 + sy * j as f64 / a.cells_y as f64;
+        lines.push(vec![(-sx / 2.0, y), (sx / 2.0, y)]);
+    }
+    let panels = map
+        .gratings
+        .iter()
+        .enumerate()
+        .map(|(g, name)| {
+            let v = &map.values_pm_per_g[g];
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            HeatPanel {
+                title: format!("{name}: {lo:.3} … {hi:.3} pm/g"),
+                x: map.x_mm.clone(),
+                y: map.y_mm.clone(),
+                values: (0..v.nrows())
+                    .map(|j| v.row(j).iter().copied().collect())
+                    .collect(),
+                points: vec![map.grating_xy_mm[g]],
+                lines: lines.clone(),
+            }
+        })
+        .collect();
+    HeatMaps {
+        title: format!(
+            "{}: sensitivity to 1 g on the indenter centred at (x, y), {} model (red: red shift, blue: blue shift)",
+            design.name,
+            p.kind().name()
+        ),
+        x_label: "x (mm)".into(),
+        y_label: "y (mm)".into(),
+        panels,
+    }
+}
+
+/// Write the sensitivity map as `svg` (heat maps) and `csv` (its numbers).
+pub fn write_map(
+    design: &Design,
+    p: &ArrayPredictor,
+    map: &SensitivityMap,
+    (svg, csv): (&Path, &Path),
+) -> Result<()> {
+    map_chart(design, p, map).write_svg(svg)?;
+    let (header, rows) = map.csv_rows();
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    write_csv(csv, &header, &rows)
+}
+
+/// An array's prediction: the design, its predictor, the map's files, and the response
+/// to one load when one was asked for (else the whole matrix is shown).
+pub struct ArrayPrediction<'a> {
+    /// The design.
+    pub design: &'a Design,
+    /// The predictor (its model and description).
+    pub predictor: &'a ArrayPredictor,
+    /// The response to 1 g at (x, y) mm, when asked for.
+    pub load: Option<((f64, f64), &'a LoadResponse)>,
+    /// The map's SVG and CSV.
+    pub map_files: (&'a Path, &'a Path),
+}
+
+/// The prediction as pretty JSON.
+pub fn write_json(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
+    let (design, p) = (a.design, a.predictor);
+    let (svg, csv) = a.map_files;
+    let doc = match a.load {
+        Some((_, r)) => serde_json::json!({
+            "design": design.name,
+            "model": p.kind().name(),
+            "model_description": p.description(),
+            "load_at_mm": r.load_at_mm,
+            "gratings": r.gratings,
+            "sensitivity_pm_per_g": r.sensitivity_pm_per_g,
+            "map": {"svg": svg, "csv": csv},
+        }),
+        None => {
+            let m = p.matrix();
+            let rows: Vec<Vec<f64>> = (0..m.n_gratings())
+                .map(|i| m.sensitivity_pm_per_g.row(i).iter().copied().collect())
+                .collect();
+            serde_json::json!({
+                "design": design.name,
+                "model": p.kind().name(),
+                "model_description": p.description(),
+                "gratings": m.gratings,
+                "cells": m.cells,
+                "sensitivity_pm_per_g": rows,
+                "map": {"svg": svg, "csv": csv},
+            })
+        }
+    };
+    writeln!(out, "{}", serde_json::to_string_pretty(&doc)?)?;
+    Ok(())
+}
+
+/// The prediction as a table: the response to the load, or the matrix (gratings ×
+/// cells), then where the map went.
+pub fn write_table(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
+    let (design, p) = (a.design, a.predictor);
+    match a.load {
+        Some(((x, y), r)) => {
+            writeln!(
+                out,
+                "{}: response to 1 g on the {} mm indenter centred at ({x}, {y}) mm",
+                design.name,
+                design
+                    .array
+                    .as_ref()
+                    .map_or(20.0, |arr| arr.indenter_diameter())
+            )?;
+            writeln!(out, "model: {}", p.description())?;
+            writeln!(out, "{:<10} {:>12}", "grating", "pm/g")?;
+            for (g, v) in r.gratings.iter().zip(&r.sensitivity_pm_per_g) {
+                writeln!(out, "{g:<10} {v:>12.5}")?;
+            }
+        }
+        None => {
+            let m = p.matrix();
+            writeln!(
+                out,
+                "{}: predicted sensing matrix, pm/g (gratings × cells, 1 g on the indenter centred on each cell)",
+                design.name
+            )?;
+            writeln!(out, "model: {}", p.description())?;
+            write!(out, "{:<10}", "grating")?;
+            for c in &m.cells {
+                write!(out, "{c:>10}")?;
+            }
+            writeln!(out)?;
+            for (g, row) in m.gratings.iter().zip(m.sensitivity_pm_per_g.row_iter()) {
+                write!(out, "{g:<10}")?;
+                for v in row.iter() {
+                    write!(out, "{v:>10.5}")?;
+                }
+                writeln!(out)?;
+            }
+        }
+    }
+    let (svg, csv) = a.map_files;
+    writeln!(out, "sensitivity map: {} and {}", svg.display(), csv.display())?;
+    Ok(())
+}

@@ -1,0 +1,61 @@
+//! How predictions are shown: the implementations of
+//! [`fbgforge_model::prediction::PredictSink`] ([`PredictTable`], [`PredictJson`]) and
+//! of [`fbgforge_model::prediction::SweepSink`] ([`SweepFiles`], [`PaperFigureFiles`]),
+//! and the printers of an array's predicted sensing matrix ([`array`]).
+//!
+//! Text that names an option names it as the library does
+//! (`PredictionRequest.fidelity`); every printer renders it through the front end's
+//! words (`fbgforge_core::fields::InWords`).
+
+pub mod array;
+mod sweep;
+mod table;
+
+pub use sweep::{sweep_chart, sweep_csv, PaperFigureFiles, SweepFiles};
+pub use table::PredictTable;
+
+use anyhow::Result;
+use fbgforge_model::prediction::{PredictSink, Predicted};
+use std::io::Write;
+
+/// A module's prediction as pretty JSON: the design, the force, the temperature
+/// change, the model choice, every row and the paper's statements.
+pub struct PredictJson<W: Write> {
+    out: W,
+}
+
+impl<W: Write> PredictJson<W> {
+    /// JSON printed to `out`.
+    pub fn new(out: W) -> Self {
+        PredictJson { out }
+    }
+}
+
+impl<W: Write> PredictSink for PredictJson<W> {
+    fn predicted(&mut self, p: &Predicted) -> Result<()> {
+        let doc = serde_json::json!({
+            "design": p.design.name,
+            "force_n": p.request.force_n,
+            "delta_t_k": p.request.delta_t_k,
+            "fidelity": p.request.fidelity,
+            "predictions": p.rows,
+            "paper_statements": p.statements,
+        });
+        writeln!(self.out, "{}", serde_json::to_string_pretty(&doc)?)?;
+        Ok(())
+    }
+}
+
+/// Numbered footnotes: each distinct text once, in order of first use.
+#[derive(Default)]
+struct Footnotes(Vec<String>);
+
+impl Footnotes {
+    /// The index of `text`, added if new.
+    fn index(&mut self, text: &str) -> usize {
+        self.0.iter().position(|n| n == text).unwrap_or_else(|| {
+            self.0.push(text.to_string());
+            self.0.len() - 1
+        })
+    }
+}

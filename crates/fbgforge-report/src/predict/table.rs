@@ -1,0 +1,192 @@
+//! A module's prediction as a table: one row per grating and configuration, the models
+//! and the warnings as numbered notes below it, what the columns mean, and the paper's
+//! Case I statements with their verdicts.
+
+use super::Footnotes;
+use anyhow::Result;
+use fbgforge_core::fields::InWords;
+use fbgforge_model::prediction::{
+    self, FidelityChoice, ModelledPrediction, PaperStatements, PredictSink, Predicted,
+};
+use std::io::Write;
+
+/// The prediction table, printed to a writer.
+pub struct PredictTable<W: Write> {
+    out: W,
+    words: InWords,
+}
+
+impl<W: Write> PredictTable<W> {
+    /// A table printed to `out`, naming options in `words`.
+    pub fn new(out: W, words: InWords) -> Self {
+        PredictTable { out, words }
+    }
+}
+
+impl<W: Write> PredictSink for PredictTable<W> {
+    fn predicted(&mut self, p: &Predicted) -> Result<()> {
+        let out = &mut self.out;
+        writeln!(
+            out,
+            "{}: predicted sensitivity at F = {} N",
+            p.design.name, p.request.force_n
+        )?;
+        let columns = (p.request.with_band(), p.request.delta_t_k != 0.0);
+        let mut notes = Footnotes::default();
+        let mut models = Footnotes::default();
+        header(out, columns)?;
+        for row in p.rows {
+            write_row(out, row, columns, &mut notes, &mut models)?;
+        }
+        for (i, m) in models.0.iter().enumerate() {
+            writeln!(out, "m{}: {m}", i + 1)?;
+        }
+        write!(out, "{}", (self.words)(&legend(columns.0, p.request.fidelity)))?;
+        for (i, n) in notes.0.iter().enumerate() {
+            writeln!(out, "[{}] {n}", i + 1)?;
+        }
+        if let Some(s) = p.statements {
+            statements(out, s)?;
+        }
+        Ok(())
+    }
+}
+
+/// The table's header line; `(band, temp)`: whether the band and the thermal columns
+/// are shown.
+fn header(out: &mut impl Write, (band, temp): (bool, bool)) -> Result<()> {
+    write!(
+        out,
+        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
+        "grating",
+        "core",
+        "case",
+        "insert",
+        "model",
+        "E1 MPa",
+        "K pm/N",
+        "shift pm",
+        "strain µε",
+        "share"
+    )?;
+    if band {
+        write!(out, " {:>21}", "band pm/N")?;
+    }
+    if temp {
+        write!(out, " {:>11} {:>12}", "raw pm", "compens. pm")?;
+    }
+    writeln!(out, "  warnings")?;
+    Ok(())
+}
+
+/// One row of the table; its warnings and model become numbered notes.
+fn write_row(
+    out: &mut impl Write,
+    row: &ModelledPrediction,
+    (band, temp): (bool, bool),
+    notes: &mut Footnotes,
+    models: &mut Footnotes,
+) -> Result<()> {
+    let d = &row.detail;
+    let p = &d.prediction;
+    let refs: Vec<String> = p
+        .warnings
+        .iter()
+        .map(|w| format!("[{}]", notes.index(w) + 1))
+        .collect();
+    let share = if d.core_load_share.is_finite() {
+        format!("{:.4}", d.core_load_share)
+    } else {
+        "-".to_string()
+    };
+    let m = models.index(&row.model_description);
+    write!(
+        out,
+        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
+        p.grating,
+        p.core,
+        p.case.to_string(),
+        p.insert.as_deref().unwrap_or("-"),
+        format!("{} (m{})", row.model.name(), m + 1),
+        d.core_modulus_mpa,
+        p.sensitivity_pm_per_n,
+        p.shift_pm,
+        p.strain * 1e6,
+        share
+    )?;
+    if band {
+        let b = row
+            .band_pm_per_n
+            .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
+        write!(out, " {b:>21}")?;
+    }
+    if temp {
+        let comp = d
+            .compensated_shift_pm
+            .map_or("-".to_string(), |c| format!("{c:+.2}"));
+        write!(out, " {:>+11.2} {:>12}", d.raw_shift_pm, comp)?;
+    }
+    writeln!(out, "  {}", refs.join(""))?;
+    Ok(())
+}
+
+/// What the columns and the model choice mean, in the library's words.
+fn legend(band: bool, choice: FidelityChoice) -> String {
+    let mut s = String::from("K > 0: red shift (core cylinder in tension); K < 0: blue shift.\n");
+    if band {
+        s.push_str("band: K between the bounding contact readings (FE): pillars bonded to the cap (most coupled) and cylinders sliding with the domes touching over the apex patch only (least coupled); docs/model.md §5.6.\n");
+    }
+    s.push_str("share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only).\n");
+    match choice {
+        FidelityChoice::Auto => {
+            let v = prediction::validity();
+            s.push_str(&format!(
+                "model (PredictionRequest.fidelity auto): closed form where measured within {:.0} % of the FE model (D {}–{} mm; Case II core t/R ≤ {}; Case I {}), FE with the design's [module.contact] elsewhere.\n",
+                v.tolerance * 100.0,
+                v.diameter_range_mm.0,
+                v.diameter_range_mm.1,
+                v.max_wall_to_radius_case_ii,
+                if v.max_wall_to_radius_case_i > 0.0 {
+                    format!("core t/R ≤ {}", v.max_wall_to_radius_case_i)
+                } else {
+                    "never".to_string()
+                }
+            ));
+        }
+        FidelityChoice::ClosedForm => s.push_str("model: closed form forced (PredictionRequest.fidelity closed-form): no finite-element solve, so no band (PredictionRequest.fidelity auto gives it).\n"),
+        FidelityChoice::Fem => s.push_str("model: finite elements forced (PredictionRequest.fidelity fem).\n"),
+    }
+    s
+}
+
+/// The paper's Case I statements on this design, each with its verdict.
+fn statements(out: &mut impl Write, s: &PaperStatements) -> Result<()> {
+    let failed = s.failures();
+    writeln!(
+        out,
+        "paper's Case I statements (docs/model.md §7.2) on {}: {}",
+        s.design,
+        if failed.is_empty() {
+            "every one checked holds".to_string()
+        } else {
+            format!(
+                "{} FAIL{}",
+                failed
+                    .iter()
+                    .map(|c| c.statement)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if failed.len() == 1 { "S" } else { "" }
+            )
+        }
+    )?;
+    for c in &s.checks {
+        let v = match c.holds {
+            Some(true) => "holds",
+            Some(false) => "FAILS",
+            None => "not checked",
+        };
+        writeln!(out, "  {:<34} {v:<12} {}", c.statement, c.detail)?;
+    }
+    Ok(())
+}
