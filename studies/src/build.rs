@@ -59,31 +59,16 @@ struct Timings {
     rayon_threads: usize,
 }
 
-/// Run the study, print its tables and write its CSV, JSON and charts into `a.out`.
-pub fn run(a: &BuildStudyArgs) -> Result<()> {
-    let design = fbgforge::design::load(&a.design)?;
-    let array = fbgforge::design::load(&a.array)?;
-    let repeats = if a.quick { 1 } else { a.repeats.max(1) };
-    let solids = geometry::build_solids(&design, None)?;
-    let tolerances: &[f64] = if a.quick {
-        &[0.1, 0.025]
-    } else {
-        &[0.1, 0.05, 0.025, 0.01, 0.005]
-    };
-
-    // 1. Tolerance sweep: one distinct solid per kind (the inserts are alike).
-    let mut kinds_seen = Vec::new();
-    let distinct: Vec<_> = solids
-        .iter()
-        .filter(|s| {
-            let new = !kinds_seen.contains(&s.kind);
-            kinds_seen.push(s.kind);
-            new
-        })
-        .collect();
+/// 1. The tolerance sweep: each distinct solid (one per kind: the inserts are alike)
+/// meshed at every tolerance, `repeats` times (the median timed).
+fn tolerance_sweep(
+    distinct: &[&geometry::PartSolid],
+    tolerances: &[f64],
+    repeats: usize,
+) -> Result<Vec<SweepRow>> {
     let pb = crate::progress::Bar::with("sweep", (distinct.len() * tolerances.len()) as u64);
     let mut rows = Vec::new();
-    for s in &distinct {
+    for s in distinct {
         for &tol in tolerances {
             let mut times = Vec::new();
             let mut last = None;
@@ -106,26 +91,27 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         }
     }
     pb.end();
+    Ok(rows)
+}
 
-    // 2. Every part of the module plus the mold at the default tolerance: B-rep,
-    // meshes, checks (what `fbgforge build` does before writing).
+/// 2. and 3. Every part of the module plus the mold at the default tolerance (B-rep,
+/// meshes, checks: what `fbgforge build` does before writing), together and one by
+/// one; then the 13 diameters 10..22 mm, interpolated in the shipped family, in
+/// parallel.
+fn build_timings(design: &Design, array: &Design, repeats: usize) -> Result<Timings> {
     let mut totals = Vec::new();
     let mut per_part: Vec<(String, f64)> = Vec::new();
     for _ in 0..repeats {
         let t = Instant::now();
-        geometry::build_parts(&design, None, None)?;
-        geometry::build_parts(&array, None, None)?;
+        geometry::build_parts(design, None, None)?;
+        geometry::build_parts(array, None, None)?;
         totals.push(t.elapsed().as_secs_f64());
     }
-    for name in geometry::part_names(&design)
+    for name in geometry::part_names(design)
         .into_iter()
-        .chain(geometry::part_names(&array))
+        .chain(geometry::part_names(array))
     {
-        let d = if name.starts_with("mold") {
-            &array
-        } else {
-            &design
-        };
+        let d = if name.starts_with("mold") { array } else { design };
         let sel = [name.clone()];
         let mut times = Vec::new();
         for _ in 0..repeats {
@@ -135,8 +121,6 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         }
         per_part.push((name, median_s(times) * 1e3));
     }
-
-    // 3. The 13 diameters 10..22 mm, interpolated in the shipped family, in parallel.
     let knots: Vec<Design> = fbgforge::design::load_designs(&fbgforge::design::designs_dir())?
         .into_iter()
         .map(|(_, d)| d)
@@ -160,7 +144,7 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
             .collect::<Result<Vec<()>, _>>()?;
         fam_times.push(t.elapsed().as_secs_f64());
     }
-    let timings = Timings {
+    Ok(Timings {
         module_and_mold_ms: median_s(totals) * 1e3,
         module_and_mold_target_ms: 300.0,
         per_part_ms: per_part,
@@ -168,9 +152,11 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         family_parallel_s: median_s(fam_times),
         family_target_s: 2.0,
         rayon_threads: rayon::current_num_threads(),
-    };
+    })
+}
 
-    // Report.
+/// The study's tables on stdout.
+fn print_tables(design: &Design, repeats: usize, rows: &[SweepRow], timings: &Timings) {
     println!(
         "meshing tolerance sweep ({}; median of {repeats})",
         design.name
@@ -179,7 +165,7 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         "  {:<8} {:>8} {:>10} {:>10} {:>10}",
         "part", "tol mm", "triangles", "time ms", "vol err %"
     );
-    for r in &rows {
+    for r in rows {
         println!(
             "  {:<8} {:>8.3} {:>10} {:>10.2} {:>10.4}",
             r.part, r.tolerance_mm, r.triangles, r.time_ms, r.volume_error_percent
@@ -197,7 +183,78 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         "13 diameters 10..22 mm in parallel ({} threads): {:.3} s (target < {} s)",
         timings.rayon_threads, timings.family_parallel_s, timings.family_target_s
     );
+}
 
+/// The sweep's three charts: |volume error|, triangles and time against tolerance, one
+/// series per part.
+fn write_charts(a: &BuildStudyArgs, design: &Design, parts: &[&str], rows: &[SweepRow]) -> Result<()> {
+    let series = |f: &dyn Fn(&SweepRow) -> f64| -> Vec<Series> {
+        parts
+            .iter()
+            .map(|name| {
+                let pts = rows
+                    .iter()
+                    .filter(|r| r.part == *name)
+                    .map(|r| (r.tolerance_mm, f(r)))
+                    .collect();
+                Series::new(name.to_string(), pts, Mark::LinePoints)
+            })
+            .collect()
+    };
+    let log_chart = |title: String, y_label: &str, f: &dyn Fn(&SweepRow) -> f64| {
+        let mut c = Chart::new(title, "tolerance (mm)", y_label);
+        c.x_log = true;
+        c.y_log = true;
+        c.series = series(f);
+        c
+    };
+    log_chart(
+        format!("{}: |volume error| against meshing tolerance", design.name),
+        "|mesh − exact| / exact (%)",
+        &|r| r.volume_error_percent.abs().max(1e-6),
+    )
+    .write_svg(&a.out.join("volume-error.svg"))?;
+    log_chart(
+        format!(
+            "{}: triangles and time against meshing tolerance",
+            design.name
+        ),
+        "triangles",
+        &|r| r.triangles as f64,
+    )
+    .write_svg(&a.out.join("triangles.svg"))?;
+    log_chart(
+        format!("{}: meshing time against tolerance", design.name),
+        "time (ms)",
+        &|r| r.time_ms.max(1e-3),
+    )
+    .write_svg(&a.out.join("time.svg"))?;
+    Ok(())
+}
+
+/// Run the study, print its tables and write its CSV, JSON and charts into `a.out`.
+pub fn run(a: &BuildStudyArgs) -> Result<()> {
+    let design = fbgforge::design::load(&a.design)?;
+    let array = fbgforge::design::load(&a.array)?;
+    let repeats = if a.quick { 1 } else { a.repeats.max(1) };
+    let solids = geometry::build_solids(&design, None)?;
+    let tolerances: &[f64] = if a.quick {
+        &[0.1, 0.025]
+    } else {
+        &[0.1, 0.05, 0.025, 0.01, 0.005]
+    };
+    let mut kinds_seen = Vec::new();
+    let distinct: Vec<_> = solids
+        .iter()
+        .filter(|s| {
+            let new = !kinds_seen.contains(&s.kind);
+            kinds_seen.push(s.kind);
+            new
+        })
+        .collect();
+    let rows = tolerance_sweep(&distinct, tolerances, repeats)?;
+    let timings = build_timings(&design, &array, repeats)?;
+    print_tables(&design, repeats, &rows, &timings);
     let csv_rows: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {
@@ -222,49 +279,8 @@ pub fn run(a: &BuildStudyArgs) -> Result<()> {
         &csv_rows,
     )?;
     fbgforge::output::write_json(&a.out.join("timings.json"), &timings)?;
-    let series = |f: &dyn Fn(&SweepRow) -> f64| -> Vec<Series> {
-        distinct
-            .iter()
-            .map(|s| {
-                let pts = rows
-                    .iter()
-                    .filter(|r| r.part == s.name)
-                    .map(|r| (r.tolerance_mm, f(r)))
-                    .collect();
-                Series::new(s.name.clone(), pts, Mark::LinePoints)
-            })
-            .collect()
-    };
-    let mut err_chart = Chart::new(
-        format!("{}: |volume error| against meshing tolerance", design.name),
-        "tolerance (mm)",
-        "|mesh − exact| / exact (%)",
-    );
-    err_chart.x_log = true;
-    err_chart.y_log = true;
-    err_chart.series = series(&|r| r.volume_error_percent.abs().max(1e-6));
-    err_chart.write_svg(&a.out.join("volume-error.svg"))?;
-    let mut tri_chart = Chart::new(
-        format!(
-            "{}: triangles and time against meshing tolerance",
-            design.name
-        ),
-        "tolerance (mm)",
-        "triangles",
-    );
-    tri_chart.x_log = true;
-    tri_chart.y_log = true;
-    tri_chart.series = series(&|r| r.triangles as f64);
-    tri_chart.write_svg(&a.out.join("triangles.svg"))?;
-    let mut time_chart = Chart::new(
-        format!("{}: meshing time against tolerance", design.name),
-        "tolerance (mm)",
-        "time (ms)",
-    );
-    time_chart.x_log = true;
-    time_chart.y_log = true;
-    time_chart.series = series(&|r| r.time_ms.max(1e-3));
-    time_chart.write_svg(&a.out.join("time.svg"))?;
+    let parts: Vec<&str> = distinct.iter().map(|s| s.name.as_str()).collect();
+    write_charts(a, &design, &parts, &rows)?;
     println!(
         "wrote {}/{{tolerance-sweep.csv, timings.json, volume-error.svg, triangles.svg, time.svg}}",
         a.out.display()

@@ -117,80 +117,55 @@ pub fn run(a: &FemStudyArgs) -> Result<()> {
     run_bench_with(&a.out, a.quick)
 }
 
-/// Run the FE benchmark; `quick` stops every convergence study one level earlier
-/// and compares on a 3 × 3 corner-and-centre subset of the grid (a smoke run of a
-/// few seconds; its K_ref is less accurate, so the full run is the one to quote).
-pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
-    fbgforge::output::ensure_dir(out_dir)?;
-    let design = paper_design()?;
-    // The study's own FE cache: repeats after the first time warm solves, as a
-    // sweep's later steps are.
-    let cache = GeometryCache::default();
+/// The paper module's configurations the bench converges, each with its finest level
+/// and dome contact (`quick`: at most level 2; three levels are the fewest that give an
+/// observed order).
+fn bench_configurations(quick: bool) -> [(Configuration, u32, DomeContact); 3] {
+    let config = |core: &str, case, insert: Option<&str>| Configuration {
+        core: core.into(),
+        case,
+        insert: insert.map(String::from),
+    };
     let configs = [
-        (
-            Configuration {
-                core: "psc2".into(),
-                case: LoadCase::II,
-                insert: None,
-            },
-            3u32,
-            DomeContact::ApexPatch,
-        ),
-        (
-            Configuration {
-                core: "psc1".into(),
-                case: LoadCase::I,
-                insert: Some("blue".into()),
-            },
-            2u32,
-            DomeContact::ApexPatch,
-        ),
-        (
-            Configuration {
-                core: "psc1".into(),
-                case: LoadCase::I,
-                insert: Some("blue".into()),
-            },
-            2u32,
-            DomeContact::Gap,
-        ),
+        (config("psc2", LoadCase::II, None), 3u32, DomeContact::ApexPatch),
+        (config("psc1", LoadCase::I, Some("blue")), 2u32, DomeContact::ApexPatch),
+        (config("psc1", LoadCase::I, Some("blue")), 2u32, DomeContact::Gap),
     ];
-    let configs = configs.map(|(c, max_level, dome)| {
-        // Three levels are the fewest that give an observed order.
+    configs.map(|(c, max_level, dome)| {
         let max_level = if quick { max_level.min(2) } else { max_level };
         (c, max_level, dome)
-    });
-    let pb = crate::progress::Bar::with("fem levels", configs.iter().map(|c| c.1 as u64 + 1).sum());
-    let mut rows = Vec::new();
-    let mut speed_rows = Vec::new();
-    let mut chart = Chart::new(
-        "Clip-on module (34 mm): time per prediction against error of K",
-        "time per prediction, s",
-        "|K − K_converged| / |K_converged|, %",
-    );
-    chart.x_log = true;
-    chart.y_log = true;
-    println!("Finite-element convergence of K (paper module; K_ref = Richardson extrapolation)");
-    println!(
-        "{:<22} {:>5} {:>8} {:>9} {:>14} {:>10} {:>10}",
-        "configuration", "level", "h, mm", "unknowns", "K, pm/N", "error, %", "time, s"
-    );
-    for (config, max_level, dome) in &configs {
-        let name = match dome {
-            DomeContact::Gap => format!("{} (dome gap)", config.label()),
-            _ => config.label(),
-        };
+    })
+}
+
+/// What the bench gathers: the convergence rows, the speed rows and the chart.
+struct Bench<'a> {
+    design: &'a Design,
+    cache: &'a GeometryCache,
+    rows: Vec<Vec<String>>,
+    speed_rows: Vec<Vec<String>>,
+    chart: Chart,
+}
+
+impl Bench<'_> {
+    /// Converge one configuration level by level (envelope solver): its rows, its
+    /// observed order and K_ref printed, its series on the chart; returns K_ref.
+    fn converge(
+        &mut self,
+        (config, max_level, dome): &(Configuration, u32, DomeContact),
+        name: &str,
+        pb: &crate::progress::Bar,
+    ) -> Result<f64> {
         let mut levels = Vec::new();
         for level in 0..=*max_level {
             let repeats = if level <= 1 { 3 } else { 1 };
             let mut r = convergence(
-                &design,
+                self.design,
                 config,
                 level..=level,
                 repeats,
                 SolverKind::Envelope,
                 *dome,
-                &cache,
+                self.cache,
             )?;
             levels.push(r.pop().expect("one level"));
             pb.advance(1);
@@ -202,8 +177,8 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
         };
         let mut pts = Vec::new();
         for l in &levels {
-            let err = report_level(l, k_ref, "", &mut speed_rows, &mut pts);
-            rows.push(vec![
+            let err = report_level(l, k_ref, "", &mut self.speed_rows, &mut pts);
+            self.rows.push(vec![
                 l.configuration.clone(),
                 l.level.to_string(),
                 format!("{}", l.element_size_mm),
@@ -225,77 +200,97 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
                 println!("{name}: differences do not shrink monotonically; K_ref = finest level")
             }
         }
-        chart = chart.with(Series::new(format!("FE, {name}"), pts, Mark::LinePoints));
-        // The default options: level 1 extrapolated with level 0 (Richardson, p = 1).
-        {
-            let opt = FemOptions {
-                dome_contact: *dome,
-                ..FemOptions::default()
-            };
-            let mut best = f64::INFINITY;
-            let mut k = f64::NAN;
-            for _ in 0..3 {
-                let t = Instant::now();
-                let r = solve_configuration(&design, config, &opt, &cache)?;
-                best = best.min(t.elapsed().as_secs_f64());
-                let (_, lambda, e) = r.strain_per_n[0].clone();
-                k = design.fiber.shift_pm(lambda, e, 0.0);
-            }
-            let err = ((k - k_ref) / k_ref).abs() * 100.0;
-            println!(
-                "{:<22} default (level 1 + Richardson p = 1 from level 0): K = {k:.4} pm/N, error {err:.4} %, {best:.4} s",
-                name
-            );
-            speed_rows.push(vec![
-                "FE default (levels 0+1, Richardson p = 1)".into(),
-                name.clone(),
-                format!("{best:.6e}"),
-                format!("{err:.6}"),
-            ]);
-            if err > 0.0 {
-                chart = chart.with(Series::new(
-                    format!("FE default (Richardson), {name}"),
-                    vec![(best, err)],
-                    Mark::Points,
-                ));
-            }
+        self.add_series(Series::new(format!("FE, {name}"), pts, Mark::LinePoints));
+        Ok(k_ref)
+    }
+
+    fn add_series(&mut self, s: Series) {
+        self.chart.series.push(s);
+    }
+
+    /// The default options: level 1 extrapolated with level 0 (Richardson, p = 1).
+    fn default_options(
+        &mut self,
+        (config, dome): (&Configuration, DomeContact),
+        name: &str,
+        k_ref: f64,
+    ) -> Result<()> {
+        let opt = FemOptions {
+            dome_contact: dome,
+            ..FemOptions::default()
+        };
+        let mut best = f64::INFINITY;
+        let mut k = f64::NAN;
+        for _ in 0..3 {
+            let t = Instant::now();
+            let r = solve_configuration(self.design, config, &opt, self.cache)?;
+            best = best.min(t.elapsed().as_secs_f64());
+            let (_, lambda, e) = r.strain_per_n[0].clone();
+            k = self.design.fiber.shift_pm(lambda, e, 0.0);
         }
-        // The same levels with faer's Cholesky (the default solver): same K, other time.
+        let err = ((k - k_ref) / k_ref).abs() * 100.0;
+        println!(
+            "{:<22} default (level 1 + Richardson p = 1 from level 0): K = {k:.4} pm/N, error {err:.4} %, {best:.4} s",
+            name
+        );
+        self.speed_rows.push(vec![
+            "FE default (levels 0+1, Richardson p = 1)".into(),
+            name.to_string(),
+            format!("{best:.6e}"),
+            format!("{err:.6}"),
+        ]);
+        if err > 0.0 {
+            self.add_series(Series::new(
+                format!("FE default (Richardson), {name}"),
+                vec![(best, err)],
+                Mark::Points,
+            ));
+        }
+        Ok(())
+    }
+
+    /// The same levels with faer's Cholesky (the default solver): same K, other time.
+    fn faer(
+        &mut self,
+        (config, max_level, dome): &(Configuration, u32, DomeContact),
+        name: &str,
+        k_ref: f64,
+    ) -> Result<()> {
         let faer_levels = (*max_level).min(2);
         let faer = convergence(
-            &design,
+            self.design,
             config,
             0..=faer_levels,
             1,
             SolverKind::Faer,
             *dome,
-            &cache,
+            self.cache,
         )?;
         let mut fpts = Vec::new();
         for l in &faer {
-            report_level(l, k_ref, "faer", &mut speed_rows, &mut fpts);
+            report_level(l, k_ref, "faer", &mut self.speed_rows, &mut fpts);
         }
-        chart = chart.with(Series::new(
+        self.add_series(Series::new(
             format!("FE faer, {name}"),
             fpts,
             Mark::LinePoints,
         ));
+        Ok(())
+    }
 
-        // The closed form on the same configuration, if the model is available.
-        if *dome == DomeContact::Gap {
-            continue;
-        }
-        match closed_form_time_and_k(&design, config) {
+    /// The closed form on the same configuration, if the model is available.
+    fn closed_form(&mut self, config: &Configuration, name: &str, k_ref: f64) {
+        match closed_form_time_and_k(self.design, config) {
             Ok((t, k)) => {
                 let err = ((k - k_ref) / k_ref).abs() * 100.0;
                 println!("{:<22} closed form: K = {k:.4} pm/N, error {err:.2} %, {t:.3e} s per prediction", config.label());
-                speed_rows.push(vec![
+                self.speed_rows.push(vec![
                     "closed form".into(),
                     config.label(),
                     format!("{t:.6e}"),
                     format!("{err:.6}"),
                 ]);
-                chart = chart.with(Series::new(
+                self.add_series(Series::new(
                     format!("closed form, {name}"),
                     vec![(t, err.max(1e-6))],
                     Mark::Points,
@@ -304,39 +299,91 @@ pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
             Err(e) => println!("{:<22} closed form: not available ({e})", config.label()),
         }
     }
-    pb.end();
-    write_csv(
-        &out_dir.join("fem_convergence.csv"),
-        &[
-            "configuration",
-            "level",
-            "element_size_mm",
-            "unknowns",
-            "sensitivity_pm_per_n",
-            "converged_sensitivity_pm_per_n",
-            "relative_error_percent",
-            "observed_order",
-            "time_s",
-        ],
-        &rows,
-    )?;
-    write_csv(
-        &out_dir.join("fem_speed_accuracy.csv"),
-        &[
-            "method",
-            "configuration",
-            "time_per_prediction_s",
-            "relative_error_percent",
-        ],
-        &speed_rows,
-    )?;
-    chart.write_svg(&out_dir.join("fem_speed_accuracy.svg"))?;
-    println!(
-        "wrote {}, {}, {}",
-        out_dir.join("fem_convergence.csv").display(),
-        out_dir.join("fem_speed_accuracy.csv").display(),
-        out_dir.join("fem_speed_accuracy.svg").display()
+
+    /// The convergence and speed tables as CSV and the chart as SVG.
+    fn write(&self, out_dir: &Path) -> Result<()> {
+        write_csv(
+            &out_dir.join("fem_convergence.csv"),
+            &[
+                "configuration",
+                "level",
+                "element_size_mm",
+                "unknowns",
+                "sensitivity_pm_per_n",
+                "converged_sensitivity_pm_per_n",
+                "relative_error_percent",
+                "observed_order",
+                "time_s",
+            ],
+            &self.rows,
+        )?;
+        write_csv(
+            &out_dir.join("fem_speed_accuracy.csv"),
+            &[
+                "method",
+                "configuration",
+                "time_per_prediction_s",
+                "relative_error_percent",
+            ],
+            &self.speed_rows,
+        )?;
+        self.chart
+            .write_svg(&out_dir.join("fem_speed_accuracy.svg"))?;
+        println!(
+            "wrote {}, {}, {}",
+            out_dir.join("fem_convergence.csv").display(),
+            out_dir.join("fem_speed_accuracy.csv").display(),
+            out_dir.join("fem_speed_accuracy.svg").display()
+        );
+        Ok(())
+    }
+}
+
+/// Run the FE benchmark; `quick` stops every convergence study one level earlier
+/// and compares on a 3 × 3 corner-and-centre subset of the grid (a smoke run of a
+/// few seconds; its K_ref is less accurate, so the full run is the one to quote).
+pub fn run_bench_with(out_dir: &Path, quick: bool) -> Result<()> {
+    fbgforge::output::ensure_dir(out_dir)?;
+    let design = paper_design()?;
+    // The study's own FE cache: repeats after the first time warm solves, as a
+    // sweep's later steps are.
+    let cache = GeometryCache::default();
+    let configs = bench_configurations(quick);
+    let pb = crate::progress::Bar::with("fem levels", configs.iter().map(|c| c.1 as u64 + 1).sum());
+    let mut chart = Chart::new(
+        "Clip-on module (34 mm): time per prediction against error of K",
+        "time per prediction, s",
+        "|K − K_converged| / |K_converged|, %",
     );
+    chart.x_log = true;
+    chart.y_log = true;
+    let mut bench = Bench {
+        design: &design,
+        cache: &cache,
+        rows: Vec::new(),
+        speed_rows: Vec::new(),
+        chart,
+    };
+    println!("Finite-element convergence of K (paper module; K_ref = Richardson extrapolation)");
+    println!(
+        "{:<22} {:>5} {:>8} {:>9} {:>14} {:>10} {:>10}",
+        "configuration", "level", "h, mm", "unknowns", "K, pm/N", "error, %", "time, s"
+    );
+    for c in &configs {
+        let (config, _, dome) = c;
+        let name = match dome {
+            DomeContact::Gap => format!("{} (dome gap)", config.label()),
+            _ => config.label(),
+        };
+        let k_ref = bench.converge(c, &name, &pb)?;
+        bench.default_options((config, *dome), &name, k_ref)?;
+        bench.faer(c, &name, k_ref)?;
+        if *dome != DomeContact::Gap {
+            bench.closed_form(config, &name, k_ref);
+        }
+    }
+    pb.end();
+    bench.write(out_dir)?;
     if quick {
         super::fem_compare::run_comparison_on(out_dir, &[10.0, 22.0, 40.0], &[0.8, 1.5, 3.0])?;
     } else {

@@ -333,139 +333,142 @@ impl FiberPassages {
     }
 }
 
-/// Every fiber's passages through the assembled module, on exact dimensions.
-pub fn fiber_passages(profile: &DesignProfile) -> Vec<FiberPassages> {
-    let Some(md) = &profile.module else {
-        return Vec::new();
-    };
-    let (m, p, pp) = (md.spec, &md.profile, &md.parts);
-    let rf = pp.fiber_radius_mm;
-    let w = pp.channel_width_mm;
-    let clearance = "fiber_routing.channel_clearance_mm";
-    let s_out = p.cap_outer_radius_mm + 2.0 * rf + 0.5;
-    let has_insert = !m.inserts.is_empty();
-    let bead = bead_polyline(md);
-    let mut out = Vec::new();
-    for (i, g) in module_gratings(m, p).iter().enumerate() {
-        let mut ps = Vec::new();
-        let mut add = |part: &str, passage: &str, width: Option<f64>, gap: f64, field: &str| {
-            ps.push(Passage {
-                part: part.into(),
-                passage: passage.into(),
-                width_mm: width,
-                surface_gap_mm: gap,
-                field: field.into(),
-            })
-        };
-        let strain = g.role == GratingRole::Strain;
-        let (r0, z_top) = match (strain, &pp.reference_chamber) {
-            (true, _) => (g.radius_mm, g.z_end_mm),
-            (false, Some(c)) => (0.0, c.span.tip_z_mm),
-            (false, None) => (0.0, g.z_end_mm),
-        };
-        let line = Centreline {
-            r0,
-            z_top,
-            z_bend: pp.bend_start_z_mm,
-            bend: pp.bend_radius_mm,
-            s_out,
-        };
-        let along = |pts: &[P2]| line.distance_to_polyline(pts) - rf;
-        if strain {
-            let d = m.pillars.fiber_hole_diameter_mm;
-            add(
-                "core",
-                "fiber hole in the pillar",
-                Some(d),
-                d / 2.0 - rf,
-                "module.pillars.fiber_hole_diameter_mm",
+/// The field a channel's width and its gaps come from.
+const CLEARANCE: &str = "fiber_routing.channel_clearance_mm";
+
+/// One fiber's passages as they are found, along its centreline.
+struct Route<'a> {
+    md: &'a ModuleDims<'a>,
+    line: Centreline,
+    passages: Vec<Passage>,
+}
+
+impl Route<'_> {
+    fn add(&mut self, part: &str, passage: &str, width: Option<f64>, gap: f64, field: &str) {
+        self.passages.push(Passage {
+            part: part.into(),
+            passage: passage.into(),
+            width_mm: width,
+            surface_gap_mm: gap,
+            field: field.into(),
+        })
+    }
+
+    /// The gap between the fiber's surface and the outline `pts`.
+    fn along(&self, pts: &[P2]) -> f64 {
+        self.line.distance_to_polyline(pts) - self.md.parts.fiber_radius_mm
+    }
+
+    /// A slot of the channel's width in `part`, and its roof over the bend.
+    fn slot(&mut self, part: &str, (slot, roof_name): (&str, &str), roof: &[P2]) {
+        let (w, rf) = (self.md.parts.channel_width_mm, self.md.parts.fiber_radius_mm);
+        self.add(part, slot, Some(w), w / 2.0 - rf, CLEARANCE);
+        let gap = self.along(roof);
+        self.add(part, roof_name, None, gap, CLEARANCE);
+    }
+
+    /// A strain fiber: its hole in the pillar, the cap's pillar over the bend and the
+    /// core wall below the pillars.
+    fn strain(&mut self) {
+        let (m, p, pp) = (self.md.spec, &self.md.profile, &self.md.parts);
+        let rf = pp.fiber_radius_mm;
+        let d = m.pillars.fiber_hole_diameter_mm;
+        self.add(
+            "core",
+            "fiber hole in the pillar",
+            Some(d),
+            d / 2.0 - rf,
+            "module.pillars.fiber_hole_diameter_mm",
+        );
+        let pillar = [
+            (p.cap_inner_radius_mm, pp.pillar_bottom_mm),
+            (p.cap_pillar_inner_radius_mm, pp.pillar_bottom_mm),
+            (p.cap_pillar_inner_radius_mm, p.pillar_top_mm),
+        ];
+        let gap = self.along(&pillar);
+        self.add(
+            "cap",
+            "cap alignment pillar over the bend",
+            None,
+            gap,
+            "module.pillars.groove_depth_mm",
+        );
+        let wall = [
+            (p.core_outer_radius_mm, 0.0),
+            (p.core_outer_radius_mm, pp.pillar_bottom_mm),
+        ];
+        let gap = self.along(&wall);
+        self.add(
+            "core",
+            "core wall below the pillars",
+            None,
+            gap,
+            "module.pillars.height_mm",
+        );
+    }
+
+    /// The reference fiber in an insert: its chamber, the bore and the insert's slot.
+    fn reference_in_insert(&mut self) {
+        let (p, pp) = (&self.md.profile, &self.md.parts);
+        let rf = pp.fiber_radius_mm;
+        let rb = pp.insert_bore_radius_mm;
+        if let Some(c) = &pp.reference_chamber {
+            self.add(
+                "insert",
+                "reference chamber around the grating (free-hanging)",
+                Some(2.0 * c.radius_mm),
+                c.radius_mm - rf,
+                CLEARANCE,
             );
-            let pillar = [
-                (p.cap_inner_radius_mm, pp.pillar_bottom_mm),
-                (p.cap_pillar_inner_radius_mm, pp.pillar_bottom_mm),
-                (p.cap_pillar_inner_radius_mm, p.pillar_top_mm),
-            ];
-            add(
-                "cap",
-                "cap alignment pillar over the bend",
+            self.add(
+                "insert",
+                "reference chamber's top over the fiber's tip",
                 None,
-                along(&pillar),
-                "module.pillars.groove_depth_mm",
-            );
-            let wall = [
-                (p.core_outer_radius_mm, 0.0),
-                (p.core_outer_radius_mm, pp.pillar_bottom_mm),
-            ];
-            add(
-                "core",
-                "core wall below the pillars",
-                None,
-                along(&wall),
-                "module.pillars.height_mm",
-            );
-        } else {
-            let r_ci = p.core_inner_radius_mm;
-            if has_insert {
-                let rb = pp.insert_bore_radius_mm;
-                if let Some(c) = &pp.reference_chamber {
-                    add(
-                        "insert",
-                        "reference chamber around the grating (free-hanging)",
-                        Some(2.0 * c.radius_mm),
-                        c.radius_mm - rf,
-                        clearance,
-                    );
-                    add(
-                        "insert",
-                        "reference chamber's top over the fiber's tip",
-                        None,
-                        c.span.chamber_top_z_mm - c.span.tip_z_mm,
-                        "module.core_wall_mm",
-                    );
-                }
-                add("insert", "insert bore", Some(2.0 * rb), rb - rf, clearance);
-                add("insert", "insert slot", Some(w), w / 2.0 - rf, clearance);
-                let bore_top = pp
-                    .reference_chamber
-                    .map_or(pp.insert_slot_top_mm, |c| c.span.chamber_bottom_z_mm);
-                let roof = [
-                    (p.insert_radius_mm, pp.insert_slot_top_mm),
-                    (rb, pp.insert_slot_top_mm),
-                    (rb, bore_top),
-                ];
-                add(
-                    "insert",
-                    "insert slot roof over the bend",
-                    None,
-                    along(&roof),
-                    clearance,
-                );
-            } else {
-                // In the hollow core: the core's inner dome over the tip.
-                let dome = p.dome_center_z_mm + p.core_dome_inner_sphere_radius_mm;
-                add(
-                    "core",
-                    "core's inner dome over the fiber's tip",
-                    None,
-                    dome - z_top,
-                    &format!("module.gratings[{i}].tail_mm"),
-                );
-            }
-            add("core", "core wall slot", Some(w), w / 2.0 - rf, clearance);
-            let roof = [
-                (p.core_outer_radius_mm, pp.core_slot_top_mm),
-                (r_ci, pp.core_slot_top_mm),
-                (r_ci, p.pillar_top_mm),
-            ];
-            add(
-                "core",
-                "core slot roof over the bend",
-                None,
-                along(&roof),
-                clearance,
+                c.span.chamber_top_z_mm - c.span.tip_z_mm,
+                "module.core_wall_mm",
             );
         }
-        add("cap", "cap slot", Some(w), w / 2.0 - rf, clearance);
+        self.add("insert", "insert bore", Some(2.0 * rb), rb - rf, CLEARANCE);
+        let bore_top = pp
+            .reference_chamber
+            .map_or(pp.insert_slot_top_mm, |c| c.span.chamber_bottom_z_mm);
+        let roof = [
+            (p.insert_radius_mm, pp.insert_slot_top_mm),
+            (rb, pp.insert_slot_top_mm),
+            (rb, bore_top),
+        ];
+        self.slot("insert", ("insert slot", "insert slot roof over the bend"), &roof);
+    }
+
+    /// The reference fiber (grating `i`, its tip at `z_top`): in the insert or the
+    /// hollow core, then through the core's slot.
+    fn reference(&mut self, i: usize, z_top: f64) {
+        let (p, pp) = (&self.md.profile, &self.md.parts);
+        if self.md.spec.inserts.is_empty() {
+            // In the hollow core: the core's inner dome over the tip.
+            let dome = p.dome_center_z_mm + p.core_dome_inner_sphere_radius_mm;
+            self.add(
+                "core",
+                "core's inner dome over the fiber's tip",
+                None,
+                dome - z_top,
+                &format!("module.gratings[{i}].tail_mm"),
+            );
+        } else {
+            self.reference_in_insert();
+        }
+        let r_ci = p.core_inner_radius_mm;
+        let roof = [
+            (p.core_outer_radius_mm, pp.core_slot_top_mm),
+            (r_ci, pp.core_slot_top_mm),
+            (r_ci, p.pillar_top_mm),
+        ];
+        self.slot("core", ("core wall slot", "core slot roof over the bend"), &roof);
+    }
+
+    /// Every fiber's way out: the cap's slot and roof, the snap bead, the plate.
+    fn exit(&mut self, bead: &[P2]) {
+        let (p, pp) = (&self.md.profile, &self.md.parts);
         let next_up = pp
             .snap
             .as_ref()
@@ -475,32 +478,63 @@ pub fn fiber_passages(profile: &DesignProfile) -> Vec<FiberPassages> {
             (p.cap_inner_radius_mm, pp.cap_slot_top_mm),
             (p.cap_inner_radius_mm, next_up),
         ];
-        add(
-            "cap",
-            "cap slot roof over the bend",
-            None,
-            along(&roof),
-            clearance,
-        );
+        self.slot("cap", ("cap slot", "cap slot roof over the bend"), &roof);
         if !bead.is_empty() {
-            add(
+            let gap = self.along(bead);
+            self.add(
                 "cap",
                 "snap bead over the bend",
                 None,
-                along(&bead),
+                gap,
                 "module.snap.undercut_mm",
             );
         }
-        add(
+        self.add(
             "plate",
             "plate under the horizontal run",
             None,
-            pp.exit_height_mm - rf,
+            pp.exit_height_mm - pp.fiber_radius_mm,
             "fiber_routing.exit_height_mm",
         );
+    }
+}
+
+/// Every fiber's passages through the assembled module, on exact dimensions.
+pub fn fiber_passages(profile: &DesignProfile) -> Vec<FiberPassages> {
+    let Some(md) = &profile.module else {
+        return Vec::new();
+    };
+    let (m, p, pp) = (md.spec, &md.profile, &md.parts);
+    let s_out = p.cap_outer_radius_mm + 2.0 * pp.fiber_radius_mm + 0.5;
+    let bead = bead_polyline(md);
+    let mut out = Vec::new();
+    for (i, g) in module_gratings(m, p).iter().enumerate() {
+        let strain = g.role == GratingRole::Strain;
+        let (r0, z_top) = match (strain, &pp.reference_chamber) {
+            (true, _) => (g.radius_mm, g.z_end_mm),
+            (false, Some(c)) => (0.0, c.span.tip_z_mm),
+            (false, None) => (0.0, g.z_end_mm),
+        };
+        let mut route = Route {
+            md,
+            line: Centreline {
+                r0,
+                z_top,
+                z_bend: pp.bend_start_z_mm,
+                bend: pp.bend_radius_mm,
+                s_out,
+            },
+            passages: Vec::new(),
+        };
+        if strain {
+            route.strain();
+        } else {
+            route.reference(i, z_top);
+        }
+        route.exit(&bead);
         out.push(FiberPassages {
             grating: g.name.clone(),
-            passages: ps,
+            passages: route.passages,
         });
     }
     out

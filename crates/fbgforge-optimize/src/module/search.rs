@@ -228,22 +228,7 @@ pub fn optimise_module(
     } else {
         1.0
     };
-    let list = choices(base, lib, settings)?;
-    progress.begin("optimise", list.len() as u64);
-    let results: Vec<anyhow::Result<ChoiceResult>> = list
-        .par_iter()
-        .enumerate()
-        .map(|(ci, ch)| {
-            let r = inputs.optimise_choice(ci, ch, scale)?;
-            progress.advance(1);
-            Ok(r)
-        })
-        .collect();
-    progress.end();
-    let mut choices_done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
-    if choices_done.iter().all(|c| c.best.is_none()) {
-        return Err(infeasible_error(&choices_done, settings));
-    }
+    let mut choices_done = inputs.search_choices(scale, progress)?;
     // Away from its anchor the search's K is an estimate (closed-form trend, FE level
     // and readings at an anchor); the table is scored on the policy itself until no
     // estimate beats its best exact row, so its best row is the policy's own.
@@ -251,85 +236,9 @@ pub fn optimise_module(
     let Some((bi, win_problem)) = scored else {
         return Err(inputs.infeasible_under_policy(&choices_done));
     };
-    // The Pareto front: the winner's choice and the best choice of the other case
-    // (insert or hollow), each searched from its table answer to the widest force
-    // range it reaches and at levels between, every design scored on the policy.
-    let mut front_choices = vec![bi];
-    let winner_hollow = choices_done[bi].choice.insert_material.is_none();
-    if let Some(oi) = (0..choices_done.len())
-        .filter(|&i| {
-            choices_done[i].best.is_some()
-                && choices_done[i].choice.insert_material.is_none() != winner_hollow
-        })
-        .max_by(|&a, &b| {
-            let o = |i: usize| choices_done[i].best.as_ref().map_or(0.0, |e| e.objective);
-            o(a).total_cmp(&o(b))
-        })
-    {
-        front_choices.push(oi);
-    }
-    // Every exact row of the table may enter the front too.
-    let mut candidates: Vec<FrontCandidate> = choices_done
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !front_choices.contains(i))
-        .filter_map(|(_, c)| {
-            c.best
-                .as_ref()
-                .filter(|e| e.exact && e.feasible())
-                .map(|e| FrontCandidate::new(c.choice.clone(), e.clone()))
-        })
-        .collect();
-    let mut problems: Vec<(usize, ModuleProblem)> = vec![(bi, win_problem)];
-    for &ci in &front_choices {
-        let found = choices_done[ci].best.clone().expect("feasible rows only");
-        let p = match problems.iter().find(|(i, _)| *i == ci) {
-            Some((_, p)) => p.clone(),
-            None => {
-                let mut p = inputs.problem(choices_done[ci].choice.clone())?;
-                p.set_scale(scale);
-                let p = p.anchored_at(&found.x)?;
-                let e = p.evaluate(&found.x);
-                // Scored on the policy, and walked a few trust-region steps on it (a
-                // design the policy refuses is moved away by the constraints'
-                // magnitudes), the row keeps its exact value.
-                let (p, e) = policy_answer(p.clone(), e.clone(), settings, FRONT_REFINE_STEPS)
-                    .unwrap_or((p, e));
-                if !e.feasible() {
-                    choices_done[ci].best = None;
-                    choices_done[ci].least_violating = Some(e);
-                    continue;
-                }
-                choices_done[ci].best = Some(e);
-                problems.push((ci, p.clone()));
-                p
-            }
-        };
-        let row = choices_done[ci].best.clone().expect("feasible");
-        candidates.push(FrontCandidate::new(
-            choices_done[ci].choice.clone(),
-            row.clone(),
-        ));
-        candidates.extend(inputs.front_levels(&choices_done[ci].choice, &p, &row)?);
-    }
-    // The best of the table is its best exact row (a row scored for the front may beat
-    // the refined winner; every estimate lies below the winner).
-    let bi = (0..choices_done.len())
-        .filter(|&i| choices_done[i].best.as_ref().is_some_and(|e| e.exact))
-        .max_by(|&a, &b| {
-            let o = |i: usize| choices_done[i].best.as_ref().map_or(0.0, |e| e.objective);
-            o(a).total_cmp(&o(b))
-        })
-        .expect("the refined winner is an exact row");
-    let win_problem = match problems.iter().find(|(i, _)| *i == bi) {
-        Some((_, p)) => p.clone(),
-        None => {
-            let x = choices_done[bi].best.as_ref().expect("feasible").x.clone();
-            inputs
-                .problem(choices_done[bi].choice.clone())?
-                .anchored_at(&x)?
-        }
-    };
+    let (candidates, problems) =
+        inputs.front_candidates(&mut choices_done, (bi, win_problem), scale)?;
+    let (bi, win_problem) = inputs.table_best(&choices_done, &problems)?;
     let best_eval = choices_done[bi]
         .best
         .clone()
@@ -363,24 +272,7 @@ pub fn optimise_module(
         &why,
     )?;
     let ties = tie_notes(&choices_done, &front, settings);
-    let mut warnings = Vec::new();
-    if choice.insert_material.is_some()
-        && design
-            .module
-            .as_ref()
-            .is_some_and(|m| m.contact_radius_is_default())
-    {
-        warnings.push(format!(
-            "Case I: {}",
-            crate::prediction::DEFAULT_CONTACT_WARNING
-        ));
-    }
-    for r in &eval.readings {
-        let (v, why) = r.band_violation();
-        if v > 0.0 {
-            warnings.push(why);
-        }
-    }
+    let warnings = written_warnings(&choice, &design, &eval);
     Ok(ModuleOutcome {
         objective: settings.objective,
         objective_unit: settings.objective.unit(),
@@ -406,6 +298,167 @@ pub fn optimise_module(
         time_s: t0.elapsed().as_secs_f64(),
         calibration: inputs.cal,
     })
+}
+
+/// What a lab should know before printing the written design: that its Case I K rests
+/// on the shipped default contact, and every grating whose nominal K breaks its
+/// bounding readings.
+fn written_warnings(choice: &Choice, design: &Design, eval: &Evaluation) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if choice.insert_material.is_some()
+        && design
+            .module
+            .as_ref()
+            .is_some_and(|m| m.contact_radius_is_default())
+    {
+        warnings.push(format!(
+            "Case I: {}",
+            crate::prediction::DEFAULT_CONTACT_WARNING
+        ));
+    }
+    for r in &eval.readings {
+        let (v, why) = r.band_violation();
+        if v > 0.0 {
+            warnings.push(why);
+        }
+    }
+    warnings
+}
+
+/// Index of the row with the largest objective among those `keep` lets through.
+fn best_row(choices: &[ChoiceResult], keep: impl Fn(&ChoiceResult) -> bool) -> Option<usize> {
+    (0..choices.len())
+        .filter(|&i| keep(&choices[i]))
+        .max_by(|&a, &b| {
+            let o = |i: usize| choices[i].best.as_ref().map_or(0.0, |e| e.objective);
+            o(a).total_cmp(&o(b))
+        })
+}
+
+impl ProblemInputs<'_> {
+    /// Search every material choice (in parallel), one progress step each; an error
+    /// naming the constraint no design meets when none is feasible.
+    fn search_choices(
+        &self,
+        scale: f64,
+        progress: &dyn Progress,
+    ) -> anyhow::Result<Vec<ChoiceResult>> {
+        let list = choices(self.base, self.lib, self.settings)?;
+        progress.begin("optimise", list.len() as u64);
+        let results: Vec<anyhow::Result<ChoiceResult>> = list
+            .par_iter()
+            .enumerate()
+            .map(|(ci, ch)| {
+                let r = self.optimise_choice(ci, ch, scale)?;
+                progress.advance(1);
+                Ok(r)
+            })
+            .collect();
+        progress.end();
+        let done: Vec<ChoiceResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
+        if done.iter().all(|c| c.best.is_none()) {
+            return Err(infeasible_error(&done, self.settings));
+        }
+        Ok(done)
+    }
+
+    /// The Pareto front's candidates: every exact row of the table, and the winner's
+    /// choice and the best choice of the other case (insert or hollow), each searched
+    /// from its table answer to the widest force range it reaches and at levels
+    /// between, every design scored on the policy. Returns them with the problems
+    /// anchored on the rows scored here (the winner's first).
+    #[allow(clippy::type_complexity)]
+    fn front_candidates(
+        &self,
+        choices_done: &mut [ChoiceResult],
+        (bi, win_problem): (usize, ModuleProblem),
+        scale: f64,
+    ) -> anyhow::Result<(Vec<FrontCandidate>, Vec<(usize, ModuleProblem)>)> {
+        let mut front_choices = vec![bi];
+        let winner_hollow = choices_done[bi].choice.insert_material.is_none();
+        if let Some(oi) = best_row(choices_done, |c| {
+            c.best.is_some() && c.choice.insert_material.is_none() != winner_hollow
+        }) {
+            front_choices.push(oi);
+        }
+        // Every exact row of the table may enter the front too.
+        let mut candidates: Vec<FrontCandidate> = choices_done
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !front_choices.contains(i))
+            .filter_map(|(_, c)| {
+                c.best
+                    .as_ref()
+                    .filter(|e| e.exact && e.feasible())
+                    .map(|e| FrontCandidate::new(c.choice.clone(), e.clone()))
+            })
+            .collect();
+        let mut problems: Vec<(usize, ModuleProblem)> = vec![(bi, win_problem)];
+        for &ci in &front_choices {
+            let p = match problems.iter().find(|(i, _)| *i == ci) {
+                Some((_, p)) => p.clone(),
+                None => match self.score_front_row(&mut choices_done[ci], scale)? {
+                    Some(p) => {
+                        problems.push((ci, p.clone()));
+                        p
+                    }
+                    None => continue,
+                },
+            };
+            let row = choices_done[ci].best.clone().expect("feasible");
+            candidates.push(FrontCandidate::new(
+                choices_done[ci].choice.clone(),
+                row.clone(),
+            ));
+            candidates.extend(self.front_levels(&choices_done[ci].choice, &p, &row)?);
+        }
+        Ok((candidates, problems))
+    }
+
+    /// Score a row for the front on the policy, walked a few trust-region steps on it
+    /// (a design the policy refuses is moved away by the constraints' magnitudes): the
+    /// row keeps its exact value; its problem, anchored on it, or `None` when the
+    /// policy finds it infeasible (the row then holds it as its least violating).
+    fn score_front_row(
+        &self,
+        row: &mut ChoiceResult,
+        scale: f64,
+    ) -> anyhow::Result<Option<ModuleProblem>> {
+        let found = row.best.clone().expect("feasible rows only");
+        let mut p = self.problem(row.choice.clone())?;
+        p.set_scale(scale);
+        let p = p.anchored_at(&found.x)?;
+        let e = p.evaluate(&found.x);
+        let (p, e) = policy_answer(p.clone(), e.clone(), self.settings, FRONT_REFINE_STEPS)
+            .unwrap_or((p, e));
+        if !e.feasible() {
+            row.best = None;
+            row.least_violating = Some(e);
+            return Ok(None);
+        }
+        row.best = Some(e);
+        Ok(Some(p))
+    }
+
+    /// The best of the table: its best exact row (a row scored for the front may beat
+    /// the refined winner; every estimate lies below the winner), with its problem.
+    fn table_best(
+        &self,
+        choices_done: &[ChoiceResult],
+        problems: &[(usize, ModuleProblem)],
+    ) -> anyhow::Result<(usize, ModuleProblem)> {
+        let bi = best_row(choices_done, |c| c.best.as_ref().is_some_and(|e| e.exact))
+            .expect("the refined winner is an exact row");
+        let p = match problems.iter().find(|(i, _)| *i == bi) {
+            Some((_, p)) => p.clone(),
+            None => {
+                let x = choices_done[bi].best.as_ref().expect("feasible").x.clone();
+                self.problem(choices_done[bi].choice.clone())?
+                    .anchored_at(&x)?
+            }
+        };
+        Ok((bi, p))
+    }
 }
 
 impl ProblemInputs<'_> {
