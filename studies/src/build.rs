@@ -59,8 +59,8 @@ struct Timings {
     rayon_threads: usize,
 }
 
-/// 1. The tolerance sweep: each distinct solid (one per kind: the inserts are alike)
-/// meshed at every tolerance, `repeats` times (the median timed).
+/// The tolerance sweep (the study's first part): each distinct solid (one per kind: the
+/// inserts are alike) meshed at every tolerance, `repeats` times (the median timed).
 fn tolerance_sweep(
     distinct: &[&geometry::PartSolid],
     tolerances: &[f64],
@@ -94,10 +94,10 @@ fn tolerance_sweep(
     Ok(rows)
 }
 
-/// 2. and 3. Every part of the module plus the mold at the default tolerance (B-rep,
-/// meshes, checks: what `fbgforge build` does before writing), together and one by
-/// one; then the 13 diameters 10..22 mm, interpolated in the shipped family, in
-/// parallel.
+/// The build timings (the study's second and third parts): every part of the module
+/// plus the mold at the default tolerance (B-rep, meshes, checks: what `fbgforge
+/// build` does before writing), together and one by one; then the 13 diameters 10..22
+/// mm, interpolated in the shipped family, in parallel.
 fn build_timings(design: &Design, array: &Design, repeats: usize) -> Result<Timings> {
     let mut totals = Vec::new();
     let mut per_part: Vec<(String, f64)> = Vec::new();

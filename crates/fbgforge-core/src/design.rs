@@ -43,6 +43,9 @@ impl Design {
     }
 }
 
+/// What to change when a fiber cannot bend out below a grating.
+const BEND_ADVICE: &str = "raise the grating, lower fiber_routing.exit_height_mm, or use a fiber with a smaller fiber_routing.min_bend_radius_mm (bend-insensitive G.657 fiber: 7.5 or 5 mm)";
+
 /// The fiber exits, the insert's bore and the snap bead fit the module: every fiber
 /// bends below its grating and above the plate, every slot stays below the features
 /// over it, and the snap strains the cap's material less than it permits.
@@ -51,17 +54,36 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
         return Ok(());
     };
     let min_wall = d.printer.min_wall_mm;
+    check_bend_heights(m, &p, &pp)?;
+    check_top_hole(d, m)?;
+    check_slots(&p, &pp, min_wall)?;
+    if let Some(c) = &pp.reference_chamber {
+        check_reference_chamber(m, &p, &pp, c, min_wall)?;
+    }
+    if pp.insert_bore_radius_mm + min_wall > p.insert_radius_mm {
+        return Err(err(
+            "fiber_routing.coated_diameter_mm",
+            format!(
+                "the reference fiber's bore (radius {:.3} mm) leaves the insert (radius {:.3} mm) no printable wall",
+                pp.insert_bore_radius_mm, p.insert_radius_mm
+            ),
+        ));
+    }
+    check_snap(d, m, &p, &pp)
+}
+
+/// Every grating starts above where its fiber bends out of the module.
+fn check_bend_heights(m: &Module, p: &ModuleProfile, pp: &PartsProfile) -> Result<(), SpecError> {
     let z_b = pp.bend_start_z_mm;
-    let advice = "raise the grating, lower fiber_routing.exit_height_mm, or use a fiber with a smaller fiber_routing.min_bend_radius_mm (bend-insensitive G.657 fiber: 7.5 or 5 mm)";
-    for (i, g) in module_gratings(m, &p).iter().enumerate() {
+    for (i, g) in module_gratings(m, p).iter().enumerate() {
         if g.z_start_mm < z_b + pp.fiber_radius_mm {
             // A reference grating hangs from the top: it is raised by shortening it
             // or the fiber left past it.
             let (field, advice) = match g.role {
-                GratingRole::Strain => (format!("module.gratings[{i}].center_height_mm"), advice.to_string()),
+                GratingRole::Strain => (format!("module.gratings[{i}].center_height_mm"), BEND_ADVICE.to_string()),
                 GratingRole::TemperatureReference => (
                     format!("module.gratings[{i}].length_mm"),
-                    format!("shorten the grating or the fiber left past it (module.gratings[{i}].tail_mm, default {} mm), {}", crate::spec::DEFAULT_REFERENCE_TAIL_MM, advice.trim_start_matches("raise the grating, ")),
+                    format!("shorten the grating or the fiber left past it (module.gratings[{i}].tail_mm, default {} mm), {}", crate::spec::DEFAULT_REFERENCE_TAIL_MM, BEND_ADVICE.trim_start_matches("raise the grating, ")),
                 ),
             };
             return Err(err(
@@ -73,7 +95,11 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
             ));
         }
     }
-    // The reference fiber runs up the axis through the core's top hole.
+    Ok(())
+}
+
+/// The reference fiber runs up the axis through the core's top hole.
+fn check_top_hole(d: &Design, m: &Module) -> Result<(), SpecError> {
     let has_reference = m
         .gratings
         .iter()
@@ -88,89 +114,99 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
             ),
         ));
     }
+    Ok(())
+}
+
+/// `what` reaching up to `z` stays a printable wall below `over` at `limit`.
+fn below(
+    min_wall: f64,
+    field: &str,
+    what: &str,
+    (z, limit): (f64, f64),
+    over: &str,
+) -> Result<(), SpecError> {
+    if z + min_wall > limit {
+        Err(err(
+            field,
+            format!(
+                "{what} reaches {z:.3} mm, within a printable wall ({min_wall} mm) of {over} at {limit:.3} mm"
+            ),
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// The fibers bend out below the pillars, and the insert's and the cap's slots stay
+/// below the features over them.
+fn check_slots(p: &ModuleProfile, pp: &PartsProfile, min_wall: f64) -> Result<(), SpecError> {
+    let z_b = pp.bend_start_z_mm;
     if z_b + min_wall > p.pillar_top_mm {
         return Err(err(
             "fiber_routing.min_bend_radius_mm",
             format!(
-                "the fibers bend out below {z_b:.3} mm, which leaves no pillar below the pillar top at {:.3} mm; {advice}",
+                "the fibers bend out below {z_b:.3} mm, which leaves no pillar below the pillar top at {:.3} mm; {BEND_ADVICE}",
                 p.pillar_top_mm
             ),
         ));
     }
-    let below = |field: &str, what: &str, z: f64, limit: f64, over: &str| {
-        if z + min_wall > limit {
-            Err(err(
-                field,
-                format!(
-                    "{what} reaches {z:.3} mm, within a printable wall ({min_wall} mm) of {over} at {limit:.3} mm"
-                ),
-            ))
-        } else {
-            Ok(())
-        }
-    };
     below(
+        min_wall,
         "fiber_routing.min_bend_radius_mm",
         "the slot for the reference fiber in the insert's base",
-        pp.insert_slot_top_mm,
-        p.insert_junction_z_mm,
+        (pp.insert_slot_top_mm, p.insert_junction_z_mm),
         "the insert's dome",
     )?;
     below(
+        min_wall,
         "fiber_routing.min_bend_radius_mm",
         "the cap's fiber slots",
-        pp.cap_slot_top_mm,
-        pp.pillar_bottom_mm,
+        (pp.cap_slot_top_mm, pp.pillar_bottom_mm),
         "the pillar bottoms",
+    )
+}
+
+/// The cap's slots stay below the snap bead's lead-in, and the snap strains the cap's
+/// material less than it permits.
+fn check_snap(d: &Design, m: &Module, p: &ModuleProfile, pp: &PartsProfile) -> Result<(), SpecError> {
+    let (Some(s), Some(sp)) = (&m.snap, &pp.snap) else {
+        return Ok(());
+    };
+    below(
+        d.printer.min_wall_mm,
+        "module.snap.bead_height_mm",
+        "the cap's fiber slots",
+        (pp.cap_slot_top_mm, sp.lead_in_z_mm),
+        "the snap bead's lead-in",
     )?;
-    if let Some(c) = &pp.reference_chamber {
-        check_reference_chamber(m, &p, &pp, c, min_wall)?;
+    let Some(r) = snap_report(d, p, pp) else {
+        return Ok(());
+    };
+    if r.cap_strain_percent <= r.permissible_strain_percent {
+        return Ok(());
     }
-    if pp.insert_bore_radius_mm + min_wall > p.insert_radius_mm {
-        return Err(err(
-            "fiber_routing.coated_diameter_mm",
-            format!(
-                "the reference fiber's bore (radius {:.3} mm) leaves the insert (radius {:.3} mm) no printable wall",
-                pp.insert_bore_radius_mm, p.insert_radius_mm
-            ),
-        ));
-    }
-    if let (Some(s), Some(sp)) = (&m.snap, &pp.snap) {
-        below(
-            "module.snap.bead_height_mm",
-            "the cap's fiber slots",
-            pp.cap_slot_top_mm,
-            sp.lead_in_z_mm,
-            "the snap bead's lead-in",
-        )?;
-        if let Some(r) = snap_report(d, &p, &pp) {
-            if r.cap_strain_percent > r.permissible_strain_percent {
-                let allowed = if r.max_undercut_mm >= r.min_undercut_mm {
-                    format!(
-                        "allowed {:.4} to {:.4} mm",
-                        r.min_undercut_mm, r.max_undercut_mm
-                    )
-                } else {
-                    format!(
-                        "no undercut fits: the printer needs at least {:.4} mm and the material allows at most {:.4} mm; remove [module.snap] (a sliding fit held by the fixture), thin module.cap_wall_mm or use a cap material that permits more strain",
-                        r.min_undercut_mm, r.max_undercut_mm
-                    )
-                };
-                return Err(err(
-                    "module.snap.undercut_mm",
-                    format!(
-                        "{} mm strains the cap's ring by {:.3} % ({}), more than its material `{}` permits ({} %); {allowed}",
-                        s.undercut_mm,
-                        r.cap_strain_percent,
-                        r.strain_model,
-                        m.cap_material,
-                        r.permissible_strain_percent,
-                    ),
-                ));
-            }
-        }
-    }
-    Ok(())
+    let allowed = if r.max_undercut_mm >= r.min_undercut_mm {
+        format!(
+            "allowed {:.4} to {:.4} mm",
+            r.min_undercut_mm, r.max_undercut_mm
+        )
+    } else {
+        format!(
+            "no undercut fits: the printer needs at least {:.4} mm and the material allows at most {:.4} mm; remove [module.snap] (a sliding fit held by the fixture), thin module.cap_wall_mm or use a cap material that permits more strain",
+            r.min_undercut_mm, r.max_undercut_mm
+        )
+    };
+    Err(err(
+        "module.snap.undercut_mm",
+        format!(
+            "{} mm strains the cap's ring by {:.3} % ({}), more than its material `{}` permits ({} %); {allowed}",
+            s.undercut_mm,
+            r.cap_strain_percent,
+            r.strain_model,
+            m.cap_material,
+            r.permissible_strain_percent,
+        ),
+    ))
 }
 
 /// The reference grating's chamber fits the insert: above the slot the reference fiber

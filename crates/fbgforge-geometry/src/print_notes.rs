@@ -3,7 +3,7 @@
 //! it (support gel in PolyJet passages, strings and sag in FDM ones). The manifest
 //! lists them; the README says the same in prose.
 
-use super::design_profile::DesignProfile;
+use super::design_profile::{DesignProfile, ModuleDims};
 use crate::spec::PrintProcess;
 use serde::Serialize;
 
@@ -30,123 +30,147 @@ pub struct PrintNote {
     pub note: String,
 }
 
-/// The notes for every fiber passage of the design's parts.
-pub fn print_notes(profile: &DesignProfile) -> Vec<PrintNote> {
-    let design = profile.design;
-    let polyjet = design.printer.process == PrintProcess::Polyjet;
-    let coated = design.fiber_routing.coated_diameter_mm;
-    let clear = |w: f64, blind: bool| -> String {
-        let wire = (w - 0.1).max(coated);
-        if polyjet {
-            if blind {
-                format!(
-                    "support gel fills it and drains only through the bore: soak the part in the support's cleaning solution (e.g. 2 % NaOH for SUP706), then flush through the bore with a syringe and a blunt needle until clear water comes back; check by passing the fiber ({coated} mm)"
-                )
-            } else if w <= SMALL_PASSAGE_MM {
-                format!(
-                    "support gel fills it and a water jet does not reach it: soak in the support's cleaning solution, then push a wire of at most {wire:.2} mm through from end to end (repeat soaking until it slides); check by passing the fiber ({coated} mm)"
-                )
-            } else {
-                "support gel fills it: water jet and soak as for the rest of the part".into()
-            }
+/// How to clear a passage `w` mm wide (`blind`: closed at one end) after printing
+/// with the design's process, checked with its coated fiber (`coated` mm).
+fn how_to_clear(w: f64, blind: bool, polyjet: bool, coated: f64) -> String {
+    let wire = (w - 0.1).max(coated);
+    if polyjet {
+        if blind {
+            format!(
+                "support gel fills it and drains only through the bore: soak the part in the support's cleaning solution (e.g. 2 % NaOH for SUP706), then flush through the bore with a syringe and a blunt needle until clear water comes back; check by passing the fiber ({coated} mm)"
+            )
         } else if w <= SMALL_PASSAGE_MM {
             format!(
-                "print without support inside it (the slicer bridges it); clear strings and sag with a drill or needle of at most {wire:.2} mm; check by passing the fiber ({coated} mm)"
+                "support gel fills it and a water jet does not reach it: soak in the support's cleaning solution, then push a wire of at most {wire:.2} mm through from end to end (repeat soaking until it slides); check by passing the fiber ({coated} mm)"
             )
         } else {
-            "print without support inside it; clear strings by hand".into()
+            "support gel fills it: water jet and soak as for the rest of the part".into()
         }
-    };
-    let mut out = Vec::new();
-    let mut note = |part: &str, feature: &str, w: f64, l: f64, count: usize, blind: bool| {
-        out.push(PrintNote {
+    } else if w <= SMALL_PASSAGE_MM {
+        format!(
+            "print without support inside it (the slicer bridges it); clear strings and sag with a drill or needle of at most {wire:.2} mm; check by passing the fiber ({coated} mm)"
+        )
+    } else {
+        "print without support inside it; clear strings by hand".into()
+    }
+}
+
+/// The notes as they are written, with what every note needs to know of the design.
+struct Notes {
+    polyjet: bool,
+    coated: f64,
+    out: Vec<PrintNote>,
+}
+
+impl Notes {
+    fn note(&mut self, part: &str, feature: &str, (w, l): (f64, f64), count: usize, blind: bool) {
+        self.out.push(PrintNote {
             part: part.into(),
             feature: feature.into(),
             width_mm: w,
             length_mm: l,
             count,
             small: w <= SMALL_PASSAGE_MM,
-            note: clear(w, blind),
+            note: how_to_clear(w, blind, self.polyjet, self.coated),
         })
-    };
-    if let Some(md) = &profile.module {
+    }
+
+    /// The module's passages: the core's holes and slot, the cap's slots, the insert's
+    /// bore, chamber and slot.
+    fn module(&mut self, md: &ModuleDims) {
         let (m, p, pp) = (md.spec, &md.profile, &md.parts);
         let w = pp.channel_width_mm;
-        note(
+        let pillars = p.pillar_angles_rad.len();
+        self.note(
             "core",
             "fiber hole through each pillar",
-            m.pillars.fiber_hole_diameter_mm,
-            p.pillar_top_mm - pp.pillar_bottom_mm,
-            p.pillar_angles_rad.len(),
+            (
+                m.pillars.fiber_hole_diameter_mm,
+                p.pillar_top_mm - pp.pillar_bottom_mm,
+            ),
+            pillars,
             false,
         );
-        note(
+        self.note(
             "core",
             "top hole through the dome",
-            m.top_hole_diameter_mm,
-            m.core_wall_mm,
+            (m.top_hole_diameter_mm, m.core_wall_mm),
             1,
             false,
         );
-        note(
+        self.note(
             "core",
             "slot in the wall's base (reference fiber)",
-            w,
-            pp.core_slot_top_mm,
+            (w, pp.core_slot_top_mm),
             1,
             false,
         );
-        note(
+        self.note(
             "cap",
             "fiber slot open to the base",
-            w,
-            pp.cap_slot_top_mm,
-            p.pillar_angles_rad.len() + 1,
+            (w, pp.cap_slot_top_mm),
+            pillars + 1,
             false,
         );
-        if !m.inserts.is_empty() {
-            let bore_top = pp
-                .reference_chamber
-                .map_or(pp.insert_slot_top_mm, |c| c.span.chamber_bottom_z_mm);
-            note(
-                "insert",
-                "bore for the reference fiber, from the base slot up",
+        if m.inserts.is_empty() {
+            return;
+        }
+        let bore_top = pp
+            .reference_chamber
+            .map_or(pp.insert_slot_top_mm, |c| c.span.chamber_bottom_z_mm);
+        self.note(
+            "insert",
+            "bore for the reference fiber, from the base slot up",
+            (
                 2.0 * pp.insert_bore_radius_mm,
                 bore_top - pp.insert_slot_top_mm,
-                1,
-                false,
-            );
-            if let Some(c) = &pp.reference_chamber {
-                note(
-                    "insert",
-                    "reference chamber at the bore's top (closed above)",
+            ),
+            1,
+            false,
+        );
+        if let Some(c) = &pp.reference_chamber {
+            self.note(
+                "insert",
+                "reference chamber at the bore's top (closed above)",
+                (
                     2.0 * c.radius_mm,
                     c.span.chamber_top_z_mm - c.span.chamber_bottom_z_mm,
-                    1,
-                    true,
-                );
-            }
-            note(
-                "insert",
-                "slot in the base (reference fiber)",
-                w,
-                pp.insert_slot_top_mm,
+                ),
                 1,
-                false,
+                true,
             );
         }
+        self.note(
+            "insert",
+            "slot in the base (reference fiber)",
+            (w, pp.insert_slot_top_mm),
+            1,
+            false,
+        );
+    }
+}
+
+/// The notes for every fiber passage of the design's parts.
+pub fn print_notes(profile: &DesignProfile) -> Vec<PrintNote> {
+    let design = profile.design;
+    let mut notes = Notes {
+        polyjet: design.printer.process == PrintProcess::Polyjet,
+        coated: design.fiber_routing.coated_diameter_mm,
+        out: Vec::new(),
+    };
+    if let Some(md) = &profile.module {
+        notes.module(md);
     }
     if let Some(a) = &profile.array {
         let l = &a.layout;
         let seat_h = a.pocket.map_or(l.mold_outer_mm.2, |q| q.bottom_z_mm) - l.slit_bottom_z_mm;
-        note(
+        notes.note(
             "mold",
             "fiber seat at each slit's bottom",
-            a.spec.mold.slit_width_mm,
-            seat_h,
+            (a.spec.mold.slit_width_mm, seat_h),
             2 * a.spec.fiber_x_mm.len(),
             false,
         );
     }
-    out
+    notes.out
 }

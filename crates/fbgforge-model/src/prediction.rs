@@ -841,6 +841,69 @@ fn case_i_k_at(
         .collect())
 }
 
+/// The model's K over the measured K, averaged over the measured gratings, minus one:
+/// falls as the contact radius grows.
+fn mean_ratio_minus_one(
+    ks: &[(String, f64)],
+    measured: &[(String, f64)],
+    config: &Configuration,
+) -> Result<f64> {
+    let mut sum = 0.0;
+    for (g, k) in measured {
+        let model = ks
+            .iter()
+            .find(|(n, _)| n == g)
+            .map(|(_, v)| *v)
+            .with_context(|| {
+                format!(
+                    "grating `{g}` is not a strain grating of {}",
+                    config.label()
+                )
+            })?;
+        sum += model / k;
+    }
+    Ok(sum / measured.len() as f64 - 1.0)
+}
+
+/// The root of `f` on a bracket `(a, f(a))`, `(b, f(b))` of opposite signs by regula
+/// falsi (Illinois), at most 40 steps: the best point found and the steps taken.
+fn illinois(
+    mut f: impl FnMut(f64) -> Result<f64>,
+    (mut a, mut fa): (f64, f64),
+    (mut b, mut fb): (f64, f64),
+) -> Result<(f64, usize)> {
+    let mut side = 0i8;
+    let mut best = (a, fa.abs());
+    let mut steps = 0;
+    for _ in 0..40 {
+        let c = (a * fb - b * fa) / (fb - fa);
+        let fc = f(c)?;
+        steps += 1;
+        if fc.abs() < best.1 {
+            best = (c, fc.abs());
+        }
+        if fc.abs() < 1e-4 || (b - a).abs() < 1e-5 * c {
+            break;
+        }
+        if fc.signum() == fb.signum() {
+            b = c;
+            fb = fc;
+            if side == -1 {
+                fa *= 0.5;
+            }
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if side == 1 {
+                fb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Ok((best.0, steps))
+}
+
 /// Fit the one contact parameter of the policy, the domes' contact radius
 /// (`[module.contact].dome_contact_radius_mm`), to measured Case I sensitivities of
 /// `config`'s gratings (`measured`: grating name, K in pm/N): the radius at which the
@@ -875,32 +938,13 @@ pub fn calibrate_contact(
     let previous = m.dome_contact_radius_mm();
     // The calibration owns the cache of its solves.
     let cache = GeometryCache::default();
-    let before = case_i_k_at(design, config, previous, fem_options, &cache)?;
+    let k_at = |r: f64| case_i_k_at(design, config, r, fem_options, &cache);
+    let before = k_at(previous)?;
     let [lo, hi] = calibration_radii_mm(m);
-    let mut evaluations = 1;
-    // Mean ratio of model to measurement, minus one: falls as the radius grows.
-    let h = |ks: &[(String, f64)]| -> Result<f64> {
-        let mut sum = 0.0;
-        for (g, k) in measured {
-            let model = ks
-                .iter()
-                .find(|(n, _)| n == g)
-                .map(|(_, v)| *v)
-                .with_context(|| {
-                    format!(
-                        "grating `{g}` is not a strain grating of {}",
-                        config.label()
-                    )
-                })?;
-            sum += model / k;
-        }
-        Ok(sum / measured.len() as f64 - 1.0)
-    };
-    let k_lo = case_i_k_at(design, config, lo, fem_options, &cache)?;
-    let k_hi = case_i_k_at(design, config, hi, fem_options, &cache)?;
-    evaluations += 2;
-    let (mut a, mut fa) = (lo, h(&k_lo)?);
-    let (mut b, mut fb) = (hi, h(&k_hi)?);
+    let h = |ks: &[(String, f64)]| mean_ratio_minus_one(ks, measured, config);
+    let k_lo = k_at(lo)?;
+    let k_hi = k_at(hi)?;
+    let (fa, fb) = (h(&k_lo)?, h(&k_hi)?);
     if fa.signum() == fb.signum() {
         let first = |ks: &[(String, f64)]| ks.first().map_or(f64::NAN, |(_, k)| *k);
         anyhow::bail!(
@@ -911,37 +955,10 @@ pub fn calibrate_contact(
             measured[0].1
         );
     }
-    let mut side = 0i8;
-    let mut best = (a, fa.abs());
-    for _ in 0..40 {
-        let c = (a * fb - b * fa) / (fb - fa);
-        let fc = h(&case_i_k_at(design, config, c, fem_options, &cache)?)?;
-        evaluations += 1;
-        if fc.abs() < best.1 {
-            best = (c, fc.abs());
-        }
-        if fc.abs() < 1e-4 || (b - a).abs() < 1e-5 * c {
-            break;
-        }
-        if fc.signum() == fb.signum() {
-            b = c;
-            fb = fc;
-            if side == -1 {
-                fa *= 0.5;
-            }
-            side = -1;
-        } else {
-            a = c;
-            fa = fc;
-            if side == 1 {
-                fb *= 0.5;
-            }
-            side = 1;
-        }
-    }
-    let radius = best.0;
-    let after = case_i_k_at(design, config, radius, fem_options, &cache)?;
-    evaluations += 1;
+    let (radius, steps) = illinois(|c| h(&k_at(c)?), (lo, fa), (hi, fb))?;
+    // The solve before, the two ends, the steps and the one after.
+    let evaluations = 1 + 2 + steps + 1;
+    let after = k_at(radius)?;
     let k_of = |ks: &[(String, f64)], g: &str| {
         ks.iter()
             .find(|(n, _)| n == g)

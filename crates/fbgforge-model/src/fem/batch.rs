@@ -56,6 +56,9 @@ struct Prepared {
     gratings: Vec<GratingPlacement>,
 }
 
+/// The distinct (geometry, materials) tasks of a batch, and each unit's task.
+type Tasks<'a> = (Vec<(usize, &'a [ElasticConstants])>, Vec<Option<usize>>);
+
 /// The batch: its units, their geometries and each request's plan.
 #[derive(Default)]
 struct Batch {
@@ -202,7 +205,7 @@ impl Batch {
         &self,
         prepared: &'a [Result<Prepared>],
         structures: &[Option<(BuiltStructure, f64)>],
-    ) -> (Vec<(usize, &'a [ElasticConstants])>, Vec<Option<usize>>) {
+    ) -> Tasks<'a> {
         let mut tasks: Vec<(usize, &[ElasticConstants])> = Vec::new();
         let task_of = self
             .units

@@ -95,8 +95,10 @@ type Terms = Vec<(usize, f64)>;
 /// the following components (by component index) with their terms.
 type DofMap = (Vec<Option<usize>>, usize, Vec<(usize, Terms)>);
 
-/// The [`DofMap`] of a problem: ties merged, supports held, interpolations resolved.
-fn dof_map(p: &Problem) -> Result<DofMap> {
+/// The components that follow others (by component index), the interpolations
+/// checked: they name existing nodes and components, finite weights, masters that
+/// follow no one, and components neither tied nor held.
+fn following_components(p: &Problem) -> Result<Vec<bool>> {
     let n = p.mesh.nodes.len() * 2;
     let mut follows = vec![false; n];
     for f in &p.interpolations {
@@ -153,6 +155,13 @@ fn dof_map(p: &Problem) -> Result<DofMap> {
             f.component
         );
     }
+    Ok(follows)
+}
+
+/// Ties merged (union–find over component indices) and supports marked on their
+/// roots: each component's parent and whether each root is held.
+fn merged_components(p: &Problem) -> Result<(Vec<usize>, Vec<bool>)> {
+    let n = p.mesh.nodes.len() * 2;
     let mut parent: Vec<usize> = (0..n).collect();
     for &(a, b, c) in &p.ties {
         if a >= p.mesh.nodes.len() || b >= p.mesh.nodes.len() || c > 1 {
@@ -171,6 +180,14 @@ fn dof_map(p: &Problem) -> Result<DofMap> {
         let r = find(&mut parent, 2 * node + c);
         fixed_root[r] = true;
     }
+    Ok((parent, fixed_root))
+}
+
+/// The [`DofMap`] of a problem: ties merged, supports held, interpolations resolved.
+fn dof_map(p: &Problem) -> Result<DofMap> {
+    let n = p.mesh.nodes.len() * 2;
+    let follows = following_components(p)?;
+    let (mut parent, fixed_root) = merged_components(p)?;
     // Only unknowns that some element touches get a number (unused nodes stay out).
     let mut used = vec![false; n];
     for e in &p.mesh.elements {
@@ -183,10 +200,7 @@ fn dof_map(p: &Problem) -> Result<DofMap> {
     let mut map = vec![None; n];
     let mut count = 0;
     for i in 0..n {
-        if !used[i] {
-            continue;
-        }
-        if follows[i] {
+        if !used[i] || follows[i] {
             continue;
         }
         let r = find(&mut parent, i);
@@ -288,51 +302,12 @@ impl Problem {
         if n == 0 {
             bail!("the problem has no free unknowns");
         }
-        let terms_of = |i: usize| -> Option<&Terms> {
-            following
-                .binary_search_by_key(&i, |t| t.0)
-                .ok()
-                .map(|k| &following[k].1)
+        let numbering = Numbering {
+            map: &map,
+            following: &following,
         };
-        let elem_dofs: Vec<[Option<usize>; 18]> = self
-            .mesh
-            .elements
-            .iter()
-            .map(|e| {
-                let mut d = [None; 18];
-                for (k, &nd) in e.nodes.iter().enumerate() {
-                    d[2 * k] = map[2 * nd];
-                    d[2 * k + 1] = map[2 * nd + 1];
-                }
-                d
-            })
-            .collect();
-        // Every unknown an element couples, a following component's masters included
-        // (at most 3 per component).
-        let elem_unknowns: Vec<[Option<usize>; 54]> = self
-            .mesh
-            .elements
-            .iter()
-            .zip(&elem_dofs)
-            .map(|(e, d)| {
-                let mut u = [None; 54];
-                let mut k = 0;
-                for (local, &nd) in e.nodes.iter().enumerate() {
-                    for c in 0..2 {
-                        if let Some(i) = d[2 * local + c] {
-                            u[k] = Some(i);
-                            k += 1;
-                        } else if let Some(terms) = terms_of(2 * nd + c) {
-                            for &(i, _) in terms {
-                                u[k] = Some(i);
-                                k += 1;
-                            }
-                        }
-                    }
-                }
-                u
-            })
-            .collect();
+        let elem_dofs = numbering.element_dofs(&self.mesh);
+        let elem_unknowns = numbering.element_unknowns(&self.mesh, &elem_dofs);
         let pattern = LowerPattern::from_elements(n, &elem_unknowns);
         if pattern.nonzeros() >= u32::MAX as usize {
             bail!(
@@ -340,23 +315,52 @@ impl Problem {
                 pattern.nonzeros()
             );
         }
+        let entries = self.element_entries(&numbering, &elem_dofs, &pattern)?;
+        let symbolic = solver.analyse(&pattern)?;
+        Ok(ProblemStructure {
+            map,
+            following,
+            spread: entries.spread,
+            unknowns: n,
+            nodes: self.mesh.nodes.len(),
+            pattern,
+            element_material: self.mesh.elements.iter().map(|e| e.material).collect(),
+            slots: entries.slots,
+            shear: entries.shear,
+            bulk: entries.bulk,
+            symbolic,
+            solver: solver.name(),
+        })
+    }
+
+    /// Where each element's upper-triangle entries land in `pattern`, with their
+    /// stiffness per unit shear and bulk modulus; entries that involve a following
+    /// component spread over its masters' unknowns.
+    fn element_entries(
+        &self,
+        numbering: &Numbering,
+        elem_dofs: &[[Option<usize>; 18]],
+        pattern: &LowerPattern,
+    ) -> Result<ElementEntries> {
         let ne = self.mesh.elements.len();
-        let mut slots = Vec::with_capacity(ne * ELEMENT_ENTRIES);
-        let mut shear = Vec::with_capacity(ne * ELEMENT_ENTRIES);
-        let mut bulk = Vec::with_capacity(ne * ELEMENT_ENTRIES);
-        let mut spread = Vec::new();
+        let mut out = ElementEntries {
+            slots: Vec::with_capacity(ne * ELEMENT_ENTRIES),
+            shear: Vec::with_capacity(ne * ELEMENT_ENTRIES),
+            bulk: Vec::with_capacity(ne * ELEMENT_ENTRIES),
+            spread: Vec::new(),
+        };
         let slot_of = |p: usize, q: usize| -> u32 {
             pattern
                 .position(p.max(q), p.min(q))
                 .expect("every element entry is in the pattern") as u32
         };
-        for (ei, (e, d)) in self.mesh.elements.iter().zip(&elem_dofs).enumerate() {
+        for (ei, (e, d)) in self.mesh.elements.iter().zip(elem_dofs).enumerate() {
             let parts = element::stiffness_parts(&self.mesh.element_coords(e), self.formulation)?;
             // Each local component as terms (a plain unknown is one term of weight 1).
             // (An array of references: no allocation for the elements without one.)
             let local_terms: [Option<&Terms>; 18] = std::array::from_fn(|k| match d[k] {
                 Some(_) => None,
-                None => terms_of(2 * e.nodes[k / 2] + k % 2),
+                None => numbering.terms_of(2 * e.nodes[k / 2] + k % 2),
             });
             for a in 0..18 {
                 for c in a..18 {
@@ -374,7 +378,7 @@ impl Problem {
                             let partners = if a == c { &tc[x..] } else { &tc[..] };
                             for &(q, wq) in partners {
                                 let m = if a != c && p == q { 2.0 } else { 1.0 };
-                                spread.push((
+                                out.spread.push((
                                     slot_of(p, q),
                                     ei as u32,
                                     m * wp * wq * parts.shear[a][c],
@@ -382,9 +386,9 @@ impl Problem {
                                 ));
                             }
                         }
-                        slots.push(u32::MAX);
-                        shear.push(0.0);
-                        bulk.push(0.0);
+                        out.slots.push(u32::MAX);
+                        out.shear.push(0.0);
+                        out.bulk.push(0.0);
                         continue;
                     }
                     let (slot, twice) = match (d[a], d[c]) {
@@ -392,28 +396,87 @@ impl Problem {
                         _ => (u32::MAX, false),
                     };
                     let m = if twice { 2.0 } else { 1.0 };
-                    slots.push(slot);
-                    shear.push(m * parts.shear[a][c]);
-                    bulk.push(m * parts.bulk[a][c]);
+                    out.slots.push(slot);
+                    out.shear.push(m * parts.shear[a][c]);
+                    out.bulk.push(m * parts.bulk[a][c]);
                 }
             }
         }
-        let symbolic = solver.analyse(&pattern)?;
-        Ok(ProblemStructure {
-            map,
-            following,
-            spread,
-            unknowns: n,
-            nodes: self.mesh.nodes.len(),
-            pattern,
-            element_material: self.mesh.elements.iter().map(|e| e.material).collect(),
-            slots,
-            shear,
-            bulk,
-            symbolic,
-            solver: solver.name(),
-        })
+        Ok(out)
     }
+}
+
+/// A problem's numbering of its unknowns, as the elements read it.
+struct Numbering<'a> {
+    /// Each component's unknown.
+    map: &'a [Option<usize>],
+    /// The following components with their terms, by component index.
+    following: &'a [(usize, Terms)],
+}
+
+impl Numbering<'_> {
+    /// The terms of a following component.
+    fn terms_of(&self, i: usize) -> Option<&Terms> {
+        self.following
+            .binary_search_by_key(&i, |t| t.0)
+            .ok()
+            .map(|k| &self.following[k].1)
+    }
+
+    /// Each element's 18 components' unknowns.
+    fn element_dofs(&self, mesh: &Mesh) -> Vec<[Option<usize>; 18]> {
+        mesh.elements
+            .iter()
+            .map(|e| {
+                let mut d = [None; 18];
+                for (k, &nd) in e.nodes.iter().enumerate() {
+                    d[2 * k] = self.map[2 * nd];
+                    d[2 * k + 1] = self.map[2 * nd + 1];
+                }
+                d
+            })
+            .collect()
+    }
+
+    /// Every unknown an element couples, a following component's masters included
+    /// (at most 3 per component).
+    fn element_unknowns(
+        &self,
+        mesh: &Mesh,
+        elem_dofs: &[[Option<usize>; 18]],
+    ) -> Vec<[Option<usize>; 54]> {
+        mesh.elements
+            .iter()
+            .zip(elem_dofs)
+            .map(|(e, d)| {
+                let mut u = [None; 54];
+                let mut k = 0;
+                for (local, &nd) in e.nodes.iter().enumerate() {
+                    for c in 0..2 {
+                        if let Some(i) = d[2 * local + c] {
+                            u[k] = Some(i);
+                            k += 1;
+                        } else if let Some(terms) = self.terms_of(2 * nd + c) {
+                            for &(i, _) in terms {
+                                u[k] = Some(i);
+                                k += 1;
+                            }
+                        }
+                    }
+                }
+                u
+            })
+            .collect()
+    }
+}
+
+/// Each element's upper-triangle entries: where they land, their stiffness per unit
+/// moduli, and those spread over a following component's masters.
+struct ElementEntries {
+    slots: Vec<u32>,
+    shear: Vec<f64>,
+    bulk: Vec<f64>,
+    spread: Vec<(u32, u32, f64, f64)>,
 }
 
 impl ProblemStructure {

@@ -36,8 +36,9 @@ impl ModuleProblem {
         self.evaluate_design(x, &d)
     }
 
-    /// Evaluate a built candidate design.
-    pub fn evaluate_design(&self, x: &[f64], d: &Design) -> Evaluation {
+    /// The geometric constraints of a candidate: printer walls, fit clearances, the
+    /// profile's rules and, when those hold, the spec's own validation.
+    fn geometry_constraints(&self, d: &Design) -> Vec<ConstraintValue> {
         let m = d.module.as_ref().expect("candidate has a module");
         let min_wall = d.printer.min_wall_mm;
         let mut cons = Vec::new();
@@ -64,8 +65,7 @@ impl ModuleProblem {
             push(&mut cons, v.rule, v.requirement, v.excess, v.detail);
         }
         // Everything the spec itself checks (a design that fails here would not load).
-        let spec_violation = cons.iter().all(|c| c.violation <= 0.0);
-        if spec_violation {
+        if cons.iter().all(|c| c.violation <= 0.0) {
             if let Err(e) = d.validate() {
                 push(
                     &mut cons,
@@ -76,75 +76,78 @@ impl ModuleProblem {
                 );
             }
         }
-        let mut objective = 0.0;
-        let mut nominal_objective = 0.0;
-        let mut gratings = Vec::new();
-        let mut readings = Vec::new();
-        let mut objectives = None;
-        if cons.iter().all(|c| c.violation <= 0.0) {
-            // The estimate with the trust region's correction, and its trend without.
-            let preds = (self.model)(d, self.settings.max_force_n).map(|trend| {
+        cons
+    }
+
+    /// The model's prediction of a valid candidate with its Q breakdown: the estimate
+    /// with the trust region's correction, its trend without, and the per-grating
+    /// quality; or why the model could not predict it.
+    #[allow(clippy::type_complexity)]
+    fn predicted(
+        &self,
+        x: &[f64],
+        d: &Design,
+    ) -> Result<(Vec<GratingPrediction>, Vec<GratingPrediction>, Vec<QualityBreakdown>), String> {
+        let (preds, trend) = (self.model)(d, self.settings.max_force_n)
+            .map(|trend| {
                 let mut preds = trend.clone();
                 if let Some(c) = &self.correction {
                     c.apply(x, &mut preds);
                 }
                 (preds, trend)
-            });
-            match preds {
-                Err(e) => push(
+            })
+            .map_err(|e| format!("{e:#}"))?;
+        let q = design_quality(
+            d,
+            &preds,
+            &self.lib,
+            &self.core_name,
+            self.insert_name.as_deref(),
+            &self.settings.quality,
+            &self.calibration,
+        )
+        .map_err(|e| format!("{e:#}"))?;
+        if q.is_empty() {
+            return Err("no strain grating predicted".into());
+        }
+        Ok((preds, trend, q))
+    }
+
+    /// Evaluate a built candidate design.
+    pub fn evaluate_design(&self, x: &[f64], d: &Design) -> Evaluation {
+        let mut cons = self.geometry_constraints(d);
+        let mut e = Evaluation {
+            x: x.to_vec(),
+            objective: 0.0,
+            nominal_objective: 0.0,
+            exact: self.is_exact_at(x),
+            gratings: Vec::new(),
+            readings: Vec::new(),
+            objectives: None,
+            constraints: Vec::new(),
+        };
+        if cons.iter().all(|c| c.violation <= 0.0) {
+            match self.predicted(x, d) {
+                Err(why) => push(
                     &mut cons,
                     "model",
                     "the model predicts the design".into(),
                     1.0,
-                    format!("{e:#}"),
+                    why,
                 ),
-                Ok((preds, trend)) => {
-                    match design_quality(
-                        d,
-                        &preds,
-                        &self.lib,
-                        &self.core_name,
-                        self.insert_name.as_deref(),
-                        &self.settings.quality,
-                        &self.calibration,
-                    ) {
-                        Err(e) => push(
-                            &mut cons,
-                            "model",
-                            "the model predicts the design".into(),
-                            1.0,
-                            format!("{e:#}"),
-                        ),
-                        Ok(q) if q.is_empty() => push(
-                            &mut cons,
-                            "model",
-                            "the model predicts the design".into(),
-                            1.0,
-                            "no strain grating predicted".into(),
-                        ),
-                        Ok(q) => {
-                            let scored = self.score(d, &preds, &trend, &q);
-                            objective = scored.objective;
-                            nominal_objective = scored.nominal_objective;
-                            objectives = Some(scored.front);
-                            self.physics_constraints(d, &scored.rows, &mut cons);
-                            readings = scored.rows.into_iter().map(|r| r.readings).collect();
-                            gratings = q;
-                        }
-                    }
+                Ok((preds, trend, q)) => {
+                    let scored = self.score(d, &preds, &trend, &q);
+                    e.objective = scored.objective;
+                    e.nominal_objective = scored.nominal_objective;
+                    e.objectives = Some(scored.front);
+                    self.physics_constraints(d, &scored.rows, &mut cons);
+                    e.readings = scored.rows.into_iter().map(|r| r.readings).collect();
+                    e.gratings = q;
                 }
             }
         }
-        Evaluation {
-            x: x.to_vec(),
-            objective,
-            nominal_objective,
-            exact: self.is_exact_at(x),
-            gratings,
-            readings,
-            objectives,
-            constraints: cons,
-        }
+        e.constraints = cons;
+        e
     }
 
     /// Each grating's room in its wavelength window for a shift of sign `sign`, pm

@@ -136,6 +136,124 @@ pub struct ModuleProblem {
     x0: Vec<f64>,
 }
 
+/// The start design as `choice` makes it: its first core in the choice's material, the
+/// choice's insert (or none), the gratings of that core and the reference, the
+/// materials it uses (from the design, else the library); with the core's name and
+/// the gratings' wavelength windows.
+#[allow(clippy::type_complexity)]
+fn template_for(
+    base: &Design,
+    choice: &Choice,
+    lib: &MaterialLibrary,
+    settings: &ModuleSettings,
+) -> anyhow::Result<(Design, String, Vec<(String, f64, f64)>)> {
+    let m = module_of(base)?;
+    let core0 = m
+        .cores
+        .first()
+        .ok_or_else(|| anyhow::anyhow!("the design lists no core"))?;
+    let mut t = base.clone();
+    let tm = t.module.as_mut().expect("checked above");
+    // The family rule: every candidate keeps the start's contact ratios.
+    tm.restate_contact_relative();
+    for key in std::iter::once(&choice.core_material).chain(choice.insert_material.iter()) {
+        if !t.materials.contains_key(key) {
+            let lm = lib.materials.get(key).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "unknown material `{key}`: neither the design nor the material library has it (library: {})",
+                    lib.materials.keys().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })?;
+            t.materials.insert(key.clone(), lm.to_spec_material());
+        }
+    }
+    tm.cores = vec![Core {
+        name: core0.name.clone(),
+        material: choice.core_material.clone(),
+    }];
+    tm.inserts = choice
+        .insert_material
+        .iter()
+        .map(|k| Insert {
+            name: k.clone(),
+            material: k.clone(),
+        })
+        .collect();
+    tm.gratings.retain(|g| {
+        g.role == GratingRole::TemperatureReference
+            || g.core.as_deref() == Some(core0.name.as_str())
+    });
+    if !tm.gratings.iter().any(|g| g.role == GratingRole::Strain) {
+        anyhow::bail!(
+            "core `{}` carries no strain grating: nothing to optimise",
+            core0.name
+        );
+    }
+    // Keep only the materials the new design uses, so the written TOML is tidy.
+    let used: Vec<String> = std::iter::once(tm.cap_material.clone())
+        .chain(tm.cores.iter().map(|c| c.material.clone()))
+        .chain(tm.inserts.iter().map(|i| i.material.clone()))
+        .collect();
+    let windows_nm = wavelength_windows(tm, settings.guard_band_nm, settings.band_nm);
+    t.materials.retain(|k, _| used.contains(k));
+    Ok((t, core0.name.clone(), windows_nm))
+}
+
+/// The search box of the varied variables: each one's default range around the start
+/// module (or the settings' bounds), checked; every bound names a varied variable.
+fn search_box(
+    m: &Module,
+    settings: &ModuleSettings,
+    min_wall: f64,
+) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
+    let mut lo = Vec::new();
+    let mut hi = Vec::new();
+    for &v in &settings.vary {
+        let (mut l, mut h) = v.default_bounds(m, min_wall);
+        if let Some(&(_, ul, uh)) = settings.bounds.iter().find(|b| b.0 == v) {
+            l = ul;
+            h = uh;
+        }
+        if l >= h || l.is_nan() || h.is_nan() {
+            anyhow::bail!(
+                "contradictory bounds for `{}`: lower {l} is not below upper {h}",
+                v.name()
+            );
+        }
+        if matches!(v, Variable::CapWallMm | Variable::CoreWallMm) && h < min_wall {
+            anyhow::bail!(
+                "bounds for `{}` ({l}..{h} mm) lie below the printer's minimum wall {min_wall} mm: constraint `printer_min_wall` cannot be met",
+                v.name()
+            );
+        }
+        if matches!(v, Variable::CapWallMm | Variable::CoreWallMm) {
+            l = l.max(min_wall);
+        }
+        if v == Variable::DomeHeightRatio {
+            anyhow::ensure!(
+                l > 0.0 && h <= 1.0,
+                "bounds for `dome_height_ratio` must lie in (0, 1], got {l}..{h}"
+            );
+        }
+        anyhow::ensure!(
+            l > 0.0,
+            "bounds for `{}` must be positive, got {l}..{h}",
+            v.name()
+        );
+        lo.push(l);
+        hi.push(h);
+    }
+    for (v, _, _) in &settings.bounds {
+        if !settings.vary.contains(v) {
+            anyhow::bail!(
+                "a bound is given for `{}`, which is not in ModuleSettings.vary",
+                v.name()
+            );
+        }
+    }
+    Ok((lo, hi))
+}
+
 impl ModuleProblem {
     /// Set up the problem for `choice` from the start design.
     pub fn new(
@@ -146,111 +264,17 @@ impl ModuleProblem {
         calibration: Calibration,
         predictor: Predictor,
     ) -> anyhow::Result<Self> {
-        let m = module_of(base)?;
-        let core0 = m
-            .cores
-            .first()
-            .ok_or_else(|| anyhow::anyhow!("the design lists no core"))?;
-        let mut t = base.clone();
-        let tm = t.module.as_mut().expect("checked above");
-        // The family rule: every candidate keeps the start's contact ratios.
-        tm.restate_contact_relative();
-        for key in std::iter::once(&choice.core_material).chain(choice.insert_material.iter()) {
-            if !t.materials.contains_key(key) {
-                let lm = lib.materials.get(key).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "unknown material `{key}`: neither the design nor the material library has it (library: {})",
-                        lib.materials.keys().cloned().collect::<Vec<_>>().join(", ")
-                    )
-                })?;
-                t.materials.insert(key.clone(), lm.to_spec_material());
-            }
-        }
-        tm.cores = vec![Core {
-            name: core0.name.clone(),
-            material: choice.core_material.clone(),
-        }];
-        let insert_name = choice.insert_material.clone();
-        tm.inserts = insert_name
-            .iter()
-            .map(|k| Insert {
-                name: k.clone(),
-                material: k.clone(),
-            })
-            .collect();
-        tm.gratings.retain(|g| {
-            g.role == GratingRole::TemperatureReference
-                || g.core.as_deref() == Some(core0.name.as_str())
-        });
-        if !tm.gratings.iter().any(|g| g.role == GratingRole::Strain) {
-            anyhow::bail!(
-                "core `{}` carries no strain grating: nothing to optimise",
-                core0.name
-            );
-        }
-        // Keep only the materials the new design uses, so the written TOML is tidy.
-        let used: Vec<String> = std::iter::once(tm.cap_material.clone())
-            .chain(tm.cores.iter().map(|c| c.material.clone()))
-            .chain(tm.inserts.iter().map(|i| i.material.clone()))
-            .collect();
-        let windows_nm = wavelength_windows(tm, settings.guard_band_nm, settings.band_nm);
-        t.materials.retain(|k, _| used.contains(k));
-
-        let min_wall = base.printer.min_wall_mm;
-        let mut lo = Vec::new();
-        let mut hi = Vec::new();
-        for &v in &settings.vary {
-            let (mut l, mut h) = v.default_bounds(m, min_wall);
-            if let Some(&(_, ul, uh)) = settings.bounds.iter().find(|b| b.0 == v) {
-                l = ul;
-                h = uh;
-            }
-            if l >= h || l.is_nan() || h.is_nan() {
-                anyhow::bail!(
-                    "contradictory bounds for `{}`: lower {l} is not below upper {h}",
-                    v.name()
-                );
-            }
-            if matches!(v, Variable::CapWallMm | Variable::CoreWallMm) && h < min_wall {
-                anyhow::bail!(
-                    "bounds for `{}` ({l}..{h} mm) lie below the printer's minimum wall {min_wall} mm: constraint `printer_min_wall` cannot be met",
-                    v.name()
-                );
-            }
-            if matches!(v, Variable::CapWallMm | Variable::CoreWallMm) {
-                l = l.max(min_wall);
-            }
-            if v == Variable::DomeHeightRatio {
-                anyhow::ensure!(
-                    l > 0.0 && h <= 1.0,
-                    "bounds for `dome_height_ratio` must lie in (0, 1], got {l}..{h}"
-                );
-            }
-            anyhow::ensure!(
-                l > 0.0,
-                "bounds for `{}` must be positive, got {l}..{h}",
-                v.name()
-            );
-            lo.push(l);
-            hi.push(h);
-        }
-        for (v, _, _) in &settings.bounds {
-            if !settings.vary.contains(v) {
-                anyhow::bail!(
-                    "a bound is given for `{}`, which is not in ModuleSettings.vary",
-                    v.name()
-                );
-            }
-        }
+        let (template, core_name, windows_nm) = template_for(base, &choice, lib, settings)?;
+        let (lo, hi) = search_box(module_of(base)?, settings, base.printer.min_wall_mm)?;
         let mut p = ModuleProblem {
-            core_name: core0.name.clone(),
-            insert_name,
+            core_name,
+            insert_name: choice.insert_material.clone(),
             choice,
             variables: settings.vary.clone(),
             lo,
             hi,
             base: base.clone(),
-            template: t,
+            template,
             lib: lib.clone(),
             settings: settings.clone(),
             calibration,

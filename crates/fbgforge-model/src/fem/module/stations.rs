@@ -113,24 +113,13 @@ impl Stations {
     }
 }
 
-pub(super) fn make_stations(
-    p: &ModuleProfile,
-    h: f64,
-    h_dome: f64,
-    fiber_r: f64,
-    patch_r: f64,
-    clip_mm: Option<f64>,
-) -> Result<Stations> {
-    let zc = p.dome_center_z_mm;
-    if zc <= 0.0 {
-        bail!(
-            "the finite-element mesher needs the dome centre above the base (dome centre at z = {zc:.3} mm): use a taller module or a higher dome"
-        );
-    }
-    // Element boundaries along the cylinders: uniform, with one on the clip band's top
-    // edge when there is one, so the bonded band ends on a node and K varies
-    // continuously with every dimension (a band edge between nodes jumps from node to
-    // node as the module changes).
+/// The stations along the cylinders, from the base up to the dome centre `zc`: element
+/// boundaries uniform at about `h`, with one on the clip band's top edge when there
+/// is one, so the bonded band ends on a node and K varies continuously with every
+/// dimension (a band edge between nodes jumps from node to node as the module
+/// changes). Returns the stations (boundaries and midpoints), the boundaries, and the
+/// doubled index of every break point (the ends of the windows meshed uniformly).
+fn cylinder_stations(zc: f64, h: f64, clip_mm: Option<f64>) -> (Vec<Station>, Vec<f64>, Vec<usize>) {
     let mut z_breaks: Vec<f64> = Vec::new();
     let mut segment = |z0: f64, z1: f64, min: usize| {
         let n = (((z1 - z0) / h).ceil() as usize).max(min);
@@ -139,7 +128,6 @@ pub(super) fn make_stations(
         }
         n
     };
-    // Doubled index of every break point (the ends of the windows meshed uniformly).
     let mut break_indices = vec![0];
     match clip_mm.filter(|c| *c > 0.0 && *c < zc) {
         Some(c) => {
@@ -158,8 +146,16 @@ pub(super) fn make_stations(
         st.push(Station::Z(0.5 * (w[0] + w[1])));
     }
     st.push(Station::Z(zc));
-    let j_seam = st.len() - 1;
-    break_indices.push(j_seam);
+    break_indices.push(st.len() - 1);
+    (st, z_breaks, break_indices)
+}
+
+/// The rays (angles above the dome centre's plane) the dome's stations break at: the
+/// ring top (`theta_p`), 45°, the apex contact patch's edge (`theta_c`), the core's
+/// top hole (`theta_h`), the axis, and every wall's cylinder-to-sphere corner below
+/// the patch; sorted, with `(theta_p, theta_c, theta_h)`.
+fn dome_breaks(p: &ModuleProfile, fiber_r: f64, patch_r: f64) -> (Vec<f64>, [f64; 3]) {
+    let zc = p.dome_center_z_mm;
     // Ring top: the ray through the fiber radius at the pillar top.
     // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
     // onto their spheres, so the rings stay on the cylinders.
@@ -206,6 +202,26 @@ pub(super) fn make_stations(
     }
     breaks.sort_by(|a, b| a.total_cmp(b));
     breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+    (breaks, [theta_p, theta_c, theta_h])
+}
+
+pub(super) fn make_stations(
+    p: &ModuleProfile,
+    h: f64,
+    h_dome: f64,
+    fiber_r: f64,
+    patch_r: f64,
+    clip_mm: Option<f64>,
+) -> Result<Stations> {
+    let zc = p.dome_center_z_mm;
+    if zc <= 0.0 {
+        bail!(
+            "the finite-element mesher needs the dome centre above the base (dome centre at z = {zc:.3} mm): use a taller module or a higher dome"
+        );
+    }
+    let (mut st, z_breaks, mut break_indices) = cylinder_stations(zc, h, clip_mm);
+    let j_seam = st.len() - 1;
+    let (breaks, [theta_p, theta_c, theta_h]) = dome_breaks(p, fiber_r, patch_r);
     let rho_ref = p.cap_dome_outer_sphere_radius_mm;
     let mut idx = HashMap::new();
     for w in breaks.windows(2) {
