@@ -76,7 +76,7 @@ pub fn field_names(message: &str) -> Vec<String> {
 
 /// The endings of the type names whose fields an error may name: a use case's request,
 /// and the options, settings and configurations it carries.
-pub const REQUEST_SUFFIXES: [&str; 5] = ["Request", "Options", "Settings", "Config", "Args"];
+pub(crate) const REQUEST_SUFFIXES: [&str; 5] = ["Request", "Options", "Settings", "Config", "Args"];
 
 fn is_ident(b: u8) -> bool {
     b.is_ascii_alphanumeric() || b == b'_'

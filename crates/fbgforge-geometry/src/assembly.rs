@@ -102,7 +102,7 @@ impl<'a> Solid<'a> {
     }
 
     /// Distance from `p` to the surface, if it is below `within` (else None).
-    pub fn distance_within(&self, p: P3, within: f64) -> Option<f64> {
+    pub(crate) fn distance_within(&self, p: P3, within: f64) -> Option<f64> {
         let mut best: Option<f64> = None;
         for (k, (lo, hi)) in self.boxes.iter().enumerate() {
             let lim = best.unwrap_or(within);
@@ -270,7 +270,7 @@ pub fn trace_fibers(design: &Design, parts: &[BuiltPart]) -> Result<Vec<FiberTra
 }
 
 /// [`trace_fibers`] from dimensions already derived.
-pub fn trace_fibers_for(
+pub(crate) fn trace_fibers_for(
     profile: &DesignProfile,
     parts: &[BuiltPart],
 ) -> Result<Vec<FiberTrace>, RouteError> {

@@ -29,7 +29,7 @@ fn cell(p: Point3) -> [i64; 3] {
 
 /// Geometry of one edge, given by the caller; the registry makes the truck curve.
 #[derive(Debug, Clone, Copy)]
-pub enum Seg {
+pub(crate) enum Seg {
     /// Straight line from the first to the second point.
     Line(Point3, Point3),
     /// Circle arc from the first point through the second (transit) to the third.
@@ -87,7 +87,7 @@ pub enum BrepError {
 
 /// Registry of vertices and edges plus the faces built so far for one part.
 #[derive(Debug)]
-pub struct Assembler {
+pub(crate) struct Assembler {
     part: String,
     /// Vertices by grid cell (points within [`SAME_POINT_MM`] are one vertex).
     grid: HashMap<[i64; 3], Vec<usize>>,
@@ -242,7 +242,7 @@ impl Assembler {
     /// `sphere_center` for a spherical patch and the axis (at the point's height)
     /// for a cylindrical one.
     #[allow(clippy::too_many_arguments)]
-    pub fn revolved(
+    pub(crate) fn revolved(
         &mut self,
         name: &str,
         loops: &[Vec<Seg>],

@@ -105,7 +105,7 @@ impl ModuleDims<'_> {
     /// the order the construction needs. The spec's validation should already
     /// guarantee these; this keeps the builders from panicking on a design that slips
     /// through.
-    pub fn check_buildable(&self) -> Result<(), SpecError> {
+    pub(crate) fn check_buildable(&self) -> Result<(), SpecError> {
         let p = &self.profile;
         let e = |field: &str, msg: String| crate::spec::err(field, msg);
         let radii = [

@@ -15,7 +15,7 @@ use truck_modeling::Solid;
 use truck_stepio::out;
 
 /// Binary STL of a mesh (f32 coordinates, mm).
-pub fn stl_bytes(part: &BuiltPart) -> Result<Vec<u8>> {
+pub(crate) fn stl_bytes(part: &BuiltPart) -> Result<Vec<u8>> {
     let m = &part.mesh;
     let tris: Vec<stl_io::Triangle> = m
         .triangles
@@ -35,7 +35,7 @@ pub fn stl_bytes(part: &BuiltPart) -> Result<Vec<u8>> {
 
 /// The STEP schema the files declare: AP214 (automotive design), which the data
 /// section's APPLICATION_PROTOCOL_DEFINITION ('automotive_design', 2000) already names.
-pub const STEP_SCHEMA: &str = "AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }";
+pub(crate) const STEP_SCHEMA: &str = "AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }";
 
 /// STEP (AP214 B-rep) text of a part's solid.
 ///
@@ -43,13 +43,13 @@ pub const STEP_SCHEMA: &str = "AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }";
 /// (a part number, not a schema name) and the author and organisation of FILE_NAME as
 /// nested lists `(('')),`, which OpenCASCADE counts as two unresolved references. The
 /// header is therefore written here; the data section is truck's.
-pub fn step_text(part: &BuiltPart, design_name: &str) -> String {
+pub(crate) fn step_text(part: &BuiltPart, design_name: &str) -> String {
     step_text_of(&[&part.solid], &part.name, design_name)
 }
 
 /// STEP text of several solids in one file (the assembled module: each part a
 /// MANIFOLD_SOLID_BREP, in place), named `name` in its header.
-pub fn step_text_of(solids: &[&Solid], name: &str, design_name: &str) -> String {
+pub(crate) fn step_text_of(solids: &[&Solid], name: &str, design_name: &str) -> String {
     let compressed: Vec<_> = solids.iter().map(|s| s.compress()).collect();
     let text = out::CompleteStepDisplay::new(
         compressed.iter().collect::<out::StepModels<_, _, _>>(),
@@ -239,7 +239,7 @@ const PALETTE: [&str; 10] = [
 ];
 
 /// Every material of the design with its display colour.
-pub fn manifest_materials(design: &crate::spec::Design) -> BTreeMap<String, ManifestMaterial> {
+pub(crate) fn manifest_materials(design: &crate::spec::Design) -> BTreeMap<String, ManifestMaterial> {
     design
         .materials
         .iter()

@@ -133,7 +133,7 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
 }
 
 /// Gaps at or below this are a press fit (designed touching), mm.
-pub const PRESS_FIT_MM: f64 = 1e-9;
+pub(crate) const PRESS_FIT_MM: f64 = 1e-9;
 
 /// The bead's (r, z) profile from the lead-in to the retention cone's top (empty
 /// without a snap).
@@ -172,7 +172,7 @@ pub struct Passage {
 /// bend's start, a quarter circle of radius `bend` outward, then horizontal at the
 /// exit height out to `s_out`.
 #[derive(Debug, Clone, Copy)]
-pub struct Centreline {
+pub(crate) struct Centreline {
     /// Radius of the vertical run, mm.
     pub r0: f64,
     /// Top of the path (the grating's upper end, or the reference fiber's tip), mm.
@@ -195,8 +195,9 @@ impl Centreline {
         )
     }
 
-    /// Distance from a point of the plane, mm.
-    pub fn distance_to_point(&self, q: P2) -> f64 {
+    /// Distance from a point of the plane, mm (the tests' check of the closed form).
+    #[cfg(test)]
+    fn distance_to_point(&self, q: P2) -> f64 {
         let (v, (c, r), h) = self.pieces();
         point_segment(q, v)
             .min(point_arc(q, c, r))
@@ -204,7 +205,7 @@ impl Centreline {
     }
 
     /// Distance from a segment of the plane, mm.
-    pub fn distance_to_segment(&self, a: P2, b: P2) -> f64 {
+    pub(crate) fn distance_to_segment(&self, a: P2, b: P2) -> f64 {
         let (v, (c, r), h) = self.pieces();
         segment_segment((a, b), v)
             .min(segment_arc((a, b), c, r))
@@ -212,7 +213,7 @@ impl Centreline {
     }
 
     /// Distance from a polyline of the plane, mm.
-    pub fn distance_to_polyline(&self, pts: &[P2]) -> f64 {
+    pub(crate) fn distance_to_polyline(&self, pts: &[P2]) -> f64 {
         pts.windows(2)
             .map(|w| self.distance_to_segment(w[0], w[1]))
             .fold(f64::INFINITY, f64::min)
@@ -232,7 +233,7 @@ fn len(a: P2) -> f64 {
 }
 
 /// Distance from `q` to segment `s`.
-pub fn point_segment(q: P2, s: Seg2) -> f64 {
+pub(crate) fn point_segment(q: P2, s: Seg2) -> f64 {
     let d = sub(s.1, s.0);
     let l2 = dot(d, d);
     let t = if l2 > 0.0 {
@@ -248,7 +249,7 @@ fn cross(a: P2, b: P2) -> f64 {
 }
 
 /// Distance between two segments (0 when they cross).
-pub fn segment_segment(s: Seg2, u: Seg2) -> f64 {
+pub(crate) fn segment_segment(s: Seg2, u: Seg2) -> f64 {
     let (d1, d2) = (sub(s.1, s.0), sub(u.1, u.0));
     let den = cross(d1, d2);
     if den.abs() > 1e-15 {
@@ -543,7 +544,7 @@ pub fn fiber_passages(profile: &DesignProfile) -> Vec<FiberPassages> {
 /// The fits and passages of a module on exact dimensions; an error names the field
 /// of the first fit that overlaps or the first passage the coated fiber does not get
 /// through.
-pub fn check_exact(
+pub(crate) fn check_exact(
     profile: &DesignProfile,
 ) -> Result<(Vec<FitGap>, Vec<FiberPassages>), SpecError> {
     let Some(md) = &profile.module else {

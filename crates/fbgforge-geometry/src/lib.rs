@@ -147,7 +147,7 @@ pub fn build_solids(
 
 /// [`build_solids`] from dimensions already derived. Parts of one kind share a solid:
 /// the inserts differ only in material.
-pub fn build_solids_for(
+pub(crate) fn build_solids_for(
     profile: &DesignProfile,
     selection: Option<&[String]>,
 ) -> Result<Vec<PartSolid>, GeometryError> {
@@ -180,18 +180,18 @@ pub fn build_solids_for(
 
 /// The volume bound applied at tolerance `tol_mm` for a printer whose default is
 /// `default_mm` (see [`VOLUME_TOLERANCE_AT_DEFAULT`]).
-pub fn volume_bound(tol_mm: f64, default_mm: f64) -> f64 {
+pub(crate) fn volume_bound(tol_mm: f64, default_mm: f64) -> f64 {
     VOLUME_TOLERANCE_AT_DEFAULT * (tol_mm / default_mm).max(1.0)
 }
 
 /// How many times [`mesh_part`] may halve the tolerance to meet the volume bound.
-pub const MAX_REFINEMENTS: u32 = 3;
+pub(crate) const MAX_REFINEMENTS: u32 = 3;
 
 /// Mesh one solid at `tol_mm` and run every check. If the mesh volume misses the
 /// exact volume by more than `volume_bound` (small parts: an inscribed polygon of
 /// chord error s loses about 4/3 · s/r of a circle's area), the tolerance is halved,
 /// up to [`MAX_REFINEMENTS`] times; the tolerance actually used is recorded.
-pub fn mesh_part(
+pub(crate) fn mesh_part(
     part: &PartSolid,
     tol_mm: f64,
     volume_bound: f64,
@@ -244,7 +244,7 @@ pub fn build_parts(
 /// resolution), or finer where a designed gap between mating parts needs it (half the
 /// narrowest gap, [`fits::check_tolerance`]), so a design that validates always builds
 /// at its default. A given tolerance is never changed: a coarser one is refused.
-pub fn default_tolerance_for(profile: &DesignProfile) -> f64 {
+pub(crate) fn default_tolerance_for(profile: &DesignProfile) -> f64 {
     let printer = profile.design.printer.default_tolerance_mm();
     // Exact overlaps are reported by the assembly check; here they only leave the
     // printer's default.
@@ -256,7 +256,7 @@ pub fn default_tolerance_for(profile: &DesignProfile) -> f64 {
 }
 
 /// [`build_parts`] from dimensions already derived.
-pub fn build_parts_for(
+pub(crate) fn build_parts_for(
     profile: &DesignProfile,
     tol_mm: Option<f64>,
     selection: Option<&[String]>,
@@ -372,7 +372,7 @@ pub fn check_assembly(
 /// tolerance against the fits' clearances, then the meshes of every mating pair
 /// against each other (all but press fits, which meshes cannot show), then each
 /// fiber traced through the meshes.
-pub fn check_assembly_for(
+pub(crate) fn check_assembly_for(
     profile: &DesignProfile,
     built: &[BuiltPart],
 ) -> Result<Option<Vec<assembly::FiberTrace>>, GeometryError> {

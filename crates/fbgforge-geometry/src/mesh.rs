@@ -13,7 +13,7 @@ use truck_modeling::{Point3, Solid};
 /// Points closer than this are the same mesh vertex, mm. truck's own tolerance is
 /// 1e-6; edge points re-evaluated on two surfaces agree far better than the smallest
 /// feature (0.13 mm fiber hole) but not bit for bit.
-pub const WELD_TOLERANCE_MM: f64 = 1.0e-5;
+pub(crate) const WELD_TOLERANCE_MM: f64 = 1.0e-5;
 
 /// An indexed triangle mesh, counter-clockwise seen from outside, in mm.
 #[derive(Debug, Clone, Default)]
@@ -171,7 +171,7 @@ impl TriMesh {
 
 /// Merge points closer than `tol` (grid hashing with a neighbour search), drop the
 /// triangles that collapse, and return the indexed mesh.
-pub fn weld(triangles: &[[Point3; 3]], tol: f64) -> TriMesh {
+pub(crate) fn weld(triangles: &[[Point3; 3]], tol: f64) -> TriMesh {
     let cell = tol * 4.0;
     let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
     let mut positions: Vec<[f64; 3]> = Vec::new();

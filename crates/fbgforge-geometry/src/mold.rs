@@ -289,7 +289,7 @@ fn check_slits_in_cavity(a: &ArrayDims) -> Result<(), SpecError> {
 }
 
 /// The mold, in the registry: `mold` for every array design.
-pub struct MoldPart;
+pub(crate) struct MoldPart;
 
 impl PrintablePart for MoldPart {
     fn kind(&self) -> PartKind {

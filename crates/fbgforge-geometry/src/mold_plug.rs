@@ -56,7 +56,7 @@ pub fn plug(
 }
 
 /// The mold plug, in the registry: `mold-plug` for an array whose mold has plugs.
-pub struct MoldPlugPart;
+pub(crate) struct MoldPlugPart;
 
 impl PrintablePart for MoldPlugPart {
     fn kind(&self) -> PartKind {

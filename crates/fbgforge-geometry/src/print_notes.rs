@@ -9,7 +9,7 @@ use serde::Serialize;
 
 /// Narrowest passage a lab can clear by a plain rinse, mm: anything narrower needs a
 /// wire or a needle pushed through.
-pub const SMALL_PASSAGE_MM: f64 = 1.0;
+pub(crate) const SMALL_PASSAGE_MM: f64 = 1.0;
 
 /// One passage to clear after printing.
 #[derive(Debug, Clone, Serialize)]

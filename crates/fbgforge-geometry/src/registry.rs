@@ -13,7 +13,7 @@ use super::part::{PartKind, PrintablePart};
 use crate::spec::Design;
 
 /// Every printable part, in build order (the order of `part_names` and the manifest).
-pub const PARTS: &[&dyn PrintablePart] =
+pub(crate) const PARTS: &[&dyn PrintablePart] =
     &[&CapPart, &CorePart, &InsertPart, &MoldPart, &MoldPlugPart];
 
 impl PartKind {

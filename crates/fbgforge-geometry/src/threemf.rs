@@ -15,9 +15,9 @@ use quick_xml::Writer;
 use std::io::{Cursor, Read, Write};
 
 /// The 3MF core namespace.
-pub const CORE_NS: &str = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
+pub(crate) const CORE_NS: &str = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
 /// Path of the model part in the package.
-pub const MODEL_PATH: &str = "3D/3dmodel.model";
+pub(crate) const MODEL_PATH: &str = "3D/3dmodel.model";
 
 /// A material of the package: its name and display colour (`#RRGGBB`).
 #[derive(Debug, Clone, PartialEq)]
@@ -46,7 +46,7 @@ fn xml_err(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 /// The model file's XML.
-pub fn model_xml(title: &str, materials: &[BaseMaterial], objects: &[Object]) -> Result<String> {
+pub(crate) fn model_xml(title: &str, materials: &[BaseMaterial], objects: &[Object]) -> Result<String> {
     let mut w = Writer::new(Vec::new());
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
         .map_err(xml_err)?;
@@ -304,7 +304,7 @@ fn parse_model(xml: &str) -> Result<ReadModel> {
 
 /// Lay pieces of the given footprints (x, y sizes, mm) out on a plate in rows no wider
 /// than `row_mm`, `gap_mm` apart: the lower-left corner of each, mm.
-pub fn lay_out(footprints: &[(f64, f64)], row_mm: f64, gap_mm: f64) -> Vec<(f64, f64)> {
+pub(crate) fn lay_out(footprints: &[(f64, f64)], row_mm: f64, gap_mm: f64) -> Vec<(f64, f64)> {
     let (mut x, mut y, mut row_h) = (0.0, 0.0, 0.0f64);
     footprints
         .iter()

@@ -53,7 +53,7 @@ pub const DEFAULT_CONTACT_WARNING: &str = "contact radius chosen to meet the pap
 
 /// Outer diameters over which the closed form was compared with the FE model, mm
 /// (the `fem` study's grid, 10 to 40 mm).
-pub const MEASURED_DIAMETER_RANGE_MM: (f64, f64) = (10.0, 40.0);
+pub(crate) const MEASURED_DIAMETER_RANGE_MM: (f64, f64) = (10.0, 40.0);
 
 /// Which model answers a prediction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -344,7 +344,7 @@ pub fn validity() -> ValidityRegion {
 
 impl ValidityRegion {
     /// Whether the closed form is trusted for `case` on `design`.
-    pub fn contains_case(&self, design: &Design, case: LoadCase) -> bool {
+    pub(crate) fn contains_case(&self, design: &Design, case: LoadCase) -> bool {
         let Some(m) = &design.module else {
             return false;
         };

@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The shipped library, `designs/library/materials.toml`.
-pub const SHIPPED_LIBRARY_TOML: &str = include_str!("../../../designs/library/materials.toml");
+pub(crate) const SHIPPED_LIBRARY_TOML: &str = include_str!("../../../designs/library/materials.toml");
 
 /// Which process makes a library material.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -28,7 +28,7 @@ pub enum MaterialProcess {
 
 impl MaterialProcess {
     /// True when a printer of `p` makes this material.
-    pub fn printed_by(self, p: PrintProcess) -> bool {
+    pub(crate) fn printed_by(self, p: PrintProcess) -> bool {
         matches!(
             (self, p),
             (MaterialProcess::Polyjet, PrintProcess::Polyjet)
@@ -53,7 +53,7 @@ pub enum MaterialRole {
 
 /// Viscoelastic and linearity parameters of one material (Q model inputs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct ViscoParams {
+pub(crate) struct ViscoParams {
     /// Relaxation time τ of the standard linear solid, s.
     pub relaxation_time_s: f64,
     /// Instant over relaxed modulus, E_u / E_r ≥ 1 (1 = purely elastic).
@@ -66,7 +66,7 @@ impl ViscoParams {
     /// Defaults by material class when a design material is not in the library:
     /// rubber-like below 10 MPa, flexible below 200 MPa, rigid above. These are the
     /// library's typical values for each class (assumptions, see docs/optimize.md).
-    pub fn class_default(youngs_modulus_mpa: f64) -> Self {
+    pub(crate) fn class_default(youngs_modulus_mpa: f64) -> Self {
         if youngs_modulus_mpa < 10.0 {
             ViscoParams {
                 relaxation_time_s: 1.0,
@@ -126,7 +126,7 @@ impl LibraryMaterial {
     }
 
     /// The viscoelastic part.
-    pub fn visco(&self) -> ViscoParams {
+    pub(crate) fn visco(&self) -> ViscoParams {
         ViscoParams {
             relaxation_time_s: self.relaxation_time_s,
             unrelaxed_to_relaxed_ratio: self.unrelaxed_to_relaxed_ratio,
@@ -223,7 +223,7 @@ impl MaterialLibrary {
 
     /// Viscoelastic parameters of a design material: the library entry of the same
     /// name, else class defaults from its modulus.
-    pub fn visco_for(&self, name: &str, m: &Material) -> ViscoParams {
+    pub(crate) fn visco_for(&self, name: &str, m: &Material) -> ViscoParams {
         match self.materials.get(name) {
             Some(l) => l.visco(),
             None => ViscoParams::class_default(m.youngs_modulus_mpa),

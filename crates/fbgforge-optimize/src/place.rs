@@ -257,7 +257,7 @@ impl PlacementProblem {
     }
 
     /// Array section with the layout `x` applied.
-    pub fn array_at(&self, x: &[f64]) -> TactileArray {
+    pub(crate) fn array_at(&self, x: &[f64]) -> TactileArray {
         let mut a = self.array.clone();
         for (g, &y) in a.gratings.iter_mut().zip(x) {
             g.y_mm = y;
@@ -535,7 +535,7 @@ fn ranks(v: &[f64]) -> Vec<f64> {
 }
 
 /// Spearman rank correlation of two equally long samples (ties get average ranks).
-pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn spearman(a: &[f64], b: &[f64]) -> f64 {
     let (ra, rb) = (ranks(a), ranks(b));
     let n = ra.len() as f64;
     if n < 2.0 {

@@ -46,7 +46,7 @@ impl Default for QualitySettings {
 
 /// One part of the load path, for the lag model.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LoadPathPart {
+pub(crate) struct LoadPathPart {
     /// Part name (cap, core, insert).
     pub part: String,
     /// Relaxed Young's modulus, MPa.
@@ -59,7 +59,7 @@ pub struct LoadPathPart {
 
 /// Lag T (s) of parallel standard linear solids under slow loading:
 /// T = Σ (rᵢ − 1)·Eᵢ·Aᵢ·τᵢ / Σ Eᵢ·Aᵢ.
-pub fn parallel_lag_s(parts: &[LoadPathPart], tau_scale: f64) -> f64 {
+pub(crate) fn parallel_lag_s(parts: &[LoadPathPart], tau_scale: f64) -> f64 {
     let mut num = 0.0;
     let mut den = 0.0;
     for p in parts {
@@ -77,7 +77,7 @@ pub fn parallel_lag_s(parts: &[LoadPathPart], tau_scale: f64) -> f64 {
 
 /// R² lost to the hysteresis loop of a lag `lag_s` under loading of period `period_s`:
 /// cos²(2π·lag/period), with the phase clamped at 90° (R² = 0).
-pub fn r_squared_hysteresis(lag_s: f64, period_s: f64) -> f64 {
+pub(crate) fn r_squared_hysteresis(lag_s: f64, period_s: f64) -> f64 {
     let delta = (2.0 * PI * lag_s / period_s).clamp(0.0, PI / 2.0);
     delta.cos().powi(2)
 }
@@ -86,7 +86,7 @@ pub fn r_squared_hysteresis(lag_s: f64, period_s: f64) -> f64 {
 /// peak strain `strain` (dimensionless). The response y = x + b·x² (b = 1.5·n·|ε|) on a
 /// uniform sweep x ∈ [0, 1] fitted by a line leaves a residual variance b²/180 out of
 /// var(y) = 1/12 + b/6 + 4b²/45, so R² = 1 − (b²/180)/var(y) (≈ 1 − b²/15 for small b).
-pub fn r_squared_linearity(strain: f64, nonlinearity: f64) -> f64 {
+pub(crate) fn r_squared_linearity(strain: f64, nonlinearity: f64) -> f64 {
     let b = 1.5 * nonlinearity * strain.abs();
     let var_y = 1.0 / 12.0 + b / 6.0 + 4.0 * b * b / 45.0;
     (1.0 - b * b / 180.0 / var_y).clamp(0.0, 1.0)
@@ -138,7 +138,7 @@ impl Calibration {
 
 /// The load path of a module design in one case: cap and core, plus the insert in
 /// Case I. Areas are the cylinder sections' cross-sections from [`ModuleProfile`].
-pub fn load_path(
+pub(crate) fn load_path(
     design: &Design,
     lib: &MaterialLibrary,
     core_material: &str,
@@ -183,7 +183,7 @@ pub fn load_path(
 
 /// Q of one predicted grating, given its load path and the host's nonlinearity.
 /// `strain_at_max_force` is the grating strain at the largest force of interest.
-pub fn grating_quality(
+pub(crate) fn grating_quality(
     prediction: &GratingPrediction,
     parts: &[LoadPathPart],
     host_nonlinearity: f64,

@@ -321,7 +321,7 @@ fn report_beside(out: &Path) -> PathBuf {
 }
 
 /// Write a design as TOML, atomically, after checking that it loads back.
-pub fn write_design(path: &Path, d: &Design) -> Result<()> {
+pub(crate) fn write_design(path: &Path, d: &Design) -> Result<()> {
     let text = format!(
         "# Written by fbgforge; loads with `fbgforge build/predict/verify`.\n{}",
         d.to_toml()

@@ -108,7 +108,7 @@ fn nice_step(span: f64, target: usize) -> f64 {
 }
 
 /// A number written with as many decimals as a tick step of `step` needs.
-pub fn format_number(v: f64, step: f64) -> String {
+pub(crate) fn format_number(v: f64, step: f64) -> String {
     if v.abs() <= step.abs() * 1e-6 {
         return "0".into();
     }
@@ -143,7 +143,7 @@ fn linear_ticks(lo: f64, hi: f64, target: usize) -> Vec<Tick> {
 }
 
 /// A value on a log axis written as itself: 0.001 … 10000 in decimals, else `1e6`.
-pub fn format_log_value(v: f64) -> String {
+pub(crate) fn format_log_value(v: f64) -> String {
     if (1e-3..1e5).contains(&v) {
         let decimals = (-v.log10().floor()).max(0.0) as usize;
         let s = format!("{v:.decimals$}");

@@ -74,7 +74,7 @@ const BELOW: f64 = 44.0;
 
 impl HeatMaps {
     /// Render to an SVG string (with the namespace a file needs).
-    pub fn to_svg(&self) -> Result<String> {
+    pub(crate) fn to_svg(&self) -> Result<String> {
         if self.panels.is_empty() {
             return Err(anyhow!("heat maps `{}` have no panel", self.title));
         }

@@ -127,11 +127,6 @@ impl Document {
         let _ = writeln!(self.body, "<h2>{}</h2>", escape(heading));
     }
 
-    /// A paragraph of plain text.
-    pub fn paragraph(&mut self, text: &str) {
-        let _ = writeln!(self.body, "<p>{}</p>", escape(text));
-    }
-
     /// A paragraph in a quieter style (assumptions, how a number was made).
     pub fn note(&mut self, text: &str) {
         let _ = writeln!(self.body, r#"<p class="note">{}</p>"#, escape(text));

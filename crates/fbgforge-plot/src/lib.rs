@@ -140,7 +140,7 @@ pub struct Layout {
 
 /// Fill opacity of each band when `n` bands share a chart: light enough that a few
 /// overlapping ones stay apart (outlines tell them apart beyond two).
-pub fn band_opacity(n: usize) -> f64 {
+pub(crate) fn band_opacity(n: usize) -> f64 {
     match n {
         0..=1 => 0.2,
         2 => 0.15,
@@ -172,12 +172,12 @@ impl Chart {
     }
 
     /// Render to a standalone SVG document (for a `.svg` file).
-    pub fn to_svg(&self) -> Result<String> {
+    pub(crate) fn to_svg(&self) -> Result<String> {
         Ok(self.render(true)?.0)
     }
 
     /// Render to an `<svg>` element for inlining in HTML (no namespace URL).
-    pub fn to_svg_inline(&self) -> Result<String> {
+    pub(crate) fn to_svg_inline(&self) -> Result<String> {
         Ok(self.render(false)?.0)
     }
 

@@ -84,7 +84,7 @@ pub const FONT_PX: f64 = 12.0;
 
 /// A generous estimate of the width of `text` at `font_px` in a sans-serif font: the
 /// layout reserves this much, so a legend never runs into the plot.
-pub fn text_width_px(text: &str, font_px: f64) -> f64 {
+pub(crate) fn text_width_px(text: &str, font_px: f64) -> f64 {
     text.chars()
         .map(|c| {
             // DejaVu Sans, the widest of the usual fallbacks: digits 0.64 em.

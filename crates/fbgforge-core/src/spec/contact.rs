@@ -93,7 +93,7 @@ impl Contact {
     pub const PAPER_WINDOW_TO_PATCH: (f64, f64) = (1.30, 1.48);
 
     /// Whether every field is at its default (then the table is not written).
-    pub fn is_default(&self) -> bool {
+    pub(crate) fn is_default(&self) -> bool {
         *self == Contact::default()
     }
 }
@@ -134,7 +134,7 @@ impl Module {
     }
 
     /// The contact reading relative to its features, at this module's geometry.
-    pub fn contact_ratios(&self) -> ContactRatios {
+    pub(crate) fn contact_ratios(&self) -> ContactRatios {
         // A stated ratio (or a default one) is returned as written: dividing the length
         // it resolves to by its feature would round it, and a family knot would not
         // come back exactly.
@@ -185,7 +185,7 @@ impl Module {
     }
 
     /// This module with its contact set to `ratios` (every length relative).
-    pub fn set_contact_ratios(&mut self, ratios: &ContactRatios) {
+    pub(crate) fn set_contact_ratios(&mut self, ratios: &ContactRatios) {
         let c = &mut self.contact;
         c.clip_height_mm = None;
         c.dome_clearance_mm = None;

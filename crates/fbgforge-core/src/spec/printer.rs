@@ -56,7 +56,7 @@ impl Printer {
 
     /// Narrowest gap (slit, channel) the printer keeps open, mm: the nozzle for FDM
     /// (0.4 mm when not stated), the resolution for PolyJet.
-    pub fn min_gap_mm(&self) -> f64 {
+    pub(crate) fn min_gap_mm(&self) -> f64 {
         match self.process {
             PrintProcess::Fdm => self.nozzle_diameter_mm.unwrap_or(DEFAULT_FDM_NOZZLE_MM),
             PrintProcess::Polyjet => self.resolution_mm,
@@ -74,7 +74,7 @@ impl Printer {
     /// The layer boundary nearest `z_mm` (layers of [`layer_height_mm`](Self::layer_height_mm)
     /// from z = 0): where a slicer, which samples each layer at its middle, prints a
     /// horizontal face modelled at `z_mm`.
-    pub fn nearest_layer_mm(&self, z_mm: f64) -> f64 {
+    pub(crate) fn nearest_layer_mm(&self, z_mm: f64) -> f64 {
         let h = self.layer_height_mm();
         (z_mm / h).round() * h
     }

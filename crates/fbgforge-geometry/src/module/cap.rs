@@ -223,7 +223,7 @@ impl<'a> CapFrame<'a> {
 }
 
 /// The cap, in the registry: `cap` for every module design.
-pub struct CapPart;
+pub(crate) struct CapPart;
 
 impl PrintablePart for CapPart {
     fn kind(&self) -> PartKind {

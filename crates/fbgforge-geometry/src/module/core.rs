@@ -267,7 +267,7 @@ impl<'a> CoreFrame<'a> {
 
 /// The core, in the registry: `core` for every module design (every listed core is
 /// printed from it).
-pub struct CorePart;
+pub(crate) struct CorePart;
 
 impl PrintablePart for CorePart {
     fn kind(&self) -> PartKind {

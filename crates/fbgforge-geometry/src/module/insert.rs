@@ -115,7 +115,7 @@ fn name_of(insert: &Insert) -> String {
 
 /// The inserts, in the registry: `insert-<name>` for each listed insert, all printed
 /// from one solid in their own materials.
-pub struct InsertPart;
+pub(crate) struct InsertPart;
 
 impl PrintablePart for InsertPart {
     fn kind(&self) -> PartKind {

@@ -124,7 +124,7 @@ struct Shared {
 
 /// Budget of a default cache, bytes: about 20 structures of the default level-1 Case I
 /// mesh, far more than one `predict` needs (10).
-pub const DEFAULT_BUDGET_BYTES: usize = 768 << 20;
+pub(crate) const DEFAULT_BUDGET_BYTES: usize = 768 << 20;
 
 impl Default for GeometryCache {
     /// An empty cache of [`DEFAULT_BUDGET_BYTES`].

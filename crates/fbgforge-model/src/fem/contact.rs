@@ -153,7 +153,7 @@ pub fn reduce(
 
 /// Minimise ½ xᵀWx + qᵀx over x ≥ 0 (W symmetric positive definite) by the
 /// Lawson–Hanson active-set method; exact up to round-off.
-pub fn nonnegative_qp(w: &DMatrix<f64>, q: &DVector<f64>) -> Result<DVector<f64>> {
+pub(crate) fn nonnegative_qp(w: &DMatrix<f64>, q: &DVector<f64>) -> Result<DVector<f64>> {
     let n = q.len();
     let mut x = DVector::zeros(n);
     if n == 0 {

@@ -40,24 +40,24 @@ impl ElasticConstants {
         self.youngs_modulus_mpa / (2.0 * (1.0 + self.poisson_ratio))
     }
     /// Bulk modulus κ, MPa.
-    pub fn bulk_modulus_mpa(&self) -> f64 {
+    pub(crate) fn bulk_modulus_mpa(&self) -> f64 {
         self.youngs_modulus_mpa / (3.0 * (1.0 - 2.0 * self.poisson_ratio))
     }
 }
 
 /// 1D quadratic Lagrange shape functions on [-1, 1] at nodes -1, 0, 1.
-pub fn lagrange3(x: f64) -> [f64; 3] {
+pub(crate) fn lagrange3(x: f64) -> [f64; 3] {
     [0.5 * x * (x - 1.0), 1.0 - x * x, 0.5 * x * (x + 1.0)]
 }
 
 /// Derivatives of [`lagrange3`].
-pub fn lagrange3_d(x: f64) -> [f64; 3] {
+pub(crate) fn lagrange3_d(x: f64) -> [f64; 3] {
     [x - 0.5, -2.0 * x, x + 0.5]
 }
 
 /// Q9 shape functions and their natural derivatives at (ξ, η). Node k = a + 3 b, with
 /// a the ξ-index and b the η-index (0, 1, 2 for -1, 0, +1).
-pub fn shape_q9(xi: f64, eta: f64) -> ([f64; 9], [f64; 9], [f64; 9]) {
+pub(crate) fn shape_q9(xi: f64, eta: f64) -> ([f64; 9], [f64; 9], [f64; 9]) {
     let (lx, ly) = (lagrange3(xi), lagrange3(eta));
     let (dx, dy) = (lagrange3_d(xi), lagrange3_d(eta));
     let mut n = [0.0; 9];
@@ -75,14 +75,14 @@ pub fn shape_q9(xi: f64, eta: f64) -> ([f64; 9], [f64; 9], [f64; 9]) {
 }
 
 /// 3-point Gauss–Legendre rule on [-1, 1]: (points, weights).
-pub const GAUSS3: ([f64; 3], [f64; 3]) = (
+pub(crate) const GAUSS3: ([f64; 3], [f64; 3]) = (
     [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4],
     [5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0],
 );
 
 /// Geometry of one integration point: shape values, physical derivatives, r, weight.
 #[derive(Debug, Clone, Copy)]
-pub struct PointGeometry {
+pub(crate) struct PointGeometry {
     /// Shape function values.
     pub n: [f64; 9],
     /// ∂N/∂r.
@@ -113,7 +113,7 @@ pub enum ElementError {
 }
 
 /// Evaluate the isoparametric map at (ξ, η). Returns the signed det J.
-pub fn point_geometry(xy: &[[f64; 2]; 9], xi: f64, eta: f64) -> (PointGeometry, f64) {
+pub(crate) fn point_geometry(xy: &[[f64; 2]; 9], xi: f64, eta: f64) -> (PointGeometry, f64) {
     let (n, nxi, neta) = shape_q9(xi, eta);
     let (mut r, mut z) = (0.0, 0.0);
     let (mut r_xi, mut r_eta, mut z_xi, mut z_eta) = (0.0, 0.0, 0.0, 0.0);
@@ -178,7 +178,7 @@ pub fn strain_at(xy: &[[f64; 2]; 9], u: &[[f64; 2]; 9], xi: f64, eta: f64) -> [f
 /// Both parts depend on the element's shape only, so a change of moduli (a sweep over
 /// E, another core or insert on the same mesh) re-uses them.
 #[derive(Debug, Clone, Copy)]
-pub struct StiffnessParts {
+pub(crate) struct StiffnessParts {
     /// Stiffness per unit shear modulus μ (the deviatoric energy 2μ dev ε : dev ε).
     pub shear: [[f64; 18]; 18],
     /// Stiffness per unit bulk modulus κ (the volumetric energy).
@@ -187,7 +187,7 @@ pub struct StiffnessParts {
 
 /// The two parts of an element's stiffness ([`StiffnessParts`]), dofs
 /// [u_r0, u_z0, u_r1, …].
-pub fn stiffness_parts(
+pub(crate) fn stiffness_parts(
     xy: &[[f64; 2]; 9],
     formulation: Formulation,
 ) -> Result<StiffnessParts, ElementError> {
@@ -334,7 +334,7 @@ fn invert3(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
 
 /// Invert the isoparametric map: natural coordinates of (r, z) in the element, by
 /// Newton iteration from the centre. None when it does not converge or lands outside.
-pub fn locate(xy: &[[f64; 2]; 9], r: f64, z: f64) -> Option<(f64, f64)> {
+pub(crate) fn locate(xy: &[[f64; 2]; 9], r: f64, z: f64) -> Option<(f64, f64)> {
     let (mut xi, mut eta) = (0.0, 0.0);
     for _ in 0..30 {
         let (n, nxi, neta) = shape_q9(xi, eta);

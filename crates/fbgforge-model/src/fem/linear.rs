@@ -53,7 +53,7 @@ pub struct LowerPattern {
 impl LowerPattern {
     /// The lower triangle of a square dense matrix: the pattern of its nonzero
     /// entries (the whole diagonal always) and their values.
-    pub fn from_dense(k: &DMatrix<f64>) -> Result<(Self, Vec<f64>)> {
+    pub(crate) fn from_dense(k: &DMatrix<f64>) -> Result<(Self, Vec<f64>)> {
         if k.nrows() != k.ncols() {
             bail!("the matrix is not square ({} × {})", k.nrows(), k.ncols());
         }
@@ -83,7 +83,7 @@ impl LowerPattern {
 
     /// The pattern of the element matrices' union: `elements` lists each element's
     /// unknowns (`None`: a held component) among `n`.
-    pub fn from_elements<const D: usize>(n: usize, elements: &[[Option<usize>; D]]) -> Self {
+    pub(crate) fn from_elements<const D: usize>(n: usize, elements: &[[Option<usize>; D]]) -> Self {
         // Unknown → elements incidence, then each column from its elements, marking
         // rows seen (no per-column allocation).
         let mut ptr = vec![0usize; n + 1];
@@ -129,7 +129,7 @@ impl LowerPattern {
 
     /// The lower pattern of P K Pᵀ, P taking unknown i to `new_of[i]`: its column
     /// pointers and rows, and where each of this pattern's entries lands in it.
-    pub fn permuted(&self, new_of: &[usize]) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    pub(crate) fn permuted(&self, new_of: &[usize]) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
         let (n, nnz) = (self.n, self.nonzeros());
         let entry = |j: usize, i: usize| {
             let (a, b) = (new_of[i], new_of[j]);
@@ -169,7 +169,7 @@ impl LowerPattern {
     }
 
     /// Stored entries.
-    pub fn nonzeros(&self) -> usize {
+    pub(crate) fn nonzeros(&self) -> usize {
         self.row_idx.len()
     }
 

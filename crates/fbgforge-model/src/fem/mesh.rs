@@ -28,7 +28,7 @@ pub struct Mesh {
 
 impl Mesh {
     /// The nine node coordinates of an element.
-    pub fn element_coords(&self, e: &Element) -> [[f64; 2]; 9] {
+    pub(crate) fn element_coords(&self, e: &Element) -> [[f64; 2]; 9] {
         e.nodes.map(|n| self.nodes[n])
     }
 
@@ -135,7 +135,7 @@ pub fn edge_forces(
 
 /// Parameter s ∈ [-1, 1] on a quadratic edge where r(s) = `r_target`, by bisection
 /// (r must be monotone along the edge).
-pub fn edge_param_at_radius(xy: [[f64; 2]; 3], r_target: f64) -> f64 {
+pub(crate) fn edge_param_at_radius(xy: [[f64; 2]; 3], r_target: f64) -> f64 {
     let r_of = |s: f64| {
         let n = lagrange3(s);
         n[0] * xy[0][0] + n[1] * xy[1][0] + n[2] * xy[2][0]

@@ -307,7 +307,7 @@ pub fn solve_response(
 
 /// Largest grating strain the linear model is trusted with (1 %): beyond it the rubber
 /// and the bond of the fiber leave the linear range.
-pub const LINEAR_STRAIN_LIMIT: f64 = 0.01;
+pub(crate) const LINEAR_STRAIN_LIMIT: f64 = 0.01;
 
 /// Finite-element prediction of every strain grating, for Case II and for Case I with
 /// each insert, at `force_n` (same output type and order as [`crate::model::predict`]);

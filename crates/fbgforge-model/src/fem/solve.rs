@@ -29,7 +29,7 @@ pub use super::linear::{
 };
 
 /// Displacement component: 0 = radial u_r, 1 = axial u_z.
-pub type Component = usize;
+pub(crate) type Component = usize;
 /// Radial component.
 pub const R: Component = 0;
 /// Axial component.
@@ -284,7 +284,7 @@ impl Problem {
     }
 
     /// Assemble and solve K u = f with the given linear solver.
-    pub fn solve_with(&self, solver: &dyn LinearSolver) -> Result<Solution> {
+    pub(crate) fn solve_with(&self, solver: &dyn LinearSolver) -> Result<Solution> {
         let f = self.factor_with(solver)?;
         f.solve_loads(&self.loads)
     }
@@ -491,14 +491,9 @@ impl ProblemStructure {
         &self.pattern
     }
 
-    /// Name of the solver whose symbolic analysis this holds.
-    pub fn solver_name(&self) -> &'static str {
-        self.solver
-    }
-
     /// Bytes this structure holds (without the solver's symbolic analysis), for the
     /// cache's budget.
-    pub fn approximate_bytes(&self) -> usize {
+    pub(crate) fn approximate_bytes(&self) -> usize {
         self.map.len() * 16
             + self.pattern.nonzeros() * 8
             + self.element_material.len() * 8
@@ -562,7 +557,7 @@ impl FactoredProblem {
 
     /// The position of (node, component) in the solver's vector, `None` when the
     /// component is held at zero or follows others ([`Interpolation`]).
-    pub fn unknown_of(&self, node: usize, component: Component) -> Option<usize> {
+    pub(crate) fn unknown_of(&self, node: usize, component: Component) -> Option<usize> {
         self.structure
             .map
             .get(2 * node + component)
@@ -606,7 +601,7 @@ impl FactoredProblem {
 
     /// Solve several load cases at once (one blocked solve: faster than one at a time
     /// with the supernodal solver).
-    pub fn solve_load_cases(
+    pub(crate) fn solve_load_cases(
         &self,
         cases: &[Vec<(usize, Component, f64)>],
     ) -> Result<Vec<Solution>> {
@@ -627,7 +622,7 @@ impl FactoredProblem {
     }
 
     /// Nodal displacements from a solution vector in the solver's numbering.
-    pub fn solution_from(&self, u: &[f64]) -> Result<Solution> {
+    pub(crate) fn solution_from(&self, u: &[f64]) -> Result<Solution> {
         let mut disp = vec![[0.0; 2]; self.structure.nodes];
         for (node, dd) in disp.iter_mut().enumerate() {
             for (c, v) in dd.iter_mut().enumerate() {

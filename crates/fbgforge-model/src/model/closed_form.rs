@@ -17,7 +17,7 @@ use std::f64::consts::PI;
 /// With N_φ = −P/(2πρ sin²φ) and N_θ = −N_φ, integrating the membrane strains along
 /// the meridian gives the relative axial displacement of the patch edge (φ0) and the
 /// rim (α): δ = P (1 + ν)/(2π E t) · ln(tan(α/2) / tan(φ0/2)).
-pub fn dome_membrane_compliance_mm_per_n(
+pub(crate) fn dome_membrane_compliance_mm_per_n(
     material: Elastic,
     wall_mm: f64,
     sphere_radius_mm: f64,
@@ -36,25 +36,25 @@ pub fn dome_membrane_compliance_mm_per_n(
 /// Uniform pressure on a sphere gives N_φ = N_θ = P/(2πρ): a uniform membrane strain
 /// (1 − ν)N/(E t) that moves the apex by ρ·ε relative to the rim, independent of ρ:
 /// δ = P (1 − ν)/(2π E t). No load concentration, hence no logarithm.
-pub fn supported_dome_compliance_mm_per_n(material: Elastic, wall_mm: f64) -> f64 {
+pub(crate) fn supported_dome_compliance_mm_per_n(material: Elastic, wall_mm: f64) -> f64 {
     (1.0 - material.poisson_ratio) / (2.0 * PI * material.youngs_modulus_mpa * wall_mm)
 }
 
 /// Axial compliance L/(EA) of a cylinder section in uniform membrane tension or
 /// compression (N1' = P/(2πR) per unit circumference), mm/N.
-pub fn cylinder_compliance_mm_per_n(material: Elastic, length_mm: f64, area_mm2: f64) -> f64 {
+pub(crate) fn cylinder_compliance_mm_per_n(material: Elastic, length_mm: f64, area_mm2: f64) -> f64 {
     length_mm / (material.youngs_modulus_mpa * area_mm2)
 }
 
 /// Indentation compliance of an elastic half-space under a rigid flat circular punch
 /// of radius `a` (Boussinesq): δ = P (1 − ν²)/(2 a E), mm/N.
-pub fn punch_compliance_mm_per_n(material: Elastic, radius_mm: f64) -> f64 {
+pub(crate) fn punch_compliance_mm_per_n(material: Elastic, radius_mm: f64) -> f64 {
     (1.0 - material.poisson_ratio.powi(2)) / (2.0 * radius_mm * material.youngs_modulus_mpa)
 }
 
 /// Through-thickness compliance of a thin layer squeezed over a patch of radius `a`,
 /// with the confined (oedometric) modulus, mm/N.
-pub fn layer_compliance_mm_per_n(material: Elastic, thickness_mm: f64, radius_mm: f64) -> f64 {
+pub(crate) fn layer_compliance_mm_per_n(material: Elastic, thickness_mm: f64, radius_mm: f64) -> f64 {
     thickness_mm / (material.confined_modulus_mpa() * PI * radius_mm * radius_mm)
 }
 
@@ -96,7 +96,7 @@ pub fn loop_compliance_mm_per_n(p: &ModuleModelParams) -> f64 {
 /// Derived compliance of Case I's direct path (before `direct_path_factor`), mm/N:
 /// the lower half of the cap wall and the core wall squeezed over the contact patch,
 /// and the insert indented by it.
-pub fn direct_path_compliance_mm_per_n(p: &ModuleModelParams, insert: Elastic) -> f64 {
+pub(crate) fn direct_path_compliance_mm_per_n(p: &ModuleModelParams, insert: Elastic) -> f64 {
     let g = &p.geometry;
     let a = g.contact_patch_radius_mm();
     layer_compliance_mm_per_n(p.cap, 0.5 * g.cap_wall_mm, a)

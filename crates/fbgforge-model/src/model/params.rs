@@ -23,7 +23,7 @@ pub struct Elastic {
 impl Elastic {
     /// Oedometric (laterally confined) modulus M = E(1 − ν)/((1 + ν)(1 − 2ν)), MPa: the
     /// through-thickness stiffness of a thin layer squeezed over a patch.
-    pub fn confined_modulus_mpa(&self) -> f64 {
+    pub(crate) fn confined_modulus_mpa(&self) -> f64 {
         let (e, nu) = (self.youngs_modulus_mpa, self.poisson_ratio);
         e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu))
     }
@@ -66,7 +66,7 @@ pub struct ModuleGeometry {
 impl ModuleGeometry {
     /// Read every dimension from the profile (plus the pillar sizes of the spec, which
     /// the profile does not restate).
-    pub fn from_profile(m: &Module, p: &ModuleProfile) -> Self {
+    pub(crate) fn from_profile(m: &Module, p: &ModuleProfile) -> Self {
         let pl = &m.pillars;
         let n = pl.count as f64;
         let annulus = |ro: f64, ri: f64| std::f64::consts::PI * (ro * ro - ri * ri);
@@ -108,7 +108,7 @@ impl ModuleGeometry {
     /// Radius of the patch over which the apex force reaches the domes' neutral
     /// surfaces: the apex flat widened at 45° through half the cap wall (the paper's
     /// assumption 2 puts the force on the neutral surface), mm.
-    pub fn contact_patch_radius_mm(&self) -> f64 {
+    pub(crate) fn contact_patch_radius_mm(&self) -> f64 {
         self.apex_flat_radius_mm + 0.5 * self.cap_wall_mm
     }
 }
@@ -145,7 +145,7 @@ impl ModuleModelParams {
 
     /// Build the parameters from an already derived profile (saves re-deriving it when
     /// several cores, inserts and gratings are evaluated for one design).
-    pub fn from_parts(
+    pub(crate) fn from_parts(
         design: &Design,
         m: &Module,
         profile: &ModuleProfile,

@@ -314,7 +314,7 @@ pub fn with_param(design: &Design, param: &SweepParam, value: f64) -> Result<Des
 }
 
 /// Largest number of sweep values (a typo such as `--steps 1000000000` must not hang).
-pub const MAX_STEPS: usize = 100_000;
+pub(crate) const MAX_STEPS: usize = 100_000;
 
 /// Evenly spaced values from `from` to `to` inclusive, checked.
 pub fn sweep_values(
@@ -537,7 +537,7 @@ pub struct PaperFigure {
 }
 
 /// Force of the paper's parametric figures, N.
-pub const PAPER_FORCE_N: f64 = 50.0;
+pub(crate) const PAPER_FORCE_N: f64 = 50.0;
 
 /// The five parametric figures of the paper (Fig. 9a–c: Case I; Fig. 11a–b: Case II).
 pub const PAPER_FIGURES: &[PaperFigure] = &[
@@ -605,7 +605,7 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
 
 /// The design with a paper figure's fixed moduli applied (the swept one untouched).
 /// With Es fixed every insert gets the same modulus, so only the first is kept.
-pub fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design, SweepError> {
+pub(crate) fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design, SweepError> {
     let mut d = design.clone();
     if let Some(v) = fig.e1_mpa {
         set_core_moduli(&mut d, v);
@@ -679,7 +679,7 @@ pub struct TrendVerdict {
 }
 
 /// Judge one curve (x ascending, Δλ in pm) against `fig`'s stated trend.
-pub fn paper_trend(fig: &PaperFigure, x: &[f64], shift_pm: &[f64]) -> TrendVerdict {
+pub(crate) fn paper_trend(fig: &PaperFigure, x: &[f64], shift_pm: &[f64]) -> TrendVerdict {
     let fail = |detail: String| TrendVerdict {
         reproduced: false,
         detail,

@@ -16,18 +16,18 @@ use super::{closed_form, LoadCase};
 use crate::profile::GratingPlacement;
 
 /// Largest wall thickness to mid-surface radius ratio accepted as a thin shell.
-pub const THIN_SHELL_MAX_T_OVER_R: f64 = 0.1;
+pub(crate) const THIN_SHELL_MAX_T_OVER_R: f64 = 0.1;
 /// Modulus below which a material is treated as an elastomer, MPa.
-pub const ELASTOMER_MAX_MODULUS_MPA: f64 = 100.0;
+pub(crate) const ELASTOMER_MAX_MODULUS_MPA: f64 = 100.0;
 /// Linear-range strain limit of an elastomer (dimensionless).
-pub const ELASTOMER_LINEAR_STRAIN: f64 = 0.05;
+pub(crate) const ELASTOMER_LINEAR_STRAIN: f64 = 0.05;
 /// Linear-range strain limit of a rigid photopolymer (dimensionless).
-pub const RIGID_LINEAR_STRAIN: f64 = 0.01;
+pub(crate) const RIGID_LINEAR_STRAIN: f64 = 0.01;
 /// Largest grating strain for reliable linear operation (dimensionless).
-pub const GRATING_MAX_STRAIN: f64 = 3.0e-3;
+pub(crate) const GRATING_MAX_STRAIN: f64 = 3.0e-3;
 
 /// Linear-range strain limit of a material.
-pub fn material_strain_limit(e: Elastic) -> f64 {
+pub(crate) fn material_strain_limit(e: Elastic) -> f64 {
     if e.youngs_modulus_mpa < ELASTOMER_MAX_MODULUS_MPA {
         ELASTOMER_LINEAR_STRAIN
     } else {
@@ -36,13 +36,13 @@ pub fn material_strain_limit(e: Elastic) -> f64 {
 }
 
 /// Length of the bending boundary layer of a cylinder (π/β), mm.
-pub fn edge_zone_mm(radius_mm: f64, wall_mm: f64, poisson: f64) -> f64 {
+pub(crate) fn edge_zone_mm(radius_mm: f64, wall_mm: f64, poisson: f64) -> f64 {
     let beta = (3.0 * (1.0 - poisson * poisson)).powf(0.25) / (radius_mm * wall_mm).sqrt();
     std::f64::consts::PI / beta
 }
 
 /// Warnings that depend on the geometry only (thin-shell ratios, grating in an edge zone).
-pub fn geometry_warnings(p: &ModuleModelParams, grating: Option<&GratingPlacement>) -> Vec<String> {
+pub(crate) fn geometry_warnings(p: &ModuleModelParams, grating: Option<&GratingPlacement>) -> Vec<String> {
     let g = &p.geometry;
     let mut w = Vec::new();
     for (part, t, r) in [
@@ -75,7 +75,7 @@ pub fn geometry_warnings(p: &ModuleModelParams, grating: Option<&GratingPlacemen
 }
 
 /// Warnings that depend on the strains at a given force.
-pub fn strain_warnings(
+pub(crate) fn strain_warnings(
     core: Elastic,
     core_strain: f64,
     cap: Elastic,
@@ -110,7 +110,7 @@ pub fn strain_warnings(
 
 /// Warnings that depend on the force: a pull lifts the module off its support, and in
 /// Case I the printed dome gap stays open below the force that closes it.
-pub fn force_warnings(p: &ModuleModelParams, case: LoadCase, force_n: f64) -> Vec<String> {
+pub(crate) fn force_warnings(p: &ModuleModelParams, case: LoadCase, force_n: f64) -> Vec<String> {
     let mut w = Vec::new();
     if force_n < 0.0 {
         w.push(

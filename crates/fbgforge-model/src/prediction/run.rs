@@ -74,7 +74,7 @@ impl PredictionRequest {
     }
 
     /// Check the request against `design`: Case I needs an insert.
-    pub fn check_design(&self, design: &Design) -> Result<()> {
+    pub(crate) fn check_design(&self, design: &Design) -> Result<()> {
         check_case_insert(design, self.case, " under [[module.inserts]]")
     }
 
@@ -241,7 +241,7 @@ impl SweepRequest {
     }
 
     /// Check the request against `design`: Case I needs an insert.
-    pub fn check_design(&self, design: &Design) -> Result<()> {
+    pub(crate) fn check_design(&self, design: &Design) -> Result<()> {
         check_case_insert(design, self.case, "")
     }
 }

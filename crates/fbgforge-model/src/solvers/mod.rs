@@ -280,7 +280,7 @@ where
 
 /// Run one solver on `problem` from `start` (Nelder–Mead) or over the box with `seed`
 /// (particle swarm, differential evolution).
-pub fn run_one<P: BoxProblem>(
+pub(crate) fn run_one<P: BoxProblem>(
     problem: &P,
     kind: SolverKind,
     start: &[f64],

@@ -114,7 +114,7 @@ impl ModuleProblem {
     }
 
     /// Evaluate a built candidate design.
-    pub fn evaluate_design(&self, x: &[f64], d: &Design) -> Evaluation {
+    pub(crate) fn evaluate_design(&self, x: &[f64], d: &Design) -> Evaluation {
         let mut cons = self.geometry_constraints(d);
         let mut e = Evaluation {
             x: x.to_vec(),

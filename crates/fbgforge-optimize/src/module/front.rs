@@ -212,7 +212,7 @@ pub fn pick(
 /// Where the objectives tie over the table's feasible rows scored on the policy, and
 /// why: the lag on the sample-period floor, |K| at the strain or wavelength limit, the
 /// scalar objective within a fraction of a per cent.
-pub fn tie_notes(
+pub(crate) fn tie_notes(
     choices: &[ChoiceResult],
     front: &[FrontDesign],
     settings: &ModuleSettings,

@@ -51,13 +51,13 @@ pub struct Evaluation {
 
 impl Evaluation {
     /// Sum of normalised violations.
-    pub fn total_violation(&self) -> f64 {
+    pub(crate) fn total_violation(&self) -> f64 {
         self.constraints.iter().map(|c| c.violation).sum()
     }
     /// How far from feasible, for ranking infeasible designs: designs whose geometry,
     /// spec or model fails rank behind designs that only break a physics constraint
     /// (strain, wavelength window), since only the latter were checked in full.
-    pub fn infeasibility_rank(&self) -> (u8, f64) {
+    pub(crate) fn infeasibility_rank(&self) -> (u8, f64) {
         let geometric = self
             .constraints
             .iter()

@@ -309,7 +309,7 @@ impl ModuleProblem {
     /// The same problem with the model anchored on the design at `x` with the policy's
     /// readings there: its K, the contact window's ends and the bounding readings at
     /// `x` are the policy's own.
-    pub fn anchored_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+    pub(crate) fn anchored_at(&self, x: &[f64]) -> anyhow::Result<Self> {
         let mut p = self.clone();
         let (model, name, readings) = self
             .predictor
@@ -328,7 +328,7 @@ impl ModuleProblem {
 
     /// The same problem with the model anchored on the design at `x` for its nominal K
     /// only (one FE solve per configuration), keeping the uncertainty ratios it has.
-    pub fn anchored_nominal_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+    pub(crate) fn anchored_nominal_at(&self, x: &[f64]) -> anyhow::Result<Self> {
         let mut p = self.clone();
         (p.model, p.model_description) = self.predictor.anchored_on(&self.design_at(x))?;
         p.correction = None;
@@ -360,7 +360,7 @@ impl ModuleProblem {
     /// policy's K to the anchored estimate is measured a step along each variable (one
     /// anchoring each) and applied as a linear factor, so the estimate has the
     /// policy's value and slope at `x` (what a trust region needs to converge).
-    pub fn corrected_at(&self, x: &[f64]) -> anyhow::Result<Self> {
+    pub(crate) fn corrected_at(&self, x: &[f64]) -> anyhow::Result<Self> {
         let mut p = self.anchored_at(x)?;
         if matches!(self.predictor, Predictor::Function(_)) {
             return Ok(p);
@@ -426,7 +426,7 @@ impl ModuleProblem {
     }
 
     /// Use `scale` to normalise the objective in the cost (typically the start's value).
-    pub fn set_scale(&mut self, scale: f64) {
+    pub(crate) fn set_scale(&mut self, scale: f64) {
         self.scale = if scale.is_finite() && scale > 0.0 {
             scale
         } else {
@@ -471,12 +471,12 @@ impl ModuleProblem {
     }
 
     /// Bounds of the search box.
-    pub fn box_bounds(&self) -> (Vec<f64>, Vec<f64>) {
+    pub(crate) fn box_bounds(&self) -> (Vec<f64>, Vec<f64>) {
         (self.lo.clone(), self.hi.clone())
     }
 
     /// Of the runs' best points (argmin's state), the feasible one of highest merit.
-    pub fn best_feasible<'e>(&self, evals: &'e [Evaluation]) -> Option<&'e Evaluation> {
+    pub(crate) fn best_feasible<'e>(&self, evals: &'e [Evaluation]) -> Option<&'e Evaluation> {
         evals
             .iter()
             .filter(|e| e.feasible())

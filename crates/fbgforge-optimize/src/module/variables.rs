@@ -31,7 +31,7 @@ impl Variable {
         Variable::OverallHeightMm,
     ];
     /// Varied when the user does not say.
-    pub const DEFAULT: [Variable; 4] = [
+    pub(crate) const DEFAULT: [Variable; 4] = [
         Variable::OuterDiameterMm,
         Variable::CapWallMm,
         Variable::CoreWallMm,
@@ -86,7 +86,7 @@ impl Variable {
 
     /// Default search range given the start module and the printer's minimum wall.
     /// The diameter spans the paper's scripted 10–22 mm, widened to hold the start.
-    pub fn default_bounds(self, m: &Module, min_wall_mm: f64) -> (f64, f64) {
+    pub(crate) fn default_bounds(self, m: &Module, min_wall_mm: f64) -> (f64, f64) {
         let v = self.value(m);
         match self {
             Variable::OuterDiameterMm => (v.min(10.0), v.max(22.0)),

@@ -52,7 +52,7 @@ impl Dim {
 }
 
 /// A round length for a scale bar near a fifth of `span_mm`: 1, 2 or 5 × 10ⁿ mm.
-pub fn scale_bar_mm(span_mm: f64) -> f64 {
+pub(crate) fn scale_bar_mm(span_mm: f64) -> f64 {
     let target = (span_mm / 5.0).max(1e-6);
     let decade = 10f64.powf(target.log10().floor());
     [5.0, 2.0, 1.0]
@@ -298,7 +298,7 @@ fn draw_labels(s: &mut String, p: &Panel, f: &PanelFrame) {
 
 /// The assembled module cut by the plane of pillar 0's fiber and by the plane of the
 /// reference fiber's exit, with every fiber in that plane drawn in red.
-pub fn module_svg(
+pub(crate) fn module_svg(
     profile: &DesignProfile,
     parts: &[BuiltPart],
     fibers: &[FiberTrace],
@@ -412,7 +412,7 @@ fn module_dims(m: &ModuleDims) -> Vec<Dim> {
 
 /// The mold (and its plugs in place) cut through the first fiber's slits, with the
 /// fiber and the silicone level.
-pub fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> {
+pub(crate) fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<String> {
     let design = profile.design;
     let a = profile.array.as_ref()?;
     let mold = parts.iter().find(|b| b.kind == PartKind::Mold)?;

@@ -302,7 +302,7 @@ fn draw_ticks(s: &mut String, f: &Frame) {
 
 /// The layout picture as SVG (`standalone`: with the namespace a file needs) and where
 /// its sheet and legend are, px.
-pub fn layout_svg(
+pub(crate) fn layout_svg(
     start: &TactileArray,
     chosen: &TactileArray,
     title: &str,
@@ -336,7 +336,7 @@ pub fn layout_svg(
 
 /// The layouts' numbers as CSV rows: grating, fiber, start x and y, chosen x and y,
 /// length (mm).
-pub fn layout_rows(start: &TactileArray, chosen: &TactileArray) -> Vec<Vec<String>> {
+pub(crate) fn layout_rows(start: &TactileArray, chosen: &TactileArray) -> Vec<Vec<String>> {
     let (from, to) = (centres(start), centres(chosen));
     chosen
         .gratings
@@ -358,7 +358,7 @@ pub fn layout_rows(start: &TactileArray, chosen: &TactileArray) -> Vec<Vec<Strin
 }
 
 /// Header of [`layout_rows`].
-pub const LAYOUT_HEADER: [&str; 7] = [
+pub(crate) const LAYOUT_HEADER: [&str; 7] = [
     "grating",
     "fiber",
     "start_x_mm",

@@ -15,7 +15,7 @@ pub type LoadResponse = fbgforge_array::predict::LoadResponse;
 
 /// The sensitivity map as heat maps, one panel per grating, with the fibers, the
 /// cells' borders and each grating marked.
-pub fn map_chart(design: &Design, p: &ArrayPredictor, map: &SensitivityMap) -> HeatMaps {
+pub(crate) fn map_chart(design: &Design, p: &ArrayPredictor, map: &SensitivityMap) -> HeatMaps {
     let a = design.array.as_ref().expect("an array design");
     let (sx, sy) = p.sheet_mm();
     let mut lines: Vec<Vec<(f64, f64)>> = a

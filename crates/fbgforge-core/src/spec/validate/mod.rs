@@ -18,7 +18,7 @@ impl Design {
     /// Check every field against its allowed range and every cross-field constraint
     /// that needs no derived dimension; [`crate::design`] adds the checks on the
     /// derived profile (radial stack, pillar pitch, holes against the domes).
-    pub fn validate_fields(&self) -> Result<(), SpecError> {
+    pub(crate) fn validate_fields(&self) -> Result<(), SpecError> {
         self.validate_printer()?;
         self.validate_materials()?;
         if self.module.is_none() && self.array.is_none() {
