@@ -435,6 +435,31 @@ impl Default for PredictionRequest {
 
 /// Predict every strain grating of `design` (of `request.case` only, when given) with
 /// the model the policy picks for each configuration.
+///
+/// ```
+/// use fbgforge_model::model::LoadCase;
+/// use fbgforge_model::prediction::{predict, Fidelity, FidelityChoice, PredictionRequest};
+///
+/// let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+/// let design = fbgforge_core::design::load(&root.join("designs/clip-on-34mm.toml"))?;
+/// let closed = PredictionRequest {
+///     case: Some(LoadCase::II),
+///     fidelity: FidelityChoice::ClosedForm,
+///     ..PredictionRequest::default()
+/// };
+/// let rows = predict(&design, &closed)?;
+/// // Every row is a Case II row of the closed form, and it states its model.
+/// assert!(!rows.is_empty());
+/// assert!(rows.iter().all(|r| r.model == Fidelity::ClosedForm));
+/// assert!(rows.iter().all(|r| r.detail.prediction.case == LoadCase::II));
+/// // The policy answers the same rows (the 34 mm module lies in the closed form's
+/// // validity region for Case II), so both give the same K.
+/// let auto = predict(&design, &PredictionRequest { fidelity: FidelityChoice::Auto, ..closed })?;
+/// for (a, c) in auto.iter().zip(&rows) {
+///     assert_eq!(a.detail.prediction.sensitivity_pm_per_n, c.detail.prediction.sensitivity_pm_per_n);
+/// }
+/// # Ok::<(), anyhow::Error>(())
+/// ```
 pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<ModelledPrediction>> {
     let opts = PredictOptions {
         force_n: request.force_n,

@@ -322,6 +322,38 @@ impl<S: SweepSink + ?Sized> SweepSink for &mut S {
 /// Sweep one parameter of `design` as `request` says, each step answered by the model
 /// the request picks, and hand the series to `sink`; `progress` hears one step per
 /// value.
+///
+/// ```
+/// use fbgforge_model::model::{sweep::find_param, LoadCase};
+/// use fbgforge_model::prediction::{sweep, FidelityChoice, Spacing, SweepRequest};
+///
+/// let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+/// let design = fbgforge_core::design::load(&root.join("designs/clip-on-34mm.toml"))?;
+/// let request = SweepRequest {
+///     param: find_param("e1_mpa")?,
+///     start: 1.0,
+///     stop: 100.0,
+///     steps: 3,
+///     spacing: Spacing::Auto,
+///     values: None,
+///     force_n: 50.0,
+///     case: Some(LoadCase::II),
+///     fidelity: FidelityChoice::ClosedForm,
+///     band: false,
+///     fem_options: Default::default(),
+///     cache: Default::default(),
+/// };
+/// // A range of 100× is spaced in log: 1, 10, 100 MPa.
+/// assert_eq!(request.values()?.1, true);
+/// let r = sweep(&design, &request, &fbgforge_core::progress::Quiet, &mut ())
+///     .map_err(|e| e.into_inner())?;
+/// // Case II: |Δλ| falls as the core stiffens (more of the force goes through it).
+/// for s in &r.series {
+///     assert_eq!(s.x.len(), 3);
+///     assert!(s.shift_pm.windows(2).all(|w| w[1].abs() < w[0].abs()));
+/// }
+/// # Ok::<(), anyhow::Error>(())
+/// ```
 pub fn sweep(
     design: &Design,
     request: &SweepRequest,
