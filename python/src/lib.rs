@@ -144,7 +144,7 @@ fn predict<'py>(
     let (rows, statements) = py
         .detach(|| fbgforge::prediction::predict_into(d, &request, &mut ()))
         .map_err(|e| run_err(py, e, &d.name, "cannot predict"))?;
-    Ok((to_py(py, &rows)?, to_py(py, &statements)?)
+    Ok((convert::to_py_in_words(py, &rows)?, to_py(py, &statements)?)
         .into_pyobject(py)?
         .into_any())
 }

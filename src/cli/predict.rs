@@ -29,6 +29,8 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("SweepRequest.start", "--from"),
     ("SweepRequest.stop", "--to"),
     ("SweepRequest.steps", "--steps"),
+    // The model's warning on the shipped default contact names verify's option.
+    ("VerifyRequest.calibrate_into", "--calibrate-into"),
 ];
 
 /// Arguments of `fbgforge predict`.
@@ -209,7 +211,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     }
     let out = std::io::stdout();
     let mut sink: Box<dyn PredictSink> = if a.json {
-        Box::new(PredictJson::new(out))
+        Box::new(PredictJson::new(out, in_flag_words))
     } else {
         Box::new(PredictTable::new(out, in_flag_words))
     };
@@ -300,7 +302,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             fem_options: FemOptions::default(),
             cache: GeometryCache::default(),
         };
-        let mut sink = PaperFigureFiles::new(dir.clone(), std::io::stdout());
+        let mut sink = PaperFigureFiles::new(dir.clone(), std::io::stdout(), in_flag_words);
         return fbgforge::prediction::paper_figures(&design, &request, &Bar::new(), &mut sink)
             .map_err(RunError::into_inner);
     }
@@ -343,7 +345,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         .csv
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/sweep").join(format!("{stem}.csv")));
-    let mut sink = SweepFiles::new(svg, csv, std::io::stdout());
+    let mut sink = SweepFiles::new(svg, csv, std::io::stdout(), in_flag_words);
     fbgforge::prediction::sweep(&design, &request, &Bar::new(), &mut sink)
         .map_err(|e| in_context(e, &a.design, "sweep failed"))?;
     Ok(())

@@ -103,13 +103,14 @@ mod tests {
 
     #[test]
     fn longer_names_win_and_parts_of_identifiers_stay() {
+        // A front end's words (here a keyword-argument style): any text will do.
         let words = [
-            ("AnalysisOptions.window", "--window"),
-            ("AnalysisOptions.window_nm", "--window-nm"),
+            ("AnalysisOptions.window", "window="),
+            ("AnalysisOptions.window_nm", "window_nm="),
         ];
         assert_eq!(
             in_words("AnalysisOptions.window_nm and AnalysisOptions.window", &words),
-            "--window-nm and --window"
+            "window_nm= and window="
         );
         assert_eq!(in_words("XAnalysisOptions.window_nm", &words), "XAnalysisOptions.window_nm");
     }

@@ -15,6 +15,7 @@ pub use sweep::{sweep_chart, sweep_csv, PaperFigureFiles, SweepFiles};
 pub use table::PredictTable;
 
 use anyhow::Result;
+use fbgforge_core::fields::InWords;
 use fbgforge_model::prediction::{PredictSink, Predicted};
 use std::io::Write;
 
@@ -22,12 +23,13 @@ use std::io::Write;
 /// change, the model choice, every row and the paper's statements.
 pub struct PredictJson<W: Write> {
     out: W,
+    words: InWords,
 }
 
 impl<W: Write> PredictJson<W> {
-    /// JSON printed to `out`.
-    pub fn new(out: W) -> Self {
-        PredictJson { out }
+    /// JSON printed to `out`, naming options in `words`.
+    pub fn new(out: W, words: InWords) -> Self {
+        PredictJson { out, words }
     }
 }
 
@@ -41,7 +43,8 @@ impl<W: Write> PredictSink for PredictJson<W> {
             "predictions": p.rows,
             "paper_statements": p.statements,
         });
-        writeln!(self.out, "{}", serde_json::to_string_pretty(&doc)?)?;
+        let text = (self.words)(&serde_json::to_string_pretty(&doc)?);
+        writeln!(self.out, "{text}")?;
         Ok(())
     }
 }

@@ -7,6 +7,7 @@ use crate::output::{ensure_dir, write_csv};
 use crate::plot::{Chart, Mark, Series, Stroke};
 use crate::spec::Design;
 use anyhow::Result;
+use fbgforge_core::fields::InWords;
 use fbgforge_model::model::sweep::{SweepResult, PAPER_FIGURES};
 use fbgforge_model::prediction::{
     FidelityChoice, FigureSwept, PaperFiguresRequest, SweepSink, Swept, DEFAULT_CONTACT_WARNING,
@@ -151,7 +152,7 @@ pub fn sweep_csv(r: &SweepResult, path: &Path) -> Result<()> {
 /// Say so when Case I curves by the FE rest on the shipped default contact radius.
 fn default_contact_note(
     out: &mut impl Write,
-    design: &Design,
+    (design, words): (&Design, InWords),
     f: FidelityChoice,
     case_i: bool,
 ) -> Result<()> {
@@ -160,7 +161,7 @@ fn default_contact_note(
         .as_ref()
         .is_some_and(|m| m.contact_radius_is_default());
     if case_i && default && f != FidelityChoice::ClosedForm {
-        writeln!(out, "note: Case I: {DEFAULT_CONTACT_WARNING}")?;
+        writeln!(out, "{}", words(&format!("note: Case I: {DEFAULT_CONTACT_WARNING}")))?;
     }
     Ok(())
 }
@@ -171,12 +172,19 @@ pub struct SweepFiles<W: Write> {
     svg: PathBuf,
     csv: PathBuf,
     out: W,
+    words: InWords,
 }
 
 impl<W: Write> SweepFiles<W> {
-    /// The chart into `svg`, the numbers into `csv`, the summary to `out`.
-    pub fn new(svg: PathBuf, csv: PathBuf, out: W) -> Self {
-        SweepFiles { svg, csv, out }
+    /// The chart into `svg`, the numbers into `csv`, the summary to `out`, naming
+    /// options in `words`.
+    pub fn new(svg: PathBuf, csv: PathBuf, out: W, words: InWords) -> Self {
+        SweepFiles {
+            svg,
+            csv,
+            out,
+            words,
+        }
     }
 }
 
@@ -217,7 +225,7 @@ impl<W: Write> SweepSink for SweepFiles<W> {
             )?;
         }
         let case_i = r.series.iter().any(|x| x.case == LoadCase::I);
-        default_contact_note(out, s.design, q.fidelity, case_i)?;
+        default_contact_note(out, (s.design, self.words), q.fidelity, case_i)?;
         writeln!(
             out,
             "wrote {} and {}",
@@ -233,16 +241,18 @@ impl<W: Write> SweepSink for SweepFiles<W> {
 pub struct PaperFigureFiles<W: Write> {
     dir: PathBuf,
     out: W,
+    words: InWords,
     /// Rows of `trends.csv`: figure, model, reproduced, detail.
     trends: Vec<Vec<String>>,
 }
 
 impl<W: Write> PaperFigureFiles<W> {
-    /// The figures into `dir`, the lines to `out`.
-    pub fn new(dir: PathBuf, out: W) -> Self {
+    /// The figures into `dir`, the lines to `out`, naming options in `words`.
+    pub fn new(dir: PathBuf, out: W, words: InWords) -> Self {
         PaperFigureFiles {
             dir,
             out,
+            words,
             trends: Vec::new(),
         }
     }
@@ -292,7 +302,7 @@ impl<W: Write> SweepSink for PaperFigureFiles<W> {
     }
 
     fn figures_end(&mut self, design: &Design, r: &PaperFiguresRequest) -> Result<()> {
-        default_contact_note(&mut self.out, design, r.fidelity, true)?;
+        default_contact_note(&mut self.out, (design, self.words), r.fidelity, true)?;
         write_csv(
             &self.dir.join("trends.csv"),
             &["figure", "model", "reproduced", "detail"],

@@ -25,7 +25,8 @@ impl<W: Write> PredictTable<W> {
 
 impl<W: Write> PredictSink for PredictTable<W> {
     fn predicted(&mut self, p: &Predicted) -> Result<()> {
-        let out = &mut self.out;
+        let mut text = Vec::new();
+        let out = &mut text;
         writeln!(
             out,
             "{}: predicted sensitivity at F = {} N",
@@ -41,13 +42,15 @@ impl<W: Write> PredictSink for PredictTable<W> {
         for (i, m) in models.0.iter().enumerate() {
             writeln!(out, "m{}: {m}", i + 1)?;
         }
-        write!(out, "{}", (self.words)(&legend(columns.0, p.request.fidelity)))?;
+        write!(out, "{}", legend(columns.0, p.request.fidelity))?;
         for (i, n) in notes.0.iter().enumerate() {
             writeln!(out, "[{}] {n}", i + 1)?;
         }
         if let Some(s) = p.statements {
             statements(out, s)?;
         }
+        let text = String::from_utf8(text)?;
+        write!(self.out, "{}", (self.words)(&text))?;
         Ok(())
     }
 }
