@@ -25,6 +25,29 @@ pub fn to_py<'py, T: serde::Serialize + ?Sized>(
     value_to_py(py, &value(v)?)
 }
 
+/// A serialisable result as Python objects, every text in the package's words (the
+/// request fields the library names in reasons and warnings as Python parameters,
+/// [`crate::errors::py_words`]).
+pub fn to_py_words<'py, T: serde::Serialize + ?Sized>(
+    py: Python<'py>,
+    v: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut v = value(v)?;
+    in_words(&mut v);
+    value_to_py(py, &v)
+}
+
+/// Every text of `v` in the package's words.
+fn in_words(v: &mut Value) {
+    match v {
+        Value::Text(s) => *s = crate::errors::py_words(s),
+        Value::Tag(_, inner) => in_words(inner),
+        Value::Array(items) => items.iter_mut().for_each(in_words),
+        Value::Map(entries) => entries.iter_mut().for_each(|(_, x)| in_words(x)),
+        _ => {}
+    }
+}
+
 /// One intermediate value as a Python object.
 pub fn value_to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
     Ok(match v {

@@ -29,7 +29,31 @@ fn raise(py: Python<'_>, class: &str, message: String, extra: &[(&str, Option<St
 
 /// Request fields whose Python parameter is named otherwise than the field
 /// (`Type.field` → parameter); every other field is its own parameter name.
-pub const PARAMS: &[(&str, &str)] = &[];
+pub const PARAMS: &[(&str, &str)] = &[
+    // verify
+    ("AnalysisOptions.window_half_width_nm", "window_nm"),
+    ("AnalysisOptions.max_clock_offset_s", "max_offset_s"),
+    ("ForceReadOptions.time", "force_time_column"),
+    ("ForceReadOptions.force", "force_force_column"),
+    ("ForceReadOptions.scale_to_n", "force_scale_to_n"),
+    ("ForceReadOptions.date_order", "force_date_order"),
+    // synth_log
+    ("TrainSettings.peaks_n", "pulses_n"),
+    ("SynthConfig.sample_rate_hz", "rate_hz"),
+    ("SynthConfig.sensitivity_pm_per_n", "k_pm_per_n"),
+    // calibrate_array
+    ("CalibrateRequest.window_half_width_nm", "window_nm"),
+    // live
+    ("InterpretOptions.window_half_width_nm", "window_nm"),
+    ("LiveRequest.max_frames", "frames"),
+    ("LiveRequest.queue_frames", "queue"),
+];
+
+/// A library text in the package's words ([`python_words`] with no renames): what
+/// the result documents and report folders say.
+pub fn py_words(text: &str) -> String {
+    python_words(text, &[])
+}
 
 /// A library message in the Python package's words: every request field the library
 /// names (`VerifyRequest.force_start`, see `fbgforge::fields`) as its parameter

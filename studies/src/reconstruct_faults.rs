@@ -33,7 +33,7 @@ use anyhow::Result;
 use fbgforge::array::kernel::{
     fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
 };
-use fbgforge::array::methods::{Method, ReadingPrior, DEFAULT_MAX_LOADS};
+use fbgforge::array::methods::{Method, ReadingSettings, DEFAULT_MAX_LOADS};
 use fbgforge::array::problem::{SensingProblem, Uncertainty, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::array::reconstruct::{reconstruct, Frames, MethodRequest, DEFAULT_BUDGET_US};
@@ -341,7 +341,7 @@ pub fn run(
                             MethodRequest::named(method)
                         }
                     };
-                    let prior = ReadingPrior {
+                    let prior = ReadingSettings {
                         max_loads: DEFAULT_MAX_LOADS,
                         resolution_pm: RESOLUTION_PM,
                     };

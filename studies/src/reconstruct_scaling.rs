@@ -20,7 +20,7 @@
 use anyhow::Result;
 use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use fbgforge::array::kernel::{fiber_grid_layout, matrix_from_positions, DistanceKernel};
-use fbgforge::array::methods::{build, reconstruct_frames, Method, MethodSettings, ReadingPrior};
+use fbgforge::array::methods::{build, reconstruct_frames, Method, MethodSettings, ReadingSettings};
 use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::output::{ensure_dir, write_csv, write_json};
@@ -382,7 +382,7 @@ pub fn run(
         // The default: what `fbgforge reconstruct` picks without --method, told the
         // interrogator's resolution (0.25 pm here: λ = 16 σ² = 1 for `bnb`).
         // At 10× the budget too (the 1 ms goal at 32 × 256).
-        let prior = ReadingPrior {
+        let prior = ReadingSettings {
             max_loads: 4,
             resolution_pm: NOISE_PM,
         };

@@ -10,7 +10,8 @@ use clap::Args;
 use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::progress::Progress;
 use fbgforge::synth::module_log::{self as synth, LogStyle};
-use fbgforge::verify::{report, run as verify_run, VerifyRequest};
+use fbgforge::report::verify as report;
+use fbgforge::verify::{run as verify_run, VerifyRequest};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -391,7 +392,7 @@ fn protocol_accuracy(out: &std::path::Path) -> Result<()> {
             synth::write_log(&lp, LogFormat::Csv, &log, &cfg, &LogStyle::default())?;
             synth::write_force_csv(&fp, &force)?;
             let pl = logs::read_peak_log(&lp, &ReadOptions::default())?;
-            let fl = logs::read_force_log(&fp, &logs::ForceColumns::default())?;
+            let fl = logs::read_force_log(&fp, &logs::ForceReadOptions::default())?;
             let opts = AnalysisOptions {
                 clock_offset_s: Some(synth::reported_offset_s(&cfg, LogFormat::Csv)),
                 ..Default::default()

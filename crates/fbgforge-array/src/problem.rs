@@ -236,7 +236,7 @@ impl SensingProblem {
         }
         if let Some(j) = (0..n).find(|&j| norms[j] <= 1e-9 * full[j]) {
             return Err(ArrayError::Input(format!(
-                "cell column {} of the sensing matrix shifts every grating as a temperature change does: with the common-mode term its load cannot be told from temperature (drop --common-mode)",
+                "cell column {} of the sensing matrix shifts every grating as a temperature change does: with the common-mode term its load cannot be told from temperature (drop ReconstructRequest.common_mode)",
                 j + 1
             )));
         }

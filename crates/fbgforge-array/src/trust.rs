@@ -32,7 +32,10 @@
 use super::methods::Reconstruction;
 use super::problem::SensingProblem;
 use nalgebra::{DMatrix, DVector};
-use serde::{Serialize, Serializer};
+use serde::Serialize;
+
+/// The per-frame flags, defined beside the [`Reconstruction`] that carries them.
+pub use super::methods::FrameFlags;
 
 /// Probability with which a frame whose errors are as stated is still flagged
 /// `inconsistent` (and with which `overload` is raised on a touching bound).
@@ -40,76 +43,6 @@ pub const FALSE_ALARM: f64 = 1e-3;
 
 /// Columns whose cosine is at least this are identical for `ambiguous`.
 pub const IDENTICAL_COLUMNS_COS: f64 = 1.0 - 1e-6;
-
-/// Why a frame should not be trusted; all false when it can be.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct FrameFlags {
-    /// The residual exceeds what the stated uncertainty explains (χ² test).
-    pub inconsistent: bool,
-    /// A load sits at ulimit.
-    pub ceiling: bool,
-    /// The frame is consistent with a load above ulimit.
-    pub overload: bool,
-    /// A loaded cell carries less than the rated minimum load.
-    pub below_range: bool,
-    /// Another answer ≥ 12 dB away fits about as well, or identical columns.
-    pub ambiguous: bool,
-    /// The method did not converge (`bnb`: stopped at its work budget).
-    pub unconverged: bool,
-    /// The frame could not be used (wrong length, non-finite shift).
-    pub unusable: bool,
-}
-
-impl FrameFlags {
-    /// The flag words in the order they are written.
-    pub const WORDS: [&'static str; 7] = [
-        "inconsistent",
-        "ceiling",
-        "overload",
-        "below_range",
-        "ambiguous",
-        "unconverged",
-        "unusable",
-    ];
-
-    fn bits(&self) -> [bool; 7] {
-        [
-            self.inconsistent,
-            self.ceiling,
-            self.overload,
-            self.below_range,
-            self.ambiguous,
-            self.unconverged,
-            self.unusable,
-        ]
-    }
-
-    /// The words of the flags that are set.
-    pub fn words(&self) -> Vec<&'static str> {
-        Self::WORDS
-            .iter()
-            .zip(self.bits())
-            .filter(|(_, b)| *b)
-            .map(|(w, _)| *w)
-            .collect()
-    }
-
-    /// True when no flag is set: the frame can be trusted.
-    pub fn trusted(&self) -> bool {
-        !self.bits().iter().any(|b| *b)
-    }
-
-    /// The flags as one CSV field: the words joined by `;` (empty when trusted).
-    pub fn field(&self) -> String {
-        self.words().join(";")
-    }
-}
-
-impl Serialize for FrameFlags {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.words().serialize(s)
-    }
-}
 
 /// How many frames carry each flag (a frame may carry several).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]

@@ -11,7 +11,7 @@
 use super::source::Frame;
 use crate::array::kernel::matrix_from_design;
 use crate::array::methods::{
-    self, Method, MethodSettings, NoisePrior, ReadingPrior, Reconstruction,
+    self, Method, MethodSettings, NoisePrior, ReadingSettings, Reconstruction,
 };
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::array::reconstruct::{prepare, MethodRequest, Setup, DEFAULT_BUDGET_US};
@@ -76,7 +76,7 @@ pub fn calibration_from_verify_json(path: &std::path::Path) -> Result<BTreeMap<S
         .with_context(|| format!("cannot read the calibration {}", path.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).with_context(|| {
         format!(
-            "{}: not JSON; expected the report of `fbgforge verify --json`",
+            "{}: not JSON; expected a verification report (`report.json`)",
             path.display()
         )
     })?;
@@ -85,7 +85,7 @@ pub fn calibration_from_verify_json(path: &std::path::Path) -> Result<BTreeMap<S
         .and_then(|g| g.as_array())
         .ok_or_else(|| {
             anyhow!(
-                "{}: no `measurement.gratings` list; expected the report of `fbgforge verify --json`",
+                "{}: no `measurement.gratings` list; expected a verification report (`report.json`)",
                 path.display()
             )
         })?;
@@ -278,7 +278,7 @@ impl Interpreter {
             .max_loads
             .map(|k| k as usize)
             .unwrap_or(methods::DEFAULT_MAX_LOADS);
-        let prior = ReadingPrior {
+        let prior = ReadingSettings {
             max_loads,
             resolution_pm: opts.resolution_pm,
         };
@@ -354,13 +354,13 @@ impl Interpreter {
             LoadCase::II
         });
         if case == LoadCase::II && opts.insert.is_some() {
-            bail!("--insert names the insert of Case I; Case II has none");
+            bail!("InterpretOptions.insert names the insert of Case I; Case II has none");
         }
         let insert_names = || -> Vec<&str> { m.inserts.iter().map(|i| i.name.as_str()).collect() };
         if case == LoadCase::I && opts.insert.is_none() {
             let names = insert_names();
             bail!(
-                "Case I needs --insert; the design's inserts are: {}",
+                "Case I needs InterpretOptions.insert; the design's inserts are: {}",
                 if names.is_empty() {
                     "none".to_string()
                 } else {
@@ -797,7 +797,7 @@ mod tests {
             .with_min_load_g(default_min_load_g(ulimit_g))
             .unwrap();
         let max_loads = design.array.as_ref().unwrap().max_loads;
-        let prior = |resolution_pm| ReadingPrior {
+        let prior = |resolution_pm| ReadingSettings {
             max_loads: max_loads.map_or(methods::DEFAULT_MAX_LOADS, |k| k as usize),
             resolution_pm,
         };

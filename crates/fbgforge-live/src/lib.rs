@@ -8,7 +8,8 @@
 //!   array's cell loads (its default reconstruction method) or the module's
 //!   temperature-compensated force per grating (predicted or calibrated K);
 //! * [`stats`]: frames, drops, bad frames by kind, reconnections, latency;
-//! * [`view`]: the terminal view (text heat map) and the JSON-lines stream;
+//! * [`sink`]: where the output goes ([`sink::LiveSink`]; the terminal view and the
+//!   JSON-lines stream are `fbgforge_report::live`'s);
 //!
 //! The use case is [`run`]: `fbgforge live` and the tests call it. A bad frame is
 //! counted and named, never fatal; a dropped connection is reopened; frames that
@@ -28,7 +29,7 @@ pub mod hyperion;
 pub mod interpret;
 pub mod source;
 pub mod stats;
-pub mod view;
+pub mod sink;
 
 use anyhow::Result;
 use interpret::{InterpretOptions, Interpreter, Prepared, Skip};
@@ -39,7 +40,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use view::{FrameReading, LiveInfo, LiveSink};
+use sink::{FrameReading, LiveInfo, LiveSink};
 
 /// What to watch and how.
 #[derive(Debug, Clone)]
@@ -60,6 +61,19 @@ pub struct LiveRequest {
 }
 
 impl LiveRequest {
+    /// Check the request's limits and queue size (the source's options are checked
+    /// when it is parsed, [`SourceSpec::parse`]; the reconstruction's when it is
+    /// prepared).
+    pub fn validate(&self) -> Result<()> {
+        if let Some(d) = self.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
+            anyhow::bail!("LiveRequest.duration_s must be a positive number of seconds, got {d}");
+        }
+        if self.queue_frames == 0 {
+            anyhow::bail!("the queue must hold at least one frame");
+        }
+        Ok(())
+    }
+
     /// A request with every default.
     pub fn new(design: PathBuf, source: SourceSpec) -> Self {
         LiveRequest {
@@ -110,16 +124,6 @@ fn wall_now_s() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64())
 }
 
-/// Check the request's limits and queue size.
-fn check_request(req: &LiveRequest) -> Result<()> {
-    if let Some(d) = req.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
-        anyhow::bail!("--duration-s must be a positive number of seconds, got {d}");
-    }
-    if req.queue_frames == 0 {
-        anyhow::bail!("the queue must hold at least one frame");
-    }
-    Ok(())
-}
 
 /// What the sink is told before the first frame: the design, the source and the outputs.
 fn live_info(design: &crate::spec::Design, interp: &Interpreter, req: &LiveRequest) -> LiveInfo {
@@ -392,7 +396,7 @@ impl Watch<'_> {
 /// the sink). Errors only for a bad request (design, options); nothing in the stream is
 /// fatal.
 pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Result<LiveSummary> {
-    check_request(req)?;
+    req.validate()?;
     let design = crate::design::load(&req.design)?;
     let interp = Interpreter::new(&design, &req.interpret)?;
     let info = live_info(&design, &interp, req);
@@ -430,7 +434,7 @@ pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Res
         }
         if let Some(d) = req.duration_s {
             if started.elapsed().as_secs_f64() >= d {
-                w.ended = Some(format!("--duration-s {d} reached"));
+                w.ended = Some(format!("LiveRequest.duration_s {d} reached"));
                 break;
             }
         }

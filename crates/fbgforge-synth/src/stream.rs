@@ -44,7 +44,7 @@ pub const MAX_RATE_HZ: f64 = 100_000.0;
 pub const RESOLUTION_PM: f64 = 0.5;
 
 /// Noise on the simulated shifts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SynthNoise {
     /// None: exact shifts.
@@ -62,7 +62,7 @@ pub const REFUSAL_S: f64 = 0.25;
 pub const CLIENT_WAIT_S: f64 = 30.0;
 
 /// How the simulated instrument counts its frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FrameClock {
     /// As an instrument does: frame k is due k / rate after the server starts, read or
@@ -355,7 +355,7 @@ impl Generator {
     pub fn with_script(design: &Design, script: LoadScript, req: &SynthRequest) -> Result<Self> {
         if !(req.rate_hz.is_finite() && req.rate_hz > 0.0 && req.rate_hz <= MAX_RATE_HZ) {
             bail!(
-                "--rate-hz must be in (0, {MAX_RATE_HZ}] frames per second, got {}",
+                "SynthRequest.rate_hz must be in (0, {MAX_RATE_HZ}] frames per second, got {}",
                 req.rate_hz
             );
         }
@@ -714,7 +714,7 @@ fn accept(listener: &TcpListener) -> Result<Option<TcpStream>> {
 pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Result<SynthSummary> {
     if !(req.duration_s.is_finite() && req.duration_s > 0.0 && req.duration_s <= MAX_DURATION_S) {
         bail!(
-            "--duration-s must be in (0, {MAX_DURATION_S}] seconds (the stream stops by itself), got {}",
+            "SynthRequest.duration_s must be in (0, {MAX_DURATION_S}] seconds (the stream stops by itself), got {}",
             req.duration_s
         );
     }

@@ -195,7 +195,7 @@ fn clipped_pulses(t: &[f64], f: &[f64], seg: &Segmentation) -> (Option<f64>, Vec
 /// Steps in time longer than [`GAP_PERIODS`] median periods, with the pulse each lies
 /// in or touches.
 fn gaps(t: &[f64], seg: &Segmentation) -> Vec<ForceGap> {
-    let dt = crate::logs::median_period(t);
+    let dt = crate::logs::time::median_period(t);
     if dt.is_nan() || dt <= 0.0 {
         return Vec::new();
     }

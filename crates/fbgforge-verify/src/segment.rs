@@ -215,7 +215,7 @@ fn force_levels(t: &[f64], f: &[f64]) -> ForceLevels {
     let base = percentile(f, 0.1);
     let amp = percentile(f, 0.999) - base;
     let sigma = noise_sigma(f);
-    let dt = crate::logs::median_period(t).max(1e-9);
+    let dt = crate::logs::time::median_period(t).max(1e-9);
     let m = ((0.05 / dt).round() as usize).min(50);
     let sm = moving_average(f, m);
     let delta = (0.02 * amp).max(6.0 * sigma / ((2 * m + 1) as f64).sqrt());

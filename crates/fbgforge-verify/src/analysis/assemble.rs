@@ -2,14 +2,16 @@
 //! gratings collected into the measurement (spec order, the series behind the plots,
 //! the warnings their results call for).
 
-use super::clocks::{align_clocks, span_times, timing_uncertainty_s, AlignedClocks};
+use super::clocks::{align_clocks, span_times, timing_uncertainty_s};
 use super::force::{check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force};
 use super::gratings::{grating_shifts, primary_grating};
-use super::measure::{measure_all, GratingContext, Measured};
+use super::measure::{measure_all, Measured};
 use super::options::AnalysisOptions;
 use super::quality::warn_q_undefined;
 use super::results::{GratingResult, Measurement, Series};
-use crate::logs::{median_period, ForceLog, LogWarnings, PeakLog};
+use super::{AlignedClocks, GratingContext};
+use crate::logs::time::median_period;
+use crate::logs::{ForceLog, LogWarnings, PeakLog};
 use crate::spec::Design;
 use crate::skew::{self, SkewFit};
 use anyhow::{bail, Result};
@@ -183,7 +185,7 @@ fn withhold_q_bound(g: &mut GratingResult) {
     if g.quality_q_pm_per_n_s.is_none() {
         g.quality_q_bound = None;
         g.quality_q_note = Some(
-            "the clock offset was estimated on clocks that ran at different rates (a clock skew, corrected afterwards), so the relative lags say nothing certain about the absolute ones: Q is withheld, with no bound; give the offset between the recorders' clocks (--clock-offset-s or --force-start) for Q".into(),
+            "the clock offset was estimated on clocks that ran at different rates (a clock skew, corrected afterwards), so the relative lags say nothing certain about the absolute ones: Q is withheld, with no bound; give the offset between the recorders' clocks (AnalysisOptions.clock_offset_s or VerifyRequest.force_start) for Q".into(),
         );
     }
 }
@@ -229,7 +231,7 @@ fn warn_negative_lags(
         if let Some(p) = neg.first() {
             warnings.add_n("negative_lag", neg.len(), || {
                 format!(
-                    "grating `{}` segment {}: lag {:.3} ± {:.3} s: the shift leads the force, which a passive part cannot do; the clock offset (--clock-offset-s, --force-start) or the clocks' rates are wrong{}",
+                    "grating `{}` segment {}: lag {:.3} ± {:.3} s: the shift leads the force, which a passive part cannot do; the clock offset (AnalysisOptions.clock_offset_s, VerifyRequest.force_start) or the clocks' rates are wrong{}",
                     g.grating,
                     p.index,
                     p.lag_s,

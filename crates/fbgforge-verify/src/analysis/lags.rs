@@ -2,23 +2,12 @@
 //! lag model's response, with the peak times of presses and cycles), and summarised
 //! as Δt_max with its uncertainty (the statistics are [`crate::lag`]'s).
 
-use super::measure::GratingContext;
 use super::results::PulseResult;
-use crate::logs::median_period;
+use super::{GratingContext, LagFigures};
+use crate::logs::time::median_period;
 use crate::fit::{self, LagModelFit};
 use crate::lag;
 use crate::segment::SegmentKind;
-
-/// A grating's lags: per segment, and summarised.
-pub(super) struct LagFigures {
-    /// Per segment, with the systematic allowance in each uncertainty.
-    pub(super) pulses: Vec<PulseResult>,
-    pub(super) summary: Option<lag::LagSummary>,
-    pub(super) mean_lag_s: f64,
-    /// Δt_max and its uncertainty (timing included), s.
-    pub(super) max_lag_s: f64,
-    pub(super) max_lag_uncertainty_s: f64,
-}
 
 /// Measure the lag of every segment and summarise them. A segment seen in a few
 /// samples is fitted nearly exactly, so 2 % of the sample period (0.01 s at 2 Hz) is

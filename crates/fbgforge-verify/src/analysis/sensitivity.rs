@@ -3,8 +3,8 @@
 //! (effective samples for K's standard error), K from held levels, and the chart's line.
 
 use super::fit_data::FitData;
-use super::measure::GratingContext;
-use crate::logs::median_period;
+use super::GratingContext;
+use crate::logs::time::median_period;
 use crate::fit::{self, LagModelCost, LagModelFit};
 use anyhow::{bail, Result};
 use rayon::prelude::*;

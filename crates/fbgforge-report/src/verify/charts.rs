@@ -7,9 +7,9 @@
 //! shaded around it, and the band between the bounding contact readings when the
 //! model policy gives one.
 
-use super::analysis::{Measurement, Series};
-use super::report::VerifyReport;
 use crate::plot::{Chart, Mark, Series as PlotSeries, Stroke};
+use fbgforge_verify::analysis::{Measurement, Series};
+use fbgforge_verify::VerifyReport;
 
 /// Plots keep at most 2 500 markers per series and 8 000 line points, so the SVGs stay
 /// small enough to open; the CSVs hold the denser data.
