@@ -719,8 +719,10 @@ mod tests {
         }
     }
 
+    // Each protocol is named and cut into its segments: impulses, press-hold-release,
+    // a staircase, and sines (from rest and on a preload).
     #[test]
-    fn each_protocol_is_named_and_cut_into_its_segments() {
+    fn impulses_are_named_and_cut_into_pulses() {
         let t = grid(120.0, 50.0);
         // Three 4 s haversines, 16 s apart: impulse, one segment each.
         let f: Vec<f64> = t
@@ -738,6 +740,11 @@ mod tests {
         assert_eq!(s.protocol, Protocol::Impulse);
         assert_eq!(s.segments.len(), 3);
         assert!(s.segments.iter().all(|g| g.kind == SegmentKind::Pulse));
+    }
+
+    #[test]
+    fn press_hold_release_is_named_and_cut_into_presses_and_releases() {
+        let t = grid(120.0, 50.0);
         // Trapezoids: 2 s ramps, 10 s hold: a press and a release each.
         let trap = |x: f64| {
             if !(0.0..=14.0).contains(&x) {
@@ -757,6 +764,10 @@ mod tests {
         assert!(kinds
             .chunks(2)
             .all(|c| c == [SegmentKind::Press, SegmentKind::Release]));
+    }
+
+    #[test]
+    fn a_staircase_is_named_and_cut_into_steps() {
         // A staircase of 10 steps up and 10 down, 4 s holds, 0.3 s ramps.
         let stair = |x: f64| -> f64 {
             let period = 4.3;
@@ -790,6 +801,11 @@ mod tests {
             .count();
         assert_eq!((ups, downs), (10, 10), "{:?}", s.segments);
         assert_eq!(s.plateaus.iter().filter(|p| !p.rest).count(), 19);
+    }
+
+    #[test]
+    fn sines_are_named_and_cut_into_cycles() {
+        let t = grid(120.0, 50.0);
         // A sine from rest, 0.25 Hz, 8 cycles: eight cycles.
         let f: Vec<f64> = t
             .iter()
