@@ -73,7 +73,10 @@ pub fn python_words(message: &str, renames: &[(&str, &str)]) -> String {
             (name, param)
         })
         .collect();
-    let pairs: Vec<(&str, &str)> = words.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+    let pairs: Vec<(&str, &str)> = words
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
     let message = fbgforge::fields::in_words(message, &pairs);
     let message = message.as_str();
     let mut out = String::with_capacity(message.len());

@@ -6,9 +6,9 @@
 use crate::convert::{to_py, to_py_words};
 use crate::errors::{self, err_named, input, must_exist};
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions, Reading};
+use fbgforge::live::sink::{FrameReading, LiveInfo, LiveSink};
 use fbgforge::live::source::{SourceOptions, SourceSpec};
 use fbgforge::live::stats::LiveSummary;
-use fbgforge::live::sink::{FrameReading, LiveInfo, LiveSink};
 use fbgforge::live::LiveRequest;
 use numpy::ndarray::Array1;
 use numpy::IntoPyArray;

@@ -43,7 +43,10 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("SynthConfig.sensitivity_pm_per_n", "--k-pm-per-n"),
     ("SynthConfig.force_start_s", "--force-start-s"),
     ("SynthConfig.drift_pm_per_s", "--drift-pm-per-s"),
-    ("SynthConfig.temperature_ramp_k_per_s", "--temperature-ramp-k-per-s"),
+    (
+        "SynthConfig.temperature_ramp_k_per_s",
+        "--temperature-ramp-k-per-s",
+    ),
     ("SynthConfig.noise_pm", "--noise-pm"),
     ("SynthConfig.force_noise_n", "--force-noise-n"),
     // calibrate-array

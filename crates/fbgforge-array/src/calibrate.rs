@@ -23,13 +23,13 @@
 //! result handed to a [`CalibrationSink`] (the terminal table is
 //! `fbgforge_report::calibrate`'s).
 
-use crate::sheet::fit::{fit_modulus, ModulusFit};
-use crate::{kernel, SensingMatrix};
-use crate::logs::{csv_table, num, LogWarnings, PeakLog, ReadOptions};
 use crate::logs;
-use crate::profile::{cell_label, ArrayLayout};
-use crate::spec::Design;
 use crate::logs::assign::{self, GratingWindow};
+use crate::logs::{csv_table, num, LogWarnings, PeakLog, ReadOptions};
+use crate::profile::{cell_label, ArrayLayout};
+use crate::sheet::fit::{fit_modulus, ModulusFit};
+use crate::spec::Design;
+use crate::{kernel, SensingMatrix};
 use anyhow::{bail, Context, Result};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -383,10 +383,10 @@ pub fn run(
     let mut modulus_fit = None;
     if let (true, Some(out)) = (req.fit_modulus, &req.out) {
         let f = fit_modulus(design, &cal.matrix).with_context(|| {
-            let of = req
-                .design_file
-                .as_ref()
-                .map_or_else(|| format!("design `{}`", design.name), |p| p.display().to_string());
+            let of = req.design_file.as_ref().map_or_else(
+                || format!("design `{}`", design.name),
+                |p| p.display().to_string(),
+            );
             format!("{of}: fitting the sheet model's modulus")
         })?;
         let path = out.with_extension("modulus-fit.json");

@@ -33,7 +33,6 @@
 //!
 //! Units: sensitivities in pm/g, shifts in pm, loads in g, distances in mm.
 
-
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};

@@ -21,8 +21,8 @@ pub use super::choice::DEFAULT_BUDGET_US;
 use super::choice::{check_budget, default_choice, Candidate};
 use super::faults::{suspect_gratings, SuspectGrating};
 use super::methods::{
-    build, reconstruct_frames, Method, MethodSettings, ReadingSettings, Reconstruction, Reconstructor,
-    PARALLEL_FROM,
+    build, reconstruct_frames, Method, MethodSettings, ReadingSettings, Reconstruction,
+    Reconstructor, PARALLEL_FROM,
 };
 use super::problem::SensingProblem;
 use super::trust::{Checker, FlagCounts};

@@ -9,8 +9,8 @@ use super::kernel::matrix_from_design;
 use super::methods::{Method, NoisePrior, ReadingSettings, DEFAULT_MAX_LOADS};
 use super::problem::{default_min_load_g, SensingProblem, Uncertainty, UncertaintySummary};
 use super::reconstruct::{reconstruct, Frames, MethodRequest, Reconstructed, DEFAULT_BUDGET_US};
-use super::SensingMatrix;
 use super::trust::FlagCounts;
+use super::SensingMatrix;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -322,7 +322,10 @@ pub fn reconstruct_file(
         bail!("ReconstructRequest.ulimit_g must be a positive load in g, got {ulimit_g}");
     }
     let prior = ReadingSettings {
-        max_loads: a.max_loads.or(loaded.max_loads).unwrap_or(DEFAULT_MAX_LOADS),
+        max_loads: a
+            .max_loads
+            .or(loaded.max_loads)
+            .unwrap_or(DEFAULT_MAX_LOADS),
         resolution_pm: a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm),
     };
     prior.check()?;
@@ -348,7 +351,15 @@ pub fn reconstruct_file(
     let done = reconstruct(&problem, frames, &prior, &request, progress)?;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
     write_loads_with_trust(&out, &matrix.cells, stream.time_s.as_deref(), &done.frames)?;
-    Ok(summarise(a, matrix, &problem, &prior, done, (ulimit_g, min_load_g), out))
+    Ok(summarise(
+        a,
+        matrix,
+        &problem,
+        &prior,
+        done,
+        (ulimit_g, min_load_g),
+        out,
+    ))
 }
 
 /// The run's summary: the method and why, the flags, the loads, the times.
@@ -368,7 +379,10 @@ fn summarise(
         method: done.setup.method.name(),
         penalty: done.setup.penalty(),
         choice: done.setup.choice.clone(),
-        max_loads: prior.max_loads.min(matrix.n_gratings()).min(matrix.n_cells()),
+        max_loads: prior
+            .max_loads
+            .min(matrix.n_gratings())
+            .min(matrix.n_cells()),
         normalised: a.normalise,
         ulimit_g,
         min_load_g,

@@ -16,10 +16,10 @@ use crate::array::methods::{
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::array::reconstruct::{prepare, MethodRequest, Setup, DEFAULT_BUDGET_US};
 use crate::array::trust::FrameFlags;
+use crate::logs::assign::{default_half_width_nm, GratingWindow, PeakTracker};
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
-use crate::logs::assign::{default_half_width_nm, GratingWindow, PeakTracker};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -728,7 +728,8 @@ mod tests {
 
     #[test]
     fn module_force_is_the_compensated_shift_over_k() {
-        let design = crate::design::parse(include_str!("../../../designs/clip-on-34mm.toml")).unwrap();
+        let design =
+            crate::design::parse(include_str!("../../../designs/clip-on-34mm.toml")).unwrap();
         let mut k = BTreeMap::new();
         k.insert("lambda_21".to_string(), -170.0);
         k.insert("lambda_22".to_string(), -160.0);
@@ -790,7 +791,8 @@ mod tests {
     #[test]
     fn the_array_method_follows_the_stated_resolution_as_reconstruct_does() {
         let design =
-            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml")).unwrap();
+            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml"))
+                .unwrap();
         let (m, ulimit_g) = matrix_from_design(&design).unwrap();
         let problem = SensingProblem::new(m.sensitivity_pm_per_g.clone(), ulimit_g, true)
             .unwrap()
@@ -833,7 +835,8 @@ mod tests {
     #[test]
     fn array_frames_reconstruct_known_loads_and_missing_peaks_are_named() {
         let design =
-            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml")).unwrap();
+            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml"))
+                .unwrap();
         let (m, _) = matrix_from_design(&design).unwrap();
         let mut it = Interpreter::new(
             &design,

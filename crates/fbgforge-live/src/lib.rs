@@ -16,23 +16,23 @@
 //! arrive faster than they can be read are dropped at the queue and counted, so the
 //! reader never falls behind the instrument.
 
-
 // Sibling crates under the names the modules used inside one crate.
+#[allow(unused_imports)]
+use fbgforge_array as array;
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
-use fbgforge_array as array;
 
 pub mod hyperion;
 pub mod interpret;
+pub mod sink;
 pub mod source;
 pub mod stats;
-pub mod sink;
 
 use anyhow::Result;
 use interpret::{InterpretOptions, Interpreter, Prepared, Skip};
+use sink::{FrameReading, LiveInfo, LiveSink};
 use source::{Outlet, SourceEvent, SourceSpec};
 use stats::{Dropped, LiveSummary, Stats};
 use std::path::PathBuf;
@@ -40,7 +40,6 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use sink::{FrameReading, LiveInfo, LiveSink};
 
 /// What to watch and how.
 #[derive(Debug, Clone)]
@@ -123,7 +122,6 @@ fn wall_now_s() -> f64 {
         .duration_since(UNIX_EPOCH)
         .map_or(0.0, |d| d.as_secs_f64())
 }
-
 
 /// What the sink is told before the first frame: the design, the source and the outputs.
 fn live_info(design: &crate::spec::Design, interp: &Interpreter, req: &LiveRequest) -> LiveInfo {

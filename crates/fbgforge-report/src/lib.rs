@@ -10,19 +10,19 @@
 // Sibling crates under the names the modules used inside one crate (the use cases
 // whose printers are modules here of the same name are named in full: `fbgforge_verify`).
 #[allow(unused_imports)]
+use fbgforge_array as array;
+#[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
+use fbgforge_geometry as geometry;
+#[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
+#[allow(unused_imports)]
+use fbgforge_optimize as optimize;
 #[allow(unused_imports)]
 use fbgforge_plot as plot;
 #[allow(unused_imports)]
 use fbgforge_plot::html;
-#[allow(unused_imports)]
-use fbgforge_array as array;
-#[allow(unused_imports)]
-use fbgforge_geometry as geometry;
-#[allow(unused_imports)]
-use fbgforge_optimize as optimize;
 
 pub mod calibrate;
 pub mod live;

@@ -328,7 +328,9 @@ pub fn train(t: &TrainSettings) -> Result<(Vec<Pulse>, f64)> {
         bail!("the rest between pulses (TrainSettings.rest_s) must be a finite number of seconds ≥ 0, got {rest_s}");
     }
     if let Some(p) = t.peaks_n.iter().find(|p| !p.is_finite()) {
-        bail!("every peak force (TrainSettings.peaks_n) must be a finite number of newtons, got {p}");
+        bail!(
+            "every peak force (TrainSettings.peaks_n) must be a finite number of newtons, got {p}"
+        );
     }
     let pulses = shaped_train(&t.peaks_n, pulse_s, rest_s, t.lead_s, t.shape);
     let duration = pulses
@@ -394,8 +396,14 @@ fn check_numbers(cfg: &SynthConfig) -> Result<()> {
         );
     }
     for (name, v) in [
-        ("the sensitivity (SynthConfig.sensitivity_pm_per_n)", cfg.sensitivity_pm_per_n),
-        ("the force log's start (SynthConfig.force_start_s)", cfg.force_start_s),
+        (
+            "the sensitivity (SynthConfig.sensitivity_pm_per_n)",
+            cfg.sensitivity_pm_per_n,
+        ),
+        (
+            "the force log's start (SynthConfig.force_start_s)",
+            cfg.force_start_s,
+        ),
         ("the drift (SynthConfig.drift_pm_per_s)", cfg.drift_pm_per_s),
         (
             "the temperature ramp (SynthConfig.temperature_ramp_k_per_s)",
@@ -410,7 +418,10 @@ fn check_numbers(cfg: &SynthConfig) -> Result<()> {
     }
     for (name, v) in [
         ("the peak noise (SynthConfig.noise_pm)", cfg.noise_pm),
-        ("the force noise (SynthConfig.force_noise_n)", cfg.force_noise_n),
+        (
+            "the force noise (SynthConfig.force_noise_n)",
+            cfg.force_noise_n,
+        ),
         ("the wavelength step", cfg.quantization_pm),
     ] {
         if !(v >= 0.0 && v.is_finite()) {

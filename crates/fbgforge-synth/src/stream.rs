@@ -17,10 +17,10 @@
 //! which counts only while a client reads, so that what a client receives does not
 //! depend on when it connected or on the machine's load (the end-to-end tests' clock).
 
-use crate::live::hyperion::{encode_peaks, PeaksFrame};
-use crate::live::interpret::{InterpretOptions, Interpreter};
 use crate::array::kernel::matrix_from_design;
 use crate::array::protocol::NoiseModel;
+use crate::live::hyperion::{encode_peaks, PeaksFrame};
+use crate::live::interpret::{InterpretOptions, Interpreter};
 use crate::logs::csv_table;
 use crate::model::LoadCase;
 use crate::spec::Design;

@@ -89,7 +89,9 @@ impl VerifyRequest {
             }
         }
         if self.force_start.is_some() && self.analysis.clock_offset_s.is_some() {
-            bail!("give either VerifyRequest.force_start or AnalysisOptions.clock_offset_s, not both");
+            bail!(
+                "give either VerifyRequest.force_start or AnalysisOptions.clock_offset_s, not both"
+            );
         }
         Ok(())
     }

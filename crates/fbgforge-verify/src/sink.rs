@@ -5,9 +5,9 @@
 //! JSON document and the report folder are implementations in `fbgforge-report`
 //! (`fbgforge_report::verify`); the Python package takes the returned outcome.
 
+use crate::analysis::Series;
 use crate::prediction::ContactCalibration;
 use crate::report::VerifyReport;
-use crate::analysis::Series;
 use anyhow::Result;
 use std::path::Path;
 
@@ -54,10 +54,12 @@ impl<S: VerifySink> VerifySink for Option<S> {
         self.as_mut().map_or(Ok(()), |s| s.judged(report, series))
     }
     fn calibrated(&mut self, calibration: &ContactCalibration, path: &Path) -> Result<()> {
-        self.as_mut().map_or(Ok(()), |s| s.calibrated(calibration, path))
+        self.as_mut()
+            .map_or(Ok(()), |s| s.calibrated(calibration, path))
     }
     fn in_words(&self, text: &str) -> String {
-        self.as_ref().map_or_else(|| text.to_owned(), |s| s.in_words(text))
+        self.as_ref()
+            .map_or_else(|| text.to_owned(), |s| s.in_words(text))
     }
 }
 

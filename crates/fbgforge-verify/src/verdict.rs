@@ -22,9 +22,9 @@
 //! The module ([`Verdict::overall`]) passes only when every grating the model says
 //! responds has been judged and passes.
 
+use crate::analysis::{GratingResult, Measurement};
 use crate::model::{GratingPrediction, LoadCase};
 use crate::prediction::ModelledPrediction;
-use crate::analysis::{GratingResult, Measurement};
 use serde::Serialize;
 
 /// Default tolerance on the relative error of K (the paper's model was within 8 %).

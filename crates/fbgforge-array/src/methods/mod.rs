@@ -323,9 +323,8 @@ impl ReadingSettings {
                 "ReadingSettings.max_loads must be at least 1".into(),
             ));
         }
-        check_resolution(self.resolution_pm).map_err(|e| {
-            ArrayError::Input(format!("ReadingSettings.resolution_pm: {e}"))
-        })
+        check_resolution(self.resolution_pm)
+            .map_err(|e| ArrayError::Input(format!("ReadingSettings.resolution_pm: {e}")))
     }
 }
 

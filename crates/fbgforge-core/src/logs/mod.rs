@@ -52,7 +52,7 @@ use std::path::{Path, PathBuf};
 pub use detect::{detect_format, Detected};
 pub use force::{
     force_unit_scale, parse_force_bytes, read_force_log, time_unit_scale, write_force_csv,
-    write_force_stand_csv, ForceReadOptions, ForceLog,
+    write_force_stand_csv, ForceLog, ForceReadOptions,
 };
 pub use row_reader::{LogRow, RowReader};
 pub use write::{write_log, LogStyle, LogTable};

@@ -111,5 +111,8 @@ fn an_unknown_file_names_every_registered_format() {
         assert!(e.contains(format.reader().title()), "{e}");
         assert!(e.contains(format.reader().expected()), "{e}");
     }
-    assert!(e.ends_with("name the format with ReadOptions.format"), "{e}");
+    assert!(
+        e.ends_with("name the format with ReadOptions.format"),
+        "{e}"
+    );
 }

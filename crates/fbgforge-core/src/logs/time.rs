@@ -78,8 +78,12 @@ pub(crate) fn wavelength_times(
     }
     let order = match date_order {
         Some(o) => o,
-        None => num::resolve_order(&times.dates, default_order)
-            .map_err(|e| anyhow!("{}: {e}; name the order with ReadOptions.date_order", path.display()))?,
+        None => num::resolve_order(&times.dates, default_order).map_err(|e| {
+            anyhow!(
+                "{}: {e}; name the order with ReadOptions.date_order",
+                path.display()
+            )
+        })?,
     };
     let mut days = Vec::with_capacity(times.dates.len());
     for (k, d) in times.dates.iter().enumerate() {

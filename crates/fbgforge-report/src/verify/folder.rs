@@ -4,9 +4,9 @@
 
 use super::{charts, html, markdown::markdown, Words};
 use crate::output::{write_atomic, write_csv};
+use anyhow::Result;
 use fbgforge_verify::analysis::{Measurement, Series};
 use fbgforge_verify::{VerifyReport, VerifySink};
-use anyhow::Result;
 use std::path::{Path, PathBuf};
 
 fn decimate(n: usize, max: usize) -> usize {
@@ -124,7 +124,10 @@ fn write_report_files(dir: &Path, r: &VerifyReport, series: &Series, words: Word
     plot_shift_vs_force(dir, r, series)?;
     plot_against_time(dir, series)?;
     let lag_plot = plot_lag_per_pulse(dir, m)?;
-    write_atomic(&dir.join("report.md"), words(&markdown(r, lag_plot)).as_bytes())?;
+    write_atomic(
+        &dir.join("report.md"),
+        words(&markdown(r, lag_plot)).as_bytes(),
+    )?;
     let page = html::document(r, series)?.to_html();
     write_atomic(&dir.join("report.html"), words(&page).as_bytes())
 }

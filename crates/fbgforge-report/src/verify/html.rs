@@ -5,13 +5,15 @@
 //! ([`super::charts`]), inline; nothing is loaded from elsewhere.
 
 use super::charts;
-use super::phrases::{force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE};
+use super::phrases::{
+    force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE,
+};
 use crate::html::{Cell, Document, Table, Tone};
 use crate::model::LoadCase;
+use anyhow::Result;
 use fbgforge_verify::analysis::{Measurement, Series};
 use fbgforge_verify::verdict::{GratingVerdict, Status};
 use fbgforge_verify::VerifyReport;
-use anyhow::Result;
 
 /// The tone a status reads in.
 fn tone(s: Status) -> Tone {

@@ -1,6 +1,8 @@
 //! `report.md`: the verdict, the logs, the table per grating, notes and the plots.
 
-use super::phrases::{force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE};
+use super::phrases::{
+    force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE,
+};
 use fbgforge_verify::verdict::Status;
 use fbgforge_verify::VerifyReport;
 use std::fmt::Write as _;

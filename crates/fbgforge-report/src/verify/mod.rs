@@ -16,14 +16,16 @@ mod markdown;
 mod phrases;
 mod summary;
 
-pub use folder::{check_report_dir, remove_stale_report, write_report, write_report_in, ReportFolder};
+pub use folder::{
+    check_report_dir, remove_stale_report, write_report, write_report_in, ReportFolder,
+};
 pub use phrases::RELATIVE_LAG_NOTE;
 pub use summary::summary;
 
 use crate::prediction::ContactCalibration;
+use anyhow::Result;
 use fbgforge_verify::analysis::Series;
 use fbgforge_verify::{VerifyReport, VerifySink};
-use anyhow::Result;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -82,7 +84,11 @@ impl VerifySink for Printer {
     fn judged(&mut self, report: &VerifyReport, _: &Series) -> Result<()> {
         let mut out = std::io::stdout().lock();
         if self.json {
-            writeln!(out, "{}", (self.words)(&serde_json::to_string_pretty(report)?))?;
+            writeln!(
+                out,
+                "{}",
+                (self.words)(&serde_json::to_string_pretty(report)?)
+            )?;
         } else {
             write!(out, "{}", (self.words)(&summary(report)))?;
             if let Some(page) = &self.report_html {

@@ -1,6 +1,8 @@
 //! The short printed report of a verification (`fbgforge verify` without `--json`).
 
-use super::phrases::{force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE};
+use super::phrases::{
+    force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE,
+};
 use fbgforge_verify::VerifyReport;
 use std::fmt::Write as _;
 

@@ -4,10 +4,10 @@
 //! primary grating the clocks are aligned on.
 
 use super::options::{check_window, AnalysisOptions};
-use crate::logs::{LogWarnings, PeakLog};
-use crate::spec::{Design, GratingRole};
 use crate::logs::assign::{self, GratingTrack, GratingWindow};
+use crate::logs::{LogWarnings, PeakLog};
 use crate::segment::percentile;
+use crate::spec::{Design, GratingRole};
 use anyhow::{bail, Result};
 
 /// The gratings a verification reads: the strain gratings (of one core, if asked),

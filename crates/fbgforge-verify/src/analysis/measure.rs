@@ -6,10 +6,10 @@ use super::lags::lag_figures;
 use super::linearity::hysteresis_and_linearity;
 use super::quality::quality_q;
 use super::results::GratingResult;
-use super::GratingContext;
 use super::sensitivity::{
     chart_intercept, drift_free_shift, fit_lag_model, lag1_independence, plateau_sensitivity,
 };
+use super::GratingContext;
 use crate::fit;
 use anyhow::Result;
 use rayon::prelude::*;

@@ -4,8 +4,8 @@
 
 use super::fit_data::FitData;
 use super::GratingContext;
-use crate::logs::time::median_period;
 use crate::fit::{self, LagModelCost, LagModelFit};
+use crate::logs::time::median_period;
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 
