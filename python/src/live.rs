@@ -216,6 +216,8 @@ pub fn live_stream(
     req.max_frames = frames;
     req.duration_s = duration_s;
     req.queue_frames = queue;
+    // Refused here, before the run's thread starts, as a bad value of this call.
+    req.validate().map_err(|e| err_named(py, e, &[]))?;
     let (tx, rx) = sync_channel(1024);
     let stop = Arc::new(AtomicBool::new(false));
     let thread_stop = stop.clone();

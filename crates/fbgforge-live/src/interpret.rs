@@ -52,6 +52,18 @@ pub struct InterpretOptions {
     pub budget_us: f64,
 }
 
+impl InterpretOptions {
+    /// Check the array's reading settings whatever the design (a module ignores them):
+    /// a positive resolution and a positive per-frame budget.
+    pub fn validate(&self) -> Result<()> {
+        crate::array::methods::check_resolution(self.resolution_pm)
+            .map_err(|e| anyhow!("InterpretOptions.resolution_pm: {e}"))?;
+        crate::array::choice::check_budget(self.budget_us)
+            .map_err(|e| anyhow!("InterpretOptions.budget_us: {e}"))?;
+        Ok(())
+    }
+}
+
 impl Default for InterpretOptions {
     fn default() -> Self {
         InterpretOptions {

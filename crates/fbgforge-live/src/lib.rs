@@ -60,10 +60,10 @@ pub struct LiveRequest {
 }
 
 impl LiveRequest {
-    /// Check the request's limits and queue size (the source's options are checked
-    /// when it is parsed, [`SourceSpec::parse`]; the reconstruction's when it is
-    /// prepared).
+    /// Check the request's limits, queue size and reading settings (the source's
+    /// options are checked when it is parsed, [`SourceSpec::parse`]).
     pub fn validate(&self) -> Result<()> {
+        self.interpret.validate()?;
         if let Some(d) = self.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
             anyhow::bail!("LiveRequest.duration_s must be a positive number of seconds, got {d}");
         }
