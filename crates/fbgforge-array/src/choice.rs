@@ -71,7 +71,7 @@ fn ns_per_support(m: Method) -> Option<f64> {
 /// relaxation step) with n cells: 2.5 + 240/n, fitted to 17, 10.5, 5.5, 4.2 and
 /// 4.0 ns measured at 8 × 16, 12 × 32, 16 × 64, 24 × 128 and 32 × 256 (longer
 /// vectors cost less per multiply-add; docs/array.md §10.3).
-pub fn ns_per_bnb_unit(n: usize) -> f64 {
+pub(crate) fn ns_per_bnb_unit(n: usize) -> f64 {
     2.5 + 240.0 / n.max(1) as f64
 }
 

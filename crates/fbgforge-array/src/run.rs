@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 pub use super::reconstruct::ChoiceSummary;
 
 /// The paper's ulimit, used when neither the request nor a design gives one, g.
-pub const PAPER_ULIMIT_G: f64 = 250.0;
+pub(crate) const PAPER_ULIMIT_G: f64 = 250.0;
 
 /// Where the sensing matrix comes from.
 #[derive(Debug, Clone)]

@@ -39,10 +39,10 @@ pub use super::methods::FrameFlags;
 
 /// Probability with which a frame whose errors are as stated is still flagged
 /// `inconsistent` (and with which `overload` is raised on a touching bound).
-pub const FALSE_ALARM: f64 = 1e-3;
+pub(crate) const FALSE_ALARM: f64 = 1e-3;
 
 /// Columns whose cosine is at least this are identical for `ambiguous`.
-pub const IDENTICAL_COLUMNS_COS: f64 = 1.0 - 1e-6;
+pub(crate) const IDENTICAL_COLUMNS_COS: f64 = 1.0 - 1e-6;
 
 /// How many frames carry each flag (a frame may carry several).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -158,19 +158,16 @@ fn gamma_q(a: f64, x: f64) -> f64 {
 }
 
 /// P(χ²_dof ≥ x): the p-value of a χ² statistic with `dof` degrees of freedom.
-pub fn chi2_p_value(x: f64, dof: usize) -> f64 {
+pub(crate) fn chi2_p_value(x: f64, dof: usize) -> f64 {
     if dof == 0 {
         return 1.0;
     }
     gamma_q(0.5 * dof as f64, 0.5 * x.max(0.0))
 }
 
-/// The 1-dof χ² quantile at 1 − [`FALSE_ALARM`] (Φ⁻¹(1 − α/2)² = 3.2905²).
-pub const CHI2_1DOF_AT_FALSE_ALARM: f64 = 10.827_566_170_662_733;
-
 /// The per-frame tests of one problem, with what depends only on the matrix.
 #[derive(Debug, Clone)]
-pub struct Checker {
+pub(crate) struct Checker {
     problem: SensingProblem,
     /// For each cell, whether another cell's column is identical to its own.
     has_twin: Vec<bool>,
@@ -204,7 +201,7 @@ impl Checker {
     }
 
     /// Fill `r`'s χ², degrees of freedom and flags for frame `shifts_pm`.
-    pub fn assess(&self, shifts_pm: &[f64], r: &mut Reconstruction) {
+    pub(crate) fn assess(&self, shifts_pm: &[f64], r: &mut Reconstruction) {
         let p = &self.problem;
         if r.flags.unusable || p.check_shifts(shifts_pm).is_err() {
             r.flags = FrameFlags {
@@ -336,6 +333,8 @@ mod tests {
 
     #[test]
     fn chi2_p_values_match_closed_forms_and_tables() {
+        // The 1-dof χ² quantile at 1 − FALSE_ALARM (Φ⁻¹(1 − α/2)² = 3.2905²).
+        const CHI2_1DOF_AT_FALSE_ALARM: f64 = 10.827_566_170_662_733;
         // dof 2: P = exp(−x/2); dof 1: P = erfc(√(x/2)), 3.841 → 0.05; dof 4: tables.
         for x in [0.1, 1.0, 5.0, 20.0] {
             let want = (-x / 2.0f64).exp();

@@ -10,9 +10,7 @@
 
 use super::source::Frame;
 use crate::array::kernel::matrix_from_design;
-use crate::array::methods::{
-    self, Method, MethodSettings, NoisePrior, ReadingSettings, Reconstruction,
-};
+use crate::array::methods::{self, Method, NoisePrior, ReadingSettings, Reconstruction};
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::array::reconstruct::{prepare, MethodRequest, Setup, DEFAULT_BUDGET_US};
 use crate::array::trust::FrameFlags;
@@ -579,7 +577,7 @@ impl Interpreter {
     }
 
     /// The array's cell grid (cells_x, cells_y) and ulimit, g.
-    pub fn array_grid(&self) -> Option<(usize, usize, f64)> {
+    pub(crate) fn array_grid(&self) -> Option<(usize, usize, f64)> {
         self.array
             .as_ref()
             .map(|a| (a.cells_x, a.cells_y, a.ulimit_g))
@@ -591,7 +589,8 @@ impl Interpreter {
     }
 
     /// The settings the array's method was built with (array only).
-    pub fn method_settings(&self) -> Option<&MethodSettings> {
+    #[cfg(test)]
+    pub(crate) fn method_settings(&self) -> Option<&methods::MethodSettings> {
         self.array.as_ref().map(|a| &a.setup.settings)
     }
 

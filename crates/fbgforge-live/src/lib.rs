@@ -92,7 +92,7 @@ const BATCH: usize = 256;
 /// How far a stream's timestamps may be from this machine's clock and still be taken
 /// for the wall clock, s: above any plausible lag of a live stream, below the 15 min
 /// step of time zones (a log written in local time elsewhere is not the wall clock).
-pub const WALL_CLOCK_TOLERANCE_S: f64 = 300.0;
+pub(crate) const WALL_CLOCK_TOLERANCE_S: f64 = 300.0;
 
 /// Whether the stream's timestamps are this machine's wall clock, decided on the
 /// first frame that claims so after each (re)connection.

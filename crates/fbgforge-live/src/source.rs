@@ -236,7 +236,7 @@ pub fn spawn(spec: SourceSpec, out: Outlet) -> std::thread::JoinHandle<()> {
 
 /// Parse one line of standard input: peak wavelengths in nm separated by spaces,
 /// tabs, commas or semicolons. Blank lines and `#` comments give `Ok(None)`.
-pub fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
+pub(crate) fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
     let t = line.trim();
     if t.is_empty() || t.starts_with('#') {
         return Ok(None);
@@ -261,7 +261,7 @@ pub fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
 }
 
 /// Frames from text lines (standard input or any reader), until the end of input.
-pub fn read_lines<R: BufRead>(mut r: R, name: &str, out: &Outlet) {
+pub(crate) fn read_lines<R: BufRead>(mut r: R, name: &str, out: &Outlet) {
     out.event(SourceEvent::Connected(name.to_string()));
     let mut line = String::new();
     let mut n = 0u64;

@@ -190,9 +190,9 @@ pub struct SynthConfig {
 }
 
 /// Most wavelength rows a synthetic log may have (about 1 GB of ENLIGHT text).
-pub const MAX_ROWS: f64 = 1e7;
+pub(crate) const MAX_ROWS: f64 = 1e7;
 /// Most force samples a synthetic force log may have.
-pub const MAX_FORCE_SAMPLES: f64 = 2e7;
+pub(crate) const MAX_FORCE_SAMPLES: f64 = 2e7;
 
 impl Default for SynthConfig {
     fn default() -> Self {

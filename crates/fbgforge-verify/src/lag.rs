@@ -41,7 +41,7 @@ pub struct SegmentLag {
 
 /// Least share of a window's variance the shifted force must explain for its lag to
 /// count (below it the window holds no clear response).
-pub const MIN_SEGMENT_R_SQUARED: f64 = 0.5;
+pub(crate) const MIN_SEGMENT_R_SQUARED: f64 = 0.5;
 
 /// Most response samples a segment's fit uses (evenly strided beyond).
 const MAX_SAMPLES: usize = 600;
@@ -249,7 +249,7 @@ pub struct LagSummary {
 }
 
 /// Upper 99.9 % point of χ² with `k` degrees of freedom (Wilson–Hilferty beyond 2).
-pub fn chi2_999(k: usize) -> f64 {
+pub(crate) fn chi2_999(k: usize) -> f64 {
     // Exact for one and two degrees of freedom, where the approximation is poorest.
     match k {
         0 | 1 => return 10.828,

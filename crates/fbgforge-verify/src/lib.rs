@@ -11,7 +11,7 @@ use fbgforge_model::{fem, model, prediction, solvers};
 
 pub mod analysis;
 pub mod fit;
-pub mod force_check;
+pub(crate) mod force_check;
 pub mod lag;
 pub mod report;
 pub mod run;

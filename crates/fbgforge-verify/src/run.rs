@@ -64,7 +64,7 @@ impl VerifyRequest {
     }
 
     /// The load case the request names or implies.
-    pub fn load_case(&self) -> LoadCase {
+    pub(crate) fn load_case(&self) -> LoadCase {
         self.case.unwrap_or(if self.insert.is_some() {
             LoadCase::I
         } else {
@@ -267,7 +267,7 @@ pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
 
 /// The clock offset a `force_start` wall-clock time gives (force clock − wavelength
 /// clock, s), checked against what the two logs carry.
-pub fn offset_from_force_start(
+pub(crate) fn offset_from_force_start(
     text: &str,
     inputs: &VerifyInputs,
     read: &ReadOptions,
@@ -331,7 +331,7 @@ pub fn model_predictions(
 
 /// Whether the design's contact reading was calibrated on a measured part: its
 /// `[module.contact]` note says so (as `calibrate_into` writes it).
-pub fn contact_is_calibrated(design: &Design) -> bool {
+pub(crate) fn contact_is_calibrated(design: &Design) -> bool {
     design
         .module
         .as_ref()

@@ -512,7 +512,7 @@ pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
 
 /// The protocol of pulses of the given classes: the class of more than half of them,
 /// or [`Protocol::Mixed`] (impulse when there are none).
-pub fn protocol_of(classes: &[Protocol]) -> Protocol {
+pub(crate) fn protocol_of(classes: &[Protocol]) -> Protocol {
     if classes.is_empty() {
         return Protocol::Impulse;
     }
@@ -534,7 +534,7 @@ fn majority(classes: &[Protocol]) -> Protocol {
 }
 
 /// Centred moving average over ±m samples (shorter at the ends).
-pub fn moving_average(v: &[f64], m: usize) -> Vec<f64> {
+pub(crate) fn moving_average(v: &[f64], m: usize) -> Vec<f64> {
     if m == 0 {
         return v.to_vec();
     }

@@ -32,11 +32,11 @@ pub const DEFAULT_TOLERANCE: f64 = 0.08;
 
 /// Largest tolerance on the relative error of K a verdict accepts (50 %: beyond it a
 /// K of the wrong size would pass).
-pub const MAX_TOLERANCE: f64 = 0.5;
+pub(crate) const MAX_TOLERANCE: f64 = 0.5;
 
 /// A band whose bounding contact readings span more than this factor says too little
 /// about a print: the configuration is judged only once its contact is calibrated.
-pub const MAX_BAND_FACTOR: f64 = 3.0;
+pub(crate) const MAX_BAND_FACTOR: f64 = 3.0;
 
 /// Outcome for one grating, and for the module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -78,7 +78,7 @@ impl Status {
 
 /// What a grating's fit must show before its K is compared with the model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ResponseGate {
+pub(crate) struct ResponseGate {
     /// Smallest R² of the response model beyond baseline and drift
     /// (`response_r_squared`): the force, through the lag model, explains the shift.
     pub min_r_squared: f64,
@@ -162,7 +162,7 @@ impl ResponseGate {
 
     /// The shift the model predicts over the pulses' force range, pm, and whether it
     /// stands well above the grating's noise (at least the resolution).
-    pub fn predicted_shift(
+    pub(crate) fn predicted_shift(
         &self,
         predicted_pm_per_n: f64,
         peak_force_n: f64,
@@ -311,7 +311,7 @@ pub struct Verdict {
 
 /// What the verdict knows of the design's contact reading (Case I).
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct ContactKnowledge {
+pub(crate) struct ContactKnowledge {
     /// The design's contact reading was calibrated on a measured part (its
     /// `[module.contact]` note says so, as `verify --calibrate-into` writes it): its
     /// nominal prediction is judged against, whatever the band's width.
@@ -323,7 +323,7 @@ pub struct ContactKnowledge {
 /// How a run is judged: the configuration, the tolerance, the gate and what is known
 /// of the contact.
 #[derive(Debug, Clone)]
-pub struct JudgeOptions<'a> {
+pub(crate) struct JudgeOptions<'a> {
     /// Load case.
     pub case: LoadCase,
     /// Insert (Case I).
@@ -367,7 +367,7 @@ pub fn verdicts(
 
 /// Every grating judged against the model policy's rows: its nominal K, the band
 /// between the bounding contact readings and what a contact calibration can reach.
-pub fn verdicts_with_policy(
+pub(crate) fn verdicts_with_policy(
     m: &Measurement,
     predictions: Result<&[ModelledPrediction], String>,
     opts: &JudgeOptions,

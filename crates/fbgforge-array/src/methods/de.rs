@@ -261,7 +261,7 @@ impl PenalisedCost {
 
     /// The same cost with the Gram matrix ÂᵀÂ already computed (row-major), as the
     /// reconstructor holds it for a whole stream.
-    pub fn with_gram(
+    pub(crate) fn with_gram(
         gram: Arc<[f64]>,
         a: &DMatrix<f64>,
         y: &DVector<f64>,

@@ -110,7 +110,7 @@ pub const DEFAULT_METHOD: Method = Method::WeightedSupport;
 /// (the knobs only it has); [`Method::ALL`] is the registry and [`MethodSettings`]
 /// has one variant per method, so a new method is one file, one line in `ALL` and
 /// one variant (with its two arms in `MethodSettings::knobs`).
-pub struct MethodEntry {
+pub(crate) struct MethodEntry {
     /// Name used on the command line and in tables.
     pub name: &'static str,
     /// Grid of penalty weights searched when tuning on a validation set.
@@ -173,7 +173,7 @@ impl Method {
     }
 
     /// Whether the method has a penalty weight to tune.
-    pub fn has_penalty(self) -> bool {
+    pub(crate) fn has_penalty(self) -> bool {
         MethodSettings::for_method(self).penalty().is_some()
     }
 
@@ -245,7 +245,7 @@ pub struct FrameFlags {
 
 impl FrameFlags {
     /// The flag words in the order they are written.
-    pub const WORDS: [&'static str; 7] = [
+    pub(crate) const WORDS: [&'static str; 7] = [
         "inconsistent",
         "ceiling",
         "overload",
@@ -554,11 +554,11 @@ struct Common {
 /// Two answers fit a frame equally well, for the `ambiguous` flag, when their
 /// objectives differ by less than this many units of χ² (a likelihood ratio of
 /// 20 : 1, 2 ln 20 ≈ 6.0). Not tuned on any test frames.
-pub const AMBIGUITY_CHI2: f64 = 5.991_464_547_107_979;
+pub(crate) const AMBIGUITY_CHI2: f64 = 5.991_464_547_107_979;
 
 /// Two answers are distinct when one read as the other's truth would miss the 12 dB
 /// recovery criterion: ‖x′ − x‖ > 10^(−12/20) ‖x‖.
-pub const DISTINCT_RATIO: f64 = 0.251_188_643_150_958;
+pub(crate) const DISTINCT_RATIO: f64 = 0.251_188_643_150_958;
 
 /// Answers within a margin of the best one, kept during a search so that, once the
 /// best is known, the search can say whether another answer at least 12 dB away from

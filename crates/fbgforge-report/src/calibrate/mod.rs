@@ -10,7 +10,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// The measured matrix, one row per grating (pm/g), the warnings and the file written.
-pub fn matrix_table(cal: &ArrayCalibration, out: Option<&Path>) -> String {
+pub(crate) fn matrix_table(cal: &ArrayCalibration, out: Option<&Path>) -> String {
     let (m, warnings) = (&cal.matrix, &cal.warnings);
     let mut s = format!("{:<8}", "grating");
     for c in &m.cells {
@@ -35,7 +35,7 @@ pub fn matrix_table(cal: &ArrayCalibration, out: Option<&Path>) -> String {
 
 /// The modulus fit: the design's and the fitted modulus with their misfits, and the
 /// entry the model misses most (every entry's misfit is in `path`).
-pub fn modulus_lines(f: &ModulusFit, path: &Path) -> String {
+pub(crate) fn modulus_lines(f: &ModulusFit, path: &Path) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,

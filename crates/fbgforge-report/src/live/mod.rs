@@ -221,7 +221,7 @@ pub const WIDTH: usize = 80;
 
 /// `text` with every line longer than `width` columns wrapped at spaces (continuation
 /// lines indented by four), and a word longer than a line cut with `…`.
-pub fn fit_width(text: &str, width: usize) -> String {
+pub(crate) fn fit_width(text: &str, width: usize) -> String {
     let mut out = String::with_capacity(text.len());
     for (n, line) in text.split('\n').enumerate() {
         if n > 0 {

@@ -31,16 +31,16 @@ use std::path::{Path, PathBuf};
 
 /// How a front end names the library's fields in text: `VerifyRequest.force_start` as
 /// `--force-start` (the command line's `cli::hiargs`) or `force_start` (Python).
-pub type Words = fn(&str) -> String;
+pub(crate) type Words = fn(&str) -> String;
 
 /// The library's own words: the text unchanged.
-pub fn own_words(text: &str) -> String {
+pub(crate) fn own_words(text: &str) -> String {
     text.to_owned()
 }
 
 /// The contact calibration in one line: the radius before and after, the FE solves,
 /// each grating's K measured and modelled before and after, and the file written.
-pub fn calibration_line(c: &ContactCalibration, path: &Path) -> String {
+pub(crate) fn calibration_line(c: &ContactCalibration, path: &Path) -> String {
     format!(
         "calibrated {}: dome_contact_radius_mm {:.4} → {:.4} mm ({} FE solves); {}; written to {}",
         c.configuration.label(),

@@ -230,7 +230,7 @@ fn correct_skew(
 
 /// A drift of the segment lags over the run that moves them by at least this much is
 /// warned about (and corrected whenever it stands out of its uncertainty), s.
-pub const SKEW_WARN_DRIFT_S: f64 = 0.05;
+pub(crate) const SKEW_WARN_DRIFT_S: f64 = 0.05;
 
 /// One measurement of every grating on one alignment of the clocks.
 struct Pass {
