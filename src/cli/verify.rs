@@ -232,18 +232,18 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
         .transpose()?;
     let printer = Printer::new(a.json, a.report.as_deref(), in_flag_words);
     let mut sinks = (folder, printer);
-    let outcome = fbgforge::verify::run_with(&verify_request(&a), &mut sinks).map_err(|e| {
-        // A failed run leaves no report behind: a previous one would pass for this run's.
-        if let Some(folder) = &sinks.0 {
-            if folder.failed() {
-                eprintln!(
-                    "note: removed the previous report in {} (this run wrote none)",
-                    folder.dir().display()
-                );
+    let outcome =
+        fbgforge::verify::run_with(&verify_request(&a), &mut sinks).inspect_err(|_| {
+            // A failed run leaves no report behind: a previous one would pass for this run's.
+            if let Some(folder) = &sinks.0 {
+                if folder.failed() {
+                    eprintln!(
+                        "note: removed the previous report in {} (this run wrote none)",
+                        folder.dir().display()
+                    );
+                }
             }
-        }
-        e
-    })?;
+        })?;
     Ok(match outcome.report.verdict.overall {
         Status::Pass => std::process::ExitCode::SUCCESS,
         Status::Fail => std::process::ExitCode::from(2),
