@@ -38,10 +38,6 @@
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
-use fbgforge_plot as plot;
-#[allow(unused_imports)]
-use fbgforge_plot::html;
 
 pub mod calibrate;
 pub mod choice;
