@@ -222,7 +222,9 @@ def verify(
     -------
     VerifyReport
         ``verdict``, per-grating K measured and predicted, ``to_pandas()``;
-        ``to_dict()`` is ``fbgforge verify --json``'s document.
+        ``to_dict()`` is ``fbgforge verify --json``'s document, its reasons and
+        warnings naming this function's parameters (``clock_offset_s``, not
+        ``--clock-offset-s``), as the report folder's texts do.
 
     Examples
     --------

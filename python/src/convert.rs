@@ -25,9 +25,10 @@ pub fn to_py<'py, T: serde::Serialize + ?Sized>(
     value_to_py(py, &value(v)?)
 }
 
-/// A serialisable result as Python objects, its text in the Python package's words
-/// (`ModuleSettings.prefer` as `prefer`: see `errors::python_words`).
-pub fn to_py_in_words<'py, T: serde::Serialize + ?Sized>(
+/// A serialisable result as Python objects, every text in the package's words (the
+/// request fields the library names in reasons and warnings as Python parameters,
+/// [`crate::errors::py_words`]).
+pub fn to_py_words<'py, T: serde::Serialize + ?Sized>(
     py: Python<'py>,
     v: &T,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -36,10 +37,10 @@ pub fn to_py_in_words<'py, T: serde::Serialize + ?Sized>(
     value_to_py(py, &v)
 }
 
-/// Every text of `v` in the Python package's words.
+/// Every text of `v` in the package's words.
 fn in_words(v: &mut Value) {
     match v {
-        Value::Text(s) => *s = crate::errors::in_python_words(s),
+        Value::Text(s) => *s = crate::errors::py_words(s),
         Value::Tag(_, inner) => in_words(inner),
         Value::Array(items) => items.iter_mut().for_each(in_words),
         Value::Map(entries) => entries.iter_mut().for_each(|(_, x)| in_words(x)),

@@ -29,14 +29,31 @@ fn raise(py: Python<'_>, class: &str, message: String, extra: &[(&str, Option<St
 
 /// Request fields whose Python parameter is named otherwise than the field
 /// (`Type.field` → parameter); every other field is its own parameter name.
-pub const PARAMS: &[(&str, &str)] = &[(
-    "ModuleSettings.min_fit_clearance_mm",
-    "min_clearance_mm",
-)];
+pub const PARAMS: &[(&str, &str)] = &[
+    // verify
+    ("AnalysisOptions.window_half_width_nm", "window_nm"),
+    ("AnalysisOptions.max_clock_offset_s", "max_offset_s"),
+    ("ForceReadOptions.time", "force_time_column"),
+    ("ForceReadOptions.force", "force_force_column"),
+    ("ForceReadOptions.scale_to_n", "force_scale_to_n"),
+    ("ForceReadOptions.date_order", "force_date_order"),
+    // synth_log
+    ("TrainSettings.peaks_n", "pulses_n"),
+    ("SynthConfig.sample_rate_hz", "rate_hz"),
+    ("SynthConfig.sensitivity_pm_per_n", "k_pm_per_n"),
+    // calibrate_array
+    ("CalibrateRequest.window_half_width_nm", "window_nm"),
+    // live
+    ("InterpretOptions.window_half_width_nm", "window_nm"),
+    ("LiveRequest.max_frames", "frames"),
+    ("LiveRequest.queue_frames", "queue"),
+    // optimize
+    ("ModuleSettings.min_fit_clearance_mm", "min_clearance_mm"),
+];
 
-/// A library text (a message, a report's prose) in the Python package's words: the
-/// front end's vocabulary the report printers take (`fbgforge::report::optimize::InWords`).
-pub fn in_python_words(text: &str) -> String {
+/// A library text in the package's words ([`python_words`] with no renames): what
+/// the result documents and report folders say.
+pub fn py_words(text: &str) -> String {
     python_words(text, &[])
 }
 
@@ -58,7 +75,10 @@ pub fn python_words(message: &str, renames: &[(&str, &str)]) -> String {
             (name, param)
         })
         .collect();
-    let pairs: Vec<(&str, &str)> = words.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect();
+    let pairs: Vec<(&str, &str)> = words
+        .iter()
+        .map(|(a, b)| (a.as_str(), b.as_str()))
+        .collect();
     let message = fbgforge::fields::in_words(message, &pairs);
     let message = message.as_str();
     let mut out = String::with_capacity(message.len());

@@ -11,16 +11,18 @@ mod design;
 mod errors;
 mod live;
 
-use convert::{columns, to_py, value};
+use convert::{columns, to_py, to_py_words, value};
 use design::PyDesign;
 use errors::{err, err_named, input, must_exist};
+use fbgforge::array::calibrate::CalibrateRequest;
 use fbgforge::array::kernel::matrix_from_design;
-use fbgforge::array::methods::{self as array_methods, Method, ReadingPrior};
+use fbgforge::array::methods::{self as array_methods, Method, ReadingSettings};
 use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::array::reconstruct::{Frames, MethodRequest};
-use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, LogStyle, ReadOptions};
+use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, LogStyle, ReadOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::prediction::{FidelityChoice, PredictionRequest, RunError};
+use fbgforge::report::verify::ReportFolder;
 use fbgforge::verify::analysis::AnalysisOptions;
 use fbgforge::verify::VerifyRequest;
 use numpy::ndarray::{Array1, Array2};
@@ -144,7 +146,7 @@ fn predict<'py>(
     let (rows, statements) = py
         .detach(|| fbgforge::prediction::predict_into(d, &request, &mut ()))
         .map_err(|e| run_err(py, e, &d.name, "cannot predict"))?;
-    Ok((convert::to_py_in_words(py, &rows)?, to_py(py, &statements)?)
+    Ok((convert::to_py_words(py, &rows)?, to_py(py, &statements)?)
         .into_pyobject(py)?
         .into_any())
 }
@@ -282,7 +284,7 @@ fn verify<'py>(
     must_exist(py, &force, "force log")?;
     let mut req = VerifyRequest::new(design_path, log, force);
     req.read = read_options(py, format, date_order)?;
-    req.force_columns = ForceColumns {
+    req.force_read = ForceReadOptions {
         time: force_time_column,
         force: force_force_column,
         scale_to_n: force_scale_to_n,
@@ -301,20 +303,14 @@ fn verify<'py>(
     req.force_start = force_start;
     let report = py
         .detach(|| -> anyhow::Result<_> {
-            let outcome = fbgforge::verify::run(&req)?;
-            if let Some(dir) = &report_dir {
-                fbgforge::verify::report::write_report(dir, &outcome.report, &outcome.series)?;
-            }
-            Ok(outcome.report)
+            let mut folder = report_dir
+                .as_deref()
+                .map(|dir| ReportFolder::new(dir, errors::py_words))
+                .transpose()?;
+            Ok(fbgforge::verify::run_with(&req, &mut folder)?.report)
         })
-        .map_err(|e| {
-            err_named(
-                py,
-                e,
-                &[("window-nm", "window_nm"), ("max-offset-s", "max_offset_s")],
-            )
-        })?;
-    to_py(py, &report)
+        .map_err(|e| err(py, e))?;
+    to_py_words(py, &report)
 }
 
 /// The model sensing matrix of an array design.
@@ -419,21 +415,11 @@ fn reconstruct<'py>(
             ));
         }
     }
-    if !(budget_us.is_finite() && budget_us > 0.0) {
-        return Err(input(
-            py,
-            format!("budget_us must be a positive time in µs, got {budget_us}"),
-        ));
-    }
     let problem = SensingProblem::new(matrix, ulimit_g, normalise)
         .and_then(|p| p.with_min_load_g(min_load_g.unwrap_or(default_min_load_g(ulimit_g))))
         .map_err(|e| input(py, errors::python_words(&e.to_string(), &[])))?;
-    let max_loads = max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS);
-    if max_loads == 0 {
-        return Err(input(py, "max_loads must be at least 1"));
-    }
-    let prior = ReadingPrior {
-        max_loads,
+    let prior = ReadingSettings {
+        max_loads: max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS),
         resolution_pm,
     };
     let request = match method {
@@ -522,7 +508,7 @@ fn sweep<'py>(
         }
         (None, Some(a), Some(b)) => {
             let linear = sweep::sweep_values(p, a, b, steps)
-                .map_err(|e| input(py, errors::in_python_words(&e.to_string())))?;
+                .map_err(|e| input(py, errors::py_words(&e.to_string())))?;
             match spacing {
                 "linear" => linear,
                 "log" => (0..steps)
@@ -637,9 +623,9 @@ fn optimize<'py>(
         landscape: landscape.map(Variable::parse_list).transpose().map_err(e)?,
         out,
         report_dir,
-        words: errors::in_python_words,
+        words: errors::py_words,
     };
-    let mut folder = fbgforge::report::optimize::ModuleReportFolder::new(errors::in_python_words);
+    let mut folder = fbgforge::report::optimize::ModuleReportFolder::new(errors::py_words);
     let run = py
         .detach(|| run_module(&req, &fbgforge::progress::Quiet, &mut folder))
         .map_err(|x| err(py, x))?;
@@ -662,7 +648,7 @@ fn optimised<'py, T: serde::Serialize>(
     report_dir: &std::path::Path,
 ) -> PyResult<Bound<'py, PyAny>> {
     let doc = PyDict::new(py);
-    doc.set_item("outcome", convert::to_py_in_words(py, outcome)?)?;
+    doc.set_item("outcome", convert::to_py_words(py, outcome)?)?;
     doc.set_item(
         "design",
         PyDesign {
@@ -711,7 +697,7 @@ fn place<'py>(
         out,
         report_dir,
     };
-    let mut folder = fbgforge::report::place::PlaceReportFolder::new(errors::in_python_words);
+    let mut folder = fbgforge::report::place::PlaceReportFolder::new(errors::py_words);
     let run = py
         .detach(|| run_placement(&req, &fbgforge::progress::Quiet, &mut folder))
         .map_err(|x| err(py, x))?;
@@ -736,7 +722,7 @@ fn synth_log<'py>(
     style: &Bound<'py, PyDict>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use fbgforge::synth::files::{write_synth_log, SynthLogRequest, SynthRun};
-    use fbgforge::synth::module_log::{shaped_train, PulseShape, SynthConfig};
+    use fbgforge::synth::module_log::{train, PulseShape, SynthConfig, TrainSettings};
     let get = |k: &str| -> PyResult<Bound<'py, PyAny>> {
         settings
             .get_item(k)?
@@ -790,11 +776,14 @@ fn synth_log<'py>(
                     ))
                 }
             };
-            let pulses_n: Vec<f64> = get("pulses_n")?.extract()?;
-            let pulses = shaped_train(&pulses_n, pulse_s, rest_s, 5.0, shape);
-            let duration_s = pulses
-                .last()
-                .map_or(30.0, |p| p.start_s + p.duration_s + rest_s);
+            let (pulses, duration_s) = train(&TrainSettings {
+                peaks_n: get("pulses_n")?.extract()?,
+                pulse_s,
+                rest_s,
+                lead_s: 5.0,
+                shape,
+            })
+            .map_err(|e| err(py, e))?;
             SynthRun::Module(SynthConfig {
                 core: get("core")?.extract()?,
                 sensitivity_pm_per_n: f("k_pm_per_n")?,
@@ -845,26 +834,20 @@ fn calibrate_array<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     must_exist(py, &log, "log")?;
     must_exist(py, &schedule, "schedule")?;
-    let read = read_options(py, format, date_order)?;
+    let req = CalibrateRequest {
+        design_file: None,
+        log,
+        schedule,
+        read: read_options(py, format, date_order)?,
+        window_half_width_nm: window_nm,
+        out,
+        fit_modulus: false,
+    };
     let d = &design.design;
     let cal = py
-        .detach(|| -> anyhow::Result<_> {
-            let cal =
-                fbgforge::array::calibrate::calibrate_array(d, &log, &schedule, &read, window_nm)?;
-            if let Some(out) = &out {
-                fbgforge::array::io::write_matrix_with_comments(
-                    out,
-                    &cal.matrix,
-                    &[format!(
-                        "measured sensing matrix, pm/g, from {} and {}",
-                        log.display(),
-                        schedule.display()
-                    )],
-                )?;
-            }
-            Ok(cal)
-        })
-        .map_err(|e| err(py, e))?;
+        .detach(|| fbgforge::array::calibrate::run(d, &req, &mut ()))
+        .map_err(|e| err(py, e))?
+        .calibration;
     let m = matrix_dict(py, &cal.matrix, None)?;
     m.set_item("warnings", to_py(py, &cal.warnings.counts)?)?;
     Ok(m)

@@ -3,12 +3,12 @@
 //! bounded channel. A Python consumer slower than the stream makes the run's own queue
 //! overflow, where the dropped frames are counted, exactly as a slow terminal would.
 
-use crate::convert::to_py;
+use crate::convert::{to_py, to_py_words};
 use crate::errors::{self, err_named, input, must_exist};
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions, Reading};
-use fbgforge::live::source::SourceSpec;
-use fbgforge::live::stats::{LiveSummary, Stats};
-use fbgforge::live::view::{FrameReading, LiveInfo, LiveSink};
+use fbgforge::live::sink::{FrameReading, LiveInfo, LiveSink};
+use fbgforge::live::source::{SourceOptions, SourceSpec};
+use fbgforge::live::stats::LiveSummary;
 use fbgforge::live::LiveRequest;
 use numpy::ndarray::Array1;
 use numpy::IntoPyArray;
@@ -50,16 +50,10 @@ impl LiveSink for ChannelSink {
         self.send(Message::Reading(r.clone()))
     }
     fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
-        self.send(Message::Bad(kind.into(), message.into()))
+        self.send(Message::Bad(kind.into(), errors::py_words(message)))
     }
     fn event(&mut self, event: &str, message: &str) -> io::Result<()> {
-        self.send(Message::Event(event.into(), message.into()))
-    }
-    fn tick(&mut self, _stats: &Stats, _elapsed: Duration) -> io::Result<()> {
-        Ok(())
-    }
-    fn finish(&mut self, _summary: &LiveSummary) -> io::Result<()> {
-        Ok(())
+        self.send(Message::Event(event.into(), errors::py_words(message)))
     }
 }
 
@@ -135,7 +129,7 @@ impl LiveStream {
             Message::Reading(r) => ("frame", reading_dict(py, &r)?),
             Message::Bad(k, m) => ("bad", (k, m).into_pyobject(py)?.into_any()),
             Message::Event(k, m) => ("event", (k, m).into_pyobject(py)?.into_any()),
-            Message::Done(Ok(summary)) => ("summary", to_py(py, &summary)?),
+            Message::Done(Ok(summary)) => ("summary", to_py_words(py, &summary)?),
             Message::Done(Err(e)) => {
                 return Err(input(py, errors::python_words(&e, &[("from", "source")])));
             }
@@ -185,30 +179,6 @@ pub fn live_stream(
     duration_s: Option<f64>,
     queue: usize,
 ) -> PyResult<LiveStream> {
-    if !(give_up_s.is_finite() && give_up_s >= 0.0) {
-        return Err(input(
-            py,
-            format!("give_up_s must be a number of seconds ≥ 0, got {give_up_s}"),
-        ));
-    }
-    if !(resolution_pm.is_finite() && resolution_pm > 0.0) {
-        return Err(input(
-            py,
-            format!("resolution_pm must be a positive noise in pm, got {resolution_pm}"),
-        ));
-    }
-    if !(budget_us.is_finite() && budget_us > 0.0) {
-        return Err(input(
-            py,
-            format!("budget_us must be a positive time in µs, got {budget_us}"),
-        ));
-    }
-    if let Some(s) = idle_exit_s.filter(|s| !(s.is_finite() && *s >= 0.0)) {
-        return Err(input(
-            py,
-            format!("idle_exit_s must be a number of seconds ≥ 0, got {s}"),
-        ));
-    }
     if let Some((g, v)) = k.iter().find(|(_, v)| !(v.is_finite() && **v != 0.0)) {
         return Err(input(
             py,
@@ -223,8 +193,13 @@ pub fn live_stream(
         None => BTreeMap::new(),
     };
     calibrated.extend(k);
-    let read = crate::read_options(py, format, date_order)?;
-    let spec = SourceSpec::parse(source, read, from_start, idle_exit_s, give_up_s);
+    let options = SourceOptions {
+        read: crate::read_options(py, format, date_order)?,
+        from_start,
+        idle_exit_s,
+        give_up_s,
+    };
+    let spec = SourceSpec::parse(source, options).map_err(|e| err_named(py, e, &[]))?;
     let mut req = LiveRequest::new(design_path, spec);
     req.interpret = InterpretOptions {
         tare_frames,
@@ -241,6 +216,8 @@ pub fn live_stream(
     req.max_frames = frames;
     req.duration_s = duration_s;
     req.queue_frames = queue;
+    // Refused here, before the run's thread starts, as a bad value of this call.
+    req.validate().map_err(|e| err_named(py, e, &[]))?;
     let (tx, rx) = sync_channel(1024);
     let stop = Arc::new(AtomicBool::new(false));
     let thread_stop = stop.clone();

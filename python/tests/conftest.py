@@ -46,13 +46,25 @@ def cli_json(cli, *args, ok_codes=(0,)):
     return json.loads(cli(*args, ok_codes=ok_codes).stdout)
 
 
+def in_python_words(doc):
+    """`doc` (the command line's text or JSON document) with its flags named as the
+    Python parameters are (`--date-order` → `date_order`), as the package says them."""
+    if isinstance(doc, str):
+        return re.sub(r"(?<![\w-])--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_"), doc)
+    if isinstance(doc, dict):
+        return {k: in_python_words(v) for k, v in doc.items()}
+    if isinstance(doc, list):
+        return [in_python_words(v) for v in doc]
+    return doc
+
+
 def cli_error(cli, *args):
     """The message the command line prints after `error: `, exit status 1, with its
     flags named as the Python parameters are (`--date-order` → `date_order`)."""
     p = cli(*args, ok_codes=(1,))
     line = p.stderr.strip().splitlines()[-1]
     assert line.startswith("error: "), p.stderr
-    return re.sub(r"(?<![\w-])--([a-z][a-z0-9-]*)", lambda m: m.group(1).replace("-", "_"), line[len("error: "):])
+    return in_python_words(line[len("error: "):])
 
 
 def close(got, want, rel=1e-9, path="$"):

@@ -3,16 +3,16 @@
 //! loopback to test it against (`fbgforge::synth::stream::serve`).
 
 use super::predict::{CaseArg, FidelityArg};
-use super::verify::DateOrderArg;
+use super::verify::{read_options, DateOrderArg, LogFormatArg};
 use anyhow::{bail, Result};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions};
-use fbgforge::live::source::SourceSpec;
-use fbgforge::synth::stream::{self as synth, FrameClock, SynthNoise, SynthRequest};
-use fbgforge::live::view::{JsonlSink, LiveSink, TerminalSink};
+use fbgforge::live::sink::LiveSink;
+use fbgforge::live::source::{SourceOptions, SourceSpec};
 use fbgforge::live::{self, LiveRequest};
-use fbgforge::logs::{num::DateOrder, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
+use fbgforge::report::live::{summary_text_in, JsonlSink, TerminalSink};
+use fbgforge::synth::stream::{self as synth, FrameClock, SynthNoise, SynthRequest};
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -20,8 +20,78 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
-pub const FLAGS: &[(&str, &str)] = &[];
+/// These subcommands' request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[
+    // live
+    ("LiveRequest.source", "--from"),
+    ("LiveRequest.duration_s", "--duration-s"),
+    ("LiveRequest.max_frames", "--frames"),
+    ("LiveRequest.queue_frames", "--queue"),
+    ("SourceOptions.give_up_s", "--give-up-s"),
+    ("SourceOptions.idle_exit_s", "--idle-exit-s"),
+    ("SourceOptions.from_start", "--from-start"),
+    ("InterpretOptions.insert", "--insert"),
+    ("InterpretOptions.case", "--case"),
+    ("InterpretOptions.core", "--core"),
+    ("InterpretOptions.method", "--method"),
+    ("InterpretOptions.resolution_pm", "--resolution-pm"),
+    ("InterpretOptions.budget_us", "--budget-us"),
+    ("InterpretOptions.window_half_width_nm", "--window-nm"),
+    ("InterpretOptions.tare_frames", "--tare-frames"),
+    // synth-stream
+    ("SynthRequest.rate_hz", "--rate-hz"),
+    ("SynthRequest.duration_s", "--duration-s"),
+];
+
+/// A library text in this file's flags ([`FLAGS`]): what the sinks write.
+fn in_flag_words(text: &str) -> String {
+    fbgforge::fields::in_words(text, FLAGS)
+}
+
+/// Noise of the simulated stream on the command line ([`SynthNoise`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SynthNoiseArg {
+    /// None: exact shifts.
+    None,
+    /// The interrogator's resolution only (Gaussian, 0.5 pm).
+    Resolution,
+    /// Array: the reconstruction protocol's noise model (resolution, hysteresis,
+    /// linearity, additivity of simultaneous loads); module: the resolution.
+    Paper,
+}
+
+impl From<SynthNoiseArg> for SynthNoise {
+    fn from(n: SynthNoiseArg) -> Self {
+        match n {
+            SynthNoiseArg::None => SynthNoise::None,
+            SynthNoiseArg::Resolution => SynthNoise::Resolution,
+            SynthNoiseArg::Paper => SynthNoise::Paper,
+        }
+    }
+}
+
+/// Whose clock numbers the simulated frames, on the command line ([`FrameClock`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FrameClockArg {
+    /// As an instrument does: frame k is due k / rate after the server starts, read or
+    /// not. A client that connects late or reconnects misses frames, and how many
+    /// depends on when it (re)connects.
+    Instrument,
+    /// Only while a client reads: frame 0 goes to the first client, the count stands
+    /// still while no client is connected, the deliberate drop skips exactly
+    /// [`REFUSAL_S`] × rate frames, and the stream ends after exactly duration × rate
+    /// frames. What a client receives is the same on any machine under any load.
+    Client,
+}
+
+impl From<FrameClockArg> for FrameClock {
+    fn from(c: FrameClockArg) -> Self {
+        match c {
+            FrameClockArg::Instrument => FrameClock::Instrument,
+            FrameClockArg::Client => FrameClock::Client,
+        }
+    }
+}
 
 /// Exit status of `fbgforge live` when the source was lost: reconnecting (or
 /// connecting) to the instrument was given up after `--give-up-s`, or the followed log
@@ -95,7 +165,7 @@ pub struct LiveArgs {
     pub calibration: Option<PathBuf>,
     /// Log file: format (detected if omitted).
     #[arg(long, value_enum)]
-    pub format: Option<LogFormat>,
+    pub format: Option<LogFormatArg>,
     /// Log file: order of day and month in slash dates.
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
@@ -154,40 +224,20 @@ fn stop_flag() -> Arc<AtomicBool> {
 /// (bad and dropped frames are reported, not fatal), [`EXIT_SOURCE_LOST`] when the
 /// source was lost.
 pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
-    let read = ReadOptions {
-        format: a.format,
-        date_order: a.date_order.map(|d| match d {
-            DateOrderArg::Dmy => DateOrder::DayMonthYear,
-            DateOrderArg::Mdy => DateOrder::MonthDayYear,
-        }),
-    };
-    if !(a.give_up_s.is_finite() && a.give_up_s >= 0.0) {
-        bail!(
-            "--give-up-s must be a number of seconds ≥ 0, got {}",
-            a.give_up_s
-        );
-    }
-    if !(a.resolution_pm.is_finite() && a.resolution_pm > 0.0) {
-        bail!(
-            "--resolution-pm must be a positive noise in pm, got {}",
-            a.resolution_pm
-        );
-    }
-    if !(a.budget_us.is_finite() && a.budget_us > 0.0) {
-        bail!(
-            "--budget-us must be a positive time in µs, got {}",
-            a.budget_us
-        );
-    }
-    if let Some(s) = a.idle_exit_s.filter(|s| !(s.is_finite() && *s >= 0.0)) {
-        bail!("--idle-exit-s must be a number of seconds ≥ 0, got {s}");
-    }
+    let source = SourceSpec::parse(
+        &a.from,
+        SourceOptions {
+            read: read_options(a.format, a.date_order),
+            from_start: a.from_start,
+            idle_exit_s: a.idle_exit_s,
+            give_up_s: a.give_up_s,
+        },
+    )?;
     let mut calibrated = match &a.calibration {
         Some(p) => calibration_from_verify_json(p)?,
         None => BTreeMap::new(),
     };
     calibrated.extend(parse_k(&a.k)?);
-    let source = SourceSpec::parse(&a.from, read, a.from_start, a.idle_exit_s, a.give_up_s);
     let mut req = LiveRequest::new(a.design.clone(), source);
     req.interpret = InterpretOptions {
         tare_frames: if a.no_tare { 0 } else { a.tare_frames },
@@ -207,19 +257,19 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
     let stop = stop_flag();
     let stdout = std::io::stdout();
     let mut sink: Box<dyn LiveSink> = if a.jsonl {
-        Box::new(JsonlSink::new(std::io::BufWriter::new(stdout.lock())))
+        Box::new(JsonlSink::new(std::io::BufWriter::new(stdout.lock())).with_words(in_flag_words))
     } else {
         let tty = stdout.is_terminal();
-        Box::new(TerminalSink::new(
-            std::io::BufWriter::new(stdout.lock()),
-            tty,
-        ))
+        Box::new(
+            TerminalSink::new(std::io::BufWriter::new(stdout.lock()), tty)
+                .with_words(in_flag_words),
+        )
     };
     let summary = live::run(&req, sink.as_mut(), &stop)?;
     drop(sink);
     if a.jsonl {
         // The summary is the last JSON line; say it for a person too.
-        eprintln!("{}", live::view::summary_text(&summary));
+        eprintln!("{}", summary_text_in(&summary, in_flag_words));
     }
     if summary.source_lost {
         return Ok(ExitCode::from(EXIT_SOURCE_LOST));
@@ -246,8 +296,8 @@ pub struct SynthStreamArgs {
     #[arg(long, default_value_t = 10.0)]
     pub duration_s: f64,
     /// Noise on the shifts.
-    #[arg(long, value_enum, default_value_t = SynthNoise::Paper)]
-    pub noise: SynthNoise,
+    #[arg(long, value_enum, default_value_t = SynthNoiseArg::Paper)]
+    pub noise: SynthNoiseArg,
     /// Seed of every random draw.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -263,8 +313,8 @@ pub struct SynthStreamArgs {
     /// Whose clock numbers the frames: the instrument's (frames pass while no client
     /// reads them, as with the real one) or the client's (the count stands still
     /// without a client, so a client gets the same frames on any machine: for tests).
-    #[arg(long, value_enum, default_value_t = FrameClock::Instrument)]
-    pub frame_clock: FrameClock,
+    #[arg(long, value_enum, default_value_t = FrameClockArg::Instrument)]
+    pub frame_clock: FrameClockArg,
     /// Largest offset of a grating from its nominal wavelength, pm.
     #[arg(long, default_value_t = 80.0)]
     pub offset_pm: f64,
@@ -289,12 +339,12 @@ pub fn run_synth_stream(a: SynthStreamArgs) -> Result<ExitCode> {
         port: a.port,
         rate_hz: a.rate_hz,
         duration_s: a.duration_s,
-        noise: a.noise,
+        noise: a.noise.into(),
         seed: a.seed,
         extra_peaks: a.extra_peaks,
         bad_every: a.bad_every,
         drop_after_s: a.drop_after_s,
-        clock: a.frame_clock,
+        clock: a.frame_clock.into(),
         offset_pm: a.offset_pm,
         core: a.core,
         case: case(a.case),

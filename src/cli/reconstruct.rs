@@ -4,10 +4,25 @@
 use anyhow::Result;
 use clap::Args;
 use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
+use fbgforge::report::reconstruct::summary_text;
 use std::path::PathBuf;
 
 /// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
-pub const FLAGS: &[(&str, &str)] = &[];
+pub const FLAGS: &[(&str, &str)] = &[
+    ("ReconstructRequest.method", "--method"),
+    ("ReconstructRequest.penalty", "--penalty"),
+    ("ReconstructRequest.ulimit_g", "--ulimit-g"),
+    ("ReconstructRequest.min_load_g", "--min-load-g"),
+    ("ReconstructRequest.matrix_sd", "--matrix-sd"),
+    ("ReconstructRequest.matrix_sd_pct", "--matrix-sd-pct"),
+    ("ReconstructRequest.common_mode", "--common-mode"),
+    ("ReconstructRequest.budget_us", "--budget-us"),
+    ("ReconstructRequest.max_loads", "--max-loads"),
+    ("ReconstructRequest.resolution_pm", "--resolution-pm"),
+    ("ReadingSettings.max_loads", "--max-loads"),
+    ("ReadingSettings.resolution_pm", "--resolution-pm"),
+    ("MethodRequest.budget_us", "--budget-us"),
+];
 
 /// Arguments of `fbgforge reconstruct`.
 #[derive(Debug, Args)]
@@ -114,47 +129,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
-        if let Some(c) = &summary.choice {
-            println!("method choice: {}", c.reason);
-        }
-        println!(
-            "{} frames, method {} (penalty {}, ≤ {} loads), set-up {:.1} ms, {:.1} µs/frame ({} thread{}), {} {} → {}",
-            summary.frames,
-            summary.method,
-            summary.penalty,
-            summary.max_loads,
-            summary.setup_ms,
-            summary.time_per_frame_us,
-            summary.threads,
-            if summary.threads == 1 { "" } else { "s" },
-            summary.not_converged,
-            if summary.method == "bnb" {
-                "stopped at the work budget (best support found, not certified)"
-            } else {
-                "not converged"
-            },
-            summary.out.display()
-        );
-        let f = &summary.flags;
-        println!(
-            "trusted {} of {} frames ({} certified); flagged: inconsistent {}, ceiling {}, overload {}, below_range {}, ambiguous {}, unconverged {}, unusable {}",
-            f.trusted,
-            summary.frames,
-            summary.certified,
-            f.inconsistent,
-            f.ceiling,
-            f.overload,
-            f.below_range,
-            f.ambiguous,
-            f.unconverged,
-            f.unusable
-        );
-        for s in &summary.suspect_gratings {
-            println!(
-                "grating {} looks dead or stuck (its shift varies by {:.2} pm while the others predict {:.1} pm over {} frames): left out",
-                s.name, s.measured_sd_pm, s.predicted_sd_pm, s.frames
-            );
-        }
+        print!("{}", summary_text(&summary));
     }
     Ok(())
 }

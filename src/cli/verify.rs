@@ -2,18 +2,89 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use fbgforge::logs::{num::DateOrder, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::array::calibrate::{self, CalibrateRequest};
+use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
-use fbgforge::verify::analysis::AnalysisOptions;
-use fbgforge::verify::report;
-use fbgforge::verify::verdict::{self, Status};
-use fbgforge::array::calibrate;
+use fbgforge::report::calibrate::Table;
+use fbgforge::report::synth::written;
+use fbgforge::report::verify::{Printer, ReportFolder};
 use fbgforge::synth::{files, module_log as synth};
-use fbgforge::verify::{VerifyOutcome, VerifyRequest};
+use fbgforge::verify::analysis::AnalysisOptions;
+use fbgforge::verify::verdict::{self, Status};
+use fbgforge::verify::VerifyRequest;
 use std::path::{Path, PathBuf};
 
-/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
-pub const FLAGS: &[(&str, &str)] = &[];
+/// These subcommands' request fields and the flags that fill them (`cli::hiargs`).
+pub const FLAGS: &[(&str, &str)] = &[
+    // verify
+    ("VerifyRequest.case", "--case"),
+    ("VerifyRequest.insert", "--insert"),
+    ("VerifyRequest.k_tolerance", "--k-tolerance"),
+    ("VerifyRequest.force_start", "--force-start"),
+    ("VerifyRequest.calibrate_into", "--calibrate-into"),
+    ("AnalysisOptions.core", "--core"),
+    ("AnalysisOptions.window_half_width_nm", "--window-nm"),
+    ("AnalysisOptions.clock_offset_s", "--clock-offset-s"),
+    ("AnalysisOptions.max_clock_offset_s", "--max-offset-s"),
+    ("AnalysisOptions.resolution_pm", "--resolution-pm"),
+    ("ReadOptions.format", "--format"),
+    ("ReadOptions.date_order", "--date-order"),
+    ("ForceReadOptions.time", "--force-time-column"),
+    ("ForceReadOptions.force", "--force-force-column"),
+    ("ForceReadOptions.scale_to_n", "--force-scale-to-n"),
+    ("ForceReadOptions.date_order", "--force-date-order"),
+    // synth-log
+    ("TrainSettings.peaks_n", "--pulses-n"),
+    ("TrainSettings.pulse_s", "--pulse-s"),
+    ("TrainSettings.rest_s", "--rest-s"),
+    ("SynthConfig.sample_rate_hz", "--rate-hz"),
+    ("SynthConfig.force_rate_hz", "--force-rate-hz"),
+    ("SynthConfig.tau_s", "--tau-s"),
+    ("SynthConfig.sensitivity_pm_per_n", "--k-pm-per-n"),
+    ("SynthConfig.force_start_s", "--force-start-s"),
+    ("SynthConfig.drift_pm_per_s", "--drift-pm-per-s"),
+    (
+        "SynthConfig.temperature_ramp_k_per_s",
+        "--temperature-ramp-k-per-s",
+    ),
+    ("SynthConfig.noise_pm", "--noise-pm"),
+    ("SynthConfig.force_noise_n", "--force-noise-n"),
+    // calibrate-array
+    ("CalibrateRequest.log", "--log"),
+    ("CalibrateRequest.schedule", "--schedule"),
+    ("CalibrateRequest.window_half_width_nm", "--window-nm"),
+    ("CalibrateRequest.out", "--out"),
+    ("CalibrateRequest.fit_modulus", "--fit-modulus"),
+];
+
+/// A library text in this file's flags ([`FLAGS`]): what the sinks write.
+fn in_flag_words(text: &str) -> String {
+    fbgforge::fields::in_words(text, FLAGS)
+}
+
+/// Wavelength log format on the command line ([`LogFormat`], the library's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LogFormatArg {
+    /// ENLIGHT "Peaks" export: timestamp, peak count per channel, then the peaks.
+    EnlightPeaks,
+    /// ENLIGHT "Sensors" export: timestamp then one column per sensor.
+    EnlightSensors,
+    /// Ibsen I-MON log: date, time, then a varying number of wavelengths.
+    Imon,
+    /// Plain CSV (or TSV / semicolon-separated): time then wavelength columns, nm.
+    Csv,
+}
+
+impl From<LogFormatArg> for LogFormat {
+    fn from(f: LogFormatArg) -> Self {
+        match f {
+            LogFormatArg::EnlightPeaks => LogFormat::EnlightPeaks,
+            LogFormatArg::EnlightSensors => LogFormat::EnlightSensors,
+            LogFormatArg::Imon => LogFormat::Imon,
+            LogFormatArg::Csv => LogFormat::Csv,
+        }
+    }
+}
 
 /// Load case on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -65,7 +136,7 @@ pub struct VerifyArgs {
     pub force: PathBuf,
     /// Format of the wavelength log (detected if omitted).
     #[arg(long, value_enum)]
-    pub format: Option<LogFormat>,
+    pub format: Option<LogFormatArg>,
     /// Order of day and month in slash dates (detected from the file if omitted).
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
@@ -130,16 +201,18 @@ pub struct VerifyArgs {
     pub calibrate_into: Option<PathBuf>,
 }
 
-fn date_order(d: DateOrderArg) -> DateOrder {
+/// The library's day/month order.
+pub fn date_order(d: DateOrderArg) -> DateOrder {
     match d {
         DateOrderArg::Dmy => DateOrder::DayMonthYear,
         DateOrderArg::Mdy => DateOrder::MonthDayYear,
     }
 }
 
-fn read_options(format: Option<LogFormat>, d: Option<DateOrderArg>) -> ReadOptions {
+/// How to read a wavelength log, as the flags say.
+pub fn read_options(format: Option<LogFormatArg>, d: Option<DateOrderArg>) -> ReadOptions {
     ReadOptions {
-        format,
+        format: format.map(LogFormat::from),
         date_order: d.map(date_order),
     }
 }
@@ -151,62 +224,27 @@ fn read_options(format: Option<LogFormat>, d: Option<DateOrderArg>) -> ReadOptio
 /// scripts can tell a failed part, an undecided one, a contact reading to calibrate and
 /// an error (status 1) apart ([`VERIFY_EXIT_STATUS_HELP`]).
 pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
-    if let Some(dir) = &a.report {
-        report::check_report_dir(dir)?;
-    }
-    // A failed run leaves no report behind: a previous one would pass for this run's.
-    let stale = |e: anyhow::Error| {
-        if let Some(dir) = &a.report {
-            if dir.exists() && report::remove_stale_report(dir).is_ok() {
-                eprintln!(
-                    "note: removed the previous report in {} (this run wrote none)",
-                    dir.display()
-                );
+    // The report folder is checked before the run; the summary or the JSON follows it.
+    let folder = a
+        .report
+        .as_deref()
+        .map(|dir| ReportFolder::new(dir, in_flag_words))
+        .transpose()?;
+    let printer = Printer::new(a.json, a.report.as_deref(), in_flag_words);
+    let mut sinks = (folder, printer);
+    let outcome =
+        fbgforge::verify::run_with(&verify_request(&a), &mut sinks).inspect_err(|_| {
+            // A failed run leaves no report behind: a previous one would pass for this run's.
+            if let Some(folder) = &sinks.0 {
+                if folder.failed() {
+                    eprintln!(
+                        "note: removed the previous report in {} (this run wrote none)",
+                        folder.dir().display()
+                    );
+                }
             }
-        }
-        e
-    };
-    let VerifyOutcome {
-        report,
-        series,
-        calibration,
-    } = fbgforge::verify::run(&verify_request(&a)).map_err(stale)?;
-    if let Some(dir) = &a.report {
-        report::write_report(dir, &report, &series).map_err(stale)?;
-    }
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", report::summary(&report));
-        if let Some(dir) = &a.report {
-            println!("report: {}", dir.join("report.html").display());
-        }
-    }
-    if let (Some(c), Some(path)) = (&calibration, &a.calibrate_into) {
-        // On stderr with --json, so the JSON stays one document.
-        let text = format!(
-            "calibrated {}: dome_contact_radius_mm {:.4} → {:.4} mm ({} FE solves); {}; written to {}",
-            c.configuration.label(),
-            c.previous_radius_mm,
-            c.radius_mm,
-            c.evaluations,
-            c.gratings
-                .iter()
-                .map(|g| format!(
-                    "{} measured {:+.3}, model {:+.3} → {:+.3} pm/N",
-                    g.grating, g.measured_pm_per_n, g.before_pm_per_n, g.after_pm_per_n
-                ))
-                .collect::<Vec<_>>()
-                .join("; "),
-            path.display()
-        );
-        if a.json {
-            eprintln!("{text}");
-        } else {
-            println!("{text}");
-        }
-    }
-    Ok(match report.verdict.overall {
+        })?;
+    Ok(match outcome.report.verdict.overall {
         Status::Pass => std::process::ExitCode::SUCCESS,
         Status::Fail => std::process::ExitCode::from(2),
         Status::InBand => std::process::ExitCode::from(4),
@@ -219,7 +257,7 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
 fn verify_request(a: &VerifyArgs) -> VerifyRequest {
     let mut req = VerifyRequest::new(a.design.clone(), a.log.clone(), a.force.clone());
     req.read = read_options(a.format, a.date_order);
-    req.force_columns = ForceColumns {
+    req.force_read = ForceReadOptions {
         time: a.force_time_column.clone(),
         force: a.force_force_column.clone(),
         scale_to_n: a.force_scale_to_n,
@@ -250,7 +288,7 @@ pub struct SynthLogArgs {
     pub design: PathBuf,
     /// Log format to write.
     #[arg(long, value_enum, default_value = "enlight-peaks")]
-    pub format: LogFormat,
+    pub format: LogFormatArg,
     /// Output folder (log.txt or log.csv, force.csv, truth.json).
     #[arg(long, default_value = "out/synth-log")]
     pub out: PathBuf,
@@ -365,32 +403,33 @@ pub enum ShapeArg {
 /// Run `fbgforge synth-log`.
 pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
-    let style = LogStyle {
-        decimal_comma: a.decimal_comma,
-        bom: a.bom,
-        metadata_lines: a.metadata_lines,
-        twelve_hour: a.twelve_hour,
+    let run = match &a.schedule {
+        Some(schedule) => files::SynthRun::ArrayCalibration {
+            schedule: schedule.clone(),
+            sample_rate_hz: a.rate_hz,
+            noise_pm: a.noise_pm,
+            drift_pm_per_s: a.drift_pm_per_s,
+            seed: a.seed,
+        },
+        None => files::SynthRun::Module(synth_config(&a)?),
     };
-    if let Some(schedule) = &a.schedule {
-        let files = files::write_synth_log(
-            &design,
-            &files::SynthLogRequest {
-                format: a.format,
-                out_dir: a.out.clone(),
-                style,
-                run: files::SynthRun::ArrayCalibration {
-                    schedule: schedule.clone(),
-                    sample_rate_hz: a.rate_hz,
-                    noise_pm: a.noise_pm,
-                    drift_pm_per_s: a.drift_pm_per_s,
-                    seed: a.seed,
-                },
-            },
-        )?;
-        let truth = files.matrix_truth.unwrap_or_default();
-        println!("wrote {} and {}", files.log.display(), truth.display());
-        return Ok(());
-    }
+    let req = files::SynthLogRequest {
+        format: a.format.into(),
+        out_dir: a.out.clone(),
+        style: LogStyle {
+            decimal_comma: a.decimal_comma,
+            bom: a.bom,
+            metadata_lines: a.metadata_lines,
+            twelve_hour: a.twelve_hour,
+        },
+        run,
+    };
+    println!("{}", written(&files::write_synth_log(&design, &req)?));
+    Ok(())
+}
+
+/// The module run that `fbgforge synth-log`'s flags describe.
+fn synth_config(a: &SynthLogArgs) -> Result<synth::SynthConfig> {
     let shape = match a.shape {
         ShapeArg::Haversine => synth::PulseShape::Haversine,
         ShapeArg::Trapezoid => synth::PulseShape::Trapezoid { ramp_s: a.ramp_s },
@@ -400,7 +439,13 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         },
         ShapeArg::Sine => synth::PulseShape::Sine { cycles: a.cycles },
     };
-    let (pulses, duration) = synth::train(&a.pulses_n, a.pulse_s, a.rest_s, 5.0, shape)?;
+    let (pulses, duration) = synth::train(&synth::TrainSettings {
+        peaks_n: a.pulses_n.clone(),
+        pulse_s: a.pulse_s,
+        rest_s: a.rest_s,
+        lead_s: 5.0,
+        shape,
+    })?;
     let grating_k = a
         .grating_k
         .iter()
@@ -415,7 +460,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
             Ok((name.trim().to_string(), k))
         })
         .collect::<Result<Vec<_>>>()?;
-    let cfg = synth::SynthConfig {
+    Ok(synth::SynthConfig {
         core: a.core.clone(),
         sensitivity_pm_per_n: a.k_pm_per_n,
         sample_rate_hz: a.rate_hz,
@@ -437,23 +482,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
         force_clock_skew_ppm: a.force_skew_ppm,
         grating_sensitivity_pm_per_n: grating_k,
         ..Default::default()
-    };
-    let files = files::write_synth_log(
-        &design,
-        &files::SynthLogRequest {
-            format: a.format,
-            out_dir: a.out.clone(),
-            style,
-            run: files::SynthRun::Module(cfg),
-        },
-    )?;
-    println!(
-        "wrote {}, {} and {}",
-        files.log.display(),
-        files.force.unwrap_or_default().display(),
-        files.truth.unwrap_or_default().display()
-    );
-    Ok(())
+    })
 }
 
 use synth::LogStyle;
@@ -471,7 +500,7 @@ pub struct CalibrateArrayArgs {
     pub schedule: PathBuf,
     /// Format of the wavelength log (detected if omitted).
     #[arg(long, value_enum)]
-    pub format: Option<LogFormat>,
+    pub format: Option<LogFormatArg>,
     /// Order of day and month in slash dates.
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
@@ -490,79 +519,38 @@ pub struct CalibrateArrayArgs {
 /// Run `fbgforge calibrate-array`.
 pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
-    let cal = calibrate::calibrate_array(
-        &design,
-        &a.log,
-        &a.schedule,
-        &read_options(a.format, a.date_order),
-        a.window_nm,
-    )?;
-    let (m, warnings) = (cal.matrix, cal.warnings);
     let out = a.out.clone().unwrap_or_else(|| {
         Path::new("out")
             .join(&design.name)
             .join("sensing_matrix.csv")
     });
-    fbgforge::array::io::write_matrix_with_comments(
-        &out,
-        &m,
-        &[format!(
-            "measured sensing matrix, pm/g, from {} and {}",
-            a.log.display(),
-            a.schedule.display()
-        )],
-    )?;
-    print!("{:<8}", "grating");
-    for c in &m.cells {
-        print!("{c:>10}");
-    }
-    println!();
-    for (g, row) in m.gratings.iter().zip(m.sensitivity_pm_per_g.row_iter()) {
-        print!("{g:<8}");
-        for v in row.iter() {
-            print!("{v:>10.5}");
-        }
-        println!();
-    }
-    for (k, w) in &warnings.counts {
-        println!("warning {k} ×{}: {}", w.count, w.first);
-    }
-    println!("wrote {}", out.display());
-    if a.fit_modulus {
-        let f = fbgforge::array::sheet::fit::fit_modulus(&design, &m).with_context(|| {
-            format!("{}: fitting the sheet model's modulus", a.design.display())
-        })?;
-        let path = out.with_extension("modulus-fit.json");
-        fbgforge::output::write_json(&path, &f)?;
-        println!(
-            "sheet model's modulus: design {} MPa (misfit {:.1} %), fitted {:.4} MPa (misfit {:.1} %; {:.1} % at half, {:.1} % at twice){}",
-            f.design_modulus_mpa,
-            100.0 * f.design_rel_rms,
-            f.fitted_modulus_mpa,
-            100.0 * f.fitted_rel_rms,
-            100.0 * f.rel_rms_at_half_and_double.0,
-            100.0 * f.rel_rms_at_half_and_double.1,
-            if f.at_search_limit {
-                " — at the end of the search range (0.05–50 MPa): the modulus alone cannot reach this matrix's level"
-            } else {
-                ""
-            }
-        );
-        let worst = f
-            .entries
-            .iter()
-            .filter_map(|e| e.misfit_pct.map(|p| (p, e)))
-            .max_by(|x, y| x.0.abs().total_cmp(&y.0.abs()));
-        if let Some((p, e)) = worst {
-            println!(
-                "largest misfit: {} × cell {}: measured {:.5}, model {:.5} pm/g ({p:+.1} %); every entry in {}",
-                e.grating,
-                e.cell,
-                e.measured_pm_per_g,
-                e.model_pm_per_g,
-                path.display()
-            );
-        }
-    }
+    let req = CalibrateRequest {
+        design_file: Some(a.design.clone()),
+        log: a.log.clone(),
+        schedule: a.schedule.clone(),
+        read: read_options(a.format, a.date_order),
+        window_half_width_nm: a.window_nm,
+        out: Some(out),
+        fit_modulus: a.fit_modulus,
+    };
+    calibrate::run(&design, &req, &mut Table)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The command line's format names are the library's registered ones, every
+    /// format has one, in the library's order.
+    #[test]
+    fn registered_names_are_the_command_line_names() {
+        let args = LogFormatArg::value_variants();
+        assert_eq!(args.len(), LogFormat::ALL.len());
+        for (arg, format) in args.iter().zip(LogFormat::ALL) {
+            let cli = arg.to_possible_value().expect("every format is a value");
+            assert_eq!(cli.get_name(), format.name());
+            assert_eq!(LogFormat::from(*arg), format);
+        }
+    }
 }

@@ -123,29 +123,41 @@ fn f(v: f64, d: usize) -> String {
     format!("{v:.d$}")
 }
 
-/// Run the whole benchmark.
+/// Run the whole benchmark: the fault or scaling part alone, or the protocol part
+/// (kernel fit, additivity, protocol, speed against accuracy, throughput, failure
+/// studies) followed, for `--part all`, by the scaling part.
 pub fn run(opts: &BenchOptions) -> Result<()> {
     let opts = &BenchOptions {
         repeats: if opts.quick { 1 } else { opts.repeats.max(1) },
         ..opts.clone()
     };
     fbgforge::output::ensure_dir(&opts.out)?;
-    if opts.part == Part::Faults {
-        let mut report = String::from("# fbgforge-studies reconstruct --part faults\n\n");
-        crate::reconstruct_faults::run(
-            &opts.out,
-            opts.quick,
-            opts.seed,
-            opts.repeats.min(FAULT_STREAMS),
-            &mut report,
-        )?;
-        write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
-        println!("{report}");
-        println!("written to {}", opts.out.display());
-        return Ok(());
-    }
-    if opts.part == Part::Scaling {
-        let mut report = String::from("# fbgforge-studies reconstruct --part scaling\n");
+    let mut report = match opts.part {
+        Part::Faults => {
+            let mut report = String::from("# fbgforge-studies reconstruct --part faults\n\n");
+            crate::reconstruct_faults::run(
+                &opts.out,
+                opts.quick,
+                opts.seed,
+                opts.repeats.min(FAULT_STREAMS),
+                &mut report,
+            )?;
+            report
+        }
+        Part::Scaling => {
+            let mut report = String::from("# fbgforge-studies reconstruct --part scaling\n");
+            crate::reconstruct_scaling::run(
+                &opts.out,
+                opts.quick,
+                opts.seed,
+                opts.budget_us,
+                &mut report,
+            )?;
+            report
+        }
+        Part::All | Part::Protocol => protocol_part(opts)?,
+    };
+    if opts.part == Part::All {
         crate::reconstruct_scaling::run(
             &opts.out,
             opts.quick,
@@ -153,12 +165,16 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
             opts.budget_us,
             &mut report,
         )?;
-        write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
-        println!("{report}");
-        println!("written to {}", opts.out.display());
-        return Ok(());
     }
-    let (true_a, layout_name) = match &opts.design {
+    write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
+    println!("{report}");
+    println!("written to {}", opts.out.display());
+    Ok(())
+}
+
+/// The true array: a design's model matrix, or the paper layout's; and its name.
+fn true_matrix(opts: &BenchOptions) -> Result<(DMatrix<f64>, String)> {
+    Ok(match &opts.design {
         Some(p) => {
             let d = fbgforge::design::load(p)?;
             (
@@ -175,7 +191,13 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
                 "paper layout".to_string(),
             )
         }
-    };
+    })
+}
+
+/// The protocol part: kernel fit, additivity, the protocol per method, speed against
+/// accuracy, stream throughput and the failure studies; the report so far.
+fn protocol_part(opts: &BenchOptions) -> Result<String> {
+    let (true_a, layout_name) = true_matrix(opts)?;
     let mut report = String::new();
     writeln!(report, "# fbgforge-studies reconstruct\n")?;
     writeln!(
@@ -186,8 +208,25 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         opts.repeats,
         if opts.quick { "; QUICK run (DE ≤ 300 generations)" } else { "" }
     )?;
+    kernel_fit_section(opts, &mut report)?;
+    additivity_section(opts, &true_a, &mut report)?;
+    let (cfgs, runs) = protocol_runs(opts, &true_a)?;
+    protocol_section(opts, &runs, &mut report)?;
+    speed_accuracy_section(opts, &runs)?;
+    throughput_section(opts, &true_a, &cfgs, &mut report)?;
+    // The failure studies rerun every method many times: five seeds are enough there.
+    let studies = failure_studies(&true_a, opts, &cfgs[..cfgs.len().min(5)], &mut report)?;
+    write_json(&opts.out.join("failure.json"), &studies)?;
+    writeln!(
+        report,
+        "\nMost accurate method (protocol default): `{}`.",
+        DEFAULT_METHOD.name()
+    )?;
+    Ok(report)
+}
 
-    // ------------------------------------------------------------ kernel fit
+/// The kernel fitted to Table 1 (bare power law and regularised), with its residuals.
+fn kernel_fit_section(opts: &BenchOptions, report: &mut String) -> Result<()> {
     let bare = fit_power_law(&TABLE1)?;
     let reg = fit_paper();
     let mut rows = Vec::new();
@@ -229,8 +268,15 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         &rows,
     )?;
     write_json(&opts.out.join("kernel_fit.json"), &(&bare, &reg))?;
+    Ok(())
+}
 
-    // ------------------------------------------------------------ additivity check
+/// The additivity errors of the noise models against the paper's.
+fn additivity_section(
+    opts: &BenchOptions,
+    true_a: &DMatrix<f64>,
+    report: &mut String,
+) -> Result<()> {
     let default_noise = base_config(opts, opts.seed).noise;
     let models = [
         ("proportional (default)", default_noise),
@@ -249,7 +295,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     )?;
     let mut add = Vec::new();
     for (name, noise) in models {
-        let a = additivity_check(&true_a, &noise, opts.seed);
+        let a = additivity_check(true_a, &noise, opts.seed);
         writeln!(
             report,
             "| {name} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
@@ -264,15 +310,22 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     }
     writeln!(report, "| paper | | | 31.5 | | | 92 |")?;
     write_json(&opts.out.join("additivity.json"), &add)?;
+    Ok(())
+}
 
-    // ------------------------------------------------------------ protocol
+/// The 84-test protocol for every method, pooled over the seeds, and the default
+/// method with its fixed penalty; the configurations used.
+fn protocol_runs(
+    opts: &BenchOptions,
+    true_a: &DMatrix<f64>,
+) -> Result<(Vec<ProtocolConfig>, Vec<PooledRun>)> {
     let cfgs: Vec<ProtocolConfig> = (0..opts.repeats)
         .map(|r| base_config(opts, opts.seed + r))
         .collect();
     let bar = crate::progress::Bar::with("protocol", Method::ALL.len() as u64);
     let mut runs = Vec::new();
     for m in Method::ALL {
-        runs.push(pooled(&true_a, m, &cfgs)?);
+        runs.push(pooled(true_a, m, &cfgs)?);
         bar.advance(1);
     }
     // What `fbgforge reconstruct` delivers: the default method with its fixed default
@@ -284,10 +337,15 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
             ..c.clone()
         })
         .collect();
-    let mut default_run = pooled(&true_a, DEFAULT_METHOD, &fixed)?;
+    let mut default_run = pooled(true_a, DEFAULT_METHOD, &fixed)?;
     default_run.method = format!("{} (fixed default penalty)", DEFAULT_METHOD.name());
     runs.push(default_run);
     bar.end();
+    Ok((cfgs, runs))
+}
+
+/// The protocol's table beside the paper's Table 3, its CSV and JSON, the penalties.
+fn protocol_section(opts: &BenchOptions, runs: &[PooledRun], report: &mut String) -> Result<()> {
     writeln!(report, "\n## Protocol (Table 3 side by side)\n")?;
     writeln!(report, "| method | loads | SNR dB | SEM dB | error % | RR % | µs/frame mean | µs/frame median | not converged |\n|---|---|---|---|---|---|---|---|---|")?;
     let mut rows = Vec::new();
@@ -298,7 +356,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
             p.n_loads, p.snr_db, p.sem_db, p.error_pct, p.rr_pct
         )?;
     }
-    for r in &runs {
+    for r in runs {
         for s in r.by_load_count.iter().chain(std::iter::once(&r.overall)) {
             let k = if s.n_loads == 0 {
                 "all".to_string()
@@ -376,8 +434,11 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         "\nTuned penalties per repetition: {}.\n",
         penalties.join("; ")
     )?;
+    Ok(())
+}
 
-    // ------------------------------------------------------------ speed vs accuracy
+/// Time per frame against accuracy: the chart and its CSV.
+fn speed_accuracy_section(opts: &BenchOptions, runs: &[PooledRun]) -> Result<()> {
     let paper_mean = (24.0 * PAPER_TABLE3[0].snr_db
         + 20.0 * (PAPER_TABLE3[1].snr_db + PAPER_TABLE3[2].snr_db + PAPER_TABLE3[3].snr_db))
         / 84.0;
@@ -388,7 +449,7 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
     );
     chart.x_log = true;
     let mut rows = Vec::new();
-    for r in &runs {
+    for r in runs {
         chart = chart.with(Series::new(
             r.method.clone(),
             vec![(
@@ -426,15 +487,24 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         ],
         &rows,
     )?;
+    Ok(())
+}
 
-    // ------------------------------------------------------------ stream throughput
+/// Frames per second of every method (DE left out) on a stream of the protocol's
+/// frames.
+fn throughput_section(
+    opts: &BenchOptions,
+    true_a: &DMatrix<f64>,
+    cfgs: &[ProtocolConfig],
+    report: &mut String,
+) -> Result<()> {
     let frames_n = if opts.quick { 20_000 } else { 200_000 };
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    let cases = test_cases(&true_a, &cfgs[0], &mut rng);
+    let cases = test_cases(true_a, &cfgs[0], &mut rng);
     let frames: Vec<Vec<f64>> = (0..frames_n)
         .map(|k| cases[k % cases.len()].shifts_pm.clone())
         .collect();
-    let measured = cfgs[0].noise.calibrate(&true_a, &mut rng);
+    let measured = cfgs[0].noise.calibrate(true_a, &mut rng);
     let problem = SensingProblem::new(measured, cfgs[0].ulimit_g, true)?
         .with_min_load_g(cfgs[0].min_load_g)?;
     let mut tp_rows = Vec::new();
@@ -460,29 +530,6 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
         &["method", "frames_per_s", "us_per_frame"],
         &tp_rows,
     )?;
-
-    // ------------------------------------------------------------ failure studies
-    // The failure studies rerun every method many times: five seeds are enough there.
-    let studies = failure_studies(&true_a, opts, &cfgs[..cfgs.len().min(5)], &mut report)?;
-    write_json(&opts.out.join("failure.json"), &studies)?;
-
-    writeln!(
-        report,
-        "\nMost accurate method (protocol default): `{}`.",
-        DEFAULT_METHOD.name()
-    )?;
-    if opts.part == Part::All {
-        crate::reconstruct_scaling::run(
-            &opts.out,
-            opts.quick,
-            opts.seed,
-            opts.budget_us,
-            &mut report,
-        )?;
-    }
-    write_atomic(&opts.out.join("report.md"), report.as_bytes())?;
-    println!("{report}");
-    println!("written to {}", opts.out.display());
     Ok(())
 }
 
@@ -529,12 +576,18 @@ pub struct FailureStudies {
     pub layouts: Vec<(String, f64, f64, f64)>,
 }
 
-fn failure_studies(
-    true_a: &DMatrix<f64>,
-    opts: &BenchOptions,
-    cfgs: &[ProtocolConfig],
-    report: &mut String,
-) -> Result<FailureStudies> {
+/// What the failure studies sweep: noise factors, layouts (collinear, shifted) and
+/// noise models.
+struct FailureSweeps {
+    noise_factors: Vec<f64>,
+    cells: Vec<(f64, f64)>,
+    layouts: Vec<(String, Vec<(f64, f64)>)>,
+    kernel: DistanceKernel,
+    noise_models: [(&'static str, NoiseModel); 4],
+}
+
+/// The sweeps of the failure studies (coarser with `--quick`).
+fn failure_sweeps(opts: &BenchOptions, cfgs: &[ProtocolConfig]) -> FailureSweeps {
     let noise_factors: Vec<f64> = if opts.quick {
         vec![0.0, 1.0, 2.0, 4.0]
     } else {
@@ -577,8 +630,24 @@ fn failure_studies(
         ),
         ("full span (previous)", NoiseModel::full_span()),
     ];
-    let total =
-        Method::ALL.len() * (noise_factors.len() + 1 + layouts.len() + 2 + noise_models.len());
+    FailureSweeps {
+        noise_factors,
+        cells,
+        layouts,
+        kernel,
+        noise_models,
+    }
+}
+
+fn failure_studies(
+    true_a: &DMatrix<f64>,
+    opts: &BenchOptions,
+    cfgs: &[ProtocolConfig],
+    report: &mut String,
+) -> Result<FailureStudies> {
+    let sw = failure_sweeps(opts, cfgs);
+    let total = Method::ALL.len()
+        * (sw.noise_factors.len() + 1 + sw.layouts.len() + 2 + sw.noise_models.len());
     let bar = crate::progress::Bar::with("failure", total as u64);
     let mut points = Vec::new();
     let mut breakdown = Vec::new();
@@ -589,134 +658,27 @@ fn failure_studies(
             loads: None,
             layouts: Vec::new(),
         };
-        // Noise.
-        for &nf in &noise_factors {
-            let c: Vec<ProtocolConfig> = cfgs
-                .iter()
-                .map(|c| ProtocolConfig {
-                    noise: c.noise.scaled(nf),
-                    ..c.clone()
-                })
-                .collect();
-            let r = pooled(true_a, m, &c)?;
-            if r.overall.rr_pct < BREAKDOWN_RR_PCT && bd.noise_factor.is_none() {
-                bd.noise_factor = Some(nf);
-            }
-            points.push(SweepPoint {
-                method: m.name(),
-                study: "noise".into(),
-                value: nf,
-                label: format!("×{nf}"),
-                mean_snr_db: r.overall.mean_snr_db,
-                rr_pct: r.overall.rr_pct,
-                not_converged: r.overall.not_converged,
-            });
-            bar.advance(1);
-        }
-        // Noise models (the default against the pessimistic full-span hysteresis).
-        for (k, (name, model)) in noise_models.iter().enumerate() {
-            let c: Vec<ProtocolConfig> = cfgs
-                .iter()
-                .map(|c| ProtocolConfig {
-                    noise: *model,
-                    ..c.clone()
-                })
-                .collect();
-            let r = pooled(true_a, m, &c)?;
-            for s in r.by_load_count.iter().chain(std::iter::once(&r.overall)) {
-                let loads = if s.n_loads == 0 {
-                    "all".to_string()
-                } else {
-                    s.n_loads.to_string()
-                };
-                points.push(SweepPoint {
-                    method: m.name(),
-                    study: "noise model".into(),
-                    value: k as f64,
-                    label: format!("{name}, {loads} loads"),
-                    mean_snr_db: s.mean_snr_db,
-                    rr_pct: s.rr_pct,
-                    not_converged: s.not_converged,
-                });
-            }
-            bar.advance(1);
-        }
-        // Number of loads 1..8.
-        let c: Vec<ProtocolConfig> = cfgs
-            .iter()
-            .map(|c| ProtocolConfig {
-                singles_per_mass: 0,
-                multi_load_counts: (1..=8).collect(),
-                max_loads: true_a.nrows(),
-                ..c.clone()
-            })
-            .collect();
-        let r = pooled(true_a, m, &c)?;
-        for s in &r.by_load_count {
-            if s.rr_pct < BREAKDOWN_RR_PCT && bd.loads.is_none() {
-                bd.loads = Some(s.n_loads);
-            }
-            points.push(SweepPoint {
-                method: m.name(),
-                study: "loads".into(),
-                value: s.n_loads as f64,
-                label: s.n_loads.to_string(),
-                mean_snr_db: s.mean_snr_db,
-                rr_pct: s.rr_pct,
-                not_converged: s.not_converged,
-            });
-        }
-        bar.advance(1);
-        // Layouts.
-        for (k, (name, g)) in layouts.iter().enumerate() {
-            let a = matrix_from_positions(&cells, g, &kernel);
-            let r = pooled(&a, m, cfgs)?;
-            if r.overall.rr_pct < BREAKDOWN_RR_PCT {
-                bd.layouts.push(name.clone());
-            }
-            points.push(SweepPoint {
-                method: m.name(),
-                study: "layout".into(),
-                value: k as f64,
-                label: name.clone(),
-                mean_snr_db: r.overall.mean_snr_db,
-                rr_pct: r.overall.rr_pct,
-                not_converged: r.overall.not_converged,
-            });
-            bar.advance(1);
-        }
-        // Column normalisation on/off.
-        for norm in [true, false] {
-            let c: Vec<ProtocolConfig> = cfgs
-                .iter()
-                .map(|c| ProtocolConfig {
-                    normalise: norm,
-                    ..c.clone()
-                })
-                .collect();
-            let r = pooled(true_a, m, &c)?;
-            points.push(SweepPoint {
-                method: m.name(),
-                study: "normalisation".into(),
-                value: if norm { 1.0 } else { 0.0 },
-                label: if norm {
-                    "normalised".into()
-                } else {
-                    "raw".into()
-                },
-                mean_snr_db: r.overall.mean_snr_db,
-                rr_pct: r.overall.rr_pct,
-                not_converged: r.overall.not_converged,
-            });
-            bar.advance(1);
-        }
+        let mut at = SweepAt {
+            true_a,
+            m,
+            cfgs,
+            bar: &bar,
+            points: &mut points,
+        };
+        sweep_noise(&mut at, &sw, &mut bd)?;
+        sweep_noise_models(&mut at, &sw)?;
+        sweep_loads(&mut at, &mut bd)?;
+        sweep_layouts(&mut at, &sw, &mut bd)?;
+        sweep_normalisation(&mut at)?;
         breakdown.push(bd);
     }
     bar.end();
-    let layout_quality: Vec<(String, f64, f64, f64)> = layouts
+    let (cells, kernel) = (&sw.cells, &sw.kernel);
+    let layout_quality: Vec<(String, f64, f64, f64)> = sw
+        .layouts
         .iter()
         .map(|(name, g)| {
-            let q = matrix_quality(&matrix_from_positions(&cells, g, &kernel));
+            let q = matrix_quality(&matrix_from_positions(cells, g, kernel));
             (
                 name.clone(),
                 q.mutual_coherence,
@@ -725,8 +687,182 @@ fn failure_studies(
             )
         })
         .collect();
+    failure_charts(opts, &points)?;
+    failure_tables(report, &points, &sw, &layout_quality, &breakdown)?;
+    Ok(FailureStudies {
+        points,
+        breakdown,
+        layouts: layout_quality,
+    })
+}
 
-    // Tables and charts.
+/// One method's sweeps: the true matrix, the method, the base configurations, the
+/// progress bar and where the points go.
+struct SweepAt<'a> {
+    true_a: &'a DMatrix<f64>,
+    m: Method,
+    cfgs: &'a [ProtocolConfig],
+    bar: &'a crate::progress::Bar,
+    points: &'a mut Vec<SweepPoint>,
+}
+
+/// Noise × the paper's model: the first factor with RR below the breakdown.
+fn sweep_noise(at: &mut SweepAt, sw: &FailureSweeps, bd: &mut Breakdown) -> Result<()> {
+    let (true_a, m, cfgs, bar) = (at.true_a, at.m, at.cfgs, at.bar);
+    let points = &mut *at.points;
+    let noise_factors = &sw.noise_factors;
+    for &nf in noise_factors {
+        let c: Vec<ProtocolConfig> = cfgs
+            .iter()
+            .map(|c| ProtocolConfig {
+                noise: c.noise.scaled(nf),
+                ..c.clone()
+            })
+            .collect();
+        let r = pooled(true_a, m, &c)?;
+        if r.overall.rr_pct < BREAKDOWN_RR_PCT && bd.noise_factor.is_none() {
+            bd.noise_factor = Some(nf);
+        }
+        points.push(SweepPoint {
+            method: m.name(),
+            study: "noise".into(),
+            value: nf,
+            label: format!("×{nf}"),
+            mean_snr_db: r.overall.mean_snr_db,
+            rr_pct: r.overall.rr_pct,
+            not_converged: r.overall.not_converged,
+        });
+        bar.advance(1);
+    }
+    Ok(())
+}
+
+/// The noise models (the default against the pessimistic full-span hysteresis), per
+/// load count.
+fn sweep_noise_models(at: &mut SweepAt, sw: &FailureSweeps) -> Result<()> {
+    let (true_a, m, cfgs, bar) = (at.true_a, at.m, at.cfgs, at.bar);
+    let points = &mut *at.points;
+    let noise_models = &sw.noise_models;
+    for (k, (name, model)) in noise_models.iter().enumerate() {
+        let c: Vec<ProtocolConfig> = cfgs
+            .iter()
+            .map(|c| ProtocolConfig {
+                noise: *model,
+                ..c.clone()
+            })
+            .collect();
+        let r = pooled(true_a, m, &c)?;
+        for s in r.by_load_count.iter().chain(std::iter::once(&r.overall)) {
+            let loads = if s.n_loads == 0 {
+                "all".to_string()
+            } else {
+                s.n_loads.to_string()
+            };
+            points.push(SweepPoint {
+                method: m.name(),
+                study: "noise model".into(),
+                value: k as f64,
+                label: format!("{name}, {loads} loads"),
+                mean_snr_db: s.mean_snr_db,
+                rr_pct: s.rr_pct,
+                not_converged: s.not_converged,
+            });
+        }
+        bar.advance(1);
+    }
+    Ok(())
+}
+
+/// Number of loads 1..8: the first count with RR below the breakdown.
+fn sweep_loads(at: &mut SweepAt, bd: &mut Breakdown) -> Result<()> {
+    let (true_a, m, cfgs, bar) = (at.true_a, at.m, at.cfgs, at.bar);
+    let points = &mut *at.points;
+    let c: Vec<ProtocolConfig> = cfgs
+        .iter()
+        .map(|c| ProtocolConfig {
+            singles_per_mass: 0,
+            multi_load_counts: (1..=8).collect(),
+            max_loads: true_a.nrows(),
+            ..c.clone()
+        })
+        .collect();
+    let r = pooled(true_a, m, &c)?;
+    for s in &r.by_load_count {
+        if s.rr_pct < BREAKDOWN_RR_PCT && bd.loads.is_none() {
+            bd.loads = Some(s.n_loads);
+        }
+        points.push(SweepPoint {
+            method: m.name(),
+            study: "loads".into(),
+            value: s.n_loads as f64,
+            label: s.n_loads.to_string(),
+            mean_snr_db: s.mean_snr_db,
+            rr_pct: s.rr_pct,
+            not_converged: s.not_converged,
+        });
+    }
+    bar.advance(1);
+    Ok(())
+}
+
+/// The layouts: those with RR below the breakdown.
+fn sweep_layouts(at: &mut SweepAt, sw: &FailureSweeps, bd: &mut Breakdown) -> Result<()> {
+    let (m, cfgs, bar) = (at.m, at.cfgs, at.bar);
+    let points = &mut *at.points;
+    let (cells, kernel, layouts) = (&sw.cells, &sw.kernel, &sw.layouts);
+    for (k, (name, g)) in layouts.iter().enumerate() {
+        let a = matrix_from_positions(cells, g, kernel);
+        let r = pooled(&a, m, cfgs)?;
+        if r.overall.rr_pct < BREAKDOWN_RR_PCT {
+            bd.layouts.push(name.clone());
+        }
+        points.push(SweepPoint {
+            method: m.name(),
+            study: "layout".into(),
+            value: k as f64,
+            label: name.clone(),
+            mean_snr_db: r.overall.mean_snr_db,
+            rr_pct: r.overall.rr_pct,
+            not_converged: r.overall.not_converged,
+        });
+        bar.advance(1);
+    }
+    Ok(())
+}
+
+/// Column normalisation on and off.
+fn sweep_normalisation(at: &mut SweepAt) -> Result<()> {
+    let (true_a, m, cfgs, bar) = (at.true_a, at.m, at.cfgs, at.bar);
+    let points = &mut *at.points;
+    for norm in [true, false] {
+        let c: Vec<ProtocolConfig> = cfgs
+            .iter()
+            .map(|c| ProtocolConfig {
+                normalise: norm,
+                ..c.clone()
+            })
+            .collect();
+        let r = pooled(true_a, m, &c)?;
+        points.push(SweepPoint {
+            method: m.name(),
+            study: "normalisation".into(),
+            value: if norm { 1.0 } else { 0.0 },
+            label: if norm {
+                "normalised".into()
+            } else {
+                "raw".into()
+            },
+            mean_snr_db: r.overall.mean_snr_db,
+            rr_pct: r.overall.rr_pct,
+            not_converged: r.overall.not_converged,
+        });
+        bar.advance(1);
+    }
+    Ok(())
+}
+
+/// `failure.csv` and the SNR and RR charts of the noise and load sweeps.
+fn failure_charts(opts: &BenchOptions, points: &[SweepPoint]) -> Result<()> {
     let rows: Vec<Vec<String>> = points
         .iter()
         .map(|p| {
@@ -789,7 +925,19 @@ fn failure_studies(
         snr.write_svg(&opts.out.join(format!("{study}_snr.svg")))?;
         rr.write_svg(&opts.out.join(format!("{study}_rr.svg")))?;
     }
+    Ok(())
+}
 
+/// The failure tables (RR / SNR per sweep and method), the layout proxies and the
+/// breakdown per method.
+fn failure_tables(
+    report: &mut String,
+    points: &[SweepPoint],
+    sw: &FailureSweeps,
+    layout_quality: &[(String, f64, f64, f64)],
+    breakdown: &[Breakdown],
+) -> Result<()> {
+    let (noise_factors, layouts, noise_models) = (&sw.noise_factors, &sw.layouts, &sw.noise_models);
     writeln!(
         report,
         "\n## Where methods fail (RR % / mean SNR dB, all 84 tests pooled)\n"
@@ -847,11 +995,11 @@ fn failure_studies(
         vec!["normalised".into(), "raw".into()],
     )?;
     writeln!(report, "Layout proxies:\n\n| layout | mutual coherence | condition number | min/max column norm |\n|---|---|---|---|")?;
-    for (n, mu, kappa, ratio) in &layout_quality {
+    for (n, mu, kappa, ratio) in layout_quality {
         writeln!(report, "| {n} | {mu:.3} | {kappa:.1} | {ratio:.3} |")?;
     }
     writeln!(report, "\nBreakdown (first point with RR < {BREAKDOWN_RR_PCT:.0} %):\n\n| method | noise factor | loads | layouts |\n|---|---|---|---|")?;
-    for b in &breakdown {
+    for b in breakdown {
         writeln!(
             report,
             "| {} | {} | {} | {} |",
@@ -866,11 +1014,7 @@ fn failure_studies(
             }
         )?;
     }
-    Ok(FailureStudies {
-        points,
-        breakdown,
-        layouts: layout_quality,
-    })
+    Ok(())
 }
 
 /// Simulated additivity errors (paper Figs. 6–8).

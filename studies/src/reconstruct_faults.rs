@@ -33,7 +33,7 @@ use anyhow::Result;
 use fbgforge::array::kernel::{
     fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
 };
-use fbgforge::array::methods::{Method, ReadingPrior, DEFAULT_MAX_LOADS};
+use fbgforge::array::methods::{Method, ReadingSettings, DEFAULT_MAX_LOADS};
 use fbgforge::array::problem::{SensingProblem, Uncertainty, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::array::reconstruct::{reconstruct, Frames, MethodRequest, DEFAULT_BUDGET_US};
@@ -320,93 +320,112 @@ pub fn run(
                 let s_seed = SEED_OFFSET + seed + 97 * r + 1_000_003 * si as u64;
                 let mut rng = ChaCha8Rng::seed_from_u64(s_seed);
                 let st = stream(arr, sc, per_load, &mut rng);
-                let (m, n) = st.matrix.shape();
-                let mut unc = Uncertainty::paper(m, n, RESOLUTION_PM);
-                if sc.calibration {
-                    unc.matrix_sd_pm_per_g = st.matrix.map(|v| v.abs() * CALIBRATION_SD);
-                }
-                let names: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
                 for (e, a) in entries.iter().zip(acc.iter_mut()) {
-                    let mut problem = SensingProblem::new(st.matrix.clone(), ULIMIT_G, true)?
-                        .with_min_load_g(PAPER_MIN_LOAD_G)?
-                        .with_uncertainty(unc.clone())?;
-                    let request = match *e {
-                        Entry::Default => MethodRequest::Default {
-                            budget_us: DEFAULT_BUDGET_US,
-                        },
-                        Entry::Named(method, common_mode) => {
-                            if common_mode {
-                                problem = problem.with_common_mode(&vec![1.0; m])?;
-                            }
-                            MethodRequest::named(method)
-                        }
-                    };
-                    let prior = ReadingPrior {
-                        max_loads: DEFAULT_MAX_LOADS,
-                        resolution_pm: RESOLUTION_PM,
-                    };
-                    let frames = Frames {
-                        gratings: &names,
-                        shifts_pm: &st.shifts_pm,
-                    };
-                    let done = reconstruct(&problem, frames, &prior, &request, &Quiet)?;
-                    // The default may pick differently per stream: every pick, in order.
-                    a.5 = match *e {
-                        Entry::Default if a.5.is_empty() => {
-                            format!("default → {}", done.setup.method.name())
-                        }
-                        Entry::Default => {
-                            let name = done.setup.method.name();
-                            let picks = a.5.trim_start_matches("default → ");
-                            if picks.split('/').any(|p| p == name) {
-                                a.5.clone()
-                            } else {
-                                format!("{}/{name}", a.5)
-                            }
-                        }
-                        Entry::Named(method, true) => format!("{} +cm", method.name()),
-                        Entry::Named(method, false) => method.name().to_string(),
-                    };
-                    for (x0, rec) in st.truth_g.iter().zip(&done.frames) {
-                        a.0.push(snr_db(x0, &rec.loads_g));
-                        a.1.push(!rec.flags.trusted());
-                        a.2[0] += usize::from(rec.flags.inconsistent);
-                        a.2[1] += usize::from(rec.flags.below_range);
-                        a.2[2] += usize::from(rec.flags.ambiguous);
-                    }
-                    let named: Vec<usize> = done.suspect_gratings.iter().map(|g| g.index).collect();
-                    a.3 += usize::from(st.dead.is_some_and(|d| named.contains(&d)));
-                    a.4 += named.iter().filter(|&&i| Some(i) != st.dead).count();
+                    tally_stream(*e, sc, &st, a)?;
                 }
                 bar.advance(1);
             }
-            for (snrs, flagged, kinds, dead_named, false_suspects, method) in acc {
-                let frames = snrs.len();
-                let ok: Vec<bool> = snrs.iter().map(|&s| s >= RECOVERY_THRESHOLD_DB).collect();
-                let missed = ok.iter().filter(|o| !**o).count();
-                let missed_flagged = ok.iter().zip(&flagged).filter(|(o, f)| !**o && **f).count();
-                let ok_flagged = ok.iter().zip(&flagged).filter(|(o, f)| **o && **f).count();
-                rows.push(FaultRow {
-                    array: arr.name.clone(),
-                    scenario: sc.name,
-                    method,
-                    frames,
-                    rr_pct: pct(frames - missed, frames).unwrap_or(0.0),
-                    mean_snr_db: snrs.iter().sum::<f64>() / frames.max(1) as f64,
-                    missed,
-                    flag_recall_pct: pct(missed_flagged, missed),
-                    false_flag_pct: pct(ok_flagged, frames - missed),
-                    inconsistent_pct: pct(kinds[0], frames).unwrap_or(0.0),
-                    below_range_pct: pct(kinds[1], frames).unwrap_or(0.0),
-                    ambiguous_pct: pct(kinds[2], frames).unwrap_or(0.0),
-                    dead_named,
-                    false_suspects,
-                    streams: streams as usize,
-                });
-            }
+            rows.extend(acc.into_iter().map(|t| fault_row(arr, sc, t, streams)));
         }
     }
     bar.end();
+    write_fault_files(out, &rows, &arrays)?;
+    fault_table(report, &rows, streams, per_load, seed)?;
+    Ok(rows)
+}
+
+/// Reconstruct one stream with one entry and add what it got to its tally.
+fn tally_stream(e: Entry, sc: &Scenario, st: &Stream, a: &mut Tally) -> Result<()> {
+    let (m, n) = st.matrix.shape();
+    let mut unc = Uncertainty::paper(m, n, RESOLUTION_PM);
+    if sc.calibration {
+        unc.matrix_sd_pm_per_g = st.matrix.map(|v| v.abs() * CALIBRATION_SD);
+    }
+    let names: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
+    let mut problem = SensingProblem::new(st.matrix.clone(), ULIMIT_G, true)?
+        .with_min_load_g(PAPER_MIN_LOAD_G)?
+        .with_uncertainty(unc.clone())?;
+    let request = match e {
+        Entry::Default => MethodRequest::Default {
+            budget_us: DEFAULT_BUDGET_US,
+        },
+        Entry::Named(method, common_mode) => {
+            if common_mode {
+                problem = problem.with_common_mode(&vec![1.0; m])?;
+            }
+            MethodRequest::named(method)
+        }
+    };
+    let prior = ReadingSettings {
+        max_loads: DEFAULT_MAX_LOADS,
+        resolution_pm: RESOLUTION_PM,
+    };
+    let frames = Frames {
+        gratings: &names,
+        shifts_pm: &st.shifts_pm,
+    };
+    let done = reconstruct(&problem, frames, &prior, &request, &Quiet)?;
+    // The default may pick differently per stream: every pick, in order.
+    a.5 = match e {
+        Entry::Default if a.5.is_empty() => {
+            format!("default → {}", done.setup.method.name())
+        }
+        Entry::Default => {
+            let name = done.setup.method.name();
+            let picks = a.5.trim_start_matches("default → ");
+            if picks.split('/').any(|p| p == name) {
+                a.5.clone()
+            } else {
+                format!("{}/{name}", a.5)
+            }
+        }
+        Entry::Named(method, true) => format!("{} +cm", method.name()),
+        Entry::Named(method, false) => method.name().to_string(),
+    };
+    for (x0, rec) in st.truth_g.iter().zip(&done.frames) {
+        a.0.push(snr_db(x0, &rec.loads_g));
+        a.1.push(!rec.flags.trusted());
+        a.2[0] += usize::from(rec.flags.inconsistent);
+        a.2[1] += usize::from(rec.flags.below_range);
+        a.2[2] += usize::from(rec.flags.ambiguous);
+    }
+    let named: Vec<usize> = done.suspect_gratings.iter().map(|g| g.index).collect();
+    a.3 += usize::from(st.dead.is_some_and(|d| named.contains(&d)));
+    a.4 += named.iter().filter(|&&i| Some(i) != st.dead).count();
+    Ok(())
+}
+
+/// One entry's row over a scenario's streams: RR, mean SNR, flag recall, false flags,
+/// the flags by kind and the dead gratings named.
+fn fault_row(arr: &Array, sc: &Scenario, t: Tally, streams: u64) -> FaultRow {
+    let (snrs, flagged, kinds, dead_named, false_suspects, method) = t;
+    let frames = snrs.len();
+    let ok: Vec<bool> = snrs.iter().map(|&s| s >= RECOVERY_THRESHOLD_DB).collect();
+    let missed = ok.iter().filter(|o| !**o).count();
+    let missed_flagged = ok.iter().zip(&flagged).filter(|(o, f)| !**o && **f).count();
+    let ok_flagged = ok.iter().zip(&flagged).filter(|(o, f)| **o && **f).count();
+    FaultRow {
+        array: arr.name.clone(),
+        scenario: sc.name,
+        method,
+        frames,
+        rr_pct: pct(frames - missed, frames).unwrap_or(0.0),
+        mean_snr_db: snrs.iter().sum::<f64>() / frames.max(1) as f64,
+        missed,
+        flag_recall_pct: pct(missed_flagged, missed),
+        false_flag_pct: pct(ok_flagged, frames - missed),
+        inconsistent_pct: pct(kinds[0], frames).unwrap_or(0.0),
+        below_range_pct: pct(kinds[1], frames).unwrap_or(0.0),
+        ambiguous_pct: pct(kinds[2], frames).unwrap_or(0.0),
+        dead_named,
+        false_suspects,
+        streams: streams as usize,
+    }
+}
+
+/// `faults.csv`, `faults.json` and one chart per array (RR and flag recall per
+/// scenario and method).
+fn write_fault_files(out: &Path, rows: &[FaultRow], arrays: &[Array]) -> Result<()> {
     let header = [
         "array",
         "scenario",
@@ -449,7 +468,7 @@ pub fn run(
         .collect();
     write_csv(&out.join("faults.csv"), &header, &csv_rows)?;
     write_json(&out.join("faults.json"), &rows)?;
-    for arr in &arrays {
+    for arr in arrays {
         let mut chart = Chart::new(
             format!("RR and flag recall under faults, {}", arr.name),
             "scenario (0 clean, 1 calibration, 2 additivity, 3 offset, 4 dead, 5 all)",
@@ -493,6 +512,17 @@ pub fn run(
         );
         chart.write_svg(&out.join(file))?;
     }
+    Ok(())
+}
+
+/// The fault table of the report.
+fn fault_table(
+    report: &mut String,
+    rows: &[FaultRow],
+    streams: u64,
+    per_load: usize,
+    seed: u64,
+) -> Result<()> {
     writeln!(
         report,
         "## Faults: RR, flag recall and false-flag rate ({} stream(s) × {} frames per scenario, seeds from {})\n",
@@ -512,7 +542,7 @@ pub fn run(
         report,
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     )?;
-    for r in &rows {
+    for r in rows {
         writeln!(
             report,
             "| {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {} | {} |",
@@ -536,5 +566,5 @@ pub fn run(
         )?;
     }
     writeln!(report)?;
-    Ok(rows)
+    Ok(())
 }

@@ -20,7 +20,9 @@
 use anyhow::Result;
 use fbgforge::array::choice::{default_choice, DEFAULT_BUDGET_US};
 use fbgforge::array::kernel::{fiber_grid_layout, matrix_from_positions, DistanceKernel};
-use fbgforge::array::methods::{build, reconstruct_frames, Method, MethodSettings, ReadingPrior};
+use fbgforge::array::methods::{
+    build, reconstruct_frames, Method, MethodSettings, ReadingSettings,
+};
 use fbgforge::array::problem::{SensingProblem, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::output::{ensure_dir, write_csv, write_json};
@@ -280,6 +282,31 @@ fn write_frames(dir: &Path, a: &DMatrix<f64>, f: &Frames) -> Result<()> {
 /// measured for docs/array.md §10, quoted here so the table carries them).
 pub const PEER_FIGURES: &str = "Peers: `python3 studies/peers/scaling_vs_peers.py --seed S` runs this study and SciPy / scikit-learn on the same frames in one run, median and mean side by side (docs/array.md §10.8; seed 20261125: `bnb` returns SciPy's exhaustive enumeration's loads on every frame compared, 24–222× faster on average; `lasso` 3.3–6× faster than scikit-learn up to 24×128, 1.44× slower on average at 32×256).";
 
+/// Frames per load count of the scaling study: test, validation and `de` frames.
+#[derive(Debug, Clone, Copy)]
+struct Counts {
+    per_load: usize,
+    val_per_load: usize,
+    de_per_load: usize,
+}
+
+/// The methods compared at every size, in the table's order.
+const METHODS: [Method; 7] = [
+    Method::WeightedSupport,
+    Method::Support,
+    Method::BranchAndBound,
+    Method::Lasso,
+    Method::Omp,
+    Method::Nnls,
+    Method::De,
+];
+
+/// The default method picked at one size (`m`, `n`): its name, why, and its stream
+/// time per frame, µs.
+type Picked = (usize, usize, String, String, f64);
+/// The default at ten times the budget at one size: its label and why.
+type LongPick = (usize, usize, String, String);
+
 /// Run the scaling study; appends its tables to `report` and returns every row.
 pub fn run(
     out: &Path,
@@ -289,163 +316,217 @@ pub fn run(
     report: &mut String,
 ) -> Result<Vec<ScalingRow>> {
     ensure_dir(out)?;
-    let per_load = if quick { 2 } else { 200 };
-    let val_per_load = if quick { 2 } else { 10 };
-    let de_per_load = if quick { 1 } else { 3 };
+    let counts = Counts {
+        per_load: if quick { 2 } else { 200 },
+        val_per_load: if quick { 2 } else { 10 },
+        de_per_load: if quick { 1 } else { 3 },
+    };
     let budget_us = budget_us.unwrap_or(DEFAULT_BUDGET_US);
     let kernel = DistanceKernel::table1_power_law(3.0);
     let mut rows: Vec<ScalingRow> = Vec::new();
-    let mut picked: Vec<(usize, usize, String, String, f64)> = Vec::new();
-    let mut long_picks: Vec<(usize, usize, String, String)> = Vec::new();
-    let methods = [
-        Method::WeightedSupport,
-        Method::Support,
-        Method::BranchAndBound,
-        Method::Lasso,
-        Method::Omp,
-        Method::Nnls,
-        Method::De,
-    ];
-    let bar = crate::progress::Bar::with("scaling", (SIZES.len() * (methods.len() + 1)) as u64);
+    let mut picked: Vec<Picked> = Vec::new();
+    let mut long_picks: Vec<LongPick> = Vec::new();
+    let bar = crate::progress::Bar::with("scaling", (SIZES.len() * (METHODS.len() + 1)) as u64);
     for &(m, n, cx, cy, nf, gpf) in &SIZES {
         let (cells, gratings) = fiber_grid_layout(cx, cy, nf, gpf);
         let a = matrix_from_positions(&cells, &gratings, &kernel);
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1000) + n as u64);
-        let test = frames(&a, per_load, &mut rng);
+        let test = frames(&a, counts.per_load, &mut rng);
         let mut rng_val = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(1000) + 5000 + n as u64);
-        let val = frames(&a, val_per_load, &mut rng_val);
+        let val = frames(&a, counts.val_per_load, &mut rng_val);
         let frames_dir = out.join("scaling-frames").join(format!("n{n}"));
         write_frames(&frames_dir, &a, &test)?;
         // The validation frames too, so a peer tunes its penalty as this study does.
         write_frames(&frames_dir.join("val"), &a, &val)?;
         let problem =
             SensingProblem::new(a.clone(), ULIMIT_G, true)?.with_min_load_g(PAPER_MIN_LOAD_G)?;
-        // The support objective's λ is tuned once (on `support` where it can be
-        // enumerated, else on `bnb` with a small node budget) and shared by both.
-        let mut l0_penalty: Option<f64> = None;
-        for method in methods {
-            let mut settings = MethodSettings::for_method(method);
-            if quick {
-                match &mut settings {
-                    MethodSettings::De(de) => {
-                        de.generations = 100;
-                        de.reference_node_budget = 50_000;
-                    }
-                    MethodSettings::BranchAndBound(bnb) => bnb.node_budget = 50_000,
-                    _ => {}
-                }
-            }
-            if build(&problem, &settings).is_err() {
-                bar.advance(1);
-                continue; // an enumeration too large for this size: not applicable
-            }
-            let subset;
-            let (frames_used, penalty) = if method == Method::De {
-                // DE takes seconds per frame: the first frames of each count only,
-                // σ = the tuned λ of the support objective (the paper's p → 0 limit).
-                let keep: Vec<usize> = (0..test.loads.len())
-                    .filter(|&i| i % per_load < de_per_load)
-                    .collect();
-                subset = Frames {
-                    loads: keep.iter().map(|&i| test.loads[i]).collect(),
-                    truth_g: keep.iter().map(|&i| test.truth_g[i].clone()).collect(),
-                    shifts_pm: keep.iter().map(|&i| test.shifts_pm[i].clone()).collect(),
-                };
-                (&subset, l0_penalty.unwrap_or(method.default_penalty()))
-            } else if method == Method::Support || method == Method::BranchAndBound {
-                let p = match l0_penalty {
-                    Some(p) => p,
-                    None => {
-                        let mut tuning = settings;
-                        if let MethodSettings::BranchAndBound(bnb) = &mut tuning {
-                            bnb.node_budget = bnb.node_budget.min(200_000);
-                        }
-                        let p = tune(&problem, tuning, &val);
-                        l0_penalty = Some(p);
-                        p
-                    }
-                };
-                (&test, p)
-            } else if method == Method::WeightedSupport {
-                (&test, method.default_penalty()) // likelihood units, tuned on the protocol
-            } else {
-                (&test, tune(&problem, settings, &val))
-            };
-            let settings = settings.with_penalty(penalty);
-            let t0 = Instant::now();
-            let r = build(&problem, &settings)?;
-            let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
-            let res = evaluate(r.as_ref(), frames_used);
-            rows.extend(rows_of(m, n, method.name(), penalty, setup_ms, &res));
-            bar.advance(1);
-        }
-        // The default: what `fbgforge reconstruct` picks without --method, told the
-        // interrogator's resolution (0.25 pm here: λ = 16 σ² = 1 for `bnb`).
-        // At 10× the budget too (the 1 ms goal at 32 × 256).
-        let prior = ReadingPrior {
-            max_loads: 4,
-            resolution_pm: NOISE_PM,
-        };
-        let t_long = Instant::now();
-        let long = default_choice(&problem, &prior, 10.0 * budget_us, Some(&test.shifts_pm))?;
-        let long_setup_ms = 1e3 * t_long.elapsed().as_secs_f64();
-        let res = evaluate(long.reconstructor.as_ref(), &test);
-        let label = format!(
-            "default {:.0} µs → {}",
-            10.0 * budget_us,
-            long.method.name()
-        );
-        rows.extend(rows_of(
-            m,
-            n,
-            &label,
-            long.settings.penalty().unwrap_or(0.0),
-            long_setup_ms,
-            &res,
-        ));
-        long_picks.push((m, n, label, long.reason));
-        let t0 = Instant::now();
-        let choice = default_choice(&problem, &prior, budget_us, Some(&test.shifts_pm))?;
-        let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
-        let res = evaluate(choice.reconstructor.as_ref(), &test);
-        let label = format!("default → {}", choice.method.name());
-        rows.extend(rows_of(
-            m,
-            n,
-            &label,
-            choice.settings.penalty().unwrap_or(0.0),
-            setup_ms,
-            &res,
-        ));
-        // Stream throughput of the default on every thread (≥ 2048 frames).
-        let stream: Vec<Vec<f64>> = (0..2048.max(test.shifts_pm.len()))
-            .map(|i| test.shifts_pm[i % test.shifts_pm.len()].clone())
-            .collect();
-        let t1 = Instant::now();
-        let _ = reconstruct_frames(
-            choice.reconstructor.as_ref(),
-            &stream,
-            &fbgforge::progress::Quiet,
-        );
-        let stream_us = 1e6 * t1.elapsed().as_secs_f64() / stream.len() as f64;
-        picked.push((
-            m,
-            n,
-            choice.method.name().to_string(),
-            choice.reason,
-            stream_us,
-        ));
+        rows.extend(method_rows(
+            (m, n),
+            &problem,
+            (&test, &val),
+            counts,
+            quick,
+            &bar,
+        )?);
+        let (r, p, l) = default_rows((m, n), &problem, &test, budget_us)?;
+        rows.extend(r);
+        picked.push(p);
+        long_picks.push(l);
         bar.advance(1);
     }
     bar.end();
+    let names: Vec<String> = METHODS.iter().map(|m| m.name().to_string()).collect();
+    scaling_tables(
+        report,
+        &rows,
+        &names,
+        counts,
+        budget_us,
+        (&picked, &long_picks),
+    )?;
+    scaling_files(out, &rows, &names)?;
+    Ok(rows)
+}
 
-    // ---------------------------------------------------------------- tables
+/// Every method's rows at one size, its penalty tuned on the validation frames (the
+/// support objective's λ once, shared by `support`, `bnb` and `de`'s σ).
+fn method_rows(
+    (m, n): (usize, usize),
+    problem: &SensingProblem,
+    (test, val): (&Frames, &Frames),
+    counts: Counts,
+    quick: bool,
+    bar: &crate::progress::Bar,
+) -> Result<Vec<ScalingRow>> {
+    let (per_load, de_per_load) = (counts.per_load, counts.de_per_load);
+    let mut rows = Vec::new();
+    // The support objective's λ is tuned once (on `support` where it can be
+    // enumerated, else on `bnb` with a small node budget) and shared by both.
+    let mut l0_penalty: Option<f64> = None;
+    for method in METHODS {
+        let mut settings = MethodSettings::for_method(method);
+        if quick {
+            match &mut settings {
+                MethodSettings::De(de) => {
+                    de.generations = 100;
+                    de.reference_node_budget = 50_000;
+                }
+                MethodSettings::BranchAndBound(bnb) => bnb.node_budget = 50_000,
+                _ => {}
+            }
+        }
+        if build(problem, &settings).is_err() {
+            bar.advance(1);
+            continue; // an enumeration too large for this size: not applicable
+        }
+        let subset;
+        let (frames_used, penalty) = if method == Method::De {
+            // DE takes seconds per frame: the first frames of each count only,
+            // σ = the tuned λ of the support objective (the paper's p → 0 limit).
+            let keep: Vec<usize> = (0..test.loads.len())
+                .filter(|&i| i % per_load < de_per_load)
+                .collect();
+            subset = Frames {
+                loads: keep.iter().map(|&i| test.loads[i]).collect(),
+                truth_g: keep.iter().map(|&i| test.truth_g[i].clone()).collect(),
+                shifts_pm: keep.iter().map(|&i| test.shifts_pm[i].clone()).collect(),
+            };
+            (&subset, l0_penalty.unwrap_or(method.default_penalty()))
+        } else if method == Method::Support || method == Method::BranchAndBound {
+            let p = match l0_penalty {
+                Some(p) => p,
+                None => {
+                    let mut tuning = settings;
+                    if let MethodSettings::BranchAndBound(bnb) = &mut tuning {
+                        bnb.node_budget = bnb.node_budget.min(200_000);
+                    }
+                    let p = tune(problem, tuning, val);
+                    l0_penalty = Some(p);
+                    p
+                }
+            };
+            (test, p)
+        } else if method == Method::WeightedSupport {
+            (test, method.default_penalty()) // likelihood units, tuned on the protocol
+        } else {
+            (test, tune(problem, settings, val))
+        };
+        let settings = settings.with_penalty(penalty);
+        let t0 = Instant::now();
+        let r = build(problem, &settings)?;
+        let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
+        let res = evaluate(r.as_ref(), frames_used);
+        rows.extend(rows_of(m, n, method.name(), penalty, setup_ms, &res));
+        bar.advance(1);
+    }
+    Ok(rows)
+}
+
+/// The default choice's rows at one size (at the budget and at ten times it), what it
+/// picked and its stream throughput on every thread.
+fn default_rows(
+    (m, n): (usize, usize),
+    problem: &SensingProblem,
+    test: &Frames,
+    budget_us: f64,
+) -> Result<(Vec<ScalingRow>, Picked, LongPick)> {
+    let mut rows = Vec::new();
+    // The default: what `fbgforge reconstruct` picks without --method, told the
+    // interrogator's resolution (0.25 pm here: λ = 16 σ² = 1 for `bnb`).
+    // At 10× the budget too (the 1 ms goal at 32 × 256).
+    let prior = ReadingSettings {
+        max_loads: 4,
+        resolution_pm: NOISE_PM,
+    };
+    let t_long = Instant::now();
+    let long = default_choice(problem, &prior, 10.0 * budget_us, Some(&test.shifts_pm))?;
+    let long_setup_ms = 1e3 * t_long.elapsed().as_secs_f64();
+    let res = evaluate(long.reconstructor.as_ref(), test);
+    let label = format!(
+        "default {:.0} µs → {}",
+        10.0 * budget_us,
+        long.method.name()
+    );
+    rows.extend(rows_of(
+        m,
+        n,
+        &label,
+        long.settings.penalty().unwrap_or(0.0),
+        long_setup_ms,
+        &res,
+    ));
+    let long_pick = (m, n, label, long.reason);
+    let t0 = Instant::now();
+    let choice = default_choice(problem, &prior, budget_us, Some(&test.shifts_pm))?;
+    let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
+    let res = evaluate(choice.reconstructor.as_ref(), test);
+    let label = format!("default → {}", choice.method.name());
+    rows.extend(rows_of(
+        m,
+        n,
+        &label,
+        choice.settings.penalty().unwrap_or(0.0),
+        setup_ms,
+        &res,
+    ));
+    // Stream throughput of the default on every thread (≥ 2048 frames).
+    let stream: Vec<Vec<f64>> = (0..2048.max(test.shifts_pm.len()))
+        .map(|i| test.shifts_pm[i % test.shifts_pm.len()].clone())
+        .collect();
+    let t1 = Instant::now();
+    let _ = reconstruct_frames(
+        choice.reconstructor.as_ref(),
+        &stream,
+        &fbgforge::progress::Quiet,
+    );
+    let stream_us = 1e6 * t1.elapsed().as_secs_f64() / stream.len() as f64;
+    let picked = (
+        m,
+        n,
+        choice.method.name().to_string(),
+        choice.reason,
+        stream_us,
+    );
+    Ok((rows, picked, long_pick))
+}
+
+/// The scaling tables: RR and time per method and size, the default's picks and
+/// throughput, the default at ten times the budget, and the convergence reports.
+fn scaling_tables(
+    report: &mut String,
+    rows: &[ScalingRow],
+    names: &[String],
+    counts: Counts,
+    budget_us: f64,
+    (picked, long_picks): (&[Picked], &[LongPick]),
+) -> Result<()> {
+    let (per_load, val_per_load, de_per_load) =
+        (counts.per_load, counts.val_per_load, counts.de_per_load);
     writeln!(
         report,
         "\n## Scaling: time per frame and RR against the array's size\n\n{} frames per load count (1–4 loads), 3 % + 0.25 pm noise, Table 1 power law with a 3 mm core, gratings on parallel fibers under 20 × 30 mm cells; penalties tuned on a separate validation set ({} frames per load count); `de` on the first {} frames per load count with σ = the tuned λ of the support objective. Cells: RR % for 1/2/3/4 loads · median µs per frame (one thread). `–`: not applicable (an enumeration beyond 70 000 supports).\n",
         per_load, val_per_load, de_per_load
     )?;
-    let names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
     writeln!(report, "| m×n | {} | default (picked) |", names.join(" | "))?;
     writeln!(report, "|---|{}---|", "---|".repeat(names.len()))?;
     for &(m, n, ..) in &SIZES {
@@ -491,7 +572,7 @@ pub fn run(
         "Default method (budget {budget_us} µs per frame) and its stream throughput on {} threads:\n\n| m×n | picked | µs per frame, stream | why |\n|---|---|---|---|",
         rayon::current_num_threads()
     )?;
-    for (m, n, name, reason, us) in &picked {
+    for (m, n, name, reason, us) in picked {
         writeln!(report, "| {m}×{n} | {name} | {us:.1} | {reason} |")?;
     }
     writeln!(
@@ -499,7 +580,7 @@ pub fn run(
         "\nThe default at {} µs per frame:\n\n| m×n | picked | RR % 1/2/3/4 | mean SNR dB | median / mean µs | not certified | why |\n|---|---|---|---|---|---|---|",
         10.0 * budget_us
     )?;
-    for (m, n, label, reason) in &long_picks {
+    for (m, n, label, reason) in long_picks {
         let by_k: Vec<String> = rows
             .iter()
             .filter(|r| r.n == *n && r.method == *label && r.loads > 0)
@@ -539,8 +620,11 @@ pub fn run(
             honesty.join("; ")
         }
     )?;
+    Ok(())
+}
 
-    // ---------------------------------------------------------------- files
+/// `scaling.csv`, `scaling.json` and the time and RR charts.
+fn scaling_files(out: &Path, rows: &[ScalingRow], names: &[String]) -> Result<()> {
     let csv_rows: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {
@@ -596,7 +680,7 @@ pub fn run(
         "RR (SNR ≥ 12 dB), %",
     );
     rr_chart.x_log = true;
-    let mut labels: Vec<String> = names.clone();
+    let mut labels: Vec<String> = names.to_vec();
     labels.push("default".into());
     for name in &labels {
         let pts: Vec<&ScalingRow> = rows
@@ -625,5 +709,5 @@ pub fn run(
     }
     time_chart.write_svg(&out.join("scaling_time.svg"))?;
     rr_chart.write_svg(&out.join("scaling_rr.svg"))?;
-    Ok(rows)
+    Ok(())
 }

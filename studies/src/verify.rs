@@ -9,8 +9,9 @@ use anyhow::{Context, Result};
 use clap::Args;
 use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::progress::Progress;
+use fbgforge::report::verify as report;
 use fbgforge::synth::module_log::{self as synth, LogStyle};
-use fbgforge::verify::{report, run as verify_run, VerifyRequest};
+use fbgforge::verify::{run as verify_run, VerifyRequest};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -82,6 +83,19 @@ fn cpu_time_s() -> Option<f64> {
     Some(ticks / 100.0)
 }
 
+/// A stage's wall-clock and CPU time, s.
+type Took = (f64, f64);
+
+/// One row of the stage table: the stage, its wall-clock and CPU time (s), a note.
+type StageRow = (String, f64, f64, String);
+
+/// The files of the benchmark's run.
+struct BenchFiles {
+    design: PathBuf,
+    log: PathBuf,
+    force: PathBuf,
+}
+
 /// Run the study.
 pub fn run(a: &BenchVerifyArgs) -> Result<()> {
     let a = &BenchVerifyArgs {
@@ -91,6 +105,47 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
     };
     let design = bench_design()?;
     fbgforge::output::ensure_dir(&a.out)?;
+    eprintln!(
+        "generating a {} min, {} Hz, 8-grating log ...",
+        a.minutes, a.rate_hz
+    );
+    // Stages: generate, write, parse ×3, end to end.
+    let pb = crate::progress::Bar::with("bench verify", 6);
+    let files = BenchFiles {
+        design: a.out.join("bench-design.toml"),
+        log: a.out.join("bench-peaks.txt"),
+        force: a.out.join("bench-force.csv"),
+    };
+    let truth = write_bench_logs(a, &design, &files, &pb)?;
+    let mb = std::fs::metadata(&files.log)?.len() as f64 / 1e6;
+    // Stage 1: parse from memory (throughput), best of three.
+    let parse = parse_best_of_three(&files.log, &pb)?;
+    // Stage 2: end to end from the files.
+    pb.advance(1);
+    let rows = end_to_end(a, &design, &files, &truth, (parse, mb))?;
+    pb.end();
+    write_stage_table(a, &rows, mb)?;
+    if !a.keep {
+        let _ = std::fs::remove_file(&files.design);
+        let _ = std::fs::remove_file(&files.log);
+        let _ = std::fs::remove_file(&files.force);
+    }
+    println!(
+        "wrote {} and {}",
+        a.out.join("bench_verify.csv").display(),
+        a.out.join("bench_verify.svg").display()
+    );
+    protocol_accuracy(&a.out)
+}
+
+/// Generate the run (pulses of 10–50 N every 10 s, a slow temperature ramp) and write
+/// its wavelength and force logs; the truth.
+fn write_bench_logs(
+    a: &BenchVerifyArgs,
+    design: &fbgforge::spec::Design,
+    files: &BenchFiles,
+    pb: &crate::progress::Bar,
+) -> Result<synth::SynthTruth> {
     let amps = [10.0, 20.0, 30.0, 40.0, 50.0];
     let duration = a.minutes * 60.0;
     let n_pulses = ((duration - 10.0) / 10.0).floor().max(1.0) as usize;
@@ -103,36 +158,30 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
         temperature_ramp_k_per_s: 0.002,
         ..Default::default()
     };
-    eprintln!(
-        "generating a {} min, {} Hz, 8-grating log ...",
-        a.minutes, a.rate_hz
-    );
-    // Stages: generate, write, parse ×3, end to end.
-    let pb = crate::progress::Bar::with("bench verify", 6);
-    let (log, force, truth) = synth::generate(&design, &cfg)?;
+    let (log, force, truth) = synth::generate(design, &cfg)?;
     pb.advance(1);
-    let log_path = a.out.join("bench-peaks.txt");
-    let force_path = a.out.join("bench-force.csv");
     synth::write_log(
-        &log_path,
+        &files.log,
         LogFormat::EnlightPeaks,
         &log,
         &cfg,
         &LogStyle::default(),
     )?;
-    synth::write_force_csv(&force_path, &force)?;
+    synth::write_force_csv(&files.force, &force)?;
     pb.advance(1);
-    drop(log);
-    let mb = std::fs::metadata(&log_path)?.len() as f64 / 1e6;
-    let bytes = std::fs::read(&log_path)?;
+    Ok(truth)
+}
 
-    // Stage 1: parse from memory (throughput), best of three.
+/// Parse the wavelength log from memory three times: the best wall-clock time and its
+/// CPU time.
+fn parse_best_of_three(log_path: &std::path::Path, pb: &crate::progress::Bar) -> Result<Took> {
+    let bytes = std::fs::read(log_path)?;
     let mut parse_s = f64::MAX;
     let mut parse_cpu = f64::NAN;
     for _ in 0..3 {
         let c = cpu_time_s();
         let t = Instant::now();
-        let pl = logs::parse_wavelength_bytes(&bytes, &log_path, &ReadOptions::default())?;
+        let pl = logs::parse_wavelength_bytes(&bytes, log_path, &ReadOptions::default())?;
         let el = t.elapsed().as_secs_f64();
         if el < parse_s {
             parse_s = el;
@@ -141,17 +190,26 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
         drop(pl);
         pb.advance(1);
     }
-    drop(bytes);
+    Ok((parse_s, parse_cpu))
+}
 
-    // Stage 2: end to end from the files.
-    pb.advance(1);
+/// The library's verify use case stage by stage from the files (read the logs, judge,
+/// write the report), timed; the stage table with `parse` (and the log's size, MB).
+fn end_to_end(
+    a: &BenchVerifyArgs,
+    design: &fbgforge::spec::Design,
+    files: &BenchFiles,
+    truth: &synth::SynthTruth,
+    (parse, mb): (Took, f64),
+) -> Result<Vec<StageRow>> {
+    let (parse_s, parse_cpu) = parse;
+    let (log_path, force_path, design_path) = (&files.log, &files.force, &files.design);
     let cpu = || cpu_time_s().unwrap_or(f64::NAN);
     let (t_all, c_all) = (Instant::now(), cpu());
-    let design_path = a.out.join("bench-design.toml");
-    fbgforge::output::write_atomic(&design_path, design.to_toml().as_bytes())?;
+    fbgforge::output::write_atomic(design_path, design.to_toml().as_bytes())?;
     let req = VerifyRequest::new(design_path.clone(), log_path.clone(), force_path.clone());
     let (t, c) = (Instant::now(), cpu());
-    let pl = logs::read_peak_log(&log_path, &ReadOptions::default())?;
+    let pl = logs::read_peak_log(log_path, &ReadOptions::default())?;
     let read_log = (t.elapsed().as_secs_f64(), cpu() - c);
     drop(pl);
     let (t, c) = (Instant::now(), cpu());
@@ -169,8 +227,6 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
     report::write_report(&a.out.join("report"), rep, series)?;
     let reported = (t.elapsed().as_secs_f64(), cpu() - c);
     let total = (t_all.elapsed().as_secs_f64(), cpu() - c_all);
-    pb.end();
-
     let worst_k = rep
         .measurement
         .gratings
@@ -222,8 +278,13 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
             format!("target < 10 s; worst K error {:.3} %", 100.0 * worst_k),
         ),
     ];
+    Ok(rows)
+}
+
+/// The stage table: printed, `bench_verify.csv` and `bench_verify.svg`.
+fn write_stage_table(a: &BenchVerifyArgs, rows: &[StageRow], mb: f64) -> Result<()> {
     println!("{:<32} {:>10} {:>10}  note", "stage", "wall s", "cpu s");
-    for (s, t, c, n) in &rows {
+    for (s, t, c, n) in rows {
         println!("{s:<32} {t:>10.3} {c:>10.3}  {n}");
     }
     let csv_rows: Vec<Vec<String>> = rows
@@ -260,17 +321,7 @@ pub fn run(a: &BenchVerifyArgs) -> Result<()> {
         fbgforge::plot::Mark::Points,
     ));
     chart.write_svg(&a.out.join("bench_verify.svg"))?;
-    if !a.keep {
-        let _ = std::fs::remove_file(&design_path);
-        let _ = std::fs::remove_file(&log_path);
-        let _ = std::fs::remove_file(&force_path);
-    }
-    println!(
-        "wrote {} and {}",
-        a.out.join("bench_verify.csv").display(),
-        a.out.join("bench_verify.svg").display()
-    );
-    protocol_accuracy(&a.out)
+    Ok(())
 }
 
 /// One protocol run for the accuracy table.
@@ -359,10 +410,73 @@ fn protocol_cases() -> Vec<ProtocolCase> {
     ]
 }
 
+/// The worst errors of one protocol run against its truth, offset given.
+struct ProtocolErrors {
+    /// The protocol the analysis detected.
+    detected: &'static str,
+    /// Worst relative error of K.
+    k: f64,
+    /// Worst error of a segment's lag, s (NaN when the segments differ in number).
+    lag_s: f64,
+    /// Worst error of Δt_max, s.
+    max_lag_s: f64,
+    /// The true Δt_max of the first strain grating, s.
+    true_max_lag_s: f64,
+    /// Q's ratio between the first two gratings over their K's ratio.
+    q_ratio: f64,
+}
+
+/// Generate `cfg`'s run, write it as CSV into `out`, analyse it with the true offset
+/// and compare with the truth.
+fn protocol_errors(
+    design: &fbgforge::spec::Design,
+    out: &std::path::Path,
+    cfg: &synth::SynthConfig,
+) -> Result<ProtocolErrors> {
+    use fbgforge::verify::analysis::{analyse, AnalysisOptions};
+    let (log, force, truth) = synth::generate(design, cfg)?;
+    let (lp, fp) = (out.join("protocol-log.csv"), out.join("protocol-force.csv"));
+    synth::write_log(&lp, LogFormat::Csv, &log, cfg, &LogStyle::default())?;
+    synth::write_force_csv(&fp, &force)?;
+    let pl = logs::read_peak_log(&lp, &ReadOptions::default())?;
+    let fl = logs::read_force_log(&fp, &logs::ForceReadOptions::default())?;
+    let opts = AnalysisOptions {
+        clock_offset_s: Some(synth::reported_offset_s(cfg, LogFormat::Csv)),
+        ..Default::default()
+    };
+    let (m, _) = analyse(design, &pl, &fl, &opts)?;
+    let strain: Vec<_> = truth.gratings.iter().filter(|g| !g.reference).collect();
+    let (mut k_err, mut lag_err, mut dt_err) = (0.0f64, 0.0f64, 0.0f64);
+    for (g, t) in m.gratings.iter().zip(&strain) {
+        k_err = k_err.max((g.sensitivity_pm_per_n / t.sensitivity_pm_per_n - 1.0).abs());
+        for (p, l) in g.pulses.iter().zip(&t.lags_s) {
+            lag_err = lag_err.max((p.lag_s - l).abs());
+        }
+        if g.pulses.len() != t.lags_s.len() {
+            lag_err = f64::NAN;
+        }
+        dt_err = dt_err.max((g.max_lag_s - t.max_lag_s).abs());
+    }
+    let q = |i: usize| m.gratings.get(i).and_then(|g| g.quality_q_pm_per_n_s);
+    let q_ratio = match (q(0), q(1)) {
+        (Some(a), Some(b)) => {
+            a / b / (strain[0].sensitivity_pm_per_n / strain[1].sensitivity_pm_per_n)
+        }
+        _ => f64::NAN,
+    };
+    Ok(ProtocolErrors {
+        detected: m.protocol.name(),
+        k: k_err,
+        lag_s: lag_err,
+        max_lag_s: dt_err,
+        true_max_lag_s: strain[0].max_lag_s,
+        q_ratio,
+    })
+}
+
 /// K, lag, Δt_max and Q accuracy per protocol and dynamics, offset given: printed as a
 /// table, written to `protocols.csv` and `protocols.svg`.
 fn protocol_accuracy(out: &std::path::Path) -> Result<()> {
-    use fbgforge::verify::analysis::{analyse, AnalysisOptions};
     let design = fbgforge::design::parse(include_str!("../../designs/clip-on-34mm.toml"))?;
     let mut rows: Vec<Vec<String>> = Vec::new();
     let mut points = (Vec::new(), Vec::new());
@@ -386,46 +500,18 @@ fn protocol_accuracy(out: &std::path::Path) -> Result<()> {
                 tau_s: 0.4,
                 ..case.cfg.clone()
             };
-            let (log, force, truth) = synth::generate(&design, &cfg)?;
-            let (lp, fp) = (out.join("protocol-log.csv"), out.join("protocol-force.csv"));
-            synth::write_log(&lp, LogFormat::Csv, &log, &cfg, &LogStyle::default())?;
-            synth::write_force_csv(&fp, &force)?;
-            let pl = logs::read_peak_log(&lp, &ReadOptions::default())?;
-            let fl = logs::read_force_log(&fp, &logs::ForceColumns::default())?;
-            let opts = AnalysisOptions {
-                clock_offset_s: Some(synth::reported_offset_s(&cfg, LogFormat::Csv)),
-                ..Default::default()
-            };
-            let (m, _) = analyse(&design, &pl, &fl, &opts)?;
-            let strain: Vec<_> = truth.gratings.iter().filter(|g| !g.reference).collect();
-            let (mut k_err, mut lag_err, mut dt_err) = (0.0f64, 0.0f64, 0.0f64);
-            for (g, t) in m.gratings.iter().zip(&strain) {
-                k_err = k_err.max((g.sensitivity_pm_per_n / t.sensitivity_pm_per_n - 1.0).abs());
-                for (p, l) in g.pulses.iter().zip(&t.lags_s) {
-                    lag_err = lag_err.max((p.lag_s - l).abs());
-                }
-                if g.pulses.len() != t.lags_s.len() {
-                    lag_err = f64::NAN;
-                }
-                dt_err = dt_err.max((g.max_lag_s - t.max_lag_s).abs());
-            }
-            let q = |i: usize| m.gratings.get(i).and_then(|g| g.quality_q_pm_per_n_s);
-            let q_ratio = match (q(0), q(1)) {
-                (Some(a), Some(b)) => {
-                    a / b / (strain[0].sensitivity_pm_per_n / strain[1].sensitivity_pm_per_n)
-                }
-                _ => f64::NAN,
-            };
+            let e = protocol_errors(&design, out, &cfg)?;
+            let (k_err, lag_err, dt_err, q_ratio) = (e.k, e.lag_s, e.max_lag_s, e.q_ratio);
             println!(
                 "{:<20} {:>5} {:<10} {:<19} {:>9.3} {:>10.4} {:>10.4} {:>10.4} {:>9.4}",
                 case.protocol,
                 cfg.sample_rate_hz,
                 dynamics,
-                m.protocol.name(),
+                e.detected,
                 100.0 * k_err,
                 lag_err,
                 dt_err,
-                strain[0].max_lag_s,
+                e.true_max_lag_s,
                 q_ratio
             );
             let i = rows.len() as f64 + 1.0;
@@ -435,11 +521,11 @@ fn protocol_accuracy(out: &std::path::Path) -> Result<()> {
                 case.protocol.into(),
                 format!("{}", cfg.sample_rate_hz),
                 dynamics.into(),
-                m.protocol.name().into(),
+                e.detected.into(),
                 format!("{:.4}", 100.0 * k_err),
                 format!("{lag_err:.5}"),
                 format!("{dt_err:.5}"),
-                format!("{:.5}", strain[0].max_lag_s),
+                format!("{:.5}", e.true_max_lag_s),
                 format!("{q_ratio:.5}"),
             ]);
         }

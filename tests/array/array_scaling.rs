@@ -11,7 +11,7 @@ use fbgforge::array::kernel::{
     fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
 };
 use fbgforge::array::methods::{
-    build, l0_penalty_for_resolution, DeSettings, Method, MethodSettings, ReadingPrior,
+    build, l0_penalty_for_resolution, DeSettings, Method, MethodSettings, ReadingSettings,
 };
 use fbgforge::array::problem::SensingProblem;
 use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
@@ -262,7 +262,7 @@ fn choice_takes_the_most_accurate_method_within_the_budget() {
     let a = matrix_from_positions(&c, &g, &DistanceKernel::paper());
     let p = SensingProblem::new(a, 250.0, true).unwrap();
     let settings = |m| MethodSettings::for_method(m);
-    let prior = ReadingPrior::paper();
+    let prior = ReadingSettings::paper();
     // A generous budget: the most accurate method.
     let c = choose_method(&p, &prior, &settings, 1e9, None).unwrap();
     assert_eq!(c.method, PREFERENCE[0]);
@@ -304,7 +304,7 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
     // method, settings, reason and estimates, on synthetic and on given frames.
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-    let prior = ReadingPrior::paper();
+    let prior = ReadingSettings::paper();
     let mut rng = ChaCha8Rng::seed_from_u64(14);
     let frames: Vec<Vec<f64>> = (0..40)
         .map(|i| noisy(&a, &random_loads(64, 1 + i % 4, &mut rng), &mut rng))
@@ -342,7 +342,7 @@ fn the_choice_follows_the_estimate_at_the_budget() {
     // its full work budget; just below, it is over budget and gets a fitted one.
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a, 250.0, true).unwrap();
-    let prior = ReadingPrior::paper();
+    let prior = ReadingSettings::paper();
     let c = default_choice(&p, &prior, 3000.0, None).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     assert_eq!(c.candidates[0].status, "estimated over budget");
@@ -389,7 +389,7 @@ fn the_l0_penalty_follows_the_interrogator_resolution() {
     )
     .unwrap();
     // A budget where `support` is picked: its penalty is the resolution's.
-    let prior = |resolution_pm| ReadingPrior {
+    let prior = |resolution_pm| ReadingSettings {
         max_loads: 4,
         resolution_pm,
     };
@@ -530,7 +530,7 @@ fn the_estimate_is_the_mean_over_the_probe_frames_so_the_budget_holds_on_average
     // of the per-frame estimates, which is what a stream's time per frame follows.
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a, 250.0, true).unwrap();
-    let prior = ReadingPrior::paper();
+    let prior = ReadingSettings::paper();
     let c = default_choice(&p, &prior, 3000.0, None).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     let r = build(&p, &c.settings).unwrap();
@@ -585,7 +585,7 @@ fn bnb_replaces_support_where_it_gives_the_same_answers_faster() {
     let a = grid_matrix(5, 4, 2, 5);
     assert_eq!(a.shape(), (10, 20));
     let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
-    let prior = ReadingPrior::paper();
+    let prior = ReadingSettings::paper();
     let mut rng = ChaCha8Rng::seed_from_u64(24);
     let frames: Vec<Vec<f64>> = (0..60)
         .map(|i| noisy(&a, &random_loads(20, 1 + i % 4, &mut rng), &mut rng))

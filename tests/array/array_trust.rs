@@ -3,7 +3,7 @@
 //! (`array::reconstruct`), on synthetic frames with known truth.
 
 use fbgforge::array::kernel::{matrix_from_positions, paper_layout, DistanceKernel};
-use fbgforge::array::methods::{Method, ReadingPrior};
+use fbgforge::array::methods::{Method, ReadingSettings};
 use fbgforge::array::problem::{SensingProblem, Uncertainty};
 use fbgforge::array::protocol::snr_db;
 use fbgforge::array::reconstruct::{reconstruct, Frames, MethodRequest, Reconstructed};
@@ -52,7 +52,7 @@ fn run(p: &SensingProblem, ys: &[Vec<f64>], method: Method) -> Reconstructed {
 
 fn run_k(p: &SensingProblem, ys: &[Vec<f64>], method: Method, max_loads: usize) -> Reconstructed {
     let g = names(p.n_gratings());
-    let prior = ReadingPrior {
+    let prior = ReadingSettings {
         max_loads,
         resolution_pm: p.uncertainty.resolution_pm,
     };

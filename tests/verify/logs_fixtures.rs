@@ -1,7 +1,7 @@
 //! Readers against small hand-written fixtures covering the edge cases of real exports.
 
 use fbgforge::logs::num::days_from_civil;
-use fbgforge::logs::{self, Clock, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::logs::{self, Clock, ForceReadOptions, LogFormat, ReadOptions};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {
@@ -132,7 +132,7 @@ fn plain_csv_with_comment_and_empty_cell() {
 
 #[test]
 fn force_stand_columns_units_and_clocks() {
-    let f = logs::read_force_log(&fixture("force_stand.csv"), &ForceColumns::default()).unwrap();
+    let f = logs::read_force_log(&fixture("force_stand.csv"), &ForceReadOptions::default()).unwrap();
     assert_eq!(
         (f.time_column.as_str(), f.force_column.as_str()),
         ("RelTime", "force")
@@ -140,7 +140,7 @@ fn force_stand_columns_units_and_clocks() {
     assert_eq!(f.clock, Clock::Relative);
     assert_eq!(f.force_n, vec![0.012, 5.25, 10.5, 5.2]);
     assert_eq!(f.warnings.count("force_unit_assumed"), 1);
-    let cols = ForceColumns {
+    let cols = ForceReadOptions {
         time: Some("AbsTime".into()),
         ..Default::default()
     };
@@ -149,12 +149,12 @@ fn force_stand_columns_units_and_clocks() {
     assert_eq!(f.time_s[2], epoch(2025, 4, 17, 15.0, 44.0, 56.0));
     // `Force [kN]` with decimal commas and `;` separators: converted to N.
     let f =
-        logs::read_force_log(&fixture("force_kn_semicolon.csv"), &ForceColumns::default()).unwrap();
+        logs::read_force_log(&fixture("force_kn_semicolon.csv"), &ForceReadOptions::default()).unwrap();
     assert_eq!(f.scale_to_n, 1000.0);
     assert_eq!(f.force_n, vec![0.0, 12.5, 25.0]);
     assert_eq!(f.time_s, vec![0.0, 0.5, 1.0]);
     // A column that does not exist is named in the error.
-    let cols = ForceColumns {
+    let cols = ForceReadOptions {
         force: Some("load_cell".into()),
         ..Default::default()
     };
@@ -173,7 +173,7 @@ fn unreadable_files_give_errors_naming_file_and_line() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("metadata_only.txt") && e.contains("--format"),
+        e.contains("metadata_only.txt") && e.contains("ReadOptions.format"),
         "{e}"
     );
     let e = logs::read_peak_log(&fixture("mostly_garbage.txt"), &ReadOptions::default())
@@ -222,7 +222,7 @@ mod properties {
 }
 
 mod never_panics {
-    use fbgforge::logs::{parse_force_bytes, parse_wavelength_bytes, ForceColumns, ReadOptions};
+    use fbgforge::logs::{parse_force_bytes, parse_wavelength_bytes, ForceReadOptions, ReadOptions};
     use proptest::prelude::*;
     use std::path::Path;
 
@@ -251,7 +251,7 @@ mod never_panics {
             let keep = cut.index(bytes.len() + 1);
             bytes.truncate(keep.max(1));
             let _ = parse_wavelength_bytes(&bytes, &path, &ReadOptions::default());
-            let _ = parse_force_bytes(&bytes, &path, &ForceColumns::default());
+            let _ = parse_force_bytes(&bytes, &path, &ForceReadOptions::default());
         }
     }
 }
@@ -279,12 +279,12 @@ fn windows_line_endings_read_the_same() {
     let text = std::fs::read_to_string(&path)
         .unwrap()
         .replace('\n', "\r\n");
-    let f = logs::parse_force_bytes(text.as_bytes(), &path, &ForceColumns::default()).unwrap();
+    let f = logs::parse_force_bytes(text.as_bytes(), &path, &ForceReadOptions::default()).unwrap();
     assert_eq!(f.force_n, vec![0.012, 5.25, 10.5, 5.2]);
 }
 
 /// Write `text` as a force log in a temporary folder and read it with `cols`.
-fn force_from(text: &str, cols: &ForceColumns) -> anyhow::Result<logs::ForceLog> {
+fn force_from(text: &str, cols: &ForceReadOptions) -> anyhow::Result<logs::ForceLog> {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("force.csv");
     std::fs::write(&p, text).unwrap();
@@ -293,7 +293,7 @@ fn force_from(text: &str, cols: &ForceColumns) -> anyhow::Result<logs::ForceLog>
 
 #[test]
 fn force_logs_are_read_as_labs_write_them() {
-    let cols = ForceColumns::default();
+    let cols = ForceReadOptions::default();
     // Milliseconds in the name: `time_ms` and `Time [ms]` are not seconds.
     for header in ["time_ms,force_N", "Time [ms],Force [N]"] {
         let f = force_from(&format!("{header}\n0,0\n500,1.5\n1000,3\n"), &cols).unwrap();
@@ -326,10 +326,10 @@ fn force_logs_are_read_as_labs_write_them() {
 fn us_dates_in_a_force_log_follow_force_date_order() {
     // 04/05/2025: 4 May read day first, 5 April read month first.
     let text = "AbsTime,force_N\n04/05/2025 10:00:00.0,0\n04/05/2025 10:00:00.5,1\n04/05/2025 10:00:01.0,2\n";
-    let dmy = force_from(text, &ForceColumns::default()).unwrap();
+    let dmy = force_from(text, &ForceReadOptions::default()).unwrap();
     let mdy = force_from(
         text,
-        &ForceColumns {
+        &ForceReadOptions {
             date_order: Some(fbgforge::logs::num::DateOrder::MonthDayYear),
             ..Default::default()
         },

@@ -575,7 +575,7 @@ fn a_band_wider_than_a_factor_3_asks_for_the_contact_to_be_calibrated() {
     assert!(
         why.contains("above the band")
             && why.contains("reproduces it")
-            && why.contains("--calibrate-into"),
+            && why.contains("VerifyRequest.calibrate_into"),
         "{why}"
     );
     // Its nominal K passes too, yet says the same: the band, not the fit, is the limit.
@@ -678,7 +678,7 @@ mod no_panic {
         ) {
             let d = common::shipped("clip-on-34mm.toml");
             let shape = synth::PulseShape::Haversine;
-            if let Ok((pulses, duration_s)) = synth::train(&[peak, 2.0], pulse_s, rest_s, 5.0, shape) {
+            if let Ok((pulses, duration_s)) = synth::train(&synth::TrainSettings { peaks_n: vec![peak, 2.0], pulse_s, rest_s, lead_s: 5.0, shape }) {
                 let cfg = SynthConfig {
                     sample_rate_hz: rate,
                     force_rate_hz: force_rate,
@@ -708,8 +708,8 @@ mod no_panic {
             req.analysis.resolution_pm = Some(resolution);
             req.analysis.max_clock_offset_s = range;
             req.analysis.clock_offset_s = Some(offset);
-            req.force_columns.scale_to_n = Some(scale);
-            let ok = fbgforge::verify::run::check_options(&req).is_ok();
+            req.force_read.scale_to_n = Some(scale);
+            let ok = req.validate().is_ok();
             let fine = |v: f64, lo: f64, hi: f64| v.is_finite() && v > lo && v <= hi;
             prop_assert_eq!(
                 ok,

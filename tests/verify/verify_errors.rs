@@ -2,7 +2,7 @@
 //! the verdict rule applied to model predictions.
 
 use crate::common;
-use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::logs::{self, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::model::{GratingPrediction, LoadCase};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions};
 use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
@@ -29,7 +29,7 @@ fn write_peaks(path: &Path, log: &synth::SynthLog, cfg: &SynthConfig) {
 fn read_pair(lp: &Path, fp: &Path) -> anyhow::Result<(logs::PeakLog, logs::ForceLog)> {
     Ok((
         logs::read_peak_log(lp, &ReadOptions::default())?,
-        logs::read_force_log(fp, &ForceColumns::default())?,
+        logs::read_force_log(fp, &ForceReadOptions::default())?,
     ))
 }
 
@@ -65,7 +65,7 @@ fn a_force_log_that_does_not_overlap_is_an_error_naming_both_files() {
     write_peaks(&lp, &log, &cfg);
     synth::write_force_stand_csv(&fp, &force, cfg.start_epoch_s + cfg.force_start_s).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let cols = ForceColumns {
+    let cols = ForceReadOptions {
         time: Some("AbsTime".into()),
         ..Default::default()
     };
@@ -78,7 +78,7 @@ fn a_force_log_that_does_not_overlap_is_an_error_naming_both_files() {
         e.contains("does not overlap")
             && e.contains("stand.csv")
             && e.contains("log.txt")
-            && e.contains("--max-offset-s"),
+            && e.contains("AnalysisOptions.max_clock_offset_s"),
         "{e}"
     );
     // With both logs on relative clocks the starts are aligned, so the same force log
@@ -243,7 +243,7 @@ fn verdict_picks_the_prediction_for_grating_case_and_insert() {
         .reason
         .as_deref()
         .unwrap()
-        .contains("--insert"));
+        .contains("VerifyRequest.insert"));
     // No model available: not judged, with the model's message.
     let v = verdicts(
         &m,
@@ -296,7 +296,7 @@ mod never_panics {
             let keep = ((lines.len() as f64) * cut) as usize;
             std::fs::write(&lp, lines[..keep.max(2)].join("\n")).unwrap();
             let Ok(pl) = logs::read_peak_log(&lp, &ReadOptions::default()) else { return Ok(()) };
-            let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+            let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
             let _ = analyse(&d, &pl, &fl, &AnalysisOptions::default());
         }
     }
@@ -379,11 +379,11 @@ mod never_panics_on_force_logs_and_options {
             req.analysis.window_half_width_nm = window;
             req.analysis.resolution_pm = resolution;
             req.k_tolerance = tolerance;
-            req.force_columns.scale_to_n = scale;
+            req.force_read.scale_to_n = scale;
             // Outputs of an answered run are written too (no panic in the report).
             if let Ok(out) = fbgforge::verify::run(&req) {
-                let _ = fbgforge::verify::report::summary(&out.report);
-                fbgforge::verify::report::write_report(&dir.path().join("r"), &out.report, &out.series).unwrap();
+                let _ = fbgforge::report::verify::summary(&out.report);
+                fbgforge::report::verify::write_report(&dir.path().join("r"), &out.report, &out.series).unwrap();
             }
         }
     }
@@ -534,13 +534,13 @@ fn a_corrupted_force_time_is_refused_naming_its_line_and_a_nan_offset_is_an_erro
     req.analysis.clock_offset_s = Some(f64::NAN);
     let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
     assert!(
-        e.contains("--clock-offset-s") && e.contains("finite"),
+        e.contains("AnalysisOptions.clock_offset_s") && e.contains("finite"),
         "{e}"
     );
     req.analysis.clock_offset_s = None;
     req.analysis.max_clock_offset_s = f64::INFINITY;
     let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
-    assert!(e.contains("--max-offset-s"), "{e}");
+    assert!(e.contains("AnalysisOptions.max_clock_offset_s"), "{e}");
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! offset given; the protocol named; Q stable between gratings of identical dynamics.
 
 use crate::common;
-use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::logs::{self, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
 use fbgforge::synth::module_log::{self as synth, LogStyle, PulseShape, SynthConfig, SynthTruth};
 
@@ -23,7 +23,7 @@ fn run(format: LogFormat, cfg: &SynthConfig, given: bool) -> (Measurement, Synth
     synth::write_log(&lp, format, &log, cfg, &LogStyle::default()).unwrap();
     synth::write_force_csv(&fp, &force).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
     let opts = AnalysisOptions {
         clock_offset_s: given.then(|| synth::reported_offset_s(cfg, format)),
         ..Default::default()
@@ -403,7 +403,8 @@ fn an_unloaded_log_never_passes_whatever_the_protocol() {
 
 #[test]
 fn with_an_estimated_offset_every_output_says_the_lag_is_relative() {
-    use fbgforge::verify::{report, VerifyRequest};
+    use fbgforge::report::verify as report;
+    use fbgforge::verify::VerifyRequest;
     let d = common::shipped_path("clip-on-34mm.toml");
     let design = design();
     let cfg = with(Dynamics::PureDelay, protocols()[1].cfg.clone());

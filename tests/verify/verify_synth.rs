@@ -1,7 +1,7 @@
 //! End-to-end recovery of known values from synthetic logs, in every format.
 
 use crate::common;
-use fbgforge::logs::{self, ForceColumns, LogFormat, ReadOptions};
+use fbgforge::logs::{self, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::verify::analysis::{analyse, AnalysisOptions, BoundKind, Measurement};
 use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig, SynthTruth};
 
@@ -35,7 +35,7 @@ fn run_offset(
     synth::write_force_csv(&fp, &force).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
     assert_eq!(pl.format, format, "detected format");
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
     let opts = AnalysisOptions {
         core: core.map(String::from),
         clock_offset_s,
@@ -193,7 +193,7 @@ fn without_the_reference_grating_the_ramp_spoils_k() {
         .gratings
         .retain(|g| g.role == fbgforge::spec::GratingRole::Strain);
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
     let (m, _) = analyse(&no_ref, &pl, &fl, &AnalysisOptions::default()).unwrap();
     assert_eq!(m.warnings.count("reference_missing"), 1);
     let err = (m.gratings[0].sensitivity_pm_per_n - truth.gratings[0].sensitivity_pm_per_n).abs()
@@ -301,7 +301,7 @@ fn a_log_against_an_unrelated_force_log_is_not_judged() {
     .unwrap();
     synth::write_force_csv(&fp, &force).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
     let opts = AnalysisOptions {
         clock_offset_s: Some(synth::reported_offset_s(&cfg, LogFormat::EnlightPeaks)),
         ..Default::default()
@@ -345,7 +345,7 @@ fn analyse_with(cfg: &SynthConfig, opts: &AnalysisOptions) -> Measurement {
     .unwrap();
     synth::write_force_csv(&fp, &force).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
     analyse(&d, &pl, &fl, opts).unwrap().0
 }
 
@@ -399,7 +399,7 @@ fn the_offset_search_stays_inside_max_offset_and_estimated_lags_are_marked_relat
         ),
         measurement: free,
     };
-    assert!(fbgforge::verify::report::summary(&report).contains("RELATIVE"));
+    assert!(fbgforge::report::verify::summary(&report).contains("RELATIVE"));
 }
 
 #[test]
@@ -420,7 +420,7 @@ fn the_chart_fit_line_shows_the_table_k() {
     .unwrap();
     synth::write_force_csv(&fp, &force).unwrap();
     let pl = logs::read_peak_log(&lp, &ReadOptions::default()).unwrap();
-    let fl = logs::read_force_log(&fp, &ForceColumns::default()).unwrap();
+    let fl = logs::read_force_log(&fp, &ForceReadOptions::default()).unwrap();
     let (m, series) = analyse(&d, &pl, &fl, &AnalysisOptions::default()).unwrap();
     assert_eq!(series.fit.len(), m.gratings.len());
     for (g, (name, k, _)) in m.gratings.iter().zip(&series.fit) {
@@ -466,5 +466,5 @@ fn force_start_read_off_the_wall_clock_gives_the_true_offset_and_absolute_lags()
     let mut req = fbgforge::verify::VerifyRequest::new(d, cp, fp);
     req.force_start = Some("2025-04-17 15:44:54.3".into());
     let e = format!("{:#}", fbgforge::verify::run(&req).unwrap_err());
-    assert!(e.contains("--force-start needs"), "{e}");
+    assert!(e.contains("VerifyRequest.force_start needs"), "{e}");
 }

@@ -17,17 +17,23 @@
 //! of one cell, the sensitivity is the least-squares slope through the origin,
 //! Σ shift·load / Σ load². Output: `grating,A,B,…` with one row per grating in pm/g,
 //! the format `fbgforge reconstruct` reads.
+//!
+//! The use case `fbgforge calibrate-array` and the Python binding call is [`run`]: the
+//! matrix measured and written, optionally the sheet model's modulus fitted to it, each
+//! result handed to a [`CalibrationSink`] (the terminal table is
+//! `fbgforge_report::calibrate`'s).
 
-use crate::{kernel, SensingMatrix};
-use crate::logs::{csv_table, num, LogWarnings, PeakLog, ReadOptions};
 use crate::logs;
-use crate::profile::{cell_label, ArrayLayout};
-use crate::spec::Design;
 use crate::logs::assign::{self, GratingWindow};
+use crate::logs::{csv_table, num, LogWarnings, PeakLog, ReadOptions};
+use crate::profile::{cell_label, ArrayLayout};
+use crate::sheet::fit::{fit_modulus, ModulusFit};
+use crate::spec::Design;
+use crate::{kernel, SensingMatrix};
 use anyhow::{bail, Context, Result};
 use nalgebra::DMatrix;
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One loading in the schedule.
 #[derive(Debug, Clone, PartialEq)]
@@ -296,6 +302,101 @@ pub fn calibrate_array(
     Ok(ArrayCalibration {
         matrix,
         warnings: log.warnings,
+    })
+}
+
+/// What to calibrate and how: the run's log and schedule, and what to write.
+#[derive(Debug, Clone, Default)]
+pub struct CalibrateRequest {
+    /// Where the design was read from, for messages (its name when `None`).
+    pub design_file: Option<PathBuf>,
+    /// Wavelength log of the calibration run.
+    pub log: PathBuf,
+    /// Schedule CSV: `start_s,end_s,cell,load_g`, times in s from the log's first row.
+    pub schedule: PathBuf,
+    /// Format and date order of the log (detected when `None`).
+    pub read: ReadOptions,
+    /// Half-width of each grating's wavelength window, nm (the verifier's rule when
+    /// `None`).
+    pub window_half_width_nm: Option<f64>,
+    /// Write the measured matrix here (a CSV naming the log and the schedule in a
+    /// comment); nothing is written when `None`.
+    pub out: Option<PathBuf>,
+    /// Also fit the sheet model's modulus to the measured matrix, the misfit of every
+    /// entry written beside `out` (`<out>.modulus-fit.json`).
+    pub fit_modulus: bool,
+}
+
+/// Where a calibration's results go; every method has a no-op default.
+pub trait CalibrationSink {
+    /// The measured matrix with the log's warnings, and the file it was written to.
+    fn measured(&mut self, _calibration: &ArrayCalibration, _out: Option<&Path>) -> Result<()> {
+        Ok(())
+    }
+    /// The sheet model's modulus fitted to the matrix, and the file it was written to.
+    fn modulus_fitted(&mut self, _fit: &ModulusFit, _path: &Path) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// No sink: the outcome is only returned.
+impl CalibrationSink for () {}
+
+/// A calibration's results.
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibrationOutcome {
+    /// The measured matrix and the log's warnings.
+    pub calibration: ArrayCalibration,
+    /// The fitted modulus (with `fit_modulus`).
+    pub modulus_fit: Option<ModulusFit>,
+}
+
+/// Measure `design`'s sensing matrix as `req` says, write it (and the modulus fit),
+/// and hand each result to `sink`.
+pub fn run(
+    design: &Design,
+    req: &CalibrateRequest,
+    sink: &mut dyn CalibrationSink,
+) -> Result<CalibrationOutcome> {
+    if req.fit_modulus && req.out.is_none() {
+        bail!("CalibrateRequest.fit_modulus writes its fit beside CalibrateRequest.out: give both");
+    }
+    let cal = calibrate_array(
+        design,
+        &req.log,
+        &req.schedule,
+        &req.read,
+        req.window_half_width_nm,
+    )?;
+    if let Some(out) = &req.out {
+        crate::io::write_matrix_with_comments(
+            out,
+            &cal.matrix,
+            &[format!(
+                "measured sensing matrix, pm/g, from {} and {}",
+                req.log.display(),
+                req.schedule.display()
+            )],
+        )?;
+    }
+    sink.measured(&cal, req.out.as_deref())?;
+    let mut modulus_fit = None;
+    if let (true, Some(out)) = (req.fit_modulus, &req.out) {
+        let f = fit_modulus(design, &cal.matrix).with_context(|| {
+            let of = req.design_file.as_ref().map_or_else(
+                || format!("design `{}`", design.name),
+                |p| p.display().to_string(),
+            );
+            format!("{of}: fitting the sheet model's modulus")
+        })?;
+        let path = out.with_extension("modulus-fit.json");
+        crate::output::write_json(&path, &f)?;
+        sink.modulus_fitted(&f, &path)?;
+        modulus_fit = Some(f);
+    }
+    Ok(CalibrationOutcome {
+        calibration: cal,
+        modulus_fit,
     })
 }
 

@@ -27,7 +27,7 @@
 //! read as time on the reference machine; the measured time per probe frame is
 //! still reported, for information only.
 
-use super::methods::{build, BnbSettings, Method, MethodSettings, ReadingPrior, Reconstructor};
+use super::methods::{build, BnbSettings, Method, MethodSettings, ReadingSettings, Reconstructor};
 use super::problem::SensingProblem;
 use super::ArrayError;
 use rand::{Rng, SeedableRng};
@@ -71,7 +71,7 @@ fn ns_per_support(m: Method) -> Option<f64> {
 /// relaxation step) with n cells: 2.5 + 240/n, fitted to 17, 10.5, 5.5, 4.2 and
 /// 4.0 ns measured at 8 × 16, 12 × 32, 16 × 64, 24 × 128 and 32 × 256 (longer
 /// vectors cost less per multiply-add; docs/array.md §10.3).
-pub fn ns_per_bnb_unit(n: usize) -> f64 {
+pub(crate) fn ns_per_bnb_unit(n: usize) -> f64 {
     2.5 + 240.0 / n.max(1) as f64
 }
 
@@ -246,7 +246,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// through [`crate::reconstruct()`], the one place a method is picked.
 pub fn default_choice(
     problem: &SensingProblem,
-    prior: &ReadingPrior,
+    prior: &ReadingSettings,
     budget_us: f64,
     probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
@@ -259,21 +259,28 @@ pub fn default_choice(
 /// estimated time per probe frame is within `budget_us` (`support` giving way to
 /// `bnb` where that is faster and complete on the probe frames), else the one with the
 /// smallest estimate. Deterministic: it does not read the clock to decide.
+/// A per-frame time budget must be a positive, finite time in µs.
+pub fn check_budget(budget_us: f64) -> Result<(), ArrayError> {
+    if budget_us.is_finite() && budget_us > 0.0 {
+        Ok(())
+    } else {
+        Err(ArrayError::Input(format!(
+            "the per-frame budget must be a positive time in µs, got {budget_us}"
+        )))
+    }
+}
+
 /// `settings_for` gives each method's settings (penalty, max loads); `probe` are the
 /// caller's frames (twelve spread over them are timed), or None to synthesise them
 /// with up to `prior.max_loads` loads (also when none of the caller's is usable).
 pub fn choose_method(
     problem: &SensingProblem,
-    prior: &ReadingPrior,
+    prior: &ReadingSettings,
     settings_for: &dyn Fn(Method) -> MethodSettings,
     budget_us: f64,
     probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
-    if !(budget_us.is_finite() && budget_us > 0.0) {
-        return Err(ArrayError::Input(format!(
-            "the per-frame budget must be a positive time in µs, got {budget_us}"
-        )));
-    }
+    check_budget(budget_us)?;
     let mut chooser = Chooser::new(problem, budget_us, prior.max_loads, probe);
     for method in PREFERENCE {
         if let Some(choice) = chooser.try_method(method, settings_for(method)) {

@@ -19,18 +19,18 @@ use super::ArrayError;
 use serde::Serialize;
 
 /// Strongest frames (largest ‖y‖) the dead-grating test looks at, at most.
-pub const ACTIVE_FRAMES: usize = 48;
+pub(crate) const ACTIVE_FRAMES: usize = 48;
 
 /// A reading "at the noise level": its standard deviation over the active frames
 /// is at most this many resolutions.
-pub const STILL_SIGMAS: f64 = 3.0;
+pub(crate) const STILL_SIGMAS: f64 = 3.0;
 
 /// "Large responses": the readings predicted without the grating vary with a
 /// standard deviation of at least this many resolutions.
-pub const PREDICTED_SIGMAS: f64 = 10.0;
+pub(crate) const PREDICTED_SIGMAS: f64 = 10.0;
 
 /// Fewest usable frames with a signal before the test is made.
-pub const MIN_ACTIVE_FRAMES: usize = 4;
+pub(crate) const MIN_ACTIVE_FRAMES: usize = 4;
 
 /// A grating found dead or stuck.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -123,7 +123,7 @@ pub fn suspect_gratings(
 /// grating's temperature sensitivity (bare fiber, ∝ its Bragg wavelength:
 /// [`crate::grating::FiberOptics::temperature_sensitivity_pm_per_k`]), scaled to a
 /// mean of 1.
-pub fn temperature_weights(bragg_wavelengths_nm: &[f64]) -> Vec<f64> {
+pub(crate) fn temperature_weights(bragg_wavelengths_nm: &[f64]) -> Vec<f64> {
     let optics = crate::grating::FiberOptics::default();
     let s: Vec<f64> = bragg_wavelengths_nm
         .iter()

@@ -110,7 +110,7 @@ fn all_numbers(rec: &[String]) -> bool {
 /// A sensing matrix as read from a file, and whether its names were generated (the
 /// file was numbers only).
 #[derive(Debug, Clone, PartialEq)]
-pub struct MatrixFile {
+pub(crate) struct MatrixFile {
     /// The matrix.
     pub matrix: SensingMatrix,
     /// True when the file had no header: gratings `fbg1…`, cells `A…`.
@@ -155,7 +155,7 @@ pub fn read_matrix(path: &Path) -> Result<SensingMatrix> {
 }
 
 /// Read a sensing matrix and say whether its names were generated (no header).
-pub fn read_matrix_file(path: &Path) -> Result<MatrixFile> {
+pub(crate) fn read_matrix_file(path: &Path) -> Result<MatrixFile> {
     let recs = records(path)?;
     if all_numbers(&recs[0].1) {
         return Ok(MatrixFile {
@@ -227,11 +227,6 @@ pub fn read_matrix_file(path: &Path) -> Result<MatrixFile> {
     })
 }
 
-/// Write a sensing matrix in the same format (atomically).
-pub fn write_matrix(path: &Path, m: &SensingMatrix) -> Result<()> {
-    write_matrix_with_comments(path, m, &[])
-}
-
 /// Write a sensing matrix with `#` comment lines first (where it came from), atomically.
 pub fn write_matrix_with_comments(
     path: &Path,
@@ -271,7 +266,7 @@ pub fn read_shifts(path: &Path, gratings: &[String]) -> Result<ShiftStream> {
 /// Read shifts for a matrix; `headerless_ok` (the matrix had no header) also accepts
 /// numbers only: one column per grating in the matrix's row order, or a first column
 /// of times in s and then those.
-pub fn read_shifts_for(
+pub(crate) fn read_shifts_for(
     path: &Path,
     gratings: &[String],
     headerless_ok: bool,
@@ -435,37 +430,10 @@ fn read_shifts_numbers(
     })
 }
 
-/// Write reconstructed loads: `time_s,<cells…>`, g, atomically; without times the
-/// first column is `frame`, the 0-based index of the shifts row.
-pub fn write_loads(
-    path: &Path,
-    cells: &[String],
-    time_s: Option<&[f64]>,
-    loads_g: &[Vec<f64>],
-) -> Result<()> {
-    crate::output::write_atomic_with(path, |w| {
-        let mut c = csv::Writer::from_writer(w);
-        let first = if time_s.is_some() { "time_s" } else { "frame" };
-        let mut header = vec![first.to_string()];
-        header.extend(cells.iter().cloned());
-        c.write_record(&header)?;
-        for (k, x) in loads_g.iter().enumerate() {
-            let mut row = vec![match time_s {
-                Some(t) => format!("{}", t[k]),
-                None => k.to_string(),
-            }];
-            row.extend(x.iter().map(|v| format!("{v:.3}")));
-            c.write_record(&row)?;
-        }
-        c.flush()?;
-        Ok(())
-    })
-}
-
 /// Write reconstructed loads with each frame's trust: `time_s,<cells…>,residual_pm,flags`
 /// (loads in g, residual in pm, the flags as words joined by `;`, empty when the frame
 /// can be trusted), atomically; without times the first column is `frame`.
-pub fn write_loads_with_trust(
+pub(crate) fn write_loads_with_trust(
     path: &Path,
     cells: &[String],
     time_s: Option<&[f64]>,

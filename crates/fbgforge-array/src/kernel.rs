@@ -241,7 +241,7 @@ pub fn matrix_from_positions(
 }
 
 /// A point (x, y) in the sheet's plane, mm from the array centre.
-pub type Point2Mm = (f64, f64);
+pub(crate) type Point2Mm = (f64, f64);
 
 /// The paper's layout (reference §2, as in `designs/tactile-array-60x80.toml`):
 /// cell centres of the 4 × 2 cells of 20 × 30 mm (row-major from the −y row), and the
@@ -311,7 +311,7 @@ pub fn fiber_grid_layout(
 }
 
 /// Named sensing matrix of a layout (cells labelled A.., gratings named `names`).
-pub fn matrix_from_layout(
+pub(crate) fn matrix_from_layout(
     layout: &ArrayLayout,
     grating_names: &[String],
     kernel: &DistanceKernel,
@@ -343,7 +343,7 @@ pub struct ModelMatrix {
 }
 
 /// One line naming the sheet model and the constants it used.
-pub fn describe_sheet(m: &super::sheet::SheetModel) -> String {
+pub(crate) fn describe_sheet(m: &super::sheet::SheetModel) -> String {
     format!(
         "sheet model: {} mm elastic sheet, E = {} MPa, ν = {}, {}; fibers at {} mm depth (bars, E·A = {:.0} N, gripped at r = {} mm); {} mm indenter (uniform pressure); docs/array.md §12",
         m.thickness_mm,

@@ -33,16 +33,11 @@
 //!
 //! Units: sensitivities in pm/g, shifts in pm, loads in g, distances in mm.
 
-
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
-use fbgforge_plot as plot;
-#[allow(unused_imports)]
-use fbgforge_plot::html;
 
 pub mod calibrate;
 pub mod choice;

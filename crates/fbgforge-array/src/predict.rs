@@ -221,11 +221,6 @@ impl ArrayPredictor {
         })
     }
 
-    /// Cell centres, mm.
-    pub fn cell_xy_mm(&self) -> &[(f64, f64)] {
-        &self.cell_xy_mm
-    }
-
     /// Grating centres, mm.
     pub fn grating_xy_mm(&self) -> &[(f64, f64)] {
         &self.grating_xy_mm

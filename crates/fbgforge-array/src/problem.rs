@@ -43,10 +43,10 @@ pub struct Uncertainty {
 }
 
 /// Load each column of the paper's matrix was calibrated with, g (one reading).
-pub const PAPER_CALIBRATION_LOAD_G: f64 = 200.0;
+pub(crate) const PAPER_CALIBRATION_LOAD_G: f64 = 200.0;
 
 /// Bound of the paper's additivity error (uniform ± 4 %, docs/array.md §4).
-pub const PAPER_ADDITIVITY_FRAC: f64 = 0.04;
+pub(crate) const PAPER_ADDITIVITY_FRAC: f64 = 0.04;
 
 impl Uncertainty {
     /// The paper's measurement for an m × n matrix read at `resolution_pm`: every
@@ -66,7 +66,7 @@ impl Uncertainty {
 
     /// Variance of each reading (pm²) for loads `loads_g` whose prediction is
     /// `predicted_pm`.
-    pub fn reading_variances_pm2(&self, loads_g: &[f64], predicted_pm: &[f64]) -> Vec<f64> {
+    pub(crate) fn reading_variances_pm2(&self, loads_g: &[f64], predicted_pm: &[f64]) -> Vec<f64> {
         let several = loads_g.iter().filter(|&&x| x > 0.0).count() >= 2;
         let s2 = self.resolution_pm * self.resolution_pm;
         let rho2 = self.additivity_sd_frac * self.additivity_sd_frac;
@@ -94,7 +94,7 @@ impl Uncertainty {
     /// relative variance, each cell weighted by how much it moves the grating: p² for
     /// a uniform relative sd p). Times y_i², it stands in for the matrix and
     /// additivity terms when the loads are not yet known (the ambiguity margin).
-    pub fn row_relative_variances(&self, sensitivity: &DMatrix<f64>) -> Vec<f64> {
+    pub(crate) fn row_relative_variances(&self, sensitivity: &DMatrix<f64>) -> Vec<f64> {
         let rho2 = self.additivity_sd_frac * self.additivity_sd_frac;
         (0..sensitivity.nrows())
             .map(|i| {
@@ -236,7 +236,7 @@ impl SensingProblem {
         }
         if let Some(j) = (0..n).find(|&j| norms[j] <= 1e-9 * full[j]) {
             return Err(ArrayError::Input(format!(
-                "cell column {} of the sensing matrix shifts every grating as a temperature change does: with the common-mode term its load cannot be told from temperature (drop --common-mode)",
+                "cell column {} of the sensing matrix shifts every grating as a temperature change does: with the common-mode term its load cannot be told from temperature (drop ReconstructRequest.common_mode)",
                 j + 1
             )));
         }
@@ -322,7 +322,7 @@ impl SensingProblem {
     /// The same problem without the gratings (rows) `drop`: matrix, uncertainty and
     /// common-mode direction lose those rows; bounds, load range and normalisation
     /// stay. Errors when no grating would be left or a cell would be seen by none.
-    pub fn without_gratings(&self, drop: &[usize]) -> Result<Self, ArrayError> {
+    pub(crate) fn without_gratings(&self, drop: &[usize]) -> Result<Self, ArrayError> {
         let m = self.n_gratings();
         let keep: Vec<usize> = (0..m).filter(|i| !drop.contains(i)).collect();
         if keep.is_empty() {
@@ -353,7 +353,7 @@ impl SensingProblem {
     /// The common-mode weight of grating `i` scaled so that the mean |w| over the
     /// gratings `over` is 1 (the unit of [`Self::common_offset_pm`] on a problem of
     /// those gratings); None without a common-mode term.
-    pub fn common_mode_weight(&self, i: usize, over: &[usize]) -> Option<f64> {
+    pub(crate) fn common_mode_weight(&self, i: usize, over: &[usize]) -> Option<f64> {
         let w = self.common_mode.as_ref()?;
         let mean_abs = over.iter().map(|&q| w[q].abs()).sum::<f64>() / over.len().max(1) as f64;
         Some(w[i] / mean_abs.max(1e-300))
@@ -367,7 +367,7 @@ impl SensingProblem {
     }
 
     /// The summary of the uncertainty for reports.
-    pub fn uncertainty_summary(&self) -> UncertaintySummary {
+    pub(crate) fn uncertainty_summary(&self) -> UncertaintySummary {
         let u = &self.uncertainty;
         let mut rel: Vec<f64> = self
             .sensitivity_pm_per_g
@@ -387,7 +387,7 @@ impl SensingProblem {
 
     /// A frame as the methods see it: with the common-mode direction projected out
     /// (unchanged without one).
-    pub fn project_frame(&self, shifts_pm: &[f64]) -> Vec<f64> {
+    pub(crate) fn project_frame(&self, shifts_pm: &[f64]) -> Vec<f64> {
         let mut y = shifts_pm.to_vec();
         if let Some(w) = &self.common_mode {
             let c: f64 = w.iter().zip(&y).map(|(a, b)| a * b).sum();
@@ -429,7 +429,7 @@ impl SensingProblem {
 
     /// Loads in g from working unknowns, clamped into [0, ulimit] (a guard against
     /// round-off only: every method already keeps z inside its bounds).
-    pub fn loads_from_working(&self, z: &[f64]) -> Vec<f64> {
+    pub(crate) fn loads_from_working(&self, z: &[f64]) -> Vec<f64> {
         z.iter()
             .zip(self.scale.iter())
             .map(|(&zj, &s)| {
@@ -452,7 +452,7 @@ impl SensingProblem {
 
     /// y − A x per grating, pm (with a common-mode term: after removing the best
     /// common offset, P(y − Ax)).
-    pub fn residual_vector_pm(&self, loads_g: &[f64], shifts_pm: &[f64]) -> Vec<f64> {
+    pub(crate) fn residual_vector_pm(&self, loads_g: &[f64], shifts_pm: &[f64]) -> Vec<f64> {
         let x = DVector::from_column_slice(loads_g);
         let y = DVector::from_column_slice(shifts_pm);
         let r = y - &self.sensitivity_pm_per_g * x;
@@ -462,7 +462,7 @@ impl SensingProblem {
     /// The common offset of a frame at loads x along the common-mode direction, pm
     /// per unit weight (t of t·w with the weights as given, scaled to mean |w| = 1);
     /// None without a common-mode term.
-    pub fn common_offset_pm(&self, loads_g: &[f64], shifts_pm: &[f64]) -> Option<f64> {
+    pub(crate) fn common_offset_pm(&self, loads_g: &[f64], shifts_pm: &[f64]) -> Option<f64> {
         let w = self.common_mode.as_ref()?;
         let x = DVector::from_column_slice(loads_g);
         let y = DVector::from_column_slice(shifts_pm);

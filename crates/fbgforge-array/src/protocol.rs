@@ -52,10 +52,10 @@ use std::time::Instant;
 pub const DEFAULT_ADDITIVITY_FRAC: f64 = 0.04;
 
 /// Default linearity (paper Table 2: ± 2.42 % of span).
-pub const DEFAULT_LINEARITY_FRAC: f64 = 0.0242;
+pub(crate) const DEFAULT_LINEARITY_FRAC: f64 = 0.0242;
 
 /// Bound of the default thermal drift term, pm (see docs/array.md §4).
-pub const DEFAULT_DRIFT_PM: f64 = 0.0;
+pub(crate) const DEFAULT_DRIFT_PM: f64 = 0.0;
 
 /// SNR (dB) at and above which a reconstruction counts as recovered.
 pub const RECOVERY_THRESHOLD_DB: f64 = 12.0;
@@ -665,19 +665,4 @@ pub fn run_protocol_for_positions(
         &super::kernel::DistanceKernel::paper(),
     );
     run_protocol(&a, method, cfg)
-}
-
-/// Run the protocol for a derived [`crate::profile::ArrayLayout`], with the paper
-/// kernel as the true array.
-pub fn run_protocol_for_layout(
-    layout: &crate::profile::ArrayLayout,
-    method: Method,
-    cfg: &ProtocolConfig,
-) -> Result<ProtocolRun> {
-    run_protocol_for_positions(
-        &layout.cell_centers_mm,
-        &layout.grating_positions_mm,
-        method,
-        cfg,
-    )
 }

@@ -2,7 +2,7 @@
 //! reconstructed.
 //!
 //! A caller states the problem (matrix, bounds, normalisation), what it knows of the
-//! readings ([`ReadingPrior`]: load cap, interrogator resolution) and how to pick the
+//! readings ([`ReadingSettings`]: load cap, interrogator resolution) and how to pick the
 //! method ([`MethodRequest`]: a named method, whose settings follow the prior with
 //! the penalty replaced where given, or the default choice within a per-frame time
 //! budget). [`prepare`] makes that decision once and builds the method for the
@@ -18,11 +18,11 @@
 //! [`Reconstructed::suspect_gratings`] and the frames are reconstructed without it.
 
 pub use super::choice::DEFAULT_BUDGET_US;
-use super::choice::{default_choice, Candidate};
+use super::choice::{check_budget, default_choice, Candidate};
 use super::faults::{suspect_gratings, SuspectGrating};
 use super::methods::{
-    build, reconstruct_frames, Method, MethodSettings, ReadingPrior, Reconstruction, Reconstructor,
-    PARALLEL_FROM,
+    build, reconstruct_frames, Method, MethodSettings, ReadingSettings, Reconstruction,
+    Reconstructor, PARALLEL_FROM,
 };
 use super::problem::SensingProblem;
 use super::trust::{Checker, FlagCounts};
@@ -58,6 +58,15 @@ impl MethodRequest {
             penalty: None,
         }
     }
+
+    /// Check the default choice's budget: a positive, finite time.
+    pub fn check(&self) -> Result<(), ArrayError> {
+        match *self {
+            MethodRequest::Named { .. } => Ok(()),
+            MethodRequest::Default { budget_us } => check_budget(budget_us)
+                .map_err(|e| ArrayError::Input(format!("MethodRequest.budget_us: {e}"))),
+        }
+    }
 }
 
 /// Shift frames named by grating: each frame holds one shift per grating, in the
@@ -90,7 +99,7 @@ pub struct Setup {
     /// The settings it was built with.
     pub settings: MethodSettings,
     /// The readings the settings follow.
-    pub prior: ReadingPrior,
+    pub prior: ReadingSettings,
     /// Why this method, in one sentence (`<name> as named` for a named method).
     pub reason: String,
     /// How the default choice went (None when a method was named).
@@ -156,11 +165,12 @@ impl Setup {
 /// any frame has arrived).
 pub fn prepare(
     problem: &SensingProblem,
-    prior: &ReadingPrior,
+    prior: &ReadingSettings,
     request: &MethodRequest,
     probe: Option<&[Vec<f64>]>,
 ) -> Result<Setup, ArrayError> {
     prior.check()?;
+    request.check()?;
     let t0 = Instant::now();
     let (settings, reason, choice, reconstructor) = match *request {
         MethodRequest::Named { method, penalty } => {
@@ -221,10 +231,38 @@ pub struct Reconstructed {
 /// Reconstruct `frames` for `problem`: pick and build the method once ([`prepare`],
 /// the default choice probed on these frames), then every frame; `progress` hears
 /// the frames.
+///
+/// ```
+/// use fbgforge_array::kernel::{matrix_from_positions, paper_layout, DistanceKernel};
+/// use fbgforge_array::methods::ReadingSettings;
+/// use fbgforge_array::problem::SensingProblem;
+/// use fbgforge_array::{reconstruct, Frames, MethodRequest};
+///
+/// // The paper's array: 8 cells, 6 gratings, its distance kernel; ulimit 250 g.
+/// let (cells, gratings) = paper_layout();
+/// let a = matrix_from_positions(&cells, &gratings, &DistanceKernel::paper());
+/// let problem = SensingProblem::new(a.clone(), 250.0, true)?;
+/// // One frame: 120 g on cell B and 60 g on cell G, read without noise.
+/// let load = nalgebra::DVector::from_column_slice(&[0.0, 120.0, 0.0, 0.0, 0.0, 0.0, 60.0, 0.0]);
+/// let shifts: Vec<f64> = (&a * load).iter().copied().collect();
+/// let names: Vec<String> = (1..=6).map(|i| format!("fbg{i}")).collect();
+/// let frames = [shifts];
+/// let done = reconstruct(
+///     &problem,
+///     Frames { gratings: &names, shifts_pm: &frames },
+///     &ReadingSettings::paper(),
+///     &MethodRequest::Default { budget_us: 100.0 },
+///     &fbgforge_core::progress::Quiet,
+/// )?;
+/// let x = &done.frames[0].loads_g;
+/// assert!((x[1] - 120.0).abs() < 0.5 && (x[6] - 60.0).abs() < 0.5, "{x:?}");
+/// assert!(done.frames[0].flags.trusted());
+/// # Ok::<(), anyhow::Error>(())
+/// ```
 pub fn reconstruct(
     problem: &SensingProblem,
     frames: Frames<'_>,
-    prior: &ReadingPrior,
+    prior: &ReadingSettings,
     request: &MethodRequest,
     progress: &dyn crate::progress::Progress,
 ) -> Result<Reconstructed, ArrayError> {
@@ -348,7 +386,7 @@ mod tests {
             gratings: &gratings,
             shifts_pm: &ys,
         };
-        let prior = ReadingPrior {
+        let prior = ReadingSettings {
             max_loads: 3,
             resolution_pm: 0.25,
         };
@@ -393,7 +431,7 @@ mod tests {
             gratings: &gratings,
             shifts_pm: &ys,
         };
-        let prior = ReadingPrior {
+        let prior = ReadingSettings {
             max_loads: DEFAULT_MAX_LOADS,
             resolution_pm: 0.25,
         };
@@ -430,18 +468,18 @@ mod tests {
             shifts_pm: &ys,
         };
         let request = MethodRequest::named(Method::Nnls);
-        let e = reconstruct(&p, short, &ReadingPrior::paper(), &request, &Quiet)
+        let e = reconstruct(&p, short, &ReadingSettings::paper(), &request, &Quiet)
             .unwrap_err()
             .to_string();
         assert!(e.contains("5 gratings") && e.contains("has 6"), "{e}");
         for bad in [
-            ReadingPrior {
+            ReadingSettings {
                 max_loads: 0,
-                ..ReadingPrior::paper()
+                ..ReadingSettings::paper()
             },
-            ReadingPrior {
+            ReadingSettings {
                 resolution_pm: f64::NAN,
-                ..ReadingPrior::paper()
+                ..ReadingSettings::paper()
             },
         ] {
             assert!(prepare(&p, &bad, &request, None).is_err(), "{bad:?}");

@@ -6,10 +6,11 @@
 use super::faults::{temperature_weights, SuspectGrating};
 use super::io::{read_matrix_file, read_shifts_for, write_loads_with_trust};
 use super::kernel::matrix_from_design;
-use super::methods::{check_resolution, Method, NoisePrior, ReadingPrior, DEFAULT_MAX_LOADS};
+use super::methods::{Method, NoisePrior, ReadingSettings, DEFAULT_MAX_LOADS};
 use super::problem::{default_min_load_g, SensingProblem, Uncertainty, UncertaintySummary};
-use super::reconstruct::{reconstruct, Frames, MethodRequest, DEFAULT_BUDGET_US};
+use super::reconstruct::{reconstruct, Frames, MethodRequest, Reconstructed, DEFAULT_BUDGET_US};
 use super::trust::FlagCounts;
+use super::SensingMatrix;
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -17,7 +18,7 @@ use std::path::{Path, PathBuf};
 pub use super::reconstruct::ChoiceSummary;
 
 /// The paper's ulimit, used when neither the request nor a design gives one, g.
-pub const PAPER_ULIMIT_G: f64 = 250.0;
+pub(crate) const PAPER_ULIMIT_G: f64 = 250.0;
 
 /// Where the sensing matrix comes from.
 #[derive(Debug, Clone)]
@@ -156,133 +157,232 @@ pub struct ReconstructSummary {
     pub out: PathBuf,
 }
 
-/// Read a sensing matrix (or derive it from a design) and a shifts file, reconstruct
-/// every frame, write the loads CSV and return the summary; `progress` hears the frames.
-pub fn reconstruct_file(
-    a: &ReconstructRequest,
-    progress: &dyn crate::progress::Progress,
-) -> Result<ReconstructSummary> {
-    let named = a.method.as_deref().map(Method::from_name).transpose()?;
-    if a.penalty.is_some() && named.is_none() {
-        bail!("--penalty is a weight of one method: name the method with --method");
+impl ReconstructRequest {
+    /// Check what can be checked before anything is read: a penalty needs a named
+    /// method, and the matrix's uncertainty is given at most one way, as a percentage
+    /// ≥ 0.
+    pub fn validate(&self) -> Result<()> {
+        if self.penalty.is_some() && self.method.is_none() {
+            bail!("ReconstructRequest.penalty is a weight of one method: name the method with ReconstructRequest.method");
+        }
+        match (&self.matrix_sd, self.matrix_sd_pct) {
+            (Some(_), Some(_)) => bail!(
+                "give ReconstructRequest.matrix_sd FILE or ReconstructRequest.matrix_sd_pct P, not both"
+            ),
+            (None, Some(pct)) if !(pct.is_finite() && pct >= 0.0) => {
+                bail!("ReconstructRequest.matrix_sd_pct must be a percentage ≥ 0, got {pct}")
+            }
+            _ => Ok(()),
+        }
     }
-    let (matrix, generated_names, design_ulimit, design_max_loads, wavelengths) = match &a.matrix {
+}
+
+/// A sensing matrix as read (or derived from a design), with what the design adds.
+struct LoadedMatrix {
+    matrix: SensingMatrix,
+    /// The names were made up (a matrix of numbers only).
+    generated_names: bool,
+    /// The design's ulimit, g.
+    ulimit_g: Option<f64>,
+    /// The design's most simultaneous loads.
+    max_loads: Option<usize>,
+    /// The gratings' Bragg wavelengths (from a design), nm.
+    wavelengths_nm: Option<Vec<f64>>,
+}
+
+/// Read the matrix CSV, or derive the model matrix of a design.
+fn load_matrix(source: &MatrixSource) -> Result<LoadedMatrix> {
+    Ok(match source {
         MatrixSource::Csv(p) => {
             let f = read_matrix_file(p)?;
-            (f.matrix, f.generated_names, None, None, None)
+            LoadedMatrix {
+                matrix: f.matrix,
+                generated_names: f.generated_names,
+                ulimit_g: None,
+                max_loads: None,
+                wavelengths_nm: None,
+            }
         }
         MatrixSource::Design(d) => {
             let design = crate::design::load(d)?;
             let (m, u) =
                 matrix_from_design(&design).with_context(|| format!("design {}", d.display()))?;
-            let k = design.array.as_ref().and_then(|arr| arr.max_loads);
-            let wl: Option<Vec<f64>> = design
-                .array
-                .as_ref()
-                .map(|arr| arr.gratings.iter().map(|g| g.bragg_wavelength_nm).collect());
-            (m, false, Some(u), k.map(|k| k as usize), wl)
+            let arr = design.array.as_ref();
+            LoadedMatrix {
+                matrix: m,
+                generated_names: false,
+                ulimit_g: Some(u),
+                max_loads: arr.and_then(|a| a.max_loads).map(|k| k as usize),
+                wavelengths_nm: arr
+                    .map(|a| a.gratings.iter().map(|g| g.bragg_wavelength_nm).collect()),
+            }
         }
-    };
-    let ulimit_g = a.ulimit_g.or(design_ulimit).unwrap_or(PAPER_ULIMIT_G);
-    if !(ulimit_g.is_finite() && ulimit_g > 0.0) {
-        bail!("--ulimit-g must be a positive load in g, got {ulimit_g}");
-    }
-    let max_loads = a
-        .max_loads
-        .or(design_max_loads)
-        .unwrap_or(DEFAULT_MAX_LOADS);
-    if max_loads == 0 {
-        bail!("--max-loads must be at least 1");
-    }
-    let stream = read_shifts_for(&a.shifts, &matrix.gratings, generated_names)?;
-    let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
-    let resolution_pm = a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm);
-    check_resolution(resolution_pm).map_err(|e| anyhow::anyhow!("--resolution-pm: {e}"))?;
+    })
+}
+
+/// The matrix's per-entry uncertainty: the paper's, a CSV shaped like the matrix, or
+/// a percentage of each entry.
+fn matrix_uncertainty(
+    a: &ReconstructRequest,
+    loaded: &LoadedMatrix,
+    resolution_pm: f64,
+) -> Result<Uncertainty> {
+    let matrix = &loaded.matrix;
     let (m, n) = (matrix.n_gratings(), matrix.n_cells());
     let mut uncertainty = Uncertainty::paper(m, n, resolution_pm);
-    match (&a.matrix_sd, a.matrix_sd_pct) {
-        (Some(_), Some(_)) => bail!("give --matrix-sd FILE or --matrix-sd-pct P, not both"),
-        (Some(path), None) => {
-            let sd = read_matrix_file(path)
-                .with_context(|| format!("--matrix-sd {}", path.display()))?
-                .matrix;
-            if sd.gratings != matrix.gratings || sd.cells != matrix.cells {
-                if sd.sensitivity_pm_per_g.shape() != (m, n) {
-                    bail!(
-                        "--matrix-sd {}: {} × {} entries, but the sensing matrix is {m} × {n}",
-                        path.display(),
-                        sd.n_gratings(),
-                        sd.n_cells()
-                    );
-                }
-                if !generated_names {
-                    bail!(
-                        "--matrix-sd {}: its gratings and cells must be the matrix's, in the same order ({} and {})",
-                        path.display(),
-                        matrix.gratings.join(", "),
-                        matrix.cells.join(", ")
-                    );
-                }
+    if let Some(path) = &a.matrix_sd {
+        let sd = read_matrix_file(path)
+            .with_context(|| format!("ReconstructRequest.matrix_sd {}", path.display()))?
+            .matrix;
+        if sd.gratings != matrix.gratings || sd.cells != matrix.cells {
+            if sd.sensitivity_pm_per_g.shape() != (m, n) {
+                bail!(
+                    "ReconstructRequest.matrix_sd {}: {} × {} entries, but the sensing matrix is {m} × {n}",
+                    path.display(),
+                    sd.n_gratings(),
+                    sd.n_cells()
+                );
             }
-            uncertainty.matrix_sd_pm_per_g = sd.sensitivity_pm_per_g;
-        }
-        (None, Some(pct)) => {
-            if !(pct.is_finite() && pct >= 0.0) {
-                bail!("--matrix-sd-pct must be a percentage ≥ 0, got {pct}");
+            if !loaded.generated_names {
+                bail!(
+                    "ReconstructRequest.matrix_sd {}: its gratings and cells must be the matrix's, in the same order ({} and {})",
+                    path.display(),
+                    matrix.gratings.join(", "),
+                    matrix.cells.join(", ")
+                );
             }
-            uncertainty.matrix_sd_pm_per_g =
-                matrix.sensitivity_pm_per_g.map(|v| v.abs() * pct / 100.0);
         }
-        (None, None) => {}
+        uncertainty.matrix_sd_pm_per_g = sd.sensitivity_pm_per_g;
+    } else if let Some(pct) = a.matrix_sd_pct {
+        uncertainty.matrix_sd_pm_per_g = matrix.sensitivity_pm_per_g.map(|v| v.abs() * pct / 100.0);
     }
+    Ok(uncertainty)
+}
+
+/// The problem: the matrix with its bounds, the load range's lower end, the matrix's
+/// uncertainty, the dead-grating check and, when asked, the common-mode term.
+fn sensing_problem(
+    a: &ReconstructRequest,
+    loaded: &LoadedMatrix,
+    ulimit_g: f64,
+    min_load_g: f64,
+    uncertainty: Uncertainty,
+) -> Result<SensingProblem> {
+    let matrix = &loaded.matrix;
     let mut problem =
         SensingProblem::new(matrix.sensitivity_pm_per_g.clone(), ulimit_g, a.normalise)?
             .with_min_load_g(min_load_g)
-            .map_err(|e| anyhow::anyhow!("--min-load-g: {e}"))?
+            .map_err(|e| anyhow::anyhow!("ReconstructRequest.min_load_g: {e}"))?
             .with_uncertainty(uncertainty)
-            .map_err(|e| anyhow::anyhow!("--matrix-sd: {e}"))?
+            .map_err(|e| anyhow::anyhow!("ReconstructRequest.matrix_sd: {e}"))?
             .with_dead_grating_check(a.dead_grating_check);
     if a.common_mode {
-        let w = match &wavelengths {
+        let w = match &loaded.wavelengths_nm {
             Some(wl) => temperature_weights(wl),
-            None => vec![1.0; m],
+            None => vec![1.0; matrix.n_gratings()],
         };
         problem = problem
             .with_common_mode(&w)
-            .map_err(|e| anyhow::anyhow!("--common-mode: {e}"))?;
+            .map_err(|e| anyhow::anyhow!("ReconstructRequest.common_mode: {e}"))?;
     }
-    let prior = ReadingPrior {
-        max_loads,
-        resolution_pm,
+    Ok(problem)
+}
+
+/// Read a sensing matrix (or derive it from a design) and a shifts file, reconstruct
+/// every frame, write the loads CSV and return the summary; `progress` hears the frames.
+///
+/// ```
+/// use fbgforge_array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
+///
+/// // The paper's 6 × 8 matrix (two gratings, two cells shown) and two frames: cell A
+/// // loaded with 100 g, then nothing.
+/// let dir = tempfile::tempdir()?;
+/// let (matrix, shifts) = (dir.path().join("A.csv"), dir.path().join("shifts.csv"));
+/// std::fs::write(&matrix, "grating,A,B\nfbg1,0.10,0.02\nfbg2,0.03,0.09\n")?;
+/// std::fs::write(&shifts, "time_s,fbg1,fbg2\n0.0,10.0,3.0\n0.1,0.0,0.0\n")?;
+/// let mut req = ReconstructRequest::new(MatrixSource::Csv(matrix), shifts);
+/// req.method = Some("nnls".into());
+/// req.out = Some(dir.path().join("loads.csv"));
+/// let summary = reconstruct_file(&req, &fbgforge_core::progress::Quiet)?;
+/// assert_eq!((summary.frames, summary.method), (2, "nnls"));
+/// // The mean load over the two frames: 50 g on A, none on B.
+/// assert!((summary.mean_load_g[0] - 50.0).abs() < 1e-6 && summary.mean_load_g[1].abs() < 1e-6);
+/// assert!(std::fs::read_to_string(dir.path().join("loads.csv"))?.starts_with("time_s,A,B"));
+/// # Ok::<(), anyhow::Error>(())
+/// ```
+pub fn reconstruct_file(
+    a: &ReconstructRequest,
+    progress: &dyn crate::progress::Progress,
+) -> Result<ReconstructSummary> {
+    a.validate()?;
+    let named = a.method.as_deref().map(Method::from_name).transpose()?;
+    let loaded = load_matrix(&a.matrix)?;
+    let ulimit_g = a.ulimit_g.or(loaded.ulimit_g).unwrap_or(PAPER_ULIMIT_G);
+    if !(ulimit_g.is_finite() && ulimit_g > 0.0) {
+        bail!("ReconstructRequest.ulimit_g must be a positive load in g, got {ulimit_g}");
+    }
+    let prior = ReadingSettings {
+        max_loads: a
+            .max_loads
+            .or(loaded.max_loads)
+            .unwrap_or(DEFAULT_MAX_LOADS),
+        resolution_pm: a.resolution_pm.unwrap_or(NoisePrior::paper().resolution_pm),
     };
+    prior.check()?;
     let request = match named {
         Some(method) => MethodRequest::Named {
             method,
             penalty: a.penalty,
         },
-        None => {
-            let budget_us = a.budget_us.unwrap_or(DEFAULT_BUDGET_US);
-            if !(budget_us.is_finite() && budget_us > 0.0) {
-                bail!("--budget-us: the per-frame budget must be a positive time in µs, got {budget_us}");
-            }
-            MethodRequest::Default { budget_us }
-        }
+        None => MethodRequest::Default {
+            budget_us: a.budget_us.unwrap_or(DEFAULT_BUDGET_US),
+        },
     };
+    request.check()?;
+    let matrix = &loaded.matrix;
+    let stream = read_shifts_for(&a.shifts, &matrix.gratings, loaded.generated_names)?;
+    let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
+    let uncertainty = matrix_uncertainty(a, &loaded, prior.resolution_pm)?;
+    let problem = sensing_problem(a, &loaded, ulimit_g, min_load_g, uncertainty)?;
     let frames = Frames {
         gratings: &matrix.gratings,
         shifts_pm: &stream.frames_pm,
     };
     let done = reconstruct(&problem, frames, &prior, &request, progress)?;
-    let results = &done.frames;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
-    write_loads_with_trust(&out, &matrix.cells, stream.time_s.as_deref(), results)?;
+    write_loads_with_trust(&out, &matrix.cells, stream.time_s.as_deref(), &done.frames)?;
+    Ok(summarise(
+        a,
+        matrix,
+        &problem,
+        &prior,
+        done,
+        (ulimit_g, min_load_g),
+        out,
+    ))
+}
+
+/// The run's summary: the method and why, the flags, the loads, the times.
+fn summarise(
+    a: &ReconstructRequest,
+    matrix: &SensingMatrix,
+    problem: &SensingProblem,
+    prior: &ReadingSettings,
+    done: Reconstructed,
+    (ulimit_g, min_load_g): (f64, f64),
+    out: PathBuf,
+) -> ReconstructSummary {
+    let results = &done.frames;
     let n = results.len().max(1) as f64;
     let offsets: Vec<f64> = results.iter().filter_map(|r| r.common_mode_pm).collect();
-    let summary = ReconstructSummary {
+    ReconstructSummary {
         method: done.setup.method.name(),
         penalty: done.setup.penalty(),
-        choice: done.setup.choice,
-        max_loads: max_loads.min(matrix.n_gratings()).min(matrix.n_cells()),
+        choice: done.setup.choice.clone(),
+        max_loads: prior
+            .max_loads
+            .min(matrix.n_gratings())
+            .min(matrix.n_cells()),
         normalised: a.normalise,
         ulimit_g,
         min_load_g,
@@ -304,9 +404,8 @@ pub fn reconstruct_file(
         setup_ms: done.setup.setup_ms,
         time_per_frame_us: done.time_per_frame_us,
         threads: done.threads,
-        out: out.clone(),
-    };
-    Ok(summary)
+        out,
+    }
 }
 
 fn default_out(shifts: &Path) -> PathBuf {

@@ -32,84 +32,17 @@
 use super::methods::Reconstruction;
 use super::problem::SensingProblem;
 use nalgebra::{DMatrix, DVector};
-use serde::{Serialize, Serializer};
+use serde::Serialize;
+
+/// The per-frame flags, defined beside the [`Reconstruction`] that carries them.
+pub use super::methods::FrameFlags;
 
 /// Probability with which a frame whose errors are as stated is still flagged
 /// `inconsistent` (and with which `overload` is raised on a touching bound).
-pub const FALSE_ALARM: f64 = 1e-3;
+pub(crate) const FALSE_ALARM: f64 = 1e-3;
 
 /// Columns whose cosine is at least this are identical for `ambiguous`.
-pub const IDENTICAL_COLUMNS_COS: f64 = 1.0 - 1e-6;
-
-/// Why a frame should not be trusted; all false when it can be.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct FrameFlags {
-    /// The residual exceeds what the stated uncertainty explains (χ² test).
-    pub inconsistent: bool,
-    /// A load sits at ulimit.
-    pub ceiling: bool,
-    /// The frame is consistent with a load above ulimit.
-    pub overload: bool,
-    /// A loaded cell carries less than the rated minimum load.
-    pub below_range: bool,
-    /// Another answer ≥ 12 dB away fits about as well, or identical columns.
-    pub ambiguous: bool,
-    /// The method did not converge (`bnb`: stopped at its work budget).
-    pub unconverged: bool,
-    /// The frame could not be used (wrong length, non-finite shift).
-    pub unusable: bool,
-}
-
-impl FrameFlags {
-    /// The flag words in the order they are written.
-    pub const WORDS: [&'static str; 7] = [
-        "inconsistent",
-        "ceiling",
-        "overload",
-        "below_range",
-        "ambiguous",
-        "unconverged",
-        "unusable",
-    ];
-
-    fn bits(&self) -> [bool; 7] {
-        [
-            self.inconsistent,
-            self.ceiling,
-            self.overload,
-            self.below_range,
-            self.ambiguous,
-            self.unconverged,
-            self.unusable,
-        ]
-    }
-
-    /// The words of the flags that are set.
-    pub fn words(&self) -> Vec<&'static str> {
-        Self::WORDS
-            .iter()
-            .zip(self.bits())
-            .filter(|(_, b)| *b)
-            .map(|(w, _)| *w)
-            .collect()
-    }
-
-    /// True when no flag is set: the frame can be trusted.
-    pub fn trusted(&self) -> bool {
-        !self.bits().iter().any(|b| *b)
-    }
-
-    /// The flags as one CSV field: the words joined by `;` (empty when trusted).
-    pub fn field(&self) -> String {
-        self.words().join(";")
-    }
-}
-
-impl Serialize for FrameFlags {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        self.words().serialize(s)
-    }
-}
+pub(crate) const IDENTICAL_COLUMNS_COS: f64 = 1.0 - 1e-6;
 
 /// How many frames carry each flag (a frame may carry several).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -225,19 +158,16 @@ fn gamma_q(a: f64, x: f64) -> f64 {
 }
 
 /// P(χ²_dof ≥ x): the p-value of a χ² statistic with `dof` degrees of freedom.
-pub fn chi2_p_value(x: f64, dof: usize) -> f64 {
+pub(crate) fn chi2_p_value(x: f64, dof: usize) -> f64 {
     if dof == 0 {
         return 1.0;
     }
     gamma_q(0.5 * dof as f64, 0.5 * x.max(0.0))
 }
 
-/// The 1-dof χ² quantile at 1 − [`FALSE_ALARM`] (Φ⁻¹(1 − α/2)² = 3.2905²).
-pub const CHI2_1DOF_AT_FALSE_ALARM: f64 = 10.827_566_170_662_733;
-
 /// The per-frame tests of one problem, with what depends only on the matrix.
 #[derive(Debug, Clone)]
-pub struct Checker {
+pub(crate) struct Checker {
     problem: SensingProblem,
     /// For each cell, whether another cell's column is identical to its own.
     has_twin: Vec<bool>,
@@ -271,7 +201,7 @@ impl Checker {
     }
 
     /// Fill `r`'s χ², degrees of freedom and flags for frame `shifts_pm`.
-    pub fn assess(&self, shifts_pm: &[f64], r: &mut Reconstruction) {
+    pub(crate) fn assess(&self, shifts_pm: &[f64], r: &mut Reconstruction) {
         let p = &self.problem;
         if r.flags.unusable || p.check_shifts(shifts_pm).is_err() {
             r.flags = FrameFlags {
@@ -403,6 +333,8 @@ mod tests {
 
     #[test]
     fn chi2_p_values_match_closed_forms_and_tables() {
+        // The 1-dof χ² quantile at 1 − FALSE_ALARM (Φ⁻¹(1 − α/2)² = 3.2905²).
+        const CHI2_1DOF_AT_FALSE_ALARM: f64 = 10.827_566_170_662_733;
         // dof 2: P = exp(−x/2); dof 1: P = erfc(√(x/2)), 3.841 → 0.05; dof 4: tables.
         for x in [0.1, 1.0, 5.0, 20.0] {
             let want = (-x / 2.0f64).exp();

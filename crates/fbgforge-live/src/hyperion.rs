@@ -27,12 +27,12 @@ use std::fmt;
 /// The Hyperion peak-streaming TCP port.
 pub const PEAK_STREAM_PORT: u16 = 51972;
 /// Bytes of the response header before every message.
-pub const RESPONSE_HEADER_BYTES: usize = 8;
+pub(crate) const RESPONSE_HEADER_BYTES: usize = 8;
 /// Bytes of the peaks header before the peak counts.
-pub const PEAKS_HEADER_BYTES: usize = 24;
+pub(crate) const PEAKS_HEADER_BYTES: usize = 24;
 /// The largest content accepted, bytes: far above any real frame (16 channels × a few
 /// hundred peaks), small enough that a corrupted length cannot exhaust memory.
-pub const MAX_CONTENT_BYTES: usize = 1 << 20;
+pub(crate) const MAX_CONTENT_BYTES: usize = 1 << 20;
 
 /// One decoded peaks frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,7 +49,8 @@ pub struct PeaksFrame {
 
 impl PeaksFrame {
     /// The channel (from 0) of each peak.
-    pub fn peak_channels(&self) -> Vec<u16> {
+    #[cfg(test)]
+    pub(crate) fn peak_channels(&self) -> Vec<u16> {
         self.peak_counts
             .iter()
             .enumerate()
@@ -106,7 +107,7 @@ fn u32_at(b: &[u8], i: usize) -> u32 {
 }
 
 /// Decode the content of one peaks message.
-pub fn decode_peaks(content: &[u8]) -> Result<PeaksFrame, FrameError> {
+pub(crate) fn decode_peaks(content: &[u8]) -> Result<PeaksFrame, FrameError> {
     let bad = |m: String| Err(FrameError::Malformed(m));
     if content.len() < PEAKS_HEADER_BYTES {
         return bad(format!(
@@ -230,7 +231,8 @@ impl StreamDecoder {
     }
 
     /// Bytes received but not yet part of a complete message.
-    pub fn pending_bytes(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn pending_bytes(&self) -> usize {
         self.buf.len() - self.start
     }
 

@@ -10,16 +10,14 @@
 
 use super::source::Frame;
 use crate::array::kernel::matrix_from_design;
-use crate::array::methods::{
-    self, Method, MethodSettings, NoisePrior, ReadingPrior, Reconstruction,
-};
+use crate::array::methods::{self, Method, NoisePrior, ReadingSettings, Reconstruction};
 use crate::array::problem::{default_min_load_g, SensingProblem};
 use crate::array::reconstruct::{prepare, MethodRequest, Setup, DEFAULT_BUDGET_US};
 use crate::array::trust::FrameFlags;
+use crate::logs::assign::{default_half_width_nm, GratingWindow, PeakTracker};
 use crate::model::LoadCase;
 use crate::prediction::{FidelityChoice, PredictionRequest};
 use crate::spec::{Design, GratingRole};
-use crate::logs::assign::{default_half_width_nm, GratingWindow, PeakTracker};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -52,6 +50,18 @@ pub struct InterpretOptions {
     pub budget_us: f64,
 }
 
+impl InterpretOptions {
+    /// Check the array's reading settings whatever the design (a module ignores them):
+    /// a positive resolution and a positive per-frame budget.
+    pub fn validate(&self) -> Result<()> {
+        crate::array::methods::check_resolution(self.resolution_pm)
+            .map_err(|e| anyhow!("InterpretOptions.resolution_pm: {e}"))?;
+        crate::array::choice::check_budget(self.budget_us)
+            .map_err(|e| anyhow!("InterpretOptions.budget_us: {e}"))?;
+        Ok(())
+    }
+}
+
 impl Default for InterpretOptions {
     fn default() -> Self {
         InterpretOptions {
@@ -76,7 +86,7 @@ pub fn calibration_from_verify_json(path: &std::path::Path) -> Result<BTreeMap<S
         .with_context(|| format!("cannot read the calibration {}", path.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).with_context(|| {
         format!(
-            "{}: not JSON; expected the report of `fbgforge verify --json`",
+            "{}: not JSON; expected a verification report (`report.json`)",
             path.display()
         )
     })?;
@@ -85,7 +95,7 @@ pub fn calibration_from_verify_json(path: &std::path::Path) -> Result<BTreeMap<S
         .and_then(|g| g.as_array())
         .ok_or_else(|| {
             anyhow!(
-                "{}: no `measurement.gratings` list; expected the report of `fbgforge verify --json`",
+                "{}: no `measurement.gratings` list; expected a verification report (`report.json`)",
                 path.display()
             )
         })?;
@@ -278,7 +288,7 @@ impl Interpreter {
             .max_loads
             .map(|k| k as usize)
             .unwrap_or(methods::DEFAULT_MAX_LOADS);
-        let prior = ReadingPrior {
+        let prior = ReadingSettings {
             max_loads,
             resolution_pm: opts.resolution_pm,
         };
@@ -354,13 +364,13 @@ impl Interpreter {
             LoadCase::II
         });
         if case == LoadCase::II && opts.insert.is_some() {
-            bail!("--insert names the insert of Case I; Case II has none");
+            bail!("InterpretOptions.insert names the insert of Case I; Case II has none");
         }
         let insert_names = || -> Vec<&str> { m.inserts.iter().map(|i| i.name.as_str()).collect() };
         if case == LoadCase::I && opts.insert.is_none() {
             let names = insert_names();
             bail!(
-                "Case I needs --insert; the design's inserts are: {}",
+                "Case I needs InterpretOptions.insert; the design's inserts are: {}",
                 if names.is_empty() {
                     "none".to_string()
                 } else {
@@ -567,7 +577,7 @@ impl Interpreter {
     }
 
     /// The array's cell grid (cells_x, cells_y) and ulimit, g.
-    pub fn array_grid(&self) -> Option<(usize, usize, f64)> {
+    pub(crate) fn array_grid(&self) -> Option<(usize, usize, f64)> {
         self.array
             .as_ref()
             .map(|a| (a.cells_x, a.cells_y, a.ulimit_g))
@@ -579,7 +589,8 @@ impl Interpreter {
     }
 
     /// The settings the array's method was built with (array only).
-    pub fn method_settings(&self) -> Option<&MethodSettings> {
+    #[cfg(test)]
+    pub(crate) fn method_settings(&self) -> Option<&methods::MethodSettings> {
         self.array.as_ref().map(|a| &a.setup.settings)
     }
 
@@ -728,7 +739,8 @@ mod tests {
 
     #[test]
     fn module_force_is_the_compensated_shift_over_k() {
-        let design = crate::design::parse(include_str!("../../../designs/clip-on-34mm.toml")).unwrap();
+        let design =
+            crate::design::parse(include_str!("../../../designs/clip-on-34mm.toml")).unwrap();
         let mut k = BTreeMap::new();
         k.insert("lambda_21".to_string(), -170.0);
         k.insert("lambda_22".to_string(), -160.0);
@@ -790,14 +802,15 @@ mod tests {
     #[test]
     fn the_array_method_follows_the_stated_resolution_as_reconstruct_does() {
         let design =
-            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml")).unwrap();
+            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml"))
+                .unwrap();
         let (m, ulimit_g) = matrix_from_design(&design).unwrap();
         let problem = SensingProblem::new(m.sensitivity_pm_per_g.clone(), ulimit_g, true)
             .unwrap()
             .with_min_load_g(default_min_load_g(ulimit_g))
             .unwrap();
         let max_loads = design.array.as_ref().unwrap().max_loads;
-        let prior = |resolution_pm| ReadingPrior {
+        let prior = |resolution_pm| ReadingSettings {
             max_loads: max_loads.map_or(methods::DEFAULT_MAX_LOADS, |k| k as usize),
             resolution_pm,
         };
@@ -833,7 +846,8 @@ mod tests {
     #[test]
     fn array_frames_reconstruct_known_loads_and_missing_peaks_are_named() {
         let design =
-            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml")).unwrap();
+            crate::design::parse(include_str!("../../../designs/tactile-array-60x80.toml"))
+                .unwrap();
         let (m, _) = matrix_from_design(&design).unwrap();
         let mut it = Interpreter::new(
             &design,

@@ -8,30 +8,31 @@
 //!   array's cell loads (its default reconstruction method) or the module's
 //!   temperature-compensated force per grating (predicted or calibrated K);
 //! * [`stats`]: frames, drops, bad frames by kind, reconnections, latency;
-//! * [`view`]: the terminal view (text heat map) and the JSON-lines stream;
+//! * [`sink`]: where the output goes ([`sink::LiveSink`]; the terminal view and the
+//!   JSON-lines stream are `fbgforge_report::live`'s);
 //!
 //! The use case is [`run`]: `fbgforge live` and the tests call it. A bad frame is
 //! counted and named, never fatal; a dropped connection is reopened; frames that
 //! arrive faster than they can be read are dropped at the queue and counted, so the
 //! reader never falls behind the instrument.
 
-
 // Sibling crates under the names the modules used inside one crate.
+#[allow(unused_imports)]
+use fbgforge_array as array;
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
-use fbgforge_array as array;
 
 pub mod hyperion;
 pub mod interpret;
+pub mod sink;
 pub mod source;
 pub mod stats;
-pub mod view;
 
 use anyhow::Result;
 use interpret::{InterpretOptions, Interpreter, Prepared, Skip};
+use sink::{FrameReading, LiveInfo, LiveSink};
 use source::{Outlet, SourceEvent, SourceSpec};
 use stats::{Dropped, LiveSummary, Stats};
 use std::path::PathBuf;
@@ -39,7 +40,6 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use view::{FrameReading, LiveInfo, LiveSink};
 
 /// What to watch and how.
 #[derive(Debug, Clone)]
@@ -60,6 +60,19 @@ pub struct LiveRequest {
 }
 
 impl LiveRequest {
+    /// Check the request's limits, queue size and reading settings (the source's
+    /// options are checked when it is parsed, [`SourceSpec::parse`]).
+    pub fn validate(&self) -> Result<()> {
+        self.interpret.validate()?;
+        if let Some(d) = self.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
+            anyhow::bail!("LiveRequest.duration_s must be a positive number of seconds, got {d}");
+        }
+        if self.queue_frames == 0 {
+            anyhow::bail!("the queue must hold at least one frame");
+        }
+        Ok(())
+    }
+
     /// A request with every default.
     pub fn new(design: PathBuf, source: SourceSpec) -> Self {
         LiveRequest {
@@ -79,7 +92,7 @@ const BATCH: usize = 256;
 /// How far a stream's timestamps may be from this machine's clock and still be taken
 /// for the wall clock, s: above any plausible lag of a live stream, below the 15 min
 /// step of time zones (a log written in local time elsewhere is not the wall clock).
-pub const WALL_CLOCK_TOLERANCE_S: f64 = 300.0;
+pub(crate) const WALL_CLOCK_TOLERANCE_S: f64 = 300.0;
 
 /// Whether the stream's timestamps are this machine's wall clock, decided on the
 /// first frame that claims so after each (re)connection.
@@ -108,17 +121,6 @@ fn wall_now_s() -> f64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0.0, |d| d.as_secs_f64())
-}
-
-/// Check the request's limits and queue size.
-fn check_request(req: &LiveRequest) -> Result<()> {
-    if let Some(d) = req.duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
-        anyhow::bail!("--duration-s must be a positive number of seconds, got {d}");
-    }
-    if req.queue_frames == 0 {
-        anyhow::bail!("the queue must hold at least one frame");
-    }
-    Ok(())
 }
 
 /// What the sink is told before the first frame: the design, the source and the outputs.
@@ -392,7 +394,7 @@ impl Watch<'_> {
 /// the sink). Errors only for a bad request (design, options); nothing in the stream is
 /// fatal.
 pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Result<LiveSummary> {
-    check_request(req)?;
+    req.validate()?;
     let design = crate::design::load(&req.design)?;
     let interp = Interpreter::new(&design, &req.interpret)?;
     let info = live_info(&design, &interp, req);
@@ -430,7 +432,7 @@ pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Res
         }
         if let Some(d) = req.duration_s {
             if started.elapsed().as_secs_f64() >= d {
-                w.ended = Some(format!("--duration-s {d} reached"));
+                w.ended = Some(format!("LiveRequest.duration_s {d} reached"));
                 break;
             }
         }

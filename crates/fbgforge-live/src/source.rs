@@ -84,18 +84,44 @@ pub enum SourceSpec {
     },
 }
 
+/// How a source is read, besides where it is: a followed log's format, replay and
+/// idle end, and how long to try (re)connecting to an instrument.
+#[derive(Debug, Clone, Default)]
+pub struct SourceOptions {
+    /// Format and date order of a followed log (detected when `None`).
+    pub read: ReadOptions,
+    /// Replay the rows already in a followed log (default: start at its end).
+    pub from_start: bool,
+    /// End after a followed log has not grown for this long, s (default: never).
+    pub idle_exit_s: Option<f64>,
+    /// Give up after failing to (re)connect to an instrument for this long, s.
+    pub give_up_s: f64,
+}
+
+impl SourceOptions {
+    /// Check the times: each a finite number of seconds ≥ 0.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        if !(self.give_up_s.is_finite() && self.give_up_s >= 0.0) {
+            anyhow::bail!(
+                "SourceOptions.give_up_s must be a number of seconds ≥ 0, got {}",
+                self.give_up_s
+            );
+        }
+        if let Some(s) = self.idle_exit_s.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+            anyhow::bail!("SourceOptions.idle_exit_s must be a number of seconds ≥ 0, got {s}");
+        }
+        Ok(())
+    }
+}
+
 impl SourceSpec {
-    /// Parse `--from`: `-` is standard input, `hyperion://HOST[:PORT]` or
-    /// `tcp://HOST:PORT` a Hyperion stream (default port 51972), anything else a file.
-    pub fn parse(
-        text: &str,
-        read: ReadOptions,
-        from_start: bool,
-        idle_exit_s: Option<f64>,
-        give_up_s: f64,
-    ) -> SourceSpec {
+    /// Parse a source's name: `-` is standard input, `hyperion://HOST[:PORT]` or
+    /// `tcp://HOST:PORT` a Hyperion stream (default port 51972), anything else a file;
+    /// `opts` checked ([`SourceOptions::validate`]) and kept where the source uses them.
+    pub fn parse(text: &str, opts: SourceOptions) -> anyhow::Result<SourceSpec> {
+        opts.validate()?;
         if text == "-" {
-            return SourceSpec::Stdin;
+            return Ok(SourceSpec::Stdin);
         }
         for scheme in ["hyperion://", "tcp://"] {
             if let Some(rest) = text.strip_prefix(scheme) {
@@ -105,15 +131,18 @@ impl SourceSpec {
                 } else {
                     format!("{rest}:{}", hyperion::PEAK_STREAM_PORT)
                 };
-                return SourceSpec::Hyperion { address, give_up_s };
+                return Ok(SourceSpec::Hyperion {
+                    address,
+                    give_up_s: opts.give_up_s,
+                });
             }
         }
-        SourceSpec::Tail {
+        Ok(SourceSpec::Tail {
             path: PathBuf::from(text),
-            from_start,
-            idle_exit_s,
-            read,
-        }
+            from_start: opts.from_start,
+            idle_exit_s: opts.idle_exit_s,
+            read: opts.read,
+        })
     }
 
     /// A short description for the view.
@@ -207,7 +236,7 @@ pub fn spawn(spec: SourceSpec, out: Outlet) -> std::thread::JoinHandle<()> {
 
 /// Parse one line of standard input: peak wavelengths in nm separated by spaces,
 /// tabs, commas or semicolons. Blank lines and `#` comments give `Ok(None)`.
-pub fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
+pub(crate) fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
     let t = line.trim();
     if t.is_empty() || t.starts_with('#') {
         return Ok(None);
@@ -232,7 +261,7 @@ pub fn parse_peak_line(line: &str) -> Result<Option<Vec<f64>>, String> {
 }
 
 /// Frames from text lines (standard input or any reader), until the end of input.
-pub fn read_lines<R: BufRead>(mut r: R, name: &str, out: &Outlet) {
+pub(crate) fn read_lines<R: BufRead>(mut r: R, name: &str, out: &Outlet) {
     out.event(SourceEvent::Connected(name.to_string()));
     let mut line = String::new();
     let mut n = 0u64;
@@ -663,12 +692,17 @@ mod tests {
 
     #[test]
     fn source_names_parse_to_the_right_kind() {
-        let r = ReadOptions::default();
+        let opts = |from_start, idle_exit_s| SourceOptions {
+            read: ReadOptions::default(),
+            from_start,
+            idle_exit_s,
+            give_up_s: 5.0,
+        };
         assert!(matches!(
-            SourceSpec::parse("-", r.clone(), false, None, 5.0),
+            SourceSpec::parse("-", opts(false, None)).unwrap(),
             SourceSpec::Stdin
         ));
-        let addr = |s: &str| match SourceSpec::parse(s, ReadOptions::default(), false, None, 5.0) {
+        let addr = |s: &str| match SourceSpec::parse(s, opts(false, None)).unwrap() {
             SourceSpec::Hyperion { address, give_up_s } => {
                 assert_eq!(give_up_s, 5.0);
                 address
@@ -679,7 +713,7 @@ mod tests {
         assert_eq!(addr("tcp://127.0.0.1:4000"), "127.0.0.1:4000");
         assert_eq!(addr("hyperion://localhost/"), "localhost:51972");
         assert!(matches!(
-            SourceSpec::parse("Peaks.20250320140346.txt", r, true, Some(1.0), 5.0),
+            SourceSpec::parse("Peaks.20250320140346.txt", opts(true, Some(1.0))).unwrap(),
             SourceSpec::Tail {
                 from_start: true,
                 ..

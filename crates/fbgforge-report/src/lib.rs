@@ -7,27 +7,27 @@
 //! A new front end (a web view, say) is one more implementation: see
 //! `docs/architecture.md`, "A new front end".
 
-// Sibling crates under the names the modules used inside one crate.
+// Sibling crates under the names the modules used inside one crate (the use cases
+// whose printers are modules here of the same name are named in full: `fbgforge_verify`).
+#[allow(unused_imports)]
+use fbgforge_array as array;
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+#[allow(unused_imports)]
+use fbgforge_geometry as geometry;
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
 #[allow(unused_imports)]
 use fbgforge_plot as plot;
 #[allow(unused_imports)]
 use fbgforge_plot::html;
-#[allow(unused_imports)]
-use fbgforge_array as array;
-#[allow(unused_imports)]
-use fbgforge_geometry as geometry;
-#[allow(unused_imports)]
-use fbgforge_verify as verify;
-#[allow(unused_imports)]
-use fbgforge_live as live;
-#[allow(unused_imports)]
-use fbgforge_synth as synth;
 
+pub mod build;
+pub mod calibrate;
+pub mod live;
 pub mod optimize;
 pub mod place;
 pub mod predict;
-pub mod build;
+pub mod reconstruct;
+pub mod synth;
+pub mod verify;

@@ -50,4 +50,3 @@ pub fn synth_calibration_log(
         wavelength_nm,
     })
 }
-

@@ -4,10 +4,10 @@
 //! matrix from a logged loading run ([`calibrate_array`]).
 
 use crate::array::calibrate;
-use crate::{array_log, module_log as synth};
 use crate::array::SensingMatrix;
 use crate::logs::{self, LogFormat};
 use crate::spec::Design;
+use crate::{array_log, module_log as synth};
 use anyhow::Result;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -130,4 +130,3 @@ pub fn write_synth_log(design: &Design, req: &SynthLogRequest) -> Result<SynthLo
         }
     }
 }
-

@@ -12,13 +12,13 @@
 
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
-use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
-#[allow(unused_imports)]
-use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
 use fbgforge_array as array;
 #[allow(unused_imports)]
+use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
+#[allow(unused_imports)]
 use fbgforge_live as live;
+#[allow(unused_imports)]
+use fbgforge_model::{fem, model, prediction, solvers};
 #[allow(unused_imports)]
 use fbgforge_verify as verify;
 

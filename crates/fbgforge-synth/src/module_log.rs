@@ -190,9 +190,9 @@ pub struct SynthConfig {
 }
 
 /// Most wavelength rows a synthetic log may have (about 1 GB of ENLIGHT text).
-pub const MAX_ROWS: f64 = 1e7;
+pub(crate) const MAX_ROWS: f64 = 1e7;
 /// Most force samples a synthetic force log may have.
-pub const MAX_FORCE_SAMPLES: f64 = 2e7;
+pub(crate) const MAX_FORCE_SAMPLES: f64 = 2e7;
 
 impl Default for SynthConfig {
     fn default() -> Self {
@@ -300,27 +300,39 @@ pub struct SynthForce {
     pub force_n: Vec<f64>,
 }
 
-/// Pulses of `shape` with the given peaks, each `pulse_s` long with `rest_s` between
-/// them, the first at `lead_s`, and the run's length (`rest_s` after the last pulse,
-/// 30 s without pulses): what `fbgforge synth-log --pulses-n --pulse-s --rest-s`
-/// describes. Refuses lengths that are not finite and positive, with the flag named.
-pub fn train(
-    peaks_n: &[f64],
-    pulse_s: f64,
-    rest_s: f64,
-    lead_s: f64,
-    shape: PulseShape,
-) -> Result<(Vec<Pulse>, f64)> {
+/// A train of pulses: what `fbgforge synth-log` describes with its peak forces, pulse
+/// length, rest and shape.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainSettings {
+    /// Peak force of each pulse, N.
+    pub peaks_n: Vec<f64>,
+    /// Duration of each pulse, s.
+    pub pulse_s: f64,
+    /// Rest between pulses (and after the last), s.
+    pub rest_s: f64,
+    /// Start of the first pulse, s.
+    pub lead_s: f64,
+    /// Shape of every pulse.
+    pub shape: PulseShape,
+}
+
+/// The pulses of `t` ([`shaped_train`]) and the run's length (`rest_s` after the last
+/// pulse, 30 s without pulses). Refuses lengths that are not finite and positive,
+/// with the field named.
+pub fn train(t: &TrainSettings) -> Result<(Vec<Pulse>, f64)> {
+    let (pulse_s, rest_s) = (t.pulse_s, t.rest_s);
     if !(pulse_s > 0.0 && pulse_s.is_finite()) {
-        bail!("the pulse length (--pulse-s) must be a finite number of seconds > 0, got {pulse_s}");
+        bail!("the pulse length (TrainSettings.pulse_s) must be a finite number of seconds > 0, got {pulse_s}");
     }
     if !(rest_s >= 0.0 && rest_s.is_finite()) {
-        bail!("the rest between pulses (--rest-s) must be a finite number of seconds ≥ 0, got {rest_s}");
+        bail!("the rest between pulses (TrainSettings.rest_s) must be a finite number of seconds ≥ 0, got {rest_s}");
     }
-    if let Some(p) = peaks_n.iter().find(|p| !p.is_finite()) {
-        bail!("every peak force (--pulses-n) must be a finite number of newtons, got {p}");
+    if let Some(p) = t.peaks_n.iter().find(|p| !p.is_finite()) {
+        bail!(
+            "every peak force (TrainSettings.peaks_n) must be a finite number of newtons, got {p}"
+        );
     }
-    let pulses = shaped_train(peaks_n, pulse_s, rest_s, lead_s, shape);
+    let pulses = shaped_train(&t.peaks_n, pulse_s, rest_s, t.lead_s, t.shape);
     let duration = pulses
         .last()
         .map_or(30.0, |p| p.start_s + p.duration_s + rest_s);
@@ -334,8 +346,8 @@ pub fn train(
             }
         };
         bail!(
-            "{} pulses of {} s with {} s between them make a run too long to write (--pulse-s, --rest-s)",
-            peaks_n.len(),
+            "{} pulses of {} s with {} s between them make a run too long to write (TrainSettings.pulse_s, TrainSettings.rest_s)",
+            t.peaks_n.len(),
             s(pulse_s),
             s(rest_s)
         );
@@ -361,6 +373,14 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
     if !m.cores.iter().any(|c| c.name == core) {
         bail!("design `{}` has no core named `{core}`", design.name);
     }
+    check_numbers(cfg)?;
+    check_size(cfg)?;
+    check_pulses(cfg)?;
+    Ok(core)
+}
+
+/// Rates, lengths, noises and the force channel's faults: finite and in range.
+fn check_numbers(cfg: &SynthConfig) -> Result<()> {
     let positive = |v: f64| v > 0.0 && v.is_finite();
     if !(positive(cfg.sample_rate_hz)
         && positive(cfg.force_rate_hz)
@@ -368,7 +388,7 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
         && positive(cfg.tau_s))
     {
         bail!(
-            "rates (--rate-hz {}, --force-rate-hz {}), the run's length ({} s) and τ (--tau-s {}) must be finite and positive",
+            "rates (SynthConfig.sample_rate_hz {}, SynthConfig.force_rate_hz {}), the run's length ({} s) and τ (SynthConfig.tau_s {}) must be finite and positive",
             cfg.sample_rate_hz,
             cfg.force_rate_hz,
             cfg.duration_s,
@@ -376,11 +396,17 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
         );
     }
     for (name, v) in [
-        ("the sensitivity (--k-pm-per-n)", cfg.sensitivity_pm_per_n),
-        ("the force log's start (--force-start-s)", cfg.force_start_s),
-        ("the drift (--drift-pm-per-s)", cfg.drift_pm_per_s),
         (
-            "the temperature ramp (--temperature-ramp-k-per-s)",
+            "the sensitivity (SynthConfig.sensitivity_pm_per_n)",
+            cfg.sensitivity_pm_per_n,
+        ),
+        (
+            "the force log's start (SynthConfig.force_start_s)",
+            cfg.force_start_s,
+        ),
+        ("the drift (SynthConfig.drift_pm_per_s)", cfg.drift_pm_per_s),
+        (
+            "the temperature ramp (SynthConfig.temperature_ramp_k_per_s)",
             cfg.temperature_ramp_k_per_s,
         ),
         ("the first row's wall-clock time", cfg.start_epoch_s),
@@ -391,8 +417,11 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
         }
     }
     for (name, v) in [
-        ("the peak noise (--noise-pm)", cfg.noise_pm),
-        ("the force noise (--force-noise-n)", cfg.force_noise_n),
+        ("the peak noise (SynthConfig.noise_pm)", cfg.noise_pm),
+        (
+            "the force noise (SynthConfig.force_noise_n)",
+            cfg.force_noise_n,
+        ),
         ("the wavelength step", cfg.quantization_pm),
     ] {
         if !(v >= 0.0 && v.is_finite()) {
@@ -422,10 +451,16 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
     {
         bail!("grating `{g}`: its sensitivity must be a finite number, got {k}");
     }
+    Ok(())
+}
+
+/// The log writable: at least 10 and at most [`MAX_ROWS`] rows, at most
+/// [`MAX_FORCE_SAMPLES`] force samples.
+fn check_size(cfg: &SynthConfig) -> Result<()> {
     let rows = cfg.rows();
     if rows.is_nan() || rows > MAX_ROWS {
         bail!(
-            "a run of {:e} s at {} Hz would be {rows:e} wavelength rows; a synthetic log has at most {MAX_ROWS:e} (shorten --pulse-s, --rest-s or the train, or lower --rate-hz)",
+            "a run of {:e} s at {} Hz would be {rows:e} wavelength rows; a synthetic log has at most {MAX_ROWS:e} (shorten TrainSettings.pulse_s, TrainSettings.rest_s or the train, or lower SynthConfig.sample_rate_hz)",
             cfg.duration_s,
             cfg.sample_rate_hz
         );
@@ -440,11 +475,17 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
     let samples = cfg.force_samples();
     if samples.is_nan() || samples > MAX_FORCE_SAMPLES {
         bail!(
-            "the force log would hold {samples:e} samples ({} Hz over {:e} s); at most {MAX_FORCE_SAMPLES:e} are written (lower --force-rate-hz, shorten the run or --force-start-s)",
+            "the force log would hold {samples:e} samples ({} Hz over {:e} s); at most {MAX_FORCE_SAMPLES:e} are written (lower SynthConfig.force_rate_hz, shorten the run or SynthConfig.force_start_s)",
             cfg.force_rate_hz,
             (cfg.duration_s - cfg.force_start_s).max(cfg.duration_s)
         );
     }
+    Ok(())
+}
+
+/// The transport delay, every pulse's shape within its duration, a non-zero peak, and
+/// the fractions in range.
+fn check_pulses(cfg: &SynthConfig) -> Result<()> {
     if !(cfg.transport_delay_s.is_finite() && cfg.transport_delay_s >= 0.0) {
         bail!(
             "the transport delay must be a finite number of seconds ≥ 0, got {}",
@@ -475,7 +516,7 @@ pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
     if !(0.0..=1.0).contains(&cfg.instant_fraction) || !(0.0..1.0).contains(&cfg.dropout_fraction) {
         bail!("the instant fraction must be in [0, 1] and the dropout fraction in [0, 1)");
     }
-    Ok(core)
+    Ok(())
 }
 
 /// The noise-free response on a fine time grid, with the true lags it gives.

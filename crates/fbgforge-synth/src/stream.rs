@@ -17,10 +17,10 @@
 //! which counts only while a client reads, so that what a client receives does not
 //! depend on when it connected or on the machine's load (the end-to-end tests' clock).
 
-use crate::live::hyperion::{encode_peaks, PeaksFrame};
-use crate::live::interpret::{InterpretOptions, Interpreter};
 use crate::array::kernel::matrix_from_design;
 use crate::array::protocol::NoiseModel;
+use crate::live::hyperion::{encode_peaks, PeaksFrame};
+use crate::live::interpret::{InterpretOptions, Interpreter};
 use crate::logs::csv_table;
 use crate::model::LoadCase;
 use crate::spec::Design;
@@ -37,14 +37,14 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// The longest a simulated stream runs, s.
-pub const MAX_DURATION_S: f64 = 3600.0;
+pub(crate) const MAX_DURATION_S: f64 = 3600.0;
 /// The fastest frame rate served, Hz.
-pub const MAX_RATE_HZ: f64 = 100_000.0;
+pub(crate) const MAX_RATE_HZ: f64 = 100_000.0;
 /// Interrogator resolution of the simulated instrument, pm (one standard deviation).
 pub const RESOLUTION_PM: f64 = 0.5;
 
 /// Noise on the simulated shifts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SynthNoise {
     /// None: exact shifts.
@@ -59,10 +59,10 @@ pub enum SynthNoise {
 /// How long the server refuses connections after the deliberate drop, s.
 pub const REFUSAL_S: f64 = 0.25;
 /// With the client's clock: how long the server waits for a client before it gives up, s.
-pub const CLIENT_WAIT_S: f64 = 30.0;
+pub(crate) const CLIENT_WAIT_S: f64 = 30.0;
 
 /// How the simulated instrument counts its frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FrameClock {
     /// As an instrument does: frame k is due k / rate after the server starts, read or
@@ -127,7 +127,7 @@ fn script_columns(design: &Design) -> Result<Vec<String>> {
 /// Read a load script CSV: header `hold_s,<columns…>` (array: any of the cell labels,
 /// loads in g; module: `force_n` and optionally `delta_t_k`), one step per row. Columns
 /// left out are 0. Errors name the file and line.
-pub fn read_script(path: &Path, design: &Design) -> Result<LoadScript> {
+pub(crate) fn read_script(path: &Path, design: &Design) -> Result<LoadScript> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read the load script {}", path.display()))?;
     parse_script(&text, path, design)
@@ -300,7 +300,7 @@ impl SynthRequest {
 }
 
 /// What kind of corruption frame `serial` carries, if any.
-pub fn corruption(bad_every: Option<u64>, serial: u64) -> Option<&'static str> {
+pub(crate) fn corruption(bad_every: Option<u64>, serial: u64) -> Option<&'static str> {
     let n = bad_every.filter(|&n| n > 0)?;
     if serial % n != n - 1 {
         return None;
@@ -355,7 +355,7 @@ impl Generator {
     pub fn with_script(design: &Design, script: LoadScript, req: &SynthRequest) -> Result<Self> {
         if !(req.rate_hz.is_finite() && req.rate_hz > 0.0 && req.rate_hz <= MAX_RATE_HZ) {
             bail!(
-                "--rate-hz must be in (0, {MAX_RATE_HZ}] frames per second, got {}",
+                "SynthRequest.rate_hz must be in (0, {MAX_RATE_HZ}] frames per second, got {}",
                 req.rate_hz
             );
         }
@@ -547,7 +547,7 @@ fn wall_now_s() -> f64 {
 /// drop happens, when connections are refused and when the stream ends. Every method
 /// is given the time, so the counter can be driven without waiting (its tests do).
 #[derive(Debug, Clone)]
-pub struct Pacer {
+pub(crate) struct Pacer {
     clock: FrameClock,
     rate_hz: f64,
     duration_s: f64,
@@ -586,7 +586,7 @@ impl Pacer {
     }
 
     /// Serial number of the next frame (= frames numbered so far).
-    pub fn next_serial(&self) -> u64 {
+    pub(crate) fn next_serial(&self) -> u64 {
         self.next_serial
     }
 
@@ -632,12 +632,12 @@ impl Pacer {
     }
 
     /// Whether a connection may be accepted at `now` (not during the refusal).
-    pub fn accepting(&self, now: Instant) -> bool {
+    pub(crate) fn accepting(&self, now: Instant) -> bool {
         self.refuse_until.is_none_or(|u| now >= u)
     }
 
     /// Whether the connected client is to be dropped now (once per stream).
-    pub fn drop_due(&self) -> bool {
+    pub(crate) fn drop_due(&self) -> bool {
         if self.dropped {
             return false;
         }
@@ -669,7 +669,7 @@ impl Pacer {
     /// Number the frames due now and return their serials. With the client's clock
     /// none is due without a client, none past the drop before the drop, and none past
     /// the stream's end.
-    pub fn take_due(&mut self, connected: bool) -> std::ops::Range<u64> {
+    pub(crate) fn take_due(&mut self, connected: bool) -> std::ops::Range<u64> {
         let on_clock = (self.run_s * self.rate_hz).floor() as u64 + 1;
         let due = match self.clock {
             FrameClock::Instrument => on_clock,
@@ -714,7 +714,7 @@ fn accept(listener: &TcpListener) -> Result<Option<TcpStream>> {
 pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Result<SynthSummary> {
     if !(req.duration_s.is_finite() && req.duration_s > 0.0 && req.duration_s <= MAX_DURATION_S) {
         bail!(
-            "--duration-s must be in (0, {MAX_DURATION_S}] seconds (the stream stops by itself), got {}",
+            "SynthRequest.duration_s must be in (0, {MAX_DURATION_S}] seconds (the stream stops by itself), got {}",
             req.duration_s
         );
     }

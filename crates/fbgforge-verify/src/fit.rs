@@ -27,7 +27,7 @@ use argmin::core::CostFunction;
 /// Ordinary least squares with an arbitrary number of regressors (normal equations;
 /// the problems here have at most three columns). Returns (coefficients, SSR,
 /// inverse of XᵀX) or None when singular.
-pub struct Ols {
+pub(crate) struct Ols {
     /// Coefficients in column order.
     pub coef: Vec<f64>,
     /// Residual sum of squares.
@@ -40,7 +40,7 @@ pub struct Ols {
 
 /// Accumulates XᵀX and Xᵀy for up to 3 regressors.
 #[derive(Clone, Default)]
-pub struct NormalEq {
+pub(crate) struct NormalEq {
     k: usize,
     xtx: [[f64; 3]; 3],
     xty: [f64; 3],
@@ -245,7 +245,7 @@ pub fn interp(t: &[f64], v: &[f64], x: f64, hint: &mut usize) -> f64 {
 /// The lag-model fit problem: shift samples (time on the wavelength clock, pm) and the
 /// force log (time on the force clock, N). Parameters: [offset s, ln τ, logit r],
 /// with offset = force clock − wavelength clock.
-pub struct LagModelCost<'a> {
+pub(crate) struct LagModelCost<'a> {
     /// Shift sample times, wavelength clock, s.
     pub shift_t: &'a [f64],
     /// Shift samples, pm (finite).
@@ -269,7 +269,7 @@ pub struct LagModelCost<'a> {
 
 /// Result of the lag-model fit at one parameter set.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LagModelFit {
+pub(crate) struct LagModelFit {
     /// Force clock − wavelength clock, s.
     pub offset_s: f64,
     /// τ, s.
@@ -291,9 +291,9 @@ pub struct LagModelFit {
 }
 
 /// Bounds of the searched time constant, s.
-pub const TAU_MIN_S: f64 = 1e-4;
+pub(crate) const TAU_MIN_S: f64 = 1e-4;
 /// Upper bound of τ, s.
-pub const TAU_MAX_S: f64 = 1e4;
+pub(crate) const TAU_MAX_S: f64 = 1e4;
 
 impl LagModelCost<'_> {
     fn unpack(&self, p: &[f64]) -> (f64, f64, f64) {
@@ -406,7 +406,7 @@ impl LagModelCost<'_> {
 /// that the lag model's response explains: 1 − SSR(lag model) / SSR(baseline and
 /// drift alone). Unlike the lag model's own R², it gives no credit for the drift, so an
 /// unloaded log with a drifting baseline scores near 0.
-pub fn response_r_squared(t: &[f64], shift: &[f64], residual: &[f64], t_mid: f64) -> f64 {
+pub(crate) fn response_r_squared(t: &[f64], shift: &[f64], residual: &[f64], t_mid: f64) -> f64 {
     let mut ne = NormalEq::new(2);
     let mut ssr_full = 0.0;
     for ((&ti, &s), &e) in t.iter().zip(shift).zip(residual) {
@@ -452,7 +452,7 @@ where
 /// Peak of samples (t, v) near index `i_max` (the largest value): vertex of a
 /// least-squares parabola through the contiguous samples above `threshold` around it
 /// (at least the three nearest). Returns (time, value).
-pub fn peak_vertex(t: &[f64], v: &[f64], i_max: usize, threshold: f64) -> (f64, f64) {
+pub(crate) fn peak_vertex(t: &[f64], v: &[f64], i_max: usize, threshold: f64) -> (f64, f64) {
     let n = t.len();
     let (mut a, mut b) = (i_max, i_max);
     while a > 0 && v[a - 1].is_finite() && v[a - 1] >= threshold && i_max - a < 5000 {

@@ -22,18 +22,18 @@ use super::segment::{percentile, Segmentation};
 use serde::Serialize;
 
 /// Fewest trusted pulses a verdict needs once the untrusted ones are left out.
-pub const MIN_USABLE_PULSES: usize = 2;
+pub(crate) const MIN_USABLE_PULSES: usize = 2;
 /// Consecutive samples at the log's maximum that make a flat (clipped) top.
-pub const MIN_FLAT_SAMPLES: usize = 5;
+pub(crate) const MIN_FLAT_SAMPLES: usize = 5;
 /// A step in the force log's time longer than this many median periods is a gap.
-pub const GAP_PERIODS: f64 = 5.0;
+pub(crate) const GAP_PERIODS: f64 = 5.0;
 /// How long after an untrusted stretch the shift is still left out at least, s (the
 /// lag model's memory of the force).
 const MEMORY_S: f64 = 5.0;
 
 /// A pulse whose top is clipped.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ClippedPulse {
+pub(crate) struct ClippedPulse {
     /// The pulse (index into the segmentation's pulses, from 0).
     pub pulse: usize,
     /// How long its top stays flat at the saturation level, s.
@@ -42,7 +42,7 @@ pub struct ClippedPulse {
 
 /// A gap in the force log.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ForceGap {
+pub(crate) struct ForceGap {
     /// Index of the sample before the gap (the next one is after it).
     pub before: usize,
     /// Length of the gap, s.
@@ -53,7 +53,7 @@ pub struct ForceGap {
 
 /// What the force log's samples say about themselves.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct ForceCheck {
+pub(crate) struct ForceCheck {
     /// The level the channel saturates at, N (when any pulse is clipped).
     pub saturation_n: Option<f64>,
     /// Clipped pulses.
@@ -64,7 +64,7 @@ pub struct ForceCheck {
 
 impl ForceCheck {
     /// The pulses that cannot be trusted (clipped, or with a gap), sorted.
-    pub fn untrusted_pulses(&self) -> Vec<usize> {
+    pub(crate) fn untrusted_pulses(&self) -> Vec<usize> {
         let mut v: Vec<usize> = self
             .clipped
             .iter()
@@ -80,7 +80,7 @@ impl ForceCheck {
     /// out of the fits: each untrusted pulse from half a second before its start to
     /// the next pulse's start (at most 5 s or two pulse lengths after its end), and
     /// each gap at rest with 5 s after it (never into the next pulse).
-    pub fn excluded_spans(&self, t: &[f64], seg: &Segmentation) -> Vec<(usize, usize)> {
+    pub(crate) fn excluded_spans(&self, t: &[f64], seg: &Segmentation) -> Vec<(usize, usize)> {
         let n = t.len();
         if n == 0 {
             return Vec::new();
@@ -195,7 +195,7 @@ fn clipped_pulses(t: &[f64], f: &[f64], seg: &Segmentation) -> (Option<f64>, Vec
 /// Steps in time longer than [`GAP_PERIODS`] median periods, with the pulse each lies
 /// in or touches.
 fn gaps(t: &[f64], seg: &Segmentation) -> Vec<ForceGap> {
-    let dt = crate::logs::median_period(t);
+    let dt = crate::logs::time::median_period(t);
     if dt.is_nan() || dt <= 0.0 {
         return Vec::new();
     }

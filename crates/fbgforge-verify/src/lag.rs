@@ -41,7 +41,7 @@ pub struct SegmentLag {
 
 /// Least share of a window's variance the shifted force must explain for its lag to
 /// count (below it the window holds no clear response).
-pub const MIN_SEGMENT_R_SQUARED: f64 = 0.5;
+pub(crate) const MIN_SEGMENT_R_SQUARED: f64 = 0.5;
 
 /// Most response samples a segment's fit uses (evenly strided beyond).
 const MAX_SAMPLES: usize = 600;
@@ -62,69 +62,127 @@ pub fn segment_lag(
     if force_t.len() < 2 || !(max_lag_s > 0.0 && max_lag_s.is_finite()) {
         return None;
     }
-    let (a, b) = window;
-    let lo = resp_t.partition_point(|&x| x < a);
-    let hi = resp_t.partition_point(|&x| x <= b);
-    let idx: Vec<usize> = (lo..hi).filter(|&i| resp[i].is_finite()).collect();
-    if idx.len() < 4 {
-        return None;
-    }
-    let stride = idx.len().div_ceil(MAX_SAMPLES).max(1);
-    let ts: Vec<f64> = idx.iter().step_by(stride).map(|&i| resp_t[i]).collect();
-    let ys: Vec<f64> = idx.iter().step_by(stride).map(|&i| resp[i]).collect();
-    let n = ts.len() as f64;
-    let (sy, syy) = ys.iter().fold((0.0, 0.0), |(s, q), y| (s + y, q + y * y));
-    let sst = syy - sy * sy / n;
-    let eval = |d: f64| -> (f64, f64) {
-        // Start the interpolation at the window (a walk from 0 costs the whole log).
-        let mut hint = force_t
-            .partition_point(|&v| v <= ts[0] - d)
-            .saturating_sub(1);
-        let (mut sx, mut sxx, mut sxy) = (0.0, 0.0, 0.0);
-        for (&t, &y) in ts.iter().zip(&ys) {
-            let x = interp(force_t, force, t - d, &mut hint);
-            sx += x;
-            sxx += x * x;
-            sxy += x * y;
-        }
-        let vx = sxx - sx * sx / n;
-        // No force change in view at this shift, or a change of the wrong sign: no
-        // match (the residual is the whole variance).
-        if vx.is_nan() || vx <= 1e-12 * (sxx.abs() + 1e-300) {
-            return (sst, 0.0);
-        }
-        let cov = sxy - sx * sy / n;
-        let g = cov / vx;
-        if g * sign <= 0.0 || !g.is_finite() {
-            return (sst, 0.0);
-        }
-        ((sst - g * cov).max(0.0), g)
-    };
+    let scan = LagScan::new((resp_t, resp), (force_t, force), window, sign)?;
     // Coarse scan, then a fine one around its best point.
-    let scan = |from: f64, step: f64, count: usize| -> Vec<(f64, f64, f64)> {
-        (0..count)
-            .map(|k| {
-                let d = from + k as f64 * step;
-                let (s, g) = eval(d);
-                (d, s, g)
-            })
-            .collect()
-    };
     let coarse_n = 61;
     let c = 2.0 * max_lag_s / (coarse_n - 1) as f64;
-    let coarse = scan(-max_lag_s, c, coarse_n);
-    if sst.is_nan() || sst <= 0.0 || coarse.iter().all(|p| p.2 == 0.0) {
+    let coarse = scan.scan(-max_lag_s, c, coarse_n);
+    if scan.sst.is_nan() || scan.sst <= 0.0 || coarse.iter().all(|p| p.2 == 0.0) {
         return None;
     }
     let best = argmin(&coarse);
     let fine_n = 61;
     let h = 3.0 * c / (fine_n - 1) as f64;
-    let fine = scan(coarse[best].0 - 1.5 * c, h, fine_n);
-    // The minimum and its curvature from a parabola through the scan points inside
-    // the 2σ band (SSR within 4σ² of its least value), at least the five around the
-    // best one: the curvature at the scale of the uncertainty itself, not of the
-    // force log's sample spacing.
-    let k = argmin(&fine).clamp(2, fine_n - 3);
+    let fine = scan.scan(coarse[best].0 - 1.5 * c, h, fine_n);
+    let (lag, ssr, curv) = parabola_minimum(&fine, scan.n);
+    let sigma2 = ssr.max(0.0) / (scan.n - 3.0).max(1.0);
+    let uncertainty = if curv > 0.0 {
+        (sigma2 / curv).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    Some(SegmentLag {
+        lag_s: lag,
+        uncertainty_s: uncertainty,
+        gain: scan.eval(lag).1,
+        at_limit: lag.abs() >= max_lag_s - c,
+        r_squared: 1.0 - ssr.max(0.0) / scan.sst,
+    })
+}
+
+/// The residual of a segment's window against the force shifted by Δ: the window's
+/// response samples (at most [`MAX_SAMPLES`], evenly strided), their sum and total
+/// sum of squares, and the force.
+struct LagScan<'a> {
+    ts: Vec<f64>,
+    ys: Vec<f64>,
+    n: f64,
+    sy: f64,
+    sst: f64,
+    force_t: &'a [f64],
+    force: &'a [f64],
+    sign: f64,
+}
+
+impl<'a> LagScan<'a> {
+    /// The window's finite response samples; None with fewer than four.
+    fn new(
+        (resp_t, resp): (&[f64], &[f64]),
+        (force_t, force): (&'a [f64], &'a [f64]),
+        (a, b): (f64, f64),
+        sign: f64,
+    ) -> Option<Self> {
+        let lo = resp_t.partition_point(|&x| x < a);
+        let hi = resp_t.partition_point(|&x| x <= b);
+        let idx: Vec<usize> = (lo..hi).filter(|&i| resp[i].is_finite()).collect();
+        if idx.len() < 4 {
+            return None;
+        }
+        let stride = idx.len().div_ceil(MAX_SAMPLES).max(1);
+        let ts: Vec<f64> = idx.iter().step_by(stride).map(|&i| resp_t[i]).collect();
+        let ys: Vec<f64> = idx.iter().step_by(stride).map(|&i| resp[i]).collect();
+        let n = ts.len() as f64;
+        let (sy, syy) = ys.iter().fold((0.0, 0.0), |(s, q), y| (s + y, q + y * y));
+        Some(LagScan {
+            ts,
+            ys,
+            n,
+            sy,
+            sst: syy - sy * sy / n,
+            force_t,
+            force,
+            sign,
+        })
+    }
+
+    /// The residual sum of squares of the best line a + g·F(t − d) through the window,
+    /// and g; the whole variance and 0 when the force does not change in view at this
+    /// shift, or changes with the wrong sign (no match).
+    fn eval(&self, d: f64) -> (f64, f64) {
+        let (n, sy, sst) = (self.n, self.sy, self.sst);
+        // Start the interpolation at the window (a walk from 0 costs the whole log).
+        let mut hint = self
+            .force_t
+            .partition_point(|&v| v <= self.ts[0] - d)
+            .saturating_sub(1);
+        let (mut sx, mut sxx, mut sxy) = (0.0, 0.0, 0.0);
+        for (&t, &y) in self.ts.iter().zip(&self.ys) {
+            let x = interp(self.force_t, self.force, t - d, &mut hint);
+            sx += x;
+            sxx += x * x;
+            sxy += x * y;
+        }
+        let vx = sxx - sx * sx / n;
+        if vx.is_nan() || vx <= 1e-12 * (sxx.abs() + 1e-300) {
+            return (sst, 0.0);
+        }
+        let cov = sxy - sx * sy / n;
+        let g = cov / vx;
+        if g * self.sign <= 0.0 || !g.is_finite() {
+            return (sst, 0.0);
+        }
+        ((sst - g * cov).max(0.0), g)
+    }
+
+    /// (Δ, SSR, g) at `count` shifts `step` apart from `from`.
+    fn scan(&self, from: f64, step: f64, count: usize) -> Vec<(f64, f64, f64)> {
+        (0..count)
+            .map(|k| {
+                let d = from + k as f64 * step;
+                let (s, g) = self.eval(d);
+                (d, s, g)
+            })
+            .collect()
+    }
+}
+
+/// The minimum of a fine scan and its curvature, (Δ, SSR, c), from a parabola through
+/// the scan points inside the 2σ band (SSR within 4σ² of its least value), at least
+/// the five around the best one: the curvature at the scale of the uncertainty
+/// itself, not of the force log's sample spacing (`n`: the samples fitted).
+fn parabola_minimum(fine: &[(f64, f64, f64)], n: f64) -> (f64, f64, f64) {
+    let fine_n = fine.len();
+    let k = argmin(fine).clamp(2, fine_n - 3);
     let sigma2_min = fine[k].1.max(0.0) / (n - 3.0).max(1.0);
     let band = fine[k].1 + 4.0 * sigma2_min;
     let (mut a0, mut b0) = (k - 2, k + 2);
@@ -140,7 +198,7 @@ pub fn segment_lag(
         let x = p.0 - x0;
         ne.add(&[1.0, x, x * x], p.1);
     }
-    let (lag, ssr, curv) = match ne.solve() {
+    match ne.solve() {
         Some(o) if o.coef[2] > 0.0 => {
             let x = (-o.coef[1] / (2.0 * o.coef[2])).clamp(fine[a0].0 - x0, fine[b0].0 - x0);
             (
@@ -150,20 +208,7 @@ pub fn segment_lag(
             )
         }
         _ => (x0, fine[k].1, 0.0),
-    };
-    let sigma2 = ssr.max(0.0) / (n - 3.0).max(1.0);
-    let uncertainty = if curv > 0.0 {
-        (sigma2 / curv).sqrt()
-    } else {
-        f64::INFINITY
-    };
-    Some(SegmentLag {
-        lag_s: lag,
-        uncertainty_s: uncertainty,
-        gain: eval(lag).1,
-        at_limit: lag.abs() >= max_lag_s - c,
-        r_squared: 1.0 - ssr.max(0.0) / sst,
-    })
+    }
 }
 
 /// The range of lags searched in a segment's window: up to four times the lag the lag
@@ -204,7 +249,7 @@ pub struct LagSummary {
 }
 
 /// Upper 99.9 % point of χ² with `k` degrees of freedom (Wilson–Hilferty beyond 2).
-pub fn chi2_999(k: usize) -> f64 {
+pub(crate) fn chi2_999(k: usize) -> f64 {
     // Exact for one and two degrees of freedom, where the approximation is poorest.
     match k {
         0 | 1 => return 10.828,

@@ -1,15 +1,18 @@
 //! The verify use case: a design and two log files in, a judged report out.
-//! `fbgforge verify`, the verify study and the Python bindings all call [`run`] (or its
-//! two stages, [`read_inputs`] and [`judge`]), so the pipeline is written once.
+//! `fbgforge verify`, the verify study and the Python bindings all call [`run`] or
+//! [`run_with`] (or its two stages, [`read_inputs`] and [`judge`]), so the pipeline is
+//! written once; the results go to a [`VerifySink`].
 
 use super::analysis::{analyse, AnalysisOptions, Series};
 use super::report::VerifyReport;
+use super::sink::VerifySink;
 use super::verdict;
-use crate::logs::{self, ForceColumns, ForceLog, PeakLog, ReadOptions};
+use crate::logs::{self, ForceLog, ForceReadOptions, PeakLog, ReadOptions};
 use crate::model::LoadCase;
+use crate::prediction::ContactCalibration;
 use crate::spec::Design;
 use anyhow::{bail, Result};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// What to verify and how.
 #[derive(Debug, Clone)]
@@ -22,8 +25,8 @@ pub struct VerifyRequest {
     pub force: PathBuf,
     /// How to read the wavelength log (format and date order detected when `None`).
     pub read: ReadOptions,
-    /// Which columns of the force log hold time and force, and their unit.
-    pub force_columns: ForceColumns,
+    /// How to read the force log: which columns hold time and force, their unit.
+    pub force_read: ForceReadOptions,
     /// Load case (default: I with an insert, II without).
     pub case: Option<LoadCase>,
     /// Insert used in Case I.
@@ -50,7 +53,7 @@ impl VerifyRequest {
             log,
             force,
             read: ReadOptions::default(),
-            force_columns: ForceColumns::default(),
+            force_read: ForceReadOptions::default(),
             case: None,
             insert: None,
             analysis: AnalysisOptions::default(),
@@ -61,12 +64,36 @@ impl VerifyRequest {
     }
 
     /// The load case the request names or implies.
-    pub fn load_case(&self) -> LoadCase {
+    pub(crate) fn load_case(&self) -> LoadCase {
         self.case.unwrap_or(if self.insert.is_some() {
             LoadCase::I
         } else {
             LoadCase::II
         })
+    }
+
+    /// Check the request's numbers (each finite and in its range, the error naming the
+    /// field and the range) and that the clock offset is given at most one way.
+    pub fn validate(&self) -> Result<()> {
+        let tol = self.k_tolerance;
+        if !(tol > 0.0 && tol <= verdict::MAX_TOLERANCE) {
+            bail!(
+                "the K tolerance (VerifyRequest.k_tolerance) must be a fraction in (0, {}] (0.08 = 8 %), got {tol}",
+                verdict::MAX_TOLERANCE
+            );
+        }
+        self.analysis.validate()?;
+        if let Some(f) = self.force_read.scale_to_n {
+            if !(f > 0.0 && f.is_finite()) {
+                bail!("the force column's factor to N (ForceReadOptions.scale_to_n) must be a finite number > 0, got {f}");
+            }
+        }
+        if self.force_start.is_some() && self.analysis.clock_offset_s.is_some() {
+            bail!(
+                "give either VerifyRequest.force_start or AnalysisOptions.clock_offset_s, not both"
+            );
+        }
+        Ok(())
     }
 }
 
@@ -78,7 +105,7 @@ pub struct VerifyOutcome {
     /// Aligned force and wavelength series.
     pub series: Series,
     /// The contact calibration, when one was asked for (`calibrate_into`).
-    pub calibration: Option<crate::prediction::ContactCalibration>,
+    pub calibration: Option<ContactCalibration>,
 }
 
 /// The inputs of a verification, read and checked.
@@ -92,43 +119,91 @@ pub struct VerifyInputs {
     pub force: ForceLog,
 }
 
-/// Read, analyse and judge (and calibrate, when asked).
+/// Read, analyse and judge (and calibrate, when asked): the outcome, returned.
+///
+/// ```
+/// use fbgforge_verify::{run, verdict::Status, VerifyRequest};
+/// use std::fmt::Write as _;
+///
+/// // A run of six 30 N presses: the force stand's log, and the wavelength log of a part
+/// // whose grating λ_11 (1546.295 nm) shifts by K = 12 pm/N with a lag of τ = 0.3 s,
+/// // beside an unloaded λ_12 and the temperature reference λ_temp.
+/// let force_at = |t: f64| {
+///     let x = (t - 5.0) % 10.0;
+///     if t > 5.0 && t < 65.0 && x < 4.0 { 15.0 * (1.0 - (std::f64::consts::TAU * x / 4.0).cos()) } else { 0.0 }
+/// };
+/// let (mut force, mut peaks) = (String::from("time_s,force_N\n"), String::from("time_s,a,b,c\n"));
+/// let mut shift = 0.0;
+/// for i in 0..7000 {
+///     let t = i as f64 / 100.0;
+///     writeln!(force, "{t:.2},{:.4}", force_at(t))?;
+///     shift += (12.0 * force_at(t) - shift) * 0.01 / 0.3;
+///     let noise = 0.2 * ((i as f64 * 0.7).sin());
+///     if i % 5 == 0 {
+///         writeln!(peaks, "{t:.2},{:.5},{:.5},{:.5}", 1546.295 + (shift + noise) / 1e3, 1524.570 + noise / 1e3, 1560.146)?;
+///     }
+/// }
+/// let dir = tempfile::tempdir()?;
+/// let (log, stand) = (dir.path().join("peaks.csv"), dir.path().join("stand.csv"));
+/// std::fs::write(&log, peaks)?;
+/// std::fs::write(&stand, force)?;
+///
+/// let design = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../designs/clip-on-34mm.toml");
+/// let mut req = VerifyRequest::new(design, log, stand);
+/// req.analysis.core = Some("psc1".into());
+/// let outcome = run(&req)?;
+/// let g = &outcome.report.measurement.gratings[0];
+/// assert_eq!(g.grating, "lambda_11");
+/// assert!((g.sensitivity_pm_per_n - 12.0).abs() < 0.2, "{}", g.sensitivity_pm_per_n);
+/// // The model's K of this core is far from 12 pm/N: the part fails.
+/// assert_eq!(outcome.report.verdict.overall, Status::Fail);
+/// # Ok::<(), anyhow::Error>(())
+/// ```
 pub fn run(req: &VerifyRequest) -> Result<VerifyOutcome> {
+    run_with(req, &mut ())
+}
+
+/// [`run`], handing the results to `sink` (the judged report and the series, then the
+/// contact calibration) once everything has been computed: a failed calibration
+/// leaves the sink untold.
+pub fn run_with(req: &VerifyRequest, sink: &mut dyn VerifySink) -> Result<VerifyOutcome> {
     let inputs = read_inputs(req)?;
     let mut outcome = match &req.force_start {
         None => judge(req, &inputs)?,
         Some(text) => {
-            if req.analysis.clock_offset_s.is_some() {
-                bail!("give either --force-start or --clock-offset-s, not both");
-            }
             let mut req = req.clone();
             req.analysis.clock_offset_s = Some(offset_from_force_start(text, &inputs, &req.read)?);
             judge(&req, &inputs)?
         }
     };
     if let Some(path) = &req.calibrate_into {
-        outcome.calibration = Some(calibrate_into(req, &inputs, &outcome.report, path)?);
+        outcome.calibration = Some(calibrate_into(req, &inputs, &outcome.report, path, &*sink)?);
+    }
+    sink.judged(&outcome.report, &outcome.series)?;
+    if let (Some(c), Some(path)) = (&outcome.calibration, &req.calibrate_into) {
+        sink.calibrated(c, path)?;
     }
     Ok(outcome)
 }
 
 /// Fit the design's contact reading to the measured K of the gratings that responded,
-/// and write the calibrated design to `path`.
+/// and write the calibrated design to `path` (its header in the front end's words).
 fn calibrate_into(
     req: &VerifyRequest,
     inputs: &VerifyInputs,
     report: &VerifyReport,
-    path: &std::path::Path,
-) -> Result<crate::prediction::ContactCalibration> {
+    path: &Path,
+    sink: &dyn VerifySink,
+) -> Result<ContactCalibration> {
     use crate::prediction::{calibrate_contact, with_contact_radius};
     if req.load_case() != LoadCase::I {
-        bail!("--calibrate-into fits the Case I contact reading: give a Case I log (--case I --insert NAME)");
+        bail!("VerifyRequest.calibrate_into fits the Case I contact reading: give a Case I log (VerifyRequest.case I VerifyRequest.insert NAME)");
     }
     let Some(insert) = req.insert.clone() else {
-        bail!("--calibrate-into needs the insert used (--insert NAME)");
+        bail!("VerifyRequest.calibrate_into needs the insert used (VerifyRequest.insert NAME)");
     };
     if let Some(why) = &report.measurement.force_trust.not_judged {
-        bail!("--calibrate-into: the force cannot be trusted, so neither can K: {why}");
+        bail!("VerifyRequest.calibrate_into: the force cannot be trusted, so neither can K: {why}");
     }
     let responded: Vec<_> = report
         .measurement
@@ -140,7 +215,7 @@ fn calibrate_into(
         .collect();
     let Some(core) = responded.first().and_then(|g| g.core.clone()) else {
         bail!(
-            "--calibrate-into: no grating responded to the force, so there is no K to calibrate on"
+            "VerifyRequest.calibrate_into: no grating responded to the force, so there is no K to calibrate on"
         );
     };
     let measured: Vec<(String, f64)> = responded
@@ -169,92 +244,49 @@ fn calibrate_into(
             cal.previous_radius_mm
         ));
     }
-    let text = format!(
-        "# Written by fbgforge verify --calibrate-into from {}: [module.contact] calibrated on a measured Case I log.\n{}",
-        req.design.display(),
-        out.to_toml()
-    );
+    let header = sink.in_words(&format!(
+        "# Written by fbgforge verify VerifyRequest.calibrate_into from {}: [module.contact] calibrated on a measured Case I log.",
+        req.design.display()
+    ));
+    let text = format!("{header}\n{}", out.to_toml());
     crate::design::parse(&text)
         .map_err(|e| anyhow::anyhow!("internal: the calibrated design does not load back: {e}"))?;
     crate::output::write_atomic(path, text.as_bytes())?;
     Ok(cal)
 }
 
-/// Largest wavelength window half-width, nm (a grating's whole strain range; wider
-/// windows swallow the neighbours').
-pub const MAX_WINDOW_NM: f64 = 10.0;
-/// Largest interrogator resolution, pm.
-pub const MAX_RESOLUTION_PM: f64 = 100.0;
-/// Largest search range of an estimated clock offset, s (one day).
-pub const MAX_OFFSET_RANGE_S: f64 = 86_400.0;
-
-/// Check the request's numbers: each finite and in its range, the error naming the
-/// flag and the range.
-pub fn check_options(req: &VerifyRequest) -> Result<()> {
-    let tol = req.k_tolerance;
-    if !(tol > 0.0 && tol <= verdict::MAX_TOLERANCE) {
-        bail!(
-            "the K tolerance (--k-tolerance) must be a fraction in (0, {}] (0.08 = 8 %), got {tol}",
-            verdict::MAX_TOLERANCE
-        );
-    }
-    if let Some(o) = req.analysis.clock_offset_s.filter(|o| !o.is_finite()) {
-        bail!("the clock offset (--clock-offset-s) must be a finite number of seconds, got {o}");
-    }
-    let range = req.analysis.max_clock_offset_s;
-    if !(range.is_finite() && (0.0..=MAX_OFFSET_RANGE_S).contains(&range)) {
-        bail!("the clock offset's search range (--max-offset-s) must be a finite number of seconds in [0, {MAX_OFFSET_RANGE_S}], got {range}");
-    }
-    if let Some(w) = req.analysis.window_half_width_nm {
-        if !(w > 0.0 && w <= MAX_WINDOW_NM) {
-            bail!("the wavelength window half-width (--window-nm) must be in (0, {MAX_WINDOW_NM}] nm, got {w}");
-        }
-    }
-    if let Some(r) = req.analysis.resolution_pm {
-        if !(r > 0.0 && r <= MAX_RESOLUTION_PM) {
-            bail!("the interrogator resolution (--resolution-pm) must be in (0, {MAX_RESOLUTION_PM}] pm, got {r}");
-        }
-    }
-    if let Some(f) = req.force_columns.scale_to_n {
-        if !(f > 0.0 && f.is_finite()) {
-            bail!("the force column's factor to N (--force-scale-to-n) must be a finite number > 0, got {f}");
-        }
-    }
-    Ok(())
-}
-
 /// Stage 1: check the request against the design and read both logs.
 pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
-    check_options(req)?;
+    req.validate()?;
     let design = crate::design::load(&req.design)?;
     check_insert(&design, req)?;
     let log = logs::read_peak_log(&req.log, &req.read)?;
-    let force = logs::read_force_log(&req.force, &req.force_columns)?;
+    let force = logs::read_force_log(&req.force, &req.force_read)?;
     Ok(VerifyInputs { design, log, force })
 }
 
-/// The clock offset a `--force-start` wall-clock time gives (force clock − wavelength
+/// The clock offset a `force_start` wall-clock time gives (force clock − wavelength
 /// clock, s), checked against what the two logs carry.
-pub fn offset_from_force_start(
+pub(crate) fn offset_from_force_start(
     text: &str,
     inputs: &VerifyInputs,
     read: &ReadOptions,
 ) -> Result<f64> {
     use crate::logs::{num, Clock};
     if inputs.log.clock != Clock::Absolute {
-        bail!("--force-start needs a wavelength log with wall-clock times; {} has relative times: give --clock-offset-s instead", inputs.log.source.display());
+        bail!("VerifyRequest.force_start needs a wavelength log with wall-clock times; {} has relative times: give AnalysisOptions.clock_offset_s instead", inputs.log.source.display());
     }
     if inputs.force.clock == Clock::Absolute {
-        bail!("--force-start is for a force log with relative times; {} carries wall-clock times already (drop --force-start)", inputs.force.source.display());
+        bail!("VerifyRequest.force_start is for a force log with relative times; {} carries wall-clock times already (drop VerifyRequest.force_start)", inputs.force.source.display());
     }
     let (date, secs) = num::parse_datetime(text.as_bytes()).ok_or_else(|| {
         anyhow::anyhow!(
-            "--force-start `{text}`: expected a date and time such as 2025-04-17 15:44:54.3"
+            "VerifyRequest.force_start `{text}`: expected a date and time such as 2025-04-17 15:44:54.3"
         )
     })?;
     let order = read.date_order.unwrap_or(num::DateOrder::DayMonthYear);
     let days = num::date_to_days(&date, order)
-        .map_err(|e| anyhow::anyhow!("--force-start `{text}`: {e}"))?;
+        .map_err(|e| anyhow::anyhow!("VerifyRequest.force_start `{text}`: {e}"))?;
     let start = days as f64 * 86400.0 + secs;
     // The force log's first sample (its own time force.time_s[0]) was taken at `start`.
     Ok(inputs.force.time_s[0] - start)
@@ -272,7 +304,7 @@ fn check_insert(design: &Design, req: &VerifyRequest) -> Result<()> {
         }
     }
     if req.load_case() == LoadCase::II && req.insert.is_some() {
-        bail!("--insert names the insert of Case I; Case II has none");
+        bail!("VerifyRequest.insert names the insert of Case I; Case II has none");
     }
     Ok(())
 }
@@ -298,8 +330,8 @@ pub fn model_predictions(
 }
 
 /// Whether the design's contact reading was calibrated on a measured part: its
-/// `[module.contact]` note says so (as `--calibrate-into` writes it).
-pub fn contact_is_calibrated(design: &Design) -> bool {
+/// `[module.contact]` note says so (as `calibrate_into` writes it).
+pub(crate) fn contact_is_calibrated(design: &Design) -> bool {
     design
         .module
         .as_ref()

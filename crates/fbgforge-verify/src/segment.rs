@@ -215,7 +215,7 @@ fn force_levels(t: &[f64], f: &[f64]) -> ForceLevels {
     let base = percentile(f, 0.1);
     let amp = percentile(f, 0.999) - base;
     let sigma = noise_sigma(f);
-    let dt = crate::logs::median_period(t).max(1e-9);
+    let dt = crate::logs::time::median_period(t).max(1e-9);
     let m = ((0.05 / dt).round() as usize).min(50);
     let sm = moving_average(f, m);
     let delta = (0.02 * amp).max(6.0 * sigma / ((2 * m + 1) as f64).sqrt());
@@ -512,7 +512,7 @@ pub fn segment(t: &[f64], f: &[f64]) -> Segmentation {
 
 /// The protocol of pulses of the given classes: the class of more than half of them,
 /// or [`Protocol::Mixed`] (impulse when there are none).
-pub fn protocol_of(classes: &[Protocol]) -> Protocol {
+pub(crate) fn protocol_of(classes: &[Protocol]) -> Protocol {
     if classes.is_empty() {
         return Protocol::Impulse;
     }
@@ -534,7 +534,7 @@ fn majority(classes: &[Protocol]) -> Protocol {
 }
 
 /// Centred moving average over ±m samples (shorter at the ends).
-pub fn moving_average(v: &[f64], m: usize) -> Vec<f64> {
+pub(crate) fn moving_average(v: &[f64], m: usize) -> Vec<f64> {
     if m == 0 {
         return v.to_vec();
     }
@@ -719,8 +719,10 @@ mod tests {
         }
     }
 
+    // Each protocol is named and cut into its segments: impulses, press-hold-release,
+    // a staircase, and sines (from rest and on a preload).
     #[test]
-    fn each_protocol_is_named_and_cut_into_its_segments() {
+    fn impulses_are_named_and_cut_into_pulses() {
         let t = grid(120.0, 50.0);
         // Three 4 s haversines, 16 s apart: impulse, one segment each.
         let f: Vec<f64> = t
@@ -738,6 +740,11 @@ mod tests {
         assert_eq!(s.protocol, Protocol::Impulse);
         assert_eq!(s.segments.len(), 3);
         assert!(s.segments.iter().all(|g| g.kind == SegmentKind::Pulse));
+    }
+
+    #[test]
+    fn press_hold_release_is_named_and_cut_into_presses_and_releases() {
+        let t = grid(120.0, 50.0);
         // Trapezoids: 2 s ramps, 10 s hold: a press and a release each.
         let trap = |x: f64| {
             if !(0.0..=14.0).contains(&x) {
@@ -757,6 +764,10 @@ mod tests {
         assert!(kinds
             .chunks(2)
             .all(|c| c == [SegmentKind::Press, SegmentKind::Release]));
+    }
+
+    #[test]
+    fn a_staircase_is_named_and_cut_into_steps() {
         // A staircase of 10 steps up and 10 down, 4 s holds, 0.3 s ramps.
         let stair = |x: f64| -> f64 {
             let period = 4.3;
@@ -790,6 +801,11 @@ mod tests {
             .count();
         assert_eq!((ups, downs), (10, 10), "{:?}", s.segments);
         assert_eq!(s.plateaus.iter().filter(|p| !p.rest).count(), 19);
+    }
+
+    #[test]
+    fn sines_are_named_and_cut_into_cycles() {
+        let t = grid(120.0, 50.0);
         // A sine from rest, 0.25 Hz, 8 cycles: eight cycles.
         let f: Vec<f64> = t
             .iter()

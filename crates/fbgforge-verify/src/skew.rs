@@ -17,13 +17,13 @@
 use serde::Serialize;
 
 /// A skew is corrected when it exceeds this many standard uncertainties.
-pub const SIGNIFICANCE: f64 = 3.0;
+pub(crate) const SIGNIFICANCE: f64 = 3.0;
 /// Fewest segment lags a skew is fitted to.
-pub const MIN_SEGMENTS: usize = 3;
+pub(crate) const MIN_SEGMENTS: usize = 3;
 
 /// The straight line of the segment lags against time.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct SkewFit {
+pub(crate) struct SkewFit {
     /// How much faster the force clock runs than the wavelength clock, s/s (1e-6 =
     /// 1 ppm); positive when the lags fall over the run.
     pub skew: f64,
@@ -46,7 +46,7 @@ impl SkewFit {
     }
 
     /// Its uncertainty in parts per million.
-    pub fn uncertainty_ppm(&self) -> f64 {
+    pub(crate) fn uncertainty_ppm(&self) -> f64 {
         1e6 * self.skew_uncertainty
     }
 
@@ -64,7 +64,7 @@ impl SkewFit {
 /// Fit the skew to segment lags `(time s, lag s, standard uncertainty s)`; `pivot_s`
 /// is where the warp holds the clocks together (None: the lags' weighted mean time).
 /// None with fewer than [`MIN_SEGMENTS`] usable lags or no spread in time.
-pub fn fit_skew(points: &[(f64, f64, f64)], pivot_s: Option<f64>) -> Option<SkewFit> {
+pub(crate) fn fit_skew(points: &[(f64, f64, f64)], pivot_s: Option<f64>) -> Option<SkewFit> {
     let p: Vec<(f64, f64, f64)> = points
         .iter()
         .copied()

@@ -7,7 +7,7 @@
 //! response model's own fit (its R² beyond baseline and drift, and |K| against K's
 //! standard error with the effective sample size of its residuals).
 //!
-//! Per grating ([`verdicts_with_policy`]): a grating without a prediction is NOT
+//! Per grating ([`verdicts_with_policy`], or [`verdicts`] against bare predictions): a grating without a prediction is NOT
 //! JUDGED with the reason; one that did not respond is NO RESPONSE, or FAIL when the
 //! model predicts a shift well above the noise and another grating of the run did
 //! respond (a dead grating). With the model policy's band between the bounding contact
@@ -22,9 +22,9 @@
 //! The module ([`Verdict::overall`]) passes only when every grating the model says
 //! responds has been judged and passes.
 
+use crate::analysis::{GratingResult, Measurement};
 use crate::model::{GratingPrediction, LoadCase};
 use crate::prediction::ModelledPrediction;
-use crate::analysis::{GratingResult, Measurement};
 use serde::Serialize;
 
 /// Default tolerance on the relative error of K (the paper's model was within 8 %).
@@ -32,11 +32,11 @@ pub const DEFAULT_TOLERANCE: f64 = 0.08;
 
 /// Largest tolerance on the relative error of K a verdict accepts (50 %: beyond it a
 /// K of the wrong size would pass).
-pub const MAX_TOLERANCE: f64 = 0.5;
+pub(crate) const MAX_TOLERANCE: f64 = 0.5;
 
 /// A band whose bounding contact readings span more than this factor says too little
 /// about a print: the configuration is judged only once its contact is calibrated.
-pub const MAX_BAND_FACTOR: f64 = 3.0;
+pub(crate) const MAX_BAND_FACTOR: f64 = 3.0;
 
 /// Outcome for one grating, and for the module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -78,7 +78,7 @@ impl Status {
 
 /// What a grating's fit must show before its K is compared with the model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ResponseGate {
+pub(crate) struct ResponseGate {
     /// Smallest R² of the response model beyond baseline and drift
     /// (`response_r_squared`): the force, through the lag model, explains the shift.
     pub min_r_squared: f64,
@@ -162,7 +162,7 @@ impl ResponseGate {
 
     /// The shift the model predicts over the pulses' force range, pm, and whether it
     /// stands well above the grating's noise (at least the resolution).
-    pub fn predicted_shift(
+    pub(crate) fn predicted_shift(
         &self,
         predicted_pm_per_n: f64,
         peak_force_n: f64,
@@ -311,7 +311,7 @@ pub struct Verdict {
 
 /// What the verdict knows of the design's contact reading (Case I).
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct ContactKnowledge {
+pub(crate) struct ContactKnowledge {
     /// The design's contact reading was calibrated on a measured part (its
     /// `[module.contact]` note says so, as `verify --calibrate-into` writes it): its
     /// nominal prediction is judged against, whatever the band's width.
@@ -323,7 +323,7 @@ pub struct ContactKnowledge {
 /// How a run is judged: the configuration, the tolerance, the gate and what is known
 /// of the contact.
 #[derive(Debug, Clone)]
-pub struct JudgeOptions<'a> {
+pub(crate) struct JudgeOptions<'a> {
     /// Load case.
     pub case: LoadCase,
     /// Insert (Case I).
@@ -336,33 +336,15 @@ pub struct JudgeOptions<'a> {
     pub contact: ContactKnowledge,
 }
 
-/// Apply [`judge`] to every measured grating. `predictions` is the model's output or
-/// the reason it gave none.
+/// Apply [`judge`] to every measured grating against bare predictions (no band, the
+/// contact uncalibrated), with the default [`ResponseGate`]. `predictions` is the
+/// model's output or the reason it gave none.
 pub fn verdicts(
     m: &Measurement,
     predictions: Result<&[GratingPrediction], String>,
     case: LoadCase,
     insert: Option<&str>,
     tolerance: f64,
-) -> Verdict {
-    verdicts_gated(
-        m,
-        predictions,
-        case,
-        insert,
-        tolerance,
-        &ResponseGate::default(),
-    )
-}
-
-/// [`verdicts`] with an explicit response gate.
-pub fn verdicts_gated(
-    m: &Measurement,
-    predictions: Result<&[GratingPrediction], String>,
-    case: LoadCase,
-    insert: Option<&str>,
-    tolerance: f64,
-    gate: &ResponseGate,
 ) -> Verdict {
     let rows: Result<Vec<Found>, String> = predictions.map(|ps| {
         ps.iter()
@@ -377,35 +359,15 @@ pub fn verdicts_gated(
         case,
         insert,
         tolerance,
-        gate: *gate,
+        gate: ResponseGate::default(),
         contact: ContactKnowledge::default(),
     };
     judge_all(m, rows, &opts)
 }
 
-/// [`verdicts`] against the model policy's rows, with the contact uncalibrated and its
-/// calibration's reach unknown: see [`verdicts_with_policy`].
-pub fn verdicts_with_band(
-    m: &Measurement,
-    predictions: Result<&[ModelledPrediction], String>,
-    case: LoadCase,
-    insert: Option<&str>,
-    tolerance: f64,
-    gate: &ResponseGate,
-) -> Verdict {
-    let opts = JudgeOptions {
-        case,
-        insert,
-        tolerance,
-        gate: *gate,
-        contact: ContactKnowledge::default(),
-    };
-    verdicts_with_policy(m, predictions, &opts)
-}
-
 /// Every grating judged against the model policy's rows: its nominal K, the band
 /// between the bounding contact readings and what a contact calibration can reach.
-pub fn verdicts_with_policy(
+pub(crate) fn verdicts_with_policy(
     m: &Measurement,
     predictions: Result<&[ModelledPrediction], String>,
     opts: &JudgeOptions,
@@ -451,7 +413,7 @@ fn find_prediction<'a, 'b>(
                     None,
                     Some(match (case, insert) {
                         (LoadCase::I, None) => {
-                            "Case I needs the insert used (--insert NAME)".to_string()
+                            "Case I needs the insert used (VerifyRequest.insert NAME)".to_string()
                         }
                         _ => format!(
                             "the model gives no prediction for grating `{grating}` in Case {}{}",
@@ -502,108 +464,141 @@ fn reach_words(k: f64, reach: Option<[f64; 2]>, radii: Option<[f64; 2]>) -> Opti
     })
 }
 
+/// Every measured grating judged ([`grating_verdict`]), the silent ones the model says
+/// respond marked dead, the missing ones listed, and the module's verdict.
 fn judge_all(
     m: &Measurement,
     predictions: Result<Vec<Found>, String>,
     opts: &JudgeOptions,
 ) -> Verdict {
-    let (gate, tolerance) = (&opts.gate, opts.tolerance);
-    let reach_of = |grating: &str| {
-        opts.contact.reach.as_ref().and_then(|r| {
-            r.k_pm_per_n
-                .iter()
-                .find(|(g, _)| g == grating)
-                .map(|(_, k)| *k)
-                .filter(|k| k.iter().all(|v| v.is_finite()))
-        })
-    };
-    let radii = opts.contact.reach.as_ref().map(|r| r.radii_mm);
     let mut gratings: Vec<GratingVerdict> = Vec::with_capacity(m.gratings.len());
     // Whether the model says each grating responds (a strong predicted shift).
     let mut strong: Vec<bool> = Vec::with_capacity(m.gratings.len());
     for g in &m.gratings {
-        let (found, missing_reason) = find_prediction(&predictions, &g.grating, opts);
-        let pred = found.map(|f| f.prediction.sensitivity_pm_per_n);
-        let band = found.and_then(|f| f.band);
-        let reach = reach_of(&g.grating);
-        let peak = if g.peak_force_n.is_finite() {
-            g.peak_force_n
-        } else {
-            m.peak_force_n
-        };
-        let noise = g.residual_rms_pm;
-        let predicted =
-            pred.map(|kp| gate.predicted_shift(kp, peak, noise, m.interrogator_resolution_pm));
-        strong.push(predicted.is_some_and(|p| p.1));
-        let silent = gate.no_response(
-            g,
-            pulse_spacing_s(m, g),
-            m.interrogator_resolution_pm,
-            m.peak_force_n,
-        );
-        let k = g.sensitivity_pm_per_n;
-        let mut v = GratingVerdict {
-            grating: g.grating.clone(),
-            measured_sensitivity_pm_per_n: k,
-            predicted_sensitivity_pm_per_n: pred,
-            predicted_shift_pm: predicted.map(|p| p.0),
-            responded: silent.is_none(),
-            band_pm_per_n: band,
-            band_position: band.map(|b| band_position(k, b)),
-            band_factor: band.map(band_factor),
-            calibration_reach_pm_per_n: reach,
-            model: found.and_then(|f| f.model.clone()),
-            relative_error: None,
-            tolerance,
-            status: Status::NotJudged,
-            reason: missing_reason,
-        };
-        if let Some(why) = m.force_trust.not_judged.as_ref() {
-            v.status = Status::NotJudged;
-            v.reason = Some(format!("the force cannot be trusted: {why}"));
-        } else if let Some(why) = silent {
-            v.status = Status::NoResponse;
-            v.reason = Some(why);
-        } else {
-            let (status, rel) = judge(k, pred, tolerance);
-            v.relative_error = rel;
-            let (status, reason) = match (status, band) {
-                (Status::NotJudged, _) => (status, v.reason.take()),
-                (_, Some(b)) => place_in_band(k, b, status, rel, reach, radii, opts),
-                (Status::Fail, None) => (
-                    Status::Fail,
-                    reach_words(k, reach, radii).map(|r| {
-                        format!("{r}: if this print is known to be good, the contact reading is off, not the print (verify --calibrate-into)")
-                    }),
-                ),
-                (s, None) => (s, None),
-            };
-            v.status = status;
-            v.reason = reason;
-        }
+        let (v, s) = grating_verdict(m, g, &predictions, opts);
         gratings.push(v);
+        strong.push(s);
     }
     let any_responded = gratings.iter().any(|v| v.responded);
     // A grating the model says shifts well above its noise, silent while another
     // grating of the same run responded, is dead (or its channel mixed up): FAIL.
     if any_responded && m.force_trust.not_judged.is_none() {
-        for (v, &strong) in gratings.iter_mut().zip(&strong) {
-            if v.status == Status::NoResponse && strong {
-                v.status = Status::Fail;
-                v.reason = Some(format!(
-                    "dead grating: the model predicts K = {:.3} pm/N, a shift of {:.1} pm over the pulses' force range, well above the noise, but the grating shows no response ({}); a broken grating or bond, or a channel mix-up",
-                    v.predicted_sensitivity_pm_per_n.unwrap_or(f64::NAN),
-                    v.predicted_shift_pm.unwrap_or(f64::NAN),
-                    v.reason.as_deref().unwrap_or("no response")
-                ));
-            }
+        mark_dead(&mut gratings, &strong);
+    }
+    let missing = missing_gratings(m, &predictions, opts);
+    let (overall, reason) = overall(m, &gratings, &missing);
+    Verdict {
+        case: opts.case,
+        insert: opts.insert.map(String::from),
+        gratings,
+        missing_gratings: missing,
+        overall,
+        reason,
+    }
+}
+
+/// One measured grating judged, and whether the model says it responds (a predicted
+/// shift well above its noise).
+fn grating_verdict(
+    m: &Measurement,
+    g: &GratingResult,
+    predictions: &Result<Vec<Found>, String>,
+    opts: &JudgeOptions,
+) -> (GratingVerdict, bool) {
+    let (gate, tolerance) = (&opts.gate, opts.tolerance);
+    let reach = opts.contact.reach.as_ref().and_then(|r| {
+        r.k_pm_per_n
+            .iter()
+            .find(|(name, _)| *name == g.grating)
+            .map(|(_, k)| *k)
+            .filter(|k| k.iter().all(|v| v.is_finite()))
+    });
+    let radii = opts.contact.reach.as_ref().map(|r| r.radii_mm);
+    let (found, missing_reason) = find_prediction(predictions, &g.grating, opts);
+    let pred = found.map(|f| f.prediction.sensitivity_pm_per_n);
+    let band = found.and_then(|f| f.band);
+    let peak = if g.peak_force_n.is_finite() {
+        g.peak_force_n
+    } else {
+        m.peak_force_n
+    };
+    let noise = g.residual_rms_pm;
+    let predicted =
+        pred.map(|kp| gate.predicted_shift(kp, peak, noise, m.interrogator_resolution_pm));
+    let silent = gate.no_response(
+        g,
+        pulse_spacing_s(m, g),
+        m.interrogator_resolution_pm,
+        m.peak_force_n,
+    );
+    let k = g.sensitivity_pm_per_n;
+    let mut v = GratingVerdict {
+        grating: g.grating.clone(),
+        measured_sensitivity_pm_per_n: k,
+        predicted_sensitivity_pm_per_n: pred,
+        predicted_shift_pm: predicted.map(|p| p.0),
+        responded: silent.is_none(),
+        band_pm_per_n: band,
+        band_position: band.map(|b| band_position(k, b)),
+        band_factor: band.map(band_factor),
+        calibration_reach_pm_per_n: reach,
+        model: found.and_then(|f| f.model.clone()),
+        relative_error: None,
+        tolerance,
+        status: Status::NotJudged,
+        reason: missing_reason,
+    };
+    if let Some(why) = m.force_trust.not_judged.as_ref() {
+        v.status = Status::NotJudged;
+        v.reason = Some(format!("the force cannot be trusted: {why}"));
+    } else if let Some(why) = silent {
+        v.status = Status::NoResponse;
+        v.reason = Some(why);
+    } else {
+        let (status, rel) = judge(k, pred, tolerance);
+        v.relative_error = rel;
+        let (status, reason) = match (status, band) {
+            (Status::NotJudged, _) => (status, v.reason.take()),
+            (_, Some(b)) => place_in_band(k, b, status, rel, reach, radii, opts),
+            (Status::Fail, None) => (
+                Status::Fail,
+                reach_words(k, reach, radii).map(|r| {
+                    format!("{r}: if this print is known to be good, the contact reading is off, not the print (verify VerifyRequest.calibrate_into)")
+                }),
+            ),
+            (s, None) => (s, None),
+        };
+        v.status = status;
+        v.reason = reason;
+    }
+    (v, predicted.is_some_and(|p| p.1))
+}
+
+/// The silent gratings the model says respond (`strong`) fail as dead.
+fn mark_dead(gratings: &mut [GratingVerdict], strong: &[bool]) {
+    for (v, &strong) in gratings.iter_mut().zip(strong) {
+        if v.status == Status::NoResponse && strong {
+            v.status = Status::Fail;
+            v.reason = Some(format!(
+                "dead grating: the model predicts K = {:.3} pm/N, a shift of {:.1} pm over the pulses' force range, well above the noise, but the grating shows no response ({}); a broken grating or bond, or a channel mix-up",
+                v.predicted_sensitivity_pm_per_n.unwrap_or(f64::NAN),
+                v.predicted_shift_pm.unwrap_or(f64::NAN),
+                v.reason.as_deref().unwrap_or("no response")
+            ));
         }
     }
-    let missing: Vec<MissingGrating> = m
-        .missing_gratings
+}
+
+/// The strain gratings of the core under test that the log has no peaks for.
+fn missing_gratings(
+    m: &Measurement,
+    predictions: &Result<Vec<Found>, String>,
+    opts: &JudgeOptions,
+) -> Vec<MissingGrating> {
+    m.missing_gratings
         .iter()
         .map(|name| {
-            let (found, _) = find_prediction(&predictions, name, opts);
+            let (found, _) = find_prediction(predictions, name, opts);
             let pred = found.map(|f| f.prediction.sensitivity_pm_per_n);
             MissingGrating {
                 grating: name.clone(),
@@ -614,16 +609,7 @@ fn judge_all(
                 },
             }
         })
-        .collect();
-    let (overall, reason) = overall(m, &gratings, &missing);
-    Verdict {
-        case: opts.case,
-        insert: opts.insert.map(String::from),
-        gratings,
-        missing_gratings: missing,
-        overall,
-        reason,
-    }
+        .collect()
 }
 
 /// A responding grating with a band: PASS, IN BAND, FAIL or CALIBRATE CONTACT, with
@@ -647,7 +633,7 @@ fn place_in_band(
             return (
                 Status::CalibrateContact,
                 Some(format!(
-                    "this configuration cannot be judged without calibrating the contact: the bounding contact readings span more than a factor {MAX_BAND_FACTOR}, so the model's nominal K says little about a print; {words}{}. Calibrate the contact on a part known to be good (verify --calibrate-into NEW.toml) and verify against NEW.toml",
+                    "this configuration cannot be judged without calibrating the contact: the bounding contact readings span more than a factor {MAX_BAND_FACTOR}, so the model's nominal K says little about a print; {words}{}. Calibrate the contact on a part known to be good (verify VerifyRequest.calibrate_into NEW.toml) and verify against NEW.toml",
                     reachable.map(|r| format!("; {r}")).unwrap_or_default()
                 )),
             );
@@ -670,7 +656,7 @@ fn place_in_band(
         Status::Fail if inside => (
             Status::InBand,
             Some(format!(
-                "K is {:.1} % from the nominal prediction, but {words}: the print is consistent with the model, the design's contact reading is not; calibrate it (verify --calibrate-into)",
+                "K is {:.1} % from the nominal prediction, but {words}: the print is consistent with the model, the design's contact reading is not; calibrate it (verify VerifyRequest.calibrate_into)",
                 100.0 * rel.unwrap_or(f64::NAN)
             )),
         ),
@@ -678,7 +664,7 @@ fn place_in_band(
             Status::Fail,
             Some(match reachable {
                 Some(r) => format!(
-                    "{words}; {r}: if this print is known to be good, the contact reading is off, not the print (verify --calibrate-into explains it)"
+                    "{words}; {r}: if this print is known to be good, the contact reading is off, not the print (verify VerifyRequest.calibrate_into explains it)"
                 ),
                 None => words,
             }),
@@ -715,7 +701,7 @@ fn overall(
     if any(Status::CalibrateContact) {
         return (
             Status::CalibrateContact,
-            Some("this configuration cannot be judged without calibrating the contact (verify --calibrate-into on a part known to be good)".into()),
+            Some("this configuration cannot be judged without calibrating the contact (verify VerifyRequest.calibrate_into on a part known to be good)".into()),
         );
     }
     if any(Status::InBand) {

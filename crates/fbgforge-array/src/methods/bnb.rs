@@ -78,7 +78,7 @@ pub struct BnbSettings {
 impl BnbSettings {
     /// For readings of this kind: λ from the resolution (as `support`), the load cap
     /// and [`DEFAULT_NODE_BUDGET`].
-    pub fn for_prior(prior: &ReadingPrior) -> Self {
+    pub fn for_prior(prior: &ReadingSettings) -> Self {
         BnbSettings {
             penalty: l0_penalty_for_resolution(prior.resolution_pm),
             max_loads: prior.max_loads,
@@ -91,7 +91,7 @@ impl BnbSettings {
 impl Default for BnbSettings {
     /// The paper's readings.
     fn default() -> Self {
-        Self::for_prior(&ReadingPrior::paper())
+        Self::for_prior(&ReadingSettings::paper())
     }
 }
 

@@ -50,7 +50,7 @@ pub struct DeSettings {
 impl DeSettings {
     /// For readings of this kind: the load cap; σ = 4 and the paper's population and
     /// generations.
-    pub fn for_prior(prior: &ReadingPrior) -> Self {
+    pub fn for_prior(prior: &ReadingSettings) -> Self {
         DeSettings {
             penalty: 4.0,
             population: 150,
@@ -65,7 +65,7 @@ impl DeSettings {
 impl Default for DeSettings {
     /// The paper's readings.
     fn default() -> Self {
-        Self::for_prior(&ReadingPrior::paper())
+        Self::for_prior(&ReadingSettings::paper())
     }
 }
 
@@ -261,7 +261,7 @@ impl PenalisedCost {
 
     /// The same cost with the Gram matrix ÂᵀÂ already computed (row-major), as the
     /// reconstructor holds it for a whole stream.
-    pub fn with_gram(
+    pub(crate) fn with_gram(
         gram: Arc<[f64]>,
         a: &DMatrix<f64>,
         y: &DVector<f64>,

@@ -45,10 +45,9 @@ pub use omp::OmpSettings;
 pub use support::{NoisePrior, SupportSettings, WeightedSupportSettings};
 
 use super::problem::SensingProblem;
-use super::trust::FrameFlags;
 use super::ArrayError;
 use nalgebra::{DMatrix, DVector};
-use serde::Serialize;
+use serde::{Serialize, Serializer};
 
 /// The outcome of reconstructing one frame.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -111,14 +110,14 @@ pub const DEFAULT_METHOD: Method = Method::WeightedSupport;
 /// (the knobs only it has); [`Method::ALL`] is the registry and [`MethodSettings`]
 /// has one variant per method, so a new method is one file, one line in `ALL` and
 /// one variant (with its two arms in `MethodSettings::knobs`).
-pub struct MethodEntry {
+pub(crate) struct MethodEntry {
     /// Name used on the command line and in tables.
     pub name: &'static str,
     /// Grid of penalty weights searched when tuning on a validation set.
     pub penalty_grid: fn() -> Vec<f64>,
     /// The method's settings for readings of this kind (its defaults follow the
     /// prior: e.g. the ℓ0 penalty of `support` and `bnb` follows the resolution).
-    defaults: fn(&ReadingPrior) -> MethodSettings,
+    defaults: fn(&ReadingSettings) -> MethodSettings,
 }
 
 /// A registered method: a handle on its [`MethodEntry`], compared by name.
@@ -174,7 +173,7 @@ impl Method {
     }
 
     /// Whether the method has a penalty weight to tune.
-    pub fn has_penalty(self) -> bool {
+    pub(crate) fn has_penalty(self) -> bool {
         MethodSettings::for_method(self).penalty().is_some()
     }
 
@@ -225,12 +224,82 @@ fn doubling_grid() -> Vec<f64> {
     (0..13).map(|k| 0.0625 * 2f64.powi(k)).collect()
 }
 
+/// Why a frame should not be trusted; all false when it can be.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FrameFlags {
+    /// The residual exceeds what the stated uncertainty explains (χ² test).
+    pub inconsistent: bool,
+    /// A load sits at ulimit.
+    pub ceiling: bool,
+    /// The frame is consistent with a load above ulimit.
+    pub overload: bool,
+    /// A loaded cell carries less than the rated minimum load.
+    pub below_range: bool,
+    /// Another answer ≥ 12 dB away fits about as well, or identical columns.
+    pub ambiguous: bool,
+    /// The method did not converge (`bnb`: stopped at its work budget).
+    pub unconverged: bool,
+    /// The frame could not be used (wrong length, non-finite shift).
+    pub unusable: bool,
+}
+
+impl FrameFlags {
+    /// The flag words in the order they are written.
+    pub(crate) const WORDS: [&'static str; 7] = [
+        "inconsistent",
+        "ceiling",
+        "overload",
+        "below_range",
+        "ambiguous",
+        "unconverged",
+        "unusable",
+    ];
+
+    fn bits(&self) -> [bool; 7] {
+        [
+            self.inconsistent,
+            self.ceiling,
+            self.overload,
+            self.below_range,
+            self.ambiguous,
+            self.unconverged,
+            self.unusable,
+        ]
+    }
+
+    /// The words of the flags that are set.
+    pub fn words(&self) -> Vec<&'static str> {
+        Self::WORDS
+            .iter()
+            .zip(self.bits())
+            .filter(|(_, b)| *b)
+            .map(|(w, _)| *w)
+            .collect()
+    }
+
+    /// True when no flag is set: the frame can be trusted.
+    pub fn trusted(&self) -> bool {
+        !self.bits().iter().any(|b| *b)
+    }
+
+    /// The flags as one CSV field: the words joined by `;` (empty when trusted).
+    pub fn field(&self) -> String {
+        self.words().join(";")
+    }
+}
+
+impl Serialize for FrameFlags {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.words().serialize(s)
+    }
+}
+
 /// What a reconstruction knows of the readings before it sees a frame: how many
 /// loads act at once at most and how noisy the interrogator is. Every method's
 /// defaults follow it ([`MethodSettings::for_prior`]); the default method choice
 /// synthesises its probe frames from it when it has none of the caller's.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ReadingPrior {
+pub struct ReadingSettings {
     /// Most simultaneous loads (supports grow as C(n, ≤ K); capped at the number of
     /// gratings by the methods).
     pub max_loads: usize,
@@ -238,10 +307,10 @@ pub struct ReadingPrior {
     pub resolution_pm: f64,
 }
 
-impl ReadingPrior {
+impl ReadingSettings {
     /// The paper's readings: up to [`DEFAULT_MAX_LOADS`] loads, 0.5 pm resolution.
     pub fn paper() -> Self {
-        ReadingPrior {
+        ReadingSettings {
             max_loads: DEFAULT_MAX_LOADS,
             resolution_pm: NoisePrior::paper().resolution_pm,
         }
@@ -250,15 +319,18 @@ impl ReadingPrior {
     /// Check both fields: at least one load, a positive finite resolution.
     pub fn check(&self) -> Result<(), ArrayError> {
         if self.max_loads == 0 {
-            return Err(ArrayError::Input("max_loads must be at least 1".into()));
+            return Err(ArrayError::Input(
+                "ReadingSettings.max_loads must be at least 1".into(),
+            ));
         }
         check_resolution(self.resolution_pm)
+            .map_err(|e| ArrayError::Input(format!("ReadingSettings.resolution_pm: {e}")))
     }
 }
 
-impl Default for ReadingPrior {
+impl Default for ReadingSettings {
     fn default() -> Self {
-        ReadingPrior::paper()
+        ReadingSettings::paper()
     }
 }
 
@@ -318,16 +390,16 @@ trait Knobs {
 }
 
 impl MethodSettings {
-    /// The method's settings for the paper's readings ([`ReadingPrior::paper`]).
+    /// The method's settings for the paper's readings ([`ReadingSettings::paper`]).
     pub fn for_method(method: Method) -> Self {
-        Self::for_prior(method, &ReadingPrior::paper())
+        Self::for_prior(method, &ReadingSettings::paper())
     }
 
     /// The method's settings for readings of this kind: its own rule (e.g. the ℓ0
     /// penalty of `support` and `bnb` from the resolution,
     /// [`l0_penalty_for_resolution`]), every other knob its default. The one rule a
     /// named method and the default choice both follow.
-    pub fn for_prior(method: Method, prior: &ReadingPrior) -> Self {
+    pub fn for_prior(method: Method, prior: &ReadingSettings) -> Self {
         (method.0.defaults)(prior)
     }
 
@@ -482,11 +554,11 @@ struct Common {
 /// Two answers fit a frame equally well, for the `ambiguous` flag, when their
 /// objectives differ by less than this many units of χ² (a likelihood ratio of
 /// 20 : 1, 2 ln 20 ≈ 6.0). Not tuned on any test frames.
-pub const AMBIGUITY_CHI2: f64 = 5.991_464_547_107_979;
+pub(crate) const AMBIGUITY_CHI2: f64 = 5.991_464_547_107_979;
 
 /// Two answers are distinct when one read as the other's truth would miss the 12 dB
 /// recovery criterion: ‖x′ − x‖ > 10^(−12/20) ‖x‖.
-pub const DISTINCT_RATIO: f64 = 0.251_188_643_150_958;
+pub(crate) const DISTINCT_RATIO: f64 = 0.251_188_643_150_958;
 
 /// Answers within a margin of the best one, kept during a search so that, once the
 /// best is known, the search can say whether another answer at least 12 dB away from
@@ -823,7 +895,7 @@ mod tests {
 
     #[test]
     fn each_method_has_its_own_settings_and_follows_the_prior_by_its_own_rule() {
-        let prior = ReadingPrior {
+        let prior = ReadingSettings {
             max_loads: 3,
             resolution_pm: 0.25,
         };

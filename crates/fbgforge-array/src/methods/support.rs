@@ -32,7 +32,7 @@ pub struct SupportSettings {
 impl SupportSettings {
     /// For readings of this kind: λ from the resolution
     /// ([`l0_penalty_for_resolution`]: 4 at the paper's 0.5 pm) and its load cap.
-    pub fn for_prior(prior: &ReadingPrior) -> Self {
+    pub fn for_prior(prior: &ReadingSettings) -> Self {
         SupportSettings {
             penalty: l0_penalty_for_resolution(prior.resolution_pm),
             max_loads: prior.max_loads,
@@ -43,7 +43,7 @@ impl SupportSettings {
 impl Default for SupportSettings {
     /// The paper's readings.
     fn default() -> Self {
-        Self::for_prior(&ReadingPrior::paper())
+        Self::for_prior(&ReadingSettings::paper())
     }
 }
 
@@ -83,7 +83,7 @@ pub struct WeightedSupportSettings {
 impl WeightedSupportSettings {
     /// For readings of this kind: the load cap; the tuned penalty and the paper's
     /// noise.
-    pub fn for_prior(prior: &ReadingPrior) -> Self {
+    pub fn for_prior(prior: &ReadingSettings) -> Self {
         WeightedSupportSettings {
             penalty: 4.0,
             max_loads: prior.max_loads,
@@ -95,7 +95,7 @@ impl WeightedSupportSettings {
 impl Default for WeightedSupportSettings {
     /// The paper's readings.
     fn default() -> Self {
-        Self::for_prior(&ReadingPrior::paper())
+        Self::for_prior(&ReadingSettings::paper())
     }
 }
 

@@ -41,9 +41,9 @@ pub struct FiberBar {
 }
 
 /// Young's modulus of fused silica, MPa (reference §6).
-pub const SILICA_MODULUS_MPA: f64 = 72_000.0;
+pub(crate) const SILICA_MODULUS_MPA: f64 = 72_000.0;
 /// Cladding diameter of standard single-mode fiber, mm.
-pub const CLADDING_DIAMETER_MM: f64 = 0.125;
+pub(crate) const CLADDING_DIAMETER_MM: f64 = 0.125;
 
 impl FiberBar {
     /// Standard single-mode fiber whose coating has diameter `coated_diameter_mm`.
@@ -80,7 +80,7 @@ impl FiberLines {
     }
 
     /// Number of unknown segment forces.
-    pub fn n_nodes(&self) -> usize {
+    pub(crate) fn n_nodes(&self) -> usize {
         self.x_mm.len() * self.segments
     }
 }

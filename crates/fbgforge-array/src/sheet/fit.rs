@@ -10,9 +10,9 @@
 
 use super::{gratings_of, pm_per_strain, GratingOnFiber, SheetModel, NEWTONS_PER_GRAM};
 use crate::kernel::{TABLE1, TABLE2_DIRECT_PM_PER_G};
-use crate::SensingMatrix;
 use crate::profile::ArrayLayout;
 use crate::spec::{BaseCondition, Design};
+use crate::SensingMatrix;
 use anyhow::{anyhow, ensure, Result};
 use serde::Serialize;
 

@@ -100,11 +100,6 @@ impl RadialTable {
         let f = t - i as f64;
         self.values[i] * (1.0 - f) + self.values[i + 1] * f
     }
-
-    /// The largest ρ tabulated, mm.
-    pub fn rho_max_mm(&self) -> f64 {
-        self.step_mm * (self.values.len().saturating_sub(1)) as f64
-    }
 }
 
 /// Which Bessel order a transform uses, and whether its small-k part is measured from

@@ -44,10 +44,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// Newtons per gram-force (standard gravity).
-pub const NEWTONS_PER_GRAM: f64 = 9.80665e-3;
-
-/// The paper's indenter: a 20 mm disc under every load (reference §2).
-pub const PAPER_INDENTER_DIAMETER_MM: f64 = 20.0;
+pub(crate) const NEWTONS_PER_GRAM: f64 = 9.80665e-3;
 
 /// How finely the model is discretised: the speed–accuracy knob.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -160,7 +157,7 @@ impl SheetModel {
     }
 
     /// The fibers' lines: along y across the sheet, cut at the resolution's segment.
-    pub fn fiber_lines(&self) -> FiberLines {
+    pub(crate) fn fiber_lines(&self) -> FiberLines {
         let len = self.sheet_mm.1;
         FiberLines {
             x_mm: self.fiber_x_mm.clone(),
@@ -368,7 +365,7 @@ impl SheetSolution {
 
     /// The silicone's displacement along y at every fiber node (no fibers), mm, for
     /// the indenter centred at (x, y) carrying 1 N.
-    pub fn silicone_displacement(&self, x_mm: f64, y_mm: f64) -> DVector<f64> {
+    pub(crate) fn silicone_displacement(&self, x_mm: f64, y_mm: f64) -> DVector<f64> {
         let lines = self.system.lines();
         let n = lines.segments;
         let mut u = DVector::zeros(lines.n_nodes());
@@ -387,7 +384,7 @@ impl SheetSolution {
     /// The silicone's own strain along y at a grating (averaged over its length), per
     /// newton on the indenter at (x, y): what the grating would read if the fiber
     /// simply followed the silicone.
-    pub fn silicone_strain_per_n(&self, g: &GratingOnFiber, x_mm: f64, y_mm: f64) -> f64 {
+    pub(crate) fn silicone_strain_per_n(&self, g: &GratingOnFiber, x_mm: f64, y_mm: f64) -> f64 {
         let fx = self.system.lines().x_mm[g.fiber];
         let uy = |y: f64| {
             let dy = y - y_mm;
@@ -480,7 +477,7 @@ pub fn gratings_of(design: &Design) -> Result<Vec<GratingOnFiber>> {
 
 /// pm per unit strain of each grating of a design (its Bragg wavelength and the
 /// design's fiber optics).
-pub fn pm_per_strain(design: &Design) -> Result<Vec<f64>> {
+pub(crate) fn pm_per_strain(design: &Design) -> Result<Vec<f64>> {
     let a = design
         .array
         .as_ref()

@@ -11,7 +11,7 @@ use crate::logs::PeakLog;
 use serde::Serialize;
 
 /// Largest default half-width of a window, nm.
-pub const MAX_DEFAULT_HALF_WIDTH_NM: f64 = 2.5;
+pub(crate) const MAX_DEFAULT_HALF_WIDTH_NM: f64 = 2.5;
 
 /// A grating to look for in a log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -205,7 +205,7 @@ pub fn fill_gaps(t: &[f64], v: &[f64]) -> Vec<f64> {
 }
 
 /// Median of the finite values among the first `n` finite ones.
-pub fn early_median(v: &[f64], n: usize) -> f64 {
+pub(crate) fn early_median(v: &[f64], n: usize) -> f64 {
     let mut s: Vec<f64> = v
         .iter()
         .copied()

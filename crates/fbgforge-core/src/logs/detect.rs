@@ -140,7 +140,7 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
                 .collect();
             let (last, rest) = absent.split_last().expect("formats are registered");
             bail!(
-                "{}: cannot tell the log format: {} and {last}; name the format with --format",
+                "{}: cannot tell the log format: {} and {last}; name the format with ReadOptions.format",
                 path.display(),
                 rest.join(", ")
             )

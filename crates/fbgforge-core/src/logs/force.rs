@@ -39,9 +39,10 @@ pub struct ForceLog {
     pub warnings: LogWarnings,
 }
 
-/// Which columns of a force-stand CSV hold time and force.
+/// How to read a force-stand CSV: which columns hold time and force, their unit and
+/// the order of day and month.
 #[derive(Debug, Clone, Default)]
-pub struct ForceColumns {
+pub struct ForceReadOptions {
     /// Time column name (default: the first of `time_s`, `RelTime`, `time`, `t`,
     /// `AbsTime`, `Timestamp`, matched without case).
     pub time: Option<String>,
@@ -56,7 +57,7 @@ pub struct ForceColumns {
 }
 
 /// Read a force-stand CSV.
-pub fn read_force_log(path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
+pub fn read_force_log(path: &Path, cols: &ForceReadOptions) -> Result<ForceLog> {
     let bytes = std::fs::read(path)
         .with_context(|| format!("cannot read the force log {}", path.display()))?;
     parse_force_bytes(&bytes, path, cols)
@@ -220,8 +221,13 @@ impl ForceHeader<'_> {
                 return Ok(i);
             }
         }
+        let field = if what == "time" {
+            "ForceReadOptions.time"
+        } else {
+            "ForceReadOptions.force"
+        };
         bail!(
-            "{}: cannot tell which column holds {what}; the header has: {}; name it with --force-{what}-column",
+            "{}: cannot tell which column holds {what}; the header has: {}; name it with {field}",
             at(path, self.idx + 1),
             header.join(", ")
         )
@@ -246,7 +252,7 @@ impl ForceLayout {
     fn scales(
         &self,
         units: &[String],
-        cols: &ForceColumns,
+        cols: &ForceReadOptions,
         path: &Path,
         warnings: &mut LogWarnings,
     ) -> (f64, f64) {
@@ -397,7 +403,7 @@ fn force_times(
 }
 
 /// Parse a force-stand CSV held in memory.
-pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceColumns) -> Result<ForceLog> {
+pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceReadOptions) -> Result<ForceLog> {
     let (b, _) = strip_bom(bytes);
     let mut lines = lines_with_offsets(b).enumerate().filter(|(_, (_, l))| {
         let t = trim(l);

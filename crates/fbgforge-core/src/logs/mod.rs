@@ -18,7 +18,7 @@
 //!
 //! A format is recognised in one place ([`detect_format`]); the row machinery every
 //! format shares (chunked parallel parse, merge) is in `rows.rs`, the times (dates,
-//! sorting, whole-second timestamps) in `time.rs`. Force-stand logs are read by
+//! sorting, whole-second timestamps, the median sample period) in [`time`]. Force-stand logs are read by
 //! [`read_force_log`] (`force.rs`); the small hand-written CSV tables (schedules, load
 //! scripts, matrices) by [`csv_table`].
 //!
@@ -38,7 +38,7 @@ pub mod num;
 mod plain_csv;
 mod row_reader;
 mod rows;
-mod time;
+pub mod time;
 mod write;
 
 use anyhow::{bail, Context, Result};
@@ -52,13 +52,13 @@ use std::path::{Path, PathBuf};
 pub use detect::{detect_format, Detected};
 pub use force::{
     force_unit_scale, parse_force_bytes, read_force_log, time_unit_scale, write_force_csv,
-    write_force_stand_csv, ForceColumns, ForceLog,
+    write_force_stand_csv, ForceLog, ForceReadOptions,
 };
 pub use row_reader::{LogRow, RowReader};
 pub use write::{write_log, LogStyle, LogTable};
 
 /// A supported wavelength log format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum LogFormat {
     /// ENLIGHT "Peaks" export: timestamp, peak count per channel, then the peaks.
@@ -90,7 +90,7 @@ impl LogFormat {
         }
     }
 
-    /// Name as used on the command line.
+    /// The format's name (in JSON, and as the front ends name it).
     pub fn name(self) -> &'static str {
         self.reader().name()
     }
@@ -117,7 +117,7 @@ impl LogFormat {
 /// how the project writes it (synthetic logs). A new format is one file implementing
 /// this, a [`LogFormat`] variant and its line in [`LogFormat::reader`].
 pub(crate) trait LogReader: Sync {
-    /// Name as used on the command line (`--format`).
+    /// The format's name ([`LogFormat::name`]).
     fn name(&self) -> &'static str;
 
     /// What the format is called in messages.
@@ -316,22 +316,8 @@ impl PeakLog {
 
     /// Median sample period, s.
     pub fn median_period_s(&self) -> f64 {
-        median_period(&self.time_s)
+        time::median_period(&self.time_s)
     }
-}
-
-/// Median of the positive time steps (0 when fewer than two samples).
-pub fn median_period(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0.0)
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let mid = d.len() / 2;
-    *d.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
 }
 
 /// Options for reading a wavelength log.
@@ -343,7 +329,27 @@ pub struct ReadOptions {
     pub date_order: Option<num::DateOrder>,
 }
 
-/// Read a wavelength log from a file.
+/// Read a wavelength log from a file: its format detected (or named in `opts`), its
+/// rows' peaks and times read, unreadable rows skipped and counted.
+///
+/// ```
+/// use fbgforge_core::logs::{read_peak_log, Clock, LogFormat, ReadOptions};
+///
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("peaks.csv");
+/// std::fs::write(
+///     &path,
+///     "time_s,lambda_11,lambda_12\n0.0,1546.2950,1524.5700\n0.5,1546.2961,\n1.0,1546.2970,1524.5710\n",
+/// )?;
+/// let log = read_peak_log(&path, &ReadOptions::default())?;
+/// assert_eq!(log.format, LogFormat::Csv);
+/// assert_eq!(log.clock, Clock::Relative);
+/// assert_eq!(log.rows(), 3);
+/// // The second row lost its second peak: one peak, from the first column.
+/// assert_eq!(log.row(1), (&[1546.2961][..], &[0u16][..]));
+/// assert_eq!(log.median_period_s(), 0.5);
+/// # Ok::<(), anyhow::Error>(())
+/// ```
 pub fn read_peak_log(path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read the log {}", path.display()))?;

@@ -54,7 +54,7 @@ pub fn parse_f64(s: &[u8], decimal_comma: bool) -> Option<f64> {
 // logs/ was split into files it was no longer inlined, and parsing took 3–4 % more
 // instructions.
 #[inline(always)]
-pub fn parse_f64_prefix(s: &[u8], decimal_comma: bool) -> Option<(f64, usize)> {
+pub(crate) fn parse_f64_prefix(s: &[u8], decimal_comma: bool) -> Option<(f64, usize)> {
     let mut i = 0;
     let neg = match s.first() {
         Some(b'-') => {
@@ -149,22 +149,6 @@ fn slow_parse(s: &[u8], decimal_comma: bool) -> Option<f64> {
     }
 }
 
-/// Parse a non-negative integer (peak counts).
-pub fn parse_usize(s: &[u8]) -> Option<usize> {
-    let s = trim(s);
-    if s.is_empty() || s.len() > 9 {
-        return None;
-    }
-    let mut v = 0usize;
-    for &c in s {
-        if !c.is_ascii_digit() {
-            return None;
-        }
-        v = v * 10 + (c - b'0') as usize;
-    }
-    Some(v)
-}
-
 /// A calendar date as written, before the day/month order is known.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct RawDate {
@@ -231,7 +215,7 @@ pub fn parse_date(s: &[u8]) -> Option<(RawDate, usize)> {
 /// Parse a time of day `H:MM[:SS[.fff]]` with an optional `am`/`pm` (any case, with or
 /// without a space, `a.m.` too). The fraction may use `.` or `,`. Returns seconds since
 /// midnight.
-pub fn parse_time_of_day(s: &[u8]) -> Option<f64> {
+pub(crate) fn parse_time_of_day(s: &[u8]) -> Option<f64> {
     let s = trim(s);
     let mut i = 0;
     let h = read_uint(s, &mut i)?;
@@ -332,7 +316,7 @@ pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
 /// Decide the day/month order from every distinct date in a file: a first number
 /// above 12 means day-first, a second number above 12 means month-first; if neither
 /// occurs, `default` (the format's convention) applies. Err if both occur.
-pub fn resolve_order(dates: &[RawDate], default: DateOrder) -> Result<DateOrder, String> {
+pub(crate) fn resolve_order(dates: &[RawDate], default: DateOrder) -> Result<DateOrder, String> {
     let slash: Vec<&RawDate> = dates.iter().filter(|d| !d.iso).collect();
     let day_first = slash.iter().any(|d| d.first > 12);
     let month_first = slash.iter().any(|d| d.second > 12);
@@ -378,7 +362,7 @@ pub fn format_dmy_24h(t: f64) -> String {
 }
 
 /// Split an epoch time into (days, year, month, day, seconds of day).
-pub fn split_epoch(t: f64) -> (i64, i64, u32, u32, f64) {
+pub(crate) fn split_epoch(t: f64) -> (i64, i64, u32, u32, f64) {
     let days = (t / 86400.0).floor() as i64;
     let sod = t - days as f64 * 86400.0;
     let (y, m, d) = civil_from_days(days);

@@ -1,7 +1,8 @@
 //! Times of a log's rows: the accumulator of the times as written (a date and seconds
 //! of day, or plain seconds), their resolution to seconds once the whole file is known,
 //! sorting rows that run backwards, and spreading whole-second timestamps onto the grid
-//! they were sampled on.
+//! they were sampled on; and the median sample period of any series of times
+//! ([`median_period`]).
 
 use super::num::{self, DateOrder, RawDate};
 use super::{at, Clock, LogWarnings, PeakLog};
@@ -77,8 +78,12 @@ pub(crate) fn wavelength_times(
     }
     let order = match date_order {
         Some(o) => o,
-        None => num::resolve_order(&times.dates, default_order)
-            .map_err(|e| anyhow!("{}: {e}; name the order with --date-order", path.display()))?,
+        None => num::resolve_order(&times.dates, default_order).map_err(|e| {
+            anyhow!(
+                "{}: {e}; name the order with ReadOptions.date_order",
+                path.display()
+            )
+        })?,
     };
     let mut days = Vec::with_capacity(times.dates.len());
     for (k, d) in times.dates.iter().enumerate() {
@@ -230,4 +235,18 @@ pub(crate) fn require_rows(path: &Path, rows: usize, what: &str) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Median of the positive time steps of `t`, s (0 when fewer than two samples).
+pub fn median_period(t: &[f64]) -> f64 {
+    let mut d: Vec<f64> = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
 }

@@ -2,19 +2,26 @@
 //! gratings collected into the measurement (spec order, the series behind the plots,
 //! the warnings their results call for).
 
-use super::clocks::{align_clocks, span_times, timing_uncertainty_s, AlignedClocks};
-use super::force::{check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force};
-use super::gratings::{grating_shifts, primary_grating};
-use super::measure::{measure_all, GratingContext, Measured};
+use super::clocks::{align_clocks, span_times, timing_uncertainty_s};
+use super::force::{
+    check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force, TrustedForce,
+};
+use super::gratings::{grating_shifts, primary_grating, GratingShifts};
+use super::measure::{measure_all, Measured};
 use super::options::AnalysisOptions;
 use super::quality::warn_q_undefined;
 use super::results::{GratingResult, Measurement, Series};
-use crate::logs::{median_period, ForceLog, LogWarnings, PeakLog};
-use crate::spec::Design;
+use super::{AlignedClocks, GratingContext};
+use crate::logs::time::median_period;
+use crate::logs::{ForceLog, LogWarnings, PeakLog};
+use crate::segment::Segmentation;
 use crate::skew::{self, SkewFit};
+use crate::spec::Design;
 use anyhow::{bail, Result};
 
-/// Run the analysis.
+/// Run the analysis: the stages read and aligned ([`Stages`]), every grating measured
+/// on the aligned clocks, again on warped ones when a clock skew stands out, and the
+/// measurement put together.
 pub fn analyse(
     design: &Design,
     log: &PeakLog,
@@ -28,51 +35,147 @@ pub fn analyse(
     warnings.merge(force.warnings.clone());
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
     let shifts = grating_shifts(design, module, log, opts, &tw, &mut warnings)?;
-    let (sel, used) = (&shifts.selection, &shifts.used);
-    // The force on the wavelength clock (prior), cut into pulses and checked before any
-    // fit: the pulses a saturated channel or a gap leaves untrusted are left out.
-    let frame = force_frame(log, force, opts, &tw, &mut warnings)?;
-    let fval = &frame.fval;
-    let mut seg = loading_pulses(force, fval)?;
-    let trusted = trusted_force(force, fval, &mut seg, &mut warnings);
-    // Clocks aligned on the primary grating, the force on the common time base.
-    let primary = primary_grating(used);
+    let mut st = stages(module, (log, force), opts, &tw, &shifts, &mut warnings)?;
+    let mut pass = st.measure(&st.clocks)?;
+    let (skew, skew_corrected) = correct_skew(&mut st, &mut pass, &mut warnings)?;
+    let Pass {
+        mut first,
+        mut rest,
+        fc,
+        peak_force_n,
+    } = pass;
+    if skew_corrected && st.relative {
+        // The offset was estimated on the skewed clock (an average alignment over the
+        // fitted stretch), so the relative lags no longer sit below the true ones: the
+        // upper bound on Q does not hold (it read 0.37–0.68 of the truth at ±1000 ppm).
+        withhold_q_bound(&mut first.0);
+        for r in rest.iter_mut().flatten() {
+            withhold_q_bound(&mut r.0);
+        }
+    }
+    let strain = &shifts.selection.strain;
+    let (results, series) = collect_results(first, rest, strain, &tw, &fc, &mut warnings)?;
+    if !st.relative {
+        warn_negative_lags(&results, skew.as_ref(), skew_corrected, &mut warnings);
+    }
+    let m = Measurement {
+        wavelength_log: log.source.display().to_string(),
+        wavelength_format: log.format.name().into(),
+        wavelength_rows: log.rows(),
+        wavelength_rate_hz: 1.0 / log.median_period_s(),
+        force_log: force.source.display().to_string(),
+        force_samples: force.force_n.len(),
+        force_rate_hz: 1.0 / median_period(&force.time_s),
+        clock_offset_s: st.clocks.offset,
+        clock_offset_source: st.clocks.source.into(),
+        clock_skew_ppm: skew.map(|s| s.ppm()),
+        clock_skew_uncertainty_ppm: skew.map(|s| s.uncertainty_ppm()),
+        clock_skew_corrected: skew_corrected,
+        lag_is_relative: st.relative,
+        force_log_start_s: st.clocks.fa,
+        overlap_s: st.clocks.overlap,
+        reference_grating: shifts.reference_grating.clone(),
+        interrogator_resolution_pm: st.resolution_pm,
+        pulse_count: st.seg.pulses.len(),
+        peak_force_n,
+        force_trust: st.trusted.trust,
+        missing_gratings: shifts.missing.clone(),
+        protocol: st.seg.protocol,
+        segment_count: st.seg.segments.len(),
+        timing_uncertainty_s: st.timing,
+        gratings: results,
+        warnings,
+    };
+    Ok((m, series))
+}
+
+/// What every measurement pass shares: the gratings' shifts, the force on the
+/// wavelength clock cut into pulses, its trusted part, the aligned clocks, the
+/// resolution and the timestamps' uncertainty.
+struct Stages<'a> {
+    module: &'a crate::spec::Module,
+    shifts: &'a GratingShifts<'a>,
+    tw: &'a [f64],
+    fval: Vec<f64>,
+    seg: Segmentation,
+    trusted: TrustedForce,
+    clocks: AlignedClocks,
+    primary: usize,
+    resolution_pm: f64,
+    /// The clock offset was estimated: lags relative to it.
+    relative: bool,
+    timing: f64,
+}
+
+/// The stages before any grating is measured: the force on the wavelength clock (the
+/// prior), cut into pulses and checked before any fit (the pulses a saturated channel
+/// or a gap leaves untrusted are left out), the clocks aligned on the primary grating.
+fn stages<'a>(
+    module: &'a crate::spec::Module,
+    (log, force): (&PeakLog, &ForceLog),
+    opts: &AnalysisOptions,
+    tw: &'a [f64],
+    shifts: &'a GratingShifts<'a>,
+    warnings: &mut LogWarnings,
+) -> Result<Stages<'a>> {
+    let frame = force_frame(log, force, opts, tw, warnings)?;
+    let mut seg = loading_pulses(force, &frame.fval)?;
+    let trusted = trusted_force(force, &frame.fval, &mut seg, warnings);
+    let primary = primary_grating(&shifts.used);
     let logs = (log, force);
-    let (shift_pm, given_s) = (&used[primary].1, opts.clock_offset_s);
+    let (shift_pm, given_s) = (&shifts.used[primary].1, opts.clock_offset_s);
     let spans = &trusted.spans;
-    let mut clocks = align_clocks(&frame, &tw, shift_pm, logs, given_s, spans, &mut warnings)?;
-    let (wa, wb) = (tw[0], tw[tw.len() - 1]);
-    check_coverage(logs, &seg, &clocks.fu, (wa, wb))?;
+    let clocks = align_clocks(&frame, tw, shift_pm, logs, given_s, spans, warnings)?;
+    check_coverage(logs, &seg, &clocks.fu, (tw[0], tw[tw.len() - 1]))?;
     let resolution_pm = opts
         .resolution_pm
         .unwrap_or_else(|| log.format.typical_resolution_pm());
     let relative = clocks.source == "estimated";
-    let timing = timing_uncertainty_s(log, force, relative, &mut warnings);
-    // Per grating, on a given alignment of the clocks.
-    let measure = |clocks: &AlignedClocks| -> Result<Pass> {
-        let fc = force_at_rows(&tw, clocks, fval);
-        let excluded_s = span_times(&clocks.fu, spans);
-        let row_ok = rows_outside(&tw, &excluded_s);
+    let timing = timing_uncertainty_s(log, force, relative, warnings);
+    Ok(Stages {
+        module,
+        shifts,
+        tw,
+        fval: frame.fval,
+        seg,
+        trusted,
+        clocks,
+        primary,
+        resolution_pm,
+        relative,
+        timing,
+    })
+}
+
+impl Stages<'_> {
+    /// Every grating measured on one alignment of the clocks.
+    fn measure(&self, clocks: &AlignedClocks) -> Result<Pass> {
+        let tw = self.tw;
+        let (wa, wb) = (tw[0], tw[tw.len() - 1]);
+        let fc = force_at_rows(tw, clocks, &self.fval);
+        let excluded_s = span_times(&clocks.fu, &self.trusted.spans);
+        let row_ok = rows_outside(tw, &excluded_s);
+        let sel = &self.shifts.selection;
         let ctx = GratingContext {
-            module,
+            module: self.module,
             strain: &sel.strain,
-            tracks: &shifts.tracks,
-            used,
-            tw: &tw,
+            tracks: &self.shifts.tracks,
+            used: &self.shifts.used,
+            tw,
             fu: &clocks.fu,
-            fval,
+            fval: &self.fval,
             fc: &fc,
             span: (wa.max(clocks.fa), wb.min(clocks.fb)),
-            seg: &seg,
-            resolution_pm,
+            seg: &self.seg,
+            resolution_pm: self.resolution_pm,
             hw: sel.hw,
-            timing_s: if relative { 0.0 } else { timing },
-            relative,
+            timing_s: if self.relative { 0.0 } else { self.timing },
+            relative: self.relative,
             excluded_s: &excluded_s,
             row_ok: &row_ok,
-            untrusted: &trusted.untrusted,
+            untrusted: &self.trusted.untrusted,
         };
-        let (first, rest) = measure_all(&ctx, primary)?;
+        let (first, rest) = measure_all(&ctx, self.primary)?;
         let peak_force_n = fc
             .iter()
             .zip(&row_ok)
@@ -84,12 +187,21 @@ pub fn analyse(
             fc,
             peak_force_n,
         })
-    };
-    let mut pass = measure(&clocks)?;
-    // Clock skew: the primary grating's segment lags drifting over the run. The warp
-    // holds the clocks together at the force log's start when the offset was given
-    // (it holds there), at the lags' mean time when it was estimated.
-    let pivot = (!relative).then_some(clocks.fa);
+    }
+}
+
+/// Clock skew: the primary grating's segment lags drifting over the run. When it stands
+/// out of its uncertainty the force clock is warped and every grating measured again
+/// (`pass` and the stages' clocks replaced). The warp holds the clocks together at the
+/// force log's start when the offset was given (it holds there), at the lags' mean
+/// time when it was estimated. Returns the skew and whether it was corrected.
+fn correct_skew(
+    st: &mut Stages,
+    pass: &mut Pass,
+    warnings: &mut LogWarnings,
+) -> Result<(Option<SkewFit>, bool)> {
+    let tw = st.tw;
+    let pivot = (!st.relative).then_some(st.clocks.fa);
     // An offset stuck at its search limit leaves the lags misaligned by an unknown
     // amount: their drift says nothing about the clocks' rates.
     let skew = if warnings.count("clock_offset_at_limit") > 0 {
@@ -97,76 +209,28 @@ pub fn analyse(
     } else {
         skew_of(&pass.first.0, pivot)
     };
-    let mut skew_corrected = false;
-    if let Some(sk) = skew.filter(SkewFit::significant) {
-        let warped = clocks.warped(&sk, (wa, wb));
-        pass = measure(&warped)?;
-        clocks = warped;
-        skew_corrected = true;
-        if sk.drift_over_run_s.abs() >= SKEW_WARN_DRIFT_S {
-            warnings.add("clock_skew", || {
-                format!(
-                    "the force log's clock runs {:+.1} ± {:.1} ppm against the wavelength log's: the segment lags drifted by {:+.3} s over the run; the force clock was warped to remove it (log both recorders on one PC clock, or synchronise them)",
-                    sk.ppm(),
-                    sk.uncertainty_ppm(),
-                    sk.drift_over_run_s
-                )
-            });
-        }
-    }
-    let Pass {
-        mut first,
-        mut rest,
-        fc,
-        peak_force_n,
-    } = pass;
-    if skew_corrected && relative {
-        // The offset was estimated on the skewed clock (an average alignment over the
-        // fitted stretch), so the relative lags no longer sit below the true ones: the
-        // upper bound on Q does not hold (it read 0.37–0.68 of the truth at ±1000 ppm).
-        withhold_q_bound(&mut first.0);
-        for r in rest.iter_mut().flatten() {
-            withhold_q_bound(&mut r.0);
-        }
-    }
-    let (results, series) = collect_results(first, rest, &sel.strain, &tw, &fc, &mut warnings)?;
-    if !relative {
-        warn_negative_lags(&results, skew.as_ref(), skew_corrected, &mut warnings);
-    }
-    let m = Measurement {
-        wavelength_log: log.source.display().to_string(),
-        wavelength_format: log.format.name().into(),
-        wavelength_rows: log.rows(),
-        wavelength_rate_hz: 1.0 / log.median_period_s(),
-        force_log: force.source.display().to_string(),
-        force_samples: force.force_n.len(),
-        force_rate_hz: 1.0 / median_period(&force.time_s),
-        clock_offset_s: clocks.offset,
-        clock_offset_source: clocks.source.into(),
-        clock_skew_ppm: skew.map(|s| s.ppm()),
-        clock_skew_uncertainty_ppm: skew.map(|s| s.uncertainty_ppm()),
-        clock_skew_corrected: skew_corrected,
-        lag_is_relative: relative,
-        force_log_start_s: clocks.fa,
-        overlap_s: clocks.overlap,
-        reference_grating: shifts.reference_grating,
-        interrogator_resolution_pm: resolution_pm,
-        pulse_count: seg.pulses.len(),
-        peak_force_n,
-        force_trust: trusted.trust,
-        missing_gratings: shifts.missing,
-        protocol: seg.protocol,
-        segment_count: seg.segments.len(),
-        timing_uncertainty_s: timing,
-        gratings: results,
-        warnings,
+    let Some(sk) = skew.filter(SkewFit::significant) else {
+        return Ok((skew, false));
     };
-    Ok((m, series))
+    let warped = st.clocks.warped(&sk, (tw[0], tw[tw.len() - 1]));
+    *pass = st.measure(&warped)?;
+    st.clocks = warped;
+    if sk.drift_over_run_s.abs() >= SKEW_WARN_DRIFT_S {
+        warnings.add("clock_skew", || {
+            format!(
+                "the force log's clock runs {:+.1} ± {:.1} ppm against the wavelength log's: the segment lags drifted by {:+.3} s over the run; the force clock was warped to remove it (log both recorders on one PC clock, or synchronise them)",
+                sk.ppm(),
+                sk.uncertainty_ppm(),
+                sk.drift_over_run_s
+            )
+        });
+    }
+    Ok((skew, true))
 }
 
 /// A drift of the segment lags over the run that moves them by at least this much is
 /// warned about (and corrected whenever it stands out of its uncertainty), s.
-pub const SKEW_WARN_DRIFT_S: f64 = 0.05;
+pub(crate) const SKEW_WARN_DRIFT_S: f64 = 0.05;
 
 /// One measurement of every grating on one alignment of the clocks.
 struct Pass {
@@ -183,7 +247,7 @@ fn withhold_q_bound(g: &mut GratingResult) {
     if g.quality_q_pm_per_n_s.is_none() {
         g.quality_q_bound = None;
         g.quality_q_note = Some(
-            "the clock offset was estimated on clocks that ran at different rates (a clock skew, corrected afterwards), so the relative lags say nothing certain about the absolute ones: Q is withheld, with no bound; give the offset between the recorders' clocks (--clock-offset-s or --force-start) for Q".into(),
+            "the clock offset was estimated on clocks that ran at different rates (a clock skew, corrected afterwards), so the relative lags say nothing certain about the absolute ones: Q is withheld, with no bound; give the offset between the recorders' clocks (AnalysisOptions.clock_offset_s or VerifyRequest.force_start) for Q".into(),
         );
     }
 }
@@ -229,7 +293,7 @@ fn warn_negative_lags(
         if let Some(p) = neg.first() {
             warnings.add_n("negative_lag", neg.len(), || {
                 format!(
-                    "grating `{}` segment {}: lag {:.3} ± {:.3} s: the shift leads the force, which a passive part cannot do; the clock offset (--clock-offset-s, --force-start) or the clocks' rates are wrong{}",
+                    "grating `{}` segment {}: lag {:.3} ± {:.3} s: the shift leads the force, which a passive part cannot do; the clock offset (AnalysisOptions.clock_offset_s, VerifyRequest.force_start) or the clocks' rates are wrong{}",
                     g.grating,
                     p.index,
                     p.lag_s,

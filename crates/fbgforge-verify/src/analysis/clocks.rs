@@ -3,27 +3,12 @@
 //! the aligned logs' overlap, and the timestamps' own uncertainty.
 
 use super::fit_data::FitData;
-use super::force::ForceFrame;
-use crate::logs::{median_period, ForceLog, LogWarnings, PeakLog};
+use super::{AlignedClocks, ForceFrame};
 use crate::fit;
-use crate::logs::assign;
+use crate::logs::time::median_period;
+use crate::logs::{assign, ForceLog, LogWarnings, PeakLog};
 use anyhow::{bail, Result};
 use rayon::prelude::*;
-
-/// The two clocks aligned.
-pub(super) struct AlignedClocks {
-    /// Force clock − wavelength clock, s.
-    pub(super) offset: f64,
-    /// `estimated` or `given`.
-    pub(super) source: &'static str,
-    /// Force log times on the wavelength clock, s.
-    pub(super) fu: Vec<f64>,
-    /// First and last force time on the wavelength clock, s.
-    pub(super) fa: f64,
-    pub(super) fb: f64,
-    /// Duration both logs cover, s.
-    pub(super) overlap: f64,
-}
 
 /// Take the given clock offset or estimate it (leaving out the force-sample `spans`
 /// whose force is not trusted), and check the aligned logs overlap.
@@ -190,7 +175,7 @@ fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f
     let r = fit::nelder_mead(fine.cost(None), &p, &step, 300);
     let d = if r.1 < f64::MAX { r.0[0] } else { p[0] };
     if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
-        warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with --max-offset-s or give --clock-offset-s"));
+        warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with AnalysisOptions.max_clock_offset_s or give AnalysisOptions.clock_offset_s"));
     }
     // The search range is a bound the user set: the polished fit may not leave it.
     Ok(d.clamp(-range, range))

@@ -3,28 +3,13 @@
 //! cut into loading pulses, checked for saturation and gaps (the pulses they touch
 //! left out), and resampled at the wavelength log's rows.
 
-use super::clocks::AlignedClocks;
 use super::options::AnalysisOptions;
 use super::results::ForceTrust;
+use super::{AlignedClocks, ForceFrame};
 use crate::logs::{Clock, ForceLog, LogWarnings, PeakLog};
 use crate::segment::{percentile, Segmentation};
 use crate::{fit, force_check};
 use anyhow::{bail, Result};
-
-/// The force log's times on the wavelength log's clock, before the residual offset.
-pub(super) struct ForceFrame {
-    /// Prior for the clock offset: 0 for two wall clocks, aligned starts otherwise, s.
-    pub(super) prior: f64,
-    /// How far the estimated offset may lie from the prior, s.
-    pub(super) range: f64,
-    /// Force times in the wavelength frame, before the residual offset, s.
-    pub(super) u: Vec<f64>,
-    /// Force, N (compression positive).
-    pub(super) fval: Vec<f64>,
-    /// The span searched for the offset, s.
-    pub(super) a: f64,
-    pub(super) b: f64,
-}
 
 /// Place the force log on the wavelength log's clock by the prior offset, check that
 /// the two logs can overlap, and turn the force compression-positive.
@@ -62,13 +47,13 @@ pub(super) fn force_frame(
             ga,
             gb,
             match opts.clock_offset_s {
-                Some(o) => format!(", placed by the given clock offset {o} s (--clock-offset-s or --force-start)"),
+                Some(o) => format!(", placed by the given clock offset {o} s (AnalysisOptions.clock_offset_s or VerifyRequest.force_start)"),
                 None if prior != 0.0 => ", starts aligned".to_string(),
                 None => String::new(),
             },
             log.source.display(),
             wb,
-            if opts.clock_offset_s.is_none() { format!(", even allowing ±{range} s of clock offset (--max-offset-s)") } else { String::new() }
+            if opts.clock_offset_s.is_none() { format!(", even allowing ±{range} s of clock offset (AnalysisOptions.max_clock_offset_s)") } else { String::new() }
         );
     }
     Ok(ForceFrame {

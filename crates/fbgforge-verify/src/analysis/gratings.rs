@@ -3,11 +3,11 @@
 //! shift (a missing grating a warning, or an error when a core was named), and the
 //! primary grating the clocks are aligned on.
 
-use super::options::AnalysisOptions;
-use crate::logs::{LogWarnings, PeakLog};
-use crate::spec::{Design, GratingRole};
+use super::options::{check_window, AnalysisOptions};
 use crate::logs::assign::{self, GratingTrack, GratingWindow};
+use crate::logs::{LogWarnings, PeakLog};
 use crate::segment::percentile;
+use crate::spec::{Design, GratingRole};
 use anyhow::{bail, Result};
 
 /// The gratings a verification reads: the strain gratings (of one core, if asked),
@@ -44,9 +44,7 @@ fn select_gratings<'a>(
     let hw = opts
         .window_half_width_nm
         .unwrap_or_else(|| assign::default_half_width_nm(&all_nominals));
-    if !(hw > 0.0 && hw <= 10.0) {
-        bail!("the wavelength window half-width (--window-nm) must be in (0, 10] nm, got {hw}");
-    }
+    check_window(hw)?;
     let strain: Vec<_> = module
         .gratings
         .iter()
@@ -211,7 +209,7 @@ fn strain_shifts(
         }
         if t.rows_present < min_rows {
             let msg = format!(
-                "{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {rows} rows: is its channel connected? (--window-nm widens the window)",
+                "{}: grating `{}` ({} ± {hw:.3} nm) has a peak in only {} of {rows} rows: is its channel connected? (AnalysisOptions.window_half_width_nm widens the window)",
                 log.source.display(),
                 g.name,
                 g.bragg_wavelength_nm,
@@ -230,7 +228,7 @@ fn strain_shifts(
         if missing * 50 > rows {
             warnings.add_n("peaks_outside_window", missing, || {
                 format!(
-                    "{}: grating `{}` has no peak in its window {} ± {hw:.3} nm in {missing} of {rows} rows; if they gather at high force the shift leaves the window and K is biased low (--window-nm widens it)",
+                    "{}: grating `{}` has no peak in its window {} ± {hw:.3} nm in {missing} of {rows} rows; if they gather at high force the shift leaves the window and K is biased low (AnalysisOptions.window_half_width_nm widens it)",
                     log.source.display(),
                     g.name,
                     g.bragg_wavelength_nm

@@ -9,44 +9,10 @@ use super::results::GratingResult;
 use super::sensitivity::{
     chart_intercept, drift_free_shift, fit_lag_model, lag1_independence, plateau_sensitivity,
 };
-use crate::logs::assign::GratingTrack;
+use super::GratingContext;
 use crate::fit;
-use crate::segment::Segmentation;
 use anyhow::Result;
 use rayon::prelude::*;
-
-/// Measurement of one grating in a verification: what every grating shares.
-pub(super) struct GratingContext<'a> {
-    pub(super) module: &'a crate::spec::Module,
-    pub(super) strain: &'a [&'a crate::spec::ModuleGrating],
-    pub(super) tracks: &'a [GratingTrack],
-    pub(super) used: &'a [(usize, Vec<f64>)],
-    /// Wavelength log times, s from its first row.
-    pub(super) tw: &'a [f64],
-    /// Force log times, aligned to the wavelength clock, s.
-    pub(super) fu: &'a [f64],
-    /// Force, N (compression positive).
-    pub(super) fval: &'a [f64],
-    /// Force at the wavelength log's rows, N (NaN outside the force log).
-    pub(super) fc: &'a [f64],
-    /// Time span both logs cover, s.
-    pub(super) span: (f64, f64),
-    /// The force log's protocol and segments (force-sample indices).
-    pub(super) seg: &'a Segmentation,
-    pub(super) resolution_pm: f64,
-    /// Window half-width, nm.
-    pub(super) hw: f64,
-    /// Timing uncertainty carried into absolute lags (0 when the lags are relative), s.
-    pub(super) timing_s: f64,
-    /// True when the clock offset was estimated (lags relative to it).
-    pub(super) relative: bool,
-    /// Stretches of the force clock (`fu`) whose shift is left out of every fit, s.
-    pub(super) excluded_s: &'a [(f64, f64)],
-    /// Rows of the wavelength log outside those stretches.
-    pub(super) row_ok: &'a [bool],
-    /// Pulses left out (untrusted force), indices from 0.
-    pub(super) untrusted: &'a [usize],
-}
 
 /// A measured grating, its drift-free shift series and its straight-line fit.
 pub(super) type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;

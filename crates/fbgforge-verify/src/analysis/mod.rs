@@ -29,7 +29,12 @@
 //! (`clocks`); per grating (`measure`) the K fit pieces (`sensitivity`, on the
 //! strided copies of `fit_data`), the segment lags and Δt_max (`lags`), Q and when
 //! it is defined (`quality`), hysteresis and non-linearity (`linearity`); and the
-//! assembly of the whole measurement (`assemble`, [`analyse`]).
+//! assembly of the whole measurement (`assemble`, [`analyse`]). What several stages
+//! share is defined here, so the stages import one way: the force log on the
+//! wavelength clock ([`ForceFrame`], made by `force`, read by `clocks`), the aligned
+//! clocks ([`AlignedClocks`], made by `clocks`, read by `force`), what every grating's
+//! measurement shares ([`GratingContext`]) and a grating's lag figures
+//! ([`LagFigures`], made by `lags`, read by `quality`).
 
 mod assemble;
 mod clocks;
@@ -44,10 +49,87 @@ mod quality;
 mod results;
 mod sensitivity;
 
+use crate::logs::assign::GratingTrack;
+use crate::segment::Segmentation;
+
 pub use super::segment::{detect_pulses, percentile, PulseSpan};
 pub use assemble::analyse;
 pub use linearity::hysteresis_and_linearity;
-pub use options::AnalysisOptions;
+pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
 pub use results::{
     BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
 };
+
+/// The force log's times on the wavelength log's clock, before the residual offset.
+struct ForceFrame {
+    /// Prior for the clock offset: 0 for two wall clocks, aligned starts otherwise, s.
+    prior: f64,
+    /// How far the estimated offset may lie from the prior, s.
+    range: f64,
+    /// Force times in the wavelength frame, before the residual offset, s.
+    u: Vec<f64>,
+    /// Force, N (compression positive).
+    fval: Vec<f64>,
+    /// The span searched for the offset, s.
+    a: f64,
+    b: f64,
+}
+
+/// The two clocks aligned.
+struct AlignedClocks {
+    /// Force clock − wavelength clock, s.
+    offset: f64,
+    /// `estimated` or `given`.
+    source: &'static str,
+    /// Force log times on the wavelength clock, s.
+    fu: Vec<f64>,
+    /// First and last force time on the wavelength clock, s.
+    fa: f64,
+    fb: f64,
+    /// Duration both logs cover, s.
+    overlap: f64,
+}
+
+/// Measurement of one grating in a verification: what every grating shares.
+struct GratingContext<'a> {
+    module: &'a crate::spec::Module,
+    strain: &'a [&'a crate::spec::ModuleGrating],
+    tracks: &'a [GratingTrack],
+    used: &'a [(usize, Vec<f64>)],
+    /// Wavelength log times, s from its first row.
+    tw: &'a [f64],
+    /// Force log times, aligned to the wavelength clock, s.
+    fu: &'a [f64],
+    /// Force, N (compression positive).
+    fval: &'a [f64],
+    /// Force at the wavelength log's rows, N (NaN outside the force log).
+    fc: &'a [f64],
+    /// Time span both logs cover, s.
+    span: (f64, f64),
+    /// The force log's protocol and segments (force-sample indices).
+    seg: &'a Segmentation,
+    resolution_pm: f64,
+    /// Window half-width, nm.
+    hw: f64,
+    /// Timing uncertainty carried into absolute lags (0 when the lags are relative), s.
+    timing_s: f64,
+    /// True when the clock offset was estimated (lags relative to it).
+    relative: bool,
+    /// Stretches of the force clock (`fu`) whose shift is left out of every fit, s.
+    excluded_s: &'a [(f64, f64)],
+    /// Rows of the wavelength log outside those stretches.
+    row_ok: &'a [bool],
+    /// Pulses left out (untrusted force), indices from 0.
+    untrusted: &'a [usize],
+}
+
+/// A grating's lags: per segment, and summarised.
+struct LagFigures {
+    /// Per segment, with the systematic allowance in each uncertainty.
+    pulses: Vec<PulseResult>,
+    summary: Option<crate::lag::LagSummary>,
+    mean_lag_s: f64,
+    /// Δt_max and its uncertainty (timing included), s.
+    max_lag_s: f64,
+    max_lag_uncertainty_s: f64,
+}

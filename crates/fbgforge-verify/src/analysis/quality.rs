@@ -8,8 +8,8 @@
 //! bound (it read 10–90× the truth on a log with a 0.3 s delay). With absolute lags
 //! and Δt_max not resolved from zero, Q is only bounded below.
 
-use super::lags::LagFigures;
 use super::results::{BoundKind, GratingResult, QualityBound};
+use super::LagFigures;
 use crate::logs::LogWarnings;
 
 /// Q of one grating: the value, its uncertainty, or a bound and why.
@@ -48,7 +48,7 @@ pub(super) fn quality_q(
     if relative {
         let b = bound(BoundKind::Upper, dt - 2.0 * u);
         let note = format!(
-            "the clock offset was estimated, and an estimate absorbs any pure delay between force and shift: the true Δt_max is at least the relative {dt:.4} ± {u:.4} s, so {}; give the offset between the recorders' clocks (--clock-offset-s or --force-start) for Q",
+            "the clock offset was estimated, and an estimate absorbs any pure delay between force and shift: the true Δt_max is at least the relative {dt:.4} ± {u:.4} s, so {}; give the offset between the recorders' clocks (AnalysisOptions.clock_offset_s or VerifyRequest.force_start) for Q",
             match b {
                 Some(b) => format!("Q ≤ {:.3} pm/(N·s) at 2σ", b.value_pm_per_n_s),
                 None => "Q has no upper bound from this data".to_string(),

@@ -3,9 +3,9 @@
 //! (effective samples for K's standard error), K from held levels, and the chart's line.
 
 use super::fit_data::FitData;
-use super::measure::GratingContext;
-use crate::logs::median_period;
+use super::GratingContext;
 use crate::fit::{self, LagModelCost, LagModelFit};
+use crate::logs::time::median_period;
 use anyhow::{bail, Result};
 use rayon::prelude::*;
 

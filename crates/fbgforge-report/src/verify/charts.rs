@@ -7,9 +7,9 @@
 //! shaded around it, and the band between the bounding contact readings when the
 //! model policy gives one.
 
-use super::analysis::{Measurement, Series};
-use super::report::VerifyReport;
 use crate::plot::{Chart, Mark, Series as PlotSeries, Stroke};
+use fbgforge_verify::analysis::{Measurement, Series};
+use fbgforge_verify::VerifyReport;
 
 /// Plots keep at most 2 500 markers per series and 8 000 line points, so the SVGs stay
 /// small enough to open; the CSVs hold the denser data.
@@ -22,11 +22,11 @@ fn stride(n: usize, max: usize) -> usize {
 
 /// `role` of the model's K line in the SVG (`data-role`); its band of passing
 /// tolerance is drawn with it.
-pub const ROLE_MODEL_K: &str = "model-k";
+pub(crate) const ROLE_MODEL_K: &str = "model-k";
 /// `role` of the band between the bounding contact readings.
-pub const ROLE_MODEL_BAND: &str = "model-band";
+pub(crate) const ROLE_MODEL_BAND: &str = "model-band";
 /// `role` of the fitted K line.
-pub const ROLE_FIT: &str = "fit";
+pub(crate) const ROLE_FIT: &str = "fit";
 
 /// Each grating's shift against force, its fitted line, and the model's K and band.
 pub fn shift_vs_force(r: &VerifyReport, series: &Series) -> Chart {
@@ -148,7 +148,7 @@ pub fn shift_vs_time(series: &Series) -> Chart {
 }
 
 /// The lag of the shift behind the force per segment, when any segment has one.
-pub fn lag_per_segment(m: &Measurement) -> Option<Chart> {
+pub(crate) fn lag_per_segment(m: &Measurement) -> Option<Chart> {
     let mut c = Chart::new(
         "Lag of the shift behind the force, per segment",
         "segment",

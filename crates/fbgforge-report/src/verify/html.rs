@@ -4,17 +4,16 @@
 //! series, the notes and warnings. The same charts as the SVG files beside it
 //! ([`super::charts`]), inline; nothing is loaded from elsewhere.
 
-use super::analysis::Series;
 use super::charts;
-use super::report::{
-    force_line, opt, plus_minus, protocol_line, q_text, skew_line, status_word, VerifyReport,
-    RELATIVE_LAG_NOTE,
+use super::phrases::{
+    force_line, opt, plus_minus, protocol_line, q_text, skew_line, RELATIVE_LAG_NOTE,
 };
-use super::verdict::{GratingVerdict, Status};
 use crate::html::{Cell, Document, Table, Tone};
 use crate::model::LoadCase;
 use anyhow::Result;
-use std::path::Path;
+use fbgforge_verify::analysis::{Measurement, Series};
+use fbgforge_verify::verdict::{GratingVerdict, Status};
+use fbgforge_verify::VerifyReport;
 
 /// The tone a status reads in.
 fn tone(s: Status) -> Tone {
@@ -32,7 +31,7 @@ pub fn reason(v: &GratingVerdict) -> String {
         (Some(p), Some(e)) => format!(
             "{}: {}: K = {k:.3} pm/N against the model's {p:.3} pm/N, {:.2} % error {} the tolerance of {:.1} %",
             v.grating,
-            status_word(v.status),
+            v.status.word(),
             100.0 * e,
             if e <= v.tolerance * (1.0 + 1e-12) {
                 "within"
@@ -41,7 +40,7 @@ pub fn reason(v: &GratingVerdict) -> String {
             },
             100.0 * v.tolerance
         ),
-        _ => format!("{}: {}: K = {k:.3} pm/N", v.grating, status_word(v.status)),
+        _ => format!("{}: {}: K = {k:.3} pm/N", v.grating, v.status.word()),
     };
     if let Some(r) = &v.reason {
         s.push_str("; ");
@@ -50,10 +49,41 @@ pub fn reason(v: &GratingVerdict) -> String {
     s
 }
 
-/// Build the report as a document.
+/// Build the report as a document: the verdict and its reasons, K against the model,
+/// the figures of merit, the inputs, the time series and the warnings.
 pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
     let m = &r.measurement;
     let mut d = Document::new(format!("Verification of {}", r.design));
+    verdict_section(&mut d, r);
+    sensitivity_section(&mut d, r, series)?;
+    figures_section(&mut d, m);
+    inputs_section(&mut d, m);
+    series_section(&mut d, m, series)?;
+    if m.warnings.total() > 0 {
+        d.section("Warnings");
+        let items: Vec<String> = m
+            .warnings
+            .counts
+            .iter()
+            .map(|(k, w)| format!("{k} × {}: {}", w.count, w.first))
+            .collect();
+        d.list(&items);
+    }
+    d.files(&[
+        "report.json",
+        "report.md",
+        "timeseries.csv",
+        "pulses.csv",
+        "shift_vs_force.svg",
+        "force_vs_time.svg",
+        "shift_vs_time.svg",
+    ]);
+    Ok(d)
+}
+
+/// The verdict, what was compared, and every grating's reason.
+fn verdict_section(d: &mut Document, r: &VerifyReport) {
+    let m = &r.measurement;
     let case = if r.verdict.case == LoadCase::I {
         "I"
     } else {
@@ -68,7 +98,7 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
     }
     d.verdict(
         tone(r.verdict.overall),
-        status_word(r.verdict.overall),
+        r.verdict.overall.word(),
         &format!(
             "Measured K against the model's, Case {case}{}, tolerance on K {tolerance:.1} %",
             r.verdict
@@ -79,7 +109,11 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
         ),
         &reasons,
     );
+}
 
+/// Measured K against the model's, per grating, and the shift–force chart.
+fn sensitivity_section(d: &mut Document, r: &VerifyReport, series: &Series) -> Result<()> {
+    let m = &r.measurement;
     d.section("Sensitivity against the model");
     let mut t = Table::new([
         "grating",
@@ -102,7 +136,7 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
                 .into(),
             opt(v.relative_error.map(|e| 100.0 * e), 2).into(),
             format!("{:.1}", 100.0 * v.tolerance).into(),
-            Cell::toned(status_word(v.status), tone(v.status)),
+            Cell::toned(v.status.word(), tone(v.status)),
         ]);
     }
     d.table("verdicts", &t);
@@ -113,7 +147,11 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
     if let Some(model) = r.verdict.gratings.iter().find_map(|v| v.model.as_ref()) {
         d.note(&format!("Model: {model}."));
     }
+    Ok(())
+}
 
+/// R², hysteresis, non-linearity, resolution, Δt_max, Q and the lag model per grating.
+fn figures_section(d: &mut Document, m: &Measurement) {
     d.section("Figures of merit");
     let mut t = Table::new([
         "grating",
@@ -152,7 +190,10 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
         ]);
     }
     d.table("figures-of-merit", &t);
+}
 
+/// The logs, the clocks, the protocol and the force log's trust.
+fn inputs_section(d: &mut Document, m: &Measurement) {
     d.section("Inputs");
     d.facts(&[
         (
@@ -204,7 +245,10 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
             format!("{} pm", m.interrogator_resolution_pm),
         ),
     ]);
+}
 
+/// The force and the shifts against time, and the lag per segment.
+fn series_section(d: &mut Document, m: &Measurement, series: &Series) -> Result<()> {
     d.section("Time series");
     d.chart(
         &charts::force_vs_time(series),
@@ -220,30 +264,5 @@ pub fn document(r: &VerifyReport, series: &Series) -> Result<Document> {
             "Lag of the shift's peak behind the force's, per segment.",
         )?;
     }
-
-    if m.warnings.total() > 0 {
-        d.section("Warnings");
-        let items: Vec<String> = m
-            .warnings
-            .counts
-            .iter()
-            .map(|(k, w)| format!("{k} × {}: {}", w.count, w.first))
-            .collect();
-        d.list(&items);
-    }
-    d.files(&[
-        "report.json",
-        "report.md",
-        "timeseries.csv",
-        "pulses.csv",
-        "shift_vs_force.svg",
-        "force_vs_time.svg",
-        "shift_vs_time.svg",
-    ]);
-    Ok(d)
-}
-
-/// Write `report.html` (atomically).
-pub fn write(path: &Path, r: &VerifyReport, series: &Series) -> Result<()> {
-    document(r, series)?.write(path)
+    Ok(())
 }

@@ -1,87 +1,38 @@
 //! What a live run shows: a terminal view (a text heat map of the array's cells, or a
 //! force table of the module's gratings, with rate, latency, drops and bad frames),
-//! redrawn a few times a second, or one JSON object per line for programs. The view
-//! and the end-of-run summary keep to [`WIDTH`] columns, a terminal's default: the
-//! grid's cells narrow with their number, and text lines wrap at spaces.
+//! redrawn a few times a second ([`TerminalSink`]), or one JSON object per line for
+//! programs ([`JsonlSink`]): the `LiveSink`s of `fbgforge live`. The view and the
+//! end-of-run summary keep to [`WIDTH`] columns, a terminal's default: the grid's cells
+//! narrow with their number, and text lines wrap at spaces. Texts name the request's
+//! fields in the front end's words ([`crate::verify::Words`]).
 
-use super::interpret::Reading;
-use super::stats::{LiveSummary, Stats};
+use crate::verify::{own_words, Words};
+use fbgforge_live::interpret::Reading;
+use fbgforge_live::sink::{FrameReading, LiveInfo, LiveSink};
+use fbgforge_live::stats::{LiveSummary, Stats};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::time::{Duration, Instant};
-
-/// What the view needs to know about the run, once.
-#[derive(Debug, Clone, Serialize)]
-pub struct LiveInfo {
-    /// Design name.
-    pub design: String,
-    /// `array` or `module`.
-    pub kind: &'static str,
-    /// The source.
-    pub source: String,
-    /// One line on what is read and how.
-    pub description: String,
-    /// Cell labels (array) or strain gratings (module), in the order of each reading.
-    pub outputs: Vec<String>,
-    /// Gratings tracked in each frame.
-    pub gratings: Vec<String>,
-    /// Array: cells along x and y, and ulimit, g.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub grid: Option<(usize, usize, f64)>,
-    /// Array: reconstruction method.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub method: Option<String>,
-    /// Module: K per strain grating, pm/N.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub sensitivities_pm_per_n: Vec<f64>,
-    /// Frames averaged for the tare.
-    pub tare_frames: usize,
-}
-
-/// One reading, as shown and streamed.
-#[derive(Debug, Clone, Serialize)]
-pub struct FrameReading {
-    /// The instrument's frame counter, if any.
-    pub serial: Option<u64>,
-    /// The frame's own time, s, if any.
-    pub time_s: Option<f64>,
-    /// Loads or forces.
-    #[serde(flatten)]
-    pub reading: Reading,
-    /// Receive → reading, µs.
-    pub latency_us: f64,
-    /// Instrument timestamp → reading, µs (wall-clock sources).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub age_us: Option<f64>,
-}
-
-/// Where a live run's output goes.
-pub trait LiveSink {
-    /// Once, before the first frame.
-    fn start(&mut self, info: &LiveInfo) -> io::Result<()>;
-    /// Every reading, in order.
-    fn reading(&mut self, r: &FrameReading) -> io::Result<()>;
-    /// A bad frame (counted by kind, named by message).
-    fn bad(&mut self, kind: &str, message: &str) -> io::Result<()>;
-    /// A connection event (`connected`, `disconnected`).
-    fn event(&mut self, event: &str, message: &str) -> io::Result<()>;
-    /// After each batch of frames, with the counters so far and the time since the
-    /// first frame.
-    fn tick(&mut self, stats: &Stats, elapsed: Duration) -> io::Result<()>;
-    /// Once, at the end.
-    fn finish(&mut self, summary: &LiveSummary) -> io::Result<()>;
-}
 
 /// One JSON object per line: `start`, then `frame`, `bad` and `event` lines, then a
 /// `summary`.
 pub struct JsonlSink<W: Write> {
     out: W,
+    words: Words,
 }
 
 impl<W: Write> JsonlSink<W> {
     /// Write to `out` (give it a buffer; it is flushed after every batch).
     pub fn new(out: W) -> Self {
-        JsonlSink { out }
+        JsonlSink {
+            out,
+            words: own_words,
+        }
+    }
+
+    /// The texts (events, bad frames, the summary) in `words`.
+    pub fn with_words(self, words: Words) -> Self {
+        JsonlSink { words, ..self }
     }
 
     fn line<T: Serialize>(&mut self, kind: &str, value: &T) -> io::Result<()> {
@@ -90,6 +41,17 @@ impl<W: Write> JsonlSink<W> {
             m.insert("type".into(), kind.into());
         }
         serde_json::to_writer(&mut self.out, &v).map_err(io::Error::other)?;
+        self.out.write_all(b"\n")
+    }
+
+    /// A line whose texts may name the request's fields: in the sink's words.
+    fn text_line<T: Serialize>(&mut self, kind: &str, value: &T) -> io::Result<()> {
+        let mut v = serde_json::to_value(value).map_err(io::Error::other)?;
+        if let serde_json::Value::Object(m) = &mut v {
+            m.insert("type".into(), kind.into());
+        }
+        let text = serde_json::to_string(&v).map_err(io::Error::other)?;
+        self.out.write_all((self.words)(&text).as_bytes())?;
         self.out.write_all(b"\n")
     }
 }
@@ -103,13 +65,13 @@ impl<W: Write> LiveSink for JsonlSink<W> {
         self.line("frame", r)
     }
     fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
-        self.line(
+        self.text_line(
             "bad",
             &serde_json::json!({ "kind": kind, "message": message }),
         )
     }
     fn event(&mut self, event: &str, message: &str) -> io::Result<()> {
-        self.line(
+        self.text_line(
             "event",
             &serde_json::json!({ "event": event, "message": message }),
         )
@@ -118,7 +80,7 @@ impl<W: Write> LiveSink for JsonlSink<W> {
         self.out.flush()
     }
     fn finish(&mut self, summary: &LiveSummary) -> io::Result<()> {
-        self.line("summary", summary)?;
+        self.text_line("summary", summary)?;
         self.out.flush()
     }
 }
@@ -135,6 +97,7 @@ pub struct TerminalSink<W: Write> {
     events: Vec<String>,
     stats: Stats,
     elapsed: Duration,
+    words: Words,
 }
 
 impl<W: Write> TerminalSink<W> {
@@ -150,10 +113,17 @@ impl<W: Write> TerminalSink<W> {
             events: Vec::new(),
             stats: Stats::default(),
             elapsed: Duration::ZERO,
+            words: own_words,
         }
     }
 
+    /// The texts (events, bad frames, the summary) in `words`.
+    pub fn with_words(self, words: Words) -> Self {
+        TerminalSink { words, ..self }
+    }
+
     fn note(&mut self, s: String) {
+        let s = (self.words)(&s);
         self.events.push(s);
         if self.events.len() > 3 {
             self.events.remove(0);
@@ -212,7 +182,7 @@ impl<W: Write> LiveSink for TerminalSink<W> {
     }
     fn finish(&mut self, summary: &LiveSummary) -> io::Result<()> {
         self.draw()?;
-        writeln!(self.out, "{}", summary_text(summary))?;
+        writeln!(self.out, "{}", summary_text_in(summary, self.words))?;
         self.out.flush()
     }
 }
@@ -251,7 +221,7 @@ pub const WIDTH: usize = 80;
 
 /// `text` with every line longer than `width` columns wrapped at spaces (continuation
 /// lines indented by four), and a word longer than a line cut with `…`.
-pub fn fit_width(text: &str, width: usize) -> String {
+pub(crate) fn fit_width(text: &str, width: usize) -> String {
     let mut out = String::with_capacity(text.len());
     for (n, line) in text.split('\n').enumerate() {
         if n > 0 {
@@ -530,6 +500,12 @@ fn write_status(
 
 /// The end-of-run summary as text.
 pub fn summary_text(x: &LiveSummary) -> String {
+    summary_text_in(x, own_words)
+}
+
+/// [`summary_text`] in a front end's `words` (before the lines are fitted to
+/// [`WIDTH`]).
+pub fn summary_text_in(x: &LiveSummary, words: Words) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "ended: {}", x.ended);
@@ -567,7 +543,7 @@ pub fn summary_text(x: &LiveSummary) -> String {
     for (kind, w) in &x.bad.counts {
         let _ = write!(s, "\n  {kind}: {} (first: {})", w.count, w.first);
     }
-    fit_width(&s, WIDTH)
+    fit_width(&words(&s), WIDTH)
 }
 
 #[cfg(test)]
