@@ -550,9 +550,7 @@ fn sweep<'py>(
         cache: fe_cache().clone(),
     };
     let r = py
-        .detach(|| {
-            fbgforge::prediction::sweep(d, &request, &fbgforge::progress::Quiet, &mut ())
-        })
+        .detach(|| fbgforge::prediction::sweep(d, &request, &fbgforge::progress::Quiet, &mut ()))
         .map_err(|e| run_err(py, e, &d.name, "sweep failed"))?;
     to_py(py, &r)
 }

@@ -111,7 +111,11 @@ fn build_timings(design: &Design, array: &Design, repeats: usize) -> Result<Timi
         .into_iter()
         .chain(geometry::part_names(array))
     {
-        let d = if name.starts_with("mold") { array } else { design };
+        let d = if name.starts_with("mold") {
+            array
+        } else {
+            design
+        };
         let sel = [name.clone()];
         let mut times = Vec::new();
         for _ in 0..repeats {
@@ -187,7 +191,12 @@ fn print_tables(design: &Design, repeats: usize, rows: &[SweepRow], timings: &Ti
 
 /// The sweep's three charts: |volume error|, triangles and time against tolerance, one
 /// series per part.
-fn write_charts(a: &BuildStudyArgs, design: &Design, parts: &[&str], rows: &[SweepRow]) -> Result<()> {
+fn write_charts(
+    a: &BuildStudyArgs,
+    design: &Design,
+    parts: &[&str],
+    rows: &[SweepRow],
+) -> Result<()> {
     let series = |f: &dyn Fn(&SweepRow) -> f64| -> Vec<Series> {
         parts
             .iter()

@@ -127,9 +127,21 @@ fn bench_configurations(quick: bool) -> [(Configuration, u32, DomeContact); 3] {
         insert: insert.map(String::from),
     };
     let configs = [
-        (config("psc2", LoadCase::II, None), 3u32, DomeContact::ApexPatch),
-        (config("psc1", LoadCase::I, Some("blue")), 2u32, DomeContact::ApexPatch),
-        (config("psc1", LoadCase::I, Some("blue")), 2u32, DomeContact::Gap),
+        (
+            config("psc2", LoadCase::II, None),
+            3u32,
+            DomeContact::ApexPatch,
+        ),
+        (
+            config("psc1", LoadCase::I, Some("blue")),
+            2u32,
+            DomeContact::ApexPatch,
+        ),
+        (
+            config("psc1", LoadCase::I, Some("blue")),
+            2u32,
+            DomeContact::Gap,
+        ),
     ];
     configs.map(|(c, max_level, dome)| {
         let max_level = if quick { max_level.min(2) } else { max_level };

@@ -25,5 +25,10 @@ fn build(
         tolerance_mm,
         parts: None,
     };
-    fbgforge::geometry::build_design(design, dir, &request, &mut fbgforge::report::build::Previews)
+    fbgforge::geometry::build_design(
+        design,
+        dir,
+        &request,
+        &mut fbgforge::report::build::Previews,
+    )
 }

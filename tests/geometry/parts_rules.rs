@@ -228,10 +228,7 @@ fn a_tolerance_that_would_let_mating_meshes_overlap_is_refused() {
     // (core/insert by 6.78 mm³), on 0.1 mm clearances.
     for tol in [0.1, 0.2] {
         let out = dir.path().join(format!("t{tol}"));
-        let e = format!(
-            "{:#}",
-            crate::build(&d, &out, Some(tol)).unwrap_err()
-        );
+        let e = format!("{:#}", crate::build(&d, &out, Some(tol)).unwrap_err());
         assert!(
             e.contains("meshing tolerance")
                 && e.contains("0.1 mm clearance")
@@ -765,8 +762,7 @@ fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     }
     assert!(p.cap_outer_radius_mm > 0.0);
     let mold = tempfile::tempdir().unwrap();
-    crate::build(&shipped("tactile-array-60x80.toml"), mold.path(), None)
-    .unwrap();
+    crate::build(&shipped("tactile-array-60x80.toml"), mold.path(), None).unwrap();
     let svg = std::fs::read_to_string(mold.path().join("preview-mold.svg")).unwrap();
     assert!(svg.contains("data-name=\"wall\"") && svg.contains("class=\"scale-bar\""));
     assert!(svg.contains("fiber axis 4.525"));

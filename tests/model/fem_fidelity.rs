@@ -279,8 +279,7 @@ fn closed_form_and_fe_figure_of(
 ) {
     use fbgforge::model::sweep::{run_paper_figure, run_paper_figure_with, PAPER_FIGURES};
     let fig = PAPER_FIGURES.iter().find(|f| f.id == id).unwrap();
-    let fe =
-        prediction::sweep_predictor(
+    let fe = prediction::sweep_predictor(
         FidelityChoice::Fem,
         Some(case),
         FemOptions::level(0),

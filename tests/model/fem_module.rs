@@ -21,7 +21,10 @@ fn config(core: &str, case: LoadCase, insert: Option<&str>) -> Configuration {
 }
 
 fn strain(d: &Design, c: &Configuration, opt: &FemOptions) -> f64 {
-    solve_configuration(d, c, opt, crate::fe_cache()).unwrap().strain_per_n[0].2
+    solve_configuration(d, c, opt, crate::fe_cache())
+        .unwrap()
+        .strain_per_n[0]
+        .2
 }
 
 #[test]

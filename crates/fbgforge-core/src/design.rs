@@ -168,7 +168,12 @@ fn check_slots(p: &ModuleProfile, pp: &PartsProfile, min_wall: f64) -> Result<()
 
 /// The cap's slots stay below the snap bead's lead-in, and the snap strains the cap's
 /// material less than it permits.
-fn check_snap(d: &Design, m: &Module, p: &ModuleProfile, pp: &PartsProfile) -> Result<(), SpecError> {
+fn check_snap(
+    d: &Design,
+    m: &Module,
+    p: &ModuleProfile,
+    pp: &PartsProfile,
+) -> Result<(), SpecError> {
     let (Some(s), Some(sp)) = (&m.snap, &pp.snap) else {
         return Ok(());
     };

@@ -62,7 +62,9 @@ pub fn field_names(message: &str) -> Vec<String> {
             && REQUEST_SUFFIXES.iter().any(|s| ty.ends_with(s))
         {
             let mut k = j + 1;
-            while k < bytes.len() && (bytes[k].is_ascii_lowercase() || bytes[k].is_ascii_digit() || bytes[k] == b'_') {
+            while k < bytes.len()
+                && (bytes[k].is_ascii_lowercase() || bytes[k].is_ascii_digit() || bytes[k] == b'_')
+            {
                 k += 1;
             }
             found.push(message[i..k].to_string());
@@ -109,10 +111,16 @@ mod tests {
             ("AnalysisOptions.window_nm", "window_nm="),
         ];
         assert_eq!(
-            in_words("AnalysisOptions.window_nm and AnalysisOptions.window", &words),
+            in_words(
+                "AnalysisOptions.window_nm and AnalysisOptions.window",
+                &words
+            ),
             "window_nm= and window="
         );
-        assert_eq!(in_words("XAnalysisOptions.window_nm", &words), "XAnalysisOptions.window_nm");
+        assert_eq!(
+            in_words("XAnalysisOptions.window_nm", &words),
+            "XAnalysisOptions.window_nm"
+        );
     }
 
     #[test]
@@ -120,6 +128,12 @@ mod tests {
         let names = field_names(
             "give VerifyRequest.force_start or AnalysisOptions.clock_offset_s; Table 2.x is no field",
         );
-        assert_eq!(names, ["VerifyRequest.force_start", "AnalysisOptions.clock_offset_s"]);
+        assert_eq!(
+            names,
+            [
+                "VerifyRequest.force_start",
+                "AnalysisOptions.clock_offset_s"
+            ]
+        );
     }
 }

@@ -415,7 +415,13 @@ pub struct SnapProfile {
 /// the fiber's vertical run, clears a bend of radius `bend` by `gap` (the fiber radius
 /// plus its clearance); where the bend has already turned horizontal, the roof only has
 /// to clear the horizontal run.
-pub(crate) fn slot_roof_z_mm(r_rel: f64, bend_start_z: f64, bend: f64, gap: f64, exit_z: f64) -> f64 {
+pub(crate) fn slot_roof_z_mm(
+    r_rel: f64,
+    bend_start_z: f64,
+    bend: f64,
+    gap: f64,
+    exit_z: f64,
+) -> f64 {
     let reach = bend - gap;
     let dx = bend - r_rel;
     if dx <= 0.0 || reach <= dx {

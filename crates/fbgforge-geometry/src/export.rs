@@ -239,7 +239,9 @@ const PALETTE: [&str; 10] = [
 ];
 
 /// Every material of the design with its display colour.
-pub(crate) fn manifest_materials(design: &crate::spec::Design) -> BTreeMap<String, ManifestMaterial> {
+pub(crate) fn manifest_materials(
+    design: &crate::spec::Design,
+) -> BTreeMap<String, ManifestMaterial> {
     design
         .materials
         .iter()

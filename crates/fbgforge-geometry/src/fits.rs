@@ -362,7 +362,10 @@ impl Route<'_> {
 
     /// A slot of the channel's width in `part`, and its roof over the bend.
     fn slot(&mut self, part: &str, (slot, roof_name): (&str, &str), roof: &[P2]) {
-        let (w, rf) = (self.md.parts.channel_width_mm, self.md.parts.fiber_radius_mm);
+        let (w, rf) = (
+            self.md.parts.channel_width_mm,
+            self.md.parts.fiber_radius_mm,
+        );
         self.add(part, slot, Some(w), w / 2.0 - rf, CLEARANCE);
         let gap = self.along(roof);
         self.add(part, roof_name, None, gap, CLEARANCE);
@@ -438,7 +441,11 @@ impl Route<'_> {
             (rb, pp.insert_slot_top_mm),
             (rb, bore_top),
         ];
-        self.slot("insert", ("insert slot", "insert slot roof over the bend"), &roof);
+        self.slot(
+            "insert",
+            ("insert slot", "insert slot roof over the bend"),
+            &roof,
+        );
     }
 
     /// The reference fiber (grating `i`, its tip at `z_top`): in the insert or the
@@ -464,7 +471,11 @@ impl Route<'_> {
             (r_ci, pp.core_slot_top_mm),
             (r_ci, p.pillar_top_mm),
         ];
-        self.slot("core", ("core wall slot", "core slot roof over the bend"), &roof);
+        self.slot(
+            "core",
+            ("core wall slot", "core slot roof over the bend"),
+            &roof,
+        );
     }
 
     /// Every fiber's way out: the cap's slot and roof, the snap bead, the plate.

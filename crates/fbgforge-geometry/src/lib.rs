@@ -10,7 +10,6 @@
 //! and a manifest, with the drawings the caller's [`BuildSink`] makes of them (the
 //! cut-away previews are `fbgforge-report`'s), written only once every part has passed.
 
-
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, grating, logs, output, profile, progress, spec};
@@ -448,7 +447,8 @@ pub fn build_design(
     let tol = request
         .tolerance_mm
         .unwrap_or_else(|| default_tolerance_for(&profile));
-    let built = build_parts_for(&profile, Some(tol), request.parts.as_deref()).with_context(nothing)?;
+    let built =
+        build_parts_for(&profile, Some(tol), request.parts.as_deref()).with_context(nothing)?;
     let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
     let drawings = sink.drawings(&CheckedBuild {
         profile: &profile,

@@ -46,7 +46,11 @@ fn xml_err(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 /// The model file's XML.
-pub(crate) fn model_xml(title: &str, materials: &[BaseMaterial], objects: &[Object]) -> Result<String> {
+pub(crate) fn model_xml(
+    title: &str,
+    materials: &[BaseMaterial],
+    objects: &[Object],
+) -> Result<String> {
     let mut w = Writer::new(Vec::new());
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
         .map_err(xml_err)?;

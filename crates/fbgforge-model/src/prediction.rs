@@ -1013,7 +1013,8 @@ mod tests {
 
     #[test]
     fn fem_strain_replaces_k_and_keeps_compensation_consistent() {
-        let design = crate::design::parse(include_str!("../../../designs/clip-on-34mm.toml")).unwrap();
+        let design =
+            crate::design::parse(include_str!("../../../designs/clip-on-34mm.toml")).unwrap();
         let opts = PredictOptions {
             force_n: 5.0,
             delta_t_k: 10.0,

@@ -11,14 +11,13 @@
 //!   write the design and hand what they found to a sink (`run::ModuleSink`,
 //!   `run::PlaceSink`; the report folders, tables and JSON are in `fbgforge-report`).
 
-
 // Sibling crates under the names the modules used inside one crate.
+#[allow(unused_imports)]
+use fbgforge_array as array;
 #[allow(unused_imports)]
 use fbgforge_core::{design, family, fields, grating, logs, output, profile, progress, spec};
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
-#[allow(unused_imports)]
-use fbgforge_array as array;
 
 pub mod materials;
 pub mod module;

@@ -12,7 +12,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The shipped library, `designs/library/materials.toml`.
-pub(crate) const SHIPPED_LIBRARY_TOML: &str = include_str!("../../../designs/library/materials.toml");
+pub(crate) const SHIPPED_LIBRARY_TOML: &str =
+    include_str!("../../../designs/library/materials.toml");
 
 /// Which process makes a library material.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -11,14 +11,13 @@
 //! line by its role. Charts are written atomically; the same numbers always go to a
 //! JSON or CSV beside the chart.
 
-
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
-use fbgforge_core::{output};
+use fbgforge_core::output;
 
 pub mod axis;
-pub mod html;
 pub mod heat;
+pub mod html;
 pub mod svg;
 
 use crate::output::write_atomic;

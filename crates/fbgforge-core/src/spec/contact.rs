@@ -208,8 +208,9 @@ mod tests {
     use super::*;
 
     fn module() -> Module {
-        let d = crate::spec::parse_unvalidated(include_str!("../../../../designs/clip-on-16mm.toml"))
-            .unwrap();
+        let d =
+            crate::spec::parse_unvalidated(include_str!("../../../../designs/clip-on-16mm.toml"))
+                .unwrap();
         d.module.unwrap()
     }
 

@@ -9,9 +9,9 @@ use super::volume::{capped_cylinder_volume, ring_volume, slice_area, sphere_z};
 use crate::brep::{Assembler, BrepError, Seg};
 use crate::design_profile::DesignProfile;
 use crate::part::{BuiltSolid, PartKind, Print, PrintablePart};
-use crate::GeometryError;
 use crate::profile::{ModuleProfile, PartsProfile};
 use crate::spec::Design;
+use crate::GeometryError;
 use std::f64::consts::PI;
 use truck_modeling::Vector3;
 

@@ -268,7 +268,9 @@ impl Batch {
                 }
                 let start = Instant::now();
                 let task = solved.task_of[i].expect("a unit without contact pairs has a task");
-                let (sol, solve_s) = solved.solutions[task].as_ref().map_err(|e| anyhow!("{e}"))?;
+                let (sol, solve_s) = solved.solutions[task]
+                    .as_ref()
+                    .map_err(|e| anyhow!("{e}"))?;
                 let mut strain_per_n = Vec::new();
                 for g in &prepared.gratings {
                     let e = model.mean_axial_strain(sol, g.z_start_mm, g.z_end_mm)?;
@@ -292,7 +294,10 @@ impl Batch {
     }
 
     /// Each request's result from its units' (a Richardson pair extrapolated).
-    fn combine(self, unit_results: Vec<Result<ConfigurationResult>>) -> Vec<Result<ConfigurationResult>> {
+    fn combine(
+        self,
+        unit_results: Vec<Result<ConfigurationResult>>,
+    ) -> Vec<Result<ConfigurationResult>> {
         let mut unit_results: Vec<Option<Result<ConfigurationResult>>> =
             unit_results.into_iter().map(Some).collect();
         let mut take = |i: usize| unit_results[i].take().expect("each unit used once");

@@ -30,12 +30,12 @@ pub use module::{
 };
 
 use crate::model::GratingPrediction;
-pub use batch::solve_configurations;
-pub use cache::GeometryCache;
 pub use crate::model::{configurations, Configuration};
 use crate::profile::{module_gratings, GratingPlacement, ModuleProfile};
 use crate::spec::{Design, GratingRole};
 use anyhow::{anyhow, bail, Result};
+pub use batch::solve_configurations;
+pub use cache::GeometryCache;
 use serde::Serialize;
 use std::time::Instant;
 

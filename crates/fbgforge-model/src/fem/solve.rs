@@ -24,8 +24,8 @@ use anyhow::{anyhow, bail, Context, Result};
 use std::sync::Arc;
 
 pub use super::linear::{
-    reverse_cuthill_mckee, EnvelopeCholesky, Factorization, LinearSolver, LowerPattern,
-    SparseLlt, SymbolicFactorization,
+    reverse_cuthill_mckee, EnvelopeCholesky, Factorization, LinearSolver, LowerPattern, SparseLlt,
+    SymbolicFactorization,
 };
 
 /// Displacement component: 0 = radial u_r, 1 = axial u_z.
@@ -751,7 +751,10 @@ mod tests {
                 .unwrap()
                 .solve_loads(&problem.loads)
                 .unwrap();
-            for solver in [&EnvelopeCholesky as &dyn LinearSolver, &SparseLlt::default()] {
+            for solver in [
+                &EnvelopeCholesky as &dyn LinearSolver,
+                &SparseLlt::default(),
+            ] {
                 let fresh = problem.solve_with(solver).unwrap();
                 let scale = fresh
                     .displacement_mm

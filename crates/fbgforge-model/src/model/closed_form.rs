@@ -42,7 +42,11 @@ pub(crate) fn supported_dome_compliance_mm_per_n(material: Elastic, wall_mm: f64
 
 /// Axial compliance L/(EA) of a cylinder section in uniform membrane tension or
 /// compression (N1' = P/(2πR) per unit circumference), mm/N.
-pub(crate) fn cylinder_compliance_mm_per_n(material: Elastic, length_mm: f64, area_mm2: f64) -> f64 {
+pub(crate) fn cylinder_compliance_mm_per_n(
+    material: Elastic,
+    length_mm: f64,
+    area_mm2: f64,
+) -> f64 {
     length_mm / (material.youngs_modulus_mpa * area_mm2)
 }
 
@@ -54,7 +58,11 @@ pub(crate) fn punch_compliance_mm_per_n(material: Elastic, radius_mm: f64) -> f6
 
 /// Through-thickness compliance of a thin layer squeezed over a patch of radius `a`,
 /// with the confined (oedometric) modulus, mm/N.
-pub(crate) fn layer_compliance_mm_per_n(material: Elastic, thickness_mm: f64, radius_mm: f64) -> f64 {
+pub(crate) fn layer_compliance_mm_per_n(
+    material: Elastic,
+    thickness_mm: f64,
+    radius_mm: f64,
+) -> f64 {
     thickness_mm / (material.confined_modulus_mpa() * PI * radius_mm * radius_mm)
 }
 

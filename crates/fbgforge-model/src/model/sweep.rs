@@ -605,7 +605,10 @@ pub const PAPER_FIGURES: &[PaperFigure] = &[
 
 /// The design with a paper figure's fixed moduli applied (the swept one untouched).
 /// With Es fixed every insert gets the same modulus, so only the first is kept.
-pub(crate) fn paper_figure_design(design: &Design, fig: &PaperFigure) -> Result<Design, SweepError> {
+pub(crate) fn paper_figure_design(
+    design: &Design,
+    fig: &PaperFigure,
+) -> Result<Design, SweepError> {
     let mut d = design.clone();
     if let Some(v) = fig.e1_mpa {
         set_core_moduli(&mut d, v);
@@ -785,7 +788,8 @@ mod trend_tests {
 
     #[test]
     fn the_closed_form_reproduces_all_five_figures() {
-        let d = crate::design::parse(include_str!("../../../../designs/clip-on-34mm.toml")).unwrap();
+        let d =
+            crate::design::parse(include_str!("../../../../designs/clip-on-34mm.toml")).unwrap();
         for f in PAPER_FIGURES {
             let r = run_paper_figure(&d, f, 201).unwrap();
             let s = &r.series[0];

@@ -42,7 +42,10 @@ pub(crate) fn edge_zone_mm(radius_mm: f64, wall_mm: f64, poisson: f64) -> f64 {
 }
 
 /// Warnings that depend on the geometry only (thin-shell ratios, grating in an edge zone).
-pub(crate) fn geometry_warnings(p: &ModuleModelParams, grating: Option<&GratingPlacement>) -> Vec<String> {
+pub(crate) fn geometry_warnings(
+    p: &ModuleModelParams,
+    grating: Option<&GratingPlacement>,
+) -> Vec<String> {
     let g = &p.geometry;
     let mut w = Vec::new();
     for (part, t, r) in [

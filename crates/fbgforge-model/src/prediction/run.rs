@@ -7,13 +7,13 @@
 //! value passes `&mut ()`.
 
 use super::{
-    check_paper_statements, predict, sweep_predictor_with_band, FidelityChoice,
-    ModelledPrediction, PaperStatements, PredictionRequest,
+    check_paper_statements, predict, sweep_predictor_with_band, FidelityChoice, ModelledPrediction,
+    PaperStatements, PredictionRequest,
 };
 use crate::fem::{FemOptions, GeometryCache};
 use crate::model::sweep::{
-    self, paper_trend, run_paper_figure_with, PaperFigure, SweepParam, SweepResult,
-    TrendVerdict, PAPER_FIGURES, PAPER_FORCE_N,
+    self, paper_trend, run_paper_figure_with, PaperFigure, SweepParam, SweepResult, TrendVerdict,
+    PAPER_FIGURES, PAPER_FORCE_N,
 };
 use crate::model::LoadCase;
 use crate::progress::Progress;
@@ -42,7 +42,10 @@ impl RunError {
     /// The error itself, whatever stopped the use case.
     pub fn into_inner(self) -> anyhow::Error {
         match self {
-            RunError::Request(e) | RunError::Design(e) | RunError::Model(e) | RunError::Output(e) => e,
+            RunError::Request(e)
+            | RunError::Design(e)
+            | RunError::Model(e)
+            | RunError::Output(e) => e,
         }
     }
 }
@@ -50,8 +53,7 @@ impl RunError {
 /// "Case I needs a solid insert" when `case` is Case I and the module lists none
 /// (`where_` says where the design would list them).
 fn check_case_insert(design: &Design, case: Option<LoadCase>, where_: &str) -> Result<()> {
-    if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty())
-    {
+    if case == Some(LoadCase::I) && design.module.as_ref().is_some_and(|m| m.inserts.is_empty()) {
         anyhow::bail!("Case I needs a solid insert, but the design lists none{where_}");
     }
     Ok(())
@@ -468,10 +470,9 @@ pub fn paper_figures(
             request.band,
             request.cache.clone(),
         );
-        let r = run_paper_figure_with(design, fig, steps, predictor.as_deref(), progress)
-            .map_err(|e| {
-                RunError::Model(anyhow::Error::new(e).context(format!("paper figure {}", fig.id)))
-            })?;
+        let r = run_paper_figure_with(design, fig, steps, predictor.as_deref(), progress).map_err(
+            |e| RunError::Model(anyhow::Error::new(e).context(format!("paper figure {}", fig.id))),
+        )?;
         let trends = figure_trends(fig, request.fidelity, &r);
         sink.figure(&FigureSwept {
             figure: fig,

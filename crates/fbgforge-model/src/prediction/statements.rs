@@ -99,7 +99,8 @@ impl Checked<'_> {
             .iter()
             .flat_map(|g| {
                 self.inserts.iter().filter_map(|(i, _)| {
-                    self.k(g, LoadCase::I, Some(i)).map(|v| (g.clone(), i.clone(), v))
+                    self.k(g, LoadCase::I, Some(i))
+                        .map(|v| (g.clone(), i.clone(), v))
                 })
             })
             .collect();

@@ -9,8 +9,8 @@ use super::problem::ModuleProblem;
 use super::robust::FrontObjectives;
 use super::settings::Objective;
 use crate::model::GratingPrediction;
-use crate::quality::{design_quality, QualityBreakdown};
 use crate::prediction::KReadings;
+use crate::quality::{design_quality, QualityBreakdown};
 use crate::spec::Design;
 
 /// Add a constraint's value (a negative violation counts as met).
@@ -87,7 +87,14 @@ impl ModuleProblem {
         &self,
         x: &[f64],
         d: &Design,
-    ) -> Result<(Vec<GratingPrediction>, Vec<GratingPrediction>, Vec<QualityBreakdown>), String> {
+    ) -> Result<
+        (
+            Vec<GratingPrediction>,
+            Vec<GratingPrediction>,
+            Vec<QualityBreakdown>,
+        ),
+        String,
+    > {
         let (preds, trend) = (self.model)(d, self.settings.max_force_n)
             .map(|trend| {
                 let mut preds = trend.clone();

@@ -70,9 +70,9 @@ impl Predictor {
                     None => {
                         let a = Arc::new(
                             Anchored::new(design, *fidelity, &FemOptions::default(), structures)
-                                .map_err(
-                                |e| e.context("anchoring the model policy on the start design"),
-                            )?,
+                                .map_err(|e| {
+                                    e.context("anchoring the model policy on the start design")
+                                })?,
                         );
                         cache.lock().expect("anchor cache").push((key, a.clone()));
                         a

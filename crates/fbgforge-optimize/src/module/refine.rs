@@ -7,8 +7,8 @@
 
 use super::outcome::{ChoiceResult, Evaluation};
 use super::problem::ModuleProblem;
-use super::ProblemInputs;
 use super::settings::ModuleSettings;
+use super::ProblemInputs;
 use crate::solvers::multi_start;
 
 impl ProblemInputs<'_> {

@@ -65,7 +65,11 @@ impl UncertaintyRatios {
     /// `trend` the same row without it (the bounding readings follow the closed form's
     /// trend from their anchor values, so that a nominal K crossing zero moves against
     /// them). The nominal alone when the anchor stated nothing for its grating and case.
-    pub(crate) fn readings_of(&self, p: &GratingPrediction, trend: &GratingPrediction) -> KReadings {
+    pub(crate) fn readings_of(
+        &self,
+        p: &GratingPrediction,
+        trend: &GratingPrediction,
+    ) -> KReadings {
         let k = p.sensitivity_pm_per_n;
         let t = trend.sensitivity_pm_per_n;
         let row = self

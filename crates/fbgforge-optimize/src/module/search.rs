@@ -9,12 +9,12 @@ use super::outcome::{infeasible_error, ChoiceResult, Evaluation, ModuleOutcome, 
 use super::predictor::Predictor;
 use super::problem::ModuleProblem;
 use super::refine::policy_answer;
-use super::ProblemInputs;
 use super::robust::UncertaintyRatios;
 use super::settings::{check_settings, ModuleSettings, Objective};
+use super::ProblemInputs;
 use crate::materials::MaterialLibrary;
-use crate::quality::{Calibration, MeasuredPrototype};
 use crate::progress::Progress;
+use crate::quality::{Calibration, MeasuredPrototype};
 use crate::solvers::{multi_start, start_points, Run};
 use crate::spec::Design;
 use rayon::prelude::*;

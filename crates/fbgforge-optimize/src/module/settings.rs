@@ -4,8 +4,8 @@
 
 use super::variables::Variable;
 use crate::materials::MaterialLibrary;
-use crate::quality::QualitySettings;
 use crate::prediction::Robustness;
+use crate::quality::QualitySettings;
 use crate::solvers::{RunSettings, SolverKind};
 use serde::Serialize;
 

@@ -5,9 +5,9 @@ use super::InWords;
 use crate::output::write_csv;
 use crate::plot::{Chart, Mark, Series, Stroke};
 use anyhow::Result;
+use fbgforge_model::solvers::SolverKind;
 use fbgforge_optimize::module::{ChoiceResult, FrontDesign, ModuleOutcome};
 use fbgforge_optimize::run::Landscape;
-use fbgforge_model::solvers::SolverKind;
 use std::path::Path;
 
 /// How to read a convergence chart.
@@ -174,7 +174,10 @@ fn front_chart(o: &ModuleOutcome, words: InWords) -> Option<Chart> {
     let written = marked(&|i, _| o.written_front_index == Some(i));
     if !written.is_empty() {
         chart = chart.with(Series::new(
-            words(&format!("written (ModuleSettings.prefer {})", o.prefer.name())),
+            words(&format!(
+                "written (ModuleSettings.prefer {})",
+                o.prefer.name()
+            )),
             written,
             Mark::Points,
         ));
@@ -252,11 +255,7 @@ pub(super) fn landscape_chart(
 ) -> Result<Chart> {
     let (grid, (va, vb), steps) = (&l.points, l.variables, l.steps);
     let mut chart = Chart::new(
-        format!(
-            "{} landscape, {}",
-            o.objective.symbol(),
-            win.choice
-        ),
+        format!("{} landscape, {}", o.objective.symbol(), win.choice),
         va.name(),
         format!("objective, {}", o.objective_unit),
     );

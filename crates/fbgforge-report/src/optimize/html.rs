@@ -6,9 +6,9 @@
 //! and one call in [`module_document`].
 
 use crate::html::{Cell, Document, Table, Tone};
-use fbgforge_optimize::module::{ChoiceResult, Evaluation, ModuleOutcome};
 use crate::plot::Chart;
 use anyhow::Result;
+use fbgforge_optimize::module::{ChoiceResult, Evaluation, ModuleOutcome};
 
 /// A chart and its caption.
 pub(crate) type Figure<'a> = (&'a Chart, &'a str);

@@ -15,8 +15,8 @@ mod charts;
 mod html;
 mod table;
 
-pub use charts::{convergence_chart, RunHistory};
 pub(crate) use charts::CONVERGENCE_CAPTION;
+pub use charts::{convergence_chart, RunHistory};
 pub(crate) use html::Figure;
 pub use table::module_table;
 
@@ -75,7 +75,10 @@ impl ModuleSink for ModuleReportFolder {
     fn optimised(&mut self, run: &ModuleRun) -> Result<()> {
         let dir = &run.report_dir;
         let o = &run.outcome;
-        write_atomic(&dir.join("summary.json"), json_text(o, self.words)?.as_bytes())?;
+        write_atomic(
+            &dir.join("summary.json"),
+            json_text(o, self.words)?.as_bytes(),
+        )?;
         let win = &o.choices[o.best_choice];
         let convergence = charts::write_convergence(dir, win)?;
         let front = charts::write_front(dir, o, self.words)?;
@@ -91,7 +94,10 @@ impl ModuleSink for ModuleReportFolder {
             figures.push((c, "The objective over the two landscape variables, the others at the optimum: slices of the second variable; points the constraints cut off drawn apart."));
         }
         let doc = html::module_document(o, front.as_ref(), &figures)?;
-        write_atomic(&dir.join("report.html"), (self.words)(&doc.to_html()).as_bytes())
+        write_atomic(
+            &dir.join("report.html"),
+            (self.words)(&doc.to_html()).as_bytes(),
+        )
     }
 }
 

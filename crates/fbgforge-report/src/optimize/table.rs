@@ -91,7 +91,13 @@ fn scored(exact: bool) -> &'static str {
     }
 }
 
-fn feasible_row(s: &mut String, o: &ModuleOutcome, (mark, name): (&str, &str), e: &Evaluation, evals: u64) {
+fn feasible_row(
+    s: &mut String,
+    o: &ModuleOutcome,
+    (mark, name): (&str, &str),
+    e: &Evaluation,
+    evals: u64,
+) {
     let k = e
         .gratings
         .iter()
@@ -127,7 +133,11 @@ fn infeasible_row(
         evals
     );
     if let Some(k) = lv.and_then(|e| e.constraints.iter().find(|k| k.violation > 0.0)) {
-        wrapped(s, &words(&format!("    violates {}: {}", k.name, k.detail)), 4);
+        wrapped(
+            s,
+            &words(&format!("    violates {}: {}", k.name, k.detail)),
+            4,
+        );
     }
 }
 
@@ -254,7 +264,10 @@ fn written_lines(s: &mut String, o: &ModuleOutcome, words: InWords) {
         if m.contact_radius_is_default() && o.written_choice.insert_material.is_some() {
             wrapped(
                 s,
-                &words(&format!("note: {}", crate::prediction::DEFAULT_CONTACT_WARNING)),
+                &words(&format!(
+                    "note: {}",
+                    crate::prediction::DEFAULT_CONTACT_WARNING
+                )),
                 6,
             );
         }

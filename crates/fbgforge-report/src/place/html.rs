@@ -4,9 +4,9 @@
 
 use crate::array::protocol::ProtocolConfig;
 use crate::html::{Document, Table, Tone};
-use fbgforge_optimize::place::{LayoutScore, PlaceOutcome};
 use crate::optimize::Figure;
 use anyhow::Result;
+use fbgforge_optimize::place::{LayoutScore, PlaceOutcome};
 
 /// Tests in one seed of the protocol the placement scores on.
 fn protocol_tests_per_seed() -> usize {

@@ -14,7 +14,9 @@ mod table;
 
 pub use table::place_table;
 
-use crate::optimize::{convergence_chart, json_text, Figure, InWords, RunHistory, CONVERGENCE_CAPTION};
+use crate::optimize::{
+    convergence_chart, json_text, Figure, InWords, RunHistory, CONVERGENCE_CAPTION,
+};
 use crate::output::{write_atomic, write_csv};
 use crate::plot::{Chart, Mark, Series};
 use anyhow::Result;
@@ -39,7 +41,10 @@ impl PlaceSink for PlaceReportFolder {
     fn placed(&mut self, run: &PlaceRun) -> Result<()> {
         let dir = &run.report_dir;
         let o = &run.outcome;
-        write_atomic(&dir.join("summary.json"), json_text(o, self.words)?.as_bytes())?;
+        write_atomic(
+            &dir.join("summary.json"),
+            json_text(o, self.words)?.as_bytes(),
+        )?;
         let inline = write_layout(dir, &run.start, o)?;
         let convergence = write_convergence(dir, o)?;
         let agreement = write_agreement(dir, o)?;
@@ -48,13 +53,20 @@ impl PlaceSink for PlaceReportFolder {
             figures.push((c, "Random layouts: the coherence proxy against the protocol score (lower coherence should score higher)."));
         }
         let doc = html::place_document(o, run.held_out_seeds, &inline, &figures)?;
-        write_atomic(&dir.join("report.html"), (self.words)(&doc.to_html()).as_bytes())
+        write_atomic(
+            &dir.join("report.html"),
+            (self.words)(&doc.to_html()).as_bytes(),
+        )
     }
 }
 
 /// The layout on the sheet, start and chosen: `layout.svg` and `layout.csv`; returns
 /// the picture for inlining in the HTML.
-fn write_layout(dir: &Path, start: &fbgforge_core::spec::Design, o: &PlaceOutcome) -> Result<String> {
+fn write_layout(
+    dir: &Path,
+    start: &fbgforge_core::spec::Design,
+    o: &PlaceOutcome,
+) -> Result<String> {
     let (Some(from), Some(to)) = (&start.array, &o.design.array) else {
         anyhow::bail!("internal: a placement without an [array] section");
     };

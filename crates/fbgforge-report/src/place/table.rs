@@ -40,11 +40,7 @@ fn layout_lines(s: &mut String, o: &PlaceOutcome) {
             );
         }
         let xs: Vec<String> = a.fiber_x_mm.iter().map(|x| format!("{x:.2}")).collect();
-        wrapped(
-            s,
-            &format!("fiber x mm (mold slits): {}", xs.join(", ")),
-            4,
-        );
+        wrapped(s, &format!("fiber x mm (mold slits): {}", xs.join(", ")), 4);
     }
 }
 

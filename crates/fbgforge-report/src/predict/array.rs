@@ -170,6 +170,11 @@ pub fn write_table(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
         }
     }
     let (svg, csv) = a.map_files;
-    writeln!(out, "sensitivity map: {} and {}", svg.display(), csv.display())?;
+    writeln!(
+        out,
+        "sensitivity map: {} and {}",
+        svg.display(),
+        csv.display()
+    )?;
     Ok(())
 }

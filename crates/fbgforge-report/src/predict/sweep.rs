@@ -161,7 +161,11 @@ fn default_contact_note(
         .as_ref()
         .is_some_and(|m| m.contact_radius_is_default());
     if case_i && default && f != FidelityChoice::ClosedForm {
-        writeln!(out, "{}", words(&format!("note: Case I: {DEFAULT_CONTACT_WARNING}")))?;
+        writeln!(
+            out,
+            "{}",
+            words(&format!("note: Case I: {DEFAULT_CONTACT_WARNING}"))
+        )?;
     }
     Ok(())
 }

@@ -119,7 +119,11 @@ impl Stations {
 /// dimension (a band edge between nodes jumps from node to node as the module
 /// changes). Returns the stations (boundaries and midpoints), the boundaries, and the
 /// doubled index of every break point (the ends of the windows meshed uniformly).
-fn cylinder_stations(zc: f64, h: f64, clip_mm: Option<f64>) -> (Vec<Station>, Vec<f64>, Vec<usize>) {
+fn cylinder_stations(
+    zc: f64,
+    h: f64,
+    clip_mm: Option<f64>,
+) -> (Vec<Station>, Vec<f64>, Vec<usize>) {
     let mut z_breaks: Vec<f64> = Vec::new();
     let mut segment = |z0: f64, z1: f64, min: usize| {
         let n = (((z1 - z0) / h).ceil() as usize).max(min);
