@@ -29,8 +29,6 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("SweepRequest.start", "--from"),
     ("SweepRequest.stop", "--to"),
     ("SweepRequest.steps", "--steps"),
-    // The model's warning on the shipped default contact names verify's option.
-    ("VerifyRequest.calibrate_into", "--calibrate-into"),
 ];
 
 /// Arguments of `fbgforge predict`.
