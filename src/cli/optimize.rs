@@ -1,7 +1,6 @@
 //! `fbgforge optimize` and `fbgforge place`: design optimisation from the command
 //! line (the work is in `fbgforge::optimize::run`).
 
-use super::hiargs::in_flag_words;
 use super::progress::Bar;
 use anyhow::Result;
 use clap::Args;
@@ -26,7 +25,14 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("ModuleRequest.landscape", "--landscape"),
     ("RunSettings.max_iters", "--max-iters"),
     ("RunSettings.swarm_iters", "--swarm-iters"),
+    // The model's warning on the shipped default contact names verify's option.
+    ("VerifyRequest.calibrate_into", "--calibrate-into"),
 ];
+
+/// A library text in this file's flags ([`FLAGS`]): what the sinks print and write.
+fn in_flag_words(text: &str) -> String {
+    fbgforge::fields::in_words(text, FLAGS)
+}
 
 /// Arguments of `fbgforge optimize`.
 #[derive(Debug, Args)]

@@ -4,7 +4,6 @@
 //! become the library's requests; the tables, JSON, charts and CSVs are the printers of
 //! `fbgforge::report::predict`.
 
-use super::hiargs::in_flag_words;
 use super::progress::Bar;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
@@ -29,7 +28,14 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("SweepRequest.start", "--from"),
     ("SweepRequest.stop", "--to"),
     ("SweepRequest.steps", "--steps"),
+    // The model's warning on the shipped default contact names verify's option.
+    ("VerifyRequest.calibrate_into", "--calibrate-into"),
 ];
+
+/// A library text in this file's flags ([`FLAGS`]): what the sinks print and write.
+fn in_flag_words(text: &str) -> String {
+    fbgforge::fields::in_words(text, FLAGS)
+}
 
 /// Arguments of `fbgforge predict`.
 #[derive(Debug, Args)]
