@@ -102,37 +102,14 @@ impl HeatMaps {
 
     /// One panel with its top-left corner at (ox, oy).
     fn panel(&self, s: &mut String, p: &HeatPanel, ox: f64, oy: f64) {
-        let step = |v: &[f64]| {
-            if v.len() >= 2 {
-                (v[v.len() - 1] - v[0]) / (v.len() - 1) as f64
-            } else {
-                1.0
-            }
-        };
-        let (dx, dy) = (step(&p.x), step(&p.y));
-        let (Some(&x0), Some(&x1), Some(&y0), Some(&y1)) =
-            (p.x.first(), p.x.last(), p.y.first(), p.y.last())
-        else {
+        let Some(f) = PanelFrame::of(p, ox, oy) else {
             return;
         };
-        let (x0, x1, y0, y1) = (x0 - dx / 2.0, x1 + dx / 2.0, y0 - dy / 2.0, y1 + dy / 2.0);
-        let peak = p
-            .values
-            .iter()
-            .flatten()
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        // The plot area keeps the plane's aspect ratio inside the panel.
-        let (aw, ah) = (PANEL_W - LEFT - RIGHT, PANEL_H - CAPTION - BELOW);
-        let scale = (aw / (x1 - x0)).min(ah / (y1 - y0));
-        let (pw, ph) = ((x1 - x0) * scale, (y1 - y0) * scale);
-        let (left, top) = (ox + LEFT + (aw - pw) / 2.0, oy + CAPTION + (ah - ph) / 2.0);
-        let sx = |x: f64| left + (x - x0) * scale;
-        let sy = |y: f64| top + ph - (y - y0) * scale;
         let _ = writeln!(
             s,
-            r#"<g class="panel" data-series="{}" data-peak="{peak}">"#,
-            escape(&p.title)
+            r#"<g class="panel" data-series="{}" data-peak="{}">"#,
+            escape(&p.title),
+            f.peak
         );
         let _ = writeln!(
             s,
@@ -141,86 +118,17 @@ impl HeatMaps {
             px(oy + 18.0),
             escape(&p.title)
         );
-        for (j, &y) in p.y.iter().enumerate() {
-            for (i, &x) in p.x.iter().enumerate() {
-                let v = p.values.get(j).and_then(|r| r.get(i)).copied();
-                let t = match v {
-                    Some(v) if peak > 0.0 => v / peak,
-                    _ => 0.0,
-                };
-                // Cells overlap by a hair so no seam shows between them.
-                let _ = writeln!(
-                    s,
-                    r#"<rect class="cell" x="{}" y="{}" width="{}" height="{}" fill="{}"/>"#,
-                    px(sx(x - dx / 2.0)),
-                    px(sy(y + dy / 2.0)),
-                    px(dx * scale + 0.3),
-                    px(dy * scale + 0.3),
-                    diverging(t)
-                );
-            }
-        }
-        for l in &p.lines {
-            let pts: Vec<String> = l
-                .iter()
-                .map(|&(x, y)| format!("{},{}", px(sx(x)), px(sy(y))))
-                .collect();
-            let _ = writeln!(
-                s,
-                r##"<polyline class="line" points="{}" fill="none" stroke="#787878" stroke-width="1"/>"##,
-                pts.join(" ")
-            );
-        }
-        for &(x, y) in &p.points {
-            let _ = writeln!(
-                s,
-                r##"<circle class="point" cx="{}" cy="{}" r="4" fill="#000000"/>"##,
-                px(sx(x)),
-                px(sy(y))
-            );
-        }
-        let _ = writeln!(
-            s,
-            r##"<rect class="frame" x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#000000"/>"##,
-            px(left),
-            px(top),
-            px(pw),
-            px(ph)
-        );
-        let axis = |lo: f64, hi: f64| Axis { log: false, lo, hi };
-        for t in axis(x0, x1).ticks().iter().filter(|t| t.major) {
-            let x = sx(t.value);
-            let _ = writeln!(
-                s,
-                r##"<line class="tick" x1="{x}" y1="{b}" x2="{x}" y2="{b2}" stroke="#000000"/><text class="tick-label" x="{x}" y="{ty}" font-size="{FONT_PX}" text-anchor="middle">{}</text>"##,
-                escape(&t.label),
-                x = px(x),
-                b = px(top + ph),
-                b2 = px(top + ph + 4.0),
-                ty = px(top + ph + 16.0)
-            );
-        }
-        for t in axis(y0, y1).ticks().iter().filter(|t| t.major) {
-            let y = sy(t.value);
-            let _ = writeln!(
-                s,
-                r##"<line class="tick" x1="{l2}" y1="{y}" x2="{l}" y2="{y}" stroke="#000000"/><text class="tick-label" x="{tx}" y="{ty}" font-size="{FONT_PX}" text-anchor="end">{}</text>"##,
-                escape(&t.label),
-                y = px(y),
-                l = px(left),
-                l2 = px(left - 4.0),
-                tx = px(left - 6.0),
-                ty = px(y + 4.0)
-            );
-        }
+        f.cells(s, p);
+        f.marks(s, p);
+        f.ticks(s);
         let _ = writeln!(
             s,
             r#"<text class="x-label" x="{}" y="{}" font-size="{FONT_PX}" text-anchor="middle">{}</text>"#,
-            px(left + pw / 2.0),
-            px(top + ph + 34.0),
+            px(f.left + f.pw / 2.0),
+            px(f.top + f.ph + 34.0),
             escape(&self.x_label)
         );
-        let (lx, ly) = (ox + 14.0, top + ph / 2.0);
+        let (lx, ly) = (ox + 14.0, f.top + f.ph / 2.0);
         let _ = writeln!(
             s,
             r#"<text class="y-label" x="{}" y="{}" font-size="{FONT_PX}" text-anchor="middle" transform="rotate(-90 {} {})">{}</text>"#,
@@ -237,6 +145,162 @@ impl HeatMaps {
     pub fn write_svg(&self, path: &Path) -> Result<()> {
         let svg = self.to_svg()?;
         write_atomic(path, svg.as_bytes())
+    }
+}
+
+/// Where a panel's plot area sits and how the plane maps onto it (the plane keeps its
+/// aspect ratio inside the panel).
+struct PanelFrame {
+    /// The plane's extent, cell edges included: x from, x to, y from, y to.
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    /// Cell size along x and y.
+    dx: f64,
+    dy: f64,
+    /// Largest |value|, the colour scale's end.
+    peak: f64,
+    /// px per unit of the plane.
+    scale: f64,
+    /// The plot area: left, top, width, height, px.
+    left: f64,
+    top: f64,
+    pw: f64,
+    ph: f64,
+}
+
+impl PanelFrame {
+    /// The frame of panel `p` with its top-left corner at (ox, oy); `None` for a panel
+    /// with no grid.
+    fn of(p: &HeatPanel, ox: f64, oy: f64) -> Option<Self> {
+        let step = |v: &[f64]| {
+            if v.len() >= 2 {
+                (v[v.len() - 1] - v[0]) / (v.len() - 1) as f64
+            } else {
+                1.0
+            }
+        };
+        let (dx, dy) = (step(&p.x), step(&p.y));
+        let (x0, x1, y0, y1) = (*p.x.first()?, *p.x.last()?, *p.y.first()?, *p.y.last()?);
+        let (x0, x1, y0, y1) = (x0 - dx / 2.0, x1 + dx / 2.0, y0 - dy / 2.0, y1 + dy / 2.0);
+        let peak = p
+            .values
+            .iter()
+            .flatten()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let (aw, ah) = (PANEL_W - LEFT - RIGHT, PANEL_H - CAPTION - BELOW);
+        let scale = (aw / (x1 - x0)).min(ah / (y1 - y0));
+        let (pw, ph) = ((x1 - x0) * scale, (y1 - y0) * scale);
+        Some(PanelFrame {
+            x0,
+            x1,
+            y0,
+            y1,
+            dx,
+            dy,
+            peak,
+            scale,
+            left: ox + LEFT + (aw - pw) / 2.0,
+            top: oy + CAPTION + (ah - ph) / 2.0,
+            pw,
+            ph,
+        })
+    }
+
+    fn sx(&self, x: f64) -> f64 {
+        self.left + (x - self.x0) * self.scale
+    }
+
+    fn sy(&self, y: f64) -> f64 {
+        self.top + self.ph - (y - self.y0) * self.scale
+    }
+
+    /// The cells, coloured by value over the peak.
+    fn cells(&self, s: &mut String, p: &HeatPanel) {
+        let (dx, dy) = (self.dx, self.dy);
+        for (j, &y) in p.y.iter().enumerate() {
+            for (i, &x) in p.x.iter().enumerate() {
+                let v = p.values.get(j).and_then(|r| r.get(i)).copied();
+                let t = match v {
+                    Some(v) if self.peak > 0.0 => v / self.peak,
+                    _ => 0.0,
+                };
+                // Cells overlap by a hair so no seam shows between them.
+                let _ = writeln!(
+                    s,
+                    r#"<rect class="cell" x="{}" y="{}" width="{}" height="{}" fill="{}"/>"#,
+                    px(self.sx(x - dx / 2.0)),
+                    px(self.sy(y + dy / 2.0)),
+                    px(dx * self.scale + 0.3),
+                    px(dy * self.scale + 0.3),
+                    diverging(t)
+                );
+            }
+        }
+    }
+
+    /// The panel's lines and points, then the plot area's frame.
+    fn marks(&self, s: &mut String, p: &HeatPanel) {
+        for l in &p.lines {
+            let pts: Vec<String> = l
+                .iter()
+                .map(|&(x, y)| format!("{},{}", px(self.sx(x)), px(self.sy(y))))
+                .collect();
+            let _ = writeln!(
+                s,
+                r##"<polyline class="line" points="{}" fill="none" stroke="#787878" stroke-width="1"/>"##,
+                pts.join(" ")
+            );
+        }
+        for &(x, y) in &p.points {
+            let _ = writeln!(
+                s,
+                r##"<circle class="point" cx="{}" cy="{}" r="4" fill="#000000"/>"##,
+                px(self.sx(x)),
+                px(self.sy(y))
+            );
+        }
+        let _ = writeln!(
+            s,
+            r##"<rect class="frame" x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#000000"/>"##,
+            px(self.left),
+            px(self.top),
+            px(self.pw),
+            px(self.ph)
+        );
+    }
+
+    /// Major ticks with their labels along the bottom and the left edge.
+    fn ticks(&self, s: &mut String) {
+        let (left, top, ph) = (self.left, self.top, self.ph);
+        let axis = |lo: f64, hi: f64| Axis { log: false, lo, hi };
+        for t in axis(self.x0, self.x1).ticks().iter().filter(|t| t.major) {
+            let x = self.sx(t.value);
+            let _ = writeln!(
+                s,
+                r##"<line class="tick" x1="{x}" y1="{b}" x2="{x}" y2="{b2}" stroke="#000000"/><text class="tick-label" x="{x}" y="{ty}" font-size="{FONT_PX}" text-anchor="middle">{}</text>"##,
+                escape(&t.label),
+                x = px(x),
+                b = px(top + ph),
+                b2 = px(top + ph + 4.0),
+                ty = px(top + ph + 16.0)
+            );
+        }
+        for t in axis(self.y0, self.y1).ticks().iter().filter(|t| t.major) {
+            let y = self.sy(t.value);
+            let _ = writeln!(
+                s,
+                r##"<line class="tick" x1="{l2}" y1="{y}" x2="{l}" y2="{y}" stroke="#000000"/><text class="tick-label" x="{tx}" y="{ty}" font-size="{FONT_PX}" text-anchor="end">{}</text>"##,
+                escape(&t.label),
+                y = px(y),
+                l = px(left),
+                l2 = px(left - 4.0),
+                tx = px(left - 6.0),
+                ty = px(y + 4.0)
+            );
+        }
     }
 }
 
