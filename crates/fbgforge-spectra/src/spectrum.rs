@@ -188,7 +188,7 @@ pub struct SpectrumRow {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SpectrumLog {
     /// The format the log was read from (or will be written to).
-    pub format: crate::formats::SpectrumFormat,
+    pub format: SpectrumFormat,
     /// Key/value metadata of the file header in file order.
     pub metadata: Vec<(String, String)>,
     /// Acquisitions in file order.
@@ -227,5 +227,40 @@ impl SpectrumLog {
             .first()
             .map(|r| r.spectra.iter().map(|s| s.channel.clone()).collect())
             .unwrap_or_default()
+    }
+}
+
+/// The spectrum file formats this crate reads and writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SpectrumFormat {
+    /// Luna ENLIGHT / Hyperion spectrum export: metadata block, `Wvl (nm)` + one column per
+    /// channel, dBm, tab-separated.
+    EnlightSpectrum,
+    /// Ibsen I-MON evaluation-software log with `Pixel n` columns.
+    ImonPixels,
+    /// Two- or more-column OSA / swept-laser CSV: `Wavelength (nm)` then power columns.
+    OsaCsv,
+}
+
+impl SpectrumFormat {
+    /// The name used on command lines and in JSON (`enlight-spectrum`, `imon-pixels`, `osa-csv`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SpectrumFormat::EnlightSpectrum => "enlight-spectrum",
+            SpectrumFormat::ImonPixels => "imon-pixels",
+            SpectrumFormat::OsaCsv => "osa-csv",
+        }
+    }
+
+    /// The format of a name given by [`SpectrumFormat::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        [
+            SpectrumFormat::EnlightSpectrum,
+            SpectrumFormat::ImonPixels,
+            SpectrumFormat::OsaCsv,
+        ]
+        .into_iter()
+        .find(|f| f.name() == name)
     }
 }

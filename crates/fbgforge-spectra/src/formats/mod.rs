@@ -10,7 +10,6 @@ pub(crate) mod text;
 
 use std::io::BufRead;
 
-use serde::{Deserialize, Serialize};
 
 use crate::error::SpectrumError;
 use crate::spectrum::SpectrumLog;
@@ -19,40 +18,8 @@ pub use enlight::{read_enlight, write_enlight};
 pub use imon::{read_imon, write_imon, ImonWriteOptions, PixelCalibration};
 pub use osa::{read_osa_csv, write_osa_csv};
 
-/// The spectrum file formats this crate reads and writes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SpectrumFormat {
-    /// Luna ENLIGHT / Hyperion spectrum export: metadata block, `Wvl (nm)` + one column per
-    /// channel, dBm, tab-separated.
-    EnlightSpectrum,
-    /// Ibsen I-MON evaluation-software log with `Pixel n` columns.
-    ImonPixels,
-    /// Two- or more-column OSA / swept-laser CSV: `Wavelength (nm)` then power columns.
-    OsaCsv,
-}
+pub use crate::spectrum::SpectrumFormat;
 
-impl SpectrumFormat {
-    /// The name used on command lines and in JSON (`enlight-spectrum`, `imon-pixels`, `osa-csv`).
-    pub fn name(self) -> &'static str {
-        match self {
-            SpectrumFormat::EnlightSpectrum => "enlight-spectrum",
-            SpectrumFormat::ImonPixels => "imon-pixels",
-            SpectrumFormat::OsaCsv => "osa-csv",
-        }
-    }
-
-    /// The format of a name given by [`SpectrumFormat::name`].
-    pub fn from_name(name: &str) -> Option<Self> {
-        [
-            SpectrumFormat::EnlightSpectrum,
-            SpectrumFormat::ImonPixels,
-            SpectrumFormat::OsaCsv,
-        ]
-        .into_iter()
-        .find(|f| f.name() == name)
-    }
-}
 
 /// How to read a spectrum file.
 #[derive(Debug, Clone, Default, PartialEq)]
