@@ -71,13 +71,14 @@ fn synth_summary(mut child: Child) -> Value {
 /// Run `live --jsonl` to its end; returns every JSON line. Every run here ends
 /// normally, with 0: a simulated instrument's stream ends by its own duration and says
 /// so (`tests/array/live_end.rs` has the instrument that is lost). The tare window is
-/// 0.05 s unless the test says otherwise: these streams start at rest, so it is their
-/// first 50 frames (at 1 kHz).
+/// its first 50 frames, with no minimum time, unless the test says otherwise: these
+/// streams start at rest (and a simulated frame's time is the wall clock when it was
+/// sent, so a window of a minimum time would hold a varying number of frames).
 fn live(args: &[&str], stdin: Option<&str>) -> Vec<Value> {
     let mut c = bin();
     c.arg("live").args(args).arg("--jsonl");
     if !args.contains(&"--tare-s") {
-        c.args(["--tare-s", "0.05"]);
+        c.args(["--tare-s", "0"]);
     }
     c.stdout(Stdio::piped()).stderr(Stdio::piped());
     c.stdin(if stdin.is_some() {

@@ -310,10 +310,12 @@ fn a_stream_clock_far_from_this_machine_s_is_named_once_and_not_aged() {
             .append(true)
             .open(&path)
             .unwrap();
-        for k in 0..25 {
+        // Rows keep coming for 4 s: a run that starts late still sees 25 new ones.
+        for k in 0..400 {
             f.write_all(enlight_row(&nominal, 1_742_479_426.0 + 0.01 * k as f64).as_bytes())
                 .unwrap();
             f.flush().unwrap();
+            std::thread::sleep(std::time::Duration::from_millis(10));
         }
     });
     let o = live(&[

@@ -18,7 +18,8 @@
 //!
 //! An array run also writes `<FILE stem>.shifts.csv` beside it: `time_s` and each
 //! grating's shift from the tare in force, pm, for every frame that was read, the
-//! exact input of `fbgforge reconstruct --shifts` (which then gives the loads `live`
+//! exact input of `fbgforge reconstruct --shifts` (which, with the method `live` used and
+//! `--keep-all-gratings`, gives the loads `live`
 //! showed); `# frame N` marks where its rows skip frames of the log, and the tare marks
 //! are repeated.
 //!
