@@ -891,4 +891,58 @@ mod tests {
         assert_eq!(cut.chars().count(), 6, "{cut}");
         assert!(cut.ends_with('…'));
     }
+
+    #[test]
+    fn the_view_says_why_it_shows_no_load_and_which_keys_steer_it() {
+        let info = LiveInfo {
+            design: "tactile-array-60x80".into(),
+            kind: "array",
+            source: "hyperion 127.0.0.1:1".into(),
+            description: "array".into(),
+            outputs: "ABCDEFGH".chars().map(String::from).collect(),
+            gratings: (1..=6).map(|k| format!("fbg{k}")).collect(),
+            grid: Some((4, 2, 250.0)),
+            method: Some("wsupport".into()),
+            sensitivities_pm_per_n: Vec::new(),
+            core: None,
+            cell_centers_mm: Vec::new(),
+            tare_frames: 50,
+            tare_s: 1.0,
+            tare_wait_s: 30.0,
+            resolution_pm: 0.5,
+        };
+        let change = |state: TareState, message: &str| TareChange {
+            state,
+            origin: "start".into(),
+            frame: 1200,
+            moving: vec!["fbg2".into(), "fbg4".into()],
+            unseen: Vec::new(),
+            baseline_nm: Vec::new(),
+            window_frames: None,
+            window_s: None,
+            waited_s: 0.2,
+            message: message.into(),
+        };
+        let stats = Stats::default();
+        let waiting = change(TareState::Waiting, "waiting for the sensor to be at rest before taring (0.2 of 30.0 s): moving: fbg2 (spread 5.49 pm, trend -33.54 pm); keep it unloaded");
+        let view = View { last: None, tare: Some(&waiting), keys: true };
+        let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
+        // Long lines wrap at 80 columns: read the words across the wraps.
+        let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(words.contains("waiting for the sensor to be at rest"), "{text}");
+        assert!(words.contains("moving: fbg2 (spread 5.49 pm"), "{text}");
+        assert!(text.contains("tare: waiting;") && text.contains("keys: t tare again, q quit"), "{text}");
+        let refused = change(TareState::Refused, "refused to tare");
+        let view = View { last: None, tare: Some(&refused), keys: false };
+        let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
+        let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(words.contains("TARE REFUSED") && words.contains("(fbg2, fbg4): no loads are shown"), "{text}");
+        assert!(!text.contains("keys:"), "{text}");
+        let mut rested = change(TareState::Resting, "tared");
+        rested.origin = "key".into();
+        rested.window_frames = Some((1100, 2100));
+        let view = View { last: None, tare: Some(&rested), keys: true };
+        let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
+        assert!(text.contains("tare: at rest on frames 1100–2100 (key)"), "{text}");
+    }
 }
