@@ -732,11 +732,12 @@ impl Interpreter {
         let mut below_tare = below(&d, BELOW_FRAME).is_some();
         // A frame clearly below the tare may end a window settled below it: the tare
         // held a load (or the temperature fell). Tare again on that window.
-        if self.tare.state == TareState::Resting && below(&d, (3.0, 2.0)).is_some() {
-            if self.retare_if_settled_below() {
-                shifts = self.shifts(wl);
-                below_tare = false;
-            }
+        if self.tare.state == TareState::Resting
+            && below(&d, (3.0, 2.0)).is_some()
+            && self.retare_if_settled_below()
+        {
+            shifts = self.shifts(wl);
+            below_tare = false;
         }
         Ok(Prepared {
             shifts_pm: shifts,
