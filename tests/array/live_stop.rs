@@ -186,4 +186,18 @@ fn a_replayed_file_loses_no_frame_and_a_malformed_one_is_counted_once() {
         let frames = out.lines().filter(|l| l.contains("\"type\":\"frame\"")).count();
         assert_eq!(frames, 19_999);
     }
+    // --realtime: read at the pace it comes through a queue of 16; whatever finds the
+    // queue full is dropped, and every frame is still accounted for, once.
+    let o = common::bin()
+        .args(["live", &array(), "--from", log.to_str().unwrap(), "--jsonl"])
+        .args(["--from-start", "--idle-exit-s", "0.3", "--no-tare", "--realtime"])
+        .args(["--queue", "16"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    let s = summary_of(&String::from_utf8_lossy(&o.stdout));
+    let (read, bad) = (s["frames_out"].as_u64().unwrap(), s["bad_frames"].as_u64().unwrap());
+    let dropped = s["dropped"]["queue_overflow"].as_u64().unwrap();
+    assert_eq!(read + bad + dropped, 20_000, "{s}");
+    assert_eq!(s["dropped"]["total"], dropped, "{s}");
 }
