@@ -10,9 +10,9 @@ use crate::errors::{self, err_named, input, must_exist};
 use fbgforge::live::control::LiveControl;
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions, Reading};
 use fbgforge::live::sink::{FrameReading, LiveInfo, LiveSink};
-use fbgforge::live::tare::TareChange;
 use fbgforge::live::source::{SourceOptions, SourceSpec};
 use fbgforge::live::stats::LiveSummary;
+use fbgforge::live::tare::TareChange;
 use fbgforge::live::LiveRequest;
 use numpy::ndarray::Array1;
 use numpy::IntoPyArray;
@@ -81,8 +81,14 @@ fn reading_dict<'py>(py: Python<'py>, r: &FrameReading) -> PyResult<Bound<'py, P
     d.set_item("serial", r.serial)?;
     d.set_item("time_s", r.time_s.unwrap_or(f64::NAN))?;
     d.set_item("age_us", r.age_us.unwrap_or(f64::NAN))?;
-    d.set_item("peaks_nm", Array1::from(r.peaks_nm.clone()).into_pyarray(py))?;
-    d.set_item("shifts_pm", Array1::from(r.shifts_pm.clone()).into_pyarray(py))?;
+    d.set_item(
+        "peaks_nm",
+        Array1::from(r.peaks_nm.clone()).into_pyarray(py),
+    )?;
+    d.set_item(
+        "shifts_pm",
+        Array1::from(r.shifts_pm.clone()).into_pyarray(py),
+    )?;
     d.set_item("flag_words", r.flag_words())?;
     match &r.reading {
         Reading::Loads { loads_g, .. } => {

@@ -260,7 +260,9 @@ fn case(c: Option<CaseArg>) -> Option<LoadCase> {
 fn stop_on_signals(control: &Arc<LiveControl>) {
     let c = control.clone();
     // Failing to install the handler only loses the summary on a signal.
-    let _ = ctrlc::set_handler(move || c.stop_because("stopped by a signal (SIGINT, SIGTERM or SIGHUP)"));
+    let _ = ctrlc::set_handler(move || {
+        c.stop_because("stopped by a signal (SIGINT, SIGTERM or SIGHUP)")
+    });
 }
 
 /// The request from the flags.

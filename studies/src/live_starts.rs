@@ -201,10 +201,17 @@ impl Truth {
 /// A random base script for `design`.
 fn random_script(design: &Design, rng: &mut ChaCha8Rng) -> LoadScript {
     let array = design.array.is_some();
-    let cells = design.array.as_ref().map_or(0, |a| (a.cells_x * a.cells_y) as usize);
+    let cells = design
+        .array
+        .as_ref()
+        .map_or(0, |a| (a.cells_x * a.cells_y) as usize);
     let width = if array { cells } else { 2 };
     let mut steps = Vec::new();
-    let rest = if rng.random_bool(0.2) { 0.0 } else { rng.random_range(0.1..2.5) };
+    let rest = if rng.random_bool(0.2) {
+        0.0
+    } else {
+        rng.random_range(0.1..2.5)
+    };
     if rest > 0.0 {
         steps.push((rest, vec![0.0; width]));
     }
@@ -256,8 +263,18 @@ fn draw(design: &Design, seed: u64) -> (Scenario, Truth, SynthNoise) {
         1 => (SynthNoise::Resolution, "resolution"),
         _ => (SynthNoise::Paper, "paper"),
     };
-    let drift = if rng.random_bool(0.5) { 0.0 } else { rng.random_range(-2.0..2.0) };
-    let loaded = |v: &[f64]| if array { v.iter().any(|&x| x > 0.0) } else { v[0] > 0.0 };
+    let drift = if rng.random_bool(0.5) {
+        0.0
+    } else {
+        rng.random_range(-2.0..2.0)
+    };
+    let loaded = |v: &[f64]| {
+        if array {
+            v.iter().any(|&x| x > 0.0)
+        } else {
+            v[0] > 0.0
+        }
+    };
     let truth = Truth { script, touch };
     let scenario = Scenario {
         kind: if array { "array" } else { "module" },
@@ -309,7 +326,12 @@ fn error_of(reading: &Reading, truth: &[f64]) -> (f64, bool) {
 const POLICIES: [&str; 3] = ["at_rest", "first_50", "oracle"];
 
 /// Read one scenario with one policy.
-fn read(design: &Design, frames: &[(f64, Vec<f64>)], truth: &Truth, policy: &'static str) -> Result<Outcome> {
+fn read(
+    design: &Design,
+    frames: &[(f64, Vec<f64>)],
+    truth: &Truth,
+    policy: &'static str,
+) -> Result<Outcome> {
     let array = design.array.is_some();
     let opts = InterpretOptions {
         tare_frames: if policy == "at_rest" { 50 } else { 0 },
@@ -380,7 +402,13 @@ fn frames_rest(design: &Design) -> Result<Vec<f64>> {
 }
 
 /// Make the frames of a scenario: (script time s, peaks nm), `run_s` from its start.
-fn frames_of(design: &Design, truth: &Truth, noise: SynthNoise, s: &Scenario, run_s: f64) -> Result<Vec<(f64, Vec<f64>)>> {
+fn frames_of(
+    design: &Design,
+    truth: &Truth,
+    noise: SynthNoise,
+    s: &Scenario,
+    run_s: f64,
+) -> Result<Vec<(f64, Vec<f64>)>> {
     let mut req = SynthRequest::new(PathBuf::new());
     req.noise = noise;
     req.offset_pm = 0.0;
@@ -394,7 +422,13 @@ fn frames_of(design: &Design, truth: &Truth, noise: SynthNoise, s: &Scenario, ru
         .map(|k| {
             let t = k as f64 / RATE_HZ;
             let drift_nm = s.drift_pm_per_s * (t - s.start_s) * 1e-3;
-            let peaks = g.frame(k, t).0.peaks_nm.iter().map(|p| p + drift_nm).collect();
+            let peaks = g
+                .frame(k, t)
+                .0
+                .peaks_nm
+                .iter()
+                .map(|p| p + drift_nm)
+                .collect();
             (t, peaks)
         })
         .collect())
@@ -455,14 +489,16 @@ fn csv_rows(rows: &[(Scenario, Vec<Outcome>)]) -> Vec<Vec<String>> {
                 format!("{:.3}", s.start_s),
                 s.starts_loaded.to_string(),
                 format!("{:.3}", s.longest_load_s),
-                s.touch.map_or(String::new(), |t| format!("{:.3}+{:.3}", t.0, t.1)),
+                s.touch
+                    .map_or(String::new(), |t| format!("{:.3}+{:.3}", t.0, t.1)),
                 s.noise.to_string(),
                 format!("{:.3}", s.drift_pm_per_s),
                 o.policy.to_string(),
                 o.shown.to_string(),
                 o.wrong.to_string(),
                 o.confidently_wrong.to_string(),
-                o.first_reading_s.map_or(String::new(), |t| format!("{t:.3}")),
+                o.first_reading_s
+                    .map_or(String::new(), |t| format!("{t:.3}")),
             ]);
         }
     }
@@ -470,14 +506,29 @@ fn csv_rows(rows: &[(Scenario, Vec<Outcome>)]) -> Vec<Vec<String>> {
 }
 
 const HEADER: [&str; 13] = [
-    "kind", "seed", "start_s", "starts_loaded", "longest_load_s", "touch_s", "noise",
-    "drift_pm_per_s", "policy", "shown", "wrong", "confidently_wrong", "first_reading_s",
+    "kind",
+    "seed",
+    "start_s",
+    "starts_loaded",
+    "longest_load_s",
+    "touch_s",
+    "noise",
+    "drift_pm_per_s",
+    "policy",
+    "shown",
+    "wrong",
+    "confidently_wrong",
+    "first_reading_s",
 ];
 
 /// Run the study: `scenarios.csv`, `summary.json`, and the table on stdout.
 pub fn run(a: &LiveStartsArgs) -> Result<()> {
     let t0 = Instant::now();
-    let (n, run_s) = if a.quick { (4, 3.0) } else { (a.scenarios, 8.0) };
+    let (n, run_s) = if a.quick {
+        (4, 3.0)
+    } else {
+        (a.scenarios, 8.0)
+    };
     let mut all = Vec::new();
     let mut totals_all = Vec::new();
     for (kind, path) in [("array", &a.array), ("module", &a.module)] {
@@ -499,12 +550,22 @@ pub fn run(a: &LiveStartsArgs) -> Result<()> {
     };
     write_json(&a.out.join("summary.json"), &summary)?;
     println!("live starts: {n} scenarios per design, {run_s} s each; confidently wrong = off by > {ARRAY_WRONG_G} g / {MODULE_WRONG_N} N and shown unflagged");
-    println!("{:<7} {:<9} {:>22} {:>9} {:>13} {:>14}", "design", "policy", "scenarios conf. wrong", "shown", "conf. wrong", "first read s");
+    println!(
+        "{:<7} {:<9} {:>22} {:>9} {:>13} {:>14}",
+        "design", "policy", "scenarios conf. wrong", "shown", "conf. wrong", "first read s"
+    );
     for t in &summary.totals {
         println!(
             "{:<7} {:<9} {:>4} of {:<4} [{:.2}, {:.2}] {:>9} {:>13} {:>14.2}",
-            t.kind, t.policy, t.scenarios_confidently_wrong, t.scenarios, t.share_interval.0,
-            t.share_interval.1, t.shown, t.confidently_wrong, t.median_first_reading_s
+            t.kind,
+            t.policy,
+            t.scenarios_confidently_wrong,
+            t.scenarios,
+            t.share_interval.0,
+            t.share_interval.1,
+            t.shown,
+            t.confidently_wrong,
+            t.median_first_reading_s
         );
     }
     println!("wrote {}", a.out.display());

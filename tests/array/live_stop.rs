@@ -49,7 +49,9 @@ fn live_on_open_stdin() -> (Child, BufReader<std::process::ChildStdout>, ChildSt
         .spawn()
         .unwrap();
     let mut stdin = child.stdin.take().unwrap();
-    stdin.write_all(peaks_line(0.0).repeat(3).as_bytes()).unwrap();
+    stdin
+        .write_all(peaks_line(0.0).repeat(3).as_bytes())
+        .unwrap();
     stdin.flush().unwrap();
     let mut out = BufReader::new(child.stdout.take().unwrap());
     let mut line = String::new();
@@ -88,7 +90,10 @@ fn a_signal_ends_the_run_with_its_summary_and_status_0() {
         out.read_to_string(&mut rest).unwrap();
         assert_eq!(status.code(), Some(0), "{name}: {status}");
         let s = summary_of(&rest);
-        assert!(s["ended"].as_str().unwrap().contains("signal"), "{name}: {s}");
+        assert!(
+            s["ended"].as_str().unwrap().contains("signal"),
+            "{name}: {s}"
+        );
         assert_eq!(s["frames_out"], 3, "{name}: {s}");
     }
 }
@@ -99,7 +104,10 @@ fn a_closed_output_ends_the_run_with_its_summary_on_standard_error() {
     // The reader of the output ends (as `| head -1` does), then more frames come.
     drop(out);
     for _ in 0..50 {
-        if stdin.write_all(peaks_line(0.0).repeat(100).as_bytes()).is_err() {
+        if stdin
+            .write_all(peaks_line(0.0).repeat(100).as_bytes())
+            .is_err()
+        {
             break;
         }
         if child.try_wait().unwrap().is_some() {
@@ -109,7 +117,12 @@ fn a_closed_output_ends_the_run_with_its_summary_on_standard_error() {
     }
     let status = wait_at_most(&mut child, 20);
     let mut err = String::new();
-    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
     // Not SIGPIPE's 141: a documented end, its summary for a person on stderr.
     assert_eq!(status.code(), Some(0), "{status}: {err}");
     assert!(err.contains("frames in"), "{err}");
@@ -121,12 +134,21 @@ fn a_missing_or_deleted_source_file_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("no-such-log.csv");
     let o = common::bin()
-        .args(["live", &array(), "--from", missing.to_str().unwrap(), "--jsonl"])
+        .args([
+            "live",
+            &array(),
+            "--from",
+            missing.to_str().unwrap(),
+            "--jsonl",
+        ])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("no-such-log.csv") && err.contains("does not exist"), "{err}");
+    assert!(
+        err.contains("no-such-log.csv") && err.contains("does not exist"),
+        "{err}"
+    );
     assert!(o.stdout.is_empty());
 
     // Followed, then deleted: the source is lost (3), and the summary names the file.
@@ -147,12 +169,20 @@ fn a_missing_or_deleted_source_file_is_named() {
     std::fs::remove_file(&log).unwrap();
     let status = wait_at_most(&mut child, 20);
     let mut out = String::new();
-    child.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut out)
+        .unwrap();
     assert_eq!(status.code(), Some(3), "{out}");
     let s = summary_of(&out);
     assert_eq!(s["source_lost"], true);
     let ended = s["ended"].as_str().unwrap();
-    assert!(ended.contains("growing.csv") && ended.contains("deleted"), "{ended}");
+    assert!(
+        ended.contains("growing.csv") && ended.contains("deleted"),
+        "{ended}"
+    );
 }
 
 #[test]
@@ -183,20 +213,32 @@ fn a_replayed_file_loses_no_frame_and_a_malformed_one_is_counted_once() {
         assert_eq!(s["frames_out"], 19_999, "{s}");
         assert_eq!(s["bad_frames"], 1, "{s}");
         assert_eq!(s["dropped"]["total"], 0, "counted once, as bad: {s}");
-        let frames = out.lines().filter(|l| l.contains("\"type\":\"frame\"")).count();
+        let frames = out
+            .lines()
+            .filter(|l| l.contains("\"type\":\"frame\""))
+            .count();
         assert_eq!(frames, 19_999);
     }
     // --realtime: read at the pace it comes through a queue of 16; whatever finds the
     // queue full is dropped, and every frame is still accounted for, once.
     let o = common::bin()
         .args(["live", &array(), "--from", log.to_str().unwrap(), "--jsonl"])
-        .args(["--from-start", "--idle-exit-s", "0.3", "--no-tare", "--realtime"])
+        .args([
+            "--from-start",
+            "--idle-exit-s",
+            "0.3",
+            "--no-tare",
+            "--realtime",
+        ])
         .args(["--queue", "16"])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(0));
     let s = summary_of(&String::from_utf8_lossy(&o.stdout));
-    let (read, bad) = (s["frames_out"].as_u64().unwrap(), s["bad_frames"].as_u64().unwrap());
+    let (read, bad) = (
+        s["frames_out"].as_u64().unwrap(),
+        s["bad_frames"].as_u64().unwrap(),
+    );
     let dropped = s["dropped"]["queue_overflow"].as_u64().unwrap();
     assert_eq!(read + bad + dropped, 20_000, "{s}");
     assert_eq!(s["dropped"]["total"], dropped, "{s}");

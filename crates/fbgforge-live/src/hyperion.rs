@@ -397,7 +397,13 @@ mod tests {
         // counts as a gap in the serials.
         for e in [&e1, &e2] {
             assert!(
-                matches!(e, FrameError::Malformed { serial: Some(123_456_789_012), .. }),
+                matches!(
+                    e,
+                    FrameError::Malformed {
+                        serial: Some(123_456_789_012),
+                        ..
+                    }
+                ),
                 "{e:?}"
             );
         }
@@ -424,7 +430,10 @@ mod tests {
             other => panic!("{other:?}"),
         }
         let e = d.next_frame().unwrap().unwrap_err();
-        assert!(matches!(e, FrameError::Malformed { serial: None, .. }), "{e:?}");
+        assert!(
+            matches!(e, FrameError::Malformed { serial: None, .. }),
+            "{e:?}"
+        );
         assert!(d.next_frame().is_none());
     }
 

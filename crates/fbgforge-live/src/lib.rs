@@ -30,10 +30,10 @@ use fbgforge_model::{fem, model, prediction, solvers};
 pub mod control;
 pub mod hyperion;
 pub mod interpret;
-pub mod tare;
 pub mod sink;
 pub mod source;
 pub mod stats;
+pub mod tare;
 
 use anyhow::Result;
 use control::LiveControl;
@@ -43,10 +43,10 @@ use source::{Outlet, SourceEvent, SourceSpec};
 use stats::{Dropped, LiveSummary, Stats};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use tare::TareChange;
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tare::TareChange;
 
 /// What to watch and how.
 #[derive(Debug, Clone)]
@@ -519,15 +519,19 @@ impl Watch<'_> {
 /// assert_eq!(summary.tare.word(), "resting");
 /// # Ok::<(), anyhow::Error>(())
 /// ```
-pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, control: &LiveControl) -> Result<LiveSummary> {
+pub fn run(
+    req: &LiveRequest,
+    sink: &mut dyn LiveSink,
+    control: &LiveControl,
+) -> Result<LiveSummary> {
     req.validate()?;
     let design = crate::design::load(&req.design)?;
     let interp = Interpreter::new(&design, &req.interpret)?;
     let info = live_info(&design, &interp, req);
     let (tx, rx) = sync_channel(req.queue_frames);
     let source_stop = Arc::new(AtomicBool::new(false));
-    let outlet = Outlet::new(tx, source_stop.clone())
-        .waiting(req.source.holds_frames() && !req.realtime);
+    let outlet =
+        Outlet::new(tx, source_stop.clone()).waiting(req.source.holds_frames() && !req.realtime);
     let overflow = outlet.overflow.clone();
     // The source thread is not joined: one blocked on standard input cannot be woken;
     // every other source sees `source_stop` within 200 ms and exits.

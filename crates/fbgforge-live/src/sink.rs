@@ -170,7 +170,10 @@ pub trait LiveSink {
 impl LiveSink for () {}
 
 /// Tell every sink in turn; the first error is returned after all were told.
-fn each(sinks: &mut [Box<dyn LiveSink + '_>], mut f: impl FnMut(&mut dyn LiveSink) -> io::Result<()>) -> io::Result<()> {
+fn each(
+    sinks: &mut [Box<dyn LiveSink + '_>],
+    mut f: impl FnMut(&mut dyn LiveSink) -> io::Result<()>,
+) -> io::Result<()> {
     let mut first = Ok(());
     for s in sinks.iter_mut() {
         let r = f(s.as_mut());

@@ -195,8 +195,18 @@ impl<W: Write> LiveSink for TerminalSink<W> {
             // The loads of the old tare are no longer shown.
             self.last = None;
         }
-        if change.state != TareState::Waiting || self.tare.as_ref().is_none_or(|t| t.state != TareState::Waiting) {
-            self.note(format!("tare {} ({}): {}", change.state.word(), change.origin, change.message));
+        if change.state != TareState::Waiting
+            || self
+                .tare
+                .as_ref()
+                .is_none_or(|t| t.state != TareState::Waiting)
+        {
+            self.note(format!(
+                "tare {} ({}): {}",
+                change.state.word(),
+                change.origin,
+                change.message
+            ));
         }
         self.tare = Some(change.clone());
         Ok(())
@@ -777,19 +787,19 @@ mod tests {
         }
         // The grid lines stay whole: no box line was wrapped.
         let reading = FrameReading {
-                serial: Some(1),
-                time_s: None,
-                reading: Reading::Loads {
-                    loads_g: vec![100.0; 16],
-                    converged: true,
-                    residual_pm: 0.1,
-                    certified: true,
-                    flags: Default::default(),
-                },
-                latency_us: 1.0,
-                age_us: None,
-                ..reading_base()
-            };
+            serial: Some(1),
+            time_s: None,
+            reading: Reading::Loads {
+                loads_g: vec![100.0; 16],
+                converged: true,
+                residual_pm: 0.1,
+                certified: true,
+                flags: Default::default(),
+            },
+            latency_us: 1.0,
+            age_us: None,
+            ..reading_base()
+        };
         let text = render(
             &array_info(8, 2),
             &View {
@@ -925,24 +935,48 @@ mod tests {
         };
         let stats = Stats::default();
         let waiting = change(TareState::Waiting, "waiting for the sensor to be at rest before taring (0.2 of 30.0 s): moving: fbg2 (spread 5.49 pm, trend -33.54 pm); keep it unloaded");
-        let view = View { last: None, tare: Some(&waiting), keys: true };
+        let view = View {
+            last: None,
+            tare: Some(&waiting),
+            keys: true,
+        };
         let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
         // Long lines wrap at 80 columns: read the words across the wraps.
         let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
-        assert!(words.contains("waiting for the sensor to be at rest"), "{text}");
+        assert!(
+            words.contains("waiting for the sensor to be at rest"),
+            "{text}"
+        );
         assert!(words.contains("moving: fbg2 (spread 5.49 pm"), "{text}");
-        assert!(text.contains("tare: waiting;") && text.contains("keys: t tare again, q quit"), "{text}");
+        assert!(
+            text.contains("tare: waiting;") && text.contains("keys: t tare again, q quit"),
+            "{text}"
+        );
         let refused = change(TareState::Refused, "refused to tare");
-        let view = View { last: None, tare: Some(&refused), keys: false };
+        let view = View {
+            last: None,
+            tare: Some(&refused),
+            keys: false,
+        };
         let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
         let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
-        assert!(words.contains("TARE REFUSED") && words.contains("(fbg2, fbg4): no loads are shown"), "{text}");
+        assert!(
+            words.contains("TARE REFUSED") && words.contains("(fbg2, fbg4): no loads are shown"),
+            "{text}"
+        );
         assert!(!text.contains("keys:"), "{text}");
         let mut rested = change(TareState::Resting, "tared");
         rested.origin = "key".into();
         rested.window_frames = Some((1100, 2100));
-        let view = View { last: None, tare: Some(&rested), keys: true };
+        let view = View {
+            last: None,
+            tare: Some(&rested),
+            keys: true,
+        };
         let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
-        assert!(text.contains("tare: at rest on frames 1100–2100 (key)"), "{text}");
+        assert!(
+            text.contains("tare: at rest on frames 1100–2100 (key)"),
+            "{text}"
+        );
     }
 }

@@ -22,8 +22,7 @@ use fbgforge_live::stats::LiveSummary;
 use fbgforge_live::tare::{TareChange, TareState};
 use fbgforge_publish::web::{ArrayView, FrameView, LoadUnit, ModuleView, ReadingView};
 use fbgforge_publish::{
-    ArrayReading, McapRecorder, ModuleReading, PublishError, RecorderSetup, SensorLayout,
-    WebView,
+    ArrayReading, McapRecorder, ModuleReading, PublishError, RecorderSetup, SensorLayout, WebView,
 };
 use std::io;
 use std::path::{Path, PathBuf};
@@ -65,7 +64,10 @@ fn frame_time_ns(time_s: Option<f64>, received_s: f64) -> u64 {
 }
 
 fn optional(peaks_nm: &[f64]) -> Vec<Option<f64>> {
-    peaks_nm.iter().map(|&p| p.is_finite().then_some(p)).collect()
+    peaks_nm
+        .iter()
+        .map(|&p| p.is_finite().then_some(p))
+        .collect()
 }
 
 /// The load-weighted centroid of the cell centres, m (z = 0); `None` unloaded.

@@ -158,8 +158,16 @@ impl RecordSink {
             )
         };
         let w = self.out()?;
-        writeln!(w, "# fbgforge live recording (fbgforge {})", env!("CARGO_PKG_VERSION"))?;
-        writeln!(w, "# design {} ({}); source {}", info.design, info.kind, info.source)?;
+        writeln!(
+            w,
+            "# fbgforge live recording (fbgforge {})",
+            env!("CARGO_PKG_VERSION")
+        )?;
+        writeln!(
+            w,
+            "# design {} ({}); source {}",
+            info.design, info.kind, info.source
+        )?;
         writeln!(w, "# {}", info.description)?;
         writeln!(w, "# columns: time_s, then each grating's peak wavelength in nm as live found it in the grating's window (empty: no peak)")?;
         writeln!(w, "# time_s: the frame's own time, s, where the source gives one; else s since the first frame")?;
@@ -169,7 +177,12 @@ impl RecordSink {
         if info.kind == "array" {
             let mut s = Partial::create(&shifts_path(&self.path))?;
             writeln!(s.out, "# fbgforge live recording: the shifts of the frames read (fbgforge reconstruct --shifts)")?;
-            writeln!(s.out, "# design {}; the peaks are in {}", info.design, self.path.display())?;
+            writeln!(
+                s.out,
+                "# design {}; the peaks are in {}",
+                info.design,
+                self.path.display()
+            )?;
             writeln!(s.out, "# columns: time_s, then each grating's shift from the tare in force, pm; `# frame N`: the next row is frame N of the peaks")?;
             writeln!(s.out, "time_s,{names}")?;
             self.shifts = Some(s);
