@@ -50,28 +50,32 @@ fn a_lost_instrument_exits_with_its_own_status_a_finite_stream_with_0() {
     let array = common::shipped_path("tactile-array-60x80.toml");
     let a = array.to_str().unwrap();
     let start_server = |duration: &str| {
-        let mut server = crate::common::bin()
+        let mut stream = crate::common::bin();
+        stream
             .args(["synth-stream", a, "--port", "0", "--duration-s", duration])
-            .args(["--frame-clock", "client", "--json"])
-            .stdout(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut first = String::new();
-        BufReader::new(server.stdout.as_mut().unwrap())
-            .read_line(&mut first)
-            .unwrap();
-        let port = first.trim().rsplit(':').next().unwrap().to_string();
-        (server, format!("tcp://127.0.0.1:{port}"))
+            .args(["--frame-clock", "client", "--json"]);
+        crate::common::spawn_stream(stream)
     };
     // A finite stream that ends by its own duration and says so: a normal end, 0,
     // every one of its 1000 frames read or taken into the tare.
     let (mut server, from) = start_server("1");
-    let o = live(&[a, "--from", &from, "--give-up-s", "0.5", "--tare-frames", "10"]);
+    let o = live(&[
+        a,
+        "--from",
+        &from,
+        "--give-up-s",
+        "0.5",
+        "--tare-frames",
+        "10",
+    ]);
     server.wait().unwrap();
     let s = summary(&o);
     assert_eq!(o.status.code(), Some(0), "{s}");
     assert_eq!(s["source_lost"], false);
-    assert!(s["ended"].as_str().unwrap().contains("end of stream"), "{s}");
+    assert!(
+        s["ended"].as_str().unwrap().contains("end of stream"),
+        "{s}"
+    );
     assert_eq!(s["frames_in"], 1000, "{s}");
     assert_eq!(s["reconnects"], 0, "{s}");
     // The instrument killed mid-stream (no end said): reconnecting is given up after
@@ -109,7 +113,10 @@ fn a_lost_instrument_exits_with_its_own_status_a_finite_stream_with_0() {
     assert_eq!(status.code(), Some(LOST), "{s}");
     assert_eq!(s["source_lost"], true);
     assert!(
-        s["ended"].as_str().unwrap().contains("gave up reconnecting"),
+        s["ended"]
+            .as_str()
+            .unwrap()
+            .contains("gave up reconnecting"),
         "{s}"
     );
     assert!(s["frames_out"].as_u64().unwrap() > 0, "{s}");

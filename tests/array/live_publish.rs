@@ -28,7 +28,9 @@ fn python() -> Option<PathBuf> {
             !ci,
             "CI must decode live's MCAP files with the Python readers: set FBGFORGE_PYTHON (.ci/run does)"
         );
-        eprintln!("\n*** live_publish: SKIPPED the Python MCAP readers (set FBGFORGE_PYTHON) ***\n");
+        eprintln!(
+            "\n*** live_publish: SKIPPED the Python MCAP readers (set FBGFORGE_PYTHON) ***\n"
+        );
     }
     py.map(PathBuf::from)
 }
@@ -40,22 +42,26 @@ fn run_to_mcap(design: &Path, script: &str, mcap: &Path, extra: &[&str]) -> Vec<
     let script_path = dir.path().join("script.csv");
     std::fs::write(&script_path, script).unwrap();
     let d = design.to_str().unwrap();
-    let mut server = common::bin()
+    let mut stream = common::bin();
+    stream
         .args(["synth-stream", d, "--port", "0", "--frame-clock", "client"])
         .args(["--duration-s", "1.2", "--seed", "9"])
         .arg("--script")
         .arg(&script_path)
-        .args(extra)
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    BufReader::new(server.stdout.as_mut().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    let from = format!("tcp://127.0.0.1:{}", first.trim().rsplit(':').next().unwrap());
+        .args(extra);
+    let (mut server, from) = common::spawn_stream(stream);
     let o = common::bin()
-        .args(["live", d, "--from", &from, "--jsonl", "--tare-s", "0.2", "--give-up-s", "1"])
+        .args([
+            "live",
+            d,
+            "--from",
+            &from,
+            "--jsonl",
+            "--tare-s",
+            "0.2",
+            "--give-up-s",
+            "1",
+        ])
         .args(extra)
         .arg("--mcap")
         .arg(mcap)
@@ -63,7 +69,12 @@ fn run_to_mcap(design: &Path, script: &str, mcap: &Path, extra: &[&str]) -> Vec<
         .output()
         .unwrap();
     server.wait().unwrap();
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     String::from_utf8_lossy(&o.stdout)
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
@@ -73,9 +84,14 @@ fn run_to_mcap(design: &Path, script: &str, mcap: &Path, extra: &[&str]) -> Vec<
 /// `read_mcap.py FILE` (the publish crate's reader): its JSON, after checking that every
 /// message decoded and re-encoded to the file's bytes.
 fn read_with_python(py: &Path, file: &Path) -> Value {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/fbgforge-publish/tests/read_mcap.py");
+    let script =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/fbgforge-publish/tests/read_mcap.py");
     let out = Command::new(py).arg(&script).arg(file).output().unwrap();
-    assert!(out.status.success(), "read_mcap.py: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "read_mcap.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["profile"], "ros2");
     assert_eq!(v["errors"], serde_json::json!([]), "every message decodes");
@@ -98,7 +114,11 @@ fn of_type<'a>(lines: &'a [Value], t: &str) -> Vec<&'a Value> {
 }
 
 fn numbers(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
 }
 
 #[test]
@@ -106,7 +126,8 @@ fn the_mcap_file_of_a_live_run_decodes_with_the_python_ros2_readers() {
     let dir = tempfile::tempdir().unwrap();
     let array = common::shipped_path("tactile-array-60x80.toml");
     let a_mcap = dir.path().join("array.mcap");
-    let script = "hold_s,A,B,C,D,E,F,G,H\n0.4,0,0,0,0,0,0,0,0\n0.4,0,0,0,0,0,0,120,0\n0.4,0,0,0,0,0,0,0,0\n";
+    let script =
+        "hold_s,A,B,C,D,E,F,G,H\n0.4,0,0,0,0,0,0,0,0\n0.4,0,0,0,0,0,0,120,0\n0.4,0,0,0,0,0,0,0,0\n";
     let lines = run_to_mcap(&array, script, &a_mcap, &[]);
     let module = common::shipped_path("clip-on-34mm.toml");
     let m_mcap = dir.path().join("module.mcap");
@@ -138,7 +159,12 @@ fn the_mcap_file_of_a_live_run_decodes_with_the_python_ros2_readers() {
         .iter()
         .filter(|c| (c["point"]["x"].as_f64().unwrap() - 0.010).abs() < 0.002)
         .collect();
-    assert!(loaded.len() > 300, "{} contacts at G of {}", loaded.len(), contacts.len());
+    assert!(
+        loaded.len() > 300,
+        "{} contacts at G of {}",
+        loaded.len(),
+        contacts.len()
+    );
     assert_eq!(loaded[0]["header"]["frame_id"], "fbgforge_array");
     assert!((loaded[0]["point"]["y"].as_f64().unwrap() - 0.015).abs() < 0.002);
     let peaks = messages(&v, "/fbgforge/peaks");
@@ -154,7 +180,10 @@ fn the_mcap_file_of_a_live_run_decodes_with_the_python_ros2_readers() {
         .iter()
         .map(|c| c["topic"].as_str().unwrap().to_string())
         .collect();
-    let wrench = topics.iter().find(|t| t.ends_with("/wrench")).expect("a wrench topic");
+    let wrench = topics
+        .iter()
+        .find(|t| t.ends_with("/wrench"))
+        .expect("a wrench topic");
     assert!(wrench.starts_with("/fbgforge/"), "{wrench}");
     let w = messages(&v, wrench);
     assert_eq!(w.len(), frames.len());
@@ -164,7 +193,10 @@ fn the_mcap_file_of_a_live_run_decodes_with_the_python_ros2_readers() {
         let z = m["wrench"]["force"]["z"].as_f64().unwrap();
         assert!((z - mean).abs() < 1e-9, "{m} against {f}");
         assert_eq!(m["wrench"]["force"]["x"], 0.0);
-        assert!(m["header"]["frame_id"].as_str().unwrap().starts_with("fbgforge_"));
+        assert!(m["header"]["frame_id"]
+            .as_str()
+            .unwrap()
+            .starts_with("fbgforge_"));
     }
     let at_5n = w
         .iter()
@@ -177,8 +209,16 @@ fn the_mcap_file_of_a_live_run_decodes_with_the_python_ros2_readers() {
 fn dump_dom(browser: &Path, url: &str) -> String {
     let profile = tempfile::tempdir().unwrap();
     let mut child = Command::new(browser)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"])
-        .args(["--disable-background-networking", "--disable-component-update"])
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+        ])
+        .args([
+            "--disable-background-networking",
+            "--disable-component-update",
+        ])
         .arg(format!("--user-data-dir={}", profile.path().display()))
         .arg("--dump-dom")
         .arg(url)
@@ -188,20 +228,33 @@ fn dump_dom(browser: &Path, url: &str) -> String {
         .spawn()
         .expect("chromium starts");
     let mut dom = String::new();
-    child.stdout.take().unwrap().read_to_string(&mut dom).unwrap();
+    child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut dom)
+        .unwrap();
     assert!(child.wait().unwrap().success());
     dom
 }
 
 #[test]
 fn the_browser_view_shows_the_load_on_the_right_cell() {
-    let Some(browser) = chromium::browser_or_skip("the_browser_view_shows_the_load_on_the_right_cell")
+    let Some(browser) =
+        chromium::browser_or_skip("the_browser_view_shows_the_load_on_the_right_cell")
     else {
         return;
     };
     let d = common::shipped("tactile-array-60x80.toml");
     let (m, _) = fbgforge::array::kernel::matrix_from_design(&d).unwrap();
-    let nominal: Vec<f64> = d.array.as_ref().unwrap().gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
+    let nominal: Vec<f64> = d
+        .array
+        .as_ref()
+        .unwrap()
+        .gratings
+        .iter()
+        .map(|g| g.bragg_wavelength_nm)
+        .collect();
     // 150 g on G (cell 6): each grating's shift from the model's matrix.
     let frame = |load_g: f64| -> String {
         let w: Vec<String> = nominal
@@ -214,7 +267,14 @@ fn the_browser_view_shows_the_load_on_the_right_cell() {
     let path = common::shipped_path("tactile-array-60x80.toml");
     let mut child = common::bin()
         .args(["live", path.to_str().unwrap(), "--from", "-", "--jsonl"])
-        .args(["--tare-frames", "10", "--tare-s", "0", "--serve", "127.0.0.1:0"])
+        .args([
+            "--tare-frames",
+            "10",
+            "--tare-s",
+            "0",
+            "--serve",
+            "127.0.0.1:0",
+        ])
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -261,7 +321,9 @@ fn the_browser_view_shows_the_load_on_the_right_cell() {
         })
         .collect();
     assert_eq!(loads.len(), 8, "{dom}");
-    let top = loads.iter().fold(&loads[0], |a, b| if b.1 > a.1 { b } else { a });
+    let top = loads
+        .iter()
+        .fold(&loads[0], |a, b| if b.1 > a.1 { b } else { a });
     assert_eq!(top.0, "G", "{loads:?}");
     assert!((top.1 - 150.0).abs() < 1.0, "{loads:?}");
     assert!(dom.contains("tare: resting"), "{dom}");

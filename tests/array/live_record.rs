@@ -4,7 +4,6 @@
 //! shifts file given to `reconstruct --shifts` gives the loads `live` showed.
 
 use serde_json::Value;
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::Stdio;
 
@@ -29,7 +28,12 @@ fn live(args: &[&str]) -> Vec<Value> {
         .stdin(Stdio::null())
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     jsonl(&o.stdout)
 }
 
@@ -48,19 +52,13 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
     let d = design.to_str().unwrap();
     let script = dir.path().join("script.csv");
     std::fs::write(&script, SCRIPT).unwrap();
-    let mut server = common::bin()
+    let mut stream = common::bin();
+    stream
         .args(["synth-stream", d, "--port", "0", "--frame-clock", "client"])
         .args(["--duration-s", "1.6", "--noise", "paper", "--seed", "3"])
         .arg("--script")
-        .arg(&script)
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    BufReader::new(server.stdout.as_mut().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    let from = format!("tcp://127.0.0.1:{}", first.trim().rsplit(':').next().unwrap());
+        .arg(&script);
+    let (mut server, from) = common::spawn_stream(stream);
     let record = dir.path().join("run.csv");
     let rec = record.to_str().unwrap();
     let ran = live(&[d, "--from", &from, "--give-up-s", "1", "--record", rec]);
@@ -72,7 +70,13 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
     let tares = |l: &[Value]| -> Vec<(Value, Value, Value)> {
         of_type(l, "tare")
             .iter()
-            .map(|t| (t["state"].clone(), t["frame"].clone(), t["baseline_nm"].clone()))
+            .map(|t| {
+                (
+                    t["state"].clone(),
+                    t["frame"].clone(),
+                    t["baseline_nm"].clone(),
+                )
+            })
             .collect()
     };
     let t = tares(&ran);
@@ -99,7 +103,14 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
     let out = dir.path().join("loads.csv");
     let shifts = dir.path().join("run.shifts.csv");
     let o = common::bin()
-        .args(["reconstruct", "--design", d, "--method", "wsupport", "--keep-all-gratings"])
+        .args([
+            "reconstruct",
+            "--design",
+            d,
+            "--method",
+            "wsupport",
+            "--keep-all-gratings",
+        ])
         .arg("--shifts")
         .arg(&shifts)
         .arg("--out")
@@ -112,12 +123,21 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
         .lines()
         .filter(|l| !l.starts_with('#'))
         .skip(1)
-        .map(|l| l.split(',').skip(1).take(8).map(|v| v.parse().unwrap()).collect())
+        .map(|l| {
+            l.split(',')
+                .skip(1)
+                .take(8)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
         .collect();
     assert_eq!(rows.len(), a.len());
     for (f, row) in a.iter().zip(&rows) {
         for (l, r) in f["loads_g"].as_array().unwrap().iter().zip(row) {
-            assert!((l.as_f64().unwrap() - r).abs() <= 0.0005 + 1e-9, "{f} against {row:?}");
+            assert!(
+                (l.as_f64().unwrap() - r).abs() <= 0.0005 + 1e-9,
+                "{f} against {row:?}"
+            );
         }
     }
 }

@@ -17,19 +17,19 @@ use crate::common;
 /// `synth-stream` of `design` with its demo script, on the instrument's clock (frames
 /// pass while nobody reads, as with the real one); returns the child and its address.
 fn demo_stream(design: &Path, duration_s: &str) -> (Child, String) {
-    let mut child = common::bin()
+    let mut stream = common::bin();
+    stream
         .args(["synth-stream", design.to_str().unwrap(), "--port", "0"])
-        .args(["--duration-s", duration_s, "--seed", "5", "--noise", "paper"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("synth-stream starts");
-    let mut first = String::new();
-    BufReader::new(child.stdout.as_mut().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    let port = first.trim().rsplit(':').next().unwrap().to_string();
-    (child, format!("tcp://127.0.0.1:{port}"))
+        .args([
+            "--duration-s",
+            duration_s,
+            "--seed",
+            "5",
+            "--noise",
+            "paper",
+        ])
+        .stderr(Stdio::null());
+    common::spawn_stream(stream)
 }
 
 /// The demo script's value at frame `serial` (1 kHz): `rest_s` of rest, then each step
@@ -82,20 +82,21 @@ fn of_type<'a>(lines: &'a [Value], t: &str) -> Vec<&'a Value> {
 /// What every start under load must show: it began in a load step, waited (naming
 /// moving gratings), tared on a window that lies in the script's rest, lost no frame.
 /// Returns the first serial.
-fn check_start_under_load(
-    lines: &[Value],
-    record: &Path,
-    rest_s: f64,
-    steps: &[Vec<f64>],
-) -> u64 {
+fn check_start_under_load(lines: &[Value], record: &Path, rest_s: f64, steps: &[Vec<f64>]) -> u64 {
     let s0 = first_serial(record);
     assert!(
         demo_truth(s0, rest_s, steps).iter().any(|&v| v != 0.0),
         "live started at serial {s0}, in the rest: the test must start it under load"
     );
     let tares = of_type(lines, "tare");
-    let waiting = tares.iter().find(|t| t["state"] == "waiting").expect("waited");
-    assert!(!waiting["moving"].as_array().unwrap().is_empty(), "{waiting}");
+    let waiting = tares
+        .iter()
+        .find(|t| t["state"] == "waiting")
+        .expect("waited");
+    assert!(
+        !waiting["moving"].as_array().unwrap().is_empty(),
+        "{waiting}"
+    );
     assert!(waiting["message"].as_str().unwrap().contains("moving: "));
     let rested: Vec<&&Value> = tares.iter().filter(|t| t["state"] == "resting").collect();
     assert_eq!(rested.len(), 1, "one tare: {tares:?}");
@@ -146,7 +147,11 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
 
     check_start_under_load(&la, &rec_a, rest_s, &array_steps);
     let frames = of_type(&la, "frame");
-    assert!(frames.len() > 3000, "the second pass is read: {}", frames.len());
+    assert!(
+        frames.len() > 3000,
+        "the second pass is read: {}",
+        frames.len()
+    );
     let mut loaded = 0;
     for f in &frames {
         let truth = demo_truth(f["serial"].as_u64().unwrap(), rest_s, &array_steps);
@@ -172,7 +177,11 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
         .filter(|f| !f["flags"].as_array().unwrap().is_empty())
         .count();
     // Before: 100 % of the loaded frames flagged.
-    assert!(flagged * 100 < frames.len(), "{flagged} of {} flagged", frames.len());
+    assert!(
+        flagged * 100 < frames.len(),
+        "{flagged} of {} flagged",
+        frames.len()
+    );
 
     check_start_under_load(&lm, &rec_m, rest_s, &module_steps);
     let frames = of_type(&lm, "frame");
@@ -183,7 +192,10 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
             // Before: +3.48 N where the script holds 5 N. 0.5 pm of noise on
             // |K| ≈ 170 pm/N is a few mN; 0.05 N is > 8 σ.
             let force = force.as_f64().unwrap();
-            assert!((force - truth).abs() < 0.05, "{force} N, truth {truth} N: {f}");
+            assert!(
+                (force - truth).abs() < 0.05,
+                "{force} N, truth {truth} N: {f}"
+            );
         }
     }
 }
@@ -223,9 +235,19 @@ fn wait_for(rx: &Receiver<Value>, seen: &mut Vec<Value>, want: impl Fn(&Value) -
 fn a_control_line_re_tares_on_the_next_rest_and_the_record_marks_it() {
     let dir = tempfile::tempdir().unwrap();
     let d = common::shipped("tactile-array-60x80.toml");
-    let nominal: Vec<f64> = d.array.as_ref().unwrap().gratings.iter().map(|g| g.bragg_wavelength_nm).collect();
+    let nominal: Vec<f64> = d
+        .array
+        .as_ref()
+        .unwrap()
+        .gratings
+        .iter()
+        .map(|g| g.bragg_wavelength_nm)
+        .collect();
     let frame = |offset_pm: f64| -> String {
-        let w: Vec<String> = nominal.iter().map(|l| format!("{}", l + offset_pm * 1e-3)).collect();
+        let w: Vec<String> = nominal
+            .iter()
+            .map(|l| format!("{}", l + offset_pm * 1e-3))
+            .collect();
         w.join(" ") + "\n"
     };
     let control = dir.path().join("control.txt");
@@ -270,7 +292,9 @@ fn a_control_line_re_tares_on_the_next_rest_and_the_record_marks_it() {
         .unwrap()
         .write_all(b"zero\ntare\n")
         .unwrap();
-    let e = wait_for(&rx, &mut seen, |v| v["type"] == "event" && v["event"] == "control");
+    let e = wait_for(&rx, &mut seen, |v| {
+        v["type"] == "event" && v["event"] == "control"
+    });
     assert!(e["message"].as_str().unwrap().contains("`zero`"), "{e}");
     wait_for(&rx, &mut seen, is_tare("waiting", "control"));
     // The new window: frames 14–23, then 24–25 are read.
@@ -292,7 +316,10 @@ fn a_control_line_re_tares_on_the_next_rest_and_the_record_marks_it() {
         for s in f["shifts_pm"].as_array().unwrap() {
             assert!(s.as_f64().unwrap().abs() < 1e-6, "{f}");
         }
-        assert!(f["loads_g"].as_array().unwrap().iter().all(|v| v == 0.0), "{f}");
+        assert!(
+            f["loads_g"].as_array().unwrap().iter().all(|v| v == 0.0),
+            "{f}"
+        );
     }
     let summary = *of_type(&seen, "summary").last().unwrap();
     assert_eq!(summary["tare_requests"], 1, "{summary}");
@@ -303,9 +330,24 @@ fn a_control_line_re_tares_on_the_next_rest_and_the_record_marks_it() {
     // The record marks the tare and the re-tare, each with its baseline.
     let text = std::fs::read_to_string(&record).unwrap();
     let marks: Vec<&str> = text.lines().filter(|l| l.starts_with("# tare ")).collect();
-    assert!(marks.iter().any(|l| l.starts_with("# tare resting (start) at frame 10")), "{marks:?}");
-    assert!(marks.iter().any(|l| l.starts_with("# tare waiting (control) at frame 13")), "{marks:?}");
-    assert!(marks.iter().any(|l| l.starts_with("# tare resting (control) at frame 23")), "{marks:?}");
+    assert!(
+        marks
+            .iter()
+            .any(|l| l.starts_with("# tare resting (start) at frame 10")),
+        "{marks:?}"
+    );
+    assert!(
+        marks
+            .iter()
+            .any(|l| l.starts_with("# tare waiting (control) at frame 13")),
+        "{marks:?}"
+    );
+    assert!(
+        marks
+            .iter()
+            .any(|l| l.starts_with("# tare resting (control) at frame 23")),
+        "{marks:?}"
+    );
     let rows = text.lines().filter(|l| !l.starts_with('#')).count();
     assert_eq!(rows, 1 + 25, "a header and every frame: {text}");
 }

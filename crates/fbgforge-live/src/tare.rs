@@ -550,7 +550,13 @@ impl Tare {
     }
 
     /// Tare again on the current window (at rest: [`Tare::settled`]), for `why`.
-    pub(crate) fn retare_on_window(&mut self, verdict: &Verdict, frame: u64, origin: &str, why: &str) {
+    pub(crate) fn retare_on_window(
+        &mut self,
+        verdict: &Verdict,
+        frame: u64,
+        origin: &str,
+        why: &str,
+    ) {
         self.origin = origin.to_string();
         self.accept(verdict, frame, 0.0);
         if let Some(c) = self.changes.last_mut() {
@@ -637,8 +643,22 @@ impl Tare {
             trend_limit_pm(n, self.settings.resolution_pm),
             self.settings.resolution_pm
         );
-        self.changes.push(TareChange {
-            state: TareState::Refused,
+        let change = self.unsettled(TareState::Refused, v, frame, waited_s, message);
+        self.changes.push(change);
+    }
+
+    /// A change with no window taken (waiting or refused): what moved and what was
+    /// unseen, with the time waited so far.
+    fn unsettled(
+        &self,
+        state: TareState,
+        v: &Verdict,
+        frame: u64,
+        waited_s: f64,
+        message: String,
+    ) -> TareChange {
+        TareChange {
+            state,
             origin: self.origin.clone(),
             frame,
             moving: self.names_of(&v.moving),
@@ -648,13 +668,15 @@ impl Tare {
             window_s: None,
             waited_s,
             message,
-        });
+        }
     }
 
     fn report_waiting(&mut self, v: &Verdict, frame: u64, t_s: f64, waited_s: f64) {
         let due = match &self.reported {
             None => true,
-            Some((t, moving)) => *moving != v.moving && t_s - t >= 1.0 || t_s - t >= WAITING_REPORT_S,
+            Some((t, moving)) => {
+                *moving != v.moving && t_s - t >= 1.0 || t_s - t >= WAITING_REPORT_S
+            }
         };
         if !due {
             return;
@@ -668,21 +690,12 @@ impl Tare {
         } else {
             format!("moving: {}", self.moving_words(v))
         };
-        self.changes.push(TareChange {
-            state: TareState::Waiting,
-            origin: self.origin.clone(),
-            frame,
-            moving: self.names_of(&v.moving),
-            unseen: self.names_of(&v.unseen),
-            baseline_nm: Vec::new(),
-            window_frames: None,
-            window_s: None,
-            waited_s,
-            message: format!(
-                "waiting for the sensor to be at rest before taring ({:.1} of {:.1} s): {what}; keep it unloaded",
-                waited_s, self.settings.wait_s
-            ),
-        });
+        let message = format!(
+            "waiting for the sensor to be at rest before taring ({:.1} of {:.1} s): {what}; keep it unloaded",
+            waited_s, self.settings.wait_s
+        );
+        let change = self.unsettled(TareState::Waiting, v, frame, waited_s, message);
+        self.changes.push(change);
     }
 }
 
@@ -706,7 +719,11 @@ mod tests {
     fn the_limits_follow_the_chi_square_and_the_standard_error_of_a_trend() {
         // ν = 48: the 99.9 % point of χ² is 84.04 (tables), so √(84.04/48) σ.
         let exact = (84.04f64 / 48.0).sqrt() * 0.5;
-        assert!((spread_limit_pm(50, 0.5) / exact - 1.0).abs() < 0.005, "{}", spread_limit_pm(50, 0.5));
+        assert!(
+            (spread_limit_pm(50, 0.5) / exact - 1.0).abs() < 0.005,
+            "{}",
+            spread_limit_pm(50, 0.5)
+        );
         // ν = 998: 1141.78 → 1.0696 σ.
         let exact = (1141.78f64 / 998.0).sqrt() * 0.5;
         assert!((spread_limit_pm(1000, 0.5) / exact - 1.0).abs() < 0.003);
@@ -716,14 +733,22 @@ mod tests {
     }
 
     /// Frames of `g` gratings at `nominal + offset(k)` with white noise σ = 0.5 pm.
-    fn run(tare: &mut Tare, frames: u64, rate_hz: f64, offset_pm: impl Fn(u64, usize) -> f64, seed: u64) -> Vec<Phase> {
+    fn run(
+        tare: &mut Tare,
+        frames: u64,
+        rate_hz: f64,
+        offset_pm: impl Fn(u64, usize) -> f64,
+        seed: u64,
+    ) -> Vec<Phase> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let noise = Normal::new(0.0, 0.5).unwrap();
         let g = tare.names.len();
         (0..frames)
             .map(|k| {
                 let wl: Vec<f64> = (0..g)
-                    .map(|i| 1530.0 + 3.0 * i as f64 + (offset_pm(k, i) + noise.sample(&mut rng)) * 1e-3)
+                    .map(|i| {
+                        1530.0 + 3.0 * i as f64 + (offset_pm(k, i) + noise.sample(&mut rng)) * 1e-3
+                    })
                     .collect();
                 tare.push(k as f64 / rate_hz, k + 1, &wl)
             })
@@ -752,7 +777,10 @@ mod tests {
             let b = t.baseline_nm().unwrap();
             // The mean of 50 frames: within 4 standard errors (0.28 pm) of the truth.
             for (i, &w) in b.iter().enumerate() {
-                assert!(((w - 1530.0 - 3.0 * i as f64) * 1e3 - 7.0).abs() < 0.3, "{w}");
+                assert!(
+                    ((w - 1530.0 - 3.0 * i as f64) * 1e3 - 7.0).abs() < 0.3,
+                    "{w}"
+                );
             }
         }
         assert!(first_try >= 190, "{first_try} of 200 at the first window");
@@ -762,7 +790,13 @@ mod tests {
     fn a_step_or_a_creep_keeps_the_run_waiting_and_names_the_grating() {
         // A 5 pm step on fbg3 at frame 30 of a 50-frame window.
         let mut t = tare(50, 0.0);
-        let phases = run(&mut t, 60, 1000.0, |k, i| if i == 2 && k >= 30 { 5.0 } else { 0.0 }, 1);
+        let phases = run(
+            &mut t,
+            60,
+            1000.0,
+            |k, i| if i == 2 && k >= 30 { 5.0 } else { 0.0 },
+            1,
+        );
         assert!(phases.iter().all(|p| *p == Phase::Taring));
         let c = t.take_changes();
         assert_eq!(c[0].state, TareState::Waiting);
@@ -770,7 +804,13 @@ mod tests {
         assert!(c[0].message.contains("fbg3 (spread"), "{}", c[0].message);
         // A creep of 2 pm per window (0.04 pm per frame) on fbg5, no step.
         let mut t = tare(50, 0.0);
-        let phases = run(&mut t, 200, 1000.0, |k, i| if i == 4 { 0.04 * k as f64 } else { 0.0 }, 2);
+        let phases = run(
+            &mut t,
+            200,
+            1000.0,
+            |k, i| if i == 4 { 0.04 * k as f64 } else { 0.0 },
+            2,
+        );
         assert!(phases.iter().all(|p| *p == Phase::Taring));
         assert_eq!(t.take_changes()[0].moving, vec!["fbg5".to_string()]);
     }
@@ -780,7 +820,13 @@ mod tests {
         // 1 kHz, 50 frames and 0.3 s: a window of 301 frames. A load held 0.2 s at the
         // start cannot make a window; the rest after it does.
         let mut t = tare(50, 0.3);
-        let phases = run(&mut t, 700, 1000.0, |k, i| if k < 200 { 10.0 + i as f64 } else { 0.0 }, 3);
+        let phases = run(
+            &mut t,
+            700,
+            1000.0,
+            |k, i| if k < 200 { 10.0 + i as f64 } else { 0.0 },
+            3,
+        );
         let read_from = phases.iter().position(|p| *p == Phase::Read).unwrap();
         assert!((501..521).contains(&read_from), "{read_from}");
         let c = t.take_changes();
@@ -833,7 +879,10 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         let noise = Normal::new(0.0, 0.5).unwrap();
         for k in 0..20_000u64 {
-            let wl = [1530.0 + (k as f64 * 0.001 + noise.sample(&mut rng)) * 1e-3, 1540.2 + noise.sample(&mut rng) * 1e-3];
+            let wl = [
+                1530.0 + (k as f64 * 0.001 + noise.sample(&mut rng)) * 1e-3,
+                1540.2 + noise.sample(&mut rng) * 1e-3,
+            ];
             w.push(k as f64 * 1e-3, k, &wl);
         }
         let got = w.stats();
@@ -842,7 +891,9 @@ mod tests {
         let want = fresh.stats();
         for (a, b) in got.iter().zip(&want) {
             assert_eq!(a.n, 50);
-            assert!((a.spread_pm - b.spread_pm).abs() < 1e-6 && (a.trend_pm - b.trend_pm).abs() < 1e-6);
+            assert!(
+                (a.spread_pm - b.spread_pm).abs() < 1e-6 && (a.trend_pm - b.trend_pm).abs() < 1e-6
+            );
             assert!((a.mean_nm - b.mean_nm).abs() < 1e-12);
         }
         // The trend of 0.001 pm per frame over 49 frames.
