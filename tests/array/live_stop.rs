@@ -39,7 +39,8 @@ fn summary_of(text: &str) -> Value {
 }
 
 /// `live --from - --jsonl` with standard input left open (the run goes on until it is
-/// stopped); returns once its first frame was read.
+/// stopped); returns once all three frames written were read back, so a signal sent
+/// next cannot race a frame still in the pipe.
 fn live_on_open_stdin() -> (Child, BufReader<std::process::ChildStdout>, ChildStdin) {
     let mut child = common::bin()
         .args(["live", &array(), "--from", "-", "--jsonl", "--no-tare"])
@@ -55,9 +56,10 @@ fn live_on_open_stdin() -> (Child, BufReader<std::process::ChildStdout>, ChildSt
     stdin.flush().unwrap();
     let mut out = BufReader::new(child.stdout.take().unwrap());
     let mut line = String::new();
-    while out.read_line(&mut line).unwrap() > 0 {
+    let mut frames = 0;
+    while frames < 3 && out.read_line(&mut line).unwrap() > 0 {
         if line.contains("\"type\":\"frame\"") {
-            break;
+            frames += 1;
         }
         line.clear();
     }
