@@ -120,7 +120,8 @@ fn run_err(py: Python<'_>, e: RunError, design: &str, failed: &str) -> PyErr {
 
 /// Predict each grating's K (pm/N): the rows of the model policy.
 #[pyfunction]
-#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band))]
+#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band, mesh_level))]
+#[allow(clippy::too_many_arguments)] // one per keyword of the Python function
 fn predict<'py>(
     py: Python<'py>,
     design: &PyDesign,
@@ -129,9 +130,19 @@ fn predict<'py>(
     case: Option<&str>,
     fidelity: &str,
     band: bool,
+    mesh_level: u32,
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
+    if mesh_level > fbgforge::fem::FemOptions::MAX_MESH_LEVEL {
+        return Err(input(
+            py,
+            format!(
+                "mesh_level {mesh_level}: expected 0 (coarse) to {} (fine)",
+                fbgforge::fem::FemOptions::MAX_MESH_LEVEL
+            ),
+        ));
+    }
     let d = &design.design;
     let request = PredictionRequest {
         force_n,
@@ -139,6 +150,8 @@ fn predict<'py>(
         case,
         fidelity: choice,
         band,
+        design_interval: band,
+        fem_options: fbgforge::fem::FemOptions::mesh_level(mesh_level),
         cache: fe_cache().clone(),
         ..Default::default()
     };

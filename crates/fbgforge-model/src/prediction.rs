@@ -53,7 +53,7 @@ use serde::Serialize;
 pub const TOLERANCE: f64 = 0.08;
 
 /// The warning every Case I row resting on the shipped default contact radius carries.
-pub const DEFAULT_CONTACT_WARNING: &str = "contact radius chosen to meet the paper's statements, not measured: calibrate with `verify VerifyRequest.calibrate_into`";
+pub const DEFAULT_CONTACT_WARNING: &str = "contact radius by the family rule, chosen so that the FE model meets the paper's statements on the 34 mm module, not measured: calibrate with `verify VerifyRequest.calibrate_into`";
 
 /// Outer diameters over which the closed form was compared with the FE model, mm
 /// (the `fem` study's grid, 10 to 40 mm).

@@ -325,14 +325,19 @@ fn row_warnings(row: &mut ModelledPrediction, m: &Module) {
     }
     if let Some(c) = row.limit_check {
         if !c.meets_margin {
+            let verdict = if c.strain_margin_microstrain < 0.0 {
+                format!("over the {:.0} µε limit", c.strain_limit_microstrain)
+            } else {
+                format!(
+                    "{:.1} % under the {:.0} µε limit, less than the {:.0} % margin required",
+                    c.strain_margin_percent,
+                    c.strain_limit_microstrain,
+                    100.0 * super::error::STRAIN_MARGIN_FRACTION
+                )
+            };
             p.warnings.push(format!(
-                "at {} N the far end of the design interval ({:+.1} pm/N) strains the grating by {:+.0} µε: {} than {:.0} % under the {:.0} µε limit",
-                c.force_n,
-                c.far_end_pm_per_n,
-                c.far_end_strain_microstrain,
-                if c.strain_margin_microstrain < 0.0 { "over the limit, less" } else { "less" },
-                100.0 * super::error::STRAIN_MARGIN_FRACTION,
-                c.strain_limit_microstrain
+                "at {} N the far end of the design interval ({:+.1} pm/N) strains the grating by {:+.0} µε: {verdict}",
+                c.force_n, c.far_end_pm_per_n, c.far_end_strain_microstrain,
             ));
         }
     }
