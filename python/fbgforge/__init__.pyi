@@ -203,6 +203,7 @@ def predict(
     case: Optional[Case] = None,
     fidelity: Fidelity = "auto",
     band: bool = True,
+    mesh_level: int = 1,
 ) -> Prediction: ...
 def build(
     design: DesignLike,

@@ -82,7 +82,7 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         band ``design_interval_pm_per_n`` and ``limit_check`` (the strain at the
         largest force from the interval's far end).
     mesh_level : int, default 1
-        Finite-element mesh level, 0 (coarse) to 4 (fine): each level halves every
+        Finite-element mesh level, 1 (default) to 4 (fine): each level halves every
         element size (relative to the 34 mm module) and is extrapolated with the
         level below; the step of that extrapolation is each FE row's stated
         discretisation error (``model_error["discretisation_fraction"]``).

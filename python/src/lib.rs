@@ -134,12 +134,14 @@ fn predict<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
-    if mesh_level > fbgforge::fem::FemOptions::MAX_MESH_LEVEL {
+    let levels = fbgforge::fem::FemOptions::MIN_MESH_LEVEL..=fbgforge::fem::FemOptions::MAX_MESH_LEVEL;
+    if !levels.contains(&mesh_level) {
         return Err(input(
             py,
             format!(
-                "mesh_level {mesh_level}: expected 0 (coarse) to {} (fine)",
-                fbgforge::fem::FemOptions::MAX_MESH_LEVEL
+                "mesh_level {mesh_level}: expected {} (default) to {} (fine)",
+                levels.start(),
+                levels.end()
             ),
         ));
     }

@@ -81,12 +81,12 @@ pub struct PredictArgs {
     /// finite-element solves per configuration; implied by `--fidelity closed-form`).
     #[arg(long)]
     pub no_band: bool,
-    /// Finite-element mesh level, 0 (coarse) to 4 (fine): level k halves every element
+    /// Finite-element mesh level, 1 (default) to 4 (fine): level k halves every element
     /// size of level k − 1 (sizes relative to the 34 mm module, scaled with the
     /// module's diameter) and is extrapolated with it; the table states the
     /// discretisation error this implies per row (docs/fem.md §5.3).
     #[arg(long, default_value_t = fbgforge::fem::FemOptions::DEFAULT_MESH_LEVEL,
-          value_parser = clap::value_parser!(u32).range(0..=i64::from(fbgforge::fem::FemOptions::MAX_MESH_LEVEL)))]
+          value_parser = clap::value_parser!(u32).range(i64::from(fbgforge::fem::FemOptions::MIN_MESH_LEVEL)..=i64::from(fbgforge::fem::FemOptions::MAX_MESH_LEVEL)))]
     pub mesh_level: u32,
     /// Print JSON instead of a table.
     #[arg(long)]

@@ -231,6 +231,12 @@ impl FemOptions {
     /// The policy's default mesh level.
     pub const DEFAULT_MESH_LEVEL: u32 = 1;
 
+    /// The coarsest mesh level a caller may ask the policy for: level 0's coarser
+    /// partner keeps its one element through each wall, so its Richardson step
+    /// understates its error (0.7–0.8 % stated at 10 mm where K_I lies 7.5 % from
+    /// level 3; docs/fem.md §5.3), and a stated error must bound the error.
+    pub const MIN_MESH_LEVEL: u32 = 1;
+
     /// The finest mesh level a caller may ask the policy for (level 4 of the 34 mm
     /// module has about half a million unknowns in Case I).
     pub const MAX_MESH_LEVEL: u32 = 4;
