@@ -12,7 +12,9 @@
 //! 2. **Written designs.** `optimize` from some of those designs (a small budget),
 //!    and each written design predicted again: counted, gratings of the written
 //!    configuration at or over the strain limit at the far end of their design
-//!    interval, and under the required 5 % margin.
+//!    interval, and under the required 5 % margin; written designs with no room left
+//!    in a wavelength window, or whose snap strains the cap beyond its permissible
+//!    strain.
 //!
 //! Writes `model_error.csv` (one row per design and row) and `model_error.json` (the
 //! counts) into `--out`. `--quick`: 3 designs, 1 optimisation.
@@ -75,6 +77,13 @@ pub struct ModelErrorReport {
     pub written_under_margin: usize,
     /// The smallest strain margin of a written grating, percent of the limit.
     pub smallest_written_margin_percent: f64,
+    /// Written designs whose wavelength window has no room left at the far end of the
+    /// design interval (range and thermal span at or over a window's edge).
+    pub written_wavelength_window_over: usize,
+    /// Written designs whose snap strains the cap beyond its permissible strain.
+    pub written_snap_over: usize,
+    /// The smallest wavelength-window room of a written design, nm.
+    pub smallest_written_window_room_nm: f64,
 }
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
@@ -206,6 +215,12 @@ fn check_written(d: &Design, dir: &Path, report: &mut ModelErrorReport) -> Resul
     };
     let written = fbgforge::design::load(&out)?;
     let choice = &run.outcome.written_choice;
+    if let Some(m) = run.outcome.written.margins {
+        report.written_wavelength_window_over += usize::from(m.wavelength_window_nm <= 0.0);
+        report.written_snap_over += usize::from(m.snap_strain_percent.is_some_and(|s| s < 0.0));
+        report.smallest_written_window_room_nm =
+            report.smallest_written_window_room_nm.min(m.wavelength_window_nm);
+    }
     let rows = predict(
         &written,
         &PredictionRequest {
@@ -245,6 +260,7 @@ pub fn run(a: &ModelErrorArgs) -> Result<ModelErrorReport> {
     let mut rng = ChaCha8Rng::seed_from_u64(a.seed);
     let mut report = ModelErrorReport {
         smallest_written_margin_percent: f64::INFINITY,
+        smallest_written_window_room_nm: f64::INFINITY,
         ..ModelErrorReport::default()
     };
     let mut csv = Vec::new();

@@ -51,10 +51,15 @@ pub enum ErrorSource {
 
 /// The modelling term of `source` (`None`: not stated), with where it comes from.
 ///
-/// - Closed form, Case II, **0.04**: against this project's FE with bonded pillars
+/// - Closed form, Case II, **0.08**: the policy answers Case II by the closed form
+///   where it was measured within 8 % of the FE model (docs/model.md §9), and that is
+///   the term it states. Against this project's bonded FE the closed form lay
 ///   −0.9 … +3.5 % over the `fem` study's 32 grid points (D 10–40 mm, core t/R
-///   0.05–0.65), and that FE 0.08 % from the independent axisymmetric FE on the paper's
-///   module (reference §5: −169.90 against −169.77 pm/N; the closed form −170.68).
+///   0.05–0.65), but −5.7 … +2.8 % over the `model-error` study's 40 random designs
+///   (thin caps and domes varied too; its first run, with a 4 % term, found 6 rows
+///   of 2 designs outside their widened readings); that FE lies 0.08 % from the
+///   independent axisymmetric FE on the paper's module (reference §5: −169.90
+///   against −169.77 pm/N; the closed form −170.68).
 /// - FE, Case I, **0.09**: this project's default reading lay 4.0–10.5 % below the
 ///   independent FE on every shipped and held-out design (issue 38: −10.5 % at 16 mm
 ///   against its finer mesh, −5.6 % at 34 mm, −4.0 … −7.7 % on six held-out designs),
@@ -67,7 +72,7 @@ pub enum ErrorSource {
 ///   differed by −16 … +13 %: the −16 % comparison lies outside this term.
 pub fn modelling_fraction(source: ErrorSource) -> Option<f64> {
     match source {
-        ErrorSource::ClosedFormCaseII => Some(0.04),
+        ErrorSource::ClosedFormCaseII => Some(0.08),
         ErrorSource::ClosedFormCaseI => None,
         ErrorSource::FemCaseI => Some(0.09),
         ErrorSource::FemCaseII => Some(0.14),
@@ -101,7 +106,7 @@ impl ModelError {
     /// // A tiny step is floored; the closed form has no mesh.
     /// let f = ModelError::of(ErrorSource::FemCaseII, -170.0, Some(0.01)).unwrap();
     /// assert_eq!(f.discretisation_fraction, 0.005);
-    /// assert_eq!(ModelError::of(ErrorSource::ClosedFormCaseII, -170.0, None).unwrap().total_fraction, 0.04);
+    /// assert_eq!(ModelError::of(ErrorSource::ClosedFormCaseII, -170.0, None).unwrap().total_fraction, 0.08);
     /// assert!(ModelError::of(ErrorSource::ClosedFormCaseI, 109.0, None).is_none());
     /// ```
     pub fn of(source: ErrorSource, k_pm_per_n: f64, step_pm_per_n: Option<f64>) -> Option<Self> {
@@ -155,7 +160,7 @@ pub struct IntervalReadings {
 /// let cf = ModelError::of(ErrorSource::ClosedFormCaseII, -180.0, None).unwrap();
 /// let [lo, hi] = design_interval(&[(-180.0, Some(cf)), (-190.0, Some(fe))]);
 /// // The FE reading's 14.5 % (modelling 14 % + the 0.5 % discretisation floor) spans
-/// // both ends; the closed form's 4 % lies inside.
+/// // both ends; the closed form's 8 % lies inside.
 /// assert!((lo - (-190.0 * 1.145)).abs() < 1e-9);
 /// assert!((hi - (-190.0 * 0.855)).abs() < 1e-9);
 /// ```

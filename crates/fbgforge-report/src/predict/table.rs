@@ -185,7 +185,7 @@ fn legend(band: bool, choice: FidelityChoice) -> String {
 /// discretisation error it implies, and where the limits were checked.
 fn error_legend(p: &Predicted, interval: bool) -> String {
     let mut s = String::from(
-        "err %: the nominal K's stated model error, discretisation (the Richardson step of the FE mesh, at least 0.5 %) plus a modelling term from the comparison with independent solutions (closed form, Case II 4 %; FE, Case I 9 %, Case II 14 %); docs/model.md §5.8.\n",
+        "err %: the nominal K's stated model error, discretisation (the Richardson step of the FE mesh, at least 0.5 %) plus a modelling term from the comparison with independent solutions (closed form, Case II 8 %; FE, Case I 9 %, Case II 14 %); docs/model.md §5.8.\n",
     );
     let disc: Vec<f64> = p
         .rows
