@@ -134,7 +134,8 @@ fn predict<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
-    let levels = fbgforge::fem::FemOptions::MIN_MESH_LEVEL..=fbgforge::fem::FemOptions::MAX_MESH_LEVEL;
+    let levels =
+        fbgforge::fem::FemOptions::MIN_MESH_LEVEL..=fbgforge::fem::FemOptions::MAX_MESH_LEVEL;
     if !levels.contains(&mesh_level) {
         return Err(input(
             py,

@@ -22,7 +22,10 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("ModuleSettings.vary", "--vary"),
     ("ModuleSettings.prefer", "--prefer"),
     ("ModuleSettings.paper_statements", "--paper-statements"),
-    ("ModuleSettings.strain_margin_fraction", "--strain-margin-percent"),
+    (
+        "ModuleSettings.strain_margin_fraction",
+        "--strain-margin-percent",
+    ),
     ("ModuleSettings.max_force_n", "--max-force-n"),
     ("ModuleSettings.rate_hz", "--rate-hz"),
     ("ModuleSettings.min_fit_clearance_mm", "--min-clearance-mm"),

@@ -168,7 +168,9 @@ fn check_design(
             r.model.name().to_string(),
             format!("{k_nom:.4}"),
             format!("{f:.4}"),
-            b.map_or(String::new(), |b| format!("{:.4}", b.bonded_pillars_pm_per_n)),
+            b.map_or(String::new(), |b| {
+                format!("{:.4}", b.bonded_pillars_pm_per_n)
+            }),
             b.map_or(String::new(), |b| {
                 format!("{:.4}", b.sliding_apex_patch_pm_per_n)
             }),
@@ -218,8 +220,9 @@ fn check_written(d: &Design, dir: &Path, report: &mut ModelErrorReport) -> Resul
     if let Some(m) = run.outcome.written.margins {
         report.written_wavelength_window_over += usize::from(m.wavelength_window_nm <= 0.0);
         report.written_snap_over += usize::from(m.snap_strain_percent.is_some_and(|s| s < 0.0));
-        report.smallest_written_window_room_nm =
-            report.smallest_written_window_room_nm.min(m.wavelength_window_nm);
+        report.smallest_written_window_room_nm = report
+            .smallest_written_window_room_nm
+            .min(m.wavelength_window_nm);
     }
     let rows = predict(
         &written,
@@ -281,9 +284,21 @@ pub fn run(a: &ModelErrorArgs) -> Result<ModelErrorReport> {
     write_csv(
         &a.out.join("model_error.csv"),
         &[
-            "design", "d_mm", "cap_wall_mm", "core_wall_mm", "printer", "grating", "case",
-            "insert", "model", "k_pm_per_n", "model_error_fraction", "bonded_pm_per_n",
-            "sliding_apex_patch_pm_per_n", "contained", "in_design_interval",
+            "design",
+            "d_mm",
+            "cap_wall_mm",
+            "core_wall_mm",
+            "printer",
+            "grating",
+            "case",
+            "insert",
+            "model",
+            "k_pm_per_n",
+            "model_error_fraction",
+            "bonded_pm_per_n",
+            "sliding_apex_patch_pm_per_n",
+            "contained",
+            "in_design_interval",
         ],
         &csv,
     )?;

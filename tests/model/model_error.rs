@@ -65,18 +65,26 @@ pub(crate) fn check_containment(label: &str, rows: &[ModelledPrediction]) -> Res
                 r.widened_readings()
             ));
         }
-        let [lo, hi] = r.design_interval_pm_per_n.ok_or(format!("{id}: no interval"))?;
+        let [lo, hi] = r
+            .design_interval_pm_per_n
+            .ok_or(format!("{id}: no interval"))?;
         if !(lo <= k && k <= hi) {
-            return Err(format!("{id}: nominal {k} outside its design interval [{lo}, {hi}]"));
+            return Err(format!(
+                "{id}: nominal {k} outside its design interval [{lo}, {hi}]"
+            ));
         }
         // The interval holds the nominal widened by its own error.
         let d = f * k.abs();
         if !(lo <= k - d + 1e-9 * k.abs() && k + d - 1e-9 * k.abs() <= hi) {
-            return Err(format!("{id}: interval [{lo}, {hi}] narrower than {k} ± {d}"));
+            return Err(format!(
+                "{id}: interval [{lo}, {hi}] narrower than {k} ± {d}"
+            ));
         }
         let flagged = p.warnings.iter().any(|w| w.contains("stated model error"));
         if f > MAX_MODEL_ERROR && !flagged {
-            return Err(format!("{id}: error {f} over {MAX_MODEL_ERROR} and not flagged"));
+            return Err(format!(
+                "{id}: error {f} over {MAX_MODEL_ERROR} and not flagged"
+            ));
         }
         let c = r.limit_check.ok_or(format!("{id}: no limit check"))?;
         let nominal_plus = c.nominal_strain_microstrain.abs() * (1.0 + f);
@@ -121,7 +129,10 @@ fn every_shipped_design_states_its_error_and_holds_its_nominal_inside() {
                 assert!(e.discretisation_fraction >= fbgforge::prediction::DISCRETISATION_FLOOR);
                 assert!(e.modelling_fraction == 0.09 || e.modelling_fraction == 0.14);
                 // The shipped designs are meshed finely enough to state ≤ 15 %.
-                assert!(r.model_error_fraction.unwrap() <= MAX_MODEL_ERROR, "{file} {p:?}");
+                assert!(
+                    r.model_error_fraction.unwrap() <= MAX_MODEL_ERROR,
+                    "{file} {p:?}"
+                );
             }
         }
     }

@@ -38,9 +38,7 @@ pub use run::{
 pub use statements::{check_paper_statements, PaperStatements, StatementCheck, UP_TO_TWICE_MAX};
 pub use uncertainty::{readings, with_contact_ratio, KReadings, ReadingsRequest, Robustness};
 
-use crate::fem::{
-    solve_configuration, ContactReading, FemOptions, GeometryCache,
-};
+use crate::fem::{solve_configuration, ContactReading, FemOptions, GeometryCache};
 use crate::model::{
     self, Configuration, DetailedPrediction, GratingPrediction, LoadCase, PredictOptions,
 };

@@ -249,9 +249,9 @@ impl Batch {
             let base = radius(&self.geometries[g].opt);
             u.geometry = g;
             let r = radius(&u.opt);
-            u.wider_contact_mm =
-                (u.opt.dome_contact == module::DomeContact::ApexPatch && r > base * (1.0 + 1e-12))
-                    .then_some(r);
+            u.wider_contact_mm = (u.opt.dome_contact == module::DomeContact::ApexPatch
+                && r > base * (1.0 + 1e-12))
+                .then_some(r);
         }
     }
 

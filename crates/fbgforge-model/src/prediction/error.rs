@@ -241,7 +241,9 @@ mod tests {
         // 1e6 pm per unit strain: K = 100 pm/N is 1e-4 per newton.
         let c = LimitCheck::new((20.0, "design"), 3e-3, 100.0, 1e6, iv);
         assert!((c.far_end_strain_microstrain - 1e-4 * 1.344 * 20.0 * 1e6).abs() < 1e-6);
-        assert!(c.far_end_strain_microstrain >= c.nominal_strain_microstrain * (1.0 + e.total_fraction));
+        assert!(
+            c.far_end_strain_microstrain >= c.nominal_strain_microstrain * (1.0 + e.total_fraction)
+        );
         assert!((c.strain_margin_microstrain - (3000.0 - 2688.0)).abs() < 1e-6);
         assert!(c.meets_margin);
         // A blue shift: the far end is the most negative K.

@@ -139,7 +139,11 @@ impl<'a> Readings<'a> {
     }
 
     /// The strain per newton of `d`'s grating under `reading`, with its step.
-    fn strain(&self, d: &DetailedPrediction, reading: ContactReading) -> Result<(f64, Option<f64>)> {
+    fn strain(
+        &self,
+        d: &DetailedPrediction,
+        reading: ContactReading,
+    ) -> Result<(f64, Option<f64>)> {
         let p = &d.prediction;
         let config = config_of(p);
         let i = self
@@ -155,7 +159,11 @@ impl<'a> Readings<'a> {
     }
 
     /// K of `d`'s grating under `reading` (pm/N) and its stated error.
-    fn k(&self, d: &DetailedPrediction, reading: ContactReading) -> Result<(f64, Option<ModelError>)> {
+    fn k(
+        &self,
+        d: &DetailedPrediction,
+        reading: ContactReading,
+    ) -> Result<(f64, Option<ModelError>)> {
         let (e, step) = self.strain(d, reading)?;
         let k = self.k_of(d, e);
         let source = match d.prediction.case {

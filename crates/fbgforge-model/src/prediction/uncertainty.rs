@@ -314,7 +314,10 @@ mod tests {
 
     #[test]
     fn the_band_violation_measures_a_nominal_outside_the_widened_readings_and_a_sign_not_fixed() {
-        assert_eq!(row(100.0, [90.0, 110.0], 10.0, 220.0).band_violation().0, 0.0);
+        assert_eq!(
+            row(100.0, [90.0, 110.0], 10.0, 220.0).band_violation().0,
+            0.0
+        );
         // The 16 mm case: nominal −180.5, readings +42.6 and +1520.
         let (v, why) = row(-180.5, [-200.0, -160.0], 42.6, 1520.0).band_violation();
         assert!(v > 1.0, "{v}");
@@ -327,7 +330,10 @@ mod tests {
         assert!((v - 58.0 / 300.0).abs() < 1e-12, "{v}");
         assert!(why.contains("outside"), "{why}");
         // Within the widening: a nominal 8 % beyond the readings is supported.
-        assert_eq!(row(237.6, [200.0, 260.0], 10.0, 220.0).band_violation().0, 0.0);
+        assert_eq!(
+            row(237.6, [200.0, 260.0], 10.0, 220.0).band_violation().0,
+            0.0
+        );
     }
 
     #[test]

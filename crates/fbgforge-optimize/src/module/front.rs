@@ -373,9 +373,9 @@ pub fn tied_objectives(front: &[FrontDesign], settings: &ModuleSettings) -> Vec<
     }
     let tie = |f: &dyn Fn(&FrontObjectives) -> f64| {
         let v: Vec<f64> = front.iter().map(|d| f(&d.objectives)).collect();
-        let (lo, hi) = v
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| (a.0.min(x), a.1.max(x)));
+        let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
+            (a.0.min(x), a.1.max(x))
+        });
         (hi - lo <= 1e-9 * hi.abs().max(1e-300)).then_some(hi)
     };
     let n = front.len();

@@ -191,7 +191,10 @@ fn optimised_design(
     let statements = if failed.is_empty() {
         "The paper's statements that predict checks hold on this design (paper_statements_failed: none)".to_string()
     } else {
-        format!("It fails the paper's statement(s) that predict checks: paper_statements_failed: {}", failed.join(", "))
+        format!(
+            "It fails the paper's statement(s) that predict checks: paper_statements_failed: {}",
+            failed.join(", ")
+        )
     };
     let margins = best.margins.map_or(String::new(), |m| {
         format!(

@@ -63,12 +63,14 @@ impl ProblemInputs<'_> {
                 ..PredictionRequest::default()
             },
         )?;
-        Ok(check_paper_statements(&d, &rows).map_or_else(Vec::new, |s| {
-            s.failures()
-                .iter()
-                .map(|c| c.statement.to_string())
-                .collect()
-        }))
+        Ok(
+            check_paper_statements(&d, &rows).map_or_else(Vec::new, |s| {
+                s.failures()
+                    .iter()
+                    .map(|c| c.statement.to_string())
+                    .collect()
+            }),
+        )
     }
 }
 

@@ -137,9 +137,9 @@ fn write_row(
         let iv = row
             .design_interval_pm_per_n
             .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
-        let far = row
-            .limit_check
-            .map_or("-".to_string(), |c| format!("{:+.0}", c.far_end_strain_microstrain));
+        let far = row.limit_check.map_or("-".to_string(), |c| {
+            format!("{:+.0}", c.far_end_strain_microstrain)
+        });
         write!(out, " {iv:>21} {far:>10}")?;
     }
     if temp {
@@ -197,7 +197,9 @@ fn error_legend(p: &Predicted, interval: bool) -> String {
     if !disc.is_empty() {
         let (lo, hi) = disc
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &d| (a.0.min(d), a.1.max(d)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &d| {
+                (a.0.min(d), a.1.max(d))
+            });
         let level = p
             .request
             .fem_options

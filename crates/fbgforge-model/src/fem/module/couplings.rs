@@ -4,9 +4,9 @@
 
 use super::insert::mesh_insert;
 use super::options::{DomeContact, FemOptions, InsertContact, PillarCoupling};
-use super::DomePair;
 use super::stations::Station;
 use super::walls::{WallMesh, Walls};
+use super::DomePair;
 use crate::fem::contact::ContactPair;
 use crate::fem::mesh::{edge_forces, edge_param_at_radius};
 use crate::fem::solve::{Interpolation, R, Z};
