@@ -208,6 +208,7 @@ def predict(
     case: Optional[Case] = None,
     fidelity: Fidelity = "auto",
     band: bool = True,
+    mesh_level: int = 1,
 ) -> Prediction: ...
 def build(
     design: DesignLike,

@@ -58,7 +58,7 @@ def _names(v, name):
     return out
 
 
-def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True):
+def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True, mesh_level=1):
     """Predict each strain grating's sensitivity K (pm/N) with the model policy.
 
     Parameters
@@ -75,8 +75,17 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         Which model answers: the policy (Case I by the FE model), the closed form
         throughout, or the FE model throughout.
     band : bool, default True
-        Also compute each row's prediction band (two more FE solves for Case I;
-        none under ``fidelity="closed-form"``, which runs no FE).
+        Also compute each row's prediction band and design interval (the bounding
+        contact readings, the contact window's ends, Case II's stated-cylinders
+        reading: more FE solves; none under ``fidelity="closed-form"``, which runs
+        no FE). Each row states ``model_error_fraction`` either way, and with the
+        band ``design_interval_pm_per_n`` and ``limit_check`` (the strain at the
+        largest force from the interval's far end).
+    mesh_level : int, default 1
+        Finite-element mesh level, 1 (default) to 4 (fine): each level halves every
+        element size (relative to the 34 mm module) and is extrapolated with the
+        level below; the step of that extrapolation is each FE row's stated
+        discretisation error (``model_error["discretisation_fraction"]``).
 
     Returns
     -------
@@ -92,13 +101,16 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
     (['lambda_11', 'lambda_12'], -165.52)
     """
     d = as_design(design)
-    rows, statements = _fbgforge.predict(d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band))
+    rows, statements = _fbgforge.predict(
+        d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band), int(mesh_level)
+    )
     return Prediction(
         {
             "delta_t_k": float(delta_t_k),
             "design": d.name,
             "fidelity": fidelity,
             "force_n": float(force_n),
+            "mesh_level": int(mesh_level),
             "predictions": rows,
             "paper_statements": statements,
         }

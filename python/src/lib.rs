@@ -120,7 +120,8 @@ fn run_err(py: Python<'_>, e: RunError, design: &str, failed: &str) -> PyErr {
 
 /// Predict each grating's K (pm/N): the rows of the model policy.
 #[pyfunction]
-#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band))]
+#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band, mesh_level))]
+#[allow(clippy::too_many_arguments)] // one per keyword of the Python function
 fn predict<'py>(
     py: Python<'py>,
     design: &PyDesign,
@@ -129,9 +130,22 @@ fn predict<'py>(
     case: Option<&str>,
     fidelity: &str,
     band: bool,
+    mesh_level: u32,
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
+    let levels =
+        fbgforge::fem::FemOptions::MIN_MESH_LEVEL..=fbgforge::fem::FemOptions::MAX_MESH_LEVEL;
+    if !levels.contains(&mesh_level) {
+        return Err(input(
+            py,
+            format!(
+                "mesh_level {mesh_level}: expected {} (default) to {} (fine)",
+                levels.start(),
+                levels.end()
+            ),
+        ));
+    }
     let d = &design.design;
     let request = PredictionRequest {
         force_n,
@@ -139,6 +153,8 @@ fn predict<'py>(
         case,
         fidelity: choice,
         band,
+        design_interval: band,
+        fem_options: fbgforge::fem::FemOptions::mesh_level(mesh_level),
         cache: fe_cache().clone(),
         ..Default::default()
     };

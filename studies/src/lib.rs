@@ -12,6 +12,7 @@ pub mod fem;
 pub mod fem_compare;
 pub mod fem_contact;
 pub mod live_starts;
+pub mod model_error;
 pub mod optimize;
 pub mod predict;
 /// Terminal bars: the binary's own implementation of the library's `Progress`.

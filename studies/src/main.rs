@@ -29,6 +29,9 @@ enum Study {
     /// Live starts at any moment of a load script: confidently wrong loads shown by
     /// the tare at rest, the tare of the first 50 frames and an oracle tare.
     LiveStarts(studies::live_starts::LiveStartsArgs),
+    /// The model's stated error on random valid designs (containment in the widened
+    /// bounding readings) and the margins of the designs optimize writes under it.
+    ModelError(studies::model_error::ModelErrorArgs),
     /// Optimiser convergence time per design and solver.
     Optimize(studies::optimize::BenchOptimizeArgs),
     /// Closed-form prediction time per design.
@@ -49,6 +52,7 @@ fn main() -> ExitCode {
         Study::Fem(a) => studies::fem::run(&a),
         Study::Contact(a) => studies::fem_contact::run(&a),
         Study::LiveStarts(a) => studies::live_starts::run(&a),
+        Study::ModelError(a) => studies::model_error::run(&a).map(|_| ()),
         Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),

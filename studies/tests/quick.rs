@@ -391,3 +391,35 @@ fn live_starts_study_quick_reads_only_after_a_tare_window_and_its_oracle_is_righ
     let s = read_json(&dir.path().join("summary.json"));
     assert_eq!(s["totals"].as_array().unwrap().len(), 6);
 }
+
+#[test]
+fn model_error_study_quick_finds_every_nominal_inside_and_every_written_grating_in_margin() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::model_error::ModelErrorArgs {
+        designs: 3,
+        optimise: 1,
+        seed: 38,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    let r = fbgforge_studies::model_error::run(&a).unwrap();
+    assert_eq!(r.designs, 3);
+    assert!(r.rows >= 3 * 4, "{r:?}");
+    // Every nominal inside its widened readings and its design interval.
+    assert_eq!(r.rows_outside_widened_band, 0, "{r:?}");
+    assert_eq!(r.rows_outside_design_interval, 0, "{r:?}");
+    // What optimize wrote keeps the 5 % margin at the far end of its interval.
+    assert_eq!(r.optimised, 1);
+    if r.optimise_failed == 0 {
+        assert!(r.written_gratings > 0, "{r:?}");
+        assert_eq!(r.written_at_or_over_limit, 0, "{r:?}");
+        assert_eq!(r.written_under_margin, 0, "{r:?}");
+        assert!(r.smallest_written_margin_percent >= 5.0 - 1e-6, "{r:?}");
+        assert_eq!(r.written_wavelength_window_over, 0, "{r:?}");
+        assert_eq!(r.written_snap_over, 0, "{r:?}");
+    }
+    let json = read_json(&dir.path().join("model_error.json"));
+    assert_eq!(json["rows"].as_u64().unwrap() as usize, r.rows);
+    let csv = std::fs::read_to_string(dir.path().join("model_error.csv")).unwrap();
+    assert_eq!(csv.lines().count(), r.rows + 1);
+}

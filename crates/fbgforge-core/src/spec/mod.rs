@@ -33,7 +33,8 @@ pub use contact::{Contact, ContactRatios, CylinderCoupling};
 pub use design::{parse_unvalidated, Design};
 pub use error::{err, SpecError};
 pub use module::{
-    Core, GratingRole, Insert, Module, ModuleGrating, Pillars, Snap, DEFAULT_REFERENCE_TAIL_MM,
+    Core, GratingRole, Insert, Limits, Module, ModuleGrating, Pillars, Snap,
+    DEFAULT_REFERENCE_TAIL_MM,
 };
 pub use printer::{
     FiberRouting, Material, PrintProcess, Printer, DEFAULT_FDM_LAYER_MM, DEFAULT_FDM_NOZZLE_MM,
