@@ -30,6 +30,7 @@ pub use fbgforge_live as live;
 pub use fbgforge_optimize as optimize;
 pub use fbgforge_plot as plot;
 pub use fbgforge_report as report;
+pub use fbgforge_spectra as spectra;
 pub use fbgforge_synth as synth;
 pub use fbgforge_verify as verify;
 
@@ -41,5 +42,6 @@ pub use fbgforge_model;
 pub use fbgforge_optimize;
 pub use fbgforge_plot;
 pub use fbgforge_report;
+pub use fbgforge_spectra;
 pub use fbgforge_synth;
 pub use fbgforge_verify;

@@ -104,6 +104,7 @@ fn read_options(
     Ok(ReadOptions {
         format: parse_format(py, format)?,
         date_order: parse_date_order(py, date_order)?,
+        ..Default::default()
     })
 }
 
@@ -739,6 +740,7 @@ fn synth_log<'py>(
         twelve_hour: style
             .get_item("twelve_hour")?
             .map_or(Ok(false), |v| v.extract())?,
+        ..Default::default()
     };
     let schedule: Option<PathBuf> = get("schedule")?.extract()?;
     let seed: u64 = get("seed")?.extract()?;
