@@ -10,6 +10,7 @@ mod convert;
 mod design;
 mod errors;
 mod live;
+mod spectra;
 
 use convert::{columns, to_py, to_py_words, value};
 use design::PyDesign;
@@ -873,5 +874,8 @@ fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(synth_log, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate_array, m)?)?;
     m.add_function(wrap_pyfunction!(live::live_stream, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::read_spectra, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::find_peaks, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::grating_spectrum, m)?)?;
     Ok(())
 }

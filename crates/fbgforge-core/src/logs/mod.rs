@@ -489,7 +489,9 @@ pub fn read_peak_log(path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
 pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
     let det = spectrum::detect_table(bytes, path, opts)?;
     if matches!(det.format, LogFormat::EnlightSpectrum | LogFormat::OsaCsv) {
-        return spectrum::read_whole_spectrum(bytes, path, det.format, opts);
+        let mut log = spectrum::read_whole_spectrum(bytes, path, det.format, opts)?;
+        spectrum::warn_flagged_peaks(&mut log);
+        return Ok(log);
     }
     let reader = det.format.reader();
     let table = reader.rows(&det, bytes, path, opts)?;
@@ -543,6 +545,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     }
     log.time_uncertainty_s = time::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
+    spectrum::warn_flagged_peaks(&mut log);
     Ok(log)
 }
 

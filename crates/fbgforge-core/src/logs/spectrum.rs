@@ -466,3 +466,31 @@ impl LogReader for WholeSpectrum {
 #[cfg(test)]
 #[path = "spectrum_tests.rs"]
 mod tests;
+
+/// Warns, once per flag, how many of the log's peaks found in spectra are flagged: a
+/// flagged peak's standard error understates its error (pixel-locking, a shape the
+/// estimator does not model, a neighbour, noise, split lobes; docs/spectra.md §3), and
+/// a K fitted through many of them can be off by more than its standard error says.
+pub(crate) fn warn_flagged_peaks(log: &mut PeakLog) {
+    let Some(u) = &log.uncertainty else {
+        return;
+    };
+    let total = u.peaks.len();
+    let mut counts: std::collections::BTreeMap<&'static str, usize> = Default::default();
+    for q in &u.peaks {
+        for name in q.flags.names() {
+            *counts.entry(name).or_default() += 1;
+        }
+    }
+    let estimator = u.estimator.clone();
+    for (flag, n) in counts {
+        let path = log.source.display().to_string();
+        log.warnings.add_n(&format!("peaks_{flag}"), n, || {
+            format!(
+                "{path}: {n} of {total} peaks found in the spectra by `{estimator}` are flagged \
+                 `{flag}`: their standard errors understate their error, and a fit through them \
+                 may be biased (docs/spectra.md §3, §10)"
+            )
+        });
+    }
+}
