@@ -49,7 +49,12 @@ pub struct SpectrumArgs {
     /// header writes it, pixels in the file's order). With it an I-MON log's pixel
     /// columns are read as spectra and their peaks found; without it the peaks the
     /// I-MON software wrote are read.
-    #[arg(long, value_name = "A0,A1,…", value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "A0,A1,…",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
     pub imon_calibration: Vec<f64>,
     /// Peak estimator for spectra (default: gaussian).
     #[arg(long, value_enum)]

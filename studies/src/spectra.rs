@@ -153,7 +153,9 @@ fn grating_of_fwhm(center_nm: f64, fwhm_nm: f64) -> Result<Grating> {
         .map(|i| center_nm - 0.5 + i as f64 * 0.0005)
         .collect();
     let y = grating_spectrum(&probe, &StrainProfile::Uniform(0.0), &fine)?.power;
-    let fwhm0 = half_max_points(&fine, &y).map(|(l, r)| r - l).unwrap_or(0.2);
+    let fwhm0 = half_max_points(&fine, &y)
+        .map(|(l, r)| r - l)
+        .unwrap_or(0.2);
     Ok(of_length(5.0 * fwhm0 / fwhm_nm))
 }
 
@@ -175,10 +177,7 @@ fn line(kind: LineKind, center_nm: f64, fwhm_nm: f64, x: &[f64]) -> Result<Vec<f
             // A chirp of 2 FWHM across the grating, centred so the Bragg centre stays.
             let strain = if kind == LineKind::Chirped {
                 let e = fwhm_nm / (g.strain_sensitivity_pm_per_microstrain() * 1e-3) * 1e-6;
-                StrainProfile::Linear {
-                    start: -e,
-                    end: e,
-                }
+                StrainProfile::Linear { start: -e, end: e }
             } else {
                 StrainProfile::Uniform(0.0)
             };
@@ -202,7 +201,9 @@ fn half_max_points(x: &[f64], y: &[f64]) -> Option<(f64, f64)> {
     if y.is_empty() {
         return None;
     }
-    let top = (0..y.len()).max_by(|&a, &b| y[a].total_cmp(&y[b])).unwrap_or(0);
+    let top = (0..y.len())
+        .max_by(|&a, &b| y[a].total_cmp(&y[b]))
+        .unwrap_or(0);
     let half = 0.5 * y[top];
     let cross = |range: &mut dyn Iterator<Item = usize>| -> f64 {
         let mut prev = top;
@@ -233,7 +234,9 @@ pub fn run_scenario(s: &Scenario, seed: u64) -> Result<Outcome> {
     let center = CENTER_NM + s.offset_samples * PITCH_NM;
     let half = (40.0 * fwhm_nm).max(60.0 * PITCH_NM);
     let n = (2.0 * half / PITCH_NM) as usize;
-    let x: Vec<f64> = (0..n).map(|i| CENTER_NM - half + i as f64 * PITCH_NM).collect();
+    let x: Vec<f64> = (0..n)
+        .map(|i| CENTER_NM - half + i as f64 * PITCH_NM)
+        .collect();
     // The truth on a fine grid (0.01 sample).
     let fine: Vec<f64> = (0..4001)
         .map(|i| center - 4.0 * fwhm_nm + 8.0 * fwhm_nm * i as f64 / 4000.0)
@@ -279,14 +282,15 @@ pub fn run_scenario(s: &Scenario, seed: u64) -> Result<Outcome> {
         Some(p) => {
             let error_pm = 1e3 * (p.wavelength_nm - truth_nm);
             let flags = p.flags.names().join("|");
+            // NaN standard errors count as wrong: `within` is false for them.
+            let within = error_pm.abs() <= 3.0 * p.std_error_pm;
             Outcome {
                 scenario: s.clone(),
                 truth_nm,
                 found: true,
                 error_pm,
                 std_error_pm: p.std_error_pm,
-                confidently_wrong: p.flags.is_clean()
-                    && !(error_pm.abs() <= 3.0 * p.std_error_pm),
+                confidently_wrong: p.flags.is_clean() && !within,
                 flags,
             }
         }
@@ -403,7 +407,10 @@ pub fn run_study(a: &SpectraStudyArgs) -> Result<Vec<SummaryLine>> {
         .collect::<Result<Vec<_>>>()?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     let lines = summary(&outcomes);
-    fbgforge::output::write_atomic(&a.out.join("spectra-scenarios.csv"), csv(&outcomes).as_bytes())?;
+    fbgforge::output::write_atomic(
+        &a.out.join("spectra-scenarios.csv"),
+        csv(&outcomes).as_bytes(),
+    )?;
     fbgforge::output::write_atomic(
         &a.out.join("spectra-summary.json"),
         serde_json::to_string_pretty(&lines)?.as_bytes(),

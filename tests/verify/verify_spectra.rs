@@ -14,13 +14,26 @@ fn synth(dir: &Path, format: &str, extra: &[&str]) {
     let out = bin()
         .args(["synth-log"])
         .arg(shipped_path("clip-on-34mm.toml"))
-        .args(["--format", format, "--core", "psc2", "--k-pm-per-n", "-20", "--seed", "5"])
+        .args([
+            "--format",
+            format,
+            "--core",
+            "psc2",
+            "--k-pm-per-n",
+            "-20",
+            "--seed",
+            "5",
+        ])
         .args(extra)
         .arg("--out")
         .arg(dir)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// `verify --json` on `log` (with `extra` flags): the primary grating's K and the JSON.
@@ -36,7 +49,11 @@ fn verify_k(dir: &Path, log: &Path, extra: &[&str]) -> (f64, serde_json::Value) 
         .output()
         .unwrap();
     let code = out.status.code().unwrap();
-    assert!(code == 0 || code == 2, "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        code == 0 || code == 2,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let g = &v["measurement"]["gratings"][0];
     assert_eq!(g["grating"], "lambda_21");
@@ -50,7 +67,11 @@ fn verify_on_a_spectrum_log_gives_the_peak_logs_k_within_one_percent() {
     synth(peaks_dir.path(), "imon", &[]);
     // The same run (same seed: same shifts) written as 512-pixel spectra of Gaussian
     // lines 0.33 nm wide (2 pixels, as on real I-MON frames).
-    synth(spectra_dir.path(), "imon-pixels", &["--line-shape", "gaussian"]);
+    synth(
+        spectra_dir.path(),
+        "imon-pixels",
+        &["--line-shape", "gaussian"],
+    );
     let (k_peaks, _) = verify_k(peaks_dir.path(), &peaks_dir.path().join("log.txt"), &[]);
     let log = spectra_dir.path().join("log.txt");
     let (k_spectra, v) = verify_k(spectra_dir.path(), &log, &["--imon-calibration", CAL]);
@@ -72,12 +93,23 @@ fn verify_on_a_spectrum_log_gives_the_peak_logs_k_within_one_percent() {
         .arg(&csv)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = std::fs::read_to_string(&csv).unwrap();
-    assert!(text.contains("# estimator: gaussian"), "{}", &text[..200.min(text.len())]);
+    assert!(
+        text.contains("# estimator: gaussian"),
+        "{}",
+        &text[..200.min(text.len())]
+    );
     assert!(text.contains("lambda_21 std_error_pm"));
     let (k_csv, _) = verify_k(spectra_dir.path(), &csv, &[]);
-    assert!(((k_csv - k_spectra) / k_spectra).abs() < 1e-3, "{k_csv} vs {k_spectra}");
+    assert!(
+        ((k_csv - k_spectra) / k_spectra).abs() < 1e-3,
+        "{k_csv} vs {k_spectra}"
+    );
 }
 
 #[test]
@@ -87,11 +119,22 @@ fn peaks_json_names_format_estimator_and_every_peak_field() {
     let out = bin()
         .arg("peaks")
         .arg(dir.path().join("log.txt"))
-        .args(["--imon-calibration", CAL, "--estimator", "parabola", "--json", "--design"])
+        .args([
+            "--imon-calibration",
+            CAL,
+            "--estimator",
+            "parabola",
+            "--json",
+            "--design",
+        ])
         .arg(shipped_path("clip-on-34mm.toml"))
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let keys = |o: &serde_json::Value| -> Vec<String> {
         let mut k: Vec<String> = o.as_object().unwrap().keys().cloned().collect();
@@ -107,7 +150,16 @@ fn peaks_json_names_format_estimator_and_every_peak_field() {
     let p = &rows[0]["peaks"][0];
     assert_eq!(
         keys(p),
-        ["channel", "crb_pm", "flags", "fwhm_pm", "grating", "snr", "std_error_pm", "wavelength_nm"]
+        [
+            "channel",
+            "crb_pm",
+            "flags",
+            "fwhm_pm",
+            "grating",
+            "snr",
+            "std_error_pm",
+            "wavelength_nm"
+        ]
     );
     // Every grating of the design is found in every row, near its nominal wavelength
     // (the synthetic shifts stay within a nanometre), 2 pixels wide.

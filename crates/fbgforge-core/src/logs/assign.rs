@@ -212,7 +212,7 @@ pub fn slope_std_error_from_errors(x: &[f64], sigma: &[f64]) -> Option<f64> {
     }
     let mean = rows.iter().map(|r| r.0).sum::<f64>() / rows.len() as f64;
     let sxx: f64 = rows.iter().map(|r| (r.0 - mean).powi(2)).sum();
-    if !(sxx > 0.0) {
+    if sxx.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let var: f64 = rows.iter().map(|r| (r.0 - mean).powi(2) * r.1 * r.1).sum();

@@ -58,17 +58,28 @@ impl LogReader for ImonPixels {
             .header
             .iter()
             .position(|h| h == "Pixel 1")
-            .ok_or_else(|| anyhow!("{}: the I-MON header names no `Pixel 1` column", path.display()))?;
+            .ok_or_else(|| {
+                anyhow!(
+                    "{}: the I-MON header names no `Pixel 1` column",
+                    path.display()
+                )
+            })?;
         let pixels = det.header[first_pixel..]
             .iter()
             .take_while(|h| h.starts_with("Pixel "))
             .count();
         let calibration = imon_calibration(opts)?.ok_or_else(|| {
-            anyhow!("{}: reading an I-MON log's pixels needs ReadOptions.imon_calibration", path.display())
+            anyhow!(
+                "{}: reading an I-MON log's pixels needs ReadOptions.imon_calibration",
+                path.display()
+            )
         })?;
-        let mut wavelengths_nm = calibration
-            .pixel_wavelengths_nm(pixels)
-            .map_err(|e| anyhow!("ReadOptions.imon_calibration over the {pixels} pixels of {}: {e}", path.display()))?;
+        let mut wavelengths_nm = calibration.pixel_wavelengths_nm(pixels).map_err(|e| {
+            anyhow!(
+                "ReadOptions.imon_calibration over the {pixels} pixels of {}: {e}",
+                path.display()
+            )
+        })?;
         let reverse = wavelengths_nm[1] < wavelengths_nm[0];
         if reverse {
             wavelengths_nm.reverse();
@@ -88,9 +99,9 @@ impl LogReader for ImonPixels {
             .find(|l| !trim(l).is_empty() && !l.starts_with(b"#"));
         parser.options = match (first, &estimator) {
             (Some(line), _) => {
-                let spectrum = parser.spectrum(line).map_err(|e| {
-                    anyhow!("{}:{}: {}", path.display(), det.body_line, e.message)
-                })?;
+                let spectrum = parser
+                    .spectrum(line)
+                    .map_err(|e| anyhow!("{}:{}: {}", path.display(), det.body_line, e.message))?;
                 estimator.options_for(&spectrum)?
             }
             (None, Estimator::Plain(choice)) => FindOptions {
@@ -98,7 +109,10 @@ impl LogReader for ImonPixels {
                 ..FindOptions::default()
             },
             (None, Estimator::Xcorr) => {
-                anyhow::bail!("{}: no row yet to take the xcorr templates from", path.display())
+                anyhow::bail!(
+                    "{}: no row yet to take the xcorr templates from",
+                    path.display()
+                )
             }
         };
         Ok(Rows {
@@ -167,8 +181,13 @@ impl PixelRows {
         let mut it = line.split(|&c| c == self.delimiter);
         date_and_time(&mut it)?;
         let counts = self.counts(it)?;
-        Spectrum::new("I-MON", self.wavelengths_nm.clone(), counts, PowerUnit::Counts)
-            .map_err(|e| issue("unreadable_line", e.to_string()))
+        Spectrum::new(
+            "I-MON",
+            self.wavelengths_nm.clone(),
+            counts,
+            PowerUnit::Counts,
+        )
+        .map_err(|e| issue("unreadable_line", e.to_string()))
     }
 }
 
@@ -209,7 +228,10 @@ impl LineShape {
     fn gaussian(fwhm_nm: f64) -> Self {
         let s = fwhm_nm / spectra::peaks::FWHM_PER_SIGMA;
         let offset_nm: Vec<f64> = (-2000..=2000).map(|k| f64::from(k) * 4e-3 * s).collect();
-        let relative = offset_nm.iter().map(|d| (-0.5 * (d / s).powi(2)).exp()).collect();
+        let relative = offset_nm
+            .iter()
+            .map(|d| (-0.5 * (d / s).powi(2)).exp())
+            .collect();
         LineShape {
             offset_nm,
             relative,
@@ -226,11 +248,11 @@ impl LineShape {
         let r = spectra::grating_spectrum(g, &spectra::StrainProfile::Uniform(0.0), &grid)
             .map_err(|e| std::io::Error::other(e.to_string()))?
             .power;
-        let (imax, rmax) = r
-            .iter()
-            .copied()
-            .enumerate()
-            .fold((0, 0.0), |m, (i, v)| if v > m.1 { (i, v) } else { m });
+        let (imax, rmax) =
+            r.iter()
+                .copied()
+                .enumerate()
+                .fold((0, 0.0), |m, (i, v)| if v > m.1 { (i, v) } else { m });
         let peak = grid[imax];
         Ok(LineShape {
             offset_nm: grid.iter().map(|l| l - peak).collect(),
@@ -257,7 +279,8 @@ impl LineShape {
 /// truth), so the same file read without a calibration is the equivalent peak log.
 fn write_pixels(w: &mut dyn Write, table: &LogTable, style: &SpectrumStyle) -> std::io::Result<()> {
     let invalid = |e: String| std::io::Error::new(std::io::ErrorKind::InvalidInput, e);
-    let cal = PixelCalibration::new(style.imon_calibration.clone()).map_err(|e| invalid(e.to_string()))?;
+    let cal = PixelCalibration::new(style.imon_calibration.clone())
+        .map_err(|e| invalid(e.to_string()))?;
     let pixel_nm = cal
         .pixel_wavelengths_nm(style.pixels)
         .map_err(|e| invalid(e.to_string()))?;
@@ -266,7 +289,9 @@ fn write_pixels(w: &mut dyn Write, table: &LogTable, style: &SpectrumStyle) -> s
             .map(|_| LineShape::gaussian(*fwhm_nm))
             .collect(),
         Shape::Gratings(g) if g.len() == table.names.len() => {
-            g.iter().map(LineShape::grating).collect::<std::io::Result<Vec<_>>>()?
+            g.iter()
+                .map(LineShape::grating)
+                .collect::<std::io::Result<Vec<_>>>()?
         }
         Shape::Gratings(g) => {
             return Err(invalid(format!(
@@ -288,7 +313,8 @@ fn write_pixels(w: &mut dyn Write, table: &LogTable, style: &SpectrumStyle) -> s
     writeln!(w, "\t")?;
     writeln!(w)?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(style.seed);
-    let noise = Normal::new(0.0, style.noise_counts.max(0.0)).map_err(|e| invalid(e.to_string()))?;
+    let noise =
+        Normal::new(0.0, style.noise_counts.max(0.0)).map_err(|e| invalid(e.to_string()))?;
     let cells = table
         .wavelength_nm
         .iter()

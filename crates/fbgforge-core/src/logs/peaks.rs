@@ -100,22 +100,21 @@ pub struct PeaksReport {
 
 /// The gratings a design names, with their nominal wavelengths (module or array).
 fn design_gratings(design: &Design) -> Vec<(String, f64)> {
-    let module = design
-        .module
-        .iter()
-        .flat_map(|m| m.gratings.iter().map(|g| (g.name.clone(), g.bragg_wavelength_nm)));
-    let array = design
-        .array
-        .iter()
-        .flat_map(|a| a.gratings.iter().map(|g| (g.name.clone(), g.bragg_wavelength_nm)));
+    let module = design.module.iter().flat_map(|m| {
+        m.gratings
+            .iter()
+            .map(|g| (g.name.clone(), g.bragg_wavelength_nm))
+    });
+    let array = design.array.iter().flat_map(|a| {
+        a.gratings
+            .iter()
+            .map(|g| (g.name.clone(), g.bragg_wavelength_nm))
+    });
     module.chain(array).collect()
 }
 
 /// The windows of the gratings (or of the first acquisition's peaks without a design).
-fn expected(
-    named: Vec<(String, f64)>,
-    half_width_nm: Option<f64>,
-) -> Result<Vec<ExpectedGrating>> {
+fn expected(named: Vec<(String, f64)>, half_width_nm: Option<f64>) -> Result<Vec<ExpectedGrating>> {
     let nominals: Vec<f64> = named.iter().map(|g| g.1).collect();
     let hw = half_width_nm.unwrap_or_else(|| super::assign::default_half_width_nm(&nominals));
     if !(hw.is_finite() && hw > 0.0) {
@@ -297,7 +296,11 @@ fn time_cell(t: f64, dated: bool) -> String {
 
 /// The peaks log: comment lines naming the source and the estimator, a `time` column,
 /// then per column its wavelength (nm) and `<column> std_error_pm`.
-fn write_peaks_log(w: &mut dyn Write, report: &PeaksReport, table: &[Vec<(f64, f64)>]) -> Result<()> {
+fn write_peaks_log(
+    w: &mut dyn Write,
+    report: &PeaksReport,
+    table: &[Vec<(f64, f64)>],
+) -> Result<()> {
     let dated = report.rows.iter().all(|r| r.time_s > 86400.0);
     writeln!(
         w,

@@ -163,7 +163,7 @@ fn stated_estimator(head: &[u8]) -> String {
         .find_map(|c| {
             c.trim()
                 .strip_prefix("estimator:")
-                .map(|e| e.trim().split_whitespace().next().unwrap_or("").to_string())
+                .map(|e| e.split_whitespace().next().unwrap_or("").to_string())
         })
         .filter(|e| !e.is_empty())
         .unwrap_or_else(|| "stated in no comment".into())

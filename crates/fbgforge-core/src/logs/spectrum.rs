@@ -118,9 +118,9 @@ pub fn find_options(estimator: Option<&str>) -> Result<FindOptions> {
             estimator: choice,
             ..FindOptions::default()
         }),
-        Estimator::Xcorr => bail!(
-            "ReadOptions.estimator xcorr needs a template spectrum (the grating unloaded)"
-        ),
+        Estimator::Xcorr => {
+            bail!("ReadOptions.estimator xcorr needs a template spectrum (the grating unloaded)")
+        }
     }
 }
 
@@ -274,9 +274,18 @@ fn spectrum_peaks_of(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Sp
             let mut peaks = Vec::new();
             for (c, (s, o)) in row.spectra.iter().zip(&options).enumerate() {
                 let found = spectra::find_peaks(s, o).map_err(|e| {
-                    anyhow!("{}: channel {} at {} s: {e}", path.display(), s.channel, row.time_s)
+                    anyhow!(
+                        "{}: channel {} at {} s: {e}",
+                        path.display(),
+                        s.channel,
+                        row.time_s
+                    )
                 })?;
-                peaks.extend(found.into_iter().map(|peak| ChannelPeak { channel: c, peak }));
+                peaks.extend(
+                    found
+                        .into_iter()
+                        .map(|peak| ChannelPeak { channel: c, peak }),
+                );
             }
             Ok(SpectrumPeaksRow {
                 time_s: row.time_s,

@@ -3,8 +3,8 @@
 //! cells gives the same rows and times.
 
 use super::super::{
-    num::days_from_civil, parse_wavelength_bytes, write_log, Clock, LogFormat, LogStyle,
-    LogTable, ReadOptions, RowReader,
+    num::days_from_civil, parse_wavelength_bytes, write_log, Clock, LogFormat, LogStyle, LogTable,
+    ReadOptions, RowReader,
 };
 use super::*;
 use fbgforge_spectra::synth::{SynthPeak, SynthSpectrum};
@@ -109,8 +109,12 @@ fn a_growing_imon_pixel_log_is_read_row_by_row_with_the_same_peaks() {
 #[test]
 fn xcorr_tracks_each_grating_against_its_first_row() {
     let (bytes, truth) = imon_pixel_bytes(&LogStyle::default());
-    let log = parse_wavelength_bytes(&bytes, &PathBuf::from("i.txt"), &with_calibration(Some("xcorr")))
-        .unwrap();
+    let log = parse_wavelength_bytes(
+        &bytes,
+        &PathBuf::from("i.txt"),
+        &with_calibration(Some("xcorr")),
+    )
+    .unwrap();
     assert_eq!(log.estimator(), Some("xcorr"));
     // Shifts from the first row equal the true shifts (the template's own offset cancels).
     let first = log.row(0).0.to_vec();
@@ -118,7 +122,10 @@ fn xcorr_tracks_each_grating_against_its_first_row() {
         let got = log.row(i).0;
         for k in 0..2 {
             let want = truth[i][k] - truth[0][k];
-            assert!(((got[k] - first[k]) - want).abs() < 2e-3, "row {i}: {got:?}");
+            assert!(
+                ((got[k] - first[k]) - want).abs() < 2e-3,
+                "row {i}: {got:?}"
+            );
         }
     }
 }
@@ -134,13 +141,19 @@ fn a_reading_names_unknown_estimators_and_bad_calibrations_by_their_fields() {
         ..ReadOptions::default()
     };
     let e = parse_wavelength_bytes(&bytes, &path, &bad).unwrap_err();
-    assert!(format!("{e:#}").contains("ReadOptions.imon_calibration"), "{e:#}");
+    assert!(
+        format!("{e:#}").contains("ReadOptions.imon_calibration"),
+        "{e:#}"
+    );
     let forced = ReadOptions {
         format: Some(LogFormat::ImonPixels),
         ..ReadOptions::default()
     };
     let e = parse_wavelength_bytes(&bytes, &path, &forced).unwrap_err();
-    assert!(format!("{e:#}").contains("ReadOptions.imon_calibration"), "{e:#}");
+    assert!(
+        format!("{e:#}").contains("ReadOptions.imon_calibration"),
+        "{e:#}"
+    );
 }
 
 /// Two gratings at known wavelengths on an 8 pm grid, SNR 300, FWHM 0.2 nm.
@@ -153,14 +166,25 @@ fn two_peaks() -> SynthSpectrum {
 #[test]
 fn enlight_and_osa_spectra_are_read_as_one_row_of_peaks() {
     for (format, unit, name) in [
-        (spectra::SpectrumFormat::EnlightSpectrum, PowerUnit::Dbm, "spectrum.txt"),
-        (spectra::SpectrumFormat::OsaCsv, PowerUnit::Linear, "osa.csv"),
+        (
+            spectra::SpectrumFormat::EnlightSpectrum,
+            PowerUnit::Dbm,
+            "spectrum.txt",
+        ),
+        (
+            spectra::SpectrumFormat::OsaCsv,
+            PowerUnit::Linear,
+            "osa.csv",
+        ),
         (spectra::SpectrumFormat::OsaCsv, PowerUnit::Db, "osa_db.csv"),
     ] {
         let text = two_peaks().write(format, 3, unit).unwrap();
-        let log =
-            parse_wavelength_bytes(text.as_bytes(), &PathBuf::from(name), &ReadOptions::default())
-                .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        let log = parse_wavelength_bytes(
+            text.as_bytes(),
+            &PathBuf::from(name),
+            &ReadOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{name}: {e:#}"));
         let want = match format {
             spectra::SpectrumFormat::EnlightSpectrum => LogFormat::EnlightSpectrum,
             _ => LogFormat::OsaCsv,
@@ -171,7 +195,10 @@ fn enlight_and_osa_spectra_are_read_as_one_row_of_peaks() {
         assert_eq!(chans, &[0, 0], "{name}");
         let q = log.row_quality(0).unwrap();
         for ((f, w), q) in found.iter().zip([1547.0123, 1550.4567]).zip(q) {
-            assert!((f - w).abs() * 1e3 < 4.0 * q.std_error_pm.max(q.crb_pm), "{name}: {f} {q:?}");
+            assert!(
+                (f - w).abs() * 1e3 < 4.0 * q.std_error_pm.max(q.crb_pm),
+                "{name}: {f} {q:?}"
+            );
         }
     }
 }
@@ -181,12 +208,22 @@ fn a_peaks_csv_keeps_its_standard_errors_and_names_its_estimator() {
     let text = "# fbgforge peaks of imon.txt\n# estimator: parabola\n\
                 time_s,fbg_a,fbg_a std_error_pm,fbg_b,fbg_b std_error_pm\n\
                 0.0,1530.3,0.25,1546.3,0.5\n0.5,1530.31,,1546.29,0.75\n1.0,,0.3,1546.28,1.0\n";
-    let log = parse_wavelength_bytes(text.as_bytes(), &PathBuf::from("p.csv"), &ReadOptions::default())
-        .unwrap();
+    let log = parse_wavelength_bytes(
+        text.as_bytes(),
+        &PathBuf::from("p.csv"),
+        &ReadOptions::default(),
+    )
+    .unwrap();
     assert_eq!(log.format, LogFormat::Csv);
     assert_eq!(log.estimator(), Some("parabola"));
     assert_eq!(log.row(0).0, &[1530.3, 1546.3]);
-    let se = |i: usize| -> Vec<f64> { log.row_quality(i).unwrap().iter().map(|q| q.std_error_pm).collect() };
+    let se = |i: usize| -> Vec<f64> {
+        log.row_quality(i)
+            .unwrap()
+            .iter()
+            .map(|q| q.std_error_pm)
+            .collect()
+    };
     assert_eq!(se(0), vec![0.25, 0.5]);
     assert!(se(1)[0].is_nan() && se(1)[1] == 0.75);
     // A standard error without its peak is dropped with it.
@@ -194,13 +231,24 @@ fn a_peaks_csv_keeps_its_standard_errors_and_names_its_estimator() {
     assert_eq!(se(2), vec![1.0]);
     // A plain CSV has no uncertainty.
     let plain = "time_s,fbg_a\n0,1530.3\n1,1530.4\n";
-    let log = parse_wavelength_bytes(plain.as_bytes(), &PathBuf::from("p.csv"), &ReadOptions::default())
-        .unwrap();
+    let log = parse_wavelength_bytes(
+        plain.as_bytes(),
+        &PathBuf::from("p.csv"),
+        &ReadOptions::default(),
+    )
+    .unwrap();
     assert!(log.uncertainty.is_none());
     let orphan = "time_s,fbg_a,fbg_x std_error_pm\n0,1530.3,0.1\n1,1530.4,0.1\n";
-    let e = parse_wavelength_bytes(orphan.as_bytes(), &PathBuf::from("p.csv"), &ReadOptions::default())
-        .unwrap_err();
-    assert!(format!("{e:#}").contains("names no wavelength column `fbg_x`"), "{e:#}");
+    let e = parse_wavelength_bytes(
+        orphan.as_bytes(),
+        &PathBuf::from("p.csv"),
+        &ReadOptions::default(),
+    )
+    .unwrap_err();
+    assert!(
+        format!("{e:#}").contains("names no wavelength column `fbg_x`"),
+        "{e:#}"
+    );
 }
 
 #[test]

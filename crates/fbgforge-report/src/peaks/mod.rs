@@ -34,7 +34,8 @@ fn peak_line(out: &mut String, p: &ReportedPeak) {
     );
 }
 
-const HEADER: &str = "  channel  grating        wavelength_nm  std_err_pm  crb_pm  fwhm_pm      snr  flags";
+const HEADER: &str =
+    "  channel  grating        wavelength_nm  std_err_pm  crb_pm  fwhm_pm      snr  flags";
 
 /// Median of a list (NaN when empty).
 fn median(v: &mut [f64]) -> f64 {
