@@ -32,6 +32,7 @@ from ._api import (
 from ._design import Design, load_design, shipped_design, shipped_designs
 from ._fbgforge import __version__
 from ._live import LiveStream, live
+from ._spectra import find_peaks, grating_spectrum, read_spectra
 from ._results import (
     BuildResult,
     LiveFrame,
@@ -75,6 +76,10 @@ __all__ = [
     "optimize",
     "place",
     "live",
+    # spectra
+    "read_spectra",
+    "find_peaks",
+    "grating_spectrum",
     # results
     "Prediction",
     "Sweep",

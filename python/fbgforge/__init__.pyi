@@ -216,6 +216,26 @@ def build(
     tolerance_mm: Optional[float] = None,
     parts: Optional[Names] = None,
 ) -> BuildResult: ...
+def read_spectra(
+    path: PathLike,
+    format: Optional[Literal["enlight-spectrum", "imon-pixels", "osa-csv"]] = None,
+    imon_calibration: Optional[Sequence[float]] = None,
+) -> Dict[str, Any]: ...
+def find_peaks(
+    wavelengths_nm: npt.ArrayLike,
+    power: npt.ArrayLike,
+    estimator: Literal["gaussian", "parabola", "centroid"] = "gaussian",
+    unit: Literal["linear", "mW", "counts", "dBm", "dB"] = "linear",
+) -> List[Dict[str, Any]]: ...
+def grating_spectrum(
+    bragg_wavelength_nm: float,
+    length_mm: float,
+    wavelengths_nm: npt.ArrayLike,
+    index_modulation: float = 2e-4,
+    strain: float = 0.0,
+    strain_end: Optional[float] = None,
+    apodisation: Literal["uniform", "raised_cosine"] = "uniform",
+) -> FloatArray: ...
 def read_log(
     path: PathLike,
     format: Optional[LogFormat] = None,

@@ -10,6 +10,7 @@ mod convert;
 mod design;
 mod errors;
 mod live;
+mod spectra;
 
 use convert::{columns, to_py, to_py_words, value};
 use design::PyDesign;
@@ -104,6 +105,7 @@ fn read_options(
     Ok(ReadOptions {
         format: parse_format(py, format)?,
         date_order: parse_date_order(py, date_order)?,
+        ..Default::default()
     })
 }
 
@@ -755,6 +757,7 @@ fn synth_log<'py>(
         twelve_hour: style
             .get_item("twelve_hour")?
             .map_or(Ok(false), |v| v.extract())?,
+        ..Default::default()
     };
     let schedule: Option<PathBuf> = get("schedule")?.extract()?;
     let seed: u64 = get("seed")?.extract()?;
@@ -887,5 +890,8 @@ fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(synth_log, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate_array, m)?)?;
     m.add_function(wrap_pyfunction!(live::live_stream, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::read_spectra, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::find_peaks, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::grating_spectrum, m)?)?;
     Ok(())
 }

@@ -22,4 +22,5 @@ pub mod reconstruct;
 pub mod reconstruct_faults;
 pub mod reconstruct_scaling;
 pub mod sheet;
+pub mod spectra;
 pub mod verify;

@@ -41,6 +41,10 @@ enum Study {
     /// The array's sheet model: Tables 1–2, its fitted constants, speed against
     /// accuracy, trends with the design.
     Sheet(studies::sheet::SheetStudyArgs),
+    /// Peak finding on random spectra: confidently wrong peaks (error > 3× the
+    /// standard error, no flag) over SNR, width, line shape, neighbours, tilt and
+    /// saturation.
+    Spectra(studies::spectra::SpectraStudyArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
 }
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
         Study::Sheet(a) => studies::sheet::run(&a),
+        Study::Spectra(a) => studies::spectra::run(&a),
         Study::Verify(a) => studies::verify::run(&a),
     };
     match result {

@@ -15,4 +15,5 @@ mod verify_cli;
 mod verify_edges;
 mod verify_errors;
 mod verify_protocols;
+mod verify_spectra;
 mod verify_synth;

@@ -725,26 +725,31 @@ mod no_panic {
 }
 
 #[test]
-fn spectrum_exports_are_named_as_spectra() {
+fn spectrum_exports_are_read_as_spectra() {
+    // Issue 36: spectra are no longer refused; they are read as spectra and their
+    // peaks found (the ENLIGHT one is flat and holds none; the OSA one is a sawtooth).
     let dir = tempfile::tempdir().unwrap();
     let mut enlight = String::from("Wvl (nm)\tCH 1\tCH 2\n");
-    let mut imon = String::from("Wavelength (nm),Amplitude (AU)\n");
+    let mut osa = String::from("Wavelength (nm),Amplitude (AU)\n");
     for i in 0..500 {
         let w = 1510.0 + 0.008 * i as f64;
         enlight += &format!("{w:.3}\t-42.1\t-40.3\n");
-        imon += &format!("{w:.3},{}\n", 100 + i % 7);
+        osa += &format!("{w:.3},{}\n", 100 + i % 7);
     }
-    for (name, text) in [("spectrum.txt", enlight), ("spectrum.csv", imon)] {
+    for (name, text, format) in [
+        ("spectrum.txt", enlight, "enlight-spectrum"),
+        ("spectrum.csv", osa, "osa-csv"),
+    ] {
         let p = dir.path().join(name);
         std::fs::write(&p, text).unwrap();
-        let e = format!(
-            "{:#}",
-            fbgforge::logs::read_peak_log(&p, &fbgforge::logs::ReadOptions::default()).unwrap_err()
-        );
-        assert!(
-            e.contains("spectrum export") && e.contains("not peaks"),
-            "{name}: {e}"
-        );
+        let log = fbgforge::logs::read_peak_log(&p, &fbgforge::logs::ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        assert_eq!(log.format.name(), format, "{name}");
+        assert_eq!(log.estimator(), Some("gaussian"), "{name}");
+        assert_eq!(log.rows(), 1, "{name}");
+        if format == "enlight-spectrum" {
+            assert!(log.row(0).0.is_empty(), "{name}: a flat spectrum has no peak");
+        }
     }
 }
 

@@ -44,6 +44,7 @@ fn every_format_reads_back_what_it_writes() {
             bom: true,
             metadata_lines: 7,
             twelve_hour: true,
+            ..LogStyle::default()
         },
     ];
     for format in LogFormat::ALL {
@@ -93,7 +94,8 @@ fn every_format_reads_back_what_it_writes() {
 /// flags, `cli::verify`).
 #[test]
 fn registered_names_are_the_json_names() {
-    for format in LogFormat::ALL {
+    for format in LogFormat::ALL.into_iter().chain(LogFormat::SPECTRA) {
+        assert_eq!(LogFormat::from_name(format.name()), Some(format));
         assert_eq!(
             serde_json::to_value(format).unwrap(),
             serde_json::Value::String(format.name().into())

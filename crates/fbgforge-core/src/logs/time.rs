@@ -147,12 +147,16 @@ pub(crate) fn reorder_rows(log: &mut PeakLog, time_s: &mut Vec<f64>, order: &[us
     rs.push(0);
     let mut pk = Vec::with_capacity(log.peaks_nm.len());
     let mut ch = Vec::with_capacity(log.peaks_nm.len());
+    let mut qu = Vec::new();
     let mut ln = Vec::with_capacity(rows);
     let mut ts = Vec::with_capacity(rows);
     for &i in order {
         let (a, b) = (log.row_start[i], log.row_start[i + 1]);
         pk.extend_from_slice(&log.peaks_nm[a..b]);
         ch.extend_from_slice(&log.peak_channel[a..b]);
+        if let Some(u) = &log.uncertainty {
+            qu.extend_from_slice(&u.peaks[a..b]);
+        }
         rs.push(pk.len());
         ln.push(log.line_of_row[i]);
         ts.push(time_s[i]);
@@ -160,6 +164,9 @@ pub(crate) fn reorder_rows(log: &mut PeakLog, time_s: &mut Vec<f64>, order: &[us
     log.row_start = rs;
     log.peaks_nm = pk;
     log.peak_channel = ch;
+    if let Some(u) = &mut log.uncertainty {
+        u.peaks = qu;
+    }
     log.line_of_row = ln;
     *time_s = ts;
 }

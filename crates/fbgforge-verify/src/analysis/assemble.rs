@@ -61,6 +61,7 @@ pub fn analyse(
     let m = Measurement {
         wavelength_log: log.source.display().to_string(),
         wavelength_format: log.format.name().into(),
+        peak_estimator: log.estimator().map(str::to_string),
         wavelength_rows: log.rows(),
         wavelength_rate_hz: 1.0 / log.median_period_s(),
         force_log: force.source.display().to_string(),

@@ -41,7 +41,10 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
     let (rho, n, n_eff) = lag1_independence(&residual);
     let k = lm.k_pm_per_n;
     let lags = lag_figures(ctx, &d, &lm, delay);
-    let se_k_eff = lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt();
+    // Peaks found in spectra carry their own standard errors: propagated to K they
+    // floor K's standard error (the residuals already hold their random part).
+    let se_peaks = crate::logs::assign::slope_std_error_from_errors(fc, &t.std_error_pm);
+    let se_k_eff = (lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt()).max(se_peaks.unwrap_or(0.0));
     let q = quality_q(k, se_k_eff, line.r_squared, &lags, ctx.relative);
     let plateau = plateau_sensitivity(ctx, &d);
     let summary = lags.summary;
@@ -62,6 +65,7 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         residual_autocorrelation: rho,
         effective_samples: n_eff,
         sensitivity_std_error_effective_pm_per_n: se_k_eff,
+        sensitivity_peak_std_error_pm_per_n: se_peaks,
         sensitivity_t_statistic: k.abs() / se_k_eff,
         peak_force_n: lags
             .pulses

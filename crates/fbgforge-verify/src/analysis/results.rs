@@ -67,8 +67,15 @@ pub struct GratingResult {
     /// Effective number of independent samples, n (1 − ρ) / (1 + ρ).
     pub effective_samples: f64,
     /// Standard error of K allowing for the autocorrelated residuals:
-    /// `sensitivity_std_error_pm_per_n` × √(n / n_eff), pm/N.
+    /// `sensitivity_std_error_pm_per_n` × √(n / n_eff), pm/N, and never below
+    /// `sensitivity_peak_std_error_pm_per_n` (the residuals hold the peaks' random noise
+    /// already; the floor keeps K from claiming more than its peaks allow).
     pub sensitivity_std_error_effective_pm_per_n: f64,
+    /// Standard error of K that the peaks' own standard errors alone make (a log of
+    /// spectra or a peaks log with standard errors; `None` otherwise), pm/N:
+    /// √(Σ (Fᵢ − F̄)² σᵢ²) / Σ (Fᵢ − F̄)². It is a floor under
+    /// `sensitivity_std_error_effective_pm_per_n`.
+    pub sensitivity_peak_std_error_pm_per_n: Option<f64>,
     /// |K| / `sensitivity_std_error_effective_pm_per_n`: how far K stands from zero.
     pub sensitivity_t_statistic: f64,
     /// Largest peak force of the pulses, N.
@@ -188,6 +195,9 @@ pub struct Measurement {
     pub wavelength_log: String,
     /// Its format.
     pub wavelength_format: String,
+    /// The peak estimator that made its peaks when it holds spectra (or is a peaks log
+    /// naming one): `gaussian`, `parabola`, `centroid`, `xcorr`.
+    pub peak_estimator: Option<String>,
     /// Rows read.
     pub wavelength_rows: usize,
     /// Median sample rate, Hz.
