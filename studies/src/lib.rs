@@ -20,4 +20,5 @@ pub mod reconstruct;
 pub mod reconstruct_faults;
 pub mod reconstruct_scaling;
 pub mod sheet;
+pub mod verdicts;
 pub mod verify;

@@ -37,6 +37,9 @@ enum Study {
     Sheet(studies::sheet::SheetStudyArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
+    /// Verdicts against their alternatives: random scenarios with known truth,
+    /// the confusion table (expected × given).
+    Verdicts(studies::verdicts::VerdictStudyArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
         Study::Sheet(a) => studies::sheet::run(&a),
         Study::Verify(a) => studies::verify::run(&a),
+        Study::Verdicts(a) => studies::verdicts::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
