@@ -564,7 +564,13 @@ fn a_band_wider_than_a_factor_3_asks_for_the_contact_to_be_calibrated() {
         .unwrap();
     let (hi, reach_hi) = (band[0].max(band[1]), reach[0].max(reach[1]));
     assert!(reach_hi > 1.2 * hi, "{reach:?} {band:?}");
-    let out = verify_case_i(&with_k(1.2 * hi / model));
+    // Lighter presses (1-2.5 N) keep the peaks of so stiff a part inside their windows:
+    // at 5 N they leave them, and the verifier rightly refuses (instrument) instead.
+    let light = SynthConfig {
+        pulses: synth::pulse_train(&[1.0, 1.5, 2.0, 2.5, 1.75, 2.25, 1.25, 2.0], 4.0, 6.0, 5.0),
+        ..with_k(1.2 * hi / model)
+    };
+    let out = verify_case_i(&light);
     let g = &out.report.verdict.gratings[0];
     assert!(
         !matches!(g.status, Status::Pass | Status::InBand),

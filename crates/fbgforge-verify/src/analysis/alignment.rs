@@ -172,8 +172,11 @@ pub(super) fn search(data: &FitData, range: f64, dx: f64) -> Option<OffsetSearch
         }
     }
     let best = distinct.first()?.clone();
+    // The independent samples are the best fit's: its residuals are the noise the
+    // rival must match; a rival's own misfit is systematic (autocorrelated), and
+    // counting its few effective samples would let a wrong fit weaken the evidence.
     let evidence = distinct.get(1).map(|r| {
-        let n_eff = best.3.min(r.3);
+        let n_eff = best.3;
         n_eff * ((1.0 - r.2).max(1e-12) / (1.0 - best.2).max(1e-12)).ln()
     });
     let candidates = distinct

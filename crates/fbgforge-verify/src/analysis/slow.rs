@@ -184,9 +184,10 @@ mod tests {
         }
         let f = with.solve().unwrap();
         assert!((f.k - 3.0).abs() < 2e-3, "{}", f.k);
-        // A straight line lies in the hats' span exactly.
+        // A straight line lies in the hats' span exactly: the residual is rounding only
+        // (Σy² is about 6e4 here; rss comes as Σy² − fit², so 1e-12 of it is rounding).
         let g = without.solve().unwrap();
-        assert!(g.rss < 1e-9, "{}", g.rss);
-        assert!((basis.value(&g.hats, 123.0) - 3.23).abs() < 1e-9);
+        assert!(g.rss < 1e-6, "{}", g.rss);
+        assert!((basis.value(&g.hats, 123.0) - 3.23).abs() < 1e-6);
     }
 }
