@@ -668,14 +668,17 @@ fn grating_verdict(
     };
     let refused = if let Some(why) = m.force_trust.not_judged.as_ref() {
         Some((Status::NotJudged, ReasonCode::ForceUntrusted, format!("the force cannot be trusted: {why}")))
-    } else if let (Some((code, why)), true) = (doubt, v.responded) {
+    } else if let (Some((code, why)), true) =
+        (doubt, v.responded || m.alignment.ambiguous.is_some())
+    {
+        // At an offset that is not definite, silence is no finding either.
         Some((Status::NotJudged, *code, why.clone()))
     } else if let (Some(why), true) = (&g.instrument.fault, v.responded) {
         Some((Status::NotJudged, ReasonCode::Instrument, format!("the interrogator's readings cannot be trusted: {why}")))
     } else if let Some(why) = silent {
         Some((Status::NoResponse, ReasonCode::NoResponse, why))
     } else {
-        loose_bond(g).map(|why| (Status::Fail, ReasonCode::Bonding, why))
+        loose_bond(g)
     };
     if let Some((status, code, why)) = refused {
         v.status = status;
@@ -689,9 +692,22 @@ fn grating_verdict(
 
 /// A grating that does not follow its part: the lag-corrected loop wider than its
 /// material's limit (FAIL whatever K says).
-fn loose_bond(g: &GratingResult) -> Option<String> {
+fn loose_bond(g: &GratingResult) -> Option<(Status, ReasonCode, String)> {
     let (h, limit) = (g.hysteresis_percent_span, g.hysteresis_limit_percent_span);
-    (h.is_finite() && h > limit).then(|| {
+    let timing = g.hysteresis_timing_percent_span;
+    if !(h.is_finite() && h > limit) {
+        return None;
+    }
+    if h - timing <= limit {
+        return Some((
+            Status::NotJudged,
+            ReasonCode::Precision,
+            format!(
+                "the loop is {h:.1} % of span, above the bond's limit {limit:.1} %, but the timestamps' own uncertainty alone opens a loop of {timing:.1} % on a perfectly elastic part (whole-second or coarse timestamps): the log cannot tell a loose bond from its clock; log with sub-second timestamps"
+            ),
+        ));
+    }
+    Some((Status::Fail, ReasonCode::Bonding, {
         format!(
             "grating not following the part (hysteresis {h:.1} % > limit {limit:.1} % of span): its loading and unloading branches part by {h:.1} % of span once the lag is taken out (K from the loading branch {:.3} pm/N, from every row {:.3} pm/N); a loose bond or a fiber slipping in its groove",
             g.sensitivity_pm_per_n,
@@ -699,7 +715,7 @@ fn loose_bond(g: &GratingResult) -> Option<String> {
                 .as_ref()
                 .map_or(g.lag_model_sensitivity_pm_per_n, |s| s.k_all_rows_pm_per_n)
         )
-    })
+    }))
 }
 
 /// Factors to N of the units a force column may have been written in, with names.
@@ -914,6 +930,15 @@ fn overall(
         return (Status::NotJudged, Some("no grating was measured".into()), None);
     }
     if gratings.iter().all(|g| !g.responded) {
+        if let Some(a) = &m.alignment.ambiguous {
+            // Silence at an offset that is not definite is no finding: the force may
+            // have been matched to the wrong presses.
+            return (
+                Status::NotJudged,
+                Some(format!("no grating responded at the estimated offset, but {a}")),
+                Some(ReasonCode::Alignment),
+            );
+        }
         return (
             Status::NoResponse,
             Some("no grating responded to the force: an unloaded sensor, or a force log of another run".into()),

@@ -186,7 +186,9 @@ pub(crate) fn dequantize(path: &Path, time_s: &mut [f64], warnings: &mut LogWarn
         return 0.0;
     }
     let repeats = time_s.windows(2).filter(|w| w[0] == w[1]).count();
-    if repeats * 2 < n {
+    // Rows sharing their second with the one before: half of them at exactly 2 Hz
+    // (fewer still with pauses), so a third is the mark of several rows per second.
+    if repeats * 3 < n {
         return 0.0;
     }
     // Stretches between pauses (a second with no row).

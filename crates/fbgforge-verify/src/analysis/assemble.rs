@@ -184,6 +184,7 @@ impl Stages<'_> {
             hw: sel.hw,
             timing_s: if self.relative { 0.0 } else { self.timing },
             relative: self.relative,
+            row_timing_s: self.timing,
             excluded_s: &excluded_s,
             row_ok: &row_ok,
             untrusted: &self.trusted.untrusted,

@@ -20,6 +20,24 @@ use rayon::prelude::*;
 /// A measured grating, its drift-free shift series and its straight-line fit.
 pub(super) type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
 
+/// The loop a timing error of ±`u` s per row opens on a perfectly elastic part, % of
+/// span: the branches move apart by 2·u·|dx/dt| (the median rate over the loading and
+/// unloading rows), over the span x_max.
+fn timing_loop_percent(tw: &[f64], x: &[f64], branch: &[Branch], x_max: f64, u: f64) -> f64 {
+    if !(u > 0.0 && x_max > 0.0) || x.len() < 3 {
+        return 0.0;
+    }
+    let rates: Vec<f64> = (1..x.len() - 1)
+        .filter(|&i| matches!(branch[i], Branch::Loading | Branch::Unloading))
+        .map(|i| ((x[i + 1] - x[i - 1]) / (tw[i + 1] - tw[i - 1])).abs())
+        .filter(|r| r.is_finite())
+        .collect();
+    if rates.is_empty() {
+        return 0.0;
+    }
+    200.0 * u * crate::segment::percentile(&rates, 0.5) / x_max
+}
+
 /// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
 /// seeds the delay, τ and r from an already measured grating.
 fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>) -> Measured {
@@ -101,6 +119,9 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
             ctx.design,
             g.core.as_deref(),
         ),
+        hysteresis_timing_percent_span: rf.as_ref().map_or(0.0, |r| {
+            timing_loop_percent(ctx.tw, &r.x, &r.branch, r.x_max, ctx.row_timing_s)
+        }),
         residual_autocorrelation: rho,
         effective_samples: n_eff,
         sensitivity_std_error_effective_pm_per_n: se_k_eff,

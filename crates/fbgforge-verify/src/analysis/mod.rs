@@ -122,6 +122,9 @@ struct GratingContext<'a> {
     timing_s: f64,
     /// True when the clock offset was estimated (lags relative to it).
     relative: bool,
+    /// The rows' own timing uncertainty (whole-second timestamps), s, whatever the
+    /// offset: it opens an apparent loop.
+    row_timing_s: f64,
     /// Stretches of the force clock (`fu`) whose shift is left out of every fit, s.
     excluded_s: &'a [(f64, f64)],
     /// Rows of the wavelength log outside those stretches.

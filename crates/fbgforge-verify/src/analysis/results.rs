@@ -76,6 +76,11 @@ pub struct GratingResult {
     /// The hysteresis this grating's core material may show, % of span (the design's
     /// material, else the printer's default).
     pub hysteresis_limit_percent_span: f64,
+    /// The loop the rows' own timing uncertainty could open on a perfectly elastic
+    /// part, % of span: 2·u·|dx/dt| / x_max (u the timestamps' uncertainty, |dx/dt|
+    /// the median rate of the lag-corrected force on its branches); a wider loop
+    /// than the limit proves a loose bond only beyond this.
+    pub hysteresis_timing_percent_span: f64,
     /// Lag-1 autocorrelation ρ of the lag model's residuals: near 1 when the residual
     /// wanders slowly (drift, an unrelated signal), which makes the samples far from
     /// independent.
