@@ -554,17 +554,7 @@ const GAIN_ERROR: f64 = 0.25;
 /// shows far larger) while it shows the others; named as the clock's when the
 /// wavelength log's clock jumped or paused.
 fn run_doubt(m: &Measurement) -> Option<(ReasonCode, String)> {
-    let jumps = &m.clock_jumps;
-    let clock = (!jumps.is_empty()).then(|| {
-        let j = &jumps[0];
-        format!(
-            "; the wavelength log's clock {} {:.3} s at line {} ({} jump(s) or gap(s)): a clock set back or forward (daylight saving, NTP) moves the presses after it",
-            if j.backwards() { "runs back by" } else { "skips" },
-            j.step_s.abs(),
-            j.line,
-            jumps.len()
-        )
-    });
+    let clock = clock_jump_words(m).map(|w| format!("; {w}"));
     let code = |plain: ReasonCode| if clock.is_some() { ReasonCode::Clock } else { plain };
     if let Some(a) = &m.alignment.ambiguous {
         return Some((
@@ -610,6 +600,18 @@ fn run_doubt(m: &Measurement) -> Option<(ReasonCode, String)> {
         ));
     }
     None
+}
+
+/// The wall clock's jumps in words, when the wavelength log has any.
+fn clock_jump_words(m: &Measurement) -> Option<String> {
+    let j = m.clock_jumps.first()?;
+    Some(format!(
+        "the wavelength log's clock {} {:.3} s at line {} ({} jump(s) or gap(s)): a clock set back or forward (daylight saving, NTP) moves the presses after it",
+        if j.backwards() { "runs back by" } else { "skips" },
+        j.step_s.abs(),
+        j.line,
+        m.clock_jumps.len()
+    ))
 }
 
 /// One measured grating judged, and whether the model says it responds (a predicted
@@ -675,10 +677,16 @@ fn grating_verdict(
         Some((Status::NotJudged, *code, why.clone()))
     } else if let (Some(why), true) = (&g.instrument.fault, v.responded) {
         Some((Status::NotJudged, ReasonCode::Instrument, format!("the interrogator's readings cannot be trusted: {why}")))
+    } else if let (Some(why), Some(c)) = (&silent, clock_jump_words(m)) {
+        Some((Status::NotJudged, ReasonCode::Clock, format!("{why}; but {c}")))
     } else if let Some(why) = silent {
         Some((Status::NoResponse, ReasonCode::NoResponse, why))
     } else {
-        loose_bond(g)
+        // A loop measured across a clock jump may be the jump's: not a bond's finding.
+        loose_bond(g).map(|(s, c, why)| match (s, clock_jump_words(m)) {
+            (Status::Fail, Some(j)) => (Status::NotJudged, ReasonCode::Clock, format!("{why}; but {j}")),
+            _ => (s, c, why),
+        })
     };
     if let Some((status, code, why)) = refused {
         v.status = status;
@@ -930,6 +938,15 @@ fn overall(
         return (Status::NotJudged, Some("no grating was measured".into()), None);
     }
     if gratings.iter().all(|g| !g.responded) {
+        if let Some(c) = clock_jump_words(m) {
+            // Silence across a clock jump is no finding: the presses after it may be
+            // matched to other rows.
+            return (
+                Status::NotJudged,
+                Some(format!("no grating responded, but {c}; give the logs of one clock (or cut the log at the jump)")),
+                Some(ReasonCode::Clock),
+            );
+        }
         if let Some(a) = &m.alignment.ambiguous {
             // Silence at an offset that is not definite is no finding: the force may
             // have been matched to the wrong presses.

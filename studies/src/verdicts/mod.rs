@@ -36,7 +36,7 @@ pub struct VerdictStudyArgs {
     /// Seed of the first scenario (the others follow).
     #[arg(long, default_value_t = 1)]
     pub first_seed: u64,
-    /// Only scenarios of this class (its name in the table, e.g. `loose-bond`).
+    /// Draw only scenarios of this class (its name in the table, e.g. `loose-bond`).
     #[arg(long)]
     pub only: Option<String>,
     /// Keep every scenario's files (else only those of confidently wrong verdicts).
@@ -171,9 +171,17 @@ pub fn run(a: &VerdictStudyArgs) -> Result<()> {
     let n = if a.quick { QUICK_SCENARIOS } else { a.scenarios };
     fbgforge::output::ensure_dir(&a.out)?;
     let (with, without, model) = write_designs(&a.out)?;
+    let only = match a.only.as_deref() {
+        Some(name) => Some(Class::named(name).with_context(|| {
+            format!(
+                "--only {name}: no such class (one of {})",
+                Class::ALL.map(Class::name).join(", ")
+            )
+        })?),
+        None => None,
+    };
     let scenarios: Vec<Scenario> = (0..n)
-        .map(|i| space::draw(i, a.first_seed + i as u64))
-        .filter(|s| a.only.as_deref().is_none_or(|c| s.class.name() == c))
+        .map(|i| space::draw_of(i, a.first_seed + i as u64, only))
         .collect();
     eprintln!("verdict study: {} scenarios, two clocks each ...", scenarios.len());
     let pb = crate::progress::Bar::with("verdicts", scenarios.len() as u64);

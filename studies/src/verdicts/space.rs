@@ -137,7 +137,12 @@ impl Class {
         Class::WrongSign,
     ];
 
-    /// The class's name in the tables.
+    /// The class of a name in the table (`loose-bond`).
+    pub fn named(name: &str) -> Option<Class> {
+        Class::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    /// Its name in the table.
     pub fn name(self) -> String {
         serde_json::to_value(self)
             .ok()
@@ -376,8 +381,15 @@ pub(crate) fn draw_presses(
 
 /// Draw scenario `id` from `seed`.
 pub fn draw(id: usize, seed: u64) -> Scenario {
+    draw_of(id, seed, None)
+}
+
+/// A scenario drawn as [`draw`] does, its class `only` when given (the rest of the
+/// run drawn at random: a test of one class sees that class's whole space).
+pub fn draw_of(id: usize, seed: u64, only: Option<Class>) -> Scenario {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let class = Class::ALL[rng.random_range(0..Class::ALL.len())];
+    let drawn = Class::ALL[rng.random_range(0..Class::ALL.len())];
+    let class = only.unwrap_or(drawn);
     let second = (rng.random::<f64>() < 0.25)
         .then(|| Class::ALL[rng.random_range(0..Class::ALL.len())])
         .filter(|c| compatible(class, *c));
