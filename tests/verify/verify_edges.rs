@@ -655,6 +655,36 @@ fn synth_log_refuses_lengths_it_cannot_write() {
     }
 }
 
+#[test]
+fn synth_log_bounds_the_step_and_the_metadata_naming_the_flag() {
+    // Issue #33: `--step-pm 1e308` wrote every peak at 0 nm with exit 0, and
+    // `--metadata-lines 100000000` wrote 2.5 GB and left a temporary file.
+    let design = common::shipped_path("clip-on-34mm.toml");
+    let dir = tempfile::tempdir().unwrap();
+    for (flag, value) in [
+        ("--step-pm", "1e308"),
+        ("--step-pm", "-1"),
+        ("--metadata-lines", "100000000"),
+    ] {
+        let out_dir = dir.path().join("out");
+        let out = crate::common::bin()
+            .arg("synth-log")
+            .arg(&design)
+            .args([flag, value, "--out"])
+            .arg(&out_dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag} {value}: {err}");
+        assert!(err.contains(flag), "{flag} {value}: {err}");
+        // Nothing written, no temporary file left.
+        let left: Vec<_> = std::fs::read_dir(&out_dir)
+            .map(|d| d.flatten().map(|e| e.file_name()).collect())
+            .unwrap_or_default();
+        assert!(left.is_empty(), "{flag} {value}: {left:?}");
+    }
+}
+
 mod no_panic {
     use super::*;
     use proptest::prelude::*;
