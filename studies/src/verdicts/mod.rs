@@ -152,10 +152,11 @@ fn write_designs(out: &Path) -> Result<(PathBuf, PathBuf, ModelK)> {
     Ok((with, without_path, model))
 }
 
-/// The hysteresis limit the verifier applies to the core under test, % of span.
+/// The hysteresis limit the design states for the core under test, % of span (its
+/// material's, else the printer's default): the truth's threshold is the design's, not
+/// one of the study's own.
 fn hysteresis_limit_percent(design: &fbgforge::spec::Design) -> f64 {
-    let _ = design;
-    8.0
+    fbgforge::verify::analysis::hysteresis_limit_percent_span(design, Some("psc2"))
 }
 
 /// The nominal wavelengths and model K of the study's gratings.
