@@ -229,10 +229,10 @@ pub fn expect(s: &Scenario, m: &ModelK, given: bool) -> Expectation {
                 e.faults.push(Fault::NoResponse);
                 e.definite = false;
             }
-            Class::TemperatureWithReference | Class::TemperatureWithoutReference => {
-                if !temperature_is_slow(s) {
-                    e.definite = false;
-                }
+            Class::TemperatureWithReference | Class::TemperatureWithoutReference
+                if !temperature_is_slow(s) =>
+            {
+                e.definite = false;
             }
             Class::WavelengthSaturation | Class::StuckPeaks | Class::DropoutsUnderLoad => {
                 e.faults.push(Fault::Instrument);
@@ -252,10 +252,8 @@ pub fn expect(s: &Scenario, m: &ModelK, given: bool) -> Expectation {
             }
             Class::WholeSecondPauses => e.faults.push(Fault::Clock),
             Class::UnitsUnnamed => e.definite = false,
-            Class::WavelengthCut | Class::ForceCut => {
-                if covered.is_empty() {
-                    e.faults.push(Fault::NoResponse);
-                }
+            Class::WavelengthCut | Class::ForceCut if covered.is_empty() => {
+                e.faults.push(Fault::NoResponse);
             }
             _ => {}
         }

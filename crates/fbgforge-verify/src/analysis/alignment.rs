@@ -67,7 +67,7 @@ fn profile_point(data: &FitData, responses: &[Vec<f64>], delta: f64) -> f64 {
             // Too small an overlap says nothing.
             if a.n >= 20 && 4 * a.n >= st.len() && b.ssr > 0.0 {
                 let r2 = 1.0 - a.ssr / b.ssr;
-                if !(r2 <= best) {
+                if best.is_nan() || r2.is_nan() || r2 > best {
                     best = r2;
                 }
             }
@@ -81,8 +81,8 @@ fn local_maxima(deltas: &[f64], r2: &[f64], sep: f64) -> Vec<f64> {
     let mut idx: Vec<usize> = (0..r2.len())
         .filter(|&i| {
             r2[i].is_finite()
-                && (i == 0 || !(r2[i - 1] > r2[i]))
-                && (i + 1 == r2.len() || !(r2[i + 1] > r2[i]))
+                && (i == 0 || r2[i - 1].partial_cmp(&r2[i]) != Some(std::cmp::Ordering::Greater))
+                && (i + 1 == r2.len() || r2[i + 1].partial_cmp(&r2[i]) != Some(std::cmp::Ordering::Greater))
         })
         .collect();
     idx.sort_by(|&a, &b| r2[b].total_cmp(&r2[a]));
@@ -137,7 +137,7 @@ pub(super) fn search(data: &FitData, range: f64, dx: f64) -> Option<OffsetSearch
     let g = median_period(st)
         .max(2.0 * range / PROFILE_POINTS)
         .max(1e-3);
-    let points = ((2.0 * range / g).floor() as usize).max(0) + 1;
+    let points = ((2.0 * range / g).floor() as usize) + 1;
     let deltas: Vec<f64> = (0..points).map(|i| -range + i as f64 * g).collect();
     let responses: Vec<Vec<f64>> = PROFILE_TAUS
         .iter()
@@ -208,7 +208,7 @@ pub(super) fn shift_presses_outside(
     block_s: f64,
 ) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
-    if !(span_pm > 0.0) {
+    if span_pm.is_nan() || span_pm <= 0.0 {
         return out;
     }
     let period = median_period(tw).max(1e-9);

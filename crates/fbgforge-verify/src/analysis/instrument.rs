@@ -34,7 +34,7 @@ pub(super) fn instrument_check(r: &Readings) -> InstrumentCheck {
     let v: Vec<f64> = r.nm.iter().map(|w| (w - r.nominal_nm) * 1e3).collect();
     let span = r.k.abs() * r.x_max;
     let mut out = InstrumentCheck::default();
-    if !(span > 0.0) || n < 10 {
+    if span.is_nan() || span <= 0.0 || n < 10 {
         return out;
     }
     let tol = reading_tolerance(&v, r.x, r.x_max);

@@ -74,7 +74,7 @@ pub(crate) fn lag_corrected_loop(
 ) -> (f64, f64) {
     use super::response::Branch;
     let span = k.abs() * x_max;
-    if !(span > 0.0) {
+    if span.is_nan() || span <= 0.0 {
         return (f64::NAN, f64::NAN);
     }
     let count = |b: Branch| branch.iter().filter(|&&v| v == b).count();
