@@ -602,6 +602,22 @@ fn run_doubt(m: &Measurement) -> Option<(ReasonCode, String)> {
     None
 }
 
+/// Share of the shift (beyond baseline and drift) a candidate offset must explain for
+/// silence at the chosen offset to be in doubt: below it at every offset searched, the
+/// sensor shows no response wherever the force is placed.
+const OFFSET_RESPONSE_R2: f64 = 0.2;
+
+/// The estimated offset is ambiguous and some candidate offset shows a response: a
+/// silent grating may be silent only because the force was placed on the wrong presses.
+fn offset_doubt_stands(m: &Measurement) -> bool {
+    m.alignment.ambiguous.is_some()
+        && m
+            .alignment
+            .candidates
+            .iter()
+            .any(|c| c.response_r_squared >= OFFSET_RESPONSE_R2)
+}
+
 /// The wall clock's jumps in words, when the wavelength log has any.
 fn clock_jump_words(m: &Measurement) -> Option<String> {
     let j = m.clock_jumps.first()?;
@@ -670,9 +686,7 @@ fn grating_verdict(
     };
     let refused = if let Some(why) = m.force_trust.not_judged.as_ref() {
         Some((Status::NotJudged, ReasonCode::ForceUntrusted, format!("the force cannot be trusted: {why}")))
-    } else if let (Some((code, why)), true) =
-        (doubt, v.responded || m.alignment.ambiguous.is_some())
-    {
+    } else if let (Some((code, why)), true) = (doubt, v.responded || offset_doubt_stands(m)) {
         // At an offset that is not definite, silence is no finding either.
         Some((Status::NotJudged, *code, why.clone()))
     } else if let (Some(why), true) = (&g.instrument.fault, v.responded) {
@@ -947,7 +961,7 @@ fn overall(
                 Some(ReasonCode::Clock),
             );
         }
-        if let Some(a) = &m.alignment.ambiguous {
+        if let (Some(a), true) = (&m.alignment.ambiguous, offset_doubt_stands(m)) {
             // Silence at an offset that is not definite is no finding: the force may
             // have been matched to the wrong presses.
             return (
