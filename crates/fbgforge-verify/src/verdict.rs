@@ -607,15 +607,22 @@ fn run_doubt(m: &Measurement) -> Option<(ReasonCode, String)> {
 /// sensor shows no response wherever the force is placed.
 const OFFSET_RESPONSE_R2: f64 = 0.2;
 
-/// The estimated offset is ambiguous and some candidate offset shows a response: a
-/// silent grating may be silent only because the force was placed on the wrong presses.
+/// The estimated offset is ambiguous and the sensor may have responded elsewhere: some
+/// candidate offset shows a response, or the shift shows presses the force log does
+/// not cover, counted only when the fitted K makes a press stand 10 times above the
+/// noise (with K near zero the press detector sees noise). A silent grating may then
+/// be silent only because the force was placed on the wrong presses.
 fn offset_doubt_stands(m: &Measurement) -> bool {
-    m.alignment.ambiguous.is_some()
-        && m
-            .alignment
+    let a = &m.alignment;
+    let visible = m.gratings.iter().any(|g| {
+        g.sensitivity_pm_per_n.abs() * m.peak_force_n >= 10.0 * g.residual_rms_pm.max(m.interrogator_resolution_pm)
+    });
+    a.ambiguous.is_some()
+        && (a
             .candidates
             .iter()
             .any(|c| c.response_r_squared >= OFFSET_RESPONSE_R2)
+            || (visible && !a.shift_presses_outside.is_empty()))
 }
 
 /// The wall clock's jumps in words, when the wavelength log has any.

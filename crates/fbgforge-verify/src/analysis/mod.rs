@@ -61,6 +61,7 @@ pub use super::segment::{detect_pulses, percentile, PulseSpan};
 pub use assemble::analyse;
 pub use response::hysteresis_limit_percent_span;
 pub use linearity::hysteresis_and_linearity;
+pub use alignment::MIN_PRESSES;
 pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
 pub use results::{
     AlignmentCheck, InstrumentCheck, OffsetCandidate, PulseGain, SlowTest, BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
