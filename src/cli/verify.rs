@@ -48,6 +48,8 @@ pub const FLAGS: &[(&str, &str)] = &[
         "--temperature-ramp-k-per-s",
     ),
     ("SynthConfig.noise_pm", "--noise-pm"),
+    ("SynthConfig.quantization_pm", "--step-pm"),
+    ("LogStyle.metadata_lines", "--metadata-lines"),
     ("SynthConfig.force_noise_n", "--force-noise-n"),
     // calibrate-array
     ("CalibrateRequest.log", "--log"),

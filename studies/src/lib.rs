@@ -23,4 +23,5 @@ pub mod reconstruct_faults;
 pub mod reconstruct_scaling;
 pub mod sheet;
 pub mod spectra;
+pub mod verdicts;
 pub mod verify;

@@ -47,6 +47,9 @@ enum Study {
     Spectra(studies::spectra::SpectraStudyArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
+    /// Verdicts against their alternatives: random scenarios with known truth,
+    /// the confusion table (expected × given).
+    Verdicts(studies::verdicts::VerdictStudyArgs),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +66,7 @@ fn main() -> ExitCode {
         Study::Sheet(a) => studies::sheet::run(&a),
         Study::Spectra(a) => studies::spectra::run(&a),
         Study::Verify(a) => studies::verify::run(&a),
+        Study::Verdicts(a) => studies::verdicts::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -564,7 +564,13 @@ fn a_band_wider_than_a_factor_3_asks_for_the_contact_to_be_calibrated() {
         .unwrap();
     let (hi, reach_hi) = (band[0].max(band[1]), reach[0].max(reach[1]));
     assert!(reach_hi > 1.2 * hi, "{reach:?} {band:?}");
-    let out = verify_case_i(&with_k(1.2 * hi / model));
+    // Lighter presses (1-2.5 N) keep the peaks of so stiff a part inside their windows:
+    // at 5 N they leave them, and the verifier rightly refuses (instrument) instead.
+    let light = SynthConfig {
+        pulses: synth::pulse_train(&[1.0, 1.5, 2.0, 2.5, 1.75, 2.25, 1.25, 2.0], 4.0, 6.0, 5.0),
+        ..with_k(1.2 * hi / model)
+    };
+    let out = verify_case_i(&light);
     let g = &out.report.verdict.gratings[0];
     assert!(
         !matches!(g.status, Status::Pass | Status::InBand),
@@ -646,6 +652,39 @@ fn synth_log_refuses_lengths_it_cannot_write() {
             "{flag} {value}: {err}"
         );
         assert!(!dir.path().join("out").join("log.txt").exists());
+    }
+}
+
+#[test]
+fn synth_log_bounds_the_step_and_the_metadata_naming_the_flag() {
+    // Issue #33: `--step-pm 1e308` wrote every peak at 0 nm with exit 0, and
+    // `--metadata-lines 100000000` wrote 2.5 GB and left a temporary file.
+    let design = common::shipped_path("clip-on-34mm.toml");
+    let dir = tempfile::tempdir().unwrap();
+    for (flag, value) in [
+        ("--step-pm", "1e308"),
+        ("--step-pm=-1", ""),
+        ("--metadata-lines", "100000000"),
+    ] {
+        let out_dir = dir.path().join("out");
+        let out = crate::common::bin()
+            .arg("synth-log")
+            .arg(&design)
+            .arg(flag)
+            .args((!value.is_empty()).then_some(value))
+            .arg("--out")
+            .arg(&out_dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag} {value}: {err}");
+        let name = flag.split('=').next().unwrap();
+        assert!(err.contains(name), "{flag} {value}: {err}");
+        // Nothing written, no temporary file left.
+        let left: Vec<_> = std::fs::read_dir(&out_dir)
+            .map(|d| d.flatten().map(|e| e.file_name()).collect())
+            .unwrap_or_default();
+        assert!(left.is_empty(), "{flag} {value}: {left:?}");
     }
 }
 

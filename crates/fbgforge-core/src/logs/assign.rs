@@ -318,6 +318,7 @@ mod tests {
             column_names: vec![],
             line_of_row: (0..rows.len() as u32).collect(),
             time_uncertainty_s: 0.0,
+            clock_jumps: Vec::new(),
             warnings: LogWarnings::default(),
             uncertainty: None,
         }

@@ -63,7 +63,7 @@ use std::path::{Path, PathBuf};
 
 pub use detect::{detect_format, Detected};
 pub use force::{
-    force_unit_scale, parse_force_bytes, read_force_log, time_unit_scale, write_force_csv,
+    force_unit_scale, parse_force_bytes, read_force_log, row_unit_scale, time_unit_scale, write_force_csv,
     write_force_stand_csv, ForceLog, ForceReadOptions,
 };
 pub use row_reader::{LogRow, RowReader};
@@ -403,6 +403,9 @@ pub struct PeakLog {
     /// the timestamps allow when they were written in whole seconds and spread onto
     /// their sampling grid (±0.25 s at 2 Hz), 0 otherwise.
     pub time_uncertainty_s: f64,
+    /// Jumps of the clock back and long gaps between rows, in file order
+    /// ([`time::ClockJump`]); each is also a warning (`clock_jump`, `clock_gap`).
+    pub clock_jumps: Vec<time::ClockJump>,
     /// Counted problems.
     pub warnings: LogWarnings,
     /// Peaks found in spectra (or a peaks log with standard errors): the estimator and
@@ -530,6 +533,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         column_names: table.column_names,
         line_of_row: m.lines,
         time_uncertainty_s: 0.0,
+        clock_jumps: Vec::new(),
         warnings: m.warnings,
         uncertainty: table.estimator.map(|estimator| PeakUncertainty {
             estimator,
@@ -539,6 +543,7 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     if let Some(u) = &log.uncertainty {
         debug_assert_eq!(u.peaks.len(), log.peaks_nm.len());
     }
+    log.clock_jumps = time::clock_jumps(path, &time_s, &log.line_of_row, &mut log.warnings);
     if let Some(order) = time::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
     {
         time::reorder_rows(&mut log, &mut time_s, &order);

@@ -109,6 +109,14 @@ impl Design {
                     500.0,
                 )?;
             }
+            if let Some(h) = m.hysteresis_limit_percent_span {
+                positive(
+                    &format!("materials.{name}.hysteresis_limit_percent_span"),
+                    h,
+                    0.1,
+                    100.0,
+                )?;
+            }
             if let Some(v) = &m.vendor_name {
                 if v.trim().is_empty() || v.chars().any(char::is_control) {
                     return Err(err(
