@@ -33,6 +33,7 @@ from ._design import Design, load_design, shipped_design, shipped_designs
 from ._fbgforge import __version__
 from ._live import LiveStream, live
 from ._results import (
+    ArrayCalibration,
     BuildResult,
     LiveFrame,
     Optimization,
@@ -83,6 +84,7 @@ __all__ = [
     "VerifyReport",
     "SynthLog",
     "SensingMatrix",
+    "ArrayCalibration",
     "Reconstruction",
     "Optimization",
     "Placement",

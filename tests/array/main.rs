@@ -11,6 +11,8 @@ mod array_cli;
 mod array_exact;
 mod array_scaling;
 mod array_trust;
+mod calibrate_runs;
+mod calibrate_table2;
 mod live;
 mod live_end;
 mod sheet_cli;
