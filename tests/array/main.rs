@@ -13,6 +13,7 @@ mod array_scaling;
 mod array_trust;
 mod calibrate_cli;
 mod calibrate_faults;
+mod calibrate_fit;
 mod calibrate_runs;
 mod calibrate_table2;
 mod live;
