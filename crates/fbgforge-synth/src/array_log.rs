@@ -161,10 +161,10 @@ pub fn synth_array_run(
         .iter()
         .enumerate()
         .map(|(k, st)| {
-            for c in 0..n_cells {
+            for (c, branch) in up.iter_mut().enumerate() {
                 let before = if k == 0 { 0.0 } else { states[k - 1].loads_g[c] };
                 if st.loads_g[c] != before {
-                    up[c] = st.loads_g[c] > before;
+                    *branch = st.loads_g[c] > before;
                 }
             }
             (0..a_true.nrows())

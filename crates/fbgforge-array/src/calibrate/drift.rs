@@ -64,9 +64,9 @@ fn common_mode(points: &[Vec<(usize, [f64; 4])>]) -> Vec<(usize, [f64; 4])> {
                 .iter()
                 .filter_map(|g| Some((g.iter().find(|p| p.0 == k)?.1, g.first()?.1[1])))
                 .collect();
-            let med = |f: &dyn Fn(&([f64; 4], f64)) -> f64| super::steps::median(&mut at.iter().map(f).collect());
-            let level = med(&|(p, first)| p[1] - first);
-            level.is_finite().then(|| (k, [at[0].0[0], level, med(&|(p, _)| p[2]), med(&|(p, _)| p[3])]))
+            let med = |f: fn(&([f64; 4], f64)) -> f64| super::steps::median(&mut at.iter().map(f).collect());
+            let level = med(|(p, first)| p[1] - first);
+            level.is_finite().then(|| (k, [at[0].0[0], level, med(|(p, _)| p[2]), med(|(p, _)| p[3])]))
         })
         .collect()
 }

@@ -126,16 +126,16 @@ pub fn align(
         sample_s,
     };
     // best[k][m]: least cost with transition k paired to change m as the last pair.
-    let mut best = vec![vec![f64::INFINITY; nm]; nk];
+    let mut best: Vec<Vec<f64>> = vec![vec![f64::INFINITY; nm]; nk];
     let mut back: Vec<Vec<Option<(usize, usize)>>> = vec![vec![None; nm]; nk];
     for k in 0..nk {
         for m in 0..nm {
             let mut b = costs.first(k, m);
             let mut from = None;
-            for k0 in k.saturating_sub(MAX_TRANSITION_GAP)..k {
-                for m0 in m.saturating_sub(MAX_CHANGE_GAP)..m {
-                    if best[k0][m0].is_finite() {
-                        let c = best[k0][m0] + costs.step((k0, m0), (k, m));
+            for (k0, row) in best.iter().enumerate().take(k).skip(k.saturating_sub(MAX_TRANSITION_GAP)) {
+                for (m0, &prev) in row.iter().enumerate().take(m).skip(m.saturating_sub(MAX_CHANGE_GAP)) {
+                    if prev.is_finite() {
+                        let c = prev + costs.step((k0, m0), (k, m));
                         if c < b {
                             b = c;
                             from = Some((k0, m0));
