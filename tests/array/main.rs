@@ -11,6 +11,7 @@ mod array_cli;
 mod array_exact;
 mod array_scaling;
 mod array_trust;
+mod calibrate_additivity;
 mod calibrate_cli;
 mod calibrate_faults;
 mod calibrate_fit;
