@@ -89,6 +89,14 @@ impl ArrayRunSettings {
 /// A staircase on one cell: `cycles` × (up from `step_g` to `top_g` in steps of
 /// `step_g`, down again to `step_g`, then unloaded), each state `step_s` long, from
 /// `start_s`.
+///
+/// ```
+/// // The paper's run: 25 g steps to 250 g, 5 s each, three cycles.
+/// let s = fbgforge_synth::array_log::staircase(2, 25.0, 250.0, 5.0, 3, 10.0);
+/// assert_eq!(s.len(), 3 * 19);
+/// assert_eq!((s[9].load_g, s[18].load_g), (250.0, 25.0));
+/// assert_eq!(s[19].start_s, 10.0 + 20.0 * 5.0); // an unloaded step between cycles
+/// ```
 pub fn staircase(
     cell: usize,
     step_g: f64,

@@ -69,7 +69,37 @@ fn sample_interval(time_s: &[f64]) -> f64 {
     }
 }
 
-/// Analyse one run.
+/// Analyse one run: steps, levels, the matrix with its scatter, Table 2, additivity,
+/// faults and the comparison with `predicted`.
+///
+/// ```
+/// use fbgforge_array::calibrate::{analyse, AnalysisInputs, Loading, RunData};
+/// // Two gratings over two cells; 200 g on A from 10 s to 20 s, then on B.
+/// let a = nalgebra::dmatrix![0.40, 0.05; 0.06, 0.30];
+/// let on = |start_s: f64, cell| Loading { start_s, end_s: start_s + 10.0, cell, load_g: 200.0 };
+/// let schedule = vec![on(10.0, 0), on(30.0, 1)];
+/// let time_s: Vec<f64> = (0..500).map(|k| f64::from(k) * 0.1).collect();
+/// let load = |t: f64, c: usize| -> f64 {
+///     schedule.iter().filter(|l| l.cell == c && t >= l.start_s && t < l.end_s).map(|l| l.load_g).sum()
+/// };
+/// let shifts_pm = (0..2)
+///     .map(|g| time_s.iter().map(|&t| a[(g, 0)] * load(t, 0) + a[(g, 1)] * load(t, 1)).collect())
+///     .collect();
+/// let c = analyse(&AnalysisInputs {
+///     gratings: &["fbg1".into(), "fbg2".into()],
+///     cells: &["A".into(), "B".into()],
+///     data: &RunData { time_s, shifts_pm },
+///     schedule: &schedule,
+///     predicted: &a,
+///     model: "the truth",
+///     resolution_pm: 0.5,
+///     tolerance: 0.4,
+/// })?;
+/// assert!(c.usable && c.complete && c.faults.is_empty());
+/// assert!((c.matrix_pm_per_g[0][0].unwrap() - 0.40).abs() < 1e-3);
+/// assert!((c.matrix_pm_per_g[1][1].unwrap() - 0.30).abs() < 1e-3);
+/// # anyhow::Ok(())
+/// ```
 pub fn analyse(i: &AnalysisInputs) -> Result<Calibration> {
     let n_cells = i.cells.len();
     let t = &i.data.time_s;
