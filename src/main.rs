@@ -45,7 +45,7 @@ fn run(cmd: Command) -> anyhow::Result<ExitCode> {
         Command::Verify(a) => cli::verify::run_verify(a),
         Command::SynthLog(a) => ok(cli::verify::run_synth_log(a)),
         Command::Peaks(a) => ok(cli::peaks::run(a)),
-        Command::CalibrateArray(a) => ok(cli::verify::run_calibrate_array(a)),
+        Command::CalibrateArray(a) => cli::verify::run_calibrate_array(a),
         Command::Optimize(a) => ok(cli::optimize::run_optimize(a)),
         Command::Place(a) => ok(cli::optimize::run_place(a)),
         Command::Live(a) => cli::live::run_live(a),

@@ -34,6 +34,7 @@ from ._fbgforge import __version__
 from ._live import LiveStream, live
 from ._spectra import find_peaks, grating_spectrum, read_spectra
 from ._results import (
+    ArrayCalibration,
     BuildResult,
     LiveFrame,
     Optimization,
@@ -88,6 +89,7 @@ __all__ = [
     "VerifyReport",
     "SynthLog",
     "SensingMatrix",
+    "ArrayCalibration",
     "Reconstruction",
     "Optimization",
     "Placement",

@@ -118,6 +118,20 @@ class SensingMatrix(Result):
     warnings: Dict[str, Dict[str, Any]]
     def to_pandas(self) -> Any: ...
 
+class ArrayCalibration(SensingMatrix):
+    usable: bool
+    complete: bool
+    sd_pm_per_g: FloatArray
+    faults: List[Dict[str, Any]]
+    metrology: List[Dict[str, Any]]
+    additivity: List[Dict[str, Any]]
+    comparison: Dict[str, Any]
+    verdicts: Dict[str, str]
+    sheet_fit: Optional[Dict[str, Any]]
+    files: Dict[str, Any]
+    charts: List[Path]
+    def table2(self) -> Any: ...
+
 class Reconstruction(Result):
     loads_g: FloatArray
     cells: List[str]
@@ -368,7 +382,11 @@ def calibrate_array(
     date_order: Optional[DateOrder] = None,
     window_nm: Optional[float] = None,
     out: Optional[PathLike] = None,
-) -> SensingMatrix: ...
+    resolution_pm: Optional[float] = None,
+    model_tolerance: Optional[float] = None,
+    fit_sheet: bool = False,
+    charts: bool = True,
+) -> ArrayCalibration: ...
 def live(
     design: DesignLike,
     source: PathLike,

@@ -8,6 +8,7 @@ import numpy as np
 from . import _fbgforge
 from ._design import Design, as_design, design_file
 from ._results import (
+    ArrayCalibration,
     BuildResult,
     Optimization,
     PeakLog,
@@ -832,9 +833,24 @@ def synth_log(
     return SynthLog(doc)
 
 
-def calibrate_array(design, log, schedule, *, format=None, date_order=None, window_nm=None, out=None):
-    """Measure an array's sensing matrix from a calibration run: a wavelength log in
-    which known loads sat on the cells as the schedule says.
+def calibrate_array(
+    design,
+    log,
+    schedule,
+    *,
+    format=None,
+    date_order=None,
+    window_nm=None,
+    out=None,
+    resolution_pm=None,
+    model_tolerance=None,
+    fit_sheet=False,
+    charts=True,
+):
+    """Calibrate an array from a loading run: the measured sensing matrix with its
+    per-entry scatter, the faults that make it unusable, the paper's Table 2 for every
+    staircase, additivity, and the matrix against the design's prediction (as
+    ``fbgforge calibrate-array --json``).
 
     Parameters
     ----------
@@ -843,18 +859,33 @@ def calibrate_array(design, log, schedule, *, format=None, date_order=None, wind
     log : path
         The wavelength log of the run.
     schedule : path
-        ``start_s,end_s,cell,load_g``, times in s from the log's first row.
+        ``start_s,end_s,cell,load_g``: one line per load resting on a cell (a
+        staircase: one line per step with the total mass; simultaneous loads:
+        overlapping lines on different cells); times in s from the log's first row, a
+        hint (the load changes are found in the data).
     format, date_order : optional
         Of the log.
     window_nm : float, optional
         Half-width of the gratings' wavelength windows, nm.
     out : path, optional
-        Also write the matrix as CSV (the format ``fbgforge reconstruct`` reads).
+        Write the matrix as CSV (the format ``fbgforge reconstruct`` reads) when it is
+        usable and complete, ``<out>.sd.csv`` beside it, ``<out>.calibration.json``;
+        with a fault the matrix goes to ``<out>.faulty.csv`` instead.
+    resolution_pm : float, optional
+        The interrogator's resolution, pm (default 0.5).
+    model_tolerance : float, optional
+        The model's relative band (default 0.4).
+    fit_sheet : bool
+        Also fit the sheet's unknowns (modulus, thickness, table interface).
+    charts : bool
+        With ``out``, also write the additivity and calibration-curve charts (SVG)
+        with their CSVs beside it.
 
     Returns
     -------
-    SensingMatrix
-        The measured matrix (pm/g) with the log's ``warnings``.
+    ArrayCalibration
+        A :class:`SensingMatrix` (pm/g) with ``usable``, ``faults``, ``metrology``,
+        ``additivity``, ``verdicts``, ``sd_pm_per_g``, ``sheet_fit``.
 
     Examples
     --------
@@ -865,8 +896,8 @@ def calibrate_array(design, log, schedule, *, format=None, date_order=None, wind
     ...     _ = open(sched, "w").write("\\n".join(["start_s,end_s,cell,load_g", *rows, ""]))
     ...     run = fbgforge.synth_log("designs/tactile-array-60x80.toml", tmp, schedule=sched, noise_pm=0.0, drift_pm_per_s=0.0)
     ...     m = fbgforge.calibrate_array("designs/tactile-array-60x80.toml", run.log, sched)
-    >>> bool(abs(m.sensitivity_pm_per_g[0, 0] - run.matrix.sensitivity_pm_per_g[0, 0]) < 1e-3)
-    True
+    >>> bool(abs(m.sensitivity_pm_per_g[0, 0] - run.matrix.sensitivity_pm_per_g[0, 0]) < 1e-3), m.usable, m.faults
+    (True, True, [])
     """
     d = as_design(design)
     doc = _fbgforge.calibrate_array(
@@ -877,5 +908,9 @@ def calibrate_array(design, log, schedule, *, format=None, date_order=None, wind
         date_order,
         window_nm,
         _path(out, "out"),
+        None if resolution_pm is None else float(resolution_pm),
+        None if model_tolerance is None else float(model_tolerance),
+        bool(fit_sheet),
+        bool(charts),
     )
-    return SensingMatrix(None, _doc=doc)
+    return ArrayCalibration(None, _doc=doc)

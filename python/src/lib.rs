@@ -835,9 +835,11 @@ fn synth_log<'py>(
     to_py(py, &files)
 }
 
-/// Measure an array's sensing matrix from a calibration log and schedule.
+/// Calibrate an array from a loading run: the measured matrix with its scatter, faults,
+/// Table 2 of every staircase, additivity, the verdicts against the prediction, and
+/// optionally the sheet fit; charts beside `out` when `charts`.
 #[pyfunction]
-#[pyo3(signature = (design, log, schedule, format, date_order, window_nm, out))]
+#[pyo3(signature = (design, log, schedule, format, date_order, window_nm, out, resolution_pm, model_tolerance, fit_sheet, charts))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_array<'py>(
     py: Python<'py>,
@@ -848,6 +850,10 @@ fn calibrate_array<'py>(
     date_order: Option<&str>,
     window_nm: Option<f64>,
     out: Option<PathBuf>,
+    resolution_pm: Option<f64>,
+    model_tolerance: Option<f64>,
+    fit_sheet: bool,
+    charts: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     must_exist(py, &log, "log")?;
     must_exist(py, &schedule, "schedule")?;
@@ -857,17 +863,31 @@ fn calibrate_array<'py>(
         schedule,
         read: read_options(py, format, date_order)?,
         window_half_width_nm: window_nm,
-        out,
-        fit_modulus: false,
+        resolution_pm,
+        model_tolerance,
+        out: out.clone(),
+        fit_sheet,
     };
     let d = &design.design;
-    let cal = py
-        .detach(|| fbgforge::array::calibrate::run(d, &req, &mut ()))
-        .map_err(|e| err(py, e))?
-        .calibration;
-    let m = matrix_dict(py, &cal.matrix, None)?;
-    m.set_item("warnings", to_py(py, &cal.warnings.counts)?)?;
-    Ok(m)
+    let o = py
+        .detach(|| match (&out, charts) {
+            (Some(o), true) => {
+                let mut c = fbgforge::report::calibrate::Charts::beside(o);
+                fbgforge::array::calibrate::run(d, &req, &mut c).map(|x| (x, c.written))
+            }
+            _ => fbgforge::array::calibrate::run(d, &req, &mut ()).map(|x| (x, Vec::new())),
+        })
+        .map_err(|e| err(py, e))?;
+    let (outcome, written) = o;
+    let doc = to_py_words(py, &outcome)?.cast_into::<PyDict>()?;
+    let ulimit = d.array.as_ref().map(|a| a.ulimit_g);
+    let m = matrix_dict(py, &outcome.calibration.matrix(), ulimit)?;
+    let sd = matrix_dict(py, &outcome.calibration.matrix_sd(), ulimit)?;
+    doc.set_item("sensitivity_pm_per_g", m.get_item("sensitivity_pm_per_g")?)?;
+    doc.set_item("sd_pm_per_g", sd.get_item("sensitivity_pm_per_g")?)?;
+    doc.set_item("ulimit_g", ulimit)?;
+    doc.set_item("charts", written)?;
+    Ok(doc.into_any())
 }
 
 /// The compiled part of the `fbgforge` package.

@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use fbgforge::array::calibrate::{self, CalibrateRequest};
 use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
-use fbgforge::report::calibrate::Table;
+use fbgforge::report::calibrate::{Charts, Table};
 use fbgforge::report::synth::written;
 use fbgforge::report::verify::{Printer, ReportFolder};
 use fbgforge::synth::{files, module_log as synth};
@@ -56,7 +56,9 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("CalibrateRequest.schedule", "--schedule"),
     ("CalibrateRequest.window_half_width_nm", "--window-nm"),
     ("CalibrateRequest.out", "--out"),
-    ("CalibrateRequest.fit_modulus", "--fit-modulus"),
+    ("CalibrateRequest.fit_sheet", "--fit-sheet"),
+    ("CalibrateRequest.resolution_pm", "--resolution-pm"),
+    ("CalibrateRequest.model_tolerance", "--model-tolerance"),
 ];
 
 /// A library text in this file's flags ([`FLAGS`]): what the sinks write.
@@ -561,7 +563,10 @@ pub struct CalibrateArrayArgs {
     /// Wavelength log of the calibration run.
     #[arg(long)]
     pub log: PathBuf,
-    /// Schedule CSV: `start_s,end_s,cell,load_g`, times in s from the log's first row.
+    /// Schedule CSV: `start_s,end_s,cell,load_g`, one line per load resting on a cell
+    /// (a staircase: one line per step with the total mass; simultaneous loads:
+    /// overlapping lines on different cells); times in s from the log's first row, a
+    /// hint: the load changes are found in the data.
     #[arg(long)]
     pub schedule: PathBuf,
     /// Format of the wavelength log (detected if omitted).
@@ -575,17 +580,36 @@ pub struct CalibrateArrayArgs {
     /// Half-width of the wavelength windows, nm.
     #[arg(long)]
     pub window_nm: Option<f64>,
-    /// Output CSV (default: out/<design>/sensing_matrix.csv).
+    /// The interrogator's resolution, pm (default 0.5, the paper's I-MON): Table 2's
+    /// resolution in g, and the smallest baseline change that counts as drift.
+    #[arg(long)]
+    pub resolution_pm: Option<f64>,
+    /// The model's relative band for the comparison with the prediction (default 0.4
+    /// = ±40 %, the models' largest error against the paper's Table 1).
+    #[arg(long)]
+    pub model_tolerance: Option<f64>,
+    /// Output CSV of the matrix (default: out/<design>/sensing_matrix.csv), written
+    /// only when no fault makes it unusable and every cell was loaded; beside it
+    /// `<out>.sd.csv` (per-entry scatter, for `reconstruct --matrix-sd`),
+    /// `<out>.calibration.json`, the charts and their CSVs; with a fault the matrix
+    /// goes to `<out>.faulty.csv` and nothing is written at `<out>`.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Also fit the silicone's modulus of the sheet model to the measured matrix and
-    /// report the misfit of every entry (JSON beside the matrix: `<out>.modulus-fit.json`).
+    /// Also fit the sheet's unknowns (modulus, thickness, table interface) to the
+    /// measured matrix and say which the data pin down (`<out>.sheet-fit.json`).
+    #[arg(long, alias = "fit-modulus")]
+    pub fit_sheet: bool,
+    /// Print the whole calibration as one JSON object on stdout instead of the text.
     #[arg(long)]
-    pub fit_modulus: bool,
+    pub json: bool,
 }
 
-/// Run `fbgforge calibrate-array`.
-pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
+/// Exit code of a calibration whose faults make the matrix unusable.
+pub const EXIT_UNUSABLE: u8 = 3;
+
+/// Run `fbgforge calibrate-array`: exit 0 when the matrix is usable, 3
+/// ([`EXIT_UNUSABLE`]) when a fault makes it unusable, 1 on an error.
+pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<std::process::ExitCode> {
     let design = fbgforge::design::load(&a.design)?;
     let out = a.out.clone().unwrap_or_else(|| {
         Path::new("out")
@@ -598,11 +622,26 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
         schedule: a.schedule.clone(),
         read: read_options(a.format, a.date_order, &a.spectrum),
         window_half_width_nm: a.window_nm,
-        out: Some(out),
-        fit_modulus: a.fit_modulus,
+        resolution_pm: a.resolution_pm,
+        model_tolerance: a.model_tolerance,
+        out: Some(out.clone()),
+        fit_sheet: a.fit_sheet,
     };
-    calibrate::run(&design, &req, &mut Table)?;
-    Ok(())
+    let mut charts = Charts::beside(&out);
+    let outcome = if a.json {
+        calibrate::run(&design, &req, &mut charts)?
+    } else {
+        charts.announce = true;
+        calibrate::run(&design, &req, &mut (Table, charts))?
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&outcome)?);
+    }
+    Ok(if outcome.calibration.usable {
+        std::process::ExitCode::SUCCESS
+    } else {
+        std::process::ExitCode::from(EXIT_UNUSABLE)
+    })
 }
 
 #[cfg(test)]

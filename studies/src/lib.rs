@@ -7,6 +7,7 @@
 //! Run one with `cargo run --release -p fbgforge-studies -- <study> [--quick]`.
 
 pub mod build;
+pub mod calibrate;
 pub mod fe_speed;
 pub mod fem;
 pub mod fem_compare;

@@ -19,6 +19,8 @@ struct Cli {
 enum Study {
     /// Meshing tolerance against triangles, time and volume error; build timings.
     Build(studies::build::BuildStudyArgs),
+    /// The array's calibration: confidently wrong matrices, missed and false faults.
+    Calibrate(studies::calibrate::CalibrateStudyArgs),
     /// Time of the FE-backed commands (predict, a Case I sweep) from a cold cache.
     FeSpeed(studies::fe_speed::FeSpeedArgs),
     /// Finite-element convergence, time against error, and closed form against FE.
@@ -55,6 +57,7 @@ enum Study {
 fn main() -> ExitCode {
     let result = match Cli::parse().study {
         Study::Build(a) => studies::build::run(&a),
+        Study::Calibrate(a) => studies::calibrate::run(&a),
         Study::FeSpeed(a) => studies::fe_speed::run(&a),
         Study::Fem(a) => studies::fem::run(&a),
         Study::Contact(a) => studies::fem_contact::run(&a),

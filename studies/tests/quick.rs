@@ -580,3 +580,27 @@ fn force_units_in_a_column_or_the_header_are_read() {
     class_holds("units-column", 3, &["alignment"], &["PASS", "FAIL"]);
     class_holds("units-unnamed", 3, &["units", "alignment"], &[]);
 }
+
+#[test]
+fn calibrate_study_quick_counts_every_scenario_and_a_clean_run_is_never_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::calibrate::CalibrateStudyArgs {
+        design: root().join("designs/tactile-array-60x80.toml"),
+        out: dir.path().to_path_buf(),
+        runs: 3,
+        seed: 1,
+        quick: true,
+    };
+    fbgforge_studies::calibrate::run(&a).unwrap();
+    let counts: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("calibrate-study.json")).unwrap()).unwrap();
+    let counts = counts.as_array().unwrap();
+    assert_eq!(counts.len(), fbgforge_studies::calibrate::SCENARIOS.len());
+    for c in counts {
+        assert_eq!(c["runs"], 3, "{c}");
+        // No scenario may hand out a wrong matrix as usable.
+        assert_eq!(c["confidently_wrong"], 0, "{c}");
+    }
+    let rows = std::fs::read_to_string(dir.path().join("calibrate-study.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 3 * counts.len());
+}

@@ -10,7 +10,6 @@ mod common;
 
 mod logs_fixtures;
 mod report_html;
-mod verify_calibrate;
 mod verify_cli;
 mod verify_edges;
 mod verify_errors;
