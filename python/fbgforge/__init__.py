@@ -32,6 +32,7 @@ from ._api import (
 from ._design import Design, load_design, shipped_design, shipped_designs
 from ._fbgforge import __version__
 from ._live import LiveStream, live
+from ._reconstructor import Reconstructor
 from ._results import (
     BuildResult,
     LiveFrame,
@@ -72,6 +73,7 @@ __all__ = [
     "calibrate_array",
     "methods",
     "reconstruct",
+    "Reconstructor",
     "optimize",
     "place",
     "live",

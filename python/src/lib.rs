@@ -10,6 +10,7 @@ mod convert;
 mod design;
 mod errors;
 mod live;
+mod reconstructor;
 
 use convert::{columns, to_py, to_py_words, value};
 use design::PyDesign;
@@ -857,6 +858,7 @@ fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyDesign>()?;
     m.add_class::<live::LiveStream>()?;
+    m.add_class::<reconstructor::Reconstructor>()?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(read_log, m)?)?;

@@ -326,7 +326,7 @@ impl SensingProblem {
     /// The same problem without the gratings (rows) `drop`: matrix, uncertainty and
     /// common-mode direction lose those rows; bounds, load range and normalisation
     /// stay. Errors when no grating would be left or a cell would be seen by none.
-    pub(crate) fn without_gratings(&self, drop: &[usize]) -> Result<Self, ArrayError> {
+    pub fn without_gratings(&self, drop: &[usize]) -> Result<Self, ArrayError> {
         let m = self.n_gratings();
         let keep: Vec<usize> = (0..m).filter(|i| !drop.contains(i)).collect();
         if keep.is_empty() {
