@@ -4,7 +4,7 @@
 //! matrices and shifts as users have them (numbers only, no header).
 
 use fbgforge::array::choice::{
-    choose_method, default_choice, estimated_ns_per_frame, synthetic_probe_frames, MethodChoice,
+    choose_method, default_choice, synthetic_probe_frames, MethodChoice,
     PREFERENCE,
 };
 use fbgforge::array::kernel::{
@@ -560,17 +560,14 @@ fn the_estimate_is_the_mean_over_the_probe_frames_so_the_budget_holds_on_average
     let c = default_choice(&p, &prior, 3000.0).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     let r = build(&p, &c.settings).unwrap();
+    // Each probe frame's estimate: the method's work and the frame test's.
+    let test = fbgforge::array::trust::FrameTest::new(&p, prior.max_loads);
     let est: Vec<f64> = synthetic_probe_frames(&p, prior.max_loads)
         .iter()
         .map(|y| {
-            let rec = r.reconstruct(y);
-            1e-3 * estimated_ns_per_frame(
-                Method::BranchAndBound,
-                &c.settings,
-                16,
-                64,
-                rec.iterations,
-            )
+            let mut rec = r.reconstruct(y);
+            test.assess(y, &mut rec);
+            1e-3 * fbgforge::array::choice::estimated_frame_ns(&c.settings, 16, 64, &rec)
         })
         .collect();
     let mean = est.iter().sum::<f64>() / est.len() as f64;
