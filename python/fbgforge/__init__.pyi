@@ -252,6 +252,10 @@ def reconstruct(
     resolution_pm: float = 0.5,
     budget_us: float = 100.0,
     normalise: bool = True,
+    common_mode: bool = False,
+    matrix_sd_pct: Optional[float] = None,
+    keep_all_gratings: bool = False,
+    significance: Optional[float] = None,
 ) -> Reconstruction: ...
 class Reconstructor:
     cells: List[str]

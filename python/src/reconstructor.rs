@@ -28,7 +28,7 @@ pub struct Reconstructor {
 
 /// The problem as stated from Python: bounds, uncertainty, common mode, gratings kept.
 #[allow(clippy::too_many_arguments)]
-fn stated_problem(
+pub(crate) fn stated_problem(
     py: Python<'_>,
     matrix: nalgebra::DMatrix<f64>,
     ulimit_g: f64,
