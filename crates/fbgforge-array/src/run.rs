@@ -139,14 +139,19 @@ pub struct ReconstructSummary {
     pub certified: usize,
     /// How many frames carry each flag (`trusted`: none).
     pub flags: FlagCounts,
-    /// Gratings found dead or stuck across the frames; the frames were
-    /// reconstructed without them.
+    /// Gratings found faulty across the frames (dead or stuck, drifting, swapped,
+    /// saturated, noisy), each with its reason, evidence and remedy.
     pub suspect_gratings: Vec<SuspectGrating>,
     /// Whether a per-frame common offset was fitted, and its mean over the frames,
     /// pm per unit mean temperature weight.
     pub common_mode: bool,
     /// Mean fitted common offset, pm (with `common_mode`).
     pub mean_common_mode_pm: Option<f64>,
+    /// Who decided the common offset (asked, off, or the stream diagnosis) and why.
+    pub common_mode_note: crate::faults::CommonModeNote,
+    /// The default choice's budget kept on the mean over the frames (None for a
+    /// named method).
+    pub budget: Option<crate::reconstruct::BudgetNote>,
     /// The uncertainty the flags were judged against.
     pub uncertainty: UncertaintySummary,
     /// Cell labels.
@@ -411,7 +416,9 @@ fn summarise(
         certified: results.iter().filter(|r| r.certified).count(),
         flags: done.flag_counts,
         suspect_gratings: done.suspect_gratings.clone(),
-        common_mode: a.common_mode,
+        common_mode: done.diagnosis.common_mode.fitted,
+        common_mode_note: done.diagnosis.common_mode.clone(),
+        budget: done.budget.clone(),
         mean_common_mode_pm: (!offsets.is_empty())
             .then(|| offsets.iter().sum::<f64>() / offsets.len() as f64),
         uncertainty: problem.uncertainty_summary(),

@@ -35,7 +35,11 @@ pub struct ArrayDef {
 /// A 10 × 20 hexagonal sheet: 20 cells on a hexagonal lattice (4 rows of 5, pitch
 /// 20 mm, odd rows shifted half a pitch), two fibers along x at y = ±13 mm, five
 /// gratings each, staggered by a quarter pitch.
-pub fn hex_layout() -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+/// Points in the sheet's plane, mm.
+pub type Points = Vec<(f64, f64)>;
+
+/// (cells, gratings) of a layout.
+pub fn hex_layout() -> (Points, Points) {
     let pitch = 20.0;
     let dy = pitch * 3f64.sqrt() / 2.0;
     let mut cells = Vec::new();

@@ -86,11 +86,11 @@ impl StreamSample {
             return;
         }
         self.usable += 1;
-        if index % self.stride == 0 {
+        if index.is_multiple_of(self.stride) {
             self.spread.push((index, y.to_vec()));
             if self.spread.len() >= 2 * SPREAD_FRAMES {
                 let s = self.stride;
-                self.spread.retain(|(f, _)| (f / s) % 2 == 0);
+                self.spread.retain(|(f, _)| (f / s).is_multiple_of(2));
                 self.stride *= 2;
             }
         }

@@ -45,6 +45,13 @@ pub fn summary_text(summary: &ReconstructSummary) -> String {
         f.unconverged,
         f.unusable
     );
+    let cm = &summary.common_mode_note;
+    if cm.fitted || cm.decided == "auto" {
+        let _ = writeln!(s, "common offset ({}): {}", cm.decided, cm.reason);
+    }
+    if let Some(b) = &summary.budget {
+        let _ = writeln!(s, "budget {} µs per frame: {}", b.budget_us, b.note);
+    }
     for g in &summary.suspect_gratings {
         let partner = g
             .partner_name
