@@ -26,6 +26,14 @@ pub(crate) const NOISY_SIGMAS: f64 = 3.0;
 /// A noisy grating's scatter against the median grating's, at least.
 pub(crate) const NOISY_RATIO: f64 = 3.0;
 
+/// Largest median scatter of the gratings, resolutions, at which [`NOISY_RATIO`]
+/// is enough to name a grating noisy.
+pub(crate) const NOISY_MEDIAN_SIGMAS: f64 = 2.0;
+
+/// Least ratio to the median scatter when the median is above
+/// [`NOISY_MEDIAN_SIGMAS`] resolutions.
+pub(crate) const NOISY_ALONE_RATIO: f64 = 6.0;
+
 /// Fewest frames before either test is made.
 pub(crate) const MIN_FRAMES: usize = 8;
 
@@ -168,7 +176,16 @@ pub(super) fn find_noisy(
     }
     let med = median(judged.iter().map(|(_, l, _)| l.scale).collect());
     for &&(i, line, count) in &judged {
-        if line.scale < NOISY_SIGMAS * sigma || line.scale < NOISY_RATIO * med {
+        // Where the other gratings' own scatter is already well above the noise
+        // (a small array whose leave-one-out fits have little to spare, a model
+        // error such as additivity), a ratio of 3 happens by chance: only a grating
+        // standing out by NOISY_ALONE_RATIO is named there.
+        let ratio = line.scale / med.max(1e-300);
+        let crowded = med > NOISY_MEDIAN_SIGMAS * sigma;
+        if line.scale < NOISY_SIGMAS * sigma
+            || ratio < NOISY_RATIO
+            || (crowded && ratio < NOISY_ALONE_RATIO)
+        {
             continue;
         }
         suspects.push(SuspectGrating {
