@@ -219,9 +219,10 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
             assert_eq!(r["dead_named"], r["streams"], "{r}");
         }
         assert_eq!(row(array, "clean", "bnb")["false_suspects"], 0);
-        // The common-mode term recovers what the offset costs bnb without it.
+        // Issue 35: the stream diagnosis fits the common offset by itself, so bnb
+        // without --common-mode recovers what bnb with it does on the offset stream.
         let (cm, plain) = (row(array, "offset", "bnb +cm"), row(array, "offset", "bnb"));
-        assert!(f(cm, "rr_pct") > f(plain, "rr_pct"), "{cm} against {plain}");
+        assert!(f(plain, "rr_pct") >= f(cm, "rr_pct") - 5.0, "{cm} against {plain}");
         // With every fault, most missed frames carry a flag; few clean ones do.
         let all = row(array, "all", "bnb");
         assert!(f(all, "flag_recall_pct") >= 50.0, "{all}");
