@@ -32,7 +32,7 @@ from ._api import (
 from ._design import Design, load_design, shipped_design, shipped_designs
 from ._fbgforge import __version__
 from ._live import LiveStream, live
-from ._spectra import find_peaks, grating_spectrum, read_spectra
+from ._reconstructor import Reconstructor
 from ._results import (
     ArrayCalibration,
     BuildResult,
@@ -47,6 +47,7 @@ from ._results import (
     SynthLog,
     VerifyReport,
 )
+from ._spectra import find_peaks, grating_spectrum, read_spectra
 from .errors import (
     DesignError,
     FbgforgeError,
@@ -74,6 +75,7 @@ __all__ = [
     "calibrate_array",
     "methods",
     "reconstruct",
+    "Reconstructor",
     "optimize",
     "place",
     "live",

@@ -292,7 +292,40 @@ def reconstruct(
     resolution_pm: float = 0.5,
     budget_us: float = 100.0,
     normalise: bool = True,
+    common_mode: bool = False,
+    matrix_sd_pct: Optional[float] = None,
+    keep_all_gratings: bool = False,
+    significance: Optional[float] = None,
 ) -> Reconstruction: ...
+class Reconstructor:
+    cells: List[str]
+    gratings: List[str]
+    kept: List[str]
+    def __init__(
+        self,
+        model: Union[DesignLike, SensingMatrix, npt.ArrayLike],
+        *,
+        method: Optional[str] = None,
+        ulimit_g: Optional[float] = None,
+        min_load_g: Optional[float] = None,
+        penalty: Optional[float] = None,
+        max_loads: Optional[int] = None,
+        resolution_pm: float = 0.5,
+        budget_us: float = 100.0,
+        normalise: bool = True,
+        common_mode: bool = False,
+        matrix_sd_pct: Optional[float] = None,
+        keep: Optional[Sequence[str]] = None,
+        significance: Optional[float] = None,
+    ) -> None: ...
+    @property
+    def setup(self) -> Dict[str, Any]: ...
+    @property
+    def method(self) -> str: ...
+    def __call__(self, shifts: npt.ArrayLike) -> Tuple[npt.NDArray[np.float64], List[str]]: ...
+    def frame(self, shifts: npt.ArrayLike) -> Dict[str, Any]: ...
+    def frames(self, shifts: npt.ArrayLike) -> Tuple[npt.NDArray[np.float64], Dict[str, Any]]: ...
+
 def sweep(
     design: DesignLike,
     param: str,

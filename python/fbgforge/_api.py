@@ -400,6 +400,10 @@ def reconstruct(
     resolution_pm=0.5,
     budget_us=100.0,
     normalise=True,
+    common_mode=False,
+    matrix_sd_pct=None,
+    keep_all_gratings=False,
+    significance=None,
 ):
     """Reconstruct cell loads x (g) from grating shifts y (pm), y = A x.
 
@@ -424,7 +428,7 @@ def reconstruct(
         Names of an unnamed array's columns (see above).
     method : str, optional
         One of :func:`methods`; default the array's default choice within
-        ``budget_us`` per frame, probed on these frames.
+        ``budget_us`` per frame, made from the matrix alone.
     ulimit_g : float, optional
         Largest load of a cell, g (default the design's or the matrix's).
     min_load_g : float, optional
@@ -439,6 +443,15 @@ def reconstruct(
         The default choice's time budget per frame, µs.
     normalise : bool, default True
         Normalise the matrix's columns.
+    common_mode : bool, default False
+        Fit a common offset per frame (temperature) whatever the frames say; by
+        default the stream diagnosis fits one when the frames call for it.
+    matrix_sd_pct : float, optional
+        Per-entry uncertainty of the matrix, % of each entry.
+    keep_all_gratings : bool, default False
+        No stream diagnosis: no grating named and left out or corrected.
+    significance : float, optional
+        Significance of the frame test behind the flags (default 0.05).
 
     Returns
     -------
@@ -472,6 +485,10 @@ def reconstruct(
         float(resolution_pm),
         float(budget_us),
         bool(normalise),
+        bool(common_mode),
+        None if matrix_sd_pct is None else float(matrix_sd_pct),
+        bool(keep_all_gratings),
+        None if significance is None else float(significance),
     )
     return Reconstruction(
         {

@@ -10,6 +10,7 @@ mod convert;
 mod design;
 mod errors;
 mod live;
+mod reconstructor;
 mod spectra;
 
 use convert::{columns, to_py, to_py_words, value};
@@ -18,7 +19,6 @@ use errors::{err, err_named, input, must_exist};
 use fbgforge::array::calibrate::CalibrateRequest;
 use fbgforge::array::kernel::matrix_from_design;
 use fbgforge::array::methods::{self as array_methods, Method, ReadingSettings};
-use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::array::reconstruct::{Frames, MethodRequest};
 use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, LogStyle, ReadOptions};
 use fbgforge::model::LoadCase;
@@ -377,7 +377,8 @@ fn methods() -> Vec<&'static str> {
 /// set-up).
 #[pyfunction]
 #[pyo3(signature = (a, gratings, y, method, ulimit_g, min_load_g, penalty, max_loads,
-    resolution_pm, budget_us, normalise))]
+    resolution_pm, budget_us, normalise, common_mode=false, matrix_sd_pct=None,
+    keep_all_gratings=false, significance=None))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -392,6 +393,10 @@ fn reconstruct<'py>(
     resolution_pm: f64,
     budget_us: f64,
     normalise: bool,
+    common_mode: bool,
+    matrix_sd_pct: Option<f64>,
+    keep_all_gratings: bool,
+    significance: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     if penalty.is_some() && method.is_none() {
         return Err(input(
@@ -433,9 +438,18 @@ fn reconstruct<'py>(
             ));
         }
     }
-    let problem = SensingProblem::new(matrix, ulimit_g, normalise)
-        .and_then(|p| p.with_min_load_g(min_load_g.unwrap_or(default_min_load_g(ulimit_g))))
-        .map_err(|e| input(py, errors::python_words(&e.to_string(), &[])))?;
+    let problem = reconstructor::stated_problem(
+        py,
+        matrix,
+        ulimit_g,
+        min_load_g,
+        normalise,
+        resolution_pm,
+        matrix_sd_pct,
+        common_mode,
+        significance,
+    )?
+    .with_diagnosis(!keep_all_gratings);
     let prior = ReadingSettings {
         max_loads: max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS),
         resolution_pm,
@@ -896,6 +910,7 @@ fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyDesign>()?;
     m.add_class::<live::LiveStream>()?;
+    m.add_class::<reconstructor::Reconstructor>()?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(read_log, m)?)?;

@@ -21,6 +21,7 @@ pub mod predict;
 pub mod progress;
 pub mod reconstruct;
 pub mod reconstruct_faults;
+pub mod reconstruct_flags;
 pub mod reconstruct_scaling;
 pub mod sheet;
 pub mod spectra;

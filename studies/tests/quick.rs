@@ -219,9 +219,10 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
             assert_eq!(r["dead_named"], r["streams"], "{r}");
         }
         assert_eq!(row(array, "clean", "bnb")["false_suspects"], 0);
-        // The common-mode term recovers what the offset costs bnb without it.
+        // Issue 35: the stream diagnosis fits the common offset by itself, so bnb
+        // without --common-mode recovers what bnb with it does on the offset stream.
         let (cm, plain) = (row(array, "offset", "bnb +cm"), row(array, "offset", "bnb"));
-        assert!(f(cm, "rr_pct") > f(plain, "rr_pct"), "{cm} against {plain}");
+        assert!(f(plain, "rr_pct") >= f(cm, "rr_pct") - 5.0, "{cm} against {plain}");
         // With every fault, most missed frames carry a flag; few clean ones do.
         let all = row(array, "all", "bnb");
         assert!(f(all, "flag_recall_pct") >= 50.0, "{all}");
@@ -233,6 +234,61 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
     }
     assert!(dir.path().join("faults.csv").exists());
     assert!(dir.path().join("faults-10x20.svg").exists());
+}
+
+#[test]
+fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::reconstruct::BenchOptions {
+        out: dir.path().to_path_buf(),
+        design: None,
+        seed: 1,
+        repeats: 1,
+        quick: true,
+        part: fbgforge_studies::reconstruct::Part::Flags,
+        budget_us: None,
+    };
+    fbgforge_studies::reconstruct::run(&a).unwrap();
+    let rows = read_json(&dir.path().join("flags.json"));
+    let rows = rows.as_array().unwrap();
+    let row = |array: &str, fault: &str, method: &str| {
+        rows.iter()
+            .find(|r| r["array"] == array && r["fault"] == fault && r["method"] == method)
+            .unwrap_or_else(|| panic!("{array} {fault} {method}"))
+    };
+    let f = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap_or(0.0);
+    let flag = |r: &serde_json::Value, word: &str| {
+        r["flag_pct"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p[0] == word)
+            .map_or(0.0, |p| p[1].as_f64().unwrap())
+    };
+    for array in ["6x8 paper", "10x20 hex"] {
+        // The same objective gives the same loads and, the rivals being computed,
+        // the same flags: `support` and `bnb` agree on every fault.
+        for fault in ["clean", "dead", "drift", "offset", "absurd"] {
+            let (s, b) = (row(array, fault, "support"), row(array, fault, "bnb"));
+            assert_eq!(s["rr_pct"], b["rr_pct"], "{array} {fault}");
+            assert_eq!(s["false_flag_pct"], b["false_flag_pct"], "{array} {fault}");
+            assert_eq!(s["recall_pct"], b["recall_pct"], "{array} {fault}");
+        }
+        // A clean stream: no suspect, no offset; a dead grating and an offset found.
+        let clean = row(array, "clean", "bnb");
+        assert_eq!((clean["wrong_suspects"].as_u64(), clean["common_mode_streams"].as_u64()), (Some(0), Some(0)));
+        assert_eq!(row(array, "dead", "bnb")["diagnosis_right"], 1);
+        assert_eq!(row(array, "offset", "bnb")["common_mode_streams"], 1);
+        // Absurd frames (3 % of the stream) are unusable for every method, and
+        // flagged: never trusted zero loads.
+        for method in ["bnb", "support", "lasso", "omp", "nnls"] {
+            let r = row(array, "absurd", method);
+            assert!(flag(r, "unusable") >= 1.0, "{r}");
+            assert!(f(r, "recall_pct") > 0.0, "{r}");
+        }
+    }
+    assert!(dir.path().join("flags-roc.csv").exists());
+    assert!(dir.path().join("flags-roc-10x20-clean.svg").exists());
 }
 
 #[test]

@@ -11,6 +11,7 @@ mod common;
 mod array;
 mod array_cli;
 mod array_exact;
+mod array_faults;
 mod array_scaling;
 mod array_trust;
 mod calibrate_additivity;
