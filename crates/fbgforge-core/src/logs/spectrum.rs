@@ -331,6 +331,8 @@ pub(crate) fn read_whole_spectrum(
         column_names: sp.channels.clone(),
         line_of_row: Vec::new(),
         time_uncertainty_s: 0.0,
+        // A handful of acquisitions, not a sampled stream: no clock to check.
+        clock_jumps: Vec::new(),
         warnings: LogWarnings::default(),
         uncertainty: Some(PeakUncertainty {
             estimator: sp.estimator.clone(),
