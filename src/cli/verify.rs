@@ -34,6 +34,9 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("ForceReadOptions.scale_to_n", "--force-scale-to-n"),
     ("ForceReadOptions.date_order", "--force-date-order"),
     // synth-log
+    ("SynthLogRequest.schedule", "--schedule"),
+    ("ModelSource.insert", "--insert"),
+    ("ModelSource.core", "--core"),
     ("TrainSettings.peaks_n", "--pulses-n"),
     ("TrainSettings.pulse_s", "--pulse-s"),
     ("TrainSettings.rest_s", "--rest-s"),
@@ -318,8 +321,20 @@ pub struct SynthLogArgs {
     #[arg(long)]
     pub core: Option<String>,
     /// Static K of the core's first grating, pm/N (the k-th gets K·(1 − 0.15 k)).
-    #[arg(long, default_value_t = 12.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 12.0, allow_hyphen_values = true, conflicts_with = "from_model")]
     pub k_pm_per_n: f64,
+    /// Every grating of the core gets the K the design's model predicts (for --case and
+    /// --insert; Case II by default, as `verify` judges): a log on which `verify` PASSes.
+    /// The default pulses are scaled so that every shift stays within half its window.
+    #[arg(long, conflicts_with = "schedule")]
+    pub from_model: bool,
+    /// With --from-model: the load case whose prediction the log follows (default II,
+    /// or I when --insert is given).
+    #[arg(long, value_enum, requires = "from_model")]
+    pub case: Option<CaseArg>,
+    /// With --from-model: the insert of Case I.
+    #[arg(long, requires = "from_model")]
+    pub insert: Option<String>,
     /// Wavelength sample rate, Hz.
     #[arg(long, default_value_t = 20.0)]
     pub rate_hz: f64,
@@ -478,7 +493,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
             drift_pm_per_s: a.drift_pm_per_s,
             seed: a.seed,
         },
-        None => files::SynthRun::Module(synth_config(&a)?),
+        None => files::SynthRun::Module(synth_config(&a, &design)?),
     };
     let req = files::SynthLogRequest {
         format: a.format.into(),
@@ -497,7 +512,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
 }
 
 /// The module run that `fbgforge synth-log`'s flags describe.
-fn synth_config(a: &SynthLogArgs) -> Result<synth::SynthConfig> {
+fn synth_config(a: &SynthLogArgs, design: &fbgforge::spec::Design) -> Result<synth::SynthConfig> {
     let shape = match a.shape {
         ShapeArg::Haversine => synth::PulseShape::Haversine,
         ShapeArg::Trapezoid => synth::PulseShape::Trapezoid { ramp_s: a.ramp_s },
@@ -507,27 +522,23 @@ fn synth_config(a: &SynthLogArgs) -> Result<synth::SynthConfig> {
         },
         ShapeArg::Sine => synth::PulseShape::Sine { cycles: a.cycles },
     };
+    let grating_k = synth_grating_k(a, design)?;
+    let peaks_n = if a.from_model && a.pulses_n == DEFAULT_PULSES_N {
+        // The default protocol scaled so that the model's shifts stay in their windows.
+        let top = fbgforge::synth::from_model::largest_force_n(design, &grating_k);
+        let peaks: Vec<f64> = a.pulses_n.iter().map(|p| p / 50.0 * top).collect();
+        println!("pulses scaled to the model: {top} N at most (--pulses-n sets them)");
+        peaks
+    } else {
+        a.pulses_n.clone()
+    };
     let (pulses, duration) = synth::train(&synth::TrainSettings {
-        peaks_n: a.pulses_n.clone(),
+        peaks_n,
         pulse_s: a.pulse_s,
         rest_s: a.rest_s,
         lead_s: 5.0,
         shape,
     })?;
-    let grating_k = a
-        .grating_k
-        .iter()
-        .map(|g| {
-            let (name, k) = g
-                .split_once('=')
-                .with_context(|| format!("--grating-k `{g}`: expected NAME=K, e.g. lambda_21=0"))?;
-            let k: f64 = k
-                .trim()
-                .parse()
-                .with_context(|| format!("--grating-k `{g}`: `{k}` is not a number (pm/N)"))?;
-            Ok((name.trim().to_string(), k))
-        })
-        .collect::<Result<Vec<_>>>()?;
     Ok(synth::SynthConfig {
         core: a.core.clone(),
         sensitivity_pm_per_n: a.k_pm_per_n,
@@ -553,7 +564,61 @@ fn synth_config(a: &SynthLogArgs) -> Result<synth::SynthConfig> {
     })
 }
 
+/// `synth-log`'s default pulses, N (`--pulses-n`).
+const DEFAULT_PULSES_N: [f64; 6] = [10.0, 20.0, 30.0, 40.0, 50.0, 25.0];
+
+/// The K's set by name: `--grating-k`, and with `--from-model` the model's under them.
+fn synth_grating_k(a: &SynthLogArgs, design: &fbgforge::spec::Design) -> Result<Vec<(String, f64)>> {
+    let grating_k = a
+        .grating_k
+        .iter()
+        .map(|g| {
+            let (name, k) = g
+                .split_once('=')
+                .with_context(|| format!("--grating-k `{g}`: expected NAME=K, e.g. lambda_21=0"))?;
+            let k: f64 = k
+                .trim()
+                .parse()
+                .with_context(|| format!("--grating-k `{g}`: `{k}` is not a number (pm/N)"))?;
+            Ok((name.trim().to_string(), k))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    if a.from_model {
+        from_model_k(a, design, grating_k)
+    } else {
+        Ok(grating_k)
+    }
+}
+
 use synth::LogStyle;
+
+/// `--from-model`: the model's K for every grating of the core, the `--grating-k`
+/// settings on top; the K's are printed, as the log's truth.
+fn from_model_k(
+    a: &SynthLogArgs,
+    design: &fbgforge::spec::Design,
+    explicit: Vec<(String, f64)>,
+) -> Result<Vec<(String, f64)>> {
+    use fbgforge::synth::from_model::{model_sensitivities, ModelSource};
+    let source = ModelSource {
+        core: a.core.clone(),
+        case: a.case.map(|c| match c {
+            CaseArg::I => LoadCase::I,
+            CaseArg::II => LoadCase::II,
+        }),
+        insert: a.insert.clone(),
+    };
+    let mut k = model_sensitivities(design, &source)
+        .map_err(|e| anyhow::anyhow!(in_flag_words(&format!("{e:#}"))))?;
+    for (name, v) in explicit {
+        match k.iter_mut().find(|(n, _)| *n == name) {
+            Some(slot) => slot.1 = v,
+            None => k.push((name, v)),
+        }
+    }
+    println!("{}", fbgforge::report::synth::model_k_line(source.load_case(), source.insert.as_deref(), &k));
+    Ok(k)
+}
 
 /// Arguments of `fbgforge calibrate-array`.
 #[derive(Debug, Args)]

@@ -214,3 +214,101 @@ fn calibrate_array_from_a_synthetic_run() {
         assert_eq!(p["value"].is_null(), !p["identifiable"].as_bool().unwrap(), "{p}");
     }
 }
+
+/// A newcomer's first `synth-log --from-model` + `verify` PASSes, on every shipped
+/// module, core, log format and with a temperature ramp: the log follows the design's
+/// own prediction (Case II, as `verify` judges by default), its pulses are scaled so
+/// that every shift stays in its window, and the fitted K is the model's within 1 %.
+/// Any other verdict on such a log would be confidently wrong (a FAIL of a part that
+/// is exactly its model), so every scenario is counted and none may miss.
+#[test]
+fn a_log_that_follows_the_model_passes_verify() {
+    let mut misses = Vec::new();
+    let mut runs = 0;
+    for (design, core, format, ramp, seed) in [
+        ("clip-on-34mm", "psc1", "enlight-peaks", "0", "1"),
+        ("clip-on-34mm", "psc2", "imon", "0.05", "2"),
+        ("clip-on-22mm", "psc1", "csv", "0", "3"),
+        ("clip-on-16mm", "psc2", "enlight-peaks", "0.1", "4"),
+        ("clip-on-10mm", "psc1", "enlight-sensors", "0", "5"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = root().join(format!("designs/{design}.toml"));
+        let out = bin()
+            .args(["synth-log", path.to_str().unwrap(), "--from-model", "--core", core])
+            .args(["--format", format, "--temperature-ramp-k-per-s", ramp, "--seed", seed, "--out"])
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(said.starts_with("K from the model (Case II): "), "{said}");
+        let log = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| p.file_stem().is_some_and(|s| s == "log"))
+            .unwrap();
+        let v = bin()
+            .args(["verify", path.to_str().unwrap(), "--core", core, "--json", "--log"])
+            .arg(&log)
+            .arg("--force")
+            .arg(dir.path().join("force.csv"))
+            .output()
+            .unwrap();
+        runs += 1;
+        let doc: serde_json::Value = serde_json::from_slice(&v.stdout)
+            .unwrap_or_else(|_| panic!("{design}: {}", String::from_utf8_lossy(&v.stderr)));
+        let verdict = &doc["verdict"];
+        let close = verdict["gratings"].as_array().unwrap().iter().all(|g| {
+            let m = g["measured_sensitivity_pm_per_n"].as_f64().unwrap();
+            let p = g["predicted_sensitivity_pm_per_n"].as_f64().unwrap();
+            (m - p).abs() <= 0.01 * p.abs()
+        });
+        if verdict["overall"] != "pass" || v.status.code() != Some(0) || !close {
+            misses.push(format!("{design} {core} {format} ramp {ramp}: {verdict}"));
+        }
+    }
+    assert!(misses.is_empty(), "{} of {runs} runs did not PASS: {misses:#?}", misses.len());
+}
+
+/// The plain `verify` of the README's first example prints PASS.
+#[test]
+fn the_first_verify_prints_pass() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = root().join("designs/clip-on-34mm.toml");
+    let out = bin()
+        .args(["synth-log", design.to_str().unwrap(), "--from-model", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v = bin()
+        .args(["verify", design.to_str().unwrap(), "--log"])
+        .arg(dir.path().join("log.txt"))
+        .arg("--force")
+        .arg(dir.path().join("force.csv"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&v.stdout);
+    assert_eq!(v.status.code(), Some(0), "{text}");
+    assert!(text.lines().any(|l| l == "verdict: PASS"), "{text}");
+}
+
+/// `synth-log` of an array names the flag that writes an array's log; `--from-model`
+/// names the inserts when given a wrong one and refuses to mix with `--k-pm-per-n`.
+#[test]
+fn synth_log_errors_name_the_way_out() {
+    let run = |args: &[&str]| {
+        let out = bin().arg("synth-log").args(args).output().unwrap();
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let array = root().join("designs/tactile-array-60x80.toml");
+    let e = run(&[array.to_str().unwrap(), "--out", "/nonexistent/x"]);
+    assert!(e.contains("--schedule") && e.contains("flat array"), "{e}");
+    let module = root().join("designs/clip-on-34mm.toml");
+    let e = run(&[module.to_str().unwrap(), "--from-model", "--insert", "insert_blue", "--out", "/nonexistent/x"]);
+    assert!(e.contains("no insert named `insert_blue`") && e.contains("blue, green, light_green"), "{e}");
+    let e = run(&[module.to_str().unwrap(), "--from-model", "--k-pm-per-n", "12"]);
+    assert!(e.contains("--k-pm-per-n") && e.contains("--from-model"), "{e}");
+}

@@ -5,6 +5,8 @@
 //!   the force-stand log and `truth.json` (K, lag, clock offset, expected R²);
 //! - [`array_log`]: a flat array loaded cell by cell as a schedule says, with the true
 //!   sensing matrix;
+//! - [`from_model`]: the K of every grating as the design's model predicts it (a log
+//!   whose `verify` PASSes);
 //! - [`files`]: the use case `synth-log` calls: a run written to a folder, each file
 //!   atomically ([`files::write_synth_log`]);
 //! - [`stream`]: a simulated Luna Hyperion on loopback serving a design under a load
@@ -24,5 +26,6 @@ use fbgforge_verify as verify;
 
 pub mod array_log;
 pub mod files;
+pub mod from_model;
 pub mod module_log;
 pub mod stream;

@@ -360,6 +360,12 @@ pub fn train(t: &TrainSettings) -> Result<(Vec<Pulse>, f64)> {
 /// most [`MAX_ROWS`] rows and [`MAX_FORCE_SAMPLES`] force samples).
 pub fn check_config(design: &Design, cfg: &SynthConfig) -> Result<String> {
     let Some(m) = &design.module else {
+        if design.array.is_some() {
+            bail!(
+                "design `{}` is a flat array, with no [module] to press: its synthetic log is a calibration run that follows a loading schedule (SynthLogRequest.schedule: a CSV of start_s,end_s,cell,load_g)",
+                design.name
+            )
+        }
         bail!(
             "design `{}` has no [module] to synthesise a log for",
             design.name

@@ -110,7 +110,7 @@ impl<W: Write> BuildTables<W> {
         }
         writeln!(
             self.out,
-            "built {} designs, {} files in {:.2} s; open the STL files in your slicer (see README)",
+            "built {} designs, {} files in {:.2} s; to print: out/<name>/parts.3mf",
             self.tables.len(),
             self.files,
             elapsed.as_secs_f64()
