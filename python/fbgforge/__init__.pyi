@@ -100,6 +100,11 @@ class VerifyReport(Result):
     measured_sensitivity_pm_per_n: FloatArray
     predicted_sensitivity_pm_per_n: FloatArray
     statuses: List[str]
+    sensitivity_pm_per_n: FloatArray
+    r_squared: FloatArray
+    max_lag_s: FloatArray
+    quality_q_pm_per_n_s: FloatArray
+    def __getattr__(self, name: str) -> FloatArray: ...
     def to_pandas(self) -> Any: ...
 
 class SensingMatrix(Result):
@@ -405,6 +410,9 @@ def synth_log(
     metadata_lines: int = 45,
     twelve_hour: bool = False,
     schedule: Optional[PathLike] = None,
+    from_model: bool = False,
+    case: Optional[str] = None,
+    insert: Optional[str] = None,
 ) -> SynthLog: ...
 def calibrate_array(
     design: DesignLike,

@@ -766,6 +766,9 @@ def synth_log(
     metadata_lines=45,
     twelve_hour=False,
     schedule=None,
+    from_model=False,
+    case=None,
+    insert=None,
 ):
     """Write a synthetic interrogator log with known answers: a module pressed by a
     pulse train (log, force log, truth.json), or with ``schedule`` an array loaded cell
@@ -800,6 +803,15 @@ def synth_log(
         How the log is written.
     schedule : path, optional
         Array calibration instead: ``start_s,end_s,cell,load_g``.
+    from_model : bool, default False
+        Every grating of the core gets the K the design's model predicts (instead of
+        ``k_pm_per_n``), for ``case`` and ``insert``: a log on which ``verify`` of the
+        same configuration PASSes.
+    case : {"I", "II"}, optional
+        With ``from_model``: the load case (default "II", or "I" when ``insert`` is
+        given).
+    insert : str, optional
+        With ``from_model``: the insert of Case I.
 
     Returns
     -------
@@ -814,9 +826,21 @@ def synth_log(
     ...     s = fbgforge.synth_log("designs/clip-on-34mm.toml", tmp, k_pm_per_n=8.0)
     ...     s.log.name, s.force.name, s.truth_values["gratings"][0]["sensitivity_pm_per_n"]
     ('log.txt', 'force.csv', 8.0)
+
+    A log that follows the model, and its verdict:
+
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     s = fbgforge.synth_log("designs/clip-on-34mm.toml", tmp, from_model=True)
+    ...     fbgforge.verify("designs/clip-on-34mm.toml", s.log, s.force).verdict
+    'PASS'
     """
     d = as_design(design)
+    if from_model and schedule is not None:
+        raise InputError("from_model is for a module's log; schedule makes an array's calibration run")
     settings = {
+        "from_model": bool(from_model),
+        "case": None if case is None else str(case),
+        "insert": insert,
         "schedule": _path(schedule, "schedule"),
         "core": core,
         "k_pm_per_n": float(k_pm_per_n),

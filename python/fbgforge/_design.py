@@ -153,7 +153,12 @@ class Design:
             Field paths to new values; a path is dotted (``"module.cap_wall_mm"``)
             and indexes lists by number (``"module.gratings.0.center_height_mm"``).
         **fields
-            More of the same; dotted paths need ``**{"module.cap_wall_mm": 1.2}``.
+            More of the same. A keyword without a dot is a field's own name: a
+            top-level field, else the one field of that name in the design's tables
+            (``cap_wall_mm=1.2`` sets ``module.cap_wall_mm``; a name two tables share
+            raises KeyError naming their paths, to be given dotted:
+            ``**{"module.cap_wall_mm": 1.2}``). Fields inside lists are always
+            dotted (``"module.gratings.0.center_height_mm"``).
 
         Returns
         -------
@@ -173,10 +178,14 @@ class Design:
         >>> d = fbgforge.shipped_design("clip-on-34mm")
         >>> d.replace({"module.gratings.0.center_height_mm": 14.0}).to_dict()["module"]["gratings"][0]["center_height_mm"]
         14.0
+        >>> d.replace(cap_wall_mm=1.2).to_dict()["module"]["cap_wall_mm"]
+        1.2
         """
         spec = self.to_dict()
-        for path, value in {**(changes or {}), **fields}.items():
+        for path, value in (changes or {}).items():
             _set_path(spec, path, value)
+        for name, value in fields.items():
+            _set_path(spec, _resolve_name(spec, name), value)
         return Design.from_dict(spec)
 
     # -- protocol -------------------------------------------------------------
@@ -199,6 +208,28 @@ class Design:
 
 def _from_state(text, path):
     return Design(_fbgforge._Design.from_toml(text), path)
+
+
+def _resolve_name(spec, name):
+    """The dotted path of a keyword: itself when dotted or a top-level field, else the
+    one field of that name in the spec's tables (not inside lists)."""
+    if "." in name or name in spec:
+        return name
+    found = []
+
+    def walk(node, prefix):
+        for k, v in node.items():
+            if k == name:
+                found.append(prefix + k)
+            if isinstance(v, dict):
+                walk(v, prefix + k + ".")
+
+    walk(spec, "")
+    if len(found) == 1:
+        return found[0]
+    if not found:
+        raise KeyError(f"{name}: no field of that name in the design (a dotted path such as \"module.cap_wall_mm\" names one)")
+    raise KeyError(f"{name}: several fields have that name ({', '.join(found)}); give the dotted path")
 
 
 def _set_path(spec, path, value):

@@ -68,6 +68,60 @@ def _table(rows):
     return _pandas().DataFrame([_flatten(r) for r in rows])
 
 
+def _fmt(v, digits=4):
+    """A value as a repr shows it: numbers to `digits` significant figures."""
+    if v is None:
+        return "—"
+    if isinstance(v, (bool, np.bool_)):
+        return str(bool(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return "nan" if np.isnan(v) else f"{float(v):.{digits}g}"
+    return str(v)
+
+
+def _grid(header, rows, limit=12):
+    """A small aligned table (at most `limit` rows, then how many more) for a repr."""
+    cells = [[str(h) for h in header]] + [[_fmt(c) for c in r] for r in rows[:limit]]
+    widths = [max(len(r[j]) for r in cells) for j in range(len(header))]
+    lines = ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in cells]
+    if len(rows) > limit:
+        lines.append(f"  … {len(rows) - limit} more")
+    return "\n".join(lines)
+
+
+def _scalars(doc, limit=6):
+    """The first scalar fields of a document, as `name=value`."""
+    out = [f"{k}={_fmt(v)!s}" for k, v in doc.items() if not isinstance(v, (dict, list))]
+    return ", ".join(out[:limit])
+
+
+def _flat_row(row):
+    """A row with no list cells: a pair of numbers becomes ``name_low``/``name_high``
+    (``band_pm_per_n`` → ``band_low_pm_per_n``, …), a list of words one ``; ``-joined
+    string."""
+    out = {}
+    for k, v in row.items():
+        if isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) or x is None for x in v):
+            stem, unit = (k.split("_pm_per_n")[0], "_pm_per_n") if k.endswith("_pm_per_n") else (k, "")
+            out[f"{stem}_low{unit}"] = _number(v[0])
+            out[f"{stem}_high{unit}"] = _number(v[1])
+        elif isinstance(v, list) and all(isinstance(x, str) for x in v):
+            out[k] = "; ".join(v)
+        else:
+            out[k] = v
+    return out
+
+
+def _lead(table, first):
+    """`table` with the columns `first` leading, the numeric columns next, the rest last."""
+    lead = [c for c in first if c in table.columns]
+    numeric = [c for c in table.columns if c not in lead and table[c].dtype.kind in "fiub"]
+    rest = [c for c in table.columns if c not in lead and c not in numeric]
+    return table[lead + numeric + rest]
+
+
 class Result:
     """Base of the result objects: the library's document behind attributes."""
 
@@ -87,7 +141,10 @@ class Result:
         return copy.deepcopy(self._doc)
 
     def __repr__(self):
-        return f"<{type(self).__name__}: {', '.join(list(self._doc)[:6])}, …>"
+        scalars = _scalars(self._doc)
+        rest = [k for k, v in self._doc.items() if isinstance(v, (dict, list))]
+        more = f"; {', '.join(rest[:6])}{', …' if len(rest) > 6 else ''}" if rest else ""
+        return f"<{type(self).__name__}: {scalars}{more}>"
 
 
 class Prediction(Result):
@@ -166,17 +223,28 @@ class Prediction(Result):
     def band_high_pm_per_n(self):
         return _band(self.rows, "band_pm_per_n", 1)
 
+    def __repr__(self):
+        rows = [
+            (r["grating"], r["core"], r["case"], r.get("insert") or "—", r["sensitivity_pm_per_n"], r["model"])
+            for r in self.rows
+        ]
+        return (
+            f"<Prediction at {_fmt(self.force_n)} N: {len(rows)} rows\n"
+            + _grid(["grating", "core", "case", "insert", "K pm/N", "model"], rows)
+            + ">"
+        )
+
     def to_pandas(self):
-        """One row per grating and configuration.
+        """One row per grating and configuration: the identifying columns first
+        (``grating``, ``core``, ``case``, ``insert``), then the numbers (K, shift,
+        strain, the band and interval as ``*_low``/``*_high`` columns), then the
+        rest; warnings joined by ``; ``.
 
         Returns
         -------
         pandas.DataFrame
         """
-        t = _table(self.rows)
-        t["band_low_pm_per_n"] = self.band_low_pm_per_n
-        t["band_high_pm_per_n"] = self.band_high_pm_per_n
-        return t
+        return _lead(_table([_flat_row(r) for r in self.rows]), ["grating", "core", "case", "insert"])
 
 
 class BuildResult(Result):
@@ -276,6 +344,11 @@ class VerifyReport(Result):
         Per judged grating: the fitted K and the model's.
     statuses : list of str
         Per judged grating: its verdict.
+    sensitivity_pm_per_n, r_squared, max_lag_s, quality_q_pm_per_n_s : numpy.ndarray
+        Per measured grating (``gratings``): the fitted K (pm/N), R², the largest
+        lag (s) and Q (pm/(N·s)); every other per-grating number of the measurement
+        (``hysteresis_percent_span``, ``resolution_n``, ``drift_pm_per_s``, …) is an
+        attribute of the same kind.
     measurement : dict
         Everything measured (fits, lags, Q, clocks), as ``verify --json`` has it.
     """
@@ -309,6 +382,54 @@ class VerifyReport(Result):
     @property
     def statuses(self):
         return [g["status"] for g in self._doc["verdict"]["gratings"]]
+
+    # Every figure of merit per measured grating, as an array (NaN where none):
+    # r_squared, max_lag_s, quality_q_pm_per_n_s, sensitivity_pm_per_n, …
+    @property
+    def sensitivity_pm_per_n(self):
+        return _numbers(self.measurement["gratings"], "sensitivity_pm_per_n")
+
+    @property
+    def r_squared(self):
+        return _numbers(self.measurement["gratings"], "r_squared")
+
+    @property
+    def max_lag_s(self):
+        return _numbers(self.measurement["gratings"], "max_lag_s")
+
+    @property
+    def quality_q_pm_per_n_s(self):
+        return _numbers(self.measurement["gratings"], "quality_q_pm_per_n_s")
+
+    def __getattr__(self, name):
+        # Any other per-grating number of the measurement (hysteresis_percent_span,
+        # resolution_n, drift_pm_per_s, …), as an array per grating.
+        if name.startswith("_"):
+            raise AttributeError(name)
+        rows = self._doc["measurement"]["gratings"]
+        if rows and name in rows[0] and all(isinstance(r.get(name), (int, float, type(None))) for r in rows):
+            return _numbers(rows, name)
+        raise AttributeError(name)
+
+    def __repr__(self):
+        judged = {g["grating"]: g for g in self._doc["verdict"]["gratings"]}
+        rows = []
+        for g in self.measurement["gratings"]:
+            v = judged.get(g["grating"], {})
+            rows.append(
+                (
+                    g["grating"],
+                    g.get("sensitivity_pm_per_n"),
+                    v.get("predicted_sensitivity_pm_per_n"),
+                    g.get("r_squared"),
+                    g.get("max_lag_s"),
+                    g.get("quality_q_pm_per_n_s"),
+                    v.get("status", "—"),
+                )
+            )
+        head = f"<VerifyReport {self._doc.get('design', '')}: {self.verdict}"
+        head += f" (Case {self.case})\n" if self.case else "\n"
+        return head + _grid(["grating", "K pm/N", "model pm/N", "R²", "max lag s", "Q pm/(N·s)", "status"], rows) + ">"
 
     def to_pandas(self):
         """One row per grating: the measurement and, where judged, the verdict
@@ -579,6 +700,16 @@ class Reconstruction(Result):
     @property
     def suspect_gratings(self):
         return list(self._doc["setup"].get("suspect_gratings", []))
+
+    def __repr__(self):
+        loads = np.atleast_2d(self.loads_g)
+        flags = self._doc["per_frame"].get("flags")
+        rows = []
+        for i, frame in enumerate(loads):
+            f = flags[i] if flags is not None and i < len(flags) else []
+            rows.append([i, *[round(float(x), 1) for x in frame], ";".join(f) if isinstance(f, list) else f])
+        head = f"<Reconstruction: {loads.shape[0]} frames × {loads.shape[1]} cells, loads g (method {self.method})\n"
+        return head + _grid(["frame", *self.cells, "flags"], rows, limit=5) + ">"
 
     def __getattr__(self, name):
         # A per-frame field the library adds (flags, certified, …).

@@ -807,8 +807,34 @@ fn synth_log<'py>(
                     ))
                 }
             };
+            let core: Option<String> = get("core")?.extract()?;
+            let grating_sensitivity_pm_per_n = if get("from_model")?.extract::<bool>()? {
+                let case = match get("case")?.extract::<Option<String>>()?.as_deref() {
+                    None => None,
+                    Some("I" | "i" | "1") => Some(fbgforge::model::LoadCase::I),
+                    Some("II" | "ii" | "2") => Some(fbgforge::model::LoadCase::II),
+                    Some(other) => return Err(input(py, format!("case `{other}`: expected \"I\" or \"II\""))),
+                };
+                let source = fbgforge::synth::from_model::ModelSource {
+                    core: core.clone(),
+                    case,
+                    insert: get("insert")?.extract()?,
+                };
+                let d = &design.design;
+                py.detach(|| fbgforge::synth::from_model::model_sensitivities(d, &source))
+                    .map_err(|e| err(py, e))?
+            } else {
+                Vec::new()
+            };
+            let mut peaks_n: Vec<f64> = get("pulses_n")?.extract()?;
+            if !grating_sensitivity_pm_per_n.is_empty() && peaks_n == [10.0, 20.0, 30.0, 40.0, 50.0, 25.0] {
+                // The default protocol scaled so that the model's shifts stay in their
+                // windows, as `synth-log --from-model` does.
+                let top = fbgforge::synth::from_model::largest_force_n(&design.design, &grating_sensitivity_pm_per_n);
+                peaks_n.iter_mut().for_each(|p| *p = *p / 50.0 * top);
+            }
             let (pulses, duration_s) = train(&TrainSettings {
-                peaks_n: get("pulses_n")?.extract()?,
+                peaks_n,
                 pulse_s,
                 rest_s,
                 lead_s: 5.0,
@@ -816,7 +842,8 @@ fn synth_log<'py>(
             })
             .map_err(|e| err(py, e))?;
             SynthRun::Module(SynthConfig {
-                core: get("core")?.extract()?,
+                core,
+                grating_sensitivity_pm_per_n,
                 sensitivity_pm_per_n: f("k_pm_per_n")?,
                 sample_rate_hz: f("rate_hz")?,
                 force_rate_hz: f("force_rate_hz")?,
