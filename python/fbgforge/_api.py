@@ -832,7 +832,7 @@ def synth_log(
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     s = fbgforge.synth_log("designs/clip-on-34mm.toml", tmp, from_model=True)
     ...     fbgforge.verify("designs/clip-on-34mm.toml", s.log, s.force).verdict
-    'PASS'
+    'pass'
     """
     d = as_design(design)
     if from_model and schedule is not None:
