@@ -180,9 +180,12 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
         .iter()
         .filter(|f| !f["flags"].as_array().unwrap().is_empty())
         .count();
-    // Before: 100 % of the loaded frames flagged.
+    // Before: 100 % of the loaded frames flagged. Since issue 35 the flags rest on a
+    // χ² test of stated size α = 0.05 (docs/array.md §11.1): on frames the model
+    // explains, at most that share is flagged `inconsistent` by chance (measured here
+    // 2.2 %: the stream's noise is under the resolution the test assumes).
     assert!(
-        flagged * 100 < frames.len(),
+        flagged * 20 < frames.len(),
         "{flagged} of {} flagged",
         frames.len()
     );
