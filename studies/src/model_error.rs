@@ -7,7 +7,8 @@
 //!    radius, dome 0.4–1 × the radius, cap modulus 20–200 MPa, core moduli 0.8–8 MPa,
 //!    inserts 20–3000 MPa, a PolyJet or an FDM-like printer. Each is predicted by the
 //!    policy with its band and design interval; counted: rows whose nominal lies
-//!    outside its bounding readings widened by its model error, rows whose stated
+//!    outside its bounding readings widened by its model error (and of those, rows
+//!    that do not say so, and rows whose readings do not fix K's sign), rows whose stated
 //!    error exceeds 0.15 (the policy refines a configuration's mesh from level 1
 //!    until it states at most that, up to level 3), rows whose nominal lies outside
 //!    its design interval, and rows per mesh level. Each drawn design is written
@@ -62,6 +63,11 @@ pub struct ModelErrorReport {
     pub rows: usize,
     /// Rows whose nominal lies outside its bounding readings widened by its error.
     pub rows_outside_widened_band: usize,
+    /// Of those, rows that do not say so ("the model is wrong here"): confidently
+    /// wrong answers.
+    pub rows_outside_unflagged: usize,
+    /// Of those, rows whose bounding readings do not fix K's sign.
+    pub rows_outside_sign_not_fixed: usize,
     /// Rows whose nominal lies outside its design interval.
     pub rows_outside_design_interval: usize,
     /// Rows whose stated model error exceeds 0.15.
@@ -158,6 +164,11 @@ fn check_design(
             .is_none_or(|[lo, hi]| k_nom >= lo && k_nom <= hi);
         let f = r.model_error_fraction.unwrap_or(0.0);
         report.rows_outside_widened_band += usize::from(!contained);
+        let said = |text: &str| p.warnings.iter().any(|w| w.contains(text));
+        if !contained {
+            report.rows_outside_unflagged += usize::from(!said("the model is wrong here"));
+            report.rows_outside_sign_not_fixed += usize::from(said("sign of K is not fixed"));
+        }
         report.rows_outside_design_interval += usize::from(!in_interval);
         report.rows_over_max_error += usize::from(f > MAX_MODEL_ERROR);
         report.max_model_error = report.max_model_error.max(f);

@@ -2,7 +2,9 @@
 //! family (diameter 8–40 mm, cap and core walls from the printer's minimum to a quarter
 //! of the radius, dome 0.4–1 × the radius, log-uniform cap, core and insert moduli, a
 //! PolyJet or an FDM-like printer), every prediction row's nominal K lies inside its
-//! bounding readings widened by its stated model error and inside its design interval;
+//! bounding readings widened by its stated model error — or, where those readings do
+//! not fix K's sign, the row says the model is wrong there — and inside its design
+//! interval;
 //! a stated error above 0.15 is flagged on the row; and the strain at the largest force
 //! comes from the far end of the design interval, never less than the nominal plus its
 //! error. The policy's own mesh choice keeps every row's stated error within 0.15: a
@@ -63,10 +65,17 @@ pub(crate) fn check_containment(label: &str, rows: &[ModelledPrediction]) -> Res
             continue;
         };
         if r.nominal_contained() != Some(true) {
-            return Err(format!(
-                "{id}: nominal {k} outside its widened readings {:?} (error {f})",
-                r.widened_readings()
-            ));
+            // Outside only where the bounding readings do not fix K's sign, and then
+            // said on the row (very thin caps on large modules: the model-error study,
+            // seed 7, 12 rows of 2 of 100 designs, the same at mesh level 3).
+            let said = |text: &str| p.warnings.iter().any(|w| w.contains(text));
+            if !(said("the model is wrong here") && said("sign of K is not fixed")) {
+                return Err(format!(
+                    "{id}: nominal {k} outside its widened readings {:?} (error {f}) and not flagged: {:?}",
+                    r.widened_readings(),
+                    p.warnings
+                ));
+            }
         }
         let [lo, hi] = r
             .design_interval_pm_per_n
@@ -124,6 +133,11 @@ fn every_shipped_design_states_its_error_and_holds_its_nominal_inside() {
     ] {
         let rows = rows_of(&shipped(file));
         check_containment(file, &rows).unwrap();
+        // The shipped designs need no flag: every nominal inside.
+        assert!(
+            rows.iter().all(|r| r.nominal_contained() != Some(false)),
+            "{file}"
+        );
         for r in &rows {
             let p = &r.detail.prediction;
             if r.model == fbgforge::prediction::Fidelity::Fem {
@@ -275,4 +289,53 @@ fn where_level_1_states_over_15_percent_the_policy_refines_that_configuration_on
         "{refined} of {}",
         auto.len()
     );
+}
+
+/// The 34 mm module with a very thin cap (0.35 mm) over a stiff Case I core (the
+/// model-error study's seed-7 designs 59 and 87 have this shape).
+fn very_thin_cap() -> Design {
+    let mut d = shipped("clip-on-34mm.toml");
+    let m = d.module.as_mut().unwrap();
+    m.cap_wall_mm = 0.35;
+    m.core_wall_mm = 1.43;
+    m.dome_height_mm = 13.5;
+    let cap = m.cap_material.clone();
+    for (name, e) in [
+        (cap.as_str(), 29.0),
+        ("core_rubber_case_ii", 6.5),
+        ("insert_blue", 195.0),
+    ] {
+        d.materials.get_mut(name).unwrap().youngs_modulus_mpa = e;
+    }
+    d.validate().unwrap();
+    d
+}
+
+#[test]
+fn where_the_bounding_readings_do_not_bound_the_nominal_the_rows_say_the_model_is_wrong() {
+    let d = very_thin_cap();
+    let rows = case_i(&d, 1, PredictionRequest::default().refine_to_level);
+    // Outside only with both flags (check_containment), and the mesh is not the cause:
+    // every row states its error within 15 %.
+    check_containment("very thin cap", &rows).unwrap();
+    let outside: Vec<&ModelledPrediction> = rows
+        .iter()
+        .filter(|r| r.nominal_contained() == Some(false))
+        .collect();
+    assert!(outside.len() >= 4, "{} rows outside", outside.len());
+    for r in &outside {
+        assert!(r.model_error_fraction.unwrap() <= MAX_MODEL_ERROR);
+        // The family rule's contact radius turns Case I blue here: the readings
+        // bracket neither its size nor its sign.
+        assert!(r.detail.prediction.sensitivity_pm_per_n < 0.0);
+    }
+    let failed = fbgforge::prediction::check_paper_statements(&d, &rows)
+        .map(|s| {
+            s.failures()
+                .iter()
+                .map(|c| c.statement.to_string())
+                .collect::<Vec<_>>()
+        })
+        .unwrap_or_default();
+    assert!(failed.iter().any(|s| s == "case_i_red_shift"), "{failed:?}");
 }
