@@ -464,6 +464,16 @@ fn model_error_study_quick_finds_every_nominal_inside_and_every_written_grating_
     // Every nominal inside its widened readings and its design interval.
     assert_eq!(r.rows_outside_widened_band, 0, "{r:?}");
     assert_eq!(r.rows_outside_design_interval, 0, "{r:?}");
+    // The policy picked a mesh stating at most 15 % on every row, and every row
+    // (FE readings on each of them) names its level.
+    assert_eq!(r.rows_over_max_error, 0, "{r:?}");
+    assert_eq!(r.rows_outside_unflagged, 0, "{r:?}");
+    assert_eq!(r.rows_by_mesh_level.iter().sum::<usize>(), r.rows, "{r:?}");
+    assert_eq!(r.rows_by_mesh_level[0], 0, "{r:?}");
+    // Each drawn design is written beside its rows.
+    for k in 0..r.designs {
+        assert!(dir.path().join(format!("designs/design-{k}.toml")).exists());
+    }
     // What optimize wrote keeps the 5 % margin at the far end of its interval.
     assert_eq!(r.optimised, 1);
     if r.optimise_failed == 0 {
