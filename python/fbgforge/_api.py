@@ -460,7 +460,8 @@ def reconstruct(
     keep_all_gratings : bool, default False
         No stream diagnosis: no grating named and left out or corrected.
     significance : float, optional
-        Significance of the frame test behind the flags (default 0.05).
+        Significance of the frame test behind the flags (default 0.05): a right
+        answer is flagged with at most this probability, on any array.
 
     Returns
     -------

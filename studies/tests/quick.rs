@@ -292,6 +292,34 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
 }
 
 #[test]
+fn reconstruct_budget_study_quick_compares_the_default_with_certified_bnb_per_load_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::reconstruct::BenchOptions {
+        out: dir.path().to_path_buf(),
+        design: None,
+        seed: 1,
+        repeats: 1,
+        quick: true,
+        part: fbgforge_studies::reconstruct::Part::Budget,
+        budget_us: None,
+    };
+    fbgforge_studies::reconstruct::run(&a).unwrap();
+    let rows = read_json(&dir.path().join("budget.json"));
+    let rows = rows.as_array().unwrap();
+    // Certified bnb and the default at three budgets, each at 1–4 loads.
+    assert_eq!(rows.len(), 16);
+    for r in rows.iter().filter(|r| r["entry"] == "certified bnb") {
+        // Run to the end, every answer is the certified optimum.
+        assert_eq!(r["certified"], r["frames"], "{r}");
+    }
+    for r in rows {
+        assert!(r["mean_us"].as_f64().unwrap() > 0.0 && r["estimated_us"].as_f64().unwrap() > 0.0, "{r}");
+        assert!((0.0..=100.0).contains(&r["rr_pct"].as_f64().unwrap()), "{r}");
+    }
+    assert!(rows.iter().any(|r| r["entry"].as_str().unwrap().starts_with("default 100 µs → ")));
+}
+
+#[test]
 fn fem_study_quick_converges_under_refinement() {
     let dir = tempfile::tempdir().unwrap();
     let a = fbgforge_studies::fem::FemStudyArgs {
