@@ -396,7 +396,8 @@ pub struct ReferenceChamber {
 /// From the base up, the inner wall runs at the cap's inner radius to `lead_in_z_mm`,
 /// the lead-in cone rises to the crest radius at `crest_bottom_z_mm`, the crest runs
 /// to `crest_top_z_mm`, and the retention cone returns to the inner radius at
-/// `retention_top_z_mm`, one clearance below the pillar bottoms.
+/// `retention_top_z_mm`, passing one clearance (normal to it) under the pillars'
+/// bottom edge.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SnapProfile {
     /// Inner radius of the bead's crest: pillar outer radius − undercut, mm.
@@ -409,6 +410,17 @@ pub struct SnapProfile {
     pub crest_top_z_mm: f64,
     /// Where the retention cone meets the cap's inner wall again, mm.
     pub retention_top_z_mm: f64,
+    /// How far the cap can rise off a seated core before the retention cone meets
+    /// the pillars' bottom edge: the snap's clearance ([`snap_clearance_mm`]) over
+    /// sin α₂, mm.
+    pub free_travel_mm: f64,
+}
+
+/// Clearance between the snap's retention cone and the pillars' bottom edge, normal to
+/// the cone: the cap/core clearance, at least 0.05 mm (so a press-fit design still
+/// seats), mm.
+pub fn snap_clearance_mm(cap_core_clearance_mm: f64) -> f64 {
+    cap_core_clearance_mm.max(0.05)
 }
 
 /// Height above `bend_start_z` at which a slot roof's inner corner, `r_rel` outward from
@@ -457,9 +469,17 @@ impl PartsProfile {
             .max(roof(p.cap_inner_radius_mm));
         let snap = m.snap.as_ref().map(|s| {
             let lift = s.undercut_mm + m.cap_core_clearance_mm;
-            let axial_gap = m.cap_core_clearance_mm.max(0.05);
-            let retention_top = z_b - axial_gap;
-            let crest_top = retention_top - lift / s.retention_angle_deg.to_radians().tan();
+            // The retention cone passes one clearance (at least 0.05 mm), measured
+            // normal to it, under the pillars' bottom edge: the cap's free upward
+            // travel is that clearance over sin α₂ (SnapProfile::free_travel_mm), not
+            // the clearance plus the cone's rise over the fit's radial clearance.
+            let normal_gap = snap_clearance_mm(m.cap_core_clearance_mm);
+            let (sin2, cot2) = {
+                let a = s.retention_angle_deg.to_radians();
+                (a.sin(), 1.0 / a.tan())
+            };
+            let crest_top = z_b - normal_gap / sin2 - s.undercut_mm * cot2;
+            let retention_top = crest_top + lift * cot2;
             let crest_bottom = crest_top - s.bead_height_mm;
             SnapProfile {
                 crest_radius_mm: p.pillar_outer_radius_mm - s.undercut_mm,
@@ -467,6 +487,7 @@ impl PartsProfile {
                 crest_bottom_z_mm: crest_bottom,
                 crest_top_z_mm: crest_top,
                 retention_top_z_mm: retention_top,
+                free_travel_mm: normal_gap / sin2,
             }
         });
         // The first reference grating fixes the chamber (a module has one reference).
