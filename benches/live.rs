@@ -46,7 +46,7 @@ fn read(interp: &mut Interpreter, dec: &mut StreamDecoder, bytes: &[u8]) -> usiz
         received: Instant::now(),
         origin: String::new(),
     };
-    let p = interp.prepare(&frame).0.unwrap();
+    let p = interp.prepare(&frame).result.unwrap();
     interp.solve(&[p]).len()
 }
 
@@ -89,7 +89,7 @@ fn per_frame(c: &mut Criterion) {
                         received: Instant::now(),
                         origin: String::new(),
                     };
-                    prepared.push(interp.prepare(&frame).0.unwrap());
+                    prepared.push(interp.prepare(&frame).result.unwrap());
                 }
                 interp.solve(&prepared).len()
             },

@@ -18,7 +18,9 @@
 //! 6. known-truth data ([`fbgforge_synth`]): [`synth`] (synthetic logs, a simulated
 //!    interrogator);
 //! 7. printers ([`fbgforge_report`]): [`report`] (terminal tables, JSON, CSV, SVG/HTML
-//!    reports: the implementations of each use case's sink).
+//!    reports: the implementations of each use case's sink); [`publish`]
+//!    ([`fbgforge_publish`]): ROS 2 messages in MCAP and the browser view, from plain
+//!    data.
 
 pub use fbgforge_core::{design, family, fields, grating, logs, output, profile, progress, spec};
 pub use fbgforge_model::{fem, model, prediction, solvers};
@@ -29,6 +31,7 @@ pub use fbgforge_geometry as geometry;
 pub use fbgforge_live as live;
 pub use fbgforge_optimize as optimize;
 pub use fbgforge_plot as plot;
+pub use fbgforge_publish as publish;
 pub use fbgforge_report as report;
 pub use fbgforge_synth as synth;
 pub use fbgforge_verify as verify;
@@ -40,6 +43,7 @@ pub use fbgforge_live;
 pub use fbgforge_model;
 pub use fbgforge_optimize;
 pub use fbgforge_plot;
+pub use fbgforge_publish;
 pub use fbgforge_report;
 pub use fbgforge_synth;
 pub use fbgforge_verify;

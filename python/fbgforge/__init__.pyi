@@ -182,6 +182,9 @@ class LiveFrame(Result):
     delta_t_k: Optional[float]
     latency_us: float
     age_us: float
+    below_tare: bool
+    peaks_nm: FloatArray
+    shifts_pm: FloatArray
     values: FloatArray
     def __getattr__(self, name: str) -> Any: ...
 
@@ -189,9 +192,11 @@ class LiveStream(Iterator[LiveFrame]):
     info: Optional[Dict[str, Any]]
     bad: List[Tuple[str, str]]
     events: List[Tuple[str, str]]
+    tares: List[Dict[str, Any]]
     summary: Optional[Dict[str, Any]]
     def __iter__(self) -> "LiveStream": ...
     def __next__(self) -> LiveFrame: ...
+    def tare(self) -> None: ...
     def close(self) -> None: ...
     def __enter__(self) -> "LiveStream": ...
     def __exit__(self, *exc: Any) -> bool: ...
@@ -348,6 +353,8 @@ def live(
     source: PathLike,
     *,
     tare_frames: int = 50,
+    tare_s: float = 1.0,
+    tare_wait_s: float = 30.0,
     window_nm: Optional[float] = None,
     method: Optional[str] = None,
     resolution_pm: float = 0.5,
@@ -366,5 +373,6 @@ def live(
     frames: Optional[int] = None,
     duration_s: Optional[float] = None,
     queue: int = 8192,
+    realtime: bool = False,
     raise_on_lost: bool = True,
 ) -> LiveStream: ...

@@ -15,15 +15,19 @@ __all__ = ["live", "LiveStream"]
 class LiveStream:
     """A live stream being read: iterate for :class:`LiveFrame` readings.
 
-    Bad frames, connection events and the summary are kept on the stream:
-    ``info`` (the start: design, outputs, method), ``bad`` (``(kind, message)`` per
-    bad frame), ``events`` (``(event, message)``: connected, disconnected,
-    reconnected, clock), ``summary`` once the stream has ended. Use it as a context
-    manager, or call :meth:`close`, to stop early.
+    Bad frames, connection events, tare changes and the summary are kept on the
+    stream: ``info`` (the start: design, outputs, method, tare settings), ``bad``
+    (``(kind, message)`` per bad frame), ``events`` (``(event, message)``: connected,
+    disconnected, reconnected, clock), ``tares`` (a dict per change of the tare:
+    ``state`` waiting / resting / refused, ``origin``, ``moving`` gratings,
+    ``baseline_nm``, ``message``), ``summary`` once the stream has ended. Call
+    :meth:`tare` to tare again while it runs; use it as a context manager, or call
+    :meth:`close`, to stop early.
 
-    When the source is lost (reconnecting given up, the log unreadable) the iteration
-    ends with :class:`InstrumentLostError` (a ``ConnectionError``) carrying the
-    summary, unless ``raise_on_lost=False`` was given to :func:`live`.
+    The iteration stops when the stream ends: a file read to its end, a finite stream
+    that says it ended, a limit. When the source is lost (reconnecting given up, the
+    log deleted) it ends with :class:`InstrumentLostError` (a ``ConnectionError``)
+    carrying the summary, unless ``raise_on_lost=False`` was given to :func:`live`.
     """
 
     def __init__(self, inner, raise_on_lost):
@@ -32,6 +36,7 @@ class LiveStream:
         self.info = None
         self.bad = []
         self.events = []
+        self.tares = []
         self.summary = None
         self._outputs = None
 
@@ -53,6 +58,8 @@ class LiveStream:
             self.bad.append(tuple(payload))
         elif kind == "event":
             self.events.append(tuple(payload))
+        elif kind == "tare":
+            self.tares.append(payload)
         elif kind == "summary":
             self.summary = payload
             if payload.get("source_lost") and self._raise:
@@ -64,6 +71,11 @@ class LiveStream:
             if kind == "frame":
                 return LiveFrame(payload, self._outputs)
             self._take(kind, payload)
+
+    def tare(self):
+        """Tare again: the frames are not read until the sensor has been at rest for
+        a tare window (``tares`` records the change, origin ``"python"``)."""
+        self._inner.tare()
 
     def close(self):
         """Stop reading (the summary is still given by the next iteration)."""
@@ -82,6 +94,8 @@ def live(
     source,
     *,
     tare_frames=50,
+    tare_s=1.0,
+    tare_wait_s=30.0,
     window_nm=None,
     method=None,
     resolution_pm=0.5,
@@ -100,6 +114,7 @@ def live(
     frames=None,
     duration_s=None,
     queue=8192,
+    realtime=False,
     raise_on_lost=True,
 ):
     """Read a running interrogator stream frame by frame: an iterator of readings.
@@ -112,8 +127,14 @@ def live(
         A log file being written (ENLIGHT, I-MON, CSV), ``"-"`` for standard input,
         or ``"hyperion://HOST[:PORT]"`` / ``"tcp://HOST:PORT"``.
     tare_frames : int, default 50
-        Frames averaged as the zero-load baseline (0: the design's nominal
-        wavelengths).
+        Frames the tare window holds at least (0: no tare, shifts from the design's
+        nominal wavelengths). The tare is taken only from a window in which every
+        grating's spread and trend are within ``resolution_pm``.
+    tare_s : float, default 1.0
+        Frame time the tare window spans at least, s.
+    tare_wait_s : float, default 30
+        After the first full window, how long to wait for one at rest before
+        refusing to read (naming the moving gratings) until :meth:`LiveStream.tare`.
     window_nm, method, resolution_pm, budget_us : optional
         As for :func:`reconstruct` and ``fbgforge live``.
     core, case, insert, fidelity : optional
@@ -130,7 +151,11 @@ def live(
     frames, duration_s : optional
         Stop after this many readings, or this long (s).
     queue : int, default 8192
-        Frames the queue holds before frames are dropped (and counted).
+        Frames the queue holds: an instrument's frames that find it full are
+        dropped (and counted); a file or standard input waits (none is lost).
+    realtime : bool, default False
+        Read a file or standard input at the pace it comes, dropping (and
+        counting) frames that find the queue full.
     raise_on_lost : bool, default True
         End with :class:`InstrumentLostError` when the source is lost.
 
@@ -146,10 +171,12 @@ def live(
     ...     s = fbgforge.synth_log("designs/clip-on-34mm.toml", tmp, format="csv", rate_hz=10)
     ...     rows = fbgforge.read_log(s.log).rows
     ...     stream = fbgforge.live("designs/clip-on-34mm.toml", s.log, from_start=True,
-    ...                            idle_exit_s=0.3, tare_frames=10)
+    ...                            idle_exit_s=0.3, tare_frames=10, tare_s=0.5)
     ...     forces = [frame.forces_n for frame in stream]
-    >>> len(forces) == rows - 10, stream.summary["source_lost"]
+    >>> len(forces) + stream.summary["tare_frames"] == rows, stream.summary["source_lost"]
     (True, False)
+    >>> stream.tares[-1]["state"], stream.summary["dropped"]["total"]
+    ('resting', 0)
     """
     src = os.fspath(source) if isinstance(source, os.PathLike) else str(source)
     with design_file(design) as dpath:
@@ -157,6 +184,8 @@ def live(
             dpath,
             src,
             int(tare_frames),
+            float(tare_s),
+            float(tare_wait_s),
             window_nm,
             method,
             float(resolution_pm),
@@ -175,6 +204,7 @@ def live(
             frames,
             duration_s,
             int(queue),
+            bool(realtime),
         )
         stream = LiveStream(inner, raise_on_lost)
         # A temporary copy of the design must outlive the run's start: the run's

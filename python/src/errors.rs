@@ -47,6 +47,7 @@ pub const PARAMS: &[(&str, &str)] = &[
     ("InterpretOptions.window_half_width_nm", "window_nm"),
     ("LiveRequest.max_frames", "frames"),
     ("LiveRequest.queue_frames", "queue"),
+    ("LiveRequest.source", "source"),
     // optimize
     ("ModuleSettings.min_fit_clearance_mm", "min_clearance_mm"),
 ];

@@ -1,14 +1,18 @@
 //! The live mode from Python: `fbgforge::live::run` on its own thread, its sink
-//! handing each start, reading, bad frame, event and the summary to Python through a
-//! bounded channel. A Python consumer slower than the stream makes the run's own queue
-//! overflow, where the dropped frames are counted, exactly as a slow terminal would.
+//! handing each start, reading, tare change, bad frame, event and the summary to
+//! Python through a bounded channel. A Python consumer slower than an instrument makes
+//! the run's own queue overflow, where the dropped frames are counted, exactly as a
+//! slow terminal would; a file is read whole (unless `realtime`). `tare()` asks the
+//! run to tare again, `stop()` ends it (`fbgforge::live::control::LiveControl`).
 
 use crate::convert::{to_py, to_py_words};
 use crate::errors::{self, err_named, input, must_exist};
+use fbgforge::live::control::LiveControl;
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions, Reading};
 use fbgforge::live::sink::{FrameReading, LiveInfo, LiveSink};
 use fbgforge::live::source::{SourceOptions, SourceSpec};
 use fbgforge::live::stats::LiveSummary;
+use fbgforge::live::tare::TareChange;
 use fbgforge::live::LiveRequest;
 use numpy::ndarray::Array1;
 use numpy::IntoPyArray;
@@ -17,7 +21,6 @@ use pyo3::types::PyDict;
 use std::collections::BTreeMap;
 use std::io;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -26,6 +29,7 @@ use std::time::Duration;
 enum Message {
     Start(LiveInfo),
     Reading(FrameReading),
+    Tare(TareChange),
     Bad(String, String),
     Event(String, String),
     Done(Result<LiveSummary, String>),
@@ -49,6 +53,12 @@ impl LiveSink for ChannelSink {
     fn reading(&mut self, r: &FrameReading) -> io::Result<()> {
         self.send(Message::Reading(r.clone()))
     }
+    fn tare(&mut self, change: &TareChange) -> io::Result<()> {
+        self.send(Message::Tare(TareChange {
+            message: errors::py_words(&change.message),
+            ..change.clone()
+        }))
+    }
     fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
         self.send(Message::Bad(kind.into(), errors::py_words(message)))
     }
@@ -61,7 +71,7 @@ impl LiveSink for ChannelSink {
 #[pyclass(module = "fbgforge._fbgforge")]
 pub struct LiveStream {
     rx: Mutex<Option<Receiver<Message>>>,
-    stop: Arc<AtomicBool>,
+    control: Arc<LiveControl>,
 }
 
 /// One reading as a dict: numbers as floats (NaN where a peak was missing), the
@@ -71,6 +81,15 @@ fn reading_dict<'py>(py: Python<'py>, r: &FrameReading) -> PyResult<Bound<'py, P
     d.set_item("serial", r.serial)?;
     d.set_item("time_s", r.time_s.unwrap_or(f64::NAN))?;
     d.set_item("age_us", r.age_us.unwrap_or(f64::NAN))?;
+    d.set_item(
+        "peaks_nm",
+        Array1::from(r.peaks_nm.clone()).into_pyarray(py),
+    )?;
+    d.set_item(
+        "shifts_pm",
+        Array1::from(r.shifts_pm.clone()).into_pyarray(py),
+    )?;
+    d.set_item("flag_words", r.flag_words())?;
     match &r.reading {
         Reading::Loads { loads_g, .. } => {
             d.set_item("loads_g", Array1::from(loads_g.clone()).into_pyarray(py))?;
@@ -112,7 +131,7 @@ impl LiveStream {
                 Ok(m) => break m,
                 Err(RecvTimeoutError::Timeout) => {
                     if let Err(e) = py.check_signals() {
-                        self.stop.store(true, Ordering::Relaxed);
+                        self.control.stop_because("interrupted in Python");
                         *guard = Some(rx);
                         return Err(e);
                     }
@@ -127,6 +146,7 @@ impl LiveStream {
         let item = match msg {
             Message::Start(info) => ("start", to_py(py, &info)?),
             Message::Reading(r) => ("frame", reading_dict(py, &r)?),
+            Message::Tare(c) => ("tare", to_py(py, &c)?),
             Message::Bad(k, m) => ("bad", (k, m).into_pyobject(py)?.into_any()),
             Message::Event(k, m) => ("event", (k, m).into_pyobject(py)?.into_any()),
             Message::Done(Ok(summary)) => ("summary", to_py_words(py, &summary)?),
@@ -139,27 +159,34 @@ impl LiveStream {
 
     /// Stop the watch (its summary still follows).
     fn stop(&self) {
-        self.stop.store(true, Ordering::Relaxed);
+        self.control.stop_because("stopped from Python");
+    }
+
+    /// Tare again: the frames are not read until a window is at rest.
+    fn tare(&self) {
+        self.control.request_tare("python");
     }
 }
 
 impl Drop for LiveStream {
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
+        self.control.stop_because("the Python stream was dropped");
     }
 }
 
 /// Start watching a stream (see `fbgforge.live`).
 #[pyfunction]
-#[pyo3(signature = (design_path, source, tare_frames, window_nm, method, resolution_pm,
-    budget_us, core, case, insert, fidelity, k, calibration, format, date_order,
-    from_start, idle_exit_s, give_up_s, frames, duration_s, queue))]
+#[pyo3(signature = (design_path, source, tare_frames, tare_s, tare_wait_s, window_nm, method,
+    resolution_pm, budget_us, core, case, insert, fidelity, k, calibration, format, date_order,
+    from_start, idle_exit_s, give_up_s, frames, duration_s, queue, realtime))]
 #[allow(clippy::too_many_arguments)]
 pub fn live_stream(
     py: Python<'_>,
     design_path: PathBuf,
     source: &str,
     tare_frames: usize,
+    tare_s: f64,
+    tare_wait_s: f64,
     window_nm: Option<f64>,
     method: Option<String>,
     resolution_pm: f64,
@@ -178,6 +205,7 @@ pub fn live_stream(
     frames: Option<u64>,
     duration_s: Option<f64>,
     queue: usize,
+    realtime: bool,
 ) -> PyResult<LiveStream> {
     if let Some((g, v)) = k.iter().find(|(_, v)| !(v.is_finite() && **v != 0.0)) {
         return Err(input(
@@ -200,9 +228,14 @@ pub fn live_stream(
         give_up_s,
     };
     let spec = SourceSpec::parse(source, options).map_err(|e| err_named(py, e, &[]))?;
+    if let Some(p) = spec.path() {
+        must_exist(py, p, "source")?;
+    }
     let mut req = LiveRequest::new(design_path, spec);
     req.interpret = InterpretOptions {
         tare_frames,
+        tare_s,
+        tare_wait_s,
         window_half_width_nm: window_nm,
         core,
         case: crate::parse_case(py, case)?,
@@ -216,18 +249,19 @@ pub fn live_stream(
     req.max_frames = frames;
     req.duration_s = duration_s;
     req.queue_frames = queue;
+    req.realtime = realtime;
     // Refused here, before the run's thread starts, as a bad value of this call.
     req.validate().map_err(|e| err_named(py, e, &[]))?;
     let (tx, rx) = sync_channel(1024);
-    let stop = Arc::new(AtomicBool::new(false));
-    let thread_stop = stop.clone();
+    let control = Arc::new(LiveControl::new());
+    let run_control = control.clone();
     std::thread::spawn(move || {
         let mut sink = ChannelSink(tx);
-        let done = fbgforge::live::run(&req, &mut sink, &thread_stop).map_err(|e| format!("{e:#}"));
+        let done = fbgforge::live::run(&req, &mut sink, &run_control).map_err(|e| format!("{e:#}"));
         let _ = sink.send(Message::Done(done));
     });
     Ok(LiveStream {
         rx: Mutex::new(Some(rx)),
-        stop,
+        control,
     })
 }

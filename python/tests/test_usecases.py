@@ -101,7 +101,8 @@ def write_growing_csv(path, rows):
 def test_live_frames_are_an_iterator_of_readings(tmp_path):
     log = tmp_path / "log.csv"
     write_growing_csv(log, 40)
-    with fbgforge.live(ARRAY, log, from_start=True, idle_exit_s=0.3, tare_frames=10) as stream:
+    # At rest for its first 10 rows (0.09 s): a tare of 10 frames with no minimum time.
+    with fbgforge.live(ARRAY, log, from_start=True, idle_exit_s=0.3, tare_frames=10, tare_s=0.0) as stream:
         frames = list(stream)
     assert stream.info["kind"] == "array" and stream.info["outputs"] == list("ABCDEFGH")
     assert len(frames) == 30 and stream.summary["frames_out"] == 30 and stream.summary["tare_frames"] == 10
@@ -111,32 +112,64 @@ def test_live_frames_are_an_iterator_of_readings(tmp_path):
         assert np.isnan(f.age_us)  # a relative clock: no age
     assert stream.summary["source_lost"] is False
     # A limit ends it early, with the same readings.
-    first = list(fbgforge.live(ARRAY, log, from_start=True, idle_exit_s=5, tare_frames=10, frames=5))
+    first = list(fbgforge.live(ARRAY, log, from_start=True, idle_exit_s=5, tare_frames=10, tare_s=0.0, frames=5))
     assert len(first) == 5 and np.allclose(first[0].loads_g, frames[0].loads_g)
 
 
-def test_live_reads_a_simulated_hyperion_and_reports_a_lost_instrument(cli, tmp_path):
-    script = tmp_path / "script.csv"
-    script.write_text("hold_s,A,B,C,D,E,F,G,H\n0.2,0,0,0,0,0,0,0,0\n10,0,100,0,0,0,0,0,0\n")
+def synth_server(cli, script, duration_s):
     server = subprocess.Popen(
-        [cli.exe, "synth-stream", str(ARRAY), "--port", "0", "--script", str(script), "--duration-s", "3",
+        [cli.exe, "synth-stream", str(ARRAY), "--port", "0", "--script", str(script), "--duration-s", duration_s,
          "--noise", "none", "--frame-clock", "client", "--json"],
         stdout=subprocess.PIPE, text=True,
     )
+    port = int(re.search(r":(\d+)", server.stdout.readline()).group(1))
+    return server, port
+
+
+def test_live_reads_a_simulated_hyperion_re_tares_and_stops_at_its_end(cli, tmp_path):
+    script = tmp_path / "script.csv"
+    script.write_text("hold_s,A,B,C,D,E,F,G,H\n0.2,0,0,0,0,0,0,0,0\n10,0,100,0,0,0,0,0,0\n")
+    server, port = synth_server(cli, script, "3")
     try:
-        port = int(re.search(r":(\d+)", server.stdout.readline()).group(1))
-        stream = fbgforge.live(ARRAY, f"tcp://127.0.0.1:{port}", tare_frames=100, give_up_s=0.5)
+        # The script rests 0.2 s: a tare window of 100 frames with no minimum time.
+        stream = fbgforge.live(ARRAY, f"tcp://127.0.0.1:{port}", tare_frames=100, tare_s=0.0, give_up_s=0.5)
+        frames = []
+        for f in stream:  # the stream's own end stops the iterator: no exception
+            frames.append(f)
+            if len(frames) == 1000:
+                stream.tare()  # under the steady 100 g: the new zero is the load
+        assert stream.summary["source_lost"] is False and "end of stream" in stream.summary["ended"]
+        assert stream.summary["frames_out"] == len(frames) and stream.summary["tare_requests"] == 1
+        states = [(t["state"], t["origin"]) for t in stream.tares]
+        assert states[0] == ("resting", "start") and ("waiting", "python") in states
+        assert states[-1] == ("resting", "python")
+        retared = stream.tares[-1]["frame"]
+        loaded = [f for f in frames if f.serial >= 250 and f.frame <= 1000]
+        assert loaded and all(abs(f.loads_g[1] - 100.0) < 2.0 for f in loaded)
+        after = [f for f in frames if f.frame > retared]
+        assert after and all(abs(f.loads_g[1]) < 2.0 for f in after)
+        # The instrument's clock is this machine's: the age is measured.
+        assert all(np.isfinite(f.age_us) for f in frames)
+        assert ("connected", f"hyperion 127.0.0.1:{port}") in stream.events
+    finally:
+        server.kill()
+        server.wait()
+
+
+def test_live_reports_a_lost_instrument(cli, tmp_path):
+    script = tmp_path / "script.csv"
+    script.write_text("hold_s,A,B,C,D,E,F,G,H\n0.2,0,0,0,0,0,0,0,0\n10,0,100,0,0,0,0,0,0\n")
+    server, port = synth_server(cli, script, "60")
+    try:
+        stream = fbgforge.live(ARRAY, f"tcp://127.0.0.1:{port}", tare_frames=100, tare_s=0.0, give_up_s=0.5)
         frames = []
         with pytest.raises(fbgforge.InstrumentLostError) as e:
             for f in stream:
                 frames.append(f)
+                if len(frames) == 50:
+                    server.kill()  # gone without a word: lost, not ended
         assert isinstance(e.value, ConnectionError) and "gave up reconnecting" in str(e.value)
-        assert e.value.summary["source_lost"] is True and stream.summary["frames_out"] == len(frames)
-        loaded = [f for f in frames if f.serial >= 250]
-        assert loaded and all(abs(f.loads_g[1] - 100.0) < 2.0 for f in loaded)
-        # The instrument's clock is this machine's: the age is measured.
-        assert all(np.isfinite(f.age_us) for f in frames)
-        assert ("connected", f"hyperion 127.0.0.1:{port}") in stream.events
+        assert e.value.summary["source_lost"] is True
     finally:
         server.kill()
         server.wait()

@@ -50,10 +50,16 @@ mod tests {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates");
         let mut files = Vec::new();
         rust_files(&root, &mut files);
-        let listed: BTreeSet<&str> = FLAGS.iter().flat_map(|t| t.iter().map(|(f, _)| *f)).collect();
+        let listed: BTreeSet<&str> = FLAGS
+            .iter()
+            .flat_map(|t| t.iter().map(|(f, _)| *f))
+            .collect();
         let mut missing = BTreeSet::new();
         // fields.rs names example fields in its own tests and docs.
-        for f in files.iter().filter(|f| !f.ends_with("fbgforge-core/src/fields.rs")) {
+        for f in files
+            .iter()
+            .filter(|f| !f.ends_with("fbgforge-core/src/fields.rs"))
+        {
             let text = std::fs::read_to_string(f).unwrap();
             for line in text.lines() {
                 let code = line.trim_start();
@@ -67,6 +73,9 @@ mod tests {
                 }
             }
         }
-        assert!(missing.is_empty(), "fields without a flag in cli::hiargs: {missing:#?}");
+        assert!(
+            missing.is_empty(),
+            "fields without a flag in cli::hiargs: {missing:#?}"
+        );
     }
 }

@@ -2,22 +2,26 @@
 //! frame by frame (the work is `fbgforge::live::run`), and a simulated Hyperion on
 //! loopback to test it against (`fbgforge::synth::stream::serve`).
 
+mod steer;
+
 use super::predict::{CaseArg, FidelityArg};
 use super::verify::{read_options, DateOrderArg, LogFormatArg};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
+use fbgforge::live::control::LiveControl;
 use fbgforge::live::interpret::{calibration_from_verify_json, InterpretOptions};
 use fbgforge::live::sink::LiveSink;
 use fbgforge::live::source::{SourceOptions, SourceSpec};
 use fbgforge::live::{self, LiveRequest};
 use fbgforge::model::LoadCase;
+use fbgforge::report::live::publish::{McapSink, WebSink};
+use fbgforge::report::live::record::{shifts_path, RecordSink};
 use fbgforge::report::live::{summary_text_in, JsonlSink, TerminalSink};
 use fbgforge::synth::stream::{self as synth, FrameClock, SynthNoise, SynthRequest};
 use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// These subcommands' request fields and the flags that fill them (`cli::hiargs`).
@@ -27,6 +31,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("LiveRequest.duration_s", "--duration-s"),
     ("LiveRequest.max_frames", "--frames"),
     ("LiveRequest.queue_frames", "--queue"),
+    ("LiveRequest.realtime", "--realtime"),
     ("SourceOptions.give_up_s", "--give-up-s"),
     ("SourceOptions.idle_exit_s", "--idle-exit-s"),
     ("SourceOptions.from_start", "--from-start"),
@@ -38,6 +43,8 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("InterpretOptions.budget_us", "--budget-us"),
     ("InterpretOptions.window_half_width_nm", "--window-nm"),
     ("InterpretOptions.tare_frames", "--tare-frames"),
+    ("InterpretOptions.tare_s", "--tare-s"),
+    ("InterpretOptions.tare_wait_s", "--tare-wait-s"),
     // synth-stream
     ("SynthRequest.rate_hz", "--rate-hz"),
     ("SynthRequest.duration_s", "--duration-s"),
@@ -95,16 +102,24 @@ impl From<FrameClockArg> for FrameClock {
 
 /// Exit status of `fbgforge live` when the source was lost: reconnecting (or
 /// connecting) to the instrument was given up after `--give-up-s`, or the followed log
-/// could no longer be read. A supervisor restarts on it; 0 is a clean end.
+/// could no longer be read (deleted while it was followed). A supervisor restarts on
+/// it; 0 is a clean end.
 pub const EXIT_SOURCE_LOST: u8 = 3;
 
 /// Arguments of `fbgforge live`.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Exit status: 0 when the stream was read to its end or a limit (--frames, \
---duration-s, --idle-exit-s, Ctrl-C); 1 for a bad request (design, options); 3 when the source \
-was lost: the instrument could not be (re)connected within --give-up-s, or the followed log \
-could no longer be read."
+    after_help = "Exit status: 0 when the run ended as asked or as its source did: the \
+stream's end (a file or standard input read to its end, --idle-exit-s, a finite stream \
+such as synth-stream ending), a limit (--frames, --duration-s), a stop (Ctrl-C, SIGTERM, \
+SIGHUP, q, a `stop` control line) or its output closed (a pipe whose reader ended); the \
+summary is printed in every case, on standard error where standard output is gone. 1 for \
+a bad request (design, options, a source file that does not exist). 3 when the source was \
+lost: the instrument could not be (re)connected within --give-up-s, or the followed log \
+could no longer be read (deleted).
+
+Keys in the terminal view (when standard input is a terminal): t tare again, q quit. \
+Control lines (--control): `tare`, `stop`."
 )]
 pub struct LiveArgs {
     /// Design spec (TOML): an array (cell loads) or a module (force per grating).
@@ -119,12 +134,41 @@ pub struct LiveArgs {
     /// terminal view.
     #[arg(long)]
     pub jsonl: bool,
-    /// Frames averaged as the zero-load baseline; keep the sensor unloaded meanwhile.
+    /// Frames the tare window holds at least (at least 8); the tare is taken only when
+    /// every grating's spread and trend over the window are within --resolution-pm.
     #[arg(long, default_value_t = 50)]
     pub tare_frames: usize,
+    /// Frame time the tare window spans at least, s.
+    #[arg(long, default_value_t = 1.0)]
+    pub tare_s: f64,
+    /// After the first full tare window, wait this long for one at rest, s; then refuse
+    /// to show loads (naming the moving gratings) until a re-tare.
+    #[arg(long, default_value_t = 30.0)]
+    pub tare_wait_s: f64,
     /// Take shifts from the design's nominal wavelengths instead of a tare.
     #[arg(long, conflicts_with = "tare_frames")]
     pub no_tare: bool,
+    /// Record the raw peaks (each grating's wavelength, nm, the frame serials, the tare
+    /// and every re-tare marked) as a CSV log that verify, calibrate-array and live read
+    /// back; an array also writes STEM.shifts.csv for reconstruct --shifts.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// Record ROS 2 messages (CDR) in an MCAP file: a module's force per core on
+    /// /fbgforge/<core>/wrench, an array's cells and contact, peaks, flags, tare.
+    #[arg(long, value_name = "FILE")]
+    pub mcap: Option<PathBuf>,
+    /// Serve a browser view on HOST:PORT (e.g. 127.0.0.1:8642; port 0 picks one): the
+    /// heat map or force traces, flags and tare state, updated live.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub serve: Option<String>,
+    /// Read control lines (`tare`, `stop`) from this file or named pipe as they are
+    /// written, or `-` for standard input (when the frames do not come from it).
+    #[arg(long, value_name = "FILE")]
+    pub control: Option<String>,
+    /// A file or standard input: read at the pace it comes, dropping (and counting)
+    /// frames that find the queue full, as for an instrument. Default: every frame.
+    #[arg(long)]
+    pub realtime: bool,
     /// Half-width of each grating's wavelength window, nm (default: half the smallest
     /// spacing, at most 2.5 nm).
     #[arg(long)]
@@ -184,7 +228,8 @@ pub struct LiveArgs {
     /// Stop after this long, s.
     #[arg(long)]
     pub duration_s: Option<f64>,
-    /// Frames the queue holds before frames are dropped (and counted).
+    /// Frames the queue holds: an instrument's frames that find it full are dropped
+    /// (and counted); a file or standard input waits, unless --realtime.
     #[arg(long, default_value_t = 8192)]
     pub queue: usize,
 }
@@ -211,19 +256,17 @@ fn case(c: Option<CaseArg>) -> Option<LoadCase> {
     c.map(LoadCase::from)
 }
 
-/// Stop on Ctrl-C (the summary is still printed).
-fn stop_flag() -> Arc<AtomicBool> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = stop.clone();
-    // Failing to install the handler only loses the summary on Ctrl-C.
-    let _ = ctrlc::set_handler(move || s.store(true, Ordering::Relaxed));
-    stop
+/// Stop on SIGINT (Ctrl-C), SIGTERM and SIGHUP: the run ends with its summary.
+fn stop_on_signals(control: &Arc<LiveControl>) {
+    let c = control.clone();
+    // Failing to install the handler only loses the summary on a signal.
+    let _ = ctrlc::set_handler(move || {
+        c.stop_because("stopped by a signal (SIGINT, SIGTERM or SIGHUP)")
+    });
 }
 
-/// Run `fbgforge live`. Exit status 0 when the stream was read to its end or a limit
-/// (bad and dropped frames are reported, not fatal), [`EXIT_SOURCE_LOST`] when the
-/// source was lost.
-pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
+/// The request from the flags.
+fn live_request(a: &LiveArgs) -> Result<LiveRequest> {
     let source = SourceSpec::parse(
         &a.from,
         SourceOptions {
@@ -241,6 +284,8 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
     let mut req = LiveRequest::new(a.design.clone(), source);
     req.interpret = InterpretOptions {
         tare_frames: if a.no_tare { 0 } else { a.tare_frames },
+        tare_s: a.tare_s,
+        tare_wait_s: a.tare_wait_s,
         window_half_width_nm: a.window_nm,
         core: a.core.clone(),
         case: case(a.case),
@@ -254,22 +299,83 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
     req.max_frames = a.frames;
     req.duration_s = a.duration_s;
     req.queue_frames = a.queue;
-    let stop = stop_flag();
+    req.realtime = a.realtime;
+    req.validate()?;
+    Ok(req)
+}
+
+/// The outputs besides the view: the record, the MCAP file, the browser view. Each
+/// fails here, naming its file or address, before the run starts.
+fn extra_sinks(a: &LiveArgs) -> Result<Vec<Box<dyn LiveSink>>> {
+    let mut sinks: Vec<Box<dyn LiveSink>> = Vec::new();
+    if let Some(p) = &a.record {
+        sinks.push(Box::new(RecordSink::create(p).map_err(|e| {
+            anyhow::anyhow!("--record: cannot write {}: {e}", p.display())
+        })?));
+    }
+    if let Some(p) = &a.mcap {
+        sinks.push(Box::new(McapSink::create(p).map_err(|e| {
+            anyhow::anyhow!("--mcap: cannot write {}: {e}", p.display())
+        })?));
+    }
+    if let Some(addr) = &a.serve {
+        let view = fbgforge::publish::serve(addr.as_str())
+            .map_err(|e| anyhow::anyhow!("--serve {addr}: cannot listen: {e}"))?;
+        let web = WebSink::new(view);
+        eprintln!("browser view: {}", web.url());
+        sinks.push(Box::new(web));
+    }
+    Ok(sinks)
+}
+
+/// Run `fbgforge live`. Exit status 0 when the run ended as asked or as its source did
+/// (bad and dropped frames are reported, not fatal), [`EXIT_SOURCE_LOST`] when the
+/// source was lost.
+pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
+    let req = live_request(&a)?;
+    let control = Arc::new(LiveControl::new());
+    if let Some(c) = &a.control {
+        if c == "-" && a.from == "-" {
+            bail!("--control -: standard input already carries the frames (--from -); give the control a file or named pipe");
+        }
+        steer::control_input(c, &control)?;
+    }
+    let extra = extra_sinks(&a)?;
+    // A closed output is an error to write to, not a kill: the run ends with its
+    // summary (on standard error) and its files finished.
+    steer::ignore_sigpipe();
+    stop_on_signals(&control);
     let stdout = std::io::stdout();
-    let mut sink: Box<dyn LiveSink> = if a.jsonl {
+    let tty = stdout.is_terminal();
+    let keys = !a.jsonl && tty && a.from != "-" && a.control.as_deref() != Some("-");
+    let _keys = if keys { steer::keys(&control) } else { None };
+    let view: Box<dyn LiveSink> = if a.jsonl {
         Box::new(JsonlSink::new(std::io::BufWriter::new(stdout.lock())).with_words(in_flag_words))
     } else {
-        let tty = stdout.is_terminal();
         Box::new(
             TerminalSink::new(std::io::BufWriter::new(stdout.lock()), tty)
-                .with_words(in_flag_words),
+                .with_words(in_flag_words)
+                .with_keys(_keys.is_some()),
         )
     };
-    let summary = live::run(&req, sink.as_mut(), &stop)?;
-    drop(sink);
-    if a.jsonl {
-        // The summary is the last JSON line; say it for a person too.
+    let mut sinks: Vec<Box<dyn LiveSink>> = vec![view];
+    sinks.extend(extra);
+    let summary = live::run(&req, &mut sinks, &control)?;
+    drop(sinks);
+    drop(_keys);
+    if a.jsonl || summary.output_closed {
+        // The summary is the last JSON line, or standard output is gone: say it for a
+        // person on standard error.
         eprintln!("{}", summary_text_in(&summary, in_flag_words));
+    }
+    if let Some(p) = &a.record {
+        if p.exists() {
+            eprintln!("recorded the peaks in {}", p.display());
+            let shifts = shifts_path(p);
+            if shifts.exists() {
+                eprintln!("recorded the shifts in {}", shifts.display());
+            }
+        }
     }
     if summary.source_lost {
         return Ok(ExitCode::from(EXIT_SOURCE_LOST));

@@ -11,6 +11,7 @@ pub mod fe_speed;
 pub mod fem;
 pub mod fem_compare;
 pub mod fem_contact;
+pub mod live_starts;
 pub mod optimize;
 pub mod predict;
 /// Terminal bars: the binary's own implementation of the library's `Progress`.

@@ -26,6 +26,9 @@ enum Study {
     /// Contact readings of the module and the unilateral contact solver: Hertz, K(F)
     /// and the knee, timing, the contact radii consistent with the paper.
     Contact(studies::fem_contact::ContactStudyArgs),
+    /// Live starts at any moment of a load script: confidently wrong loads shown by
+    /// the tare at rest, the tare of the first 50 frames and an oracle tare.
+    LiveStarts(studies::live_starts::LiveStartsArgs),
     /// Optimiser convergence time per design and solver.
     Optimize(studies::optimize::BenchOptimizeArgs),
     /// Closed-form prediction time per design.
@@ -45,6 +48,7 @@ fn main() -> ExitCode {
         Study::FeSpeed(a) => studies::fe_speed::run(&a),
         Study::Fem(a) => studies::fem::run(&a),
         Study::Contact(a) => studies::fem_contact::run(&a),
+        Study::LiveStarts(a) => studies::live_starts::run(&a),
         Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),

@@ -354,3 +354,40 @@ fn sheet_study_quick_compares_with_the_paper_and_times_the_matrix() {
     let trends = std::fs::read_to_string(dir.path().join("trends.csv")).unwrap();
     assert_eq!(trends.lines().count(), 3);
 }
+
+#[test]
+fn live_starts_study_quick_reads_only_after_a_tare_window_and_its_oracle_is_right() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::live_starts::LiveStartsArgs {
+        array: root().join("designs/tactile-array-60x80.toml"),
+        module: root().join("designs/clip-on-34mm.toml"),
+        scenarios: 4,
+        seed: 1,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    fbgforge_studies::live_starts::run(&a).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("scenarios.csv")).unwrap();
+    let rows: Vec<Vec<String>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    // 2 designs × 4 scenarios × 3 policies.
+    assert_eq!(rows.len(), 24);
+    for r in &rows {
+        let first: Option<f64> = r[12].parse().ok();
+        match r[8].as_str() {
+            // The truth the generator used is the truth the study compares with: a
+            // tare on the true zero shows no confidently wrong load.
+            "oracle" => assert_eq!(r[11], "0", "{r:?}"),
+            // No reading before a whole tare window (1 s) has passed.
+            "at_rest" => assert!(first.is_none_or(|t| t >= 1.0 - 1e-9), "{r:?}"),
+            // The old tare reads from frame 51.
+            "first_50" => assert!(first.is_some_and(|t| (t - 0.050).abs() < 1e-9), "{r:?}"),
+            p => panic!("policy {p}"),
+        }
+    }
+    let s = read_json(&dir.path().join("summary.json"));
+    assert_eq!(s["totals"].as_array().unwrap().len(), 6);
+}

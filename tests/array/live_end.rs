@@ -1,7 +1,10 @@
 //! How a live run ends and what its clock says: a lost instrument ("gave up
-//! reconnecting") exits with its own status, apart from a clean end; the frames' age is
-//! measured only where the stream's clock is this machine's wall clock, so replaying an
-//! old log never reports an age of days.
+//! reconnecting") exits with its own status, apart from a clean end (a finite stream
+//! that says it ended, a file read to its end); the frames' age is measured only where
+//! the stream's clock is this machine's wall clock, so replaying an old log never
+//! reports an age of days. The other ends (replay without drops, signals, a closed
+//! pipe, a missing or deleted file, a malformed frame counted once) are in
+//! `live_stop.rs`.
 
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Write};
@@ -11,15 +14,18 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use crate::common;
 
+/// `live --jsonl` to its end. These logs are at rest from their first row: a tare
+/// window of their first frames (no minimum time) unless the test says otherwise.
 fn live(args: &[&str]) -> Output {
-    crate::common::bin()
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
+    let mut c = crate::common::bin();
+    c.current_dir(env!("CARGO_MANIFEST_DIR"))
         .arg("live")
         .args(args)
-        .arg("--jsonl")
-        .stdin(Stdio::null())
-        .output()
-        .expect("live runs")
+        .arg("--jsonl");
+    if !args.contains(&"--tare-s") {
+        c.args(["--tare-s", "0"]);
+    }
+    c.stdin(Stdio::null()).output().expect("live runs")
 }
 
 fn lines(o: &Output) -> Vec<Value> {
@@ -40,22 +46,19 @@ fn summary(o: &Output) -> Value {
 const LOST: i32 = 3;
 
 #[test]
-fn a_lost_instrument_exits_with_its_own_status_a_clean_end_with_0() {
+fn a_lost_instrument_exits_with_its_own_status_a_finite_stream_with_0() {
     let array = common::shipped_path("tactile-array-60x80.toml");
     let a = array.to_str().unwrap();
-    // A stream that serves for a while, then is gone for good: read, then lost.
-    let mut server = crate::common::bin()
-        .args(["synth-stream", a, "--port", "0", "--duration-s", "1"])
-        .args(["--frame-clock", "client", "--json"])
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    BufReader::new(server.stdout.as_mut().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    let port = first.trim().rsplit(':').next().unwrap().to_string();
-    let from = format!("tcp://127.0.0.1:{port}");
+    let start_server = |duration: &str| {
+        let mut stream = crate::common::bin();
+        stream
+            .args(["synth-stream", a, "--port", "0", "--duration-s", duration])
+            .args(["--frame-clock", "client", "--json"]);
+        crate::common::spawn_stream(stream)
+    };
+    // A finite stream that ends by its own duration and says so: a normal end, 0,
+    // every one of its 1000 frames read or taken into the tare.
+    let (mut server, from) = start_server("1");
     let o = live(&[
         a,
         "--from",
@@ -67,7 +70,47 @@ fn a_lost_instrument_exits_with_its_own_status_a_clean_end_with_0() {
     ]);
     server.wait().unwrap();
     let s = summary(&o);
-    assert_eq!(o.status.code(), Some(LOST), "{s}");
+    assert_eq!(o.status.code(), Some(0), "{s}");
+    assert_eq!(s["source_lost"], false);
+    assert!(
+        s["ended"].as_str().unwrap().contains("end of stream"),
+        "{s}"
+    );
+    assert_eq!(s["frames_in"], 1000, "{s}");
+    assert_eq!(s["reconnects"], 0, "{s}");
+    // The instrument killed mid-stream (no end said): reconnecting is given up after
+    // --give-up-s, status 3.
+    let (mut server, from) = start_server("60");
+    let mut c = crate::common::bin();
+    c.current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["live", a, "--from", &from, "--jsonl", "--give-up-s", "0.5"])
+        .args(["--tare-frames", "10", "--tare-s", "0"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    let mut child = c.spawn().unwrap();
+    // Once it reads frames, kill the instrument.
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut text = String::new();
+    let mut line = String::new();
+    while out.read_line(&mut line).unwrap() > 0 {
+        text.push_str(&line);
+        let frame = line.contains("\"type\":\"frame\"");
+        line.clear();
+        if frame {
+            break;
+        }
+    }
+    server.kill().unwrap();
+    server.wait().unwrap();
+    std::io::Read::read_to_string(&mut out, &mut text).unwrap();
+    let status = child.wait().unwrap();
+    let s: Value = text
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .rfind(|v| v["type"] == "summary")
+        .unwrap();
+    assert_eq!(status.code(), Some(LOST), "{s}");
     assert_eq!(s["source_lost"], true);
     assert!(
         s["ended"]
@@ -274,10 +317,12 @@ fn a_stream_clock_far_from_this_machine_s_is_named_once_and_not_aged() {
             .append(true)
             .open(&path)
             .unwrap();
-        for k in 0..25 {
+        // Rows keep coming for 4 s: a run that starts late still sees 25 new ones.
+        for k in 0..400 {
             f.write_all(enlight_row(&nominal, 1_742_479_426.0 + 0.01 * k as f64).as_bytes())
                 .unwrap();
             f.flush().unwrap();
+            std::thread::sleep(std::time::Duration::from_millis(10));
         }
     });
     let o = live(&[

@@ -3,6 +3,8 @@
 //! One test binary per area (issue 26: few binaries, one link each); each file below
 //! is one concern.
 
+#[path = "../common/chromium.rs"]
+mod chromium;
 #[path = "../common/mod.rs"]
 mod common;
 
@@ -13,6 +15,10 @@ mod array_scaling;
 mod array_trust;
 mod live;
 mod live_end;
+mod live_publish;
+mod live_record;
+mod live_stop;
+mod live_tare;
 mod sheet_cli;
 mod sheet_exact;
 mod sheet_paper;

@@ -3,8 +3,9 @@
 #![allow(dead_code)]
 
 use fbgforge::spec::Design;
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
 
 /// The `fbgforge` binary that `cargo test` built beside the tests, run from the
 /// repository's root (so shipped designs and fixtures resolve as a user types them).
@@ -12,6 +13,26 @@ pub fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_fbgforge"));
     c.current_dir(env!("CARGO_MANIFEST_DIR"));
     c
+}
+
+/// Start a `synth-stream` command (its standard output piped here) and read the
+/// address it prints first: the running child and `tcp://127.0.0.1:PORT`.
+pub fn spawn_stream(mut synth_stream: Command) -> (Child, String) {
+    let mut child = synth_stream
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("synth-stream starts");
+    let mut first = String::new();
+    BufReader::new(child.stdout.as_mut().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let port = first
+        .trim()
+        .rsplit(':')
+        .next()
+        .unwrap_or_default()
+        .to_string();
+    (child, format!("tcp://127.0.0.1:{port}"))
 }
 
 /// Path of a shipped design (`designs/<name>`), independent of the working directory.

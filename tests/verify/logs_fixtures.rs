@@ -132,7 +132,8 @@ fn plain_csv_with_comment_and_empty_cell() {
 
 #[test]
 fn force_stand_columns_units_and_clocks() {
-    let f = logs::read_force_log(&fixture("force_stand.csv"), &ForceReadOptions::default()).unwrap();
+    let f =
+        logs::read_force_log(&fixture("force_stand.csv"), &ForceReadOptions::default()).unwrap();
     assert_eq!(
         (f.time_column.as_str(), f.force_column.as_str()),
         ("RelTime", "force")
@@ -148,8 +149,11 @@ fn force_stand_columns_units_and_clocks() {
     assert_eq!(f.clock, Clock::Absolute);
     assert_eq!(f.time_s[2], epoch(2025, 4, 17, 15.0, 44.0, 56.0));
     // `Force [kN]` with decimal commas and `;` separators: converted to N.
-    let f =
-        logs::read_force_log(&fixture("force_kn_semicolon.csv"), &ForceReadOptions::default()).unwrap();
+    let f = logs::read_force_log(
+        &fixture("force_kn_semicolon.csv"),
+        &ForceReadOptions::default(),
+    )
+    .unwrap();
     assert_eq!(f.scale_to_n, 1000.0);
     assert_eq!(f.force_n, vec![0.0, 12.5, 25.0]);
     assert_eq!(f.time_s, vec![0.0, 0.5, 1.0]);
@@ -222,7 +226,9 @@ mod properties {
 }
 
 mod never_panics {
-    use fbgforge::logs::{parse_force_bytes, parse_wavelength_bytes, ForceReadOptions, ReadOptions};
+    use fbgforge::logs::{
+        parse_force_bytes, parse_wavelength_bytes, ForceReadOptions, ReadOptions,
+    };
     use proptest::prelude::*;
     use std::path::Path;
 

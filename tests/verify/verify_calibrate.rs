@@ -2,8 +2,8 @@
 //! made from; bad schedules are named.
 
 use crate::common;
-use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::array::calibrate::{self, Loading};
+use fbgforge::logs::{self, LogFormat, ReadOptions};
 use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
 use std::path::Path;
 
@@ -40,7 +40,9 @@ fn calibration_recovers_the_power_law_matrix_in_every_format() {
         .fold(0.0f64, |a, &b| a.max(b));
     assert!(max > 0.1 && max < 0.5, "{max}");
     let sched = schedule();
-    let log = fbgforge::synth::array_log::synth_calibration_log(&d, &truth, &sched, 10.0, 0.2, 0.01, 3).unwrap();
+    let log =
+        fbgforge::synth::array_log::synth_calibration_log(&d, &truth, &sched, 10.0, 0.2, 0.01, 3)
+            .unwrap();
     let cfg = SynthConfig {
         sample_rate_hz: 10.0,
         ..Default::default()
@@ -128,7 +130,9 @@ fn schedule_errors_name_the_line_and_the_cells() {
     let d = design();
     let truth = calibrate::power_law_matrix(&d).unwrap();
     let sched: Vec<Loading> = schedule().into_iter().filter(|l| l.cell != 5).collect();
-    let log = fbgforge::synth::array_log::synth_calibration_log(&d, &truth, &sched, 5.0, 0.1, 0.0, 1).unwrap();
+    let log =
+        fbgforge::synth::array_log::synth_calibration_log(&d, &truth, &sched, 5.0, 0.1, 0.0, 1)
+            .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cal.csv");
     synth::write_log(

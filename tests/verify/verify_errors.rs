@@ -4,8 +4,8 @@
 use crate::common;
 use fbgforge::logs::{self, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::model::{GratingPrediction, LoadCase};
-use fbgforge::verify::analysis::{analyse, AnalysisOptions};
 use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
+use fbgforge::verify::analysis::{analyse, AnalysisOptions};
 use fbgforge::verify::verdict::{verdicts, Status};
 use std::path::Path;
 

@@ -5,8 +5,8 @@
 
 use crate::common;
 use fbgforge::logs::{self, ForceReadOptions, LogFormat, ReadOptions};
-use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
 use fbgforge::synth::module_log::{self as synth, LogStyle, PulseShape, SynthConfig, SynthTruth};
+use fbgforge::verify::analysis::{analyse, AnalysisOptions, Measurement};
 
 fn design() -> fbgforge::spec::Design {
     common::shipped("clip-on-34mm.toml")

@@ -2,8 +2,8 @@
 
 use crate::common;
 use fbgforge::logs::{self, ForceReadOptions, LogFormat, ReadOptions};
-use fbgforge::verify::analysis::{analyse, AnalysisOptions, BoundKind, Measurement};
 use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig, SynthTruth};
+use fbgforge::verify::analysis::{analyse, AnalysisOptions, BoundKind, Measurement};
 
 fn design() -> fbgforge::spec::Design {
     common::shipped("clip-on-34mm.toml")

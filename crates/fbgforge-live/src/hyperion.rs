@@ -70,10 +70,20 @@ pub enum FrameError {
         message: String,
     },
     /// The content is not a well-formed peaks frame (framing intact, frame lost).
-    Malformed(String),
+    Malformed {
+        /// What is wrong.
+        message: String,
+        /// The frame's serial number, when its header could be read: the frame is
+        /// then counted once, as bad, and not again as a gap in the serials.
+        serial: Option<u64>,
+    },
     /// The response header announces an impossible length: the stream's framing is lost
     /// and the connection must be reopened.
     FramingLost(String),
+    /// The sender says the stream has ended (its message is kept): a finite stream
+    /// such as `fbgforge synth-stream` after its duration ([`encode_end_of_stream`]).
+    /// A Hyperion streams until it is switched off and never sends it.
+    EndOfStream(String),
 }
 
 impl FrameError {
@@ -81,8 +91,9 @@ impl FrameError {
     pub fn kind(&self) -> &'static str {
         match self {
             FrameError::Status { .. } => "instrument_status",
-            FrameError::Malformed(_) => "malformed_frame",
+            FrameError::Malformed { .. } => "malformed_frame",
             FrameError::FramingLost(_) => "framing_lost",
+            FrameError::EndOfStream(_) => "end_of_stream",
         }
     }
 }
@@ -93,7 +104,9 @@ impl fmt::Display for FrameError {
             FrameError::Status { status, message } => {
                 write!(f, "instrument status {status}: {message}")
             }
-            FrameError::Malformed(m) | FrameError::FramingLost(m) => f.write_str(m),
+            FrameError::Malformed { message: m, .. }
+            | FrameError::FramingLost(m)
+            | FrameError::EndOfStream(m) => f.write_str(m),
         }
     }
 }
@@ -108,7 +121,15 @@ fn u32_at(b: &[u8], i: usize) -> u32 {
 
 /// Decode the content of one peaks message.
 pub(crate) fn decode_peaks(content: &[u8]) -> Result<PeaksFrame, FrameError> {
-    let bad = |m: String| Err(FrameError::Malformed(m));
+    let bad = |message: String| {
+        // The serial number sits at bytes 8..16 of an intact header.
+        let serial = (content.len() >= PEAKS_HEADER_BYTES).then(|| {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&content[8..16]);
+            u64::from_le_bytes(b)
+        });
+        Err(FrameError::Malformed { message, serial })
+    };
     if content.len() < PEAKS_HEADER_BYTES {
         return bad(format!(
             "peaks content of {} bytes is shorter than the {PEAKS_HEADER_BYTES}-byte peaks header",
@@ -172,6 +193,24 @@ pub(crate) fn decode_peaks(content: &[u8]) -> Result<PeaksFrame, FrameError> {
         peak_counts,
         peaks_nm,
     })
+}
+
+/// How the message that ends a finite stream begins ([`encode_end_of_stream`]).
+pub const END_OF_STREAM: &str = "end of stream";
+
+/// The message a finite stream ends with: status 0, no content, and an ASCII message
+/// `end of stream: <why>`. Not part of Luna's protocol (an instrument streams until it
+/// is switched off); `fbgforge synth-stream` sends it after its duration so that a
+/// reader can tell a stream that ended from a connection that dropped.
+pub fn encode_end_of_stream(why: &str) -> Vec<u8> {
+    let text = format!("{END_OF_STREAM}: {why}");
+    let text = &text.as_bytes()[..text.len().min(u16::MAX as usize)];
+    let mut out = Vec::with_capacity(RESPONSE_HEADER_BYTES + text.len());
+    out.extend_from_slice(&[0, 0]);
+    out.extend_from_slice(&(text.len() as u16).to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(text);
+    out
 }
 
 /// Encode a peaks frame as one stream message (response header + content), the way
@@ -262,6 +301,10 @@ impl StreamDecoder {
                 status,
                 message: String::from_utf8_lossy(message).trim().to_string(),
             })
+        } else if content.is_empty() && message.starts_with(END_OF_STREAM.as_bytes()) {
+            Err(FrameError::EndOfStream(
+                String::from_utf8_lossy(message).trim().to_string(),
+            ))
         } else {
             decode_peaks(content)
         };
@@ -350,9 +393,47 @@ mod tests {
         assert!(e1.to_string().contains("announce 3 peaks"), "{e1}");
         let e2 = d.next_frame().unwrap().unwrap_err();
         assert!(e2.to_string().contains("peak 2 is NaN"), "{e2}");
+        // Both headers were intact: their serials are known, so neither frame also
+        // counts as a gap in the serials.
+        for e in [&e1, &e2] {
+            assert!(
+                matches!(
+                    e,
+                    FrameError::Malformed {
+                        serial: Some(123_456_789_012),
+                        ..
+                    }
+                ),
+                "{e:?}"
+            );
+        }
         let e3 = d.next_frame().unwrap().unwrap_err();
         assert_eq!(e3.to_string(), "instrument status 3: busy!");
         assert_eq!(d.next_frame().unwrap().unwrap(), frame());
+        assert!(d.next_frame().is_none());
+    }
+
+    #[test]
+    fn the_end_of_a_finite_stream_is_told_apart_from_an_empty_frame() {
+        let mut bytes = encode_peaks(&frame());
+        bytes.extend(encode_end_of_stream("10 s served"));
+        // An empty content without the end message is a malformed frame.
+        let mut empty = vec![0u8, 0];
+        empty.extend_from_slice(&0u16.to_le_bytes());
+        empty.extend_from_slice(&0u32.to_le_bytes());
+        bytes.extend(&empty);
+        let mut d = StreamDecoder::new();
+        d.push(&bytes);
+        assert_eq!(d.next_frame().unwrap().unwrap(), frame());
+        match d.next_frame().unwrap() {
+            Err(FrameError::EndOfStream(m)) => assert_eq!(m, "end of stream: 10 s served"),
+            other => panic!("{other:?}"),
+        }
+        let e = d.next_frame().unwrap().unwrap_err();
+        assert!(
+            matches!(e, FrameError::Malformed { serial: None, .. }),
+            "{e:?}"
+        );
         assert!(d.next_frame().is_none());
     }
 

@@ -9,6 +9,7 @@
 //! unloaded (a printed grating is rarely at its nominal wavelength to the picometre).
 
 use super::source::Frame;
+use super::tare::{Phase, Tare, TareChange, TareSettings, TareState};
 use crate::array::kernel::matrix_from_design;
 use crate::array::methods::{self, Method, NoisePrior, ReadingSettings, Reconstruction};
 use crate::array::problem::{default_min_load_g, SensingProblem};
@@ -25,8 +26,14 @@ use std::collections::BTreeMap;
 /// How to interpret a stream.
 #[derive(Debug, Clone)]
 pub struct InterpretOptions {
-    /// Frames averaged for the zero-load baseline (0: the design's nominal wavelengths).
+    /// Frames the tare window holds at least (0: no tare, shifts from the design's
+    /// nominal wavelengths); see [`crate::tare`].
     pub tare_frames: usize,
+    /// Frame time the tare window spans at least, s.
+    pub tare_s: f64,
+    /// After the first full tare window, how long to wait for one at rest before
+    /// refusing to read, s.
+    pub tare_wait_s: f64,
     /// Half-width of each grating's window, nm (default: as `verify`).
     pub window_half_width_nm: Option<f64>,
     /// Module: the core plugged in (default: the first core of the design).
@@ -41,9 +48,9 @@ pub struct InterpretOptions {
     pub calibrated_k_pm_per_n: BTreeMap<String, f64>,
     /// Array: the method (default: the library's default for the array).
     pub method: Option<String>,
-    /// Array: the interrogator's resolution, the noise standard deviation of a
-    /// shift, pm; it sets the ℓ0 penalty of `support` and `bnb` as in `reconstruct`
-    /// (default: the paper's 0.5 pm).
+    /// The interrogator's resolution, the noise standard deviation of a wavelength
+    /// reading, pm (default: the paper's 0.5 pm): the tare judges rest against it, and
+    /// for an array it sets the ℓ0 penalty of `support` and `bnb` as in `reconstruct`.
     pub resolution_pm: f64,
     /// Array: per-frame time budget of the default method choice, µs (default
     /// [`DEFAULT_BUDGET_US`]); ignored when a method is named.
@@ -58,7 +65,17 @@ impl InterpretOptions {
             .map_err(|e| anyhow!("InterpretOptions.resolution_pm: {e}"))?;
         crate::array::choice::check_budget(self.budget_us)
             .map_err(|e| anyhow!("InterpretOptions.budget_us: {e}"))?;
-        Ok(())
+        self.tare_settings().validate()
+    }
+
+    /// The tare's settings.
+    pub fn tare_settings(&self) -> TareSettings {
+        TareSettings {
+            frames: self.tare_frames,
+            min_s: self.tare_s,
+            wait_s: self.tare_wait_s,
+            resolution_pm: self.resolution_pm,
+        }
     }
 }
 
@@ -66,6 +83,8 @@ impl Default for InterpretOptions {
     fn default() -> Self {
         InterpretOptions {
             tare_frames: 50,
+            tare_s: 1.0,
+            tare_wait_s: 30.0,
             window_half_width_nm: None,
             core: None,
             case: None,
@@ -150,65 +169,63 @@ pub enum Reading {
 pub struct Prepared {
     /// Shifts from the tare, pm, one per tracked grating (NaN: missing).
     pub shifts_pm: Vec<f64>,
+    /// The sensor reads below its tare in this frame: every grating that carries load
+    /// at or below it, one of them well below (5 σ), so the tare held a load (or, with
+    /// no reference grating, the temperature fell). Not to be trusted.
+    pub below_tare: bool,
 }
 
 /// Why a frame gave no reading.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Skip {
-    /// Averaged into the tare.
+    /// Taken into the tare window while waiting for rest.
     Tare,
+    /// The tare was refused (the sensor never came to rest): nothing is read until
+    /// a re-tare.
+    Refused,
     /// Not usable: warning kind and message.
     Bad(&'static str, String),
 }
 
-/// The zero-load baseline: the mean of the first frames.
+/// One frame found in the peaks: each grating's wavelength and what became of it.
 #[derive(Debug, Clone)]
-struct Tare {
-    target: usize,
-    sums: Vec<f64>,
-    counts: Vec<usize>,
-    frames: usize,
-    baseline_nm: Option<Vec<f64>>,
+pub struct Assigned {
+    /// The frame's number (1 = the first frame the interpreter was given).
+    pub frame: u64,
+    /// Wavelength of each tracked grating, nm, in [`Interpreter::gratings`] order
+    /// (NaN: no peak in its window).
+    pub peaks_nm: Vec<f64>,
+    /// Shifts to solve, or why there are none.
+    pub result: Result<Prepared, Skip>,
+    /// Whether a window held more than one peak.
+    pub ambiguous: bool,
 }
 
-impl Tare {
-    fn new(target: usize, nominal: &[f64]) -> Self {
-        Tare {
-            target,
-            sums: vec![0.0; nominal.len()],
-            counts: vec![0; nominal.len()],
-            frames: 0,
-            baseline_nm: (target == 0).then(|| nominal.to_vec()),
-        }
-    }
+/// Frame-level test that the sensor reads below its tare: every load-bearing grating
+/// at most 3 σ above it, one at least 5 σ below (σ that grating's noise).
+const BELOW_FRAME: (f64, f64) = (3.0, 5.0);
+/// The same test on a settled window's means, which are far less noisy: at most 1 σ
+/// above, one at least 4 σ below.
+const BELOW_WINDOW: (f64, f64) = (1.0, 4.0);
 
-    /// Take one frame; true once the baseline is known.
-    fn add(&mut self, wl: &[f64], nominal: &[f64]) -> bool {
-        if self.baseline_nm.is_some() {
-            return true;
+/// Whether load-direction shifts `d` (with their noise σ) are below the tare by the
+/// test `(above, below)`: the grating furthest below and by how much, pm.
+fn below(d: &[(f64, f64)], (above, under): (f64, f64)) -> Option<(usize, f64)> {
+    let mut low: Option<(usize, f64)> = None;
+    let mut any = false;
+    for (i, &(v, sigma)) in d.iter().enumerate() {
+        if !v.is_finite() {
+            continue;
         }
-        for (i, &w) in wl.iter().enumerate() {
-            if w.is_finite() {
-                self.sums[i] += w;
-                self.counts[i] += 1;
-            }
+        any = true;
+        if v > above * sigma {
+            return None;
         }
-        self.frames += 1;
-        if self.frames >= self.target {
-            self.baseline_nm = Some(
-                (0..wl.len())
-                    .map(|i| {
-                        if self.counts[i] > 0 {
-                            self.sums[i] / self.counts[i] as f64
-                        } else {
-                            nominal[i]
-                        }
-                    })
-                    .collect(),
-            );
+        if v <= -under * sigma && low.is_none_or(|(_, l)| v < l) {
+            low = Some((i, v));
         }
-        false
     }
+    low.filter(|_| any)
 }
 
 /// The array part: the method set up for the design's matrix.
@@ -237,12 +254,19 @@ pub struct Interpreter {
     design_name: String,
     tracker: PeakTracker,
     tare: Tare,
+    /// Frames given so far.
+    frames: u64,
+    /// Module: the core plugged in.
+    core: Option<String>,
+    /// Array: each cell's centre on the sheet, mm, in the order of the outputs.
+    cell_centers_mm: Vec<(f64, f64)>,
+    /// When the first frame was read: the clock of frames without a time of their own.
+    clock_origin: Option<std::time::Instant>,
     nominal_nm: Vec<f64>,
     outputs: Vec<String>,
     array: Option<ArrayPart>,
     module: Option<ModulePart>,
     method: Option<Method>,
-    scratch: Vec<f64>,
     description: String,
 }
 
@@ -307,7 +331,11 @@ impl Interpreter {
         let windows = Self::windows(&names, &nominal, opts)?;
         Ok(Interpreter {
             design_name: design.name.clone(),
-            tare: Tare::new(opts.tare_frames, &nominal),
+            tare: Tare::new(opts.tare_settings(), names.clone(), nominal.clone()),
+            frames: 0,
+            core: None,
+            cell_centers_mm: crate::profile::ArrayLayout::from_array(a).cell_centers_mm,
+            clock_origin: None,
             tracker: PeakTracker::new(windows),
             nominal_nm: nominal,
             outputs: matrix.cells.clone(),
@@ -319,7 +347,6 @@ impl Interpreter {
             }),
             module: None,
             method: Some(method),
-            scratch: Vec::new(),
             description: format!(
                 "array {}×{} cells, {} gratings, method {} (resolution {} pm)",
                 a.cells_x,
@@ -526,7 +553,11 @@ impl Interpreter {
         };
         Ok(Interpreter {
             design_name: design.name.clone(),
-            tare: Tare::new(opts.tare_frames, &nominal),
+            tare: Tare::new(opts.tare_settings(), names.clone(), nominal.clone()),
+            frames: 0,
+            core: Some(core.clone()),
+            cell_centers_mm: Vec::new(),
+            clock_origin: None,
             tracker: PeakTracker::new(windows),
             nominal_nm: nominal,
             outputs,
@@ -538,7 +569,6 @@ impl Interpreter {
                 last_reference_shift_pm: None,
             }),
             method: None,
-            scratch: Vec::new(),
             description: format!(
                 "module core {core}, Case {case}{}, {k_source}{}",
                 opts.insert
@@ -583,6 +613,16 @@ impl Interpreter {
             .map(|a| (a.cells_x, a.cells_y, a.ulimit_g))
     }
 
+    /// Module: the core plugged in.
+    pub fn core(&self) -> Option<&str> {
+        self.core.as_deref()
+    }
+
+    /// Array: each cell's centre on the sheet, mm, in the order of [`Self::outputs`].
+    pub fn cell_centers_mm(&self) -> &[(f64, f64)] {
+        &self.cell_centers_mm
+    }
+
     /// The array's reconstruction method.
     pub fn method(&self) -> Option<Method> {
         self.method
@@ -604,17 +644,59 @@ impl Interpreter {
 
     /// The tare baseline, nm, once known.
     pub fn baseline_nm(&self) -> Option<&[f64]> {
-        self.tare.baseline_nm.as_deref()
+        self.tare.baseline_nm()
+    }
+
+    /// Where the tare stands.
+    pub fn tare_state(&self) -> TareState {
+        self.tare.state
+    }
+
+    /// The tare's settings.
+    pub fn tare_settings(&self) -> &TareSettings {
+        self.tare.settings()
+    }
+
+    /// Tare again from the next frame (`origin` says who asked: `key`, `control`,
+    /// `python`, ...); the frames are not read until a window is at rest. Ignored
+    /// without a tare.
+    pub fn request_tare(&mut self, origin: &str) {
+        if self.tare.state != TareState::Nominal {
+            if let Some(m) = self.module.as_mut() {
+                m.last_reference_shift_pm = None;
+            }
+        }
+        self.tare.request(origin, self.frames);
+    }
+
+    /// The tare's changes since the last call, oldest first.
+    pub fn take_tare_changes(&mut self) -> Vec<TareChange> {
+        self.tare.take_changes()
     }
 
     /// Stage 1 (in order, sequential): find the gratings, take the tare, compute shifts.
-    /// Also returns whether a window held more than one peak.
-    pub fn prepare(&mut self, frame: &Frame) -> (Result<Prepared, Skip>, bool) {
-        let mut wl = std::mem::take(&mut self.scratch);
+    pub fn prepare(&mut self, frame: &Frame) -> Assigned {
+        self.frames += 1;
+        let mut wl = Vec::with_capacity(self.nominal_nm.len());
         let ambiguous = self.tracker.assign_frame(&frame.peaks_nm, &mut wl);
         let result = self.prepare_from(&wl, frame);
-        self.scratch = wl;
-        (result, ambiguous)
+        Assigned {
+            frame: self.frames,
+            peaks_nm: wl,
+            result,
+            ambiguous,
+        }
+    }
+
+    /// The frame's time for the tare window: its own, else since the first frame read.
+    fn frame_time_s(&mut self, frame: &Frame) -> f64 {
+        let origin = *self.clock_origin.get_or_insert(frame.received);
+        frame.time_s.unwrap_or_else(|| {
+            frame
+                .received
+                .saturating_duration_since(origin)
+                .as_secs_f64()
+        })
     }
 
     fn prepare_from(&mut self, wl: &[f64], frame: &Frame) -> Result<Prepared, Skip> {
@@ -639,13 +721,108 @@ impl Interpreter {
                 ),
             ));
         }
-        if !self.tare.add(wl, &self.nominal_nm) {
-            return Err(Skip::Tare);
+        let t_s = self.frame_time_s(frame);
+        match self.tare.push(t_s, self.frames, wl) {
+            Phase::Taring => return Err(Skip::Tare),
+            Phase::Refused => return Err(Skip::Refused),
+            Phase::Read => {}
         }
-        let base = self.tare.baseline_nm.as_ref().expect("tare done");
+        let mut shifts = self.shifts(wl);
+        let d = self.load_shifts(&shifts, true);
+        let mut below_tare = below(&d, BELOW_FRAME).is_some();
+        // A frame clearly below the tare may end a window settled below it: the tare
+        // held a load (or the temperature fell). Tare again on that window.
+        if self.tare.state == TareState::Resting
+            && below(&d, (3.0, 2.0)).is_some()
+            && self.retare_if_settled_below()
+        {
+            shifts = self.shifts(wl);
+            below_tare = false;
+        }
         Ok(Prepared {
-            shifts_pm: wl.iter().zip(base).map(|(&w, &b)| (w - b) * 1e3).collect(),
+            shifts_pm: shifts,
+            below_tare,
         })
+    }
+
+    /// Shifts of `wl` from the baseline, pm.
+    fn shifts(&self, wl: &[f64]) -> Vec<f64> {
+        let base = self.tare.baseline_nm().expect("read only once tared");
+        wl.iter().zip(base).map(|(&w, &b)| (w - b) * 1e3).collect()
+    }
+
+    /// When the tare window is at rest and settled below the tare on every grating
+    /// that carries load, tare on it; whether it did.
+    fn retare_if_settled_below(&mut self) -> bool {
+        let Some(v) = self.tare.settled() else {
+            return false;
+        };
+        let means: Vec<f64> = v.stats.iter().map(|s| s.mean_nm).collect();
+        let shifts = self.shifts(&means);
+        let d = self.load_shifts(&shifts, false);
+        let Some((i, drop_pm)) = below(&d, BELOW_WINDOW) else {
+            return false;
+        };
+        let name = match &self.module {
+            Some(m) => self.tracker.windows()[m.strain[i].0].name.clone(),
+            None => self.tracker.windows()[i].name.clone(),
+        };
+        let why = format!(
+            "the sensor settled {:.1} pm below the tare ({name}): the tare held a load{}",
+            -drop_pm,
+            if self.module.as_ref().is_some_and(|m| m.reference.is_some()) {
+                ""
+            } else {
+                ", or the temperature fell"
+            }
+        );
+        let frame = self.frames;
+        self.tare.retare_on_window(&v, frame, "below_tare", &why);
+        if let Some(m) = self.module.as_mut() {
+            m.last_reference_shift_pm = None;
+        }
+        true
+    }
+
+    /// Each load-bearing grating's shift in the direction a load moves it, with its
+    /// noise σ, pm: an array's gratings as they are (a load raises every one); a
+    /// module's strain gratings temperature-compensated and signed by K (a load on the
+    /// dome pushes, so its force is positive). A module's missing reference shift is
+    /// the last one seen when `hold_reference` (a frame; not a window's means).
+    fn load_shifts(&self, shifts: &[f64], hold_reference: bool) -> Vec<(f64, f64)> {
+        let sigma = self.tare.settings().resolution_pm;
+        let Some(m) = &self.module else {
+            return shifts.iter().map(|&s| (s, sigma)).collect();
+        };
+        let reference = m.reference.and_then(|r| {
+            let s = shifts[r];
+            if s.is_finite() || !hold_reference {
+                Some(s)
+            } else {
+                m.last_reference_shift_pm
+            }
+        });
+        m.strain
+            .iter()
+            .map(|&(i, k)| {
+                let (comp, noise) = match (m.reference, reference) {
+                    (Some(r), Some(rs)) => {
+                        let ratio = self.nominal_nm[i] / self.nominal_nm[r];
+                        (
+                            crate::grating::compensate_temperature_pm(
+                                shifts[i],
+                                self.nominal_nm[i],
+                                rs,
+                                self.nominal_nm[r],
+                            ),
+                            sigma * (1.0 + ratio * ratio).sqrt(),
+                        )
+                    }
+                    _ => (shifts[i], sigma),
+                };
+                (comp * k.signum(), noise)
+            })
+            .collect()
     }
 
     /// Stage 2 for a module (sequential: it holds the last reference shift).
@@ -745,7 +922,8 @@ mod tests {
         k.insert("lambda_21".to_string(), -170.0);
         k.insert("lambda_22".to_string(), -160.0);
         let opts = InterpretOptions {
-            tare_frames: 2,
+            tare_frames: 8,
+            tare_s: 0.0,
             core: Some("psc2".into()),
             calibrated_k_pm_per_n: k,
             ..InterpretOptions::default()
@@ -757,11 +935,14 @@ mod tests {
         );
         let optics = &design.fiber;
         let (l21, l22, lt) = (1540.060 + 0.05, 1530.701 - 0.03, 1560.146 + 0.01);
-        // Tare: two unloaded frames at 20 °C.
-        for _ in 0..2 {
-            let (r, _) = it.prepare(&frame(vec![lt, l21, l22]));
-            assert_eq!(r.unwrap_err(), Skip::Tare);
+        // Tare: eight unloaded frames at 20 °C (identical: at rest); the eighth
+        // completes the window.
+        for k in 0..8 {
+            let a = it.prepare(&frame(vec![lt, l21, l22]));
+            assert_eq!(a.frame, k + 1);
+            assert_eq!(a.result.unwrap_err(), Skip::Tare);
         }
+        assert_eq!(it.tare_state(), TareState::Resting);
         // 4 N and +3 K: each strain grating moves by K·F plus its thermal shift.
         let (f, dt) = (4.0, 3.0);
         let peaks = vec![
@@ -770,7 +951,7 @@ mod tests {
             lt + optics.shift_pm(1560.146, 0.0, dt) * 1e-3,
             1600.0, // a peak of some other sensor: ignored
         ];
-        let p = it.prepare(&frame(peaks)).0.unwrap();
+        let p = it.prepare(&frame(peaks)).result.unwrap();
         match &it.solve(&[p])[0] {
             Reading::Forces {
                 forces_n,
@@ -788,7 +969,7 @@ mod tests {
             .prepare(&frame(vec![
                 l21 + (-170.0 * f + optics.shift_pm(1540.060, 0.0, dt)) * 1e-3,
             ]))
-            .0
+            .result
             .unwrap();
         match &it.solve(&[p])[0] {
             Reading::Forces { forces_n, .. } => {
@@ -874,7 +1055,7 @@ mod tests {
             .zip(y.iter())
             .map(|(l, s)| l + s * 1e-3)
             .collect();
-        let p = it.prepare(&frame(peaks.clone())).0.unwrap();
+        let p = it.prepare(&frame(peaks.clone())).result.unwrap();
         match &it.solve(&[p])[0] {
             Reading::Loads { loads_g, .. } => {
                 for (got, want) in loads_g.iter().zip(&x) {
@@ -885,7 +1066,7 @@ mod tests {
         }
         let mut short = peaks;
         short.remove(3);
-        match it.prepare(&frame(short)).0 {
+        match it.prepare(&frame(short)).result {
             Err(Skip::Bad(kind, msg)) => {
                 assert_eq!(kind, "missing_peak");
                 assert!(msg.contains("fbg4's window 1530.637"), "{msg}");

@@ -7,14 +7,17 @@
 //! * [`interpret`]: each frame's peaks to gratings, shifts from a tare, then the
 //!   array's cell loads (its default reconstruction method) or the module's
 //!   temperature-compensated force per grating (predicted or calibrated K);
+//! * [`tare`]: the zero-load wavelengths, taken only from a window at rest;
+//! * [`control`]: stop a run or tare again while it runs;
 //! * [`stats`]: frames, drops, bad frames by kind, reconnections, latency;
 //! * [`sink`]: where the output goes ([`sink::LiveSink`]; the terminal view and the
 //!   JSON-lines stream are `fbgforge_report::live`'s);
 //!
 //! The use case is [`run`]: `fbgforge live` and the tests call it. A bad frame is
-//! counted and named, never fatal; a dropped connection is reopened; frames that
-//! arrive faster than they can be read are dropped at the queue and counted, so the
-//! reader never falls behind the instrument.
+//! counted once and named, never fatal; a dropped connection is reopened; frames of an
+//! instrument that arrive faster than they can be read are dropped at the queue and
+//! counted, so the reader never falls behind the instrument, while a file or standard
+//! input is read whole (every frame, none dropped) unless [`LiveRequest::realtime`].
 
 // Sibling crates under the names the modules used inside one crate.
 #[allow(unused_imports)]
@@ -24,22 +27,26 @@ use fbgforge_core::{design, family, grating, logs, output, profile, progress, sp
 #[allow(unused_imports)]
 use fbgforge_model::{fem, model, prediction, solvers};
 
+pub mod control;
 pub mod hyperion;
 pub mod interpret;
 pub mod sink;
 pub mod source;
 pub mod stats;
+pub mod tare;
 
 use anyhow::Result;
+use control::LiveControl;
 use interpret::{InterpretOptions, Interpreter, Prepared, Skip};
-use sink::{FrameReading, LiveInfo, LiveSink};
+use sink::{FrameReading, LiveInfo, LiveSink, PeakFrame};
 use source::{Outlet, SourceEvent, SourceSpec};
 use stats::{Dropped, LiveSummary, Stats};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{sync_channel, RecvTimeoutError};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tare::TareChange;
 
 /// What to watch and how.
 #[derive(Debug, Clone)]
@@ -54,9 +61,13 @@ pub struct LiveRequest {
     pub max_frames: Option<u64>,
     /// Stop after this long, s.
     pub duration_s: Option<f64>,
-    /// Frames the queue between reader and interpreter holds (beyond it frames are
-    /// dropped and counted).
+    /// Frames the queue between reader and interpreter holds. An instrument's frames
+    /// that find it full are dropped and counted; a file or standard input waits for
+    /// room (nothing is lost) unless `realtime`.
     pub queue_frames: usize,
+    /// Read a file or standard input at the pace it comes, dropping (and counting)
+    /// frames that find the queue full, as for an instrument. Off: every frame is read.
+    pub realtime: bool,
 }
 
 impl LiveRequest {
@@ -68,7 +79,20 @@ impl LiveRequest {
             anyhow::bail!("LiveRequest.duration_s must be a positive number of seconds, got {d}");
         }
         if self.queue_frames == 0 {
-            anyhow::bail!("the queue must hold at least one frame");
+            anyhow::bail!("LiveRequest.queue_frames: the queue must hold at least one frame");
+        }
+        if let Some(path) = self.source.path() {
+            if !path.is_file() {
+                anyhow::bail!(
+                    "LiveRequest.source: {} {}: expected a log file the interrogator writes (or `-` for standard input, `hyperion://HOST`)",
+                    path.display(),
+                    if path.exists() {
+                        "is not a file"
+                    } else {
+                        "does not exist"
+                    }
+                );
+            }
         }
         Ok(())
     }
@@ -82,6 +106,7 @@ impl LiveRequest {
             max_frames: None,
             duration_s: None,
             queue_frames: 8192,
+            realtime: false,
         }
     }
 }
@@ -125,6 +150,7 @@ fn wall_now_s() -> f64 {
 
 /// What the sink is told before the first frame: the design, the source and the outputs.
 fn live_info(design: &crate::spec::Design, interp: &Interpreter, req: &LiveRequest) -> LiveInfo {
+    let tare = interp.tare_settings();
     LiveInfo {
         design: design.name.clone(),
         kind: if interp.array_grid().is_some() {
@@ -139,7 +165,12 @@ fn live_info(design: &crate::spec::Design, interp: &Interpreter, req: &LiveReque
         grid: interp.array_grid(),
         method: interp.method().map(|m| m.name().to_string()),
         sensitivities_pm_per_n: interp.sensitivities_pm_per_n(),
-        tare_frames: req.interpret.tare_frames,
+        core: interp.core().map(str::to_string),
+        cell_centers_mm: interp.cell_centers_mm().to_vec(),
+        tare_frames: tare.frames,
+        tare_s: tare.min_s,
+        tare_wait_s: tare.wait_s,
+        resolution_pm: tare.resolution_pm,
     }
 }
 
@@ -148,12 +179,16 @@ fn sink_error(e: std::io::Error) -> String {
     format!("output closed ({e})")
 }
 
-/// Where and when a prepared frame was read.
+/// Where and when a prepared frame was read, and what it held.
 struct FrameMeta {
+    frame: u64,
     serial: Option<u64>,
     time_s: Option<f64>,
     wall_clock: bool,
     received: Instant,
+    received_s: f64,
+    peaks_nm: Vec<f64>,
+    below_tare: bool,
 }
 
 /// A watch in progress: the interpreter, the counters, the frames of the current batch
@@ -168,6 +203,7 @@ struct Watch<'a> {
     last_frame: Option<Instant>,
     ended: Option<String>,
     source_lost: bool,
+    output_closed: bool,
     clock: StreamClock,
     prepared: Vec<Prepared>,
     meta: Vec<FrameMeta>,
@@ -229,31 +265,85 @@ impl Watch<'_> {
         }
     }
 
-    /// Prepare one frame: a tare frame, a bad one, or shifts to solve with the batch.
+    /// Prepare one frame: a tare frame, a refused one, a bad one, or shifts to solve
+    /// with the batch. Its peaks and any tare change go to the sink at once.
     fn frame(&mut self, f: &source::Frame) -> std::io::Result<()> {
-        self.first_frame.get_or_insert(f.received);
+        let first = *self.first_frame.get_or_insert(f.received);
         self.last_frame = Some(f.received);
         self.stats.frames_in += 1;
         let wall_clock = self.clock_is_wall(f)?;
-        let (p, ambiguous) = self.interp.prepare(f);
-        self.stats.ambiguous_frames += ambiguous as u64;
-        match p {
+        let a = self.interp.prepare(f);
+        self.stats.ambiguous_frames += u64::from(a.ambiguous);
+        let received_s = f.received.saturating_duration_since(first).as_secs_f64();
+        self.sink.peaks(&PeakFrame {
+            frame: a.frame,
+            serial: f.serial,
+            time_s: f.time_s,
+            received_s,
+            peaks_nm: &a.peaks_nm,
+            shifts_pm: a.result.as_ref().ok().map(|p| p.shifts_pm.as_slice()),
+            outcome: match &a.result {
+                Ok(_) => "read",
+                Err(Skip::Tare) => "tare",
+                Err(Skip::Refused) => "refused",
+                Err(Skip::Bad(..)) => "bad",
+            },
+        })?;
+        self.tare_changes()?;
+        match a.result {
             Ok(p) => {
-                self.prepared.push(p);
                 self.meta.push(FrameMeta {
+                    frame: a.frame,
                     serial: f.serial,
                     time_s: f.time_s,
                     wall_clock,
                     received: f.received,
+                    received_s,
+                    peaks_nm: a.peaks_nm,
+                    below_tare: p.below_tare,
                 });
+                self.prepared.push(p);
                 Ok(())
             }
             Err(Skip::Tare) => {
                 self.stats.tare_frames += 1;
                 Ok(())
             }
+            Err(Skip::Refused) => {
+                self.stats.refused_frames += 1;
+                Ok(())
+            }
             Err(Skip::Bad(kind, message)) => self.bad(kind, message),
         }
+    }
+
+    /// Pass the tare's changes on.
+    fn tare_changes(&mut self) -> std::io::Result<()> {
+        for c in self.interp.take_tare_changes() {
+            self.stats.tare = c.state;
+            if c.origin == "below_tare" && c.state == tare::TareState::Resting {
+                self.stats.retares_below_tare += 1;
+            }
+            self.tare_change(&c)?;
+        }
+        Ok(())
+    }
+
+    fn tare_change(&mut self, c: &TareChange) -> std::io::Result<()> {
+        self.sink.tare(c)
+    }
+
+    /// Apply the requests made since the last batch: a new tare for each; pass the
+    /// notes of whatever steers the run on as events.
+    fn requests(&mut self, control: &LiveControl) -> std::io::Result<()> {
+        for (event, message) in control.take_notes() {
+            self.sink.event(&event, &message)?;
+        }
+        for origin in control.take_tare_requests() {
+            self.stats.tare_requests += 1;
+            self.interp.request_tare(&origin);
+        }
+        self.tare_changes()
     }
 
     /// Whether `f`'s time is this machine's wall clock, so that its age means
@@ -297,7 +387,9 @@ impl Watch<'_> {
         let readings = self.interp.solve(&self.prepared);
         let now = Instant::now();
         let wall = wall_now_s();
-        for (reading, m) in readings.into_iter().zip(&self.meta) {
+        let meta = std::mem::take(&mut self.meta);
+        let prepared = std::mem::take(&mut self.prepared);
+        for ((reading, m), p) in readings.into_iter().zip(meta).zip(prepared) {
             if out_err.is_some() {
                 break;
             }
@@ -308,29 +400,32 @@ impl Watch<'_> {
             if let Some(a) = age_us {
                 stats.age.add(a);
             }
-            if let interpret::Reading::Loads {
-                converged, flags, ..
-            } = &reading
-            {
+            if let interpret::Reading::Loads { converged, .. } = &reading {
                 stats.not_converged += u64::from(!converged);
-                stats.flagged += u64::from(!flags.trusted());
             }
             stats.frames_out += 1;
             let r = FrameReading {
+                frame: m.frame,
                 serial: m.serial,
                 time_s: m.time_s,
+                received_s: m.received_s,
                 reading,
+                below_tare: m.below_tare,
+                peaks_nm: m.peaks_nm,
+                shifts_pm: p.shifts_pm,
                 latency_us,
                 age_us,
             };
+            stats.below_tare += u64::from(r.below_tare);
+            stats.flagged += u64::from(!r.flag_words().is_empty());
             if let Err(e) = self.sink.reading(&r) {
                 *out_err = Some(e);
             }
             if self
                 .max_frames
-                .is_some_and(|limit| stats.frames_out >= limit)
+                .is_some_and(|limit| self.stats.frames_out >= limit)
             {
-                let n = stats.frames_out;
+                let n = self.stats.frames_out;
                 self.ended.get_or_insert_with(|| format!("{n} frames read"));
                 break;
             }
@@ -341,9 +436,12 @@ impl Watch<'_> {
     fn tick(&mut self, out_err: Option<std::io::Error>) {
         self.stats.dropped.queue_overflow = self.overflow.load(Ordering::Relaxed);
         let el = self.first_frame.map_or(Duration::ZERO, |t| t.elapsed());
-        if let Some(e) = out_err {
-            self.ended = Some(sink_error(e));
-        } else if let Err(e) = self.sink.tick(&self.stats, el) {
+        let err = match out_err {
+            Some(e) => Some(e),
+            None => self.sink.tick(&self.stats, el).err(),
+        };
+        if let Some(e) = err {
+            self.output_closed = true;
             self.ended = Some(sink_error(e));
         }
     }
@@ -364,6 +462,7 @@ impl Watch<'_> {
             source,
             ended: self.ended.take().unwrap_or_else(|| "stopped".into()),
             source_lost: self.source_lost,
+            output_closed: self.output_closed,
             elapsed_s,
             frames_in: stats.frames_in,
             frames_out: stats.frames_out,
@@ -372,7 +471,11 @@ impl Watch<'_> {
             } else {
                 0.0
             },
+            tare: stats.tare,
             tare_frames: stats.tare_frames,
+            refused_frames: stats.refused_frames,
+            tare_requests: stats.tare_requests,
+            retares_below_tare: stats.retares_below_tare,
             bad_frames: stats.bad_frames,
             bad: stats.bad.clone(),
             ambiguous_frames: stats.ambiguous_frames,
@@ -383,51 +486,99 @@ impl Watch<'_> {
             reconnects: stats.reconnects,
             not_converged: stats.not_converged,
             flagged: stats.flagged,
+            below_tare: stats.below_tare,
             latency: stats.latency.summary(),
             age: stats.age.summary(),
         }
     }
 }
 
-/// Watch a stream until it ends, `stop` is set, or a limit of the request is reached;
-/// every reading, bad frame and event goes to `sink`. Returns the summary (also given to
-/// the sink). Errors only for a bad request (design, options); nothing in the stream is
-/// fatal.
-pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Result<LiveSummary> {
+/// Watch a stream until it ends, `control` asks it to stop, or a limit of the request
+/// is reached; every frame, reading, tare change, bad frame and event goes to `sink`,
+/// and `control`'s tare requests are applied between batches. Returns the summary
+/// (also given to the sink). Errors only for a bad request (design, options, a source
+/// file that does not exist); nothing in the stream is fatal.
+///
+/// ```
+/// use fbgforge_live::{control::LiveControl, source::{SourceOptions, SourceSpec}, run, LiveRequest};
+/// use std::path::PathBuf;
+///
+/// let dir = tempfile::tempdir()?;
+/// let log = dir.path().join("peaks.csv");
+/// // 60 frames at rest of the 34 mm module's core psc2 (strain gratings and reference).
+/// let rows: String = (0..60).map(|k| format!("{},1540.06,1530.701,1560.146\n", k as f64 * 0.01)).collect();
+/// std::fs::write(&log, format!("time_s,a,b,c\n{rows}"))?;
+/// let source = SourceSpec::parse(log.to_str().unwrap(), SourceOptions { from_start: true, idle_exit_s: Some(0.2), ..SourceOptions::default() })?;
+/// let design = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../designs/clip-on-34mm.toml");
+/// let mut req = LiveRequest::new(design, source);
+/// req.interpret.core = Some("psc2".into());
+/// req.interpret.tare_s = 0.2;
+/// let summary = run(&req, &mut (), &LiveControl::new())?;
+/// // Tared on the first 50 frames (at rest), the next 10 read; none dropped.
+/// assert_eq!((summary.tare_frames, summary.frames_out, summary.dropped.total), (50, 10, 0));
+/// assert_eq!(summary.tare.word(), "resting");
+/// # Ok::<(), anyhow::Error>(())
+/// ```
+pub fn run(
+    req: &LiveRequest,
+    sink: &mut dyn LiveSink,
+    control: &LiveControl,
+) -> Result<LiveSummary> {
     req.validate()?;
     let design = crate::design::load(&req.design)?;
     let interp = Interpreter::new(&design, &req.interpret)?;
     let info = live_info(&design, &interp, req);
     let (tx, rx) = sync_channel(req.queue_frames);
     let source_stop = Arc::new(AtomicBool::new(false));
-    let outlet = Outlet::new(tx, source_stop.clone());
+    let outlet =
+        Outlet::new(tx, source_stop.clone()).waiting(req.source.holds_frames() && !req.realtime);
     let overflow = outlet.overflow.clone();
     // The source thread is not joined: one blocked on standard input cannot be woken;
     // every other source sees `source_stop` within 200 ms and exits.
     let _reader = source::spawn(req.source.clone(), outlet);
     let mut w = Watch {
+        stats: Stats {
+            tare: interp.tare_state(),
+            ..Stats::default()
+        },
         interp,
         sink,
-        stats: Stats::default(),
         overflow,
         connections: 0,
         first_frame: None,
         last_frame: None,
         ended: None,
         source_lost: false,
+        output_closed: false,
         clock: StreamClock::Undecided,
         prepared: Vec::with_capacity(BATCH),
         meta: Vec::with_capacity(BATCH),
         max_frames: req.max_frames,
     };
-    let started = Instant::now();
-    let mut batch: Vec<SourceEvent> = Vec::with_capacity(BATCH);
     if let Err(e) = w.sink.start(&info) {
+        w.output_closed = true;
         w.ended = Some(sink_error(e));
     }
+    watch(&mut w, req, &rx, control);
+    source_stop.store(true, Ordering::Relaxed);
+    drop(rx);
+    let summary = w.summary(design.name.clone(), req.source.describe());
+    // The output may be gone (a closed pipe): the summary is still returned.
+    let _ = w.sink.finish(&summary);
+    Ok(summary)
+}
+
+/// The watch's loop: batches of events until the watch ends.
+fn watch(w: &mut Watch<'_>, req: &LiveRequest, rx: &Receiver<SourceEvent>, control: &LiveControl) {
+    let started = Instant::now();
+    let mut batch: Vec<SourceEvent> = Vec::with_capacity(BATCH);
     while w.ended.is_none() {
-        if stop.load(Ordering::Relaxed) {
-            w.ended = Some("stopped".into());
+        if control.stopped() {
+            w.ended = Some(control.stop_reason().unwrap_or_else(|| "stopped".into()));
+            break;
+        }
+        if let Err(e) = w.requests(control) {
+            w.tick(Some(e));
             break;
         }
         if let Some(d) = req.duration_s {
@@ -456,10 +607,4 @@ pub fn run(req: &LiveRequest, sink: &mut dyn LiveSink, stop: &AtomicBool) -> Res
         }
         w.batch(&mut batch);
     }
-    source_stop.store(true, Ordering::Relaxed);
-    drop(rx);
-    let summary = w.summary(design.name.clone(), req.source.describe());
-    // The output may be gone (a closed pipe): the summary is still returned.
-    let _ = w.sink.finish(&summary);
-    Ok(summary)
 }

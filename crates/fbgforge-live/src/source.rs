@@ -115,6 +115,20 @@ impl SourceOptions {
 }
 
 impl SourceSpec {
+    /// Whether the source holds its frames until they are read (a file, standard
+    /// input): then reading it need not drop any. An instrument does not wait.
+    pub fn holds_frames(&self) -> bool {
+        !matches!(self, SourceSpec::Hyperion { .. })
+    }
+
+    /// The file a source reads, if it is one.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            SourceSpec::Tail { path, .. } => Some(path),
+            _ => None,
+        }
+    }
+
     /// Parse a source's name: `-` is standard input, `hyperion://HOST[:PORT]` or
     /// `tcp://HOST:PORT` a Hyperion stream (default port 51972), anything else a file;
     /// `opts` checked ([`SourceOptions::validate`]) and kept where the source uses them.
@@ -176,15 +190,28 @@ pub struct Outlet {
     pub overflow: Arc<AtomicU64>,
     /// Set by the consumer to stop the source.
     pub stop: Arc<AtomicBool>,
+    /// Wait for room in the queue instead of dropping: a file or standard input holds
+    /// its frames until they are read, so a replay loses none ([`Outlet::waiting`]).
+    wait_for_room: bool,
 }
 
 impl Outlet {
-    /// A new outlet over `tx`.
+    /// A new outlet over `tx` that drops frames finding the queue full (an instrument
+    /// does not wait for its reader).
     pub fn new(tx: SyncSender<SourceEvent>, stop: Arc<AtomicBool>) -> Self {
         Outlet {
             tx,
             overflow: Arc::new(AtomicU64::new(0)),
             stop,
+            wait_for_room: false,
+        }
+    }
+
+    /// This outlet, waiting for room in the queue when `wait` (every frame is read).
+    pub fn waiting(self, wait: bool) -> Self {
+        Outlet {
+            wait_for_room: wait,
+            ..self
         }
     }
 
@@ -192,9 +219,12 @@ impl Outlet {
         self.stop.load(Ordering::Relaxed)
     }
 
-    /// Send a frame, dropping it (counted) when the queue is full. False when the
-    /// consumer is gone.
+    /// Send a frame, dropping it (counted) when the queue is full, or waiting for room
+    /// ([`Outlet::waiting`]). False when the consumer is gone.
     fn frame(&self, f: Frame) -> bool {
+        if self.wait_for_room {
+            return self.tx.send(SourceEvent::Frame(f)).is_ok();
+        }
         match self.tx.try_send(SourceEvent::Frame(f)) {
             Ok(()) => true,
             Err(TrySendError::Full(_)) => {
@@ -345,7 +375,10 @@ fn tail_file(
         if out.stopped() {
             return;
         }
-        tail.restart_if_truncated();
+        if let Err(why) = tail.restart_if_truncated() {
+            out.event(SourceEvent::Lost(why));
+            return;
+        }
         let n = match tail.read_more(&mut chunk) {
             Ok(n) => n,
             Err(e) => {
@@ -397,6 +430,14 @@ fn wait_for_table(
 ) -> Option<(RowReader, u64, std::fs::File)> {
     loop {
         if out.stopped() {
+            return None;
+        }
+        // The file existed when the request was checked: gone now, it was deleted.
+        if !path.exists() {
+            out.event(SourceEvent::Lost(format!(
+                "{} was deleted before its table header was written",
+                path.display()
+            )));
             return None;
         }
         if let Ok(bytes) = std::fs::read(path) {
@@ -452,14 +493,23 @@ struct Tail<'a> {
 }
 
 impl Tail<'_> {
-    /// A file shorter than what was read was truncated or replaced: start again.
-    fn restart_if_truncated(&mut self) {
+    /// A file shorter than what was read was truncated or replaced: start again. An
+    /// error naming the file when it is gone (deleted, or its folder).
+    fn restart_if_truncated(&mut self) -> Result<(), String> {
         let (path, offset) = (self.path, self.offset);
-        let Ok(meta) = std::fs::metadata(path) else {
-            return;
+        let meta = match std::fs::metadata(path) {
+            Ok(m) => m,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(format!(
+                    "{} was deleted while it was followed",
+                    path.display()
+                ))
+            }
+            // Anything else (a permission flicker): try again at the next poll.
+            Err(_) => return Ok(()),
         };
         if meta.len() >= offset {
-            return;
+            return Ok(());
         }
         self.out.event(SourceEvent::Bad {
             kind: "file_truncated".into(),
@@ -485,6 +535,7 @@ impl Tail<'_> {
         if let Ok(f) = std::fs::File::open(path) {
             self.file = f;
         }
+        Ok(())
     }
 
     /// Read what follows the offset into `chunk`; the number of bytes read.
@@ -610,7 +661,26 @@ fn connect(address: &str) -> std::io::Result<TcpStream> {
     Err(last)
 }
 
-/// Read frames until the connection drops (Some(reason)) or the consumer stops (None).
+/// Count the frames between the last serial number and `serial` as missed (or a
+/// restart when it went back), and remember `serial`.
+fn note_serial(serial: u64, last_serial: &mut Option<u64>, out: &Outlet) {
+    if let Some(prev) = *last_serial {
+        if serial > prev + 1 {
+            out.event(SourceEvent::Missed(serial - prev - 1));
+        } else if serial <= prev {
+            out.event(SourceEvent::Bad {
+                kind: "serial_restart".into(),
+                message: format!(
+                    "serial number went back from {prev} to {serial} (instrument restarted?)"
+                ),
+            });
+        }
+    }
+    *last_serial = Some(serial);
+}
+
+/// Read frames until the connection drops (Some(reason)), or the stream ends or the
+/// consumer stops (None).
 fn read_stream(
     mut s: TcpStream,
     address: &str,
@@ -647,17 +717,7 @@ fn read_stream(
         while let Some(r) = dec.next_frame() {
             let ok = match r {
                 Ok(f) => {
-                    if let Some(prev) = *last_serial {
-                        if f.serial_number > prev + 1 {
-                            out.event(SourceEvent::Missed(f.serial_number - prev - 1));
-                        } else if f.serial_number <= prev {
-                            out.event(SourceEvent::Bad {
-                                kind: "serial_restart".into(),
-                                message: format!("serial number went back from {prev} to {} (instrument restarted?)", f.serial_number),
-                            });
-                        }
-                    }
-                    *last_serial = Some(f.serial_number);
+                    note_serial(f.serial_number, last_serial, out);
                     out.frame(Frame {
                         serial: Some(f.serial_number),
                         time_s: Some(f.timestamp_s),
@@ -667,7 +727,19 @@ fn read_stream(
                         received,
                     })
                 }
+                Err(hyperion::FrameError::EndOfStream(why)) => {
+                    out.event(SourceEvent::End(format!("{address}: {why}")));
+                    return None;
+                }
                 Err(e) => {
+                    // A malformed frame whose serial is known is counted once, as bad:
+                    // the serials go on from it, so it leaves no gap.
+                    if let hyperion::FrameError::Malformed {
+                        serial: Some(n), ..
+                    } = e
+                    {
+                        note_serial(n, last_serial, out);
+                    }
                     let lost = matches!(e, hyperion::FrameError::FramingLost(_));
                     let ok = out.event(SourceEvent::Bad {
                         kind: e.kind().to_string(),

@@ -2,6 +2,7 @@
 //! latency distribution (a log-spaced histogram, so hours at 1 kHz cost a few kB).
 
 use crate::logs::LogWarnings;
+use crate::tare::TareState;
 use serde::Serialize;
 
 /// Latency histogram: buckets 2 % wide from 0.1 µs to about 100 s.
@@ -116,8 +117,18 @@ pub struct Dropped {
 pub struct Stats {
     /// Frames read from the source.
     pub frames_in: u64,
-    /// Frames averaged into the tare.
+    /// Frames taken into the tare window while waiting for rest (not read).
     pub tare_frames: u64,
+    /// Frames not read because the tare was refused.
+    pub refused_frames: u64,
+    /// Where the tare stands now.
+    pub tare: TareState,
+    /// Re-tares asked for (key, control line, Python, library).
+    pub tare_requests: u64,
+    /// Re-tares made because the sensor settled below a tare that had held a load.
+    pub retares_below_tare: u64,
+    /// Readings below the tare (flagged `below_tare`).
+    pub below_tare: u64,
     /// Frames turned into readings.
     pub frames_out: u64,
     /// Frames that could not be used (also counted by kind in `bad`).
@@ -132,7 +143,7 @@ pub struct Stats {
     pub reconnects: u64,
     /// Array frames whose method did not converge.
     pub not_converged: u64,
-    /// Array frames carrying a trust flag (`inconsistent`, `ceiling`, …).
+    /// Readings carrying a flag (an array's trust flags, `below_tare`).
     pub flagged: u64,
     /// Receive → reading, µs.
     pub latency: Histogram,
@@ -151,8 +162,10 @@ pub struct LiveSummary {
     /// Why the run ended.
     pub ended: String,
     /// Whether it ended because the source was lost ((re)connecting given up, the
-    /// followed file unreadable) rather than at its end or a limit.
+    /// followed file unreadable or deleted) rather than at its end or a limit.
     pub source_lost: bool,
+    /// Whether it ended because an output closed (a pipe whose reader ended).
+    pub output_closed: bool,
     /// Wall time from the first frame to the end, s.
     pub elapsed_s: f64,
     /// Frames read.
@@ -161,8 +174,16 @@ pub struct LiveSummary {
     pub frames_out: u64,
     /// Frames read per second, from the first frame to the last.
     pub rate_hz: f64,
-    /// Frames averaged into the tare.
+    /// Where the tare stood at the end.
+    pub tare: TareState,
+    /// Frames taken into the tare window while waiting for rest (not read).
     pub tare_frames: u64,
+    /// Frames not read because the tare was refused.
+    pub refused_frames: u64,
+    /// Re-tares asked for.
+    pub tare_requests: u64,
+    /// Re-tares made because the sensor settled below a tare that had held a load.
+    pub retares_below_tare: u64,
     /// Frames that could not be used.
     pub bad_frames: u64,
     /// Bad frames and events by kind, with the first occurrence named.
@@ -175,8 +196,10 @@ pub struct LiveSummary {
     pub reconnects: u64,
     /// Array frames whose method did not converge.
     pub not_converged: u64,
-    /// Array frames carrying a trust flag (`inconsistent`, `ceiling`, …).
+    /// Readings carrying a flag (an array's trust flags, `below_tare`).
     pub flagged: u64,
+    /// Readings below the tare.
+    pub below_tare: u64,
     /// Receive → reading, µs.
     pub latency: LatencySummary,
     /// Instrument timestamp → reading, µs (only where the stream's clock is this

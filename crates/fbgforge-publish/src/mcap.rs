@@ -531,6 +531,45 @@ impl McapRecorder {
         })
     }
 
+    /// Records one frame that gave no reading (taken into the tare window while
+    /// waiting for rest, read while the tare was refused, or lacking a grating): its
+    /// peaks, its flags, and the tare state when it changed. Nothing is published on
+    /// the wrench, cells or contact topics for it.
+    ///
+    /// ```
+    /// use fbgforge_publish::{McapRecorder, RecorderSetup, SensorLayout, TareState};
+    ///
+    /// let dir = std::env::temp_dir().join(format!("fbgforge-publish-unread-{}", std::process::id()));
+    /// std::fs::create_dir_all(&dir)?;
+    /// let setup = RecorderSetup {
+    ///     design_name: "clip-on-10mm".into(),
+    ///     sensor: SensorLayout::Module { core_labels: vec!["psc1".into()] },
+    ///     grating_labels: vec!["lambda_11".into()],
+    /// };
+    /// let mut rec = McapRecorder::create(dir.join("run.mcap"), setup)?;
+    /// rec.record_unread(1_000, &[Some(1549.9)], &[], &TareState::Waiting)?;
+    /// let summary = rec.finish()?;
+    /// assert_eq!(summary.frames, 1);
+    /// assert_eq!(summary.messages_per_topic["/fbgforge/psc1/wrench"], 0);
+    /// assert_eq!(summary.messages_per_topic["/fbgforge/tare"], 1);
+    /// # std::fs::remove_dir_all(&dir)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn record_unread(
+        &mut self,
+        frame_time_ns: u64,
+        peaks_nm: &[Option<f64>],
+        flags: &[String],
+        tare: &TareState,
+    ) -> Result<(), PublishError> {
+        if self.failed || self.writer.is_none() {
+            return Err(PublishError::Poisoned);
+        }
+        Self::check_len("peaks_nm", self.setup.grating_labels.len(), peaks_nm.len())?;
+        Time::from_ns(frame_time_ns).ok_or(PublishError::FrameTimeOutOfRange { frame_time_ns })?;
+        self.guarded(|rec| rec.put_common(frame_time_ns, peaks_nm, flags, tare))
+    }
+
     /// Writes the summary, syncs the file to disk and renames `<path>.partial` to
     /// `<path>`. After an earlier error the `.partial` file is left and this fails.
     pub fn finish(mut self) -> Result<RecordingSummary, PublishError> {

@@ -19,7 +19,7 @@
 
 use crate::array::kernel::matrix_from_design;
 use crate::array::protocol::NoiseModel;
-use crate::live::hyperion::{encode_peaks, PeaksFrame};
+use crate::live::hyperion::{encode_end_of_stream, encode_peaks, PeaksFrame};
 use crate::live::interpret::{InterpretOptions, Interpreter};
 use crate::logs::csv_table;
 use crate::model::LoadCase;
@@ -215,10 +215,17 @@ pub fn parse_script(text: &str, path: &Path, design: &Design) -> Result<LoadScri
     Ok(LoadScript { columns, steps })
 }
 
-/// The script used when none is given: rest, then each cell (or force level) in turn.
+/// How long the demo script rests at the start of each pass, s: longer than the tare
+/// window (`live` takes 1 s at rest by default), so a `live` started during one of its
+/// loads waits for it and tares there. Every load step is held 0.5 s, shorter than the
+/// tare window, so none of them can pass for rest.
+pub const DEMO_REST_S: f64 = 1.5;
+
+/// The script used when none is given: a rest of [`DEMO_REST_S`], then each cell (or
+/// force level) in turn for 0.5 s.
 pub fn default_script(design: &Design) -> Result<LoadScript> {
     let columns = script_columns(design)?;
-    let mut steps = vec![(0.5, vec![0.0; columns.len()])];
+    let mut steps = vec![(DEMO_REST_S, vec![0.0; columns.len()])];
     if design.array.is_some() {
         for k in 0..columns.len() {
             let mut v = vec![0.0; columns.len()];
@@ -781,7 +788,16 @@ pub fn serve(req: &SynthRequest, on_listening: &mut dyn FnMut(SocketAddr)) -> Re
     // Close the listener before the client, so a client that reconnects at once is
     // refused rather than accepted by the closing socket.
     drop(listener);
-    drop(client);
+    // The stream is finite: say so, so the client ends rather than reconnecting.
+    if let Some(mut c) = client {
+        let why = format!(
+            "fbgforge synth-stream served its {} s ({} frames)",
+            req.duration_s, summary.frames_generated
+        );
+        let _ = c.write_all(&encode_end_of_stream(&why));
+        let _ = c.flush();
+        let _ = c.shutdown(std::net::Shutdown::Write);
+    }
     Ok(summary)
 }
 

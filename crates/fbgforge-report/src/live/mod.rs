@@ -1,21 +1,27 @@
 //! What a live run shows: a terminal view (a text heat map of the array's cells, or a
-//! force table of the module's gratings, with rate, latency, drops and bad frames),
-//! redrawn a few times a second ([`TerminalSink`]), or one JSON object per line for
-//! programs ([`JsonlSink`]): the `LiveSink`s of `fbgforge live`. The view and the
-//! end-of-run summary keep to [`WIDTH`] columns, a terminal's default: the grid's cells
-//! narrow with their number, and text lines wrap at spaces. Texts name the request's
-//! fields in the front end's words ([`crate::verify::Words`]).
+//! force table of the module's gratings, with the tare's state, rate, latency, drops
+//! and bad frames), redrawn a few times a second ([`TerminalSink`]), or one JSON object
+//! per line for programs ([`JsonlSink`]); and what it keeps: the raw peaks as a log
+//! ([`record::RecordSink`]), ROS 2 messages in MCAP ([`publish::McapSink`]) and the
+//! browser view ([`publish::WebSink`]): the `LiveSink`s of `fbgforge live`. The view
+//! and the end-of-run summary keep to [`WIDTH`] columns, a terminal's default: the
+//! grid's cells narrow with their number, and text lines wrap at spaces. Texts name the
+//! request's fields in the front end's words ([`crate::verify::Words`]).
+
+pub mod publish;
+pub mod record;
 
 use crate::verify::{own_words, Words};
 use fbgforge_live::interpret::Reading;
 use fbgforge_live::sink::{FrameReading, LiveInfo, LiveSink};
 use fbgforge_live::stats::{LiveSummary, Stats};
+use fbgforge_live::tare::{TareChange, TareState};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::time::{Duration, Instant};
 
-/// One JSON object per line: `start`, then `frame`, `bad` and `event` lines, then a
-/// `summary`.
+/// One JSON object per line: `start`, then `frame`, `tare`, `bad` and `event` lines,
+/// then a `summary`.
 pub struct JsonlSink<W: Write> {
     out: W,
     words: Words,
@@ -64,6 +70,10 @@ impl<W: Write> LiveSink for JsonlSink<W> {
     fn reading(&mut self, r: &FrameReading) -> io::Result<()> {
         self.line("frame", r)
     }
+    fn tare(&mut self, change: &TareChange) -> io::Result<()> {
+        self.text_line("tare", change)?;
+        self.out.flush()
+    }
     fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
         self.text_line(
             "bad",
@@ -94,6 +104,8 @@ pub struct TerminalSink<W: Write> {
     last_draw: Option<Instant>,
     info: Option<LiveInfo>,
     last: Option<FrameReading>,
+    tare: Option<TareChange>,
+    keys: bool,
     events: Vec<String>,
     stats: Stats,
     elapsed: Duration,
@@ -110,6 +122,8 @@ impl<W: Write> TerminalSink<W> {
             last_draw: None,
             info: None,
             last: None,
+            tare: None,
+            keys: false,
             events: Vec::new(),
             stats: Stats::default(),
             elapsed: Duration::ZERO,
@@ -120,6 +134,11 @@ impl<W: Write> TerminalSink<W> {
     /// The texts (events, bad frames, the summary) in `words`.
     pub fn with_words(self, words: Words) -> Self {
         TerminalSink { words, ..self }
+    }
+
+    /// Say which keys steer the run (`t` tare again, `q` quit): the caller reads them.
+    pub fn with_keys(self, keys: bool) -> Self {
+        TerminalSink { keys, ..self }
     }
 
     fn note(&mut self, s: String) {
@@ -134,9 +153,17 @@ impl<W: Write> TerminalSink<W> {
         let Some(info) = &self.info else {
             return Ok(());
         };
+        let tare = self.tare.as_ref().map(|t| TareChange {
+            message: (self.words)(&t.message),
+            ..t.clone()
+        });
         let text = render(
             info,
-            self.last.as_ref(),
+            &View {
+                last: self.last.as_ref(),
+                tare: tare.as_ref(),
+                keys: self.keys,
+            },
             &self.stats,
             self.elapsed,
             &self.events,
@@ -161,6 +188,27 @@ impl<W: Write> LiveSink for TerminalSink<W> {
     }
     fn reading(&mut self, r: &FrameReading) -> io::Result<()> {
         self.last = Some(r.clone());
+        Ok(())
+    }
+    fn tare(&mut self, change: &TareChange) -> io::Result<()> {
+        if change.state != TareState::Resting {
+            // The loads of the old tare are no longer shown.
+            self.last = None;
+        }
+        if change.state != TareState::Waiting
+            || self
+                .tare
+                .as_ref()
+                .is_none_or(|t| t.state != TareState::Waiting)
+        {
+            self.note(format!(
+                "tare {} ({}): {}",
+                change.state.word(),
+                change.origin,
+                change.message
+            ));
+        }
+        self.tare = Some(change.clone());
         Ok(())
     }
     fn bad(&mut self, kind: &str, message: &str) -> io::Result<()> {
@@ -258,10 +306,22 @@ pub(crate) fn fit_width(text: &str, width: usize) -> String {
     out
 }
 
+/// What the terminal view shows besides the counters: the last reading (of the tare
+/// in force), the tare's last change, and whether keys steer the run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct View<'a> {
+    /// The last reading, if it was read against the tare in force.
+    pub last: Option<&'a FrameReading>,
+    /// The tare's last change.
+    pub tare: Option<&'a TareChange>,
+    /// Whether `t` (tare again) and `q` (quit) are read from the keyboard.
+    pub keys: bool,
+}
+
 /// The terminal view as text, within [`WIDTH`] columns.
 pub fn render(
     info: &LiveInfo,
-    last: Option<&FrameReading>,
+    view: &View<'_>,
     stats: &Stats,
     elapsed: Duration,
     events: &[String],
@@ -270,26 +330,16 @@ pub fn render(
     let mut s = String::new();
     let _ = writeln!(s, "fbgforge live · {} · {}", info.design, info.source);
     let _ = writeln!(s, "{}", info.description);
+    let last = view.last;
     match (last.map(|r| &r.reading), info.grid) {
         (
             Some(Reading::Loads {
                 loads_g,
                 residual_pm,
-                flags,
                 ..
             }),
             Some(grid),
-        ) => {
-            write_load_grid(&mut s, info, loads_g, *residual_pm, grid);
-            // The frame's trust flags (array::trust), the same words as reconstruct's CSV.
-            if !flags.trusted() {
-                let _ = writeln!(
-                    s,
-                    "  NOT TRUSTED: {} (see docs/array.md §11)",
-                    flags.words().join(", ")
-                );
-            }
-        }
+        ) => write_load_grid(&mut s, info, loads_g, *residual_pm, grid),
         (
             Some(Reading::Forces {
                 forces_n,
@@ -297,16 +347,74 @@ pub fn render(
             }),
             _,
         ) => write_forces(&mut s, info, forces_n, *delta_t_k),
-        _ => {
+        _ => write_no_reading(&mut s, info, view.tare, stats),
+    }
+    // The frame's flags: the array's trust flags (the same words as reconstruct's
+    // CSV) and below_tare.
+    if let Some(r) = last {
+        let words = r.flag_words();
+        if !words.is_empty() {
             let _ = writeln!(
                 s,
-                "  waiting for frames ({} of {} tare frames taken; keep the sensor unloaded)",
-                stats.tare_frames, info.tare_frames
+                "  NOT TRUSTED: {} (see docs/live.md, Flags)",
+                words.join(", ")
             );
         }
     }
+    write_tare_line(&mut s, info, view, stats);
     write_status(&mut s, last, stats, elapsed, events);
     fit_width(&s, WIDTH)
+}
+
+/// No reading to show: why (waiting for rest, refused, or no frame yet).
+fn write_no_reading(s: &mut String, info: &LiveInfo, tare: Option<&TareChange>, stats: &Stats) {
+    use std::fmt::Write as _;
+    match tare.map(|t| t.state) {
+        Some(TareState::Refused) => {
+            let t = tare.expect("matched");
+            let _ = writeln!(
+                s,
+                "  TARE REFUSED: the sensor never came to rest ({}): no loads are shown",
+                t.moving.join(", ")
+            );
+            let _ = writeln!(s, "  {}", t.message);
+        }
+        Some(TareState::Waiting) => {
+            let t = tare.expect("matched");
+            let _ = writeln!(s, "  {}", t.message);
+        }
+        _ => {
+            let _ = writeln!(
+                s,
+                "  waiting for frames ({} frames taken for the tare, which needs {} frames and {} s at rest; keep the sensor unloaded)",
+                stats.tare_frames, info.tare_frames, info.tare_s
+            );
+        }
+    }
+}
+
+/// One line on the tare in force and the keys.
+fn write_tare_line(s: &mut String, info: &LiveInfo, view: &View<'_>, stats: &Stats) {
+    use std::fmt::Write as _;
+    let state = match (view.tare, info.tare_frames) {
+        (_, 0) => "none (shifts from the nominal wavelengths)".to_string(),
+        (Some(t), _) if t.state == TareState::Resting => match t.window_frames {
+            Some((a, b)) => format!("at rest on frames {a}–{b} ({})", t.origin),
+            None => format!("at rest ({})", t.origin),
+        },
+        (Some(t), _) => t.state.word().to_string(),
+        (None, _) => "waiting".to_string(),
+    };
+    let keys = if view.keys {
+        "   keys: t tare again, q quit"
+    } else {
+        ""
+    };
+    let _ = writeln!(
+        s,
+        "tare: {state}; {} re-tares asked, {} below the tare{keys}",
+        stats.tare_requests, stats.retares_below_tare
+    );
 }
 
 /// The array's loads as a grid of cells (name, load in g, bar of the load over ulimit).
@@ -550,6 +658,25 @@ pub fn summary_text_in(x: &LiveSummary, words: Words) -> String {
 mod tests {
     use super::*;
 
+    /// A reading's fields the view tests do not look at.
+    fn reading_base() -> FrameReading {
+        FrameReading {
+            frame: 1,
+            serial: None,
+            time_s: None,
+            received_s: 0.0,
+            reading: Reading::Forces {
+                forces_n: Vec::new(),
+                delta_t_k: None,
+            },
+            below_tare: false,
+            peaks_nm: Vec::new(),
+            shifts_pm: Vec::new(),
+            latency_us: 0.0,
+            age_us: None,
+        }
+    }
+
     #[test]
     fn bars_fill_in_eighths_and_keep_their_width() {
         assert_eq!(bar(0.0, 4), "    ");
@@ -588,7 +715,12 @@ mod tests {
             grid: Some((nx, ny, 250.0)),
             method: Some("wsupport".into()),
             sensitivities_pm_per_n: Vec::new(),
+            core: None,
+            cell_centers_mm: Vec::new(),
             tare_frames: 200,
+            tare_s: 1.0,
+            tare_wait_s: 30.0,
+            resolution_pm: 0.5,
         }
     }
 
@@ -626,10 +758,14 @@ mod tests {
                 },
                 latency_us: 12.0,
                 age_us: None,
+                ..reading_base()
             };
             let text = render(
                 &info,
-                Some(&reading),
+                &View {
+                    last: Some(&reading),
+                    ..View::default()
+                },
                 &busy_stats(),
                 Duration::from_secs(3),
                 &events,
@@ -650,21 +786,26 @@ mod tests {
             assert_eq!(shown.count(), if nx == 16 { 12 } else { 2 * nx }, "{text}");
         }
         // The grid lines stay whole: no box line was wrapped.
+        let reading = FrameReading {
+            serial: Some(1),
+            time_s: None,
+            reading: Reading::Loads {
+                loads_g: vec![100.0; 16],
+                converged: true,
+                residual_pm: 0.1,
+                certified: true,
+                flags: Default::default(),
+            },
+            latency_us: 1.0,
+            age_us: None,
+            ..reading_base()
+        };
         let text = render(
             &array_info(8, 2),
-            Some(&FrameReading {
-                serial: Some(1),
-                time_s: None,
-                reading: Reading::Loads {
-                    loads_g: vec![100.0; 16],
-                    converged: true,
-                    residual_pm: 0.1,
-                    certified: true,
-                    flags: Default::default(),
-                },
-                latency_us: 1.0,
-                age_us: None,
-            }),
+            &View {
+                last: Some(&reading),
+                ..View::default()
+            },
             &Stats::default(),
             Duration::from_secs(1),
             &[],
@@ -685,7 +826,12 @@ mod tests {
             grid: None,
             method: None,
             sensitivities_pm_per_n: vec![-170.684, -169.647],
+            core: Some("psc2".into()),
+            cell_centers_mm: Vec::new(),
             tare_frames: 50,
+            tare_s: 1.0,
+            tare_wait_s: 30.0,
+            resolution_pm: 0.5,
         };
         let reading = FrameReading {
             serial: None,
@@ -696,10 +842,14 @@ mod tests {
             },
             latency_us: 5.0,
             age_us: None,
+            ..reading_base()
         };
         let text = render(
             &info,
-            Some(&reading),
+            &View {
+                last: Some(&reading),
+                ..View::default()
+            },
             &busy_stats(),
             Duration::from_secs(2),
             &[],
@@ -717,7 +867,11 @@ mod tests {
             frames_in: st.frames_in,
             frames_out: st.frames_out,
             rate_hz: 1000.0,
+            tare: TareState::Resting,
             tare_frames: 200,
+            refused_frames: 0,
+            tare_requests: 1,
+            retares_below_tare: 0,
             bad_frames: st.bad_frames,
             bad,
             ambiguous_frames: 77,
@@ -725,7 +879,9 @@ mod tests {
             reconnects: st.reconnects,
             not_converged: 0,
             flagged: 12,
+            below_tare: 0,
             source_lost: true,
+            output_closed: false,
             latency: st.latency.summary(),
             age: st.latency.summary(),
         };
@@ -744,5 +900,83 @@ mod tests {
         let cut = fit_width(&"x".repeat(30), 10);
         assert_eq!(cut.chars().count(), 6, "{cut}");
         assert!(cut.ends_with('…'));
+    }
+
+    #[test]
+    fn the_view_says_why_it_shows_no_load_and_which_keys_steer_it() {
+        let info = LiveInfo {
+            design: "tactile-array-60x80".into(),
+            kind: "array",
+            source: "hyperion 127.0.0.1:1".into(),
+            description: "array".into(),
+            outputs: "ABCDEFGH".chars().map(String::from).collect(),
+            gratings: (1..=6).map(|k| format!("fbg{k}")).collect(),
+            grid: Some((4, 2, 250.0)),
+            method: Some("wsupport".into()),
+            sensitivities_pm_per_n: Vec::new(),
+            core: None,
+            cell_centers_mm: Vec::new(),
+            tare_frames: 50,
+            tare_s: 1.0,
+            tare_wait_s: 30.0,
+            resolution_pm: 0.5,
+        };
+        let change = |state: TareState, message: &str| TareChange {
+            state,
+            origin: "start".into(),
+            frame: 1200,
+            moving: vec!["fbg2".into(), "fbg4".into()],
+            unseen: Vec::new(),
+            baseline_nm: Vec::new(),
+            window_frames: None,
+            window_s: None,
+            waited_s: 0.2,
+            message: message.into(),
+        };
+        let stats = Stats::default();
+        let waiting = change(TareState::Waiting, "waiting for the sensor to be at rest before taring (0.2 of 30.0 s): moving: fbg2 (spread 5.49 pm, trend -33.54 pm); keep it unloaded");
+        let view = View {
+            last: None,
+            tare: Some(&waiting),
+            keys: true,
+        };
+        let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
+        // Long lines wrap at 80 columns: read the words across the wraps.
+        let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(
+            words.contains("waiting for the sensor to be at rest"),
+            "{text}"
+        );
+        assert!(words.contains("moving: fbg2 (spread 5.49 pm"), "{text}");
+        assert!(
+            text.contains("tare: waiting;") && text.contains("keys: t tare again, q quit"),
+            "{text}"
+        );
+        let refused = change(TareState::Refused, "refused to tare");
+        let view = View {
+            last: None,
+            tare: Some(&refused),
+            keys: false,
+        };
+        let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
+        let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(
+            words.contains("TARE REFUSED") && words.contains("(fbg2, fbg4): no loads are shown"),
+            "{text}"
+        );
+        assert!(!text.contains("keys:"), "{text}");
+        let mut rested = change(TareState::Resting, "tared");
+        rested.origin = "key".into();
+        rested.window_frames = Some((1100, 2100));
+        let view = View {
+            last: None,
+            tare: Some(&rested),
+            keys: true,
+        };
+        let text = render(&info, &view, &stats, Duration::from_secs(1), &[]);
+        assert!(
+            text.contains("tare: at rest on frames 1100–2100 (key)"),
+            "{text}"
+        );
     }
 }

@@ -10,7 +10,6 @@ pub(crate) mod text;
 
 use std::io::BufRead;
 
-
 use crate::error::SpectrumError;
 use crate::spectrum::SpectrumLog;
 
@@ -19,7 +18,6 @@ pub use imon::{read_imon, write_imon, ImonWriteOptions, PixelCalibration};
 pub use osa::{read_osa_csv, write_osa_csv};
 
 pub use crate::spectrum::SpectrumFormat;
-
 
 /// How to read a spectrum file.
 #[derive(Debug, Clone, Default, PartialEq)]
