@@ -51,7 +51,7 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     m.core_insert_clearance_mm = fit(f[3]);
     let pl = &mut m.pillars;
     pl.count = count;
-    let passage = d.printer.min_passage_mm(d.fiber_routing.coated_diameter_mm);
+    let passage = d.fiber_routing.min_passage_mm(&d.printer);
     pl.fiber_hole_diameter_mm = lerp(passage, 1.2, f[4]);
     pl.groove_depth_mm = lerp(0.05, 1.0, f[5]);
     // At most 0.3 × the radius (the field's range), so small modules stay valid.

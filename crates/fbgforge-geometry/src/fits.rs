@@ -3,7 +3,8 @@
 //! derived profile (radii, heights, slot widths, the fiber's centreline as lines and a
 //! circular bend). Nothing here reads a mesh, so no result depends on the meshing
 //! tolerance; the meshes are checked against each other separately
-//! ([`super::assembly`]), at a tolerance these gaps allow ([`check_tolerance`]).
+//! ([`super::assembly`]); each designed gap is measured again on the written meshes
+//! ([`super::gaps`], [`super::meshing`]).
 //!
 //! A fiber lies in a vertical plane through the module's axis; every revolved surface
 //! (walls, domes, the snap bead, slot roofs) cuts that plane in its (r, z) profile, so

@@ -11,7 +11,6 @@
 use super::mesh::TriMesh;
 use super::part::PartKind;
 use serde::Serialize;
-use std::collections::HashMap;
 
 /// Least fraction of a designed gap the written meshes must keep (80 %).
 pub const KEPT_FRACTION: f64 = 0.8;

@@ -180,18 +180,13 @@ pub(crate) fn mesh_solids(
         .map(|s| gaps::initial_tolerance_mm(s.designed_gap_mm).min(tol))
         .collect();
     let distinct = first_of_each_kind(solids, |s| s.kind);
-    let tm = std::time::Instant::now();
     let mut meshed: Vec<BuiltPart> = distinct
         .par_iter()
         .map(|s| mesh_part_or_refuse(s, tol, (bound, default), &needs_of(s.kind, &specs, &tols)))
         .collect::<Result<_, _>>()?;
     let mut results = Vec::new();
-    if std::env::var_os("FBG_TIMING").is_some() { eprintln!("meshed in {:?}", tm.elapsed()); }
-    let t0 = std::time::Instant::now();
     for round in 0..=MAX_GAP_REFINEMENTS {
-        if std::env::var_os("FBG_TIMING").is_some() { eprintln!("round {round} meshed at {:?}", t0.elapsed()); }
         results = measure_all(&specs, &tols, &meshed);
-        if std::env::var_os("FBG_TIMING").is_some() { eprintln!("round {round} measured at {:?}", t0.elapsed()); }
         let eaten: Vec<usize> = results
             .iter()
             .filter(|(_, g)| g.kept_percent < 100.0 * gaps::KEPT_FRACTION)
