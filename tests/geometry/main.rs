@@ -12,6 +12,8 @@ mod geometry_parts;
 mod geometry_props;
 mod geometry_step;
 mod parts_rules;
+mod printer_floor;
+mod refusals;
 mod prusaslicer;
 
 /// Build every part of `design` into `dir` as the command line does (with its
