@@ -570,6 +570,91 @@ pub struct SnapReport {
     /// Forces for each core (cores differ in material, so in how much of the undercut
     /// their pillars take).
     pub cores: Vec<SnapCoreForces>,
+    /// How far a seated cap can rise before the retention cone meets the pillars'
+    /// bottom edge ([`SnapProfile::free_travel_mm`]): the snap's clearance over
+    /// sin α₂, mm.
+    pub free_travel_mm: f64,
+}
+
+/// How the cap is held on the core, stated in the manifest (issue 39): by the snap
+/// (its retention force and free travel), or by nothing, which is a warning. A press
+/// fit (clearance 0) is designed touching with no interference: its computed holding
+/// force is 0 N, so it counts as nothing.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "by", rename_all = "snake_case")]
+pub enum Retention {
+    /// The snap bead under the pillars.
+    Snap {
+        /// Least force, over the cores, that pulls the seated cap off, N (None when
+        /// the retention cone is self-locking on every core: it breaks before it
+        /// slides).
+        retention_force_n: Option<f64>,
+        /// How far the seated cap can rise before the bead holds it, mm.
+        free_travel_mm: f64,
+        /// The printer's resolution, mm: a free travel within it is zero as printed.
+        resolution_mm: f64,
+    },
+    /// Nothing holds the cap on: the warning, in words.
+    Nothing {
+        /// What the lab must do, in words.
+        warning: String,
+    },
+}
+
+impl Retention {
+    /// The warning to show, if any.
+    pub fn warning(&self) -> Option<&str> {
+        match self {
+            Retention::Nothing { warning } => Some(warning),
+            Retention::Snap { .. } => None,
+        }
+    }
+}
+
+/// How the cap of `d`'s module is held (None for an array design).
+///
+/// ```
+/// use fbgforge_core::profile::{retention, PartsProfile, Retention};
+/// let mut d = fbgforge_core::design::load(std::path::Path::new(concat!(
+///     env!("CARGO_MANIFEST_DIR"),
+///     "/../../designs/clip-on-34mm.toml"
+/// )))
+/// .unwrap();
+/// let (p, pp) = PartsProfile::of_design(&d).unwrap();
+/// assert!(matches!(retention(&d, &p, &pp), Some(Retention::Snap { .. })));
+/// d.module.as_mut().unwrap().snap = None;
+/// let (p, pp) = PartsProfile::of_design(&d).unwrap();
+/// let r = retention(&d, &p, &pp).unwrap();
+/// assert!(r.warning().unwrap().contains("[module.snap]"));
+/// ```
+pub fn retention(
+    d: &crate::spec::Design,
+    p: &ModuleProfile,
+    pp: &PartsProfile,
+) -> Option<Retention> {
+    let m = d.module.as_ref()?;
+    if let Some(r) = snap_report(d, p, pp) {
+        let force = r
+            .cores
+            .iter()
+            .filter_map(|c| c.retention_force_n)
+            .reduce(f64::min);
+        return Some(Retention::Snap {
+            retention_force_n: force,
+            free_travel_mm: r.free_travel_mm,
+            resolution_mm: d.printer.resolution_mm,
+        });
+    }
+    let fit = if m.cap_core_clearance_mm <= 0.0 {
+        "a press fit (module.cap_core_clearance_mm = 0) has no designed interference, so its computed holding force is 0 N"
+    } else {
+        "the cap slides on the pillars with module.cap_core_clearance_mm of clearance, so no friction holds it"
+    };
+    Some(Retention::Nothing {
+        warning: format!(
+            "nothing holds the cap on the core: the design has no [module.snap] and {fit}; add [module.snap] (docs/geometry.md, \"Snap-fit\"), or bond or clamp the cap before loading"
+        ),
+    })
 }
 
 /// Snap forces for one core.
@@ -692,5 +777,6 @@ pub fn snap_report(
         friction_coefficient: s.friction_coefficient,
         ring_stiffness_n_per_mm: k_ring,
         cores,
+        free_travel_mm: sp.free_travel_mm,
     })
 }

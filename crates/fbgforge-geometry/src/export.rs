@@ -292,6 +292,9 @@ pub struct Manifest {
     pub clearances: Option<Clearances>,
     /// The snap-fit, sized (module designs with `[module.snap]`).
     pub snap: Option<crate::profile::SnapReport>,
+    /// How the cap is held on the core (module designs): the snap with its retention
+    /// force and free travel, or nothing, with the warning.
+    pub retention: Option<crate::profile::Retention>,
     /// Every fiber's way out, traced through the assembled parts (module designs
     /// built whole).
     pub fibers: Option<Vec<super::assembly::FiberTrace>>,
@@ -385,6 +388,10 @@ pub fn render(
         .module
         .as_ref()
         .and_then(|m| crate::profile::snap_report(design, &m.profile, &m.parts));
+    let retention = profile
+        .module
+        .as_ref()
+        .and_then(|m| crate::profile::retention(design, &m.profile, &m.parts));
     let materials = manifest_materials(design);
     let packages = render_packages(profile, parts, &materials, fibers.is_some(), &mut files)?;
     let manifest = Manifest {
@@ -393,6 +400,7 @@ pub fn render(
         parts: listed,
         clearances: clearances(profile),
         snap,
+        retention,
         fibers: fibers.map(<[_]>::to_vec),
         mold: mold_report(profile),
         previews,

@@ -254,6 +254,9 @@ pub fn module_gap_specs(md: &ModuleDims) -> Vec<GapSpec> {
             });
         }
     }
+    // A passage designed narrower than its fiber (a design changed after validation)
+    // has no gap to keep: the exact passage check refuses it, naming the field.
+    out.retain(|g| g.designed_gap_mm > PRESS_FIT_MM);
     out
 }
 

@@ -305,6 +305,8 @@ pub struct BuildReport {
     /// Every designed gap (fits and fiber passages) measured on the written meshes
     /// (those whose parts were built).
     pub gaps: Vec<gaps::MeshedGap>,
+    /// What the lab must know before using the parts (nothing holding the cap on).
+    pub warnings: Vec<String>,
 }
 
 /// Trace the fibers and check the assembly when the whole module was built (cap, core
@@ -415,6 +417,12 @@ pub fn build_design(
         files,
         fibers: fibers.unwrap_or_default(),
         gaps,
+        warnings: rendered
+            .manifest
+            .retention
+            .iter()
+            .filter_map(|r| r.warning().map(String::from))
+            .collect(),
     };
     sink.built(design, &report)?;
     Ok(report)
