@@ -10,6 +10,7 @@ mod admesh;
 mod geometry;
 mod geometry_parts;
 mod geometry_props;
+mod held_out;
 mod geometry_step;
 mod parts_rules;
 mod printer_floor;

@@ -196,6 +196,28 @@ pub(crate) fn default_tolerance_for(profile: &DesignProfile) -> f64 {
     profile.design.printer.default_tolerance_mm()
 }
 
+/// [`build_parts`], with every designed gap of the built parts as the meshes keep it
+/// (fits between mating parts, fiber passages round a revolved wall).
+///
+/// ```
+/// let d = fbgforge_core::design::load(std::path::Path::new(concat!(
+///     env!("CARGO_MANIFEST_DIR"),
+///     "/../../designs/clip-on-10mm.toml"
+/// )))
+/// .unwrap();
+/// let sel = ["cap".to_string(), "core".into()];
+/// let (parts, gaps) = fbgforge_geometry::build_parts_measured(&d, None, Some(&sel)).unwrap();
+/// assert_eq!(parts.len(), 2);
+/// assert!(gaps.iter().all(|g| g.meshed_gap_mm >= 0.8 * g.designed_gap_mm));
+/// ```
+pub fn build_parts_measured(
+    design: &Design,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<(Vec<BuiltPart>, Vec<gaps::MeshedGap>), GeometryError> {
+    mesh_parts_for(&DesignProfile::new(design), tol_mm, selection)
+}
+
 /// [`build_parts`] from dimensions already derived.
 pub(crate) fn build_parts_for(
     profile: &DesignProfile,
