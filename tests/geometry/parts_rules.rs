@@ -811,3 +811,44 @@ fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     assert!(svg.contains("data-name=\"wall\"") && svg.contains("class=\"scale-bar\""));
     assert!(svg.contains("fiber axis 4.525"));
 }
+
+// ---------------------------------------------------------------- 9. retention
+
+#[test]
+fn the_manifest_states_how_the_cap_is_held() {
+    let dir = tempfile::tempdir().unwrap();
+    // The shipped 10 mm module has no snap: nothing holds its cap, and the build says so.
+    let d = shipped("clip-on-10mm.toml");
+    assert!(d.module.as_ref().unwrap().snap.is_none());
+    let out = dir.path().join("10");
+    let r = crate::build(&d, &out, None).unwrap();
+    assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
+    assert!(r.warnings[0].contains("nothing holds the cap"), "{:?}", r.warnings);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["retention"]["by"], "nothing", "{}", m["retention"]);
+    // The 34 mm module's snap: its free travel is the bead's clearance to the pillars'
+    // bottom edge over sin α₂, the same gap the fits find on exact dimensions.
+    let d = shipped("clip-on-34mm.toml");
+    let out = dir.path().join("34");
+    let r = crate::build(&d, &out, None).unwrap();
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let ret = &m["retention"];
+    assert_eq!(ret["by"], "snap", "{ret}");
+    assert!(ret["retention_force_n"].as_f64().unwrap() > 0.0, "{ret}");
+    let travel = ret["free_travel_mm"].as_f64().unwrap();
+    let alpha = d.module.as_ref().unwrap().snap.as_ref().unwrap().retention_angle_deg;
+    let bead = m["fits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["what"] == "snap bead to pillar bottoms")
+        .unwrap()["gap_mm"]
+        .as_f64()
+        .unwrap();
+    assert!((travel * alpha.to_radians().sin() - bead).abs() < 1e-9, "{travel} vs {bead}");
+    assert!((travel - 0.1 / 45f64.to_radians().sin()).abs() < 1e-9, "{travel}");
+    assert_eq!(ret["resolution_mm"].as_f64(), Some(0.05));
+}
