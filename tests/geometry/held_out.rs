@@ -38,7 +38,11 @@ fn held_out(base: Design, g: [f64; 8], inserts: usize, strain: usize) -> Design 
             core: Some(core),
             // Two of three on one pillar when the draw says so: their overlap is a
             // rule to meet, not a case to avoid.
-            pillar: Some(if g[7] < 0.5 { 0 } else { (k as u32 * 7 + 1) % count }),
+            pillar: Some(if g[7] < 0.5 {
+                0
+            } else {
+                (k as u32 * 7 + 1) % count
+            }),
             center_height_mm: Some(lerp(0.2 * height, height, f)),
             tail_mm: None,
         });
@@ -117,10 +121,20 @@ fn the_held_out_generator_reaches_its_space() {
         }
     }
     let m = |d: &Design| d.module.clone().unwrap();
-    let fdm = valid.iter().filter(|d| d.printer.nozzle_mm().is_some()).count();
-    assert!(fdm > 20 && valid.len() - fdm > 20, "{fdm} FDM of {}", valid.len());
+    let fdm = valid
+        .iter()
+        .filter(|d| d.printer.nozzle_mm().is_some())
+        .count();
+    assert!(
+        fdm > 20 && valid.len() - fdm > 20,
+        "{fdm} FDM of {}",
+        valid.len()
+    );
     for n in 0..=3 {
-        assert!(valid.iter().any(|d| m(d).inserts.len() == n), "no valid design with {n} inserts");
+        assert!(
+            valid.iter().any(|d| m(d).inserts.len() == n),
+            "no valid design with {n} inserts"
+        );
     }
     let shared = valid
         .iter()
@@ -133,8 +147,14 @@ fn the_held_out_generator_reaches_its_space() {
             })
         })
         .count();
-    assert!(shared > 10, "{shared} valid designs with two gratings on one fiber");
-    assert!(overlapping > 10, "{overlapping} draws refused for overlapping gratings");
+    assert!(
+        shared > 10,
+        "{shared} valid designs with two gratings on one fiber"
+    );
+    assert!(
+        overlapping > 10,
+        "{overlapping} draws refused for overlapping gratings"
+    );
     eprintln!(
         "held-out draws: {} valid of 3000 ({fdm} FDM, {shared} with two gratings on one fiber), {overlapping} refused for overlapping gratings",
         valid.len()

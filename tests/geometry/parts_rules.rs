@@ -232,10 +232,9 @@ fn a_coarse_tolerance_keeps_every_designed_gap_in_the_meshes() {
         let out = dir.path().join(format!("t{tol}"));
         let r = crate::build(&d, &out, Some(tol)).unwrap();
         assert!(!r.fibers.is_empty());
-        let m: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(out.join("manifest.json")).unwrap(),
-        )
-        .unwrap();
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap())
+                .unwrap();
         let gaps = m["meshed_gaps"].as_array().unwrap();
         assert!(gaps.len() >= 10, "{tol}: {} gaps", gaps.len());
         for g in gaps {
@@ -244,7 +243,10 @@ fn a_coarse_tolerance_keeps_every_designed_gap_in_the_meshes() {
                 g["meshed_gap_mm"].as_f64().unwrap(),
             );
             assert!(meshed >= 0.8 * designed, "{tol}: {g}");
-            assert!(g["surface_tolerance_mm"].as_f64().unwrap() < tol, "{tol}: {g}");
+            assert!(
+                g["surface_tolerance_mm"].as_f64().unwrap() < tol,
+                "{tol}: {g}"
+            );
         }
         // The dome gap of the issue, stated both ways in the fits.
         let dome = m["fits"]
@@ -823,7 +825,11 @@ fn the_manifest_states_how_the_cap_is_held() {
     let out = dir.path().join("10");
     let r = crate::build(&d, &out, None).unwrap();
     assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
-    assert!(r.warnings[0].contains("nothing holds the cap"), "{:?}", r.warnings);
+    assert!(
+        r.warnings[0].contains("nothing holds the cap"),
+        "{:?}",
+        r.warnings
+    );
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["retention"]["by"], "nothing", "{}", m["retention"]);
@@ -839,7 +845,14 @@ fn the_manifest_states_how_the_cap_is_held() {
     assert_eq!(ret["by"], "snap", "{ret}");
     assert!(ret["retention_force_n"].as_f64().unwrap() > 0.0, "{ret}");
     let travel = ret["free_travel_mm"].as_f64().unwrap();
-    let alpha = d.module.as_ref().unwrap().snap.as_ref().unwrap().retention_angle_deg;
+    let alpha = d
+        .module
+        .as_ref()
+        .unwrap()
+        .snap
+        .as_ref()
+        .unwrap()
+        .retention_angle_deg;
     let bead = m["fits"]
         .as_array()
         .unwrap()
@@ -848,7 +861,13 @@ fn the_manifest_states_how_the_cap_is_held() {
         .unwrap()["gap_mm"]
         .as_f64()
         .unwrap();
-    assert!((travel * alpha.to_radians().sin() - bead).abs() < 1e-9, "{travel} vs {bead}");
-    assert!((travel - 0.1 / 45f64.to_radians().sin()).abs() < 1e-9, "{travel}");
+    assert!(
+        (travel * alpha.to_radians().sin() - bead).abs() < 1e-9,
+        "{travel} vs {bead}"
+    );
+    assert!(
+        (travel - 0.1 / 45f64.to_radians().sin()).abs() < 1e-9,
+        "{travel}"
+    );
     assert_eq!(ret["resolution_mm"].as_f64(), Some(0.05));
 }

@@ -47,8 +47,14 @@ fn tube_stl(hole_mm: f64) -> Vec<u8> {
             })
             .collect()
     };
-    let (ob, ot) = (ring(TUBE_RADIUS_MM, 0.0), ring(TUBE_RADIUS_MM, TUBE_HEIGHT_MM));
-    let (ib, it) = (ring(hole_mm / 2.0, 0.0), ring(hole_mm / 2.0, TUBE_HEIGHT_MM));
+    let (ob, ot) = (
+        ring(TUBE_RADIUS_MM, 0.0),
+        ring(TUBE_RADIUS_MM, TUBE_HEIGHT_MM),
+    );
+    let (ib, it) = (
+        ring(hole_mm / 2.0, 0.0),
+        ring(hole_mm / 2.0, TUBE_HEIGHT_MM),
+    );
     let mut tris: Vec<[[f64; 3]; 3]> = Vec::new();
     let mut quad = |a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]| {
         tris.push([a, b, c]);
@@ -172,7 +178,11 @@ fn slice_tube(d: &Design, hole_mm: f64, dir: &Path) -> Vec<(f64, f64)> {
     std::fs::write(&stl, tube_stl(hole_mm)).unwrap();
     let layers = open_diameters(&slice(d, &stl), BED_CENTRE_MM);
     let expected = (TUBE_HEIGHT_MM / d.printer.layer_height_mm()).round() as usize - 1;
-    assert_eq!(layers.len(), expected, "one measurement per layer but the first");
+    assert_eq!(
+        layers.len(),
+        expected,
+        "one measurement per layer but the first"
+    );
     words(&format!("tube, {hole_mm} mm hole"), &layers);
     layers
 }
@@ -180,7 +190,10 @@ fn slice_tube(d: &Design, hole_mm: f64, dir: &Path) -> Vec<(f64, f64)> {
 fn words(what: &str, layers: &[(f64, f64)]) {
     let lo = layers.iter().map(|l| l.1).fold(f64::INFINITY, f64::min);
     let hi = layers.iter().map(|l| l.1).fold(f64::NEG_INFINITY, f64::max);
-    eprintln!("{what}: open {lo:.3} to {hi:.3} mm over {} layers", layers.len());
+    eprintln!(
+        "{what}: open {lo:.3} to {hi:.3} mm over {} layers",
+        layers.len()
+    );
 }
 
 /// Build the core of `d` with `hole_mm` fiber holes, slice it, and measure the hole of
@@ -201,7 +214,12 @@ fn slice_core(d: &Design, hole_mm: f64, dir: &Path) -> Vec<(usize, f64, f64)> {
     // `--center` puts the mesh's plan box centre on the bed centre.
     let (lo, hi) = core.positions.iter().fold(
         ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
     );
     let box_centre = ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0);
     let (p, pp) = fbgforge::profile::PartsProfile::of_design(&d).unwrap();
@@ -260,14 +278,21 @@ fn the_smallest_fdm_hole_accepted_stays_open_round_the_fiber_in_the_toolpaths() 
     let fiber = d.fiber_routing.coated_diameter_mm;
     let tube = slice_tube(&d, floor, dir.path());
     let core = slice_core(&d, floor, dir.path());
-    assert!(core.len() > 20, "{} layers measured in the core", core.len());
+    assert!(
+        core.len() > 20,
+        "{} layers measured in the core",
+        core.len()
+    );
     let narrowest = core.iter().map(|l| l.2).fold(f64::INFINITY, f64::min);
     eprintln!(
         "{floor} mm hole: open {narrowest:.3} mm at its narrowest over {} pillar layers",
         core.len()
     );
     for (z, open) in &tube {
-        assert!(*open >= fiber, "tube, {floor} mm hole at z = {z}: {open:.3} mm open");
+        assert!(
+            *open >= fiber,
+            "tube, {floor} mm hole at z = {z}: {open:.3} mm open"
+        );
     }
     for (i, z, open) in &core {
         assert!(
@@ -279,6 +304,12 @@ fn the_smallest_fdm_hole_accepted_stays_open_round_the_fiber_in_the_toolpaths() 
     let old = fiber + d.printer.resolution_mm;
     let rival = slice_core(&d, old, dir.path());
     let closed = rival.iter().filter(|l| l.2 < fiber).count();
-    eprintln!("{old} mm hole: {closed} of {} pillar layers under the fiber", rival.len());
-    assert!(closed > 0, "the {old} mm hole stays open on every layer: the test cannot fail");
+    eprintln!(
+        "{old} mm hole: {closed} of {} pillar layers under the fiber",
+        rival.len()
+    );
+    assert!(
+        closed > 0,
+        "the {old} mm hole stays open on every layer: the test cannot fail"
+    );
 }

@@ -100,7 +100,10 @@ fn a_sheet_too_thin_for_its_fiber_seat_names_the_thickness_and_the_least_that_wo
         fbgforge::design::parse(&s).map_err(|e| e.to_string())
     };
     let e = at(0.3).unwrap_err();
-    assert!(e.contains("array.thickness_mm") && e.contains("allowed above"), "{e}");
+    assert!(
+        e.contains("array.thickness_mm") && e.contains("allowed above"),
+        "{e}"
+    );
     let least: f64 = e
         .split("allowed above ")
         .nth(1)

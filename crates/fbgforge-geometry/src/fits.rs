@@ -80,7 +80,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "cap inner wall to core pillar faces",
             p.cap_inner_radius_mm - p.pillar_outer_radius_mm,
             cap_core,
-            (vec![cyl(p.cap_inner_radius_mm)], vec![cyl(p.pillar_outer_radius_mm)]),
+            (
+                vec![cyl(p.cap_inner_radius_mm)],
+                vec![cyl(p.pillar_outer_radius_mm)],
+            ),
         ),
         (
             PartKind::Cap,
@@ -89,8 +92,14 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             (groove - p.cap_pillar_width_mm) / 2.0,
             cap_core,
             (
-                sides(p.cap_pillar_width_mm / 2.0, (p.cap_pillar_inner_radius_mm, p.cap_inner_radius_mm)),
-                sides(groove / 2.0, (p.groove_bottom_radius_mm, p.pillar_outer_radius_mm)),
+                sides(
+                    p.cap_pillar_width_mm / 2.0,
+                    (p.cap_pillar_inner_radius_mm, p.cap_inner_radius_mm),
+                ),
+                sides(
+                    groove / 2.0,
+                    (p.groove_bottom_radius_mm, p.pillar_outer_radius_mm),
+                ),
             ),
         ),
         (
@@ -99,7 +108,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "cap alignment pillar faces to groove bottoms",
             p.cap_pillar_inner_radius_mm - p.groove_bottom_radius_mm,
             cap_core,
-            (vec![cyl(p.cap_pillar_inner_radius_mm)], vec![cyl(p.groove_bottom_radius_mm)]),
+            (
+                vec![cyl(p.cap_pillar_inner_radius_mm)],
+                vec![cyl(p.groove_bottom_radius_mm)],
+            ),
         ),
         (
             PartKind::Cap,
@@ -124,7 +136,8 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             .windows(2)
             .map(|w| segment_segment(bottom, (w[0], w[1])))
             .fold(f64::INFINITY, f64::min);
-        let bead_surfaces: Vec<Surface> = bead.windows(2).map(|w| Surface::cone(w[0], w[1])).collect();
+        let bead_surfaces: Vec<Surface> =
+            bead.windows(2).map(|w| Surface::cone(w[0], w[1])).collect();
         fits.push((
             PartKind::Cap,
             PartKind::Core,
@@ -133,7 +146,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             cap_core,
             (
                 bead_surfaces,
-                vec![Surface::cone(bottom.0, bottom.1), cyl(p.pillar_outer_radius_mm)],
+                vec![
+                    Surface::cone(bottom.0, bottom.1),
+                    cyl(p.pillar_outer_radius_mm),
+                ],
             ),
         ));
         fits.push((
@@ -142,7 +158,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "snap bead crest to core wall",
             s.crest_radius_mm - p.core_outer_radius_mm,
             "module.snap.undercut_mm",
-            (vec![cyl(s.crest_radius_mm)], vec![cyl(p.core_outer_radius_mm)]),
+            (
+                vec![cyl(s.crest_radius_mm)],
+                vec![cyl(p.core_outer_radius_mm)],
+            ),
         ));
     }
     if !m.inserts.is_empty() {
@@ -152,7 +171,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "core inner wall to insert",
             p.core_inner_radius_mm - p.insert_radius_mm,
             core_insert,
-            (vec![cyl(p.core_inner_radius_mm)], vec![cyl(p.insert_radius_mm)]),
+            (
+                vec![cyl(p.core_inner_radius_mm)],
+                vec![cyl(p.insert_radius_mm)],
+            ),
         ));
         fits.push((
             PartKind::Core,
@@ -726,8 +748,6 @@ pub(crate) fn check_exact(
     }
     Ok((fits, passages))
 }
-
-
 
 #[cfg(test)]
 mod tests {

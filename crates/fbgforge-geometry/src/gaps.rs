@@ -183,9 +183,9 @@ fn facet_of_any(surfaces: &[Surface], tri: &[P3; 3]) -> bool {
         c.map(|x| x / l)
     };
     let centre = [0, 1, 2].map(|k| (tri[0][k] + tri[1][k] + tri[2][k]) / 3.0);
-    surfaces.iter().any(|s| {
-        tri.iter().all(|&p| s.contains(p)) && dot(n, s.normal_at(centre)).abs() >= 0.5
-    })
+    surfaces
+        .iter()
+        .any(|s| tri.iter().all(|&p| s.contains(p)) && dot(n, s.normal_at(centre)).abs() >= 0.5)
 }
 
 /// What a gap lies between: two parts, or a fiber and the passage around it.
@@ -279,7 +279,13 @@ pub fn measure(spec: &GapSpec, outer: &TriMesh, inner: Option<&TriMesh>) -> Opti
         return None;
     }
     match (&spec.inner, inner) {
-        (Between::Fiber { axis_xy_mm, radius_mm }, _) => {
+        (
+            Between::Fiber {
+                axis_xy_mm,
+                radius_mm,
+            },
+            _,
+        ) => {
             let r = a
                 .iter()
                 .map(|t| axis_to_triangle(*axis_xy_mm, t))

@@ -369,9 +369,8 @@ pub(crate) fn check_assembly_for(
     // A pair designed to touch somewhere (a press fit) is not compared on its meshes:
     // its exact fit above is the check.
     let press_fit = |a: PartKind, b: PartKind| {
-        fits.iter().any(|f| {
-            ((f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b)) && f.press_fit
-        })
+        fits.iter()
+            .any(|f| ((f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b)) && f.press_fit)
     };
     assembly::check_no_interference(&module, &|a, b| !press_fit(a, b))?;
     Ok(Some(assembly::trace_fibers_for(profile, &module)?))

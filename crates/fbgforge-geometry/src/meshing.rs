@@ -196,7 +196,11 @@ pub(crate) fn mesh_solids(
             break;
         };
         if round == MAX_GAP_REFINEMENTS {
-            let g = &results.iter().find(|(k, _)| *k == first).expect("measured").1;
+            let g = &results
+                .iter()
+                .find(|(k, _)| *k == first)
+                .expect("measured")
+                .1;
             return Err(GeometryError::GapEaten(GapEaten {
                 what: g.what.clone(),
                 field: g.field.clone(),

@@ -32,9 +32,7 @@ pub struct SurfaceNeed {
 
 /// Each face's triangles (positions, outward winding) from a meshed shell; None for a
 /// face that could not be tessellated.
-fn face_triangles(
-    meshed: &MeshedShell,
-) -> Vec<Option<Vec<[Point3; 3]>>> {
+fn face_triangles(meshed: &MeshedShell) -> Vec<Option<Vec<[Point3; 3]>>> {
     meshed
         .face_iter()
         .map(|face| {
@@ -112,7 +110,10 @@ pub fn mesh_solid_graded(
     for &t in &tols {
         let idx: Vec<usize> = (0..faces.len()).filter(|&k| level[k] == t).collect();
         let sub: Shell = idx.iter().map(|&k| faces[k].clone()).collect();
-        for (j, tris) in face_triangles(&sub.triangulation(t)).into_iter().enumerate() {
+        for (j, tris) in face_triangles(&sub.triangulation(t))
+            .into_iter()
+            .enumerate()
+        {
             let tris = tris.ok_or_else(|| fail(idx[j]))?;
             tagged.extend(tris.into_iter().map(|tri| (tri, t)));
         }
@@ -134,7 +135,12 @@ fn stitch(mut mesh: TriMesh, levels: &[f64]) -> Option<TriMesh> {
     if levels.len() != mesh.triangles.len() {
         return None;
     }
-    let mut tris: Vec<([u32; 3], f64)> = mesh.triangles.iter().copied().zip(levels.iter().copied()).collect();
+    let mut tris: Vec<([u32; 3], f64)> = mesh
+        .triangles
+        .iter()
+        .copied()
+        .zip(levels.iter().copied())
+        .collect();
     for _round in 0..64 {
         let mut directed: HashMap<(u32, u32), f64> = HashMap::with_capacity(tris.len() * 3);
         for (t, l) in &tris {
@@ -235,7 +241,11 @@ fn point_segment(x: [f64; 3], p: [f64; 3], q: [f64; 3]) -> f64 {
     let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
     let w = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
     let l = dot3(d, d);
-    let t = if l > 0.0 { (dot3(w, d) / l).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if l > 0.0 {
+        (dot3(w, d) / l).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let e = [w[0] - t * d[0], w[1] - t * d[1], w[2] - t * d[2]];
     dot3(e, e).sqrt()
 }

@@ -465,7 +465,11 @@ fn sized(
         ));
     }
     if v <= 0.0 || v < lo - 1e-12 || v > hi + 1e-12 {
-        let (bound, rule) = if v < lo { ("at least", lo_rule) } else { ("at most", hi_rule) };
+        let (bound, rule) = if v < lo {
+            ("at least", lo_rule)
+        } else {
+            ("at most", hi_rule)
+        };
         return Err(err(
             field,
             format!("{v} mm is out of range; allowed {lo:.4} to {hi:.4} mm ({bound}: {rule})"),
