@@ -33,6 +33,7 @@ pub use fbgforge_optimize as optimize;
 pub use fbgforge_plot as plot;
 pub use fbgforge_publish as publish;
 pub use fbgforge_report as report;
+pub use fbgforge_spectra as spectra;
 pub use fbgforge_synth as synth;
 pub use fbgforge_verify as verify;
 
@@ -45,5 +46,6 @@ pub use fbgforge_optimize;
 pub use fbgforge_plot;
 pub use fbgforge_publish;
 pub use fbgforge_report;
+pub use fbgforge_spectra;
 pub use fbgforge_synth;
 pub use fbgforge_verify;

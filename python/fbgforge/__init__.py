@@ -32,7 +32,9 @@ from ._api import (
 from ._design import Design, load_design, shipped_design, shipped_designs
 from ._fbgforge import __version__
 from ._live import LiveStream, live
+from ._reconstructor import Reconstructor
 from ._results import (
+    ArrayCalibration,
     BuildResult,
     LiveFrame,
     Optimization,
@@ -45,6 +47,7 @@ from ._results import (
     SynthLog,
     VerifyReport,
 )
+from ._spectra import find_peaks, grating_spectrum, read_spectra
 from .errors import (
     DesignError,
     FbgforgeError,
@@ -72,9 +75,14 @@ __all__ = [
     "calibrate_array",
     "methods",
     "reconstruct",
+    "Reconstructor",
     "optimize",
     "place",
     "live",
+    # spectra
+    "read_spectra",
+    "find_peaks",
+    "grating_spectrum",
     # results
     "Prediction",
     "Sweep",
@@ -83,6 +91,7 @@ __all__ = [
     "VerifyReport",
     "SynthLog",
     "SensingMatrix",
+    "ArrayCalibration",
     "Reconstruction",
     "Optimization",
     "Placement",

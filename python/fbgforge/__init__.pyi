@@ -118,6 +118,20 @@ class SensingMatrix(Result):
     warnings: Dict[str, Dict[str, Any]]
     def to_pandas(self) -> Any: ...
 
+class ArrayCalibration(SensingMatrix):
+    usable: bool
+    complete: bool
+    sd_pm_per_g: FloatArray
+    faults: List[Dict[str, Any]]
+    metrology: List[Dict[str, Any]]
+    additivity: List[Dict[str, Any]]
+    comparison: Dict[str, Any]
+    verdicts: Dict[str, str]
+    sheet_fit: Optional[Dict[str, Any]]
+    files: Dict[str, Any]
+    charts: List[Path]
+    def table2(self) -> Any: ...
+
 class Reconstruction(Result):
     loads_g: FloatArray
     cells: List[str]
@@ -208,6 +222,7 @@ def predict(
     case: Optional[Case] = None,
     fidelity: Fidelity = "auto",
     band: bool = True,
+    mesh_level: int = 1,
 ) -> Prediction: ...
 def build(
     design: DesignLike,
@@ -215,6 +230,26 @@ def build(
     tolerance_mm: Optional[float] = None,
     parts: Optional[Names] = None,
 ) -> BuildResult: ...
+def read_spectra(
+    path: PathLike,
+    format: Optional[Literal["enlight-spectrum", "imon-pixels", "osa-csv"]] = None,
+    imon_calibration: Optional[Sequence[float]] = None,
+) -> Dict[str, Any]: ...
+def find_peaks(
+    wavelengths_nm: npt.ArrayLike,
+    power: npt.ArrayLike,
+    estimator: Literal["gaussian", "parabola", "centroid"] = "gaussian",
+    unit: Literal["linear", "mW", "counts", "dBm", "dB"] = "linear",
+) -> List[Dict[str, Any]]: ...
+def grating_spectrum(
+    bragg_wavelength_nm: float,
+    length_mm: float,
+    wavelengths_nm: npt.ArrayLike,
+    index_modulation: float = 2e-4,
+    strain: float = 0.0,
+    strain_end: Optional[float] = None,
+    apodisation: Literal["uniform", "raised_cosine"] = "uniform",
+) -> FloatArray: ...
 def read_log(
     path: PathLike,
     format: Optional[LogFormat] = None,
@@ -257,7 +292,40 @@ def reconstruct(
     resolution_pm: float = 0.5,
     budget_us: float = 100.0,
     normalise: bool = True,
+    common_mode: bool = False,
+    matrix_sd_pct: Optional[float] = None,
+    keep_all_gratings: bool = False,
+    significance: Optional[float] = None,
 ) -> Reconstruction: ...
+class Reconstructor:
+    cells: List[str]
+    gratings: List[str]
+    kept: List[str]
+    def __init__(
+        self,
+        model: Union[DesignLike, SensingMatrix, npt.ArrayLike],
+        *,
+        method: Optional[str] = None,
+        ulimit_g: Optional[float] = None,
+        min_load_g: Optional[float] = None,
+        penalty: Optional[float] = None,
+        max_loads: Optional[int] = None,
+        resolution_pm: float = 0.5,
+        budget_us: float = 100.0,
+        normalise: bool = True,
+        common_mode: bool = False,
+        matrix_sd_pct: Optional[float] = None,
+        keep: Optional[Sequence[str]] = None,
+        significance: Optional[float] = None,
+    ) -> None: ...
+    @property
+    def setup(self) -> Dict[str, Any]: ...
+    @property
+    def method(self) -> str: ...
+    def __call__(self, shifts: npt.ArrayLike) -> Tuple[npt.NDArray[np.float64], List[str]]: ...
+    def frame(self, shifts: npt.ArrayLike) -> Dict[str, Any]: ...
+    def frames(self, shifts: npt.ArrayLike) -> Tuple[npt.NDArray[np.float64], Dict[str, Any]]: ...
+
 def sweep(
     design: DesignLike,
     param: str,
@@ -347,7 +415,11 @@ def calibrate_array(
     date_order: Optional[DateOrder] = None,
     window_nm: Optional[float] = None,
     out: Optional[PathLike] = None,
-) -> SensingMatrix: ...
+    resolution_pm: Optional[float] = None,
+    model_tolerance: Optional[float] = None,
+    fit_sheet: bool = False,
+    charts: bool = True,
+) -> ArrayCalibration: ...
 def live(
     design: DesignLike,
     source: PathLike,

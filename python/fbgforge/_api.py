@@ -8,6 +8,7 @@ import numpy as np
 from . import _fbgforge
 from ._design import Design, as_design, design_file
 from ._results import (
+    ArrayCalibration,
     BuildResult,
     Optimization,
     PeakLog,
@@ -58,7 +59,7 @@ def _names(v, name):
     return out
 
 
-def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True):
+def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True, mesh_level=1):
     """Predict each strain grating's sensitivity K (pm/N) with the model policy.
 
     Parameters
@@ -75,8 +76,17 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         Which model answers: the policy (Case I by the FE model), the closed form
         throughout, or the FE model throughout.
     band : bool, default True
-        Also compute each row's prediction band (two more FE solves for Case I;
-        none under ``fidelity="closed-form"``, which runs no FE).
+        Also compute each row's prediction band and design interval (the bounding
+        contact readings, the contact window's ends, Case II's stated-cylinders
+        reading: more FE solves; none under ``fidelity="closed-form"``, which runs
+        no FE). Each row states ``model_error_fraction`` either way, and with the
+        band ``design_interval_pm_per_n`` and ``limit_check`` (the strain at the
+        largest force from the interval's far end).
+    mesh_level : int, default 1
+        Finite-element mesh level, 1 (default) to 4 (fine): each level halves every
+        element size (relative to the 34 mm module) and is extrapolated with the
+        level below; the step of that extrapolation is each FE row's stated
+        discretisation error (``model_error["discretisation_fraction"]``).
 
     Returns
     -------
@@ -92,13 +102,16 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
     (['lambda_11', 'lambda_12'], -165.52)
     """
     d = as_design(design)
-    rows, statements = _fbgforge.predict(d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band))
+    rows, statements = _fbgforge.predict(
+        d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band), int(mesh_level)
+    )
     return Prediction(
         {
             "delta_t_k": float(delta_t_k),
             "design": d.name,
             "fidelity": fidelity,
             "force_n": float(force_n),
+            "mesh_level": int(mesh_level),
             "predictions": rows,
             "paper_statements": statements,
         }
@@ -387,6 +400,10 @@ def reconstruct(
     resolution_pm=0.5,
     budget_us=100.0,
     normalise=True,
+    common_mode=False,
+    matrix_sd_pct=None,
+    keep_all_gratings=False,
+    significance=None,
 ):
     """Reconstruct cell loads x (g) from grating shifts y (pm), y = A x.
 
@@ -411,7 +428,7 @@ def reconstruct(
         Names of an unnamed array's columns (see above).
     method : str, optional
         One of :func:`methods`; default the array's default choice within
-        ``budget_us`` per frame, probed on these frames.
+        ``budget_us`` per frame, made from the matrix alone.
     ulimit_g : float, optional
         Largest load of a cell, g (default the design's or the matrix's).
     min_load_g : float, optional
@@ -426,6 +443,15 @@ def reconstruct(
         The default choice's time budget per frame, µs.
     normalise : bool, default True
         Normalise the matrix's columns.
+    common_mode : bool, default False
+        Fit a common offset per frame (temperature) whatever the frames say; by
+        default the stream diagnosis fits one when the frames call for it.
+    matrix_sd_pct : float, optional
+        Per-entry uncertainty of the matrix, % of each entry.
+    keep_all_gratings : bool, default False
+        No stream diagnosis: no grating named and left out or corrected.
+    significance : float, optional
+        Significance of the frame test behind the flags (default 0.05).
 
     Returns
     -------
@@ -459,6 +485,10 @@ def reconstruct(
         float(resolution_pm),
         float(budget_us),
         bool(normalise),
+        bool(common_mode),
+        None if matrix_sd_pct is None else float(matrix_sd_pct),
+        bool(keep_all_gratings),
+        None if significance is None else float(significance),
     )
     return Reconstruction(
         {
@@ -820,9 +850,24 @@ def synth_log(
     return SynthLog(doc)
 
 
-def calibrate_array(design, log, schedule, *, format=None, date_order=None, window_nm=None, out=None):
-    """Measure an array's sensing matrix from a calibration run: a wavelength log in
-    which known loads sat on the cells as the schedule says.
+def calibrate_array(
+    design,
+    log,
+    schedule,
+    *,
+    format=None,
+    date_order=None,
+    window_nm=None,
+    out=None,
+    resolution_pm=None,
+    model_tolerance=None,
+    fit_sheet=False,
+    charts=True,
+):
+    """Calibrate an array from a loading run: the measured sensing matrix with its
+    per-entry scatter, the faults that make it unusable, the paper's Table 2 for every
+    staircase, additivity, and the matrix against the design's prediction (as
+    ``fbgforge calibrate-array --json``).
 
     Parameters
     ----------
@@ -831,18 +876,33 @@ def calibrate_array(design, log, schedule, *, format=None, date_order=None, wind
     log : path
         The wavelength log of the run.
     schedule : path
-        ``start_s,end_s,cell,load_g``, times in s from the log's first row.
+        ``start_s,end_s,cell,load_g``: one line per load resting on a cell (a
+        staircase: one line per step with the total mass; simultaneous loads:
+        overlapping lines on different cells); times in s from the log's first row, a
+        hint (the load changes are found in the data).
     format, date_order : optional
         Of the log.
     window_nm : float, optional
         Half-width of the gratings' wavelength windows, nm.
     out : path, optional
-        Also write the matrix as CSV (the format ``fbgforge reconstruct`` reads).
+        Write the matrix as CSV (the format ``fbgforge reconstruct`` reads) when it is
+        usable and complete, ``<out>.sd.csv`` beside it, ``<out>.calibration.json``;
+        with a fault the matrix goes to ``<out>.faulty.csv`` instead.
+    resolution_pm : float, optional
+        The interrogator's resolution, pm (default 0.5).
+    model_tolerance : float, optional
+        The model's relative band (default 0.4).
+    fit_sheet : bool
+        Also fit the sheet's unknowns (modulus, thickness, table interface).
+    charts : bool
+        With ``out``, also write the additivity and calibration-curve charts (SVG)
+        with their CSVs beside it.
 
     Returns
     -------
-    SensingMatrix
-        The measured matrix (pm/g) with the log's ``warnings``.
+    ArrayCalibration
+        A :class:`SensingMatrix` (pm/g) with ``usable``, ``faults``, ``metrology``,
+        ``additivity``, ``verdicts``, ``sd_pm_per_g``, ``sheet_fit``.
 
     Examples
     --------
@@ -853,8 +913,8 @@ def calibrate_array(design, log, schedule, *, format=None, date_order=None, wind
     ...     _ = open(sched, "w").write("\\n".join(["start_s,end_s,cell,load_g", *rows, ""]))
     ...     run = fbgforge.synth_log("designs/tactile-array-60x80.toml", tmp, schedule=sched, noise_pm=0.0, drift_pm_per_s=0.0)
     ...     m = fbgforge.calibrate_array("designs/tactile-array-60x80.toml", run.log, sched)
-    >>> bool(abs(m.sensitivity_pm_per_g[0, 0] - run.matrix.sensitivity_pm_per_g[0, 0]) < 1e-3)
-    True
+    >>> bool(abs(m.sensitivity_pm_per_g[0, 0] - run.matrix.sensitivity_pm_per_g[0, 0]) < 1e-3), m.usable, m.faults
+    (True, True, [])
     """
     d = as_design(design)
     doc = _fbgforge.calibrate_array(
@@ -865,5 +925,9 @@ def calibrate_array(design, log, schedule, *, format=None, date_order=None, wind
         date_order,
         window_nm,
         _path(out, "out"),
+        None if resolution_pm is None else float(resolution_pm),
+        None if model_tolerance is None else float(model_tolerance),
+        bool(fit_sheet),
+        bool(charts),
     )
-    return SensingMatrix(None, _doc=doc)
+    return ArrayCalibration(None, _doc=doc)

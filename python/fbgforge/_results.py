@@ -405,6 +405,92 @@ class SensingMatrix(Result):
         return _pandas().DataFrame(self.sensitivity_pm_per_g, index=self.gratings, columns=self.cells)
 
 
+class ArrayCalibration(SensingMatrix):
+    """An array calibration: the measured sensing matrix (a :class:`SensingMatrix`,
+    NaN for cells never loaded alone) with its per-entry scatter, the faults found,
+    the paper's Table 2 for every staircase, additivity tests, the verdicts against
+    the design's prediction and, when asked, the sheet fit.
+
+    Attributes
+    ----------
+    usable : bool
+        No fault makes the matrix unusable (the command line exits 3 otherwise).
+    complete : bool
+        Every cell was loaded alone at least once.
+    sd_pm_per_g : numpy.ndarray
+        Standard deviation of each entry, pm/g (the form ``reconstruct --matrix-sd``
+        reads).
+    faults : list of dict
+        ``kind``, ``severity``, ``gratings``, ``cells``, ``reason``, ``evidence``.
+    metrology : list of dict
+        Table 2 per (cell, grating): ``sensitivity_pm_per_g``,
+        ``sensitivity_sem_pm_per_g``, ``r``, ``resolution_g``,
+        ``linearity_percent_span``, ``hysteresis_percent_span``, ``cycles``, ...
+    additivity : list of dict
+        One per configuration of simultaneous loads.
+    verdicts : dict
+        PASS / FAIL / NOT JUDGED per grating against the prediction.
+    sheet_fit : dict or None
+        The sheet's unknowns (with ``fit_sheet=True``).
+    """
+
+    __slots__ = ()
+
+    @property
+    def usable(self):
+        return bool(self._doc["usable"])
+
+    @property
+    def complete(self):
+        return bool(self._doc["complete"])
+
+    @property
+    def sd_pm_per_g(self):
+        return self._doc["sd_pm_per_g"]
+
+    @property
+    def faults(self):
+        return list(self._doc["faults"])
+
+    @property
+    def metrology(self):
+        return list(self._doc["metrology"])
+
+    @property
+    def additivity(self):
+        return list(self._doc["additivity"])
+
+    @property
+    def comparison(self):
+        return self._doc["comparison"]
+
+    @property
+    def verdicts(self):
+        return {g["grating"]: g["status"] for g in self._doc["comparison"]["gratings"]}
+
+    @property
+    def sheet_fit(self):
+        return self._doc.get("sheet_fit")
+
+    @property
+    def files(self):
+        return self._doc["files"]
+
+    @property
+    def charts(self):
+        return [Path(p) for p in self._doc.get("charts", [])]
+
+    def table2(self):
+        """The paper's Table 2, one row per (cell, grating).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        rows = [{k: v for k, v in m.items() if k != "curve"} for m in self.metrology]
+        return _table(rows)
+
+
 def _cell_label(j):
     s = ""
     j += 1

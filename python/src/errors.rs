@@ -41,6 +41,7 @@ pub const PARAMS: &[(&str, &str)] = &[
     ("TrainSettings.peaks_n", "pulses_n"),
     ("SynthConfig.sample_rate_hz", "rate_hz"),
     ("SynthConfig.sensitivity_pm_per_n", "k_pm_per_n"),
+    ("LogStyle.metadata_lines", "metadata_lines"),
     // calibrate_array
     ("CalibrateRequest.window_half_width_nm", "window_nm"),
     // live

@@ -10,6 +10,8 @@ mod convert;
 mod design;
 mod errors;
 mod live;
+mod reconstructor;
+mod spectra;
 
 use convert::{columns, to_py, to_py_words, value};
 use design::PyDesign;
@@ -17,7 +19,6 @@ use errors::{err, err_named, input, must_exist};
 use fbgforge::array::calibrate::CalibrateRequest;
 use fbgforge::array::kernel::matrix_from_design;
 use fbgforge::array::methods::{self as array_methods, Method, ReadingSettings};
-use fbgforge::array::problem::{default_min_load_g, SensingProblem};
 use fbgforge::array::reconstruct::{Frames, MethodRequest};
 use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, LogStyle, ReadOptions};
 use fbgforge::model::LoadCase;
@@ -104,6 +105,7 @@ fn read_options(
     Ok(ReadOptions {
         format: parse_format(py, format)?,
         date_order: parse_date_order(py, date_order)?,
+        ..Default::default()
     })
 }
 
@@ -120,7 +122,8 @@ fn run_err(py: Python<'_>, e: RunError, design: &str, failed: &str) -> PyErr {
 
 /// Predict each grating's K (pm/N): the rows of the model policy.
 #[pyfunction]
-#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band))]
+#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band, mesh_level))]
+#[allow(clippy::too_many_arguments)] // one per keyword of the Python function
 fn predict<'py>(
     py: Python<'py>,
     design: &PyDesign,
@@ -129,9 +132,22 @@ fn predict<'py>(
     case: Option<&str>,
     fidelity: &str,
     band: bool,
+    mesh_level: u32,
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
+    let levels =
+        fbgforge::fem::FemOptions::MIN_MESH_LEVEL..=fbgforge::fem::FemOptions::MAX_MESH_LEVEL;
+    if !levels.contains(&mesh_level) {
+        return Err(input(
+            py,
+            format!(
+                "mesh_level {mesh_level}: expected {} (default) to {} (fine)",
+                levels.start(),
+                levels.end()
+            ),
+        ));
+    }
     let d = &design.design;
     let request = PredictionRequest {
         force_n,
@@ -139,6 +155,8 @@ fn predict<'py>(
         case,
         fidelity: choice,
         band,
+        design_interval: band,
+        fem_options: fbgforge::fem::FemOptions::mesh_level(mesh_level),
         cache: fe_cache().clone(),
         ..Default::default()
     };
@@ -359,7 +377,8 @@ fn methods() -> Vec<&'static str> {
 /// set-up).
 #[pyfunction]
 #[pyo3(signature = (a, gratings, y, method, ulimit_g, min_load_g, penalty, max_loads,
-    resolution_pm, budget_us, normalise))]
+    resolution_pm, budget_us, normalise, common_mode=false, matrix_sd_pct=None,
+    keep_all_gratings=false, significance=None))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -374,6 +393,10 @@ fn reconstruct<'py>(
     resolution_pm: f64,
     budget_us: f64,
     normalise: bool,
+    common_mode: bool,
+    matrix_sd_pct: Option<f64>,
+    keep_all_gratings: bool,
+    significance: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     if penalty.is_some() && method.is_none() {
         return Err(input(
@@ -415,9 +438,18 @@ fn reconstruct<'py>(
             ));
         }
     }
-    let problem = SensingProblem::new(matrix, ulimit_g, normalise)
-        .and_then(|p| p.with_min_load_g(min_load_g.unwrap_or(default_min_load_g(ulimit_g))))
-        .map_err(|e| input(py, errors::python_words(&e.to_string(), &[])))?;
+    let problem = reconstructor::stated_problem(
+        py,
+        matrix,
+        ulimit_g,
+        min_load_g,
+        normalise,
+        resolution_pm,
+        matrix_sd_pct,
+        common_mode,
+        significance,
+    )?
+    .with_diagnosis(!keep_all_gratings);
     let prior = ReadingSettings {
         max_loads: max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS),
         resolution_pm,
@@ -739,6 +771,7 @@ fn synth_log<'py>(
         twelve_hour: style
             .get_item("twelve_hour")?
             .map_or(Ok(false), |v| v.extract())?,
+        ..Default::default()
     };
     let schedule: Option<PathBuf> = get("schedule")?.extract()?;
     let seed: u64 = get("seed")?.extract()?;
@@ -816,9 +849,11 @@ fn synth_log<'py>(
     to_py(py, &files)
 }
 
-/// Measure an array's sensing matrix from a calibration log and schedule.
+/// Calibrate an array from a loading run: the measured matrix with its scatter, faults,
+/// Table 2 of every staircase, additivity, the verdicts against the prediction, and
+/// optionally the sheet fit; charts beside `out` when `charts`.
 #[pyfunction]
-#[pyo3(signature = (design, log, schedule, format, date_order, window_nm, out))]
+#[pyo3(signature = (design, log, schedule, format, date_order, window_nm, out, resolution_pm, model_tolerance, fit_sheet, charts))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_array<'py>(
     py: Python<'py>,
@@ -829,6 +864,10 @@ fn calibrate_array<'py>(
     date_order: Option<&str>,
     window_nm: Option<f64>,
     out: Option<PathBuf>,
+    resolution_pm: Option<f64>,
+    model_tolerance: Option<f64>,
+    fit_sheet: bool,
+    charts: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     must_exist(py, &log, "log")?;
     must_exist(py, &schedule, "schedule")?;
@@ -838,17 +877,31 @@ fn calibrate_array<'py>(
         schedule,
         read: read_options(py, format, date_order)?,
         window_half_width_nm: window_nm,
-        out,
-        fit_modulus: false,
+        resolution_pm,
+        model_tolerance,
+        out: out.clone(),
+        fit_sheet,
     };
     let d = &design.design;
-    let cal = py
-        .detach(|| fbgforge::array::calibrate::run(d, &req, &mut ()))
-        .map_err(|e| err(py, e))?
-        .calibration;
-    let m = matrix_dict(py, &cal.matrix, None)?;
-    m.set_item("warnings", to_py(py, &cal.warnings.counts)?)?;
-    Ok(m)
+    let o = py
+        .detach(|| match (&out, charts) {
+            (Some(o), true) => {
+                let mut c = fbgforge::report::calibrate::Charts::beside(o);
+                fbgforge::array::calibrate::run(d, &req, &mut c).map(|x| (x, c.written))
+            }
+            _ => fbgforge::array::calibrate::run(d, &req, &mut ()).map(|x| (x, Vec::new())),
+        })
+        .map_err(|e| err(py, e))?;
+    let (outcome, written) = o;
+    let doc = to_py_words(py, &outcome)?.cast_into::<PyDict>()?;
+    let ulimit = d.array.as_ref().map(|a| a.ulimit_g);
+    let m = matrix_dict(py, &outcome.calibration.matrix(), ulimit)?;
+    let sd = matrix_dict(py, &outcome.calibration.matrix_sd(), ulimit)?;
+    doc.set_item("sensitivity_pm_per_g", m.get_item("sensitivity_pm_per_g")?)?;
+    doc.set_item("sd_pm_per_g", sd.get_item("sensitivity_pm_per_g")?)?;
+    doc.set_item("ulimit_g", ulimit)?;
+    doc.set_item("charts", written)?;
+    Ok(doc.into_any())
 }
 
 /// The compiled part of the `fbgforge` package.
@@ -857,6 +910,7 @@ fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<PyDesign>()?;
     m.add_class::<live::LiveStream>()?;
+    m.add_class::<reconstructor::Reconstructor>()?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(read_log, m)?)?;
@@ -871,5 +925,8 @@ fn _fbgforge(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(synth_log, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate_array, m)?)?;
     m.add_function(wrap_pyfunction!(live::live_stream, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::read_spectra, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::find_peaks, m)?)?;
+    m.add_function(wrap_pyfunction!(spectra::grating_spectrum, m)?)?;
     Ok(())
 }

@@ -46,7 +46,7 @@ def test_the_dataframe_gives_what_the_command_line_gives_on_the_same_file(cli, t
     cli("reconstruct", "--design", ARRAY, "--shifts", SHIFTS, "--out", out)
     want = pd.read_csv(out, comment="#")
     got = fbgforge.reconstruct(ARRAY, read_fixture()).to_pandas()
-    assert np.allclose(got[list("ABCDEFGH")].to_numpy(), want[list("ABCDEFGH")].to_numpy(), atol=1e-6)
+    assert np.allclose(got[list("ABCDEFGH")].to_numpy(), want[list("ABCDEFGH")].to_numpy(), atol=5e-4)  # the CSV holds 3 decimals
 
 
 def test_an_array_without_names_is_refused_unless_its_columns_are_named():

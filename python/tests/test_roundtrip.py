@@ -46,6 +46,26 @@ def test_predict_case_ii_auto_equals_the_cli_and_k_is_linear(cli):
     assert np.allclose(got.shift_pm, 10 * one.shift_pm, rtol=1e-12)
 
 
+def test_predict_mesh_level_equals_the_cli_and_states_its_discretisation(cli):
+    path = DESIGNS / "clip-on-16mm.toml"
+    want = in_python_words(cli_json(cli, "predict", path, "--json", "--case", "I", "--mesh-level", "2"))
+    got = fbgforge.predict(path, case="I", mesh_level=2)
+    close(got.to_dict(), want)
+    assert got.to_dict()["mesh_level"] == 2
+    coarse = fbgforge.predict(path, case="I", mesh_level=1, band=False).to_dict()["predictions"]
+    fine = got.to_dict()["predictions"]
+    # A finer mesh states a smaller discretisation error (the Richardson step), and
+    # every row states its error with the nominal inside its design interval.
+    for c, f in zip(coarse, fine):
+        assert f["model_error"]["discretisation_fraction"] < c["model_error"]["discretisation_fraction"]
+        lo, hi = f["design_interval_pm_per_n"]
+        assert lo <= f["sensitivity_pm_per_n"] <= hi
+        assert f["model_error_fraction"] <= 0.15
+    for bad in (0, 7):
+        with pytest.raises(fbgforge.InputError, match=f"mesh_level {bad}"):
+            fbgforge.predict(path, mesh_level=bad)
+
+
 def test_build_writes_the_same_manifest_and_stl_as_the_cli(cli, tmp_path):
     path = DESIGNS / "clip-on-10mm.toml"
     cli("build", path, "--out", tmp_path / "cli", "--parts", "cap,core")

@@ -7,7 +7,7 @@
 //! (`--force-start`). A test checks that every field name the library's sources can
 //! say has its flag here.
 
-use super::{build, live, optimize, predict, reconstruct, verify};
+use super::{build, live, optimize, peaks, predict, reconstruct, verify};
 use fbgforge::fields::in_words;
 
 /// Every subcommand's `(field, flag)` pairs.
@@ -18,6 +18,7 @@ pub const FLAGS: &[&[(&str, &str)]] = &[
     verify::FLAGS,
     reconstruct::FLAGS,
     live::FLAGS,
+    peaks::FLAGS,
 ];
 
 /// `message` with every request field named as its flag.

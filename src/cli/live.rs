@@ -210,6 +210,8 @@ pub struct LiveArgs {
     /// Log file: format (detected if omitted).
     #[arg(long, value_enum)]
     pub format: Option<LogFormatArg>,
+    #[command(flatten)]
+    pub spectrum: super::peaks::SpectrumArgs,
     /// Log file: order of day and month in slash dates.
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
@@ -270,7 +272,7 @@ fn live_request(a: &LiveArgs) -> Result<LiveRequest> {
     let source = SourceSpec::parse(
         &a.from,
         SourceOptions {
-            read: read_options(a.format, a.date_order),
+            read: read_options(a.format, a.date_order, &a.spectrum),
             from_start: a.from_start,
             idle_exit_s: a.idle_exit_s,
             give_up_s: a.give_up_s,

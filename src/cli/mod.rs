@@ -5,6 +5,7 @@ pub mod build;
 pub mod hiargs;
 pub mod live;
 pub mod optimize;
+pub mod peaks;
 pub mod predict;
 pub mod progress;
 pub mod reconstruct;
@@ -38,6 +39,9 @@ pub enum Command {
     Verify(verify::VerifyArgs),
     /// Write a synthetic interrogator log with known K, lag, noise and drift.
     SynthLog(verify::SynthLogArgs),
+    /// Find the peaks of a spectrum file (ENLIGHT / Hyperion export, I-MON log with
+    /// pixels, OSA CSV), each with its standard error, bound, FWHM, SNR and flags.
+    Peaks(peaks::PeaksArgs),
     /// Build a measured sensing matrix A from an array calibration log.
     CalibrateArray(verify::CalibrateArrayArgs),
     /// Optimise a module design for Q or sensitivity.

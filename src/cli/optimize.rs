@@ -4,7 +4,9 @@
 use super::progress::Bar;
 use anyhow::Result;
 use clap::Args;
-use fbgforge::optimize::module::{parse_bounds, ModuleSettings, Objective, Preference, Variable};
+use fbgforge::optimize::module::{
+    parse_bounds, ModuleSettings, Objective, PaperStatementsPolicy, Preference, Variable,
+};
 use fbgforge::optimize::place::{PlaceObjective, PlaceSettings};
 use fbgforge::optimize::run::{
     run_module, run_placement, ModuleRequest, ModuleSink, PlaceRequest, PlaceSink,
@@ -19,6 +21,11 @@ use std::path::PathBuf;
 pub const FLAGS: &[(&str, &str)] = &[
     ("ModuleSettings.vary", "--vary"),
     ("ModuleSettings.prefer", "--prefer"),
+    ("ModuleSettings.paper_statements", "--paper-statements"),
+    (
+        "ModuleSettings.strain_margin_fraction",
+        "--strain-margin-percent",
+    ),
     ("ModuleSettings.max_force_n", "--max-force-n"),
     ("ModuleSettings.rate_hz", "--rate-hz"),
     ("ModuleSettings.min_fit_clearance_mm", "--min-clearance-mm"),
@@ -91,11 +98,23 @@ pub struct OptimizeArgs {
     /// Seed of starts and swarms.
     #[arg(long, default_value_t = 2024)]
     pub seed: u64,
-    /// How K is scored over the model's own uncertainty about the domes' contact
-    /// (radius 1.30–1.48 × the apex patch): `worst` (smallest |K| scored, largest held
-    /// to the limits), `quantile:P` (e.g. quantile:0.1) or `nominal`.
+    /// How K is scored over the model's own uncertainty, the design interval (Case I:
+    /// the domes' contact radius 1.30–1.48 × the apex patch; Case II: the closed form
+    /// and the stated cylinders' FE reading; each widened by its model error): `worst`
+    /// (smallest |K| scored), `quantile:P` (e.g. quantile:0.1) or `nominal`. The limits
+    /// always hold at the interval's far end.
     #[arg(long, default_value = "worst")]
     pub robust: String,
+    /// Share of the strain limit every grating keeps free at the far end of its design
+    /// interval, percent.
+    #[arg(long, default_value_t = 5.0)]
+    pub strain_margin_percent: f64,
+    /// What to do with a front design that fails one of the paper's statements (the
+    /// check `predict` prints): `exclude` (never write it while another design of the
+    /// front meets them all) or `report` (write the preferred design and name what it
+    /// fails in the JSON, the table and the design's description).
+    #[arg(long, default_value = "exclude")]
+    pub paper_statements: String,
     /// Interrogator sample rate, Hz: Δt_max is never below one sample period (default:
     /// the design's interrogator_rate_hz, 2 Hz when absent, or the --measured log's).
     #[arg(long)]
@@ -146,8 +165,10 @@ pub fn module_settings(a: &OptimizeArgs) -> Result<ModuleSettings> {
         extra_starts: a.starts,
         seed: a.seed,
         robustness: Robustness::parse(&a.robust)?,
+        strain_margin_fraction: a.strain_margin_percent / 100.0,
         rate_hz: a.rate_hz,
         prefer: Preference::parse(&a.prefer)?,
+        paper_statements: PaperStatementsPolicy::parse(&a.paper_statements)?,
         ..ModuleSettings::default()
     };
     s.run.max_iters = a.max_iters;

@@ -24,6 +24,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("PredictionRequest.force_n", "--force-n"),
     ("PredictionRequest.delta_t_k", "--delta-t-k"),
     ("PredictionRequest.fidelity", "--fidelity"),
+    ("PredictionRequest.fem_options", "--mesh-level"),
     ("SweepRequest.force_n", "--force-n"),
     ("SweepRequest.start", "--from"),
     ("SweepRequest.stop", "--to"),
@@ -75,10 +76,18 @@ pub struct PredictArgs {
     /// readings are FE solves).
     #[arg(long, value_enum, default_value_t = FidelityArg::Auto)]
     pub fidelity: FidelityArg,
-    /// Skip the prediction band (two more finite-element solves per configuration;
-    /// implied by `--fidelity closed-form`).
+    /// Skip the prediction band and the design interval (the bounding readings, the
+    /// contact window's ends and Case II's stated-cylinders reading: more
+    /// finite-element solves per configuration; implied by `--fidelity closed-form`).
     #[arg(long)]
     pub no_band: bool,
+    /// Finite-element mesh level, 1 (default) to 4 (fine): level k halves every element
+    /// size of level k − 1 (sizes relative to the 34 mm module, scaled with the
+    /// module's diameter) and is extrapolated with it; the table states the
+    /// discretisation error this implies per row (docs/fem.md §5.3).
+    #[arg(long, default_value_t = fbgforge::fem::FemOptions::DEFAULT_MESH_LEVEL,
+          value_parser = clap::value_parser!(u32).range(i64::from(fbgforge::fem::FemOptions::MIN_MESH_LEVEL)..=i64::from(fbgforge::fem::FemOptions::MAX_MESH_LEVEL)))]
+    pub mesh_level: u32,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -200,6 +209,8 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         case: a.case.map(LoadCase::from),
         fidelity: choice,
         band: !a.no_band,
+        design_interval: !a.no_band,
+        fem_options: FemOptions::mesh_level(a.mesh_level),
         ..Default::default()
     };
     request.check()?;

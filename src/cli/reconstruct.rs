@@ -17,6 +17,10 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("ReconstructRequest.matrix_sd_pct", "--matrix-sd-pct"),
     ("ReconstructRequest.common_mode", "--common-mode"),
     ("ReconstructRequest.budget_us", "--budget-us"),
+    ("ReconstructRequest.significance", "--significance"),
+    ("ReconstructRequest.window_pm", "--window-pm"),
+    ("ReconstructRequest.dead_grating_check", "--keep-all-gratings"),
+    ("SensingProblem.significance", "--significance"),
     ("ReconstructRequest.max_loads", "--max-loads"),
     ("ReconstructRequest.resolution_pm", "--resolution-pm"),
     ("ReadingSettings.max_loads", "--max-loads"),
@@ -87,11 +91,21 @@ pub struct ReconstructArgs {
     /// one calibration reading per column at 200 g, i.e. resolution / 200 g).
     #[arg(long, allow_negative_numbers = true)]
     pub matrix_sd_pct: Option<f64>,
-    /// Keep every grating: do not look for dead or stuck gratings across the frames
-    /// (by default a grating whose shift stays at the noise level while the others
-    /// predict large responses is named and left out).
+    /// Keep every grating and the frames as read: no stream diagnosis (by default
+    /// dead, stuck, drifting, swapped, saturated and noisy gratings are named with
+    /// their reason and left out or corrected, and a common offset is fitted when
+    /// the frames call for it; the summary says which and why).
     #[arg(long)]
     pub keep_all_gratings: bool,
+    /// Significance of the per-frame test behind the flags, in (0, 0.5] (default
+    /// 0.05: a clean frame is flagged with about this probability; smaller flags
+    /// fewer clean frames and finds fewer wrong ones; docs/array.md §11).
+    #[arg(long)]
+    pub significance: Option<f64>,
+    /// The interrogator's window, pm: a shift beyond ± this is not a reading and its
+    /// frame is flagged `unusable` with no loads (default 2500).
+    #[arg(long)]
+    pub window_pm: Option<f64>,
     /// Output CSV of loads in g, `time_s,<cells…>`; when the shifts have no `time_s`
     /// column the first column is `frame`, the 0-based row index
     /// (default: out/reconstruct/<shifts name>-loads.csv).
@@ -122,6 +136,8 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         matrix_sd: a.matrix_sd,
         matrix_sd_pct: a.matrix_sd_pct,
         dead_grating_check: !a.keep_all_gratings,
+        significance: a.significance,
+        window_pm: a.window_pm,
         out: a.out,
         ..ReconstructRequest::new(matrix, a.shifts)
     };

@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use fbgforge::array::calibrate::{self, CalibrateRequest};
 use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, ReadOptions};
 use fbgforge::model::LoadCase;
-use fbgforge::report::calibrate::Table;
+use fbgforge::report::calibrate::{Charts, Table};
 use fbgforge::report::synth::written;
 use fbgforge::report::verify::{Printer, ReportFolder};
 use fbgforge::synth::{files, module_log as synth};
@@ -48,13 +48,17 @@ pub const FLAGS: &[(&str, &str)] = &[
         "--temperature-ramp-k-per-s",
     ),
     ("SynthConfig.noise_pm", "--noise-pm"),
+    ("SynthConfig.quantization_pm", "--step-pm"),
+    ("LogStyle.metadata_lines", "--metadata-lines"),
     ("SynthConfig.force_noise_n", "--force-noise-n"),
     // calibrate-array
     ("CalibrateRequest.log", "--log"),
     ("CalibrateRequest.schedule", "--schedule"),
     ("CalibrateRequest.window_half_width_nm", "--window-nm"),
     ("CalibrateRequest.out", "--out"),
-    ("CalibrateRequest.fit_modulus", "--fit-modulus"),
+    ("CalibrateRequest.fit_sheet", "--fit-sheet"),
+    ("CalibrateRequest.resolution_pm", "--resolution-pm"),
+    ("CalibrateRequest.model_tolerance", "--model-tolerance"),
 ];
 
 /// A library text in this file's flags ([`FLAGS`]): what the sinks write.
@@ -73,6 +77,12 @@ pub enum LogFormatArg {
     Imon,
     /// Plain CSV (or TSV / semicolon-separated): time then wavelength columns, nm.
     Csv,
+    /// I-MON log read by its pixel columns (needs --imon-calibration).
+    ImonPixels,
+    /// Luna ENLIGHT / Hyperion spectrum export (one acquisition).
+    EnlightSpectrum,
+    /// OSA / swept-laser CSV (one acquisition).
+    OsaCsv,
 }
 
 impl From<LogFormatArg> for LogFormat {
@@ -82,6 +92,9 @@ impl From<LogFormatArg> for LogFormat {
             LogFormatArg::EnlightSensors => LogFormat::EnlightSensors,
             LogFormatArg::Imon => LogFormat::Imon,
             LogFormatArg::Csv => LogFormat::Csv,
+            LogFormatArg::ImonPixels => LogFormat::ImonPixels,
+            LogFormatArg::EnlightSpectrum => LogFormat::EnlightSpectrum,
+            LogFormatArg::OsaCsv => LogFormat::OsaCsv,
         }
     }
 }
@@ -128,7 +141,8 @@ Exit status (after every output is written):
 pub struct VerifyArgs {
     /// Design spec (TOML).
     pub design: PathBuf,
-    /// Wavelength log (ENLIGHT Peaks or Sensors export, I-MON log, or CSV).
+    /// Wavelength log (ENLIGHT Peaks or Sensors export, I-MON log, or CSV), or a
+    /// spectrum log (an I-MON log read by its pixels with --imon-calibration).
     #[arg(long)]
     pub log: PathBuf,
     /// Force-stand CSV.
@@ -140,6 +154,8 @@ pub struct VerifyArgs {
     /// Order of day and month in slash dates (detected from the file if omitted).
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
+    #[command(flatten)]
+    pub spectrum: super::peaks::SpectrumArgs,
     /// Load case (default: I with --insert, II without).
     #[arg(long, value_enum)]
     pub case: Option<CaseArg>,
@@ -210,10 +226,16 @@ pub fn date_order(d: DateOrderArg) -> DateOrder {
 }
 
 /// How to read a wavelength log, as the flags say.
-pub fn read_options(format: Option<LogFormatArg>, d: Option<DateOrderArg>) -> ReadOptions {
+pub fn read_options(
+    format: Option<LogFormatArg>,
+    d: Option<DateOrderArg>,
+    spectrum: &super::peaks::SpectrumArgs,
+) -> ReadOptions {
     ReadOptions {
         format: format.map(LogFormat::from),
         date_order: d.map(date_order),
+        imon_calibration: spectrum.calibration(),
+        estimator: spectrum.estimator(),
     }
 }
 
@@ -256,7 +278,7 @@ pub fn run_verify(a: VerifyArgs) -> Result<std::process::ExitCode> {
 /// The library request that `fbgforge verify`'s flags describe.
 fn verify_request(a: &VerifyArgs) -> VerifyRequest {
     let mut req = VerifyRequest::new(a.design.clone(), a.log.clone(), a.force.clone());
-    req.read = read_options(a.format, a.date_order);
+    req.read = read_options(a.format, a.date_order, &a.spectrum);
     req.force_read = ForceReadOptions {
         time: a.force_time_column.clone(),
         force: a.force_force_column.clone(),
@@ -368,6 +390,23 @@ pub struct SynthLogArgs {
     /// ENLIGHT timestamps on a 12-hour clock.
     #[arg(long)]
     pub twelve_hour: bool,
+    /// imon-pixels: the pixel calibration a0,a1,… written with the log (default: 512
+    /// pixels from 1595 down to 1510 nm, 166 pm per pixel, as an I-MON 512); read the
+    /// log back with the same --imon-calibration.
+    #[arg(long, value_name = "A0,A1,…", value_delimiter = ',', allow_negative_numbers = true)]
+    pub imon_calibration: Vec<f64>,
+    /// imon-pixels: each grating's reflection line shape: the transfer-matrix model of the
+    /// design's grating (its length, `[fiber]` index_modulation and apodisation) or a
+    /// Gaussian of --fwhm-nm.
+    #[arg(long, value_enum, default_value = "grating")]
+    pub line_shape: LineShapeArg,
+    /// imon-pixels: FWHM of the Gaussian line shape, nm.
+    #[arg(long, default_value_t = 0.33)]
+    pub fwhm_nm: f64,
+    /// imon-pixels: white noise on every pixel, counts (peaks are 30,000 counts high on a
+    /// floor of 1,000).
+    #[arg(long, default_value_t = 10.0)]
+    pub pixel_noise_counts: f64,
     /// Array calibration instead: a schedule CSV (start_s,end_s,cell,load_g); the log
     /// follows the power-law kernel of reference §2 and `matrix_truth.csv` is written.
     #[arg(long)]
@@ -400,6 +439,34 @@ pub enum ShapeArg {
     Sine,
 }
 
+/// The reflection line shape of a synthetic spectrum on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LineShapeArg {
+    /// The design's grating by the transfer-matrix model.
+    Grating,
+    /// A Gaussian of --fwhm-nm.
+    Gaussian,
+}
+
+/// How `synth-log` makes the spectra of an `imon-pixels` log.
+fn spectrum_style(a: &SynthLogArgs) -> fbgforge::logs::SpectrumStyle {
+    let default = fbgforge::logs::SpectrumStyle::default();
+    fbgforge::logs::SpectrumStyle {
+        imon_calibration: if a.imon_calibration.is_empty() {
+            default.imon_calibration.clone()
+        } else {
+            a.imon_calibration.clone()
+        },
+        line_shape: match a.line_shape {
+            LineShapeArg::Grating => fbgforge::logs::LineShape::Design,
+            LineShapeArg::Gaussian => fbgforge::logs::LineShape::Gaussian { fwhm_nm: a.fwhm_nm },
+        },
+        noise_counts: a.pixel_noise_counts,
+        seed: a.seed,
+        ..default
+    }
+}
+
 /// Run `fbgforge synth-log`.
 pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
@@ -421,6 +488,7 @@ pub fn run_synth_log(a: SynthLogArgs) -> Result<()> {
             bom: a.bom,
             metadata_lines: a.metadata_lines,
             twelve_hour: a.twelve_hour,
+            spectrum: spectrum_style(&a),
         },
         run,
     };
@@ -495,7 +563,10 @@ pub struct CalibrateArrayArgs {
     /// Wavelength log of the calibration run.
     #[arg(long)]
     pub log: PathBuf,
-    /// Schedule CSV: `start_s,end_s,cell,load_g`, times in s from the log's first row.
+    /// Schedule CSV: `start_s,end_s,cell,load_g`, one line per load resting on a cell
+    /// (a staircase: one line per step with the total mass; simultaneous loads:
+    /// overlapping lines on different cells); times in s from the log's first row, a
+    /// hint: the load changes are found in the data.
     #[arg(long)]
     pub schedule: PathBuf,
     /// Format of the wavelength log (detected if omitted).
@@ -504,20 +575,41 @@ pub struct CalibrateArrayArgs {
     /// Order of day and month in slash dates.
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
+    #[command(flatten)]
+    pub spectrum: super::peaks::SpectrumArgs,
     /// Half-width of the wavelength windows, nm.
     #[arg(long)]
     pub window_nm: Option<f64>,
-    /// Output CSV (default: out/<design>/sensing_matrix.csv).
+    /// The interrogator's resolution, pm (default 0.5, the paper's I-MON): Table 2's
+    /// resolution in g, and the smallest baseline change that counts as drift.
+    #[arg(long)]
+    pub resolution_pm: Option<f64>,
+    /// The model's relative band for the comparison with the prediction (default 0.4
+    /// = ±40 %, the models' largest error against the paper's Table 1).
+    #[arg(long)]
+    pub model_tolerance: Option<f64>,
+    /// Output CSV of the matrix (default: out/<design>/sensing_matrix.csv), written
+    /// only when no fault makes it unusable and every cell was loaded; beside it
+    /// `<out>.sd.csv` (per-entry scatter, for `reconstruct --matrix-sd`),
+    /// `<out>.calibration.json`, the charts and their CSVs; with a fault the matrix
+    /// goes to `<out>.faulty.csv` and nothing is written at `<out>`.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Also fit the silicone's modulus of the sheet model to the measured matrix and
-    /// report the misfit of every entry (JSON beside the matrix: `<out>.modulus-fit.json`).
+    /// Also fit the sheet's unknowns (modulus, thickness, table interface) to the
+    /// measured matrix and say which the data pin down (`<out>.sheet-fit.json`).
+    #[arg(long, alias = "fit-modulus")]
+    pub fit_sheet: bool,
+    /// Print the whole calibration as one JSON object on stdout instead of the text.
     #[arg(long)]
-    pub fit_modulus: bool,
+    pub json: bool,
 }
 
-/// Run `fbgforge calibrate-array`.
-pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
+/// Exit code of a calibration whose faults make the matrix unusable.
+pub const EXIT_UNUSABLE: u8 = 3;
+
+/// Run `fbgforge calibrate-array`: exit 0 when the matrix is usable, 3
+/// ([`EXIT_UNUSABLE`]) when a fault makes it unusable, 1 on an error.
+pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<std::process::ExitCode> {
     let design = fbgforge::design::load(&a.design)?;
     let out = a.out.clone().unwrap_or_else(|| {
         Path::new("out")
@@ -528,13 +620,28 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<()> {
         design_file: Some(a.design.clone()),
         log: a.log.clone(),
         schedule: a.schedule.clone(),
-        read: read_options(a.format, a.date_order),
+        read: read_options(a.format, a.date_order, &a.spectrum),
         window_half_width_nm: a.window_nm,
-        out: Some(out),
-        fit_modulus: a.fit_modulus,
+        resolution_pm: a.resolution_pm,
+        model_tolerance: a.model_tolerance,
+        out: Some(out.clone()),
+        fit_sheet: a.fit_sheet,
     };
-    calibrate::run(&design, &req, &mut Table)?;
-    Ok(())
+    let mut charts = Charts::beside(&out);
+    let outcome = if a.json {
+        calibrate::run(&design, &req, &mut charts)?
+    } else {
+        charts.announce = true;
+        calibrate::run(&design, &req, &mut (Table, charts))?
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&outcome)?);
+    }
+    Ok(if outcome.calibration.usable {
+        std::process::ExitCode::SUCCESS
+    } else {
+        std::process::ExitCode::from(EXIT_UNUSABLE)
+    })
 }
 
 #[cfg(test)]
@@ -546,8 +653,9 @@ mod tests {
     #[test]
     fn registered_names_are_the_command_line_names() {
         let args = LogFormatArg::value_variants();
-        assert_eq!(args.len(), LogFormat::ALL.len());
-        for (arg, format) in args.iter().zip(LogFormat::ALL) {
+        let all: Vec<LogFormat> = LogFormat::ALL.into_iter().chain(LogFormat::SPECTRA).collect();
+        assert_eq!(args.len(), all.len());
+        for (arg, &format) in args.iter().zip(&all) {
             let cli = arg.to_possible_value().expect("every format is a value");
             assert_eq!(cli.get_name(), format.name());
             assert_eq!(LogFormat::from(*arg), format);

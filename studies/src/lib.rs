@@ -7,11 +7,13 @@
 //! Run one with `cargo run --release -p fbgforge-studies -- <study> [--quick]`.
 
 pub mod build;
+pub mod calibrate;
 pub mod fe_speed;
 pub mod fem;
 pub mod fem_compare;
 pub mod fem_contact;
 pub mod live_starts;
+pub mod model_error;
 pub mod optimize;
 pub mod predict;
 /// Terminal bars: the binary's own implementation of the library's `Progress`.
@@ -19,6 +21,9 @@ pub mod predict;
 pub mod progress;
 pub mod reconstruct;
 pub mod reconstruct_faults;
+pub mod reconstruct_flags;
 pub mod reconstruct_scaling;
 pub mod sheet;
+pub mod spectra;
+pub mod verdicts;
 pub mod verify;

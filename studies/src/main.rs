@@ -19,6 +19,8 @@ struct Cli {
 enum Study {
     /// Meshing tolerance against triangles, time and volume error; build timings.
     Build(studies::build::BuildStudyArgs),
+    /// The array's calibration: confidently wrong matrices, missed and false faults.
+    Calibrate(studies::calibrate::CalibrateStudyArgs),
     /// Time of the FE-backed commands (predict, a Case I sweep) from a cold cache.
     FeSpeed(studies::fe_speed::FeSpeedArgs),
     /// Finite-element convergence, time against error, and closed form against FE.
@@ -29,6 +31,9 @@ enum Study {
     /// Live starts at any moment of a load script: confidently wrong loads shown by
     /// the tare at rest, the tare of the first 50 frames and an oracle tare.
     LiveStarts(studies::live_starts::LiveStartsArgs),
+    /// The model's stated error on random valid designs (containment in the widened
+    /// bounding readings) and the margins of the designs optimize writes under it.
+    ModelError(studies::model_error::ModelErrorArgs),
     /// Optimiser convergence time per design and solver.
     Optimize(studies::optimize::BenchOptimizeArgs),
     /// Closed-form prediction time per design.
@@ -38,22 +43,33 @@ enum Study {
     /// The array's sheet model: Tables 1–2, its fitted constants, speed against
     /// accuracy, trends with the design.
     Sheet(studies::sheet::SheetStudyArgs),
+    /// Peak finding on random spectra: confidently wrong peaks (error > 3× the
+    /// standard error, no flag) over SNR, width, line shape, neighbours, tilt and
+    /// saturation.
+    Spectra(studies::spectra::SpectraStudyArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
+    /// Verdicts against their alternatives: random scenarios with known truth,
+    /// the confusion table (expected × given).
+    Verdicts(studies::verdicts::VerdictStudyArgs),
 }
 
 fn main() -> ExitCode {
     let result = match Cli::parse().study {
         Study::Build(a) => studies::build::run(&a),
+        Study::Calibrate(a) => studies::calibrate::run(&a),
         Study::FeSpeed(a) => studies::fe_speed::run(&a),
         Study::Fem(a) => studies::fem::run(&a),
         Study::Contact(a) => studies::fem_contact::run(&a),
         Study::LiveStarts(a) => studies::live_starts::run(&a),
+        Study::ModelError(a) => studies::model_error::run(&a).map(|_| ()),
         Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
         Study::Sheet(a) => studies::sheet::run(&a),
+        Study::Spectra(a) => studies::spectra::run(&a),
         Study::Verify(a) => studies::verify::run(&a),
+        Study::Verdicts(a) => studies::verdicts::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -70,7 +70,14 @@ pub enum Part {
     /// (calibration noise and placement, additivity, temperature offset, a dead
     /// grating).
     Faults,
+    /// Issue 35's flag study: RR, recall and false flags per method under fourteen
+    /// scenarios on three arrays, the stream diagnosis judged, and the ROC of the
+    /// frame test's significance.
+    Flags,
 }
+
+/// Streams per array and scenario of the flag part (at most; `--repeats` lowers it).
+pub const FLAG_STREAMS: u64 = 4;
 
 /// Streams per scenario of the fault part (at most; `--repeats` lowers it).
 pub const FAULT_STREAMS: u64 = 3;
@@ -140,6 +147,17 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
                 opts.quick,
                 opts.seed,
                 opts.repeats.min(FAULT_STREAMS),
+                &mut report,
+            )?;
+            report
+        }
+        Part::Flags => {
+            let mut report = String::from("# fbgforge-studies reconstruct --part flags\n\n");
+            crate::reconstruct_flags::run(
+                &opts.out,
+                opts.quick,
+                opts.seed,
+                opts.repeats.min(FLAG_STREAMS),
                 &mut report,
             )?;
             report

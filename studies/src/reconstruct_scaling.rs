@@ -459,7 +459,7 @@ fn default_rows(
         resolution_pm: NOISE_PM,
     };
     let t_long = Instant::now();
-    let long = default_choice(problem, &prior, 10.0 * budget_us, Some(&test.shifts_pm))?;
+    let long = default_choice(problem, &prior, 10.0 * budget_us)?;
     let long_setup_ms = 1e3 * t_long.elapsed().as_secs_f64();
     let res = evaluate(long.reconstructor.as_ref(), test);
     let label = format!(
@@ -477,7 +477,7 @@ fn default_rows(
     ));
     let long_pick = (m, n, label, long.reason);
     let t0 = Instant::now();
-    let choice = default_choice(problem, &prior, budget_us, Some(&test.shifts_pm))?;
+    let choice = default_choice(problem, &prior, budget_us)?;
     let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
     let res = evaluate(choice.reconstructor.as_ref(), test);
     let label = format!("default → {}", choice.method.name());

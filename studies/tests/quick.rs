@@ -219,9 +219,10 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
             assert_eq!(r["dead_named"], r["streams"], "{r}");
         }
         assert_eq!(row(array, "clean", "bnb")["false_suspects"], 0);
-        // The common-mode term recovers what the offset costs bnb without it.
+        // Issue 35: the stream diagnosis fits the common offset by itself, so bnb
+        // without --common-mode recovers what bnb with it does on the offset stream.
         let (cm, plain) = (row(array, "offset", "bnb +cm"), row(array, "offset", "bnb"));
-        assert!(f(cm, "rr_pct") > f(plain, "rr_pct"), "{cm} against {plain}");
+        assert!(f(plain, "rr_pct") >= f(cm, "rr_pct") - 5.0, "{cm} against {plain}");
         // With every fault, most missed frames carry a flag; few clean ones do.
         let all = row(array, "all", "bnb");
         assert!(f(all, "flag_recall_pct") >= 50.0, "{all}");
@@ -233,6 +234,61 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
     }
     assert!(dir.path().join("faults.csv").exists());
     assert!(dir.path().join("faults-10x20.svg").exists());
+}
+
+#[test]
+fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::reconstruct::BenchOptions {
+        out: dir.path().to_path_buf(),
+        design: None,
+        seed: 1,
+        repeats: 1,
+        quick: true,
+        part: fbgforge_studies::reconstruct::Part::Flags,
+        budget_us: None,
+    };
+    fbgforge_studies::reconstruct::run(&a).unwrap();
+    let rows = read_json(&dir.path().join("flags.json"));
+    let rows = rows.as_array().unwrap();
+    let row = |array: &str, fault: &str, method: &str| {
+        rows.iter()
+            .find(|r| r["array"] == array && r["fault"] == fault && r["method"] == method)
+            .unwrap_or_else(|| panic!("{array} {fault} {method}"))
+    };
+    let f = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap_or(0.0);
+    let flag = |r: &serde_json::Value, word: &str| {
+        r["flag_pct"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p[0] == word)
+            .map_or(0.0, |p| p[1].as_f64().unwrap())
+    };
+    for array in ["6x8 paper", "10x20 hex"] {
+        // The same objective gives the same loads and, the rivals being computed,
+        // the same flags: `support` and `bnb` agree on every fault.
+        for fault in ["clean", "dead", "drift", "offset", "absurd"] {
+            let (s, b) = (row(array, fault, "support"), row(array, fault, "bnb"));
+            assert_eq!(s["rr_pct"], b["rr_pct"], "{array} {fault}");
+            assert_eq!(s["false_flag_pct"], b["false_flag_pct"], "{array} {fault}");
+            assert_eq!(s["recall_pct"], b["recall_pct"], "{array} {fault}");
+        }
+        // A clean stream: no suspect, no offset; a dead grating and an offset found.
+        let clean = row(array, "clean", "bnb");
+        assert_eq!((clean["wrong_suspects"].as_u64(), clean["common_mode_streams"].as_u64()), (Some(0), Some(0)));
+        assert_eq!(row(array, "dead", "bnb")["diagnosis_right"], 1);
+        assert_eq!(row(array, "offset", "bnb")["common_mode_streams"], 1);
+        // Absurd frames (3 % of the stream) are unusable for every method, and
+        // flagged: never trusted zero loads.
+        for method in ["bnb", "support", "lasso", "omp", "nnls"] {
+            let r = row(array, "absurd", method);
+            assert!(flag(r, "unusable") >= 1.0, "{r}");
+            assert!(f(r, "recall_pct") > 0.0, "{r}");
+        }
+    }
+    assert!(dir.path().join("flags-roc.csv").exists());
+    assert!(dir.path().join("flags-roc-10x20-clean.svg").exists());
 }
 
 #[test]
@@ -390,4 +446,217 @@ fn live_starts_study_quick_reads_only_after_a_tare_window_and_its_oracle_is_righ
     }
     let s = read_json(&dir.path().join("summary.json"));
     assert_eq!(s["totals"].as_array().unwrap().len(), 6);
+}
+
+#[test]
+fn model_error_study_quick_finds_every_nominal_inside_and_every_written_grating_in_margin() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::model_error::ModelErrorArgs {
+        designs: 3,
+        optimise: 1,
+        seed: 38,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    let r = fbgforge_studies::model_error::run(&a).unwrap();
+    assert_eq!(r.designs, 3);
+    assert!(r.rows >= 3 * 4, "{r:?}");
+    // Every nominal inside its widened readings and its design interval.
+    assert_eq!(r.rows_outside_widened_band, 0, "{r:?}");
+    assert_eq!(r.rows_outside_design_interval, 0, "{r:?}");
+    // What optimize wrote keeps the 5 % margin at the far end of its interval.
+    assert_eq!(r.optimised, 1);
+    if r.optimise_failed == 0 {
+        assert!(r.written_gratings > 0, "{r:?}");
+        assert_eq!(r.written_at_or_over_limit, 0, "{r:?}");
+        assert_eq!(r.written_under_margin, 0, "{r:?}");
+        assert!(r.smallest_written_margin_percent >= 5.0 - 1e-6, "{r:?}");
+        assert_eq!(r.written_wavelength_window_over, 0, "{r:?}");
+        assert_eq!(r.written_snap_over, 0, "{r:?}");
+    }
+    let json = read_json(&dir.path().join("model_error.json"));
+    assert_eq!(json["rows"].as_u64().unwrap() as usize, r.rows);
+    let csv = std::fs::read_to_string(dir.path().join("model_error.csv")).unwrap();
+    assert_eq!(csv.lines().count(), r.rows + 1);
+}
+
+#[test]
+fn spectra_study_quick_counts_few_confidently_wrong_peaks() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::spectra::SpectraStudyArgs {
+        scenarios: 0,
+        seed: 36,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    let lines = fbgforge_studies::spectra::run_study(&a).unwrap();
+    let all = lines.iter().find(|l| l.group == "all").unwrap();
+    assert_eq!(all.scenarios, 300);
+    // Nearly every scenario yields a peak in its grating's window.
+    assert!(all.found >= 285, "{all:?}");
+    // The full study (4000 scenarios, seed 36) measured 0.9 % confidently wrong
+    // (0.6–1.2 %); 300 scenarios may hold a few more by chance, never a tenth.
+    assert!(all.confidently_wrong_fraction < 0.05, "{all:?}");
+    // Well-sampled lone Gaussians: the case the finder is built for.
+    let clean = lines
+        .iter()
+        .find(|l| l.group == "gaussian, alone, unsaturated")
+        .unwrap();
+    assert!(clean.confidently_wrong <= 1, "{clean:?}");
+    let csv = std::fs::read_to_string(dir.path().join("spectra-scenarios.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 301);
+}
+
+/// Run the verdict study (`only`: one class) and read its rows: (class, clock,
+/// given verdict, reason code, outcome).
+fn verdict_rows(
+    dir: &Path,
+    scenarios: usize,
+    first_seed: u64,
+    only: Option<&str>,
+    quick: bool,
+) -> (serde_json::Value, Vec<[String; 5]>) {
+    let a = fbgforge_studies::verdicts::VerdictStudyArgs {
+        out: dir.to_path_buf(),
+        scenarios,
+        first_seed,
+        only: only.map(String::from),
+        keep: false,
+        quick,
+    };
+    fbgforge_studies::verdicts::run(&a).unwrap();
+    let csv = std::fs::read_to_string(dir.join("verdicts.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (c, k, g, r, o) = (col("class"), col("clock"), col("given"), col("code"), col("outcome"));
+    let rows = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            [f[c], f[k], f[g], f[r], f[o]].map(String::from)
+        })
+        .collect();
+    (read_json(&dir.join("verdicts.json")), rows)
+}
+
+#[test]
+fn verdict_study_quick_gives_no_confidently_wrong_verdict() {
+    // 60 scenarios drawn from the study's own space (its own forward model, not the
+    // project's synthetic generator), each verified with the clock offset given and
+    // estimated: not one definite verdict against the truth or refusal naming a fault
+    // that is not there, and at least 90 % of the runs whose truth the data decide get
+    // the right definite verdict.
+    let dir = tempfile::tempdir().unwrap();
+    let (s, rows) = verdict_rows(dir.path(), 0, 1, None, true);
+    assert_eq!(s["runs"].as_u64(), Some(120), "{s}");
+    assert_eq!(s["confidently_wrong"].as_u64(), Some(0), "{s}");
+    assert_eq!(s["errors"].as_u64(), Some(0), "{s}");
+    assert!(s["definite_rate"].as_f64().unwrap() >= 0.9, "{s}");
+    assert!(s["definite_truth"].as_u64().unwrap() >= 40, "{s}");
+    assert_eq!(rows.len(), 120);
+    let md = std::fs::read_to_string(dir.path().join("verdict_confusion.md")).unwrap();
+    assert!(md.contains("| expected \\ given |"), "{md}");
+}
+
+/// Each class of the issue, drawn on its own over `n` seeds: no confidently wrong
+/// verdict, and every refusal names one of `codes` (the rival the class is about).
+fn class_holds(class: &str, n: usize, codes: &[&str], definite: &[&str]) {
+    class_holds_but(class, n, codes, definite, 0);
+}
+
+/// [`class_holds`] with `known` confidently wrong runs allowed (an open case, named
+/// where it is called).
+fn class_holds_but(class: &str, n: usize, codes: &[&str], definite: &[&str], known: u64) {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, rows) = verdict_rows(dir.path(), n, 1000, Some(class), false);
+    assert!(s["confidently_wrong"].as_u64().unwrap() <= known, "{class}: {s} {rows:?}");
+    assert_eq!(rows.len(), 2 * n);
+    for r in &rows {
+        assert_eq!(r[0], class);
+        if r[4] == "ConfidentlyWrong" {
+            continue;
+        }
+        let ok = if r[4] == "Right" {
+            definite.contains(&r[2].as_str())
+        } else {
+            codes.contains(&r[3].as_str())
+        };
+        assert!(ok, "{class}: {r:?}");
+    }
+}
+
+#[test]
+fn a_short_recording_is_never_aligned_to_the_wrong_press() {
+    // Issue #33, class 1: the interrogator or the force stand stopped early; an
+    // estimated offset with too few presses or a rival offset is NOT JUDGED
+    // (alignment), a given one is judged.
+    // Open case (issue #33 follow-up): seed 1000, a staircase at 250 Hz cut short with
+    // negative force, offset estimated, reads K = +45 pm/N at a wrong offset whose rivals
+    // explain < 20 % of the shift, and gives NO RESPONSE where the truth is PASS.
+    class_holds_but("wavelength-cut", 4, &["alignment", "unexplained"], &["PASS", "FAIL"], 1);
+    // The same open case with the force log cut (seed 1000, estimated offset).
+    class_holds_but("force-cut", 4, &["alignment", "unexplained"], &["PASS", "FAIL"], 1);
+}
+
+#[test]
+fn a_loose_bond_never_passes() {
+    // Class 2: friction in the bond (12-40 % of span of loop): FAIL (bonding or off
+    // the model), or not judged for its precision, never PASS.
+    class_holds("loose-bond", 4, &["precision", "alignment", "instrument"], &["FAIL"]);
+}
+
+#[test]
+fn temperature_without_a_reference_is_no_response_on_an_unloaded_sensor() {
+    // Class 3: an unloaded sensor with a temperature swing and no reference: NO
+    // RESPONSE (or NOT JUDGED for the alignment), never FAIL.
+    class_holds("unloaded-with-temperature", 4, &["no_response", "alignment"], &[]);
+}
+
+#[test]
+fn a_saturated_or_stuck_interrogator_is_not_judged() {
+    // Class 4: peaks pinned at a ceiling or frozen: NOT JUDGED (instrument).
+    class_holds("wavelength-saturation", 4, &["instrument", "alignment", "unexplained"], &[]);
+    class_holds("stuck-peaks", 3, &["instrument", "alignment", "unexplained"], &[]);
+}
+
+#[test]
+fn clock_jumps_and_whole_second_pauses_are_seen() {
+    // Classes 5 and 6: a wall clock stepped back or forward mid-log, and whole-second
+    // timestamps with pauses: judged right when the rows still line up, else NOT
+    // JUDGED naming the clock, never a silent drop of presses.
+    class_holds("clock-jump", 4, &["clock", "alignment", "unexplained"], &["PASS", "FAIL"]);
+    class_holds("whole-second-pauses", 4, &["precision", "alignment", "clock"], &["PASS", "FAIL"]);
+}
+
+#[test]
+fn force_units_in_a_column_or_the_header_are_read() {
+    // Class 7: a Mark-10 style units column, named units, and unnamed kgf/lbf (K off
+    // by the unit's factor: NOT JUDGED naming the unit).
+    class_holds("units-column", 3, &["alignment"], &["PASS", "FAIL"]);
+    class_holds("units-unnamed", 3, &["units", "alignment"], &[]);
+}
+
+#[test]
+fn calibrate_study_quick_counts_every_scenario_and_a_clean_run_is_never_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::calibrate::CalibrateStudyArgs {
+        design: root().join("designs/tactile-array-60x80.toml"),
+        out: dir.path().to_path_buf(),
+        runs: 3,
+        seed: 1,
+        quick: true,
+    };
+    fbgforge_studies::calibrate::run(&a).unwrap();
+    let counts: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("calibrate-study.json")).unwrap()).unwrap();
+    let counts = counts.as_array().unwrap();
+    assert_eq!(counts.len(), fbgforge_studies::calibrate::SCENARIOS.len());
+    for c in counts {
+        assert_eq!(c["runs"], 3, "{c}");
+        // No scenario may hand out a wrong matrix as usable.
+        assert_eq!(c["confidently_wrong"], 0, "{c}");
+    }
+    let rows = std::fs::read_to_string(dir.path().join("calibrate-study.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 3 * counts.len());
 }

@@ -432,9 +432,10 @@ fn every_method_respects_the_bounds_and_never_returns_nan() {
     let frames = vec![
         shifts(&a, &[250.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 240.0]), // above ulimit
         vec![-5.0, -1.0, -3.0, -2.0, -8.0, -1.0],                  // all negative
-        vec![1e6, 0.0, 0.0, 0.0, 0.0, 1e6],                        // absurd
         vec![0.0; 6],
     ];
+    // Beyond the interrogator's window (issue 35): unusable, NaN, never loads.
+    let absurd = vec![1e6, 0.0, 0.0, 0.0, 0.0, 1e6];
     for m in Method::ALL {
         let mut s = MethodSettings::for_method(m);
         if let MethodSettings::De(de) = &mut s {
@@ -442,6 +443,12 @@ fn every_method_respects_the_bounds_and_never_returns_nan() {
             de.generations = 50;
         }
         let r = build(&p, &s).unwrap();
+        let rec = r.reconstruct(&absurd);
+        assert!(
+            rec.flags.unusable && rec.loads_g.iter().all(|v| v.is_nan()),
+            "{m:?}: {:?}",
+            rec.loads_g
+        );
         for y in &frames {
             let rec = r.reconstruct(y);
             assert_eq!(rec.loads_g.len(), 8);
@@ -454,12 +461,17 @@ fn every_method_respects_the_bounds_and_never_returns_nan() {
             }
             assert!(rec.residual_pm.is_finite());
         }
-        // A frame with a NaN or of the wrong length: zeros, flagged as not converged.
+        // A frame with a NaN or of the wrong length: unusable, NaN loads (never
+        // zeros, issue 35), not converged.
         for bad in [vec![1.0, f64::NAN, 0.0, 0.0, 0.0, 0.0], vec![1.0, 2.0]] {
             let rec = r.reconstruct(&bad);
             assert!(
-                !rec.converged && rec.loads_g.iter().all(|v| *v == 0.0),
-                "{m:?}"
+                !rec.converged
+                    && rec.flags.unusable
+                    && rec.loads_g.len() == 8
+                    && rec.loads_g.iter().all(|v| v.is_nan()),
+                "{m:?}: {:?}",
+                rec.loads_g
             );
         }
     }

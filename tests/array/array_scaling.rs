@@ -4,7 +4,7 @@
 //! matrices and shifts as users have them (numbers only, no header).
 
 use fbgforge::array::choice::{
-    choose_method, default_choice, estimated_ns_per_frame, synthetic_probe_frames, MethodChoice,
+    choose_method, default_choice, synthetic_probe_frames, MethodChoice,
     PREFERENCE,
 };
 use fbgforge::array::kernel::{
@@ -15,6 +15,7 @@ use fbgforge::array::methods::{
 };
 use fbgforge::array::problem::SensingProblem;
 use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
+use fbgforge::array::reconstruct::{Frames, MethodRequest};
 use fbgforge::progress::Quiet;
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
@@ -264,12 +265,12 @@ fn choice_takes_the_most_accurate_method_within_the_budget() {
     let settings = |m| MethodSettings::for_method(m);
     let prior = ReadingSettings::paper();
     // A generous budget: the most accurate method.
-    let c = choose_method(&p, &prior, &settings, 1e9, None).unwrap();
+    let c = choose_method(&p, &prior, &settings, 1e9).unwrap();
     assert_eq!(c.method, PREFERENCE[0]);
     assert_eq!(c.candidates.len(), 1);
     assert!(c.reason.contains("most accurate"), "{}", c.reason);
     // An impossible budget: never refused, the fastest measured, and it says so.
-    let c = choose_method(&p, &prior, &settings, 1e-6, None).unwrap();
+    let c = choose_method(&p, &prior, &settings, 1e-6).unwrap();
     assert!(c.reason.contains("no method met"), "{}", c.reason);
     assert_eq!(c.candidates.len(), PREFERENCE.len());
     let picked = c.candidates.iter().find(|k| k.status == "picked").unwrap();
@@ -282,7 +283,7 @@ fn choice_takes_the_most_accurate_method_within_the_budget() {
     assert_eq!(picked.probe_us_per_frame, Some(fastest));
     // A bad budget is an error, not a panic.
     for bad in [0.0, -5.0, f64::NAN] {
-        assert!(choose_method(&p, &prior, &settings, bad, None).is_err());
+        assert!(choose_method(&p, &prior, &settings, bad).is_err());
     }
 }
 
@@ -309,11 +310,11 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
     let frames: Vec<Vec<f64>> = (0..40)
         .map(|i| noisy(&a, &random_loads(64, 1 + i % 4, &mut rng), &mut rng))
         .collect();
-    for probe in [None, Some(frames.as_slice())] {
-        let first = decision(&default_choice(&p, &prior, 100.0, probe).unwrap());
+    {
+        let first = decision(&default_choice(&p, &prior, 100.0).unwrap());
         assert_eq!(
             first,
-            decision(&default_choice(&p, &prior, 100.0, probe).unwrap())
+            decision(&default_choice(&p, &prior, 100.0).unwrap())
         );
         let stop = std::sync::atomic::AtomicBool::new(false);
         let busy = std::thread::scope(|s| {
@@ -327,12 +328,37 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
                     }
                 });
             }
-            let d = decision(&default_choice(&p, &prior, 100.0, probe).unwrap());
+            let d = decision(&default_choice(&p, &prior, 100.0).unwrap());
             stop.store(true, std::sync::atomic::Ordering::Relaxed);
             d
         });
         assert_eq!(first, busy);
     }
+    // A stream's choice does not depend on the frames it starts with: the first 40
+    // frames, the last 40 reversed, or the same 10 repeated 4× give the same set-up.
+    let names: Vec<String> = (1..=a.nrows()).map(|i| format!("g{i}")).collect();
+    let request = MethodRequest::Default { budget_us: 100.0 };
+    let setup_for = |fr: &[Vec<f64>]| {
+        let done = fbgforge::array::reconstruct(
+            &p,
+            Frames { gratings: &names, shifts_pm: fr },
+            &prior,
+            &request,
+            &fbgforge::progress::Quiet,
+        )
+        .unwrap();
+        (done.setup.method, done.setup.settings, done.setup.reason)
+    };
+    let reversed: Vec<Vec<f64>> = frames.iter().rev().cloned().collect();
+    let repeated: Vec<Vec<f64>> = frames[..10].iter().cycle().take(40).cloned().collect();
+    let want = setup_for(&frames);
+    assert_eq!(want.0, first_method(&p, &prior));
+    assert_eq!(want, setup_for(&reversed));
+    assert_eq!(want, setup_for(&repeated));
+}
+
+fn first_method(p: &SensingProblem, prior: &ReadingSettings) -> Method {
+    default_choice(p, prior, 100.0).unwrap().method
 }
 
 #[test]
@@ -343,20 +369,20 @@ fn the_choice_follows_the_estimate_at_the_budget() {
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a, 250.0, true).unwrap();
     let prior = ReadingSettings::paper();
-    let c = default_choice(&p, &prior, 3000.0, None).unwrap();
+    let c = default_choice(&p, &prior, 3000.0).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     assert_eq!(c.candidates[0].status, "estimated over budget");
     assert_eq!(c.candidates[1].status, "estimated over budget");
     let estimate = c.candidates[2].probe_us_per_frame.unwrap();
     assert!(estimate > 0.0 && estimate <= 3000.0, "{estimate}");
-    let at = default_choice(&p, &prior, estimate, None).unwrap();
+    let at = default_choice(&p, &prior, estimate).unwrap();
     assert_eq!(
         (at.method, at.settings),
         (c.method, c.settings),
         "{}",
         at.reason
     );
-    let below = default_choice(&p, &prior, 0.99 * estimate, None).unwrap();
+    let below = default_choice(&p, &prior, 0.99 * estimate).unwrap();
     let node_budget = |s: &MethodSettings| match s {
         MethodSettings::BranchAndBound(b) => b.node_budget,
         other => panic!("not bnb: {other:?}"),
@@ -393,11 +419,11 @@ fn the_l0_penalty_follows_the_interrogator_resolution() {
         max_loads: 4,
         resolution_pm,
     };
-    let fine = default_choice(&p, &prior(0.25), 5.0, None).unwrap();
+    let fine = default_choice(&p, &prior(0.25), 5.0).unwrap();
     assert_eq!(fine.method, Method::Support, "{}", fine.reason);
     assert_eq!(fine.settings.penalty(), Some(1.0));
     for bad in [0.0, -1.0, f64::NAN] {
-        assert!(default_choice(&p, &prior(bad), 100.0, None).is_err());
+        assert!(default_choice(&p, &prior(bad), 100.0).is_err());
     }
 }
 
@@ -531,20 +557,17 @@ fn the_estimate_is_the_mean_over_the_probe_frames_so_the_budget_holds_on_average
     let a = grid_matrix(8, 8, 4, 4);
     let p = SensingProblem::new(a, 250.0, true).unwrap();
     let prior = ReadingSettings::paper();
-    let c = default_choice(&p, &prior, 3000.0, None).unwrap();
+    let c = default_choice(&p, &prior, 3000.0).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     let r = build(&p, &c.settings).unwrap();
+    // Each probe frame's estimate: the method's work and the frame test's.
+    let test = fbgforge::array::trust::FrameTest::new(&p, prior.max_loads);
     let est: Vec<f64> = synthetic_probe_frames(&p, prior.max_loads)
         .iter()
         .map(|y| {
-            let rec = r.reconstruct(y);
-            1e-3 * estimated_ns_per_frame(
-                Method::BranchAndBound,
-                &c.settings,
-                16,
-                64,
-                rec.iterations,
-            )
+            let mut rec = r.reconstruct(y);
+            test.assess(y, &mut rec);
+            1e-3 * fbgforge::array::choice::estimated_frame_ns(&c.settings, 16, 64, &rec)
         })
         .collect();
     let mean = est.iter().sum::<f64>() / est.len() as f64;
@@ -562,7 +585,7 @@ fn the_estimate_is_the_mean_over_the_probe_frames_so_the_budget_holds_on_average
     );
     // Just below that mean, bnb gets a fitted work budget (anytime: its best support
     // at the budget, not certified), and its mean estimate is then within budget.
-    let tight = default_choice(&p, &prior, 0.5 * mean, None).unwrap();
+    let tight = default_choice(&p, &prior, 0.5 * mean).unwrap();
     if tight.method == Method::BranchAndBound {
         let k = tight
             .candidates
@@ -590,7 +613,7 @@ fn bnb_replaces_support_where_it_gives_the_same_answers_faster() {
     let frames: Vec<Vec<f64>> = (0..60)
         .map(|i| noisy(&a, &random_loads(20, 1 + i % 4, &mut rng), &mut rng))
         .collect();
-    let c = default_choice(&p, &prior, 100.0, Some(&frames)).unwrap();
+    let c = default_choice(&p, &prior, 100.0).unwrap();
     assert_eq!(c.method, Method::BranchAndBound, "{}", c.reason);
     let support = c
         .candidates

@@ -92,9 +92,10 @@ fn clean_frames_pass_the_residual_test_and_a_common_offset_fails_it() {
         Method::WeightedSupport,
     ] {
         let done = run(&p, &clean, method);
-        // α = 10⁻³ per frame: 200 clean frames give ~0.2 false flags on average.
+        // At the default significance α = 0.05 a clean frame fails the χ² test with
+        // probability 0.05: 10 of 200 on average, 20 three standard deviations above.
         let false_flags = share(&done, |r| r.flags.inconsistent);
-        assert!(false_flags <= 0.01, "{method:?}: {false_flags}");
+        assert!(false_flags <= 0.10, "{method:?}: {false_flags}");
         assert!(done.frames.iter().all(|r| r.dof > 0 && r.chi2 >= 0.0));
         assert_eq!(
             done.flag_counts.inconsistent,
@@ -115,7 +116,9 @@ fn clean_frames_pass_the_residual_test_and_a_common_offset_fails_it() {
             .filter(|(r, (x, _))| snr_db(x, &r.loads_g) >= 12.0)
             .count()
     };
-    let blind = run(&p, &warm, Method::Support);
+    // Without the term (the diagnosis may not fit one: `with_auto_common_mode(None)`).
+    let p_blind = p.clone().with_auto_common_mode(None).unwrap();
+    let blind = run(&p_blind, &warm, Method::Support);
     let missed: Vec<bool> = blind
         .frames
         .iter()
@@ -142,7 +145,15 @@ fn clean_frames_pass_the_residual_test_and_a_common_offset_fails_it() {
         .unwrap();
     let done = run(&pc, &warm, Method::Support);
     let flagged = share(&done, |r| r.flags.inconsistent);
-    assert!(flagged <= 0.01, "with the common mode: {flagged}");
+    assert!(flagged <= 0.10, "with the common mode: {flagged}");
+    // Left to the stream diagnosis the decision is stated with its numbers. (On this
+    // 6-grating array a constant 3 pm offset is partly absorbed by the loads: the
+    // median frame's χ² drop, 1.1, is under the rule's 2, and the term is not
+    // fitted; on the 10 × 20 grid it is: array_faults.)
+    let auto = run(&p, &warm, Method::Support);
+    let note = &auto.diagnosis.common_mode;
+    assert_eq!(note.decided, "auto");
+    assert!(note.reason.contains("χ²"), "{note:?}");
     let recovered = done
         .frames
         .iter()
@@ -307,7 +318,11 @@ fn a_stated_matrix_uncertainty_explains_calibration_scatter() {
             add_noise(&y, 0.5, &mut rng)
         })
         .collect();
-    let unaware = SensingProblem::new(measured.clone(), 250.0, true).unwrap();
+    // The per-frame test alone: the stream diagnosis, which would leave the grating
+    // out, is off.
+    let unaware = SensingProblem::new(measured.clone(), 250.0, true)
+        .unwrap()
+        .with_diagnosis(false);
     let mut sd = Uncertainty::paper(m, n, 0.5);
     sd.matrix_sd_pm_per_g[(i, 0)] = a[(i, 0)];
     let aware = unaware.clone().with_uncertainty(sd).unwrap();

@@ -170,7 +170,9 @@ fn a_simulated_hyperion_stream_gives_the_scripted_cell_loads() {
 
     let start = &of_type(&lines, "start")[0];
     assert_eq!(start["kind"], "array");
-    assert_eq!(start["method"], "wsupport");
+    // The default choice within 100 µs at 6 × 8 (issue 35: the frame test's cost
+    // counted in, `wsupport` is over, `support` within).
+    assert_eq!(start["method"], "support");
     let frames = of_type(&lines, "frame");
     let summary = *of_type(&lines, "summary").last().unwrap();
     // 2.1 s at 1 kHz on the client's clock: 2100 frames, the first 50 the tare.

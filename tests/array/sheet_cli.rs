@@ -1,11 +1,10 @@
 //! `fbgforge predict` on an array design (issue 27): the matrix and the response to one
-//! load as JSON, naming the model; the sensitivity map; `--model kernel`; and the sheet
-//! model's modulus fitted back from a matrix of known modulus (`calibrate-array
-//! --fit-modulus`'s engine).
+//! load as JSON, naming the model; the sensitivity map; `--model kernel` (the sheet's
+//! unknowns fitted to a measured matrix: `calibrate_fit.rs`).
 
 use crate::common;
 use fbgforge::array::kernel::{model_matrix, ArrayModelKind, DistanceKernel};
-use fbgforge::array::sheet::fit::{compare_with_paper, fit_modulus};
+use fbgforge::array::sheet::fit::compare_with_paper;
 use fbgforge::array::sheet::SheetModel;
 use std::path::Path;
 
@@ -117,44 +116,4 @@ fn predict_gives_the_array_matrix_and_one_loads_response_as_json() {
     ]);
     assert!(!o.status.success());
     assert!(!String::from_utf8_lossy(&o.stderr).is_empty());
-}
-
-#[test]
-fn the_modulus_of_a_matrix_of_known_modulus_is_fitted_back_and_a_bad_entry_stands_out() {
-    let d = common::shipped("tactile-array-60x80.toml");
-    let mut truth = d.clone();
-    common::set_modulus(&mut truth, "silicone_quartz", 0.4);
-    let mut measured = model_matrix(&truth, Some(ArrayModelKind::Sheet))
-        .unwrap()
-        .matrix;
-    let f = fit_modulus(&d, &measured).unwrap();
-    assert_eq!(f.design_modulus_mpa, 1.0);
-    assert!(
-        (f.fitted_modulus_mpa / 0.4 - 1.0).abs() < 0.02,
-        "fitted {} MPa",
-        f.fitted_modulus_mpa
-    );
-    assert!(!f.at_search_limit);
-    assert!(
-        f.fitted_rel_rms < 0.01 && f.design_rel_rms > 5.0 * f.fitted_rel_rms,
-        "{f:?}"
-    );
-    assert_eq!(f.entries.len(), 48);
-    // One entry off by +50 %: the per-entry report shows it about −33 % off while
-    // the others stay close (their median within 5 %).
-    measured.sensitivity_pm_per_g[(2, 5)] *= 1.5;
-    let f = fit_modulus(&d, &measured).unwrap();
-    let (bad, others): (Vec<_>, Vec<_>) = f
-        .entries
-        .iter()
-        .partition(|e| e.grating == measured.gratings[2] && e.cell == measured.cells[5]);
-    let bad = bad[0].misfit_pct.unwrap();
-    assert!((-40.0..-25.0).contains(&bad), "bad entry misfit {bad} %");
-    let mut rest: Vec<f64> = others.iter().map(|e| e.misfit_pct.unwrap().abs()).collect();
-    rest.sort_by(f64::total_cmp);
-    assert!(
-        rest[rest.len() / 2] < 5.0,
-        "median misfit of the others {} %",
-        rest[rest.len() / 2]
-    );
 }

@@ -13,6 +13,7 @@ mod fem_fidelity;
 mod fem_module;
 mod model;
 mod model_cli;
+mod model_error;
 mod model_policy;
 mod spec;
 mod sweep_chart;

@@ -106,11 +106,13 @@ fn predict_verify_and_optimize_agree_on_k_for_every_shipped_design_and_configura
             for v in &verify_rows {
                 let p = &v.detail.prediction;
                 let k = k_of(&rows, &p.grating, p.case, p.insert.as_deref());
-                assert_eq!(
-                    p.sensitivity_pm_per_n,
-                    k,
-                    "{file} {}: verify vs predict",
-                    config.label()
+                // The same policy; the band's readings share the nominal's
+                // factorisation in verify's batch, so the two agree to round-off.
+                assert!(
+                    (p.sensitivity_pm_per_n - k).abs() <= 1e-9 * k.abs(),
+                    "{file} {}: verify {} vs predict {k}",
+                    config.label(),
+                    p.sensitivity_pm_per_n
                 );
                 assert!(v.band_contains(k), "{file}: nominal outside its band");
             }
@@ -303,6 +305,9 @@ fn sensitivity_optimum(d: &Design) -> (f64, f64, f64, Vec<f64>) {
         inserts: Some(vec!["insert_blue".into()]),
         // The table's best, not the front's knee: this follows the scalar optimum.
         prefer: fbgforge::optimize::module::Preference::Objective,
+        // One grating in one case: the paper's Case II/Case I statement cannot hold,
+        // and this follows the optimum, so the design is written naming it.
+        paper_statements: fbgforge::optimize::module::PaperStatementsPolicy::Report,
         ..ModuleSettings::default()
     };
     let out = optimise_module(
@@ -412,8 +417,14 @@ fn a_measured_log_calibrates_the_contact_so_predict_reproduces_it_and_optimize_f
     assert!((start_before / k_nominal - 1.0).abs() < 1e-9);
     assert!((start_after / k_cal - 1.0).abs() < 1e-9);
     // What optimize reports for its answer is what predict says of the written design.
-    assert!((best_before / written_before - 1.0).abs() < 1e-9);
-    assert!((best_after / written_after - 1.0).abs() < 1e-9);
+    assert!(
+        (best_before / written_before - 1.0).abs() < 1e-9,
+        "{best_before} vs {written_before}"
+    );
+    assert!(
+        (best_after / written_after - 1.0).abs() < 1e-9,
+        "{best_after} vs {written_after}"
+    );
     // Both answers reach the strain limit (723 pm/N at 5 N), so the calibrated module,
     // less sensitive at the start, needs another design to get there.
     let moved = x_before

@@ -344,3 +344,111 @@ fn the_interrogator_rate_moves_the_front_s_lag_off_the_sampling_floor() {
         "the lag separates designs at 100 Hz: {fast:?}"
     );
 }
+
+/// `optimize DESIGN --json` under `policy`: the summary, and the written design's
+/// `predict --json` (band and design interval on).
+fn optimise_then_predict(
+    file: &str,
+    policy: &str,
+    dir: &Path,
+) -> (serde_json::Value, serde_json::Value) {
+    let out = dir.join(format!("{policy}-{file}"));
+    let run = bin()
+        .args(["optimize", shipped(file).to_str().unwrap(), "--starts", "0"])
+        .args(["--paper-statements", policy, "--json", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    // The JSON gives the written design's path.
+    let written = summary["design_path"].as_str().expect("design_path");
+    assert_eq!(Path::new(written), out);
+    let p = bin().args(["predict", written, "--json"]).output().unwrap();
+    assert!(p.status.success(), "{}", String::from_utf8_lossy(&p.stderr));
+    (summary, serde_json::from_slice(&p.stdout).unwrap())
+}
+
+#[test]
+fn written_designs_keep_their_strain_margin_at_the_far_end_and_name_the_statements_they_fail() {
+    let dir = tempfile::tempdir().unwrap();
+    for (file, policy) in [
+        ("clip-on-10mm.toml", "exclude"),
+        ("clip-on-22mm.toml", "report"),
+    ] {
+        let (summary, predicted) = optimise_then_predict(file, policy, dir.path());
+        let rows = predicted["predictions"].as_array().unwrap();
+        assert!(!rows.is_empty());
+        // Every grating of the written configuration: Case I on its insert, or Case
+        // II for a hollow core (the file's other readings, say its core on the table
+        // without the insert, are not what the design was held to).
+        let case = if summary["written_choice"]["insert_material"].is_null() {
+            "II"
+        } else {
+            "I"
+        };
+        let written: Vec<_> = rows.iter().filter(|r| r["case"] == case).collect();
+        assert!(!written.is_empty(), "{file}: no Case {case} row");
+        for r in written {
+            let id = format!("{file} {} {}", r["grating"], r["case"]);
+            let f = r["model_error_fraction"].as_f64().unwrap();
+            assert!(f <= 0.15, "{id}: model error {f}");
+            let c = &r["limit_check"];
+            assert_eq!(c["force_from"], "design", "{id}: the written limits");
+            let far = c["far_end_strain_microstrain"].as_f64().unwrap().abs();
+            let nominal = c["nominal_strain_microstrain"].as_f64().unwrap().abs();
+            let limit = c["strain_limit_microstrain"].as_f64().unwrap();
+            assert!(
+                far >= nominal * (1.0 + f) * (1.0 - 1e-12),
+                "{id}: {far} vs {nominal}·(1 + {f})"
+            );
+            // At least 5 % under the limit (the optimiser closes on it to 1e-6).
+            assert!(
+                far <= 0.95 * limit * (1.0 + 1e-6),
+                "{id}: {far} µε against {limit}"
+            );
+            assert_eq!(c["meets_margin"], true, "{id}");
+            let [lo, hi] = [0, 1].map(|i| r["design_interval_pm_per_n"][i].as_f64().unwrap());
+            let k = r["sensitivity_pm_per_n"].as_f64().unwrap();
+            assert!(lo <= k && k <= hi, "{id}: {k} outside [{lo}, {hi}]");
+        }
+        // The statements optimize names are the ones predict says fail.
+        let failed: Vec<&str> = summary["paper_statements_failed"]
+            .as_array()
+            .expect("paper_statements_failed is listed, empty when none")
+            .iter()
+            .map(|s| s.as_str().unwrap())
+            .collect();
+        let predict_fails: Vec<&str> = predicted["paper_statements"]["checks"]
+            .as_array()
+            .map(|c| {
+                c.iter()
+                    .filter(|c| c["holds"] == false)
+                    .map(|c| c["statement"].as_str().unwrap())
+                    .collect()
+            })
+            .unwrap_or_default();
+        assert_eq!(failed, predict_fails, "{file}");
+        let description =
+            fbgforge::design::load(Path::new(summary["design_path"].as_str().unwrap()))
+                .unwrap()
+                .description
+                .unwrap();
+        for s in &failed {
+            assert!(description.contains(s), "{file}: {description}");
+        }
+        // What the contact default rests on, per design.
+        assert!(
+            description.contains("contact") || description.contains("Case II"),
+            "{description}"
+        );
+        // Every front design lists what it fails.
+        for d in summary["pareto_front"].as_array().unwrap() {
+            assert!(d["paper_statements_failed"].is_array());
+        }
+    }
+}

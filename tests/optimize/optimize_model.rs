@@ -273,9 +273,11 @@ fn optimised_design_builds_into_watertight_parts() {
 fn q_reaches_the_closed_form_strain_cap() {
     // When the grating strain limit binds, |K| ≤ ε_lim·λ(1 − p_e)/F for the
     // shortest-wavelength strain grating, and with Δt_max at the sample-period floor
-    // Q ≤ ε_lim·λ(1 − p_e)/(F·Δt_s). The optimiser must reach that cap to within the
-    // R² loss (< 1 % for rigid inserts) and never exceed it. Scored on the nominal K
-    // (the robust default scores the contact window's smallest |K|, below the cap).
+    // Q ≤ ε_lim·λ(1 − p_e)/(F·Δt_s). The limit holds, less the 5 % margin, at the far
+    // end of the grating's design interval (its largest |K|), so the nominal |K| is
+    // capped at that times |K_nominal| / |K_far|. The optimiser must reach that cap to
+    // within the R² loss (< 1 % for rigid inserts) and never exceed it. Scored on the
+    // nominal K (the robust default scores the interval's smallest |K|, below the cap).
     let base = design("clip-on-34mm.toml");
     let s = ModuleSettings {
         extra_starts: 0,
@@ -287,9 +289,15 @@ fn q_reaches_the_closed_form_strain_cap() {
     let out = run(&base, &s);
     let best = out.choices[out.best_choice].best.as_ref().unwrap();
     let lambda = 1524.570;
-    let cap = s.max_grating_strain * lambda * 1e3 * (1.0 - base.fiber.photoelastic_pe)
+    let r = &best.readings[0];
+    let [lo, hi] = r.design_interval_pm_per_n;
+    let far_over_nominal = lo.abs().max(hi.abs()) / r.nominal_pm_per_n.abs();
+    // The window's far end widened by the stated error: at least the FE's 9 %.
+    assert!(far_over_nominal > 1.09, "{far_over_nominal}");
+    let cap = s.held_strain_limit() * lambda * 1e3 * (1.0 - base.fiber.photoelastic_pe)
         / s.max_force_n
-        / s.quality.sample_period_s;
+        / s.quality.sample_period_s
+        / far_over_nominal;
     assert!(
         best.objective <= cap * (1.0 + 1e-9),
         "{} > cap {cap}",

@@ -10,9 +10,9 @@ mod common;
 
 mod logs_fixtures;
 mod report_html;
-mod verify_calibrate;
 mod verify_cli;
 mod verify_edges;
 mod verify_errors;
 mod verify_protocols;
+mod verify_spectra;
 mod verify_synth;

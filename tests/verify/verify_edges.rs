@@ -564,7 +564,13 @@ fn a_band_wider_than_a_factor_3_asks_for_the_contact_to_be_calibrated() {
         .unwrap();
     let (hi, reach_hi) = (band[0].max(band[1]), reach[0].max(reach[1]));
     assert!(reach_hi > 1.2 * hi, "{reach:?} {band:?}");
-    let out = verify_case_i(&with_k(1.2 * hi / model));
+    // Lighter presses (1-2.5 N) keep the peaks of so stiff a part inside their windows:
+    // at 5 N they leave them, and the verifier rightly refuses (instrument) instead.
+    let light = SynthConfig {
+        pulses: synth::pulse_train(&[1.0, 1.5, 2.0, 2.5, 1.75, 2.25, 1.25, 2.0], 4.0, 6.0, 5.0),
+        ..with_k(1.2 * hi / model)
+    };
+    let out = verify_case_i(&light);
     let g = &out.report.verdict.gratings[0];
     assert!(
         !matches!(g.status, Status::Pass | Status::InBand),
@@ -649,6 +655,39 @@ fn synth_log_refuses_lengths_it_cannot_write() {
     }
 }
 
+#[test]
+fn synth_log_bounds_the_step_and_the_metadata_naming_the_flag() {
+    // Issue #33: `--step-pm 1e308` wrote every peak at 0 nm with exit 0, and
+    // `--metadata-lines 100000000` wrote 2.5 GB and left a temporary file.
+    let design = common::shipped_path("clip-on-34mm.toml");
+    let dir = tempfile::tempdir().unwrap();
+    for (flag, value) in [
+        ("--step-pm", "1e308"),
+        ("--step-pm=-1", ""),
+        ("--metadata-lines", "100000000"),
+    ] {
+        let out_dir = dir.path().join("out");
+        let out = crate::common::bin()
+            .arg("synth-log")
+            .arg(&design)
+            .arg(flag)
+            .args((!value.is_empty()).then_some(value))
+            .arg("--out")
+            .arg(&out_dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag} {value}: {err}");
+        let name = flag.split('=').next().unwrap();
+        assert!(err.contains(name), "{flag} {value}: {err}");
+        // Nothing written, no temporary file left.
+        let left: Vec<_> = std::fs::read_dir(&out_dir)
+            .map(|d| d.flatten().map(|e| e.file_name()).collect())
+            .unwrap_or_default();
+        assert!(left.is_empty(), "{flag} {value}: {left:?}");
+    }
+}
+
 mod no_panic {
     use super::*;
     use proptest::prelude::*;
@@ -725,26 +764,31 @@ mod no_panic {
 }
 
 #[test]
-fn spectrum_exports_are_named_as_spectra() {
+fn spectrum_exports_are_read_as_spectra() {
+    // Issue 36: spectra are no longer refused; they are read as spectra and their
+    // peaks found (the ENLIGHT one is flat and holds none; the OSA one is a sawtooth).
     let dir = tempfile::tempdir().unwrap();
     let mut enlight = String::from("Wvl (nm)\tCH 1\tCH 2\n");
-    let mut imon = String::from("Wavelength (nm),Amplitude (AU)\n");
+    let mut osa = String::from("Wavelength (nm),Amplitude (AU)\n");
     for i in 0..500 {
         let w = 1510.0 + 0.008 * i as f64;
         enlight += &format!("{w:.3}\t-42.1\t-40.3\n");
-        imon += &format!("{w:.3},{}\n", 100 + i % 7);
+        osa += &format!("{w:.3},{}\n", 100 + i % 7);
     }
-    for (name, text) in [("spectrum.txt", enlight), ("spectrum.csv", imon)] {
+    for (name, text, format) in [
+        ("spectrum.txt", enlight, "enlight-spectrum"),
+        ("spectrum.csv", osa, "osa-csv"),
+    ] {
         let p = dir.path().join(name);
         std::fs::write(&p, text).unwrap();
-        let e = format!(
-            "{:#}",
-            fbgforge::logs::read_peak_log(&p, &fbgforge::logs::ReadOptions::default()).unwrap_err()
-        );
-        assert!(
-            e.contains("spectrum export") && e.contains("not peaks"),
-            "{name}: {e}"
-        );
+        let log = fbgforge::logs::read_peak_log(&p, &fbgforge::logs::ReadOptions::default())
+            .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        assert_eq!(log.format.name(), format, "{name}");
+        assert_eq!(log.estimator(), Some("gaussian"), "{name}");
+        assert_eq!(log.rows(), 1, "{name}");
+        if format == "enlight-spectrum" {
+            assert!(log.row(0).0.is_empty(), "{name}: a flat spectrum has no peak");
+        }
     }
 }
 

@@ -163,6 +163,7 @@ fn a_temperature_ramp_is_removed_by_the_reference_grating_in_every_format() {
             bom: true,
             metadata_lines: 104,
             twelve_hour: format == LogFormat::EnlightPeaks,
+            ..Default::default()
         };
         let (m, truth) = run(format, &cfg, &style, Some("psc1"));
         assert_eq!(m.reference_grating.as_deref(), Some("lambda_temp"));

@@ -1,34 +1,37 @@
 //! The default method: the most accurate reconstruction method that keeps within a
-//! per-frame time budget on this array, on this machine.
+//! per-frame time budget **on the mean**, decided from the problem alone.
 //!
 //! Methods are tried in order of accuracy ([`PREFERENCE`], from the `reconstruct`
 //! study's protocol and scaling tables, docs/array.md). Each is judged by an
-//! *estimated* time per frame, not a timed one: the work it does on probe frames —
-//! twelve frames spread over the caller's stream, or frames synthesised from the
-//! matrix — counted in operations (supports enumerated, `bnb` work units, OMP atoms,
-//! coordinate sweeps, Lawson–Hanson steps) and converted with a per-method cost
-//! calibrated once on the reference machine ([`estimated_ns_per_frame`]). The first
-//! method whose *mean* estimate over the probe frames is within the budget is taken
-//! (the budget is kept on average, not only on a typical frame: a search whose work
-//! varies from frame to frame, `bnb`, has a mean well above its median on large
-//! arrays). `bnb` over the budget is given a work budget that fits it: it then
-//! returns its best support at that budget, marked not certified (`unconverged`).
-//! Where `support` is picked, `bnb` (the same objective, so the same answers when it
-//! completes) is taken instead if it completed on every probe frame with a smaller
-//! mean estimate. If no method is within the budget, the one
-//! with the smallest estimate is taken and the choice says so: an array is never
-//! refused because the budget is tight. Every candidate's fate is reported
-//! ([`MethodChoice::candidates`]) so the CLI and JSON can say which method was
-//! picked and why.
+//! *estimated* mean time per frame, not a timed one: the work it does on probe
+//! frames synthesised from the matrix ([`synthetic_probe_frames`]: 1 to K loads in
+//! the rated range, the stated noise; seeded, so the same matrix always gives the
+//! same frames) — supports enumerated, `bnb` work units, OMP atoms, coordinate
+//! sweeps, Lawson–Hanson steps, and the frame test's own work — converted with
+//! per-operation costs measured once on the reference machine by a calibration
+//! benchmark ([`estimated_frame_ns`]; `studies/examples/reconstruct_cost.rs`,
+//! docs/array.md §10.3). The first method whose mean estimate is within the budget
+//! is taken. `bnb` over the budget gets the work budget at which its *mean* fits
+//! (most frames finish far below it; the few that would need more stop there,
+//! best support found, not certified). Where `support` is within the budget, `bnb`
+//! is taken instead when it completed on every probe frame with a smaller estimate
+//! (the same objective, so the same loads, faster). If no method is within the
+//! budget, the one with the smallest estimate is taken and the choice says so: an
+//! array is never refused because the budget is tight.
 //!
-//! The choice is therefore deterministic: the same matrix and frames give the same
-//! method and settings on any machine and under any load (a timed choice flipped
-//! `bnb` → `omp` at 24 × 128 between two runs on a busy machine). The budget is
-//! read as time on the reference machine; the measured time per probe frame is
-//! still reported, for information only.
+//! The choice is deterministic and independent of the frames: the same matrix and
+//! settings give the same method on any machine, under any load, whatever frames a
+//! stream starts with (a choice probed on twelve frames of the data flipped with the
+//! frames it happened to draw). Data the probe frames did not foresee (overloads
+//! that make every support need a bounded solve) are caught while the stream runs:
+//! the run's guard ([`crate::reconstruct::StreamRun`]) moves to
+//! [`cheaper_settings`] when the mean estimate over the frames exceeds the budget.
 
-use super::methods::{build, BnbSettings, Method, MethodSettings, ReadingSettings, Reconstructor};
+use super::methods::{
+    build, BnbSettings, Method, MethodSettings, ReadingSettings, Reconstruction, Reconstructor,
+};
 use super::problem::SensingProblem;
+use super::trust::FrameTest;
 use super::ArrayError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -51,17 +54,18 @@ pub const PREFERENCE: [Method; 6] = [
     Method::Nnls,
 ];
 
-/// Probe frames timed per candidate (at most).
-const PROBE_FRAMES: usize = 12;
+/// Probe frames synthesised per choice.
+const PROBE_FRAMES: usize = 48;
 
-/// Cost of one support per frame, ns (enumeration methods): `support` measured
-/// 5–15 ns, `wsupport` 90–140 ns per support up to 8 × 16 (docs/array.md). The
-/// enumerations do the same work on every frame, so they are judged without probing.
-fn ns_per_support(m: Method) -> Option<f64> {
-    if m == Method::Support {
-        Some(5.0)
-    } else if m == Method::WeightedSupport {
-        Some(120.0)
+/// Cost of one support per frame, ns, by method and array (enumeration methods):
+/// the support's fit is O(m·k), so the cost grows with the gratings. Fitted on the
+/// calibration benchmark (docs/array.md §10.3).
+fn ns_per_support(method: Method, m: usize) -> Option<f64> {
+    let mf = m as f64;
+    if method == Method::Support {
+        Some(2.0 + 0.6 * mf)
+    } else if method == Method::WeightedSupport {
+        Some(20.0 + 40.0 * mf)
     } else {
         None
     }
@@ -75,15 +79,25 @@ pub(crate) fn ns_per_bnb_unit(n: usize) -> f64 {
     2.5 + 240.0 / n.max(1) as f64
 }
 
-/// Estimated time of one frame on the reference machine (the project's 2-core
-/// machine, one thread), ns, from the work `iterations` a method reported for it:
+/// Estimated time of the frame test ([`crate::trust`]) for an answer of `loads`
+/// loads on m gratings × n cells, ns: the weighted matrix and the Gram rows of the
+/// answer's cells (m·n·(k + 2) multiply-adds), the one-cell neighbourhood's
+/// Cholesky updates (n·k³) and a fixed part (allocations, the exact fits that pass
+/// the screen).
+pub fn estimated_test_ns(m: usize, n: usize, loads: usize) -> f64 {
+    let (mf, nf, k) = (m as f64, n as f64, loads as f64);
+    1.2 * mf * nf * (k + 2.0) + 1.5 * nf * (k + 1.0).powi(3) + 1500.0 + 400.0 * k
+}
+
+/// Estimated time of one frame's method on the reference machine (the project's
+/// 2-core machine, one thread), ns, from the work `iterations` it reported:
 /// `bnb` work units × [`ns_per_bnb_unit`]; OMP (atoms + 1) × n·m × 6 ns + 5 µs;
 /// `lasso` sweeps × n × 4.5 ns + n·m × 2 ns; `nnls` steps × n·m × 2.5 ns + 1 µs; `de`
-/// generations × population × n·m × 1 ns; the enumerations their support count ×
-/// the cost of one support. The coefficients were fitted on the scaling study's
-/// arrays (6 × 8 to 32 × 256, `studies/examples`-style runs of each method on its
-/// frames, best of 3 per frame); each is within about 2× of the measured time per
-/// frame there, and they only decide which method to use.
+/// generations × population × n·m × 1 ns; the enumerations their supports (bounded
+/// solves counted in) × the cost of one support. Fitted on the scaling study's
+/// arrays (6 × 8 to 32 × 256) by the calibration benchmark; each within about
+/// 1.5× of the measured time per frame there. Without the frame test: see
+/// [`estimated_frame_ns`].
 pub fn estimated_ns_per_frame(
     method: Method,
     settings: &MethodSettings,
@@ -92,8 +106,8 @@ pub fn estimated_ns_per_frame(
     iterations: u64,
 ) -> f64 {
     let (mf, nf, it) = (m as f64, n as f64, iterations as f64);
-    if let Some(ns) = ns_per_support(method) {
-        support_count(n, settings.max_loads().unwrap_or(m).min(m)) * ns
+    if let Some(ns) = ns_per_support(method, m) {
+        it.max(support_count(n, settings.max_loads().unwrap_or(m).min(m))) * ns
     } else if method == Method::BranchAndBound {
         it * ns_per_bnb_unit(n)
     } else if method == Method::Omp {
@@ -110,6 +124,16 @@ pub fn estimated_ns_per_frame(
     }
 }
 
+/// Estimated time of one frame on the reference machine, ns: its method's
+/// ([`estimated_ns_per_frame`], from the work it reported) and the frame test's
+/// ([`estimated_test_ns`], from its loads). What the choice and the stream's
+/// budget guard add up.
+pub fn estimated_frame_ns(settings: &MethodSettings, m: usize, n: usize, r: &Reconstruction) -> f64 {
+    let loads = r.loads_g.iter().filter(|&&v| v > 0.0).count();
+    estimated_ns_per_frame(settings.method(), settings, m, n, r.iterations)
+        + estimated_test_ns(m, n, loads)
+}
+
 /// What happened to one candidate method.
 #[derive(Debug, Clone, Serialize)]
 pub struct Candidate {
@@ -119,8 +143,8 @@ pub struct Candidate {
     /// `support` against `bnb`: `same answers, slower` (support left for `bnb`),
     /// `slower or incomplete` (`bnb` not preferred).
     pub status: &'static str,
-    /// Estimated time per frame on the reference machine, µs: the mean over the
-    /// probe frames of [`estimated_ns_per_frame`] (what the choice is made on).
+    /// Estimated mean time per frame on the reference machine, µs (method and
+    /// frame test, over the probe frames): what the choice is made on.
     pub probe_us_per_frame: Option<f64>,
     /// Median measured time per probe frame here, µs (one thread), when it was run:
     /// for information only, the choice does not depend on it.
@@ -145,31 +169,47 @@ pub struct MethodChoice {
     pub reason: String,
     /// Every method considered, in order.
     pub candidates: Vec<Candidate>,
-    /// Whether the probe frames were the caller's (true) or synthesised (false).
-    pub probed_on_data: bool,
 }
 
-/// Frames synthesised from the matrix when the caller has none: for 1 to K loads,
-/// cells spread over the array with loads of 20–80 % of ulimit, 2 % relative and
-/// 0.5 pm absolute noise (deterministic seed).
+/// Frames synthesised from the matrix, the same for the same problem: for 1 to K
+/// loads in turn, cells drawn at random with loads uniform over the rated range
+/// (min_load, or a tenth of ulimit, to ulimit), read with the stated noise (the
+/// interrogator resolution, Gaussian) and the paper's ± 4 % additivity on
+/// multi-load frames (seeded).
 pub fn synthetic_probe_frames(problem: &SensingProblem, max_loads: usize) -> Vec<Vec<f64>> {
     let (m, n) = (problem.n_gratings(), problem.n_cells());
     let a = &problem.sensitivity_pm_per_g;
+    let sigma = problem.uncertainty.resolution_pm;
+    let lo = if problem.min_load_g > 0.0 {
+        problem.min_load_g
+    } else {
+        0.1 * problem.ulimit_g
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(0x00C4_0105);
     let kmax = max_loads.clamp(1, n.min(m));
     (0..PROBE_FRAMES)
         .map(|f| {
             let k = 1 + f % kmax;
             let mut x = vec![0.0; n];
-            for _ in 0..k {
+            let mut placed = 0;
+            while placed < k {
                 let j = rng.random_range(0..n);
-                x[j] = problem.ulimit_g * rng.random_range(0.2..0.8);
+                if x[j] == 0.0 {
+                    x[j] = rng.random_range(lo..=problem.ulimit_g);
+                    placed += 1;
+                }
             }
             (0..m)
                 .map(|i| {
                     let clean: f64 = (0..n).map(|j| a[(i, j)] * x[j]).sum();
-                    clean * (1.0 + 0.02 * rng.random_range(-1.0..1.0))
-                        + 0.5 * rng.random_range(-1.0..1.0)
+                    let add = if k >= 2 {
+                        0.04 * rng.random_range(-1.0..1.0)
+                    } else {
+                        0.0
+                    };
+                    let (u1, u2): (f64, f64) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
+                    let gauss = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
+                    clean * (1.0 + add) + sigma * gauss
                 })
                 .collect()
         })
@@ -189,8 +229,10 @@ fn support_count(n: usize, kmax: usize) -> f64 {
 
 /// What running a candidate on the probe frames gave.
 struct Probe {
-    /// Mean estimated time per frame on the reference machine, µs.
+    /// Mean estimated time per frame on the reference machine (method and test), µs.
     estimate_us: f64,
+    /// Per frame: the method's work and the test's estimated ns.
+    works: Vec<(f64, f64)>,
     /// Mean work per frame (the method's `iterations`).
     mean_work: f64,
     /// Median measured time per frame here, µs (information only).
@@ -203,6 +245,7 @@ struct Probe {
 fn probe_frames(
     r: &dyn Reconstructor,
     settings: &MethodSettings,
+    test: &FrameTest,
     (m, n): (usize, usize),
     frames: &[Vec<f64>],
 ) -> Probe {
@@ -210,10 +253,12 @@ fn probe_frames(
     let mut stopped = 0usize;
     for y in frames {
         let t = Instant::now();
-        let rec = r.reconstruct(y);
+        let mut rec = r.reconstruct(y);
+        test.assess(y, &mut rec);
         times.push(1e6 * t.elapsed().as_secs_f64());
-        estimates.push(1e-3 * estimated_ns_per_frame(r.method(), settings, m, n, rec.iterations));
-        works.push(rec.iterations as f64);
+        let loads = rec.loads_g.iter().filter(|&&v| v > 0.0).count();
+        estimates.push(1e-3 * estimated_frame_ns(settings, m, n, &rec));
+        works.push((rec.iterations as f64, estimated_test_ns(m, n, loads)));
         if !rec.converged {
             stopped += 1;
         }
@@ -221,7 +266,8 @@ fn probe_frames(
     Probe {
         frames: frames.len(),
         estimate_us: estimates.iter().sum::<f64>() / estimates.len().max(1) as f64,
-        mean_work: works.iter().sum::<f64>() / works.len().max(1) as f64,
+        mean_work: works.iter().map(|w| w.0).sum::<f64>() / works.len().max(1) as f64,
+        works,
         measured_us: median(times),
         stopped,
     }
@@ -248,17 +294,12 @@ pub fn default_choice(
     problem: &SensingProblem,
     prior: &ReadingSettings,
     budget_us: f64,
-    probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
     prior.check()?;
     let settings_for = |m: Method| MethodSettings::for_prior(m, prior);
-    choose_method(problem, prior, &settings_for, budget_us, probe)
+    choose_method(problem, prior, &settings_for, budget_us)
 }
 
-/// Choose the default method for `problem`: the first of [`PREFERENCE`] whose mean
-/// estimated time per probe frame is within `budget_us` (`support` giving way to
-/// `bnb` where that is faster and complete on the probe frames), else the one with the
-/// smallest estimate. Deterministic: it does not read the clock to decide.
 /// A per-frame time budget must be a positive, finite time in µs.
 pub fn check_budget(budget_us: f64) -> Result<(), ArrayError> {
     if budget_us.is_finite() && budget_us > 0.0 {
@@ -270,18 +311,19 @@ pub fn check_budget(budget_us: f64) -> Result<(), ArrayError> {
     }
 }
 
-/// `settings_for` gives each method's settings (penalty, max loads); `probe` are the
-/// caller's frames (twelve spread over them are timed), or None to synthesise them
-/// with up to `prior.max_loads` loads (also when none of the caller's is usable).
+/// Choose the default method for `problem`: the first of [`PREFERENCE`] whose mean
+/// estimated time per probe frame is within `budget_us` (`support` giving way to
+/// `bnb` where that is faster and complete on the probe frames), else the one with the
+/// smallest estimate; `settings_for` gives each method's settings (penalty, max
+/// loads). Deterministic: it reads no clock and no frame of the caller's.
 pub fn choose_method(
     problem: &SensingProblem,
     prior: &ReadingSettings,
     settings_for: &dyn Fn(Method) -> MethodSettings,
     budget_us: f64,
-    probe: Option<&[Vec<f64>]>,
 ) -> Result<MethodChoice, ArrayError> {
     check_budget(budget_us)?;
-    let mut chooser = Chooser::new(problem, budget_us, prior.max_loads, probe);
+    let mut chooser = Chooser::new(problem, budget_us, prior.max_loads);
     for method in PREFERENCE {
         if let Some(choice) = chooser.try_method(method, settings_for(method)) {
             if method == Method::Support {
@@ -293,17 +335,56 @@ pub fn choose_method(
     chooser.cheapest_choice()
 }
 
-/// Probe frames spread evenly over the caller's stream, unusable frames left out.
-fn usable_probe_frames(problem: &SensingProblem, probe: Option<&[Vec<f64>]>) -> Vec<Vec<f64>> {
-    // A stream's first frames are often alike (one load, or none), hence the spread.
-    let given: Vec<&Vec<f64>> = probe
-        .unwrap_or(&[])
-        .iter()
-        .filter(|y| problem.check_shifts(y).is_ok())
-        .collect();
-    (0..given.len().min(PROBE_FRAMES))
-        .map(|i| given[i * given.len() / given.len().min(PROBE_FRAMES)].clone())
-        .collect()
+/// The cheaper settings a stream moves to when the mean estimate of `settings`
+/// came out at `mean_us`, over `budget_us` (the run's guard): `bnb` with a work
+/// budget fitted to the budget (scaled down from its own when it was `bnb`
+/// already), and why; None when nothing cheaper is left.
+pub fn cheaper_settings(
+    problem: &SensingProblem,
+    settings: &MethodSettings,
+    budget_us: f64,
+    mean_us: f64,
+) -> Option<(MethodSettings, String)> {
+    let n = problem.n_cells();
+    let m = problem.n_gratings();
+    let test_us = 1e-3 * estimated_test_ns(m, n, settings.max_loads().unwrap_or(4).min(m));
+    let room_us = (0.9 * budget_us - test_us).max(0.1 * budget_us);
+    let fitted = (room_us * 1e3 / ns_per_bnb_unit(n)).floor().max(50.0) as u64;
+    match settings {
+        MethodSettings::BranchAndBound(b) => {
+            let scaled = ((b.node_budget as f64) * 0.9 * budget_us / mean_us).floor() as u64;
+            let units = scaled.min(fitted).max(50);
+            (units < b.node_budget).then(|| {
+                (
+                    MethodSettings::BranchAndBound(BnbSettings {
+                        node_budget: units,
+                        ..*b
+                    }),
+                    format!("bnb's work budget lowered to {units} units"),
+                )
+            })
+        }
+        MethodSettings::Support(s) => Some((
+            MethodSettings::BranchAndBound(BnbSettings {
+                penalty: s.penalty,
+                max_loads: s.max_loads,
+                node_budget: fitted,
+            }),
+            format!("moved to bnb (support's objective) with a work budget of {fitted} units"),
+        )),
+        MethodSettings::WeightedSupport(w) => Some((
+            MethodSettings::BranchAndBound(BnbSettings {
+                max_loads: w.max_loads,
+                node_budget: fitted,
+                ..BnbSettings::for_prior(&ReadingSettings {
+                    max_loads: w.max_loads,
+                    resolution_pm: problem.uncertainty.resolution_pm,
+                })
+            }),
+            format!("moved to bnb with a work budget of {fitted} units"),
+        )),
+        _ => None,
+    }
 }
 
 /// The cheapest estimate so far, in case none meets the budget: candidate index,
@@ -328,12 +409,10 @@ struct Built {
 /// The state of the choice while the methods are tried in order.
 struct Chooser<'a> {
     problem: &'a SensingProblem,
+    test: FrameTest,
     budget_us: f64,
-    /// The probe frames: the caller's usable ones, else synthesised.
+    /// The probe frames, synthesised from the matrix.
     frames: Vec<Vec<f64>>,
-    probed_on_data: bool,
-    /// " of the data" or ", synthetic", for the notes.
-    source: &'static str,
     m: usize,
     n: usize,
     candidates: Vec<Candidate>,
@@ -341,36 +420,26 @@ struct Chooser<'a> {
 }
 
 impl<'a> Chooser<'a> {
-    /// Pick the probe frames (synthesised with up to `max_loads` loads when the
-    /// caller has no usable one) and start with no candidates.
-    fn new(
-        problem: &'a SensingProblem,
-        budget_us: f64,
-        max_loads: usize,
-        probe: Option<&[Vec<f64>]>,
-    ) -> Self {
-        let usable = usable_probe_frames(problem, probe);
-        let probed_on_data = !usable.is_empty();
-        let frames = if probed_on_data {
-            usable
-        } else {
-            synthetic_probe_frames(problem, max_loads)
-        };
+    /// Synthesise the probe frames (up to `max_loads` loads) and start with no
+    /// candidates.
+    fn new(problem: &'a SensingProblem, budget_us: f64, max_loads: usize) -> Self {
         Chooser {
             problem,
+            test: FrameTest::new(problem, max_loads),
             budget_us,
-            frames,
-            probed_on_data,
-            source: if probed_on_data {
-                " of the data"
-            } else {
-                ", synthetic"
-            },
+            frames: synthetic_probe_frames(problem, max_loads),
             m: problem.n_gratings(),
             n: problem.n_cells(),
             candidates: Vec::new(),
             cheapest: None,
         }
+    }
+
+    /// The test's mean estimate over frames of `loads` loads (for an enumeration,
+    /// which is not run), µs.
+    fn test_us(&self, kmax: usize) -> f64 {
+        let k = kmax.div_ceil(2).max(1);
+        1e-3 * estimated_test_ns(self.m, self.n, k)
     }
 
     /// Judge one method; the choice if it is within the budget.
@@ -381,15 +450,16 @@ impl<'a> Chooser<'a> {
             .min(self.m)
             .min(self.n);
         // An enumeration does the same work on every frame: no need to run it.
-        let enumeration = ns_per_support(method).map(|ns| (support_count(self.n, kmax), ns));
+        let enumeration =
+            ns_per_support(method, self.m).map(|ns| (support_count(self.n, kmax), ns));
         if let Some((count, ns)) = enumeration {
-            let estimate_us = 1e-3 * count * ns;
+            let estimate_us = 1e-3 * count * ns + self.test_us(kmax);
             if estimate_us > self.budget_us {
                 self.enumeration_over_budget(method, settings, (count, ns), kmax, estimate_us);
                 return None;
             }
         }
-        match self.build_and_probe(settings, &self.frames) {
+        match self.build_and_probe(settings) {
             Ok(built) => self.judge_probed(method, built, enumeration),
             Err(e) => {
                 self.candidates.push(Candidate {
@@ -413,7 +483,7 @@ impl<'a> Chooser<'a> {
         let Some(support_us) = support.candidates.last().and_then(|c| c.probe_us_per_frame) else {
             return support;
         };
-        let Ok(built) = self.build_and_probe(settings, &self.frames) else {
+        let Ok(built) = self.build_and_probe(settings) else {
             return support;
         };
         let Built {
@@ -437,9 +507,8 @@ impl<'a> Chooser<'a> {
             measured_us_per_frame: Some(p.measured_us),
             setup_ms: Some(setup_ms),
             note: format!(
-                "the same objective as support; estimated {us:.1} µs per frame ({work}, {} probe frames{}; measured here {:.1} µs){}",
+                "the same objective as support; estimated {us:.1} µs per frame ({work}, {} synthetic probe frames; measured here {:.1} µs){}",
                 p.frames,
-                self.source,
                 p.measured_us,
                 stopped_note(Method::BranchAndBound, &p)
             ),
@@ -449,14 +518,14 @@ impl<'a> Chooser<'a> {
         }
         let n_c = support.candidates.len();
         support.candidates[n_c - 2].status = "same answers, slower";
-        let (budget_us, m, n, source) = (self.budget_us, self.m, self.n, self.source);
+        let (budget_us, m, n) = (self.budget_us, self.m, self.n);
         MethodChoice {
             method: Method::BranchAndBound,
             reconstructor: r,
             settings,
             budget_us,
             reason: format!(
-                "bnb minimises support's objective (the same answers when it completes, as it did on all {} probe frames{source}) in less time: estimated {us:.1} µs per frame against support's {support_us:.1} µs on the reference machine for {m} gratings × {n} cells ({work}), within {budget_us} µs{}",
+                "bnb minimises support's objective (the same answers when it completes, as it did on all {} synthetic probe frames) in less time: estimated {us:.1} µs per frame against support's {support_us:.1} µs on the reference machine for {m} gratings × {n} cells ({work}), within {budget_us} µs{}",
                 p.frames,
                 skipped_summary(
                     &support.candidates[..n_c - 2],
@@ -464,7 +533,6 @@ impl<'a> Chooser<'a> {
                 )
             ),
             candidates: support.candidates,
-            probed_on_data: support.probed_on_data,
         }
     }
 
@@ -496,16 +564,13 @@ impl<'a> Chooser<'a> {
         }
     }
 
-    /// Build a method and run it on the probe frames (`bnb` over the budget: refitted).
-    fn build_and_probe(
-        &self,
-        settings: MethodSettings,
-        frames: &[Vec<f64>],
-    ) -> Result<Built, ArrayError> {
+    /// Build a method and run it on the probe frames (`bnb` over the budget: its
+    /// work budget fitted).
+    fn build_and_probe(&self, settings: MethodSettings) -> Result<Built, ArrayError> {
         let t0 = Instant::now();
         let r = build(self.problem, &settings)?;
         let setup_ms = 1e3 * t0.elapsed().as_secs_f64();
-        let p = probe_frames(r.as_ref(), &settings, (self.m, self.n), frames);
+        let p = self.probe(r.as_ref(), &settings);
         let mut built = Built {
             r,
             settings,
@@ -514,35 +579,70 @@ impl<'a> Chooser<'a> {
             fitted: String::new(),
         };
         if built.p.estimate_us > self.budget_us {
-            self.fit_bnb_budget(&mut built, frames);
+            self.fit_bnb_budget(&mut built);
         }
         Ok(built)
     }
 
-    /// `bnb` over the budget: give it the work budget that fits, with a margin for
-    /// the incumbent's search, which runs before the budget is checked (its answer
-    /// is then the best support found, certified only where the search completed).
-    /// Any other method is left as it is.
-    fn fit_bnb_budget(&self, built: &mut Built, frames: &[Vec<f64>]) {
+    fn probe(&self, r: &dyn Reconstructor, settings: &MethodSettings) -> Probe {
+        probe_frames(r, settings, &self.test, (self.m, self.n), &self.frames)
+    }
+
+    /// `bnb` over the budget: the work budget at which its **mean** over the probe
+    /// frames fits (most frames finish below it and leave room for those that stop
+    /// at it, best support found, not certified). Found on the probe frames' work,
+    /// then checked by probing again (scaled down, at most three times, until the
+    /// mean fits). Any other method is left as it is.
+    fn fit_bnb_budget(&self, built: &mut Built) {
         let MethodSettings::BranchAndBound(bnb) = built.settings else {
             return;
         };
-        let units = (0.7 * self.budget_us * 1e3 / ns_per_bnb_unit(self.n))
-            .floor()
-            .max(50.0) as u64;
-        if units < bnb.node_budget {
+        let unit = ns_per_bnb_unit(self.n);
+        let target_ns = 0.95 * self.budget_us * 1e3;
+        let mean_at = |cap: f64| -> f64 {
+            let w = &built.p.works;
+            w.iter().map(|(work, test)| work.min(cap) * unit + test).sum::<f64>() / w.len().max(1) as f64
+        };
+        // The mean is non-decreasing in the cap: bisect for the largest that fits.
+        let (mut lo, mut hi) = (50.0f64, bnb.node_budget as f64);
+        if mean_at(lo) > target_ns {
+            hi = lo;
+        }
+        for _ in 0..60 {
+            if hi - lo <= 1.0 {
+                break;
+            }
+            let mid = 0.5 * (lo + hi);
+            if mean_at(mid) <= target_ns {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut units = lo.floor().max(50.0) as u64;
+        for _ in 0..3 {
+            if units >= bnb.node_budget {
+                return;
+            }
             let settings = MethodSettings::BranchAndBound(BnbSettings {
                 node_budget: units,
                 ..bnb
             });
             let t1 = Instant::now();
-            if let Ok(rb) = build(self.problem, &settings) {
-                built.settings = settings;
-                built.setup_ms += 1e3 * t1.elapsed().as_secs_f64();
-                built.r = rb;
-                built.p = probe_frames(built.r.as_ref(), &built.settings, (self.m, self.n), frames);
-                built.fitted = format!("work budget {units} units to fit the time budget; ");
+            let Ok(rb) = build(self.problem, &settings) else {
+                return;
+            };
+            built.setup_ms += 1e3 * t1.elapsed().as_secs_f64();
+            built.p = self.probe(rb.as_ref(), &settings);
+            built.settings = settings;
+            built.r = rb;
+            built.fitted = format!("work budget {units} units to fit the time budget on the mean; ");
+            if built.p.estimate_us <= self.budget_us || units <= 50 {
+                return;
             }
+            units = ((units as f64) * 0.95 * self.budget_us / built.p.estimate_us)
+                .floor()
+                .max(50.0) as u64;
         }
     }
 
@@ -564,9 +664,8 @@ impl<'a> Chooser<'a> {
         let within = us <= self.budget_us;
         let work = work_summary(method, enumeration, &p, self.n);
         let note = format!(
-            "{fitted}estimated {us:.1} µs per frame ({work}, {} probe frames{}; measured here {:.1} µs){}",
+            "{fitted}estimated {us:.1} µs per frame ({work}, {} synthetic probe frames; measured here {:.1} µs){}",
             p.frames,
-            self.source,
             p.measured_us,
             stopped_note(method, &p)
         );
@@ -579,9 +678,9 @@ impl<'a> Chooser<'a> {
             note,
         });
         if within {
-            let (budget_us, m, n, source) = (self.budget_us, self.m, self.n, self.source);
+            let (budget_us, m, n) = (self.budget_us, self.m, self.n);
             let reason = format!(
-                "{} is the most accurate method within {budget_us} µs per frame for {m} gratings × {n} cells ({fitted}estimated {us:.1} µs per frame on the reference machine from its operation count: {work}, {} probe frames{source}){}",
+                "{} is the most accurate method within {budget_us} µs per frame on the mean for {m} gratings × {n} cells ({fitted}estimated {us:.1} µs per frame on the reference machine from its operation count and the frame test's: {work}, {} synthetic probe frames){}",
                 method.name(),
                 p.frames,
                 skipped_summary(&self.candidates, "more accurate but over budget")
@@ -593,7 +692,6 @@ impl<'a> Chooser<'a> {
                 budget_us,
                 reason,
                 candidates: std::mem::take(&mut self.candidates),
-                probed_on_data: self.probed_on_data,
             });
         }
         if self.cheapest.as_ref().is_none_or(|(_, t, _, _)| us < *t) {
@@ -607,7 +705,6 @@ impl<'a> Chooser<'a> {
         let Chooser {
             problem,
             budget_us,
-            probed_on_data,
             m,
             n,
             mut candidates,
@@ -642,7 +739,6 @@ impl<'a> Chooser<'a> {
             budget_us,
             reason,
             candidates,
-            probed_on_data,
         })
     }
 }

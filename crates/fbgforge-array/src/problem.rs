@@ -88,22 +88,6 @@ impl Uncertainty {
             })
             .collect()
     }
-
-    /// Per grating, the relative variance of a reading before it is solved: ρ² (the
-    /// additivity term, in full) plus Σ_j s_ij² / Σ_j A_ij² (the matrix term as a
-    /// relative variance, each cell weighted by how much it moves the grating: p² for
-    /// a uniform relative sd p). Times y_i², it stands in for the matrix and
-    /// additivity terms when the loads are not yet known (the ambiguity margin).
-    pub(crate) fn row_relative_variances(&self, sensitivity: &DMatrix<f64>) -> Vec<f64> {
-        let rho2 = self.additivity_sd_frac * self.additivity_sd_frac;
-        (0..sensitivity.nrows())
-            .map(|i| {
-                let s2: f64 = self.matrix_sd_pm_per_g.row(i).iter().map(|v| v * v).sum();
-                let a2: f64 = sensitivity.row(i).iter().map(|v| v * v).sum();
-                rho2 + s2 / a2.max(1e-300)
-            })
-            .collect()
-    }
 }
 
 /// Serialized summary of an [`Uncertainty`] (the matrix term as its median relative
@@ -146,10 +130,27 @@ pub struct SensingProblem {
     /// problem fits a per-frame common offset: the methods then solve the matrix and
     /// frames with this direction projected out (see [`Self::with_common_mode`]).
     pub common_mode: Option<DVector<f64>>,
-    /// Whether a whole stream is searched for dead or stuck gratings, which are then
-    /// left out ([`crate::reconstruct()`]; on by default).
-    pub dead_grating_check: bool,
+    /// Whether a whole stream is searched for faulty gratings (dead, stuck, drifting,
+    /// swapped, saturated, noisy), which are then left out or corrected
+    /// ([`crate::reconstruct()`], [`crate::faults`]; on by default).
+    pub diagnose_stream: bool,
+    /// The weights of a common-mode term the stream diagnosis fits when the frames
+    /// call for it (all 1 by default; None: never unless asked with
+    /// [`Self::with_common_mode`]).
+    pub auto_common_mode: Option<Vec<f64>>,
+    /// The interrogator's window: the largest shift a grating can report, pm (either
+    /// sign). A frame with a larger shift is refused (`unusable`, no loads): its peak
+    /// would have left the grating's window ([`DEFAULT_WINDOW_PM`] unless set).
+    pub window_pm: f64,
+    /// The significance of the per-frame test behind the flags
+    /// ([`crate::trust`]; [`crate::trust::DEFAULT_SIGNIFICANCE`] unless set).
+    pub significance: f64,
 }
+
+/// The interrogator window when none is given, pm: the widest window a grating gets
+/// by default when peaks are assigned to gratings (`logs::assign`, 2.5 nm): a shift
+/// beyond it could not have been read as this grating's.
+pub const DEFAULT_WINDOW_PM: f64 = 2500.0;
 
 /// The paper's rated load range per cell starts at 25 g (reference §2: 25–250 g).
 pub const PAPER_MIN_LOAD_G: f64 = 25.0;
@@ -207,7 +208,10 @@ impl SensingProblem {
             upper: DVector::zeros(n),
             lower: DVector::zeros(n),
             common_mode: None,
-            dead_grating_check: true,
+            diagnose_stream: true,
+            auto_common_mode: Some(vec![1.0; m]),
+            window_pm: DEFAULT_WINDOW_PM,
+            significance: crate::trust::DEFAULT_SIGNIFICANCE,
         };
         p.derive_working()?;
         Ok(p)
@@ -322,7 +326,7 @@ impl SensingProblem {
     /// The same problem without the gratings (rows) `drop`: matrix, uncertainty and
     /// common-mode direction lose those rows; bounds, load range and normalisation
     /// stay. Errors when no grating would be left or a cell would be seen by none.
-    pub(crate) fn without_gratings(&self, drop: &[usize]) -> Result<Self, ArrayError> {
+    pub fn without_gratings(&self, drop: &[usize]) -> Result<Self, ArrayError> {
         let m = self.n_gratings();
         let keep: Vec<usize> = (0..m).filter(|i| !drop.contains(i)).collect();
         if keep.is_empty() {
@@ -342,7 +346,13 @@ impl SensingProblem {
             matrix_sd_pm_per_g: rows(&self.uncertainty.matrix_sd_pm_per_g),
             ..self.uncertainty.clone()
         })?;
-        p.dead_grating_check = self.dead_grating_check;
+        p.diagnose_stream = self.diagnose_stream;
+        p.auto_common_mode = self
+            .auto_common_mode
+            .as_ref()
+            .map(|w| keep.iter().map(|&i| w[i]).collect());
+        p.window_pm = self.window_pm;
+        p.significance = self.significance;
         if let Some(w) = &self.common_mode {
             let kept: Vec<f64> = keep.iter().map(|&i| w[i]).collect();
             p = p.with_common_mode(&kept)?;
@@ -350,20 +360,53 @@ impl SensingProblem {
         Ok(p)
     }
 
-    /// The common-mode weight of grating `i` scaled so that the mean |w| over the
-    /// gratings `over` is 1 (the unit of [`Self::common_offset_pm`] on a problem of
-    /// those gratings); None without a common-mode term.
-    pub(crate) fn common_mode_weight(&self, i: usize, over: &[usize]) -> Option<f64> {
-        let w = self.common_mode.as_ref()?;
-        let mean_abs = over.iter().map(|&q| w[q].abs()).sum::<f64>() / over.len().max(1) as f64;
-        Some(w[i] / mean_abs.max(1e-300))
+    /// The same problem with the stream diagnosis on or off (faulty gratings found
+    /// across frames and left out or corrected, [`crate::faults`]; on by default).
+    pub fn with_diagnosis(mut self, on: bool) -> Self {
+        self.diagnose_stream = on;
+        self
     }
 
-    /// The same problem with the dead-grating check across frames on or off
-    /// ([`crate::reconstruct()`]; on by default).
-    pub fn with_dead_grating_check(mut self, on: bool) -> Self {
-        self.dead_grating_check = on;
-        self
+    /// [`Self::with_diagnosis`] (its name before the diagnosis found more than dead
+    /// gratings).
+    pub fn with_dead_grating_check(self, on: bool) -> Self {
+        self.with_diagnosis(on)
+    }
+
+    /// The same problem with the weights of the common-mode term the stream
+    /// diagnosis may fit (None: it never fits one; see [`crate::faults`]). Errors for
+    /// weights of the wrong length, non-finite or all zero.
+    pub fn with_auto_common_mode(mut self, weights: Option<&[f64]>) -> Result<Self, ArrayError> {
+        if let Some(w) = weights {
+            let m = self.n_gratings();
+            if w.len() != m || w.iter().any(|v| !v.is_finite()) || w.iter().all(|v| *v == 0.0) {
+                return Err(ArrayError::Input(format!(
+                    "the common-mode weights must be {m} finite values (one per grating), not all zero"
+                )));
+            }
+        }
+        self.auto_common_mode = weights.map(<[f64]>::to_vec);
+        Ok(self)
+    }
+
+    /// The same problem with the interrogator window `window_pm` (the largest shift a
+    /// grating can report, pm; finite and positive).
+    pub fn with_window_pm(mut self, window_pm: f64) -> Result<Self, ArrayError> {
+        if !(window_pm.is_finite() && window_pm > 0.0) {
+            return Err(ArrayError::Input(format!(
+                "the interrogator window must be a positive shift in pm, got {window_pm}"
+            )));
+        }
+        self.window_pm = window_pm;
+        Ok(self)
+    }
+
+    /// The same problem with the significance `significance` of the per-frame test
+    /// (in (0, 0.5]; see [`crate::trust`]).
+    pub fn with_significance(mut self, significance: f64) -> Result<Self, ArrayError> {
+        crate::trust::check_significance(significance)?;
+        self.significance = significance;
+        Ok(self)
     }
 
     /// The summary of the uncertainty for reports.
@@ -472,7 +515,8 @@ impl SensingProblem {
         Some(w.dot(&r) * mean_abs)
     }
 
-    /// Check a frame of shifts: right length and finite values.
+    /// Check a frame of shifts: right length, finite values within the interrogator's
+    /// window.
     pub fn check_shifts(&self, shifts_pm: &[f64]) -> Result<(), ArrayError> {
         if shifts_pm.len() != self.n_gratings() {
             return Err(ArrayError::Input(format!(
@@ -486,6 +530,14 @@ impl SensingProblem {
                 "shift of grating {} is {}; expected a finite value in pm",
                 i + 1,
                 shifts_pm[i]
+            )));
+        }
+        if let Some(i) = shifts_pm.iter().position(|v| v.abs() > self.window_pm) {
+            return Err(ArrayError::Input(format!(
+                "shift of grating {} is {} pm, beyond the interrogator window of ± {} pm: not a reading of this grating",
+                i + 1,
+                shifts_pm[i],
+                self.window_pm
             )));
         }
         Ok(())

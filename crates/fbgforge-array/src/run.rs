@@ -72,9 +72,16 @@ pub struct ReconstructRequest {
     /// Per-entry standard deviation of the matrix as a percentage of each entry
     /// (instead of `matrix_sd`).
     pub matrix_sd_pct: Option<f64>,
-    /// Look for dead or stuck gratings across the frames and leave them out (on by
-    /// default).
+    /// Diagnose the stream (dead, stuck, drifting, swapped, saturated, noisy
+    /// gratings named and left out or corrected; a common offset fitted when the
+    /// frames call for it; on by default).
     pub dead_grating_check: bool,
+    /// Significance of the per-frame test behind the flags, in (0, 0.5] (default
+    /// 0.05: at most ~5 % of clean frames flagged; docs/array.md §11).
+    pub significance: Option<f64>,
+    /// The interrogator's window, pm: a shift beyond ± this is not a reading and
+    /// its frame is `unusable` (default 2500 pm).
+    pub window_pm: Option<f64>,
     /// Output CSV of loads (default: `out/reconstruct/<shifts name>-loads.csv`).
     pub out: Option<PathBuf>,
 }
@@ -97,6 +104,8 @@ impl ReconstructRequest {
             matrix_sd: None,
             matrix_sd_pct: None,
             dead_grating_check: true,
+            significance: None,
+            window_pm: None,
             out: None,
         }
     }
@@ -130,14 +139,19 @@ pub struct ReconstructSummary {
     pub certified: usize,
     /// How many frames carry each flag (`trusted`: none).
     pub flags: FlagCounts,
-    /// Gratings found dead or stuck across the frames; the frames were
-    /// reconstructed without them.
+    /// Gratings found faulty across the frames (dead or stuck, drifting, swapped,
+    /// saturated, noisy), each with its reason, evidence and remedy.
     pub suspect_gratings: Vec<SuspectGrating>,
     /// Whether a per-frame common offset was fitted, and its mean over the frames,
     /// pm per unit mean temperature weight.
     pub common_mode: bool,
     /// Mean fitted common offset, pm (with `common_mode`).
     pub mean_common_mode_pm: Option<f64>,
+    /// Who decided the common offset (asked, off, or the stream diagnosis) and why.
+    pub common_mode_note: crate::faults::CommonModeNote,
+    /// The default choice's budget kept on the mean over the frames (None for a
+    /// named method).
+    pub budget: Option<crate::reconstruct::BudgetNote>,
     /// The uncertainty the flags were judged against.
     pub uncertainty: UncertaintySummary,
     /// Cell labels.
@@ -276,6 +290,16 @@ fn sensing_problem(
             .with_uncertainty(uncertainty)
             .map_err(|e| anyhow::anyhow!("ReconstructRequest.matrix_sd: {e}"))?
             .with_dead_grating_check(a.dead_grating_check);
+    if let Some(alpha) = a.significance {
+        problem = problem
+            .with_significance(alpha)
+            .map_err(|e| anyhow::anyhow!("ReconstructRequest.significance: {e}"))?;
+    }
+    if let Some(w) = a.window_pm {
+        problem = problem
+            .with_window_pm(w)
+            .map_err(|e| anyhow::anyhow!("ReconstructRequest.window_pm: {e}"))?;
+    }
     if a.common_mode {
         let w = match &loaded.wavelengths_nm {
             Some(wl) => temperature_weights(wl),
@@ -392,7 +416,9 @@ fn summarise(
         certified: results.iter().filter(|r| r.certified).count(),
         flags: done.flag_counts,
         suspect_gratings: done.suspect_gratings.clone(),
-        common_mode: a.common_mode,
+        common_mode: done.diagnosis.common_mode.fitted,
+        common_mode_note: done.diagnosis.common_mode.clone(),
+        budget: done.budget.clone(),
         mean_common_mode_pm: (!offsets.is_empty())
             .then(|| offsets.iter().sum::<f64>() / offsets.len() as f64),
         uncertainty: problem.uncertainty_summary(),

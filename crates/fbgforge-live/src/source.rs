@@ -353,7 +353,7 @@ fn tail_file(
     out.event(SourceEvent::Connected(format!(
         "{} ({})",
         path.display(),
-        reader.format().name()
+        reader.describe()
     )));
     // Rows already in the file when the watch began are its past, not the stream.
     let live_from = file.metadata().map_or(u64::MAX, |m| m.len());

@@ -20,23 +20,25 @@
 //! FE model keep those details but take K, strain and shifts from the FE solve. Each FE
 //! configuration (core, case, insert, reading) is solved once, at 1 N, in parallel.
 
+mod error;
+mod rows;
 mod run;
 mod statements;
 mod uncertainty;
+
+pub use error::{
+    design_interval, modelling_fraction, ErrorSource, IntervalReadings, LimitCheck, ModelError,
+    DISCRETISATION_FLOOR, MAX_MODEL_ERROR, STRAIN_MARGIN_FRACTION,
+};
 
 pub use run::{
     paper_figures, predict_into, sweep, FigureSwept, PaperFiguresRequest, PredictSink, Predicted,
     RunError, Spacing, SweepRequest, SweepSink, Swept, Trend, AUTO_LOG_RATIO,
 };
 pub use statements::{check_paper_statements, PaperStatements, StatementCheck, UP_TO_TWICE_MAX};
-pub use uncertainty::{
-    readings, with_contact_ratio, KReadings, ReadingsRequest, Robustness,
-    CLOSED_FORM_BAND_TOLERANCE,
-};
+pub use uncertainty::{readings, with_contact_ratio, KReadings, ReadingsRequest, Robustness};
 
-use crate::fem::{
-    solve_configuration, solve_configurations, ContactReading, FemOptions, GeometryCache,
-};
+use crate::fem::{solve_configuration, ContactReading, FemOptions, GeometryCache};
 use crate::model::{
     self, Configuration, DetailedPrediction, GratingPrediction, LoadCase, PredictOptions,
 };
@@ -49,7 +51,7 @@ use serde::Serialize;
 pub const TOLERANCE: f64 = 0.08;
 
 /// The warning every Case I row resting on the shipped default contact radius carries.
-pub const DEFAULT_CONTACT_WARNING: &str = "contact radius chosen to meet the paper's statements, not measured: calibrate with `verify VerifyRequest.calibrate_into`";
+pub const DEFAULT_CONTACT_WARNING: &str = "contact radius by the family rule, chosen so that the FE model meets the paper's statements on the 34 mm module, not measured: calibrate with `verify VerifyRequest.calibrate_into`";
 
 /// Outer diameters over which the closed form was compared with the FE model, mm
 /// (the `fem` study's grid, 10 to 40 mm).
@@ -122,6 +124,24 @@ pub struct ModelledPrediction {
     /// The readings that make the band.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub band_readings: Option<BandReadings>,
+    /// The nominal K's stated error as a fraction of |K| (`model_error.total_fraction`):
+    /// `None` only for the closed form in Case I, which states none (docs/model.md §5.8).
+    pub model_error_fraction: Option<f64>,
+    /// Its parts: discretisation and modelling, and what the modelling term is for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model_error: Option<ModelError>,
+    /// The interval the design is held to, pm/N (low, high by value): every reading
+    /// the spec implies, each widened by its own model's error; it contains the
+    /// nominal. `None` when the caller did not ask (`PredictionRequest.design_interval`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub design_interval_pm_per_n: Option<[f64; 2]>,
+    /// The readings that make the design interval.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub design_interval_readings: Option<IntervalReadings>,
+    /// The strain at the design's largest force from the far end of the design
+    /// interval, against the strain limit, with its margin.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limit_check: Option<LimitCheck>,
     /// The prediction. For FE rows `core_load_share` is NaN (null in JSON): the FE
     /// model does not split the force into the closed form's paths.
     #[serde(flatten)]
@@ -133,6 +153,23 @@ impl ModelledPrediction {
     pub fn band_contains(&self, k_pm_per_n: f64) -> bool {
         self.band_pm_per_n
             .is_some_and(|[lo, hi]| k_pm_per_n >= lo && k_pm_per_n <= hi)
+    }
+
+    /// The bounding readings widened by the row's model error (low, high by value);
+    /// `None` without a band or a stated error.
+    pub fn widened_readings(&self) -> Option<[f64; 2]> {
+        let (b, f) = (self.band_readings?, self.model_error_fraction?);
+        let (x, y) = (b.bonded_pillars_pm_per_n, b.sliding_apex_patch_pm_per_n);
+        let (lo, hi) = (x.min(y), x.max(y));
+        Some([lo - f * lo.abs(), hi + f * hi.abs()])
+    }
+
+    /// Whether the nominal K lies inside its bounding readings widened by its model
+    /// error (`None` when there is nothing to check it against).
+    pub fn nominal_contained(&self) -> Option<bool> {
+        let [lo, hi] = self.widened_readings()?;
+        let k = self.detail.prediction.sensitivity_pm_per_n;
+        Some(k >= lo && k <= hi)
     }
 }
 
@@ -156,58 +193,11 @@ pub fn predict_with_fidelity(
             core: None,
             fidelity: choice,
             band: false,
+            design_interval: false,
             fem_options: *fem_options,
             cache: GeometryCache::default(),
         },
     )
-}
-
-/// One finite-element solve the policy needs.
-#[derive(Debug, Clone, PartialEq)]
-struct FeJob {
-    config: Configuration,
-    reading: ContactReading,
-}
-
-/// Solve every job once (in parallel) and return the strain per newton of each
-/// grating: `(job index, grating, strain)`.
-fn solve_jobs(
-    design: &Design,
-    jobs: &[FeJob],
-    fem_options: &FemOptions,
-    cache: &GeometryCache,
-) -> Result<Vec<Vec<(String, f64)>>> {
-    let m = design
-        .module
-        .as_ref()
-        .context("the design has no [module] section")?;
-    // One batch: the jobs of one load case and reading share a mesh and a symbolic
-    // factorisation, equal problems one numeric factorisation (`fem::solve_configurations`).
-    let requests: Vec<(Configuration, FemOptions)> = jobs
-        .iter()
-        .map(|j| {
-            (
-                j.config.clone(),
-                fem_options.with_reading(m, j.reading, j.config.case),
-            )
-        })
-        .collect();
-    jobs.iter()
-        .zip(solve_configurations(design, &requests, cache))
-        .map(|(j, r)| {
-            let r = r.with_context(|| {
-                format!(
-                    "finite-element solve of {} ({})",
-                    j.config.label(),
-                    j.reading.describe(m, j.config.case)
-                )
-            })?;
-            Ok(r.strain_per_n
-                .into_iter()
-                .map(|(name, _, e)| (name, e))
-                .collect())
-        })
-        .collect()
 }
 
 fn config_of(p: &GratingPrediction) -> Configuration {
@@ -410,6 +400,12 @@ pub struct PredictionRequest {
     /// per configuration. Ignored under [`FidelityChoice::ClosedForm`], which runs no
     /// FE at all (every front end asking for the closed form gets the same rows).
     pub band: bool,
+    /// Also compute each row's design interval and its strain at the design's largest
+    /// force (`design_interval_pm_per_n`, `limit_check`): in Case I K at both ends of
+    /// the contact window (on the default radius), in Case II the FE reading of the
+    /// stated `cylinders`; they share the nominal's factorisation where they differ
+    /// only in the contact radius. Ignored under [`FidelityChoice::ClosedForm`].
+    pub design_interval: bool,
     /// Mesh and solver of the FE solves (the contact choices come from the design).
     pub fem_options: FemOptions,
     /// Where the FE solves' structures come from and go (the caller's, so solves of
@@ -427,6 +423,7 @@ impl Default for PredictionRequest {
             core: None,
             fidelity: FidelityChoice::Auto,
             band: false,
+            design_interval: false,
             fem_options: FemOptions::default(),
             cache: GeometryCache::default(),
         }
@@ -472,123 +469,21 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
             && request.core.as_ref().is_none_or(|c| c == &p.core)
             && (p.case == LoadCase::II || request.insert.is_none() || p.insert == request.insert)
     });
-    let m = design
-        .module
-        .as_ref()
-        .context("the design has no [module] section")?;
-    // Every FE solve the rows need, once each.
-    let mut jobs: Vec<FeJob> = Vec::new();
-    let mut want = |config: Configuration, reading: ContactReading| {
-        let job = FeJob { config, reading };
-        if !jobs.contains(&job) {
-            jobs.push(job);
-        }
-    };
     let models: Vec<Fidelity> = rows
         .iter()
         .map(|d| request.fidelity.resolve(design, d.prediction.case))
         .collect();
-    let with_band = request.band && request.fidelity != FidelityChoice::ClosedForm;
-    for (d, model) in rows.iter().zip(&models) {
-        let c = config_of(&d.prediction);
-        if *model == Fidelity::Fem {
-            want(c.clone(), ContactReading::Design);
-        }
-        if with_band {
-            want(c.clone(), ContactReading::BondedPillars);
-            want(c, ContactReading::SlidingApexPatch);
-        }
-    }
-    let solved = solve_jobs(design, &jobs, &request.fem_options, &request.cache)?;
-    let strain_of = |p: &GratingPrediction, reading: ContactReading| -> Result<f64> {
-        let config = config_of(p);
-        let i = jobs
-            .iter()
-            .position(|j| j.config == config && j.reading == reading)
-            .expect("every needed job was solved");
-        solved[i]
-            .iter()
-            .find(|(name, _)| name == &p.grating)
-            .map(|(_, e)| *e)
-            .with_context(|| format!("the FE model gave no strain for grating `{}`", p.grating))
+    let fe = request.fidelity != FidelityChoice::ClosedForm;
+    let want = rows::Wanted {
+        band: request.band && fe,
+        interval: request.design_interval && fe,
     };
-    let k_of =
-        |d: &DetailedPrediction, e: f64| design.fiber.shift_pm(d.bragg_wavelength_nm, e, 0.0);
-    let mut out = Vec::with_capacity(rows.len());
-    for (mut d, model) in rows.into_iter().zip(models) {
-        let description = match model {
-            Fidelity::ClosedForm => "closed form (membrane theory, docs/model.md)".to_string(),
-            Fidelity::Fem => {
-                let e = strain_of(&d.prediction, ContactReading::Design)?;
-                apply_fem_strain(&mut d, design, &opts, e);
-                format!(
-                    "FE, {}",
-                    ContactReading::Design.describe(m, d.prediction.case)
-                )
-            }
-        };
-        let (band, readings) = if with_band {
-            let bonded = k_of(&d, strain_of(&d.prediction, ContactReading::BondedPillars)?);
-            let sliding = k_of(
-                &d,
-                strain_of(&d.prediction, ContactReading::SlidingApexPatch)?,
-            );
-            let k = d.prediction.sensitivity_pm_per_n;
-            (
-                Some([bonded.min(sliding).min(k), bonded.max(sliding).max(k)]),
-                Some(BandReadings {
-                    bonded_pillars_pm_per_n: bonded,
-                    sliding_apex_patch_pm_per_n: sliding,
-                }),
-            )
-        } else {
-            (None, None)
-        };
-        contact_warnings(&mut d, m, model, readings.as_ref());
-        out.push(ModelledPrediction {
-            model,
-            model_description: description,
-            band_pm_per_n: band,
-            band_readings: readings,
-            detail: d,
-        });
-    }
-    Ok(out)
-}
-
-/// The warnings of the policy's contact reading on one row: a Case I FE row that rests
-/// on the shipped default contact radius says so; a Case I row whose nominal K lies
-/// outside its bounding readings, or whose sign is not fixed across them, says that.
-fn contact_warnings(
-    d: &mut DetailedPrediction,
-    m: &crate::spec::Module,
-    model: Fidelity,
-    readings: Option<&BandReadings>,
-) {
-    let p = &mut d.prediction;
-    if p.case != LoadCase::I {
-        return;
-    }
-    if model == Fidelity::Fem && m.contact_radius_is_default() {
-        p.warnings.push(DEFAULT_CONTACT_WARNING.to_string());
-    }
-    if let Some(b) = readings {
-        let r = KReadings {
-            grating: p.grating.clone(),
-            configuration: config_of(p),
-            model,
-            nominal_pm_per_n: p.sensitivity_pm_per_n,
-            contact_window_pm_per_n: None,
-            bonded_pillars_pm_per_n: b.bonded_pillars_pm_per_n,
-            sliding_apex_patch_pm_per_n: b.sliding_apex_patch_pm_per_n,
-        };
-        let (v, why) = r.band_violation();
-        if v > 0.0 {
-            p.warnings.push(format!(
-                "{why}: this K is not supported by the physically bounding contact readings"
-            ));
-        }
-    }
+    // Every FE solve the rows need, once each, in one batch.
+    let readings = rows::Readings::solve(design, &rows, &models, want, request)?;
+    rows.into_iter()
+        .zip(models)
+        .map(|(d, model)| readings.row(d, model, want, request))
+        .collect()
 }
 
 /// The policy's predictions as the optimiser needs them: fast enough for an inner loop,

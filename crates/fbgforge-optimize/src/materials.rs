@@ -123,6 +123,7 @@ impl LibraryMaterial {
             vendor_name: None,
             shore_hardness: None,
             display_colour: None,
+            hysteresis_limit_percent_span: None,
         }
     }
 

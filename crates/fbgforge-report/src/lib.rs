@@ -26,6 +26,7 @@ pub mod build;
 pub mod calibrate;
 pub mod live;
 pub mod optimize;
+pub mod peaks;
 pub mod place;
 pub mod predict;
 pub mod reconstruct;

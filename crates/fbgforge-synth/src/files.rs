@@ -63,6 +63,24 @@ pub struct SynthLogFiles {
     pub matrix: Option<SensingMatrix>,
 }
 
+/// The style with an `imon-pixels` log's line shapes taken from `design`'s gratings of
+/// those names when it asks for them ([`logs::LineShape::Design`]).
+fn resolved_style(design: &Design, style: &logs::LogStyle, names: &[String]) -> Result<logs::LogStyle> {
+    let mut style = style.clone();
+    if style.spectrum.line_shape == logs::LineShape::Design {
+        let gratings = names
+            .iter()
+            .map(|n| {
+                design
+                    .bragg_grating(n)
+                    .ok_or_else(|| anyhow::anyhow!("design `{}` has no grating `{n}`", design.name))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        style.spectrum.line_shape = logs::LineShape::Gratings(gratings);
+    }
+    Ok(style)
+}
+
 /// Generate a synthetic run for `design` and write it, each file atomically.
 pub fn write_synth_log(design: &Design, req: &SynthLogRequest) -> Result<SynthLogFiles> {
     let log_path = req
@@ -95,7 +113,8 @@ pub fn write_synth_log(design: &Design, req: &SynthLogRequest) -> Result<SynthLo
                 sample_rate_hz: *sample_rate_hz,
                 ..Default::default()
             };
-            synth::write_log(&log_path, req.format, &log, &cfg, &req.style)?;
+            let style = resolved_style(design, &req.style, &log.names)?;
+            synth::write_log(&log_path, req.format, &log, &cfg, &style)?;
             let truth = req.out_dir.join("matrix_truth.csv");
             crate::array::io::write_matrix_with_comments(
                 &truth,
@@ -114,7 +133,8 @@ pub fn write_synth_log(design: &Design, req: &SynthLogRequest) -> Result<SynthLo
         SynthRun::Module(cfg) => {
             let (log, force, mut truth) = synth::generate(design, cfg)?;
             truth.clock_offset_s = synth::reported_offset_s(cfg, req.format);
-            synth::write_log(&log_path, req.format, &log, cfg, &req.style)?;
+            let style = resolved_style(design, &req.style, &log.names)?;
+            synth::write_log(&log_path, req.format, &log, cfg, &style)?;
             let force_path = req.out_dir.join("force.csv");
             synth::write_force_csv(&force_path, &force)?;
             let truth_path = req.out_dir.join("truth.json");

@@ -422,11 +422,19 @@ fn check_numbers(cfg: &SynthConfig) -> Result<()> {
             "the force noise (SynthConfig.force_noise_n)",
             cfg.force_noise_n,
         ),
-        ("the wavelength step", cfg.quantization_pm),
+        ("the wavelength step (SynthConfig.quantization_pm)", cfg.quantization_pm),
     ] {
         if !(v >= 0.0 && v.is_finite()) {
             bail!("{name} must be a finite number ≥ 0, got {v}");
         }
+    }
+    // A step coarser than a nanometre rounds every peak far from its grating (1e308
+    // put them all at 0 nm).
+    if cfg.quantization_pm > MAX_STEP_PM {
+        bail!(
+            "the wavelength step (SynthConfig.quantization_pm) must be at most {MAX_STEP_PM} pm, got {}",
+            cfg.quantization_pm
+        );
     }
     if cfg.force_clock_skew_ppm.abs() >= 1e5 {
         bail!(
@@ -845,6 +853,12 @@ pub fn reported_offset_s(cfg: &SynthConfig, format: LogFormat) -> f64 {
 }
 
 /// Write a wavelength log in `format` (atomically), its first row at
+/// Largest wavelength step a synthetic log may round peaks to, pm (an interrogator's
+/// step is 1-10 pm; 1 nm is already coarser than any).
+pub const MAX_STEP_PM: f64 = 1000.0;
+/// Most metadata lines a synthetic ENLIGHT log may lead with (the real ones hold ~45).
+pub const MAX_METADATA_LINES: usize = 10_000;
+
 /// `cfg.start_epoch_s`.
 pub fn write_log(
     path: &Path,
@@ -853,6 +867,13 @@ pub fn write_log(
     cfg: &SynthConfig,
     style: &LogStyle,
 ) -> Result<()> {
+    // Checked before the file is opened: no temporary file is left behind.
+    if style.metadata_lines > MAX_METADATA_LINES {
+        bail!(
+            "the metadata lines before the header (LogStyle.metadata_lines) must be at most {MAX_METADATA_LINES}, got {}",
+            style.metadata_lines
+        );
+    }
     let table = LogTable {
         start_epoch_s: cfg.start_epoch_s,
         time_s: &log.time_s,

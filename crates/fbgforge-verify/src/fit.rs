@@ -369,6 +369,35 @@ impl LagModelCost<'_> {
         *cursor < ex.len() && ex[*cursor].0 <= x
     }
 
+    /// The lag model's response y (N: the force as the part follows it, delay and lag
+    /// included) at every shift sample with the clocks as in `fit`, at the time
+    /// constant `tau_s` (the fit's, or a bound on it), at rows with a peak and without;
+    /// NaN outside the force log and in excluded stretches. The shift
+    /// against y is the lag-corrected signal: a part that follows its lag model draws
+    /// a line there.
+    pub fn responses(&self, fit: &LagModelFit, tau_s: f64) -> Vec<f64> {
+        let mut y = Vec::new();
+        sls_response(
+            self.force_t,
+            self.force_n,
+            tau_s,
+            fit.instant_fraction,
+            &mut y,
+        );
+        let (f0, f1) = (self.force_t[0], self.force_t[self.force_t.len() - 1]);
+        let (mut hint, mut ex) = (0, 0);
+        self.shift_t
+            .iter()
+            .map(|&t| {
+                let x = t + fit.offset_s;
+                if x < f0 || x > f1 || self.is_excluded(x, &mut ex) {
+                    return f64::NAN;
+                }
+                interp(self.force_t, &y, x, &mut hint)
+            })
+            .collect()
+    }
+
     /// The residual of `fit` at every shift sample (shift − K·y − baseline − drift),
     /// pm; NaN where the fit did not use the sample (a gap, outside the force log, an
     /// excluded stretch).

@@ -22,7 +22,7 @@
 //! The module ([`Verdict::overall`]) passes only when every grating the model says
 //! responds has been judged and passes.
 
-use crate::analysis::{GratingResult, Measurement};
+use crate::analysis::{GratingResult, Measurement, PulseGain};
 use crate::model::{GratingPrediction, LoadCase};
 use crate::prediction::ModelledPrediction;
 use serde::Serialize;
@@ -76,6 +76,50 @@ impl Status {
     }
 }
 
+/// Why a verdict is what it is, for a program to read (the `reason` says it in words):
+/// which rival explanation a refusal names, or which test a FAIL failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReasonCode {
+    /// The force log cannot be trusted (a saturated channel, gaps in too many presses).
+    ForceUntrusted,
+    /// A clock jumped (the wavelength log's clock ran back or paused) and the presses
+    /// on either side do not line up.
+    Clock,
+    /// The estimated clock offset has a rival within the margin, too few presses, or
+    /// presses on one side the other does not explain.
+    Alignment,
+    /// Presses of the force log the shift does not show (or shows far larger), while
+    /// the others are explained.
+    Unexplained,
+    /// The interrogator's readings: a peak pinned at its range, frozen, or lost under
+    /// load.
+    Instrument,
+    /// The force explains too little of the shift beyond a slow variation
+    /// (temperature, drift).
+    NoResponse,
+    /// A grating the model says responds shows nothing while another does.
+    DeadGrating,
+    /// The grating does not follow the part: hysteresis above the limit.
+    Bonding,
+    /// K is off the model by a factor of a force unit while the force log names no
+    /// unit (newtons assumed).
+    Units,
+    /// K lies within two standard errors of a boundary of the rule: the measurement
+    /// cannot tell the verdicts apart.
+    Precision,
+    /// K off the model beyond the tolerance and the band.
+    OffModel,
+    /// K off the nominal prediction but inside the band between the contact readings.
+    InBand,
+    /// The configuration needs its contact calibrated before it can be judged.
+    CalibrateContact,
+    /// The model gives no prediction for the grating.
+    NoPrediction,
+    /// A grating the model says responds has no peaks in the log.
+    MissingGrating,
+}
+
 /// What a grating's fit must show before its K is compared with the model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub(crate) struct ResponseGate {
@@ -86,9 +130,6 @@ pub(crate) struct ResponseGate {
     /// response model's residuals (effective sample size): K differs from zero beyond
     /// doubt.
     pub min_t_statistic: f64,
-    /// Largest lag time constant τ as a share of the median pulse spacing: a "lag"
-    /// longer than the pulses is drift, not a response.
-    pub max_tau_over_spacing: f64,
     /// Smallest shift over the pulses' force range, in interrogator resolutions.
     pub min_shift_over_resolution: f64,
     /// A grating the model predicts to shift by at least this many times its noise
@@ -102,7 +143,6 @@ impl Default for ResponseGate {
         ResponseGate {
             min_r_squared: 0.5,
             min_t_statistic: 5.0,
-            max_tau_over_spacing: 0.5,
             min_shift_over_resolution: 10.0,
             min_predicted_shift_over_noise: 10.0,
         }
@@ -110,16 +150,16 @@ impl Default for ResponseGate {
 }
 
 impl ResponseGate {
-    /// Why `g` shows no response, or `None` when it does. `spacing_s` is the median
-    /// spacing of the pulses (the log's length for one pulse), `resolution_pm` the
-    /// interrogator's, `peak_force_n` the pulses' largest force (when the grating's
-    /// own segments give none).
+    /// Why `g` shows no response, or `None` when it does. `resolution_pm` is the
+    /// interrogator's, `peak_force_n` the pulses' largest force (when the grating's own
+    /// segments give none), `reference` whether a reference grating removed
+    /// temperature.
     pub fn no_response(
         &self,
         g: &GratingResult,
-        spacing_s: f64,
         resolution_pm: f64,
         peak_force_n: f64,
+        reference: bool,
     ) -> Option<String> {
         let t = g.sensitivity_t_statistic;
         let force = if g.peak_force_n.is_finite() {
@@ -130,25 +170,33 @@ impl ResponseGate {
         let shift_pm = g.sensitivity_pm_per_n.abs() * force;
         // Each test also fails on NaN (a fit that could not be made shows no response).
         let below = |v: f64, min: f64| v.is_nan() || v < min;
+        let slow = g.slow_test.as_ref();
+        let rival = if reference {
+            "a slow variation (drift, temperature the reference grating does not remove)"
+        } else {
+            "a slow variation: without a reference grating, temperature (and drift)"
+        };
+        let tau_note = slow
+            .filter(|s| s.tau_bounded)
+            .map(|s| {
+                format!(
+                    "; the lag model's τ = {:.3} s would absorb it, and is held at {:.3} s (a quarter of the slow curve's knot spacing)",
+                    g.sls_time_constant_s, s.tau_bound_s
+                )
+            })
+            .unwrap_or_default();
         if below(g.response_r_squared, self.min_r_squared) {
             Some(format!(
-                "the force explains too little of the shift: the response model's R² beyond baseline and drift is {:.4} < {}",
+                "the force explains too little of the shift beyond {rival}: {:.4} of what that leaves (at least {}){tau_note}",
                 g.response_r_squared, self.min_r_squared
             ))
         } else if below(t, self.min_t_statistic) {
             Some(format!(
-                "K = {:.3} ± {:.3} pm/N (standard error allowing for the autocorrelation of the response model's residuals, {:.0} effective of the samples) is not distinguishable from zero: |K|/se = {t:.1} < {}",
+                "K = {:.3} ± {:.3} pm/N beside {rival} (standard error allowing for the autocorrelation of the residuals, {:.0} effective of the samples) is not distinguishable from zero: |K|/se = {t:.1} < {}{tau_note}",
                 g.sensitivity_pm_per_n,
                 g.sensitivity_std_error_effective_pm_per_n,
                 g.effective_samples,
                 self.min_t_statistic
-            ))
-        } else if g.sls_time_constant_s.is_nan()
-            || below(self.max_tau_over_spacing * spacing_s, g.sls_time_constant_s)
-        {
-            Some(format!(
-                "the fitted lag time constant τ = {:.3} s is not short against the pulse spacing {spacing_s:.3} s: the shift follows something slower than the force",
-                g.sls_time_constant_s
             ))
         } else if below(shift_pm, self.min_shift_over_resolution * resolution_pm) {
             Some(format!(
@@ -178,19 +226,6 @@ impl ResponseGate {
                 && shift >= self.min_predicted_shift_over_noise * floor,
         )
     }
-}
-
-/// Median spacing of the measurement's pulses, s (the span of the pulses when there
-/// is only one, or the whole overlap when none was measured).
-fn pulse_spacing_s(m: &Measurement, g: &GratingResult) -> f64 {
-    let mut starts: Vec<f64> = g.pulses.iter().map(|p| p.start_s).collect();
-    starts.sort_by(f64::total_cmp);
-    let mut gaps: Vec<f64> = starts.windows(2).map(|w| w[1] - w[0]).collect();
-    if gaps.is_empty() {
-        return m.overlap_s;
-    }
-    gaps.sort_by(f64::total_cmp);
-    gaps[gaps.len() / 2]
 }
 
 /// Judge a measured K against a predicted K: (status, relative error).
@@ -273,6 +308,9 @@ pub struct GratingVerdict {
     pub status: Status,
     /// Why it was not judged, failed, or is in band, if so.
     pub reason: Option<String>,
+    /// The same as a code (which rival a refusal names, which test a FAIL failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason_code: Option<ReasonCode>,
 }
 
 /// A strain grating of the core under test that the log has no peaks for.
@@ -307,6 +345,10 @@ pub struct Verdict {
     /// Why the module got its verdict, when the gratings' lines do not say it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// The module's reason as a code (the first grating's when the gratings' lines say
+    /// it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason_code: Option<ReasonCode>,
 }
 
 /// What the verdict knows of the design's contact reading (Case I).
@@ -474,8 +516,9 @@ fn judge_all(
     let mut gratings: Vec<GratingVerdict> = Vec::with_capacity(m.gratings.len());
     // Whether the model says each grating responds (a strong predicted shift).
     let mut strong: Vec<bool> = Vec::with_capacity(m.gratings.len());
+    let doubt = run_doubt(m);
     for g in &m.gratings {
-        let (v, s) = grating_verdict(m, g, &predictions, opts);
+        let (v, s) = grating_verdict(m, g, &predictions, opts, doubt.as_ref());
         gratings.push(v);
         strong.push(s);
     }
@@ -486,7 +529,7 @@ fn judge_all(
         mark_dead(&mut gratings, &strong);
     }
     let missing = missing_gratings(m, &predictions, opts);
-    let (overall, reason) = overall(m, &gratings, &missing);
+    let (overall, reason, reason_code) = overall(m, &gratings, &missing);
     Verdict {
         case: opts.case,
         insert: opts.insert.map(String::from),
@@ -494,16 +537,117 @@ fn judge_all(
         missing_gratings: missing,
         overall,
         reason,
+        reason_code,
     }
 }
 
+/// Gains a press must reach (and not exceed) to count as explained, when the
+/// grating's median press gain is at least [`EXPLAINED_MEDIAN`].
+const EXPLAINED_GAINS: (f64, f64) = (0.35, 2.5);
+/// Median press gain of a grating that responds as a whole.
+const EXPLAINED_MEDIAN: f64 = 0.6;
+/// Largest standard error of a press's gain that counts.
+const GAIN_ERROR: f64 = 0.25;
+
+/// A rival the whole run shares, when one stands: an estimated clock offset that is
+/// not definite, or presses of the force log a responding grating does not show (or
+/// shows far larger) while it shows the others; named as the clock's when the
+/// wavelength log's clock jumped or paused.
+fn run_doubt(m: &Measurement) -> Option<(ReasonCode, String)> {
+    let clock = clock_jump_words(m).map(|w| format!("; {w}"));
+    let code = |plain: ReasonCode| if clock.is_some() { ReasonCode::Clock } else { plain };
+    if let Some(a) = &m.alignment.ambiguous {
+        return Some((
+            code(ReasonCode::Alignment),
+            format!("{a}{}", clock.clone().unwrap_or_default()),
+        ));
+    }
+    for g in &m.gratings {
+        let ok: Vec<&PulseGain> = g
+            .pulse_gains
+            .iter()
+            .filter(|p| p.gain_std_error < GAIN_ERROR)
+            .collect();
+        if ok.len() < 2 {
+            continue;
+        }
+        let gains: Vec<f64> = ok.iter().map(|p| p.gain).collect();
+        if crate::segment::percentile(&gains, 0.5) < EXPLAINED_MEDIAN {
+            continue;
+        }
+        let bad: Vec<&&PulseGain> = ok
+            .iter()
+            .filter(|p| p.gain < EXPLAINED_GAINS.0 || p.gain > EXPLAINED_GAINS.1)
+            .collect();
+        if bad.is_empty() {
+            continue;
+        }
+        let list: Vec<String> = bad
+            .iter()
+            .take(6)
+            .map(|p| format!("{} ({:.2} s, gain {:.2})", p.pulse, p.start_s, p.gain))
+            .collect();
+        return Some((
+            code(ReasonCode::Unexplained),
+            format!(
+                "grating `{}` does not show {} of the {} presses of the force log it covers as it shows the others (press, start, gain of the shift on K·x; 1 is explained): {}; a clock that jumped, a force log that is not this run's, or a bond that broke during the run{}",
+                g.grating,
+                bad.len(),
+                ok.len(),
+                list.join(", "),
+                clock.clone().unwrap_or_default()
+            ),
+        ));
+    }
+    None
+}
+
+/// Share of the shift (beyond baseline and drift) a candidate offset must explain for
+/// silence at the chosen offset to be in doubt: below it at every offset searched, the
+/// sensor shows no response wherever the force is placed.
+const OFFSET_RESPONSE_R2: f64 = 0.2;
+
+/// The estimated offset is ambiguous and the sensor may have responded elsewhere: some
+/// candidate offset shows a response, or the shift shows presses the force log does
+/// not cover, counted only when the fitted K makes a press stand 10 times above the
+/// noise (with K near zero the press detector sees noise). A silent grating may then
+/// be silent only because the force was placed on the wrong presses.
+fn offset_doubt_stands(m: &Measurement) -> bool {
+    let a = &m.alignment;
+    let visible = m.gratings.iter().any(|g| {
+        g.sensitivity_pm_per_n.abs() * m.peak_force_n >= 10.0 * g.residual_rms_pm.max(m.interrogator_resolution_pm)
+    });
+    a.ambiguous.is_some()
+        && (a
+            .candidates
+            .iter()
+            .any(|c| c.response_r_squared >= OFFSET_RESPONSE_R2)
+            || (visible && !a.shift_presses_outside.is_empty()))
+}
+
+/// The wall clock's jumps in words, when the wavelength log has any.
+fn clock_jump_words(m: &Measurement) -> Option<String> {
+    let j = m.clock_jumps.first()?;
+    Some(format!(
+        "the wavelength log's clock {} {:.3} s at line {} ({} jump(s) or gap(s)): a clock set back or forward (daylight saving, NTP) moves the presses after it",
+        if j.backwards() { "runs back by" } else { "skips" },
+        j.step_s.abs(),
+        j.line,
+        m.clock_jumps.len()
+    ))
+}
+
 /// One measured grating judged, and whether the model says it responds (a predicted
-/// shift well above its noise).
+/// shift well above its noise). In order: a force that cannot be trusted, a rival the
+/// whole run shares (`doubt`: the clocks, the alignment, presses not explained), the
+/// interrogator's readings, the response against a slow variation, the bond
+/// (hysteresis), the force's unit, then K against the model with its precision.
 fn grating_verdict(
     m: &Measurement,
     g: &GratingResult,
     predictions: &Result<Vec<Found>, String>,
     opts: &JudgeOptions,
+    doubt: Option<&(ReasonCode, String)>,
 ) -> (GratingVerdict, bool) {
     let (gate, tolerance) = (&opts.gate, opts.tolerance);
     let reach = opts.contact.reach.as_ref().and_then(|r| {
@@ -513,7 +657,6 @@ fn grating_verdict(
             .map(|(_, k)| *k)
             .filter(|k| k.iter().all(|v| v.is_finite()))
     });
-    let radii = opts.contact.reach.as_ref().map(|r| r.radii_mm);
     let (found, missing_reason) = find_prediction(predictions, &g.grating, opts);
     let pred = found.map(|f| f.prediction.sensitivity_pm_per_n);
     let band = found.and_then(|f| f.band);
@@ -522,14 +665,13 @@ fn grating_verdict(
     } else {
         m.peak_force_n
     };
-    let noise = g.residual_rms_pm;
     let predicted =
-        pred.map(|kp| gate.predicted_shift(kp, peak, noise, m.interrogator_resolution_pm));
+        pred.map(|kp| gate.predicted_shift(kp, peak, g.residual_rms_pm, m.interrogator_resolution_pm));
     let silent = gate.no_response(
         g,
-        pulse_spacing_s(m, g),
         m.interrogator_resolution_pm,
         m.peak_force_n,
+        m.reference_grating.is_some(),
     );
     let k = g.sensitivity_pm_per_n;
     let mut v = GratingVerdict {
@@ -546,19 +688,114 @@ fn grating_verdict(
         relative_error: None,
         tolerance,
         status: Status::NotJudged,
+        reason_code: missing_reason.as_ref().map(|_| ReasonCode::NoPrediction),
         reason: missing_reason,
     };
-    if let Some(why) = m.force_trust.not_judged.as_ref() {
-        v.status = Status::NotJudged;
-        v.reason = Some(format!("the force cannot be trusted: {why}"));
+    let refused = if let Some(why) = m.force_trust.not_judged.as_ref() {
+        Some((Status::NotJudged, ReasonCode::ForceUntrusted, format!("the force cannot be trusted: {why}")))
+    } else if let (Some((code, why)), true) = (doubt, v.responded || offset_doubt_stands(m)) {
+        // At an offset that is not definite, silence is no finding either.
+        Some((Status::NotJudged, *code, why.clone()))
+    } else if let (Some(why), true) = (&g.instrument.fault, v.responded) {
+        Some((Status::NotJudged, ReasonCode::Instrument, format!("the interrogator's readings cannot be trusted: {why}")))
+    } else if let (Some(why), Some(c)) = (&silent, clock_jump_words(m)) {
+        Some((Status::NotJudged, ReasonCode::Clock, format!("{why}; but {c}")))
     } else if let Some(why) = silent {
-        v.status = Status::NoResponse;
+        Some((Status::NoResponse, ReasonCode::NoResponse, why))
+    } else {
+        // A loop measured across a clock jump may be the jump's: not a bond's finding.
+        loose_bond(g).map(|(s, c, why)| match (s, clock_jump_words(m)) {
+            (Status::Fail, Some(j)) => (Status::NotJudged, ReasonCode::Clock, format!("{why}; but {j}")),
+            _ => (s, c, why),
+        })
+    };
+    if let Some((status, code, why)) = refused {
+        v.status = status;
+        v.reason_code = Some(code);
         v.reason = Some(why);
     } else {
-        let (status, rel) = judge(k, pred, tolerance);
-        v.relative_error = rel;
-        let (status, reason) = match (status, band) {
-            (Status::NotJudged, _) => (status, v.reason.take()),
+        judge_k(m, g, &mut v, (pred, band, reach), opts);
+    }
+    (v, predicted.is_some_and(|p| p.1))
+}
+
+/// A grating that does not follow its part: the lag-corrected loop wider than its
+/// material's limit (FAIL whatever K says).
+fn loose_bond(g: &GratingResult) -> Option<(Status, ReasonCode, String)> {
+    let (h, limit) = (g.hysteresis_percent_span, g.hysteresis_limit_percent_span);
+    let timing = g.hysteresis_timing_percent_span;
+    if !(h.is_finite() && h > limit) {
+        return None;
+    }
+    if h - timing <= limit {
+        return Some((
+            Status::NotJudged,
+            ReasonCode::Precision,
+            format!(
+                "the loop is {h:.1} % of span, above the bond's limit {limit:.1} %, but the timestamps' own uncertainty alone opens a loop of {timing:.1} % on a perfectly elastic part (whole-second or coarse timestamps): the log cannot tell a loose bond from its clock; log with sub-second timestamps"
+            ),
+        ));
+    }
+    Some((Status::Fail, ReasonCode::Bonding, {
+        format!(
+            "grating not following the part (hysteresis {h:.1} % > limit {limit:.1} % of span): its loading and unloading branches part by {h:.1} % of span once the lag is taken out (K from the loading branch {:.3} pm/N, from every row {:.3} pm/N); a loose bond or a fiber slipping in its groove",
+            g.sensitivity_pm_per_n,
+            g.slow_test
+                .as_ref()
+                .map_or(g.lag_model_sensitivity_pm_per_n, |s| s.k_all_rows_pm_per_n)
+        )
+    }))
+}
+
+/// Factors to N of the units a force column may have been written in, with names.
+const UNIT_FACTORS: [(f64, &str); 6] = [
+    (4.448_221_615, "lbf"),
+    (9.806_65, "kgf"),
+    (0.278_013_85, "ozf"),
+    (9.806_65e-3, "gf"),
+    (1e3, "kN"),
+    (1e-3, "mN"),
+];
+
+/// The unit the force was likely written in, when the log names none and K is off the
+/// model by that unit's factor within the tolerance.
+fn unit_rival(m: &Measurement, k: f64, kp: f64, tolerance: f64) -> Option<String> {
+    if m.warnings.count("force_unit_assumed") == 0 || !(kp != 0.0) {
+        return None;
+    }
+    let ratio = k / kp;
+    UNIT_FACTORS
+        .iter()
+        .find(|(f, _)| (ratio / f - 1.0).abs() <= tolerance)
+        .map(|(f, name)| {
+            format!(
+                "K = {k:.3} pm/N is {ratio:.3} × the model's {kp:.3} pm/N, the factor from {name} to N ({f}), and the force column names no unit (newtons assumed): a force logged in {name}? name the unit in the column (force_{name}) or give ForceReadOptions.scale_to_n"
+            )
+        })
+}
+
+/// K judged against the model: the units' rival, the rule (tolerance, band, contact)
+/// and the precision of K at its boundaries.
+fn judge_k(
+    m: &Measurement,
+    g: &GratingResult,
+    v: &mut GratingVerdict,
+    (pred, band, reach): (Option<f64>, Option<[f64; 2]>, Option<[f64; 2]>),
+    opts: &JudgeOptions,
+) {
+    let k = g.sensitivity_pm_per_n;
+    let radii = opts.contact.reach.as_ref().map(|r| r.radii_mm);
+    v.relative_error = judge(k, pred, opts.tolerance).1;
+    if let Some(why) = pred.and_then(|kp| unit_rival(m, k, kp, opts.tolerance)) {
+        v.status = Status::NotJudged;
+        v.reason_code = Some(ReasonCode::Units);
+        v.reason = Some(why);
+        return;
+    }
+    let rule = |k: f64| -> (Status, Option<String>) {
+        let (status, rel) = judge(k, pred, opts.tolerance);
+        match (status, band) {
+            (Status::NotJudged, _) => (status, v.reason.clone()),
             (_, Some(b)) => place_in_band(k, b, status, rel, reach, radii, opts),
             (Status::Fail, None) => (
                 Status::Fail,
@@ -567,11 +804,39 @@ fn grating_verdict(
                 }),
             ),
             (s, None) => (s, None),
+        }
+    };
+    let (status, reason) = rule(k);
+    // The rule's answer must hold across K's own uncertainty (two standard errors,
+    // the residuals' autocorrelation allowed for).
+    let u = 2.0 * g.sensitivity_std_error_effective_pm_per_n;
+    let held = |k2: f64| rule(k2).0 == rule(k).0;
+    let (status, reason, code) = if pred.is_some() && u.is_finite() && !(held(k - u) && held(k + u)) {
+        (
+            Status::NotJudged,
+            Some(format!(
+                "K = {k:.3} ± {:.3} pm/N (two standard errors, autocorrelation allowed for) straddles a boundary of the rule (the tolerance {:.1} % of the model's {:.3} pm/N, or the band's edge): the measurement cannot tell {} from {}; more presses or less noise decide it",
+                u,
+                100.0 * opts.tolerance,
+                pred.unwrap_or(f64::NAN),
+                rule(k - u).0.word(),
+                rule(k + u).0.word()
+            )),
+            Some(ReasonCode::Precision),
+        )
+    } else {
+        let code = match status {
+            Status::Fail => Some(ReasonCode::OffModel),
+            Status::InBand => Some(ReasonCode::InBand),
+            Status::CalibrateContact => Some(ReasonCode::CalibrateContact),
+            Status::NotJudged => v.reason_code,
+            _ => None,
         };
-        v.status = status;
-        v.reason = reason;
-    }
-    (v, predicted.is_some_and(|p| p.1))
+        (status, reason, code)
+    };
+    v.status = status;
+    v.reason = reason;
+    v.reason_code = code;
 }
 
 /// The silent gratings the model says respond (`strong`) fail as dead.
@@ -579,6 +844,7 @@ fn mark_dead(gratings: &mut [GratingVerdict], strong: &[bool]) {
     for (v, &strong) in gratings.iter_mut().zip(strong) {
         if v.status == Status::NoResponse && strong {
             v.status = Status::Fail;
+            v.reason_code = Some(ReasonCode::DeadGrating);
             v.reason = Some(format!(
                 "dead grating: the model predicts K = {:.3} pm/N, a shift of {:.1} pm over the pulses' force range, well above the noise, but the grating shows no response ({}); a broken grating or bond, or a channel mix-up",
                 v.predicted_sensitivity_pm_per_n.unwrap_or(f64::NAN),
@@ -673,39 +939,89 @@ fn place_in_band(
     }
 }
 
-/// The module's verdict from its gratings' and the missing ones.
+/// The module's verdict from its gratings' and the missing ones, with its reason and
+/// code.
 fn overall(
     m: &Measurement,
     gratings: &[GratingVerdict],
     missing: &[MissingGrating],
-) -> (Status, Option<String>) {
+) -> (Status, Option<String>, Option<ReasonCode>) {
     let any = |s: Status| gratings.iter().any(|g| g.status == s);
+    let first_code = |s: Status| gratings.iter().find(|g| g.status == s).and_then(|g| g.reason_code);
     if let Some(why) = &m.force_trust.not_judged {
         return (
             Status::NotJudged,
             Some(format!("the force cannot be trusted: {why}")),
+            Some(ReasonCode::ForceUntrusted),
         );
     }
     if gratings.is_empty() {
-        return (Status::NotJudged, Some("no grating was measured".into()));
+        return (Status::NotJudged, Some("no grating was measured".into()), None);
     }
     if gratings.iter().all(|g| !g.responded) {
+        if let Some(c) = clock_jump_words(m) {
+            // Silence across a clock jump is no finding: the presses after it may be
+            // matched to other rows.
+            return (
+                Status::NotJudged,
+                Some(format!("no grating responded, but {c}; give the logs of one clock (or cut the log at the jump)")),
+                Some(ReasonCode::Clock),
+            );
+        }
+        if let (Some(a), true) = (&m.alignment.ambiguous, offset_doubt_stands(m)) {
+            // Silence at an offset that is not definite is no finding: the force may
+            // have been matched to the wrong presses.
+            return (
+                Status::NotJudged,
+                Some(format!("no grating responded at the estimated offset, but {a}")),
+                Some(ReasonCode::Alignment),
+            );
+        }
         return (
             Status::NoResponse,
             Some("no grating responded to the force: an unloaded sensor, or a force log of another run".into()),
+            Some(ReasonCode::NoResponse),
         );
     }
     if any(Status::Fail) {
-        return (Status::Fail, None);
+        return (Status::Fail, None, first_code(Status::Fail));
+    }
+    // A rival that stands, on a grating the verdict needs: not judged, named.
+    let doubted = gratings.iter().find(|g| {
+        g.status == Status::NotJudged
+            && g.predicted_sensitivity_pm_per_n.is_some()
+            && matches!(
+                g.reason_code,
+                Some(
+                    ReasonCode::Clock
+                        | ReasonCode::Alignment
+                        | ReasonCode::Unexplained
+                        | ReasonCode::Instrument
+                        | ReasonCode::Units
+                        | ReasonCode::Precision
+                )
+            )
+    });
+    if let Some(g) = doubted {
+        return (
+            Status::NotJudged,
+            Some(format!(
+                "grating `{}`: {}",
+                g.grating,
+                g.reason.as_deref().unwrap_or("not judged")
+            )),
+            g.reason_code,
+        );
     }
     if any(Status::CalibrateContact) {
         return (
             Status::CalibrateContact,
             Some("this configuration cannot be judged without calibrating the contact (verify VerifyRequest.calibrate_into on a part known to be good)".into()),
+            Some(ReasonCode::CalibrateContact),
         );
     }
     if any(Status::InBand) {
-        return (Status::InBand, None);
+        return (Status::InBand, None, Some(ReasonCode::InBand));
     }
     let unjudged: Vec<&str> = missing
         .iter()
@@ -719,12 +1035,13 @@ fn overall(
                 "the model says {} respond but the log has no peaks for them: the module cannot pass until every such grating is judged",
                 unjudged.join(", ")
             )),
+            Some(ReasonCode::MissingGrating),
         );
     }
     if any(Status::Pass) {
-        (Status::Pass, None)
+        (Status::Pass, None, None)
     } else {
-        (Status::NotJudged, None)
+        (Status::NotJudged, None, first_code(Status::NotJudged))
     }
 }
 

@@ -17,12 +17,8 @@
 //!   its own); one with a load above its bound gets the exact bounded solve
 //!   ([`bounded::box_qp`]), negative loads or not (at the ceiling a negative
 //!   unconstrained load can hide a bounded optimum with every load positive).
-//! * **Contenders.** Supports the search values within the ambiguity margin of the
-//!   incumbent are kept, so that it can say whether an answer ≥ 12 dB away from the
-//!   optimum fits about as well ([`Reconstruction::rival_fits`]). Pruning stays at
-//!   the incumbent (a wider cut made the 16 × 64 search many times longer), so the
-//!   contenders are those met on the way, not every one: `bnb` may miss a rival that
-//!   `support` (which values every support within the margin) finds.
+//! * **Rivals** are not the search's business: the frame test ([`crate::trust`])
+//!   computes them from the frame and the answer, the same for every method.
 //! * **Bounds.** Every support below the child P ∪ {order[i]} lies within the cells
 //!   P ∪ {order[i], order[i+1], …}. The non-negative least-squares residual over those
 //!   cells (z ≥ 0 only: a relaxation of the box and of the cardinality) plus λ·|P ∪ c|
@@ -70,9 +66,6 @@ pub struct BnbSettings {
     /// valued in O(1), and ~8 multiply-adds per unit for the pushes along a path and
     /// the relaxation's steps (what `bnb` reports as its `iterations`).
     pub node_budget: u64,
-    /// Keep the supports within the ambiguity margin of the optimum, so that the
-    /// frame can be flagged `ambiguous` (true by default; it prunes less).
-    pub check_rivals: bool,
 }
 
 impl BnbSettings {
@@ -83,7 +76,6 @@ impl BnbSettings {
             penalty: l0_penalty_for_resolution(prior.resolution_pm),
             max_loads: prior.max_loads,
             node_budget: DEFAULT_NODE_BUDGET,
-            check_rivals: true,
         }
     }
 }
@@ -121,7 +113,6 @@ impl Knobs for BnbSettings {
             lambda: self.penalty,
             kmax,
             node_budget: self.node_budget,
-            check_rivals: self.check_rivals,
         }))
     }
     fn penalty_mut(&mut self) -> Option<&mut f64> {
@@ -140,8 +131,6 @@ pub(super) struct BranchAndBound {
     /// Nodes (supports valued plus relaxation updates) before the search gives up
     /// its certificate.
     pub(super) node_budget: u64,
-    /// Whether contenders within the ambiguity margin are searched for.
-    pub(super) check_rivals: bool,
     /// ÂᵀÂ row by row.
     gram_rows: Vec<Vec<f64>>,
     /// Â by columns (the Lawson–Hanson gradient).
@@ -559,23 +548,20 @@ struct Search<'a> {
     tol: f64,
     /// Slack on comparisons against the incumbent (round-off only).
     slack: f64,
-    /// Answers within the ambiguity margin of the incumbent.
-    rivals: Contenders,
 }
 
 impl Search<'_> {
-    /// What a support must stay below to be valued: the incumbent (contenders are
-    /// those met on the way; see the module doc).
+    /// What a support must stay below to be valued: the incumbent.
     fn cut(&self) -> f64 {
         self.best_cost
     }
 
     /// Value the support of `path` (its unconstrained fit is known) and keep it if it
-    /// beats the incumbent (or as a contender within the margin).
+    /// beats the incumbent.
     fn consider(&mut self, path: &Path) {
         let k = path.depth();
         let floor = self.bb.lambda * k as f64;
-        if path.residual() + floor >= self.best_cost + self.rivals.margin {
+        if path.residual() + floor >= self.best_cost {
             return; // the bounded residual is at least the unconstrained one
         }
         let z = path.loads();
@@ -602,12 +588,8 @@ impl Search<'_> {
         let cost = residual + floor;
         let answer: Vec<(usize, f64)> = path.cells.iter().copied().zip(z).collect();
         if cost < self.best_cost {
-            let old = std::mem::replace(&mut self.best, answer);
-            let old_cost = self.best_cost;
+            self.best = answer;
             self.best_cost = cost;
-            self.rivals.offer(old_cost, cost, &old);
-        } else {
-            self.rivals.offer(cost, self.best_cost, &answer);
         }
     }
 
@@ -821,11 +803,6 @@ impl Reconstructor for BranchAndBound {
             exhausted: false,
             tol,
             slack: 1e-9 * (1.0 + yty),
-            rivals: Contenders::new(if self.check_rivals {
-                self.common.ambiguity_margin_pm2(y)
-            } else {
-                0.0
-            }),
         };
         let mut path = Path::new(n, self.kmax, yty);
         // The first incumbent: greedy, improved by swaps.
@@ -836,15 +813,10 @@ impl Reconstructor for BranchAndBound {
         for &(c, v) in &search.best {
             full[c] = v;
         }
-        let rival =
-            search
-                .rivals
-                .rival_fits(search.best_cost, &search.best, &self.common.problem.scale);
         let mut r = self
             .common
             .finish(&full, y, !search.exhausted, search.nodes + path.work);
         r.certified = !search.exhausted;
-        r.rival_fits = self.check_rivals.then_some(rival);
         r
     }
 }

@@ -78,7 +78,6 @@ impl Knobs for DeSettings {
             penalty: self.penalty,
             max_loads: self.max_loads,
             node_budget: self.reference_node_budget,
-            check_rivals: false,
         }
         .build(Common::new(&common.problem))?;
         Ok(Box::new(De {

@@ -67,21 +67,76 @@ pub struct Reconstruction {
     pub iterations: u64,
     /// ‖A x − y‖, pm (with a common-mode term: after the best common offset).
     pub residual_pm: f64,
-    /// Whether another answer at least 12 dB away from this one fits the frame
-    /// within the method's ambiguity margin (the methods that compare supports:
-    /// `support`, `wsupport`, `bnb`); None where the method does not compare answers.
-    pub rival_fits: Option<bool>,
-    /// χ² of the residual under the problem's uncertainty (filled by
-    /// [`crate::reconstruct()`]; 0 from a method alone).
+    /// χ² of the residual under the problem's uncertainty, the loads refitted with
+    /// its weights (filled by the frame test, [`crate::trust`]; 0 from a method
+    /// alone; NaN for an unusable frame).
     pub chi2: f64,
     /// Degrees of freedom of that χ²: gratings − loads (− 1 with a common-mode term).
     pub dof: usize,
+    /// P(χ²_dof ≥ χ²): the frame is `inconsistent` below the significance (1 with no
+    /// degree of freedom; NaN for an unusable frame).
+    pub p_value: f64,
+    /// The closest distinct rival (an answer ≥ 12 dB away, loads in the rated
+    /// range): its penalised χ² minus the answer's (negative: it fits better). The
+    /// frame is `ambiguous` when this is within the rival quantile of the
+    /// significance. None: no distinct rival within the quantile of the run's
+    /// significance (rivals further away are not evaluated).
+    pub rival_margin_chi2: Option<f64>,
+    /// Loads below the rated range the answer had, removed (the smaller support
+    /// refitted) before the test.
+    pub pruned_loads: usize,
+    /// With loads pruned: P(the fit without them is no worse than chance), a
+    /// likelihood-ratio test; `below_range` below the significance (the frame needs
+    /// a load the array is not rated for).
+    pub below_range_p_value: Option<f64>,
+    /// At the ceiling: the largest p-value of a fit with a load above the ceiling
+    /// (None: none has every load positive and one above ulimit); `overload` at or
+    /// above the significance.
+    pub overload_p_value: Option<f64>,
     /// The frame's common offset, pm per unit of mean temperature weight (with a
     /// common-mode term).
     pub common_mode_pm: Option<f64>,
     /// Why the frame should not be trusted; empty when it can be (filled by
     /// [`crate::reconstruct()`]).
     pub flags: FrameFlags,
+}
+
+impl Reconstruction {
+    /// A method's answer before the frame test: loads, convergence and work; the
+    /// test's fields empty.
+    pub(crate) fn untested(loads_g: Vec<f64>, converged: bool, iterations: u64) -> Self {
+        Reconstruction {
+            loads_g,
+            converged,
+            certified: false,
+            iterations,
+            residual_pm: 0.0,
+            chi2: 0.0,
+            dof: 0,
+            p_value: 1.0,
+            rival_margin_chi2: None,
+            pruned_loads: 0,
+            below_range_p_value: None,
+            overload_p_value: None,
+            common_mode_pm: None,
+            flags: FrameFlags::default(),
+        }
+    }
+
+    /// An unusable frame (wrong length, a non-finite shift or one beyond the
+    /// interrogator's window): no loads (NaN: never zero loads that look like an
+    /// answer), flagged `unusable`.
+    pub(crate) fn unusable(n_cells: usize) -> Self {
+        let mut r = Reconstruction::untested(vec![f64::NAN; n_cells], false, 0);
+        r.residual_pm = f64::NAN;
+        r.chi2 = f64::NAN;
+        r.p_value = f64::NAN;
+        r.flags = FrameFlags {
+            unusable: true,
+            ..FrameFlags::default()
+        };
+        r
+    }
 }
 
 /// One frame in, one reconstruction out; precomputed state lives in the implementor.
@@ -545,76 +600,16 @@ struct Common {
     gram: DMatrix<f64>,
     /// Largest eigenvalue of ÂᵀÂ (the gradient's Lipschitz constant).
     lipschitz: f64,
-    /// Per grating, the relative variance of a reading before it is solved: the
-    /// additivity term plus the median relative matrix variance of its row (the
-    /// ambiguity margin's scale, [`Common::ambiguity_margin_pm2`]).
-    row_relative_var: Vec<f64>,
 }
-
-/// Two answers fit a frame equally well, for the `ambiguous` flag, when their
-/// objectives differ by less than this many units of χ² (a likelihood ratio of
-/// 20 : 1, 2 ln 20 ≈ 6.0). Not tuned on any test frames.
-pub(crate) const AMBIGUITY_CHI2: f64 = 5.991_464_547_107_979;
 
 /// Two answers are distinct when one read as the other's truth would miss the 12 dB
 /// recovery criterion: ‖x′ − x‖ > 10^(−12/20) ‖x‖.
 pub(crate) const DISTINCT_RATIO: f64 = 0.251_188_643_150_958;
 
-/// Answers within a margin of the best one, kept during a search so that, once the
-/// best is known, the search can say whether another answer at least 12 dB away from
-/// it fits the frame within that margin (the `ambiguous` flag).
-pub(super) struct Contenders {
-    /// Margin on the method's objective.
-    pub(super) margin: f64,
-    /// (objective, cells and working loads) of every answer offered within the margin
-    /// of the best at the time.
-    list: Vec<(f64, Vec<(usize, f64)>)>,
-}
-
-impl Contenders {
-    pub(super) fn new(margin: f64) -> Self {
-        Contenders {
-            margin: margin.max(0.0),
-            list: Vec::new(),
-        }
-    }
-
-    /// Keep an answer whose objective is within the margin of `best_cost`.
-    pub(super) fn offer(&mut self, cost: f64, best_cost: f64, answer: &[(usize, f64)]) {
-        if cost < best_cost + self.margin {
-            if self.list.len() >= 256 {
-                let cut = best_cost + self.margin;
-                self.list.retain(|(c, _)| *c < cut);
-            }
-            self.list.push((cost, answer.to_vec()));
-        }
-    }
-
-    /// Whether an answer within the margin of the best differs from it by more than
-    /// the recovery criterion (loads in g: working loads over `scale`).
-    pub(super) fn rival_fits(
-        &self,
-        best_cost: f64,
-        best: &[(usize, f64)],
-        scale: &DVector<f64>,
-    ) -> bool {
-        let n = scale.len();
-        let mut xb = vec![0.0; n];
-        for &(c, z) in best {
-            xb[c] = z / scale[c];
-        }
-        let norm2: f64 = xb.iter().map(|v| v * v).sum();
-        let cut = best_cost + self.margin;
-        self.list.iter().filter(|(c, _)| *c < cut).any(|(_, a)| {
-            let mut d2 = norm2;
-            for &(c, z) in a {
-                let x = z / scale[c];
-                d2 += (x - xb[c]) * (x - xb[c]) - xb[c] * xb[c];
-            }
-            d2 > DISTINCT_RATIO * DISTINCT_RATIO * norm2 * (1.0 + 1e-9) + 1e-18
-        })
-    }
-}
+/// Work a bounded solve (an active-set solve at the ceiling) counts for in the
+/// enumerations' `iterations`, in supports valued: what it costs against valuing one
+/// support, measured on the reference machine (`studies/examples/reconstruct_cost.rs`).
+pub(crate) const BOUNDED_SOLVE_UNITS: u64 = 100;
 
 /// Largest eigenvalue of a Gram matrix (the Lipschitz constant of its least-squares
 /// gradient, FISTA's step), kept above zero.
@@ -632,27 +627,10 @@ impl Common {
         let gram = problem.working.transpose() * &problem.working;
         let lipschitz = lipschitz(&gram);
         Common {
-            row_relative_var: problem
-                .uncertainty
-                .row_relative_variances(&problem.sensitivity_pm_per_g),
             problem: problem.clone(),
             gram,
             lipschitz,
         }
-    }
-
-    /// The margin (pm², the ℓ0 objective's units) within which another answer fits
-    /// a frame as well: [`AMBIGUITY_CHI2`] × the frame's typical reading variance
-    /// (σ² plus the relative terms on the readings themselves).
-    fn ambiguity_margin_pm2(&self, y: &[f64]) -> f64 {
-        let s = self.problem.uncertainty.resolution_pm;
-        let rel: f64 = y
-            .iter()
-            .zip(&self.row_relative_var)
-            .map(|(v, r)| r * v * v)
-            .sum::<f64>()
-            / y.len().max(1) as f64;
-        AMBIGUITY_CHI2 * (s * s + rel)
     }
 
     fn n(&self) -> usize {
@@ -676,22 +654,13 @@ impl Common {
         } else {
             f64::INFINITY
         };
-        Reconstruction {
-            loads_g,
-            converged,
-            certified: false,
-            iterations,
-            residual_pm: if residual_pm.is_finite() {
-                residual_pm
-            } else {
-                f64::MAX
-            },
-            rival_fits: None,
-            chi2: 0.0,
-            dof: 0,
-            common_mode_pm: None,
-            flags: FrameFlags::default(),
-        }
+        let mut r = Reconstruction::untested(loads_g, converged, iterations);
+        r.residual_pm = if residual_pm.is_finite() {
+            residual_pm
+        } else {
+            f64::MAX
+        };
+        r
     }
 
     /// ‖Âz − y‖² = ‖Ax − y‖² (pm²) and the working unknowns z of loads x (g), or None
@@ -717,21 +686,7 @@ impl Common {
 
     /// The answer for a frame that cannot be used.
     fn unusable(&self) -> Reconstruction {
-        Reconstruction {
-            loads_g: vec![0.0; self.n()],
-            converged: false,
-            certified: false,
-            iterations: 0,
-            residual_pm: f64::MAX,
-            rival_fits: None,
-            chi2: 0.0,
-            dof: 0,
-            common_mode_pm: None,
-            flags: FrameFlags {
-                unusable: true,
-                ..FrameFlags::default()
-            },
-        }
+        Reconstruction::unusable(self.n())
     }
 }
 

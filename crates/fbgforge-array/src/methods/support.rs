@@ -324,61 +324,17 @@ impl SupportSearch {
         Some(s.iter().copied().collect())
     }
 
-    /// The answer of entry `e_idx` (None: the empty support) as (cell, working load).
-    fn answer(&self, best: &Option<(usize, Vec<f64>)>) -> Vec<(usize, f64)> {
-        match best {
-            Some((e_idx, z)) => self.entries[*e_idx]
-                .cols
-                .iter()
-                .copied()
-                .zip(z.iter().copied())
-                .collect(),
-            None => Vec::new(),
-        }
-    }
-
-    /// Keep a valued support: the new best (the old one becomes a contender), or a
-    /// contender when within the margin.
-    fn record(
-        &self,
-        cost: f64,
-        e_idx: usize,
-        z: Vec<f64>,
-        best_cost: &mut f64,
-        best: &mut Option<(usize, Vec<f64>)>,
-        rivals: &mut Contenders,
-    ) {
-        if cost < *best_cost {
-            let old = self.answer(best);
-            let old_cost = *best_cost;
-            *best_cost = cost;
-            *best = Some((e_idx, z));
-            rivals.offer(old_cost, cost, &old);
-        } else {
-            let a: Vec<(usize, f64)> = self.entries[e_idx]
-                .cols
-                .iter()
-                .copied()
-                .zip(z.iter().copied())
-                .collect();
-            rivals.offer(cost, *best_cost, &a);
-        }
-    }
-
     /// `support`: plain residuals, fixed penalty per load. Exact at the ceiling: a
     /// support whose unconstrained fit has a negative load is skipped only when no
     /// load is above its bound ([`bounded::needs_bounded_solve`]); every other
-    /// support that leaves the box gets the exact bounded solve. Supports within the
-    /// ambiguity margin of the best are kept as contenders. Returns the best support
-    /// and its loads, the supports tried and whether a distinct answer fits within
-    /// the margin.
-    fn search_plain(&self, y: &[f64]) -> (Option<(usize, Vec<f64>)>, u64, bool) {
+    /// support that leaves the box gets the exact bounded solve. Returns the best
+    /// support and its loads, and the work done (supports valued, each bounded solve
+    /// counted as [`BOUNDED_SOLVE_UNITS`]).
+    fn search_plain(&self, y: &[f64]) -> (Option<(usize, Vec<f64>)>, u64) {
         let m = y.len();
         let upper = &self.common.problem.upper;
         let mut best_cost: f64 = y.iter().map(|v| v * v).sum::<f64>();
         let mut best: Option<(usize, Vec<f64>)> = None;
-        let mut rivals = Contenders::new(self.common.ambiguity_margin_pm2(y));
-        let margin = rivals.margin;
         // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
         let mut z = [0.0f64; 64];
         let mut tried = 0u64;
@@ -386,8 +342,8 @@ impl SupportSearch {
         for (e_idx, e) in self.entries.iter().enumerate() {
             let k = e.cols.len();
             let floor = self.lambda * k as f64;
-            if floor >= best_cost + margin {
-                break; // sorted by size: no larger support can win or come close
+            if floor >= best_cost {
+                break; // sorted by size: no larger support can win
             }
             tried += 1;
             let (mut negative, mut above) = (false, false);
@@ -405,12 +361,13 @@ impl SupportSearch {
             }
             // The unconstrained misfit is a lower bound of the bounded one.
             let rr = Self::misfit_on(e, y, &z[..k]);
-            if rr + floor >= best_cost + margin {
+            if rr + floor >= best_cost {
                 continue;
             }
             let (cost, zs) = if !negative && !above {
                 (rr + floor, z[..k].to_vec())
             } else {
+                tried += BOUNDED_SOLVE_UNITS;
                 let aty = aty.get_or_insert_with(|| {
                     self.common.problem.working.transpose() * DVector::from_column_slice(y)
                 });
@@ -421,10 +378,12 @@ impl SupportSearch {
                 };
                 (Self::misfit_on(e, y, &zb) + floor, zb)
             };
-            self.record(cost, e_idx, zs, &mut best_cost, &mut best, &mut rivals);
+            if cost < best_cost {
+                best_cost = cost;
+                best = Some((e_idx, zs));
+            }
         }
-        let rival = rivals.rival_fits(best_cost, &self.answer(&best), &self.common.problem.scale);
-        (best, tried, rival)
+        (best, tried)
     }
 
     /// `wsupport`: each support S is scored by −2 ln of its Laplace-approximated
@@ -448,8 +407,6 @@ impl SupportSearch {
         let frame = LikelihoodFrame::new(&self.common, y, prior);
         let mut best_cost = y.iter().map(|v| v * v / frame.var0).sum::<f64>() + frame.ln_var0_sum;
         let mut best: Option<(usize, Vec<f64>)> = None;
-        let mut rivals = Contenders::new(AMBIGUITY_CHI2);
-        let margin = rivals.margin;
         let mut tried = 0u64;
         let mut skipped_on_heuristic = false;
         // k ≤ 64 always: MAX_SUPPORTS rejects any array where supports could be larger.
@@ -467,7 +424,7 @@ impl SupportSearch {
             let ln_det_g: f64 = (0..k).map(|r| 2.0 * l[r * k + r].ln()).sum();
             let prior_cost = self.lambda * k as f64 + e.occam + ln_det_g;
             // χ² ≥ 0 and ln det Σ ≥ m ln σ²: a lower bound of this support's score.
-            if prior_cost + frame.ln_var0_sum >= best_cost + margin {
+            if prior_cost + frame.ln_var0_sum >= best_cost {
                 continue;
             }
             tried += 1;
@@ -489,10 +446,11 @@ impl SupportSearch {
                 // misfit; only the re-evaluated covariance could reverse that): a
                 // support that loses unconstrained is not given the costly bounded
                 // solve, and the frame is then not certified.
-                if !negative && frame.score(e, &sd, prior_cost, &z[..k]) >= best_cost + margin {
+                if !negative && frame.score(e, &sd, prior_cost, &z[..k]) >= best_cost {
                     skipped_on_heuristic = true;
                     continue;
                 }
+                tried += BOUNDED_SOLVE_UNITS;
                 let gs = DMatrix::from_fn(k, k, |a, q| g[(e.cols[a], e.cols[q])]);
                 let bs = DVector::from_fn(k, |a, _| b[e.cols[a]]);
                 let Some(zb) = self.bounded_sub(&e.cols, &gs, &bs) else {
@@ -500,13 +458,14 @@ impl SupportSearch {
                 };
                 (frame.score(e, &sd, prior_cost, &zb), zb)
             };
-            self.record(cost, e_idx, zs, &mut best_cost, &mut best, &mut rivals);
+            if cost < best_cost {
+                best_cost = cost;
+                best = Some((e_idx, zs));
+            }
         }
-        let rival = rivals.rival_fits(best_cost, &self.answer(&best), &self.common.problem.scale);
         LikelihoodOutcome {
             best,
             tried,
-            rival,
             certified: !skipped_on_heuristic,
         }
     }
@@ -516,7 +475,6 @@ impl SupportSearch {
 struct LikelihoodOutcome {
     best: Option<(usize, Vec<f64>)>,
     tried: u64,
-    rival: bool,
     certified: bool,
 }
 
@@ -691,14 +649,14 @@ impl Reconstructor for SupportSearch {
         if self.common.problem.check_shifts(y).is_err() {
             return self.common.unusable();
         }
-        let (best, tried, rival, certified) = match self.prior {
+        let (best, tried, certified) = match self.prior {
             Some(p) => {
                 let o = self.search_likelihood(y, p);
-                (o.best, o.tried, o.rival, o.certified)
+                (o.best, o.tried, o.certified)
             }
             None => {
-                let (b, t, r) = self.search_plain(y);
-                (b, t, r, true)
+                let (b, t) = self.search_plain(y);
+                (b, t, true)
             }
         };
         let mut full = vec![0.0; self.common.n()];
@@ -709,7 +667,6 @@ impl Reconstructor for SupportSearch {
         }
         let mut r = self.common.finish(&full, y, true, tried);
         r.certified = certified;
-        r.rival_fits = Some(rival);
         r
     }
 }

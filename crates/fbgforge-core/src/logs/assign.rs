@@ -57,6 +57,9 @@ pub struct GratingTrack {
     pub rows_present: usize,
     /// Rows with more than one peak in the window.
     pub rows_ambiguous: usize,
+    /// Standard error of each row's wavelength, pm, as the log states it (peaks found
+    /// in spectra, a peaks log with standard errors); NaN where it states none.
+    pub std_error_pm: Vec<f64>,
 }
 
 /// Assigns one frame's peaks to gratings, frame after frame: each peak to the grating
@@ -158,15 +161,22 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
             wavelength_nm: vec![f64::NAN; n],
             rows_present: 0,
             rows_ambiguous: 0,
+            std_error_pm: vec![f64::NAN; n],
         })
         .collect();
     let mut tracker = PeakTracker::new(windows.to_vec());
     let mut frame = Vec::with_capacity(windows.len());
     for i in 0..n {
         let (peaks, _) = log.row(i);
+        let quality = log.row_quality(i);
         tracker.assign_frame(peaks, &mut frame);
         for (g, (track, &hits)) in tracks.iter_mut().zip(tracker.hits()).enumerate() {
             track.wavelength_nm[i] = frame[g];
+            if let (Some(q), true) = (quality, frame[g].is_finite()) {
+                if let Some(j) = peaks.iter().position(|&p| p == frame[g]) {
+                    track.std_error_pm[i] = q[j].std_error_pm;
+                }
+            }
             if hits > 0 {
                 track.rows_present += 1;
                 if hits > 1 {
@@ -176,6 +186,37 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
         }
     }
     tracks
+}
+
+/// The standard error of the least-squares slope of y against `x` that the standard
+/// errors `sigma` of the y values alone give (every other noise left out):
+/// √(Σ (xᵢ − x̄)² σᵢ²) / Σ (xᵢ − x̄)², over the rows where x and σ are finite. How
+/// much of a sensitivity's uncertainty the peaks' own uncertainty makes (K in pm/N from
+/// x the force in N and σ in pm); `None` without two such rows or a spread in x.
+///
+/// ```
+/// use fbgforge_core::logs::assign::slope_std_error_from_errors;
+/// // Equal errors σ: σ / √(Σ (x − x̄)²), here 0.5 / √10.
+/// let se = slope_std_error_from_errors(&[0.0, 1.0, 2.0, 3.0, 4.0], &[0.5; 5]).unwrap();
+/// assert!((se - 0.5 / 10f64.sqrt()).abs() < 1e-12);
+/// ```
+pub fn slope_std_error_from_errors(x: &[f64], sigma: &[f64]) -> Option<f64> {
+    let rows: Vec<(f64, f64)> = x
+        .iter()
+        .zip(sigma)
+        .filter(|(a, s)| a.is_finite() && s.is_finite())
+        .map(|(a, s)| (*a, *s))
+        .collect();
+    if rows.len() < 2 {
+        return None;
+    }
+    let mean = rows.iter().map(|r| r.0).sum::<f64>() / rows.len() as f64;
+    let sxx: f64 = rows.iter().map(|r| (r.0 - mean).powi(2)).sum();
+    if sxx.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let var: f64 = rows.iter().map(|r| (r.0 - mean).powi(2) * r.1 * r.1).sum();
+    Some(var.sqrt() / sxx)
 }
 
 /// Fill NaN gaps by linear interpolation (ends take the nearest value). Used for the
@@ -277,7 +318,9 @@ mod tests {
             column_names: vec![],
             line_of_row: (0..rows.len() as u32).collect(),
             time_uncertainty_s: 0.0,
+            clock_jumps: Vec::new(),
             warnings: LogWarnings::default(),
+            uncertainty: None,
         }
     }
 
@@ -330,6 +373,7 @@ mod tests {
             },
             rows_present: n,
             rows_ambiguous: 0,
+            std_error_pm: vec![f64::NAN; v.len()],
             wavelength_nm: v,
         };
         let (st, rt) = (mk("s", ls, s), mk("r", lr, r));

@@ -67,7 +67,7 @@ pub fn detect_format(bytes: &[u8], path: &Path, forced: Option<LogFormat>) -> Re
     let window = &b[..b.len().min(4 << 20)];
     if let Some(kind) = spectrum_export(window) {
         bail!(
-            "{}: this is a spectrum export ({kind}), not peaks: export Peaks instead (ENLIGHT: the Peaks data, `Timestamp` then `# CH n` columns, or the Sensors data; I-MON: the peak log, `Date`, `Time`, `Wavelength 1 [nm]`, …)",
+            "{}: this is a spectrum export ({kind}), not peaks, in a layout fbgforge does not read as a spectrum: the spectra it reads are a Luna ENLIGHT / Hyperion export (a `Wvl (nm)<TAB>CH 1…` header), an I-MON log with `Pixel n` columns (with its pixel calibration) and an OSA CSV with a `Wavelength (nm),<power (unit)>` header line; or export Peaks instead (ENLIGHT: the Peaks data, `Timestamp` then `# CH n` columns, or the Sensors data; I-MON: the peak log, `Date`, `Time`, `Wavelength 1 [nm]`, …)",
             path.display()
         );
     }

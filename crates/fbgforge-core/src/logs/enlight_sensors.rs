@@ -31,7 +31,7 @@ impl LogReader for EnlightSensors {
         (is_timestamp_header(head) && !is_channel_column(head.second)).then_some(b'\t')
     }
 
-    fn rows(&self, det: &Detected, _bytes: &[u8], _path: &Path) -> Result<Rows> {
+    fn rows(&self, det: &Detected, _bytes: &[u8], _path: &Path, _opts: &super::ReadOptions) -> Result<Rows> {
         let names: Vec<String> = det.header[1..]
             .iter()
             .filter(|h| !h.is_empty())
@@ -43,8 +43,10 @@ impl LogReader for EnlightSensors {
                 delimiter: det.delimiter,
                 decimal_comma: det.decimal_comma(),
                 columns: names.len(),
+                std_error_of: Vec::new(),
             }),
             column_names: names,
+            estimator: None,
         })
     }
 

@@ -79,8 +79,26 @@ pub fn force_unit_scale(name: &str) -> Option<f64> {
         "g" | "gf" => Some(9.80665e-3),
         "kg" | "kgf" => Some(9.80665),
         "lbf" => Some(4.448_221_615),
+        "ozf" => Some(0.278_013_850_953_78),
         _ => None,
     }
+}
+
+/// Factor to N of a unit written in a force log's units column (`N`, `lbF`, `kgF`,
+/// `gF`, `ozF`, `kN`, `mN`, as a Mark-10 gauge writes them in every row), if known.
+pub fn row_unit_scale(unit: &str) -> Option<f64> {
+    match unit.trim().to_ascii_lowercase().as_str() {
+        "lb" => Some(4.448_221_615),
+        "oz" => Some(0.278_013_850_953_78),
+        u => force_unit_scale(&format!("_{u}")),
+    }
+}
+
+/// A column that holds the force's unit in every row: named `unit` or `units`.
+fn units_column(names: &[String]) -> Option<usize> {
+    names
+        .iter()
+        .position(|h| matches!(h.trim().to_ascii_lowercase().as_str(), "unit" | "units"))
 }
 
 /// Factor to seconds from a time column name's unit (`time_ms`, `Time [ms]`, `(s)`),
@@ -137,10 +155,15 @@ fn check_force_times_increase(path: &Path, time_s: &[f64], line_nos: &[u32]) -> 
             .map(|&k| line_nos[k].to_string())
             .collect();
         bail!(
-            "{}: the force log's time runs backwards ({} s after {} s) at {} of its {} rows (lines {}{}); a force log's times must increase: fix or remove those rows",
+            "{}: the force log's time runs backwards ({} s after {} s{}) at {} of its {} rows (lines {}{}); a force log's times must increase: fix or remove those rows",
             at(path, line_nos[i] as usize),
             readable_s(time_s[i]),
             readable_s(time_s[i - 1]),
+            if time_s[i - 1] - time_s[i] >= 1.0 {
+                ": the clock set back? a daylight-saving change or an NTP step makes a wall clock jump"
+            } else {
+                ""
+            },
             backward.len(),
             time_s.len(),
             lines.join(", "),
@@ -241,6 +264,8 @@ struct ForceLayout {
     dc: bool,
     ti: usize,
     fi: usize,
+    /// The column naming the force's unit in every row (Mark-10 style), if any.
+    ui: Option<usize>,
     time_column: String,
     force_column: String,
 }
@@ -266,6 +291,10 @@ impl ForceLayout {
         let time_named = unit_of(self.ti, &self.time_column);
         let force_named = unit_of(self.fi, &self.force_column);
         let time_scale_s = time_unit_scale(&time_named).unwrap_or(1.0);
+        if self.ui.is_some() {
+            // Each row names its own unit (read with the row).
+            return (time_scale_s, 1.0);
+        }
         let scale = match (cols.scale_to_n, force_unit_scale(&force_named)) {
             (Some(s), _) => s,
             (None, Some(s)) => s,
@@ -291,6 +320,8 @@ struct ForceRows {
     force: Vec<f64>,
     /// File line of each row.
     line_nos: Vec<u32>,
+    /// The factors to N the units column named, in the order first met.
+    row_scales: Vec<f64>,
 }
 
 /// Read the force log's rows; an unreadable line is counted and named, and more than
@@ -308,6 +339,7 @@ fn read_force_rows<'a>(
         times: TimeAcc::default(),
         force: Vec::new(),
         line_nos: Vec::new(),
+        row_scales: Vec::new(),
     };
     let mut bad = 0usize;
     let mut total = 0usize;
@@ -326,8 +358,17 @@ fn read_force_rows<'a>(
             .and_then(|f| num::parse_f64(f, lay.dc))
             .filter(|v| v.is_finite());
         if let (Some(t), Some(f)) = (t, f) {
+            // A readable row's unit must be one: a row in other units would be read
+            // as newtons (4.45 times off for lbF).
+            let row_scale = match lay.ui {
+                None => scale,
+                Some(ui) => row_unit(&parts, ui, path, idx)?,
+            };
+            if lay.ui.is_some() && !rows.row_scales.contains(&row_scale) {
+                rows.row_scales.push(row_scale);
+            }
             rows.times.push(t);
-            rows.force.push(f * scale);
+            rows.force.push(f * row_scale);
             rows.line_nos.push((idx + 1) as u32);
             continue;
         }
@@ -358,6 +399,49 @@ fn read_force_rows<'a>(
         );
     }
     Ok(rows)
+}
+
+/// With a units column: say so (and that the unit changes, when it does); the first
+/// row's factor to N.
+fn per_row_units(
+    rows: &ForceRows,
+    lay: &ForceLayout,
+    names: &[String],
+    path: &Path,
+    warnings: &mut LogWarnings,
+) -> Option<f64> {
+    let ui = lay.ui?;
+    let column = names.get(ui).map_or("unit", String::as_str);
+    let first = *rows.row_scales.first()?;
+    warnings.add("force_unit_per_row", || {
+        format!(
+            "{}: the force's unit is read from column `{column}` in every row ({} N per unit{})",
+            path.display(),
+            first,
+            if rows.row_scales.len() > 1 {
+                format!(", and it changes within the log: {} units", rows.row_scales.len())
+            } else {
+                String::new()
+            }
+        )
+    });
+    Some(first)
+}
+
+/// The factor to N of one row's unit (column `ui`), or an error naming the line, the
+/// column and what was expected.
+fn row_unit(parts: &[&[u8]], ui: usize, path: &Path, idx: usize) -> Result<f64> {
+    let text = parts
+        .get(ui)
+        .map(|u| String::from_utf8_lossy(u).trim().to_string())
+        .unwrap_or_default();
+    row_unit_scale(&text).ok_or_else(|| {
+        anyhow!(
+            "{}: the units column (column {}) says `{text}`: expected a force unit (N, kN, mN, gF, kgF, lbF, ozF)",
+            at(path, idx + 1),
+            ui + 1
+        )
+    })
 }
 
 /// The force log's times in seconds and their clock: plain numbers in the column's
@@ -435,11 +519,24 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceReadOptions) -> 
             .cloned()
             .unwrap_or_else(|| fallback.into())
     };
+    let ui = if header.headerless {
+        None
+    } else {
+        units_column(&header.names)
+    };
+    if let (Some(u), Some(f)) = (ui, cols.scale_to_n) {
+        bail!(
+            "{}: the force log names the unit in every row (column `{}`), so ForceReadOptions.scale_to_n ({f}) would convert it twice: drop ForceReadOptions.scale_to_n",
+            at(path, header.idx + 1),
+            header.names[u]
+        );
+    }
     let lay = ForceLayout {
         delim,
         dc: delim != b',',
         ti,
         fi,
+        ui,
         time_column: name_of(ti, "column 1"),
         force_column: name_of(fi, "column 2"),
     };
@@ -461,6 +558,7 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceReadOptions) -> 
         Box::new(lines)
     };
     let rows = read_force_rows(b, body, &lay, scale, path, &mut warnings)?;
+    let scale = per_row_units(&rows, &lay, &header.names, path, &mut warnings).unwrap_or(scale);
     require_rows(path, rows.force.len(), "the force log")?;
     let (mut time_s, clock) = force_times(&rows.times, time_scale_s, cols.date_order, path)?;
     // A force stand writes its samples in time order: a time that runs backwards is a

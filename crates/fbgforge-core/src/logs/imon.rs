@@ -42,7 +42,7 @@ impl LogReader for Imon {
             .then_some(b'\t')
     }
 
-    fn rows(&self, det: &Detected, _bytes: &[u8], _path: &Path) -> Result<Rows> {
+    fn rows(&self, det: &Detected, _bytes: &[u8], _path: &Path, _opts: &super::ReadOptions) -> Result<Rows> {
         let pixels = det.header.iter().filter(|h| h.starts_with("Pixel")).count();
         Ok(Rows {
             channels: 1,
@@ -52,6 +52,7 @@ impl LogReader for Imon {
                 decimal_comma: det.decimal_comma(),
                 pixels,
             }),
+            estimator: None,
         })
     }
 
@@ -63,18 +64,7 @@ impl LogReader for Imon {
         writeln!(w, "\t")?;
         writeln!(w)?;
         for (i, row) in table.wavelength_nm.iter().enumerate() {
-            let t = table.start_epoch_s + table.time_s[i];
-            let days = (t / 86400.0).floor() as i64;
-            let (y, m, d) = civil_from_days(days);
-            let sod = (t - days as f64 * 86400.0).floor() as u32;
-            let (h, mi, s) = (sod / 3600, sod / 60 % 60, sod % 60);
-            let (h12, ampm) = match h {
-                0 => (12, "AM"),
-                1..=11 => (h, "AM"),
-                12 => (12, "PM"),
-                _ => (h - 12, "PM"),
-            };
-            write!(w, "{m}/{d}/{y}\t{h12}:{mi:02}:{s:02} {ampm}")?;
+            write_date_time(w, table.start_epoch_s + table.time_s[i])?;
             let mut present: Vec<f64> = row.iter().copied().filter(|v| v.is_finite()).collect();
             present.sort_by(|a, b| a.total_cmp(b));
             for v in present {
@@ -84,6 +74,39 @@ impl LogReader for Imon {
         }
         Ok(())
     }
+}
+
+/// The date and time of day that open an I-MON row (its first two fields).
+pub(crate) fn date_and_time<'a>(
+    it: &mut impl Iterator<Item = &'a [u8]>,
+) -> Result<(num::RawDate, f64), LineIssue> {
+    let d = it.next().unwrap_or(b"");
+    let t = it
+        .next()
+        .ok_or_else(|| issue("unreadable_line", "no time field"))?;
+    let (date, n) =
+        num::parse_date(trim(d)).ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
+    if n != trim(d).len() {
+        return Err(issue("unreadable_line", "unreadable date"));
+    }
+    let sod = num::parse_time_of_day(t)
+        .ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
+    Ok((date, sod))
+}
+
+/// An I-MON time stamp: `m/d/yyyy` and a 12-hour time in whole seconds (floored).
+pub(crate) fn write_date_time(w: &mut dyn Write, t: f64) -> std::io::Result<()> {
+    let days = (t / 86400.0).floor() as i64;
+    let (y, m, d) = civil_from_days(days);
+    let sod = (t - days as f64 * 86400.0).floor() as u32;
+    let (h, mi, s) = (sod / 3600, sod / 60 % 60, sod % 60);
+    let (h12, ampm) = match h {
+        0 => (12, "AM"),
+        1..=11 => (h, "AM"),
+        12 => (12, "PM"),
+        _ => (h - 12, "PM"),
+    };
+    write!(w, "{m}/{d}/{y}\t{h12}:{mi:02}:{s:02} {ampm}")
 }
 
 /// The rows of an I-MON table whose header names `pixels` spectrum columns.
@@ -101,17 +124,7 @@ impl RowParser for ImonRows {
         _scratch: &mut Vec<usize>,
     ) -> Result<(), LineIssue> {
         let mut it = line.split(|&c| c == self.delimiter);
-        let d = it.next().unwrap_or(b"");
-        let t = it
-            .next()
-            .ok_or_else(|| issue("unreadable_line", "no time field"))?;
-        let (date, n) =
-            num::parse_date(trim(d)).ok_or_else(|| issue("unreadable_line", "unreadable date"))?;
-        if n != trim(d).len() {
-            return Err(issue("unreadable_line", "unreadable date"));
-        }
-        let sod = num::parse_time_of_day(t)
-            .ok_or_else(|| issue("unreadable_line", "unreadable time of day"))?;
+        let (date, sod) = date_and_time(&mut it)?;
         let start = out.peaks.len();
         let rest: Vec<&[u8]> = it.map(trim).collect();
         let mut n = rest.len();

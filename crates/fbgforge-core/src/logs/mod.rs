@@ -14,7 +14,16 @@
 //!   (`enlight_sensors.rs`);
 //! - [`LogFormat::Imon`]: Ibsen I-MON evaluation software log (`imon.rs`);
 //! - [`LogFormat::Csv`]: plain delimited text, a time column then wavelength columns
-//!   (`plain_csv.rs`).
+//!   (`plain_csv.rs`; `<name> std_error_pm` columns, as `fbgforge peaks --out` writes
+//!   them, carry each peak's standard error).
+//!
+//! Spectrum files ([`LogFormat::SPECTRA`], `spectrum.rs`) become the same rows: an
+//! I-MON log's pixel columns read with the pixel-to-wavelength polynomial
+//! ([`ReadOptions::imon_calibration`]; without it the I-MON software's own peaks are
+//! read, as from a peak log), a Luna ENLIGHT / Hyperion spectrum export or an OSA CSV
+//! (one acquisition each). Their peaks are found by the estimator
+//! [`ReadOptions::estimator`] names (`fbgforge_spectra::find_peaks`) and keep their
+//! uncertainty ([`PeakLog::uncertainty`]).
 //!
 //! A format is recognised in one place ([`detect_format`]); the row machinery every
 //! format shares (chunked parallel parse, merge) is in `rows.rs`, the times (dates,
@@ -34,10 +43,13 @@ mod enlight_peaks;
 mod enlight_sensors;
 mod force;
 mod imon;
+mod imon_pixels;
 pub mod num;
+pub mod peaks;
 mod plain_csv;
 mod row_reader;
 mod rows;
+mod spectrum;
 pub mod time;
 mod write;
 
@@ -51,10 +63,14 @@ use std::path::{Path, PathBuf};
 
 pub use detect::{detect_format, Detected};
 pub use force::{
-    force_unit_scale, parse_force_bytes, read_force_log, time_unit_scale, write_force_csv,
+    force_unit_scale, parse_force_bytes, read_force_log, row_unit_scale, time_unit_scale, write_force_csv,
     write_force_stand_csv, ForceLog, ForceReadOptions,
 };
 pub use row_reader::{LogRow, RowReader};
+pub use spectrum::{
+    estimator_names, find_options, imon_calibration, read_spectrum_peaks, ChannelPeak, LineShape,
+    SpectrumPeaks, SpectrumPeaksRow, SpectrumStyle, DEFAULT_ESTIMATOR,
+};
 pub use write::{write_log, LogStyle, LogTable};
 
 /// A supported wavelength log format.
@@ -69,6 +85,13 @@ pub enum LogFormat {
     Imon,
     /// Plain CSV (or TSV / semicolon-separated): time then wavelength columns, nm.
     Csv,
+    /// Ibsen I-MON log whose pixel columns are read as spectra (with
+    /// [`ReadOptions::imon_calibration`]); one acquisition per row.
+    ImonPixels,
+    /// Luna ENLIGHT / Hyperion spectrum export: one acquisition, one column per channel.
+    EnlightSpectrum,
+    /// OSA / swept-laser CSV: one acquisition, `Wavelength (nm)` then power columns.
+    OsaCsv,
 }
 
 impl LogFormat {
@@ -80,6 +103,15 @@ impl LogFormat {
         LogFormat::Csv,
     ];
 
+    /// The spectrum formats: their peaks are found, each with its uncertainty. Detected
+    /// before the peak formats (`fbgforge_spectra::detect`); an I-MON log with pixels is
+    /// read as [`LogFormat::ImonPixels`] only with a pixel calibration.
+    pub const SPECTRA: [LogFormat; 3] = [
+        LogFormat::ImonPixels,
+        LogFormat::EnlightSpectrum,
+        LogFormat::OsaCsv,
+    ];
+
     /// The registry: each format's reader, one file each.
     pub(crate) fn reader(self) -> &'static dyn LogReader {
         match self {
@@ -87,7 +119,23 @@ impl LogFormat {
             LogFormat::EnlightSensors => &enlight_sensors::EnlightSensors,
             LogFormat::Imon => &imon::Imon,
             LogFormat::Csv => &plain_csv::PlainCsv,
+            LogFormat::ImonPixels => &spectrum::IMON_PIXELS,
+            LogFormat::EnlightSpectrum => &spectrum::ENLIGHT_SPECTRUM,
+            LogFormat::OsaCsv => &spectrum::OSA_CSV,
         }
+    }
+
+    /// The format of a name given by [`LogFormat::name`] (peak and spectrum formats).
+    pub fn from_name(name: &str) -> Option<LogFormat> {
+        Self::ALL
+            .into_iter()
+            .chain(Self::SPECTRA)
+            .find(|f| f.name() == name)
+    }
+
+    /// A spectrum format: peaks found by an estimator, each with its uncertainty.
+    pub fn is_spectrum(self) -> bool {
+        Self::SPECTRA.contains(&self)
     }
 
     /// The format's name (in JSON, and as the front ends name it).
@@ -149,8 +197,10 @@ pub(crate) trait LogReader: Sync {
         None
     }
 
-    /// How the rows of a detected table are read (`bytes`: the whole file).
-    fn rows(&self, det: &Detected, bytes: &[u8], path: &Path) -> Result<Rows>;
+    /// How the rows of a detected table are read (`bytes`: the whole file, or what has
+    /// been written of it; `opts`: the reading settings, for the spectrum formats).
+    fn rows(&self, det: &Detected, bytes: &[u8], path: &Path, opts: &ReadOptions)
+        -> Result<Rows>;
 
     /// Write `table` in this format.
     fn write(&self, w: &mut dyn Write, table: &LogTable, style: &LogStyle) -> std::io::Result<()>;
@@ -175,6 +225,9 @@ pub(crate) struct Rows {
     pub(crate) column_names: Vec<String>,
     /// Reads one row.
     pub(crate) parser: Box<dyn RowParser>,
+    /// For rows of peaks found in spectra: the estimator's name (each row then adds one
+    /// [`PeakQuality`] per peak).
+    pub(crate) estimator: Option<String>,
 }
 
 /// Reads one table line of a format.
@@ -271,6 +324,58 @@ impl LogWarnings {
     }
 }
 
+/// What a peak found in a spectrum carries besides its wavelength
+/// (`fbgforge_spectra::Peak`, docs/spectra.md); NaN where a peaks log did not state it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PeakQuality {
+    /// Standard error of the wavelength, pm (from the fit's residuals).
+    pub std_error_pm: f64,
+    /// Cramér–Rao bound of the wavelength for the peak's width, noise and grid, pm.
+    pub crb_pm: f64,
+    /// Full width at half maximum, pm.
+    pub fwhm_pm: f64,
+    /// Peak height over the noise standard deviation.
+    pub snr: f64,
+    /// Quality flags (`undersampled`, `estimator_disagreement`, `overlap`, `low_snr`,
+    /// `split`).
+    pub flags: fbgforge_spectra::PeakFlags,
+}
+
+impl PeakQuality {
+    /// A peak whose standard error alone is known (a peaks log's `std_error_pm` column).
+    pub fn std_error_only(std_error_pm: f64) -> Self {
+        PeakQuality {
+            std_error_pm,
+            crb_pm: f64::NAN,
+            fwhm_pm: f64::NAN,
+            snr: f64::NAN,
+            flags: Default::default(),
+        }
+    }
+}
+
+impl From<&fbgforge_spectra::Peak> for PeakQuality {
+    fn from(p: &fbgforge_spectra::Peak) -> Self {
+        PeakQuality {
+            std_error_pm: p.std_error_pm,
+            crb_pm: p.crb_pm,
+            fwhm_pm: p.fwhm_pm,
+            snr: p.snr,
+            flags: p.flags,
+        }
+    }
+}
+
+/// How a log's peaks were found and how well each is known.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PeakUncertainty {
+    /// The peak estimator (`gaussian`, `parabola`, `centroid`, `xcorr`), as the
+    /// spectrum reader used it or a peaks log states it.
+    pub estimator: String,
+    /// One per peak, parallel to [`PeakLog::peaks_nm`].
+    pub peaks: Vec<PeakQuality>,
+}
+
 /// A wavelength log: timestamps and ragged peak lists.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PeakLog {
@@ -298,8 +403,14 @@ pub struct PeakLog {
     /// the timestamps allow when they were written in whole seconds and spread onto
     /// their sampling grid (±0.25 s at 2 Hz), 0 otherwise.
     pub time_uncertainty_s: f64,
+    /// Jumps of the clock back and long gaps between rows, in file order
+    /// ([`time::ClockJump`]); each is also a warning (`clock_jump`, `clock_gap`).
+    pub clock_jumps: Vec<time::ClockJump>,
     /// Counted problems.
     pub warnings: LogWarnings,
+    /// Peaks found in spectra (or a peaks log with standard errors): the estimator and
+    /// each peak's uncertainty; `None` for a plain peak log.
+    pub uncertainty: Option<PeakUncertainty>,
 }
 
 impl PeakLog {
@@ -318,6 +429,19 @@ impl PeakLog {
     pub fn median_period_s(&self) -> f64 {
         time::median_period(&self.time_s)
     }
+
+    /// The uncertainty of the peaks of row `i`, parallel to [`PeakLog::row`] (`None` for
+    /// a plain peak log).
+    pub fn row_quality(&self, i: usize) -> Option<&[PeakQuality]> {
+        let (a, b) = (self.row_start[i], self.row_start[i + 1]);
+        self.uncertainty.as_ref().map(|u| &u.peaks[a..b])
+    }
+
+    /// The peak estimator that made this log's peaks, if it was read from spectra or a
+    /// peaks log states it.
+    pub fn estimator(&self) -> Option<&str> {
+        self.uncertainty.as_ref().map(|u| u.estimator.as_str())
+    }
 }
 
 /// Options for reading a wavelength log.
@@ -327,6 +451,13 @@ pub struct ReadOptions {
     pub format: Option<LogFormat>,
     /// Force the order of day and month in slash dates.
     pub date_order: Option<num::DateOrder>,
+    /// I-MON pixel-to-wavelength polynomial a0, a1, … (nm; the pixel index from 1 as the
+    /// header writes it, pixels in the file's order). With it an I-MON log's pixel
+    /// columns are read as spectra ([`LogFormat::ImonPixels`]); without it the peaks the
+    /// I-MON software wrote are read.
+    pub imon_calibration: Option<Vec<f64>>,
+    /// Peak estimator for spectra ([`estimator_names`]; default [`DEFAULT_ESTIMATOR`]).
+    pub estimator: Option<String>,
 }
 
 /// Read a wavelength log from a file: its format detected (or named in `opts`), its
@@ -359,9 +490,14 @@ pub fn read_peak_log(path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
 /// Parse a wavelength log held in memory: detect its format, read its rows with that
 /// format's parser, resolve and order the times.
 pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
-    let det = detect_format(bytes, path, opts.format)?;
+    let det = spectrum::detect_table(bytes, path, opts)?;
+    if matches!(det.format, LogFormat::EnlightSpectrum | LogFormat::OsaCsv) {
+        let mut log = spectrum::read_whole_spectrum(bytes, path, det.format, opts)?;
+        spectrum::warn_flagged_peaks(&mut log);
+        return Ok(log);
+    }
     let reader = det.format.reader();
-    let table = reader.rows(&det, bytes, path)?;
+    let table = reader.rows(&det, bytes, path, opts)?;
     let body = &bytes[det.body_offset.min(bytes.len())..];
     let mut m = rows::parse_body(body, det.body_line, &*table.parser, path);
     let rows = m.lines.len();
@@ -397,14 +533,24 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
         column_names: table.column_names,
         line_of_row: m.lines,
         time_uncertainty_s: 0.0,
+        clock_jumps: Vec::new(),
         warnings: m.warnings,
+        uncertainty: table.estimator.map(|estimator| PeakUncertainty {
+            estimator,
+            peaks: m.quality,
+        }),
     };
+    if let Some(u) = &log.uncertainty {
+        debug_assert_eq!(u.peaks.len(), log.peaks_nm.len());
+    }
+    log.clock_jumps = time::clock_jumps(path, &time_s, &log.line_of_row, &mut log.warnings);
     if let Some(order) = time::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
     {
         time::reorder_rows(&mut log, &mut time_s, &order);
     }
     log.time_uncertainty_s = time::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
+    spectrum::warn_flagged_peaks(&mut log);
     Ok(log)
 }
 

@@ -52,7 +52,13 @@ impl LogReader for PlainCsv {
         })
     }
 
-    fn rows(&self, det: &Detected, bytes: &[u8], path: &Path) -> Result<Rows> {
+    fn rows(
+        &self,
+        det: &Detected,
+        bytes: &[u8],
+        path: &Path,
+        _opts: &super::ReadOptions,
+    ) -> Result<Rows> {
         if let Some(first) = det.header.first().filter(|h| is_index_column(h)) {
             bail!(
                 "{}: the first column `{first}` is a sample index, not a time: a CSV log needs its time first (seconds, or a date and time); export the log with its timestamps",
@@ -70,14 +76,20 @@ impl LogReader for PlainCsv {
         } else {
             det.header[1..].to_vec()
         };
+        let std_error_of = std_error_columns(&names)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", at(path, det.header_line())))?;
+        let estimator = (!std_error_of.is_empty())
+            .then(|| stated_estimator(&bytes[..det.body_offset.min(bytes.len())]));
         Ok(Rows {
             channels: names.len(),
             parser: Box::new(ValueColumns {
                 delimiter: det.delimiter,
                 decimal_comma: det.decimal_comma(),
                 columns: names.len(),
+                std_error_of,
             }),
             column_names: names,
+            estimator,
         })
     }
 
@@ -106,6 +118,55 @@ impl LogReader for PlainCsv {
         }
         Ok(())
     }
+}
+
+/// The suffix of a column holding the standard errors of the wavelength column named
+/// before it (`FBG1,FBG1 std_error_pm`), as `fbgforge peaks --out` writes.
+pub(crate) const STD_ERROR_SUFFIX: &str = "std_error_pm";
+
+/// Per value column: `Some(k)` when it holds the standard errors of wavelength column
+/// k (named `<name of k> std_error_pm` or `<name of k>_std_error_pm`, after column k);
+/// empty when no column does.
+fn std_error_columns(names: &[String]) -> std::result::Result<Vec<Option<usize>>, String> {
+    let mut of = vec![None; names.len()];
+    for (c, name) in names.iter().enumerate() {
+        let Some(base) = name.strip_suffix(STD_ERROR_SUFFIX) else {
+            continue;
+        };
+        let base = base.trim_end_matches([' ', '_']);
+        match names.iter().position(|n| n == base) {
+            Some(k) if k < c => of[c] = Some(k),
+            Some(_) => {
+                return Err(format!(
+                    "the column `{name}` comes before the wavelength column `{base}` it belongs to"
+                ))
+            }
+            None => {
+                return Err(format!(
+                    "the column `{name}` names no wavelength column `{base}`"
+                ))
+            }
+        }
+    }
+    Ok(if of.iter().any(Option::is_some) {
+        of
+    } else {
+        Vec::new()
+    })
+}
+
+/// The estimator a peaks log states in a comment line before its table
+/// (`# estimator: gaussian`), else `stated in no comment`.
+fn stated_estimator(head: &[u8]) -> String {
+    lines_with_offsets(head)
+        .filter_map(|(_, l)| String::from_utf8_lossy(l).trim().strip_prefix('#').map(str::to_string))
+        .find_map(|c| {
+            c.trim()
+                .strip_prefix("estimator:")
+                .map(|e| e.split_whitespace().next().unwrap_or("").to_string())
+        })
+        .filter(|e| !e.is_empty())
+        .unwrap_or_else(|| "stated in no comment".into())
 }
 
 /// A column name that counts samples rather than timing them (`id`, `index`, `sample`,

@@ -1,7 +1,6 @@
 //! One row of a log at a time: the live mode's reader of a file an interrogator is
 //! still writing, with the same detection and row parsers as the whole-file reader.
 
-use super::detect::detect_format;
 use super::num::{self, DateOrder};
 use super::rows::{is_blank_or_comment, Partial};
 use super::time::NO_DATE;
@@ -20,6 +19,8 @@ pub struct LogRow {
     pub peaks_nm: Vec<f64>,
     /// Channel (ENLIGHT) or column (CSV, Sensors) of each peak, from 0.
     pub channels: Vec<u16>,
+    /// Each peak's uncertainty, for peaks found in spectra (empty otherwise).
+    pub quality: Vec<super::PeakQuality>,
 }
 
 /// Parses the rows of a log one line at a time with the same row parsers as
@@ -28,6 +29,7 @@ pub struct RowReader {
     format: LogFormat,
     parser: Box<dyn RowParser>,
     date_order: DateOrder,
+    estimator: Option<String>,
     scratch: Partial,
     counts: Vec<usize>,
 }
@@ -37,14 +39,15 @@ impl RowReader {
     /// reader with the byte offset of the first body line. A slash date is read in
     /// `opts.date_order`, else the format's usual order (a single row cannot tell).
     pub fn new(head: &[u8], path: &Path, opts: &ReadOptions) -> Result<(RowReader, usize)> {
-        let det = detect_format(head, path, opts.format)?;
+        let det = super::spectrum::detect_table(head, path, opts)?;
         let reader = det.format.reader();
-        let rows = reader.rows(&det, head, path)?;
+        let rows = reader.rows(&det, head, path, opts)?;
         Ok((
             RowReader {
                 format: det.format,
                 parser: rows.parser,
                 date_order: opts.date_order.unwrap_or(reader.default_date_order()),
+                estimator: rows.estimator,
                 scratch: Partial::default(),
                 counts: Vec::new(),
             },
@@ -55,6 +58,20 @@ impl RowReader {
     /// The detected format.
     pub fn format(&self) -> LogFormat {
         self.format
+    }
+
+    /// The peak estimator of a spectrum log's rows (`None` for a peak log).
+    pub fn estimator(&self) -> Option<&str> {
+        self.estimator.as_deref()
+    }
+
+    /// The format in words, with the estimator of a spectrum log: `imon-pixels, peaks
+    /// by gaussian`.
+    pub fn describe(&self) -> String {
+        match &self.estimator {
+            Some(e) => format!("{}, peaks by {e}", self.format.name()),
+            None => self.format.name().to_string(),
+        }
     }
 
     /// Parse one line (without its newline). `Ok(None)` for a blank or comment line;
@@ -82,6 +99,7 @@ impl RowReader {
             time_s,
             peaks_nm: std::mem::take(&mut out.peaks),
             channels: std::mem::take(&mut out.chans),
+            quality: std::mem::take(&mut out.quality),
         }))
     }
 }

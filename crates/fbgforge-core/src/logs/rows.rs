@@ -123,6 +123,9 @@ pub(crate) struct Partial {
     pub(crate) peaks: Vec<f64>,
     /// Channel or column of each peak.
     pub(crate) chans: Vec<u16>,
+    /// Uncertainty of each peak, for rows of peaks found in spectra (or read with
+    /// their standard errors); empty otherwise.
+    pub(crate) quality: Vec<super::PeakQuality>,
     /// Chunk-local line index of each row.
     pub(crate) lines: Vec<u32>,
     /// (chunk-local line, issue); a row parser pushes kept-but-counted issues with the
@@ -145,6 +148,7 @@ impl Partial {
     pub(crate) fn rollback(&mut self, start: usize) {
         self.peaks.truncate(start);
         self.chans.truncate(start);
+        self.quality.truncate(start);
     }
 }
 
@@ -155,6 +159,10 @@ pub(crate) struct ValueColumns {
     pub(crate) decimal_comma: bool,
     /// Number of value columns the header declares.
     pub(crate) columns: usize,
+    /// For a peaks log with standard errors (`<name> std_error_pm` columns): per value
+    /// column, `None` for a wavelength column, `Some(k)` for the standard error of the
+    /// wavelength column k; empty when the log has none (then no quality is kept).
+    pub(crate) std_error_of: Vec<Option<usize>>,
 }
 
 impl RowParser for ValueColumns {
@@ -170,6 +178,8 @@ impl RowParser for ValueColumns {
             .ok_or_else(|| issue("unreadable_line", "unreadable timestamp"))?;
         let start = out.peaks.len();
         let mut seen = 0;
+        // (wavelength column, index of its peak in `out`) for the standard errors.
+        let mut peak_of_column: Vec<(usize, usize)> = Vec::new();
         for (c, f) in it.enumerate() {
             let f = trim(f);
             if c >= columns {
@@ -186,8 +196,28 @@ impl RowParser for ValueColumns {
             if f.is_empty() {
                 continue;
             }
+            if let Some(&Some(k)) = self.std_error_of.get(c) {
+                // A standard error: it belongs to column k's peak, read before it.
+                let se = num::parse_f64(f, dc).filter(|v| v.is_finite() && *v >= 0.0);
+                match (se, peak_of_column.iter().find(|(col, _)| *col == k)) {
+                    (Some(v), Some(&(_, i))) => out.quality[i].std_error_pm = v,
+                    (Some(_), None) => {}
+                    (None, _) => {
+                        out.rollback(start);
+                        return Err(issue(
+                            "unreadable_line",
+                            format!("column {} is not a standard error in pm (a number ≥ 0)", c + 2),
+                        ));
+                    }
+                }
+                continue;
+            }
             match num::parse_f64(f, dc) {
                 Some(v) if v.is_finite() && v > 0.0 => {
+                    if !self.std_error_of.is_empty() {
+                        peak_of_column.push((c, out.peaks.len()));
+                        out.quality.push(super::PeakQuality::std_error_only(f64::NAN));
+                    }
                     out.peaks.push(v);
                     out.chans.push(c as u16);
                 }
@@ -284,6 +314,7 @@ pub(crate) struct Merged {
     pub(crate) row_start: Vec<usize>,
     pub(crate) peaks: Vec<f64>,
     pub(crate) chans: Vec<u16>,
+    pub(crate) quality: Vec<super::PeakQuality>,
     /// File line (1-based) of each row.
     pub(crate) lines: Vec<u32>,
     pub(crate) warnings: LogWarnings,
@@ -324,6 +355,7 @@ fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merg
         row_start: Vec::with_capacity(rows + 1),
         peaks: Vec::with_capacity(n_peaks),
         chans: Vec::with_capacity(n_peaks),
+        quality: Vec::new(),
         lines: Vec::with_capacity(rows),
         warnings: LogWarnings::default(),
         bad: 0,
@@ -360,6 +392,7 @@ fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merg
         m.row_start.extend(p.row_start.iter().map(|&s| s + base));
         m.peaks.extend_from_slice(&p.peaks);
         m.chans.extend_from_slice(&p.chans);
+        m.quality.extend_from_slice(&p.quality);
         m.lines
             .extend(p.lines.iter().map(|&l| l + first_line as u32));
         for (local, iss) in p.issues {

@@ -44,6 +44,7 @@ fn every_format_reads_back_what_it_writes() {
             bom: true,
             metadata_lines: 7,
             twelve_hour: true,
+            ..LogStyle::default()
         },
     ];
     for format in LogFormat::ALL {
@@ -93,7 +94,8 @@ fn every_format_reads_back_what_it_writes() {
 /// flags, `cli::verify`).
 #[test]
 fn registered_names_are_the_json_names() {
-    for format in LogFormat::ALL {
+    for format in LogFormat::ALL.into_iter().chain(LogFormat::SPECTRA) {
+        assert_eq!(LogFormat::from_name(format.name()), Some(format));
         assert_eq!(
             serde_json::to_value(format).unwrap(),
             serde_json::Value::String(format.name().into())
@@ -115,4 +117,69 @@ fn an_unknown_file_names_every_registered_format() {
         e.ends_with("name the format with ReadOptions.format"),
         "{e}"
     );
+}
+
+#[test]
+fn a_wall_clock_set_back_or_forward_is_named_with_its_line() {
+    // Issue #33, class 5: 100 rows at 10 Hz, the clock set back 1 h at row 40 and
+    // forward 1 h at row 70 (a DST change and its return): both named, nothing else.
+    let mut t: Vec<f64> = (0..100).map(|i| 1000.0 + 0.1 * i as f64).collect();
+    for v in &mut t[40..] {
+        *v -= 3600.0;
+    }
+    for v in &mut t[70..] {
+        *v += 3600.0;
+    }
+    let lines: Vec<u32> = (0..100).map(|i| i + 2).collect();
+    let mut w = LogWarnings::default();
+    let jumps = time::clock_jumps(Path::new("log.txt"), &t, &lines, &mut w);
+    assert_eq!(jumps.len(), 2, "{jumps:?}");
+    assert!(jumps[0].backwards() && (jumps[0].step_s + 3599.9).abs() < 1e-6);
+    assert_eq!(jumps[0].line, 42);
+    assert!(!jumps[1].backwards() && (jumps[1].step_s - 3600.1).abs() < 1e-6);
+    assert_eq!(w.count("clock_jump"), 1);
+    assert_eq!(w.count("clock_gap"), 1);
+}
+
+#[test]
+fn whole_second_stamps_with_pauses_keep_every_row_in_its_second() {
+    // Issue #33, class 6: 10 rows per second written in whole seconds, with pauses of
+    // 171, 83, 39 and 8 s (the I-MON log): one grid over all of it put rows up to
+    // 187 s late; per stretch, every row stays inside the second written on it.
+    let mut written = Vec::new();
+    let mut t = 0.37f64; // the true time of the first row
+    for (rows, pause) in [(400, 171.0), (300, 83.0), (250, 39.0), (200, 8.0), (300, 0.0)] {
+        for _ in 0..rows {
+            written.push(t.floor());
+            t += 0.1;
+        }
+        t += pause;
+    }
+    let mut spread = written.clone();
+    let mut w = LogWarnings::default();
+    let half = time::dequantize(Path::new("imon.txt"), &mut spread, &mut w);
+    assert!(half > 0.0 && half <= 0.5, "{half}");
+    for (s, wr) in spread.iter().zip(&written) {
+        assert!(*s >= *wr && *s < wr + 1.0, "row at {s} written {wr}");
+    }
+    assert!(spread.windows(2).all(|p| p[1] > p[0]));
+    let text = w.counts["whole_second_timestamps"].first.clone();
+    assert!(text.contains("5 stretches between pauses"), "{text}");
+}
+
+#[test]
+fn a_units_column_is_read_row_by_row_or_refused_naming_it() {
+    // Issue #33, item 7: a Mark-10 style `Units` column (lbF in every row) was ignored
+    // and newtons assumed, K 4.45 times off.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("mark10.csv");
+    std::fs::write(&p, "Time_s,Force,Units\n0.0,1.000,lbF\n0.1,2.000,lbF\n0.2,3.000,N\n").unwrap();
+    let f = read_force_log(&p, &ForceReadOptions::default()).unwrap();
+    assert!((f.force_n[0] - 4.448_221_615).abs() < 1e-9, "{:?}", f.force_n);
+    assert!((f.force_n[1] - 8.896_443_23).abs() < 1e-8);
+    assert!((f.force_n[2] - 3.0).abs() < 1e-12);
+    assert_eq!(f.warnings.count("force_unit_per_row"), 1);
+    std::fs::write(&p, "Time_s,Force,Units\n0.0,1.000,lbF\n0.1,2.000,psi\n").unwrap();
+    let err = format!("{:#}", read_force_log(&p, &ForceReadOptions::default()).unwrap_err());
+    assert!(err.contains("mark10.csv:3:") && err.contains("units column (column 3)") && err.contains("psi"), "{err}");
 }

@@ -32,6 +32,8 @@ pub struct LogStyle {
     pub metadata_lines: usize,
     /// ENLIGHT timestamps on a 12-hour clock (`3:44:56.500000 pm`).
     pub twelve_hour: bool,
+    /// How the spectra of an I-MON log with pixels are made (`imon-pixels` only).
+    pub spectrum: super::SpectrumStyle,
 }
 
 impl Default for LogStyle {
@@ -41,6 +43,7 @@ impl Default for LogStyle {
             bom: false,
             metadata_lines: 45,
             twelve_hour: false,
+            spectrum: super::SpectrumStyle::default(),
         }
     }
 }

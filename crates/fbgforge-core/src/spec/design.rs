@@ -47,6 +47,26 @@ impl Design {
         toml::to_string_pretty(self).expect("a Design always serialises to TOML")
     }
 
+    /// The transfer-matrix model of the grating `name` (module or array): its Bragg
+    /// wavelength and length from the spec, its index modulation, effective index,
+    /// photo-elastic constant and apodisation from `[fiber]`.
+    pub fn bragg_grating(&self, name: &str) -> Option<fbgforge_spectra::Grating> {
+        let module = self
+            .module
+            .iter()
+            .flat_map(|m| &m.gratings)
+            .map(|g| (&g.name, g.bragg_wavelength_nm, g.length_mm));
+        let array = self
+            .array
+            .iter()
+            .flat_map(|a| &a.gratings)
+            .map(|g| (&g.name, g.bragg_wavelength_nm, g.length_mm));
+        module
+            .chain(array)
+            .find(|(n, _, _)| *n == name)
+            .map(|(_, lambda, length)| self.fiber.bragg_grating(lambda, length))
+    }
+
     /// Look up a material, naming the field that referenced it on failure.
     pub fn material(&self, key: &str, field: &str) -> Result<&Material, SpecError> {
         self.materials.get(key).ok_or_else(|| {

@@ -157,6 +157,28 @@ pub struct Module {
     /// the paper's SM125.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub interrogator_rate_hz: Option<f64>,
+    /// The load the module is rated for: `optimize` writes the force and strain limit
+    /// it held the written design to, and `predict` states each grating's strain there
+    /// from the far end of its design interval. Absent: `predict` uses its requested
+    /// force and the grating's linear limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limits: Option<Limits>,
+}
+
+/// The load a module is rated for.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// The largest apex force the module is meant to take, N.
+    pub max_force_n: f64,
+    /// The largest |grating strain| allowed at that force, µε (default 3000: a third of
+    /// the 1 % proof test).
+    #[serde(default = "default_max_grating_strain_microstrain")]
+    pub max_grating_strain_microstrain: f64,
+}
+
+fn default_max_grating_strain_microstrain() -> f64 {
+    3000.0
 }
 
 impl Module {

@@ -83,6 +83,18 @@ impl Printer {
         let h = self.layer_height_mm();
         (z_mm / h - 1e-9).ceil() * h
     }
+
+    /// The hysteresis `verify` allows a grating in a part from this printer when its
+    /// material states none, % of span: 10 % for both processes. The tactile-array
+    /// paper's single encapsulated grating showed ±4.33 % of span (reference §2): a
+    /// loop of at most 8.7 % even read as half its width; a bonded grating that
+    /// follows its part stays within 10 %, a loose one (friction in the bond) reads
+    /// 12–40 %.
+    pub fn default_hysteresis_limit_percent_span(&self) -> f64 {
+        match self.process {
+            PrintProcess::Polyjet | PrintProcess::Fdm => 10.0,
+        }
+    }
 }
 
 /// Layer height assumed for an FDM printer that states none, mm.
@@ -121,6 +133,12 @@ pub struct Material {
     /// (default: one of a fixed palette, by the material's place in the table).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub display_colour: Option<String>,
+    /// Largest hysteresis a grating bonded in this material may show in `verify`, % of
+    /// span (loading against unloading of the lag-corrected signal; default: the
+    /// printer's, [`Printer::default_hysteresis_limit_percent_span`]). Above it the
+    /// grating is not following the part: the part FAILs whatever its K.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hysteresis_limit_percent_span: Option<f64>,
 }
 
 /// How the fibers leave the module and the mold: the fiber's size and stiffness and

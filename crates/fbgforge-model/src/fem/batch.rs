@@ -3,6 +3,13 @@
 //! one load case and one set of options share a mesh (a geometry), the geometries'
 //! structures come from the caller's [`GeometryCache`], and units equal in geometry and
 //! moduli share one numeric factorisation and solve (a task).
+//!
+//! Units whose options differ only in the domes' contact radius (the design's reading,
+//! the contact window's ends, the apex patch) mesh alike (`FemOptions::dome_station_radii_mm`)
+//! and share the geometry of the smallest radius: a wider contact zone is that
+//! geometry with more facing dome nodes tied, and those ties are condensed on the one
+//! factorisation (Lagrange multipliers on the pairs' unit loads, a dense system the
+//! size of the extra ties), not refactorised.
 
 use super::cache::GeometryCache;
 use super::element::ElasticConstants;
@@ -14,6 +21,7 @@ use super::{
 use crate::profile::GratingPlacement;
 use crate::spec::Design;
 use anyhow::{anyhow, Result};
+use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -29,6 +37,9 @@ struct Unit {
     opt: FemOptions,
     /// Index into the batch's geometries.
     geometry: usize,
+    /// The unit's contact radius when it is wider than its geometry's: the facing dome
+    /// pairs out to it are tied by condensation, mm.
+    wider_contact_mm: Option<f64>,
 }
 
 /// How a request's result is made from its units.
@@ -43,7 +54,6 @@ enum Plan {
 
 /// A mesh shared by the units of one load case and one set of options.
 struct Geometry {
-    case: crate::model::LoadCase,
     opt: FemOptions,
     /// The problem built for the first unit, with what is needed to read gratings.
     model: Result<module::ModuleModel, String>,
@@ -56,8 +66,103 @@ struct Prepared {
     gratings: Vec<GratingPlacement>,
 }
 
-/// The distinct (geometry, materials) tasks of a batch, and each unit's task.
-type Tasks<'a> = (Vec<(usize, &'a [ElasticConstants])>, Vec<Option<usize>>);
+/// One factorisation of a batch: geometry, materials, and the widest contact radius
+/// its units condense (mm; `None`: every unit is the geometry's own).
+type Task<'a> = (usize, &'a [ElasticConstants], Option<f64>);
+
+/// The distinct tasks of a batch, and each unit's task.
+type Tasks<'a> = (Vec<Task<'a>>, Vec<Option<usize>>);
+
+/// A task solved: the geometry's own solution, and its dome ties condensed.
+struct TaskSolution {
+    base: solve::Solution,
+    ties: Option<CondensedTies>,
+}
+
+/// Ties of facing dome nodes beyond a geometry's own, condensed on its factorisation:
+/// each tie row (a pair's radial or axial relative displacement) with its pair's
+/// radius, the solution of a unit force pair on it, the flexibility W (row i's value
+/// under unit force j) and the rows' values in the geometry's own solution.
+struct CondensedTies {
+    radius_mm: Vec<f64>,
+    unit: Vec<solve::Solution>,
+    flexibility: DMatrix<f64>,
+    free: Vec<f64>,
+    rows: Vec<[(usize, usize); 2]>,
+}
+
+/// A tie row's value in `sol`: the core node's component less the cap node's.
+fn tie_value(sol: &solve::Solution, row: &[(usize, usize); 2]) -> f64 {
+    let [(cap, c), (core, _)] = *row;
+    sol.displacement_mm[core][c] - sol.displacement_mm[cap][c]
+}
+
+/// Condense the ties of every untied facing dome pair out to `radius_mm` on the
+/// factorisation `f` whose own solution is `base`.
+fn condense_dome_ties(
+    f: &solve::FactoredProblem,
+    base: &solve::Solution,
+    pairs: &[module::DomePair],
+    radius_mm: f64,
+) -> Result<CondensedTies> {
+    let mut rows = Vec::new();
+    let mut radius = Vec::new();
+    for p in pairs
+        .iter()
+        .filter(|p| !p.tied && p.radius_mm <= radius_mm * (1.0 + 1e-9))
+    {
+        for c in [solve::R, solve::Z] {
+            rows.push([(p.cap, c), (p.core, c)]);
+            radius.push(p.radius_mm);
+        }
+    }
+    // A unit force pair on a tie row: +1 on the core's component, −1 on the cap's.
+    let loads: Vec<Vec<(usize, usize, f64)>> = rows
+        .iter()
+        .map(|&[(a, c), (b, _)]| vec![(b, c, 1.0), (a, c, -1.0)])
+        .collect();
+    let unit = f.solve_load_cases(&loads)?;
+    let m = rows.len();
+    let flexibility = DMatrix::from_fn(m, m, |i, j| tie_value(&unit[j], &rows[i]));
+    let free = rows.iter().map(|r| tie_value(base, r)).collect();
+    Ok(CondensedTies {
+        radius_mm: radius,
+        unit,
+        flexibility,
+        free,
+        rows,
+    })
+}
+
+impl CondensedTies {
+    /// The solution with every pair out to `radius_mm` tied: the forces λ on the rows
+    /// that close them (W λ = −q on those rows), added to the geometry's own solution.
+    fn tied_to(&self, base: &solve::Solution, radius_mm: f64) -> Result<solve::Solution> {
+        let sel: Vec<usize> = (0..self.rows.len())
+            .filter(|&i| self.radius_mm[i] <= radius_mm * (1.0 + 1e-9))
+            .collect();
+        let w = DMatrix::from_fn(sel.len(), sel.len(), |i, j| {
+            self.flexibility[(sel[i], sel[j])]
+        });
+        let q = DVector::from_iterator(sel.len(), sel.iter().map(|&i| -self.free[i]));
+        let lambda = w
+            .cholesky()
+            .ok_or_else(|| anyhow!("the dome ties' flexibility is not positive definite"))?
+            .solve(&q);
+        let mut out = base.clone();
+        for (k, &i) in sel.iter().enumerate() {
+            for (d, u) in out
+                .displacement_mm
+                .iter_mut()
+                .zip(&self.unit[i].displacement_mm)
+            {
+                d[0] += lambda[k] * u[0];
+                d[1] += lambda[k] * u[1];
+            }
+        }
+        Ok(out)
+    }
+}
 
 /// The batch: its units, their geometries and each request's plan.
 #[derive(Default)]
@@ -71,7 +176,7 @@ impl Batch {
     /// Requests → units (levels) → geometries.
     fn plan(requests: &[(Configuration, FemOptions)]) -> Self {
         let mut b = Batch::default();
-        for (config, opt) in requests {
+        for (config, opt) in requests.iter() {
             let plan = richardson_levels(opt).map(|levels| match levels {
                 Some((plain, coarsened, factor)) => Plan::Richardson {
                     fine: b.add_unit(config, plain),
@@ -85,30 +190,69 @@ impl Batch {
         b
     }
 
-    /// Add a unit on its geometry (a new one for a new case or options).
+    /// Add a unit (its geometry is assigned by [`Batch::assign_geometries`]).
     fn add_unit(&mut self, config: &Configuration, opt: FemOptions) -> usize {
-        let geometry = match self
-            .geometries
-            .iter()
-            .position(|g| g.case == config.case && g.opt == opt)
-        {
-            Some(i) => i,
-            None => {
-                self.geometries.push(Geometry {
-                    case: config.case,
-                    opt,
-                    model: Err(String::new()),
-                    build_time_s: 0.0,
-                });
-                self.geometries.len() - 1
-            }
-        };
         self.units.push(Unit {
             config: config.clone(),
             opt,
-            geometry,
+            geometry: usize::MAX,
+            wider_contact_mm: None,
         });
         self.units.len() - 1
+    }
+
+    /// Units of one load case and one set of options share a geometry; units whose
+    /// options differ only in the domes' contact radius (apex-patch ties) share the
+    /// geometry of the smallest radius, and the wider ones are marked.
+    fn assign_geometries(&mut self, design: &Design) {
+        let patch = design
+            .module
+            .as_ref()
+            .map_or(f64::NAN, crate::spec::Module::apex_patch_radius_mm);
+        let family = |o: &FemOptions| {
+            if o.dome_contact == module::DomeContact::ApexPatch {
+                FemOptions {
+                    dome_contact_radius_mm: None,
+                    ..*o
+                }
+            } else {
+                *o
+            }
+        };
+        let radius = |o: &FemOptions| o.dome_contact_radius_mm.unwrap_or(patch);
+        let mut families: Vec<(crate::model::LoadCase, FemOptions, usize)> = Vec::new();
+        for i in 0..self.units.len() {
+            let (case, opt) = (self.units[i].config.case, self.units[i].opt);
+            let key = family(&opt);
+            match families.iter().position(|f| f.0 == case && f.1 == key) {
+                Some(k) => {
+                    if radius(&opt) < radius(&self.units[families[k].2].opt) {
+                        families[k].2 = i;
+                    }
+                }
+                None => families.push((case, key, i)),
+            }
+        }
+        for (_, _, base) in &families {
+            self.geometries.push(Geometry {
+                opt: self.units[*base].opt,
+                model: Err(String::new()),
+                build_time_s: 0.0,
+            });
+        }
+        for u in &mut self.units {
+            let key = family(&u.opt);
+            let g = families
+                .iter()
+                .position(|f| f.0 == u.config.case && f.1 == key)
+                .expect("every unit has a family");
+            let base = radius(&self.geometries[g].opt);
+            u.geometry = g;
+            let r = radius(&u.opt);
+            u.wider_contact_mm = (u.opt.dome_contact == module::DomeContact::ApexPatch
+                && r > base * (1.0 + 1e-12))
+                .then_some(r);
+        }
     }
 
     /// One mesh per geometry, built for its first unit (in parallel).
@@ -117,8 +261,8 @@ impl Batch {
             .map(|g| {
                 self.units
                     .iter()
-                    .position(|u| u.geometry == g)
-                    .expect("used")
+                    .position(|u| u.geometry == g && u.wider_contact_mm.is_none())
+                    .expect("every geometry is some unit's own")
             })
             .collect();
         let units = &self.units;
@@ -199,14 +343,15 @@ impl Batch {
     }
 
     /// Units equal in geometry and materials share one factorisation and solve: the
-    /// distinct (geometry, materials) tasks, and each unit's task (none for a unit that
-    /// failed or whose geometry has no structure).
+    /// distinct (geometry, materials) tasks with the widest contact radius their units
+    /// condense, and each unit's task (none for a unit that failed or whose geometry
+    /// has no structure).
     fn tasks<'a>(
         &self,
         prepared: &'a [Result<Prepared>],
         structures: &[Option<(BuiltStructure, f64)>],
     ) -> Tasks<'a> {
-        let mut tasks: Vec<(usize, &[ElasticConstants])> = Vec::new();
+        let mut tasks: Vec<Task<'a>> = Vec::new();
         let task_of = self
             .units
             .iter()
@@ -215,35 +360,44 @@ impl Batch {
                 let p = p.as_ref().ok()?;
                 structures[u.geometry].as_ref()?;
                 let key = (u.geometry, p.materials.as_slice());
-                Some(match tasks.iter().position(|t| *t == key) {
+                let i = match tasks.iter().position(|t| (t.0, t.1) == key) {
                     Some(i) => i,
                     None => {
-                        tasks.push(key);
+                        tasks.push((key.0, key.1, None));
                         tasks.len() - 1
                     }
-                })
+                };
+                if let Some(r) = u.wider_contact_mm {
+                    tasks[i].2 = Some(tasks[i].2.map_or(r, |w: f64| w.max(r)));
+                }
+                Some(i)
             })
             .collect();
         (tasks, task_of)
     }
 
-    /// Factorise and solve every task (in parallel), with the time each took.
+    /// Factorise and solve every task (in parallel), with the ties of its widest
+    /// contact condensed, and the time each took.
     fn solve_tasks(
         &self,
-        tasks: &[(usize, &[ElasticConstants])],
+        tasks: &[Task<'_>],
         structures: &[Option<(BuiltStructure, f64)>],
-    ) -> Vec<Result<(solve::Solution, f64), String>> {
+    ) -> Vec<Result<(TaskSolution, f64), String>> {
         tasks
             .par_iter()
-            .map(|&(g, materials)| {
+            .map(|&(g, materials, widest)| {
                 let start = Instant::now();
                 let (s, _) = structures[g].as_ref().expect("a task has a structure");
                 let s = s.as_ref().map_err(Clone::clone)?;
                 let model = self.geometries[g].model.as_ref().map_err(Clone::clone)?;
-                let sol = s
-                    .factor(materials)
-                    .and_then(|f| f.solve_loads(&model.problem.loads))
-                    .map_err(|e| format!("{e:#}"))?;
+                let solved = s.factor(materials).and_then(|f| {
+                    let base = f.solve_loads(&model.problem.loads)?;
+                    let ties = widest
+                        .map(|r| condense_dome_ties(&f, &base, &model.dome_pairs, r))
+                        .transpose()?;
+                    Ok(TaskSolution { base, ties })
+                });
+                let sol = solved.map_err(|e| format!("{e:#}"))?;
                 Ok((sol, start.elapsed().as_secs_f64()))
             })
             .collect()
@@ -268,9 +422,17 @@ impl Batch {
                 }
                 let start = Instant::now();
                 let task = solved.task_of[i].expect("a unit without contact pairs has a task");
-                let (sol, solve_s) = solved.solutions[task]
+                let (task_sol, solve_s) = solved.solutions[task]
                     .as_ref()
                     .map_err(|e| anyhow!("{e}"))?;
+                let wider;
+                let sol = match (u.wider_contact_mm, &task_sol.ties) {
+                    (Some(r), Some(t)) => {
+                        wider = t.tied_to(&task_sol.base, r)?;
+                        &wider
+                    }
+                    _ => &task_sol.base,
+                };
                 let mut strain_per_n = Vec::new();
                 for g in &prepared.gratings {
                     let e = model.mean_axial_strain(sol, g.z_start_mm, g.z_end_mm)?;
@@ -282,6 +444,7 @@ impl Batch {
                 Ok(ConfigurationResult {
                     configuration: u.config.clone(),
                     strain_per_n,
+                    extrapolation_per_n: None,
                     unknowns: sol.unknowns,
                     elements: model.problem.mesh.elements.len(),
                     solve_time_s: geo.build_time_s
@@ -311,16 +474,21 @@ impl Batch {
                     factor,
                 } => {
                     let (fine, coarse) = (take(fine)?, take(coarse)?);
-                    let strain_per_n = fine
+                    let step: Vec<f64> = fine
                         .strain_per_n
                         .iter()
                         .zip(&coarse.strain_per_n)
-                        .map(|((name, lambda, ef), (_, _, ec))| {
-                            (name.clone(), *lambda, ef + (ef - ec) * factor)
-                        })
+                        .map(|((_, _, ef), (_, _, ec))| (ef - ec) * factor)
+                        .collect();
+                    let strain_per_n = fine
+                        .strain_per_n
+                        .iter()
+                        .zip(&step)
+                        .map(|((name, lambda, ef), d)| (name.clone(), *lambda, ef + d))
                         .collect();
                     Ok(ConfigurationResult {
                         strain_per_n,
+                        extrapolation_per_n: Some(step),
                         solve_time_s: fine.solve_time_s + coarse.solve_time_s,
                         ..fine
                     })
@@ -335,7 +503,7 @@ struct Solved {
     prepared: Vec<Result<Prepared>>,
     structures: Vec<Option<(BuiltStructure, f64)>>,
     task_of: Vec<Option<usize>>,
-    solutions: Vec<Result<(solve::Solution, f64), String>>,
+    solutions: Vec<Result<(TaskSolution, f64), String>>,
 }
 
 /// Solve many configurations of one design, each with its own options, at F = 1 N:
@@ -359,6 +527,7 @@ pub fn solve_configurations(
     cache: &GeometryCache,
 ) -> Vec<Result<ConfigurationResult>> {
     let mut batch = Batch::plan(requests);
+    batch.assign_geometries(design);
     batch.mesh(design);
     let structures = batch.structures(cache);
     let prepared = batch.prepare(design);

@@ -47,6 +47,12 @@ pub struct ConfigurationResult {
     /// Mean axial strain per newton on the fiber axis, for every strain grating of
     /// the configuration's core: (grating name, Bragg wavelength nm, strain per N).
     pub strain_per_n: Vec<(String, f64, f64)>,
+    /// Per grating (in `strain_per_n`'s order): the step the Richardson extrapolation
+    /// took from the fine mesh's strain, ε_R − ε_h, per newton: the mesh-convergence
+    /// estimate the policy states as the discretisation error; `None` without
+    /// extrapolation.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extrapolation_per_n: Option<Vec<f64>>,
     /// Unknowns solved for.
     pub unknowns: usize,
     /// Elements in the mesh.
@@ -105,6 +111,7 @@ fn solve_contact_configuration(
             .iter()
             .map(|g| (g.name.clone(), g.bragg_wavelength_nm, g.strain[0]))
             .collect(),
+        extrapolation_per_n: None,
         unknowns: r.unknowns,
         elements: r.elements,
         solve_time_s: start.elapsed().as_secs_f64(),

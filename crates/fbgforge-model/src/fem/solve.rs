@@ -601,7 +601,7 @@ impl FactoredProblem {
 
     /// Solve several load cases at once (one blocked solve: faster than one at a time
     /// with the supernodal solver).
-    pub(crate) fn solve_load_cases(
+    pub fn solve_load_cases(
         &self,
         cases: &[Vec<(usize, Component, f64)>],
     ) -> Result<Vec<Solution>> {

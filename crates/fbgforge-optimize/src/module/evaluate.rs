@@ -1,10 +1,13 @@
 //! A candidate evaluated: every constraint (printer walls, fit clearances, the
 //! profile's rules, the spec, the model, the grating strain, the wavelength windows,
-//! the bounding contact readings) with how far it is broken, and the objective of the
-//! worst strain grating, scored over the model's uncertainty about K (the contact
-//! window) beside its nominal value.
+//! the bounding contact readings) with how far it is broken, the margins left on the
+//! physical limits in their own units, and the objective of the worst strain grating,
+//! scored over the model's uncertainty about K (the design interval) beside its
+//! nominal value. The strain and wavelength limits hold at the far end of each
+//! grating's design interval, the strain with `ModuleSettings.strain_margin_fraction`
+//! of the limit to spare.
 
-use super::outcome::{ConstraintValue, Evaluation};
+use super::outcome::{ConstraintValue, Evaluation, Margins};
 use super::problem::ModuleProblem;
 use super::robust::FrontObjectives;
 use super::settings::Objective;
@@ -131,6 +134,7 @@ impl ModuleProblem {
             gratings: Vec::new(),
             readings: Vec::new(),
             objectives: None,
+            margins: None,
             constraints: Vec::new(),
         };
         if cons.iter().all(|c| c.violation <= 0.0) {
@@ -147,7 +151,7 @@ impl ModuleProblem {
                     e.objective = scored.objective;
                     e.nominal_objective = scored.nominal_objective;
                     e.objectives = Some(scored.front);
-                    self.physics_constraints(d, &scored.rows, &mut cons);
+                    e.margins = Some(self.physics_constraints(d, &scored.rows, &mut cons));
                     e.readings = scored.rows.into_iter().map(|r| r.readings).collect();
                     e.gratings = q;
                 }
@@ -191,7 +195,7 @@ impl ModuleProblem {
         q: &[QualityBreakdown],
     ) -> Scored {
         let f = self.settings.max_force_n;
-        let lim = self.settings.max_grating_strain;
+        let lim = self.settings.held_strain_limit();
         let mut rows = Vec::new();
         let mut front = FrontObjectives {
             sensitivity_pm_per_n: f64::INFINITY,
@@ -281,10 +285,19 @@ impl ModuleProblem {
         }
     }
 
-    fn physics_constraints(&self, d: &Design, rows: &[RobustRow], cons: &mut Vec<ConstraintValue>) {
+    /// The constraints on the model's prediction (grating strain, wavelength windows,
+    /// bounding readings), each at the far end of the design interval, and the margins
+    /// they leave.
+    fn physics_constraints(
+        &self,
+        d: &Design,
+        rows: &[RobustRow],
+        cons: &mut Vec<ConstraintValue>,
+    ) -> Margins {
         let m = d.module.as_ref().expect("candidate has a module");
         let f = self.settings.max_force_n;
         let lim = self.settings.max_grating_strain;
+        let held = self.settings.held_strain_limit();
         let preds_strain = |name: &str| {
             rows.iter().find(|r| r.readings.grating == name).map(|r| {
                 (
@@ -306,11 +319,21 @@ impl ModuleProblem {
         push(
             cons,
             "grating_strain",
-            format!("|grating strain| at {f} N ≤ {:.0} µε", lim * 1e6),
-            (worst.0 - lim) / lim,
-            format!("{:.0} µε at grating `{}`", worst.0 * 1e6, worst.1),
+            format!(
+                "|grating strain| at {f} N at the far end of the design interval ≤ {:.0} µε ({:.0} µε limit less a {:.0} % margin)",
+                held * 1e6,
+                lim * 1e6,
+                100.0 * self.settings.strain_margin_fraction
+            ),
+            (worst.0 - held) / lim,
+            format!(
+                "{:.0} µε at grating `{}` at the far end of its design interval",
+                worst.0 * 1e6,
+                worst.1
+            ),
         );
         let mut excess_nm: f64 = 0.0;
+        let mut room_nm = f64::INFINITY;
         let mut detail = String::from("every grating inside its window");
         for (name, lo, hi) in &self.windows_nm {
             let Some(g) = m.gratings.iter().find(|g| &g.name == name) else {
@@ -326,6 +349,7 @@ impl ModuleProblem {
                 * 1e-3;
             let low = g.bragg_wavelength_nm + shift_nm.min(0.0) - thermal_nm;
             let high = g.bragg_wavelength_nm + shift_nm.max(0.0) + thermal_nm;
+            room_nm = room_nm.min((low - lo).min(hi - high));
             let e = (lo - low).max(high - hi).max(0.0);
             if e > excess_nm {
                 excess_nm = e;
@@ -338,12 +362,19 @@ impl ModuleProblem {
             cons,
             "wavelength_window",
             format!(
-                "each grating's range at {f} N ± {} K inside its window (guard {} nm)",
+                "each grating's range at {f} N (far end of its design interval) ± {} K inside its window (guard {} nm)",
                 self.settings.temperature_span_k, self.settings.guard_band_nm
             ),
             excess_nm,
             detail,
         );
+        let margins = Margins {
+            grating_strain_microstrain: (lim - worst.0) * 1e6,
+            grating_strain_percent: 100.0 * (lim - worst.0) / lim,
+            required_strain_margin_percent: 100.0 * self.settings.strain_margin_fraction,
+            wavelength_window_nm: room_nm,
+            snap_strain_percent: snap_margin_percent(d),
+        };
         // The nominal K must be one the physically bounding readings support, with one
         // sign across them (a magnitude, so the search can move away).
         let (v, why) = rows.iter().map(|r| r.readings.band_violation()).fold(
@@ -362,11 +393,20 @@ impl ModuleProblem {
         push(
             cons,
             "contact_band",
-            "each grating's nominal K between its bounding contact readings (pillars bonded; cylinders sliding, domes on the apex patch), with one sign across them".into(),
+            "each grating's nominal K between its bounding contact readings (pillars bonded; cylinders sliding, domes on the apex patch) widened by its model error, with one sign across them".into(),
             v,
             why,
         );
+        margins
     }
+}
+
+/// The snap-fit's margin: the cap material's permissible strain less the strain the
+/// snap imposes, percent (`None` without a snap or a permissible strain).
+fn snap_margin_percent(d: &Design) -> Option<f64> {
+    let (p, pp) = crate::profile::PartsProfile::of_design(d)?;
+    let r = crate::profile::snap_report(d, &p, &pp)?;
+    Some(r.permissible_strain_percent - r.cap_strain_percent)
 }
 
 /// One grating's robust numbers.

@@ -7,6 +7,7 @@ use super::choice::Choice;
 use super::outcome::{ChoiceResult, Evaluation, FrontDesign};
 use super::robust::FrontObjectives;
 use super::settings::{ModuleSettings, Preference};
+use super::statements::PaperStatementsPolicy;
 use super::variables::Variable;
 
 /// Below this prominence the front is called nearly straight in the report.
@@ -82,6 +83,7 @@ pub fn pareto_front(candidates: Vec<FrontCandidate>, variables: &[Variable]) -> 
             objectives: *o,
             readings: c.evaluation.readings.clone(),
             knee: false,
+            paper_statements_failed: Vec::new(),
             evaluation: c.evaluation.clone(),
         });
     }
@@ -308,4 +310,104 @@ pub(crate) fn tie_notes(
         }
     }
     notes
+}
+
+/// The design written under `settings`' preference and its policy on the paper's
+/// statements: [`pick`] among the front's designs that meet every statement (and the
+/// table's best when it does) under [`PaperStatementsPolicy::Exclude`], among all under
+/// `Report`; with why, in words. `best_failed` names the statements the table's best
+/// fails.
+pub fn pick_written(
+    front: &[FrontDesign],
+    settings: &ModuleSettings,
+    (best_choice, best, best_failed): (&Choice, &Evaluation, &[String]),
+) -> (Option<usize>, String) {
+    let (i, why) = pick(front, settings.prefer, best_choice, best);
+    let fails = |i: Option<usize>| match i {
+        Some(k) => !front[k].paper_statements_failed.is_empty(),
+        None => !best_failed.is_empty(),
+    };
+    if settings.paper_statements == PaperStatementsPolicy::Report || !fails(i) {
+        return (i, why);
+    }
+    let passing: Vec<usize> = (0..front.len())
+        .filter(|&k| front[k].paper_statements_failed.is_empty())
+        .collect();
+    let failed_names = match i {
+        Some(k) => front[k].paper_statements_failed.join(", "),
+        None => best_failed.join(", "),
+    };
+    if passing.is_empty() && !best_failed.is_empty() {
+        return (
+            i,
+            format!("{why}; every design of the front and the table's best fail a paper statement, so this one is written and names what it fails ({failed_names})"),
+        );
+    }
+    let sub: Vec<FrontDesign> = passing.iter().map(|&k| front[k].clone()).collect();
+    let (j, sub_why) = pick(&sub, settings.prefer, best_choice, best);
+    let chosen = match j {
+        Some(j) => Some(passing[j]),
+        // The table's best is not on the front (or fails): the passing design of the
+        // best objective.
+        None if best_failed.is_empty() => None,
+        None => passing.iter().copied().max_by(|&a, &b| {
+            front[a]
+                .evaluation
+                .objective
+                .total_cmp(&front[b].evaluation.objective)
+        }),
+    };
+    (
+        chosen,
+        format!(
+            "{sub_why}, among the designs that meet the paper's statements (the preferred design fails {failed_names}; ModuleSettings.paper_statements exclude)"
+        ),
+    )
+}
+
+/// The front's objectives on which every design ties, each with why: such an
+/// objective does not separate the designs, so the front trades the others only.
+pub fn tied_objectives(front: &[FrontDesign], settings: &ModuleSettings) -> Vec<String> {
+    if front.len() < 2 {
+        return Vec::new();
+    }
+    let tie = |f: &dyn Fn(&FrontObjectives) -> f64| {
+        let v: Vec<f64> = front.iter().map(|d| f(&d.objectives)).collect();
+        let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &x| {
+            (a.0.min(x), a.1.max(x))
+        });
+        (hi - lo <= 1e-9 * hi.abs().max(1e-300)).then_some(hi)
+    };
+    let n = front.len();
+    let mut out = Vec::new();
+    if let Some(lag) = tie(&|o| o.max_lag_s) {
+        let period = settings.quality.sample_period_s;
+        let why = if (lag - period).abs() <= 1e-9 * period {
+            format!(
+                "the sample-period floor of the {:.3} Hz interrogator (ModuleSettings.rate_hz or the design's interrogator_rate_hz): the model's lag is shorter than one sample",
+                1.0 / period
+            )
+        } else {
+            "one lag for every design".to_string()
+        };
+        out.push(format!(
+            "max_lag_s: all {n} designs of the front have {lag:.3} s, {why}; dropped from the front, which trades the other objectives"
+        ));
+    }
+    if let Some(r2) = tie(&|o| o.r_squared) {
+        out.push(format!(
+            "r_squared: all {n} designs of the front have {r2:.6}; dropped from the front"
+        ));
+    }
+    if let Some(k) = tie(&|o| o.sensitivity_pm_per_n) {
+        out.push(format!(
+            "sensitivity_pm_per_n: all {n} designs of the front score {k:.3} pm/N; dropped from the front"
+        ));
+    }
+    if let Some(f) = tie(&|o| o.force_range_n) {
+        out.push(format!(
+            "force_range_n: all {n} designs of the front reach {f:.3} N; dropped from the front"
+        ));
+    }
+    out
 }

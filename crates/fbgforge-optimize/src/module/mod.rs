@@ -25,9 +25,12 @@
 //! (`outcome`) and the landscape plot's grid (`landscape`).
 //!
 //! K is scored over the model's own uncertainty (`ModuleSettings::robustness`: by
-//! default the worst case over the contact window, 1.30–1.48 × the apex patch) beside
-//! its nominal value, and a design whose nominal K lies outside its bounding contact
-//! readings, or whose sign is not fixed across them, is infeasible (`contact_band`).
+//! default the worst case over the design interval: Case I's contact window, Case II's
+//! closed form and stated cylinders' reading, each widened by its model error) beside
+//! its nominal value; the strain and wavelength limits hold at the interval's far end
+//! with a margin; and a design whose nominal K lies outside its bounding contact
+//! readings widened by its model error, or whose sign is not fixed across them, is
+//! infeasible (`contact_band`).
 
 mod choice;
 mod derive;
@@ -41,13 +44,14 @@ mod refine;
 mod robust;
 mod search;
 mod settings;
+mod statements;
 mod variables;
 
 pub use choice::{choices, start_choice, Choice};
 pub use front::{pareto_front, FrontCandidate};
 pub use landscape::{landscape, LandscapePoint};
 pub use outcome::{
-    ChoiceResult, ConstraintValue, Evaluation, FrontDesign, ModuleOutcome, RunSummary,
+    ChoiceResult, ConstraintValue, Evaluation, FrontDesign, Margins, ModuleOutcome, RunSummary,
     PHYSICS_CONSTRAINTS,
 };
 pub use predictor::{model_predictor, AnchorCache, PredictFn, Predictor, ReadingsCache};
@@ -55,6 +59,7 @@ pub use problem::{wavelength_windows, ModuleProblem, TIE_WEIGHT};
 pub use robust::{FrontObjectives, UncertaintyRatios};
 pub use search::optimise_module;
 pub use settings::{ModuleSettings, Objective, Preference};
+pub use statements::{contact_basis, PaperStatementsPolicy};
 pub use variables::{parse_bounds, Variable};
 
 use crate::materials::MaterialLibrary;

@@ -45,8 +45,31 @@ pub struct Evaluation {
     pub readings: Vec<KReadings>,
     /// The Pareto front's objectives, when the model predicted the design.
     pub objectives: Option<FrontObjectives>,
+    /// What the physical limits leave to spare at the far end of the design interval,
+    /// when the model predicted the design.
+    pub margins: Option<Margins>,
     /// Every constraint.
     pub constraints: Vec<ConstraintValue>,
+}
+
+/// The margins a design keeps on its physical limits, each in its own units, with
+/// every grating at the far end of its design interval (its largest |K| under the
+/// model's stated error); negative when the limit is broken.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Margins {
+    /// The strain limit less the largest |grating strain| at the largest force, µε.
+    pub grating_strain_microstrain: f64,
+    /// That margin as a share of the limit, percent.
+    pub grating_strain_percent: f64,
+    /// The share of the limit a design must keep (`ModuleSettings.strain_margin_fraction`),
+    /// percent.
+    pub required_strain_margin_percent: f64,
+    /// The smallest distance of any grating's range (at the largest force, ± the
+    /// temperature span) to the edges of its wavelength window, nm.
+    pub wavelength_window_nm: f64,
+    /// The cap material's permissible strain less the snap-fit's strain, percent
+    /// (`None` without a snap-fit).
+    pub snap_strain_percent: Option<f64>,
 }
 
 impl Evaluation {
@@ -89,6 +112,9 @@ pub struct FrontDesign {
     pub readings: Vec<KReadings>,
     /// Whether it is the knee of the front.
     pub knee: bool,
+    /// The paper's statements `predict` finds failing on this design as written (empty
+    /// when every one checked holds).
+    pub paper_statements_failed: Vec<String>,
     /// The evaluation behind it.
     #[serde(skip)]
     pub evaluation: Evaluation,
@@ -172,6 +198,14 @@ pub struct ModuleOutcome {
     pub written: Evaluation,
     /// Why it was written, in words.
     pub written_because: String,
+    /// The paper's statements `predict` finds failing on the written design (empty when
+    /// every one checked holds).
+    pub paper_statements_failed: Vec<String>,
+    /// What was done with designs that fail a statement.
+    pub paper_statements: super::statements::PaperStatementsPolicy,
+    /// The front's objectives on which every design ties, each with why it was dropped
+    /// from the front's comparison (the others are what the front trades).
+    pub front_dropped_objectives: Vec<String>,
     /// Where the objectives tie and why.
     pub ties: Vec<String>,
     /// What a lab should know before printing the written design (e.g. that its Case I

@@ -1,8 +1,9 @@
 //! The model's own uncertainty inside the optimiser: the policy's readings at an
-//! anchor design (the contact window's ends and the bounding readings) kept as ratios
-//! to the nominal K, so that the estimate of a candidate carries them along; and the
-//! robust numbers of one grating (the |K| scored, the |K| the limits hold for, how far
-//! the nominal is from its bounding readings).
+//! anchor design (the design interval's ends, the contact window's and the bounding
+//! readings) kept as ratios to the nominal K, with the nominal's stated error, so that
+//! the estimate of a candidate carries them along; and the robust numbers of one
+//! grating (the |K| scored, the |K| the limits hold for, how far the nominal is from
+//! its bounding readings).
 
 use crate::model::{GratingPrediction, LoadCase};
 use crate::prediction::{Fidelity, KReadings};
@@ -14,7 +15,9 @@ struct RatioRow {
     grating: String,
     case: LoadCase,
     model: Fidelity,
+    error: f64,
     window: Option<[f64; 2]>,
+    interval: [f64; 2],
     bonded: f64,
     sliding: f64,
 }
@@ -41,7 +44,9 @@ impl UncertaintyRatios {
                         grating: r.grating.clone(),
                         case: r.configuration.case,
                         model: r.model,
+                        error: r.model_error_fraction,
                         window: r.contact_window_pm_per_n.map(|[a, b]| [ratio(a), ratio(b)]),
+                        interval: r.design_interval_pm_per_n.map(ratio),
                         bonded: ratio(r.bonded_pillars_pm_per_n),
                         sliding: ratio(r.sliding_apex_patch_pm_per_n),
                     }
@@ -61,10 +66,11 @@ impl UncertaintyRatios {
     }
 
     /// The readings of a predicted row: `p` is the estimate with the trust region's
-    /// correction (its K is the nominal, and the contact window's ends follow it),
-    /// `trend` the same row without it (the bounding readings follow the closed form's
-    /// trend from their anchor values, so that a nominal K crossing zero moves against
-    /// them). The nominal alone when the anchor stated nothing for its grating and case.
+    /// correction (its K is the nominal, and the design interval's and the contact
+    /// window's ends follow it), `trend` the same row without it (the bounding readings
+    /// follow the closed form's trend from their anchor values, so that a nominal K
+    /// crossing zero moves against them). The nominal alone (no error, no interval)
+    /// when the anchor stated nothing for its grating and case.
     pub(crate) fn readings_of(
         &self,
         p: &GratingPrediction,
@@ -85,7 +91,12 @@ impl UncertaintyRatios {
             },
             model: row.map_or(Fidelity::ClosedForm, |r| r.model),
             nominal_pm_per_n: k,
+            model_error_fraction: row.map_or(0.0, |r| r.error),
             contact_window_pm_per_n: row.and_then(|r| r.window).map(|[a, b]| [a * k, b * k]),
+            design_interval_pm_per_n: row.map_or([k, k], |r| {
+                let (a, b) = (r.interval[0] * k, r.interval[1] * k);
+                [a.min(b), a.max(b)]
+            }),
             bonded_pillars_pm_per_n: row.map_or(k, |r| r.bonded * t),
             sliding_apex_patch_pm_per_n: row.map_or(k, |r| r.sliding * t),
         }
@@ -96,13 +107,13 @@ impl UncertaintyRatios {
 /// grating, under unit-bearing names.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct FrontObjectives {
-    /// |K| as scored under the robustness setting (worst case over the contact window
+    /// |K| as scored under the robustness setting (worst case over the design interval
     /// by default), pm/N.
     pub sensitivity_pm_per_n: f64,
     /// |K| of the nominal contact reading, pm/N.
     pub nominal_sensitivity_pm_per_n: f64,
-    /// The largest force before a grating reaches the strain limit or leaves its
-    /// wavelength window, with the largest |K| under the robustness setting, N.
+    /// The largest force before a grating reaches the strain limit (less the required
+    /// margin) or leaves its wavelength window, at the far end of its design interval, N.
     pub force_range_n: f64,
     /// Which limit sets the force range: `grating_strain` or `wavelength_window`.
     pub force_range_limited_by: &'static str,

@@ -4,7 +4,7 @@
 //! (`front`) and write the design the preference picks.
 
 use super::choice::{choices, start_choice, Choice};
-use super::front::{pareto_front, pick, tie_notes, FrontCandidate};
+use super::front::{pareto_front, pick_written, tie_notes, tied_objectives, FrontCandidate};
 use super::outcome::{infeasible_error, ChoiceResult, Evaluation, ModuleOutcome, RunSummary};
 use super::predictor::Predictor;
 use super::problem::ModuleProblem;
@@ -170,30 +170,57 @@ fn resolved_settings(base: &Design, settings: &ModuleSettings) -> ModuleSettings
     s
 }
 
-/// The optimised design at `x` of `p`, named and described after its start, and
-/// validated.
+/// The optimised design at `x` of `p`, named and described after its start (why it was
+/// written, what its contact rests on, the paper's statements it fails), rated for the
+/// force and strain limit it was held to, and validated.
 fn optimised_design(
     base: &Design,
     settings: &ModuleSettings,
     (p, best, win): (&ModuleProblem, &Evaluation, &Choice),
-    start_objective: f64,
+    (start_objective, failed): (f64, &[String]),
     why: &str,
 ) -> anyhow::Result<Design> {
     let mut design = p.design_at(&best.x);
     design.name = format!("{}-optimised", base.name.trim_end_matches("-optimised"));
+    if let Some(m) = design.module.as_mut() {
+        m.limits = Some(crate::spec::Limits {
+            max_force_n: settings.max_force_n,
+            max_grating_strain_microstrain: settings.max_grating_strain * 1e6,
+        });
+    }
+    let statements = if failed.is_empty() {
+        "The paper's statements that predict checks hold on this design (paper_statements_failed: none)".to_string()
+    } else {
+        format!(
+            "It fails the paper's statement(s) that predict checks: paper_statements_failed: {}",
+            failed.join(", ")
+        )
+    };
+    let margins = best.margins.map_or(String::new(), |m| {
+        format!(
+            "; margins at {} N at the far end of the design interval: strain {:.0} µε ({:.1} %), wavelength window {:.3} nm{}",
+            settings.max_force_n,
+            m.grating_strain_microstrain,
+            m.grating_strain_percent,
+            m.wavelength_window_nm,
+            m.snap_strain_percent
+                .map_or(String::new(), |s| format!(", snap strain {s:.2} %"))
+        )
+    });
     let (name, short) = match settings.objective {
         Objective::Q => ("Q", "Q"),
         Objective::Sensitivity => ("sensitivity", "|K|"),
         Objective::ForceRange => ("force range", "force range"),
     };
     design.description = Some(format!(
-        "Optimised by fbgforge optimize from `{}` for {name} ({win}; {why}): {short} = {:.4} {} scored {}, nominal {:.4} (start {:.4})",
+        "Optimised by fbgforge optimize from `{}` for {name} ({win}; {why}): {short} = {:.4} {} scored {}, nominal {:.4} (start {:.4}){margins}. {}. {statements}.",
         base.name,
         best.objective,
         settings.objective.unit(),
         settings.robustness.describe(),
         best.nominal_objective,
-        start_objective
+        start_objective,
+        super::statements::contact_basis(&p.design_at(&best.x), win),
     ));
     design
         .validate()
@@ -243,13 +270,20 @@ pub fn optimise_module(
         .best
         .clone()
         .expect("the best row is feasible");
-    let front = pareto_front(candidates, &win_problem.variables);
-    let (written, why) = pick(
+    let mut front = pareto_front(candidates, &win_problem.variables);
+    for f in front.iter_mut() {
+        f.paper_statements_failed = inputs.paper_statements_failed(&f.choice, &f.evaluation.x)?;
+    }
+    let best_failed = inputs.paper_statements_failed(&choices_done[bi].choice, &best_eval.x)?;
+    let (written, why) = pick_written(
         &front,
-        settings.prefer,
-        &choices_done[bi].choice,
-        &best_eval,
+        settings,
+        (&choices_done[bi].choice, &best_eval, &best_failed),
     );
+    let failed = match written {
+        Some(i) => front[i].paper_statements_failed.clone(),
+        None => best_failed,
+    };
     let (problem, eval, choice) = match written {
         Some(i) => {
             let f = &front[i];
@@ -268,11 +302,18 @@ pub fn optimise_module(
         base,
         settings,
         (&problem, &eval, &choice),
-        start.objective,
+        (start.objective, &failed),
         &why,
     )?;
     let ties = tie_notes(&choices_done, &front, settings);
-    let warnings = written_warnings(&choice, &design, &eval);
+    let mut warnings = written_warnings(&choice, &design, &eval);
+    if !failed.is_empty() {
+        warnings.push(format!(
+            "the written design fails the paper's statement(s) {} (predict names the numbers)",
+            failed.join(", ")
+        ));
+    }
+    let front_dropped_objectives = tied_objectives(&front, settings);
     Ok(ModuleOutcome {
         objective: settings.objective,
         objective_unit: settings.objective.unit(),
@@ -292,6 +333,9 @@ pub fn optimise_module(
         written_choice: choice,
         written: eval,
         written_because: why,
+        paper_statements_failed: failed,
+        paper_statements: settings.paper_statements,
+        front_dropped_objectives,
         ties,
         warnings,
         design,

@@ -2,6 +2,7 @@
 //! (limits, band, variables, choices, solvers, budget, seed), with the checks it
 //! cannot run without.
 
+pub use super::statements::PaperStatementsPolicy;
 use super::variables::Variable;
 use crate::materials::MaterialLibrary;
 use crate::prediction::Robustness;
@@ -122,6 +123,9 @@ pub struct ModuleSettings {
     pub max_force_n: f64,
     /// Largest allowed |axial strain| of a grating at the largest force.
     pub max_grating_strain: f64,
+    /// Share of the strain limit every grating keeps free at the far end of its design
+    /// interval (the written design is held to (1 − this) × the limit there).
+    pub strain_margin_fraction: f64,
     /// Smallest printable fit clearance, mm (default: the printer's resolution).
     pub min_fit_clearance_mm: Option<f64>,
     /// Temperature excursion each window must also hold, ± K.
@@ -157,6 +161,10 @@ pub struct ModuleSettings {
     pub rate_hz: Option<f64>,
     /// Which design of the Pareto front is written.
     pub prefer: Preference,
+    /// What to do with a design that fails one of the paper's statements (`predict`'s
+    /// check on the design as written): by default it is not written while another
+    /// design of the front meets them all.
+    pub paper_statements: PaperStatementsPolicy,
     /// Force levels the Pareto front is searched at between `max_force_n` and the
     /// widest force range a choice reaches (evenly spaced; each a search for the best
     /// objective with the strain and wavelength limits held at that force).
@@ -169,6 +177,7 @@ impl Default for ModuleSettings {
             objective: Objective::Q,
             max_force_n: 20.0,
             max_grating_strain: 3e-3,
+            strain_margin_fraction: crate::prediction::STRAIN_MARGIN_FRACTION,
             min_fit_clearance_mm: None,
             temperature_span_k: 10.0,
             guard_band_nm: 0.2,
@@ -185,12 +194,18 @@ impl Default for ModuleSettings {
             robustness: Robustness::WorstCase,
             rate_hz: None,
             prefer: Preference::Knee,
+            paper_statements: PaperStatementsPolicy::Exclude,
             front_levels: 3,
         }
     }
 }
 
 impl ModuleSettings {
+    /// The strain the limits are held to: the limit less the required margin.
+    pub fn held_strain_limit(&self) -> f64 {
+        (1.0 - self.strain_margin_fraction) * self.max_grating_strain
+    }
+
     /// Check the numbers a front end gives before anything is loaded: the solvers'
     /// iteration limits and the smallest fit clearance ([`check_settings`] checks the
     /// rest against the material library).
@@ -224,6 +239,11 @@ pub(super) fn check_settings(
         settings.max_grating_strain.is_finite() && settings.max_grating_strain > 0.0,
         "the grating strain limit must be positive, got {}",
         settings.max_grating_strain
+    );
+    anyhow::ensure!(
+        (0.0..1.0).contains(&settings.strain_margin_fraction),
+        "ModuleSettings.strain_margin_fraction must keep part of the strain limit: at least 0 and below all of it, got {:.1} % of it",
+        100.0 * settings.strain_margin_fraction
     );
     anyhow::ensure!(!settings.solvers.is_empty(), "no solver selected");
     if let Some(f) = settings.rate_hz {

@@ -77,7 +77,7 @@ impl ModuleSink for ModuleReportFolder {
         let o = &run.outcome;
         write_atomic(
             &dir.join("summary.json"),
-            json_text(o, self.words)?.as_bytes(),
+            json_text(&outcome_json(run)?, self.words)?.as_bytes(),
         )?;
         let win = &o.choices[o.best_choice];
         let convergence = charts::write_convergence(dir, win)?;
@@ -138,7 +138,25 @@ impl<W: Write> ModuleJson<W> {
 
 impl<W: Write> ModuleSink for ModuleJson<W> {
     fn optimised(&mut self, run: &ModuleRun) -> Result<()> {
-        writeln!(self.out, "{}", json_text(&run.outcome, self.words)?)?;
+        writeln!(self.out, "{}", json_text(&outcome_json(run)?, self.words)?)?;
         Ok(())
     }
+}
+
+/// The outcome as JSON with where the run wrote: `design_path` (the written design)
+/// and `report_dir` beside its fields.
+pub(crate) fn outcome_json(run: &ModuleRun) -> Result<serde_json::Value> {
+    let mut doc = serde_json::Map::new();
+    doc.insert(
+        "design_path".into(),
+        serde_json::Value::String(run.design_path.display().to_string()),
+    );
+    doc.insert(
+        "report_dir".into(),
+        serde_json::Value::String(run.report_dir.display().to_string()),
+    );
+    if let serde_json::Value::Object(o) = serde_json::to_value(&run.outcome)? {
+        doc.extend(o);
+    }
+    Ok(serde_json::Value::Object(doc))
 }

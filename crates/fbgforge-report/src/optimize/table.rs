@@ -206,6 +206,19 @@ fn front_lines(s: &mut String, o: &ModuleOutcome, words: InWords) {
             &format!("     {}", x_text(&o.variables, &f.evaluation.x)),
             7,
         );
+        if !f.paper_statements_failed.is_empty() {
+            wrapped(
+                s,
+                &format!(
+                    "     paper_statements_failed: {}",
+                    f.paper_statements_failed.join(", ")
+                ),
+                7,
+            );
+        }
+    }
+    for d in &o.front_dropped_objectives {
+        wrapped(s, &words(&format!("dropped from the front: {d}")), 4);
     }
     for t in &o.ties {
         wrapped(s, &words(&format!("ties and spreads: {t}")), 4);
@@ -227,15 +240,44 @@ fn written_lines(s: &mut String, o: &ModuleOutcome, words: InWords) {
         )),
         4,
     );
+    wrapped(
+        s,
+        &format!(
+            "paper_statements_failed: {}",
+            if o.paper_statements_failed.is_empty() {
+                "none (every statement predict checks holds on the written design)".to_string()
+            } else {
+                o.paper_statements_failed.join(", ")
+            }
+        ),
+        4,
+    );
     for r in &o.written.readings {
-        let window = r
-            .contact_window_pm_per_n
-            .map_or("-".to_string(), |[a, b]| format!("{a:+.1} … {b:+.1}"));
+        let [lo, hi] = r.design_interval_pm_per_n;
         wrapped(
             s,
             &format!(
-                "  {}: K {:+.3} pm/N nominal, contact window {window}, bounding readings {:+.1} (bonded) … {:+.1} (sliding) pm/N",
-                r.grating, r.nominal_pm_per_n, r.bonded_pillars_pm_per_n, r.sliding_apex_patch_pm_per_n
+                "  {}: K {:+.3} pm/N nominal ± {:.1} % model error, design interval {lo:+.1} … {hi:+.1}, bounding readings {:+.1} (bonded) … {:+.1} (sliding) pm/N",
+                r.grating,
+                r.nominal_pm_per_n,
+                100.0 * r.model_error_fraction,
+                r.bonded_pillars_pm_per_n,
+                r.sliding_apex_patch_pm_per_n
+            ),
+            4,
+        );
+    }
+    if let Some(m) = o.written.margins {
+        wrapped(
+            s,
+            &format!(
+                "  margins at the far end of the design interval: strain {:.0} µε ({:.1} % of the limit; {:.0} % required), wavelength window {:.3} nm{}",
+                m.grating_strain_microstrain,
+                m.grating_strain_percent,
+                m.required_strain_margin_percent,
+                m.wavelength_window_nm,
+                m.snap_strain_percent
+                    .map_or(String::new(), |v| format!(", snap strain {v:.2} %"))
             ),
             4,
         );

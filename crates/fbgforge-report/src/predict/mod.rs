@@ -40,6 +40,7 @@ impl<W: Write> PredictSink for PredictJson<W> {
             "force_n": p.request.force_n,
             "delta_t_k": p.request.delta_t_k,
             "fidelity": p.request.fidelity,
+            "mesh_level": p.request.fem_options.policy_level(),
             "predictions": p.rows,
             "paper_statements": p.statements,
         });

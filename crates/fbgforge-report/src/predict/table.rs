@@ -33,16 +33,18 @@ impl<W: Write> PredictSink for PredictTable<W> {
             p.design.name, p.request.force_n
         )?;
         let columns = (p.request.with_band(), p.request.delta_t_k != 0.0);
+        let interval = p.rows.iter().any(|r| r.design_interval_pm_per_n.is_some());
         let mut notes = Footnotes::default();
         let mut models = Footnotes::default();
-        header(out, columns)?;
+        header(out, columns, interval)?;
         for row in p.rows {
-            write_row(out, row, columns, &mut notes, &mut models)?;
+            write_row(out, row, (columns, interval), &mut notes, &mut models)?;
         }
         for (i, m) in models.0.iter().enumerate() {
             writeln!(out, "m{}: {m}", i + 1)?;
         }
         write!(out, "{}", legend(columns.0, p.request.fidelity))?;
+        write!(out, "{}", error_legend(p, interval))?;
         for (i, n) in notes.0.iter().enumerate() {
             writeln!(out, "[{}] {n}", i + 1)?;
         }
@@ -56,8 +58,8 @@ impl<W: Write> PredictSink for PredictTable<W> {
 }
 
 /// The table's header line; `(band, temp)`: whether the band and the thermal columns
-/// are shown.
-fn header(out: &mut impl Write, (band, temp): (bool, bool)) -> Result<()> {
+/// are shown, `interval`: whether the design interval and its strain are.
+fn header(out: &mut impl Write, (band, temp): (bool, bool), interval: bool) -> Result<()> {
     write!(
         out,
         "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
@@ -72,8 +74,12 @@ fn header(out: &mut impl Write, (band, temp): (bool, bool)) -> Result<()> {
         "strain µε",
         "share"
     )?;
+    write!(out, " {:>6}", "err %")?;
     if band {
         write!(out, " {:>21}", "band pm/N")?;
+    }
+    if interval {
+        write!(out, " {:>21} {:>10}", "design interval pm/N", "far µε")?;
     }
     if temp {
         write!(out, " {:>11} {:>12}", "raw pm", "compens. pm")?;
@@ -86,7 +92,7 @@ fn header(out: &mut impl Write, (band, temp): (bool, bool)) -> Result<()> {
 fn write_row(
     out: &mut impl Write,
     row: &ModelledPrediction,
-    (band, temp): (bool, bool),
+    ((band, temp), interval): ((bool, bool), bool),
     notes: &mut Footnotes,
     models: &mut Footnotes,
 ) -> Result<()> {
@@ -117,11 +123,24 @@ fn write_row(
         p.strain * 1e6,
         share
     )?;
+    let err = row
+        .model_error_fraction
+        .map_or("-".to_string(), |f| format!("{:.1}", 100.0 * f));
+    write!(out, " {err:>6}")?;
     if band {
         let b = row
             .band_pm_per_n
             .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
         write!(out, " {b:>21}")?;
+    }
+    if interval {
+        let iv = row
+            .design_interval_pm_per_n
+            .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
+        let far = row.limit_check.map_or("-".to_string(), |c| {
+            format!("{:+.0}", c.far_end_strain_microstrain)
+        });
+        write!(out, " {iv:>21} {far:>10}")?;
     }
     if temp {
         let comp = d
@@ -158,6 +177,55 @@ fn legend(band: bool, choice: FidelityChoice) -> String {
         }
         FidelityChoice::ClosedForm => s.push_str("model: closed form forced (PredictionRequest.fidelity closed-form): no finite-element solve, so no band (PredictionRequest.fidelity auto gives it).\n"),
         FidelityChoice::Fem => s.push_str("model: finite elements forced (PredictionRequest.fidelity fem).\n"),
+    }
+    s
+}
+
+/// What the error, the design interval and the far-end strain mean, the mesh and the
+/// discretisation error it implies, and where the limits were checked.
+fn error_legend(p: &Predicted, interval: bool) -> String {
+    let mut s = String::from(
+        "err %: the nominal K's stated model error, discretisation (the Richardson step of the FE mesh, at least 0.5 %) plus a modelling term from the comparison with independent solutions (closed form, Case II 8 %; FE, Case I 9 %, Case II 14 %); docs/model.md §5.8.\n",
+    );
+    let disc: Vec<f64> = p
+        .rows
+        .iter()
+        .filter_map(|r| r.model_error)
+        .filter(|e| e.discretisation_fraction > 0.0)
+        .map(|e| e.discretisation_fraction)
+        .collect();
+    if !disc.is_empty() {
+        let (lo, hi) = disc
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &d| {
+                (a.0.min(d), a.1.max(d))
+            });
+        let level = p
+            .request
+            .fem_options
+            .policy_level()
+            .map_or("custom".to_string(), |k| k.to_string());
+        s.push_str(&format!(
+            "mesh level {level} (PredictionRequest.fem_options; element sizes relative to the 34 mm module, extrapolated with the level below): discretisation error {:.1}–{:.1} % over the FE rows.\n",
+            100.0 * lo,
+            100.0 * hi
+        ));
+    }
+    if interval {
+        s.push_str("design interval: every reading the spec implies (Case I: the nominal and the contact window's ends, 1.30–1.48 × the apex patch; Case II: the closed form and the FE reading of the stated cylinders), each widened by its own model error; far µε: the strain at the largest force from its far end.\n");
+        if let Some(c) = p.rows.iter().find_map(|r| r.limit_check) {
+            s.push_str(&format!(
+                "limits: {} N ({}), strain limit {:.0} µε, each grating to keep {:.0} % of it free at the far end.\n",
+                c.force_n,
+                if c.force_from == "design" {
+                    "the design's [module.limits]"
+                } else {
+                    "PredictionRequest.force_n"
+                },
+                c.strain_limit_microstrain,
+                100.0 * prediction::STRAIN_MARGIN_FRACTION
+            ));
+        }
     }
     s
 }

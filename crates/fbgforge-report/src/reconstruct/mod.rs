@@ -45,11 +45,25 @@ pub fn summary_text(summary: &ReconstructSummary) -> String {
         f.unconverged,
         f.unusable
     );
+    let cm = &summary.common_mode_note;
+    if cm.fitted || cm.decided == "auto" {
+        let _ = writeln!(s, "common offset ({}): {}", cm.decided, cm.reason);
+    }
+    if let Some(b) = &summary.budget {
+        let _ = writeln!(s, "budget {} µs per frame: {}", b.budget_us, b.note);
+    }
     for g in &summary.suspect_gratings {
+        let partner = g
+            .partner_name
+            .as_ref()
+            .map_or(String::new(), |p| format!(" with {p}"));
         let _ = writeln!(
             s,
-            "grating {} looks dead or stuck (its shift varies by {:.2} pm while the others predict {:.1} pm over {} frames): left out",
-            g.name, g.measured_sd_pm, g.predicted_sd_pm, g.frames
+            "grating {} is {}{partner}: {}; {}",
+            g.name,
+            g.reason.words(),
+            g.evidence,
+            g.remedy
         );
     }
     s

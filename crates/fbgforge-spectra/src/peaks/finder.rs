@@ -78,6 +78,15 @@ pub struct FindOptions {
     pub low_snr: f64,
     /// `undersampled` below this many samples per FWHM (1.2).
     pub undersampled_samples: f64,
+    /// `undersampled` also below this many samples per FWHM (2.5) when the line is
+    /// measurably not the estimator's shape: a residual-based standard error above
+    /// `misfit_ratio` × the bound (a reduced χ² above 4). Pixel-locking then sets in at
+    /// wider sampling: the scenario study (`studies/src/spectra.rs`) measured Gaussian
+    /// fits of 1.2–2 sample transfer-matrix, chirped and split lines off by 3–30× their
+    /// standard error with no flag.
+    pub misfit_undersampled_samples: f64,
+    /// See `misfit_undersampled_samples` (2).
+    pub misfit_ratio: f64,
     /// `estimator_disagreement` when the estimator and a second one (the parabola for the
     /// Gaussian, the Gaussian for the others) differ by more than this factor times the
     /// bound, the bound being the CRB or, if larger, the combined standard error of the
@@ -101,6 +110,8 @@ impl Default for FindOptions {
             window_fwhm: 2.0,
             low_snr: 20.0,
             undersampled_samples: 1.2,
+            misfit_undersampled_samples: 2.5,
+            misfit_ratio: 2.0,
             disagreement_factor: 3.0,
             check_disagreement: true,
             noise_sigma: None,
@@ -385,6 +396,9 @@ fn assemble(
         sigma,
     );
     let snr = e.amplitude / sigma;
+    let misfit = residual_based(&estimator)
+        && e.fwhm_nm < o.misfit_undersampled_samples * w.pitch_nm()
+        && e.std_error_pm > o.misfit_ratio * crb_pm;
     Peak {
         wavelength_nm: e.wavelength_nm,
         std_error_pm: e.std_error_pm,
@@ -395,12 +409,18 @@ fn assemble(
         baseline: e.baseline,
         estimator,
         flags: PeakFlags {
-            undersampled: e.fwhm_nm < o.undersampled_samples * w.pitch_nm(),
+            undersampled: e.fwhm_nm < o.undersampled_samples * w.pitch_nm() || misfit,
             low_snr: snr < o.low_snr,
             ..PeakFlags::default()
         },
         overlap_group: None,
     }
+}
+
+/// Estimators whose standard error comes from the fit's residuals (so a shape they do
+/// not model shows in it).
+fn residual_based(estimator: &str) -> bool {
+    matches!(estimator, "gaussian" | "xcorr")
 }
 
 #[allow(clippy::too_many_arguments)]

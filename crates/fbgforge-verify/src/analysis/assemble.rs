@@ -33,9 +33,15 @@ pub fn analyse(
     };
     let mut warnings = log.warnings.clone();
     warnings.merge(force.warnings.clone());
+    // Rows on one clock: the longest stretch between jumps of the clock back.
+    let one = super::stretch::one_clock(log, &mut warnings);
+    let (log, rows_set_aside) = match &one {
+        Some((l, n)) => (l, *n),
+        None => (log, 0),
+    };
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
     let shifts = grating_shifts(design, module, log, opts, &tw, &mut warnings)?;
-    let mut st = stages(module, (log, force), opts, &tw, &shifts, &mut warnings)?;
+    let mut st = stages((design, module), (log, force), opts, &tw, &shifts, &mut warnings)?;
     let mut pass = st.measure(&st.clocks)?;
     let (skew, skew_corrected) = correct_skew(&mut st, &mut pass, &mut warnings)?;
     let Pass {
@@ -58,9 +64,12 @@ pub fn analyse(
     if !st.relative {
         warn_negative_lags(&results, skew.as_ref(), skew_corrected, &mut warnings);
     }
+    let alignment = finish_alignment(&st, &results, peak_force_n, &mut warnings);
+    let overlap_s = covered_s(&tw, (st.clocks.fa, st.clocks.fb));
     let m = Measurement {
         wavelength_log: log.source.display().to_string(),
         wavelength_format: log.format.name().into(),
+        peak_estimator: log.estimator().map(str::to_string),
         wavelength_rows: log.rows(),
         wavelength_rate_hz: 1.0 / log.median_period_s(),
         force_log: force.source.display().to_string(),
@@ -73,7 +82,10 @@ pub fn analyse(
         clock_skew_corrected: skew_corrected,
         lag_is_relative: st.relative,
         force_log_start_s: st.clocks.fa,
-        overlap_s: st.clocks.overlap,
+        overlap_s,
+        alignment,
+        clock_jumps: log.clock_jumps.clone(),
+        rows_set_aside,
         reference_grating: shifts.reference_grating.clone(),
         interrogator_resolution_pm: st.resolution_pm,
         pulse_count: st.seg.pulses.len(),
@@ -93,6 +105,7 @@ pub fn analyse(
 /// wavelength clock cut into pulses, its trusted part, the aligned clocks, the
 /// resolution and the timestamps' uncertainty.
 struct Stages<'a> {
+    design: &'a Design,
     module: &'a crate::spec::Module,
     shifts: &'a GratingShifts<'a>,
     tw: &'a [f64],
@@ -111,7 +124,7 @@ struct Stages<'a> {
 /// prior), cut into pulses and checked before any fit (the pulses a saturated channel
 /// or a gap leaves untrusted are left out), the clocks aligned on the primary grating.
 fn stages<'a>(
-    module: &'a crate::spec::Module,
+    (design, module): (&'a Design, &'a crate::spec::Module),
     (log, force): (&PeakLog, &ForceLog),
     opts: &AnalysisOptions,
     tw: &'a [f64],
@@ -133,6 +146,7 @@ fn stages<'a>(
     let relative = clocks.source == "estimated";
     let timing = timing_uncertainty_s(log, force, relative, warnings);
     Ok(Stages {
+        design,
         module,
         shifts,
         tw,
@@ -171,9 +185,11 @@ impl Stages<'_> {
             hw: sel.hw,
             timing_s: if self.relative { 0.0 } else { self.timing },
             relative: self.relative,
+            row_timing_s: self.timing,
             excluded_s: &excluded_s,
             row_ok: &row_ok,
             untrusted: &self.trusted.untrusted,
+            design: self.design,
         };
         let (first, rest) = measure_all(&ctx, self.primary)?;
         let peak_force_n = fc
@@ -188,6 +204,109 @@ impl Stages<'_> {
             peak_force_n,
         })
     }
+}
+
+/// The time the wavelength log's rows cover inside the force log's span `[fa, fb]`:
+/// the spacing of consecutive rows, each step at most five median periods (a pause or a
+/// clock jump between rows covers nothing), s.
+fn covered_s(tw: &[f64], (fa, fb): (f64, f64)) -> f64 {
+    let cap = 5.0 * median_period(tw);
+    tw.windows(2)
+        .filter(|w| w[0] >= fa && w[1] <= fb)
+        .map(|w| (w[1] - w[0]).min(cap))
+        .sum()
+}
+
+/// The alignment's rivals counted once the force is cut into pulses and the primary
+/// grating measured: the trusted presses inside and outside the wavelength log, the
+/// presses the shift shows where the force log has none, and (for an estimated offset)
+/// why the alignment is not definite.
+fn finish_alignment(
+    st: &Stages,
+    results: &[GratingResult],
+    peak_force_n: f64,
+    warnings: &mut LogWarnings,
+) -> super::results::AlignmentCheck {
+    let mut check = st.clocks.check.clone();
+    let fu = &st.clocks.fu;
+    let (wa, wb) = (st.tw[0], st.tw[st.tw.len() - 1]);
+    let trusted: Vec<(f64, f64)> = st
+        .seg
+        .pulses
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| !st.trusted.untrusted.contains(k))
+        .map(|(_, p)| (fu[p.start], fu[p.end]))
+        .collect();
+    check.presses_in_overlap = trusted.iter().filter(|(a, b)| *a >= wa && *b <= wb).count();
+    check.force_presses_outside = trusted.iter().filter(|(a, b)| *b < wa || *a > wb).count();
+    let (gi, s) = &st.shifts.used[st.primary];
+    let name = &st.shifts.selection.strain[*gi].name;
+    if let Some(g) = results.iter().find(|r| &r.grating == name) {
+        let longest = trusted.iter().map(|(a, b)| b - a).fold(0.0, f64::max);
+        check.shift_presses_outside = super::alignment::shift_presses_outside(
+            st.tw,
+            s,
+            (st.clocks.fa, st.clocks.fb),
+            (g.sensitivity_pm_per_n.signum(), g.sensitivity_pm_per_n.abs() * peak_force_n),
+            (3.0 * longest).max(10.0),
+        );
+    }
+    let outside = check.shift_presses_outside.len();
+    if outside > 0 {
+        let (a, b) = check.shift_presses_outside[0];
+        warnings.add_n("shift_presses_outside_force", outside, || {
+            format!(
+                "the shift shows presses where the force log has no samples (the first from {a:.2} s to {b:.2} s): the force log covers part of the run only{}",
+                if st.relative { ", and an estimated clock offset may match the wrong presses" } else { "" }
+            )
+        });
+    }
+    if st.relative {
+        check.ambiguous = alignment_doubt(&check);
+    }
+    check
+}
+
+/// Why an estimated clock offset is not definite, if it is not: a rival within the
+/// margin, too few presses in the overlap, presses on one side the other does not
+/// explain.
+fn alignment_doubt(c: &super::results::AlignmentCheck) -> Option<String> {
+    let mut why = Vec::new();
+    if let (Some(e), Some(best), Some(rival)) = (c.evidence, c.candidates.first(), c.candidates.get(1)) {
+        if e < c.evidence_margin {
+            why.push(format!(
+                "a second clock offset, {:.3} s (K = {:.3} pm/N, R² {:.4}), fits almost as well as the best, {:.3} s (K = {:.3} pm/N, R² {:.4}): evidence Λ = {e:.1} < {}",
+                rival.clock_offset_s,
+                rival.sensitivity_pm_per_n,
+                rival.response_r_squared,
+                best.clock_offset_s,
+                best.sensitivity_pm_per_n,
+                best.response_r_squared,
+                c.evidence_margin
+            ));
+        }
+    }
+    if c.presses_in_overlap < super::alignment::MIN_PRESSES {
+        why.push(format!(
+            "only {} press(es) of the force log lie in the overlap (at least {} pin an estimated offset: one or two presses fit another press as well)",
+            c.presses_in_overlap,
+            super::alignment::MIN_PRESSES
+        ));
+    }
+    if c.force_presses_outside > 0 || !c.shift_presses_outside.is_empty() {
+        why.push(format!(
+            "presses on one side are not explained by the other ({} in the force log outside the wavelength log, {} in the shift where the force log has none)",
+            c.force_presses_outside,
+            c.shift_presses_outside.len()
+        ));
+    }
+    (!why.is_empty()).then(|| {
+        format!(
+            "the estimated clock offset is not definite: {}; give the offset (VerifyRequest.force_start or AnalysisOptions.clock_offset_s)",
+            why.join("; ")
+        )
+    })
 }
 
 /// Clock skew: the primary grating's segment lags drifting over the run. When it stands

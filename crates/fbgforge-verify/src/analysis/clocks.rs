@@ -2,7 +2,9 @@
 //! a start, then the lag model fitted with the offset free, coarse then at full rate),
 //! the aligned logs' overlap, and the timestamps' own uncertainty.
 
+use super::alignment::{search, OffsetSearch, EVIDENCE_MARGIN};
 use super::fit_data::FitData;
+use super::results::AlignmentCheck;
 use super::{AlignedClocks, ForceFrame};
 use crate::fit;
 use crate::logs::time::median_period;
@@ -23,8 +25,8 @@ pub(super) fn align_clocks(
     warnings: &mut LogWarnings,
 ) -> Result<AlignedClocks> {
     let prior = frame.prior;
-    let (delta, source) = match given_s {
-        Some(o) => (o - prior, "given"),
+    let (delta, source, found) = match given_s {
+        Some(o) => (o - prior, "given", None),
         None => {
             let excluded = span_times(&frame.u, spans);
             let al = Alignment {
@@ -37,7 +39,8 @@ pub(super) fn align_clocks(
                 range: frame.range,
                 excluded: &excluded,
             };
-            (estimate_clock_offset(&al, warnings)?, "estimated")
+            let (d, found) = estimate_clock_offset(&al, warnings)?;
+            (d, "estimated", found)
         }
     };
     let offset = prior + delta;
@@ -53,14 +56,39 @@ pub(super) fn align_clocks(
             log.source.display()
         );
     }
+    let check = alignment_check(found, prior, offset);
     Ok(AlignedClocks {
         offset,
         source,
         fu,
         fa,
         fb,
-        overlap,
+        check,
     })
+}
+
+/// The search's candidates as absolute offsets (the best at the polished offset), or
+/// the given offset alone.
+fn alignment_check(found: Option<OffsetSearch>, prior: f64, offset: f64) -> AlignmentCheck {
+    let mut check = AlignmentCheck {
+        evidence_margin: EVIDENCE_MARGIN,
+        ..Default::default()
+    };
+    if let Some(f) = found {
+        check.evidence = f.evidence;
+        check.candidates = f
+            .candidates
+            .into_iter()
+            .map(|mut c| {
+                c.clock_offset_s += prior;
+                c
+            })
+            .collect();
+        if let Some(first) = check.candidates.first_mut() {
+            first.clock_offset_s = offset;
+        }
+    }
+    check
 }
 
 impl AlignedClocks {
@@ -71,16 +99,16 @@ impl AlignedClocks {
         skew: &crate::skew::SkewFit,
         (wa, wb): (f64, f64),
     ) -> AlignedClocks {
+        let _ = (wa, wb);
         let fu: Vec<f64> = self.fu.iter().map(|&u| skew.warp(u)).collect();
         let (fa, fb) = (fu[0], fu[fu.len() - 1]);
-        let overlap = wb.min(fb) - wa.max(fa);
         AlignedClocks {
             offset: self.offset,
             source: self.source,
             fu,
             fa,
             fb,
-            overlap: overlap.max(0.0),
+            check: self.check.clone(),
         }
     }
 }
@@ -131,24 +159,24 @@ struct Alignment<'a> {
 
 /// Estimate the residual clock offset: cross-correlation for a start, then the lag
 /// model fitted with the offset free, coarse then at full rate.
-fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f64> {
+fn estimate_clock_offset(
+    al: &Alignment,
+    warnings: &mut LogWarnings,
+) -> Result<(f64, Option<OffsetSearch>)> {
     let (tw, s, u, fval, a, b, range) = (al.tw, al.shift_pm, al.u, al.fval, al.a, al.b, al.range);
     let (dx, _) = xcorr_offset(tw, s, u, fval, a, b, range)
         .ok_or_else(|| anyhow::anyhow!("the logs overlap too little to align their clocks"))?;
     let coarse = FitData::new(tw, s, u, fval, a, b, 20_000, 50_000, 30.0, al.excluded);
-    let mut best: (Vec<f64>, f64) = (vec![dx, 0.0, 0.0], f64::MAX);
-    let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
-        .par_iter()
-        .map(|&tau0| {
-            let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
-            let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
-            fit::nelder_mead(coarse.cost(None), &start, &step, 300)
-        })
-        .collect();
-    for r in tries {
-        if r.1 < best.1 {
-            best = r;
-        }
+    // The fit profiled over the whole search range, its local bests polished and
+    // weighed against each other (the cross-correlation's start alone landed a press
+    // or two off on short recordings).
+    let found = search(&coarse, range, dx);
+    let mut best: (Vec<f64>, f64) = match &found {
+        Some(f) => (f.best.clone(), 0.0),
+        None => coarse_fit(&coarse, dx),
+    };
+    if best.0.is_empty() {
+        best = coarse_fit(&coarse, dx);
     }
     // Polish at full rate on the first stretch of the overlap.
     let span = (b - a)
@@ -167,18 +195,33 @@ fn estimate_clock_offset(al: &Alignment, warnings: &mut LogWarnings) -> Result<f
         al.excluded,
     );
     let p = best.0.clone();
-    let step = [
-        2.0 * median_period(&fine.st).max(median_period(&fine.ft)),
-        0.3,
-        0.5,
-    ];
-    let r = fit::nelder_mead(fine.cost(None), &p, &step, 300);
+    let grid = 2.0 * median_period(&fine.st).max(median_period(&fine.ft));
+    let step = [grid, 0.3, 0.5];
+    // The polish stays in the best's basin: within a second (or two grid steps).
+    let r = fit::nelder_mead(fine.cost_around(p[0], grid.max(1.0)), &p, &step, 300);
     let d = if r.1 < f64::MAX { r.0[0] } else { p[0] };
     if (d.abs() - range).abs() < 1e-9 || d.abs() > range {
         warnings.add("clock_offset_at_limit", || format!("the estimated clock offset reached the search limit ±{range} s; widen it with AnalysisOptions.max_clock_offset_s or give AnalysisOptions.clock_offset_s"));
     }
     // The search range is a bound the user set: the polished fit may not leave it.
-    Ok(d.clamp(-range, range))
+    Ok((d.clamp(-range, range), found))
+}
+
+/// The lag model fitted with the offset free from the cross-correlation's start `dx`
+/// and three time constants (when the profile found nothing).
+fn coarse_fit(coarse: &FitData, dx: f64) -> (Vec<f64>, f64) {
+    let tries: Vec<(Vec<f64>, f64)> = [0.05f64, 0.5, 5.0]
+        .par_iter()
+        .map(|&tau0| {
+            let start = [dx + 0.5 * tau0, tau0.ln(), 0.0];
+            let step = [(0.2 * tau0).max(2.0 * median_period(&coarse.st)), 1.0, 1.5];
+            fit::nelder_mead(coarse.cost(None), &start, &step, 300)
+        })
+        .collect();
+    tries
+        .into_iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((vec![dx, 0.0, 0.0], f64::MAX))
 }
 
 /// Coarse offset by cross-correlation: the shift lag Δ (in the force frame u) that

@@ -63,6 +63,39 @@ impl FitData {
         }
     }
 
+    /// The shift samples: times and shifts.
+    pub(super) fn shift(&self) -> (&[f64], &[f64]) {
+        (&self.st, &self.sv)
+    }
+
+    /// The force samples: times and forces.
+    pub(super) fn force(&self) -> (&[f64], &[f64]) {
+        (&self.ft, &self.fv)
+    }
+
+    /// The drift's origin, s.
+    pub(super) fn t_mid(&self) -> f64 {
+        self.t_mid
+    }
+
+    /// Whether force-clock time `u` lies in a stretch left out (`cursor` walks the
+    /// stretches along increasing `u`).
+    pub(super) fn excluded(&self, u: f64, cursor: &mut usize) -> bool {
+        let ex = &self.excluded_s;
+        while *cursor < ex.len() && ex[*cursor].1 < u {
+            *cursor += 1;
+        }
+        *cursor < ex.len() && ex[*cursor].0 <= u
+    }
+
+    /// The cost with the offset free within `w` of `delta`.
+    pub(super) fn cost_around(&self, delta: f64, w: f64) -> LagModelCost<'_> {
+        LagModelCost {
+            offset_range_s: Some((delta - w, delta + w)),
+            ..self.cost(None)
+        }
+    }
+
     pub(super) fn cost(&self, fixed: Option<f64>) -> LagModelCost<'_> {
         LagModelCost {
             shift_t: &self.st,

@@ -71,10 +71,13 @@ pub(super) fn force_frame(
 /// that pulses are peaks.
 fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64> {
     // Some stands log compression as negative force: if the force's excursions go
-    // down rather than up, flip it (and say so) so that pulses are peaks.
-    let med = percentile(&force.force_n, 0.5);
-    let flip = (percentile(&force.force_n, 0.001) - med).abs()
-        > (percentile(&force.force_n, 0.999) - med).abs();
+    // down rather than up, flip it (and say so) so that pulses are peaks. The
+    // excursions are measured from the rest level: the quieter end of the log (a
+    // preloaded protocol spends most of its time away from rest, so the median is no
+    // rest level: it flipped a preloaded sine).
+    let rest = rest_level(&force.force_n);
+    let flip = (percentile(&force.force_n, 0.001) - rest).abs()
+        > (percentile(&force.force_n, 0.999) - rest).abs();
     if flip {
         warnings.add("force_sign_flipped", || {
             format!(
@@ -85,6 +88,24 @@ fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64
         force.force_n.iter().map(|f| -f).collect()
     } else {
         force.force_n.clone()
+    }
+}
+
+/// The force's resting level: the median of whichever end of the log (its first or
+/// last 2 %, at least 5 samples) varies least, a stand at rest before and after the
+/// presses (the median of the whole log, when it is too short for ends).
+fn rest_level(f: &[f64]) -> f64 {
+    let n = f.len();
+    let m = (n / 50).max(5);
+    if n < 4 * m {
+        return percentile(f, 0.5);
+    }
+    let spread = |s: &[f64]| percentile(s, 0.9) - percentile(s, 0.1);
+    let (head, tail) = (&f[..m], &f[n - m..]);
+    if spread(head) <= spread(tail) {
+        percentile(head, 0.5)
+    } else {
+        percentile(tail, 0.5)
     }
 }
 

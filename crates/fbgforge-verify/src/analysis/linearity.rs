@@ -57,6 +57,60 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
     (100.0 * hyst / span, 100.0 * lin / span)
 }
 
+/// Hysteresis and non-linearity of the lag-corrected signal, % of span, as the
+/// tactile-array paper defines them: the calibration line is the loading branch's,
+/// Δλ = K·x through the origin (the slow curve is removed from `d`), and the span its
+/// full-scale output |K|·x_max. Rows are binned by x (up to 20 bins, fewer when the
+/// branches have few rows, at least 3 of each per bin); hysteresis is the largest
+/// difference between the unloading and loading branch means in one bin,
+/// non-linearity the largest distance of a loading bin's mean from the line. Held rows
+/// belong to neither branch. NaN when no bin has rows of both branches.
+pub(crate) fn lag_corrected_loop(
+    x: &[f64],
+    d: &[f64],
+    branch: &[super::response::Branch],
+    k: f64,
+    x_max: f64,
+) -> (f64, f64) {
+    use super::response::Branch;
+    let span = k.abs() * x_max;
+    if span.is_nan() || span <= 0.0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let count = |b: Branch| branch.iter().filter(|&&v| v == b).count();
+    let bins = (count(Branch::Loading).min(count(Branch::Unloading)) / 6).clamp(3, 20);
+    // sum and count of the residual from the line, loading then unloading.
+    let mut acc = vec![[0.0f64; 4]; bins];
+    for i in 0..x.len() {
+        let slot = match branch[i] {
+            Branch::Loading => 0,
+            Branch::Unloading => 2,
+            _ => continue,
+        };
+        let res = d[i] - k * x[i];
+        if !res.is_finite() {
+            continue;
+        }
+        let b = ((x[i] / x_max) * bins as f64).floor().clamp(0.0, (bins - 1) as f64) as usize;
+        acc[b][slot] += res;
+        acc[b][slot + 1] += 1.0;
+    }
+    let (mut hyst, mut lin, mut any) = (0.0f64, 0.0f64, false);
+    for a in &acc {
+        if a[1] >= 3.0 {
+            lin = lin.max((a[0] / a[1]).abs());
+            if a[3] >= 3.0 {
+                hyst = hyst.max((a[2] / a[3] - a[0] / a[1]).abs());
+                any = true;
+            }
+        }
+    }
+    if !any {
+        return (f64::NAN, 100.0 * lin / span);
+    }
+    (100.0 * hyst / span, 100.0 * lin / span)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,8 +6,11 @@ use super::lags::lag_figures;
 use super::linearity::hysteresis_and_linearity;
 use super::quality::quality_q;
 use super::results::GratingResult;
+use super::instrument::{instrument_check, Readings};
+use super::response::{response_figures, Branch};
 use super::sensitivity::{
-    chart_intercept, drift_free_shift, fit_lag_model, lag1_independence, plateau_sensitivity,
+    chart_intercept, drift_free_shift, fit_lag_model, full_cost, lag1_independence,
+    plateau_sensitivity,
 };
 use super::GratingContext;
 use crate::fit;
@@ -16,6 +19,24 @@ use rayon::prelude::*;
 
 /// A measured grating, its drift-free shift series and its straight-line fit.
 pub(super) type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
+
+/// The loop a timing error of ±`u` s per row opens on a perfectly elastic part, % of
+/// span: the branches move apart by 2·u·|dx/dt| (the median rate over the loading and
+/// unloading rows), over the span x_max.
+fn timing_loop_percent(tw: &[f64], x: &[f64], branch: &[Branch], x_max: f64, u: f64) -> f64 {
+    if !(u > 0.0 && x_max > 0.0) || x.len() < 3 {
+        return 0.0;
+    }
+    let rates: Vec<f64> = (1..x.len() - 1)
+        .filter(|&i| matches!(branch[i], Branch::Loading | Branch::Unloading))
+        .map(|i| ((x[i + 1] - x[i - 1]) / (tw[i + 1] - tw[i - 1])).abs())
+        .filter(|r| r.is_finite())
+        .collect();
+    if rates.is_empty() {
+        return 0.0;
+    }
+    200.0 * u * crate::segment::percentile(&rates, 0.5) / x_max
+}
 
 /// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
 /// seeds the delay, τ and r from an already measured grating.
@@ -33,15 +54,44 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
             g.name
         )
     })?;
-    let (hyst, nonlin) = hysteresis_and_linearity(fc, &d, &line);
-    // The response model's own fit: how much of the shift its response explains
-    // beyond baseline and drift, and how independent its residuals are.
-    let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
-    let response_r2 = fit::response_r_squared(ctx.tw, s, &residual, t_mid);
-    let (rho, n, n_eff) = lag1_independence(&residual);
-    let k = lm.k_pm_per_n;
+    // The response against its rivals on the lag-corrected signal: K from the
+    // loading branch beside a slow variation, the loop, each press's gain; then the
+    // interrogator's own readings. Without rows for it, the lag model's figures.
+    let rf = response_figures(ctx, s, &lm, &full_cost(ctx, s));
+    let (k, se_k, se_k_eff, rho, n_eff, response_r2, hyst, nonlin) = match &rf {
+        Some(r) => (
+            r.k_load,
+            r.k_load_std_error,
+            r.k_load_std_error_eff,
+            r.rho,
+            r.n_eff,
+            r.slow.share_beyond_slow,
+            r.hysteresis_percent_span,
+            r.nonlinearity_percent_span,
+        ),
+        None => {
+            let (h, l) = hysteresis_and_linearity(fc, &d, &line);
+            let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
+            let (rho, n, n_eff) = lag1_independence(&residual);
+            let se = lm.k_std_error_pm_per_n;
+            let r2 = fit::response_r_squared(ctx.tw, s, &residual, t_mid);
+            (lm.k_pm_per_n, se, se * (n as f64 / n_eff).sqrt(), rho, n_eff, r2, h, l)
+        }
+    };
+    let instrument = rf.as_ref().map_or_else(Default::default, |r| {
+        instrument_check(&Readings {
+            nm: &t.wavelength_nm,
+            nominal_nm: g.bragg_wavelength_nm,
+            x: &r.x,
+            k,
+            x_max: r.x_max,
+        })
+    });
     let lags = lag_figures(ctx, &d, &lm, delay);
-    let se_k_eff = lm.k_std_error_pm_per_n * (n as f64 / n_eff).sqrt();
+    // Peaks found in spectra carry their own standard errors: propagated to K they
+    // floor K's standard error (the residuals already hold their random part).
+    let se_peaks = crate::logs::assign::slope_std_error_from_errors(fc, &t.std_error_pm);
+    let se_k_eff = se_k_eff.max(se_peaks.unwrap_or(0.0));
     let q = quality_q(k, se_k_eff, line.r_squared, &lags, ctx.relative);
     let plateau = plateau_sensitivity(ctx, &d);
     let summary = lags.summary;
@@ -58,10 +108,28 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
         rows_with_peak: t.rows_present,
         rows_ambiguous: t.rows_ambiguous,
         sensitivity_pm_per_n: k,
-        sensitivity_std_error_pm_per_n: lm.k_std_error_pm_per_n,
+        sensitivity_std_error_pm_per_n: se_k,
+        lag_model_sensitivity_pm_per_n: lm.k_pm_per_n,
+        loading_rows: rf.as_ref().map_or(0, |r| {
+            r.branch
+                .iter()
+                .filter(|b| matches!(b, Branch::Loading | Branch::Rest))
+                .count()
+        }),
+        slow_test: rf.as_ref().map(|r| r.slow.clone()),
+        pulse_gains: rf.as_ref().map(|r| r.gains.clone()).unwrap_or_default(),
+        instrument,
+        hysteresis_limit_percent_span: super::hysteresis_limit_percent_span(
+            ctx.design,
+            g.core.as_deref(),
+        ),
+        hysteresis_timing_percent_span: rf.as_ref().map_or(0.0, |r| {
+            timing_loop_percent(ctx.tw, &r.x, &r.branch, r.x_max, ctx.row_timing_s)
+        }),
         residual_autocorrelation: rho,
         effective_samples: n_eff,
         sensitivity_std_error_effective_pm_per_n: se_k_eff,
+        sensitivity_peak_std_error_pm_per_n: se_peaks,
         sensitivity_t_statistic: k.abs() / se_k_eff,
         peak_force_n: lags
             .pulses

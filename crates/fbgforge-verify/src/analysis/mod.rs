@@ -36,28 +36,35 @@
 //! measurement shares ([`GratingContext`]) and a grating's lag figures
 //! ([`LagFigures`], made by `lags`, read by `quality`).
 
+mod alignment;
 mod assemble;
 mod clocks;
 mod fit_data;
 mod force;
 mod gratings;
+mod instrument;
 mod lags;
 mod linearity;
 mod measure;
 mod options;
 mod quality;
+mod response;
 mod results;
 mod sensitivity;
+mod slow;
+mod stretch;
 
 use crate::logs::assign::GratingTrack;
 use crate::segment::Segmentation;
 
 pub use super::segment::{detect_pulses, percentile, PulseSpan};
 pub use assemble::analyse;
+pub use response::hysteresis_limit_percent_span;
 pub use linearity::hysteresis_and_linearity;
+pub use alignment::MIN_PRESSES;
 pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
 pub use results::{
-    BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
+    AlignmentCheck, InstrumentCheck, OffsetCandidate, PulseGain, SlowTest, BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
 };
 
 /// The force log's times on the wavelength log's clock, before the residual offset.
@@ -86,8 +93,9 @@ struct AlignedClocks {
     /// First and last force time on the wavelength clock, s.
     fa: f64,
     fb: f64,
-    /// Duration both logs cover, s.
-    overlap: f64,
+    /// The alignment against its rivals (candidates and evidence; the presses are
+    /// counted once the force is cut into pulses).
+    check: results::AlignmentCheck,
 }
 
 /// Measurement of one grating in a verification: what every grating shares.
@@ -115,12 +123,17 @@ struct GratingContext<'a> {
     timing_s: f64,
     /// True when the clock offset was estimated (lags relative to it).
     relative: bool,
+    /// The rows' own timing uncertainty (whole-second timestamps), s, whatever the
+    /// offset: it opens an apparent loop.
+    row_timing_s: f64,
     /// Stretches of the force clock (`fu`) whose shift is left out of every fit, s.
     excluded_s: &'a [(f64, f64)],
     /// Rows of the wavelength log outside those stretches.
     row_ok: &'a [bool],
     /// Pulses left out (untrusted force), indices from 0.
     untrusted: &'a [usize],
+    /// The design (the materials' hysteresis limits).
+    design: &'a crate::spec::Design,
 }
 
 /// A grating's lags: per segment, and summarised.

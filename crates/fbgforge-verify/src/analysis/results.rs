@@ -56,10 +56,31 @@ pub struct GratingResult {
     pub rows_with_peak: usize,
     /// Rows with more than one peak in the window.
     pub rows_ambiguous: usize,
-    /// Static sensitivity K from the lag model (the one compared with the model), pm/N.
+    /// Static sensitivity K, the one compared with the model: the slope of the shift on
+    /// the lag-corrected force over the loading branch and rest, beside the slow
+    /// curve, pm/N.
     pub sensitivity_pm_per_n: f64,
     /// Standard error of K (white-noise assumption), pm/N.
     pub sensitivity_std_error_pm_per_n: f64,
+    /// The lag model's K from every row with a baseline and a linear drift (the K of
+    /// the lag fit, before the loading branch and the slow curve), pm/N.
+    pub lag_model_sensitivity_pm_per_n: f64,
+    /// Rows of the loading branch (and rest) behind K.
+    pub loading_rows: usize,
+    /// The response against a slow variation (temperature, drift).
+    pub slow_test: Option<SlowTest>,
+    /// Each trusted press's gain (1: explained).
+    pub pulse_gains: Vec<PulseGain>,
+    /// The interrogator's readings of this grating.
+    pub instrument: InstrumentCheck,
+    /// The hysteresis this grating's core material may show, % of span (the design's
+    /// material, else the printer's default).
+    pub hysteresis_limit_percent_span: f64,
+    /// The loop the rows' own timing uncertainty could open on a perfectly elastic
+    /// part, % of span: 2·u·|dx/dt| / x_max (u the timestamps' uncertainty, |dx/dt|
+    /// the median rate of the lag-corrected force on its branches); a wider loop
+    /// than the limit proves a loose bond only beyond this.
+    pub hysteresis_timing_percent_span: f64,
     /// Lag-1 autocorrelation ρ of the lag model's residuals: near 1 when the residual
     /// wanders slowly (drift, an unrelated signal), which makes the samples far from
     /// independent.
@@ -67,8 +88,15 @@ pub struct GratingResult {
     /// Effective number of independent samples, n (1 − ρ) / (1 + ρ).
     pub effective_samples: f64,
     /// Standard error of K allowing for the autocorrelated residuals:
-    /// `sensitivity_std_error_pm_per_n` × √(n / n_eff), pm/N.
+    /// `sensitivity_std_error_pm_per_n` × √(n / n_eff), pm/N, and never below
+    /// `sensitivity_peak_std_error_pm_per_n` (the residuals hold the peaks' random noise
+    /// already; the floor keeps K from claiming more than its peaks allow).
     pub sensitivity_std_error_effective_pm_per_n: f64,
+    /// Standard error of K that the peaks' own standard errors alone make (a log of
+    /// spectra or a peaks log with standard errors; `None` otherwise), pm/N:
+    /// √(Σ (Fᵢ − F̄)² σᵢ²) / Σ (Fᵢ − F̄)². It is a floor under
+    /// `sensitivity_std_error_effective_pm_per_n`.
+    pub sensitivity_peak_std_error_pm_per_n: Option<f64>,
     /// |K| / `sensitivity_std_error_effective_pm_per_n`: how far K stands from zero.
     pub sensitivity_t_statistic: f64,
     /// Largest peak force of the pulses, N.
@@ -79,13 +107,16 @@ pub struct GratingResult {
     pub r_squared: f64,
     /// R² of the lag model (baseline and drift included).
     pub lag_model_r_squared: f64,
-    /// Share of the shift left after baseline and drift that the lag model's response
-    /// explains: 1 − SSR(lag model) / SSR(baseline and drift alone). The response gate
+    /// Share of the shift left after a slow variation (the slow curve of `slow_test`:
+    /// temperature, drift) that the lag-corrected force explains. The response gate
     /// reads it (the straight-line R² counts the lag itself as misfit).
     pub response_r_squared: f64,
-    /// Largest gap between loading and unloading branches, % of full-scale output.
+    /// Largest gap between the unloading and loading branches of the lag-corrected
+    /// signal (shift against the lag model's response), % of span (the loading
+    /// calibration line's full-scale output); NaN with too few rows on a branch.
     pub hysteresis_percent_span: f64,
-    /// Largest deviation of the bin means from the straight line, % of full-scale output.
+    /// Largest distance of the loading branch's bin means from its calibration line, %
+    /// of span.
     pub nonlinearity_percent_span: f64,
     /// Smallest resolvable force: interrogator resolution / |K|, N.
     pub resolution_n: f64,
@@ -143,6 +174,100 @@ pub struct GratingResult {
     pub pulses: Vec<PulseResult>,
 }
 
+/// The response tested against a slow variation (temperature the reference does not
+/// remove, or all of it without a reference; drift): a piecewise-linear curve with
+/// knots `knot_spacing_s` apart, with and without the lag-corrected force.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SlowTest {
+    /// Knot spacing of the slow curve, s (at least a minute, four times the longest
+    /// press, twice the presses' spacing).
+    pub knot_spacing_s: f64,
+    /// Knots (hat functions) of the slow curve.
+    pub knots: usize,
+    /// The lag model's time constant is held at or below this in the test, s (a
+    /// quarter of the knot spacing): a slower "lag" is the slow variation's.
+    pub tau_bound_s: f64,
+    /// The fitted τ was above the bound (and the test used the bound).
+    pub tau_bounded: bool,
+    /// Share of what the slow curve leaves that the force explains: 1 − SSR(force and
+    /// slow curve) / SSR(slow curve alone).
+    pub share_beyond_slow: f64,
+    /// F statistic of the force term beside the slow curve, with the effective number
+    /// of independent samples.
+    pub f_statistic: f64,
+    /// Peak-to-peak of the slow curve fitted alone, pm.
+    pub slow_variation_pm: f64,
+    /// K from every row beside the slow curve (not only the loading branch), pm/N.
+    pub k_all_rows_pm_per_n: f64,
+}
+
+/// How well the shift explains one press of the force.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PulseGain {
+    /// The press (pulse), from 1.
+    pub pulse: usize,
+    /// Its start and end, s.
+    pub start_s: f64,
+    /// End, s.
+    pub end_s: f64,
+    /// Gain of the shift on K·x over the press's window: 1 explained, 0 not seen.
+    pub gain: f64,
+    /// Its standard error.
+    pub gain_std_error: f64,
+}
+
+/// What the interrogator's own readings of one grating say about themselves.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct InstrumentCheck {
+    /// The peak sits at this shift (from nominal, pm) while the force moves it on: a
+    /// ceiling of the interrogator's range.
+    pub pinned_at_pm: Option<f64>,
+    /// Rows pinned there.
+    pub pinned_rows: usize,
+    /// Runs of a frozen peak (the same value repeated while the force moves it).
+    pub frozen_runs: usize,
+    /// Rows in those runs.
+    pub frozen_rows: usize,
+    /// Share of rows without a peak at high load (x above half its largest value).
+    pub missing_at_load: f64,
+    /// Share of rows without a peak at rest.
+    pub missing_at_rest: f64,
+    /// What is wrong, when something is: the grating is then not judged.
+    pub fault: Option<String>,
+}
+
+/// One clock offset the search found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OffsetCandidate {
+    /// Force clock − wavelength clock, s.
+    pub clock_offset_s: f64,
+    /// The primary grating's K at that offset (lag model, all rows), pm/N.
+    pub sensitivity_pm_per_n: f64,
+    /// Share of the shift beyond baseline and drift its response explains.
+    pub response_r_squared: f64,
+    /// Shift samples of its overlap (of the strided copy the search fits).
+    pub samples: usize,
+}
+
+/// How the two clocks were aligned, and whether the alignment beats its rivals.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct AlignmentCheck {
+    /// The offsets the search found, best first (the given one alone when given).
+    pub candidates: Vec<OffsetCandidate>,
+    /// Evidence for the best over the runner-up, Λ = n_eff·ln((1 − R²₂)/(1 − R²₁)).
+    pub evidence: Option<f64>,
+    /// Λ the best needs.
+    pub evidence_margin: f64,
+    /// Trusted presses of the force log that the wavelength log covers whole.
+    pub presses_in_overlap: usize,
+    /// Presses of the force log outside the wavelength log.
+    pub force_presses_outside: usize,
+    /// Presses the shift shows where the force log has no samples (start and end, s).
+    pub shift_presses_outside: Vec<(f64, f64)>,
+    /// Why the alignment is not definite, when it is not (an estimated offset only).
+    pub ambiguous: Option<String>,
+}
+
 /// A bound on Q when Q itself cannot be given.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct QualityBound {
@@ -188,6 +313,9 @@ pub struct Measurement {
     pub wavelength_log: String,
     /// Its format.
     pub wavelength_format: String,
+    /// The peak estimator that made its peaks when it holds spectra (or is a peaks log
+    /// naming one): `gaussian`, `parabola`, `centroid`, `xcorr`.
+    pub peak_estimator: Option<String>,
     /// Rows read.
     pub wavelength_rows: usize,
     /// Median sample rate, Hz.
@@ -219,8 +347,16 @@ pub struct Measurement {
     /// row (negative: the force recording started first). Easier to read than the
     /// offset when one log has wall-clock and the other relative times.
     pub force_log_start_s: f64,
-    /// Duration both logs cover after alignment, s.
+    /// Duration both logs cover after alignment, s (rows of the wavelength log within
+    /// the force log's span; pauses and gaps between rows not counted).
     pub overlap_s: f64,
+    /// The alignment against its rivals.
+    pub alignment: AlignmentCheck,
+    /// Jumps of the wavelength log's clock (back: daylight saving, NTP) and long gaps.
+    pub clock_jumps: Vec<crate::logs::time::ClockJump>,
+    /// Rows of the wavelength log set aside: those on the other side of a jump of its
+    /// clock back (another clock), file lines of the stretch used.
+    pub rows_set_aside: usize,
     /// The reference grating used, if any.
     pub reference_grating: Option<String>,
     /// Interrogator resolution used, pm.

@@ -70,21 +70,27 @@ pub(super) fn fit_lag_model(
             "grating `{name}` has only {n_used} samples where the force log overlaps the wavelength log"
         );
     }
-    let full = LagModelCost {
-        shift_t: tw,
-        shift_pm: s,
-        force_t: fu,
-        force_n: fval,
-        fixed_offset_s: Some(0.0),
-        offset_range_s: None,
-        t_mid: (span_a + span_b) / 2.0,
-        excluded_s: ctx.excluded_s,
-    };
+    let full = full_cost(ctx, s);
     let lm = full
         .evaluate(lm0.offset_s, lm0.tau_s, lm0.instant_fraction)
         .unwrap_or(lm0);
     let residual = full.residuals(&lm);
     Ok((lm, residual))
+}
+
+/// The lag model over every row of the shift `s`, the clocks aligned (the delay
+/// free), the untrusted stretches left out.
+pub(super) fn full_cost<'a>(ctx: &'a GratingContext, s: &'a [f64]) -> LagModelCost<'a> {
+    LagModelCost {
+        shift_t: ctx.tw,
+        shift_pm: s,
+        force_t: ctx.fu,
+        force_n: ctx.fval,
+        fixed_offset_s: Some(0.0),
+        offset_range_s: None,
+        t_mid: (ctx.span.0 + ctx.span.1) / 2.0,
+        excluded_s: ctx.excluded_s,
+    }
 }
 
 /// The shift with the lag model's baseline and drift removed, NaN outside the force

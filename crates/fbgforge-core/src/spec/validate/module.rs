@@ -62,6 +62,15 @@ impl Design {
         if let Some(f) = m.interrogator_rate_hz {
             positive("module.interrogator_rate_hz", f, 1e-3, 1e7)?;
         }
+        if let Some(l) = &m.limits {
+            positive("module.limits.max_force_n", l.max_force_n, 1e-6, 1e5)?;
+            positive(
+                "module.limits.max_grating_strain_microstrain",
+                l.max_grating_strain_microstrain,
+                1.0,
+                1e5,
+            )?;
+        }
         self.validate_contact(m)
     }
 

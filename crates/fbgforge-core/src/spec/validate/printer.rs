@@ -72,6 +72,11 @@ impl Design {
             -1e-4,
             1e-4,
         )?;
+        range("fiber.index_modulation", fo.index_modulation, 1e-6, 1e-2)?;
+        range("fiber.effective_index", fo.effective_index, 1.0, 2.0)?;
+        if let fbgforge_spectra::Apodisation::Gaussian { fwhm_fraction } = fo.apodisation {
+            range("fiber.apodisation.gaussian.fwhm_fraction", fwhm_fraction, 0.05, 10.0)?;
+        }
         Ok(())
     }
 
@@ -103,6 +108,14 @@ impl Design {
                     e,
                     0.01,
                     500.0,
+                )?;
+            }
+            if let Some(h) = m.hysteresis_limit_percent_span {
+                positive(
+                    &format!("materials.{name}.hysteresis_limit_percent_span"),
+                    h,
+                    0.1,
+                    100.0,
                 )?;
             }
             if let Some(v) = &m.vendor_name {

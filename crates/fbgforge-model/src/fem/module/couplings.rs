@@ -6,6 +6,7 @@ use super::insert::mesh_insert;
 use super::options::{DomeContact, FemOptions, InsertContact, PillarCoupling};
 use super::stations::Station;
 use super::walls::{WallMesh, Walls};
+use super::DomePair;
 use crate::fem::contact::ContactPair;
 use crate::fem::mesh::{edge_forces, edge_param_at_radius};
 use crate::fem::solve::{Interpolation, R, Z};
@@ -61,7 +62,13 @@ pub(super) fn clip_band_coupling(
 
 /// Couple the cap's dome to the core's dome above the pillars as `opt.dome_contact`
 /// says: a gap, unilateral contact, or ties over the whole dome or the apex patch.
-pub(super) fn dome_coupling(wm: &mut WallMesh, walls: &Walls, opt: &FemOptions, c: &mut Couplings) {
+/// Returns every facing pair of dome nodes, tied or not.
+pub(super) fn dome_coupling(
+    wm: &mut WallMesh,
+    walls: &Walls,
+    opt: &FemOptions,
+    c: &mut Couplings,
+) -> Vec<DomePair> {
     let s = wm.stations;
     let tie_from = match opt.dome_contact {
         DomeContact::Gap | DomeContact::Unilateral => None,
@@ -88,14 +95,23 @@ pub(super) fn dome_coupling(wm: &mut WallMesh, walls: &Walls, opt: &FemOptions, 
             });
         }
     }
-    if let Some(j0) = tie_from {
-        for j in j0..=s.j_hole {
-            let a = wm.node(walls.cap_inner, j);
-            let b = wm.node(walls.core_outer, j);
+    let mut pairs = Vec::new();
+    for j in s.j_pillar_top + 1..=s.j_hole {
+        let a = wm.node(walls.cap_inner, j);
+        let b = wm.node(walls.core_outer, j);
+        let tied = tie_from.is_some_and(|j0| j >= j0);
+        if tied {
             c.ties.push((a, b, R));
             c.ties.push((a, b, Z));
         }
+        pairs.push(DomePair {
+            cap: a,
+            core: b,
+            radius_mm: wm.mesh.nodes[b][0],
+            tied,
+        });
     }
+    pairs
 }
 
 /// Case I: mesh the solid insert and tie the core's inner wall to it (on the cylinder

@@ -107,6 +107,24 @@ pub struct ModuleModel {
     pub contact_pairs: Vec<ContactPair>,
     /// For each contact pair: whether it lies along the cylinders (else on the domes).
     pub pair_on_cylinders: Vec<bool>,
+    /// Every facing pair of dome nodes above the pillars (cap's inner, core's outer
+    /// dome), whether tied or not: what a reading with a wider contact zone ties more
+    /// of (`fem::solve_configurations` condenses those ties on one factorisation).
+    pub dome_pairs: Vec<DomePair>,
+}
+
+/// A cap node facing a core node across the domes' clearance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DomePair {
+    /// Node on the cap's inner dome.
+    pub cap: usize,
+    /// Node on the core's outer dome.
+    pub core: usize,
+    /// Radius of the core's node, mm (a contact zone of radius r ties the pairs with
+    /// `radius_mm` ≤ r).
+    pub radius_mm: f64,
+    /// Whether this model ties the pair.
+    pub tied: bool,
 }
 
 /// The module read from the design and checked: what the mesher builds from.
@@ -140,6 +158,11 @@ fn module_inputs<'a>(
         .all(|v| v.is_finite() && *v > 0.0);
     if !sizes_ok || opt.elements_through_wall == 0 {
         bail!("finite-element options: element size must be > 0 mm and at least one element through a wall");
+    }
+    if let Some(d) = opt.reference_diameter_mm {
+        if !(d.is_finite() && d > 0.0) {
+            bail!("finite-element options: the reference diameter must be a positive number of mm, got {d}");
+        }
     }
     let p = ModuleProfile::from_module(m);
     let cap = constants(design.material(&m.cap_material, "module.cap_material")?);
@@ -204,14 +227,14 @@ pub fn build(
 ) -> Result<ModuleModel> {
     let inputs = module_inputs(design, core_material, insert_material, case, opt)?;
     let (m, p) = (inputs.module, &inputs.profile);
-    let (h, fiber_r) = (opt.element_size_mm, p.fiber_hole_center_radius_mm);
-    let dome_h = opt.dome_element_size_mm;
+    let scale = size_scale(m, opt);
+    let (h, fiber_r) = (opt.element_size_mm * scale, p.fiber_hole_center_radius_mm);
+    let dome_h = opt.dome_element_size_mm * scale;
     let s = make_stations(
         p,
-        h,
-        dome_h,
+        (h, dome_h),
         fiber_r,
-        inputs.patch_radius_mm,
+        (inputs.patch_radius_mm, &opt.dome_station_radii_mm),
         inputs.clip_mm,
     )?;
     let sliding = opt.pillar_coupling != PillarCoupling::Bonded;
@@ -233,7 +256,7 @@ pub fn build(
         clip_band_coupling(&mut wm, dl, m, opt, &mut c)?;
     }
     let cylinder_pairs = c.contact_pairs.len();
-    dome_coupling(&mut wm, &walls, opt, &mut c);
+    let dome_pairs = dome_coupling(&mut wm, &walls, opt, &mut c);
     if inputs.insert.is_some() {
         insert_coupling(&mut wm, &walls, p, h, opt, &mut c);
     }
@@ -262,5 +285,13 @@ pub fn build(
             .map(|i| i < cylinder_pairs)
             .collect(),
         contact_pairs: c.contact_pairs,
+        dome_pairs,
     })
+}
+
+/// What every element size of `opt` is multiplied by on module `m`: its diameter over
+/// the options' reference diameter (1 when the sizes are absolute).
+pub fn size_scale(m: &crate::spec::Module, opt: &FemOptions) -> f64 {
+    opt.reference_diameter_mm
+        .map_or(1.0, |d| m.outer_diameter_mm / d)
 }

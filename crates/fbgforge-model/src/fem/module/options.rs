@@ -74,6 +74,12 @@ pub enum ContactReading {
     /// radial clearance above the clip), domes in unilateral contact across the printed
     /// dome clearance: the contact zone grows with the force, so K depends on F.
     Unilateral,
+    /// The design's reading with the domes' contact radius at the low end of the
+    /// window that meets the paper's statements (`Contact::PAPER_WINDOW_TO_PATCH`,
+    /// 1.30 × the apex patch): one end of a Case I row's design interval.
+    WindowLow,
+    /// The same at the high end of the window (1.48 × the apex patch).
+    WindowHigh,
 }
 
 impl ContactReading {
@@ -106,6 +112,25 @@ impl ContactReading {
                 "{cyl}, unilateral contact across the printed {:.3} mm dome clearance",
                 m.dome_clearance_mm()
             ),
+            ContactReading::WindowLow | ContactReading::WindowHigh => format!(
+                "{cyl}, domes in contact within r = {:.3} mm (the {} end of the contact window)",
+                self.window_radius_mm(m).unwrap_or(f64::NAN),
+                if self == ContactReading::WindowLow {
+                    "low"
+                } else {
+                    "high"
+                }
+            ),
+        }
+    }
+
+    /// The domes' contact radius of a window reading, mm (`None` for the others).
+    pub fn window_radius_mm(self, m: &crate::spec::Module) -> Option<f64> {
+        let (lo, hi) = crate::spec::Contact::PAPER_WINDOW_TO_PATCH;
+        match self {
+            ContactReading::WindowLow => Some(lo * m.apex_patch_radius_mm()),
+            ContactReading::WindowHigh => Some(hi * m.apex_patch_radius_mm()),
+            _ => None,
         }
     }
 }
@@ -149,6 +174,19 @@ pub struct FemOptions {
     /// p = 1 removes most of the discretisation error for a 15 % longer solve.
     #[serde(default)]
     pub richardson_order: Option<f64>,
+    /// The module diameter at which the element sizes hold as given, mm: a module of
+    /// diameter D is meshed with every size times D / this, so every size gets the
+    /// mesh (and the relative accuracy) the reference size has; `None`: the sizes are
+    /// absolute. The policy's meshes ([`FemOptions::default`], [`FemOptions::mesh_level`])
+    /// are relative to the paper's 34 mm module (docs/fem.md §5.3).
+    #[serde(default)]
+    pub reference_diameter_mm: Option<f64>,
+    /// Further radii on the core's outer dome that carry a mesh station, mm: the
+    /// radii of the other contact readings of the same module, so that every reading
+    /// meshes alike and readings that differ only in their contact radius share one
+    /// factorisation (`fem::solve_configurations`).
+    #[serde(default)]
+    pub dome_station_radii_mm: [Option<f64>; 4],
 }
 
 /// Which linear solver factorises the stiffness matrix (`crate::fem::linear`; timed
@@ -182,16 +220,63 @@ fn default_formulation() -> Formulation {
 }
 
 impl Default for FemOptions {
-    /// Level 1 with two-level Richardson extrapolation (order 1) from level 0.
+    /// The policy's mesh: level 1 relative to the 34 mm module, with two-level
+    /// Richardson extrapolation (order 1) from level 0 ([`FemOptions::mesh_level`]).
     fn default() -> Self {
-        FemOptions {
-            richardson_order: Some(1.0),
-            ..FemOptions::level(1)
-        }
+        FemOptions::mesh_level(FemOptions::DEFAULT_MESH_LEVEL)
     }
 }
 
 impl FemOptions {
+    /// The policy's default mesh level.
+    pub const DEFAULT_MESH_LEVEL: u32 = 1;
+
+    /// The coarsest mesh level a caller may ask the policy for: level 0's coarser
+    /// partner keeps its one element through each wall, so its Richardson step
+    /// understates its error (0.7–0.8 % stated at 10 mm where K_I lies 7.5 % from
+    /// level 3; docs/fem.md §5.3), and a stated error must bound the error.
+    pub const MIN_MESH_LEVEL: u32 = 1;
+
+    /// The finest mesh level a caller may ask the policy for (level 4 of the 34 mm
+    /// module has about half a million unknowns in Case I).
+    pub const MAX_MESH_LEVEL: u32 = 4;
+
+    /// Diameter of the module the policy's element sizes are stated for, mm (the
+    /// paper's).
+    pub const REFERENCE_DIAMETER_MM: f64 = 34.0;
+
+    /// The policy's mesh at level `k` (0 to [`FemOptions::MAX_MESH_LEVEL`]): the sizes
+    /// of [`FemOptions::level`] on the 34 mm module, scaled with the module's diameter,
+    /// extrapolated (Richardson, order 1) with the level below; each level halves every
+    /// size, and the step the extrapolation takes is the row's discretisation
+    /// estimate (docs/fem.md §5.3).
+    ///
+    /// ```
+    /// use fbgforge_model::fem::FemOptions;
+    /// let o = FemOptions::mesh_level(2);
+    /// assert_eq!(o.element_size_mm, 1.0);
+    /// assert_eq!(o.richardson_order, Some(1.0));
+    /// assert_eq!(FemOptions::default(), FemOptions::mesh_level(1));
+    /// ```
+    pub fn mesh_level(k: u32) -> Self {
+        FemOptions {
+            richardson_order: Some(1.0),
+            reference_diameter_mm: Some(Self::REFERENCE_DIAMETER_MM),
+            ..FemOptions::level(k)
+        }
+    }
+
+    /// The mesh level of these options when they are a policy mesh
+    /// ([`FemOptions::mesh_level`]), read back from the element size.
+    pub fn policy_level(&self) -> Option<u32> {
+        (0..=Self::MAX_MESH_LEVEL).find(|&k| {
+            let o = FemOptions::mesh_level(k);
+            o.element_size_mm == self.element_size_mm
+                && o.dome_element_size_mm == self.dome_element_size_mm
+                && self.reference_diameter_mm == o.reference_diameter_mm
+        })
+    }
+
     /// The same options on a mesh twice as coarse (sizes doubled, half the elements
     /// through a wall, at least one), without extrapolation.
     pub fn coarsened(&self) -> Self {
@@ -214,7 +299,21 @@ impl FemOptions {
     ) -> Self {
         let sliding = m.contact.cylinders == CylinderCoupling::Sliding;
         let clip = Some(m.clip_height_mm());
+        let design_coupling = if sliding {
+            PillarCoupling::BaseClip
+        } else {
+            PillarCoupling::Bonded
+        };
         let (pillar_coupling, dome_contact, radius) = match reading {
+            ContactReading::WindowLow | ContactReading::WindowHigh => (
+                design_coupling,
+                if case == LoadCase::II {
+                    DomeContact::Tied
+                } else {
+                    DomeContact::ApexPatch
+                },
+                reading.window_radius_mm(m),
+            ),
             ContactReading::Design => (
                 if sliding {
                     PillarCoupling::BaseClip
@@ -242,11 +341,20 @@ impl FemOptions {
                 None,
             ),
         };
+        // Every tie reading of the module meshes alike: stations at the design's
+        // contact radius and at the window's ends (the unilateral reading keeps its
+        // own mesh: its pairs are every facing node).
+        let dome_station_radii_mm = if reading == ContactReading::Unilateral {
+            [None; 4]
+        } else {
+            reading_station_radii(m)
+        };
         FemOptions {
             pillar_coupling,
             dome_contact,
             dome_contact_radius_mm: radius,
             clip_height_mm: clip,
+            dome_station_radii_mm,
             ..self
         }
     }
@@ -268,6 +376,26 @@ impl FemOptions {
             formulation: Formulation::MixedQ9P1,
             solver: SolverKind::Faer,
             richardson_order: None,
+            reference_diameter_mm: None,
+            dome_station_radii_mm: [None; 4],
         }
+    }
+}
+
+/// The contact radii every tie reading of `m` carries a dome station at, mm: the apex
+/// patch's, the design's, and the contact window's ends when the design rests on the
+/// default radius (a calibrated radius has no window).
+fn reading_station_radii(m: &crate::spec::Module) -> [Option<f64>; 4] {
+    let patch = Some(m.apex_patch_radius_mm());
+    let design = Some(m.dome_contact_radius_mm());
+    if m.contact_radius_is_default() {
+        [
+            patch,
+            design,
+            ContactReading::WindowLow.window_radius_mm(m),
+            ContactReading::WindowHigh.window_radius_mm(m),
+        ]
+    } else {
+        [patch, design, None, None]
     }
 }

@@ -158,7 +158,11 @@ fn cylinder_stations(
 /// ring top (`theta_p`), 45°, the apex contact patch's edge (`theta_c`), the core's
 /// top hole (`theta_h`), the axis, and every wall's cylinder-to-sphere corner below
 /// the patch; sorted, with `(theta_p, theta_c, theta_h)`.
-fn dome_breaks(p: &ModuleProfile, fiber_r: f64, patch_r: f64) -> (Vec<f64>, [f64; 3]) {
+fn dome_breaks(
+    p: &ModuleProfile,
+    fiber_r: f64,
+    (patch_r, more_r): (f64, &[Option<f64>]),
+) -> (Vec<f64>, [f64; 3]) {
     let zc = p.dome_center_z_mm;
     // Ring top: the ray through the fiber radius at the pillar top.
     // Kept below the rays where the rings' bounding walls (cap inner, core outer) turn
@@ -182,11 +186,19 @@ fn dome_breaks(p: &ModuleProfile, fiber_r: f64, patch_r: f64) -> (Vec<f64>, [f64
     let rho_mid = 0.5 * (p.core_dome_outer_sphere_radius_mm + p.core_dome_inner_sphere_radius_mm);
     let theta_h = (p.top_hole_radius_mm / rho_mid).clamp(0.0, 1.0).acos();
     // Apex contact patch edge on the core's outer dome (kept below the hole's ray).
-    let theta_c = (patch_r / p.core_dome_outer_sphere_radius_mm)
-        .clamp(0.0, 1.0)
-        .acos()
-        .min(theta_h);
+    let ray = |r: f64| {
+        (r / p.core_dome_outer_sphere_radius_mm)
+            .clamp(0.0, 1.0)
+            .acos()
+            .min(theta_h)
+    };
+    let theta_c = ray(patch_r);
     let mut breaks = vec![0.0, theta_p, FRAC_PI_4, theta_c, theta_h, FRAC_PI_2];
+    // The other readings' contact radii, so that all of them mesh alike.
+    let more: Vec<f64> = more_r.iter().flatten().map(|&r| ray(r)).collect();
+    breaks.extend(more.iter().copied().filter(|&t| t > theta_p));
+    // The corners below the widest contact zone get a station (every reading alike).
+    let theta_low = more.iter().copied().fold(theta_c, f64::min);
     // For a dome flatter than a hemisphere each wall surface turns a corner where its
     // cylinder meets its sphere; a station on each corner's ray keeps quadratic
     // elements from spanning (and folding over) a corner.
@@ -199,7 +211,7 @@ fn dome_breaks(p: &ModuleProfile, fiber_r: f64, patch_r: f64) -> (Vec<f64>, [f64
     ] {
         if r < rho {
             let t = (r / rho).acos();
-            if t > 1e-4 && t < theta_c {
+            if t > 1e-4 && t < theta_low {
                 breaks.push(t);
             }
         }
@@ -211,10 +223,9 @@ fn dome_breaks(p: &ModuleProfile, fiber_r: f64, patch_r: f64) -> (Vec<f64>, [f64
 
 pub(super) fn make_stations(
     p: &ModuleProfile,
-    h: f64,
-    h_dome: f64,
+    (h, h_dome): (f64, f64),
     fiber_r: f64,
-    patch_r: f64,
+    contact_r: (f64, &[Option<f64>]),
     clip_mm: Option<f64>,
 ) -> Result<Stations> {
     let zc = p.dome_center_z_mm;
@@ -225,7 +236,7 @@ pub(super) fn make_stations(
     }
     let (mut st, z_breaks, mut break_indices) = cylinder_stations(zc, h, clip_mm);
     let j_seam = st.len() - 1;
-    let (breaks, [theta_p, theta_c, theta_h]) = dome_breaks(p, fiber_r, patch_r);
+    let (breaks, [theta_p, theta_c, theta_h]) = dome_breaks(p, fiber_r, contact_r);
     let rho_ref = p.cap_dome_outer_sphere_radius_mm;
     let mut idx = HashMap::new();
     for w in breaks.windows(2) {

@@ -1,31 +1,40 @@
 //! Reconstruction in memory: the one place where a method is picked and frames are
 //! reconstructed.
 //!
-//! A caller states the problem (matrix, bounds, normalisation), what it knows of the
-//! readings ([`ReadingSettings`]: load cap, interrogator resolution) and how to pick the
-//! method ([`MethodRequest`]: a named method, whose settings follow the prior with
-//! the penalty replaced where given, or the default choice within a per-frame time
-//! budget). [`prepare`] makes that decision once and builds the method for the
-//! matrix; the [`Setup`] then reconstructs frames, one at a time (the live mode) or
-//! a whole stream ([`Setup::reconstruct_frames`]). [`reconstruct`] does both for
-//! frames held in memory. `fbgforge reconstruct`
-//! ([`crate::run::reconstruct_file`]), the Python binding and the live mode
-//! ([`crate::live::interpret`]) all come through here, so whatever is added to a
-//! reconstruction is added once: every frame's flags and χ² ([`super::trust`],
-//! filled by [`Setup::reconstruct`]), the common-mode term (a property of the
-//! [`SensingProblem`]), and, for a whole stream, the dead-grating check
-//! ([`super::faults`]): a grating found dead or stuck is named in
-//! [`Reconstructed::suspect_gratings`] and the frames are reconstructed without it.
+//! A caller states the problem (matrix, bounds, normalisation, uncertainty, the
+//! significance of the flags), what it knows of the readings ([`ReadingSettings`]:
+//! load cap, interrogator resolution) and how to pick the method
+//! ([`MethodRequest`]: a named method, whose settings follow the prior with the
+//! penalty replaced where given, or the default choice within a per-frame time
+//! budget). [`prepare`] makes that decision once, from the problem alone
+//! ([`crate::choice`]: deterministic, never from the frames), and builds the method
+//! for the matrix; the [`Setup`] then reconstructs frames one at a time (the live
+//! mode, Python's `Reconstructor`) or many ([`Setup::reconstruct_frames`]), every
+//! frame tested by [`crate::trust`].
+//!
+//! A whole stream goes through [`StreamRun`]: its sample is diagnosed first
+//! ([`crate::faults`]: dead, stuck, drifting, swapped, saturated and noisy gratings
+//! named and left out or corrected, a common offset fitted when the frames call for
+//! it), then the frames are reconstructed chunk by chunk (memory flat in the number
+//! of frames), and the default method's mean estimated time is kept within its
+//! budget ([`StreamRun`]'s guard). [`reconstruct`] does both for frames held in
+//! memory; `fbgforge reconstruct` ([`crate::run::reconstruct_file`]) streams a file
+//! through the same [`StreamRun`], and the Python binding and the live mode
+//! ([`crate::live::interpret`]) come through here too.
+
+mod stream;
+
+pub use stream::{BudgetNote, StreamRun, CHUNK_FRAMES};
 
 pub use super::choice::DEFAULT_BUDGET_US;
 use super::choice::{check_budget, default_choice, Candidate};
-use super::faults::{suspect_gratings, SuspectGrating};
+use super::faults::{Diagnosis, StreamSample, SuspectGrating};
 use super::methods::{
-    build, reconstruct_frames, Method, MethodSettings, ReadingSettings, Reconstruction,
-    Reconstructor, PARALLEL_FROM,
+    build, MethodSettings, ReadingSettings, Reconstruction, Reconstructor, PARALLEL_FROM,
 };
+pub use super::methods::Method;
 use super::problem::SensingProblem;
-use super::trust::{Checker, FlagCounts};
+use super::trust::{FlagCounts, FrameTest};
 use super::ArrayError;
 use serde::Serialize;
 use std::time::Instant;
@@ -104,11 +113,11 @@ pub struct Setup {
     pub reason: String,
     /// How the default choice went (None when a method was named).
     pub choice: Option<ChoiceSummary>,
-    /// Time to pick and build the method (for the default choice, timing the
+    /// Time to pick and build the method (for the default choice, probing the
     /// candidates too), ms. Not part of the per-frame time.
     pub setup_ms: f64,
     reconstructor: Box<dyn Reconstructor>,
-    checker: Checker,
+    checker: FrameTest,
 }
 
 impl std::fmt::Debug for Setup {
@@ -123,29 +132,44 @@ impl std::fmt::Debug for Setup {
 
 impl Setup {
     /// Reconstruct one frame (pm, one shift per grating in the matrix's row order),
-    /// with its flags and χ².
+    /// tested: its flags, χ², p-value and rival margin ([`crate::trust`]).
     pub fn reconstruct(&self, shifts_pm: &[f64]) -> Reconstruction {
         let mut r = self.reconstructor.reconstruct(shifts_pm);
         self.checker.assess(shifts_pm, &mut r);
         r
     }
 
-    /// Reconstruct a stream of frames, in parallel from [`PARALLEL_FROM`] frames
-    /// on, telling `progress` of the frames done; every frame with its flags.
+    /// The method's answer alone, untested (no flags, loads below the range kept).
+    pub fn solve(&self, shifts_pm: &[f64]) -> Reconstruction {
+        self.reconstructor.reconstruct(shifts_pm)
+    }
+
+    /// The frame test every answer goes through.
+    pub fn test(&self) -> &FrameTest {
+        &self.checker
+    }
+
+    /// Reconstruct many frames, in parallel from [`PARALLEL_FROM`] frames on,
+    /// telling `progress` of the frames done; every frame tested.
     pub fn reconstruct_frames(
         &self,
         frames: &[Vec<f64>],
         progress: &dyn crate::progress::Progress,
     ) -> Vec<Reconstruction> {
         use rayon::prelude::*;
-        let mut out = reconstruct_frames(self.reconstructor.as_ref(), frames, progress);
-        let assess = |(r, y): (&mut Reconstruction, &Vec<f64>)| self.checker.assess(y, r);
-        if out.len() >= PARALLEL_FROM {
-            out.par_iter_mut().zip(frames.par_iter()).for_each(assess);
-        } else {
-            out.iter_mut().zip(frames.iter()).for_each(assess);
+        if frames.len() < PARALLEL_FROM {
+            let out = frames.iter().map(|y| self.reconstruct(y)).collect();
+            progress.advance(frames.len() as u64);
+            return out;
         }
-        out
+        frames
+            .par_chunks(128)
+            .flat_map_iter(|chunk| {
+                let v: Vec<Reconstruction> = chunk.iter().map(|y| self.reconstruct(y)).collect();
+                progress.advance(chunk.len() as u64);
+                v
+            })
+            .collect()
     }
 
     /// The problem the method was built for (the gratings kept).
@@ -157,17 +181,35 @@ impl Setup {
     pub fn penalty(&self) -> f64 {
         self.settings.penalty().unwrap_or(0.0)
     }
+
+    /// The same method and settings built for `problem` (another set of gratings, a
+    /// common offset): what a stream's diagnosis needs, the choice unchanged.
+    pub(crate) fn for_problem(&self, problem: &SensingProblem, settings: MethodSettings) -> Result<Setup, ArrayError> {
+        let t0 = Instant::now();
+        let reconstructor = build(problem, &settings)?;
+        Ok(Setup {
+            method: settings.method(),
+            settings,
+            prior: self.prior,
+            reason: self.reason.clone(),
+            choice: self.choice.clone(),
+            setup_ms: 1e3 * t0.elapsed().as_secs_f64(),
+            reconstructor,
+            checker: FrameTest::new(problem, self.prior.max_loads),
+        })
+    }
 }
 
 /// Pick the method for `problem` and build it: a named method with its settings for
-/// `prior`, else the default choice, probed on `probe` (frames of the caller's
-/// stream; None: frames synthesised from the matrix, as the live mode must before
-/// any frame has arrived).
+/// `prior`, else the default choice, made from the problem alone (its size and
+/// matrix, [`crate::choice`]). `_probe` is no longer used: the choice does not
+/// depend on the frames a stream happens to start with (kept for the callers that
+/// pass frames or None).
 pub fn prepare(
     problem: &SensingProblem,
     prior: &ReadingSettings,
     request: &MethodRequest,
-    probe: Option<&[Vec<f64>]>,
+    _probe: Option<&[Vec<f64>]>,
 ) -> Result<Setup, ArrayError> {
     prior.check()?;
     request.check()?;
@@ -188,11 +230,11 @@ pub fn prepare(
             (settings, format!("{} as named", method.name()), None, r)
         }
         MethodRequest::Default { budget_us } => {
-            let c = default_choice(problem, prior, budget_us, probe)?;
+            let c = default_choice(problem, prior, budget_us)?;
             let summary = ChoiceSummary {
                 budget_us,
                 reason: c.reason.clone(),
-                probed_on_data: c.probed_on_data,
+                probed_on_data: false,
                 candidates: c.candidates,
             };
             (c.settings, c.reason, Some(summary), c.reconstructor)
@@ -206,31 +248,37 @@ pub fn prepare(
         choice,
         setup_ms: 1e3 * t0.elapsed().as_secs_f64(),
         reconstructor,
-        checker: Checker::new(problem),
+        checker: FrameTest::new(problem, prior.max_loads),
     })
 }
 
 /// Frames reconstructed, with the set-up that did it.
 #[derive(Debug)]
 pub struct Reconstructed {
-    /// The method, its settings and why.
+    /// The method, its settings and why (for the problem the frames were solved
+    /// with: the gratings kept, the common offset as decided).
     pub setup: Setup,
     /// One result per frame, in order.
     pub frames: Vec<Reconstruction>,
     /// Wall time of reconstructing the frames alone, per frame, µs (all threads).
     pub time_per_frame_us: f64,
-    /// Threads used for the frames (in parallel from [`PARALLEL_FROM`] frames on).
+    /// Threads used for the frames (in parallel from [`PARALLEL_FROM`] frames per
+    /// chunk on).
     pub threads: usize,
-    /// Gratings found dead or stuck across the frames (names as given); the frames
-    /// were then reconstructed without them (empty: every grating was used).
+    /// Gratings found faulty across the frames (names as given), each with its
+    /// reason and what was done (the diagnosis's suspects).
     pub suspect_gratings: Vec<SuspectGrating>,
+    /// The stream's diagnosis: the suspects and whether a common offset is fitted.
+    pub diagnosis: Diagnosis,
+    /// The default choice's budget kept on the mean (None for a named method).
+    pub budget: Option<BudgetNote>,
     /// How many frames carry each flag.
     pub flag_counts: FlagCounts,
 }
 
-/// Reconstruct `frames` for `problem`: pick and build the method once ([`prepare`],
-/// the default choice probed on these frames), then every frame; `progress` hears
-/// the frames.
+/// Reconstruct `frames` for `problem`: diagnose the stream (faulty gratings, a
+/// common offset), pick and build the method once ([`prepare`]), then every frame,
+/// chunk by chunk ([`StreamRun`]); `progress` hears the frames.
 ///
 /// ```
 /// use fbgforge_array::kernel::{matrix_from_positions, paper_layout, DistanceKernel};
@@ -274,64 +322,26 @@ pub fn reconstruct(
             problem.n_gratings()
         )));
     }
-    let mut setup = prepare(problem, prior, request, Some(frames.shifts_pm))?;
-    let t = Instant::now();
-    let mut results = setup.reconstruct_frames(frames.shifts_pm, progress);
-    let mut elapsed_s = t.elapsed().as_secs_f64();
-    let mut suspects = Vec::new();
-    if problem.dead_grating_check {
-        suspects = suspect_gratings(problem, &setup.settings, frames.shifts_pm)?;
-        for s in &mut suspects {
-            s.name = frames.gratings[s.index].clone();
-        }
-        if !suspects.is_empty() {
-            // The same method and settings on the gratings left (a named method's
-            // penalty, the default's pick and fitted work budget alike).
-            let drop: Vec<usize> = suspects.iter().map(|s| s.index).collect();
-            let reduced = problem.without_gratings(&drop)?;
-            let keep: Vec<usize> = (0..problem.n_gratings())
-                .filter(|i| !drop.contains(i))
-                .collect();
-            let shifts: Vec<Vec<f64>> = frames
-                .shifts_pm
-                .iter()
-                .map(|y| {
-                    if y.len() == problem.n_gratings() {
-                        keep.iter().map(|&i| y[i]).collect()
-                    } else {
-                        y.clone()
-                    }
-                })
-                .collect();
-            let t0 = Instant::now();
-            let reconstructor = build(&reduced, &setup.settings)?;
-            setup.reconstructor = reconstructor;
-            setup.checker = Checker::new(&reduced);
-            setup.reason = format!(
-                "{}; gratings left out as dead or stuck: {}",
-                setup.reason,
-                suspects
-                    .iter()
-                    .map(|s| s.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-            setup.setup_ms += 1e3 * t0.elapsed().as_secs_f64();
-            let t = Instant::now();
-            results = setup.reconstruct_frames(&shifts, progress);
-            elapsed_s = t.elapsed().as_secs_f64();
-        }
+    let mut sample = StreamSample::new(problem);
+    for y in frames.shifts_pm {
+        sample.push(y);
     }
+    let mut run = StreamRun::start(problem, prior, request, &sample, frames.gratings)?;
+    progress.begin("reconstruct", frames.shifts_pm.len() as u64);
+    let mut results = Vec::with_capacity(frames.shifts_pm.len());
+    for chunk in frames.shifts_pm.chunks(CHUNK_FRAMES) {
+        results.extend(run.reconstruct_chunk(chunk, progress));
+    }
+    progress.end();
+    let end = run.finish();
     Ok(Reconstructed {
-        setup,
-        time_per_frame_us: 1e6 * elapsed_s / results.len().max(1) as f64,
-        threads: if results.len() >= PARALLEL_FROM {
-            rayon::current_num_threads()
-        } else {
-            1
-        },
-        flag_counts: FlagCounts::of(&results),
-        suspect_gratings: suspects,
+        setup: end.setup,
+        time_per_frame_us: end.time_per_frame_us,
+        threads: end.threads,
+        suspect_gratings: end.diagnosis.suspects.clone(),
+        diagnosis: end.diagnosis,
+        budget: end.budget,
+        flag_counts: end.flag_counts,
         frames: results,
     })
 }
@@ -400,7 +410,7 @@ mod tests {
             assert!(done.setup.choice.is_none());
             // Exactly what building those settings by hand gives, frame by frame.
             let by_hand = build(&p, &MethodSettings::for_prior(method, &prior)).unwrap();
-            let checker = Checker::new(&p);
+            let checker = FrameTest::new(&p, prior.max_loads);
             for (y, got) in ys.iter().zip(&done.frames) {
                 let mut want = by_hand.reconstruct(y);
                 checker.assess(y, &mut want);
@@ -423,7 +433,7 @@ mod tests {
     }
 
     #[test]
-    fn the_default_request_is_the_default_choice_probed_on_the_frames() {
+    fn the_default_request_is_the_default_choice_made_from_the_problem_alone() {
         let (a, p) = paper_problem();
         let ys = frames(&a);
         let gratings = names(6);
@@ -438,7 +448,7 @@ mod tests {
         // 5 µs: `wsupport` (162 supports × 120 ns) is over, `support` within.
         let request = MethodRequest::Default { budget_us: 5.0 };
         let done = reconstruct(&p, frames, &prior, &request, &Quiet).unwrap();
-        let c = default_choice(&p, &prior, 5.0, Some(&ys)).unwrap();
+        let c = default_choice(&p, &prior, 5.0).unwrap();
         assert_eq!(done.setup.method, Method::Support);
         assert_eq!(
             (done.setup.method, done.setup.settings),
@@ -449,8 +459,8 @@ mod tests {
             Some(l0_penalty_for_resolution(0.25))
         );
         let summary = done.setup.choice.as_ref().unwrap();
-        assert!(summary.probed_on_data && summary.reason == done.setup.reason);
-        let checker = Checker::new(&p);
+        assert!(!summary.probed_on_data && summary.reason == done.setup.reason);
+        let checker = FrameTest::new(&p, prior.max_loads);
         for (y, got) in ys.iter().zip(&done.frames) {
             let mut want = c.reconstructor.reconstruct(y);
             checker.assess(y, &mut want);

@@ -1,0 +1,112 @@
+//! The paper's statements on what `optimize` writes: every design of the front is
+//! predicted as written (the policy, every configuration of the written design) and
+//! checked on the statements `predict` checks (`prediction::check_paper_statements`);
+//! by default a design that fails one is not written
+//! (`ModuleSettings::paper_statements`). And what each design's Case I contact rests
+//! on, in words, for the written file's description.
+
+use super::choice::Choice;
+use super::predictor::Predictor;
+use super::ProblemInputs;
+use crate::prediction::{check_paper_statements, predict, PredictionRequest};
+use crate::spec::Design;
+use serde::Serialize;
+
+/// What `optimize` does with a design that fails one of the paper's statements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PaperStatementsPolicy {
+    /// Never write it while a design of the front meets every statement (default); if
+    /// none does, the preferred design is written and names what it fails.
+    Exclude,
+    /// Write the preferred design whatever it fails, naming what it fails in the JSON,
+    /// the table and the written file's description.
+    Report,
+}
+
+impl PaperStatementsPolicy {
+    /// Parse `exclude` or `report`.
+    pub fn parse(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "exclude" => Ok(PaperStatementsPolicy::Exclude),
+            "report" => Ok(PaperStatementsPolicy::Report),
+            _ => anyhow::bail!(
+                "unknown ModuleSettings.paper_statements `{s}`; expected exclude or report"
+            ),
+        }
+    }
+}
+
+impl ProblemInputs<'_> {
+    /// The statements `predict` finds failing on the design of `choice` at `x`, by
+    /// name (empty when every one checked holds or none applies; a synthetic predictor
+    /// states no FE rows, so nothing is checked).
+    pub(super) fn paper_statements_failed(
+        &self,
+        choice: &Choice,
+        x: &[f64],
+    ) -> anyhow::Result<Vec<String>> {
+        let Predictor::Policy {
+            fidelity,
+            structures,
+            ..
+        } = &self.predictor
+        else {
+            return Ok(Vec::new());
+        };
+        let d = self.problem(choice.clone())?.design_at(x);
+        let rows = predict(
+            &d,
+            &PredictionRequest {
+                fidelity: *fidelity,
+                cache: structures.clone(),
+                ..PredictionRequest::default()
+            },
+        )?;
+        Ok(
+            check_paper_statements(&d, &rows).map_or_else(Vec::new, |s| {
+                s.failures()
+                    .iter()
+                    .map(|c| c.statement.to_string())
+                    .collect()
+            }),
+        )
+    }
+}
+
+/// What the design's Case I contact rests on, in words (for its description): a
+/// calibrated radius, or the family rule's default and why it is what it is; a hollow
+/// core has no contact parameter.
+pub fn contact_basis(design: &Design, choice: &Choice) -> String {
+    let Some(m) = design.module.as_ref() else {
+        return String::new();
+    };
+    if choice.insert_material.is_none() {
+        return format!(
+            "Case II (hollow core): no contact parameter; K by the model policy, held over the closed form and the FE reading of the stated cylinders (`{}`)",
+            match m.contact.cylinders {
+                crate::spec::CylinderCoupling::Sliding => "sliding",
+                crate::spec::CylinderCoupling::Bonded => "bonded",
+            }
+        );
+    }
+    let patch = m.apex_patch_radius_mm();
+    let r = m.dome_contact_radius_mm();
+    if m.contact_radius_is_default() {
+        let (lo, hi) = crate::spec::Contact::PAPER_WINDOW_TO_PATCH;
+        format!(
+            "Case I contact: the domes bear within {r:.3} mm, {:.3} × the apex patch, the family rule's default: chosen so that the FE model meets the paper's Case I statements on the 34 mm module (window {lo:.2}–{hi:.2} × the patch, docs/model.md §5.6), not measured; held over that window",
+            r / patch
+        )
+    } else {
+        format!(
+            "Case I contact: the domes bear within {r:.3} mm ({:.3} × the apex patch), calibrated{}",
+            r / patch,
+            m.contact
+                .note
+                .as_deref()
+                .map(|n| format!(" ({n})"))
+                .unwrap_or_default()
+        )
+    }
+}

@@ -1,0 +1,535 @@
+//! The `reconstruct` study's flag part (`-- reconstruct --part flags`, issue 35):
+//! recovery, flag recall and false-flag rate of every method under every fault,
+//! whether the stream diagnosis names the faulty grating (and nothing else), and the
+//! trade-off between false flags and recall as the test's significance varies (a ROC
+//! per method).
+//!
+//! Its own generator ([`gen`]): three arrays (the paper's 6 × 8, a 10 × 20
+//! hexagonal sheet, a 16 × 64 grid), streams of 200 frames with a noise level drawn
+//! per stream (0.25, 0.5 or 1 pm, stated as it is), 0–4 loads of 30–240 g, the
+//! paper's ± 4 % additivity, and fourteen scenarios (clean, the paper's faults, and
+//! the ones this issue adds: drift, swapped channels, saturation, a stuck or noisy
+//! grating, a temperature drift, overloads, absurd shifts). Seeds start at
+//! [`SEED_OFFSET`] + the study's seed: no method or threshold was tuned on them.
+//!
+//! A frame is recovered when its SNR is ≥ 12 dB (an unusable frame never is); flag
+//! recall is the share of missed frames carrying a flag, the false-flag rate the
+//! share of recovered frames carrying one. Each stream is reconstructed once at the
+//! significance [`RUN_SIGNIFICANCE`] and its frames' flags are recomputed at every
+//! significance of the ROC from their test statistics
+//! ([`fbgforge::array::methods::Reconstruction::flags_at`], exact above the run's).
+
+pub mod gen;
+
+use anyhow::Result;
+use fbgforge::array::methods::{Method, ReadingSettings, Reconstruction, DEFAULT_MAX_LOADS};
+use fbgforge::array::problem::{SensingProblem, Uncertainty, PAPER_MIN_LOAD_G};
+use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
+use fbgforge::array::reconstruct::{reconstruct, Frames, MethodRequest, Reconstructed};
+use fbgforge::array::trust::DEFAULT_SIGNIFICANCE;
+use fbgforge::output::{write_csv, write_json};
+use fbgforge::plot::{Chart, Mark, Series};
+use fbgforge::progress::{Progress, Quiet};
+use gen::{arrays, stream, ArrayDef, Expect, Fault, Stream, ULIMIT_G};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The study's seeds start here.
+pub const SEED_OFFSET: u64 = 35_000;
+
+/// Significance the streams are reconstructed at: the smallest of the ROC, so that
+/// every larger one is exact from the frames' statistics.
+pub const RUN_SIGNIFICANCE: f64 = 1e-4;
+
+/// Significances of the ROC curves.
+pub const ROC_SIGNIFICANCES: [f64; 10] = [1e-4, 3e-4, 1e-3, 3e-3, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4];
+
+/// Frames per stream (full run; `--quick`: 60).
+pub const STREAM_FRAMES: usize = 200;
+
+/// What is run on every stream.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Entry {
+    Default,
+    Named(Method),
+}
+
+impl Entry {
+    fn all(arr: &ArrayDef) -> Vec<Entry> {
+        let mut v = vec![Entry::Default, Entry::Named(Method::BranchAndBound)];
+        if arr.enumerations {
+            v.push(Entry::Named(Method::Support));
+            v.push(Entry::Named(Method::WeightedSupport));
+        }
+        v.extend([
+            Entry::Named(Method::Lasso),
+            Entry::Named(Method::Omp),
+            Entry::Named(Method::Nnls),
+        ]);
+        v
+    }
+
+    fn name(self) -> String {
+        match self {
+            Entry::Default => "default".into(),
+            Entry::Named(m) => m.name().into(),
+        }
+    }
+}
+
+/// One frame's outcome: recovered, and its flags at every significance of the ROC.
+#[derive(Debug, Clone)]
+struct FrameOutcome {
+    recovered: bool,
+    flagged: Vec<bool>,
+    /// Flag words at the default significance.
+    words: Vec<&'static str>,
+}
+
+/// One stream's outcome for one entry.
+#[derive(Debug, Clone)]
+struct StreamOutcome {
+    frames: Vec<FrameOutcome>,
+    picked: String,
+    diagnosis_right: bool,
+    wrong_suspects: usize,
+    common_mode: bool,
+    estimated_us: Option<f64>,
+    measured_us: f64,
+}
+
+/// One row of the table: an entry on an array under a fault, pooled over streams.
+#[derive(Debug, Clone, Serialize)]
+pub struct FlagRow {
+    /// Array.
+    pub array: String,
+    /// Scenario.
+    pub fault: &'static str,
+    /// Method (`default → <picks>`).
+    pub method: String,
+    /// Frames.
+    pub frames: usize,
+    /// RR, %.
+    pub rr_pct: f64,
+    /// Frames missed (below 12 dB or unusable).
+    pub missed: usize,
+    /// Flagged among missed frames, % (default significance).
+    pub recall_pct: Option<f64>,
+    /// Flagged among recovered frames, % (default significance).
+    pub false_flag_pct: Option<f64>,
+    /// Streams whose diagnosis found what the fault should give and nothing else.
+    pub diagnosis_right: usize,
+    /// Suspects named that were not the fault's, over all streams.
+    pub wrong_suspects: usize,
+    /// Streams where a common offset was fitted.
+    pub common_mode_streams: usize,
+    /// Streams.
+    pub streams: usize,
+    /// Share of frames carrying each flag word at the default significance, %.
+    pub flag_pct: Vec<(String, f64)>,
+    /// Mean estimated time per frame (default choice), µs.
+    pub estimated_us: Option<f64>,
+    /// Mean measured time per frame, µs.
+    pub measured_us: f64,
+}
+
+/// One point of a ROC curve.
+#[derive(Debug, Clone, Serialize)]
+pub struct RocPoint {
+    /// Array.
+    pub array: String,
+    /// `clean` or `faults` (every other scenario pooled).
+    pub data: &'static str,
+    /// Method.
+    pub method: String,
+    /// Significance.
+    pub significance: f64,
+    /// Flagged among recovered frames, %.
+    pub false_flag_pct: f64,
+    /// Flagged among missed frames, %.
+    pub recall_pct: f64,
+}
+
+fn pct(num: usize, den: usize) -> Option<f64> {
+    (den > 0).then(|| 100.0 * num as f64 / den as f64)
+}
+
+/// The problem a user would state for this stream: the matrix seen, the 25–250 g
+/// range, the stream's resolution, the matrix's stated error when calibrated.
+fn problem_for(st: &Stream) -> Result<SensingProblem> {
+    let (m, n) = st.matrix.shape();
+    let mut unc = Uncertainty::paper(m, n, st.resolution_pm);
+    if let Some(pct) = st.matrix_sd_pct {
+        unc.matrix_sd_pm_per_g = st.matrix.map(|v| v.abs() * pct / 100.0);
+    }
+    Ok(SensingProblem::new(st.matrix.clone(), ULIMIT_G, true)?
+        .with_min_load_g(PAPER_MIN_LOAD_G)?
+        .with_uncertainty(unc)?
+        .with_significance(RUN_SIGNIFICANCE)?)
+}
+
+/// Whether the diagnosis found what the stream's fault should give, and how many
+/// suspects it named besides.
+fn judge_diagnosis(st: &Stream, done: &Reconstructed) -> (bool, usize) {
+    let mut matched = vec![false; done.suspect_gratings.len()];
+    let mut right = true;
+    let cm = done.diagnosis.common_mode.fitted;
+    for e in &st.expect {
+        match e {
+            Expect::Nothing => right &= !cm,
+            Expect::CommonMode => right &= cm,
+            Expect::Grating(g, reason) => {
+                let hit = done
+                    .suspect_gratings
+                    .iter()
+                    .position(|s| s.index == *g && s.reason.words() == *reason);
+                right &= hit.is_some();
+                if let Some(k) = hit {
+                    matched[k] = true;
+                }
+            }
+            Expect::Pair(a, b) => {
+                for (k, s) in done.suspect_gratings.iter().enumerate() {
+                    let pair = (s.index.min(s.partner.unwrap_or(usize::MAX)), s.index.max(s.partner.unwrap_or(0)));
+                    if s.reason.words() == "swapped" && pair == (*a, *b) {
+                        matched[k] = true;
+                    }
+                }
+                right &= matched.iter().filter(|x| **x).count() >= 2;
+            }
+        }
+    }
+    if !st.expect.contains(&Expect::CommonMode) && cm && !st.expect.contains(&Expect::Nothing) {
+        right = false;
+    }
+    let wrong = matched.iter().filter(|x| !**x).count();
+    (right && wrong == 0, wrong)
+}
+
+fn outcome(st: &Stream, done: &Reconstructed) -> StreamOutcome {
+    let frames = st
+        .truth_g
+        .iter()
+        .zip(&done.frames)
+        .map(|(x0, r): (&Vec<f64>, &Reconstruction)| FrameOutcome {
+            recovered: snr_db(x0, &r.loads_g) >= RECOVERY_THRESHOLD_DB,
+            flagged: ROC_SIGNIFICANCES
+                .iter()
+                .map(|&a| !r.flags_at(a).trusted())
+                .collect(),
+            words: r.flags_at(DEFAULT_SIGNIFICANCE).words(),
+        })
+        .collect();
+    let (diagnosis_right, wrong_suspects) = judge_diagnosis(st, done);
+    StreamOutcome {
+        frames,
+        picked: done.setup.method.name().into(),
+        diagnosis_right,
+        wrong_suspects,
+        common_mode: done.diagnosis.common_mode.fitted,
+        estimated_us: done.budget.as_ref().map(|b| b.estimated_mean_us),
+        measured_us: done.time_per_frame_us,
+    }
+}
+
+/// Reconstruct one stream with one entry.
+fn run_entry(st: &Stream, e: Entry) -> Result<StreamOutcome> {
+    let problem = problem_for(st)?;
+    let m = st.matrix.nrows();
+    let names: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
+    let request = match e {
+        Entry::Default => MethodRequest::Default { budget_us: 100.0 },
+        Entry::Named(method) => MethodRequest::named(method),
+    };
+    let prior = ReadingSettings {
+        max_loads: DEFAULT_MAX_LOADS,
+        resolution_pm: st.resolution_pm,
+    };
+    let frames = Frames {
+        gratings: &names,
+        shifts_pm: &st.shifts_pm,
+    };
+    let done = reconstruct(&problem, frames, &prior, &request, &Quiet)?;
+    Ok(outcome(st, &done))
+}
+
+/// The index of the default significance in [`ROC_SIGNIFICANCES`].
+fn default_index() -> usize {
+    ROC_SIGNIFICANCES
+        .iter()
+        .position(|&a| (a - DEFAULT_SIGNIFICANCE).abs() < 1e-12)
+        .expect("the default significance is on the ROC")
+}
+
+fn row(arr: &ArrayDef, fault: Fault, e: Entry, outs: &[StreamOutcome]) -> FlagRow {
+    let d = default_index();
+    let frames: Vec<&FrameOutcome> = outs.iter().flat_map(|o| &o.frames).collect();
+    let missed = frames.iter().filter(|f| !f.recovered).count();
+    let flagged_missed = frames.iter().filter(|f| !f.recovered && f.flagged[d]).count();
+    let flagged_ok = frames.iter().filter(|f| f.recovered && f.flagged[d]).count();
+    let mut picks: Vec<String> = Vec::new();
+    for o in outs {
+        if !picks.contains(&o.picked) {
+            picks.push(o.picked.clone());
+        }
+    }
+    let words = ["inconsistent", "ambiguous", "below_range", "ceiling", "overload", "unconverged", "unusable"];
+    FlagRow {
+        array: arr.name.into(),
+        fault: fault.name(),
+        method: match e {
+            Entry::Default => format!("default → {}", picks.join("/")),
+            Entry::Named(m) => m.name().into(),
+        },
+        frames: frames.len(),
+        rr_pct: pct(frames.len() - missed, frames.len()).unwrap_or(0.0),
+        missed,
+        recall_pct: pct(flagged_missed, missed),
+        false_flag_pct: pct(flagged_ok, frames.len() - missed),
+        diagnosis_right: outs.iter().filter(|o| o.diagnosis_right).count(),
+        wrong_suspects: outs.iter().map(|o| o.wrong_suspects).sum(),
+        common_mode_streams: outs.iter().filter(|o| o.common_mode).count(),
+        streams: outs.len(),
+        flag_pct: words
+            .iter()
+            .map(|w| {
+                let c = frames.iter().filter(|f| f.words.contains(w)).count();
+                (w.to_string(), pct(c, frames.len()).unwrap_or(0.0))
+            })
+            .collect(),
+        estimated_us: {
+            let v: Vec<f64> = outs.iter().filter_map(|o| o.estimated_us).collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        },
+        measured_us: outs.iter().map(|o| o.measured_us).sum::<f64>() / outs.len().max(1) as f64,
+    }
+}
+
+fn roc(arr: &ArrayDef, e: Entry, data: &'static str, outs: &[&StreamOutcome]) -> Vec<RocPoint> {
+    let frames: Vec<&FrameOutcome> = outs.iter().flat_map(|o| &o.frames).collect();
+    ROC_SIGNIFICANCES
+        .iter()
+        .enumerate()
+        .map(|(k, &a)| {
+            let missed = frames.iter().filter(|f| !f.recovered).count();
+            let fm = frames.iter().filter(|f| !f.recovered && f.flagged[k]).count();
+            let fo = frames.iter().filter(|f| f.recovered && f.flagged[k]).count();
+            RocPoint {
+                array: arr.name.into(),
+                data,
+                method: e.name(),
+                significance: a,
+                false_flag_pct: pct(fo, frames.len() - missed).unwrap_or(0.0),
+                recall_pct: pct(fm, missed).unwrap_or(100.0),
+            }
+        })
+        .collect()
+}
+
+/// Run the flag study: tables to `report`, CSV/JSON/SVG to `out`.
+pub fn run(out: &Path, quick: bool, seed: u64, streams: u64, report: &mut String) -> Result<Vec<FlagRow>> {
+    let frames = if quick { 60 } else { STREAM_FRAMES };
+    let streams = if quick { 1 } else { streams.max(1) } as usize;
+    let arrays = arrays(quick);
+    let faults: Vec<Fault> = if quick {
+        vec![Fault::Clean, Fault::Dead, Fault::Drift, Fault::Offset, Fault::Absurd]
+    } else {
+        Fault::ALL.to_vec()
+    };
+    let jobs: Vec<(usize, usize, usize)> = (0..arrays.len())
+        .flat_map(|a| (0..faults.len()).flat_map(move |f| (0..streams).map(move |s| (a, f, s))))
+        .collect();
+    let bar = crate::progress::Bar::with("flags", jobs.len() as u64);
+    let done: Vec<Result<(usize, usize, Vec<StreamOutcome>)>> = jobs
+        .par_iter()
+        .map(|&(a, f, s)| {
+            let arr = &arrays[a];
+            let st_seed = SEED_OFFSET + seed + 7919 * s as u64 + 104_729 * f as u64 + 1_299_709 * a as u64;
+            let st = stream(arr, faults[f], frames, st_seed);
+            let outs = Entry::all(arr)
+                .into_iter()
+                .map(|e| run_entry(&st, e))
+                .collect::<Result<Vec<_>>>()?;
+            bar.advance(1);
+            Ok((a, f, outs))
+        })
+        .collect();
+    bar.end();
+    let done = done.into_iter().collect::<Result<Vec<_>>>()?;
+    let mut rows = Vec::new();
+    let mut rocs = Vec::new();
+    for (a, arr) in arrays.iter().enumerate() {
+        let entries = Entry::all(arr);
+        for (k, &e) in entries.iter().enumerate() {
+            let of = |f: usize| -> Vec<StreamOutcome> {
+                done.iter()
+                    .filter(|(da, df, _)| *da == a && *df == f)
+                    .map(|(_, _, o)| o[k].clone())
+                    .collect()
+            };
+            for (f, &fault) in faults.iter().enumerate() {
+                rows.push(row(arr, fault, e, &of(f)));
+            }
+            let clean: Vec<StreamOutcome> = of(0);
+            let others: Vec<StreamOutcome> = (1..faults.len()).flat_map(of).collect();
+            rocs.extend(roc(arr, e, "clean", &clean.iter().collect::<Vec<_>>()));
+            rocs.extend(roc(arr, e, "faults", &others.iter().collect::<Vec<_>>()));
+        }
+    }
+    write_files(out, &rows, &rocs, &arrays)?;
+    table(report, &rows, &rocs, streams, frames, seed)?;
+    Ok(rows)
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or("–".into(), |v| format!("{v:.1}"))
+}
+
+fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayDef]) -> Result<()> {
+    let header = [
+        "array", "fault", "method", "frames", "rr_pct", "missed", "recall_pct", "false_flag_pct",
+        "diagnosis_right", "wrong_suspects", "common_mode_streams", "streams", "estimated_us",
+        "measured_us",
+    ];
+    let csv: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.array.clone(),
+                r.fault.into(),
+                r.method.clone(),
+                r.frames.to_string(),
+                format!("{:.2}", r.rr_pct),
+                r.missed.to_string(),
+                r.recall_pct.map_or(String::new(), |v| format!("{v:.2}")),
+                r.false_flag_pct.map_or(String::new(), |v| format!("{v:.2}")),
+                r.diagnosis_right.to_string(),
+                r.wrong_suspects.to_string(),
+                r.common_mode_streams.to_string(),
+                r.streams.to_string(),
+                r.estimated_us.map_or(String::new(), |v| format!("{v:.1}")),
+                format!("{:.1}", r.measured_us),
+            ]
+        })
+        .collect();
+    write_csv(&out.join("flags.csv"), &header, &csv)?;
+    write_json(&out.join("flags.json"), &rows)?;
+    let roc_csv: Vec<Vec<String>> = rocs
+        .iter()
+        .map(|p| {
+            vec![
+                p.array.clone(),
+                p.data.into(),
+                p.method.clone(),
+                format!("{}", p.significance),
+                format!("{:.2}", p.false_flag_pct),
+                format!("{:.2}", p.recall_pct),
+            ]
+        })
+        .collect();
+    write_csv(
+        &out.join("flags-roc.csv"),
+        &["array", "data", "method", "significance", "false_flag_pct", "recall_pct"],
+        &roc_csv,
+    )?;
+    write_json(&out.join("flags-roc.json"), &rocs)?;
+    for arr in arrays {
+        for data in ["clean", "faults"] {
+            let mut chart = Chart::new(
+                format!("Flags: recall against false flags as the significance varies, {} ({data})", arr.name),
+                "false flags (flagged among recovered frames), %",
+                "recall (flagged among missed frames), %",
+            );
+            let mut methods: Vec<String> = Vec::new();
+            for p in rocs.iter().filter(|p| p.array == arr.name && p.data == data) {
+                if !methods.contains(&p.method) {
+                    methods.push(p.method.clone());
+                }
+            }
+            for name in &methods {
+                let pts: Vec<(f64, f64)> = rocs
+                    .iter()
+                    .filter(|p| p.array == arr.name && p.data == data && &p.method == name)
+                    .map(|p| (p.false_flag_pct, p.recall_pct))
+                    .collect();
+                chart = chart.with(Series::new(name.clone(), pts, Mark::LinePoints));
+            }
+            let file = format!(
+                "flags-roc-{}-{data}.svg",
+                arr.name.split(' ').next().unwrap_or("array")
+            );
+            chart.write_svg(&out.join(file))?;
+        }
+    }
+    Ok(())
+}
+
+fn table(
+    report: &mut String,
+    rows: &[FlagRow],
+    rocs: &[RocPoint],
+    streams: usize,
+    frames: usize,
+    seed: u64,
+) -> Result<()> {
+    writeln!(
+        report,
+        "## Flags and diagnosis ({streams} stream(s) × {frames} frames per array and fault, seeds from {}; significance {DEFAULT_SIGNIFICANCE})\n",
+        SEED_OFFSET + seed
+    )?;
+    writeln!(
+        report,
+        "Recall: flagged among frames below 12 dB (or unusable); false flags: flagged among frames at or above it. Diagnosis: streams whose suspects and common offset are the fault's and nothing else.\n"
+    )?;
+    writeln!(
+        report,
+        "| array | fault | method | RR % | missed | recall % | false flags % | diagnosis | wrong suspects | cm streams | est µs | measured µs |"
+    )?;
+    writeln!(report, "|---|---|---|---|---|---|---|---|---|---|---|---|")?;
+    for r in rows {
+        writeln!(
+            report,
+            "| {} | {} | {} | {:.1} | {} | {} | {} | {}/{} | {} | {} | {} | {:.1} |",
+            r.array,
+            r.fault,
+            r.method,
+            r.rr_pct,
+            r.missed,
+            opt(r.recall_pct),
+            opt(r.false_flag_pct),
+            r.diagnosis_right,
+            r.streams,
+            r.wrong_suspects,
+            r.common_mode_streams,
+            opt(r.estimated_us),
+            r.measured_us
+        )?;
+    }
+    writeln!(report, "\n### ROC: false flags % / recall % at each significance\n")?;
+    write!(report, "| array | data | method |")?;
+    for a in ROC_SIGNIFICANCES {
+        write!(report, " {a} |")?;
+    }
+    writeln!(report)?;
+    writeln!(report, "|---|---|---|{}", "---|".repeat(ROC_SIGNIFICANCES.len()))?;
+    let mut seen: Vec<(String, &str, String)> = Vec::new();
+    for p in rocs {
+        let key = (p.array.clone(), p.data, p.method.clone());
+        if seen.contains(&key) {
+            continue;
+        }
+        seen.push(key.clone());
+        write!(report, "| {} | {} | {} |", key.0, key.1, key.2)?;
+        for q in rocs
+            .iter()
+            .filter(|q| q.array == key.0 && q.data == key.1 && q.method == key.2)
+        {
+            write!(report, " {:.1} / {:.1} |", q.false_flag_pct, q.recall_pct)?;
+        }
+        writeln!(report)?;
+    }
+    writeln!(report)?;
+    Ok(())
+}
