@@ -33,13 +33,8 @@ pub use contact::{Contact, ContactRatios, CylinderCoupling};
 pub use design::{parse_unvalidated, Design};
 pub use error::{err, SpecError};
 pub use module::{
-<<<<<<< HEAD
-    Core, GratingRole, Insert, Module, ModuleGrating, Pillars, Snap, DEFAULT_REFERENCE_TAIL_MM,
-    GRATING_END_GAP_MM,
-=======
     Core, GratingRole, Insert, Limits, Module, ModuleGrating, Pillars, Snap,
-    DEFAULT_REFERENCE_TAIL_MM,
->>>>>>> main
+    DEFAULT_REFERENCE_TAIL_MM, GRATING_END_GAP_MM,
 };
 pub use printer::{
     FiberRouting, Material, PrintProcess, Printer, DEFAULT_FDM_LAYER_MM, DEFAULT_FDM_NOZZLE_MM,
