@@ -188,19 +188,33 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             ),
         ));
     }
-    fits.into_iter()
-        .map(|(outer, inner, what, gap, field, surfaces)| FitGap {
-            outer,
-            inner,
-            what: what.into(),
-            gap_mm: gap,
-            field: field.into(),
-            press_fit: gap <= PRESS_FIT_MM,
-            meshed_gap_mm: None,
-            surface_tolerance_mm: None,
-            surfaces,
-        })
-        .collect()
+    fits.into_iter().map(fit_gap).collect()
+}
+
+/// The parts, surfaces in words, gap (mm), field and surfaces (outer's, inner's) of a
+/// fit.
+type FitRow = (
+    PartKind,
+    PartKind,
+    &'static str,
+    f64,
+    &'static str,
+    (Vec<Surface>, Vec<Surface>),
+);
+
+/// A fit as designed, not yet measured on meshes.
+fn fit_gap((outer, inner, what, gap, field, surfaces): FitRow) -> FitGap {
+    FitGap {
+        outer,
+        inner,
+        what: what.into(),
+        gap_mm: gap,
+        field: field.into(),
+        press_fit: gap <= PRESS_FIT_MM,
+        meshed_gap_mm: None,
+        surface_tolerance_mm: None,
+        surfaces,
+    }
 }
 
 /// Half the height a surface of revolution is taken to span when it is named by its

@@ -112,10 +112,10 @@ pub enum GeometryError {
     Interference(#[from] assembly::Interference),
     /// A requested tolerance at which a part does not mesh.
     #[error(transparent)]
-    TooCoarse(#[from] meshing::ToleranceTooCoarse),
+    TooCoarse(#[from] Box<meshing::ToleranceTooCoarse>),
     /// A designed gap the meshes cannot keep.
     #[error(transparent)]
-    GapEaten(#[from] meshing::GapEaten),
+    GapEaten(#[from] Box<meshing::GapEaten>),
     /// A tolerance outside the range truck can mesh with.
     #[error("field `BuildRequest.tolerance_mm`: meshing tolerance {0} mm is out of range; allowed 0.001 to 1 mm")]
     Tolerance(f64),

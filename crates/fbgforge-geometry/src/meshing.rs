@@ -133,13 +133,13 @@ fn mesh_part_or_refuse(
                     break;
                 }
             }
-            Err(GeometryError::TooCoarse(ToleranceTooCoarse {
+            Err(GeometryError::TooCoarse(Box::new(ToleranceTooCoarse {
                 requested_mm: tol_mm,
                 part: part.name.clone(),
                 detail: format!("mesh check `{}` failed: {}", e.check, e.detail),
                 largest_mm: t.min(tol_mm),
                 default_mm,
-            }))
+            })))
         }
         other => other,
     }
@@ -201,7 +201,7 @@ pub(crate) fn mesh_solids(
                 .find(|(k, _)| *k == first)
                 .expect("measured")
                 .1;
-            return Err(GeometryError::GapEaten(GapEaten {
+            return Err(GeometryError::GapEaten(Box::new(GapEaten {
                 what: g.what.clone(),
                 field: g.field.clone(),
                 outer: g.outer.name().into(),
@@ -211,7 +211,7 @@ pub(crate) fn mesh_solids(
                 kept_percent: g.kept_percent,
                 tolerance_mm: g.surface_tolerance_mm,
                 least_percent: 100.0 * gaps::KEPT_FRACTION,
-            }));
+            })));
         }
         let mut again: Vec<PartKind> = Vec::new();
         for k in eaten {
