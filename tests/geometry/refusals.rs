@@ -100,6 +100,7 @@ fn a_sheet_too_thin_for_its_fiber_seat_names_the_thickness_and_the_least_that_wo
         fbgforge::design::parse(&s).map_err(|e| e.to_string())
     };
     let e = at(0.3).unwrap_err();
+    eprintln!("0.3 mm sheet: {e}");
     assert!(
         e.contains("array.thickness_mm") && e.contains("allowed above"),
         "{e}"
