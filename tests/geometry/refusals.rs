@@ -121,3 +121,26 @@ fn a_sheet_too_thin_for_its_fiber_seat_names_the_thickness_and_the_least_that_wo
     assert!(!parts.is_empty());
     assert!(at(least - 0.01).is_err());
 }
+
+#[test]
+fn two_rules_that_cannot_both_be_met_are_named_together() {
+    // Issue 39: a held-out design got two pillar-height messages whose ranges could not
+    // both be met. A groove so deep that the pillar must be taller than 0.3 R: one
+    // message, naming both rules and their fields.
+    let mut d = shipped("clip-on-10mm.toml");
+    d.module.as_mut().unwrap().pillars.groove_depth_mm = 1.0;
+    let e = refusal(&d);
+    eprintln!("{e}");
+    assert!(
+        e.contains("module.pillars.height_mm")
+            && e.contains("two rules conflict")
+            && e.contains("module.pillars.groove_depth_mm")
+            && e.contains("module.outer_diameter_mm"),
+        "{e}"
+    );
+    // Either way out works: a shallower groove, or a module wide enough.
+    let mut shallow = d.clone();
+    shallow.module.as_mut().unwrap().pillars.groove_depth_mm = 0.2;
+    let msg = shallow.validate().map_or_else(|e| e.to_string(), |()| String::new());
+    assert!(!msg.contains("two rules conflict"), "{msg}");
+}
