@@ -276,7 +276,6 @@ fn a_tolerance_too_coarse_for_a_part_names_the_option_and_the_range() {
         let out = dir.path().join(format!("t{tol}"));
         match crate::build(&d, &out, Some(tol)) {
             Ok(r) => {
-                
                 assert!(r.gaps.iter().all(|g| g.kept_percent >= 80.0));
             }
             Err(e) => {

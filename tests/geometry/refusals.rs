@@ -141,6 +141,8 @@ fn two_rules_that_cannot_both_be_met_are_named_together() {
     // Either way out works: a shallower groove, or a module wide enough.
     let mut shallow = d.clone();
     shallow.module.as_mut().unwrap().pillars.groove_depth_mm = 0.2;
-    let msg = shallow.validate().map_or_else(|e| e.to_string(), |()| String::new());
+    let msg = shallow
+        .validate()
+        .map_or_else(|e| e.to_string(), |()| String::new());
     assert!(!msg.contains("two rules conflict"), "{msg}");
 }

@@ -479,7 +479,9 @@ fn package_3mf(
             },
         )
         .collect();
-    super::threemf::package(&super::threemf::model_xml(title, &base, &objects)?)
+    let model = super::threemf::model_xml(title, &base, &objects)?;
+    let slicer = super::threemf::slicer_config_xml(&objects)?;
+    super::threemf::package_with(&model, &[(super::threemf::SLICER_CONFIG_PATH, &slicer)])
 }
 
 /// Plate width the 3MF plate lays pieces out in, mm (a 250 × 210 mm bed with margins).
