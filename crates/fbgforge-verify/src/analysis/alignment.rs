@@ -281,30 +281,32 @@ pub(super) fn shift_presses_at_rest(
         }
     }
     let period = median_period(tw).max(1e-9);
-    let mut out: Vec<ShiftPress> = Vec::new();
+    // Each row's rest level: the median of its block's rows at rest; the runs are then
+    // followed across the blocks' edges (a press is not cut in two at one).
+    let mut rest = Vec::with_capacity(at_rest.len());
     let mut a = 0;
     while a < at_rest.len() {
         let t0 = tw[at_rest[a]];
         let b = (a + at_rest[a..].partition_point(|&i| tw[i] < t0 + block_s)).max(a + 1);
-        let block = &at_rest[a..b];
-        let vals: Vec<f64> = block.iter().map(|&i| s[i]).collect();
-        let rest = crate::segment::percentile(&vals, 0.5);
-        presses_in_block(tw, s, block, rest, threshold_pm, period, &mut out);
+        let vals: Vec<f64> = at_rest[a..b].iter().map(|&i| s[i]).collect();
+        let level = crate::segment::percentile(&vals, 0.5);
+        rest.extend(std::iter::repeat_n(level, b - a));
         a = b;
     }
+    let mut out: Vec<ShiftPress> = Vec::new();
+    runs_off_rest(tw, s, (&at_rest, &rest), threshold_pm, period, &mut out);
     out.sort_by(|p, q| q.amplitude_pm.abs().total_cmp(&p.amplitude_pm.abs()));
     out.truncate(MAX_SHIFT_PRESSES);
     out.sort_by(|p, q| p.start_s.total_cmp(&q.start_s));
     out
 }
 
-/// Runs of rows of one block departing from `rest` by more than `threshold_pm` (one
-/// sign per run), appended to `out`.
-fn presses_in_block(
+/// Runs of the rows at rest (`rows`, each with its rest level) departing from it by
+/// more than `threshold_pm` (one sign per run), appended to `out`.
+fn runs_off_rest(
     tw: &[f64],
     s: &[f64],
-    block: &[usize],
-    rest: f64,
+    (rows, rest): (&[usize], &[f64]),
     threshold_pm: f64,
     period: f64,
     out: &mut Vec<ShiftPress>,
@@ -320,8 +322,8 @@ fn presses_in_block(
             });
         }
     };
-    for &i in block {
-        let d = s[i] - rest;
+    for (&i, &level) in rows.iter().zip(rest) {
+        let d = s[i] - level;
         let up = d.abs() > threshold_pm;
         run = match run {
             Some((p, q, amp))
@@ -406,6 +408,15 @@ mod tests {
         let (d, n) = press_match(&found, &f_starts, 1.5).unwrap();
         assert_eq!(n, 4);
         assert!((d - 250.0).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn a_press_across_the_edge_of_two_rest_blocks_is_one_press() {
+        // Blocks of 40 s from 0 s: the press from 30 s to 45 s spans the edge at 40 s.
+        let (t, s) = shift(&[(30.0, 45.0)], -800.0, 0.0);
+        let found = shift_presses_at_rest(&t, &s, &[], 5.0, 40.0, 100.0);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!((found[0].start_s - 30.0).abs() < 1e-9 && (found[0].end_s - 45.0).abs() < 1e-9);
     }
 
     #[test]
