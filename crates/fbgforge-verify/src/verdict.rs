@@ -667,6 +667,30 @@ fn presses_unexplained(m: &Measurement, kp: f64) -> Option<String> {
     ))
 }
 
+/// Share of the model's K a response too noisy to tell from none must reach (same
+/// sign) to be no evidence of silence.
+const NOISY_RESPONSE_SHARE: f64 = 0.3;
+
+/// A grating silent only because K's precision is too low: the force explains most of
+/// what the slow variation leaves (the gate's R²) and K lies near the model's (`kp`,
+/// same sign, at least [`NOISY_RESPONSE_SHARE`] of it), but the residuals'
+/// autocorrelation leaves K within a few standard errors of zero. Then the part may
+/// well respond (a loose bond's friction, a saturated force): not NO RESPONSE, nor a
+/// dead grating. In words, or None.
+fn response_too_noisy(g: &GratingResult, kp: f64, gate: &ResponseGate) -> Option<String> {
+    let k = g.sensitivity_pm_per_n;
+    let explains = g.response_r_squared >= gate.min_r_squared;
+    let near = k.signum() == kp.signum() && k.abs() >= NOISY_RESPONSE_SHARE * kp.abs();
+    (explains && near && g.sensitivity_t_statistic < gate.min_t_statistic).then(|| {
+        format!(
+            "the force explains {:.2} of the shift beyond the slow variation and K = {k:.3} pm/N is {:.2} × the model's {kp:.3} pm/N: a response too irregular (residuals with {:.0} effective samples) to tell K from zero, not an unloaded sensor; a loose bond, friction or a force the stand did not log right",
+            g.response_r_squared,
+            k / kp,
+            g.effective_samples
+        )
+    })
+}
+
 /// The wall clock's jumps in words, when the wavelength log has any.
 fn clock_jump_words(m: &Measurement) -> Option<String> {
     let j = m.clock_jumps.first()?;
@@ -747,6 +771,11 @@ fn grating_verdict(
         // force is placed on the wrong presses, or is another run's.
         let code = if m.lag_is_relative { ReasonCode::Alignment } else { ReasonCode::Unexplained };
         Some((Status::NotJudged, code, format!("{why}; but {rival}")))
+    } else if let (Some(why), Some(fault)) = (&silent, &g.instrument.fault) {
+        // Silence read from readings that cannot be trusted is no finding either.
+        Some((Status::NotJudged, ReasonCode::Instrument, format!("{why}; but the interrogator's readings cannot be trusted: {fault}")))
+    } else if let (Some(why), Some(imprecise)) = (&silent, pred.and_then(|kp| response_too_noisy(g, kp, gate))) {
+        Some((Status::NotJudged, ReasonCode::Precision, format!("{why}; but {imprecise}")))
     } else if let Some(why) = silent {
         Some((Status::NoResponse, ReasonCode::NoResponse, why))
     } else {
@@ -1026,12 +1055,16 @@ fn overall(
         }
         if let Some(g) = gratings.iter().find(|g| {
             g.status == Status::NotJudged
-                && matches!(g.reason_code, Some(ReasonCode::Alignment | ReasonCode::Unexplained))
+                && matches!(
+                    g.reason_code,
+                    Some(ReasonCode::Alignment | ReasonCode::Unexplained | ReasonCode::Instrument | ReasonCode::Precision)
+                )
         }) {
-            // Silence beside presses the force does not explain: the force is misplaced.
+            // Silence beside presses the force does not explain (the force misplaced),
+            // read from untrusted readings, or only from a noisy K: no finding.
             return (
                 Status::NotJudged,
-                Some(format!("no grating responded to the force as placed, but {}", g.reason.as_deref().unwrap_or("its presses are elsewhere"))),
+                Some(format!("no grating responded clearly to the force as placed, but grating `{}`: {}", g.grating, g.reason.as_deref().unwrap_or("not judged"))),
                 g.reason_code,
             );
         }
