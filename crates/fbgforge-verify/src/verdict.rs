@@ -671,6 +671,12 @@ fn presses_unexplained(m: &Measurement, kp: f64) -> Option<String> {
 /// sign) to be no evidence of silence.
 const NOISY_RESPONSE_SHARE: f64 = 0.3;
 
+/// K with the model's (`kp`) sign and at least [`NOISY_RESPONSE_SHARE`] of it.
+fn near_model(g: &GratingResult, kp: f64) -> bool {
+    let k = g.sensitivity_pm_per_n;
+    k.signum() == kp.signum() && k.abs() >= NOISY_RESPONSE_SHARE * kp.abs()
+}
+
 /// A grating silent only because K's precision is too low: the force explains most of
 /// what the slow variation leaves (the gate's R²) and K lies near the model's (`kp`,
 /// same sign, at least [`NOISY_RESPONSE_SHARE`] of it), but the residuals'
@@ -680,8 +686,7 @@ const NOISY_RESPONSE_SHARE: f64 = 0.3;
 fn response_too_noisy(g: &GratingResult, kp: f64, gate: &ResponseGate) -> Option<String> {
     let k = g.sensitivity_pm_per_n;
     let explains = g.response_r_squared >= gate.min_r_squared;
-    let near = k.signum() == kp.signum() && k.abs() >= NOISY_RESPONSE_SHARE * kp.abs();
-    (explains && near && g.sensitivity_t_statistic < gate.min_t_statistic).then(|| {
+    (explains && near_model(g, kp) && g.sensitivity_t_statistic < gate.min_t_statistic).then(|| {
         format!(
             "the force explains {:.2} of the shift beyond the slow variation and K = {k:.3} pm/N is {:.2} × the model's {kp:.3} pm/N: a response too irregular (residuals with {:.0} effective samples) to tell K from zero, not an unloaded sensor; a loose bond, friction or a force the stand did not log right",
             g.response_r_squared,
@@ -771,8 +776,10 @@ fn grating_verdict(
         // force is placed on the wrong presses, or is another run's.
         let code = if m.lag_is_relative { ReasonCode::Alignment } else { ReasonCode::Unexplained };
         Some((Status::NotJudged, code, format!("{why}; but {rival}")))
-    } else if let (Some(why), Some(fault)) = (&silent, &g.instrument.fault) {
-        // Silence read from readings that cannot be trusted is no finding either.
+    } else if let (Some(why), Some(fault), true) = (&silent, &g.instrument.fault, pred.is_some_and(|kp| near_model(g, kp))) {
+        // Silence read from readings that cannot be trusted, while K lies near the
+        // model's, is no finding either (with K far off, the readings' check, which
+        // compares them with K·x, says nothing).
         Some((Status::NotJudged, ReasonCode::Instrument, format!("{why}; but the interrogator's readings cannot be trusted: {fault}")))
     } else if let (Some(why), Some(imprecise)) = (&silent, pred.and_then(|kp| response_too_noisy(g, kp, gate))) {
         Some((Status::NotJudged, ReasonCode::Precision, format!("{why}; but {imprecise}")))
