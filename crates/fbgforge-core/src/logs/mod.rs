@@ -506,9 +506,15 @@ pub(crate) fn read_peak_log_in_blocks(path: &Path, opts: &ReadOptions, block: us
     let head_len = HEAD_BYTES.min(block.max(1 << 16));
     let mut head = Vec::with_capacity(head_len);
     (&mut file).take(head_len as u64).read_to_end(&mut head).with_context(cannot)?;
-    let det = detect_format(&head, path, opts.format)?;
+    let det = spectrum::detect_table(&head, path, opts)?;
+    if matches!(det.format, LogFormat::EnlightSpectrum | LogFormat::OsaCsv) {
+        // A whole-file spectrum is one acquisition's table, not a stream of rows.
+        let mut bytes = head;
+        file.read_to_end(&mut bytes).with_context(cannot)?;
+        return parse_wavelength_bytes(&bytes, path, opts);
+    }
     let reader = det.format.reader();
-    let table = reader.rows(&det, &head, path)?;
+    let table = reader.rows(&det, &head, path, opts)?;
     let body_offset = det.body_offset.min(head.len());
     head.drain(..body_offset);
     let m = rows::parse_body_stream(
