@@ -227,7 +227,7 @@ def predict(
     case: Optional[Case] = None,
     fidelity: Fidelity = "auto",
     band: bool = True,
-    mesh_level: int = 1,
+    mesh_level: Optional[int] = None,
 ) -> Prediction: ...
 def build(
     design: DesignLike,

@@ -59,7 +59,7 @@ def _names(v, name):
     return out
 
 
-def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True, mesh_level=1):
+def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True, mesh_level=None):
     """Predict each strain grating's sensitivity K (pm/N) with the model policy.
 
     Parameters
@@ -82,11 +82,14 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         no FE). Each row states ``model_error_fraction`` either way, and with the
         band ``design_interval_pm_per_n`` and ``limit_check`` (the strain at the
         largest force from the interval's far end).
-    mesh_level : int, default 1
-        Finite-element mesh level, 1 (default) to 4 (fine): each level halves every
-        element size (relative to the 34 mm module) and is extrapolated with the
-        level below; the step of that extrapolation is each FE row's stated
-        discretisation error (``model_error["discretisation_fraction"]``).
+    mesh_level : int, optional
+        Finite-element mesh level, 1 to 4 (fine): each level halves every element
+        size (relative to the 34 mm module) and is extrapolated with the level below
+        (level 1 with level 0, which never answers alone); the step of that
+        extrapolation is each FE row's stated discretisation error
+        (``model_error["discretisation_fraction"]``). Default: the policy picks per
+        configuration the cheapest level from 1 up to 3 that states a model error of
+        at most 15 %; each row names its level (``mesh_level``).
 
     Returns
     -------
@@ -103,7 +106,13 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
     """
     d = as_design(design)
     rows, statements = _fbgforge.predict(
-        d._d, float(force_n), float(delta_t_k), case, fidelity, bool(band), int(mesh_level)
+        d._d,
+        float(force_n),
+        float(delta_t_k),
+        case,
+        fidelity,
+        bool(band),
+        None if mesh_level is None else int(mesh_level),
     )
     return Prediction(
         {
@@ -111,7 +120,7 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
             "design": d.name,
             "fidelity": fidelity,
             "force_n": float(force_n),
-            "mesh_level": int(mesh_level),
+            "mesh_level": 1 if mesh_level is None else int(mesh_level),
             "predictions": rows,
             "paper_statements": statements,
         }
@@ -451,7 +460,8 @@ def reconstruct(
     keep_all_gratings : bool, default False
         No stream diagnosis: no grating named and left out or corrected.
     significance : float, optional
-        Significance of the frame test behind the flags (default 0.05).
+        Significance of the frame test behind the flags (default 0.05): a right
+        answer is flagged with at most this probability, on any array.
 
     Returns
     -------

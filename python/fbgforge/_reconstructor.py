@@ -33,7 +33,8 @@ class Reconstructor:
     keep : list of str, optional
         Gratings to use (default all): leave out one found faulty.
     significance : float, optional
-        Significance of the frame test behind the flags (default 0.05).
+        Significance of the frame test behind the flags (default 0.05): a right
+        answer is flagged with at most this probability, on any array.
 
     Examples
     --------

@@ -638,8 +638,9 @@ class Reconstruction(Result):
         Per frame: ‖A x − y‖, pm.
     flags : list of list of str
         Per frame: why it should not be trusted (``inconsistent``, ``ceiling``,
-        ``overload``, ``below_range``, ``ambiguous``, ``unconverged``, ``unusable``;
-        empty when it can be), the words of ``fbgforge reconstruct``'s CSV.
+        ``overload``, ``below_range``, ``ambiguous``, ``unusable``; empty when it
+        can be), the words of ``fbgforge reconstruct``'s CSV. A method that stopped
+        short (``bnb`` at its work budget) shows as ``certified`` False, not a flag.
     certified : numpy.ndarray of bool
         Per frame: whether the answer is the proven optimum of the method's objective.
     suspect_gratings : list of dict

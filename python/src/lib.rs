@@ -132,17 +132,17 @@ fn predict<'py>(
     case: Option<&str>,
     fidelity: &str,
     band: bool,
-    mesh_level: u32,
+    mesh_level: Option<u32>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
     let levels =
         fbgforge::fem::FemOptions::MIN_MESH_LEVEL..=fbgforge::fem::FemOptions::MAX_MESH_LEVEL;
-    if !levels.contains(&mesh_level) {
+    if let Some(k) = mesh_level.filter(|k| !levels.contains(k)) {
         return Err(input(
             py,
             format!(
-                "mesh_level {mesh_level}: expected {} (default) to {} (fine)",
+                "mesh_level {k}: expected {} to {} (fine), or None (the policy picks per configuration)",
                 levels.start(),
                 levels.end()
             ),
@@ -156,7 +156,14 @@ fn predict<'py>(
         fidelity: choice,
         band,
         design_interval: band,
-        fem_options: fbgforge::fem::FemOptions::mesh_level(mesh_level),
+        fem_options: fbgforge::fem::FemOptions::mesh_level(
+            mesh_level.unwrap_or(fbgforge::fem::FemOptions::DEFAULT_MESH_LEVEL),
+        ),
+        // As the command line: a level asked for is kept, else the policy refines.
+        refine_to_level: match mesh_level {
+            Some(_) => None,
+            None => Some(fbgforge::fem::FemOptions::AUTO_FINEST_MESH_LEVEL),
+        },
         cache: fe_cache().clone(),
         ..Default::default()
     };

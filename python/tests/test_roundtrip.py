@@ -220,3 +220,30 @@ def test_reconstruct_releases_the_gil():
         pytest.skip(f"{n} frames take only {t1 - t0:.3f} s here: no call lasts long enough to watch")
     lo, hi = t0 + 0.25 * (t1 - t0), t1 - 0.25 * (t1 - t0)
     assert sum(lo < s < hi for s in stamps) >= 1, (n, t1 - t0, len(stamps))
+
+
+def test_verify_names_presses_the_force_does_not_explain(cli, tmp_path):
+    # Issue #33: the wavelength log of one run (presses every 34 s) against the force
+    # log of another (presses every 10 s, over by 65 s), the clock offset given. The
+    # sensor reads silent, but its shift shows presses of the model's size where that
+    # force log rests or has no samples: NOT JUDGED (unexplained), not NO RESPONSE,
+    # the presses listed in the alignment, and the reason in Python's words.
+    common = dict(core="psc2", format="csv", k_pm_per_n=-170.0, rate_hz=20, pulses_n=(2, 3, 4, 3.5, 2.5, 3))
+    fbgforge.synth_log(MODULE, tmp_path / "part", rest_s=30.0, **common)
+    fbgforge.synth_log(MODULE, tmp_path / "other", rest_s=6.0, seed=2, **common)
+    log, force = tmp_path / "part" / "log.csv", tmp_path / "other" / "force.csv"
+    got = fbgforge.verify(MODULE, log, force, case="II", core="psc2", clock_offset_s=1.7)
+    want = in_python_words(
+        cli_json(cli, "verify", MODULE, "--log", log, "--force", force, "--case", "II", "--core", "psc2",
+                 "--clock-offset-s", "1.7", "--json", ok_codes=(3,))
+    )
+    close(got.to_dict(), want)
+    v = got.to_dict()["verdict"]
+    assert v["overall"] == "not_judged" and v["reason_code"] == "unexplained", v
+    assert "at rest or has no samples" in v["reason"] and "clock_offset_s" in v["reason"], v["reason"]
+    assert "--" not in v["reason"], v["reason"]
+    presses = got.measurement["alignment"]["shift_presses_at_rest"]
+    # The part's presses after 65 s (73, 107, 141, 175 s) lie beyond the force log.
+    late = [p for p in presses if p["start_s"] > 66.0]
+    assert len(late) >= 4 and all(p["amplitude_pm"] < -300.0 for p in late), presses
+    assert got.measurement["alignment"]["shift_grating"] == "lambda_21"

@@ -12,7 +12,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
-pub const FLAGS: &[(&str, &str)] = &[("BuildRequest.parts", "--parts")];
+pub const FLAGS: &[(&str, &str)] = &[
+    ("BuildRequest.parts", "--parts"),
+    ("BuildRequest.tolerance_mm", "--tolerance"),
+];
 
 /// Arguments of `fbgforge build`.
 #[derive(Debug, Args)]

@@ -84,7 +84,7 @@ pub struct ReconstructArgs {
     /// Per-entry standard deviation of the sensing matrix, pm/g: a CSV shaped like
     /// the matrix (e.g. the scatter of repeated calibrations; calibrate-array does
     /// not write one yet). Used by the
-    /// per-frame residual test (flag `inconsistent`) and the `ambiguous` margin.
+    /// per-frame residual test (flag `inconsistent`) and the rival test (`ambiguous`).
     #[arg(long, conflicts_with = "matrix_sd_pct")]
     pub matrix_sd: Option<PathBuf>,
     /// Per-entry standard deviation of the sensing matrix, % of each entry (default:
@@ -98,8 +98,9 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub keep_all_gratings: bool,
     /// Significance of the per-frame test behind the flags, in (0, 0.5] (default
-    /// 0.05: a clean frame is flagged with about this probability; smaller flags
-    /// fewer clean frames and finds fewer wrong ones; docs/array.md §11).
+    /// 0.05: a right answer is flagged with at most this probability, on any array;
+    /// smaller flags fewer right answers and finds fewer wrong ones; docs/array.md
+    /// §11).
     #[arg(long)]
     pub significance: Option<f64>,
     /// The interrogator's window, pm: a shift beyond ± this is not a reading and its

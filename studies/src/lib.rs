@@ -20,6 +20,7 @@ pub mod predict;
 #[path = "../../src/cli/progress.rs"]
 pub mod progress;
 pub mod reconstruct;
+pub mod reconstruct_budget;
 pub mod reconstruct_faults;
 pub mod reconstruct_flags;
 pub mod reconstruct_scaling;

@@ -7,8 +7,12 @@
 //!    radius, dome 0.4–1 × the radius, cap modulus 20–200 MPa, core moduli 0.8–8 MPa,
 //!    inserts 20–3000 MPa, a PolyJet or an FDM-like printer. Each is predicted by the
 //!    policy with its band and design interval; counted: rows whose nominal lies
-//!    outside its bounding readings widened by its model error, rows whose stated
-//!    error exceeds 0.15, rows whose nominal lies outside its design interval.
+//!    outside its bounding readings widened by its model error (and of those, rows
+//!    that do not say so, and rows whose readings do not fix K's sign), rows whose stated
+//!    error exceeds 0.15 (the policy refines a configuration's mesh from level 1
+//!    until it states at most that, up to level 3), rows whose nominal lies outside
+//!    its design interval, and rows per mesh level. Each drawn design is written
+//!    beside the rows (`designs/design-K.toml`) to re-run it with `fbgforge predict`.
 //! 2. **Written designs.** `optimize` from some of those designs (a small budget),
 //!    and each written design predicted again: counted, gratings of the written
 //!    configuration at or over the strain limit at the far end of their design
@@ -59,12 +63,20 @@ pub struct ModelErrorReport {
     pub rows: usize,
     /// Rows whose nominal lies outside its bounding readings widened by its error.
     pub rows_outside_widened_band: usize,
+    /// Of those, rows that do not say so ("the model is wrong here"): confidently
+    /// wrong answers.
+    pub rows_outside_unflagged: usize,
+    /// Of those, rows whose bounding readings do not fix K's sign.
+    pub rows_outside_sign_not_fixed: usize,
     /// Rows whose nominal lies outside its design interval.
     pub rows_outside_design_interval: usize,
     /// Rows whose stated model error exceeds 0.15.
     pub rows_over_max_error: usize,
     /// Largest stated model error, fraction.
     pub max_model_error: f64,
+    /// Rows by the policy mesh level they were answered at (index = level; the
+    /// policy refines a configuration from level 1 until it states ≤ 15 %, up to 3).
+    pub rows_by_mesh_level: [usize; 5],
     /// Designs optimised.
     pub optimised: usize,
     /// Optimisations that found no feasible design.
@@ -152,9 +164,17 @@ fn check_design(
             .is_none_or(|[lo, hi]| k_nom >= lo && k_nom <= hi);
         let f = r.model_error_fraction.unwrap_or(0.0);
         report.rows_outside_widened_band += usize::from(!contained);
+        let said = |text: &str| p.warnings.iter().any(|w| w.contains(text));
+        if !contained {
+            report.rows_outside_unflagged += usize::from(!said("the model is wrong here"));
+            report.rows_outside_sign_not_fixed += usize::from(said("sign of K is not fixed"));
+        }
         report.rows_outside_design_interval += usize::from(!in_interval);
         report.rows_over_max_error += usize::from(f > MAX_MODEL_ERROR);
         report.max_model_error = report.max_model_error.max(f);
+        if let Some(level) = r.mesh_level {
+            report.rows_by_mesh_level[level as usize] += 1;
+        }
         let b = r.band_readings;
         csv.push(vec![
             k.to_string(),
@@ -168,6 +188,7 @@ fn check_design(
             r.model.name().to_string(),
             format!("{k_nom:.4}"),
             format!("{f:.4}"),
+            r.mesh_level.map_or(String::new(), |k| k.to_string()),
             b.map_or(String::new(), |b| {
                 format!("{:.4}", b.bonded_pillars_pm_per_n)
             }),
@@ -274,7 +295,14 @@ pub fn run(a: &ModelErrorArgs) -> Result<ModelErrorReport> {
             None => report.invalid_draws += 1,
         }
     }
+    let drawn = a.out.join("designs");
+    ensure_dir(&drawn)?;
     for (k, d) in designs.iter().enumerate() {
+        // Each drawn design beside its rows, to re-run one with `fbgforge predict`.
+        fbgforge::output::write_atomic(
+            &drawn.join(format!("design-{k}.toml")),
+            d.to_toml().as_bytes(),
+        )?;
         check_design(k, d, &mut report, &mut csv)?;
         report.designs += 1;
     }
@@ -295,6 +323,7 @@ pub fn run(a: &ModelErrorArgs) -> Result<ModelErrorReport> {
             "model",
             "k_pm_per_n",
             "model_error_fraction",
+            "mesh_level",
             "bonded_pm_per_n",
             "sliding_apex_patch_pm_per_n",
             "contained",

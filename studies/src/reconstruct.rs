@@ -74,6 +74,9 @@ pub enum Part {
     /// scenarios on three arrays, the stream diagnosis judged, and the ROC of the
     /// frame test's significance.
     Flags,
+    /// Issue 35's budget comparison: at 16 × 64, the default within its budget
+    /// against `bnb` run to its certified optimum, per load count.
+    Budget,
 }
 
 /// Streams per array and scenario of the flag part (at most; `--repeats` lowers it).
@@ -160,6 +163,11 @@ pub fn run(opts: &BenchOptions) -> Result<()> {
                 opts.repeats.min(FLAG_STREAMS),
                 &mut report,
             )?;
+            report
+        }
+        Part::Budget => {
+            let mut report = String::from("# fbgforge-studies reconstruct --part budget\n\n");
+            crate::reconstruct_budget::run(&opts.out, opts.quick, opts.seed, &mut report)?;
             report
         }
         Part::Scaling => {

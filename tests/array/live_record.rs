@@ -102,13 +102,17 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
     // CSV prints).
     let out = dir.path().join("loads.csv");
     let shifts = dir.path().join("run.shifts.csv");
+    let method = of_type(&ran, "start")[0]["method"]
+        .as_str()
+        .expect("live names its method")
+        .to_owned();
     let o = common::bin()
         .args([
             "reconstruct",
             "--design",
             d,
             "--method",
-            "wsupport",
+            &method,
             "--keep-all-gratings",
         ])
         .arg("--shifts")

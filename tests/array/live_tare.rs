@@ -167,8 +167,12 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
             .map(|(e, t)| (e - t).abs())
             .fold(0.0, f64::max);
         // Before: 100 g on A read as 19 g on C, every loaded frame flagged. The paper's
-        // noise gives up to ~20 g on one cell; 40 g apart is a wrong answer.
-        assert!(err < 40.0, "frame {f}: truth {truth:?}");
+        // noise gives up to ~20 g on one cell; 40 g apart is a wrong answer, allowed
+        // only where the frame says so (a rival explains it as well: `ambiguous`, or
+        // the readings do not fit: `inconsistent`); the flagged share is bounded below.
+        let flags = f["flags"].as_array().unwrap();
+        let owned = flags.iter().any(|x| x == "ambiguous" || x == "inconsistent");
+        assert!(err < 40.0 || owned, "frame {f}: truth {truth:?}");
         loaded += usize::from(truth.iter().any(|&v| v > 0.0));
     }
     assert!(loaded > 2000, "{loaded} loaded frames read");
@@ -176,9 +180,12 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
         .iter()
         .filter(|f| !f["flags"].as_array().unwrap().is_empty())
         .count();
-    // Before: 100 % of the loaded frames flagged.
+    // Before: 100 % of the loaded frames flagged. Since issue 35 the flags rest on a
+    // χ² test of stated size α = 0.05 (docs/array.md §11.1): on frames the model
+    // explains, at most that share is flagged `inconsistent` by chance (measured here
+    // 2.2 %: the stream's noise is under the resolution the test assumes).
     assert!(
-        flagged * 100 < frames.len(),
+        flagged * 20 < frames.len(),
         "{flagged} of {} flagged",
         frames.len()
     );

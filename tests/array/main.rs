@@ -12,6 +12,7 @@ mod array;
 mod array_cli;
 mod array_exact;
 mod array_faults;
+mod array_flag_size;
 mod array_scaling;
 mod array_trust;
 mod calibrate_additivity;

@@ -92,12 +92,12 @@ fn mold_volume_and_size_are_exact() {
     let parts = geometry::build_parts(&d, None, None).unwrap();
     let mold = part(&parts, "mold");
     // Reference §2 mold: 105 × 75 internal, 3 mm walls (81 × 111 outside), 2 mm base,
-    // 5 mm walls; through each 3 mm long wall six slits: a 0.45 mm seat (0.25 mm
-    // coated fiber + 0.1 mm each side) from 4.4 mm (the 0.2 mm layer nearest 4.375 mm,
+    // 5 mm walls; through each 3 mm long wall six slits: a 0.5 mm seat (the FDM floor:
+    // the 0.4 mm nozzle + the 0.1 mm clearance) from 4.4 mm (the 0.2 mm layer nearest 4.375 mm,
     // where the fiber's axis would be at mid-sheet, 2 + 5/2 mm) up to the layer at or
     // above the fiber's top (4.65 → 4.8 mm), under a 1.0 mm pocket (a 1.0 mm plug,
     // press fit) up to the wall top at 7 mm.
-    let slit = 0.45 * (4.8 - 4.4) + 1.0 * (7.0 - 4.8);
+    let slit = 0.5 * (4.8 - 4.4) + 1.0 * (7.0 - 4.8);
     let exact = 111.0 * 81.0 * 7.0 - 105.0 * 75.0 * 5.0 - 2.0 * 6.0 * 3.0 * slit;
     assert!((mold.exact_volume_mm3 - exact).abs() < 1e-9);
     assert!((mold.mesh_volume_mm3 - exact).abs() < 1e-6 * exact);

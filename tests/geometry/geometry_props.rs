@@ -14,7 +14,7 @@ use proptest::prelude::*;
 
 use common::shipped;
 
-fn lerp(a: f64, b: f64, t: f64) -> f64 {
+pub(crate) fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t
 }
 
@@ -32,7 +32,7 @@ fn printer(fdm: bool, d: &mut Design) {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
+pub(crate) fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     let mut d = shipped("clip-on-34mm.toml");
     printer(fdm, &mut d);
     let w = d.printer.min_wall_mm;
@@ -51,7 +51,7 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
     m.core_insert_clearance_mm = fit(f[3]);
     let pl = &mut m.pillars;
     pl.count = count;
-    let passage = d.printer.min_passage_mm(d.fiber_routing.coated_diameter_mm);
+    let passage = d.fiber_routing.min_passage_mm(&d.printer);
     pl.fiber_hole_diameter_mm = lerp(passage, 1.2, f[4]);
     pl.groove_depth_mm = lerp(0.05, 1.0, f[5]);
     // At most 0.3 × the radius (the field's range), so small modules stay valid.
@@ -100,14 +100,14 @@ fn module_design(diameter: f64, fdm: bool, count: u32, f: [f64; 14]) -> Design {
 }
 
 /// The case count: `default`, or `PROPTEST_CASES` when set (for long soak runs).
-fn cases(default: u32) -> u32 {
+pub(crate) fn cases(default: u32) -> u32 {
     std::env::var("PROPTEST_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
 }
 
-fn fractions<const N: usize>() -> impl Strategy<Value = [f64; N]> {
+pub(crate) fn fractions<const N: usize>() -> impl Strategy<Value = [f64; N]> {
     proptest::array::uniform::<_, N>(0.0..1.0f64)
 }
 

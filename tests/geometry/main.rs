@@ -10,8 +10,11 @@ mod admesh;
 mod geometry;
 mod geometry_parts;
 mod geometry_props;
+mod held_out;
 mod geometry_step;
 mod parts_rules;
+mod printer_floor;
+mod refusals;
 mod prusaslicer;
 
 /// Build every part of `design` into `dir` as the command line does (with its

@@ -68,13 +68,13 @@ fn a_fiber_hole_narrower_than_fiber_and_resolution_is_refused_naming_the_field()
         "fiber_hole_diameter_mm = 1.0",
         "fiber_hole_diameter_mm = 0.299",
     );
-    // Slots and bores are channels: a clearance leaving them under fiber + resolution.
-    let e = refused(
-        "clip-on-34mm.toml",
-        "friction_coefficient = 0.3",
-        "friction_coefficient = 0.3\n[fiber_routing]\nchannel_clearance_mm = 0.0",
-    );
-    assert!(e.contains("fiber_routing.channel_clearance_mm"), "{e}");
+    // Slots and bores are channels: with no clearance they are still made at the
+    // printer's floor (PolyJet: fiber + resolution), never under it.
+    let mut d = shipped("clip-on-34mm.toml");
+    d.fiber_routing.channel_clearance_mm = 0.0;
+    d.validate().unwrap();
+    let w = d.fiber_routing.channel_width_mm(&d.printer);
+    assert!((w - 0.30).abs() < 1e-12, "{w}");
 }
 
 #[test]
@@ -221,27 +221,74 @@ fn a_reference_grating_too_long_for_its_insert_is_refused_naming_a_written_field
 // ---------------------------------------------------------------- 3. tolerance
 
 #[test]
-fn a_tolerance_that_would_let_mating_meshes_overlap_is_refused() {
+fn a_coarse_tolerance_keeps_every_designed_gap_in_the_meshes() {
+    // Issue 39: the tolerance applies to the parts' surfaces at large; the surfaces
+    // facing a designed gap are meshed finer until the meshes keep 80 % of it. At 0.1
+    // and 0.2 mm (twice and four times the 0.1 mm clearances) the 34 mm module builds,
+    // and the manifest states each gap designed and meshed.
     let d = shipped("clip-on-34mm.toml");
     let dir = tempfile::tempdir().unwrap();
-    // The issue's cases: 0.1 mm (cap/core overlapped by 0.156 mm³) and 0.2 mm
-    // (core/insert by 6.78 mm³), on 0.1 mm clearances.
     for tol in [0.1, 0.2] {
         let out = dir.path().join(format!("t{tol}"));
-        let e = format!("{:#}", crate::build(&d, &out, Some(tol)).unwrap_err());
-        assert!(
-            e.contains("meshing tolerance")
-                && e.contains("0.1 mm clearance")
-                && e.contains("largest tolerance allowed is 0.05 mm")
-                && e.contains("module.cap_core_clearance_mm")
-                && e.contains("nothing was written"),
-            "{e}"
-        );
-        assert!(!out.exists() || std::fs::read_dir(&out).unwrap().count() == 0);
+        let r = crate::build(&d, &out, Some(tol)).unwrap();
+        assert!(!r.fibers.is_empty());
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap())
+                .unwrap();
+        let gaps = m["meshed_gaps"].as_array().unwrap();
+        assert!(gaps.len() >= 10, "{tol}: {} gaps", gaps.len());
+        for g in gaps {
+            let (designed, meshed) = (
+                g["designed_gap_mm"].as_f64().unwrap(),
+                g["meshed_gap_mm"].as_f64().unwrap(),
+            );
+            assert!(meshed >= 0.8 * designed, "{tol}: {g}");
+            assert!(
+                g["surface_tolerance_mm"].as_f64().unwrap() < tol,
+                "{tol}: {g}"
+            );
+        }
+        // The dome gap of the issue, stated both ways in the fits.
+        let dome = m["fits"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["what"] == "cap inner dome to core outer dome")
+            .unwrap();
+        assert!(dome["meshed_gap_mm"].as_f64().unwrap() >= 0.8 * dome["gap_mm"].as_f64().unwrap());
     }
-    // At half the clearance it builds, and the manifest lists the fits it checked.
-    let r = crate::build(&d, dir.path(), Some(0.05)).unwrap();
-    assert!(!r.fibers.is_empty());
+}
+
+#[test]
+fn a_tolerance_too_coarse_for_a_part_names_the_option_and_the_range() {
+    // Issue 39: on the 10 mm design `--tolerance 0.2` failed inside the mesher with
+    // "mesh check `closed` failed" and no field. Now it builds (the gaps' surfaces
+    // refined); at the coarsest tolerances a part that does not mesh is refused naming
+    // the option and the range that meshes it.
+    let d = shipped("clip-on-10mm.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let r = crate::build(&d, &dir.path().join("t0.2"), Some(0.2)).unwrap();
+    assert!(r.gaps.len() >= 10);
+    for g in &r.gaps {
+        assert!(g.kept_percent >= 80.0, "{g:?}");
+    }
+    for tol in [0.5, 1.0] {
+        let out = dir.path().join(format!("t{tol}"));
+        match crate::build(&d, &out, Some(tol)) {
+            Ok(r) => {
+                assert!(r.gaps.iter().all(|g| g.kept_percent >= 80.0));
+            }
+            Err(e) => {
+                let e = format!("{e:#}");
+                eprintln!("10 mm at {tol} mm: {e}");
+                assert!(
+                    e.contains("BuildRequest.tolerance_mm") && e.contains("allowed 0.001 to"),
+                    "{e}"
+                );
+                assert!(!out.exists() || std::fs::read_dir(&out).unwrap().count() == 0);
+            }
+        }
+    }
 }
 
 #[test]
@@ -277,13 +324,14 @@ fn the_shipped_10mm_module_is_checked_for_overlap_at_its_default_tolerance() {
 }
 
 #[test]
-fn exact_fits_are_the_clearances_and_the_tolerance_rule_is_half_of_each() {
+fn exact_fits_are_the_clearances_and_none_is_a_press_fit() {
     let d = shipped("clip-on-34mm.toml");
     let profile = geometry::DesignProfile::new(&d);
     let f = fits::module_fits(profile.module.as_ref().unwrap());
     for g in &f {
         assert!(g.gap_mm > 0.0, "{g:?}");
-        assert_eq!(g.max_mesh_tolerance_mm, Some(g.gap_mm / 2.0));
+        assert!(!g.press_fit, "{g:?}");
+        assert_eq!(g.meshed_gap_mm, None, "not measured before a build");
     }
     let radial = f
         .iter()
@@ -301,9 +349,6 @@ fn exact_fits_are_the_clearances_and_the_tolerance_rule_is_half_of_each() {
         bead.gap_mm > 0.1 * 0.5f64.sqrt() - 1e-9 && bead.gap_mm < 0.2,
         "{bead:?}"
     );
-    // The rule itself: 0.05 passes, 0.0500001 does not.
-    assert!(fits::check_tolerance(&f, |_| Some(0.05)).is_ok());
-    assert!(fits::check_tolerance(&f, |_| Some(0.050_001)).is_err());
 }
 
 // ---------------------------------------------------------------- 4. surface gap
@@ -766,4 +811,62 @@ fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     let svg = std::fs::read_to_string(mold.path().join("preview-mold.svg")).unwrap();
     assert!(svg.contains("data-name=\"wall\"") && svg.contains("class=\"scale-bar\""));
     assert!(svg.contains("fiber axis 4.525"));
+}
+
+// ---------------------------------------------------------------- 9. retention
+
+#[test]
+fn the_manifest_states_how_the_cap_is_held() {
+    let dir = tempfile::tempdir().unwrap();
+    // The shipped 10 mm module has no snap: nothing holds its cap, and the build says so.
+    let d = shipped("clip-on-10mm.toml");
+    assert!(d.module.as_ref().unwrap().snap.is_none());
+    let out = dir.path().join("10");
+    let r = crate::build(&d, &out, None).unwrap();
+    assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
+    assert!(
+        r.warnings[0].contains("nothing holds the cap"),
+        "{:?}",
+        r.warnings
+    );
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["retention"]["by"], "nothing", "{}", m["retention"]);
+    // The 34 mm module's snap: its free travel is the bead's clearance to the pillars'
+    // bottom edge over sin α₂, the same gap the fits find on exact dimensions.
+    let d = shipped("clip-on-34mm.toml");
+    let out = dir.path().join("34");
+    let r = crate::build(&d, &out, None).unwrap();
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let ret = &m["retention"];
+    assert_eq!(ret["by"], "snap", "{ret}");
+    assert!(ret["retention_force_n"].as_f64().unwrap() > 0.0, "{ret}");
+    let travel = ret["free_travel_mm"].as_f64().unwrap();
+    let alpha = d
+        .module
+        .as_ref()
+        .unwrap()
+        .snap
+        .as_ref()
+        .unwrap()
+        .retention_angle_deg;
+    let bead = m["fits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["what"] == "snap bead to pillar bottoms")
+        .unwrap()["gap_mm"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (travel * alpha.to_radians().sin() - bead).abs() < 1e-9,
+        "{travel} vs {bead}"
+    );
+    assert!(
+        (travel - 0.1 / 45f64.to_radians().sin()).abs() < 1e-9,
+        "{travel}"
+    );
+    assert_eq!(ret["resolution_mm"].as_f64(), Some(0.05));
 }

@@ -233,3 +233,28 @@ fn output_to_a_closed_pipe_ends_quietly_instead_of_panicking() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(!out.status.success() || err.is_empty(), "{err}");
 }
+
+#[test]
+fn predict_mesh_level_is_fixed_when_given_and_refused_outside_1_to_4() {
+    let path = design("clip-on-16mm.toml");
+    let p = path.to_str().unwrap();
+    // The help says what level 1 is extrapolated with and what the default does.
+    let help = run(&["predict", "--help"]);
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        text.contains("level 1 is extrapolated from level 0"),
+        "{text}"
+    );
+    assert!(text.contains("cheapest"), "{text}");
+    for bad in ["0", "5"] {
+        let o = run(&["predict", p, "--mesh-level", bad]);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains("--mesh-level"), "{}", stderr(&o));
+    }
+    let o = run(&["predict", p, "--case", "i", "--mesh-level", "2", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for r in v["predictions"].as_array().unwrap() {
+        assert_eq!(r["mesh_level"], 2, "{r}");
+    }
+}

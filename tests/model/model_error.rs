@@ -2,12 +2,17 @@
 //! family (diameter 8–40 mm, cap and core walls from the printer's minimum to a quarter
 //! of the radius, dome 0.4–1 × the radius, log-uniform cap, core and insert moduli, a
 //! PolyJet or an FDM-like printer), every prediction row's nominal K lies inside its
-//! bounding readings widened by its stated model error and inside its design interval;
+//! bounding readings widened by its stated model error — or, where those readings do
+//! not fix K's sign, the row says the model is wrong there — and inside its design
+//! interval;
 //! a stated error above 0.15 is flagged on the row; and the strain at the largest force
 //! comes from the far end of the design interval, never less than the nominal plus its
-//! error.
+//! error. The policy's own mesh choice keeps every row's stated error within 0.15: a
+//! configuration whose level-1 rows state more is solved again one level finer.
 
 use crate::common::shipped;
+use fbgforge::fem::FemOptions;
+use fbgforge::model::LoadCase;
 use fbgforge::prediction::{predict, ModelledPrediction, PredictionRequest, MAX_MODEL_ERROR};
 use fbgforge::spec::{Design, PrintProcess};
 use proptest::prelude::*;
@@ -60,10 +65,17 @@ pub(crate) fn check_containment(label: &str, rows: &[ModelledPrediction]) -> Res
             continue;
         };
         if r.nominal_contained() != Some(true) {
-            return Err(format!(
-                "{id}: nominal {k} outside its widened readings {:?} (error {f})",
-                r.widened_readings()
-            ));
+            // Outside only where the bounding readings do not fix K's sign, and then
+            // said on the row (very thin caps on large modules: the model-error study,
+            // seed 7, 12 rows of 2 of 100 designs, the same at mesh level 3).
+            let said = |text: &str| p.warnings.iter().any(|w| w.contains(text));
+            if !(said("the model is wrong here") && said("sign of K is not fixed")) {
+                return Err(format!(
+                    "{id}: nominal {k} outside its widened readings {:?} (error {f}) and not flagged: {:?}",
+                    r.widened_readings(),
+                    p.warnings
+                ));
+            }
         }
         let [lo, hi] = r
             .design_interval_pm_per_n
@@ -121,6 +133,11 @@ fn every_shipped_design_states_its_error_and_holds_its_nominal_inside() {
     ] {
         let rows = rows_of(&shipped(file));
         check_containment(file, &rows).unwrap();
+        // The shipped designs need no flag: every nominal inside.
+        assert!(
+            rows.iter().all(|r| r.nominal_contained() != Some(false)),
+            "{file}"
+        );
         for r in &rows {
             let p = &r.detail.prediction;
             if r.model == fbgforge::prediction::Fidelity::Fem {
@@ -156,5 +173,169 @@ proptest! {
         if let Err(e) = check_containment(&label, &rows) {
             prop_assert!(false, "{}", e);
         }
+        // The policy picked a mesh stating at most 0.15 on every row.
+        for r in &rows {
+            let f = r.model_error_fraction.unwrap_or(0.0);
+            prop_assert!(f <= MAX_MODEL_ERROR, "{} {}: stated {} at mesh level {:?}", label, r.detail.prediction.grating, f, r.mesh_level);
+        }
     }
+}
+
+/// The 34 mm module with a thin, soft cap over a stiff Case I core (the shape of the
+/// model-error study's design 19): K_I of psc1 is small, and mesh level 1 states
+/// 20–26 % on it, psc2's rows 13 %.
+fn thin_cap() -> Design {
+    let mut d = shipped("clip-on-34mm.toml");
+    let m = d.module.as_mut().unwrap();
+    m.cap_wall_mm = 0.64;
+    m.core_wall_mm = 1.27;
+    m.dome_height_mm = 12.0;
+    let cap = m.cap_material.clone();
+    d.materials.get_mut(&cap).unwrap().youngs_modulus_mpa = 30.0;
+    d.materials
+        .get_mut("core_rubber_case_i")
+        .unwrap()
+        .youngs_modulus_mpa = 5.5;
+    d.validate().unwrap();
+    d
+}
+
+fn case_i(d: &Design, level: u32, refine: Option<u32>) -> Vec<ModelledPrediction> {
+    predict(
+        d,
+        &PredictionRequest {
+            case: Some(LoadCase::I),
+            band: true,
+            design_interval: true,
+            fem_options: FemOptions::mesh_level(level),
+            refine_to_level: refine,
+            cache: crate::fe_cache().clone(),
+            ..PredictionRequest::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn where_level_1_states_over_15_percent_the_policy_refines_that_configuration_only() {
+    let d = thin_cap();
+    let fixed = case_i(&d, 1, None);
+    let default = PredictionRequest::default();
+    assert_eq!(
+        default.refine_to_level,
+        Some(FemOptions::AUTO_FINEST_MESH_LEVEL)
+    );
+    let auto = case_i(&d, 1, default.refine_to_level);
+    check_containment("thin cap", &auto).unwrap();
+    let config = |r: &ModelledPrediction| {
+        let p = &r.detail.prediction;
+        (p.core.clone(), p.insert.clone())
+    };
+    let over: Vec<_> = fixed
+        .iter()
+        .filter(|r| r.model_error_fraction.unwrap() > MAX_MODEL_ERROR)
+        .map(config)
+        .collect();
+    assert!(
+        !over.is_empty(),
+        "the thin cap should state > 15 % at level 1"
+    );
+    let mut refined = 0;
+    for (a, f) in auto.iter().zip(&fixed) {
+        let (p, id) = (&a.detail.prediction, config(a));
+        // Level 1, asked for exactly: the row says which term breaks 15 % and where.
+        if f.model_error_fraction.unwrap() > MAX_MODEL_ERROR {
+            assert!(
+                f.detail
+                    .prediction
+                    .warnings
+                    .iter()
+                    .any(|w| w.contains("stated model error")
+                        && w.contains("mesh is too coarse")
+                        && w.contains("at mesh level 1")),
+                "{:?}",
+                f.detail.prediction.warnings
+            );
+        }
+        assert!(a.model_error_fraction.unwrap() <= MAX_MODEL_ERROR, "{p:?}");
+        assert!(!p.warnings.iter().any(|w| w.contains("stated model error")));
+        if over.contains(&id) {
+            // Refined: the row is the fixed prediction at the level it names.
+            let k = a.mesh_level.unwrap();
+            assert!(k > 1 && k <= FemOptions::AUTO_FINEST_MESH_LEVEL, "{k}");
+            let at = case_i(&d, k, None);
+            let same = at
+                .iter()
+                .find(|r| config(r) == id && r.detail.prediction.grating == p.grating)
+                .unwrap();
+            assert_eq!(
+                same.detail.prediction.sensitivity_pm_per_n,
+                p.sensitivity_pm_per_n
+            );
+            assert_eq!(same.design_interval_pm_per_n, a.design_interval_pm_per_n);
+            assert_eq!(same.band_readings, a.band_readings);
+            refined += 1;
+        } else {
+            // A configuration within 15 % keeps level 1 and its numbers.
+            assert_eq!(a.mesh_level, Some(1));
+            assert_eq!(
+                p.sensitivity_pm_per_n,
+                f.detail.prediction.sensitivity_pm_per_n
+            );
+        }
+    }
+    assert!(
+        refined > 0 && refined < auto.len(),
+        "{refined} of {}",
+        auto.len()
+    );
+}
+
+/// The 34 mm module with a very thin cap (0.35 mm) over a stiff Case I core (the
+/// model-error study's seed-7 designs 59 and 87 have this shape).
+fn very_thin_cap() -> Design {
+    let mut d = shipped("clip-on-34mm.toml");
+    let m = d.module.as_mut().unwrap();
+    m.cap_wall_mm = 0.35;
+    m.core_wall_mm = 1.43;
+    m.dome_height_mm = 13.5;
+    let cap = m.cap_material.clone();
+    for (name, e) in [
+        (cap.as_str(), 29.0),
+        ("core_rubber_case_ii", 6.5),
+        ("insert_blue", 195.0),
+    ] {
+        d.materials.get_mut(name).unwrap().youngs_modulus_mpa = e;
+    }
+    d.validate().unwrap();
+    d
+}
+
+#[test]
+fn where_the_bounding_readings_do_not_bound_the_nominal_the_rows_say_the_model_is_wrong() {
+    let d = very_thin_cap();
+    let rows = case_i(&d, 1, PredictionRequest::default().refine_to_level);
+    // Outside only with both flags (check_containment), and the mesh is not the cause:
+    // every row states its error within 15 %.
+    check_containment("very thin cap", &rows).unwrap();
+    let outside: Vec<&ModelledPrediction> = rows
+        .iter()
+        .filter(|r| r.nominal_contained() == Some(false))
+        .collect();
+    assert!(outside.len() >= 4, "{} rows outside", outside.len());
+    for r in &outside {
+        assert!(r.model_error_fraction.unwrap() <= MAX_MODEL_ERROR);
+        // The family rule's contact radius turns Case I blue here: the readings
+        // bracket neither its size nor its sign.
+        assert!(r.detail.prediction.sensitivity_pm_per_n < 0.0);
+    }
+    let failed = fbgforge::prediction::check_paper_statements(&d, &rows)
+        .map(|s| {
+            s.failures()
+                .iter()
+                .map(|c| c.statement.to_string())
+                .collect::<Vec<_>>()
+        })
+        .unwrap_or_default();
+    assert!(failed.iter().any(|s| s == "case_i_red_shift"), "{failed:?}");
 }

@@ -934,3 +934,35 @@ fn a_given_offset_that_misses_the_log_says_so() {
     assert!(e.contains("placed by the given clock offset 1000"), "{e}");
     assert!(!e.contains("starts aligned"), "{e}");
 }
+
+#[test]
+fn a_perfectly_elastic_part_with_a_pure_delay_shows_no_loop() {
+    // Issue #33, bonding: a part that follows the force exactly, 0.3 s late (no lag of
+    // its own: every bit of the response instant), read 37 % of span in
+    // `hysteresis_percent_span` when the loop was drawn without taking the delay out.
+    // Drawn on the lag-corrected signal it is ~0 % (noise only), well under the design's
+    // limit, and the part PASSes, with the clock offset given (the delay then measured
+    // as a lag) and estimated (the delay absorbed by the offset).
+    let cfg = SynthConfig {
+        transport_delay_s: 0.3,
+        instant_fraction: 1.0,
+        noise_pm: 0.5,
+        ..at_model(paper_cfg(), 1.0)
+    };
+    for given in [true, false] {
+        let out = verify_cfg(&cfg, given, |_| {}).unwrap();
+        for g in &out.report.measurement.gratings {
+            assert!(
+                g.hysteresis_percent_span.abs() < 1.0,
+                "given {given}, {}: hysteresis {:.2} % of span",
+                g.grating,
+                g.hysteresis_percent_span
+            );
+            assert!(g.hysteresis_percent_span < g.hysteresis_limit_percent_span);
+            if given {
+                assert!((g.max_lag_s - 0.3).abs() < 0.05, "{}: Δt_max {}", g.grating, g.max_lag_s);
+            }
+        }
+        assert_eq!(out.report.verdict.overall, Status::Pass, "given {given}: {}", summary(&out));
+    }
+}

@@ -310,10 +310,14 @@ fn a_log_against_an_unrelated_force_log_is_not_judged() {
     let (m, _) = analyse(&d, &pl, &fl, &opts).unwrap();
     let v = verdict_of(&m);
     assert_ne!(v.overall, Status::Pass, "{v:?}");
-    assert!(
-        v.gratings.iter().all(|g| g.status == Status::NoResponse),
-        "{v:?}"
-    );
+    // Silent against this force log, but the shift shows a press where it rests: NOT
+    // JUDGED (unexplained: another run's force, or a wrong offset), not NO RESPONSE.
+    assert_eq!(v.overall, Status::NotJudged, "{v:?}");
+    for g in &v.gratings {
+        assert_eq!(g.status, Status::NotJudged, "{v:?}");
+        assert_eq!(g.reason_code, Some(fbgforge::verify::verdict::ReasonCode::Unexplained), "{v:?}");
+        assert!(g.reason.as_deref().unwrap().contains("is at rest or has no samples"), "{v:?}");
+    }
 }
 
 #[test]

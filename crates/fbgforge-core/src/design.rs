@@ -6,7 +6,10 @@
 //! This sits above both `spec` and `profile`, so neither imports the other's caller.
 
 use crate::profile::{module_gratings, snap_report, ModuleProfile, PartsProfile, ReferenceChamber};
-use crate::spec::{err, range, Design, GratingRole, Module, SpecError};
+use crate::spec::{
+    err, free_intervals, intervals_words, range, Design, GratingRole, Module, SpecError,
+    GRATING_END_GAP_MM,
+};
 use std::path::{Path, PathBuf};
 
 /// Load a design from a TOML file and validate it.
@@ -55,6 +58,7 @@ fn check_parts(d: &Design, m: &Module) -> Result<(), SpecError> {
     };
     let min_wall = d.printer.min_wall_mm;
     check_bend_heights(m, &p, &pp)?;
+    check_grating_spacing(m, &p, &pp)?;
     check_top_hole(d, m)?;
     check_slots(&p, &pp, min_wall)?;
     if let Some(c) = &pp.reference_chamber {
@@ -98,19 +102,102 @@ fn check_bend_heights(m: &Module, p: &ModuleProfile, pp: &PartsProfile) -> Resul
     Ok(())
 }
 
+/// Two gratings on one fiber (a strain fiber: one core's pillar; the reference fiber:
+/// the axis, shared by the references of one core and those serving every core) keep
+/// [`GRATING_END_GAP_MM`] of fiber between their ends. The error names the later
+/// grating's field and the centre heights that would work.
+fn check_grating_spacing(
+    m: &Module,
+    p: &ModuleProfile,
+    pp: &PartsProfile,
+) -> Result<(), SpecError> {
+    let placed = module_gratings(m, p);
+    for (i, g) in m.gratings.iter().enumerate() {
+        for (j, o) in m.gratings[..i].iter().enumerate() {
+            let same_fiber = match (g.role, o.role) {
+                (GratingRole::Strain, GratingRole::Strain) => {
+                    g.core == o.core && g.pillar == o.pillar
+                }
+                (GratingRole::TemperatureReference, GratingRole::TemperatureReference) => {
+                    g.core.is_none() || o.core.is_none() || g.core == o.core
+                }
+                _ => false,
+            };
+            if !same_fiber {
+                continue;
+            }
+            if g.role == GratingRole::TemperatureReference {
+                return Err(err(
+                    &format!("module.gratings[{i}].core"),
+                    format!(
+                        "reference gratings `{}` and `{}` (module.gratings[{j}]) would hang on the same reference fiber in one chamber: a module carries one reference grating per core; give each its own core (module.gratings[{i}].core and module.gratings[{j}].core), or remove one",
+                        g.name, o.name
+                    ),
+                ));
+            }
+            let (a, b) = (&placed[i], &placed[j]);
+            let gap = a.z_start_mm.max(b.z_start_mm) - a.z_end_mm.min(b.z_end_mm);
+            if gap >= GRATING_END_GAP_MM - 1e-9 {
+                continue;
+            }
+            // Where the centre may go: on the pillar above the fiber's bend, clear
+            // of every other grating on this fiber.
+            let half = g.length_mm / 2.0;
+            let lo = pp.bend_start_z_mm + pp.fiber_radius_mm + half;
+            let hi = p.pillar_top_mm - half;
+            let blocked: Vec<(f64, f64)> = m.gratings[..i]
+                .iter()
+                .zip(&placed)
+                .filter(|(q, _)| {
+                    q.role == GratingRole::Strain && q.core == g.core && q.pillar == g.pillar
+                })
+                .map(|(_, q)| {
+                    (
+                        q.z_start_mm - GRATING_END_GAP_MM - half,
+                        q.z_end_mm + GRATING_END_GAP_MM + half,
+                    )
+                })
+                .collect();
+            let free = free_intervals(lo, hi, &blocked);
+            return Err(err(
+                &format!("module.gratings[{i}].center_height_mm"),
+                format!(
+                    "grating `{}` ({:.3} to {:.3} mm) and grating `{}` (module.gratings[{j}], {:.3} to {:.3} mm) lie on the same fiber (core `{}`, pillar {}) {}: two gratings on one fiber keep {GRATING_END_GAP_MM} mm of fiber between their ends; allowed {} (on the pillar above the fiber's bend, clear of the fiber's other gratings)",
+                    g.name,
+                    a.z_start_mm,
+                    a.z_end_mm,
+                    o.name,
+                    b.z_start_mm,
+                    b.z_end_mm,
+                    g.core.as_deref().unwrap_or(""),
+                    g.pillar.unwrap_or(0),
+                    if gap < 0.0 {
+                        format!("and overlap by {:.3} mm", -gap)
+                    } else {
+                        format!("only {gap:.3} mm apart")
+                    },
+                    intervals_words(&free)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The reference fiber runs up the axis through the core's top hole.
 fn check_top_hole(d: &Design, m: &Module) -> Result<(), SpecError> {
     let has_reference = m
         .gratings
         .iter()
         .any(|g| g.role == GratingRole::TemperatureReference);
-    let coated = d.fiber_routing.coated_diameter_mm;
-    if has_reference && m.top_hole_diameter_mm < coated + d.printer.resolution_mm {
+    let need = d.fiber_routing.min_passage_mm(&d.printer);
+    if has_reference && m.top_hole_diameter_mm < need - 1e-12 {
         return Err(err(
             "module.top_hole_diameter_mm",
             format!(
-                "{} mm does not pass the reference fiber: at least its coated diameter {coated} mm + the printer's resolution {} mm",
-                m.top_hole_diameter_mm, d.printer.resolution_mm
+                "{} mm does not pass the reference fiber: at least {}",
+                m.top_hole_diameter_mm,
+                d.fiber_routing.min_passage_words(&d.printer)
             ),
         ));
     }
@@ -356,13 +443,19 @@ fn pillar_spacing(m: &Module, prof: &ModuleProfile, min_wall: f64) -> Violation 
         field: "module.pillars.width_mm".into(),
         requirement: "pillar width + min wall ≤ 0.8 × pillar pitch".into(),
         excess: (pl.width_mm + min_wall - 0.8 * pitch) / pitch.abs().max(1e-9),
-        detail: format!(
-            "{} pillars of {} mm overlap on a core wall of radius {:.3} mm; allowed up to {:.3} mm each",
-            pl.count,
-            pl.width_mm,
-            prof.core_outer_radius_mm,
-            pitch * 0.8 - min_wall
-        ),
+        detail: {
+            let hi = pitch * 0.8 - min_wall;
+            let lo = pl.groove_width_mm + 2.0 * min_wall;
+            let conflict = if lo > hi {
+                format!(" — below the {lo:.3} mm a pillar needs for its groove between walls (module.pillars.groove_width_mm + 2 × printer.min_wall_mm): no width fits these two rules; use fewer pillars (module.pillars.count), a larger module.outer_diameter_mm or a narrower groove")
+            } else {
+                String::new()
+            };
+            format!(
+                "{} pillars of {} mm overlap on a core wall of radius {:.3} mm (pillar width + min wall ≤ 0.8 × the pitch); allowed up to {hi:.3} mm each{conflict}",
+                pl.count, pl.width_mm, prof.core_outer_radius_mm
+            )
+        },
     }
 }
 

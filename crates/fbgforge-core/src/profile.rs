@@ -396,7 +396,8 @@ pub struct ReferenceChamber {
 /// From the base up, the inner wall runs at the cap's inner radius to `lead_in_z_mm`,
 /// the lead-in cone rises to the crest radius at `crest_bottom_z_mm`, the crest runs
 /// to `crest_top_z_mm`, and the retention cone returns to the inner radius at
-/// `retention_top_z_mm`, one clearance below the pillar bottoms.
+/// `retention_top_z_mm`, passing one clearance (normal to it) under the pillars'
+/// bottom edge.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SnapProfile {
     /// Inner radius of the bead's crest: pillar outer radius − undercut, mm.
@@ -409,6 +410,17 @@ pub struct SnapProfile {
     pub crest_top_z_mm: f64,
     /// Where the retention cone meets the cap's inner wall again, mm.
     pub retention_top_z_mm: f64,
+    /// How far the cap can rise off a seated core before the retention cone meets
+    /// the pillars' bottom edge: the snap's clearance ([`snap_clearance_mm`]) over
+    /// sin α₂, mm.
+    pub free_travel_mm: f64,
+}
+
+/// Clearance between the snap's retention cone and the pillars' bottom edge, normal to
+/// the cone: the cap/core clearance, at least 0.05 mm (so a press-fit design still
+/// seats), mm.
+pub fn snap_clearance_mm(cap_core_clearance_mm: f64) -> f64 {
+    cap_core_clearance_mm.max(0.05)
 }
 
 /// Height above `bend_start_z` at which a slot roof's inner corner, `r_rel` outward from
@@ -457,9 +469,17 @@ impl PartsProfile {
             .max(roof(p.cap_inner_radius_mm));
         let snap = m.snap.as_ref().map(|s| {
             let lift = s.undercut_mm + m.cap_core_clearance_mm;
-            let axial_gap = m.cap_core_clearance_mm.max(0.05);
-            let retention_top = z_b - axial_gap;
-            let crest_top = retention_top - lift / s.retention_angle_deg.to_radians().tan();
+            // The retention cone passes one clearance (at least 0.05 mm), measured
+            // normal to it, under the pillars' bottom edge: the cap's free upward
+            // travel is that clearance over sin α₂ (SnapProfile::free_travel_mm), not
+            // the clearance plus the cone's rise over the fit's radial clearance.
+            let normal_gap = snap_clearance_mm(m.cap_core_clearance_mm);
+            let (sin2, cot2) = {
+                let a = s.retention_angle_deg.to_radians();
+                (a.sin(), 1.0 / a.tan())
+            };
+            let crest_top = z_b - normal_gap / sin2 - s.undercut_mm * cot2;
+            let retention_top = crest_top + lift * cot2;
             let crest_bottom = crest_top - s.bead_height_mm;
             SnapProfile {
                 crest_radius_mm: p.pillar_outer_radius_mm - s.undercut_mm,
@@ -467,6 +487,7 @@ impl PartsProfile {
                 crest_bottom_z_mm: crest_bottom,
                 crest_top_z_mm: crest_top,
                 retention_top_z_mm: retention_top,
+                free_travel_mm: normal_gap / sin2,
             }
         });
         // The first reference grating fixes the chamber (a module has one reference).
@@ -549,6 +570,91 @@ pub struct SnapReport {
     /// Forces for each core (cores differ in material, so in how much of the undercut
     /// their pillars take).
     pub cores: Vec<SnapCoreForces>,
+    /// How far a seated cap can rise before the retention cone meets the pillars'
+    /// bottom edge ([`SnapProfile::free_travel_mm`]): the snap's clearance over
+    /// sin α₂, mm.
+    pub free_travel_mm: f64,
+}
+
+/// How the cap is held on the core, stated in the manifest (issue 39): by the snap
+/// (its retention force and free travel), or by nothing, which is a warning. A press
+/// fit (clearance 0) is designed touching with no interference: its computed holding
+/// force is 0 N, so it counts as nothing.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "by", rename_all = "snake_case")]
+pub enum Retention {
+    /// The snap bead under the pillars.
+    Snap {
+        /// Least force, over the cores, that pulls the seated cap off, N (None when
+        /// the retention cone is self-locking on every core: it breaks before it
+        /// slides).
+        retention_force_n: Option<f64>,
+        /// How far the seated cap can rise before the bead holds it, mm.
+        free_travel_mm: f64,
+        /// The printer's resolution, mm: a free travel within it is zero as printed.
+        resolution_mm: f64,
+    },
+    /// Nothing holds the cap on: the warning, in words.
+    Nothing {
+        /// What the lab must do, in words.
+        warning: String,
+    },
+}
+
+impl Retention {
+    /// The warning to show, if any.
+    pub fn warning(&self) -> Option<&str> {
+        match self {
+            Retention::Nothing { warning } => Some(warning),
+            Retention::Snap { .. } => None,
+        }
+    }
+}
+
+/// How the cap of `d`'s module is held (None for an array design).
+///
+/// ```
+/// use fbgforge_core::profile::{retention, PartsProfile, Retention};
+/// let mut d = fbgforge_core::design::load(std::path::Path::new(concat!(
+///     env!("CARGO_MANIFEST_DIR"),
+///     "/../../designs/clip-on-34mm.toml"
+/// )))
+/// .unwrap();
+/// let (p, pp) = PartsProfile::of_design(&d).unwrap();
+/// assert!(matches!(retention(&d, &p, &pp), Some(Retention::Snap { .. })));
+/// d.module.as_mut().unwrap().snap = None;
+/// let (p, pp) = PartsProfile::of_design(&d).unwrap();
+/// let r = retention(&d, &p, &pp).unwrap();
+/// assert!(r.warning().unwrap().contains("[module.snap]"));
+/// ```
+pub fn retention(
+    d: &crate::spec::Design,
+    p: &ModuleProfile,
+    pp: &PartsProfile,
+) -> Option<Retention> {
+    let m = d.module.as_ref()?;
+    if let Some(r) = snap_report(d, p, pp) {
+        let force = r
+            .cores
+            .iter()
+            .filter_map(|c| c.retention_force_n)
+            .reduce(f64::min);
+        return Some(Retention::Snap {
+            retention_force_n: force,
+            free_travel_mm: r.free_travel_mm,
+            resolution_mm: d.printer.resolution_mm,
+        });
+    }
+    let fit = if m.cap_core_clearance_mm <= 0.0 {
+        "a press fit (module.cap_core_clearance_mm = 0) has no designed interference, so its computed holding force is 0 N"
+    } else {
+        "the cap slides on the pillars with module.cap_core_clearance_mm of clearance, so no friction holds it"
+    };
+    Some(Retention::Nothing {
+        warning: format!(
+            "nothing holds the cap on the core: the design has no [module.snap] and {fit}; add [module.snap] (docs/geometry.md, \"Snap-fit\"), or bond or clamp the cap before loading"
+        ),
+    })
 }
 
 /// Snap forces for one core.
@@ -671,5 +777,6 @@ pub fn snap_report(
         friction_coefficient: s.friction_coefficient,
         ring_stiffness_n_per_mm: k_ring,
         cores,
+        free_travel_mm: sp.free_travel_mm,
     })
 }

@@ -40,7 +40,7 @@ fn norm(a: P3) -> f64 {
 
 /// Closest point to `p` on triangle (a, b, c) (Ericson, Real-Time Collision Detection
 /// §5.1.5).
-fn closest_on_triangle(p: P3, a: P3, b: P3, c: P3) -> P3 {
+pub(crate) fn closest_on_triangle(p: P3, a: P3, b: P3, c: P3) -> P3 {
     let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
     let (d1, d2) = (dot(ab, ap), dot(ac, ap));
     if d1 <= 0.0 && d2 <= 0.0 {

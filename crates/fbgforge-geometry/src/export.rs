@@ -292,6 +292,9 @@ pub struct Manifest {
     pub clearances: Option<Clearances>,
     /// The snap-fit, sized (module designs with `[module.snap]`).
     pub snap: Option<crate::profile::SnapReport>,
+    /// How the cap is held on the core (module designs): the snap with its retention
+    /// force and free travel, or nothing, with the warning.
+    pub retention: Option<crate::profile::Retention>,
     /// Every fiber's way out, traced through the assembled parts (module designs
     /// built whole).
     pub fibers: Option<Vec<super::assembly::FiberTrace>>,
@@ -303,8 +306,13 @@ pub struct Manifest {
     pub packages: Packages,
     /// The design's materials: names, hardness and display colours.
     pub materials: BTreeMap<String, ManifestMaterial>,
-    /// Every designed gap between mating parts, on exact dimensions (module designs).
+    /// Every designed gap between mating parts, on exact dimensions, with the gap
+    /// the written meshes keep (module designs).
     pub fits: Option<Vec<super::fits::FitGap>>,
+    /// Every designed gap the meshes must keep (the fits but press fits, and the fiber
+    /// passages around a revolved wall): designed and meshed, and the surface
+    /// tolerance that keeps it.
+    pub meshed_gaps: Vec<super::gaps::MeshedGap>,
     /// The passages to clear after printing and how.
     pub print_notes: Vec<super::print_notes::PrintNote>,
 }
@@ -329,16 +337,27 @@ pub struct Rendered {
     pub manifest: Manifest,
 }
 
-/// Render all parts in memory; `fibers` are the traced fiber paths when the whole
-/// module was built, `drawings` the caller's pictures of the parts (file name, bytes:
-/// the previews), listed in the manifest.
+/// What a build checked, for [`render`].
+#[derive(Debug, Clone, Copy)]
+pub struct Checked<'a> {
+    /// Every part built, meshed and checked.
+    pub parts: &'a [BuiltPart],
+    /// The requested meshing tolerance, mm.
+    pub tolerance_mm: f64,
+    /// The traced fiber paths, when the whole module was built.
+    pub fibers: Option<&'a [super::assembly::FiberTrace]>,
+    /// Every designed gap measured on the meshes.
+    pub gaps: &'a [super::gaps::MeshedGap],
+}
+
+/// Render all parts in memory with `drawings`, the caller's pictures of the parts (file
+/// name, bytes: the previews), listed in the manifest.
 pub fn render(
     profile: &DesignProfile,
-    parts: &[BuiltPart],
-    tolerance_mm: f64,
-    fibers: Option<&[super::assembly::FiberTrace]>,
+    checked: &Checked,
     drawings: Vec<(String, Vec<u8>)>,
 ) -> Result<Rendered> {
+    let (parts, tolerance_mm, fibers) = (checked.parts, checked.tolerance_mm, checked.fibers);
     let design = profile.design;
     let mut files = Vec::new();
     let mut listed = Vec::new();
@@ -369,6 +388,10 @@ pub fn render(
         .module
         .as_ref()
         .and_then(|m| crate::profile::snap_report(design, &m.profile, &m.parts));
+    let retention = profile
+        .module
+        .as_ref()
+        .and_then(|m| crate::profile::retention(design, &m.profile, &m.parts));
     let materials = manifest_materials(design);
     let packages = render_packages(profile, parts, &materials, fibers.is_some(), &mut files)?;
     let manifest = Manifest {
@@ -377,12 +400,23 @@ pub fn render(
         parts: listed,
         clearances: clearances(profile),
         snap,
+        retention,
         fibers: fibers.map(<[_]>::to_vec),
         mold: mold_report(profile),
         previews,
         packages,
         materials,
-        fits: profile.module.as_ref().map(super::fits::module_fits),
+        fits: profile.module.as_ref().map(|m| {
+            let mut fits = super::fits::module_fits(m);
+            for f in &mut fits {
+                if let Some(g) = checked.gaps.iter().find(|g| g.what == f.what) {
+                    f.meshed_gap_mm = Some(g.meshed_gap_mm);
+                    f.surface_tolerance_mm = Some(g.surface_tolerance_mm);
+                }
+            }
+            fits
+        }),
+        meshed_gaps: checked.gaps.to_vec(),
         print_notes: super::print_notes::print_notes(profile),
     };
     Ok(Rendered { files, manifest })
@@ -445,7 +479,9 @@ fn package_3mf(
             },
         )
         .collect();
-    super::threemf::package(&super::threemf::model_xml(title, &base, &objects)?)
+    let model = super::threemf::model_xml(title, &base, &objects)?;
+    let slicer = super::threemf::slicer_config_xml(&objects)?;
+    super::threemf::package_with(&model, &[(super::threemf::SLICER_CONFIG_PATH, &slicer)])
 }
 
 /// Plate width the 3MF plate lays pieces out in, mm (a 250 × 210 mm bed with margins).

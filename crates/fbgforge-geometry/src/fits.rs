@@ -3,7 +3,8 @@
 //! derived profile (radii, heights, slot widths, the fiber's centreline as lines and a
 //! circular bend). Nothing here reads a mesh, so no result depends on the meshing
 //! tolerance; the meshes are checked against each other separately
-//! ([`super::assembly`]), at a tolerance these gaps allow ([`check_tolerance`]).
+//! ([`super::assembly`]); each designed gap is measured again on the written meshes
+//! ([`super::gaps`], [`super::meshing`]).
 //!
 //! A fiber lies in a vertical plane through the module's axis; every revolved surface
 //! (walls, domes, the snap bead, slot roofs) cuts that plane in its (r, z) profile, so
@@ -11,6 +12,7 @@
 //! measured across the plane: half their width less the fiber's radius.
 
 use super::design_profile::{DesignProfile, ModuleDims};
+use super::gaps::{Between, GapSpec, Meridian, Surface};
 use super::part::PartKind;
 use crate::profile::module_gratings;
 use crate::spec::{err, GratingRole, SpecError};
@@ -31,14 +33,22 @@ pub struct FitGap {
     pub gap_mm: f64,
     /// The spec field that sets it.
     pub field: String,
-    /// Coarsest meshing tolerance at which the two meshes cannot overlap across this
-    /// gap: half of it, mm (None for a press fit, which meshes cannot show).
-    pub max_mesh_tolerance_mm: Option<f64>,
+    /// A press fit (designed touching, gap 0): its meshes are not compared.
+    pub press_fit: bool,
+    /// The gap between the written meshes, mm (None when the two parts were not
+    /// built together, or for a press fit).
+    pub meshed_gap_mm: Option<f64>,
+    /// Chord tolerance of the outer part's surfaces facing the gap, mm (None as
+    /// `meshed_gap_mm`).
+    pub surface_tolerance_mm: Option<f64>,
+    /// The surfaces the gap lies between (outer's, inner's).
+    #[serde(skip)]
+    pub surfaces: (Vec<Surface>, Vec<Surface>),
 }
 
 /// Every designed gap between mating parts of the module: cap and core (pillar
 /// faces, alignment pillars in the grooves, domes, the snap bead under the pillars),
-/// core and insert (wall, dome).
+/// core and insert (wall, dome); each with the surfaces it lies between.
 pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
     let (m, p, pp) = (md.spec, &md.profile, &md.parts);
     let cap_core = "module.cap_core_clearance_mm";
@@ -48,6 +58,21 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
     } else {
         cap_core
     };
+    let cyl = |r: f64| Surface::cylinder(r, -Z_FAR_MM, Z_FAR_MM);
+    let sphere = |rho: f64| Surface::sphere(p.dome_center_z_mm, rho);
+    let sides = |half: f64, r: (f64, f64)| -> Vec<Surface> {
+        p.pillar_angles_rad
+            .iter()
+            .flat_map(|&a| {
+                [-half, half].map(|o| Surface::Side {
+                    angle_rad: a,
+                    offset_mm: o,
+                    r_mm: r,
+                })
+            })
+            .collect()
+    };
+    let groove = m.pillars.groove_width_mm;
     let mut fits = vec![
         (
             PartKind::Cap,
@@ -55,13 +80,27 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "cap inner wall to core pillar faces",
             p.cap_inner_radius_mm - p.pillar_outer_radius_mm,
             cap_core,
+            (
+                vec![cyl(p.cap_inner_radius_mm)],
+                vec![cyl(p.pillar_outer_radius_mm)],
+            ),
         ),
         (
             PartKind::Cap,
             PartKind::Core,
             "cap alignment pillar sides to groove sides",
-            (m.pillars.groove_width_mm - p.cap_pillar_width_mm) / 2.0,
+            (groove - p.cap_pillar_width_mm) / 2.0,
             cap_core,
+            (
+                sides(
+                    p.cap_pillar_width_mm / 2.0,
+                    (p.cap_pillar_inner_radius_mm, p.cap_inner_radius_mm),
+                ),
+                sides(
+                    groove / 2.0,
+                    (p.groove_bottom_radius_mm, p.pillar_outer_radius_mm),
+                ),
+            ),
         ),
         (
             PartKind::Cap,
@@ -69,6 +108,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "cap alignment pillar faces to groove bottoms",
             p.cap_pillar_inner_radius_mm - p.groove_bottom_radius_mm,
             cap_core,
+            (
+                vec![cyl(p.cap_pillar_inner_radius_mm)],
+                vec![cyl(p.groove_bottom_radius_mm)],
+            ),
         ),
         (
             PartKind::Cap,
@@ -76,6 +119,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "cap inner dome to core outer dome",
             p.cap_dome_inner_sphere_radius_mm - p.core_dome_outer_sphere_radius_mm,
             dome_field,
+            (
+                vec![sphere(p.cap_dome_inner_sphere_radius_mm)],
+                vec![sphere(p.core_dome_outer_sphere_radius_mm)],
+            ),
         ),
     ];
     if let Some(s) = &pp.snap {
@@ -89,12 +136,21 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             .windows(2)
             .map(|w| segment_segment(bottom, (w[0], w[1])))
             .fold(f64::INFINITY, f64::min);
+        let bead_surfaces: Vec<Surface> =
+            bead.windows(2).map(|w| Surface::cone(w[0], w[1])).collect();
         fits.push((
             PartKind::Cap,
             PartKind::Core,
             "snap bead to pillar bottoms",
             gap,
             cap_core,
+            (
+                bead_surfaces,
+                vec![
+                    Surface::cone(bottom.0, bottom.1),
+                    cyl(p.pillar_outer_radius_mm),
+                ],
+            ),
         ));
         fits.push((
             PartKind::Cap,
@@ -102,6 +158,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "snap bead crest to core wall",
             s.crest_radius_mm - p.core_outer_radius_mm,
             "module.snap.undercut_mm",
+            (
+                vec![cyl(s.crest_radius_mm)],
+                vec![cyl(p.core_outer_radius_mm)],
+            ),
         ));
     }
     if !m.inserts.is_empty() {
@@ -111,6 +171,10 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "core inner wall to insert",
             p.core_inner_radius_mm - p.insert_radius_mm,
             core_insert,
+            (
+                vec![cyl(p.core_inner_radius_mm)],
+                vec![cyl(p.insert_radius_mm)],
+            ),
         ));
         fits.push((
             PartKind::Core,
@@ -118,18 +182,118 @@ pub fn module_fits(md: &ModuleDims) -> Vec<FitGap> {
             "core inner dome to insert dome",
             p.core_dome_inner_sphere_radius_mm - p.insert_sphere_radius_mm,
             core_insert,
+            (
+                vec![sphere(p.core_dome_inner_sphere_radius_mm)],
+                vec![sphere(p.insert_sphere_radius_mm)],
+            ),
         ));
     }
-    fits.into_iter()
-        .map(|(outer, inner, what, gap, field)| FitGap {
-            outer,
-            inner,
-            what: what.into(),
-            gap_mm: gap,
-            field: field.into(),
-            max_mesh_tolerance_mm: (gap > PRESS_FIT_MM).then_some(gap / 2.0),
+    fits.into_iter().map(fit_gap).collect()
+}
+
+/// The parts, surfaces in words, gap (mm), field and surfaces (outer's, inner's) of a
+/// fit.
+type FitRow = (
+    PartKind,
+    PartKind,
+    &'static str,
+    f64,
+    &'static str,
+    (Vec<Surface>, Vec<Surface>),
+);
+
+/// A fit as designed, not yet measured on meshes.
+fn fit_gap((outer, inner, what, gap, field, surfaces): FitRow) -> FitGap {
+    FitGap {
+        outer,
+        inner,
+        what: what.into(),
+        gap_mm: gap,
+        field: field.into(),
+        press_fit: gap <= PRESS_FIT_MM,
+        meshed_gap_mm: None,
+        surface_tolerance_mm: None,
+        surfaces,
+    }
+}
+
+/// Half the height a surface of revolution is taken to span when it is named by its
+/// radius alone (every face on that cylinder belongs to it), mm.
+const Z_FAR_MM: f64 = 1.0e4;
+
+/// Every designed gap of the module the meshes must keep: the fits (all but press
+/// fits) and the fiber passages around a revolved wall (each pillar's hole, the
+/// insert's bore and reference chamber); slots and the rest are planar and meshed
+/// exactly.
+pub fn module_gap_specs(md: &ModuleDims) -> Vec<GapSpec> {
+    let (m, p, pp) = (md.spec, &md.profile, &md.parts);
+    let mut out: Vec<GapSpec> = module_fits(md)
+        .into_iter()
+        .filter(|f| !f.press_fit)
+        .map(|f| GapSpec {
+            what: f.what,
+            field: f.field,
+            outer: f.outer,
+            outer_surfaces: f.surfaces.0,
+            inner: Between::Part {
+                kind: f.inner,
+                surfaces: f.surfaces.1,
+            },
+            designed_gap_mm: f.gap_mm,
         })
-        .collect()
+        .collect();
+    let rf = pp.fiber_radius_mm;
+    let hole = |axis: (f64, f64), r: f64| Surface::Revolved {
+        axis_xy_mm: axis,
+        meridian: Meridian::Segment((r, -Z_FAR_MM), (r, Z_FAR_MM)),
+    };
+    let d = m.pillars.fiber_hole_diameter_mm;
+    for (i, &a) in p.pillar_angles_rad.iter().enumerate() {
+        let axis = (
+            p.fiber_hole_center_radius_mm * a.cos(),
+            p.fiber_hole_center_radius_mm * a.sin(),
+        );
+        out.push(GapSpec {
+            what: format!("fiber hole in pillar {i} around the coated fiber"),
+            field: "module.pillars.fiber_hole_diameter_mm".into(),
+            outer: PartKind::Core,
+            outer_surfaces: vec![hole(axis, d / 2.0)],
+            inner: Between::Fiber {
+                axis_xy_mm: axis,
+                radius_mm: rf,
+            },
+            designed_gap_mm: d / 2.0 - rf,
+        });
+    }
+    if !m.inserts.is_empty() {
+        let fiber = Between::Fiber {
+            axis_xy_mm: (0.0, 0.0),
+            radius_mm: rf,
+        };
+        let rb = pp.insert_bore_radius_mm;
+        out.push(GapSpec {
+            what: "insert bore around the reference fiber".into(),
+            field: CLEARANCE.into(),
+            outer: PartKind::Insert,
+            outer_surfaces: vec![hole((0.0, 0.0), rb)],
+            inner: fiber.clone(),
+            designed_gap_mm: rb - rf,
+        });
+        if let Some(c) = &pp.reference_chamber {
+            out.push(GapSpec {
+                what: "reference chamber around the reference grating".into(),
+                field: CLEARANCE.into(),
+                outer: PartKind::Insert,
+                outer_surfaces: vec![hole((0.0, 0.0), c.radius_mm)],
+                inner: fiber,
+                designed_gap_mm: c.radius_mm - rf,
+            });
+        }
+    }
+    // A passage designed narrower than its fiber (a design changed after validation)
+    // has no gap to keep: the exact passage check refuses it, naming the field.
+    out.retain(|g| g.designed_gap_mm > PRESS_FIT_MM);
+    out
 }
 
 /// Gaps at or below this are a press fit (designed touching), mm.
@@ -597,62 +761,6 @@ pub(crate) fn check_exact(
         }
     }
     Ok((fits, passages))
-}
-
-/// A meshing tolerance too coarse for the gaps between mating parts.
-#[derive(Debug, thiserror::Error)]
-#[error("meshing tolerance {tolerance_mm} mm would let the {outer} and {inner} meshes overlap across their {gap_mm} mm clearance ({what}, {field}): a mesh's chords cut up to about its tolerance into a concave wall; the largest tolerance allowed is {max_mm} mm, half the clearance (or build the parts apart with BuildRequest.parts)")]
-pub struct ToleranceTooCoarse {
-    /// The tolerance of the two meshes (the coarser), mm.
-    pub tolerance_mm: f64,
-    /// Outer part.
-    pub outer: String,
-    /// Inner part.
-    pub inner: String,
-    /// The clearance, mm.
-    pub gap_mm: f64,
-    /// Which surfaces.
-    pub what: String,
-    /// The field that sets it.
-    pub field: String,
-    /// The largest tolerance allowed, mm.
-    pub max_mm: f64,
-}
-
-/// Refuse mesh tolerances (`tolerance_of(kind)`, mm) that would let two mating
-/// meshes overlap across a designed gap: the gap must be at least twice the coarser
-/// of the two meshes' tolerance (truck keeps the chord error near, not strictly
-/// under, the tolerance). Press fits are skipped: their meshes are not compared.
-pub fn check_tolerance(
-    fits: &[FitGap],
-    tolerance_of: impl Fn(PartKind) -> Option<f64>,
-) -> Result<(), ToleranceTooCoarse> {
-    for f in fits {
-        let (Some(max), Some(a), Some(b)) = (
-            f.max_mesh_tolerance_mm,
-            tolerance_of(f.outer),
-            tolerance_of(f.inner),
-        ) else {
-            continue;
-        };
-        let tol = a.max(b);
-        if tol > max + 1e-12 {
-            return Err(ToleranceTooCoarse {
-                tolerance_mm: tol,
-                outer: f.outer.name().into(),
-                inner: f.inner.name().into(),
-                gap_mm: round6(f.gap_mm),
-                what: f.what.clone(),
-                field: f.field.clone(),
-                max_mm: round6(max),
-            });
-        }
-    }
-    Ok(())
-}
-
-fn round6(x: f64) -> f64 {
-    (x * 1e6).round() / 1e6
 }
 
 #[cfg(test)]

@@ -19,12 +19,15 @@ pub mod brep;
 pub mod design_profile;
 pub mod export;
 pub mod fits;
+pub mod gaps;
 pub mod mesh;
+pub mod meshing;
 pub mod module;
 pub mod mold;
 pub mod mold_plug;
 pub mod part;
 pub mod print_notes;
+pub mod refine;
 pub mod registry;
 pub mod threemf;
 
@@ -35,15 +38,11 @@ pub use registry::part_names;
 use crate::spec::{Design, SpecError};
 use anyhow::Context;
 use mesh::{MeshError, TriMesh};
-use rayon::prelude::*;
-use registry::{first_of_each_kind, PARTS};
+use registry::PARTS;
 use std::path::{Path, PathBuf};
 use truck_modeling::Solid;
 
-/// Largest allowed relative difference between mesh and exact volume at the printer's
-/// default tolerance (0.5 %). A coarser tolerance scales it in proportion, since the
-/// chord error of a tessellation grows linearly with the tolerance.
-pub const VOLUME_TOLERANCE_AT_DEFAULT: f64 = 0.005;
+pub use meshing::VOLUME_TOLERANCE_AT_DEFAULT;
 
 /// A part's B-rep with its exact volume.
 #[derive(Debug, Clone)]
@@ -111,11 +110,14 @@ pub enum GeometryError {
     /// Two assembled parts overlap.
     #[error(transparent)]
     Interference(#[from] assembly::Interference),
-    /// A tolerance too coarse for the clearances between mating parts.
+    /// A requested tolerance at which a part does not mesh.
     #[error(transparent)]
-    MeshTolerance(#[from] fits::ToleranceTooCoarse),
+    TooCoarse(#[from] Box<meshing::ToleranceTooCoarse>),
+    /// A designed gap the meshes cannot keep.
+    #[error(transparent)]
+    GapEaten(#[from] Box<meshing::GapEaten>),
     /// A tolerance outside the range truck can mesh with.
-    #[error("meshing tolerance {0} mm is out of range; allowed 0.001 to 1 mm")]
+    #[error("field `BuildRequest.tolerance_mm`: meshing tolerance {0} mm is out of range; allowed 0.001 to 1 mm")]
     Tolerance(f64),
 }
 
@@ -177,58 +179,6 @@ pub(crate) fn build_solids_for(
     Ok(out)
 }
 
-/// The volume bound applied at tolerance `tol_mm` for a printer whose default is
-/// `default_mm` (see [`VOLUME_TOLERANCE_AT_DEFAULT`]).
-pub(crate) fn volume_bound(tol_mm: f64, default_mm: f64) -> f64 {
-    VOLUME_TOLERANCE_AT_DEFAULT * (tol_mm / default_mm).max(1.0)
-}
-
-/// How many times [`mesh_part`] may halve the tolerance to meet the volume bound.
-pub(crate) const MAX_REFINEMENTS: u32 = 3;
-
-/// Mesh one solid at `tol_mm` and run every check. If the mesh volume misses the
-/// exact volume by more than `volume_bound` (small parts: an inscribed polygon of
-/// chord error s loses about 4/3 · s/r of a circle's area), the tolerance is halved,
-/// up to [`MAX_REFINEMENTS`] times; the tolerance actually used is recorded.
-pub(crate) fn mesh_part(
-    part: &PartSolid,
-    tol_mm: f64,
-    volume_bound: f64,
-) -> Result<BuiltPart, GeometryError> {
-    let mut tol = tol_mm;
-    for attempt in 0..=MAX_REFINEMENTS {
-        let mesh = mesh::mesh_solid(&part.name, &part.solid, tol)?;
-        let v = mesh.volume_mm3();
-        let rel = (v - part.exact_volume_mm3) / part.exact_volume_mm3;
-        if rel.abs() <= volume_bound {
-            return Ok(BuiltPart {
-                name: part.name.clone(),
-                kind: part.kind,
-                solid: part.solid.clone(),
-                mesh,
-                exact_volume_mm3: part.exact_volume_mm3,
-                mesh_volume_mm3: v,
-                mesh_tolerance_mm: tol,
-            });
-        }
-        if attempt == MAX_REFINEMENTS || rel.is_nan() {
-            return Err(MeshError {
-                part: part.name.clone(),
-                check: "volume",
-                detail: format!(
-                    "mesh volume {v:.3} mm³ differs from the exact {:.3} mm³ by {:.3} % at tolerance {tol} mm (allowed {:.3} %)",
-                    part.exact_volume_mm3,
-                    rel * 100.0,
-                    volume_bound * 100.0
-                ),
-            }
-            .into());
-        }
-        tol /= 2.0;
-    }
-    unreachable!("the loop returns on its last attempt")
-}
-
 /// Build, mesh and check the selected parts at `tol_mm` ([`default_tolerance_for`] when
 /// None). Parts sharing a solid are meshed once. Fails on the first bad part.
 pub fn build_parts(
@@ -239,19 +189,33 @@ pub fn build_parts(
     build_parts_for(&DesignProfile::new(design), tol_mm, selection)
 }
 
-/// The meshing tolerance used when none is given, mm: the printer's (half its
-/// resolution), or finer where a designed gap between mating parts needs it (half the
-/// narrowest gap, [`fits::check_tolerance`]), so a design that validates always builds
-/// at its default. A given tolerance is never changed: a coarser one is refused.
+/// The meshing tolerance used when none is given: the printer's (half its
+/// resolution), mm. The surfaces facing a designed gap are meshed finer where the gap
+/// needs it ([`meshing`]).
 pub(crate) fn default_tolerance_for(profile: &DesignProfile) -> f64 {
-    let printer = profile.design.printer.default_tolerance_mm();
-    // Exact overlaps are reported by the assembly check; here they only leave the
-    // printer's default.
-    fits::check_exact(profile).map_or(printer, |(fits, _)| {
-        fits.iter()
-            .filter_map(|f| f.max_mesh_tolerance_mm)
-            .fold(printer, f64::min)
-    })
+    profile.design.printer.default_tolerance_mm()
+}
+
+/// [`build_parts`], with every designed gap of the built parts as the meshes keep it
+/// (fits between mating parts, fiber passages round a revolved wall).
+///
+/// ```
+/// let d = fbgforge_core::design::load(std::path::Path::new(concat!(
+///     env!("CARGO_MANIFEST_DIR"),
+///     "/../../designs/clip-on-10mm.toml"
+/// )))
+/// .unwrap();
+/// let sel = ["cap".to_string(), "core".into()];
+/// let (parts, gaps) = fbgforge_geometry::build_parts_measured(&d, None, Some(&sel)).unwrap();
+/// assert_eq!(parts.len(), 2);
+/// assert!(gaps.iter().all(|g| g.meshed_gap_mm >= 0.8 * g.designed_gap_mm));
+/// ```
+pub fn build_parts_measured(
+    design: &Design,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<(Vec<BuiltPart>, Vec<gaps::MeshedGap>), GeometryError> {
+    mesh_parts_for(&DesignProfile::new(design), tol_mm, selection)
 }
 
 /// [`build_parts`] from dimensions already derived.
@@ -260,19 +224,22 @@ pub(crate) fn build_parts_for(
     tol_mm: Option<f64>,
     selection: Option<&[String]>,
 ) -> Result<Vec<BuiltPart>, GeometryError> {
-    let default = profile.design.printer.default_tolerance_mm();
+    Ok(mesh_parts_for(profile, tol_mm, selection)?.0)
+}
+
+/// Build and mesh the selected parts (each distinct solid once), with every designed
+/// gap measured on the meshes ([`meshing::mesh_solids`]).
+pub(crate) fn mesh_parts_for(
+    profile: &DesignProfile,
+    tol_mm: Option<f64>,
+    selection: Option<&[String]>,
+) -> Result<(Vec<BuiltPart>, Vec<gaps::MeshedGap>), GeometryError> {
     let tol = tol_mm.unwrap_or_else(|| default_tolerance_for(profile));
     if !(0.001..=1.0).contains(&tol) {
         return Err(GeometryError::Tolerance(tol));
     }
-    let bound = volume_bound(tol, default);
     let solids = build_solids_for(profile, selection)?;
-    // Mesh each distinct solid once (one per kind: the inserts share theirs), in
-    // parallel.
-    let meshed: Vec<BuiltPart> = first_of_each_kind(&solids, |s| s.kind)
-        .par_iter()
-        .map(|s| mesh_part(s, tol, bound))
-        .collect::<Result<_, _>>()?;
+    let (meshed, gaps) = meshing::mesh_solids(profile, &solids, tol)?;
     let mut out = Vec::with_capacity(solids.len());
     for s in &solids {
         let m = meshed
@@ -283,7 +250,7 @@ pub(crate) fn build_parts_for(
         b.name = s.name.clone();
         out.push(b);
     }
-    Ok(out)
+    Ok((out, gaps))
 }
 
 /// What a build is asked for besides the design and the folder.
@@ -305,6 +272,8 @@ pub struct CheckedBuild<'a> {
     pub parts: &'a [BuiltPart],
     /// Each fiber's traced way out, when the whole module was built.
     pub fibers: Option<&'a [assembly::FiberTrace]>,
+    /// Every designed gap measured on the meshes.
+    pub gaps: &'a [gaps::MeshedGap],
 }
 
 /// Where a build's results go; every method has a no-op default.
@@ -355,6 +324,11 @@ pub struct BuildReport {
     pub files: Vec<PathBuf>,
     /// Each fiber's traced way out (empty unless cap, core and an insert were built).
     pub fibers: Vec<assembly::FiberTrace>,
+    /// Every designed gap (fits and fiber passages) measured on the written meshes
+    /// (those whose parts were built).
+    pub gaps: Vec<gaps::MeshedGap>,
+    /// What the lab must know before using the parts (nothing holding the cap on).
+    pub warnings: Vec<String>,
 }
 
 /// Trace the fibers and check the assembly when the whole module was built (cap, core
@@ -367,10 +341,10 @@ pub fn check_assembly(
 }
 
 /// [`check_assembly`] from dimensions already derived: the fits and every fiber's
-/// passages on exact dimensions first (independent of the meshes), then the meshing
-/// tolerance against the fits' clearances, then the meshes of every mating pair
-/// against each other (all but press fits, which meshes cannot show), then each
-/// fiber traced through the meshes.
+/// passages on exact dimensions first (independent of the meshes), then the meshes of
+/// every mating pair against each other (all but press fits, which meshes cannot
+/// show), then each fiber traced through the meshes. (Each designed gap has been
+/// measured on the meshes while they were made: [`meshing`].)
 pub(crate) fn check_assembly_for(
     profile: &DesignProfile,
     built: &[BuiltPart],
@@ -392,20 +366,11 @@ pub(crate) fn check_assembly_for(
         .cloned()
         .collect();
     let (fits, _) = fits::check_exact(profile)?;
-    fits::check_tolerance(&fits, |k| {
-        module
-            .iter()
-            .filter(|b| b.kind == k)
-            .map(|b| b.mesh_tolerance_mm)
-            .reduce(f64::max)
-    })?;
     // A pair designed to touch somewhere (a press fit) is not compared on its meshes:
     // its exact fit above is the check.
     let press_fit = |a: PartKind, b: PartKind| {
-        fits.iter().any(|f| {
-            ((f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b))
-                && f.max_mesh_tolerance_mm.is_none()
-        })
+        fits.iter()
+            .any(|f| ((f.outer, f.inner) == (a, b) || (f.inner, f.outer) == (a, b)) && f.press_fit)
     };
     assembly::check_no_interference(&module, &|a, b| !press_fit(a, b))?;
     Ok(Some(assembly::trace_fibers_for(profile, &module)?))
@@ -447,21 +412,38 @@ pub fn build_design(
     let tol = request
         .tolerance_mm
         .unwrap_or_else(|| default_tolerance_for(&profile));
-    let built =
-        build_parts_for(&profile, Some(tol), request.parts.as_deref()).with_context(nothing)?;
+    let (built, gaps) =
+        mesh_parts_for(&profile, Some(tol), request.parts.as_deref()).with_context(nothing)?;
     let fibers = check_assembly_for(&profile, &built).with_context(nothing)?;
     let drawings = sink.drawings(&CheckedBuild {
         profile: &profile,
         parts: &built,
         fibers: fibers.as_deref(),
+        gaps: &gaps,
     })?;
-    let rendered = export::render(&profile, &built, tol, fibers.as_deref(), drawings)?;
+    let rendered = export::render(
+        &profile,
+        &export::Checked {
+            parts: &built,
+            tolerance_mm: tol,
+            fibers: fibers.as_deref(),
+            gaps: &gaps,
+        },
+        drawings,
+    )?;
     let files = export::write_all(dir, &rendered)?;
     let report = BuildReport {
         dir: dir.to_path_buf(),
         parts: built,
         files,
         fibers: fibers.unwrap_or_default(),
+        gaps,
+        warnings: rendered
+            .manifest
+            .retention
+            .iter()
+            .filter_map(|r| r.warning().map(String::from))
+            .collect(),
     };
     sink.built(design, &report)?;
     Ok(report)

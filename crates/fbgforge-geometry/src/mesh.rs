@@ -172,6 +172,11 @@ impl TriMesh {
 /// Merge points closer than `tol` (grid hashing with a neighbour search), drop the
 /// triangles that collapse, and return the indexed mesh.
 pub(crate) fn weld(triangles: &[[Point3; 3]], tol: f64) -> TriMesh {
+    weld_indexed(triangles, tol).0
+}
+
+/// [`weld`], with the index in `triangles` of each triangle kept.
+pub(crate) fn weld_indexed(triangles: &[[Point3; 3]], tol: f64) -> (TriMesh, Vec<usize>) {
     let cell = tol * 4.0;
     let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
     let mut positions: Vec<[f64; 3]> = Vec::new();
@@ -203,7 +208,8 @@ pub(crate) fn weld(triangles: &[[Point3; 3]], tol: f64) -> TriMesh {
         i
     };
     let mut tris = Vec::with_capacity(triangles.len());
-    for t in triangles {
+    let mut kept = Vec::with_capacity(triangles.len());
+    for (k, t) in triangles.iter().enumerate() {
         let idx = [
             index_of(t[0], &mut positions),
             index_of(t[1], &mut positions),
@@ -211,12 +217,16 @@ pub(crate) fn weld(triangles: &[[Point3; 3]], tol: f64) -> TriMesh {
         ];
         if idx[0] != idx[1] && idx[1] != idx[2] && idx[0] != idx[2] {
             tris.push(idx);
+            kept.push(k);
         }
     }
-    TriMesh {
-        positions,
-        triangles: tris,
-    }
+    (
+        TriMesh {
+            positions,
+            triangles: tris,
+        },
+        kept,
+    )
 }
 
 /// Tessellate a solid at chord tolerance `tol_mm`, weld it and check it.

@@ -3,7 +3,10 @@
 //! one `<object>` per printed piece and the pieces' materials as `<basematerials>`
 //! (name and display colour) referenced by `pid`/`pindex`. PrusaSlicer and GrabCAD
 //! Print read it, so a multi-material print takes its materials from the file rather
-//! than from `manifest.json` by hand.
+//! than from `manifest.json` by hand. PrusaSlicer keeps the object names but not the
+//! `<basematerials>`, so each package also carries PrusaSlicer's per-object
+//! configuration ([`SLICER_CONFIG_PATH`]): every object on the extruder of its material
+//! (material k of the list on extruder k + 1).
 //!
 //! The XML is written with `quick-xml` and packed with `zip` (deflate); [`read`] reads
 //! a package back (the tests use it to check what was written).
@@ -155,8 +158,65 @@ const RELS: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>
 "#;
 
+/// Path of PrusaSlicer's per-object configuration in a package: PrusaSlicer (and the
+/// slicers derived from it) read each object's `extruder` from it on import, so each
+/// piece comes in on the extruder (filament) of its material.
+pub(crate) const SLICER_CONFIG_PATH: &str = "Metadata/Slic3r_PE_model.config";
+
+/// PrusaSlicer's per-object configuration for `objects` (resource ids 2.., as
+/// [`model_xml`] numbers them): each object's name and its extruder, its material's
+/// index + 1, over one volume of all its triangles.
+pub(crate) fn slicer_config_xml(objects: &[Object]) -> Result<String> {
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 1);
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
+        .map_err(xml_err)?;
+    w.write_event(Event::Start(BytesStart::new("config")))
+        .map_err(xml_err)?;
+    for (k, o) in objects.iter().enumerate() {
+        let id = (k + 2).to_string();
+        let extruder = (o.material + 1).to_string();
+        let last = o.mesh.triangles.len().saturating_sub(1).to_string();
+        w.write_event(Event::Start(
+            BytesStart::new("object")
+                .with_attributes([("id", id.as_str()), ("instances_count", "1")]),
+        ))
+        .map_err(xml_err)?;
+        for (key, value) in [("name", o.name.as_str()), ("extruder", extruder.as_str())] {
+            w.write_event(Event::Empty(BytesStart::new("metadata").with_attributes([
+                ("type", "object"),
+                ("key", key),
+                ("value", value),
+            ])))
+            .map_err(xml_err)?;
+        }
+        w.write_event(Event::Start(
+            BytesStart::new("volume")
+                .with_attributes([("firstid", "0"), ("lastid", last.as_str())]),
+        ))
+        .map_err(xml_err)?;
+        w.write_event(Event::Empty(BytesStart::new("metadata").with_attributes([
+            ("type", "volume"),
+            ("key", "name"),
+            ("value", o.name.as_str()),
+        ])))
+        .map_err(xml_err)?;
+        w.write_event(Event::End(BytesEnd::new("volume")))
+            .map_err(xml_err)?;
+        w.write_event(Event::End(BytesEnd::new("object")))
+            .map_err(xml_err)?;
+    }
+    w.write_event(Event::End(BytesEnd::new("config")))
+        .map_err(xml_err)?;
+    String::from_utf8(w.into_inner()).context("slicer config is UTF-8")
+}
+
 /// The 3MF package (ZIP bytes) of a model file.
 pub fn package(model: &str) -> Result<Vec<u8>> {
+    package_with(model, &[])
+}
+
+/// The 3MF package of a model file and `extra` files (path in the package, text).
+pub fn package_with(model: &str, extra: &[(&str, &str)]) -> Result<Vec<u8>> {
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
     let opts = zip::write::SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Deflated);
@@ -164,7 +224,10 @@ pub fn package(model: &str) -> Result<Vec<u8>> {
         ("[Content_Types].xml", CONTENT_TYPES),
         ("_rels/.rels", RELS),
         (MODEL_PATH, model),
-    ] {
+    ]
+    .into_iter()
+    .chain(extra.iter().copied())
+    {
         zip.start_file(path, opts)
             .with_context(|| format!("3MF: adding {path}"))?;
         zip.write_all(text.as_bytes())

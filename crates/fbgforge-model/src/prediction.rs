@@ -142,6 +142,13 @@ pub struct ModelledPrediction {
     /// interval, against the strain limit, with its margin.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub limit_check: Option<LimitCheck>,
+    /// The policy mesh level (`FemOptions::mesh_level`) the row's FE readings were
+    /// solved at: the level asked for, or finer where the policy refined the row's
+    /// configuration to state an error within [`MAX_MODEL_ERROR`]
+    /// (`PredictionRequest.refine_to_level`). `None` for a row without FE readings or on a
+    /// custom mesh.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh_level: Option<u32>,
     /// The prediction. For FE rows `core_load_share` is NaN (null in JSON): the FE
     /// model does not split the force into the closed form's paths.
     #[serde(flatten)]
@@ -195,6 +202,8 @@ pub fn predict_with_fidelity(
             band: false,
             design_interval: false,
             fem_options: *fem_options,
+            // The mesh exactly as the caller gives it.
+            refine_to_level: None,
             cache: GeometryCache::default(),
         },
     )
@@ -408,6 +417,13 @@ pub struct PredictionRequest {
     pub design_interval: bool,
     /// Mesh and solver of the FE solves (the contact choices come from the design).
     pub fem_options: FemOptions,
+    /// When set and `fem_options` is a policy mesh (`FemOptions::mesh_level`): the
+    /// configurations whose FE rows state a model error above [`MAX_MODEL_ERROR`] are
+    /// solved again one level finer, up to this level, so each row gets the cheapest
+    /// mesh that states the policy's accuracy (the model-error study found thin walls
+    /// on large modules 17–31 % at level 1, docs/fem.md §5.3). `None`: `fem_options`
+    /// exactly as given. Default: [`FemOptions::AUTO_FINEST_MESH_LEVEL`].
+    pub refine_to_level: Option<u32>,
     /// Where the FE solves' structures come from and go (the caller's, so solves of
     /// one geometry share them across calls; the default is a fresh, empty cache).
     pub cache: GeometryCache,
@@ -425,6 +441,7 @@ impl Default for PredictionRequest {
             band: false,
             design_interval: false,
             fem_options: FemOptions::default(),
+            refine_to_level: Some(FemOptions::AUTO_FINEST_MESH_LEVEL),
             cache: GeometryCache::default(),
         }
     }
@@ -480,10 +497,13 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
     };
     // Every FE solve the rows need, once each, in one batch.
     let readings = rows::Readings::solve(design, &rows, &models, want, request)?;
-    rows.into_iter()
-        .zip(models)
-        .map(|(d, model)| readings.row(d, model, want, request))
-        .collect()
+    let mut answered = rows
+        .iter()
+        .zip(&models)
+        .map(|(d, &model)| readings.row(d.clone(), model, want, request))
+        .collect::<Result<Vec<_>>>()?;
+    rows::refine(design, &rows, &models, want, request, &mut answered)?;
+    Ok(answered)
 }
 
 /// The policy's predictions as the optimiser needs them: fast enough for an inner loop,

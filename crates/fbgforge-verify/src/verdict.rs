@@ -625,6 +625,77 @@ fn offset_doubt_stands(m: &Measurement) -> bool {
             || (visible && !a.shift_presses_outside.is_empty()))
 }
 
+/// Share of the model's response (|K|·peak force) a press at rest must reach, in the
+/// model's direction, to count as a press the force does not explain: a temperature
+/// swing of a few kelvin stays below it.
+const UNEXPLAINED_PRESS_SHARE: f64 = 0.3;
+
+/// The presses the shift shows where the aligned force is at rest or absent, of the
+/// model's sign and at least [`UNEXPLAINED_PRESS_SHARE`] of its response (`kp`: the
+/// model's K, pm/N), in words with the rival alignment they point to; None when there
+/// are none.
+fn presses_unexplained(m: &Measurement, kp: f64) -> Option<String> {
+    let a = &m.alignment;
+    let size = UNEXPLAINED_PRESS_SHARE * kp.abs() * m.peak_force_n;
+    if !(size.is_finite() && size > 0.0) {
+        return None;
+    }
+    let seen: Vec<_> = a
+        .shift_presses_at_rest
+        .iter()
+        .filter(|p| p.amplitude_pm.signum() == kp.signum() && p.amplitude_pm.abs() >= size)
+        .collect();
+    let first = seen.first()?;
+    let largest = seen.iter().map(|p| p.amplitude_pm.abs()).fold(0.0, f64::max);
+    let rival = match &a.press_match {
+        Some(r) => format!(
+            "; the force log's presses start where {} of those {} do at a clock offset of {:.3} s",
+            r.presses, r.of, r.clock_offset_s
+        ),
+        None => String::new(),
+    };
+    Some(format!(
+        "grating `{}` shows {} press(es) of up to {largest:.1} pm (the model's response at the peak force is {:.1} pm) where the force log, at the {} clock offset {:.3} s, is at rest or has no samples (the first from {:.2} s to {:.2} s){rival}: the force is placed on the wrong presses or is another run's; give the offset (VerifyRequest.force_start or AnalysisOptions.clock_offset_s){}",
+        a.shift_grating,
+        seen.len(),
+        kp.abs() * m.peak_force_n,
+        m.clock_offset_source,
+        m.clock_offset_s,
+        first.start_s,
+        first.end_s,
+        if m.lag_is_relative { " or widen its search (AnalysisOptions.max_clock_offset_s)" } else { "" }
+    ))
+}
+
+/// Share of the model's K a response too noisy to tell from none must reach (same
+/// sign) to be no evidence of silence.
+const NOISY_RESPONSE_SHARE: f64 = 0.3;
+
+/// K with the model's (`kp`) sign and at least [`NOISY_RESPONSE_SHARE`] of it.
+fn near_model(g: &GratingResult, kp: f64) -> bool {
+    let k = g.sensitivity_pm_per_n;
+    k.signum() == kp.signum() && k.abs() >= NOISY_RESPONSE_SHARE * kp.abs()
+}
+
+/// A grating silent only because K's precision is too low: the force explains most of
+/// what the slow variation leaves (the gate's R²) and K lies near the model's (`kp`,
+/// same sign, at least [`NOISY_RESPONSE_SHARE`] of it), but the residuals'
+/// autocorrelation leaves K within a few standard errors of zero. Then the part may
+/// well respond (a loose bond's friction, a saturated force): not NO RESPONSE, nor a
+/// dead grating. In words, or None.
+fn response_too_noisy(g: &GratingResult, kp: f64, gate: &ResponseGate) -> Option<String> {
+    let k = g.sensitivity_pm_per_n;
+    let explains = g.response_r_squared >= gate.min_r_squared;
+    (explains && near_model(g, kp) && g.sensitivity_t_statistic < gate.min_t_statistic).then(|| {
+        format!(
+            "the force explains {:.2} of the shift beyond the slow variation and K = {k:.3} pm/N is {:.2} × the model's {kp:.3} pm/N: a response too irregular (residuals with {:.0} effective samples) to tell K from zero, not an unloaded sensor; a loose bond, friction or a force the stand did not log right",
+            g.response_r_squared,
+            k / kp,
+            g.effective_samples
+        )
+    })
+}
+
 /// The wall clock's jumps in words, when the wavelength log has any.
 fn clock_jump_words(m: &Measurement) -> Option<String> {
     let j = m.clock_jumps.first()?;
@@ -700,6 +771,18 @@ fn grating_verdict(
         Some((Status::NotJudged, ReasonCode::Instrument, format!("the interrogator's readings cannot be trusted: {why}")))
     } else if let (Some(why), Some(c)) = (&silent, clock_jump_words(m)) {
         Some((Status::NotJudged, ReasonCode::Clock, format!("{why}; but {c}")))
+    } else if let (Some(why), Some(rival)) = (&silent, pred.and_then(|kp| presses_unexplained(m, kp))) {
+        // Silence where the shift shows presses of the model's size is no finding: the
+        // force is placed on the wrong presses, or is another run's.
+        let code = if m.lag_is_relative { ReasonCode::Alignment } else { ReasonCode::Unexplained };
+        Some((Status::NotJudged, code, format!("{why}; but {rival}")))
+    } else if let (Some(why), Some(fault), true) = (&silent, &g.instrument.fault, pred.is_some_and(|kp| near_model(g, kp))) {
+        // Silence read from readings that cannot be trusted, while K lies near the
+        // model's, is no finding either (with K far off, the readings' check, which
+        // compares them with K·x, says nothing).
+        Some((Status::NotJudged, ReasonCode::Instrument, format!("{why}; but the interrogator's readings cannot be trusted: {fault}")))
+    } else if let (Some(why), Some(imprecise)) = (&silent, pred.and_then(|kp| response_too_noisy(g, kp, gate))) {
+        Some((Status::NotJudged, ReasonCode::Precision, format!("{why}; but {imprecise}")))
     } else if let Some(why) = silent {
         Some((Status::NoResponse, ReasonCode::NoResponse, why))
     } else {
@@ -975,6 +1058,21 @@ fn overall(
                 Status::NotJudged,
                 Some(format!("no grating responded at the estimated offset, but {a}")),
                 Some(ReasonCode::Alignment),
+            );
+        }
+        if let Some(g) = gratings.iter().find(|g| {
+            g.status == Status::NotJudged
+                && matches!(
+                    g.reason_code,
+                    Some(ReasonCode::Alignment | ReasonCode::Unexplained | ReasonCode::Instrument | ReasonCode::Precision)
+                )
+        }) {
+            // Silence beside presses the force does not explain (the force misplaced),
+            // read from untrusted readings, or only from a noisy K: no finding.
+            return (
+                Status::NotJudged,
+                Some(format!("no grating responded clearly to the force as placed, but grating `{}`: {}", g.grating, g.reason.as_deref().unwrap_or("not judged"))),
+                g.reason_code,
             );
         }
         return (

@@ -233,6 +233,20 @@ pub fn run(a: &VerdictStudyArgs) -> Result<()> {
     Ok(())
 }
 
+/// One scenario (`seed`, of class `only`) simulated and written into `out` with the
+/// study's designs, for a test to verify on its own: the scenario and its files (with
+/// the true clock offset).
+pub fn write_one(out: &Path, seed: u64, only: Option<Class>) -> Result<(Scenario, files::RunFiles)> {
+    fbgforge::output::ensure_dir(out)?;
+    let (with, without, model) = write_designs(out)?;
+    let s = space::draw_of(0, seed, only);
+    let ph = forward::simulate(&s);
+    let wl = forward::interrogate(&s, &ph, &gratings(&model));
+    let force = forward::stand(&s);
+    let files = files::write_run(&out.join("scenario"), &s, &wl, &force, (&with, &without))?;
+    Ok((s, files))
+}
+
 /// Simulate, write and verify one scenario with both clocks.
 fn run_scenario(
     s: &Scenario,

@@ -77,11 +77,16 @@ pub struct Reconstruction {
     /// degree of freedom; NaN for an unusable frame).
     pub p_value: f64,
     /// The closest distinct rival (an answer ≥ 12 dB away, loads in the rated
-    /// range): its penalised χ² minus the answer's (negative: it fits better). The
-    /// frame is `ambiguous` when this is within the rival quantile of the
-    /// significance. None: no distinct rival within the quantile of the run's
-    /// significance (rivals further away are not evaluated).
+    /// range): its penalised χ² minus the answer's (negative: it fits better); how
+    /// well the array separates the answer from its nearest rival at this noise
+    /// (information, not a flag). None: no distinct rival within the quantile of the
+    /// run's significance (rivals further away are not evaluated).
     pub rival_margin_chi2: Option<f64>,
+    /// The rival test's p-value (Bonferroni-corrected over the rivals considered):
+    /// P(a rival explains the frame this much better than it explains the answer's
+    /// own prediction | the answer is true). The frame is `ambiguous` below a third
+    /// of the significance. None: no distinct rival was evaluated.
+    pub rival_p_value: Option<f64>,
     /// Loads below the rated range the answer had, removed (the smaller support
     /// refitted) before the test.
     pub pruned_loads: usize,
@@ -102,6 +107,19 @@ pub struct Reconstruction {
 }
 
 impl Reconstruction {
+    /// An answer from elsewhere (another tool, the truth of a synthetic frame), to
+    /// be judged by the frame test ([`crate::trust::FrameTest::assess`]): its loads,
+    /// g, and nothing else.
+    ///
+    /// ```
+    /// use fbgforge_array::methods::Reconstruction;
+    /// let r = Reconstruction::answer(vec![0.0, 120.0]);
+    /// assert!(r.converged && !r.certified && r.flags.trusted());
+    /// ```
+    pub fn answer(loads_g: Vec<f64>) -> Self {
+        Self::untested(loads_g, true, 0)
+    }
+
     /// A method's answer before the frame test: loads, convergence and work; the
     /// test's fields empty.
     pub(crate) fn untested(loads_g: Vec<f64>, converged: bool, iterations: u64) -> Self {
@@ -115,6 +133,7 @@ impl Reconstruction {
             dof: 0,
             p_value: 1.0,
             rival_margin_chi2: None,
+            rival_p_value: None,
             pruned_loads: 0,
             below_range_p_value: None,
             overload_p_value: None,
@@ -290,9 +309,12 @@ pub struct FrameFlags {
     pub overload: bool,
     /// A loaded cell carries less than the rated minimum load.
     pub below_range: bool,
-    /// Another answer ≥ 12 dB away fits about as well, or identical columns.
+    /// Another answer ≥ 12 dB away explains the frame better than the answer could
+    /// by chance (the rival test, [`crate::trust`]).
     pub ambiguous: bool,
-    /// The method did not converge (`bnb`: stopped at its work budget).
+    /// The method did not converge (`bnb`: stopped at its work budget). A note, not
+    /// part of the trust test: the answer is judged like any other, and an answer a
+    /// better explanation beats beyond chance is `ambiguous`.
     pub unconverged: bool,
     /// The frame could not be used (wrong length, non-finite shift).
     pub unusable: bool,
@@ -322,19 +344,21 @@ impl FrameFlags {
         ]
     }
 
-    /// The words of the flags that are set.
+    /// The words of the flags of the trust test that are set (`unconverged`, a note,
+    /// is counted apart and shows as `certified` false).
     pub fn words(&self) -> Vec<&'static str> {
         Self::WORDS
             .iter()
             .zip(self.bits())
-            .filter(|(_, b)| *b)
+            .filter(|(w, b)| *b && **w != "unconverged")
             .map(|(w, _)| *w)
             .collect()
     }
 
-    /// True when no flag is set: the frame can be trusted.
+    /// True when no flag of the trust test is set (`unconverged` is a note): the
+    /// frame can be trusted.
     pub fn trusted(&self) -> bool {
-        !self.bits().iter().any(|b| *b)
+        self.words().is_empty()
     }
 
     /// The flags as one CSV field: the words joined by `;` (empty when trusted).

@@ -18,9 +18,10 @@
 //! it), then the frames are reconstructed chunk by chunk (memory flat in the number
 //! of frames), and the default method's mean estimated time is kept within its
 //! budget ([`StreamRun`]'s guard). [`reconstruct`] does both for frames held in
-//! memory; `fbgforge reconstruct` ([`crate::run::reconstruct_file`]) streams a file
-//! through the same [`StreamRun`], and the Python binding and the live mode
-//! ([`crate::live::interpret`]) come through here too.
+//! memory; `fbgforge reconstruct` ([`crate::run::reconstruct_file`]) reads its file
+//! whole and goes through the same [`StreamRun`] (reading the file chunk by chunk
+//! too is not done yet: docs/array.md §11.10), and the Python binding and the live
+//! mode ([`crate::live::interpret`]) come through here too.
 
 mod stream;
 

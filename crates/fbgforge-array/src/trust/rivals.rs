@@ -4,11 +4,25 @@
 //! by its unconstrained χ² (a lower bound of its bounded one, from incremental
 //! Cholesky factors: O(k²n) per base support) and fitted exactly, loads within the
 //! rated range, when the screen cannot exclude it.
+//!
+//! **The rival test.** Each distinct rival r fitted is also fitted to the answer's
+//! own prediction ŷ (what the frame would be, noise-free, were the answer true). Its
+//! statistic T = [χ²_r(y) − χ²_answer(y)] − χ²_r(ŷ) compares how much better the
+//! rival does on the frame than on the answer's prediction. Under the answer (the
+//! linear Gaussian model), T = 2⟨v, e⟩ − Q with e the noise, v the part of the
+//! rival's misfit to ŷ outside the answer's columns and Q ≤ χ² with |r \ answer|
+//! degrees of freedom: its lower tail is bounded by
+//! min over θ of Φ(θT / 2‖v‖) + P(χ²_k ≥ −(1 − θ)T). The frame's rival p-value is
+//! that bound for the best rival, times the number of rivals considered
+//! (Bonferroni), so a true answer is `ambiguous` with probability at most the
+//! share of the significance the test is given, whatever the array's size.
 
 use super::Weighted;
 
+use super::chi2_p_value;
 use super::OCCAM_CHI2;
 use crate::methods::DISTINCT_RATIO;
+use nalgebra::DMatrix;
 use std::collections::HashSet;
 
 /// What a rival may hold and how far it is looked for.
@@ -101,20 +115,80 @@ impl Base {
     }
 }
 
+/// The answer, as the rival test sees it.
+pub(super) struct Answer<'a> {
+    /// Its loads, g.
+    pub x: &'a [f64],
+    /// Its loaded cells.
+    pub support: &'a [usize],
+    /// Its χ² on the frame (unpenalised).
+    pub chi2: f64,
+    /// The frame the answer predicts (noise-free), in the same weighted space.
+    pub predicted: &'a Weighted,
+}
+
+/// The rivals found: the closest one's penalised χ² and the rival test's p-value.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Found {
+    /// Penalised χ² of the closest distinct rival fitted.
+    pub closest: Option<f64>,
+    /// The rival test's p-value (Bonferroni over the rivals considered).
+    pub p_value: Option<f64>,
+}
+
 /// The rivals' search state: what was fitted, the answer, the closest rival so far.
 struct Search<'a> {
     w: &'a Weighted,
     b: &'a Bounds,
-    /// The answer's loads, g.
-    x: &'a [f64],
+    a: &'a Answer<'a>,
     x_norm2: f64,
+    /// Orthonormal basis of the answer's weighted columns.
+    q: DMatrix<f64>,
     seen: HashSet<Vec<usize>>,
     best: Option<f64>,
+    /// Smallest per-rival tail bound.
+    least_p: Option<f64>,
+}
+
+/// P(Z ≤ z), Z standard normal.
+fn normal_cdf(z: f64) -> f64 {
+    0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
+}
+
+/// Upper bound of P(2⟨v, e⟩ − Q ≤ t) with ‖v‖² = `v2`, e standard normal and
+/// Q ≤ χ²_k: the two tails split at θ, the best θ of a grid.
+fn lower_tail_bound(t: f64, v2: f64, k: usize) -> f64 {
+    if t >= 0.0 {
+        return 1.0;
+    }
+    (0..=20)
+        .map(|i| {
+            let th = f64::from(i) / 20.0;
+            let lin = if v2 > 1e-18 {
+                normal_cdf(th * t / (2.0 * v2.sqrt()))
+            } else if th > 0.0 {
+                0.0
+            } else {
+                1.0
+            };
+            let quad = if th < 1.0 {
+                if k == 0 {
+                    0.0
+                } else {
+                    chi2_p_value(-(1.0 - th) * t, k)
+                }
+            } else {
+                1.0
+            };
+            lin + quad
+        })
+        .fold(1.0, f64::min)
 }
 
 impl Search<'_> {
-    /// Fit the support `cells` exactly (loads in [lo, hi]) unless seen, and keep its
-    /// penalised χ² if it is distinct from the answer and the closest so far.
+    /// Fit the support `cells` exactly (loads in [lo, hi]) unless seen; if it is
+    /// distinct from the answer keep its penalised χ² when the closest so far, and
+    /// its rival-test tail bound when the least so far.
     fn fit(&mut self, cells: &[usize]) {
         let mut key = cells.to_vec();
         key.sort_unstable();
@@ -126,18 +200,47 @@ impl Search<'_> {
         };
         let loads = z.iter().filter(|&&v| v > 0.0).count();
         let cost = chi2 + OCCAM_CHI2 * loads as f64;
-        if self.best.is_some_and(|b| b <= cost) {
-            return;
-        }
         // ‖x′ − x‖² over every cell: the answer's norm, corrected on the rival's cells.
+        let x = self.a.x;
         let mut d2 = self.x_norm2;
         for (&j, &v) in cells.iter().zip(&z) {
-            d2 += (v - self.x[j]) * (v - self.x[j]) - self.x[j] * self.x[j];
+            d2 += (v - x[j]) * (v - x[j]) - x[j] * x[j];
         }
         let distinct = d2 > DISTINCT_RATIO * DISTINCT_RATIO * self.x_norm2 * (1.0 + 1e-9) + 1e-18;
-        if distinct {
+        if !distinct {
+            return;
+        }
+        if self.best.is_none_or(|b| cost < b) {
             self.best = Some(cost);
         }
+        if let Some(p) = self.tail_bound(cells, chi2) {
+            if self.least_p.is_none_or(|b| p < b) {
+                self.least_p = Some(p);
+            }
+        }
+    }
+
+    /// The rival test's tail bound for rival `cells` with χ² `chi2` on the frame.
+    fn tail_bound(&self, cells: &[usize], chi2: f64) -> Option<f64> {
+        let wa = self.a.predicted;
+        let (chi2_hat, zh) = wa.box_fit(cells, self.b.lo, self.b.hi)?;
+        let t = (chi2 - self.a.chi2) - chi2_hat;
+        // The rival's misfit to the prediction, outside the answer's columns.
+        let mut res = wa.yb.clone();
+        for (&j, &v) in cells.iter().zip(&zh) {
+            for (r, b) in res.iter_mut().zip(wa.col(j)) {
+                *r -= v * b;
+            }
+        }
+        let mut v2: f64 = res.iter().map(|r| r * r).sum();
+        for c in 0..self.q.ncols() {
+            let dot: f64 = self.q.column(c).iter().zip(&res).map(|(q, r)| q * r).sum();
+            v2 -= dot * dot;
+        }
+        // Q's degrees of freedom: the rival's cells outside the answer, at least one
+        // (the bounded refits move with the noise even where the supports nest).
+        let new = cells.iter().filter(|j| !self.a.support.contains(j)).count();
+        Some(lower_tail_bound(t, v2.max(0.0), new.max(1)))
     }
 
     /// Fit base ∪ {l} for every cell l outside `skip` whose screen passes.
@@ -159,17 +262,33 @@ impl Search<'_> {
     }
 }
 
-/// The penalised χ² of the closest rival of the answer `x` (support `support`) found
-/// below `bounds.cut`, or the closest fitted if none is; None if no distinct rival
-/// was fitted.
-pub(super) fn closest(w: &Weighted, support: &[usize], x: &[f64], b: &Bounds) -> Option<f64> {
+/// How many rivals the search considers for an answer of `k` loads among `n` cells
+/// with rivals of at most `max_loads` loads: one added, one dropped, one moved, and
+/// the forward-selection path (the Bonferroni count of the rival test).
+fn considered(n: usize, k: usize, max_loads: usize) -> usize {
+    let add = if k < max_loads { n - k } else { 0 };
+    add + k + k * (n - k) + max_loads
+}
+
+/// The rivals of the answer `a` found below `bounds.cut`: the closest one's
+/// penalised χ² and the rival test's p-value (see the module doc).
+pub(super) fn closest(w: &Weighted, a: &Answer<'_>, b: &Bounds) -> Found {
+    let support = a.support;
+    let q = if support.is_empty() {
+        DMatrix::zeros(w.m, 0)
+    } else {
+        let ba = DMatrix::from_fn(w.m, support.len(), |i, c| w.col(support[c])[i]);
+        ba.qr().q()
+    };
     let mut s = Search {
         w,
         b,
-        x,
-        x_norm2: x.iter().map(|v| v * v).sum(),
+        a,
+        x_norm2: a.x.iter().map(|v| v * v).sum(),
+        q,
         seen: HashSet::new(),
         best: None,
+        least_p: None,
     };
     let mut key = support.to_vec();
     key.sort_unstable();
@@ -212,5 +331,9 @@ pub(super) fn closest(w: &Weighted, support: &[usize], x: &[f64], b: &Bounds) ->
             s.fit(&cells);
         }
     }
-    s.best
+    let count = considered(w.n, support.len(), b.max_loads) as f64;
+    Found {
+        closest: s.best,
+        p_value: s.least_p.map(|p| (p * count).min(1.0)),
+    }
 }

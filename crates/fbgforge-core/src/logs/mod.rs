@@ -482,9 +482,50 @@ pub struct ReadOptions {
 /// # Ok::<(), anyhow::Error>(())
 /// ```
 pub fn read_peak_log(path: &Path, opts: &ReadOptions) -> Result<PeakLog> {
-    let bytes =
-        std::fs::read(path).with_context(|| format!("cannot read the log {}", path.display()))?;
-    parse_wavelength_bytes(&bytes, path, opts)
+    read_peak_log_in_blocks(path, opts, rows::STREAM_BLOCK)
+}
+
+/// Bytes of a log's head read for detection before its body is streamed (detection
+/// looks at the first 4 MiB).
+const HEAD_BYTES: usize = 8 << 20;
+
+/// [`read_peak_log`] reading `block` bytes at a time: a file over two blocks is never
+/// held whole (its table is parsed block by block as it is read), a smaller one is read
+/// at once.
+pub(crate) fn read_peak_log_in_blocks(path: &Path, opts: &ReadOptions, block: usize) -> Result<PeakLog> {
+    use std::io::Read;
+    let cannot = || format!("cannot read the log {}", path.display());
+    let mut file = std::fs::File::open(path).with_context(cannot)?;
+    let len = file.metadata().with_context(cannot)?.len();
+    if len <= 2 * block as u64 {
+        let mut bytes = Vec::with_capacity(len as usize);
+        file.read_to_end(&mut bytes).with_context(cannot)?;
+        return parse_wavelength_bytes(&bytes, path, opts);
+    }
+    // The head: what detection reads (a test's small blocks read a smaller one).
+    let head_len = HEAD_BYTES.min(block.max(1 << 16));
+    let mut head = Vec::with_capacity(head_len);
+    (&mut file).take(head_len as u64).read_to_end(&mut head).with_context(cannot)?;
+    let det = spectrum::detect_table(&head, path, opts)?;
+    if matches!(det.format, LogFormat::EnlightSpectrum | LogFormat::OsaCsv) {
+        // A whole-file spectrum is one acquisition's table, not a stream of rows.
+        let mut bytes = head;
+        file.read_to_end(&mut bytes).with_context(cannot)?;
+        return parse_wavelength_bytes(&bytes, path, opts);
+    }
+    let reader = det.format.reader();
+    let table = reader.rows(&det, &head, path, opts)?;
+    let body_offset = det.body_offset.min(head.len());
+    head.drain(..body_offset);
+    let m = rows::parse_body_stream(
+        &mut file,
+        head,
+        det.body_line,
+        &*table.parser,
+        (path, Some(len - body_offset as u64), block),
+    )
+    .with_context(cannot)?;
+    finish_peak_log(m, &det, table, path, opts)
 }
 
 /// Parse a wavelength log held in memory: detect its format, read its rows with that
@@ -499,7 +540,20 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
     let reader = det.format.reader();
     let table = reader.rows(&det, bytes, path, opts)?;
     let body = &bytes[det.body_offset.min(bytes.len())..];
-    let mut m = rows::parse_body(body, det.body_line, &*table.parser, path);
+    let m = rows::parse_body(body, det.body_line, &*table.parser, path);
+    finish_peak_log(m, &det, table, path, opts)
+}
+
+/// The log from its parsed table: too many unreadable lines refused, the times
+/// resolved, ordered and spread, the clock's jumps found.
+fn finish_peak_log(
+    mut m: rows::Merged,
+    det: &Detected,
+    table: Rows,
+    path: &Path,
+    opts: &ReadOptions,
+) -> Result<PeakLog> {
+    let reader = det.format.reader();
     let rows = m.lines.len();
     if rows == 0 || m.bad * 2 > m.table_lines {
         bail!(

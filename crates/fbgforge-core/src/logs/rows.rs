@@ -344,27 +344,62 @@ pub(crate) fn parse_body(
 /// Merge the chunks in order: chunk-local line numbers become file line numbers,
 /// chunk-local date indices global ones, and each issue a named warning.
 fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merged {
-    let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
-    let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
-    let mut m = Merged {
-        times: TimeAcc {
-            dates: Vec::new(),
-            date_of_row: Vec::with_capacity(rows),
-            sec: Vec::with_capacity(rows),
-        },
-        row_start: Vec::with_capacity(rows + 1),
-        peaks: Vec::with_capacity(n_peaks),
-        chans: Vec::with_capacity(n_peaks),
-        quality: Vec::new(),
-        lines: Vec::with_capacity(rows),
-        warnings: LogWarnings::default(),
-        bad: 0,
-        first_bad: None,
-        table_lines: partials.iter().map(|p| p.table_lines).sum(),
-    };
-    m.row_start.push(0usize);
+    let mut m = Merged::with_table_lines(0);
     let mut first_line = body_line;
-    for p in partials {
+    m.reserve(&partials);
+    m.append(partials, &mut first_line, path);
+    m
+}
+
+impl Merged {
+    /// An empty table.
+    fn with_table_lines(table_lines: usize) -> Merged {
+        Merged {
+            times: TimeAcc {
+                dates: Vec::new(),
+                date_of_row: Vec::new(),
+                sec: Vec::new(),
+            },
+            row_start: vec![0usize],
+            peaks: Vec::new(),
+            chans: Vec::new(),
+            quality: Vec::new(),
+            lines: Vec::new(),
+            warnings: LogWarnings::default(),
+            bad: 0,
+            first_bad: None,
+            table_lines,
+        }
+    }
+
+    /// Room for `partials` more.
+    fn reserve(&mut self, partials: &[Partial]) {
+        let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
+        let n_peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
+        self.reserve_rows(rows, n_peaks);
+    }
+
+    /// Room for `rows` more rows holding `n_peaks` more peaks.
+    fn reserve_rows(&mut self, rows: usize, n_peaks: usize) {
+        self.times.date_of_row.reserve(rows);
+        self.times.sec.reserve(rows);
+        self.row_start.reserve(rows);
+        self.lines.reserve(rows);
+        self.peaks.reserve(n_peaks);
+        self.chans.reserve(n_peaks);
+    }
+
+    /// Append the chunks of the table that starts at file line `first_line` (moved on
+    /// past them), each dropped once copied.
+    fn append(&mut self, partials: Vec<Partial>, first_line: &mut usize, path: &Path) {
+        for p in partials {
+            self.table_lines += p.table_lines;
+            self.append_one(p, first_line, path);
+        }
+    }
+
+    fn append_one(&mut self, p: Partial, first_line: &mut usize, path: &Path) {
+        let m = self;
         let dates = &mut m.times.dates;
         let remap: Vec<u32> = p
             .times
@@ -394,9 +429,9 @@ fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merg
         m.chans.extend_from_slice(&p.chans);
         m.quality.extend_from_slice(&p.quality);
         m.lines
-            .extend(p.lines.iter().map(|&l| l + first_line as u32));
+            .extend(p.lines.iter().map(|&l| l + *first_line as u32));
         for (local, iss) in p.issues {
-            let line_no = local + first_line;
+            let line_no = local + *first_line;
             if iss.kind != "short_row" && iss.kind != "truncated_last_line" {
                 m.bad += 1;
                 if m.first_bad.is_none() {
@@ -406,7 +441,73 @@ fn merge_partials(partials: Vec<Partial>, body_line: usize, path: &Path) -> Merg
             let msg = format!("{}: {}", at(path, line_no), iss.message);
             m.warnings.add(iss.kind, || msg);
         }
-        first_line += p.n_lines;
+        *first_line += p.n_lines;
     }
-    m
+}
+
+/// Bytes read from the file at a time when a table body is streamed.
+pub(crate) const STREAM_BLOCK: usize = 32 << 20;
+
+/// Parse a table body read from `src` block by block (the file is never held whole):
+/// each block cut after its last newline, parsed in parallel chunks and appended in
+/// file order; `first`: body bytes already read; `total_hint`: the body's size in bytes,
+/// to reserve the table once (None: grow); `block`: bytes read at a time.
+pub(crate) fn parse_body_stream(
+    src: &mut dyn std::io::Read,
+    first: Vec<u8>,
+    body_line: usize,
+    parser: &dyn RowParser,
+    (path, total_hint, block): (&Path, Option<u64>, usize),
+) -> std::io::Result<Merged> {
+    let block_len = block.max(1);
+    let mut m = Merged::with_table_lines(0);
+    let mut first_line = body_line;
+    let mut buf = first;
+    let mut eof = false;
+    let mut reserved = false;
+    while !(eof && buf.is_empty()) {
+        // Fill the block, then cut it after its last newline (all of it at the end).
+        while !eof && buf.len() < block_len {
+            let at = buf.len();
+            buf.resize(block_len.max(at + (1 << 16)), 0);
+            let n = src.read(&mut buf[at..])?;
+            buf.truncate(at + n);
+            eof = n == 0;
+        }
+        let cut = if eof {
+            buf.len()
+        } else {
+            match memchr::memrchr(b'\n', &buf) {
+                Some(p) => p + 1,
+                // One line longer than a block: read on.
+                None => {
+                    buf.reserve(block_len);
+                    let at = buf.len();
+                    buf.resize(at + block_len, 0);
+                    let n = src.read(&mut buf[at..])?;
+                    buf.truncate(at + n);
+                    eof = n == 0;
+                    continue;
+                }
+            }
+        };
+        let part = &buf[..cut];
+        let partials: Vec<Partial> = chunk_bounds(part)
+            .par_iter()
+            .map(|&(a, b)| parser.parse_chunk(&part[a..b]))
+            .collect();
+        if !reserved {
+            // The first block's rows per byte, scaled to the whole body (5 % spare).
+            if let Some(total) = total_hint.filter(|_| cut > 0) {
+                let scale = total as f64 / cut as f64 * 1.05;
+                let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
+                let peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
+                m.reserve_rows((rows as f64 * scale) as usize, (peaks as f64 * scale) as usize);
+            }
+            reserved = true;
+        }
+        m.append(partials, &mut first_line, path);
+        buf.drain(..cut);
+    }
+    Ok(m)
 }

@@ -34,10 +34,10 @@ pub use design::{parse_unvalidated, Design};
 pub use error::{err, SpecError};
 pub use module::{
     Core, GratingRole, Insert, Limits, Module, ModuleGrating, Pillars, Snap,
-    DEFAULT_REFERENCE_TAIL_MM,
+    DEFAULT_REFERENCE_TAIL_MM, GRATING_END_GAP_MM,
 };
 pub use printer::{
     FiberRouting, Material, PrintProcess, Printer, DEFAULT_FDM_LAYER_MM, DEFAULT_FDM_NOZZLE_MM,
     DEFAULT_POLYJET_LAYER_MM,
 };
-pub use validate::{positive, range, MIN_UNDERCUT_PER_RESOLUTION};
+pub use validate::{free_intervals, intervals_words, positive, range, MIN_UNDERCUT_PER_RESOLUTION};

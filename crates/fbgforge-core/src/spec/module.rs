@@ -92,6 +92,12 @@ pub struct ModuleGrating {
     pub tail_mm: Option<f64>,
 }
 
+/// Fiber left between the ends of two gratings on one fiber, mm. A design choice: a
+/// grating's place along its fiber is known to a fraction of a millimetre from how it
+/// was written and bonded, and two gratings that touch cannot be told apart by where a
+/// load strains them; 1 mm keeps them apart with room for that placement.
+pub const GRATING_END_GAP_MM: f64 = 1.0;
+
 /// Fiber left past a reference grating's end when the spec states none, mm: a grating
 /// is written a few millimetres from the cleaved tip.
 pub const DEFAULT_REFERENCE_TAIL_MM: f64 = 3.0;

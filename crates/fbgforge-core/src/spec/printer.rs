@@ -36,8 +36,9 @@ pub struct Printer {
     /// Thinnest wall the printer makes reliably, mm.
     pub min_wall_mm: f64,
     /// Nozzle diameter of an FDM printer, mm (default 0.4 mm for `fdm`; unused for
-    /// PolyJet). A printed gap narrower than the nozzle closes up, so fiber slits and
-    /// channels are never made narrower than this.
+    /// PolyJet). A printed gap narrower than the nozzle closes up, so no fiber
+    /// passage is narrower than the nozzle plus the channel clearance
+    /// ([`FiberRouting::min_passage_mm`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nozzle_diameter_mm: Option<f64>,
     /// Layer height the parts are sliced at, mm (default 0.2 mm for `fdm`, 0.027 mm
@@ -54,13 +55,11 @@ impl Printer {
         self.resolution_mm / 2.0
     }
 
-    /// Narrowest gap (slit, channel) the printer keeps open, mm: the nozzle for FDM
-    /// (0.4 mm when not stated), the resolution for PolyJet.
-    pub(crate) fn min_gap_mm(&self) -> f64 {
-        match self.process {
-            PrintProcess::Fdm => self.nozzle_diameter_mm.unwrap_or(DEFAULT_FDM_NOZZLE_MM),
-            PrintProcess::Polyjet => self.resolution_mm,
-        }
+    /// The nozzle diameter of an FDM printer (the stated one, else 0.4 mm); None for
+    /// PolyJet.
+    pub fn nozzle_mm(&self) -> Option<f64> {
+        (self.process == PrintProcess::Fdm)
+            .then(|| self.nozzle_diameter_mm.unwrap_or(DEFAULT_FDM_NOZZLE_MM))
     }
 
     /// Layer height, mm: the stated one, else 0.2 mm (FDM) or 0.027 mm (PolyJet).
@@ -95,13 +94,6 @@ impl Printer {
         match self.process {
             PrintProcess::Polyjet | PrintProcess::Fdm => 10.0,
         }
-    }
-
-    /// The smallest width a fiber passage (hole, slot, bore) may have for a fiber of
-    /// `coated_diameter_mm`: the fiber plus the printer's resolution, so the printed
-    /// passage cannot close on the fiber, mm.
-    pub fn min_passage_mm(&self, coated_diameter_mm: f64) -> f64 {
-        coated_diameter_mm + self.resolution_mm
     }
 }
 
@@ -195,9 +187,50 @@ impl Default for FiberRouting {
 }
 
 impl FiberRouting {
+    /// The printer's floor for any fiber passage (hole, bore, slot, slit): the
+    /// narrowest one it leaves open around this fiber, mm.
+    ///
+    /// - PolyJet: the coated fiber + the printer's resolution (a surface prints within
+    ///   the resolution of where it is drawn).
+    /// - FDM: the wider of (coated fiber + resolution) and the nozzle, + the channel
+    ///   clearance. A passage narrower than the nozzle cannot be drawn around, and the
+    ///   slicer's perimeters eat into a small hole: PrusaSlicer 2.5 (0.4 mm nozzle,
+    ///   0.45 mm perimeters) leaves 0.21 mm open of a 0.35 mm hole, 0.29 of 0.40 and
+    ///   0.40 of 0.50 (docs/geometry.md, "The printer's floor"), so the fiber keeps
+    ///   its clearance only above the nozzle.
+    pub fn min_passage_mm(&self, printer: &Printer) -> f64 {
+        let fiber = self.coated_diameter_mm + printer.resolution_mm;
+        match printer.nozzle_mm() {
+            Some(nozzle) => fiber.max(nozzle) + self.channel_clearance_mm,
+            None => fiber,
+        }
+    }
+
+    /// How [`min_passage_mm`](Self::min_passage_mm) is made up, in words, for messages.
+    pub fn min_passage_words(&self, printer: &Printer) -> String {
+        let need = self.min_passage_mm(printer);
+        let fiber = self.coated_diameter_mm + printer.resolution_mm;
+        match printer.nozzle_mm() {
+            Some(nozzle) if nozzle >= fiber => format!(
+                "{need:.3} mm: the FDM printer's floor, its nozzle {nozzle} mm (printer.nozzle_diameter_mm) + the channel clearance {} mm (fiber_routing.channel_clearance_mm)",
+                self.channel_clearance_mm
+            ),
+            Some(_) => format!(
+                "{need:.3} mm: the coated fiber {} mm + the printer's resolution {} mm + the channel clearance {} mm (an FDM printer's perimeters eat into a small hole)",
+                self.coated_diameter_mm, printer.resolution_mm, self.channel_clearance_mm
+            ),
+            None => format!(
+                "{need:.3} mm: the coated fiber {} mm + the printer's resolution {} mm",
+                self.coated_diameter_mm, printer.resolution_mm
+            ),
+        }
+    }
+
     /// Width of a fiber channel or slit on `printer`: the coated fiber plus its
-    /// clearance each side, but never narrower than the printer keeps open, mm.
+    /// clearance each side, but never narrower than the printer's floor
+    /// ([`min_passage_mm`](Self::min_passage_mm)), mm.
     pub fn channel_width_mm(&self, printer: &Printer) -> f64 {
-        (self.coated_diameter_mm + 2.0 * self.channel_clearance_mm).max(printer.min_gap_mm())
+        (self.coated_diameter_mm + 2.0 * self.channel_clearance_mm)
+            .max(self.min_passage_mm(printer))
     }
 }

@@ -246,7 +246,9 @@ impl<'a> Readings<'a> {
             let pm_per_strain = self.k_of(&d, 1.0);
             LimitCheck::new((force, from), limit, k, pm_per_strain, iv)
         });
+        let fe_readings = model == Fidelity::Fem || want.band || want.interval;
         let mut row = ModelledPrediction {
+            mesh_level: request.fem_options.policy_level().filter(|_| fe_readings),
             model,
             model_description: description,
             band_pm_per_n: band,
@@ -295,6 +297,55 @@ impl<'a> Readings<'a> {
     }
 }
 
+/// Answer again, one policy mesh level finer at a time up to
+/// `request.refine_to_level`, the configurations whose FE rows state a model error above
+/// [`MAX_MODEL_ERROR`]: each row gets the cheapest mesh that states the policy's
+/// accuracy (every reading of a configuration, its band and design interval included,
+/// is solved at one level). `rows` and `models` are what `answered` was answered from.
+pub(super) fn refine(
+    design: &Design,
+    rows: &[DetailedPrediction],
+    models: &[Fidelity],
+    want: Wanted,
+    request: &PredictionRequest,
+    answered: &mut [ModelledPrediction],
+) -> Result<()> {
+    let (Some(finest), Some(mut level)) =
+        (request.refine_to_level, request.fem_options.policy_level())
+    else {
+        return Ok(());
+    };
+    while level < finest.min(FemOptions::MAX_MESH_LEVEL) {
+        let mut over: Vec<Configuration> = Vec::new();
+        for r in answered.iter() {
+            let coarse = r.model == Fidelity::Fem
+                && r.model_error_fraction.is_some_and(|f| f > MAX_MODEL_ERROR);
+            let c = config_of(&r.detail.prediction);
+            if coarse && !over.contains(&c) {
+                over.push(c);
+            }
+        }
+        if over.is_empty() {
+            break;
+        }
+        level += 1;
+        let finer = PredictionRequest {
+            fem_options: request.fem_options.at_level(level),
+            ..request.clone()
+        };
+        let which: Vec<usize> = (0..rows.len())
+            .filter(|&i| over.contains(&config_of(&rows[i].prediction)))
+            .collect();
+        let sub: Vec<DetailedPrediction> = which.iter().map(|&i| rows[i].clone()).collect();
+        let sub_models: Vec<Fidelity> = which.iter().map(|&i| models[i]).collect();
+        let readings = Readings::solve(design, &sub, &sub_models, want, &finer)?;
+        for ((&i, d), model) in which.iter().zip(sub).zip(sub_models) {
+            answered[i] = readings.row(d, model, want, &finer)?;
+        }
+    }
+    Ok(())
+}
+
 /// The warnings of the policy on one row: a Case I FE row that rests on the shipped
 /// default contact radius says so; a row whose nominal K lies outside its bounding
 /// readings widened by its model error, or whose sign is not fixed across them, says
@@ -322,11 +373,24 @@ fn row_warnings(row: &mut ModelledPrediction, m: &Module) {
             ));
         }
     }
-    if let Some(f) = row.model_error_fraction {
+    if let (Some(f), Some(e)) = (row.model_error_fraction, row.model_error) {
         if f > MAX_MODEL_ERROR {
+            let level = row
+                .mesh_level
+                .map_or("a custom mesh".to_string(), |k| format!("mesh level {k}"));
+            // Which term breaks it: the mesh alone, or the modelling term.
+            let why = if e.discretisation_fraction > MAX_MODEL_ERROR - e.modelling_fraction {
+                format!(
+                    "the mesh is too coarse for this design at {level} (ask for a finer one: PredictionRequest.fem_options)"
+                )
+            } else {
+                "the model does not hold here".to_string()
+            };
             p.warnings.push(format!(
-                "stated model error {:.1} % exceeds {:.0} %: refine the mesh (PredictionRequest.fem_options) or the model does not hold here",
+                "stated model error {:.1} % (discretisation {:.1} % at {level}, modelling {:.1} %) exceeds {:.0} %: {why}",
                 100.0 * f,
+                100.0 * e.discretisation_fraction,
+                100.0 * e.modelling_fraction,
                 100.0 * MAX_MODEL_ERROR
             ));
         }

@@ -58,6 +58,25 @@ fn table(design: &str, r: &BuildReport) -> String {
             p.mesh_tolerance_mm
         );
     }
+    // The gap the meshes keep of each designed one: the narrowest share.
+    if let Some(g) = r
+        .gaps
+        .iter()
+        .min_by(|a, b| a.kept_percent.total_cmp(&b.kept_percent))
+    {
+        let _ = writeln!(
+            s,
+            "  {} designed gaps kept in the meshes, the least {:.1} % ({}: {:.4} of {:.4} mm)",
+            r.gaps.len(),
+            g.kept_percent,
+            g.what,
+            g.meshed_gap_mm,
+            g.designed_gap_mm
+        );
+    }
+    for w in &r.warnings {
+        let _ = writeln!(s, "  warning: {w}");
+    }
     s
 }
 

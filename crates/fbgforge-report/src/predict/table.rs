@@ -200,13 +200,22 @@ fn error_legend(p: &Predicted, interval: bool) -> String {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &d| {
                 (a.0.min(d), a.1.max(d))
             });
-        let level = p
-            .request
-            .fem_options
-            .policy_level()
-            .map_or("custom".to_string(), |k| k.to_string());
+        // The levels the rows were answered at: the one asked for, or finer where the
+        // policy refined a configuration to state its accuracy.
+        let levels: Vec<u32> = p.rows.iter().filter_map(|r| r.mesh_level).collect();
+        let level = match (levels.iter().min(), levels.iter().max()) {
+            (Some(a), Some(b)) if a != b => format!("{a}–{b}"),
+            (Some(a), _) => a.to_string(),
+            _ => "custom".to_string(),
+        };
+        let how = match p.request.refine_to_level {
+            Some(finest) => format!(
+                "per configuration the cheapest level up to {finest} that states a model error of at most 15 %; PredictionRequest.fem_options fixes one"
+            ),
+            None => "PredictionRequest.fem_options".to_string(),
+        };
         s.push_str(&format!(
-            "mesh level {level} (PredictionRequest.fem_options; element sizes relative to the 34 mm module, extrapolated with the level below): discretisation error {:.1}–{:.1} % over the FE rows.\n",
+            "mesh level {level} ({how}; element sizes relative to the 34 mm module, extrapolated with the level below): discretisation error {:.1}–{:.1} % over the FE rows.\n",
             100.0 * lo,
             100.0 * hi
         ));

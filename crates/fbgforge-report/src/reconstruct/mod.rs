@@ -33,7 +33,7 @@ pub fn summary_text(summary: &ReconstructSummary) -> String {
     let f = &summary.flags;
     let _ = writeln!(
         s,
-        "trusted {} of {} frames ({} certified); flagged: inconsistent {}, ceiling {}, overload {}, below_range {}, ambiguous {}, unconverged {}, unusable {}",
+        "trusted {} of {} frames ({} certified); flagged: inconsistent {}, ceiling {}, overload {}, below_range {}, ambiguous {}, unusable {}; stopped short (a note, not a flag) {}",
         f.trusted,
         summary.frames,
         summary.certified,
@@ -42,8 +42,8 @@ pub fn summary_text(summary: &ReconstructSummary) -> String {
         f.overload,
         f.below_range,
         f.ambiguous,
-        f.unconverged,
-        f.unusable
+        f.unusable,
+        f.unconverged
     );
     let cm = &summary.common_mode_note;
     if cm.fitted || cm.decided == "auto" {

@@ -13,7 +13,7 @@
 //! offset is definite when Λ ≥ [`EVIDENCE_MARGIN`].
 
 use super::fit_data::FitData;
-use super::results::OffsetCandidate;
+use super::results::{OffsetCandidate, ShiftPress};
 use super::sensitivity::lag1_independence;
 use crate::fit::{self, LagModelCost, LagModelFit};
 use crate::logs::time::median_period;
@@ -243,4 +243,190 @@ pub(super) fn shift_presses_outside(
         }
     }
     out
+}
+
+/// Most presses at rest kept (the largest): enough to name and to match.
+pub const MAX_SHIFT_PRESSES: usize = 64;
+
+/// The presses the shift shows where the aligned force is at rest or absent: rows
+/// more than `margin_s` from every force press (`presses`: start and end on the
+/// wavelength clock, s) whose shift departs from its block's rest level (the median of
+/// those rows, blocks of `block_s`) by more than `threshold_pm`, in runs of at least
+/// two rows (gaps of up to three periods bridged); each with its largest departure,
+/// signed. The sign is the shift's own: the verdict compares it with the model's K,
+/// which this stage does not know.
+pub(super) fn shift_presses_at_rest(
+    tw: &[f64],
+    s: &[f64],
+    presses: &[(f64, f64)],
+    margin_s: f64,
+    block_s: f64,
+    threshold_pm: f64,
+) -> Vec<ShiftPress> {
+    let mut busy: Vec<(f64, f64)> = presses
+        .iter()
+        .map(|&(a, b)| (a - margin_s, b + margin_s))
+        .collect();
+    busy.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Rows at rest: outside every widened press (one sweep over sorted intervals).
+    let mut at_rest = Vec::with_capacity(tw.len());
+    let (mut j, mut reach) = (0usize, f64::NEG_INFINITY);
+    for (i, &t) in tw.iter().enumerate() {
+        while j < busy.len() && busy[j].0 <= t {
+            reach = reach.max(busy[j].1);
+            j += 1;
+        }
+        if t > reach && s[i].is_finite() {
+            at_rest.push(i);
+        }
+    }
+    let period = median_period(tw).max(1e-9);
+    // Each row's rest level: the median of its block's rows at rest; the runs are then
+    // followed across the blocks' edges (a press is not cut in two at one).
+    let mut rest = Vec::with_capacity(at_rest.len());
+    let mut a = 0;
+    while a < at_rest.len() {
+        let t0 = tw[at_rest[a]];
+        let b = (a + at_rest[a..].partition_point(|&i| tw[i] < t0 + block_s)).max(a + 1);
+        let vals: Vec<f64> = at_rest[a..b].iter().map(|&i| s[i]).collect();
+        let level = crate::segment::percentile(&vals, 0.5);
+        rest.extend(std::iter::repeat_n(level, b - a));
+        a = b;
+    }
+    let mut out: Vec<ShiftPress> = Vec::new();
+    runs_off_rest(tw, s, (&at_rest, &rest), threshold_pm, period, &mut out);
+    out.sort_by(|p, q| q.amplitude_pm.abs().total_cmp(&p.amplitude_pm.abs()));
+    out.truncate(MAX_SHIFT_PRESSES);
+    out.sort_by(|p, q| p.start_s.total_cmp(&q.start_s));
+    out
+}
+
+/// Runs of the rows at rest (`rows`, each with its rest level) departing from it by
+/// more than `threshold_pm` (one sign per run), appended to `out`.
+fn runs_off_rest(
+    tw: &[f64],
+    s: &[f64],
+    (rows, rest): (&[usize], &[f64]),
+    threshold_pm: f64,
+    period: f64,
+    out: &mut Vec<ShiftPress>,
+) {
+    // (first row, last row, largest signed departure)
+    let mut run: Option<(usize, usize, f64)> = None;
+    let close = |r: Option<(usize, usize, f64)>, out: &mut Vec<ShiftPress>| {
+        if let Some((p, q, amp)) = r.filter(|(p, q, _)| q > p) {
+            out.push(ShiftPress {
+                start_s: tw[p],
+                end_s: tw[q],
+                amplitude_pm: amp,
+            });
+        }
+    };
+    for (&i, &level) in rows.iter().zip(rest) {
+        let d = s[i] - level;
+        let up = d.abs() > threshold_pm;
+        run = match run {
+            Some((p, q, amp))
+                if up && d.signum() == amp.signum() && tw[i] - tw[q] <= 3.0 * period =>
+            {
+                Some((p, i, if d.abs() > amp.abs() { d } else { amp }))
+            }
+            prev => {
+                close(prev, out);
+                up.then_some((i, i, d))
+            }
+        };
+    }
+    close(run, out);
+}
+
+/// The offset change that starts the force log's presses (`force`: starts on the
+/// wavelength clock, s) where the shift's presses at rest start, within `tol_s`: the
+/// change d (force times − d), and how many shift presses it lines up; None when
+/// fewer than [`MIN_PRESSES`] line up at any d.
+pub(super) fn press_match(shift: &[ShiftPress], force: &[f64], tol_s: f64) -> Option<(f64, usize)> {
+    let mut starts: Vec<f64> = force.iter().copied().filter(|t| t.is_finite()).collect();
+    starts.sort_by(f64::total_cmp);
+    let lined_up = |d: f64| -> (usize, f64) {
+        let (mut n, mut sum) = (0usize, 0.0);
+        for p in shift {
+            let want = p.start_s + d;
+            let k = starts.partition_point(|&t| t < want - tol_s);
+            if let Some(&t) = starts.get(k).filter(|&&t| t <= want + tol_s) {
+                n += 1;
+                sum += t - want;
+            }
+        }
+        (n, sum)
+    };
+    let mut best: Option<(f64, usize)> = None;
+    for p in shift {
+        for &f in &starts {
+            let (n, sum) = lined_up(f - p.start_s);
+            // Ties go to the smaller move: the nearest rival.
+            let d = f - p.start_s + sum / n.max(1) as f64;
+            let better = best.is_none_or(|(bd, bn)| n > bn || n == bn && d.abs() < bd.abs());
+            if n >= MIN_PRESSES && better {
+                best = Some((d, n));
+            }
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A shift at 10 Hz with presses of `amp` pm from each (start, end), s, and a slow
+    /// ramp of `ramp_pm` over the run.
+    fn shift(presses: &[(f64, f64)], amp: f64, ramp_pm: f64) -> (Vec<f64>, Vec<f64>) {
+        let t: Vec<f64> = (0..6000).map(|i| f64::from(i) * 0.1).collect();
+        let s = t
+            .iter()
+            .map(|&x| {
+                let on = presses.iter().any(|&(a, b)| x >= a && x <= b);
+                (if on { amp } else { 0.0 }) + ramp_pm * x / 600.0
+            })
+            .collect();
+        (t, s)
+    }
+
+    #[test]
+    fn presses_where_the_force_rests_are_found_with_their_sign_and_matched() {
+        // The shift shows presses at 100, 200, 300 and 400 s; the force log, placed
+        // 250 s late, has its presses at 350 … 650 s: all four lie where it rests or
+        // has no samples, and moving it 250 s back starts its presses on them.
+        let shift_presses = [(100.0, 110.0), (200.0, 215.0), (300.0, 320.0), (400.0, 405.0)];
+        let (t, s) = shift(&shift_presses, -800.0, 60.0);
+        let force: Vec<(f64, f64)> = shift_presses.iter().map(|&(a, b)| (a + 250.0, b + 250.0)).collect();
+        let found = shift_presses_at_rest(&t, &s, &force, 5.0, 60.0, 100.0);
+        let starts: Vec<f64> = found.iter().map(|p| p.start_s).collect();
+        assert_eq!(starts, vec![100.0, 200.0, 300.0, 400.0], "{found:?}");
+        assert!(found.iter().all(|p| (p.amplitude_pm + 800.0).abs() < 20.0), "{found:?}");
+        let f_starts: Vec<f64> = force.iter().map(|p| p.0).collect();
+        let (d, n) = press_match(&found, &f_starts, 1.5).unwrap();
+        assert_eq!(n, 4);
+        assert!((d - 250.0).abs() < 1e-9, "{d}");
+    }
+
+    #[test]
+    fn a_press_across_the_edge_of_two_rest_blocks_is_one_press() {
+        // Blocks of 40 s from 0 s: the press from 30 s to 45 s spans the edge at 40 s.
+        let (t, s) = shift(&[(30.0, 45.0)], -800.0, 0.0);
+        let found = shift_presses_at_rest(&t, &s, &[], 5.0, 40.0, 100.0);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!((found[0].start_s - 30.0).abs() < 1e-9 && (found[0].end_s - 45.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_slow_ramp_and_presses_the_force_explains_are_no_presses_at_rest() {
+        // The force's presses lie on the shift's; a 60 pm ramp stays below 100 pm.
+        let presses = [(100.0, 110.0), (200.0, 215.0), (300.0, 320.0)];
+        let (t, s) = shift(&presses, -800.0, 60.0);
+        assert!(shift_presses_at_rest(&t, &s, &presses, 5.0, 60.0, 100.0).is_empty());
+        // Two presses lined up are not a rival alignment: one or two fit anywhere.
+        let two = [ShiftPress { start_s: 10.0, end_s: 20.0, amplitude_pm: -800.0 }; 2];
+        assert!(press_match(&two, &[50.0, 60.0], 1.5).is_none());
+    }
 }

@@ -252,6 +252,19 @@ fn finish_alignment(
             (3.0 * longest).max(10.0),
         );
     }
+    check.shift_grating.clone_from(name);
+    let all: Vec<(f64, f64)> = st.seg.pulses.iter().map(|p| (fu[p.start], fu[p.end])).collect();
+    let longest = all.iter().map(|(a, b)| b - a).fold(0.0, f64::max);
+    let threshold = (10.0 * step_noise_pm(s)).max(5.0 * st.resolution_pm);
+    check.shift_presses_at_rest = super::alignment::shift_presses_at_rest(
+        st.tw,
+        s,
+        &all,
+        PRESS_MARGIN_S,
+        (3.0 * longest).max(10.0),
+        threshold,
+    );
+    check.press_match = rival_by_presses(st, &check.shift_presses_at_rest, &all);
     let outside = check.shift_presses_outside.len();
     if outside > 0 {
         let (a, b) = check.shift_presses_outside[0];
@@ -266,6 +279,47 @@ fn finish_alignment(
         check.ambiguous = alignment_doubt(&check);
     }
     check
+}
+
+/// Rows this close to a force press count as explained by it (a lag, a slow
+/// relaxation), s.
+const PRESS_MARGIN_S: f64 = 5.0;
+
+/// Standard deviation of the shift's noise from its row-to-row steps (robust to the
+/// presses' few edges), pm.
+fn step_noise_pm(s: &[f64]) -> f64 {
+    let steps: Vec<f64> = s
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| d.is_finite())
+        .collect();
+    if steps.is_empty() {
+        return 0.0;
+    }
+    1.4826 * crate::segment::percentile(&steps, 0.5) / std::f64::consts::SQRT_2
+}
+
+/// The clock offset at which the force log's presses (`all`, wavelength clock) start
+/// where the shift's larger presses at rest start (a quarter of the largest or more).
+fn rival_by_presses(
+    st: &Stages,
+    at_rest: &[super::results::ShiftPress],
+    all: &[(f64, f64)],
+) -> Option<super::results::PressMatch> {
+    let largest = at_rest.iter().map(|p| p.amplitude_pm.abs()).fold(0.0, f64::max);
+    let big: Vec<super::results::ShiftPress> = at_rest
+        .iter()
+        .filter(|p| p.amplitude_pm.abs() >= 0.25 * largest)
+        .copied()
+        .collect();
+    let starts: Vec<f64> = all.iter().map(|p| p.0).collect();
+    let tol = 1.5 + 2.0 * median_period(st.tw).max(median_period(&st.clocks.fu));
+    let (d, n) = super::alignment::press_match(&big, &starts, tol)?;
+    Some(super::results::PressMatch {
+        clock_offset_s: st.clocks.offset + d,
+        presses: n,
+        of: big.len(),
+    })
 }
 
 /// Why an estimated clock offset is not definite, if it is not: a rival within the

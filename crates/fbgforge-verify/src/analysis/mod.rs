@@ -64,7 +64,7 @@ pub use linearity::hysteresis_and_linearity;
 pub use alignment::MIN_PRESSES;
 pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
 pub use results::{
-    AlignmentCheck, InstrumentCheck, OffsetCandidate, PulseGain, SlowTest, BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
+    AlignmentCheck, InstrumentCheck, OffsetCandidate, PressMatch, PulseGain, ShiftPress, SlowTest, BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
 };
 
 /// The force log's times on the wavelength log's clock, before the residual offset.

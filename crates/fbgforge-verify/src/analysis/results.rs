@@ -266,6 +266,36 @@ pub struct AlignmentCheck {
     pub shift_presses_outside: Vec<(f64, f64)>,
     /// Why the alignment is not definite, when it is not (an estimated offset only).
     pub ambiguous: Option<String>,
+    /// The grating the presses below are read from (the primary strain grating).
+    pub shift_grating: String,
+    /// Presses the shift shows where the aligned force is at rest or absent (at most
+    /// [`super::alignment::MAX_SHIFT_PRESSES`], the largest kept).
+    pub shift_presses_at_rest: Vec<ShiftPress>,
+    /// The clock offset at which the force log's presses start where those presses
+    /// do, when at least [`super::alignment::MIN_PRESSES`] of them line up: the rival
+    /// alignment the shift itself points to.
+    pub press_match: Option<PressMatch>,
+}
+
+/// A press the shift shows where the aligned force is at rest or absent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ShiftPress {
+    /// Start and end on the wavelength log's clock, s.
+    pub start_s: f64,
+    pub end_s: f64,
+    /// Largest departure from the rest level, signed, pm.
+    pub amplitude_pm: f64,
+}
+
+/// The force log's presses moved onto the shift's presses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PressMatch {
+    /// Force clock − wavelength clock at which they line up, s.
+    pub clock_offset_s: f64,
+    /// Shift presses (of those at rest) that a force press then starts with.
+    pub presses: usize,
+    /// Shift presses at rest in all.
+    pub of: usize,
 }
 
 /// A bound on Q when Q itself cannot be given.

@@ -1,10 +1,11 @@
 //! Checks on `[array]`: the sheet, the casting mold and its slits, the fibers'
 //! positions and the gratings.
 
-use super::rules::{positive, range, unique_name};
+use super::rules::{free_intervals, intervals_words, positive, range, unique_name};
 use crate::spec::error::{err, SpecError};
 use crate::spec::{
     derived_slit_depth_mm, mold_slot_width_mm, seat_z_mm, ArrayGrating, Design, TactileArray,
+    GRATING_END_GAP_MM,
 };
 
 impl Design {
@@ -21,6 +22,7 @@ impl Design {
                 "grating",
             )?;
             Self::validate_array_grating(a, i, g)?;
+            Self::validate_array_grating_spacing(a, i, g)?;
         }
         if a.gratings.is_empty() {
             return Err(err("array.gratings", "list at least one grating"));
@@ -182,15 +184,16 @@ impl Design {
             return Err(err(
                 "array.mold.slit_width_mm",
                 format!(
-                    "{} mm is narrower than the {need:.3} mm the fiber needs (coated diameter {} mm + 2 × clearance {} mm, at least the printer's smallest open gap {} mm); leave the field out to derive it",
+                    "{} mm is narrower than the {need:.3} mm the fiber needs (coated diameter {} mm + 2 × clearance {} mm, at least the printer's floor of {}); allowed {need:.3} to 5 mm; leave the field out to derive it",
                     mold.slit_width_mm,
                     self.fiber_routing.coated_diameter_mm,
                     self.fiber_routing.channel_clearance_mm,
-                    self.printer.min_gap_mm()
+                    self.fiber_routing.min_passage_words(&self.printer)
                 ),
             ));
         }
         let coated = self.fiber_routing.coated_diameter_mm;
+        self.validate_seat_above_floor(a)?;
         let depth = derived_slit_depth_mm(a, coated, &self.printer);
         if (mold.slit_depth_mm - depth).abs() > 1e-6 {
             return Err(err(
@@ -223,6 +226,35 @@ impl Design {
             }
         }
         Ok(())
+    }
+
+    /// The fiber's seat (its depth less its radius, on the nearest layer boundary) lies
+    /// at least a layer above the cavity floor: a seat on the floor would open the
+    /// slit into the cavity along its whole bottom (no wall under the fiber, and no
+    /// closed solid). The error names the sheet's thickness (or the fiber's depth when
+    /// stated) with the least that keeps the seat a layer up.
+    fn validate_seat_above_floor(&self, a: &TactileArray) -> Result<(), SpecError> {
+        let p = &self.printer;
+        let (base, h) = (a.mold.base_thickness_mm, p.layer_height_mm());
+        let rf = self.fiber_routing.coated_diameter_mm / 2.0;
+        let seat = seat_z_mm(a, 2.0 * rf, p);
+        // The lowest layer boundary above the floor, and the least depth whose seat
+        // rounds to it (a slicer rounds to the nearest boundary).
+        let first_up = ((base / h) + 1e-6).floor() * h + h;
+        if seat >= first_up - 1e-9 {
+            return Ok(());
+        }
+        let least_depth = first_up - h / 2.0 - base + rf;
+        let (field, value, least) = match a.fiber_depth_mm {
+            Some(d) => ("array.fiber_depth_mm", d, least_depth),
+            None => ("array.thickness_mm", a.thickness_mm, 2.0 * least_depth),
+        };
+        Err(err(
+            field,
+            format!(
+                "{value} mm puts the fiber's seat ({seat:.3} mm, its axis less its radius {rf} mm on the nearest {h} mm layer) on the cavity floor ({base} mm): the slit would open into the cavity under the fiber; allowed above {least:.4} mm (the seat one layer up, at {first_up:.3} mm)",
+            ),
+        ))
     }
 
     /// The fibers lie on the sheet, with a printable wall between neighbouring slits
@@ -275,6 +307,49 @@ impl Design {
         )?;
         positive(&f("length_mm"), g.length_mm, 0.1, 50.0)?;
         Ok(())
+    }
+}
+
+impl Design {
+    /// Grating `i` keeps [`GRATING_END_GAP_MM`] of fiber from every earlier grating on
+    /// its fiber; the error gives the centre positions that would.
+    fn validate_array_grating_spacing(
+        a: &TactileArray,
+        i: usize,
+        g: &ArrayGrating,
+    ) -> Result<(), SpecError> {
+        let others: Vec<(usize, &ArrayGrating)> = a.gratings[..i]
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.fiber == g.fiber)
+            .collect();
+        let keep = |o: &ArrayGrating| (g.length_mm + o.length_mm) / 2.0 + GRATING_END_GAP_MM;
+        let Some((j, o)) = others
+            .iter()
+            .find(|(_, o)| (g.y_mm - o.y_mm).abs() < keep(o) - 1e-9)
+        else {
+            return Ok(());
+        };
+        let half_sheet = a.size_y_mm / 2.0;
+        let blocked: Vec<(f64, f64)> = others
+            .iter()
+            .map(|(_, o)| (o.y_mm - keep(o), o.y_mm + keep(o)))
+            .collect();
+        let free = free_intervals(-half_sheet, half_sheet, &blocked);
+        Err(err(
+            &format!("array.gratings[{i}].y_mm"),
+            format!(
+                "grating `{}` ({} mm long at {} mm) overlaps grating `{}` (array.gratings[{j}], {} mm long at {} mm) on fiber {}: two gratings on one fiber keep {GRATING_END_GAP_MM} mm of fiber between their ends; allowed {} (on the sheet, clear of the fiber's other gratings)",
+                g.name,
+                g.length_mm,
+                g.y_mm,
+                o.name,
+                o.length_mm,
+                o.y_mm,
+                g.fiber,
+                intervals_words(&free)
+            ),
+        ))
     }
 }
 

@@ -12,7 +12,7 @@ mod rules;
 use super::error::{err, SpecError};
 use super::Design;
 pub use module::MIN_UNDERCUT_PER_RESOLUTION;
-pub use rules::{positive, range};
+pub use rules::{free_intervals, intervals_words, positive, range};
 
 impl Design {
     /// Check every field against its allowed range and every cross-field constraint

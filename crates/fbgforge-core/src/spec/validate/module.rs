@@ -219,7 +219,7 @@ impl Design {
             10.0,
         )?;
         let coated = self.fiber_routing.coated_diameter_mm;
-        let passage = self.printer.min_passage_mm(coated);
+        let passage = self.fiber_routing.min_passage_mm(&self.printer);
         positive(
             "module.pillars.fiber_hole_diameter_mm",
             pl.fiber_hole_diameter_mm,
@@ -227,29 +227,46 @@ impl Design {
             5.0,
         )?;
         // The pillar must hold the narrowest passable hole between two printable walls,
-        // radially below its groove and tangentially, and the groove between walls.
+        // radially below its groove and tangentially, and the groove between walls;
+        // it may be at most 0.3 R high and leave the core an inner radius of R/4
+        // (the radial stack, checked again on the profile). Each field gets one range
+        // with both ends; when they cross, both rules are named.
         let min_height = pl.groove_depth_mm + passage + 2.0 * min_wall;
-        positive("module.pillars.height_mm", pl.height_mm, 0.1, 0.3 * r)?;
-        if pl.height_mm < min_height - 1e-12 {
-            return Err(err(
-                "module.pillars.height_mm",
-                format!(
-                    "{} mm cannot hold its groove and fiber hole: at least {min_height:.3} mm (groove depth {} mm + the smallest fiber hole {passage:.3} mm + 2 × min wall {min_wall} mm)",
-                    pl.height_mm, pl.groove_depth_mm
-                ),
-            ));
-        }
+        let stack_height = 0.75 * r - m.cap_wall_mm - m.cap_core_clearance_mm - m.core_wall_mm;
+        let (max_height, max_rule) = if stack_height < 0.3 * r {
+            (
+                stack_height,
+                format!("the radial stack: 3/4 of the outer radius ({:.3} mm) less module.cap_wall_mm, module.cap_core_clearance_mm and module.core_wall_mm, so the core keeps an inner radius of R/4", 0.75 * r),
+            )
+        } else {
+            (
+                0.3 * r,
+                format!("0.3 × the outer radius {r} mm (module.outer_diameter_mm)"),
+            )
+        };
+        let min_rule = format!(
+            "module.pillars.groove_depth_mm {} mm + the smallest fiber hole {passage:.3} mm + 2 × printer.min_wall_mm {min_wall} mm",
+            pl.groove_depth_mm
+        );
+        sized(
+            "module.pillars.height_mm",
+            pl.height_mm,
+            (min_height, &min_rule),
+            (max_height, &max_rule),
+        )?;
         let min_width = pl.groove_width_mm.max(passage) + 2.0 * min_wall;
-        positive("module.pillars.width_mm", pl.width_mm, 0.1, r)?;
-        if pl.width_mm < min_width - 1e-12 {
-            return Err(err(
-                "module.pillars.width_mm",
-                format!(
-                    "{} mm cannot hold its groove ({} mm) and fiber hole ({passage:.3} mm at least) between printable walls: at least {min_width:.3} mm (the wider of the two + 2 × min wall {min_wall} mm)",
-                    pl.width_mm, pl.groove_width_mm
+        sized(
+            "module.pillars.width_mm",
+            pl.width_mm,
+            (
+                min_width,
+                &format!(
+                    "the wider of module.pillars.groove_width_mm {} mm and the smallest fiber hole {passage:.3} mm, + 2 × printer.min_wall_mm {min_wall} mm",
+                    pl.groove_width_mm
                 ),
-            ));
-        }
+            ),
+            (r, &format!("the outer radius {r} mm")),
+        )?;
         // The cap's alignment pillar is the groove less a clearance on each side.
         if pl.groove_width_mm - 2.0 * m.cap_core_clearance_mm < min_wall {
             return Err(err(
@@ -266,8 +283,9 @@ impl Design {
             return Err(err(
                 "module.pillars.fiber_hole_diameter_mm",
                 format!(
-                    "{} mm does not pass the {coated} mm coated fiber: a fiber passage needs at least the fiber + the printer's resolution {} mm = {passage:.3} mm",
-                    pl.fiber_hole_diameter_mm, self.printer.resolution_mm
+                    "{} mm does not pass the {coated} mm coated fiber: a fiber passage needs at least {}",
+                    pl.fiber_hole_diameter_mm,
+                    self.fiber_routing.min_passage_words(&self.printer)
                 ),
             ));
         }
@@ -435,4 +453,36 @@ impl Design {
         }
         Ok(())
     }
+}
+
+/// A size bounded below by what it must hold and above by what the rest of the design
+/// leaves it: one message with both ends, and when they cross, both rules named (a user
+/// never meets two messages whose ranges cannot both be met).
+fn sized(
+    field: &str,
+    v: f64,
+    (lo, lo_rule): (f64, &str),
+    (hi, hi_rule): (f64, &str),
+) -> Result<(), SpecError> {
+    finite(field, v)?;
+    if lo > hi + 1e-12 {
+        return Err(err(
+            field,
+            format!(
+                "{v} mm: no value fits, two rules conflict: at least {lo:.4} mm ({lo_rule}) and at most {hi:.4} mm ({hi_rule}); change the fields those rules name"
+            ),
+        ));
+    }
+    if v <= 0.0 || v < lo - 1e-12 || v > hi + 1e-12 {
+        let (bound, rule) = if v < lo {
+            ("at least", lo_rule)
+        } else {
+            ("at most", hi_rule)
+        };
+        return Err(err(
+            field,
+            format!("{v} mm is out of range; allowed {lo:.4} to {hi:.4} mm ({bound}: {rule})"),
+        ));
+    }
+    Ok(())
 }

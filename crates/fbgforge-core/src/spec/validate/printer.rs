@@ -36,9 +36,10 @@ impl Design {
             1.0,
         )?;
         // Every slot and bore is a channel: it must pass the fiber with the printer's
-        // resolution to spare, or it prints closed on the fiber.
+        // floor, or it prints closed on the fiber. Only a PolyJet channel can fall
+        // below it (an FDM floor includes the clearance).
         let w = fr.channel_width_mm(p);
-        let need = p.min_passage_mm(fr.coated_diameter_mm);
+        let need = fr.min_passage_mm(p);
         if w < need - 1e-9 {
             return Err(err(
                 "fiber_routing.channel_clearance_mm",

@@ -56,3 +56,38 @@ pub fn positive(field: &str, v: f64, lo: f64, hi: f64) -> Result<(), SpecError> 
     }
     range(field, v, lo, hi)
 }
+
+/// The parts of `[lo, hi]` outside every `blocked` interval (open at their ends), in
+/// order: where a value may go once the ranges its neighbours take are removed.
+pub fn free_intervals(lo: f64, hi: f64, blocked: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut free = vec![(lo, hi)];
+    for &(b0, b1) in blocked {
+        free = free
+            .into_iter()
+            .flat_map(|(a0, a1)| {
+                let mut out = Vec::new();
+                if b0 > a0 {
+                    out.push((a0, a1.min(b0)));
+                }
+                if b1 < a1 {
+                    out.push((a0.max(b1), a1));
+                }
+                out
+            })
+            .filter(|(a0, a1)| a1 >= a0)
+            .collect();
+    }
+    free
+}
+
+/// Intervals in words, `3.0000 to 23.0000 or 37.0000 to 45.0000 mm`; `none` when empty.
+pub fn intervals_words(free: &[(f64, f64)]) -> String {
+    if free.is_empty() {
+        return "none".into();
+    }
+    let parts: Vec<String> = free
+        .iter()
+        .map(|(a, b)| format!("{a:.4} to {b:.4}"))
+        .collect();
+    format!("{} mm", parts.join(" or "))
+}

@@ -237,6 +237,12 @@ impl FemOptions {
     /// level 3; docs/fem.md §5.3), and a stated error must bound the error.
     pub const MIN_MESH_LEVEL: u32 = 1;
 
+    /// The finest level the policy refines to by itself
+    /// (`PredictionRequest.refine_to_level`): level 3 costs about 20× level 1 and
+    /// brought every design of the model-error study within the stated accuracy
+    /// (docs/fem.md §5.3); level 4 is left to a caller who asks for it.
+    pub const AUTO_FINEST_MESH_LEVEL: u32 = 3;
+
     /// The finest mesh level a caller may ask the policy for (level 4 of the 34 mm
     /// module has about half a million unknowns in Case I).
     pub const MAX_MESH_LEVEL: u32 = 4;
@@ -275,6 +281,26 @@ impl FemOptions {
                 && o.dome_element_size_mm == self.dome_element_size_mm
                 && self.reference_diameter_mm == o.reference_diameter_mm
         })
+    }
+
+    /// These options (solver, contact choices) on the policy's mesh of level `k`.
+    ///
+    /// ```
+    /// use fbgforge_model::fem::FemOptions;
+    /// let o = FemOptions::default().at_level(3);
+    /// assert_eq!(o.policy_level(), Some(3));
+    /// assert_eq!(o.solver, FemOptions::default().solver);
+    /// ```
+    pub fn at_level(&self, k: u32) -> Self {
+        let m = FemOptions::mesh_level(k);
+        FemOptions {
+            element_size_mm: m.element_size_mm,
+            dome_element_size_mm: m.dome_element_size_mm,
+            elements_through_wall: m.elements_through_wall,
+            reference_diameter_mm: m.reference_diameter_mm,
+            richardson_order: m.richardson_order,
+            ..*self
+        }
     }
 
     /// The same options on a mesh twice as coarse (sizes doubled, half the elements
