@@ -25,6 +25,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("PredictionRequest.delta_t_k", "--delta-t-k"),
     ("PredictionRequest.fidelity", "--fidelity"),
     ("PredictionRequest.fem_options", "--mesh-level"),
+    ("PredictionRequest.spectrum", "--no-spectrum"),
     ("SweepRequest.force_n", "--force-n"),
     ("SweepRequest.start", "--from"),
     ("SweepRequest.stop", "--to"),
@@ -88,6 +89,11 @@ pub struct PredictArgs {
     #[arg(long, default_value_t = fbgforge::fem::FemOptions::DEFAULT_MESH_LEVEL,
           value_parser = clap::value_parser!(u32).range(i64::from(fbgforge::fem::FemOptions::MIN_MESH_LEVEL)..=i64::from(fbgforge::fem::FemOptions::MAX_MESH_LEVEL)))]
     pub mesh_level: u32,
+    /// Skip each grating's reflection spectrum over the design's force range (the
+    /// transfer-matrix model on the FE strain profile along the grating, read from the
+    /// same solve: milliseconds per grating, no extra finite-element solve).
+    #[arg(long)]
+    pub no_spectrum: bool,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -210,6 +216,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
         fidelity: choice,
         band: !a.no_band,
         design_interval: !a.no_band,
+        spectrum: !a.no_spectrum,
         fem_options: FemOptions::mesh_level(a.mesh_level),
         ..Default::default()
     };

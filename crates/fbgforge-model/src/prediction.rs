@@ -23,6 +23,7 @@
 mod error;
 mod rows;
 mod run;
+pub mod spectrum;
 mod statements;
 mod uncertainty;
 
@@ -142,6 +143,11 @@ pub struct ModelledPrediction {
     /// interval, against the strain limit, with its margin.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub limit_check: Option<LimitCheck>,
+    /// The reflection spectrum the grating will make over the design's force range
+    /// (transfer-matrix model on the FE strain profile along it); `None` unless asked
+    /// (`PredictionRequest.spectrum`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<spectrum::GratingSpectrum>,
     /// The prediction. For FE rows `core_load_share` is NaN (null in JSON): the FE
     /// model does not split the force into the closed form's paths.
     #[serde(flatten)]
@@ -194,6 +200,7 @@ pub fn predict_with_fidelity(
             fidelity: choice,
             band: false,
             design_interval: false,
+            spectrum: false,
             fem_options: *fem_options,
             cache: GeometryCache::default(),
         },
@@ -406,6 +413,11 @@ pub struct PredictionRequest {
     /// stated `cylinders`; they share the nominal's factorisation where they differ
     /// only in the contact radius. Ignored under [`FidelityChoice::ClosedForm`].
     pub design_interval: bool,
+    /// Also predict each row's reflection spectrum over the design's force range
+    /// (`ModelledPrediction.spectrum`, [`spectrum`]): the FE strain profile along the
+    /// grating from the nominal's own solve, through the transfer-matrix model
+    /// (milliseconds per grating; no extra FE solve).
+    pub spectrum: bool,
     /// Mesh and solver of the FE solves (the contact choices come from the design).
     pub fem_options: FemOptions,
     /// Where the FE solves' structures come from and go (the caller's, so solves of
@@ -424,6 +436,7 @@ impl Default for PredictionRequest {
             fidelity: FidelityChoice::Auto,
             band: false,
             design_interval: false,
+            spectrum: false,
             fem_options: FemOptions::default(),
             cache: GeometryCache::default(),
         }
@@ -480,10 +493,15 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
     };
     // Every FE solve the rows need, once each, in one batch.
     let readings = rows::Readings::solve(design, &rows, &models, want, request)?;
-    rows.into_iter()
+    let mut out = rows
+        .into_iter()
         .zip(models)
         .map(|(d, model)| readings.row(d, model, want, request))
-        .collect()
+        .collect::<Result<Vec<_>>>()?;
+    if request.spectrum {
+        spectrum::attach(design, request, |c, g| readings.design_profile(c, g), &mut out)?;
+    }
+    Ok(out)
 }
 
 /// The policy's predictions as the optimiser needs them: fast enough for an inner loop,
