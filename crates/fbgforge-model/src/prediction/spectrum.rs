@@ -25,6 +25,7 @@ use anyhow::{Context, Result};
 use fbgforge_spectra::grating::{
     clean_peak_limit, spectrum_shape, CleanPeakCriteria, Grating, LoadCase, StrainProfile,
 };
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Steps of the force range at which the shape is evaluated before bisection.
@@ -199,39 +200,70 @@ fn warning(name: &str, s: &GratingSpectrum) -> Option<String> {
     ))
 }
 
+/// The spectrum of one row's grating and the warning it earns.
+fn row_spectrum(
+    design: &Design,
+    request: &PredictionRequest,
+    (range, from): (f64, &'static str),
+    fe: Option<&AxialStrainProfile>,
+    row: &ModelledPrediction,
+) -> Result<(GratingSpectrum, Option<String>)> {
+    let p = &row.detail.prediction;
+    let grating = design
+        .bragg_grating(&p.grating)
+        .with_context(|| format!("grating `{}` is not in the design", p.grating))?;
+    let lambda = row.detail.bragg_wavelength_nm;
+    let per_n = p.sensitivity_pm_per_n / design.fiber.shift_pm(lambda, 1.0, 0.0);
+    let (input, source) = match fe {
+        Some(fe) if !fe.strain.is_empty() => (fe_profile(fe, per_n)?, ProfileSource::Fem),
+        _ => (
+            StrainProfile::Uniform(per_n),
+            ProfileSource::UniformClosedForm,
+        ),
+    };
+    let mut s = forward(
+        &grating,
+        &input,
+        request.force_n,
+        range,
+        &CleanPeakCriteria::default(),
+    )
+    .with_context(|| format!("spectrum of grating `{}`", p.grating))?;
+    s.strain_profile = source;
+    s.force_range_from = from;
+    let w = warning(&p.grating, &s);
+    Ok((s, w))
+}
+
 /// Predict the spectrum of every row's grating (`profile`: the FE profile of a
-/// configuration's grating under the design's reading, when one was solved) and warn
-/// the rows whose grating chirps or splits inside the force range.
+/// configuration's grating under the design's reading, when one was solved), rows in
+/// parallel, and warn the rows whose grating chirps or splits inside the force range.
 pub(super) fn attach<'a>(
     design: &Design,
     request: &PredictionRequest,
-    profile: impl Fn(&Configuration, &str) -> Option<&'a AxialStrainProfile>,
+    profile: impl Fn(&Configuration, &str) -> Option<&'a AxialStrainProfile> + Sync,
     rows: &mut [ModelledPrediction],
 ) -> Result<()> {
     let limits = design.module.as_ref().and_then(|m| m.limits);
-    let (range, from) = limits.map_or((request.force_n.abs(), "request"), |l| {
+    let range = limits.map_or((request.force_n.abs(), "request"), |l| {
         (l.max_force_n, "design")
     });
-    let criteria = CleanPeakCriteria::default();
-    for row in rows.iter_mut() {
-        let p = &row.detail.prediction;
-        let grating = design
-            .bragg_grating(&p.grating)
-            .with_context(|| format!("grating `{}` is not in the design", p.grating))?;
-        let lambda = row.detail.bragg_wavelength_nm;
-        let per_n = p.sensitivity_pm_per_n / design.fiber.shift_pm(lambda, 1.0, 0.0);
-        let (input, source) = match profile(&config_of(p), &p.grating) {
-            Some(fe) if !fe.strain.is_empty() => (fe_profile(fe, per_n)?, ProfileSource::Fem),
-            _ => (
-                StrainProfile::Uniform(per_n),
-                ProfileSource::UniformClosedForm,
-            ),
-        };
-        let mut s = forward(&grating, &input, request.force_n, range, &criteria)
-            .with_context(|| format!("spectrum of grating `{}`", p.grating))?;
-        s.strain_profile = source;
-        s.force_range_from = from;
-        if let Some(w) = warning(&p.grating, &s) {
+    let spectra: Vec<Result<(GratingSpectrum, Option<String>)>> = rows
+        .par_iter()
+        .map(|row| {
+            let p = &row.detail.prediction;
+            row_spectrum(
+                design,
+                request,
+                range,
+                profile(&config_of(p), &p.grating),
+                row,
+            )
+        })
+        .collect();
+    for (row, s) in rows.iter_mut().zip(spectra) {
+        let (s, w) = s?;
+        if let Some(w) = w {
             row.detail.prediction.warnings.push(w);
         }
         row.spectrum = Some(s);
