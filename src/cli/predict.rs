@@ -26,6 +26,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("PredictionRequest.fidelity", "--fidelity"),
     ("PredictionRequest.fem_options", "--mesh-level"),
     ("PredictionRequest.refine_to_level", "--mesh-level"),
+    ("PredictionRequest.spectrum", "--no-spectrum"),
     ("SweepRequest.force_n", "--force-n"),
     ("SweepRequest.start", "--from"),
     ("SweepRequest.stop", "--to"),
@@ -94,6 +95,11 @@ pub struct PredictArgs {
     #[arg(long, value_name = "K",
           value_parser = clap::value_parser!(u32).range(i64::from(fbgforge::fem::FemOptions::MIN_MESH_LEVEL)..=i64::from(fbgforge::fem::FemOptions::MAX_MESH_LEVEL)))]
     pub mesh_level: Option<u32>,
+    /// Skip each grating's reflection spectrum over the design's force range (the
+    /// transfer-matrix model on the FE strain profile along the grating, read from the
+    /// same solve: milliseconds per grating, no extra finite-element solve).
+    #[arg(long)]
+    pub no_spectrum: bool,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -222,6 +228,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
             Some(_) => None,
             None => Some(FemOptions::AUTO_FINEST_MESH_LEVEL),
         },
+        spectrum: !a.no_spectrum,
         ..Default::default()
     };
     request.check()?;

@@ -26,5 +26,6 @@ pub mod reconstruct_flags;
 pub mod reconstruct_scaling;
 pub mod sheet;
 pub mod spectra;
+pub mod spectrum_forward;
 pub mod verdicts;
 pub mod verify;

@@ -47,6 +47,9 @@ enum Study {
     /// standard error, no flag) over SNR, width, line shape, neighbours, tilt and
     /// saturation.
     Spectra(studies::spectra::SpectraStudyArgs),
+    /// The spectrum a design will make: predict's "one clean peak over the force
+    /// range" on random long, strong, apodised gratings against a dense scan.
+    SpectrumForward(studies::spectrum_forward::SpectrumForwardArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
     /// Verdicts against their alternatives: random scenarios with known truth,
@@ -68,6 +71,7 @@ fn main() -> ExitCode {
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
         Study::Sheet(a) => studies::sheet::run(&a),
         Study::Spectra(a) => studies::spectra::run(&a),
+        Study::SpectrumForward(a) => studies::spectrum_forward::run(&a),
         Study::Verify(a) => studies::verify::run(&a),
         Study::Verdicts(a) => studies::verdicts::run(&a),
     };

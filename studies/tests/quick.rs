@@ -545,6 +545,26 @@ fn spectra_study_quick_counts_few_confidently_wrong_peaks() {
     assert_eq!(csv.lines().count(), 301);
 }
 
+#[test]
+fn spectrum_forward_study_quick_agrees_with_the_dense_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = fbgforge_studies::spectrum_forward::SpectrumForwardArgs {
+        scenarios: 0,
+        seed: 36,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    let (rows, s) = fbgforge_studies::spectrum_forward::run_study(&a).unwrap();
+    assert_eq!(s.scenarios, 8);
+    // The draws stay inside the spec's ranges: predict answers every one.
+    assert_eq!(s.refused, 0, "{rows:?}");
+    // No missed warning and no force off on the quick draws (the full study states
+    // its rate with its interval in docs/spectra.md §8).
+    assert_eq!(s.confidently_wrong, 0, "{rows:?}");
+    let csv = std::fs::read_to_string(dir.path().join("spectrum-forward-scenarios.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 9);
+}
+
 /// Run the verdict study (`only`: one class) and read its rows: (class, clock,
 /// given verdict, reason code, outcome).
 fn verdict_rows(

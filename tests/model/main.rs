@@ -16,6 +16,7 @@ mod model_cli;
 mod model_error;
 mod model_policy;
 mod spec;
+mod spectrum_forward;
 mod sweep_chart;
 
 /// The finite-element structures of this test binary's solves: the tests own one

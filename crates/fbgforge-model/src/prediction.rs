@@ -23,6 +23,7 @@
 mod error;
 mod rows;
 mod run;
+pub mod spectrum;
 mod statements;
 mod uncertainty;
 
@@ -149,6 +150,11 @@ pub struct ModelledPrediction {
     /// custom mesh.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mesh_level: Option<u32>,
+    /// The reflection spectrum the grating will make over the design's force range
+    /// (transfer-matrix model on the FE strain profile along it); `None` unless asked
+    /// (`PredictionRequest.spectrum`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<spectrum::GratingSpectrum>,
     /// The prediction. For FE rows `core_load_share` is NaN (null in JSON): the FE
     /// model does not split the force into the closed form's paths.
     #[serde(flatten)]
@@ -201,6 +207,7 @@ pub fn predict_with_fidelity(
             fidelity: choice,
             band: false,
             design_interval: false,
+            spectrum: false,
             fem_options: *fem_options,
             // The mesh exactly as the caller gives it.
             refine_to_level: None,
@@ -415,6 +422,11 @@ pub struct PredictionRequest {
     /// stated `cylinders`; they share the nominal's factorisation where they differ
     /// only in the contact radius. Ignored under [`FidelityChoice::ClosedForm`].
     pub design_interval: bool,
+    /// Also predict each row's reflection spectrum over the design's force range
+    /// (`ModelledPrediction.spectrum`, [`spectrum`]): the FE strain profile along the
+    /// grating from the nominal's own solve, through the transfer-matrix model
+    /// (milliseconds per grating; no extra FE solve).
+    pub spectrum: bool,
     /// Mesh and solver of the FE solves (the contact choices come from the design).
     pub fem_options: FemOptions,
     /// When set and `fem_options` is a policy mesh (`FemOptions::mesh_level`): the
@@ -440,6 +452,7 @@ impl Default for PredictionRequest {
             fidelity: FidelityChoice::Auto,
             band: false,
             design_interval: false,
+            spectrum: false,
             fem_options: FemOptions::default(),
             refine_to_level: Some(FemOptions::AUTO_FINEST_MESH_LEVEL),
             cache: GeometryCache::default(),
@@ -503,6 +516,11 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
         .map(|(d, &model)| readings.row(d.clone(), model, want, request))
         .collect::<Result<Vec<_>>>()?;
     rows::refine(design, &rows, &models, want, request, &mut answered)?;
+    if request.spectrum {
+        // The profile's shape from the first solve, scaled to each row's nominal (a
+        // refined row keeps its finer mean; the shape changes far less than the level).
+        spectrum::attach(design, request, |c, g| readings.design_profile(c, g), &mut answered)?;
+    }
     Ok(answered)
 }
 

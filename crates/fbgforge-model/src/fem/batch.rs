@@ -434,9 +434,12 @@ impl Batch {
                     _ => &task_sol.base,
                 };
                 let mut strain_per_n = Vec::new();
+                let mut strain_profile_per_n = Vec::new();
                 for g in &prepared.gratings {
-                    let e = model.mean_axial_strain(sol, g.z_start_mm, g.z_end_mm)?;
-                    strain_per_n.push((g.name.clone(), g.bragg_wavelength_nm, e));
+                    // The mean is the profile's own quadrature: one read-out for both.
+                    let profile = model.axial_strain_profile(sol, g.z_start_mm, g.z_end_mm)?;
+                    strain_per_n.push((g.name.clone(), g.bragg_wavelength_nm, profile.mean()));
+                    strain_profile_per_n.push(profile);
                 }
                 let structure_s = solved.structures[u.geometry]
                     .as_ref()
@@ -445,6 +448,7 @@ impl Batch {
                     configuration: u.config.clone(),
                     strain_per_n,
                     extrapolation_per_n: None,
+                    strain_profile_per_n,
                     unknowns: sol.unknowns,
                     elements: model.problem.mesh.elements.len(),
                     solve_time_s: geo.build_time_s
@@ -486,9 +490,16 @@ impl Batch {
                         .zip(&step)
                         .map(|((name, lambda, ef), d)| (name.clone(), *lambda, ef + d))
                         .collect();
+                    let strain_profile_per_n = fine
+                        .strain_profile_per_n
+                        .iter()
+                        .zip(&step)
+                        .map(|(p, d)| p.shifted(*d))
+                        .collect();
                     Ok(ConfigurationResult {
                         strain_per_n,
                         extrapolation_per_n: Some(step),
+                        strain_profile_per_n,
                         solve_time_s: fine.solve_time_s + coarse.solve_time_s,
                         ..fine
                     })

@@ -26,7 +26,7 @@ pub mod module;
 pub mod solve;
 
 pub use module::{
-    ContactReading, DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind,
+    AxialStrainProfile, ContactReading, DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind,
 };
 
 use crate::model::GratingPrediction;
@@ -53,6 +53,12 @@ pub struct ConfigurationResult {
     /// extrapolation.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub extrapolation_per_n: Option<Vec<f64>>,
+    /// Per grating (in `strain_per_n`'s order): the axial strain per newton sampled
+    /// along it, from the same solve (its weighted mean is the grating's strain per
+    /// newton; under Richardson extrapolation the fine mesh's profile shifted by the
+    /// step). Empty for contact readings with unilateral pairs, which read means only.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub strain_profile_per_n: Vec<AxialStrainProfile>,
     /// Unknowns solved for.
     pub unknowns: usize,
     /// Elements in the mesh.
@@ -112,6 +118,7 @@ fn solve_contact_configuration(
             .map(|g| (g.name.clone(), g.bragg_wavelength_nm, g.strain[0]))
             .collect(),
         extrapolation_per_n: None,
+        strain_profile_per_n: Vec::new(),
         unknowns: r.unknowns,
         elements: r.elements,
         solve_time_s: start.elapsed().as_secs_f64(),

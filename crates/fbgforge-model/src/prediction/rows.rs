@@ -10,7 +10,9 @@ use super::{
     apply_fem_strain, config_of, BandReadings, Fidelity, ModelledPrediction, PredictionRequest,
     DEFAULT_CONTACT_WARNING,
 };
-use crate::fem::{solve_configurations, ContactReading, FemOptions, GeometryCache};
+use crate::fem::{
+    solve_configurations, AxialStrainProfile, ContactReading, FemOptions, GeometryCache,
+};
 use crate::model::{self, Configuration, DetailedPrediction, LoadCase, PredictOptions};
 use crate::spec::{Design, Module};
 use anyhow::{Context, Result};
@@ -26,14 +28,18 @@ pub(super) struct FeJob {
 /// took (`None` without extrapolation).
 type JobStrain = (String, f64, Option<f64>);
 
+/// A job's gratings' strain per newton sampled along them (empty for readings that
+/// read means only).
+type JobProfiles = Vec<AxialStrainProfile>;
+
 /// Solve every job once (one batch, in parallel): per job, each grating's strain per
-/// newton and extrapolation step.
+/// newton and extrapolation step, and its profile along the grating.
 pub(super) fn solve_jobs(
     design: &Design,
     jobs: &[FeJob],
     fem_options: &FemOptions,
     cache: &GeometryCache,
-) -> Result<Vec<Vec<JobStrain>>> {
+) -> Result<Vec<(Vec<JobStrain>, JobProfiles)>> {
     let m = design
         .module
         .as_ref()
@@ -61,11 +67,13 @@ pub(super) fn solve_jobs(
                 )
             })?;
             let steps = r.extrapolation_per_n.clone();
-            Ok(r.strain_per_n
+            let strains = r
+                .strain_per_n
                 .into_iter()
                 .enumerate()
                 .map(|(i, (name, _, e))| (name, e, steps.as_ref().map(|s| s[i])))
-                .collect())
+                .collect();
+            Ok((strains, r.strain_profile_per_n))
         })
         .collect()
 }
@@ -76,6 +84,7 @@ pub(super) struct Readings<'a> {
     m: &'a Module,
     jobs: Vec<FeJob>,
     solved: Vec<Vec<JobStrain>>,
+    profiles: Vec<JobProfiles>,
 }
 
 /// Which readings a row gets besides its nominal.
@@ -129,13 +138,32 @@ impl<'a> Readings<'a> {
                 add(&c, ContactReading::WindowHigh);
             }
         }
-        let solved = solve_jobs(design, &jobs, &request.fem_options, &request.cache)?;
+        let (solved, profiles) = solve_jobs(design, &jobs, &request.fem_options, &request.cache)?
+            .into_iter()
+            .unzip();
         Ok(Readings {
             design,
             m,
             jobs,
             solved,
+            profiles,
         })
+    }
+
+    /// The strain per newton along `grating` of `config` under the design's reading,
+    /// from the solve that gave its nominal; `None` when no such solve ran (a
+    /// closed-form row without a design interval) or it read means only.
+    pub(super) fn design_profile(
+        &self,
+        config: &Configuration,
+        grating: &str,
+    ) -> Option<&AxialStrainProfile> {
+        let i = self
+            .jobs
+            .iter()
+            .position(|j| &j.config == config && j.reading == ContactReading::Design)?;
+        let k = self.solved[i].iter().position(|(n, _, _)| n == grating)?;
+        self.profiles[i].get(k)
     }
 
     /// The strain per newton of `d`'s grating under `reading`, with its step.
@@ -258,6 +286,7 @@ impl<'a> Readings<'a> {
             design_interval_pm_per_n: interval.map(|(iv, _)| iv),
             design_interval_readings: interval.map(|(_, r)| r),
             limit_check,
+            spectrum: None,
             detail: d,
         };
         row_warnings(&mut row, m);

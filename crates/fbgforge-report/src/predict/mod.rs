@@ -8,6 +8,7 @@
 //! words (`fbgforge_core::fields::InWords`).
 
 pub mod array;
+mod spectrum;
 mod sweep;
 mod table;
 

@@ -48,6 +48,7 @@ impl<W: Write> PredictSink for PredictTable<W> {
         for (i, n) in notes.0.iter().enumerate() {
             writeln!(out, "[{}] {n}", i + 1)?;
         }
+        super::spectrum::write(out, p.rows)?;
         if let Some(s) = p.statements {
             statements(out, s)?;
         }

@@ -75,6 +75,7 @@ mod walls;
 pub use options::{
     ContactReading, DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind,
 };
+pub use readings::AxialStrainProfile;
 
 use super::contact::ContactPair;
 use super::element::ElasticConstants;
