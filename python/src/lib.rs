@@ -820,7 +820,12 @@ fn synth_log<'py>(
                     None => None,
                     Some("I" | "i" | "1") => Some(fbgforge::model::LoadCase::I),
                     Some("II" | "ii" | "2") => Some(fbgforge::model::LoadCase::II),
-                    Some(other) => return Err(input(py, format!("case `{other}`: expected \"I\" or \"II\""))),
+                    Some(other) => {
+                        return Err(input(
+                            py,
+                            format!("case `{other}`: expected \"I\" or \"II\""),
+                        ))
+                    }
                 };
                 let source = fbgforge::synth::from_model::ModelSource {
                     core: core.clone(),
@@ -834,10 +839,15 @@ fn synth_log<'py>(
                 Vec::new()
             };
             let mut peaks_n: Vec<f64> = get("pulses_n")?.extract()?;
-            if !grating_sensitivity_pm_per_n.is_empty() && peaks_n == [10.0, 20.0, 30.0, 40.0, 50.0, 25.0] {
+            if !grating_sensitivity_pm_per_n.is_empty()
+                && peaks_n == [10.0, 20.0, 30.0, 40.0, 50.0, 25.0]
+            {
                 // The default protocol scaled so that the model's shifts stay in their
                 // windows, as `synth-log --from-model` does.
-                let top = fbgforge::synth::from_model::largest_force_n(&design.design, &grating_sensitivity_pm_per_n);
+                let top = fbgforge::synth::from_model::largest_force_n(
+                    &design.design,
+                    &grating_sensitivity_pm_per_n,
+                );
                 peaks_n.iter_mut().for_each(|p| *p = *p / 50.0 * top);
             }
             let (pulses, duration_s) = train(&TrainSettings {

@@ -40,11 +40,15 @@ pub(crate) fn stated_problem(
     significance: Option<f64>,
 ) -> PyResult<SensingProblem> {
     let (m, n) = matrix.shape();
-    let words = |e: fbgforge::array::ArrayError| input(py, errors::python_words(&e.to_string(), &[]));
+    let words =
+        |e: fbgforge::array::ArrayError| input(py, errors::python_words(&e.to_string(), &[]));
     let mut uncertainty = Uncertainty::paper(m, n, resolution_pm);
     if let Some(pct) = matrix_sd_pct {
         if !(pct.is_finite() && pct >= 0.0) {
-            return Err(input(py, format!("matrix_sd_pct must be a percentage ≥ 0, got {pct}")));
+            return Err(input(
+                py,
+                format!("matrix_sd_pct must be a percentage ≥ 0, got {pct}"),
+            ));
         }
         uncertainty.matrix_sd_pm_per_g = matrix.map(|v| v.abs() * pct / 100.0);
     }
@@ -107,10 +111,14 @@ impl Reconstructor {
         )?;
         let kept: Vec<usize> = keep.unwrap_or_else(|| (0..m).collect());
         if kept.is_empty() || kept.iter().any(|&i| i >= m) {
-            return Err(input(py, format!("keep must name gratings 0 to {} (at least one)", m - 1)));
+            return Err(input(
+                py,
+                format!("keep must name gratings 0 to {} (at least one)", m - 1),
+            ));
         }
         let dropped: Vec<usize> = (0..m).filter(|i| !kept.contains(i)).collect();
-        let words = |e: fbgforge::array::ArrayError| input(py, errors::python_words(&e.to_string(), &[]));
+        let words =
+            |e: fbgforge::array::ArrayError| input(py, errors::python_words(&e.to_string(), &[]));
         let problem = if dropped.is_empty() {
             full
         } else {
@@ -149,7 +157,11 @@ impl Reconstructor {
         if y.len() != self.gratings {
             return Err(input(
                 py,
-                format!("a frame holds {} shifts but the sensing matrix has {} gratings", y.len(), self.gratings),
+                format!(
+                    "a frame holds {} shifts but the sensing matrix has {} gratings",
+                    y.len(),
+                    self.gratings
+                ),
             ));
         }
         let rows: Vec<f64> = self.kept.iter().map(|&i| y[i]).collect();
@@ -168,7 +180,11 @@ impl Reconstructor {
         if yv.ncols() != self.gratings {
             return Err(input(
                 py,
-                format!("a frame holds {} shifts but the sensing matrix has {} gratings", yv.ncols(), self.gratings),
+                format!(
+                    "a frame holds {} shifts but the sensing matrix has {} gratings",
+                    yv.ncols(),
+                    self.gratings
+                ),
             ));
         }
         let frames: Vec<Vec<f64>> = yv

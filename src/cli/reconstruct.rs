@@ -19,7 +19,10 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("ReconstructRequest.budget_us", "--budget-us"),
     ("ReconstructRequest.significance", "--significance"),
     ("ReconstructRequest.window_pm", "--window-pm"),
-    ("ReconstructRequest.dead_grating_check", "--keep-all-gratings"),
+    (
+        "ReconstructRequest.dead_grating_check",
+        "--keep-all-gratings",
+    ),
     ("SensingProblem.significance", "--significance"),
     ("ReconstructRequest.max_loads", "--max-loads"),
     ("ReconstructRequest.resolution_pm", "--resolution-pm"),

@@ -321,7 +321,12 @@ pub struct SynthLogArgs {
     #[arg(long)]
     pub core: Option<String>,
     /// Static K of the core's first grating, pm/N (the k-th gets K·(1 − 0.15 k)).
-    #[arg(long, default_value_t = 12.0, allow_hyphen_values = true, conflicts_with = "from_model")]
+    #[arg(
+        long,
+        default_value_t = 12.0,
+        allow_hyphen_values = true,
+        conflicts_with = "from_model"
+    )]
     pub k_pm_per_n: f64,
     /// Every grating of the core gets the K the design's model predicts (for --case and
     /// --insert; Case II by default, as `verify` judges): a log on which `verify` PASSes.
@@ -408,7 +413,12 @@ pub struct SynthLogArgs {
     /// imon-pixels: the pixel calibration a0,a1,… written with the log (default: 512
     /// pixels from 1595 down to 1510 nm, 166 pm per pixel, as an I-MON 512); read the
     /// log back with the same --imon-calibration.
-    #[arg(long, value_name = "A0,A1,…", value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "A0,A1,…",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
     pub imon_calibration: Vec<f64>,
     /// imon-pixels: each grating's reflection line shape: the transfer-matrix model of the
     /// design's grating (its length, `[fiber]` index_modulation and apodisation) or a
@@ -568,7 +578,10 @@ fn synth_config(a: &SynthLogArgs, design: &fbgforge::spec::Design) -> Result<syn
 const DEFAULT_PULSES_N: [f64; 6] = [10.0, 20.0, 30.0, 40.0, 50.0, 25.0];
 
 /// The K's set by name: `--grating-k`, and with `--from-model` the model's under them.
-fn synth_grating_k(a: &SynthLogArgs, design: &fbgforge::spec::Design) -> Result<Vec<(String, f64)>> {
+fn synth_grating_k(
+    a: &SynthLogArgs,
+    design: &fbgforge::spec::Design,
+) -> Result<Vec<(String, f64)>> {
     let grating_k = a
         .grating_k
         .iter()
@@ -616,7 +629,10 @@ fn from_model_k(
             None => k.push((name, v)),
         }
     }
-    println!("{}", fbgforge::report::synth::model_k_line(source.load_case(), source.insert.as_deref(), &k));
+    println!(
+        "{}",
+        fbgforge::report::synth::model_k_line(source.load_case(), source.insert.as_deref(), &k)
+    );
     Ok(k)
 }
 
@@ -718,7 +734,10 @@ mod tests {
     #[test]
     fn registered_names_are_the_command_line_names() {
         let args = LogFormatArg::value_variants();
-        let all: Vec<LogFormat> = LogFormat::ALL.into_iter().chain(LogFormat::SPECTRA).collect();
+        let all: Vec<LogFormat> = LogFormat::ALL
+            .into_iter()
+            .chain(LogFormat::SPECTRA)
+            .collect();
         assert_eq!(args.len(), all.len());
         for (arg, &format) in args.iter().zip(&all) {
             let cli = arg.to_possible_value().expect("every format is a value");

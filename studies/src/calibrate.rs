@@ -28,7 +28,9 @@
 //! without a fault given an unusable fault; warnings counted apart.
 
 use anyhow::Result;
-use fbgforge::array::calibrate::{self, analyse, AnalysisInputs, Calibration, FaultKind, Loading, RunData, Severity};
+use fbgforge::array::calibrate::{
+    self, analyse, AnalysisInputs, Calibration, FaultKind, Loading, RunData, Severity,
+};
 use fbgforge::array::kernel::model_matrix;
 use fbgforge::output::{write_csv, write_json};
 use nalgebra::DMatrix;
@@ -101,13 +103,23 @@ impl Hands {
         if t < t0 {
             return 0.0;
         }
-        let press = if self.press_s > 0.0 { ((t - t0) / self.press_s).min(1.0) } else { 1.0 };
+        let press = if self.press_s > 0.0 {
+            ((t - t0) / self.press_s).min(1.0)
+        } else {
+            1.0
+        };
         press * (1.0 - self.creep * (-(t - t0) / self.tau_s).exp())
     }
 }
 
 /// Loads that really happened (each edge moved by the hand) → shifts.
-fn shifts(truth: &DMatrix<f64>, events: &[Loading], h: &Hands, drift: Option<(usize, f64)>, rng: &mut ChaCha8Rng) -> RunData {
+fn shifts(
+    truth: &DMatrix<f64>,
+    events: &[Loading],
+    h: &Hands,
+    drift: Option<(usize, f64)>,
+    rng: &mut ChaCha8Rng,
+) -> RunData {
     let end = events.iter().map(|e| e.end_s).fold(0.0, f64::max) + 10.0;
     let n = (end * h.rate_hz) as usize;
     let time_s: Vec<f64> = (0..n).map(|k| k as f64 / h.rate_hz).collect();
@@ -150,7 +162,12 @@ fn schedule(rng: &mut ChaCha8Rng, n_cells: usize, staircase: bool) -> Vec<Loadin
         let step_s = rng.random_range(4.0..6.0);
         for _ in 0..rng.random_range(2..=4) {
             for k in (1..=top).chain((1..top).rev()) {
-                out.push(Loading { start_s: t, end_s: t + step_s, cell, load_g: step * k as f64 });
+                out.push(Loading {
+                    start_s: t,
+                    end_s: t + step_s,
+                    cell,
+                    load_g: step * k as f64,
+                });
                 t += step_s;
             }
             t += 2.0 * step_s;
@@ -164,7 +181,12 @@ fn schedule(rng: &mut ChaCha8Rng, n_cells: usize, staircase: bool) -> Vec<Loadin
     let load_g = rng.random_range(100.0..300.0f64).round();
     for cell in order {
         let on = rng.random_range(6.0..15.0);
-        out.push(Loading { start_s: t, end_s: t + on, cell, load_g });
+        out.push(Loading {
+            start_s: t,
+            end_s: t + on,
+            cell,
+            load_g,
+        });
         t += on + rng.random_range(6.0..15.0);
     }
     out
@@ -204,7 +226,12 @@ struct Expect {
 }
 
 /// Make and analyse one run of `scenario`.
-fn one_run(scenario: &str, base: &DMatrix<f64>, inputs: &Fixed, rng: &mut ChaCha8Rng) -> Result<(Calibration, DMatrix<f64>, Option<Expect>)> {
+fn one_run(
+    scenario: &str,
+    base: &DMatrix<f64>,
+    inputs: &Fixed,
+    rng: &mut ChaCha8Rng,
+) -> Result<(Calibration, DMatrix<f64>, Option<Expect>)> {
     let (n_g, n_c) = base.shape();
     let scale = rng.random_range(0.6..1.6);
     let mut truth = base.map(|v| v * scale * (0.05 * rand_distr_normal(rng)).exp());
@@ -217,7 +244,9 @@ fn one_run(scenario: &str, base: &DMatrix<f64>, inputs: &Fixed, rng: &mut ChaCha
     }
     // Contiguous staircase steps share their edges: one hand, one time.
     for k in 1..events.len() {
-        if (sched[k].start_s - sched[k - 1].end_s).abs() < 1e-9 && sched[k].cell == sched[k - 1].cell {
+        if (sched[k].start_s - sched[k - 1].end_s).abs() < 1e-9
+            && sched[k].cell == sched[k - 1].cell
+        {
             events[k].start_s = events[k - 1].end_s;
         }
     }
@@ -237,30 +266,59 @@ fn one_run(scenario: &str, base: &DMatrix<f64>, inputs: &Fixed, rng: &mut ChaCha
             let a = rng.random_range(0..n_g);
             let b = (a + rng.random_range(1..n_g)) % n_g;
             truth.swap_rows(a, b);
-            expect = Some(Expect { kinds: vec![FaultKind::SwappedGratings], grating: Some(inputs.gratings[a].clone()), cell: None });
+            expect = Some(Expect {
+                kinds: vec![FaultKind::SwappedGratings],
+                grating: Some(inputs.gratings[a].clone()),
+                cell: None,
+            });
         }
         "drift" => {
             let g = rng.random_range(0..n_g);
-            drift = Some((g, rng.random_range(3.0..10.0) * if rng.random_bool(0.5) { 1.0 } else { -1.0 }));
-            expect = Some(Expect { kinds: vec![FaultKind::Drift], grating: Some(inputs.gratings[g].clone()), cell: None });
+            drift = Some((
+                g,
+                rng.random_range(3.0..10.0) * if rng.random_bool(0.5) { 1.0 } else { -1.0 },
+            ));
+            expect = Some(Expect {
+                kinds: vec![FaultKind::Drift],
+                grating: Some(inputs.gratings[g].clone()),
+                cell: None,
+            });
         }
         "duplicate" => {
             let k = rng.random_range(1..events.len());
             let never = events[k].cell;
             events[k].cell = events[k - 1].cell;
-            expect = Some(Expect { kinds: vec![FaultKind::CollinearCells, FaultKind::UnloadedCell, FaultKind::ScheduleMisaligned], grating: None, cell: Some(label(never)) });
+            expect = Some(Expect {
+                kinds: vec![
+                    FaultKind::CollinearCells,
+                    FaultKind::UnloadedCell,
+                    FaultKind::ScheduleMisaligned,
+                ],
+                grating: None,
+                cell: Some(label(never)),
+            });
         }
         "missing_step" => {
             let k = rng.random_range(0..events.len());
             let gone = events.remove(k).cell;
-            expect = Some(Expect { kinds: vec![FaultKind::ScheduleMisaligned, FaultKind::UnloadedCell], grating: None, cell: Some(label(gone)) });
+            expect = Some(Expect {
+                kinds: vec![FaultKind::ScheduleMisaligned, FaultKind::UnloadedCell],
+                grating: None,
+                cell: Some(label(gone)),
+            });
         }
         "negative" => {
             // The entry whose cell is farthest from the grating (the smallest).
             let g = rng.random_range(0..n_g);
-            let c = (0..n_c).min_by(|&x, &y| base[(g, x)].total_cmp(&base[(g, y)])).unwrap_or(0);
+            let c = (0..n_c)
+                .min_by(|&x, &y| base[(g, x)].total_cmp(&base[(g, y)]))
+                .unwrap_or(0);
             truth[(g, c)] = -rng.random_range(0.03..0.08);
-            expect = Some(Expect { kinds: vec![FaultKind::NegativeEntry], grating: Some(inputs.gratings[g].clone()), cell: Some(label(c)) });
+            expect = Some(Expect {
+                kinds: vec![FaultKind::NegativeEntry],
+                grating: Some(inputs.gratings[g].clone()),
+                cell: Some(label(c)),
+            });
         }
         _ => {}
     }
@@ -287,7 +345,13 @@ struct Fixed {
 }
 
 /// Judge one run.
-fn judge(scenario: &str, run: usize, c: &Calibration, truth: &DMatrix<f64>, expect: Option<&Expect>) -> RunRow {
+fn judge(
+    scenario: &str,
+    run: usize,
+    c: &Calibration,
+    truth: &DMatrix<f64>,
+    expect: Option<&Expect>,
+) -> RunRow {
     let top = truth.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     let mut worst: f64 = 0.0;
     for (g, row) in c.matrix_pm_per_g.iter().enumerate() {
@@ -297,7 +361,11 @@ fn judge(scenario: &str, run: usize, c: &Calibration, truth: &DMatrix<f64>, expe
             }
         }
     }
-    let unusable: Vec<&calibrate::Fault> = c.faults.iter().filter(|f| f.severity == Severity::Unusable).collect();
+    let unusable: Vec<&calibrate::Fault> = c
+        .faults
+        .iter()
+        .filter(|f| f.severity == Severity::Unusable)
+        .collect();
     let named = expect.is_some_and(|e| {
         c.faults.iter().any(|f| {
             e.kinds.contains(&f.kind)
@@ -314,8 +382,14 @@ fn judge(scenario: &str, run: usize, c: &Calibration, truth: &DMatrix<f64>, expe
         missed: expect.is_some() && (c.usable || !named),
         false_fault: expect.is_none() && !unusable.is_empty(),
         warnings: c.faults.len() - unusable.len(),
-        kinds: unusable.iter().map(|f| f.kind.name()).collect::<Vec<_>>().join(";"),
-        first_reason: unusable.first().map_or_else(String::new, |f| f.reason.clone()),
+        kinds: unusable
+            .iter()
+            .map(|f| f.kind.name())
+            .collect::<Vec<_>>()
+            .join(";"),
+        first_reason: unusable
+            .first()
+            .map_or_else(String::new, |f| f.reason.clone()),
     }
 }
 
@@ -351,8 +425,10 @@ pub fn run(a: &CalibrateStudyArgs) -> Result<()> {
     let mut rows = Vec::new();
     for (s, scenario) in SCENARIOS.iter().enumerate() {
         for r in 0..runs {
-            let mut rng = ChaCha8Rng::seed_from_u64(SEED_OFFSET + a.seed * 100_000 + (s * 10_000 + r) as u64);
-            let (c, truth, expect) = one_run(scenario, &base.sensitivity_pm_per_g, &fixed, &mut rng)?;
+            let mut rng =
+                ChaCha8Rng::seed_from_u64(SEED_OFFSET + a.seed * 100_000 + (s * 10_000 + r) as u64);
+            let (c, truth, expect) =
+                one_run(scenario, &base.sensitivity_pm_per_g, &fixed, &mut rng)?;
             rows.push(judge(scenario, r, &c, &truth, expect.as_ref()));
         }
     }
@@ -383,14 +459,28 @@ pub fn summarise(rows: &[RunRow]) -> Vec<ScenarioCounts> {
 fn table(counts: &[ScenarioCounts]) -> String {
     let mut t = String::from("| scenario | runs | confidently wrong | missed fault | false fault | warned |\n|---|---|---|---|---|---|\n");
     for c in counts {
-        t.push_str(&format!("| {} | {} | {} | {} | {} | {} |\n", c.scenario, c.runs, c.confidently_wrong, c.missed, c.false_faults, c.warned));
+        t.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            c.scenario, c.runs, c.confidently_wrong, c.missed, c.false_faults, c.warned
+        ));
     }
     t
 }
 
 fn write_outputs(out: &Path, rows: &[RunRow], counts: &[ScenarioCounts]) -> Result<()> {
     std::fs::create_dir_all(out)?;
-    let header = ["scenario", "run", "usable", "worst_error_ratio", "confidently_wrong", "missed", "false_fault", "warnings", "kinds", "first_reason"];
+    let header = [
+        "scenario",
+        "run",
+        "usable",
+        "worst_error_ratio",
+        "confidently_wrong",
+        "missed",
+        "false_fault",
+        "warnings",
+        "kinds",
+        "first_reason",
+    ];
     let body: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {

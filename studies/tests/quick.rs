@@ -222,7 +222,10 @@ fn reconstruct_fault_study_quick_flags_what_it_misses_and_names_the_dead_grating
         // Issue 35: the stream diagnosis fits the common offset by itself, so bnb
         // without --common-mode recovers what bnb with it does on the offset stream.
         let (cm, plain) = (row(array, "offset", "bnb +cm"), row(array, "offset", "bnb"));
-        assert!(f(plain, "rr_pct") >= f(cm, "rr_pct") - 5.0, "{cm} against {plain}");
+        assert!(
+            f(plain, "rr_pct") >= f(cm, "rr_pct") - 5.0,
+            "{cm} against {plain}"
+        );
         // With every fault, most missed frames carry a flag; few clean ones do.
         let all = row(array, "all", "bnb");
         assert!(f(all, "flag_recall_pct") >= 50.0, "{all}");
@@ -276,7 +279,13 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
         }
         // A clean stream: no suspect, no offset; a dead grating and an offset found.
         let clean = row(array, "clean", "bnb");
-        assert_eq!((clean["wrong_suspects"].as_u64(), clean["common_mode_streams"].as_u64()), (Some(0), Some(0)));
+        assert_eq!(
+            (
+                clean["wrong_suspects"].as_u64(),
+                clean["common_mode_streams"].as_u64()
+            ),
+            (Some(0), Some(0))
+        );
         assert_eq!(row(array, "dead", "bnb")["diagnosis_right"], 1);
         assert_eq!(row(array, "offset", "bnb")["common_mode_streams"], 1);
         // Absurd frames (3 % of the stream) are unusable for every method, and
@@ -313,10 +322,19 @@ fn reconstruct_budget_study_quick_compares_the_default_with_certified_bnb_per_lo
         assert_eq!(r["certified"], r["frames"], "{r}");
     }
     for r in rows {
-        assert!(r["mean_us"].as_f64().unwrap() > 0.0 && r["estimated_us"].as_f64().unwrap() > 0.0, "{r}");
-        assert!((0.0..=100.0).contains(&r["rr_pct"].as_f64().unwrap()), "{r}");
+        assert!(
+            r["mean_us"].as_f64().unwrap() > 0.0 && r["estimated_us"].as_f64().unwrap() > 0.0,
+            "{r}"
+        );
+        assert!(
+            (0.0..=100.0).contains(&r["rr_pct"].as_f64().unwrap()),
+            "{r}"
+        );
     }
-    assert!(rows.iter().any(|r| r["entry"].as_str().unwrap().starts_with("default 100 µs → ")));
+    assert!(rows.iter().any(|r| r["entry"]
+        .as_str()
+        .unwrap()
+        .starts_with("default 100 µs → ")));
 }
 
 #[test]
@@ -586,7 +604,13 @@ fn verdict_rows(
     let csv = std::fs::read_to_string(dir.join("verdicts.csv")).unwrap();
     let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
-    let (c, k, g, r, o) = (col("class"), col("clock"), col("given"), col("code"), col("outcome"));
+    let (c, k, g, r, o) = (
+        col("class"),
+        col("clock"),
+        col("given"),
+        col("code"),
+        col("outcome"),
+    );
     let rows = csv
         .lines()
         .skip(1)
@@ -622,7 +646,11 @@ fn verdict_study_quick_gives_no_confidently_wrong_verdict() {
 fn class_holds(class: &str, n: usize, codes: &[&str], definite: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let (s, rows) = verdict_rows(dir.path(), n, 1000, Some(class), false);
-    assert_eq!(s["confidently_wrong"].as_u64(), Some(0), "{class}: {s} {rows:?}");
+    assert_eq!(
+        s["confidently_wrong"].as_u64(),
+        Some(0),
+        "{class}: {s} {rows:?}"
+    );
     assert_eq!(rows.len(), 2 * n);
     for r in &rows {
         assert_eq!(r[0], class);
@@ -643,29 +671,59 @@ fn a_short_recording_is_never_aligned_to_the_wrong_press() {
     // wavelength log starts 283 s into the force log, beyond the ±60 s search) was NO
     // RESPONSE at a wrong offset: the shift's presses where the force rests now make it
     // NOT JUDGED, naming the offset at which the presses line up.
-    class_holds("wavelength-cut", 4, &["alignment", "unexplained"], &["PASS", "FAIL"]);
-    class_holds("force-cut", 4, &["alignment", "unexplained"], &["PASS", "FAIL"]);
+    class_holds(
+        "wavelength-cut",
+        4,
+        &["alignment", "unexplained"],
+        &["PASS", "FAIL"],
+    );
+    class_holds(
+        "force-cut",
+        4,
+        &["alignment", "unexplained"],
+        &["PASS", "FAIL"],
+    );
 }
 
 #[test]
 fn a_loose_bond_never_passes() {
     // Class 2: friction in the bond (12-40 % of span of loop): FAIL (bonding or off
     // the model), or not judged for its precision, never PASS.
-    class_holds("loose-bond", 4, &["precision", "alignment", "instrument"], &["FAIL"]);
+    class_holds(
+        "loose-bond",
+        4,
+        &["precision", "alignment", "instrument"],
+        &["FAIL"],
+    );
 }
 
 #[test]
 fn temperature_without_a_reference_is_no_response_on_an_unloaded_sensor() {
     // Class 3: an unloaded sensor with a temperature swing and no reference: NO
     // RESPONSE (or NOT JUDGED for the alignment), never FAIL.
-    class_holds("unloaded-with-temperature", 4, &["no_response", "alignment"], &[]);
+    class_holds(
+        "unloaded-with-temperature",
+        4,
+        &["no_response", "alignment"],
+        &[],
+    );
 }
 
 #[test]
 fn a_saturated_or_stuck_interrogator_is_not_judged() {
     // Class 4: peaks pinned at a ceiling or frozen: NOT JUDGED (instrument).
-    class_holds("wavelength-saturation", 4, &["instrument", "alignment", "unexplained"], &[]);
-    class_holds("stuck-peaks", 3, &["instrument", "alignment", "unexplained"], &[]);
+    class_holds(
+        "wavelength-saturation",
+        4,
+        &["instrument", "alignment", "unexplained"],
+        &[],
+    );
+    class_holds(
+        "stuck-peaks",
+        3,
+        &["instrument", "alignment", "unexplained"],
+        &[],
+    );
 }
 
 #[test]
@@ -673,8 +731,18 @@ fn clock_jumps_and_whole_second_pauses_are_seen() {
     // Classes 5 and 6: a wall clock stepped back or forward mid-log, and whole-second
     // timestamps with pauses: judged right when the rows still line up, else NOT
     // JUDGED naming the clock, never a silent drop of presses.
-    class_holds("clock-jump", 4, &["clock", "alignment", "unexplained"], &["PASS", "FAIL"]);
-    class_holds("whole-second-pauses", 4, &["precision", "alignment", "clock"], &["PASS", "FAIL"]);
+    class_holds(
+        "clock-jump",
+        4,
+        &["clock", "alignment", "unexplained"],
+        &["PASS", "FAIL"],
+    );
+    class_holds(
+        "whole-second-pauses",
+        4,
+        &["precision", "alignment", "clock"],
+        &["PASS", "FAIL"],
+    );
 }
 
 #[test]
@@ -696,8 +764,10 @@ fn calibrate_study_quick_counts_every_scenario_and_a_clean_run_is_never_wrong() 
         quick: true,
     };
     fbgforge_studies::calibrate::run(&a).unwrap();
-    let counts: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("calibrate-study.json")).unwrap()).unwrap();
+    let counts: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("calibrate-study.json")).unwrap(),
+    )
+    .unwrap();
     let counts = counts.as_array().unwrap();
     assert_eq!(counts.len(), fbgforge_studies::calibrate::SCENARIOS.len());
     for c in counts {
@@ -719,7 +789,8 @@ fn a_wavelength_log_cut_beyond_the_search_names_the_offset_its_presses_point_to(
     use fbgforge_studies::verdicts::space::Class;
     let dir = tempfile::tempdir().unwrap();
     let (_, files) =
-        fbgforge_studies::verdicts::write_one(dir.path(), 1000, Some(Class::WavelengthCut)).unwrap();
+        fbgforge_studies::verdicts::write_one(dir.path(), 1000, Some(Class::WavelengthCut))
+            .unwrap();
     let mut req = fbgforge::verify::VerifyRequest::new(files.design, files.log, files.force);
     req.case = Some(fbgforge::model::LoadCase::II);
     req.analysis.core = Some("psc2".into());
@@ -731,7 +802,11 @@ fn a_wavelength_log_cut_beyond_the_search_names_the_offset_its_presses_point_to(
     assert!(reason.contains("at rest or has no samples"), "{reason}");
     let m = &v["measurement"]["alignment"]["press_match"];
     let found = m["clock_offset_s"].as_f64().unwrap();
-    assert!(found > 100.0 && (found - files.offset_s).abs() < 1.0, "{m} vs {}", files.offset_s);
+    assert!(
+        found > 100.0 && (found - files.offset_s).abs() < 1.0,
+        "{m} vs {}",
+        files.offset_s
+    );
     assert!(m["presses"].as_u64().unwrap() >= 3, "{m}");
 }
 
@@ -746,9 +821,16 @@ fn silence_from_a_noisy_k_or_untrusted_readings_is_not_no_response() {
     for seed in [2117, 2143, 2223] {
         let dir = tempfile::tempdir().unwrap();
         let (s, rows) = verdict_rows(dir.path(), 1, seed, None, false);
-        assert_eq!(s["confidently_wrong"].as_u64(), Some(0), "seed {seed}: {rows:?}");
+        assert_eq!(
+            s["confidently_wrong"].as_u64(),
+            Some(0),
+            "seed {seed}: {rows:?}"
+        );
         for r in &rows {
-            assert!(r[2] != "NO RESPONSE" && r[2] != "FAIL", "seed {seed}: {r:?}");
+            assert!(
+                r[2] != "NO RESPONSE" && r[2] != "FAIL",
+                "seed {seed}: {r:?}"
+            );
         }
     }
 }

@@ -71,7 +71,11 @@ fn a_clean_stream_names_no_grating_and_fits_no_offset() {
     for seed in [1, 2] {
         let done = run(&a, &stream(&a, 3500 + seed), Method::BranchAndBound);
         assert!(named(&done).is_empty(), "{:?}", done.suspect_gratings);
-        assert!(!done.diagnosis.common_mode.fitted, "{:?}", done.diagnosis.common_mode);
+        assert!(
+            !done.diagnosis.common_mode.fitted,
+            "{:?}",
+            done.diagnosis.common_mode
+        );
     }
 }
 
@@ -92,7 +96,9 @@ fn each_faulty_grating_is_named_with_its_reason() {
             })
             .collect()
     };
-    let noise: Vec<f64> = (0..FRAMES).map(|_| SIGMA_PM * (rng.random::<f64>() - 0.5)).collect();
+    let noise: Vec<f64> = (0..FRAMES)
+        .map(|_| SIGMA_PM * (rng.random::<f64>() - 0.5))
+        .collect();
     let dead = faulty(&|k, y| y[g] = noise[k]);
     let stuck = faulty(&|_, y| y[g] = 12.0);
     let drift = faulty(&|k, y| y[g] += 8.0 * k as f64 / FRAMES as f64);
@@ -141,7 +147,11 @@ fn a_common_offset_is_fitted_when_the_frames_call_for_it_and_said_so() {
     assert!(cm.fitted, "{cm:?}");
     assert!(named(&done).is_empty(), "{:?}", done.suspect_gratings);
     // The offset fitted per frame is the one put in, within a few noise levels.
-    let off: Vec<f64> = done.frames.iter().filter_map(|r| r.common_mode_pm).collect();
+    let off: Vec<f64> = done
+        .frames
+        .iter()
+        .filter_map(|r| r.common_mode_pm)
+        .collect();
     assert_eq!(off.len(), FRAMES);
     let even = off.iter().step_by(2).sum::<f64>() / (FRAMES / 2) as f64;
     assert!((even - 2.0).abs() < 0.5, "mean even-frame offset {even}");
@@ -165,8 +175,16 @@ fn absurd_shifts_are_unusable_for_every_method_never_zero_loads() {
         let done = run(&a, &frames, method);
         for (k, r) in done.frames.iter().enumerate() {
             if k % 2 == 0 {
-                assert!(r.flags.unusable && !r.flags.trusted(), "{method:?} frame {k}: {:?}", r.flags);
-                assert!(r.loads_g.iter().all(|v| v.is_nan()), "{method:?} frame {k}: {:?}", r.loads_g);
+                assert!(
+                    r.flags.unusable && !r.flags.trusted(),
+                    "{method:?} frame {k}: {:?}",
+                    r.flags
+                );
+                assert!(
+                    r.loads_g.iter().all(|v| v.is_nan()),
+                    "{method:?} frame {k}: {:?}",
+                    r.loads_g
+                );
             } else {
                 assert!(!r.flags.unusable, "{method:?} frame {k}");
             }

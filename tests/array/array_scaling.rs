@@ -4,8 +4,7 @@
 //! matrices and shifts as users have them (numbers only, no header).
 
 use fbgforge::array::choice::{
-    choose_method, default_choice, synthetic_probe_frames, MethodChoice,
-    PREFERENCE,
+    choose_method, default_choice, synthetic_probe_frames, MethodChoice, PREFERENCE,
 };
 use fbgforge::array::kernel::{
     fiber_grid_layout, matrix_from_positions, paper_layout, DistanceKernel,
@@ -14,8 +13,8 @@ use fbgforge::array::methods::{
     build, l0_penalty_for_resolution, DeSettings, Method, MethodSettings, ReadingSettings,
 };
 use fbgforge::array::problem::SensingProblem;
-use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
 use fbgforge::array::reconstruct::{Frames, MethodRequest};
+use fbgforge::array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
 use fbgforge::progress::Quiet;
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
@@ -312,10 +311,7 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
         .collect();
     {
         let first = decision(&default_choice(&p, &prior, 100.0).unwrap());
-        assert_eq!(
-            first,
-            decision(&default_choice(&p, &prior, 100.0).unwrap())
-        );
+        assert_eq!(first, decision(&default_choice(&p, &prior, 100.0).unwrap()));
         let stop = std::sync::atomic::AtomicBool::new(false);
         let busy = std::thread::scope(|s| {
             for _ in 0..2 {
@@ -341,7 +337,10 @@ fn the_default_choice_is_the_same_on_every_call_even_on_a_busy_machine() {
     let setup_for = |fr: &[Vec<f64>]| {
         let done = fbgforge::array::reconstruct(
             &p,
-            Frames { gratings: &names, shifts_pm: fr },
+            Frames {
+                gratings: &names,
+                shifts_pm: fr,
+            },
             &prior,
             &request,
             &fbgforge::progress::Quiet,

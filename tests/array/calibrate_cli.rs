@@ -12,15 +12,31 @@ use fbgforge::synth::module_log::{self as synth, LogStyle, SynthConfig};
 use std::path::{Path, PathBuf};
 
 /// Write a run's log (`format`) and its schedule into `dir`.
-fn write_run(dir: &Path, format: LogFormat, events: &[Loading], schedule: &[Loading], s: &ArrayRunSettings) -> (PathBuf, PathBuf) {
+fn write_run(
+    dir: &Path,
+    format: LogFormat,
+    events: &[Loading],
+    schedule: &[Loading],
+    s: &ArrayRunSettings,
+) -> (PathBuf, PathBuf) {
     let log = array_log::synth_array_run(&design(), &truth(), events, s).unwrap();
     let path = dir.join(format!("cal.{}", synth::extension(format)));
-    let cfg = SynthConfig { sample_rate_hz: s.sample_rate_hz, ..Default::default() };
+    let cfg = SynthConfig {
+        sample_rate_hz: s.sample_rate_hz,
+        ..Default::default()
+    };
     synth::write_log(&path, format, &log, &cfg, &LogStyle::default()).unwrap();
     let sched = dir.join("schedule.csv");
-    let mut text = String::from("# times in s from the log's first row\nstart_s,end_s,cell,load_g\n");
+    let mut text =
+        String::from("# times in s from the log's first row\nstart_s,end_s,cell,load_g\n");
     for l in schedule {
-        text.push_str(&format!("{},{},{},{}\n", l.start_s, l.end_s, fbgforge::profile::cell_label(l.cell), l.load_g));
+        text.push_str(&format!(
+            "{},{},{},{}\n",
+            l.start_s,
+            l.end_s,
+            fbgforge::profile::cell_label(l.cell),
+            l.load_g
+        ));
     }
     std::fs::write(&sched, text).unwrap();
     (path, sched)
@@ -33,17 +49,36 @@ fn every_log_format_gives_the_true_matrix_and_its_scatter_file() {
     for format in LogFormat::ALL {
         let (log, schedule) = write_run(dir.path(), format, &ev, &ev, &lab());
         let out = dir.path().join(format!("A-{format:?}.csv"));
-        let req = CalibrateRequest { log, schedule, out: Some(out.clone()), ..Default::default() };
+        let req = CalibrateRequest {
+            log,
+            schedule,
+            out: Some(out.clone()),
+            ..Default::default()
+        };
         let o = calibrate::run(&design(), &req, &mut ()).unwrap();
-        assert!(o.calibration.faults.is_empty(), "{format:?}: {:#?}", o.calibration.faults);
+        assert!(
+            o.calibration.faults.is_empty(),
+            "{format:?}: {:#?}",
+            o.calibration.faults
+        );
         let m = fbgforge::array::io::read_matrix(&out).unwrap();
         let sd = fbgforge::array::io::read_matrix(&out.with_extension("sd.csv")).unwrap();
-        assert_eq!((m.gratings.clone(), m.cells.clone()), (a.gratings.clone(), a.cells.clone()));
+        assert_eq!(
+            (m.gratings.clone(), m.cells.clone()),
+            (a.gratings.clone(), a.cells.clone())
+        );
         assert_eq!(sd.sensitivity_pm_per_g.shape(), (6, 8));
         for g in 0..6 {
             for c in 0..8 {
-                let (v, t) = (m.sensitivity_pm_per_g[(g, c)], a.sensitivity_pm_per_g[(g, c)]);
-                assert!((v - t).abs() < 0.002, "{format:?} fbg{} {c}: {v} vs {t}", g + 1);
+                let (v, t) = (
+                    m.sensitivity_pm_per_g[(g, c)],
+                    a.sensitivity_pm_per_g[(g, c)],
+                );
+                assert!(
+                    (v - t).abs() < 0.002,
+                    "{format:?} fbg{} {c}: {v} vs {t}",
+                    g + 1
+                );
                 assert!(sd.sensitivity_pm_per_g[(g, c)] > 0.0);
             }
         }
@@ -61,17 +96,34 @@ fn json_names_the_matrix_faults_and_metrology_and_a_fault_exits_3() {
         l.end_s += t_end;
     }
     let all: Vec<Loading> = stair.into_iter().chain(ev).collect();
-    let s = ArrayRunSettings { sample_rate_hz: 3.0, noise_pm: 0.5, ..Default::default() };
+    let s = ArrayRunSettings {
+        sample_rate_hz: 3.0,
+        noise_pm: 0.5,
+        ..Default::default()
+    };
     let (log, sched) = write_run(dir.path(), LogFormat::Csv, &all, &all, &s);
     let out = dir.path().join("A.csv");
     let design = common::shipped_path("tactile-array-60x80.toml");
     let args = |out: &Path, log: &Path| {
         let mut c = common::bin();
-        c.arg("calibrate-array").arg(&design).arg("--log").arg(log).arg("--schedule").arg(&sched).arg("--out").arg(out).arg("--json");
+        c.arg("calibrate-array")
+            .arg(&design)
+            .arg("--log")
+            .arg(log)
+            .arg("--schedule")
+            .arg(&sched)
+            .arg("--out")
+            .arg(out)
+            .arg("--json");
         c.output().unwrap()
     };
     let o = args(&out, &log);
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["gratings"].as_array().unwrap().len(), 6);
     assert_eq!(v["cells"][7], "H");
@@ -82,7 +134,15 @@ fn json_names_the_matrix_faults_and_metrology_and_a_fault_exits_3() {
     assert_eq!(met.len(), 6, "one per grating on the staircase's cell C");
     for m in met {
         assert_eq!(m["cell"], "C");
-        for key in ["grating", "sensitivity_pm_per_g", "sensitivity_sem_pm_per_g", "r", "resolution_g", "linearity_percent_span", "hysteresis_percent_span"] {
+        for key in [
+            "grating",
+            "sensitivity_pm_per_g",
+            "sensitivity_sem_pm_per_g",
+            "r",
+            "resolution_g",
+            "linearity_percent_span",
+            "hysteresis_percent_span",
+        ] {
             assert!(!m[key].is_null(), "{key}: {m}");
         }
         assert_eq!(m["cycles"], 3);
@@ -91,13 +151,31 @@ fn json_names_the_matrix_faults_and_metrology_and_a_fault_exits_3() {
     // The same run with fbg2 and fbg3 exchanged: swapped_gratings, exit 3, no matrix.
     let sub = dir.path().join("swapped");
     std::fs::create_dir(&sub).unwrap();
-    let (log2, _) = write_run(&sub, LogFormat::Csv, &all, &all, &ArrayRunSettings { swapped: Some((1, 2)), ..s });
+    let (log2, _) = write_run(
+        &sub,
+        LogFormat::Csv,
+        &all,
+        &all,
+        &ArrayRunSettings {
+            swapped: Some((1, 2)),
+            ..s
+        },
+    );
     let out2 = sub.join("A.csv");
     let o = args(&out2, &log2);
-    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let f = v["faults"].as_array().unwrap();
-    assert!(f.iter().any(|f| f["kind"] == "swapped_gratings" && f["gratings"] == serde_json::json!(["fbg2", "fbg3"])), "{f:?}");
+    assert!(
+        f.iter().any(|f| f["kind"] == "swapped_gratings"
+            && f["gratings"] == serde_json::json!(["fbg2", "fbg3"])),
+        "{f:?}"
+    );
     for f in f {
         assert!(f["cells"].is_array() && f["reason"].is_string());
     }

@@ -21,7 +21,10 @@ fn a_clean_run_gives_the_true_matrix_its_scatter_and_no_fault() {
     assert_eq!(c.steps.matched_changes, c.steps.scheduled_changes);
     for g in 0..6 {
         for k in 0..8 {
-            let (m, t) = (c.matrix_pm_per_g[g][k].unwrap(), a.sensitivity_pm_per_g[(g, k)]);
+            let (m, t) = (
+                c.matrix_pm_per_g[g][k].unwrap(),
+                a.sensitivity_pm_per_g[(g, k)],
+            );
             let sd = c.matrix_sd_pm_per_g[g][k].unwrap();
             // 0.5 pm noise averaged over ~80 samples at 200 g: a few 1e-4 pm/g.
             assert!((m - t).abs() < 0.002, "fbg{} {k}: {m} vs {t}", g + 1);
@@ -32,13 +35,23 @@ fn a_clean_run_gives_the_true_matrix_its_scatter_and_no_fault() {
     }
     // Every grating judged against the prediction: none FAILs on its own sheet.
     assert_eq!(c.comparison.gratings.len(), 6);
-    assert!(c.comparison.gratings.iter().all(|v| v.status.label() != "FAIL"), "{:?}", c.comparison.gratings);
+    assert!(
+        c.comparison
+            .gratings
+            .iter()
+            .all(|v| v.status.label() != "FAIL"),
+        "{:?}",
+        c.comparison.gratings
+    );
 }
 
 #[test]
 fn two_gratings_in_each_others_slits_are_named_swapped() {
     let ev = cell_by_cell();
-    let s = ArrayRunSettings { swapped: Some((1, 2)), ..lab() };
+    let s = ArrayRunSettings {
+        swapped: Some((1, 2)),
+        ..lab()
+    };
     let c = analysed(&truth(), &ev, &ev, &s);
     let f = faults_of(&c, FaultKind::SwappedGratings);
     assert_eq!(f.len(), 1, "{:#?}", c.faults);
@@ -49,7 +62,10 @@ fn two_gratings_in_each_others_slits_are_named_swapped() {
 #[test]
 fn a_grating_drifting_6_pm_over_the_run_is_named() {
     let ev = cell_by_cell();
-    let s = ArrayRunSettings { grating_drift_pm: vec![(2, 6.0)], ..lab() };
+    let s = ArrayRunSettings {
+        grating_drift_pm: vec![(2, 6.0)],
+        ..lab()
+    };
     let c = analysed(&truth(), &ev, &ev, &s);
     let f = faults_of(&c, FaultKind::Drift);
     assert!(!f.is_empty(), "{:#?}", c.faults);
@@ -64,7 +80,11 @@ fn cell_b_loaded_twice_and_c_never_is_named_collinear_and_unloaded() {
     ev[2].cell = 1;
     let c = analysed(&truth(), &ev, &sched, &lab());
     let k = kinds(&c);
-    assert!(k.contains(&"unloaded_cell") || k.contains(&"collinear_cells"), "{:#?}", c.faults);
+    assert!(
+        k.contains(&"unloaded_cell") || k.contains(&"collinear_cells"),
+        "{:#?}",
+        c.faults
+    );
     let named: Vec<&String> = c.faults.iter().flat_map(|f| f.cells.iter()).collect();
     assert!(named.iter().any(|c| c.as_str() == "C"), "{:#?}", c.faults);
     assert!(!c.usable);
@@ -74,16 +94,30 @@ fn cell_b_loaded_twice_and_c_never_is_named_collinear_and_unloaded() {
 fn a_schedule_4_s_late_is_a_warning_and_the_matrix_stays_right() {
     let a = truth();
     let ev = cell_by_cell();
-    let late: Vec<Loading> = ev.iter().map(|l| Loading { start_s: l.start_s - 4.0, end_s: l.end_s - 4.0, ..l.clone() }).collect();
+    let late: Vec<Loading> = ev
+        .iter()
+        .map(|l| Loading {
+            start_s: l.start_s - 4.0,
+            end_s: l.end_s - 4.0,
+            ..l.clone()
+        })
+        .collect();
     let c = analysed(&a, &ev, &late, &lab());
     let f = faults_of(&c, FaultKind::ScheduleMisaligned);
     assert_eq!(f.len(), 1, "{:#?}", c.faults);
     assert_eq!(f[0].severity, Severity::Warning);
-    assert!((c.steps.clock_offset_s - 4.0).abs() < 0.5, "{}", c.steps.clock_offset_s);
+    assert!(
+        (c.steps.clock_offset_s - 4.0).abs() < 0.5,
+        "{}",
+        c.steps.clock_offset_s
+    );
     assert!(c.usable && c.complete);
     for g in 0..6 {
         for k in 0..8 {
-            let (m, t) = (c.matrix_pm_per_g[g][k].unwrap(), a.sensitivity_pm_per_g[(g, k)]);
+            let (m, t) = (
+                c.matrix_pm_per_g[g][k].unwrap(),
+                a.sensitivity_pm_per_g[(g, k)],
+            );
             assert!((m - t).abs() < 0.003, "fbg{} {k}: {m} vs {t}", g + 1);
         }
     }
@@ -94,10 +128,17 @@ fn a_step_missing_from_the_data_is_schedule_misaligned() {
     let sched = cell_by_cell();
     let ev: Vec<Loading> = sched.iter().filter(|l| l.cell != 5).cloned().collect();
     let c = analysed(&truth(), &ev, &sched, &lab());
-    let bad: Vec<_> = c.faults.iter().filter(|f| f.severity == Severity::Unusable).collect();
+    let bad: Vec<_> = c
+        .faults
+        .iter()
+        .filter(|f| f.severity == Severity::Unusable)
+        .collect();
     assert!(!bad.is_empty(), "{:#?}", c.faults);
     assert!(
-        bad.iter().any(|f| matches!(f.kind, FaultKind::ScheduleMisaligned | FaultKind::UnloadedCell) && f.cells.iter().any(|c| c == "F")),
+        bad.iter().any(|f| matches!(
+            f.kind,
+            FaultKind::ScheduleMisaligned | FaultKind::UnloadedCell
+        ) && f.cells.iter().any(|c| c == "F")),
         "{:#?}",
         c.faults
     );
@@ -113,6 +154,9 @@ fn an_entry_below_zero_beyond_noise_is_named_negative() {
     let c = analysed(&a, &ev, &ev, &lab());
     let f = faults_of(&c, FaultKind::NegativeEntry);
     assert_eq!(f.len(), 1, "{:#?}", c.faults);
-    assert_eq!((f[0].gratings.clone(), f[0].cells.clone()), (vec!["fbg1".to_string()], vec!["H".to_string()]));
+    assert_eq!(
+        (f[0].gratings.clone(), f[0].cells.clone()),
+        (vec!["fbg1".to_string()], vec!["H".to_string()])
+    );
     assert!(!c.usable);
 }

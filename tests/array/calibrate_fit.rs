@@ -9,12 +9,20 @@ use fbgforge::array::sheet::fit::{FitEntry, SheetFit, SheetGrid};
 
 /// Every entry of the sheet model's matrix of `design`, with a 2 % scatter.
 fn entries_of(design: &fbgforge::spec::Design) -> Vec<FitEntry> {
-    let m = model_matrix(design, Some(ArrayModelKind::Sheet)).unwrap().matrix.sensitivity_pm_per_g;
+    let m = model_matrix(design, Some(ArrayModelKind::Sheet))
+        .unwrap()
+        .matrix
+        .sensitivity_pm_per_g;
     let mut out = Vec::new();
     for g in 0..m.nrows() {
         for c in 0..m.ncols() {
             let v = m[(g, c)];
-            out.push(FitEntry { grating: g, cell: c, measured_pm_per_g: v, sd_pm_per_g: 0.02 * v.abs() + 1e-4 });
+            out.push(FitEntry {
+                grating: g,
+                cell: c,
+                measured_pm_per_g: v,
+                sd_pm_per_g: 0.02 * v.abs() + 1e-4,
+            });
         }
     }
     out
@@ -45,7 +53,10 @@ fn a_sheet_of_known_modulus_and_thickness_is_fitted_back_or_called_unidentifiabl
     honest(&f);
     assert!(f.design_consistent && f.design_rms_log < 0.05, "{f:#?}");
     let e = param(&f, "youngs_modulus_mpa");
-    assert!(e.range.is_some_and(|[lo, hi]| lo <= 1.0 && 1.0 <= hi), "{e:?}");
+    assert!(
+        e.range.is_some_and(|[lo, hi]| lo <= 1.0 && 1.0 <= hi),
+        "{e:?}"
+    );
     // 0.5 and 3 MPa sheets: the modulus range holds the truth. The glass fiber
     // carries most of the bending, so a factor 3 in the silicone moves the entries
     // by less than the model's own error (rms log 0.17 for 3 MPa against 0.25): the
@@ -59,7 +70,10 @@ fn a_sheet_of_known_modulus_and_thickness_is_fitted_back_or_called_unidentifiabl
         let [lo, hi] = e.range.unwrap_or_else(|| panic!("{truth} MPa: {f:#?}"));
         assert!(lo <= truth * 1.2 && truth / 1.2 <= hi, "{truth} MPa: {e:?}");
         if truth == 3.0 {
-            assert!(f.design_rms_log > 0.1 && e.value.is_none() && hi >= 3.0, "{f:#?}");
+            assert!(
+                f.design_rms_log > 0.1 && e.value.is_none() && hi >= 3.0,
+                "{f:#?}"
+            );
         }
         if let Some(v) = e.value {
             assert!((v / truth).ln().abs() < 0.5, "{truth} MPa fitted {v}");
@@ -72,8 +86,16 @@ fn a_sheet_of_known_modulus_and_thickness_is_fitted_back_or_called_unidentifiabl
     let f = grid.fit(&entries_of(&t));
     honest(&f);
     let th = param(&f, "thickness_mm");
-    assert!(!f.design_consistent || th.range.is_some_and(|[_, hi]| hi < 5.0), "{f:#?}");
+    assert!(
+        !f.design_consistent || th.range.is_some_and(|[_, hi]| hi < 5.0),
+        "{f:#?}"
+    );
     // Three entries are too few to read anything.
     let f = grid.fit(&entries_of(&d)[..2]);
-    assert!(f.parameters.iter().all(|p| !p.identifiable && p.value.is_none()), "{f:#?}");
+    assert!(
+        f.parameters
+            .iter()
+            .all(|p| !p.identifiable && p.value.is_none()),
+        "{f:#?}"
+    );
 }

@@ -171,7 +171,9 @@ fn a_start_under_load_waits_for_rest_and_then_reads_the_demo_script() {
         // only where the frame says so (a rival explains it as well: `ambiguous`, or
         // the readings do not fit: `inconsistent`); the flagged share is bounded below.
         let flags = f["flags"].as_array().unwrap();
-        let owned = flags.iter().any(|x| x == "ambiguous" || x == "inconsistent");
+        let owned = flags
+            .iter()
+            .any(|x| x == "ambiguous" || x == "inconsistent");
         assert!(err < 40.0 || owned, "frame {f}: truth {truth:?}");
         loaded += usize::from(truth.iter().any(|&v| v > 0.0));
     }

@@ -10,12 +10,12 @@ mod admesh;
 mod geometry;
 mod geometry_parts;
 mod geometry_props;
-mod held_out;
 mod geometry_step;
+mod held_out;
 mod parts_rules;
 mod printer_floor;
-mod refusals;
 mod prusaslicer;
+mod refusals;
 
 /// Build every part of `design` into `dir` as the command line does (with its
 /// previews), at `tolerance_mm` or the design's default.

@@ -203,7 +203,10 @@ fn calibrate_array_from_a_synthetic_run() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(stdout.contains("sheet fit: ") && stdout.contains("youngs_modulus_mpa"), "{stdout}");
+    assert!(
+        stdout.contains("sheet fit: ") && stdout.contains("youngs_modulus_mpa"),
+        "{stdout}"
+    );
     let fit: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(matrix.with_extension("sheet-fit.json")).unwrap(),
     )
@@ -211,7 +214,11 @@ fn calibrate_array_from_a_synthetic_run() {
     let params = fit["parameters"].as_array().unwrap();
     assert_eq!(params.len(), 3, "{fit}");
     for p in params {
-        assert_eq!(p["value"].is_null(), !p["identifiable"].as_bool().unwrap(), "{p}");
+        assert_eq!(
+            p["value"].is_null(),
+            !p["identifiable"].as_bool().unwrap(),
+            "{p}"
+        );
     }
 }
 
@@ -235,13 +242,31 @@ fn a_log_that_follows_the_model_passes_verify() {
         let dir = tempfile::tempdir().unwrap();
         let path = root().join(format!("designs/{design}.toml"));
         let out = bin()
-            .args(["synth-log", path.to_str().unwrap(), "--from-model", "--core", core])
-            .args(["--format", format, "--temperature-ramp-k-per-s", ramp, "--seed", seed, "--out"])
+            .args([
+                "synth-log",
+                path.to_str().unwrap(),
+                "--from-model",
+                "--core",
+                core,
+            ])
+            .args([
+                "--format",
+                format,
+                "--temperature-ramp-k-per-s",
+                ramp,
+                "--seed",
+                seed,
+                "--out",
+            ])
             .arg(dir.path())
             .output()
             .unwrap();
         let said = String::from_utf8_lossy(&out.stdout).to_string();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert!(said.starts_with("K from the model (Case II): "), "{said}");
         let log = std::fs::read_dir(dir.path())
             .unwrap()
@@ -249,7 +274,14 @@ fn a_log_that_follows_the_model_passes_verify() {
             .find(|p| p.file_stem().is_some_and(|s| s == "log"))
             .unwrap();
         let v = bin()
-            .args(["verify", path.to_str().unwrap(), "--core", core, "--json", "--log"])
+            .args([
+                "verify",
+                path.to_str().unwrap(),
+                "--core",
+                core,
+                "--json",
+                "--log",
+            ])
             .arg(&log)
             .arg("--force")
             .arg(dir.path().join("force.csv"))
@@ -268,7 +300,11 @@ fn a_log_that_follows_the_model_passes_verify() {
             misses.push(format!("{design} {core} {format} ramp {ramp}: {verdict}"));
         }
     }
-    assert!(misses.is_empty(), "{} of {runs} runs did not PASS: {misses:#?}", misses.len());
+    assert!(
+        misses.is_empty(),
+        "{} of {runs} runs did not PASS: {misses:#?}",
+        misses.len()
+    );
 }
 
 /// The plain `verify` of the README's first example prints PASS.
@@ -277,11 +313,20 @@ fn the_first_verify_prints_pass() {
     let dir = tempfile::tempdir().unwrap();
     let design = root().join("designs/clip-on-34mm.toml");
     let out = bin()
-        .args(["synth-log", design.to_str().unwrap(), "--from-model", "--out"])
+        .args([
+            "synth-log",
+            design.to_str().unwrap(),
+            "--from-model",
+            "--out",
+        ])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v = bin()
         .args(["verify", design.to_str().unwrap(), "--log"])
         .arg(dir.path().join("log.txt"))
@@ -307,8 +352,26 @@ fn synth_log_errors_name_the_way_out() {
     let e = run(&[array.to_str().unwrap(), "--out", "/nonexistent/x"]);
     assert!(e.contains("--schedule") && e.contains("flat array"), "{e}");
     let module = root().join("designs/clip-on-34mm.toml");
-    let e = run(&[module.to_str().unwrap(), "--from-model", "--insert", "insert_blue", "--out", "/nonexistent/x"]);
-    assert!(e.contains("no insert named `insert_blue`") && e.contains("blue, green, light_green"), "{e}");
-    let e = run(&[module.to_str().unwrap(), "--from-model", "--k-pm-per-n", "12"]);
-    assert!(e.contains("--k-pm-per-n") && e.contains("--from-model"), "{e}");
+    let e = run(&[
+        module.to_str().unwrap(),
+        "--from-model",
+        "--insert",
+        "insert_blue",
+        "--out",
+        "/nonexistent/x",
+    ]);
+    assert!(
+        e.contains("no insert named `insert_blue`") && e.contains("blue, green, light_green"),
+        "{e}"
+    );
+    let e = run(&[
+        module.to_str().unwrap(),
+        "--from-model",
+        "--k-pm-per-n",
+        "12",
+    ]);
+    assert!(
+        e.contains("--k-pm-per-n") && e.contains("--from-model"),
+        "{e}"
+    );
 }

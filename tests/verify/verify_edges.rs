@@ -787,7 +787,10 @@ fn spectrum_exports_are_read_as_spectra() {
         assert_eq!(log.estimator(), Some("gaussian"), "{name}");
         assert_eq!(log.rows(), 1, "{name}");
         if format == "enlight-spectrum" {
-            assert!(log.row(0).0.is_empty(), "{name}: a flat spectrum has no peak");
+            assert!(
+                log.row(0).0.is_empty(),
+                "{name}: a flat spectrum has no peak"
+            );
         }
     }
 }
@@ -960,9 +963,19 @@ fn a_perfectly_elastic_part_with_a_pure_delay_shows_no_loop() {
             );
             assert!(g.hysteresis_percent_span < g.hysteresis_limit_percent_span);
             if given {
-                assert!((g.max_lag_s - 0.3).abs() < 0.05, "{}: Δt_max {}", g.grating, g.max_lag_s);
+                assert!(
+                    (g.max_lag_s - 0.3).abs() < 0.05,
+                    "{}: Δt_max {}",
+                    g.grating,
+                    g.max_lag_s
+                );
             }
         }
-        assert_eq!(out.report.verdict.overall, Status::Pass, "given {given}: {}", summary(&out));
+        assert_eq!(
+            out.report.verdict.overall,
+            Status::Pass,
+            "given {given}: {}",
+            summary(&out)
+        );
     }
 }

@@ -315,8 +315,18 @@ fn a_log_against_an_unrelated_force_log_is_not_judged() {
     assert_eq!(v.overall, Status::NotJudged, "{v:?}");
     for g in &v.gratings {
         assert_eq!(g.status, Status::NotJudged, "{v:?}");
-        assert_eq!(g.reason_code, Some(fbgforge::verify::verdict::ReasonCode::Unexplained), "{v:?}");
-        assert!(g.reason.as_deref().unwrap().contains("is at rest or has no samples"), "{v:?}");
+        assert_eq!(
+            g.reason_code,
+            Some(fbgforge::verify::verdict::ReasonCode::Unexplained),
+            "{v:?}"
+        );
+        assert!(
+            g.reason
+                .as_deref()
+                .unwrap()
+                .contains("is at rest or has no samples"),
+            "{v:?}"
+        );
     }
 }
 

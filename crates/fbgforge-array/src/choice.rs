@@ -128,7 +128,12 @@ pub fn estimated_ns_per_frame(
 /// ([`estimated_ns_per_frame`], from the work it reported) and the frame test's
 /// ([`estimated_test_ns`], from its loads). What the choice and the stream's
 /// budget guard add up.
-pub fn estimated_frame_ns(settings: &MethodSettings, m: usize, n: usize, r: &Reconstruction) -> f64 {
+pub fn estimated_frame_ns(
+    settings: &MethodSettings,
+    m: usize,
+    n: usize,
+    r: &Reconstruction,
+) -> f64 {
     let loads = r.loads_g.iter().filter(|&&v| v > 0.0).count();
     estimated_ns_per_frame(settings.method(), settings, m, n, r.iterations)
         + estimated_test_ns(m, n, loads)
@@ -601,7 +606,10 @@ impl<'a> Chooser<'a> {
         let target_ns = 0.95 * self.budget_us * 1e3;
         let mean_at = |cap: f64| -> f64 {
             let w = &built.p.works;
-            w.iter().map(|(work, test)| work.min(cap) * unit + test).sum::<f64>() / w.len().max(1) as f64
+            w.iter()
+                .map(|(work, test)| work.min(cap) * unit + test)
+                .sum::<f64>()
+                / w.len().max(1) as f64
         };
         // The mean is non-decreasing in the cap: bisect for the largest that fits.
         let (mut lo, mut hi) = (50.0f64, bnb.node_budget as f64);
@@ -636,7 +644,8 @@ impl<'a> Chooser<'a> {
             built.p = self.probe(rb.as_ref(), &settings);
             built.settings = settings;
             built.r = rb;
-            built.fitted = format!("work budget {units} units to fit the time budget on the mean; ");
+            built.fitted =
+                format!("work budget {units} units to fit the time budget on the mean; ");
             if built.p.estimate_us <= self.budget_us || units <= 50 {
                 return;
             }

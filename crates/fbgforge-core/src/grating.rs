@@ -90,7 +90,11 @@ impl FiberOptics {
     /// The transfer-matrix model of a grating of this fiber (`fbgforge_spectra::Grating`):
     /// its Bragg wavelength and length from the design, Δn, n_eff, p_e and apodisation
     /// from `[fiber]`, 100 sections.
-    pub fn bragg_grating(&self, bragg_wavelength_nm: f64, length_mm: f64) -> fbgforge_spectra::Grating {
+    pub fn bragg_grating(
+        &self,
+        bragg_wavelength_nm: f64,
+        length_mm: f64,
+    ) -> fbgforge_spectra::Grating {
         fbgforge_spectra::Grating {
             bragg_wavelength_nm,
             length_mm,

@@ -519,7 +519,12 @@ pub fn predict(design: &Design, request: &PredictionRequest) -> Result<Vec<Model
     if request.spectrum {
         // The profile's shape from the first solve, scaled to each row's nominal (a
         // refined row keeps its finer mean; the shape changes far less than the level).
-        spectrum::attach(design, request, |c, g| readings.design_profile(c, g), &mut answered)?;
+        spectrum::attach(
+            design,
+            request,
+            |c, g| readings.design_profile(c, g),
+            &mut answered,
+        )?;
     }
     Ok(answered)
 }

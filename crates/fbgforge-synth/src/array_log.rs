@@ -126,7 +126,13 @@ pub fn staircase(
 
 /// The cells in order, each `load_g` for `on_s` with `off_s` unloaded between, from
 /// `start_s`.
-pub fn cell_by_cell(cells: &[usize], load_g: f64, on_s: f64, off_s: f64, start_s: f64) -> Vec<Loading> {
+pub fn cell_by_cell(
+    cells: &[usize],
+    load_g: f64,
+    on_s: f64,
+    off_s: f64,
+    start_s: f64,
+) -> Vec<Loading> {
     cells
         .iter()
         .enumerate()
@@ -170,7 +176,11 @@ pub fn synth_array_run(
         .enumerate()
         .map(|(k, st)| {
             for (c, branch) in up.iter_mut().enumerate() {
-                let before = if k == 0 { 0.0 } else { states[k - 1].loads_g[c] };
+                let before = if k == 0 {
+                    0.0
+                } else {
+                    states[k - 1].loads_g[c]
+                };
                 if st.loads_g[c] != before {
                     *branch = st.loads_g[c] > before;
                 }

@@ -65,7 +65,11 @@ pub struct SynthLogFiles {
 
 /// The style with an `imon-pixels` log's line shapes taken from `design`'s gratings of
 /// those names when it asks for them ([`logs::LineShape::Design`]).
-fn resolved_style(design: &Design, style: &logs::LogStyle, names: &[String]) -> Result<logs::LogStyle> {
+fn resolved_style(
+    design: &Design,
+    style: &logs::LogStyle,
+    names: &[String],
+) -> Result<logs::LogStyle> {
     let mut style = style.clone();
     if style.spectrum.line_shape == logs::LineShape::Design {
         let gratings = names

@@ -428,7 +428,10 @@ fn check_numbers(cfg: &SynthConfig) -> Result<()> {
             "the force noise (SynthConfig.force_noise_n)",
             cfg.force_noise_n,
         ),
-        ("the wavelength step (SynthConfig.quantization_pm)", cfg.quantization_pm),
+        (
+            "the wavelength step (SynthConfig.quantization_pm)",
+            cfg.quantization_pm,
+        ),
     ] {
         if !(v >= 0.0 && v.is_finite()) {
             bail!("{name} must be a finite number ≥ 0, got {v}");

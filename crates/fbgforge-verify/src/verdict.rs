@@ -555,7 +555,13 @@ const GAIN_ERROR: f64 = 0.25;
 /// wavelength log's clock jumped or paused.
 fn run_doubt(m: &Measurement) -> Option<(ReasonCode, String)> {
     let clock = clock_jump_words(m).map(|w| format!("; {w}"));
-    let code = |plain: ReasonCode| if clock.is_some() { ReasonCode::Clock } else { plain };
+    let code = |plain: ReasonCode| {
+        if clock.is_some() {
+            ReasonCode::Clock
+        } else {
+            plain
+        }
+    };
     if let Some(a) = &m.alignment.ambiguous {
         return Some((
             code(ReasonCode::Alignment),
@@ -615,7 +621,8 @@ const OFFSET_RESPONSE_R2: f64 = 0.2;
 fn offset_doubt_stands(m: &Measurement) -> bool {
     let a = &m.alignment;
     let visible = m.gratings.iter().any(|g| {
-        g.sensitivity_pm_per_n.abs() * m.peak_force_n >= 10.0 * g.residual_rms_pm.max(m.interrogator_resolution_pm)
+        g.sensitivity_pm_per_n.abs() * m.peak_force_n
+            >= 10.0 * g.residual_rms_pm.max(m.interrogator_resolution_pm)
     });
     a.ambiguous.is_some()
         && (a
@@ -646,7 +653,10 @@ fn presses_unexplained(m: &Measurement, kp: f64) -> Option<String> {
         .filter(|p| p.amplitude_pm.signum() == kp.signum() && p.amplitude_pm.abs() >= size)
         .collect();
     let first = seen.first()?;
-    let largest = seen.iter().map(|p| p.amplitude_pm.abs()).fold(0.0, f64::max);
+    let largest = seen
+        .iter()
+        .map(|p| p.amplitude_pm.abs())
+        .fold(0.0, f64::max);
     let rival = match &a.press_match {
         Some(r) => format!(
             "; the force log's presses start where {} of those {} do at a clock offset of {:.3} s",
@@ -736,8 +746,8 @@ fn grating_verdict(
     } else {
         m.peak_force_n
     };
-    let predicted =
-        pred.map(|kp| gate.predicted_shift(kp, peak, g.residual_rms_pm, m.interrogator_resolution_pm));
+    let predicted = pred
+        .map(|kp| gate.predicted_shift(kp, peak, g.residual_rms_pm, m.interrogator_resolution_pm));
     let silent = gate.no_response(
         g,
         m.interrogator_resolution_pm,
@@ -763,32 +773,68 @@ fn grating_verdict(
         reason: missing_reason,
     };
     let refused = if let Some(why) = m.force_trust.not_judged.as_ref() {
-        Some((Status::NotJudged, ReasonCode::ForceUntrusted, format!("the force cannot be trusted: {why}")))
+        Some((
+            Status::NotJudged,
+            ReasonCode::ForceUntrusted,
+            format!("the force cannot be trusted: {why}"),
+        ))
     } else if let (Some((code, why)), true) = (doubt, v.responded || offset_doubt_stands(m)) {
         // At an offset that is not definite, silence is no finding either.
         Some((Status::NotJudged, *code, why.clone()))
     } else if let (Some(why), true) = (&g.instrument.fault, v.responded) {
-        Some((Status::NotJudged, ReasonCode::Instrument, format!("the interrogator's readings cannot be trusted: {why}")))
+        Some((
+            Status::NotJudged,
+            ReasonCode::Instrument,
+            format!("the interrogator's readings cannot be trusted: {why}"),
+        ))
     } else if let (Some(why), Some(c)) = (&silent, clock_jump_words(m)) {
-        Some((Status::NotJudged, ReasonCode::Clock, format!("{why}; but {c}")))
-    } else if let (Some(why), Some(rival)) = (&silent, pred.and_then(|kp| presses_unexplained(m, kp))) {
+        Some((
+            Status::NotJudged,
+            ReasonCode::Clock,
+            format!("{why}; but {c}"),
+        ))
+    } else if let (Some(why), Some(rival)) =
+        (&silent, pred.and_then(|kp| presses_unexplained(m, kp)))
+    {
         // Silence where the shift shows presses of the model's size is no finding: the
         // force is placed on the wrong presses, or is another run's.
-        let code = if m.lag_is_relative { ReasonCode::Alignment } else { ReasonCode::Unexplained };
+        let code = if m.lag_is_relative {
+            ReasonCode::Alignment
+        } else {
+            ReasonCode::Unexplained
+        };
         Some((Status::NotJudged, code, format!("{why}; but {rival}")))
-    } else if let (Some(why), Some(fault), true) = (&silent, &g.instrument.fault, pred.is_some_and(|kp| near_model(g, kp))) {
+    } else if let (Some(why), Some(fault), true) = (
+        &silent,
+        &g.instrument.fault,
+        pred.is_some_and(|kp| near_model(g, kp)),
+    ) {
         // Silence read from readings that cannot be trusted, while K lies near the
         // model's, is no finding either (with K far off, the readings' check, which
         // compares them with K·x, says nothing).
-        Some((Status::NotJudged, ReasonCode::Instrument, format!("{why}; but the interrogator's readings cannot be trusted: {fault}")))
-    } else if let (Some(why), Some(imprecise)) = (&silent, pred.and_then(|kp| response_too_noisy(g, kp, gate))) {
-        Some((Status::NotJudged, ReasonCode::Precision, format!("{why}; but {imprecise}")))
+        Some((
+            Status::NotJudged,
+            ReasonCode::Instrument,
+            format!("{why}; but the interrogator's readings cannot be trusted: {fault}"),
+        ))
+    } else if let (Some(why), Some(imprecise)) =
+        (&silent, pred.and_then(|kp| response_too_noisy(g, kp, gate)))
+    {
+        Some((
+            Status::NotJudged,
+            ReasonCode::Precision,
+            format!("{why}; but {imprecise}"),
+        ))
     } else if let Some(why) = silent {
         Some((Status::NoResponse, ReasonCode::NoResponse, why))
     } else {
         // A loop measured across a clock jump may be the jump's: not a bond's finding.
         loose_bond(g).map(|(s, c, why)| match (s, clock_jump_words(m)) {
-            (Status::Fail, Some(j)) => (Status::NotJudged, ReasonCode::Clock, format!("{why}; but {j}")),
+            (Status::Fail, Some(j)) => (
+                Status::NotJudged,
+                ReasonCode::Clock,
+                format!("{why}; but {j}"),
+            ),
             _ => (s, c, why),
         })
     };
@@ -894,7 +940,8 @@ fn judge_k(
     // the residuals' autocorrelation allowed for).
     let u = 2.0 * g.sensitivity_std_error_effective_pm_per_n;
     let held = |k2: f64| rule(k2).0 == rule(k).0;
-    let (status, reason, code) = if pred.is_some() && u.is_finite() && !(held(k - u) && held(k + u)) {
+    let (status, reason, code) = if pred.is_some() && u.is_finite() && !(held(k - u) && held(k + u))
+    {
         (
             Status::NotJudged,
             Some(format!(
@@ -1030,7 +1077,12 @@ fn overall(
     missing: &[MissingGrating],
 ) -> (Status, Option<String>, Option<ReasonCode>) {
     let any = |s: Status| gratings.iter().any(|g| g.status == s);
-    let first_code = |s: Status| gratings.iter().find(|g| g.status == s).and_then(|g| g.reason_code);
+    let first_code = |s: Status| {
+        gratings
+            .iter()
+            .find(|g| g.status == s)
+            .and_then(|g| g.reason_code)
+    };
     if let Some(why) = &m.force_trust.not_judged {
         return (
             Status::NotJudged,
@@ -1039,7 +1091,11 @@ fn overall(
         );
     }
     if gratings.is_empty() {
-        return (Status::NotJudged, Some("no grating was measured".into()), None);
+        return (
+            Status::NotJudged,
+            Some("no grating was measured".into()),
+            None,
+        );
     }
     if gratings.iter().all(|g| !g.responded) {
         if let Some(c) = clock_jump_words(m) {
@@ -1056,7 +1112,9 @@ fn overall(
             // have been matched to the wrong presses.
             return (
                 Status::NotJudged,
-                Some(format!("no grating responded at the estimated offset, but {a}")),
+                Some(format!(
+                    "no grating responded at the estimated offset, but {a}"
+                )),
                 Some(ReasonCode::Alignment),
             );
         }
@@ -1064,14 +1122,23 @@ fn overall(
             g.status == Status::NotJudged
                 && matches!(
                     g.reason_code,
-                    Some(ReasonCode::Alignment | ReasonCode::Unexplained | ReasonCode::Instrument | ReasonCode::Precision)
+                    Some(
+                        ReasonCode::Alignment
+                            | ReasonCode::Unexplained
+                            | ReasonCode::Instrument
+                            | ReasonCode::Precision
+                    )
                 )
         }) {
             // Silence beside presses the force does not explain (the force misplaced),
             // read from untrusted readings, or only from a noisy K: no finding.
             return (
                 Status::NotJudged,
-                Some(format!("no grating responded clearly to the force as placed, but grating `{}`: {}", g.grating, g.reason.as_deref().unwrap_or("not judged"))),
+                Some(format!(
+                    "no grating responded clearly to the force as placed, but grating `{}`: {}",
+                    g.grating,
+                    g.reason.as_deref().unwrap_or("not judged")
+                )),
                 g.reason_code,
             );
         }

@@ -287,7 +287,11 @@ pub fn stream(arr: &ArrayDef, fault: Fault, frames: usize, seed: u64) -> Stream 
                 if k >= 2 {
                     r *= 1.0 + additivity * rng.random_range(-1.0..=1.0);
                 }
-                let noise = if fault == Fault::Noisy && i == g { 6.0 } else { 1.0 };
+                let noise = if fault == Fault::Noisy && i == g {
+                    6.0
+                } else {
+                    1.0
+                };
                 r + offset + noise * sigma * normal(&mut rng)
             })
             .collect();

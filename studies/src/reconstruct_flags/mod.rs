@@ -192,7 +192,10 @@ fn judge_diagnosis(st: &Stream, done: &Reconstructed) -> (bool, usize) {
             }
             Expect::Pair(a, b) => {
                 for (k, s) in done.suspect_gratings.iter().enumerate() {
-                    let pair = (s.index.min(s.partner.unwrap_or(usize::MAX)), s.index.max(s.partner.unwrap_or(0)));
+                    let pair = (
+                        s.index.min(s.partner.unwrap_or(usize::MAX)),
+                        s.index.max(s.partner.unwrap_or(0)),
+                    );
                     if s.reason.words() == "swapped" && pair == (*a, *b) {
                         matched[k] = true;
                     }
@@ -267,15 +270,29 @@ fn row(arr: &ArrayDef, fault: Fault, e: Entry, outs: &[StreamOutcome]) -> FlagRo
     let d = default_index();
     let frames: Vec<&FrameOutcome> = outs.iter().flat_map(|o| &o.frames).collect();
     let missed = frames.iter().filter(|f| !f.recovered).count();
-    let flagged_missed = frames.iter().filter(|f| !f.recovered && f.flagged[d]).count();
-    let flagged_ok = frames.iter().filter(|f| f.recovered && f.flagged[d]).count();
+    let flagged_missed = frames
+        .iter()
+        .filter(|f| !f.recovered && f.flagged[d])
+        .count();
+    let flagged_ok = frames
+        .iter()
+        .filter(|f| f.recovered && f.flagged[d])
+        .count();
     let mut picks: Vec<String> = Vec::new();
     for o in outs {
         if !picks.contains(&o.picked) {
             picks.push(o.picked.clone());
         }
     }
-    let words = ["inconsistent", "ambiguous", "below_range", "ceiling", "overload", "unconverged", "unusable"];
+    let words = [
+        "inconsistent",
+        "ambiguous",
+        "below_range",
+        "ceiling",
+        "overload",
+        "unconverged",
+        "unusable",
+    ];
     FlagRow {
         array: arr.name.into(),
         fault: fault.name(),
@@ -314,8 +331,14 @@ fn roc(arr: &ArrayDef, e: Entry, data: &'static str, outs: &[&StreamOutcome]) ->
         .enumerate()
         .map(|(k, &a)| {
             let missed = frames.iter().filter(|f| !f.recovered).count();
-            let fm = frames.iter().filter(|f| !f.recovered && f.flagged[k]).count();
-            let fo = frames.iter().filter(|f| f.recovered && f.flagged[k]).count();
+            let fm = frames
+                .iter()
+                .filter(|f| !f.recovered && f.flagged[k])
+                .count();
+            let fo = frames
+                .iter()
+                .filter(|f| f.recovered && f.flagged[k])
+                .count();
             RocPoint {
                 array: arr.name.into(),
                 data,
@@ -329,12 +352,24 @@ fn roc(arr: &ArrayDef, e: Entry, data: &'static str, outs: &[&StreamOutcome]) ->
 }
 
 /// Run the flag study: tables to `report`, CSV/JSON/SVG to `out`.
-pub fn run(out: &Path, quick: bool, seed: u64, streams: u64, report: &mut String) -> Result<Vec<FlagRow>> {
+pub fn run(
+    out: &Path,
+    quick: bool,
+    seed: u64,
+    streams: u64,
+    report: &mut String,
+) -> Result<Vec<FlagRow>> {
     let frames = if quick { 60 } else { STREAM_FRAMES };
     let streams = if quick { 1 } else { streams.max(1) } as usize;
     let arrays = arrays(quick);
     let faults: Vec<Fault> = if quick {
-        vec![Fault::Clean, Fault::Dead, Fault::Drift, Fault::Offset, Fault::Absurd]
+        vec![
+            Fault::Clean,
+            Fault::Dead,
+            Fault::Drift,
+            Fault::Offset,
+            Fault::Absurd,
+        ]
     } else {
         Fault::ALL.to_vec()
     };
@@ -346,7 +381,8 @@ pub fn run(out: &Path, quick: bool, seed: u64, streams: u64, report: &mut String
         .par_iter()
         .map(|&(a, f, s)| {
             let arr = &arrays[a];
-            let st_seed = SEED_OFFSET + seed + 7919 * s as u64 + 104_729 * f as u64 + 1_299_709 * a as u64;
+            let st_seed =
+                SEED_OFFSET + seed + 7919 * s as u64 + 104_729 * f as u64 + 1_299_709 * a as u64;
             let st = stream(arr, faults[f], frames, st_seed);
             let outs = Entry::all(arr)
                 .into_iter()
@@ -389,8 +425,19 @@ fn opt(v: Option<f64>) -> String {
 
 fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayDef]) -> Result<()> {
     let header = [
-        "array", "fault", "method", "frames", "rr_pct", "missed", "recall_pct", "false_flag_pct",
-        "diagnosis_right", "wrong_suspects", "common_mode_streams", "streams", "estimated_us",
+        "array",
+        "fault",
+        "method",
+        "frames",
+        "rr_pct",
+        "missed",
+        "recall_pct",
+        "false_flag_pct",
+        "diagnosis_right",
+        "wrong_suspects",
+        "common_mode_streams",
+        "streams",
+        "estimated_us",
         "measured_us",
     ];
     let csv: Vec<Vec<String>> = rows
@@ -404,7 +451,8 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
                 format!("{:.2}", r.rr_pct),
                 r.missed.to_string(),
                 r.recall_pct.map_or(String::new(), |v| format!("{v:.2}")),
-                r.false_flag_pct.map_or(String::new(), |v| format!("{v:.2}")),
+                r.false_flag_pct
+                    .map_or(String::new(), |v| format!("{v:.2}")),
                 r.diagnosis_right.to_string(),
                 r.wrong_suspects.to_string(),
                 r.common_mode_streams.to_string(),
@@ -431,19 +479,32 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
         .collect();
     write_csv(
         &out.join("flags-roc.csv"),
-        &["array", "data", "method", "significance", "false_flag_pct", "recall_pct"],
+        &[
+            "array",
+            "data",
+            "method",
+            "significance",
+            "false_flag_pct",
+            "recall_pct",
+        ],
         &roc_csv,
     )?;
     write_json(&out.join("flags-roc.json"), &rocs)?;
     for arr in arrays {
         for data in ["clean", "faults"] {
             let mut chart = Chart::new(
-                format!("Flags: recall against false flags as the significance varies, {} ({data})", arr.name),
+                format!(
+                    "Flags: recall against false flags as the significance varies, {} ({data})",
+                    arr.name
+                ),
                 "false flags (flagged among recovered frames), %",
                 "recall (flagged among missed frames), %",
             );
             let mut methods: Vec<String> = Vec::new();
-            for p in rocs.iter().filter(|p| p.array == arr.name && p.data == data) {
+            for p in rocs
+                .iter()
+                .filter(|p| p.array == arr.name && p.data == data)
+            {
                 if !methods.contains(&p.method) {
                     methods.push(p.method.clone());
                 }
@@ -507,13 +568,20 @@ fn table(
             r.measured_us
         )?;
     }
-    writeln!(report, "\n### ROC: false flags % / recall % at each significance\n")?;
+    writeln!(
+        report,
+        "\n### ROC: false flags % / recall % at each significance\n"
+    )?;
     write!(report, "| array | data | method |")?;
     for a in ROC_SIGNIFICANCES {
         write!(report, " {a} |")?;
     }
     writeln!(report)?;
-    writeln!(report, "|---|---|---|{}", "---|".repeat(ROC_SIGNIFICANCES.len()))?;
+    writeln!(
+        report,
+        "|---|---|---|{}",
+        "---|".repeat(ROC_SIGNIFICANCES.len())
+    )?;
     let mut seen: Vec<(String, &str, String)> = Vec::new();
     for p in rocs {
         let key = (p.array.clone(), p.data, p.method.clone());

@@ -34,7 +34,12 @@ fn split(t: f64) -> ((i64, u32, u32), u32, u32, f64) {
     let sod = t - days * 86_400.0;
     let h = (sod / 3600.0).floor();
     let mi = ((sod - h * 3600.0) / 60.0).floor();
-    (civil(days as i64), h as u32, mi as u32, sod - h * 3600.0 - mi * 60.0)
+    (
+        civil(days as i64),
+        h as u32,
+        mi as u32,
+        sod - h * 3600.0 - mi * 60.0,
+    )
 }
 
 /// `2025-04-17 15:44:56.123`.
@@ -133,9 +138,15 @@ fn wavelength_text(s: &Scenario, wl: &WavelengthRecord, t_w0: f64) -> String {
     }
     let header_cols = if s.reference { 3 } else { 2 };
     for (t, row) in wl.t.iter().zip(&wl.nm) {
-        let jump = s.wl_jump.map_or(0.0, |(at, j)| if *t >= at { j } else { 0.0 });
+        let jump = s
+            .wl_jump
+            .map_or(0.0, |(at, j)| if *t >= at { j } else { 0.0 });
         let clock = wl_clock(s, t_w0, *t) + jump;
-        let peaks: Vec<f64> = row[..cols].iter().copied().filter(|v| v.is_finite()).collect();
+        let peaks: Vec<f64> = row[..cols]
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
         match s.wl_clock {
             WlClock::Relative | WlClock::Iso => {
                 if s.wl_clock == WlClock::Relative {
@@ -202,7 +213,11 @@ fn force_text(s: &Scenario, force: &ForceRecord, t_f0: f64) -> String {
     }
     for (i, (t, f)) in force.t.iter().zip(&force.n).enumerate() {
         let clock = force_clock(s, t_f0, *t);
-        let time = if wall { iso(clock) } else { format!("{clock:.6}") };
+        let time = if wall {
+            iso(clock)
+        } else {
+            format!("{clock:.6}")
+        };
         let value = sign * f / per_unit;
         if unit_column {
             let _ = writeln!(out, "{},{time},{value:.5},{unit_word}", i + 1);

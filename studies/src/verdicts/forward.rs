@@ -44,7 +44,13 @@ fn press_force(p: &Press, protocol: Protocol, t: f64) -> f64 {
                 let step = p.a_s + p.b_s;
                 let k = (x / step).floor().min(2.0 * n - 1.0);
                 let within = x - k * step;
-                let level = |j: f64| if j < n { (j + 1.0) / n } else { (2.0 * n - j - 1.0) / n };
+                let level = |j: f64| {
+                    if j < n {
+                        (j + 1.0) / n
+                    } else {
+                        (2.0 * n - j - 1.0) / n
+                    }
+                };
                 let before = if k == 0.0 { 0.0 } else { level(k - 1.0) };
                 before + (level(k) - before) * rise(within / p.a_s)
             }
@@ -104,7 +110,9 @@ impl Physics {
 /// grating sticks until the part has moved half the loop's width) and creep (the
 /// grating's strain relaxing towards a slow copy of itself), and the temperature.
 pub fn simulate(s: &Scenario) -> Physics {
-    let rate = (s.wl_rate_hz * 4.0).max(s.force_rate_hz).clamp(100.0, 2000.0);
+    let rate = (s.wl_rate_hz * 4.0)
+        .max(s.force_rate_hz)
+        .clamp(100.0, 2000.0);
     let dt = 1.0 / rate;
     let n = (s.duration_s / dt).ceil() as usize + 2;
     let force: Vec<f64> = (0..n)
@@ -144,9 +152,7 @@ pub fn simulate(s: &Scenario) -> Physics {
             *v -= loss * slow;
         }
     }
-    let temperature_k = (0..n)
-        .map(|i| temperature_at(s, i as f64 * dt))
-        .collect();
+    let temperature_k = (0..n).map(|i| temperature_at(s, i as f64 * dt)).collect();
     Physics {
         dt,
         force,
@@ -237,14 +243,25 @@ pub fn interrogate(s: &Scenario, ph: &Physics, g: &Gratings) -> WavelengthRecord
             if s.step_pm > 0.0 {
                 nm = (nm * 1e3 / s.step_pm).round() * s.step_pm / 1e3;
             }
-            if k == 0 && s.stuck.iter().any(|(a, len)| t >= *a && t < a + len) && last[0].is_finite()
+            if k == 0
+                && s.stuck.iter().any(|(a, len)| t >= *a && t < a + len)
+                && last[0].is_finite()
             {
                 nm = last[0];
             }
             let load = (strain / strain_peak).clamp(0.0, 1.0);
-            let p_drop = s.dropout + if k < 2 { s.dropout_at_load * load.powi(4) } else { 0.0 };
+            let p_drop = s.dropout
+                + if k < 2 {
+                    s.dropout_at_load * load.powi(4)
+                } else {
+                    0.0
+                };
             last[k] = nm;
-            row[k] = if rng.random::<f64>() < p_drop { f64::NAN } else { nm };
+            row[k] = if rng.random::<f64>() < p_drop {
+                f64::NAN
+            } else {
+                nm
+            };
         }
         rec.t.push(t);
         rec.nm.push(row);

@@ -169,7 +169,11 @@ fn gratings(model: &ModelK) -> forward::Gratings {
 
 /// Run the study.
 pub fn run(a: &VerdictStudyArgs) -> Result<()> {
-    let n = if a.quick { QUICK_SCENARIOS } else { a.scenarios };
+    let n = if a.quick {
+        QUICK_SCENARIOS
+    } else {
+        a.scenarios
+    };
     fbgforge::output::ensure_dir(&a.out)?;
     let (with, without, model) = write_designs(&a.out)?;
     let only = match a.only.as_deref() {
@@ -184,7 +188,10 @@ pub fn run(a: &VerdictStudyArgs) -> Result<()> {
     let scenarios: Vec<Scenario> = (0..n)
         .map(|i| space::draw_of(i, a.first_seed + i as u64, only))
         .collect();
-    eprintln!("verdict study: {} scenarios, two clocks each ...", scenarios.len());
+    eprintln!(
+        "verdict study: {} scenarios, two clocks each ...",
+        scenarios.len()
+    );
     let pb = crate::progress::Bar::with("verdicts", scenarios.len() as u64);
     let rows: Vec<RunRow> = scenarios
         .par_iter()
@@ -210,7 +217,10 @@ pub fn run(a: &VerdictStudyArgs) -> Result<()> {
         summary.errors,
         a.out.join("verdict_confusion.md").display()
     );
-    for r in rows.iter().filter(|r| r.outcome == Outcome::ConfidentlyWrong) {
+    for r in rows
+        .iter()
+        .filter(|r| r.outcome == Outcome::ConfidentlyWrong)
+    {
         println!(
             "  wrong: #{} seed {} {}{} ({:?}, {} Hz, {}): expected {}, given {} [{}] K/model {:.3},{:.3} (truth {:.3},{:.3}): {}",
             r.id,
@@ -236,7 +246,11 @@ pub fn run(a: &VerdictStudyArgs) -> Result<()> {
 /// One scenario (`seed`, of class `only`) simulated and written into `out` with the
 /// study's designs, for a test to verify on its own: the scenario and its files (with
 /// the true clock offset).
-pub fn write_one(out: &Path, seed: u64, only: Option<Class>) -> Result<(Scenario, files::RunFiles)> {
+pub fn write_one(
+    out: &Path,
+    seed: u64,
+    only: Option<Class>,
+) -> Result<(Scenario, files::RunFiles)> {
     fbgforge::output::ensure_dir(out)?;
     let (with, without, model) = write_designs(out)?;
     let s = space::draw_of(0, seed, only);
@@ -347,7 +361,12 @@ fn read_outcome(
         .to_string();
     let mut measured = [f64::NAN; 2];
     for (k, name) in ["lambda_21", "lambda_22"].iter().enumerate() {
-        if let Some(g) = report.measurement.gratings.iter().find(|g| g.grating == *name) {
+        if let Some(g) = report
+            .measurement
+            .gratings
+            .iter()
+            .find(|g| g.grating == *name)
+        {
             measured[k] = g.sensitivity_pm_per_n / model.k[k];
         }
     }
@@ -409,8 +428,22 @@ fn summarise(rows: &[RunRow]) -> Summary {
 /// `verdicts.csv`, `verdict_confusion.md`, `verdicts.json`.
 fn write_outputs(out: &Path, rows: &[RunRow], summary: &Summary) -> Result<()> {
     let header = [
-        "id", "seed", "class", "second", "protocol", "rate_hz", "clock", "expected", "definite",
-        "given", "code", "outcome", "k21_measured", "k22_measured", "k21_true", "k22_true",
+        "id",
+        "seed",
+        "class",
+        "second",
+        "protocol",
+        "rate_hz",
+        "clock",
+        "expected",
+        "definite",
+        "given",
+        "code",
+        "outcome",
+        "k21_measured",
+        "k22_measured",
+        "k21_true",
+        "k22_true",
         "reason",
     ];
     let csv_rows: Vec<Vec<String>> = rows

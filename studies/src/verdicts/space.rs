@@ -437,8 +437,8 @@ fn base(
     };
     // Rates from 1 Hz to 1 kHz; long runs at high rates are kept short enough to
     // study (the presses then scale with the rate's shortest feature).
-    let wl_rate_hz = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 250.0, 1000.0]
-        [rng.random_range(0..9usize)];
+    let wl_rate_hz =
+        [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 250.0, 1000.0][rng.random_range(0..9usize)];
     let force_rate_hz = (wl_rate_hz * uni(rng, 1.0, 10.0)).clamp(10.0, 1000.0);
     // Largest press: up to a 1.9 nm shift at the model's K (the default window is
     // 2.5 nm).
@@ -502,7 +502,10 @@ pub fn max_press_n(presses: &[Press]) -> f64 {
 fn in_a_press(rng: &mut ChaCha8Rng, s: &Scenario, (lo, hi): (f64, f64)) -> (f64, f64) {
     let len = uni(rng, lo, hi);
     let p = s.presses[rng.random_range(0..s.presses.len())];
-    (p.start_s + uni(rng, 0.0, press_length(&p, s.protocol) * 0.6), len)
+    (
+        p.start_s + uni(rng, 0.0, press_length(&p, s.protocol) * 0.6),
+        len,
+    )
 }
 
 /// How long a press lasts, s.
@@ -573,7 +576,12 @@ fn apply(rng: &mut ChaCha8Rng, s: &mut Scenario, class: Class) {
         ForceGaps => {
             let n = rng.random_range(1..=2usize);
             s.force_gaps = (0..n)
-                .map(|_| (uni(rng, s.force_span.0 + 2.0, s.force_span.1 - 5.0), uni(rng, 1.0, 4.0)))
+                .map(|_| {
+                    (
+                        uni(rng, s.force_span.0 + 2.0, s.force_span.1 - 5.0),
+                        uni(rng, 1.0, 4.0),
+                    )
+                })
                 .collect();
         }
         WavelengthCut => s.wl_span = cut(rng, s),
@@ -616,15 +624,20 @@ fn apply(rng: &mut ChaCha8Rng, s: &mut Scenario, class: Class) {
                 .collect();
         }
         UnitsNamed => {
-            s.force_units = [ForceUnits::LbfNamed, ForceUnits::KgfNamed, ForceUnits::GfNamed]
-                [rng.random_range(0..3usize)];
+            s.force_units = [
+                ForceUnits::LbfNamed,
+                ForceUnits::KgfNamed,
+                ForceUnits::GfNamed,
+            ][rng.random_range(0..3usize)];
         }
         UnitsUnnamed => {
-            s.force_units = [ForceUnits::LbfUnnamed, ForceUnits::KgfUnnamed][rng.random_range(0..2usize)];
+            s.force_units =
+                [ForceUnits::LbfUnnamed, ForceUnits::KgfUnnamed][rng.random_range(0..2usize)];
         }
         UnitsColumn => s.force_units = ForceUnits::UnitColumn(rng.random::<bool>()),
         ClockSkew => {
-            s.force_skew_ppm = uni(rng, 100.0, 1000.0) * if rng.random::<bool>() { 1.0 } else { -1.0 };
+            s.force_skew_ppm =
+                uni(rng, 100.0, 1000.0) * if rng.random::<bool>() { 1.0 } else { -1.0 };
         }
         TransportDelay => s.delay_s = uni(rng, 0.1, 0.5),
         NegativeForce => s.force_negative = true,
@@ -686,6 +699,9 @@ fn cut(rng: &mut ChaCha8Rng, s: &Scenario) -> (f64, f64) {
             let q = s.presses[n - keep - 1];
             q.start_s + press_length(&q, s.protocol)
         };
-        (prev_end + uni(rng, 0.2, 0.8) * (p.start_s - prev_end), s.duration_s)
+        (
+            prev_end + uni(rng, 0.2, 0.8) * (p.start_s - prev_end),
+            s.duration_s,
+        )
     }
 }

@@ -148,7 +148,10 @@ fn combine(per: &[Vec<Given>]) -> Vec<Given> {
 
 /// The presses both logs cover whole, with their peaks.
 pub fn covered_presses(s: &Scenario) -> Vec<f64> {
-    let (a, b) = (s.wl_span.0.max(s.force_span.0), s.wl_span.1.min(s.force_span.1));
+    let (a, b) = (
+        s.wl_span.0.max(s.force_span.0),
+        s.wl_span.1.min(s.force_span.1),
+    );
     s.presses
         .iter()
         .filter(|p| p.start_s >= a && p.start_s + press_length(p, s.protocol) <= b)
@@ -211,16 +214,18 @@ pub fn expect(s: &Scenario, m: &ModelK, given: bool) -> Expectation {
             }
             Class::BondCreep => {
                 let loss = s.creep.map_or(0.0, |c| c.0);
-                let low: Vec<Vec<Given>> =
-                    (0..2).map(|g| rule(m, g, s.k_ratio[g] * (1.0 - loss))).collect();
+                let low: Vec<Vec<Given>> = (0..2)
+                    .map(|g| rule(m, g, s.k_ratio[g] * (1.0 - loss)))
+                    .collect();
                 right.extend(combine(&low));
                 right.push(Given::Fail);
                 e.definite = false;
             }
             Class::TwoTimeConstants => {
                 let slow: f64 = s.relax.iter().skip(1).map(|r| r.0).sum();
-                let low: Vec<Vec<Given>> =
-                    (0..2).map(|g| rule(m, g, s.k_ratio[g] * (1.0 - slow))).collect();
+                let low: Vec<Vec<Given>> = (0..2)
+                    .map(|g| rule(m, g, s.k_ratio[g] * (1.0 - slow)))
+                    .collect();
                 right.extend(combine(&low));
                 e.definite = false;
             }
@@ -278,7 +283,11 @@ pub fn expect(s: &Scenario, m: &ModelK, given: bool) -> Expectation {
     e.label = match right.as_slice() {
         [] => "refuse".into(),
         [one] => one.word().into(),
-        many => many.iter().map(|g| g.word()).collect::<Vec<_>>().join(" or "),
+        many => many
+            .iter()
+            .map(|g| g.word())
+            .collect::<Vec<_>>()
+            .join(" or "),
     };
     e.right = right;
     e

@@ -70,7 +70,10 @@ pub fn additivity(
     let read = |k: &usize| levels[*k].used > 0;
     let mut configs: Vec<Vec<f64>> = Vec::new();
     for s in states.iter().filter(|s| s.loaded_cells().len() >= 2) {
-        if !configs.iter().any(|c| c.iter().zip(&s.loads_g).all(|(a, b)| same(*a, *b))) {
+        if !configs
+            .iter()
+            .any(|c| c.iter().zip(&s.loads_g).all(|(a, b)| same(*a, *b)))
+        {
             configs.push(s.loads_g.clone());
         }
     }
@@ -78,14 +81,24 @@ pub fn additivity(
     for loads in configs {
         let cells: Vec<usize> = (0..loads.len()).filter(|&c| loads[c] > 0.0).collect();
         let together: Vec<usize> = (0..states.len())
-            .filter(|&k| states[k].loads_g.iter().zip(&loads).all(|(a, b)| same(*a, *b)))
+            .filter(|&k| {
+                states[k]
+                    .loads_g
+                    .iter()
+                    .zip(&loads)
+                    .all(|(a, b)| same(*a, *b))
+            })
             .filter(read)
             .collect();
         let alone: Vec<Vec<usize>> = cells
             .iter()
             .map(|&c| {
                 (0..states.len())
-                    .filter(|&k| states[k].single().is_some_and(|(x, l)| x == c && same(l, loads[c])))
+                    .filter(|&k| {
+                        states[k]
+                            .single()
+                            .is_some_and(|(x, l)| x == c && same(l, loads[c]))
+                    })
                     .filter(read)
                     .collect()
             })

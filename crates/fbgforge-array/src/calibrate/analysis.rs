@@ -60,7 +60,11 @@ fn test_window(states: &[LoadState], sample_s: f64) -> usize {
 
 /// The typical interval between rows, s.
 fn sample_interval(time_s: &[f64]) -> f64 {
-    let mut d: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).filter(|x| *x > 0.0).collect();
+    let mut d: Vec<f64> = time_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|x| *x > 0.0)
+        .collect();
     let m = super::steps::median(&mut d);
     if m.is_finite() {
         m
@@ -118,7 +122,12 @@ pub fn analyse(i: &AnalysisInputs) -> Result<Calibration> {
                 .collect();
             Transition {
                 time_s: states[k].start_s,
-                expected_pm: Some((i.predicted * nalgebra::DVector::from_vec(dx)).iter().copied().collect()),
+                expected_pm: Some(
+                    (i.predicted * nalgebra::DVector::from_vec(dx))
+                        .iter()
+                        .copied()
+                        .collect(),
+                ),
             }
         })
         .collect();
@@ -204,7 +213,12 @@ fn assemble(
     let t = &i.data.time_s;
     let opt = |m: &DMatrix<f64>| -> Vec<Vec<Option<f64>>> {
         (0..m.nrows())
-            .map(|g| m.row(g).iter().map(|v| v.is_finite().then_some(*v)).collect())
+            .map(|g| {
+                m.row(g)
+                    .iter()
+                    .map(|v| v.is_finite().then_some(*v))
+                    .collect()
+            })
             .collect()
     };
     let spans = states
@@ -213,7 +227,10 @@ fn assemble(
         .map(|(s, l)| StateSpan {
             schedule_start_s: s.start_s,
             data_start_s: t.get(l.samples.0).copied().unwrap_or(f64::NAN),
-            data_end_s: t.get(l.samples.1.saturating_sub(1)).copied().unwrap_or(f64::NAN),
+            data_end_s: t
+                .get(l.samples.1.saturating_sub(1))
+                .copied()
+                .unwrap_or(f64::NAN),
             samples_used: l.used,
             loads_g: s
                 .loaded_cells()

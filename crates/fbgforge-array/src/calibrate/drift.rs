@@ -32,7 +32,11 @@ struct Worst {
 
 /// Unloaded readings of one grating by state index: [time s, level pm, sem pm,
 /// allowance pm].
-fn unloaded_points(states: &[LoadState], levels: &[StateLevels], g: usize) -> Vec<(usize, [f64; 4])> {
+fn unloaded_points(
+    states: &[LoadState],
+    levels: &[StateLevels],
+    g: usize,
+) -> Vec<(usize, [f64; 4])> {
     let mut out: Vec<(usize, [f64; 4])> = Vec::new();
     let mut peak_since = 0.0f64;
     for (k, (s, l)) in states.iter().zip(levels).enumerate() {
@@ -41,7 +45,15 @@ fn unloaded_points(states: &[LoadState], levels: &[StateLevels], g: usize) -> Ve
             continue;
         }
         if s.is_unloaded() {
-            out.push((k, [l.time_s, lv.shift_pm, lv.sem_pm, HYSTERESIS_ALLOWANCE * peak_since]));
+            out.push((
+                k,
+                [
+                    l.time_s,
+                    lv.shift_pm,
+                    lv.sem_pm,
+                    HYSTERESIS_ALLOWANCE * peak_since,
+                ],
+            ));
             peak_since = 0.0;
         } else if let Some(last) = out.last() {
             peak_since = peak_since.max((lv.shift_pm - last.1[1]).abs());
@@ -64,9 +76,16 @@ fn common_mode(points: &[Vec<(usize, [f64; 4])>]) -> Vec<(usize, [f64; 4])> {
                 .iter()
                 .filter_map(|g| Some((g.iter().find(|p| p.0 == k)?.1, g.first()?.1[1])))
                 .collect();
-            let med = |f: fn(&([f64; 4], f64)) -> f64| super::steps::median(&mut at.iter().map(f).collect());
+            let med = |f: fn(&([f64; 4], f64)) -> f64| {
+                super::steps::median(&mut at.iter().map(f).collect())
+            };
             let level = med(|(p, first)| p[1] - first);
-            level.is_finite().then(|| (k, [at[0].0[0], level, med(|(p, _)| p[2]), med(|(p, _)| p[3])]))
+            level.is_finite().then(|| {
+                (
+                    k,
+                    [at[0].0[0], level, med(|(p, _)| p[2]), med(|(p, _)| p[3])],
+                )
+            })
         })
         .collect()
 }
@@ -102,8 +121,14 @@ pub fn drift_faults(
     gratings: &[String],
     resolution_pm: f64,
 ) -> Vec<Fault> {
-    let points: Vec<Vec<(usize, [f64; 4])>> = (0..gratings.len()).map(|g| unloaded_points(states, levels, g)).collect();
-    let common = if gratings.len() >= 3 { common_mode(&points) } else { Vec::new() };
+    let points: Vec<Vec<(usize, [f64; 4])>> = (0..gratings.len())
+        .map(|g| unloaded_points(states, levels, g))
+        .collect();
+    let common = if gratings.len() >= 3 {
+        common_mode(&points)
+    } else {
+        Vec::new()
+    };
     let level_at = |k: usize| common.iter().find(|p| p.0 == k).map_or(0.0, |p| p.1[1]);
     let evidence = |w: &Worst| {
         BTreeMap::from([

@@ -153,14 +153,19 @@ fn swapped(i: &Inputs, scale: f64) -> (Vec<Fault>, Vec<usize>) {
             for b in (a + 1..n).filter(|&b| !done[b]) {
                 let (aa, bb, ab, ba) = (chi(a, a), chi(b, b), chi(a, b), chi(b, a));
                 let (own, exchanged) = (aa + bb, ab + ba);
-                if own > 2.0 && exchanged < 0.25 * own && ab < aa && ba < bb
+                if own > 2.0
+                    && exchanged < 0.25 * own
+                    && ab < aa
+                    && ba < bb
                     && best.is_none_or(|x| own - exchanged > x.2 - x.3)
                 {
                     best = Some((a, b, own, exchanged));
                 }
             }
         }
-        let Some((a, b, own, exchanged)) = best else { break };
+        let Some((a, b, own, exchanged)) = best else {
+            break;
+        };
         done[a] = true;
         done[b] = true;
         row_of.swap(a, b);
@@ -254,10 +259,21 @@ fn identity(i: &Inputs) -> Vec<Fault> {
     }
     for &c in &cols {
         let m: Vec<f64> = i.measured.column(c).iter().copied().collect();
-        let own = angle_deg(&m, &i.predicted.column(c).iter().copied().collect::<Vec<_>>());
+        let own = angle_deg(
+            &m,
+            &i.predicted.column(c).iter().copied().collect::<Vec<_>>(),
+        );
         let (other, near) = (0..i.predicted.ncols())
             .filter(|&o| o != c)
-            .map(|o| (o, angle_deg(&m, &i.predicted.column(o).iter().copied().collect::<Vec<_>>())))
+            .map(|o| {
+                (
+                    o,
+                    angle_deg(
+                        &m,
+                        &i.predicted.column(o).iter().copied().collect::<Vec<_>>(),
+                    ),
+                )
+            })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap_or((c, own));
         if other == c || own < 15.0 || near + 10.0 > own {
@@ -322,7 +338,11 @@ fn negative(i: &Inputs, scale: f64) -> Vec<Fault> {
     let mut out = Vec::new();
     for c in loaded_cells(i.measured) {
         for g in 0..i.measured.nrows() {
-            let (m, s, p) = (i.measured[(g, c)], i.sd[(g, c)], scale * i.predicted[(g, c)]);
+            let (m, s, p) = (
+                i.measured[(g, c)],
+                i.sd[(g, c)],
+                scale * i.predicted[(g, c)],
+            );
             let lower = p - i.tolerance * (p.abs() + 0.05 * top);
             if m + 3.0 * s < 0.0 && m + 3.0 * s < lower {
                 out.push(Fault {

@@ -44,7 +44,10 @@ pub fn state_levels(
     let mut buf = Vec::new();
     (0..starts.len())
         .map(|k| {
-            let (a, b) = (starts[k], starts.get(k + 1).copied().unwrap_or(n).max(starts[k]));
+            let (a, b) = (
+                starts[k],
+                starts.get(k + 1).copied().unwrap_or(n).max(starts[k]),
+            );
             let len = b - a;
             let guard = if k == 0 { 0 } else { (len / 4).max(2) };
             let tail = usize::from(len > 4 && k + 1 < starts.len());
@@ -53,7 +56,10 @@ pub fn state_levels(
             let time = if used > 0 {
                 time_s[u0..u1].iter().sum::<f64>() / used as f64
             } else {
-                time_s.get(a.min(n.saturating_sub(1))).copied().unwrap_or(0.0)
+                time_s
+                    .get(a.min(n.saturating_sub(1)))
+                    .copied()
+                    .unwrap_or(0.0)
             };
             let gratings = shifts_pm
                 .iter()

@@ -132,8 +132,18 @@ pub fn align(
         for m in 0..nm {
             let mut b = costs.first(k, m);
             let mut from = None;
-            for (k0, row) in best.iter().enumerate().take(k).skip(k.saturating_sub(MAX_TRANSITION_GAP)) {
-                for (m0, &prev) in row.iter().enumerate().take(m).skip(m.saturating_sub(MAX_CHANGE_GAP)) {
+            for (k0, row) in best
+                .iter()
+                .enumerate()
+                .take(k)
+                .skip(k.saturating_sub(MAX_TRANSITION_GAP))
+            {
+                for (m0, &prev) in row
+                    .iter()
+                    .enumerate()
+                    .take(m)
+                    .skip(m.saturating_sub(MAX_CHANGE_GAP))
+                {
                     if prev.is_finite() {
                         let c = prev + costs.step((k0, m0), (k, m));
                         if c < b {
@@ -212,7 +222,12 @@ pub fn state_starts(
         .iter()
         .enumerate()
         .filter_map(|(k, m)| {
-            m.map(|m| (transitions[k].time_s, changes[m].time_s - transitions[k].time_s))
+            m.map(|m| {
+                (
+                    transitions[k].time_s,
+                    changes[m].time_s - transitions[k].time_s,
+                )
+            })
         })
         .collect();
     let offset_at = |t: f64| -> f64 {

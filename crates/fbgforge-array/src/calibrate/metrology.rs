@@ -178,7 +178,11 @@ pub fn metrology(
     out
 }
 
-fn one_grating(cycles: &[&Cycle], shift: &dyn Fn(usize) -> f64, resolution_pm: f64) -> Option<Metrology> {
+fn one_grating(
+    cycles: &[&Cycle],
+    shift: &dyn Fn(usize) -> f64,
+    resolution_pm: f64,
+) -> Option<Metrology> {
     let per_cycle: Vec<Vec<(f64, f64, Branch)>> = cycles
         .iter()
         .map(|c| {
@@ -229,7 +233,10 @@ fn one_grating(cycles: &[&Cycle], shift: &dyn Fn(usize) -> f64, resolution_pm: f
         })
         .collect();
     curve.sort_by(|x, y| x.branch.cmp(&y.branch).then(x.load_g.total_cmp(&y.load_g)));
-    let linearity = curve.iter().map(|p| p.deviation_pm.abs()).fold(0.0, f64::max);
+    let linearity = curve
+        .iter()
+        .map(|p| p.deviation_pm.abs())
+        .fold(0.0, f64::max);
     let hysteresis = curve
         .iter()
         .map(|p| {
@@ -240,7 +247,13 @@ fn one_grating(cycles: &[&Cycle], shift: &dyn Fn(usize) -> f64, resolution_pm: f
                 .sum::<f64>()
         })
         .fold(0.0, f64::max);
-    let pct = |v: f64| if span > 0.0 { 100.0 * v / span } else { f64::NAN };
+    let pct = |v: f64| {
+        if span > 0.0 {
+            100.0 * v / span
+        } else {
+            f64::NAN
+        }
+    };
     Some(Metrology {
         cell: String::new(),
         grating: String::new(),

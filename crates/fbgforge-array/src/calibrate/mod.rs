@@ -222,9 +222,11 @@ impl Calibration {
         SensingMatrix {
             gratings: self.gratings.clone(),
             cells: self.cells.clone(),
-            sensitivity_pm_per_g: DMatrix::from_fn(self.gratings.len(), self.cells.len(), |g, c| {
-                rows[g][c].unwrap_or(f64::NAN)
-            }),
+            sensitivity_pm_per_g: DMatrix::from_fn(
+                self.gratings.len(),
+                self.cells.len(),
+                |g, c| rows[g][c].unwrap_or(f64::NAN),
+            ),
         }
     }
 }
@@ -428,15 +430,30 @@ fn write_files(
     };
     let from = format!("from {} and {}", req.log.display(), req.schedule.display());
     if cal.usable && cal.complete {
-        crate::io::write_matrix_with_comments(out, &cal.matrix(), &[format!("measured sensing matrix, pm/g, {from}")])?;
+        crate::io::write_matrix_with_comments(
+            out,
+            &cal.matrix(),
+            &[format!("measured sensing matrix, pm/g, {from}")],
+        )?;
         let sd = out.with_extension("sd.csv");
-        crate::io::write_matrix_with_comments(&sd, &cal.matrix_sd(), &[format!("standard deviation of each entry of {}, pm/g, {from}", out.display())])?;
+        crate::io::write_matrix_with_comments(
+            &sd,
+            &cal.matrix_sd(),
+            &[format!(
+                "standard deviation of each entry of {}, pm/g, {from}",
+                out.display()
+            )],
+        )?;
         files.matrix = Some(out.clone());
         files.matrix_sd = Some(sd);
     } else if !cal.usable {
         let faulty = out.with_extension("faulty.csv");
         let mut comments = vec![format!("FAULTY calibration, do not use: {from}")];
-        comments.extend(cal.faults.iter().map(|f| format!("fault {}: {}", f.kind.name(), f.reason)));
+        comments.extend(
+            cal.faults
+                .iter()
+                .map(|f| format!("fault {}: {}", f.kind.name(), f.reason)),
+        );
         crate::io::write_matrix_with_comments(&faulty, &cal.matrix(), &comments)?;
         files.faulty_matrix = Some(faulty);
     }
@@ -470,16 +487,20 @@ pub fn run(
         predicted: &predicted.matrix.sensitivity_pm_per_g,
         model: &predicted.description,
         resolution_pm: req.resolution_pm.unwrap_or(DEFAULT_RESOLUTION_PM),
-        tolerance: req.model_tolerance.unwrap_or(compare::DEFAULT_MODEL_TOLERANCE),
+        tolerance: req
+            .model_tolerance
+            .unwrap_or(compare::DEFAULT_MODEL_TOLERANCE),
     })?;
     let sheet_fit = if req.fit_sheet {
-        Some(fit_sheet(design, &calibration.fit_entries()).with_context(|| {
-            let of = req.design_file.as_ref().map_or_else(
-                || format!("design `{}`", design.name),
-                |p| p.display().to_string(),
-            );
-            format!("{of}: fitting the sheet's unknowns")
-        })?)
+        Some(
+            fit_sheet(design, &calibration.fit_entries()).with_context(|| {
+                let of = req.design_file.as_ref().map_or_else(
+                    || format!("design `{}`", design.name),
+                    |p| p.display().to_string(),
+                );
+                format!("{of}: fitting the sheet's unknowns")
+            })?,
+        )
     } else {
         None
     };

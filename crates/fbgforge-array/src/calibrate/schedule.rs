@@ -35,7 +35,12 @@ pub fn read_schedule(path: &Path, n_cells: usize) -> Result<Vec<Loading>> {
 
 fn check_header(fields: &[String], path: &Path, line: u64) -> Result<()> {
     let want = ["start_s", "end_s", "cell", "load_g"];
-    if fields.len() != 4 || !fields.iter().zip(want).all(|(f, w)| f.eq_ignore_ascii_case(w)) {
+    if fields.len() != 4
+        || !fields
+            .iter()
+            .zip(want)
+            .all(|(f, w)| f.eq_ignore_ascii_case(w))
+    {
         bail!(
             "{}:{line}: expected the header `start_s,end_s,cell,load_g`",
             path.display()
@@ -172,7 +177,10 @@ pub fn load_states(schedule: &[Loading], n_cells: usize, end_s: f64) -> Vec<Load
     for w in cuts.windows(2) {
         let mid = 0.5 * (w[0] + w[1]);
         let mut loads_g = vec![0.0; n_cells];
-        for l in schedule.iter().filter(|l| l.start_s <= mid && mid < l.end_s) {
+        for l in schedule
+            .iter()
+            .filter(|l| l.start_s <= mid && mid < l.end_s)
+        {
             loads_g[l.cell] += l.load_g;
         }
         match states.last_mut() {

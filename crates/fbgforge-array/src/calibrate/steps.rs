@@ -145,10 +145,12 @@ pub fn detect(
     let jump = |i: usize| -> Vec<f64> {
         prefix
             .iter()
-            .map(|p| match (p.mean(i.saturating_sub(w), i), p.mean(i, (i + w).min(n))) {
-                (Some(a), Some(b)) => b - a,
-                _ => 0.0,
-            })
+            .map(
+                |p| match (p.mean(i.saturating_sub(w), i), p.mean(i, (i + w).min(n))) {
+                    (Some(a), Some(b)) => b - a,
+                    _ => 0.0,
+                },
+            )
             .collect()
     };
     let score_of = |j: &[f64]| -> f64 {
@@ -213,7 +215,12 @@ fn drop_transients(changes: Vec<Change>, w: usize, noise: &[f64]) -> (Vec<Change
     let mut k = 0;
     while k + 1 < changes.len() {
         let (a, b) = (&changes[k], &changes[k + 1]);
-        let sum: Vec<f64> = a.jump_pm.iter().zip(&b.jump_pm).map(|(x, y)| x + y).collect();
+        let sum: Vec<f64> = a
+            .jump_pm
+            .iter()
+            .zip(&b.jump_pm)
+            .map(|(x, y)| x + y)
+            .collect();
         let small = norm(&a.jump_pm, noise).min(norm(&b.jump_pm, noise));
         if 2 * (b.index - a.index) <= 3 * w && norm(&sum, noise) < 0.25 * small {
             keep[k] = false;
@@ -250,7 +257,13 @@ mod tests {
         let mut a = vec![0.0; n];
         let mut b = vec![0.0; n];
         for i in 0..n {
-            let level = if i >= 200 { 2.0 } else if i >= 100 { 1.0 } else { 0.0 };
+            let level = if i >= 200 {
+                2.0
+            } else if i >= 100 {
+                1.0
+            } else {
+                0.0
+            };
             a[i] = 10.0 * level + noise.sample(&mut rng);
             b[i] = 2.0 * level + noise.sample(&mut rng);
         }
@@ -266,7 +279,11 @@ mod tests {
         assert!((d.changes[0].jump_pm[0] - 10.0).abs() < 0.3);
         assert!((d.noise_pm[0] - 0.1).abs() < 0.02, "{:?}", d.noise_pm);
         assert_eq!(d.transients_s.len(), 1);
-        assert!((d.transients_s[0] - 25.0).abs() < 0.2, "{:?}", d.transients_s);
+        assert!(
+            (d.transients_s[0] - 25.0).abs() < 0.2,
+            "{:?}",
+            d.transients_s
+        );
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! towards its flat reading. Only gratings that pass the first (cheap) test are
 //! reconstructed without. Suspects are left out of every frame.
 
-use super::{leave_one_out, mean, Corrections, SuspectGrating, SuspectReason, StreamSample};
+use super::{leave_one_out, mean, Corrections, StreamSample, SuspectGrating, SuspectReason};
 use crate::methods::ReadingSettings;
 use crate::problem::SensingProblem;
 use crate::ArrayError;

@@ -11,7 +11,9 @@
 //! drift the same way all the same, none is named. A drifting grating's readings are
 //! corrected by its line.
 
-use super::{leave_one_out, median, view, Corrections, StreamSample, SuspectGrating, SuspectReason};
+use super::{
+    leave_one_out, median, view, Corrections, StreamSample, SuspectGrating, SuspectReason,
+};
 use crate::methods::ReadingSettings;
 use crate::problem::SensingProblem;
 use crate::ArrayError;

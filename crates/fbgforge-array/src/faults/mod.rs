@@ -200,7 +200,12 @@ impl Solver {
 
     /// The reading of row `i` of `full` (a problem with one more row, `i` of it left
     /// out here) that the loads of `r` predict, with the common offset if fitted.
-    pub fn predict_row(&self, full: &SensingProblem, i: usize, r: &crate::methods::Reconstruction) -> f64 {
+    pub fn predict_row(
+        &self,
+        full: &SensingProblem,
+        i: usize,
+        r: &crate::methods::Reconstruction,
+    ) -> f64 {
         let mut pred: f64 = (0..full.n_cells())
             .map(|j| full.sensitivity_pm_per_g[(i, j)] * r.loads_g[j])
             .sum();
@@ -269,11 +274,23 @@ pub fn diagnose(
         dead::find(&current, prior, sample, &mut corr, &mut suspects)?;
         current = problem.without_gratings(&corr.dropped)?;
         let weights = common_weights(problem, &corr, auto.as_deref());
-        let histories =
-            drift::find(problem, &current, weights.as_deref(), prior, sample, &mut corr, &mut suspects)?;
+        let histories = drift::find(
+            problem,
+            &current,
+            weights.as_deref(),
+            prior,
+            sample,
+            &mut corr,
+            &mut suspects,
+        )?;
         residuals::find_swapped(problem, &current, prior, sample, &mut corr, &mut suspects)?;
         let before = corr.dropped.len();
-        residuals::find_noisy(problem.uncertainty.resolution_pm, &histories, &mut corr, &mut suspects);
+        residuals::find_noisy(
+            problem.uncertainty.resolution_pm,
+            &histories,
+            &mut corr,
+            &mut suspects,
+        );
         if corr.dropped.len() != before {
             current = problem.without_gratings(&corr.dropped)?;
         }

@@ -32,7 +32,9 @@ pub(crate) const MIN_OFFSET_FRAMES: usize = 8;
 /// Per grating, rᵢ²/vᵢ of an answer.
 fn standardised(problem: &SensingProblem, y: &[f64], loads: &[f64]) -> Vec<f64> {
     let pred = &problem.sensitivity_pm_per_g * DVector::from_column_slice(loads);
-    let var = problem.uncertainty.reading_variances_pm2(loads, pred.as_slice());
+    let var = problem
+        .uncertainty
+        .reading_variances_pm2(loads, pred.as_slice());
     problem
         .residual_vector_pm(loads, y)
         .iter()
@@ -63,9 +65,15 @@ pub(super) fn called_for(
         ));
     }
     let Ok(with) = current.clone().with_common_mode(weights) else {
-        return Ok((false, "no common offset: a cell's load cannot be told from it".into()));
+        return Ok((
+            false,
+            "no common offset: a cell's load cannot be told from it".into(),
+        ));
     };
-    let (s0, s1) = (Solver::new(current.clone(), prior)?, Solver::new(with, prior)?);
+    let (s0, s1) = (
+        Solver::new(current.clone(), prior)?,
+        Solver::new(with, prior)?,
+    );
     let m = current.n_gratings();
     let mut drop = 0.0;
     let mut drops = Vec::with_capacity(f);
@@ -101,12 +109,24 @@ pub(super) fn called_for(
         median(offsets)
     );
     Ok(if significant && spread_out && median_drop >= MEDIAN_DROP {
-        (true, format!("common offset fitted: the frames call for it ({numbers})"))
+        (
+            true,
+            format!("common offset fitted: the frames call for it ({numbers})"),
+        )
     } else if significant && !spread_out {
-        (false, format!("no common offset: one grating gives most of the drop ({numbers})"))
+        (
+            false,
+            format!("no common offset: one grating gives most of the drop ({numbers})"),
+        )
     } else if significant {
-        (false, format!("no common offset: the drop comes from a few frames ({numbers})"))
+        (
+            false,
+            format!("no common offset: the drop comes from a few frames ({numbers})"),
+        )
     } else {
-        (false, format!("no common offset: the frames do not call for it ({numbers})"))
+        (
+            false,
+            format!("no common offset: the frames do not call for it ({numbers})"),
+        )
     })
 }

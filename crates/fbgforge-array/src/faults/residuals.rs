@@ -58,7 +58,9 @@ fn fit_all(solver: &Solver, frames: &[Vec<f64>]) -> Fits {
     for y in frames {
         let r = solver.solve(y);
         let pred = &p.sensitivity_pm_per_g * DVector::from_column_slice(&r.loads_g);
-        let var = p.uncertainty.reading_variances_pm2(&r.loads_g, pred.as_slice());
+        let var = p
+            .uncertainty
+            .reading_variances_pm2(&r.loads_g, pred.as_slice());
         let z = p
             .residual_vector_pm(&r.loads_g, y)
             .iter()

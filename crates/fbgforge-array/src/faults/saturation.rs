@@ -5,7 +5,9 @@
 //! least [`EXCESS_SIGMAS`] resolutions and [`EXCESS_FRAC`] of the top (median over
 //! those frames). Frames where it reads at its top are reconstructed without it.
 
-use super::{leave_one_out, median, view, Corrections, StreamSample, SuspectGrating, SuspectReason};
+use super::{
+    leave_one_out, median, view, Corrections, StreamSample, SuspectGrating, SuspectReason,
+};
 use crate::methods::ReadingSettings;
 use crate::problem::SensingProblem;
 use crate::ArrayError;
@@ -52,7 +54,11 @@ pub(super) fn find(
             .collect();
         if at_top.len() < MIN_AT_TOP {
             if std::env::var("I35_DEBUG").is_ok() {
-                eprintln!("sat g{i} top {top:.2} at_top {} only; next {:?}", at_top.len(), tops.iter().take(5).map(|(_, y)| y[i]).collect::<Vec<_>>());
+                eprintln!(
+                    "sat g{i} top {top:.2} at_top {} only; next {:?}",
+                    at_top.len(),
+                    tops.iter().take(5).map(|(_, y)| y[i]).collect::<Vec<_>>()
+                );
             }
             continue;
         }
@@ -68,7 +74,14 @@ pub(super) fn find(
         }
         let predicted = median(preds.clone());
         if std::env::var("I35_DEBUG").is_ok() {
-            eprintln!("sat g{i} top {top:.2} at_top {} preds {:?}", at_top.len(), preds.iter().map(|p| (p * 10.0).round() / 10.0).collect::<Vec<_>>());
+            eprintln!(
+                "sat g{i} top {top:.2} at_top {} preds {:?}",
+                at_top.len(),
+                preds
+                    .iter()
+                    .map(|p| (p * 10.0).round() / 10.0)
+                    .collect::<Vec<_>>()
+            );
         }
         if predicted - top >= (EXCESS_SIGMAS * sigma).max(EXCESS_FRAC * top) {
             found.push((i, top, predicted, at_top.len()));

@@ -30,10 +30,10 @@ pub use stream::{BudgetNote, StreamRun, CHUNK_FRAMES};
 pub use super::choice::DEFAULT_BUDGET_US;
 use super::choice::{check_budget, default_choice, Candidate};
 use super::faults::{Diagnosis, StreamSample, SuspectGrating};
+pub use super::methods::Method;
 use super::methods::{
     build, MethodSettings, ReadingSettings, Reconstruction, Reconstructor, PARALLEL_FROM,
 };
-pub use super::methods::Method;
 use super::problem::SensingProblem;
 use super::trust::{FlagCounts, FrameTest};
 use super::ArrayError;
@@ -185,7 +185,11 @@ impl Setup {
 
     /// The same method and settings built for `problem` (another set of gratings, a
     /// common offset): what a stream's diagnosis needs, the choice unchanged.
-    pub(crate) fn for_problem(&self, problem: &SensingProblem, settings: MethodSettings) -> Result<Setup, ArrayError> {
+    pub(crate) fn for_problem(
+        &self,
+        problem: &SensingProblem,
+        settings: MethodSettings,
+    ) -> Result<Setup, ArrayError> {
         let t0 = Instant::now();
         let reconstructor = build(problem, &settings)?;
         Ok(Setup {

@@ -372,7 +372,6 @@ pub fn modulus_profile(design: &Design, moduli_mpa: &[f64]) -> Result<Vec<Profil
         .collect()
 }
 
-
 /// The sheet model's error on the paper's own sheet: rms of ln(model/measured) over
 /// Table 1 with the shipped constants (0.25, §12.3; test
 /// `sheet_paper::the_model_error_the_sheet_fit_allows_is_its_error_on_the_papers_sheet`).
@@ -435,7 +434,10 @@ pub struct SheetGrid {
 
 /// Insert `v` into the sorted axis `axis` unless present; its index.
 fn with_value(axis: &mut Vec<f64>, v: f64) -> usize {
-    if let Some(i) = axis.iter().position(|x| (x - v).abs() <= 1e-9 * v.abs().max(1e-12) || *x == v) {
+    if let Some(i) = axis
+        .iter()
+        .position(|x| (x - v).abs() <= 1e-9 * v.abs().max(1e-12) || *x == v)
+    {
         return i;
     }
     axis.push(v);
@@ -617,11 +619,21 @@ impl SheetGrid {
                 };
                 let joint = range_where(&|_| true);
                 let given = range_where(&|c| (0..3).all(|b| b == a || c[b] == self.design_at[b]));
-                parameter(name, values, self.design_at[a], coords(best_at)[a], joint, given)
+                parameter(
+                    name,
+                    values,
+                    self.design_at[a],
+                    coords(best_at)[a],
+                    joint,
+                    given,
+                )
             })
             .collect::<Vec<_>>();
         let summary = if entries.len() < 3 {
-            format!("{} entries to fit: too few to read the sheet's unknowns", entries.len())
+            format!(
+                "{} entries to fit: too few to read the sheet's unknowns",
+                entries.len()
+            )
         } else if !fits {
             format!("the sheet model misses this matrix by rms log {best:.2} at best over the grid, more than its {MODEL_RMS_LOG} error on the paper's sheet: no unknown can be read from it (the sheet, or the model, is not what the design says)")
         } else if design <= MODEL_RMS_LOG {
@@ -662,7 +674,13 @@ fn parameter(
 ) -> FitParameter {
     let last = values.len() - 1;
     let identifiable = joint.is_some_and(|[lo, hi]| lo > 0 && hi < last);
-    let span = |r: [usize; 2]| format!("{} to {}", value_words(name, values[r[0]]), value_words(name, values[r[1]]));
+    let span = |r: [usize; 2]| {
+        format!(
+            "{} to {}",
+            value_words(name, values[r[0]]),
+            value_words(name, values[r[1]])
+        )
+    };
     let words = match (joint, identifiable) {
         (None, _) => "not identifiable: no value fits within the model's error".to_string(),
         (Some(r), true) => format!(

@@ -82,7 +82,6 @@ pub(crate) fn chi2_p_value(x: f64, dof: usize) -> f64 {
     gamma_q(0.5 * dof as f64, 0.5 * x.max(0.0))
 }
 
-
 /// The χ² quantile with `dof` degrees of freedom at 1 − `alpha`: the x with
 /// P(χ²_dof ≥ x) = alpha (bisection on [`chi2_p_value`], to 1e-12 relative).
 pub(crate) fn chi2_quantile(alpha: f64, dof: usize) -> f64 {

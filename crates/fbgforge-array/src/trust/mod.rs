@@ -63,8 +63,8 @@
 mod chi2;
 mod rivals;
 
-pub(crate) use chi2::{chi2_p_value, chi2_quantile};
 use chi2::chi2_1_quantile;
+pub(crate) use chi2::{chi2_p_value, chi2_quantile};
 
 use super::methods::bounded::box_qp;
 use super::methods::Reconstruction;
@@ -403,7 +403,12 @@ fn has_twin(w: &Weighted, support: &[usize]) -> bool {
     support.iter().any(|&j| {
         (0..w.n).any(|l| {
             l != j && {
-                let d2: f64 = w.col(j).iter().zip(w.col(l)).map(|(a, b)| (a - b) * (a - b)).sum();
+                let d2: f64 = w
+                    .col(j)
+                    .iter()
+                    .zip(w.col(l))
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum();
                 d2 <= 1e-18 * w.d[j]
             }
         })
@@ -468,7 +473,11 @@ impl Weighted {
     }
 
     fn dot(&self, j: usize, l: usize) -> f64 {
-        self.col(j).iter().zip(self.col(l)).map(|(a, b)| a * b).sum()
+        self.col(j)
+            .iter()
+            .zip(self.col(l))
+            .map(|(a, b)| a * b)
+            .sum()
     }
 
     /// B_jᵀB: the Gram row of cell j.
@@ -485,7 +494,12 @@ impl Weighted {
         }
         let g = DMatrix::from_fn(k, k, |a, q| self.dot(cells[a], cells[q]));
         let b = DVector::from_fn(k, |a, _| self.c[cells[a]]);
-        let z = box_qp(&g, &b, &DVector::from_element(k, lo), &DVector::from_element(k, hi))?;
+        let z = box_qp(
+            &g,
+            &b,
+            &DVector::from_element(k, lo),
+            &DVector::from_element(k, hi),
+        )?;
         let quad = z.dot(&(&g * &z)) - 2.0 * b.dot(&z);
         Some(((self.yty + quad).max(0.0), z.iter().copied().collect()))
     }

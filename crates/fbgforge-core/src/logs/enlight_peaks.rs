@@ -33,7 +33,13 @@ impl LogReader for EnlightPeaks {
         (is_timestamp_header(head) && is_channel_column(head.second)).then_some(b'\t')
     }
 
-    fn rows(&self, det: &Detected, _bytes: &[u8], path: &Path, _opts: &super::ReadOptions) -> Result<Rows> {
+    fn rows(
+        &self,
+        det: &Detected,
+        _bytes: &[u8],
+        path: &Path,
+        _opts: &super::ReadOptions,
+    ) -> Result<Rows> {
         let channels = det.header[1..]
             .iter()
             .take_while(|h| is_channel_column(h.as_bytes()))

@@ -31,7 +31,13 @@ impl LogReader for EnlightSensors {
         (is_timestamp_header(head) && !is_channel_column(head.second)).then_some(b'\t')
     }
 
-    fn rows(&self, det: &Detected, _bytes: &[u8], _path: &Path, _opts: &super::ReadOptions) -> Result<Rows> {
+    fn rows(
+        &self,
+        det: &Detected,
+        _bytes: &[u8],
+        _path: &Path,
+        _opts: &super::ReadOptions,
+    ) -> Result<Rows> {
         let names: Vec<String> = det.header[1..]
             .iter()
             .filter(|h| !h.is_empty())

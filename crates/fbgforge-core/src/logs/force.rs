@@ -419,7 +419,10 @@ fn per_row_units(
             path.display(),
             first,
             if rows.row_scales.len() > 1 {
-                format!(", and it changes within the log: {} units", rows.row_scales.len())
+                format!(
+                    ", and it changes within the log: {} units",
+                    rows.row_scales.len()
+                )
             } else {
                 String::new()
             }

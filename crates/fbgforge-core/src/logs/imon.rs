@@ -42,7 +42,13 @@ impl LogReader for Imon {
             .then_some(b'\t')
     }
 
-    fn rows(&self, det: &Detected, _bytes: &[u8], _path: &Path, _opts: &super::ReadOptions) -> Result<Rows> {
+    fn rows(
+        &self,
+        det: &Detected,
+        _bytes: &[u8],
+        _path: &Path,
+        _opts: &super::ReadOptions,
+    ) -> Result<Rows> {
         let pixels = det.header.iter().filter(|h| h.starts_with("Pixel")).count();
         Ok(Rows {
             channels: 1,

@@ -63,8 +63,8 @@ use std::path::{Path, PathBuf};
 
 pub use detect::{detect_format, Detected};
 pub use force::{
-    force_unit_scale, parse_force_bytes, read_force_log, row_unit_scale, time_unit_scale, write_force_csv,
-    write_force_stand_csv, ForceLog, ForceReadOptions,
+    force_unit_scale, parse_force_bytes, read_force_log, row_unit_scale, time_unit_scale,
+    write_force_csv, write_force_stand_csv, ForceLog, ForceReadOptions,
 };
 pub use row_reader::{LogRow, RowReader};
 pub use spectrum::{
@@ -199,8 +199,7 @@ pub(crate) trait LogReader: Sync {
 
     /// How the rows of a detected table are read (`bytes`: the whole file, or what has
     /// been written of it; `opts`: the reading settings, for the spectrum formats).
-    fn rows(&self, det: &Detected, bytes: &[u8], path: &Path, opts: &ReadOptions)
-        -> Result<Rows>;
+    fn rows(&self, det: &Detected, bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Rows>;
 
     /// Write `table` in this format.
     fn write(&self, w: &mut dyn Write, table: &LogTable, style: &LogStyle) -> std::io::Result<()>;
@@ -492,7 +491,11 @@ const HEAD_BYTES: usize = 8 << 20;
 /// [`read_peak_log`] reading `block` bytes at a time: a file over two blocks is never
 /// held whole (its table is parsed block by block as it is read), a smaller one is read
 /// at once.
-pub(crate) fn read_peak_log_in_blocks(path: &Path, opts: &ReadOptions, block: usize) -> Result<PeakLog> {
+pub(crate) fn read_peak_log_in_blocks(
+    path: &Path,
+    opts: &ReadOptions,
+    block: usize,
+) -> Result<PeakLog> {
     use std::io::Read;
     let cannot = || format!("cannot read the log {}", path.display());
     let mut file = std::fs::File::open(path).with_context(cannot)?;
@@ -505,7 +508,10 @@ pub(crate) fn read_peak_log_in_blocks(path: &Path, opts: &ReadOptions, block: us
     // The head: what detection reads (a test's small blocks read a smaller one).
     let head_len = HEAD_BYTES.min(block.max(1 << 16));
     let mut head = Vec::with_capacity(head_len);
-    (&mut file).take(head_len as u64).read_to_end(&mut head).with_context(cannot)?;
+    (&mut file)
+        .take(head_len as u64)
+        .read_to_end(&mut head)
+        .with_context(cannot)?;
     let det = spectrum::detect_table(&head, path, opts)?;
     if matches!(det.format, LogFormat::EnlightSpectrum | LogFormat::OsaCsv) {
         // A whole-file spectrum is one acquisition's table, not a stream of rows.

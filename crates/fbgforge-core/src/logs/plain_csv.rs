@@ -159,7 +159,12 @@ fn std_error_columns(names: &[String]) -> std::result::Result<Vec<Option<usize>>
 /// (`# estimator: gaussian`), else `stated in no comment`.
 fn stated_estimator(head: &[u8]) -> String {
     lines_with_offsets(head)
-        .filter_map(|(_, l)| String::from_utf8_lossy(l).trim().strip_prefix('#').map(str::to_string))
+        .filter_map(|(_, l)| {
+            String::from_utf8_lossy(l)
+                .trim()
+                .strip_prefix('#')
+                .map(str::to_string)
+        })
         .find_map(|c| {
             c.trim()
                 .strip_prefix("estimator:")

@@ -206,7 +206,10 @@ impl RowParser for ValueColumns {
                         out.rollback(start);
                         return Err(issue(
                             "unreadable_line",
-                            format!("column {} is not a standard error in pm (a number ≥ 0)", c + 2),
+                            format!(
+                                "column {} is not a standard error in pm (a number ≥ 0)",
+                                c + 2
+                            ),
                         ));
                     }
                 }
@@ -216,7 +219,8 @@ impl RowParser for ValueColumns {
                 Some(v) if v.is_finite() && v > 0.0 => {
                     if !self.std_error_of.is_empty() {
                         peak_of_column.push((c, out.peaks.len()));
-                        out.quality.push(super::PeakQuality::std_error_only(f64::NAN));
+                        out.quality
+                            .push(super::PeakQuality::std_error_only(f64::NAN));
                     }
                     out.peaks.push(v);
                     out.chans.push(c as u16);
@@ -502,7 +506,10 @@ pub(crate) fn parse_body_stream(
                 let scale = total as f64 / cut as f64 * 1.05;
                 let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
                 let peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
-                m.reserve_rows((rows as f64 * scale) as usize, (peaks as f64 * scale) as usize);
+                m.reserve_rows(
+                    (rows as f64 * scale) as usize,
+                    (peaks as f64 * scale) as usize,
+                );
             }
             reserved = true;
         }

@@ -148,7 +148,13 @@ fn whole_second_stamps_with_pauses_keep_every_row_in_its_second() {
     // 187 s late; per stretch, every row stays inside the second written on it.
     let mut written = Vec::new();
     let mut t = 0.37f64; // the true time of the first row
-    for (rows, pause) in [(400, 171.0), (300, 83.0), (250, 39.0), (200, 8.0), (300, 0.0)] {
+    for (rows, pause) in [
+        (400, 171.0),
+        (300, 83.0),
+        (250, 39.0),
+        (200, 8.0),
+        (300, 0.0),
+    ] {
         for _ in 0..rows {
             written.push(t.floor());
             t += 0.1;
@@ -173,15 +179,31 @@ fn a_units_column_is_read_row_by_row_or_refused_naming_it() {
     // and newtons assumed, K 4.45 times off.
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("mark10.csv");
-    std::fs::write(&p, "Time_s,Force,Units\n0.0,1.000,lbF\n0.1,2.000,lbF\n0.2,3.000,N\n").unwrap();
+    std::fs::write(
+        &p,
+        "Time_s,Force,Units\n0.0,1.000,lbF\n0.1,2.000,lbF\n0.2,3.000,N\n",
+    )
+    .unwrap();
     let f = read_force_log(&p, &ForceReadOptions::default()).unwrap();
-    assert!((f.force_n[0] - 4.448_221_615).abs() < 1e-9, "{:?}", f.force_n);
+    assert!(
+        (f.force_n[0] - 4.448_221_615).abs() < 1e-9,
+        "{:?}",
+        f.force_n
+    );
     assert!((f.force_n[1] - 8.896_443_23).abs() < 1e-8);
     assert!((f.force_n[2] - 3.0).abs() < 1e-12);
     assert_eq!(f.warnings.count("force_unit_per_row"), 1);
     std::fs::write(&p, "Time_s,Force,Units\n0.0,1.000,lbF\n0.1,2.000,psi\n").unwrap();
-    let err = format!("{:#}", read_force_log(&p, &ForceReadOptions::default()).unwrap_err());
-    assert!(err.contains("mark10.csv:3:") && err.contains("units column (column 3)") && err.contains("psi"), "{err}");
+    let err = format!(
+        "{:#}",
+        read_force_log(&p, &ForceReadOptions::default()).unwrap_err()
+    );
+    assert!(
+        err.contains("mark10.csv:3:")
+            && err.contains("units column (column 3)")
+            && err.contains("psi"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -26,7 +26,8 @@ pub mod module;
 pub mod solve;
 
 pub use module::{
-    AxialStrainProfile, ContactReading, DomeContact, FemOptions, InsertContact, PillarCoupling, SolverKind,
+    AxialStrainProfile, ContactReading, DomeContact, FemOptions, InsertContact, PillarCoupling,
+    SolverKind,
 };
 
 use crate::model::GratingPrediction;

@@ -23,7 +23,12 @@ pub fn additivity_csv(c: &Calibration) -> String {
     }
     s.push('\n');
     for (k, t) in c.additivity.iter().enumerate() {
-        let loads: Vec<String> = t.cells.iter().zip(&t.loads_g).map(|(c, l)| format!("{c}{l}")).collect();
+        let loads: Vec<String> = t
+            .cells
+            .iter()
+            .zip(&t.loads_g)
+            .map(|(c, l)| format!("{c}{l}"))
+            .collect();
         for g in &t.gratings {
             let _ = write!(
                 s,
@@ -66,13 +71,21 @@ fn additivity_panel(out: &mut String, t: &AdditivityTest, y0: f64) {
     }
     let axis = Axis::fit(values, false).expect("finite values");
     let y_of = |v: f64| y0 + TOP + PANEL_H * (1.0 - axis.fraction(v).unwrap_or(0.0));
-    let title: Vec<String> = t.cells.iter().zip(&t.loads_g).map(|(c, l)| format!("{l} g on {c}")).collect();
+    let title: Vec<String> = t
+        .cells
+        .iter()
+        .zip(&t.loads_g)
+        .map(|(c, l)| format!("{l} g on {c}"))
+        .collect();
     let _ = writeln!(
         out,
         r#"<g class="additivity-test"><text x="{}" y="{}" font-size="14" font-weight="bold">{}</text>"#,
         px(LEFT),
         px(y0 + 20.0),
-        escape(&format!("Additivity: {} (bars alone, stacked; squares together)", title.join(" + ")))
+        escape(&format!(
+            "Additivity: {} (bars alone, stacked; squares together)",
+            title.join(" + ")
+        ))
     );
     for tick in axis.ticks().iter().filter(|t| t.major) {
         let y = y_of(tick.value);
@@ -160,7 +173,10 @@ fn additivity_panel(out: &mut String, t: &AdditivityTest, y0: f64) {
 /// The additivity tests as stacked bars, one panel per test.
 pub fn additivity_svg(c: &Calibration) -> String {
     let panel = TOP + PANEL_H + BOTTOM;
-    let (w, h) = (LEFT + PANEL_W + RIGHT, panel * c.additivity.len().max(1) as f64);
+    let (w, h) = (
+        LEFT + PANEL_W + RIGHT,
+        panel * c.additivity.len().max(1) as f64,
+    );
     let mut out = String::new();
     open(&mut out, "additivity", w, h, true);
     for (k, t) in c.additivity.iter().enumerate() {
@@ -210,8 +226,16 @@ pub fn metrology_chart(c: &Calibration, cell: &str) -> Chart {
             .map(|&l| (l, m.intercept_pm + m.sensitivity_pm_per_g * l))
             .collect();
         chart = chart
-            .with(Series::new(m.grating.clone(), pts, Mark::Points).with_color(k).with_role("curve"))
-            .with(Series::new("", line, Mark::Line).with_color(k).with_role("calibration-line"));
+            .with(
+                Series::new(m.grating.clone(), pts, Mark::Points)
+                    .with_color(k)
+                    .with_role("curve"),
+            )
+            .with(
+                Series::new("", line, Mark::Line)
+                    .with_color(k)
+                    .with_role("calibration-line"),
+            );
     }
     chart
 }
@@ -222,7 +246,10 @@ pub fn metrology_chart(c: &Calibration, cell: &str) -> Chart {
 pub fn write_charts(c: &Calibration, stem: &Path) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     if !c.additivity.is_empty() {
-        for (ext, text) in [("additivity.csv", additivity_csv(c)), ("additivity.svg", additivity_svg(c))] {
+        for (ext, text) in [
+            ("additivity.csv", additivity_csv(c)),
+            ("additivity.svg", additivity_svg(c)),
+        ] {
             let p = stem.with_extension(ext);
             write_atomic(&p, text.as_bytes())?;
             written.push(p);

@@ -19,11 +19,19 @@ pub struct Table;
 
 impl CalibrationSink for Table {
     fn calibrated(&mut self, c: &Calibration, w: &LogWarnings, f: &CalibrationFiles) -> Result<()> {
-        write!(std::io::stdout().lock(), "{}", text::calibration_text(c, w, f))?;
+        write!(
+            std::io::stdout().lock(),
+            "{}",
+            text::calibration_text(c, w, f)
+        )?;
         Ok(())
     }
     fn sheet_fitted(&mut self, fit: &SheetFit, path: Option<&Path>) -> Result<()> {
-        write!(std::io::stdout().lock(), "{}", text::sheet_fit_text(fit, path))?;
+        write!(
+            std::io::stdout().lock(),
+            "{}",
+            text::sheet_fit_text(fit, path)
+        )?;
         Ok(())
     }
 }
@@ -50,7 +58,12 @@ impl Charts {
 }
 
 impl CalibrationSink for Charts {
-    fn calibrated(&mut self, c: &Calibration, _w: &LogWarnings, _f: &CalibrationFiles) -> Result<()> {
+    fn calibrated(
+        &mut self,
+        c: &Calibration,
+        _w: &LogWarnings,
+        _f: &CalibrationFiles,
+    ) -> Result<()> {
         let written = charts::write_charts(c, &self.stem)?;
         if self.announce {
             let mut out = std::io::stdout().lock();

@@ -27,7 +27,10 @@ fn steps(c: &Calibration) -> String {
 fn faults(c: &Calibration) -> String {
     let mut s = String::new();
     for (sev, head) in [
-        (Severity::Unusable, "FAULTS: the matrix is unusable (exit 3)"),
+        (
+            Severity::Unusable,
+            "FAULTS: the matrix is unusable (exit 3)",
+        ),
         (Severity::Warning, "warnings"),
     ] {
         let of: Vec<_> = c.faults.iter().filter(|f| f.severity == sev).collect();
@@ -36,8 +39,19 @@ fn faults(c: &Calibration) -> String {
         }
         let _ = writeln!(s, "{head}:");
         for f in of {
-            let names: Vec<&str> = f.gratings.iter().chain(&f.cells).map(String::as_str).collect();
-            let _ = writeln!(s, "  {} [{}]: {}", f.kind.name(), names.join(", "), f.reason);
+            let names: Vec<&str> = f
+                .gratings
+                .iter()
+                .chain(&f.cells)
+                .map(String::as_str)
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {} [{}]: {}",
+                f.kind.name(),
+                names.join(", "),
+                f.reason
+            );
         }
     }
     s
@@ -45,7 +59,10 @@ fn faults(c: &Calibration) -> String {
 
 /// The matrix, one row per grating (pm/g), each entry's standard deviation under it.
 pub(crate) fn matrix(c: &Calibration) -> String {
-    let mut s = format!("measured matrix, pm/g (± sd under each entry):\n{:<8}", "grating");
+    let mut s = format!(
+        "measured matrix, pm/g (± sd under each entry):\n{:<8}",
+        "grating"
+    );
     for cell in &c.cells {
         let _ = write!(s, "{cell:>10}");
     }
@@ -120,7 +137,12 @@ pub(crate) fn additivity(c: &Calibration) -> String {
             .zip(&t.loads_g)
             .map(|(c, l)| format!("{l} g on {c}"))
             .collect();
-        let _ = writeln!(s, "additivity, {} ({} repeats):", loads.join(" + "), t.repeats);
+        let _ = writeln!(
+            s,
+            "additivity, {} ({} repeats):",
+            loads.join(" + "),
+            t.repeats
+        );
         let _ = write!(s, "{:<8}", "grating");
         for cell in &t.cells {
             let _ = write!(s, "{:>10}", format!("{cell} pm"));
@@ -136,7 +158,11 @@ pub(crate) fn additivity(c: &Calibration) -> String {
                 "{:>10.2}{:>12.2}{:>10}",
                 g.sum_pm,
                 g.simultaneous_pm,
-                format!("{:+.1}{}", g.error_percent, if g.significant { "" } else { "*" })
+                format!(
+                    "{:+.1}{}",
+                    g.error_percent,
+                    if g.significant { "" } else { "*" }
+                )
             );
         }
         let _ = writeln!(s, "  (* within the readings' noise)");
@@ -170,7 +196,11 @@ fn verdicts(c: &Calibration) -> String {
 }
 
 /// Everything above, the log's warnings and the files written.
-pub(crate) fn calibration_text(c: &Calibration, warnings: &LogWarnings, files: &CalibrationFiles) -> String {
+pub(crate) fn calibration_text(
+    c: &Calibration,
+    warnings: &LogWarnings,
+    files: &CalibrationFiles,
+) -> String {
     let mut s = steps(c);
     s += &faults(c);
     s += &matrix(c);

@@ -82,7 +82,8 @@ fn local_maxima(deltas: &[f64], r2: &[f64], sep: f64) -> Vec<f64> {
         .filter(|&i| {
             r2[i].is_finite()
                 && (i == 0 || r2[i - 1].partial_cmp(&r2[i]) != Some(std::cmp::Ordering::Greater))
-                && (i + 1 == r2.len() || r2[i + 1].partial_cmp(&r2[i]) != Some(std::cmp::Ordering::Greater))
+                && (i + 1 == r2.len()
+                    || r2[i + 1].partial_cmp(&r2[i]) != Some(std::cmp::Ordering::Greater))
         })
         .collect();
     idx.sort_by(|&a, &b| r2[b].total_cmp(&r2[a]));
@@ -167,7 +168,10 @@ pub(super) fn search(data: &FitData, range: f64, dx: f64) -> Option<OffsetSearch
     // Polishing may bring two starts to one offset: keep the distinct ones.
     let mut distinct: Vec<(Vec<f64>, LagModelFit, f64, f64, usize)> = Vec::new();
     for c in polished {
-        if distinct.iter().all(|d| (d.1.offset_s - c.1.offset_s).abs() >= w) {
+        if distinct
+            .iter()
+            .all(|d| (d.1.offset_s - c.1.offset_s).abs() >= w)
+        {
             distinct.push(c);
         }
     }
@@ -397,13 +401,24 @@ mod tests {
         // The shift shows presses at 100, 200, 300 and 400 s; the force log, placed
         // 250 s late, has its presses at 350 … 650 s: all four lie where it rests or
         // has no samples, and moving it 250 s back starts its presses on them.
-        let shift_presses = [(100.0, 110.0), (200.0, 215.0), (300.0, 320.0), (400.0, 405.0)];
+        let shift_presses = [
+            (100.0, 110.0),
+            (200.0, 215.0),
+            (300.0, 320.0),
+            (400.0, 405.0),
+        ];
         let (t, s) = shift(&shift_presses, -800.0, 60.0);
-        let force: Vec<(f64, f64)> = shift_presses.iter().map(|&(a, b)| (a + 250.0, b + 250.0)).collect();
+        let force: Vec<(f64, f64)> = shift_presses
+            .iter()
+            .map(|&(a, b)| (a + 250.0, b + 250.0))
+            .collect();
         let found = shift_presses_at_rest(&t, &s, &force, 5.0, 60.0, 100.0);
         let starts: Vec<f64> = found.iter().map(|p| p.start_s).collect();
         assert_eq!(starts, vec![100.0, 200.0, 300.0, 400.0], "{found:?}");
-        assert!(found.iter().all(|p| (p.amplitude_pm + 800.0).abs() < 20.0), "{found:?}");
+        assert!(
+            found.iter().all(|p| (p.amplitude_pm + 800.0).abs() < 20.0),
+            "{found:?}"
+        );
         let f_starts: Vec<f64> = force.iter().map(|p| p.0).collect();
         let (d, n) = press_match(&found, &f_starts, 1.5).unwrap();
         assert_eq!(n, 4);
@@ -426,7 +441,11 @@ mod tests {
         let (t, s) = shift(&presses, -800.0, 60.0);
         assert!(shift_presses_at_rest(&t, &s, &presses, 5.0, 60.0, 100.0).is_empty());
         // Two presses lined up are not a rival alignment: one or two fit anywhere.
-        let two = [ShiftPress { start_s: 10.0, end_s: 20.0, amplitude_pm: -800.0 }; 2];
+        let two = [ShiftPress {
+            start_s: 10.0,
+            end_s: 20.0,
+            amplitude_pm: -800.0,
+        }; 2];
         assert!(press_match(&two, &[50.0, 60.0], 1.5).is_none());
     }
 }

@@ -41,7 +41,14 @@ pub fn analyse(
     };
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
     let shifts = grating_shifts(design, module, log, opts, &tw, &mut warnings)?;
-    let mut st = stages((design, module), (log, force), opts, &tw, &shifts, &mut warnings)?;
+    let mut st = stages(
+        (design, module),
+        (log, force),
+        opts,
+        &tw,
+        &shifts,
+        &mut warnings,
+    )?;
     let mut pass = st.measure(&st.clocks)?;
     let (skew, skew_corrected) = correct_skew(&mut st, &mut pass, &mut warnings)?;
     let Pass {
@@ -248,12 +255,20 @@ fn finish_alignment(
             st.tw,
             s,
             (st.clocks.fa, st.clocks.fb),
-            (g.sensitivity_pm_per_n.signum(), g.sensitivity_pm_per_n.abs() * peak_force_n),
+            (
+                g.sensitivity_pm_per_n.signum(),
+                g.sensitivity_pm_per_n.abs() * peak_force_n,
+            ),
             (3.0 * longest).max(10.0),
         );
     }
     check.shift_grating.clone_from(name);
-    let all: Vec<(f64, f64)> = st.seg.pulses.iter().map(|p| (fu[p.start], fu[p.end])).collect();
+    let all: Vec<(f64, f64)> = st
+        .seg
+        .pulses
+        .iter()
+        .map(|p| (fu[p.start], fu[p.end]))
+        .collect();
     let longest = all.iter().map(|(a, b)| b - a).fold(0.0, f64::max);
     let threshold = (10.0 * step_noise_pm(s)).max(5.0 * st.resolution_pm);
     check.shift_presses_at_rest = super::alignment::shift_presses_at_rest(
@@ -306,7 +321,10 @@ fn rival_by_presses(
     at_rest: &[super::results::ShiftPress],
     all: &[(f64, f64)],
 ) -> Option<super::results::PressMatch> {
-    let largest = at_rest.iter().map(|p| p.amplitude_pm.abs()).fold(0.0, f64::max);
+    let largest = at_rest
+        .iter()
+        .map(|p| p.amplitude_pm.abs())
+        .fold(0.0, f64::max);
     let big: Vec<super::results::ShiftPress> = at_rest
         .iter()
         .filter(|p| p.amplitude_pm.abs() >= 0.25 * largest)
@@ -327,7 +345,9 @@ fn rival_by_presses(
 /// explain.
 fn alignment_doubt(c: &super::results::AlignmentCheck) -> Option<String> {
     let mut why = Vec::new();
-    if let (Some(e), Some(best), Some(rival)) = (c.evidence, c.candidates.first(), c.candidates.get(1)) {
+    if let (Some(e), Some(best), Some(rival)) =
+        (c.evidence, c.candidates.first(), c.candidates.get(1))
+    {
         if e < c.evidence_margin {
             why.push(format!(
                 "a second clock offset, {:.3} s (K = {:.3} pm/N, R² {:.4}), fits almost as well as the best, {:.3} s (K = {:.3} pm/N, R² {:.4}): evidence Λ = {e:.1} < {}",

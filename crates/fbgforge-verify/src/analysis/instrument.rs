@@ -41,7 +41,9 @@ pub(super) fn instrument_check(r: &Readings) -> InstrumentCheck {
     let hidden = |rows: &mut dyn Iterator<Item = usize>| -> f64 {
         let (lo, hi) = rows
             .filter(|&i| r.x[i].is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), i| (a.min(r.x[i]), b.max(r.x[i])));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), i| {
+                (a.min(r.x[i]), b.max(r.x[i]))
+            });
         if hi >= lo {
             r.k.abs() * (hi - lo)
         } else {

@@ -91,7 +91,9 @@ pub(crate) fn lag_corrected_loop(
         if !res.is_finite() {
             continue;
         }
-        let b = ((x[i] / x_max) * bins as f64).floor().clamp(0.0, (bins - 1) as f64) as usize;
+        let b = ((x[i] / x_max) * bins as f64)
+            .floor()
+            .clamp(0.0, (bins - 1) as f64) as usize;
         acc[b][slot] += res;
         acc[b][slot + 1] += 1.0;
     }

@@ -2,12 +2,12 @@
 //! model, the straight line, the segment lags, Q and the plateau K put together into a
 //! [`GratingResult`]; the primary grating first, the rest in parallel.
 
+use super::instrument::{instrument_check, Readings};
 use super::lags::lag_figures;
 use super::linearity::hysteresis_and_linearity;
 use super::quality::quality_q;
-use super::results::GratingResult;
-use super::instrument::{instrument_check, Readings};
 use super::response::{response_figures, Branch};
+use super::results::GratingResult;
 use super::sensitivity::{
     chart_intercept, drift_free_shift, fit_lag_model, full_cost, lag1_independence,
     plateau_sensitivity,
@@ -75,7 +75,16 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
             let (rho, n, n_eff) = lag1_independence(&residual);
             let se = lm.k_std_error_pm_per_n;
             let r2 = fit::response_r_squared(ctx.tw, s, &residual, t_mid);
-            (lm.k_pm_per_n, se, se * (n as f64 / n_eff).sqrt(), rho, n_eff, r2, h, l)
+            (
+                lm.k_pm_per_n,
+                se,
+                se * (n as f64 / n_eff).sqrt(),
+                rho,
+                n_eff,
+                r2,
+                h,
+                l,
+            )
         }
     };
     let instrument = rf.as_ref().map_or_else(Default::default, |r| {

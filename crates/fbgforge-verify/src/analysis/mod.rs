@@ -58,13 +58,15 @@ use crate::logs::assign::GratingTrack;
 use crate::segment::Segmentation;
 
 pub use super::segment::{detect_pulses, percentile, PulseSpan};
-pub use assemble::analyse;
-pub use response::hysteresis_limit_percent_span;
-pub use linearity::hysteresis_and_linearity;
 pub use alignment::MIN_PRESSES;
+pub use assemble::analyse;
+pub use linearity::hysteresis_and_linearity;
 pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
+pub use response::hysteresis_limit_percent_span;
 pub use results::{
-    AlignmentCheck, InstrumentCheck, OffsetCandidate, PressMatch, PulseGain, ShiftPress, SlowTest, BoundKind, ForceTrust, GratingResult, Measurement, PulseResult, QualityBound, Series,
+    AlignmentCheck, BoundKind, ForceTrust, GratingResult, InstrumentCheck, Measurement,
+    OffsetCandidate, PressMatch, PulseGain, PulseResult, QualityBound, Series, ShiftPress,
+    SlowTest,
 };
 
 /// The force log's times on the wavelength log's clock, before the residual offset.

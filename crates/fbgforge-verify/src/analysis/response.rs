@@ -154,7 +154,11 @@ fn independence(
         prev = r;
         n += 1;
     }
-    let rho = if den > 0.0 { (num / den).clamp(-1.0, 1.0) } else { 0.0 };
+    let rho = if den > 0.0 {
+        (num / den).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
     let n_eff = (n as f64 * (1.0 - rho) / (1.0 + rho)).clamp(2.0f64.min(n as f64), n as f64);
     (rho, n_eff)
 }
@@ -253,8 +257,7 @@ pub(super) fn response_figures(
         slow_variation_pm: peak_to_peak(&slow_only.hats),
         k_all_rows_pm_per_n: both.k,
     };
-    let (hyst, nonlin) =
-        super::linearity::lag_corrected_loop(&x, &d, &branch, load.k, x_max);
+    let (hyst, nonlin) = super::linearity::lag_corrected_loop(&x, &d, &branch, load.k, x_max);
     let gains = pulse_gains(ctx, &x, &d, load.k, tau);
     Some(ResponseFigures {
         k_load: load.k,
@@ -277,7 +280,9 @@ pub(super) fn response_figures(
 fn peak_to_peak(v: &[f64]) -> f64 {
     let (lo, hi) = v
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
     hi - lo
 }
 
@@ -296,7 +301,11 @@ fn pulse_gains(ctx: &GratingContext, x: &[f64], d: &[f64], k: f64, tau: f64) -> 
         let (a, b) = (fu[span.start], fu[span.end]);
         let len = b - a;
         let next = pulses.get(p + 1).map_or(f64::INFINITY, |q| fu[q.start]);
-        let prev_end = if p > 0 { fu[pulses[p - 1].end] } else { f64::NEG_INFINITY };
+        let prev_end = if p > 0 {
+            fu[pulses[p - 1].end]
+        } else {
+            f64::NEG_INFINITY
+        };
         let lo = (a - 0.25 * len).max(prev_end);
         let hi = (b + len.max(2.0 * tau)).min(next);
         let i0 = tw.partition_point(|&t| t < lo);

@@ -132,7 +132,10 @@ impl SlowNormal {
         }
         // A small ridge keeps hats without rows (a gap) at zero; it is far below the
         // diagonal of any hat that has rows.
-        let scale = (0..p).map(|i| self.xtx[(i, i)]).fold(0.0, f64::max).max(1e-300);
+        let scale = (0..p)
+            .map(|i| self.xtx[(i, i)])
+            .fold(0.0, f64::max)
+            .max(1e-300);
         let mut a = self.xtx.clone();
         for i in 0..p {
             a[(i, i)] += 1e-12 * scale;

@@ -75,7 +75,12 @@ impl Design {
         range("fiber.index_modulation", fo.index_modulation, 1e-6, 1e-2)?;
         range("fiber.effective_index", fo.effective_index, 1.0, 2.0)?;
         if let fbgforge_spectra::Apodisation::Gaussian { fwhm_fraction } = fo.apodisation {
-            range("fiber.apodisation.gaussian.fwhm_fraction", fwhm_fraction, 0.05, 10.0)?;
+            range(
+                "fiber.apodisation.gaussian.fwhm_fraction",
+                fwhm_fraction,
+                0.05,
+                10.0,
+            )?;
         }
         Ok(())
     }
