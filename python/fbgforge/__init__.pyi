@@ -228,6 +228,7 @@ def predict(
     fidelity: Fidelity = "auto",
     band: bool = True,
     mesh_level: Optional[int] = None,
+    spectrum: bool = True,
 ) -> Prediction: ...
 def build(
     design: DesignLike,

@@ -59,7 +59,7 @@ def _names(v, name):
     return out
 
 
-def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True, mesh_level=None):
+def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", band=True, mesh_level=None, spectrum=True):
     """Predict each strain grating's sensitivity K (pm/N) with the model policy.
 
     Parameters
@@ -90,6 +90,12 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         (``model_error["discretisation_fraction"]``). Default: the policy picks per
         configuration the cheapest level from 1 up to 3 that states a model error of
         at most 15 %; each row names its level (``mesh_level``).
+    spectrum : bool, default True
+        Also give each row's reflection spectrum over the design's force range
+        (``spectrum``: peak shift, FWHM change, one clean peak or not and the force
+        where it stops; the transfer-matrix model on the FE strain profile along the
+        grating, no extra FE solve), as ``fbgforge predict`` does; ``False`` skips
+        it (``--no-spectrum``), about a third of the time on the shipped modules.
 
     Returns
     -------
@@ -113,6 +119,7 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
         fidelity,
         bool(band),
         None if mesh_level is None else int(mesh_level),
+        bool(spectrum),
     )
     return Prediction(
         {

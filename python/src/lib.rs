@@ -122,7 +122,7 @@ fn run_err(py: Python<'_>, e: RunError, design: &str, failed: &str) -> PyErr {
 
 /// Predict each grating's K (pm/N): the rows of the model policy.
 #[pyfunction]
-#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band, mesh_level))]
+#[pyo3(signature = (design, force_n, delta_t_k, case, fidelity, band, mesh_level, spectrum))]
 #[allow(clippy::too_many_arguments)] // one per keyword of the Python function
 fn predict<'py>(
     py: Python<'py>,
@@ -133,6 +133,7 @@ fn predict<'py>(
     fidelity: &str,
     band: bool,
     mesh_level: Option<u32>,
+    spectrum: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let case = parse_case(py, case)?;
     let choice = parse_fidelity(py, fidelity)?;
@@ -156,6 +157,7 @@ fn predict<'py>(
         fidelity: choice,
         band,
         design_interval: band,
+        spectrum,
         fem_options: fbgforge::fem::FemOptions::mesh_level(
             mesh_level.unwrap_or(fbgforge::fem::FemOptions::DEFAULT_MESH_LEVEL),
         ),

@@ -46,6 +46,20 @@ def test_predict_case_ii_auto_equals_the_cli_and_k_is_linear(cli):
     assert np.allclose(got.shift_pm, 10 * one.shift_pm, rtol=1e-12)
 
 
+def test_predict_spectrum_is_the_cli_s_and_its_shift_per_newton_is_k(cli):
+    # Off, the rows carry no spectrum, as `--no-spectrum`; on (the default, as the
+    # command line), each row's peak shift per newton is its K (a uniform-enough
+    # strain along the grating: the forward model moves the peak by the mean strain).
+    want = cli_json(cli, "predict", MODULE, "--json", "--case", "II", "--no-spectrum")
+    off = fbgforge.predict(MODULE, case="II", spectrum=False)
+    close(off.to_dict(), want)
+    assert all("spectrum" not in r for r in off.to_dict()["predictions"])
+    on = fbgforge.predict(MODULE, case="II").to_dict()["predictions"]
+    for r in on:
+        k = r["sensitivity_pm_per_n"]
+        assert abs(r["spectrum"]["peak_shift_per_n_pm_per_n"] - k) <= 0.01 * abs(k), r
+
+
 def test_predict_mesh_level_equals_the_cli_and_states_its_discretisation(cli):
     path = DESIGNS / "clip-on-16mm.toml"
     want = in_python_words(cli_json(cli, "predict", path, "--json", "--case", "I", "--mesh-level", "2"))
