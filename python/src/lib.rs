@@ -18,8 +18,8 @@ use design::PyDesign;
 use errors::{err, err_named, input, must_exist};
 use fbgforge::array::calibrate::CalibrateRequest;
 use fbgforge::array::kernel::matrix_from_design;
-use fbgforge::array::methods::{self as array_methods, Method, ReadingSettings};
-use fbgforge::array::reconstruct::{Frames, MethodRequest};
+use fbgforge::array::methods::Method;
+use fbgforge::array::reconstruct::Frames;
 use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, LogStyle, ReadOptions};
 use fbgforge::model::LoadCase;
 use fbgforge::prediction::{FidelityChoice, PredictionRequest, RunError};
@@ -459,17 +459,8 @@ fn reconstruct<'py>(
         significance,
     )?
     .with_diagnosis(!keep_all_gratings);
-    let prior = ReadingSettings {
-        max_loads: max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS),
-        resolution_pm,
-    };
-    let request = match method {
-        Some(name) => MethodRequest::Named {
-            method: Method::from_name(name).map_err(|e| input(py, e.to_string()))?,
-            penalty,
-        },
-        None => MethodRequest::Default { budget_us },
-    };
+    let (prior, request) =
+        reconstructor::reading_request(py, max_loads, resolution_pm, method, penalty, budget_us)?;
     let done = py
         .detach(|| {
             fbgforge::array::reconstruct(

@@ -26,6 +26,30 @@ pub struct Reconstructor {
     budget_us: Option<f64>,
 }
 
+/// The prior a frame is read with and the method asked for, from the keywords that
+/// the one-shot `reconstruct` and the `Reconstructor` share.
+pub(crate) fn reading_request(
+    py: Python<'_>,
+    max_loads: Option<usize>,
+    resolution_pm: f64,
+    method: Option<&str>,
+    penalty: Option<f64>,
+    budget_us: f64,
+) -> PyResult<(ReadingSettings, MethodRequest)> {
+    let prior = ReadingSettings {
+        max_loads: max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS),
+        resolution_pm,
+    };
+    let request = match method {
+        Some(name) => MethodRequest::Named {
+            method: Method::from_name(name).map_err(|e| input(py, e.to_string()))?,
+            penalty,
+        },
+        None => MethodRequest::Default { budget_us },
+    };
+    Ok((prior, request))
+}
+
 /// The problem as stated from Python: bounds, uncertainty, common mode, gratings kept.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn stated_problem(
@@ -124,17 +148,8 @@ impl Reconstructor {
         } else {
             full.without_gratings(&dropped).map_err(words)?
         };
-        let prior = ReadingSettings {
-            max_loads: max_loads.unwrap_or(array_methods::DEFAULT_MAX_LOADS),
-            resolution_pm,
-        };
-        let request = match method {
-            Some(name) => MethodRequest::Named {
-                method: Method::from_name(name).map_err(|e| input(py, e.to_string()))?,
-                penalty,
-            },
-            None => MethodRequest::Default { budget_us },
-        };
+        let (prior, request) =
+            reading_request(py, max_loads, resolution_pm, method, penalty, budget_us)?;
         let setup = py
             .detach(|| prepare(&problem, &prior, &request, None))
             .map_err(words)?;
