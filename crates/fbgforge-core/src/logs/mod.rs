@@ -424,6 +424,49 @@ impl PeakLog {
         (&self.peaks_nm[a..b], &self.peak_channel[a..b])
     }
 
+    /// The rows `rows` (file order or any other, repeats allowed) as a log of their own:
+    /// each row's time, file line, peaks, channels and peak uncertainties go with it;
+    /// what describes the whole file (source, format, channels, warnings, clock jumps)
+    /// is kept. Only the rows named are copied.
+    pub fn with_rows(&self, rows: &[usize]) -> PeakLog {
+        let n_peaks: usize = rows
+            .iter()
+            .map(|&i| self.row_start[i + 1] - self.row_start[i])
+            .sum();
+        let mut out = PeakLog {
+            source: self.source.clone(),
+            format: self.format,
+            time_s: Vec::with_capacity(rows.len()),
+            clock: self.clock,
+            row_start: Vec::with_capacity(rows.len() + 1),
+            peaks_nm: Vec::with_capacity(n_peaks),
+            peak_channel: Vec::with_capacity(n_peaks),
+            channels: self.channels,
+            column_names: self.column_names.clone(),
+            line_of_row: Vec::with_capacity(rows.len()),
+            time_uncertainty_s: self.time_uncertainty_s,
+            clock_jumps: self.clock_jumps.clone(),
+            warnings: self.warnings.clone(),
+            uncertainty: self.uncertainty.as_ref().map(|u| PeakUncertainty {
+                estimator: u.estimator.clone(),
+                peaks: Vec::with_capacity(n_peaks),
+            }),
+        };
+        out.row_start.push(0);
+        for &i in rows {
+            let (a, b) = (self.row_start[i], self.row_start[i + 1]);
+            out.peaks_nm.extend_from_slice(&self.peaks_nm[a..b]);
+            out.peak_channel.extend_from_slice(&self.peak_channel[a..b]);
+            if let (Some(from), Some(to)) = (&self.uncertainty, &mut out.uncertainty) {
+                to.peaks.extend_from_slice(&from.peaks[a..b]);
+            }
+            out.row_start.push(out.peaks_nm.len());
+            out.line_of_row.push(self.line_of_row[i]);
+            out.time_s.push(self.time_s[i]);
+        }
+        out
+    }
+
     /// Median sample period, s.
     pub fn median_period_s(&self) -> f64 {
         time::median_period(&self.time_s)

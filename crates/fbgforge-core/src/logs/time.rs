@@ -147,33 +147,10 @@ pub(crate) fn finish_times(
 
 /// Put the log's rows (peaks, channels, lines, times) in the order `order`.
 pub(crate) fn reorder_rows(log: &mut PeakLog, time_s: &mut Vec<f64>, order: &[usize]) {
-    let rows = order.len();
-    let mut rs = Vec::with_capacity(rows + 1);
-    rs.push(0);
-    let mut pk = Vec::with_capacity(log.peaks_nm.len());
-    let mut ch = Vec::with_capacity(log.peaks_nm.len());
-    let mut qu = Vec::new();
-    let mut ln = Vec::with_capacity(rows);
-    let mut ts = Vec::with_capacity(rows);
-    for &i in order {
-        let (a, b) = (log.row_start[i], log.row_start[i + 1]);
-        pk.extend_from_slice(&log.peaks_nm[a..b]);
-        ch.extend_from_slice(&log.peak_channel[a..b]);
-        if let Some(u) = &log.uncertainty {
-            qu.extend_from_slice(&u.peaks[a..b]);
-        }
-        rs.push(pk.len());
-        ln.push(log.line_of_row[i]);
-        ts.push(time_s[i]);
-    }
-    log.row_start = rs;
-    log.peaks_nm = pk;
-    log.peak_channel = ch;
-    if let Some(u) = &mut log.uncertainty {
-        u.peaks = qu;
-    }
-    log.line_of_row = ln;
-    *time_s = ts;
+    // The times being finished live beside the log until the end of reading.
+    log.time_s = std::mem::take(time_s);
+    *log = log.with_rows(order);
+    *time_s = std::mem::take(&mut log.time_s);
 }
 
 /// Spread timestamps quantised to whole seconds (several rows per second) onto the

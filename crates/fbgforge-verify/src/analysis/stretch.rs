@@ -4,7 +4,7 @@
 //! an unloaded sensor). The rows between two jumps back share one clock: the longest
 //! such stretch (in rows) is analysed and the others are set aside, named.
 
-use crate::logs::{LogWarnings, PeakLog, PeakUncertainty};
+use crate::logs::{LogWarnings, PeakLog};
 
 /// The rows of `log` on one clock: the longest stretch between its jumps back (file
 /// lines), as a log of its own, and the rows set aside; None when the clock never ran
@@ -32,36 +32,7 @@ pub(super) fn one_clock(log: &PeakLog, warnings: &mut LogWarnings) -> Option<(Pe
         .filter(|&i| log.line_of_row[i] >= a && log.line_of_row[i] < b)
         .collect();
     let set_aside = log.rows() - keep.len();
-    let mut out = PeakLog {
-        source: log.source.clone(),
-        format: log.format,
-        time_s: keep.iter().map(|&i| log.time_s[i]).collect(),
-        clock: log.clock,
-        row_start: vec![0],
-        peaks_nm: Vec::new(),
-        peak_channel: Vec::new(),
-        channels: log.channels,
-        column_names: log.column_names.clone(),
-        line_of_row: keep.iter().map(|&i| log.line_of_row[i]).collect(),
-        time_uncertainty_s: log.time_uncertainty_s,
-        clock_jumps: log.clock_jumps.clone(),
-        warnings: log.warnings.clone(),
-        uncertainty: log.uncertainty.as_ref().map(|u| PeakUncertainty {
-            estimator: u.estimator.clone(),
-            peaks: Vec::new(),
-        }),
-    };
-    for &i in &keep {
-        let (p, c) = log.row(i);
-        out.peaks_nm.extend_from_slice(p);
-        out.peak_channel.extend_from_slice(c);
-        out.row_start.push(out.peaks_nm.len());
-        // Each kept peak keeps its own uncertainty (parallel to peaks_nm).
-        if let (Some(from), Some(to)) = (&log.uncertainty, &mut out.uncertainty) {
-            let range = log.row_start[i]..log.row_start[i + 1];
-            to.peaks.extend_from_slice(&from.peaks[range]);
-        }
-    }
+    let out = log.with_rows(&keep);
     let lines = (
         out.line_of_row.first().copied().unwrap_or(0),
         out.line_of_row.last().copied().unwrap_or(0),
