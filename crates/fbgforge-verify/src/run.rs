@@ -3,7 +3,7 @@
 //! [`run_with`] (or its two stages, [`read_inputs`] and [`judge`]), so the pipeline is
 //! written once; the results go to a [`VerifySink`].
 
-use super::analysis::{analyse, AnalysisOptions, Series};
+use super::analysis::{analyse, analyse_owned, AnalysisOptions, Series};
 use super::report::VerifyReport;
 use super::sink::VerifySink;
 use super::verdict;
@@ -12,6 +12,7 @@ use crate::model::LoadCase;
 use crate::prediction::ContactCalibration;
 use crate::spec::Design;
 use anyhow::{bail, Result};
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// What to verify and how.
@@ -168,16 +169,21 @@ pub fn run(req: &VerifyRequest) -> Result<VerifyOutcome> {
 /// leaves the sink untold.
 pub fn run_with(req: &VerifyRequest, sink: &mut dyn VerifySink) -> Result<VerifyOutcome> {
     let inputs = read_inputs(req)?;
-    let mut outcome = match &req.force_start {
-        None => judge(req, &inputs)?,
+    let given;
+    let req_used = match &req.force_start {
+        None => req,
         Some(text) => {
-            let mut req = req.clone();
-            req.analysis.clock_offset_s = Some(offset_from_force_start(text, &inputs, &req.read)?);
-            judge(&req, &inputs)?
+            let mut r = req.clone();
+            r.analysis.clock_offset_s = Some(offset_from_force_start(text, &inputs, &r.read)?);
+            given = r;
+            &given
         }
     };
+    // The inputs handed over: the log's peaks are freed once assigned to gratings.
+    let VerifyInputs { design, log, force } = inputs;
+    let mut outcome = judge_log(req_used, &design, Cow::Owned(log), &force)?;
     if let Some(path) = &req.calibrate_into {
-        outcome.calibration = Some(calibrate_into(req, &inputs, &outcome.report, path, &*sink)?);
+        outcome.calibration = Some(calibrate_into(req, &design, &outcome.report, path, &*sink)?);
     }
     sink.judged(&outcome.report, &outcome.series)?;
     if let (Some(c), Some(path)) = (&outcome.calibration, &req.calibrate_into) {
@@ -190,7 +196,7 @@ pub fn run_with(req: &VerifyRequest, sink: &mut dyn VerifySink) -> Result<Verify
 /// and write the calibrated design to `path` (its header in the front end's words).
 fn calibrate_into(
     req: &VerifyRequest,
-    inputs: &VerifyInputs,
+    design: &Design,
     report: &VerifyReport,
     path: &Path,
     sink: &dyn VerifySink,
@@ -228,7 +234,6 @@ fn calibrate_into(
         case: LoadCase::I,
         insert: Some(insert.clone()),
     };
-    let design = &inputs.design;
     let cal = calibrate_contact(
         design,
         &config,
@@ -368,8 +373,26 @@ fn contact_knowledge(
 
 /// Stage 2: align, fit and judge read inputs against the model.
 pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome> {
-    let design = &inputs.design;
-    let (m, series) = analyse(design, &inputs.log, &inputs.force, &req.analysis)?;
+    judge_log(
+        req,
+        &inputs.design,
+        Cow::Borrowed(&inputs.log),
+        &inputs.force,
+    )
+}
+
+/// [`judge`] of the parts of the inputs; a log handed over (`Cow::Owned`) has its
+/// peaks freed once they are assigned to gratings.
+fn judge_log(
+    req: &VerifyRequest,
+    design: &Design,
+    log: Cow<'_, PeakLog>,
+    force: &ForceLog,
+) -> Result<VerifyOutcome> {
+    let (m, series) = match log {
+        Cow::Borrowed(l) => analyse(design, l, force, &req.analysis)?,
+        Cow::Owned(l) => analyse_owned(design, l, force, &req.analysis)?,
+    };
     // The one model policy, with the band, for the configuration under test only.
     let mut cores: Vec<&String> = m.gratings.iter().filter_map(|g| g.core.as_ref()).collect();
     cores.sort();

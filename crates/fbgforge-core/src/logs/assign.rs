@@ -58,7 +58,8 @@ pub struct GratingTrack {
     /// Rows with more than one peak in the window.
     pub rows_ambiguous: usize,
     /// Standard error of each row's wavelength, pm, as the log states it (peaks found
-    /// in spectra, a peaks log with standard errors); NaN where it states none.
+    /// in spectra, a peaks log with standard errors); NaN where it states none, and
+    /// empty when the log states none at all (a plain peak log: no column of NaNs).
     pub std_error_pm: Vec<f64>,
 }
 
@@ -154,6 +155,9 @@ impl PeakTracker {
 /// Assign peaks to gratings, row by row, with one [`PeakTracker`].
 pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
     let n = log.rows();
+    // A plain peak log states no standard errors: no per-row column of NaNs (9 × 29 MB
+    // for an hour at 1 kHz).
+    let n_errors = if log.uncertainty.is_some() { n } else { 0 };
     let mut tracks: Vec<GratingTrack> = windows
         .iter()
         .map(|w| GratingTrack {
@@ -161,7 +165,7 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
             wavelength_nm: vec![f64::NAN; n],
             rows_present: 0,
             rows_ambiguous: 0,
-            std_error_pm: vec![f64::NAN; n],
+            std_error_pm: vec![f64::NAN; n_errors],
         })
         .collect();
     let mut tracker = PeakTracker::new(windows.to_vec());

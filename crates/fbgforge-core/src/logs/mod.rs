@@ -386,7 +386,8 @@ pub struct PeakLog {
     pub time_s: Vec<f64>,
     /// Absolute wall-clock or relative times.
     pub clock: Clock,
-    /// Peaks of row i are `peaks_nm[row_start[i]..row_start[i + 1]]`.
+    /// Peaks of row i are `peaks_nm[row_start[i]..row_start[i + 1]]` (empty once
+    /// [`PeakLog::drop_peaks`] freed them).
     pub row_start: Vec<usize>,
     /// Every peak wavelength, nm, row after row.
     pub peaks_nm: Vec<f64>,
@@ -420,8 +421,16 @@ impl PeakLog {
 
     /// Peaks of row `i`: (wavelengths nm, channels).
     pub fn row(&self, i: usize) -> (&[f64], &[u16]) {
-        let (a, b) = (self.row_start[i], self.row_start[i + 1]);
+        let (a, b) = self.row_span(i);
         (&self.peaks_nm[a..b], &self.peak_channel[a..b])
+    }
+
+    /// Where row `i`'s peaks lie in the table (empty once the peaks were dropped).
+    fn row_span(&self, i: usize) -> (usize, usize) {
+        if self.row_start.is_empty() {
+            return (0, 0);
+        }
+        (self.row_start[i], self.row_start[i + 1])
     }
 
     /// The rows `rows` (file order or any other, repeats allowed) as a log of their own:
@@ -431,7 +440,7 @@ impl PeakLog {
     pub fn with_rows(&self, rows: &[usize]) -> PeakLog {
         let n_peaks: usize = rows
             .iter()
-            .map(|&i| self.row_start[i + 1] - self.row_start[i])
+            .map(|&i| self.row_span(i).1 - self.row_span(i).0)
             .sum();
         let mut out = PeakLog {
             source: self.source.clone(),
@@ -454,7 +463,7 @@ impl PeakLog {
         };
         out.row_start.push(0);
         for &i in rows {
-            let (a, b) = (self.row_start[i], self.row_start[i + 1]);
+            let (a, b) = self.row_span(i);
             out.peaks_nm.extend_from_slice(&self.peaks_nm[a..b]);
             out.peak_channel.extend_from_slice(&self.peak_channel[a..b]);
             if let (Some(from), Some(to)) = (&self.uncertainty, &mut out.uncertainty) {
@@ -467,6 +476,31 @@ impl PeakLog {
         out
     }
 
+    /// Free the peaks (wavelengths, channels, their uncertainties) once they have been
+    /// assigned to gratings, keeping the rows' times and lines and what describes the
+    /// file: the table is most of a long log's memory (361 MB of an hour at 1 kHz with
+    /// nine peaks a row). Afterwards every row reads as having no peaks.
+    ///
+    /// ```
+    /// use fbgforge_core::logs::{read_peak_log, ReadOptions};
+    /// let dir = tempfile::tempdir()?;
+    /// let path = dir.path().join("peaks.csv");
+    /// std::fs::write(&path, "time_s,a\n0.0,1546.295\n0.5,1546.296\n")?;
+    /// let mut log = read_peak_log(&path, &ReadOptions::default())?;
+    /// log.drop_peaks();
+    /// assert_eq!(log.rows(), 2);
+    /// assert!(log.row(1).0.is_empty());
+    /// # Ok::<(), anyhow::Error>(())
+    /// ```
+    pub fn drop_peaks(&mut self) {
+        self.peaks_nm = Vec::new();
+        self.peak_channel = Vec::new();
+        self.row_start = Vec::new();
+        if let Some(u) = &mut self.uncertainty {
+            u.peaks = Vec::new();
+        }
+    }
+
     /// Median sample period, s.
     pub fn median_period_s(&self) -> f64 {
         time::median_period(&self.time_s)
@@ -475,7 +509,7 @@ impl PeakLog {
     /// The uncertainty of the peaks of row `i`, parallel to [`PeakLog::row`] (`None` for
     /// a plain peak log).
     pub fn row_quality(&self, i: usize) -> Option<&[PeakQuality]> {
-        let (a, b) = (self.row_start[i], self.row_start[i + 1]);
+        let (a, b) = self.row_span(i);
         self.uncertainty.as_ref().map(|u| &u.peaks[a..b])
     }
 

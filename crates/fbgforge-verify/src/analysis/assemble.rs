@@ -7,10 +7,11 @@ use super::force::{
     check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force, TrustedForce,
 };
 use super::gratings::{grating_shifts, primary_grating, GratingShifts};
-use super::measure::{measure_all, Measured};
+use super::measure::{measure_all, Measured, MeasuredGrating};
 use super::options::AnalysisOptions;
 use super::quality::warn_q_undefined;
 use super::results::{GratingResult, Measurement, Series};
+use super::series::{plot_series, PlotGrating, Rows};
 use super::{AlignedClocks, GratingContext};
 use crate::logs::time::median_period;
 use crate::logs::{ForceLog, LogWarnings, PeakLog};
@@ -18,6 +19,7 @@ use crate::segment::Segmentation;
 use crate::skew::{self, SkewFit};
 use crate::spec::Design;
 use anyhow::{bail, Result};
+use std::borrow::Cow;
 
 /// Run the analysis: the stages read and aligned ([`Stages`]), every grating measured
 /// on the aligned clocks, again on warped ones when a clock skew stands out, and the
@@ -28,19 +30,42 @@ pub fn analyse(
     force: &ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
+    analyse_log(design, Cow::Borrowed(log), force, opts)
+}
+
+/// [`analyse`] of a log handed over: its peaks are freed once assigned to gratings (the
+/// table is most of a long log's memory), the answers the same.
+pub fn analyse_owned(
+    design: &Design,
+    log: PeakLog,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+) -> Result<(Measurement, Series)> {
+    analyse_log(design, Cow::Owned(log), force, opts)
+}
+
+fn analyse_log(
+    design: &Design,
+    log: Cow<'_, PeakLog>,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+) -> Result<(Measurement, Series)> {
     let Some(module) = &design.module else {
         bail!("design `{}` has no [module]: verify judges a clip-on module; for a flat array use calibrate-array", design.name);
     };
     let mut warnings = log.warnings.clone();
     warnings.merge(force.warnings.clone());
     // Rows on one clock: the longest stretch between jumps of the clock back.
-    let one = super::stretch::one_clock(log, &mut warnings);
-    let (log, rows_set_aside) = match &one {
-        Some((l, n)) => (l, *n),
+    let (mut log, rows_set_aside) = match super::stretch::one_clock(&log, &mut warnings) {
+        Some((l, n)) => (Cow::Owned(l), n),
         None => (log, 0),
     };
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
-    let shifts = grating_shifts(design, module, log, opts, &tw, &mut warnings)?;
+    let shifts = grating_shifts(design, module, &log, opts, &tw, &mut warnings)?;
+    if let Cow::Owned(l) = &mut log {
+        l.drop_peaks();
+    }
+    let log: &PeakLog = &log;
     let mut st = stages(
         (design, module),
         (log, force),
@@ -55,19 +80,24 @@ pub fn analyse(
         mut first,
         mut rest,
         fc,
+        row_ok,
         peak_force_n,
     } = pass;
     if skew_corrected && st.relative {
         // The offset was estimated on the skewed clock (an average alignment over the
         // fitted stretch), so the relative lags no longer sit below the true ones: the
         // upper bound on Q does not hold (it read 0.37–0.68 of the truth at ±1000 ppm).
-        withhold_q_bound(&mut first.0);
+        withhold_q_bound(&mut first.result);
         for r in rest.iter_mut().flatten() {
-            withhold_q_bound(&mut r.0);
+            withhold_q_bound(&mut r.result);
         }
     }
-    let strain = &shifts.selection.strain;
-    let (results, series) = collect_results(first, rest, strain, &tw, &fc, &mut warnings)?;
+    let rows = Rows {
+        tw: &tw,
+        fc: &fc,
+        row_ok: &row_ok,
+    };
+    let (results, series) = collect_results(first, rest, &shifts, &rows, &mut warnings)?;
     if !st.relative {
         warn_negative_lags(&results, skew.as_ref(), skew_corrected, &mut warnings);
     }
@@ -208,6 +238,7 @@ impl Stages<'_> {
             first,
             rest,
             fc,
+            row_ok,
             peak_force_n,
         })
     }
@@ -400,7 +431,7 @@ fn correct_skew(
     let skew = if warnings.count("clock_offset_at_limit") > 0 {
         None
     } else {
-        skew_of(&pass.first.0, pivot)
+        skew_of(&pass.first.result, pivot)
     };
     let Some(sk) = skew.filter(SkewFit::significant) else {
         return Ok((skew, false));
@@ -427,10 +458,12 @@ pub(crate) const SKEW_WARN_DRIFT_S: f64 = 0.05;
 
 /// One measurement of every grating on one alignment of the clocks.
 struct Pass {
-    first: (GratingResult, Vec<f64>, f64, f64),
+    first: MeasuredGrating,
     rest: Vec<Measured>,
     /// Force at the rows, N.
     fc: Vec<f64>,
+    /// Rows outside the stretches left out for an untrusted force.
+    row_ok: Vec<bool>,
     /// Largest trusted force at the rows, N.
     peak_force_n: f64,
 }
@@ -506,37 +539,37 @@ fn warn_negative_lags(
     }
 }
 
-/// The measured gratings in spec order with their series, and the warnings their
-/// results call for.
+/// The measured gratings in spec order with their series (decimated to what a chart
+/// shows), and the warnings their results call for.
 fn collect_results(
-    first: (GratingResult, Vec<f64>, f64, f64),
+    first: MeasuredGrating,
     rest: Vec<Measured>,
-    strain: &[&crate::spec::ModuleGrating],
-    tw: &[f64],
-    fc: &[f64],
+    shifts: &GratingShifts,
+    rows: &Rows,
     warnings: &mut LogWarnings,
 ) -> Result<(Vec<GratingResult>, Series)> {
-    let mut series = Series {
-        time_s: tw.to_vec(),
-        force_n: fc.to_vec(),
-        ..Default::default()
-    };
-    let mut results = Vec::new();
+    let strain = &shifts.selection.strain;
+    let mut measured = Vec::new();
     for r in std::iter::once(Ok(first)).chain(rest) {
-        let (res, d, slope, intercept) = r?;
-        warn_q_undefined(&res, warnings);
-        series.shift_pm.push((res.grating.clone(), d));
-        series.fit.push((res.grating.clone(), slope, intercept));
-        results.push(res);
+        let m = r?;
+        warn_q_undefined(&m.result, warnings);
+        measured.push(m);
     }
     // Report gratings in spec order.
-    results.sort_by_key(|r| strain.iter().position(|g| g.name == r.grating));
-    series
-        .shift_pm
-        .sort_by_key(|(n, _)| strain.iter().position(|g| &g.name == n));
-    series
-        .fit
-        .sort_by_key(|(n, _, _)| strain.iter().position(|g| &g.name == n));
+    let order = |name: &str| strain.iter().position(|g| g.name == name);
+    measured.sort_by_key(|m| order(&m.result.grating));
+    let plots: Vec<PlotGrating> = measured
+        .iter()
+        .map(|m| PlotGrating {
+            name: m.result.grating.clone(),
+            shift_pm: &shifts.used[m.used].1,
+            drift: m.drift,
+            slope: m.slope,
+            intercept: m.intercept,
+        })
+        .collect();
+    let series = plot_series(rows, &plots);
+    let results: Vec<GratingResult> = measured.into_iter().map(|m| m.result).collect();
     for r in &results {
         if r.rows_ambiguous > 0 {
             warnings.add_n("ambiguous_peaks", r.rows_ambiguous, || format!("grating `{}`: rows with more than one peak in its window (the nearest to the previous value was taken)", r.grating));

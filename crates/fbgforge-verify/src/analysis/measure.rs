@@ -12,13 +12,28 @@ use super::sensitivity::{
     chart_intercept, drift_free_shift, fit_lag_model, full_cost, lag1_independence,
     plateau_sensitivity,
 };
+use super::series::DriftLine;
 use super::GratingContext;
 use crate::fit;
 use anyhow::Result;
 use rayon::prelude::*;
 
-/// A measured grating, its drift-free shift series and its straight-line fit.
-pub(super) type Measured = Result<(GratingResult, Vec<f64>, f64, f64)>;
+/// A measured grating: its result, how to rebuild its drift-free shift for the plots
+/// (not kept per row: eight gratings of an hour at 1 kHz are 230 MB), and the chart's
+/// line.
+pub(super) struct MeasuredGrating {
+    pub(super) result: GratingResult,
+    /// Index into [`GratingContext::used`] of the grating's compensated shift.
+    pub(super) used: usize,
+    /// The lag model's baseline and drift, removed from the shift for the plots.
+    pub(super) drift: DriftLine,
+    /// The chart's line: the table's K and the baseline, pm/N and pm.
+    pub(super) slope: f64,
+    pub(super) intercept: f64,
+}
+
+/// A measured grating, or why it could not be measured.
+pub(super) type Measured = Result<MeasuredGrating>;
 
 /// The loop a timing error of ±`u` s per row opens on a perfectly elastic part, % of
 /// span: the branches move apart by 2·u·|dx/dt| (the median rate over the loading and
@@ -40,13 +55,14 @@ fn timing_loop_percent(tw: &[f64], x: &[f64], branch: &[Branch], x_max: f64, u: 
 
 /// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
 /// seeds the delay, τ and r from an already measured grating.
-fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>) -> Measured {
-    let (gi, s) = &ctx.used[k];
+fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, f64)>) -> Measured {
+    let (gi, s) = &ctx.used[k_used];
     let g = ctx.strain[*gi];
     let t = &ctx.tracks[*gi];
     let fc = ctx.fc;
     let (lm, residual) = fit_lag_model(ctx, s, &g.name, prev)?;
     let delay = -lm.offset_s;
+    let drift = DriftLine::of(ctx, &lm);
     let d = drift_free_shift(ctx, s, &lm);
     let line = fit::fit_line(fc, &d).ok_or_else(|| {
         anyhow::anyhow!(
@@ -175,21 +191,26 @@ fn measure_grating(ctx: &GratingContext, k: usize, prev: Option<(f64, f64, f64)>
     };
     // The chart draws the table's K (the lag model's static sensitivity).
     let intercept = chart_intercept(fc, &d, k, line.intercept);
-    Ok((result, d, k, intercept))
+    Ok(MeasuredGrating {
+        result,
+        used: k_used,
+        drift,
+        slope: k,
+        intercept,
+    })
 }
 
 /// Measure every grating: the primary first (its τ and r seed the others), the rest
 /// in parallel.
-#[allow(clippy::type_complexity)]
 pub(super) fn measure_all(
     ctx: &GratingContext,
     primary: usize,
-) -> Result<((GratingResult, Vec<f64>, f64, f64), Vec<Measured>)> {
+) -> Result<(MeasuredGrating, Vec<Measured>)> {
     let first = measure_grating(ctx, primary, None)?;
     let seed = Some((
-        first.0.transport_delay_s,
-        first.0.sls_time_constant_s,
-        first.0.sls_instant_fraction,
+        first.result.transport_delay_s,
+        first.result.sls_time_constant_s,
+        first.result.sls_instant_fraction,
     ));
     let rest: Vec<Measured> = (0..ctx.used.len())
         .filter(|&k| k != primary)

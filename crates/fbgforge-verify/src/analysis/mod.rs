@@ -51,6 +51,7 @@ mod quality;
 mod response;
 mod results;
 mod sensitivity;
+mod series;
 mod slow;
 mod stretch;
 
@@ -59,7 +60,7 @@ use crate::segment::Segmentation;
 
 pub use super::segment::{detect_pulses, percentile, PulseSpan};
 pub use alignment::MIN_PRESSES;
-pub use assemble::analyse;
+pub use assemble::{analyse, analyse_owned};
 pub use linearity::hysteresis_and_linearity;
 pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
 pub use response::hysteresis_limit_percent_span;
