@@ -811,6 +811,33 @@ fn a_wavelength_log_cut_beyond_the_search_names_the_offset_its_presses_point_to(
 }
 
 #[test]
+fn an_hour_s_clock_jump_judges_the_rows_under_the_force_log_not_an_error() {
+    // Seed 2042 (wider draw): the wavelength log's clock runs back by an hour after
+    // its first presses, so its longest stretch on one clock lies an hour before the
+    // force log. Analysing the longest stretch ended in an error naming both files
+    // (exit 1). Now the stretch under the force log is analysed: with the offset given
+    // its presses are judged (PASS, the truth: K within 0.1 % of the part's); with the
+    // offset estimated the presses outside the rows analysed make it NOT JUDGED with
+    // reason_code `clock`, the jump named. Never an error.
+    let dir = tempfile::tempdir().unwrap();
+    let (s, rows) = verdict_rows(dir.path(), 1, 2042, None, false);
+    assert_eq!(s["errors"].as_u64(), Some(0), "{rows:?}");
+    assert_eq!(s["confidently_wrong"].as_u64(), Some(0), "{rows:?}");
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        assert_eq!(r[0], "clock-jump", "{r:?}");
+        match r[1].as_str() {
+            "given" => assert_eq!((r[2].as_str(), r[4].as_str()), ("PASS", "Right"), "{r:?}"),
+            _ => assert_eq!(
+                (r[2].as_str(), r[3].as_str()),
+                ("NOT JUDGED", "clock"),
+                "{r:?}"
+            ),
+        }
+    }
+}
+
+#[test]
 fn silence_from_a_noisy_k_or_untrusted_readings_is_not_no_response() {
     // The wider draw (seeds 2000-2399) found three runs confidently wrong: seed 2117
     // (stuck peaks at 1 kHz: a frozen grating called dead, FAIL), 2143 (a saturated

@@ -6,7 +6,7 @@ use super::clocks::{align_clocks, span_times, timing_uncertainty_s};
 use super::force::{
     check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force, TrustedForce,
 };
-use super::gratings::{grating_shifts, primary_grating, GratingShifts};
+use super::gratings::{grating_shifts, GratingShifts};
 use super::measure::{measure_all, Measured, MeasuredGrating};
 use super::options::AnalysisOptions;
 use super::quality::warn_q_undefined;
@@ -14,7 +14,7 @@ use super::results::{GratingResult, Measurement, Series};
 use super::series::{plot_series, PlotGrating, Rows};
 use super::{AlignedClocks, GratingContext};
 use crate::logs::time::median_period;
-use crate::logs::{ForceLog, LogWarnings, PeakLog};
+use crate::logs::{Clock, ForceLog, LogWarnings, PeakLog};
 use crate::segment::Segmentation;
 use crate::skew::{self, SkewFit};
 use crate::spec::Design;
@@ -55,16 +55,23 @@ fn analyse_log(
     };
     let mut warnings = log.warnings.clone();
     warnings.merge(force.warnings.clone());
-    // Rows on one clock: the longest stretch between jumps of the clock back.
-    let (mut log, rows_set_aside) = match super::stretch::one_clock(&log, &mut warnings) {
+    // Rows on one clock: the stretch between jumps of the clock back that lies under
+    // the force log (placed by the given offset, or on a shared wall clock), else the
+    // longest.
+    let (f0, f1) = (force.time_s[0], force.time_s[force.time_s.len() - 1]);
+    let force_span = match opts.clock_offset_s {
+        Some(o) => Some((f0 - o, f1 - o)),
+        None => {
+            (log.clock == Clock::Absolute && force.clock == Clock::Absolute).then_some((f0, f1))
+        }
+    };
+    let (mut log, rows_set_aside) = match super::stretch::one_clock(&log, force_span, &mut warnings)
+    {
         Some((l, n)) => (Cow::Owned(l), n),
         None => (log, 0),
     };
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
-    let shifts = grating_shifts(design, module, &log, opts, &tw, &mut warnings)?;
-    if let Cow::Owned(l) = &mut log {
-        l.drop_peaks();
-    }
+    let shifts = grating_shifts(design, module, &mut log, opts, &tw, &mut warnings)?;
     let log: &PeakLog = &log;
     let mut st = stages(
         (design, module),
@@ -171,9 +178,9 @@ fn stages<'a>(
     let frame = force_frame(log, force, opts, tw, warnings)?;
     let mut seg = loading_pulses(force, &frame.fval)?;
     let trusted = trusted_force(force, &frame.fval, &mut seg, warnings);
-    let primary = primary_grating(&shifts.used);
+    let primary = shifts.primary;
     let logs = (log, force);
-    let (shift_pm, given_s) = (&shifts.used[primary].1, opts.clock_offset_s);
+    let (shift_pm, given_s) = (shifts.primary_shift_pm(), opts.clock_offset_s);
     let spans = &trusted.spans;
     let clocks = align_clocks(&frame, tw, shift_pm, logs, given_s, spans, warnings)?;
     check_coverage(logs, &seg, &clocks.fu, (tw[0], tw[tw.len() - 1]))?;
@@ -211,7 +218,7 @@ impl Stages<'_> {
             module: self.module,
             strain: &sel.strain,
             tracks: &self.shifts.tracks,
-            used: &self.shifts.used,
+            shifts: self.shifts,
             tw,
             fu: &clocks.fu,
             fval: &self.fval,
@@ -278,7 +285,7 @@ fn finish_alignment(
         .collect();
     check.presses_in_overlap = trusted.iter().filter(|(a, b)| *a >= wa && *b <= wb).count();
     check.force_presses_outside = trusted.iter().filter(|(a, b)| *b < wa || *a > wb).count();
-    let (gi, s) = &st.shifts.used[st.primary];
+    let (gi, s) = (&st.shifts.used[st.primary], st.shifts.primary_shift_pm());
     let name = &st.shifts.selection.strain[*gi].name;
     if let Some(g) = results.iter().find(|r| &r.grating == name) {
         let longest = trusted.iter().map(|(a, b)| b - a).fold(0.0, f64::max);
@@ -562,13 +569,13 @@ fn collect_results(
         .iter()
         .map(|m| PlotGrating {
             name: m.result.grating.clone(),
-            shift_pm: &shifts.used[m.used].1,
+            used: m.used,
             drift: m.drift,
             slope: m.slope,
             intercept: m.intercept,
         })
         .collect();
-    let series = plot_series(rows, &plots);
+    let series = plot_series(rows, &plots, |k| shifts.shift_pm(k));
     let results: Vec<GratingResult> = measured.into_iter().map(|m| m.result).collect();
     for r in &results {
         if r.rows_ambiguous > 0 {

@@ -9,6 +9,7 @@ use crate::logs::{LogWarnings, PeakLog};
 use crate::segment::percentile;
 use crate::spec::{Design, GratingRole};
 use anyhow::{bail, Result};
+use std::borrow::Cow;
 
 /// The gratings a verification reads: the strain gratings (of one core, if asked),
 /// the temperature reference, and their wavelength windows.
@@ -69,29 +70,69 @@ fn select_gratings<'a>(
     })
 }
 
-/// The strain gratings' shifts: peaks assigned to gratings, temperature removed.
+/// The strain gratings' shifts: peaks assigned to gratings, temperature removed. One
+/// shift is kept per row (the primary grating's); the others are rebuilt from their
+/// tracks when a stage needs them ([`GratingShifts::shift_pm`]), so eight gratings of
+/// an hour at 1 kHz do not hold eight more columns.
 pub(super) struct GratingShifts<'a> {
     pub(super) selection: GratingSelection<'a>,
     pub(super) tracks: Vec<GratingTrack>,
     /// The reference grating used, if any.
     pub(super) reference_grating: Option<String>,
-    /// (strain grating index, compensated shift in pm per row) of each grating used.
-    pub(super) used: Vec<(usize, Vec<f64>)>,
+    /// The reference grating's track with its gaps filled, nm.
+    reference_filled: Option<Vec<f64>>,
+    /// Strain grating index (into `selection.strain`) of each grating used.
+    pub(super) used: Vec<usize>,
+    /// Index into `used` of the primary grating (the largest response).
+    pub(super) primary: usize,
+    /// The primary grating's compensated shift, pm per row.
+    primary_shift: Vec<f64>,
     /// Strain gratings of the core under test with too few peaks (missing channels).
     pub(super) missing: Vec<String>,
 }
 
-/// Assign the peaks to the gratings and remove temperature with the reference grating.
+impl GratingShifts<'_> {
+    /// The temperature-compensated shift of `used[k]`, pm per row.
+    pub(super) fn shift_pm(&self, k: usize) -> Cow<'_, [f64]> {
+        if k == self.primary {
+            return Cow::Borrowed(&self.primary_shift);
+        }
+        Cow::Owned(compensated(
+            &self.tracks,
+            self.used[k],
+            self.reference_filled.as_deref(),
+        ))
+    }
+
+    /// The primary grating's shift, pm per row.
+    pub(super) fn primary_shift_pm(&self) -> &[f64] {
+        &self.primary_shift
+    }
+}
+
+/// The compensated shift of strain grating `i` (the reference, when given, is the last
+/// track).
+fn compensated(tracks: &[GratingTrack], i: usize, reference: Option<&[f64]>) -> Vec<f64> {
+    let r = reference.and_then(|f| tracks.last().map(|t| (t, f)));
+    assign::compensated_shift_pm(&tracks[i], r)
+}
+
+/// Assign the peaks to the gratings and remove temperature with the reference grating;
+/// a log handed over (`Cow::Owned`) has its peaks freed once assigned.
 pub(super) fn grating_shifts<'a>(
     design: &Design,
     module: &'a crate::spec::Module,
-    log: &PeakLog,
+    log: &mut Cow<'_, PeakLog>,
     opts: &AnalysisOptions,
     tw: &[f64],
     warnings: &mut LogWarnings,
 ) -> Result<GratingShifts<'a>> {
     let selection = select_gratings(design, module, opts)?;
     let tracks = assign::assign(log, &selection.windows);
+    if let Cow::Owned(l) = log {
+        l.drop_peaks();
+    }
+    let log: &PeakLog = log;
     let tracked = Tracked {
         design,
         log,
@@ -99,31 +140,34 @@ pub(super) fn grating_shifts<'a>(
         min_rows: (log.rows() / 10).max(2),
         hw: selection.hw,
     };
-    let ref_track = reference_track(&tracked, selection.reference, tw, warnings);
+    let reference_filled = reference_track(&tracked, selection.reference, tw, warnings);
     let core_named = opts.core.is_some();
-    let (used, missing) = strain_shifts(
-        &tracked,
-        &selection.strain,
-        ref_track.as_ref(),
-        core_named,
-        warnings,
-    )?;
-    let reference_grating = ref_track.as_ref().map(|(t, _)| t.window.name.clone());
+    let (used, missing) = strain_shifts(&tracked, &selection.strain, core_named, warnings)?;
+    let reference_grating = reference_filled
+        .as_ref()
+        .and_then(|_| tracks.last())
+        .map(|t| t.window.name.clone());
+    // The primary grating: the one with the largest response (each shift built, its
+    // spread read, and only the largest kept; of equals the later one).
+    let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
+    let mut primary = (0, f64::NEG_INFINITY, Vec::new());
+    for (k, &i) in used.iter().enumerate() {
+        let s = compensated(&tracks, i, reference_filled.as_deref());
+        let w = spread(&s);
+        if k == 0 || w.total_cmp(&primary.1).is_ge() {
+            primary = (k, w, s);
+        }
+    }
     Ok(GratingShifts {
         selection,
         tracks,
         reference_grating,
+        reference_filled,
         used,
+        primary: primary.0,
+        primary_shift: primary.2,
         missing,
     })
-}
-
-/// The primary grating: the one with the largest response.
-pub(super) fn primary_grating(used: &[(usize, Vec<f64>)]) -> usize {
-    let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
-    (0..used.len())
-        .max_by(|&x, &y| spread(&used[x].1).total_cmp(&spread(&used[y].1)))
-        .unwrap_or(0)
 }
 
 /// What the grating tracks of a verification were read from and how.
@@ -139,19 +183,19 @@ struct Tracked<'a> {
 
 /// The temperature-reference grating's track (the last one) with its gaps filled, or
 /// `None` with a warning when the design has none or its peaks are too few.
-fn reference_track<'a>(
-    tr: &Tracked<'a>,
+fn reference_track(
+    tr: &Tracked,
     reference: Option<&crate::spec::ModuleGrating>,
     tw: &[f64],
     warnings: &mut LogWarnings,
-) -> Option<(&'a GratingTrack, Vec<f64>)> {
+) -> Option<Vec<f64>> {
     let (design, log, tracks, min_rows, hw) = (tr.design, tr.log, tr.tracks, tr.min_rows, tr.hw);
     match reference {
         Some(r) => {
             let t = tracks.last().filter(|t| t.window.name == r.name);
             match t {
                 Some(t) if t.rows_present >= min_rows => {
-                    Some((t, assign::fill_gaps(tw, &t.wavelength_nm)))
+                    Some(assign::fill_gaps(tw, &t.wavelength_nm))
                 }
                 _ => {
                     warnings.add("reference_missing", || {
@@ -178,17 +222,14 @@ fn reference_track<'a>(
     }
 }
 
-/// The temperature-compensated shift of every strain grating present in the log, by
-/// index into `strain`, and the names of the missing ones; a missing grating is a
-/// warning (an error when a core was named).
-#[allow(clippy::type_complexity)]
+/// The strain gratings present in the log (indices into `strain`) and the names of
+/// the missing ones; a missing grating is a warning (an error when a core was named).
 fn strain_shifts(
     tr: &Tracked,
     strain: &[&crate::spec::ModuleGrating],
-    ref_track: Option<&(&GratingTrack, Vec<f64>)>,
     core_named: bool,
     warnings: &mut LogWarnings,
-) -> Result<(Vec<(usize, Vec<f64>)>, Vec<String>)> {
+) -> Result<(Vec<usize>, Vec<String>)> {
     let (log, tracks, min_rows, hw) = (tr.log, tr.tracks, tr.min_rows, tr.hw);
     let rows = log.rows();
     // A core none of whose gratings appears is not the core under test (a module is
@@ -200,7 +241,7 @@ fn strain_shifts(
             .enumerate()
             .any(|(i, g)| &g.core == core && present(i))
     };
-    let mut used: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut used: Vec<usize> = Vec::new();
     let mut missing = Vec::new();
     for (i, g) in strain.iter().enumerate() {
         let t = &tracks[i];
@@ -235,8 +276,7 @@ fn strain_shifts(
                 )
             });
         }
-        let s = assign::compensated_shift_pm(t, ref_track.map(|(t, f)| (*t, f.as_slice())));
-        used.push((i, s));
+        used.push(i);
     }
     if used.is_empty() {
         bail!("{}: none of the design's strain gratings has peaks in the log (windows ± {hw:.3} nm around their nominal wavelengths)", log.source.display());

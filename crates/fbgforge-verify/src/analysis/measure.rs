@@ -56,7 +56,8 @@ fn timing_loop_percent(tw: &[f64], x: &[f64], branch: &[Branch], x_max: f64, u: 
 /// Fit the lag model, the straight line and the per-segment lags of `used[k]`; `prev`
 /// seeds the delay, τ and r from an already measured grating.
 fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, f64)>) -> Measured {
-    let (gi, s) = &ctx.used[k_used];
+    let gi = &ctx.shifts.used[k_used];
+    let s: &[f64] = &ctx.shifts.shift_pm(k_used);
     let g = ctx.strain[*gi];
     let t = &ctx.tracks[*gi];
     let fc = ctx.fc;
@@ -103,6 +104,8 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
             )
         }
     };
+    // The lag model's residuals served the fallback only: freed before the rest.
+    drop(residual);
     let instrument = rf.as_ref().map_or_else(Default::default, |r| {
         instrument_check(&Readings {
             nm: &t.wavelength_nm,
@@ -200,8 +203,13 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
     })
 }
 
+/// A log with more rows than this has its gratings measured one at a time: each
+/// measurement holds some eight columns of its rows (230 MB at 1 h × 1 kHz), too much
+/// to hold twice.
+const PARALLEL_MAX_ROWS: usize = 1_000_000;
+
 /// Measure every grating: the primary first (its τ and r seed the others), the rest
-/// in parallel.
+/// in parallel (one at a time for a long log, [`PARALLEL_MAX_ROWS`]).
 pub(super) fn measure_all(
     ctx: &GratingContext,
     primary: usize,
@@ -212,11 +220,19 @@ pub(super) fn measure_all(
         first.result.sls_time_constant_s,
         first.result.sls_instant_fraction,
     ));
-    let rest: Vec<Measured> = (0..ctx.used.len())
+    let others: Vec<usize> = (0..ctx.shifts.used.len())
         .filter(|&k| k != primary)
-        .collect::<Vec<_>>()
-        .par_iter()
-        .map(|&k| measure_grating(ctx, k, seed))
         .collect();
+    let rest: Vec<Measured> = if ctx.tw.len() > PARALLEL_MAX_ROWS {
+        others
+            .iter()
+            .map(|&k| measure_grating(ctx, k, seed))
+            .collect()
+    } else {
+        others
+            .par_iter()
+            .map(|&k| measure_grating(ctx, k, seed))
+            .collect()
+    };
     Ok((first, rest))
 }

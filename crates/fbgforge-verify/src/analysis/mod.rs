@@ -106,7 +106,8 @@ struct GratingContext<'a> {
     module: &'a crate::spec::Module,
     strain: &'a [&'a crate::spec::ModuleGrating],
     tracks: &'a [GratingTrack],
-    used: &'a [(usize, Vec<f64>)],
+    /// The gratings used and their shifts.
+    shifts: &'a gratings::GratingShifts<'a>,
     /// Wavelength log times, s from its first row.
     tw: &'a [f64],
     /// Force log times, aligned to the wavelength clock, s.

@@ -220,10 +220,13 @@ pub(super) fn response_figures(
     let tau_bound = spacing / 4.0;
     let tau = lm.tau_s.min(tau_bound);
     let x = full.responses(lm, tau);
-    let used: Vec<usize> = (0..s.len()).filter(|&i| usable(s, &x, i)).collect();
-    let (&first, &last) = (used.first()?, used.last()?);
+    // The usable rows are counted, not listed (a list is a column of its own).
+    let mut used = (0usize, None::<usize>, 0usize, 0.0f64);
+    for i in (0..s.len()).filter(|&i| usable(s, &x, i)) {
+        used = (used.0 + 1, used.1.or(Some(i)), i, used.3.max(x[i]));
+    }
+    let (n_used, first, last, x_max) = (used.0, used.1?, used.2, used.3);
     let basis = SlowBasis::new((ctx.tw[first], ctx.tw[last]), spacing);
-    let x_max = used.iter().map(|&i| x[i]).fold(0.0, f64::max);
     let slow_only = fit_rows(ctx, (s, &x), basis, false, |_| true)?;
     let both = fit_rows(ctx, (s, &x), basis, true, |_| true)?;
     let (rho, n_eff) = independence(ctx, (s, &x), &basis, &both);
@@ -231,7 +234,7 @@ pub(super) fn response_figures(
     let loading = |i: usize| matches!(branch[i], Branch::Loading | Branch::Rest);
     let load = fit_rows(ctx, (s, &x), basis, true, loading).unwrap_or_else(|| both.clone());
     let p = basis.len() + 1;
-    let inflate = (used.len() as f64 / n_eff).sqrt();
+    let inflate = (n_used as f64 / n_eff).sqrt();
     let dof = (n_eff - p as f64).max(1.0);
     let f_stat = (slow_only.rss - both.rss).max(0.0) / (both.rss / dof).max(1e-300);
     let d: Vec<f64> = (0..s.len())

@@ -7,6 +7,7 @@
 use super::results::Series;
 use super::GratingContext;
 use crate::fit::LagModelFit;
+use std::borrow::Cow;
 
 /// A log with at most this many rows keeps them all.
 pub(super) const PLOT_ROWS_ALL: usize = 20_000;
@@ -55,37 +56,43 @@ pub(super) struct Rows<'a> {
     pub(super) row_ok: &'a [bool],
 }
 
-/// One grating's plot: its name, compensated shift, line and chart line.
-pub(super) struct PlotGrating<'a> {
+/// One grating's plot: its name, which shift (index into the gratings used), its line
+/// and chart line.
+pub(super) struct PlotGrating {
     pub(super) name: String,
-    pub(super) shift_pm: &'a [f64],
+    pub(super) used: usize,
     pub(super) drift: DriftLine,
     pub(super) slope: f64,
     pub(super) intercept: f64,
 }
 
 /// The rows a plot keeps: all up to [`PLOT_ROWS_ALL`]; beyond, per bucket the first
-/// row and those of each series' smallest and largest finite value, in order.
-fn plot_rows(rows: &Rows, gratings: &[PlotGrating]) -> Vec<usize> {
+/// row and those of each series' smallest and largest finite value, in order. One
+/// grating's shift (`shift_of`) is built at a time.
+fn plot_rows<'s>(
+    rows: &Rows,
+    gratings: &[PlotGrating],
+    shift_of: &impl Fn(usize) -> Cow<'s, [f64]>,
+) -> Vec<usize> {
     let n = rows.tw.len();
     if n <= PLOT_ROWS_ALL {
         return (0..n).collect();
     }
     let width = n.div_ceil(PLOT_BUCKETS);
+    let buckets = || (0..n).step_by(width).map(move |a| a..(a + width).min(n));
     let mut keep = Vec::new();
-    let mut bucket = Vec::new();
-    for start in (0..n).step_by(width) {
-        let end = (start + width).min(n);
-        bucket.clear();
-        bucket.push(start);
-        extremes(start..end, |i| rows.fc[i], &mut bucket);
-        for g in gratings {
-            extremes(start..end, |i| g.drift.at(rows, g.shift_pm, i), &mut bucket);
-        }
-        bucket.sort_unstable();
-        bucket.dedup();
-        keep.extend_from_slice(&bucket);
+    for b in buckets() {
+        keep.push(b.start);
+        extremes(b, |i| rows.fc[i], &mut keep);
     }
+    for g in gratings {
+        let s = shift_of(g.used);
+        for b in buckets() {
+            extremes(b, |i| g.drift.at(rows, &s, i), &mut keep);
+        }
+    }
+    keep.sort_unstable();
+    keep.dedup();
     keep
 }
 
@@ -110,18 +117,20 @@ fn extremes(range: std::ops::Range<usize>, value: impl Fn(usize) -> f64, out: &m
 
 /// The series behind the plots at the rows they keep (see [`plot_rows`]), gratings
 /// in the order given.
-pub(super) fn plot_series(rows: &Rows, gratings: &[PlotGrating]) -> Series {
-    let keep = plot_rows(rows, gratings);
+pub(super) fn plot_series<'s>(
+    rows: &Rows,
+    gratings: &[PlotGrating],
+    shift_of: impl Fn(usize) -> Cow<'s, [f64]>,
+) -> Series {
+    let keep = plot_rows(rows, gratings, &shift_of);
     Series {
         time_s: keep.iter().map(|&i| rows.tw[i]).collect(),
         force_n: keep.iter().map(|&i| rows.fc[i]).collect(),
         shift_pm: gratings
             .iter()
             .map(|g| {
-                let v = keep
-                    .iter()
-                    .map(|&i| g.drift.at(rows, g.shift_pm, i))
-                    .collect();
+                let s = shift_of(g.used);
+                let v = keep.iter().map(|&i| g.drift.at(rows, &s, i)).collect();
                 (g.name.clone(), v)
             })
             .collect(),
@@ -159,12 +168,12 @@ mod tests {
         };
         let g = PlotGrating {
             name: "a".into(),
-            shift_pm: &s,
+            used: 0,
             drift,
             slope: 2.0,
             intercept: 0.0,
         };
-        let series = plot_series(&rows, std::slice::from_ref(&g));
+        let series = plot_series(&rows, std::slice::from_ref(&g), |_| Cow::Borrowed(&s));
         let m = series.time_s.len();
         assert!(m < 5 * PLOT_BUCKETS && m >= PLOT_BUCKETS, "{m}");
         assert!(series.time_s.windows(2).all(|w| w[0] < w[1]));
@@ -184,6 +193,7 @@ mod tests {
             fc: &fc[..1000],
             row_ok: &row_ok[..1000],
         };
-        assert_eq!(plot_series(&short, &[]).time_s.len(), 1000);
+        let none = |_| Cow::Borrowed(&s[..0]);
+        assert_eq!(plot_series(&short, &[], none).time_s.len(), 1000);
     }
 }
