@@ -491,7 +491,8 @@ fn a_handed_over_log_and_decimated_plots_give_the_same_answers() {
     // each bucket's first row and extremes. On a 32 500-row log (decimated: more than
     // 20 000 rows) the report equals the borrowed path's field for field (K, R², Δt_max,
     // verdict, warnings), and the plots keep the largest force the analysis saw.
-    use fbgforge::verify::{judge, read_inputs, run, VerifyRequest};
+    use fbgforge::verify::run::{judge, read_inputs};
+    use fbgforge::verify::{run, VerifyRequest};
     let cfg = SynthConfig {
         sample_rate_hz: 500.0,
         force_rate_hz: 500.0,
