@@ -813,6 +813,94 @@ fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     assert!(svg.contains("fiber axis 4.525"));
 }
 
+/// Issue 39, point 8: the previews draw only what is built (no clearance to an insert
+/// the module does not have), print lengths at the manifest's precision (0.075, not
+/// 0.07), put the mold's fiber axis where the manifest does, and mark a reference
+/// fiber that nothing supports, with its free length.
+#[test]
+fn previews_draw_what_is_built_at_the_manifest_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let caption = |svg: &str| -> String {
+        svg.split("<text x=\"10\"")
+            .skip(1)
+            .map(|t| t.split('>').nth(1).unwrap().split('<').next().unwrap())
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    // A 0.075 mm cap/core clearance, printed as the manifest has it.
+    let mut d = shipped("clip-on-34mm.toml");
+    d.module.as_mut().unwrap().cap_core_clearance_mm = 0.075;
+    d.validate().unwrap();
+    let out = dir.path().join("fine");
+    crate::build(&d, &out, None).unwrap();
+    let svg = std::fs::read_to_string(out.join("preview-module.svg")).unwrap();
+    assert!(svg.contains(">cap/core clearance 0.075<"), "no 0.075 label");
+    assert!(svg.contains(">core/insert clearance 0.1<"));
+    assert!(!caption(&svg).contains("UNSUPPORTED"), "{}", caption(&svg));
+    // Without inserts: no insert clearance drawn, and the reference fiber marked with
+    // its free length.
+    let mut bare = shipped("clip-on-34mm.toml");
+    bare.module.as_mut().unwrap().inserts.clear();
+    bare.validate().unwrap();
+    let out = dir.path().join("bare");
+    crate::build(&bare, &out, None).unwrap();
+    let svg = std::fs::read_to_string(out.join("preview-module.svg")).unwrap();
+    assert!(!svg.contains("core/insert clearance"));
+    let cap = caption(&svg);
+    let reference = &bare
+        .module
+        .as_ref()
+        .unwrap()
+        .gratings
+        .iter()
+        .find(|g| g.role == fbgforge::spec::GratingRole::TemperatureReference)
+        .unwrap()
+        .name;
+    let note = cap
+        .split("UNSUPPORTED: fiber ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no mark: {cap}"));
+    assert!(
+        note.starts_with(&format!("{reference} hangs free for ")),
+        "{note}"
+    );
+    let free: f64 = note
+        .split("hangs free for ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let (p, pp) = PartsProfile::of_design(&bare).unwrap();
+    // In closed form: down the axis from the core's inner dome to the bend start, the
+    // quarter bend, then level out to the inner wall.
+    assert!(pp.bend_radius_mm < p.core_inner_radius_mm);
+    let exact = p.dome_center_z_mm + p.core_dome_inner_sphere_radius_mm - pp.bend_start_z_mm
+        + PI / 2.0 * pp.bend_radius_mm
+        + (p.core_inner_radius_mm - pp.bend_radius_mm);
+    assert!(
+        (free - exact).abs() < 0.05,
+        "{free} mm free, {exact} mm in closed form"
+    );
+    // The mold's caption puts the fiber axis where the manifest does (4.525, not the
+    // 4.500 mid-sheet).
+    let mold = dir.path().join("mold");
+    crate::build(&shipped("tactile-array-60x80.toml"), &mold, None).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(mold.join("manifest.json")).unwrap())
+            .unwrap();
+    let axis = m["mold"]["fiber_axis_z_mm"].as_f64().unwrap();
+    assert!((axis - 4.525).abs() < 1e-9, "{axis}");
+    let svg = std::fs::read_to_string(mold.join("preview-mold.svg")).unwrap();
+    assert!(
+        caption(&svg).contains("the fiber axis lies at 4.525 mm"),
+        "{}",
+        caption(&svg)
+    );
+}
+
 // ---------------------------------------------------------------- 9. retention
 
 #[test]
