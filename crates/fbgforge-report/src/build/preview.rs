@@ -95,6 +95,40 @@ impl Panel {
     }
 }
 
+/// Text boxes already placed in a panel (px: left, top, right, bottom), so that no
+/// label is drawn over another: a label that would overlap one is moved up a line
+/// until it overlaps none.
+#[derive(Default)]
+struct Labels {
+    boxes: Vec<[f64; 4]>,
+}
+
+impl Labels {
+    /// Font size of labels, px, and the width of a character as a share of it (a
+    /// generous bound for sans-serif digits and lower case).
+    const SIZE: f64 = 12.0;
+    const CHAR: f64 = 0.62;
+
+    /// Place `text` (font size `size`) with its baseline start at (x, y) or above;
+    /// returns the `<text>` element.
+    fn place(&mut self, x: f64, y: f64, size: f64, text: &str, attrs: &str) -> String {
+        let w = Self::CHAR * size * text.chars().count() as f64;
+        let mut y = y;
+        let overlaps = |y: f64, b: &[f64; 4]| {
+            x < b[2] && b[0] < x + w && y - size < b[3] && b[1] < y + 0.25 * size
+        };
+        while self.boxes.iter().any(|b| overlaps(y, b)) {
+            y -= size + 1.0;
+        }
+        let b = [x, y - size, x + w, y + 0.25 * size];
+        self.boxes.push(b);
+        format!(
+            r#"<text class="label" data-box="{:.2} {:.2} {:.2} {:.2}" x="{x:.2}" y="{y:.2}" font-size="{size}" {attrs}>{text}</text>"#,
+            b[0], b[1], b[2], b[3]
+        )
+    }
+}
+
 /// Where panel `i` sits in the picture and how its model millimetres map to px.
 struct PanelFrame {
     /// Panel index (panels stand side by side).
@@ -154,27 +188,30 @@ fn draw(panels: &[Panel], caption: &str) -> String {
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     for (i, p) in panels.iter().enumerate() {
-        let (x0, x1, y0, _) = p.bounds();
+        let (x0, x1, y0, y1) = p.bounds();
+        // Each panel at its own aspect: as high as its drawing at its scale.
+        let own_h = ((y1 - y0) * scales[i] + 2.0 * pad).max(120.0);
         let f = PanelFrame {
             i,
             w,
-            h,
+            h: own_h,
             pad,
             scale: scales[i],
             x0,
             x1,
             y0,
         };
+        let mut labels = Labels::default();
         let _ = writeln!(
             s,
             r#"<clipPath id="c{i}"><rect x="{}" y="{}" width="{}" height="{}"/></clipPath><g clip-path="url(#c{i})">"#,
             i as f64 * w + pad - 2.0,
             pad - 2.0,
             w - 2.0 * pad + 4.0,
-            h - 2.0 * pad + 4.0
+            own_h - 2.0 * pad + 4.0
         );
-        draw_sections(&mut s, p, &f);
-        draw_dims(&mut s, p, &f);
+        draw_sections(&mut s, p, &f, &mut labels);
+        draw_dims(&mut s, p, &f, &mut labels);
         s.push_str("</g>\n");
         draw_labels(&mut s, p, &f);
     }
@@ -190,18 +227,23 @@ fn draw(panels: &[Panel], caption: &str) -> String {
 }
 
 /// A panel's levels, section layers and polylines.
-fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame) {
+fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame, labels: &mut Labels) {
     let (x0, x1) = (f.x0, f.x1);
     for (name, y) in &p.levels {
         let _ = writeln!(
             s,
-            r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/><text x="{}" y="{:.2}" fill="#17becf">{name}</text>"##,
+            r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/>{}"##,
             f.tx(x0),
             f.ty(*y),
             f.tx(x1),
             f.ty(*y),
-            f.tx(x0),
-            f.ty(*y) - 3.0
+            labels.place(
+                f.tx(x0),
+                f.ty(*y) - 3.0,
+                Labels::SIZE,
+                name,
+                r##"fill="#17becf""##
+            )
         );
     }
     for (name, col, segs) in &p.layers {
@@ -243,7 +285,7 @@ fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame) {
 
 /// A panel's dimension lines: ticks across the line at both ends, the label beside its
 /// middle.
-fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
+fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame, labels: &mut Labels) {
     for d in &p.dims {
         let (x0, y0, x1, y1) = (f.tx(d.a.0), f.ty(d.a.1), f.tx(d.b.0), f.ty(d.b.1));
         let len = d.length_mm();
@@ -252,7 +294,7 @@ fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
         let (nx, ny) = (-dy / l * 4.0, dx / l * 4.0);
         let _ = writeln!(
             s,
-            r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/><text x="{:.2}" y="{:.2}" font-size="10">{name} {}</text></g>"##,
+            r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/>{}</g>"##,
             x0 - nx,
             y0 - ny,
             x0 + nx,
@@ -261,9 +303,13 @@ fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
             y1 - ny,
             x1 + nx,
             y1 + ny,
-            x1.max(x0) + 6.0,
-            0.5 * (y0 + y1) + 3.0,
-            mm(len),
+            labels.place(
+                x1.max(x0) + 6.0,
+                0.5 * (y0 + y1) + 3.0,
+                10.0,
+                &format!("{} {}", d.name, mm(len)),
+                ""
+            ),
             name = d.name,
         );
     }
