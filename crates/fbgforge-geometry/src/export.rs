@@ -47,8 +47,9 @@ pub(crate) fn step_text(part: &BuiltPart, design_name: &str) -> String {
     step_text_of(&[&part.solid], &part.name, design_name)
 }
 
-/// STEP text of several solids in one file (the assembled module: each part a
-/// MANIFOLD_SOLID_BREP, in place), named `name` in its header.
+/// STEP text of solids in one file (a part's: one MANIFOLD_SOLID_BREP), its PRODUCT
+/// and header named `name`. The assembled module is written by
+/// [`crate::step_assembly`].
 pub(crate) fn step_text_of(solids: &[&Solid], name: &str, design_name: &str) -> String {
     let compressed: Vec<_> = solids.iter().map(|s| s.compress()).collect();
     let text = out::CompleteStepDisplay::new(
