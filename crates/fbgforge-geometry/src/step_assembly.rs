@@ -242,6 +242,25 @@ fn copy_part(w: &mut Writer, solid: &Solid, name: &str, root: &Root, origin: usi
 }
 
 /// The STEP text of the assembled module: the root `name` over `parts`.
+///
+/// ```
+/// use fbgforge_geometry::step_assembly::{assembly_step_text, hex_colour, AssemblyPart};
+/// use truck_modeling::{builder, Point3, Vector3};
+/// let v = builder::vertex(Point3::new(0.0, 0.0, 0.0));
+/// let e = builder::tsweep(&v, Vector3::unit_x());
+/// let f = builder::tsweep(&e, Vector3::unit_y());
+/// let cube = builder::tsweep(&f, Vector3::unit_z());
+/// let parts = [AssemblyPart {
+///     name: "cap",
+///     solid: &cube,
+///     colour_rgb: hex_colour("#FF0000"),
+///     material: "red",
+/// }];
+/// let text = assembly_step_text(&parts, "module-assembled", "demo");
+/// assert_eq!(text.matches("NEXT_ASSEMBLY_USAGE_OCCURRENCE").count(), 1);
+/// assert!(text.contains("PRODUCT('cap','cap'"));
+/// assert!(text.contains("COLOUR_RGB('red', 1.000000, 0.000000, 0.000000)"));
+/// ```
 pub fn assembly_step_text(parts: &[AssemblyPart], name: &str, design_name: &str) -> String {
     let mut w = Writer {
         next: 1,
