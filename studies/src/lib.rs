@@ -16,6 +16,7 @@ pub mod live_starts;
 pub mod model_error;
 pub mod optimize;
 pub mod predict;
+pub mod print_files;
 /// Terminal bars: the binary's own implementation of the library's `Progress`.
 #[path = "../../src/cli/progress.rs"]
 pub mod progress;

@@ -50,6 +50,10 @@ enum Study {
     /// The spectrum a design will make: predict's "one clean peak over the force
     /// range" on random long, strong, apodised gratings against a dense scan.
     SpectrumForward(studies::spectrum_forward::SpectrumForwardArgs),
+    /// Print files over random designs wider than the held-out proptest: builds that
+    /// exit 0 with an overlap, a passage under the printer's floor, a meshed gap under
+    /// 80 %, a mesh not watertight; refusals naming no field.
+    PrintFiles(studies::print_files::PrintFilesArgs),
     /// Log parsing throughput and end-to-end verification time.
     Verify(studies::verify::BenchVerifyArgs),
     /// Verdicts against their alternatives: random scenarios with known truth,
@@ -68,6 +72,7 @@ fn main() -> ExitCode {
         Study::ModelError(a) => studies::model_error::run(&a).map(|_| ()),
         Study::Optimize(a) => studies::optimize::run(&a),
         Study::Predict(a) => studies::predict::run(&a),
+        Study::PrintFiles(a) => studies::print_files::run(&a),
         Study::Reconstruct(a) => studies::reconstruct::run(&a),
         Study::Sheet(a) => studies::sheet::run(&a),
         Study::Spectra(a) => studies::spectra::run(&a),

@@ -861,3 +861,38 @@ fn silence_from_a_noisy_k_or_untrusted_readings_is_not_no_response() {
         }
     }
 }
+
+/// Issue 39's study of print files: the quick draw reaches built designs and
+/// refusals of both kinds, its outside checks find what they look for on cases with
+/// known answers, and (the finding) no confidently wrong output.
+#[test]
+fn print_files_study_quick_counts_no_confidently_wrong_build() {
+    use fbgforge_studies::print_files as pf;
+    // The outside checks on known cases: a tetrahedron is watertight, one face less
+    // is not; a point above a triangle is at its height; fields are recognised.
+    let tet = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+    assert!(pf::watertight(&tet));
+    assert!(!pf::watertight(&tet[..3]));
+    let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    assert!((pf::point_triangle_distance([0.2, 0.2, 0.3], t) - 0.3).abs() < 1e-12);
+    assert!((pf::point_triangle_distance([2.0, 0.0, 0.0], t) - 1.0).abs() < 1e-12);
+    assert!(pf::names_field(
+        "field `module.pillars.fiber_hole_diameter_mm`: 0.3 mm"
+    ));
+    assert!(!pf::names_field("mesh check `closed` failed"));
+    let dir = tempfile::tempdir().unwrap();
+    let a = pf::PrintFilesArgs {
+        designs: root().join("designs"),
+        scenarios: 12,
+        seed: 3900,
+        out: dir.path().to_path_buf(),
+        quick: true,
+    };
+    pf::run(&a).unwrap();
+    let j = read_json(&dir.path().join("print-files.json"));
+    let s = &j["summary"];
+    assert_eq!(s["scenarios"], 12);
+    assert!(s["built"].as_u64().unwrap() >= 2, "{s}");
+    assert!(s["refused_spec"].as_u64().unwrap() >= 1, "{s}");
+    assert_eq!(s["confidently_wrong"], 0, "{j}");
+}

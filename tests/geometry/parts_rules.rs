@@ -813,6 +813,200 @@ fn previews_carry_a_scale_bar_and_dimensions_drawn_to_it() {
     assert!(svg.contains("fiber axis 4.525"));
 }
 
+/// Issue 39, point 8: the previews draw only what is built (no clearance to an insert
+/// the module does not have), print lengths at the manifest's precision (0.075, not
+/// 0.07), put the mold's fiber axis where the manifest does, and mark a reference
+/// fiber that nothing supports, with its free length.
+#[test]
+fn previews_draw_what_is_built_at_the_manifest_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let caption = |svg: &str| -> String {
+        svg.split("<text x=\"10\"")
+            .skip(1)
+            .map(|t| t.split('>').nth(1).unwrap().split('<').next().unwrap())
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    // A 0.075 mm cap/core clearance, printed as the manifest has it.
+    let mut d = shipped("clip-on-34mm.toml");
+    d.module.as_mut().unwrap().cap_core_clearance_mm = 0.075;
+    d.validate().unwrap();
+    let out = dir.path().join("fine");
+    crate::build(&d, &out, None).unwrap();
+    let svg = std::fs::read_to_string(out.join("preview-module.svg")).unwrap();
+    assert!(svg.contains(">cap/core clearance 0.075<"), "no 0.075 label");
+    assert!(svg.contains(">core/insert clearance 0.1<"));
+    assert!(!caption(&svg).contains("UNSUPPORTED"), "{}", caption(&svg));
+    // Without inserts: no insert clearance drawn, and the reference fiber marked with
+    // its free length.
+    let mut bare = shipped("clip-on-34mm.toml");
+    bare.module.as_mut().unwrap().inserts.clear();
+    bare.validate().unwrap();
+    let out = dir.path().join("bare");
+    crate::build(&bare, &out, None).unwrap();
+    let svg = std::fs::read_to_string(out.join("preview-module.svg")).unwrap();
+    assert!(!svg.contains("core/insert clearance"));
+    let cap = caption(&svg);
+    let reference = &bare
+        .module
+        .as_ref()
+        .unwrap()
+        .gratings
+        .iter()
+        .find(|g| g.role == fbgforge::spec::GratingRole::TemperatureReference)
+        .unwrap()
+        .name;
+    let note = cap
+        .split("UNSUPPORTED: fiber ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no mark: {cap}"));
+    assert!(
+        note.starts_with(&format!("{reference} hangs free for ")),
+        "{note}"
+    );
+    let free: f64 = note
+        .split("hangs free for ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let (p, pp) = PartsProfile::of_design(&bare).unwrap();
+    // In closed form: down the axis from the core's inner dome to the bend start, the
+    // quarter bend, then level out to the inner wall.
+    assert!(pp.bend_radius_mm < p.core_inner_radius_mm);
+    let exact = p.dome_center_z_mm + p.core_dome_inner_sphere_radius_mm - pp.bend_start_z_mm
+        + PI / 2.0 * pp.bend_radius_mm
+        + (p.core_inner_radius_mm - pp.bend_radius_mm);
+    assert!(
+        (free - exact).abs() < 0.05,
+        "{free} mm free, {exact} mm in closed form"
+    );
+    // The mold's caption puts the fiber axis where the manifest does (4.525, not the
+    // 4.500 mid-sheet).
+    let mold = dir.path().join("mold");
+    crate::build(&shipped("tactile-array-60x80.toml"), &mold, None).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(mold.join("manifest.json")).unwrap())
+            .unwrap();
+    let axis = m["mold"]["fiber_axis_z_mm"].as_f64().unwrap();
+    assert!((axis - 4.525).abs() < 1e-9, "{axis}");
+    let svg = std::fs::read_to_string(mold.join("preview-mold.svg")).unwrap();
+    assert!(
+        caption(&svg).contains("the fiber axis lies at 4.525 mm"),
+        "{}",
+        caption(&svg)
+    );
+}
+
+/// The label boxes of a preview (`data-box`: left, top, right, bottom, px).
+fn label_boxes(svg: &str) -> Vec<([f64; 4], String)> {
+    svg.split("<text class=\"label\" data-box=\"")
+        .skip(1)
+        .map(|t| {
+            let (b, rest) = t.split_once('"').unwrap();
+            let v: Vec<f64> = b.split(' ').map(|x| x.parse().unwrap()).collect();
+            let text = rest.split('>').nth(1).unwrap().split('<').next().unwrap();
+            ([v[0], v[1], v[2], v[3]], text.to_string())
+        })
+        .collect()
+}
+
+/// Issue 39, point 8: no two labels of a preview overlap (a collision pass places
+/// them), on every shipped design, a module without inserts and one whose gratings
+/// share a height on two cores; and the mold's section panel is drawn at its own
+/// aspect (its box as high as the mold at the panel's scale, not the detail's height).
+#[test]
+fn preview_labels_never_overlap_and_panels_keep_their_aspect() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut designs: Vec<fbgforge::spec::Design> =
+        fbgforge::design::load_designs(&fbgforge::design::designs_dir())
+            .unwrap()
+            .into_iter()
+            .map(|(_, d)| d)
+            .collect();
+    let mut bare = shipped("clip-on-34mm.toml");
+    bare.module.as_mut().unwrap().inserts.clear();
+    bare.name = "bare".into();
+    designs.push(bare);
+    // One strain grating per core, each at 30 mm on pillar 0: two cores, one height.
+    let mut level = shipped("clip-on-34mm.toml");
+    level.name = "level".into();
+    let m = level.module.as_mut().unwrap();
+    let mut cores = Vec::new();
+    m.gratings.retain(|g| {
+        g.role != fbgforge::spec::GratingRole::Strain || {
+            let first = !cores.contains(&g.core);
+            cores.push(g.core.clone());
+            first
+        }
+    });
+    for g in m
+        .gratings
+        .iter_mut()
+        .filter(|g| g.role == fbgforge::spec::GratingRole::Strain)
+    {
+        g.center_height_mm = Some(30.0);
+        g.pillar = Some(0);
+    }
+    let strain_cores = m
+        .gratings
+        .iter()
+        .filter(|g| g.role == fbgforge::spec::GratingRole::Strain)
+        .count();
+    assert!(
+        strain_cores >= 2,
+        "{strain_cores} cores with a strain grating"
+    );
+    level.validate().unwrap();
+    designs.push(level);
+    let mut checked = 0;
+    for d in &designs {
+        let out = dir.path().join(&d.name);
+        crate::build(d, &out, None).unwrap();
+        for svg in ["preview-module.svg", "preview-mold.svg"] {
+            let Ok(text) = std::fs::read_to_string(out.join(svg)) else {
+                continue;
+            };
+            let boxes = label_boxes(&text);
+            assert!(boxes.len() >= 3, "{} {svg}: {} labels", d.name, boxes.len());
+            for (i, (a, ta)) in boxes.iter().enumerate() {
+                for (b, tb) in &boxes[..i] {
+                    let apart = a[2] <= b[0] || b[2] <= a[0] || a[3] <= b[1] || b[3] <= a[1];
+                    assert!(apart, "{} {svg}: `{ta}` over `{tb}`", d.name);
+                }
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "{checked} previews");
+    // The mold's whole section: its clip box as high as the mold at its scale.
+    let mold = dir.path().join("tactile-array-60x80");
+    let svg = std::fs::read_to_string(mold.join("preview-mold.svg")).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(mold.join("manifest.json")).unwrap())
+            .unwrap();
+    let part = &m["parts"][0];
+    let mold_h =
+        part["bbox_max_mm"][2].as_f64().unwrap() - part["bbox_min_mm"][2].as_f64().unwrap();
+    let num = |el: &str, k: &str| -> f64 {
+        let i = el.find(&format!("{k}=\"")).unwrap() + k.len() + 2;
+        el[i..el[i..].find('"').unwrap() + i].parse().unwrap()
+    };
+    let bar = svg.split("<g class=\"scale-bar\"").nth(1).unwrap();
+    let px_per_mm = num(bar, "data-px") / num(bar, "data-mm");
+    let clips: Vec<&str> = svg.split("<clipPath").skip(1).collect();
+    let (h0, h1) = (num(clips[0], "height"), num(clips[1], "height"));
+    let want = (mold_h * px_per_mm).max(40.0) + 4.0;
+    assert!(
+        (h0 - want).abs() < 1.0,
+        "whole-mold panel {h0} px high, the mold {want} px"
+    );
+    assert!(h0 < 0.5 * h1, "{h0} px against the detail's {h1} px");
+}
+
 // ---------------------------------------------------------------- 9. retention
 
 #[test]

@@ -47,8 +47,9 @@ pub(crate) fn step_text(part: &BuiltPart, design_name: &str) -> String {
     step_text_of(&[&part.solid], &part.name, design_name)
 }
 
-/// STEP text of several solids in one file (the assembled module: each part a
-/// MANIFOLD_SOLID_BREP, in place), named `name` in its header.
+/// STEP text of solids in one file (a part's: one MANIFOLD_SOLID_BREP), its PRODUCT
+/// and header named `name`. The assembled module is written by
+/// [`crate::step_assembly`].
 pub(crate) fn step_text_of(solids: &[&Solid], name: &str, design_name: &str) -> String {
     let compressed: Vec<_> = solids.iter().map(|s| s.compress()).collect();
     let text = out::CompleteStepDisplay::new(
@@ -57,6 +58,12 @@ pub(crate) fn step_text_of(solids: &[&Solid], name: &str, design_name: &str) -> 
     )
     .to_string();
     let data = text.find("DATA;").map_or(text.as_str(), |i| &text[i..]);
+    // truck names no product; CAD shows the PRODUCT's name as the body's.
+    let data = data.replacen(
+        "PRODUCT('','','',",
+        &format!("PRODUCT('{n}','{n}','',", n = step_string(name)),
+        1,
+    );
     format!(
         "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('fbgforge part {part} of design {design}'), '2;1');\nFILE_NAME('{design}-{part}.step', '{stamp}', ('fbgforge'), (''), 'truck-stepio 0.3', 'fbgforge {version}', '');\nFILE_SCHEMA(('{STEP_SCHEMA}'));\nENDSEC;\n{data}",
         part = step_string(name),
@@ -67,7 +74,7 @@ pub(crate) fn step_text_of(solids: &[&Solid], name: &str, design_name: &str) -> 
 }
 
 /// A STEP string literal's content: apostrophes doubled, only printable ASCII kept.
-fn step_string(s: &str) -> String {
+pub(crate) fn step_string(s: &str) -> String {
     s.chars()
         .filter(|c| c.is_ascii() && !c.is_ascii_control())
         .collect::<String>()
@@ -75,7 +82,7 @@ fn step_string(s: &str) -> String {
 }
 
 /// The current UTC time as ISO 8601 (`YYYY-MM-DDThh:mm:ss`), as FILE_NAME expects.
-fn iso8601_now() -> String {
+pub(crate) fn iso8601_now() -> String {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs() as i64);
@@ -544,10 +551,42 @@ fn render_packages(
             |_, _| [0.0; 3],
         )?;
         files.push(("module-assembled.3mf".into(), bytes));
-        let solids: Vec<&Solid> = module.iter().map(|p| &p.solid).collect();
+        // One named, coloured product per part (its first material's colour, as in
+        // the assembled 3MF), under the module.
+        let colours: Vec<(String, [f64; 3])> = module
+            .iter()
+            .map(|p| {
+                let key = p
+                    .kind
+                    .part()
+                    .prints(design, &p.name)
+                    .into_iter()
+                    .next()
+                    .and_then(|pr| pr.material);
+                let colour = key
+                    .as_ref()
+                    .and_then(|k| materials.get(k))
+                    .map_or("#BFBFBF", |m| m.display_colour.as_str());
+                (
+                    key.unwrap_or_else(|| "not stated".into()),
+                    super::step_assembly::hex_colour(colour),
+                )
+            })
+            .collect();
+        let step_parts: Vec<super::step_assembly::AssemblyPart> = module
+            .iter()
+            .zip(&colours)
+            .map(|(p, (material, rgb))| super::step_assembly::AssemblyPart {
+                name: &p.name,
+                solid: &p.solid,
+                colour_rgb: *rgb,
+                material,
+            })
+            .collect();
         files.push((
             "module-assembled.step".into(),
-            step_text_of(&solids, "module-assembled", &design.name).into_bytes(),
+            super::step_assembly::assembly_step_text(&step_parts, "module-assembled", &design.name)
+                .into_bytes(),
         ));
         out.assembled_3mf = Some("module-assembled.3mf".into());
         out.assembled_step = Some("module-assembled.step".into());

@@ -29,6 +29,7 @@ pub mod part;
 pub mod print_notes;
 pub mod refine;
 pub mod registry;
+pub mod step_assembly;
 pub mod threemf;
 
 pub use design_profile::DesignProfile;

@@ -47,7 +47,7 @@ pub struct ToleranceTooCoarse {
 
 /// A designed gap the meshes cannot keep.
 #[derive(Debug, thiserror::Error)]
-#[error("field `{field}`: the {what} ({designed_mm:.4} mm designed) keeps only {meshed_mm:.4} mm ({kept_percent:.1} %) between the written meshes of the {outer} and the {inner} at a surface tolerance of {tolerance_mm} mm, under the {least_percent:.0} % a build must keep; widen the gap")]
+#[error("field `{field}`: the {what} ({designed_mm:.4} mm designed) keeps only {meshed_mm:.4} mm ({kept_percent:.1} %) between the written meshes of the {outer} and the {inner} at a surface tolerance of {tolerance_mm} mm, under the {least_percent:.0} % a build must keep; widen the gap: allowed {least_gap_mm:.4} mm and wider (the meshes take {eaten_mm:.4} mm of it)", eaten_mm = .designed_mm - .meshed_mm)]
 pub struct GapEaten {
     /// Which surfaces.
     pub what: String,
@@ -67,6 +67,9 @@ pub struct GapEaten {
     pub tolerance_mm: f64,
     /// The least share a build keeps, percent.
     pub least_percent: f64,
+    /// The least designed gap that keeps that share when the meshes take as much of it
+    /// as they take of this one, mm.
+    pub least_gap_mm: f64,
 }
 
 /// Mesh one solid at `tol_mm` (finer on the `needs` surfaces) and run every check. If
@@ -123,13 +126,25 @@ fn mesh_part_or_refuse(
     (bound, default_mm): (f64, f64),
     needs: &[SurfaceNeed],
 ) -> Result<BuiltPart, GeometryError> {
-    match mesh_part(part, tol_mm, bound, needs) {
+    refuse_too_coarse(part, tol_mm, (bound, default_mm), |t, b| {
+        mesh_part(part, t, b, needs)
+    })
+}
+
+/// [`mesh_part_or_refuse`] with the mesher given (`mesh(tolerance, volume bound)`), so
+/// that the refusal can be checked on a mesher whose failures are known.
+fn refuse_too_coarse(
+    part: &PartSolid,
+    tol_mm: f64,
+    (bound, default_mm): (f64, f64),
+    mesh: impl Fn(f64, f64) -> Result<BuiltPart, GeometryError>,
+) -> Result<BuiltPart, GeometryError> {
+    match mesh(tol_mm, bound) {
         Err(GeometryError::Mesh(e)) if tol_mm > default_mm && e.check != "volume" => {
             let mut t = tol_mm;
             while t > default_mm {
                 t /= 2.0;
-                let b = volume_bound(t, default_mm);
-                if mesh_part(part, t, b, needs).is_ok() {
+                if mesh(t, volume_bound(t, default_mm)).is_ok() {
                     break;
                 }
             }
@@ -168,6 +183,33 @@ pub(crate) fn mesh_solids(
     solids: &[PartSolid],
     tol: f64,
 ) -> Result<(Vec<BuiltPart>, Vec<MeshedGap>), GeometryError> {
+    mesh_solids_within(profile, solids, tol, GapBudget::BUILD)
+}
+
+/// How hard [`mesh_solids_within`] tries to keep the gaps: the refinement rounds after
+/// the first measurement, and the first surface tolerance as a fraction of
+/// [`gaps::initial_tolerance_mm`] (1: the build's).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct GapBudget {
+    rounds: u32,
+    first_tolerance_scale: f64,
+}
+
+impl GapBudget {
+    /// What a build spends: [`MAX_GAP_REFINEMENTS`] rounds from the gap's own start.
+    pub(crate) const BUILD: GapBudget = GapBudget {
+        rounds: MAX_GAP_REFINEMENTS,
+        first_tolerance_scale: 1.0,
+    };
+}
+
+/// [`mesh_solids`] within a refinement budget.
+pub(crate) fn mesh_solids_within(
+    profile: &DesignProfile,
+    solids: &[PartSolid],
+    tol: f64,
+    budget: GapBudget,
+) -> Result<(Vec<BuiltPart>, Vec<MeshedGap>), GeometryError> {
     let default = profile.design.printer.default_tolerance_mm();
     let bound = volume_bound(tol, default);
     let specs: Vec<GapSpec> = profile
@@ -177,7 +219,9 @@ pub(crate) fn mesh_solids(
         .unwrap_or_default();
     let mut tols: Vec<f64> = specs
         .iter()
-        .map(|s| gaps::initial_tolerance_mm(s.designed_gap_mm).min(tol))
+        .map(|s| {
+            (budget.first_tolerance_scale * gaps::initial_tolerance_mm(s.designed_gap_mm)).min(tol)
+        })
         .collect();
     let distinct = first_of_each_kind(solids, |s| s.kind);
     let mut meshed: Vec<BuiltPart> = distinct
@@ -185,7 +229,7 @@ pub(crate) fn mesh_solids(
         .map(|s| mesh_part_or_refuse(s, tol, (bound, default), &needs_of(s.kind, &specs, &tols)))
         .collect::<Result<_, _>>()?;
     let mut results = Vec::new();
-    for round in 0..=MAX_GAP_REFINEMENTS {
+    for round in 0..=budget.rounds {
         results = measure_all(&specs, &tols, &meshed);
         let eaten: Vec<usize> = results
             .iter()
@@ -195,7 +239,7 @@ pub(crate) fn mesh_solids(
         let Some(&first) = eaten.first() else {
             break;
         };
-        if round == MAX_GAP_REFINEMENTS {
+        if round == budget.rounds {
             let g = &results
                 .iter()
                 .find(|(k, _)| *k == first)
@@ -211,6 +255,7 @@ pub(crate) fn mesh_solids(
                 kept_percent: g.kept_percent,
                 tolerance_mm: g.surface_tolerance_mm,
                 least_percent: 100.0 * gaps::KEPT_FRACTION,
+                least_gap_mm: (g.designed_gap_mm - g.meshed_gap_mm) / (1.0 - gaps::KEPT_FRACTION),
             })));
         }
         let mut again: Vec<PartKind> = Vec::new();
@@ -267,4 +312,105 @@ fn measure_all(specs: &[GapSpec], tols: &[f64], meshed: &[BuiltPart]) -> Vec<(us
             ))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped(name: &str) -> crate::spec::Design {
+        fbgforge_core::design::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../designs/{name}")),
+        )
+        .unwrap()
+    }
+
+    /// No shipped or drawn design reaches the refusal (the gap surfaces refine until
+    /// kept): with no refinement round and the gap surfaces at the chord tolerance of
+    /// 1 mm, the meshes eat a gap, and the refusal names its field and the least gap
+    /// that would be kept.
+    #[test]
+    fn a_gap_the_meshes_eat_is_refused_naming_its_field_and_the_least_gap_kept() {
+        let d = shipped("clip-on-34mm.toml");
+        let profile = DesignProfile::new(&d);
+        let sel = ["cap".to_string(), "core".into()];
+        let solids = crate::build_solids_for(&profile, Some(&sel)).unwrap();
+        let coarse = GapBudget {
+            rounds: 0,
+            first_tolerance_scale: 1e9,
+        };
+        let Err(GeometryError::GapEaten(g)) = mesh_solids_within(&profile, &solids, 1.0, coarse)
+        else {
+            panic!("a coarse mesh keeps every gap");
+        };
+        let e = g.to_string();
+        assert!(g.kept_percent < 80.0, "{e}");
+        assert!(
+            e.starts_with(&format!("field `{}`", g.field)) && g.field.contains('.'),
+            "{e}"
+        );
+        assert!(e.contains(&g.what), "{e}");
+        // The least gap that keeps 80 % when the meshes take as much: wider than the
+        // designed one, and 80 % of it is left once the eaten share is taken.
+        assert!(
+            e.contains(&format!("allowed {:.4} mm and wider", g.least_gap_mm)),
+            "{e}"
+        );
+        assert!(g.least_gap_mm > g.designed_mm, "{e}");
+        let eaten = g.designed_mm - g.meshed_mm;
+        assert!(((g.least_gap_mm - eaten) / g.least_gap_mm - 0.8).abs() < 1e-9);
+        // The build's budget keeps the same gaps on the same meshes' tolerance.
+        let (_, kept) = mesh_solids_within(&profile, &solids, 1.0, GapBudget::BUILD).unwrap();
+        assert!(kept.iter().all(|k| k.kept_percent >= 80.0));
+    }
+
+    /// No shipped design fails to mesh at a coarse tolerance any more; on a mesher that
+    /// fails above 0.15 mm, a request of 1 mm is refused naming the option and the
+    /// largest tolerance found by halving (0.125 mm), which meshes.
+    #[test]
+    fn a_tolerance_too_coarse_is_refused_naming_the_option_and_the_range_that_meshes() {
+        let d = shipped("clip-on-10mm.toml");
+        let profile = DesignProfile::new(&d);
+        let solids = crate::build_solids_for(&profile, Some(&["cap".to_string()])).unwrap();
+        let part = &solids[0];
+        let default = d.printer.default_tolerance_mm();
+        let fails_above = 0.15;
+        let mesher = |t: f64, b: f64| {
+            if t > fails_above {
+                Err(GeometryError::Mesh(MeshError {
+                    part: part.name.clone(),
+                    check: "closed",
+                    detail: format!("open at {t} mm"),
+                }))
+            } else {
+                mesh_part(part, t, b, &[])
+            }
+        };
+        let Err(GeometryError::TooCoarse(r)) =
+            refuse_too_coarse(part, 1.0, (volume_bound(1.0, default), default), mesher)
+        else {
+            panic!("refused");
+        };
+        let e = r.to_string();
+        assert!(
+            e.starts_with("field `BuildRequest.tolerance_mm`: 1 mm is too coarse for part `cap`"),
+            "{e}"
+        );
+        assert!(e.contains("allowed 0.001 to 0.125 mm"), "{e}");
+        assert!(e.contains("mesh check `closed` failed"), "{e}");
+        // The largest it names meshes; twice it does not.
+        assert!(mesher(r.largest_mm, volume_bound(r.largest_mm, default)).is_ok());
+        assert!(mesher(2.0 * r.largest_mm, 1.0).is_err());
+        // At or under the printer's default nothing is tried: the failure is the mesher's.
+        assert!(matches!(
+            refuse_too_coarse(part, default, (0.005, default), |_, _| Err(
+                GeometryError::Mesh(MeshError {
+                    part: "cap".into(),
+                    check: "closed",
+                    detail: String::new(),
+                })
+            )),
+            Err(GeometryError::Mesh(_))
+        ));
+    }
 }

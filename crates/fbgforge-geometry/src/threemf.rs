@@ -218,8 +218,11 @@ pub fn package(model: &str) -> Result<Vec<u8>> {
 /// The 3MF package of a model file and `extra` files (path in the package, text).
 pub fn package_with(model: &str, extra: &[(&str, &str)]) -> Result<Vec<u8>> {
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
+    // Deflate's fastest level: the default (6) took a fifth of a module's build
+    // (perf, 34 mm module) for files a few per cent smaller.
     let opts = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated);
+        .compression_method(zip::CompressionMethod::Deflated)
+        .compression_level(Some(1));
     for (path, text) in [
         ("[Content_Types].xml", CONTENT_TYPES),
         ("_rels/.rels", RELS),

@@ -51,6 +51,18 @@ impl Dim {
     }
 }
 
+/// A length as the manifest gives it: up to 4 decimals, trailing zeros dropped
+/// (0.075 mm prints `0.075`, not `0.07`; 2 mm prints `2`).
+pub(crate) fn mm(v: f64) -> String {
+    let t = format!("{v:.4}");
+    let t = t.trim_end_matches('0').trim_end_matches('.');
+    if t == "-0" {
+        "0".into()
+    } else {
+        t.into()
+    }
+}
+
 /// A round length for a scale bar near a fifth of `span_mm`: 1, 2 or 5 × 10ⁿ mm.
 pub(crate) fn scale_bar_mm(span_mm: f64) -> f64 {
     let target = (span_mm / 5.0).max(1e-6);
@@ -80,6 +92,40 @@ impl Panel {
             y1 = y1.max(y);
         }
         (x0, x1, y0, y1)
+    }
+}
+
+/// Text boxes already placed in a panel (px: left, top, right, bottom), so that no
+/// label is drawn over another: a label that would overlap one is moved up a line
+/// until it overlaps none.
+#[derive(Default)]
+struct Labels {
+    boxes: Vec<[f64; 4]>,
+}
+
+impl Labels {
+    /// Font size of labels, px, and the width of a character as a share of it (a
+    /// generous bound for sans-serif digits and lower case).
+    const SIZE: f64 = 12.0;
+    const CHAR: f64 = 0.62;
+
+    /// Place `text` (font size `size`) with its baseline start at (x, y) or above;
+    /// returns the `<text>` element.
+    fn place(&mut self, x: f64, y: f64, size: f64, text: &str, attrs: &str) -> String {
+        let w = Self::CHAR * size * text.chars().count() as f64;
+        let mut y = y;
+        let overlaps = |y: f64, b: &[f64; 4]| {
+            x < b[2] && b[0] < x + w && y - size < b[3] && b[1] < y + 0.25 * size
+        };
+        while self.boxes.iter().any(|b| overlaps(y, b)) {
+            y -= size + 1.0;
+        }
+        let b = [x, y - size, x + w, y + 0.25 * size];
+        self.boxes.push(b);
+        format!(
+            r#"<text class="label" data-box="{:.2} {:.2} {:.2} {:.2}" x="{x:.2}" y="{y:.2}" font-size="{size}" {attrs}>{text}</text>"#,
+            b[0], b[1], b[2], b[3]
+        )
     }
 }
 
@@ -142,27 +188,30 @@ fn draw(panels: &[Panel], caption: &str) -> String {
     );
     let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
     for (i, p) in panels.iter().enumerate() {
-        let (x0, x1, y0, _) = p.bounds();
+        let (x0, x1, y0, y1) = p.bounds();
+        // Each panel at its own aspect: as high as its drawing at its scale.
+        let own_h = ((y1 - y0) * scales[i] + 2.0 * pad).max(120.0);
         let f = PanelFrame {
             i,
             w,
-            h,
+            h: own_h,
             pad,
             scale: scales[i],
             x0,
             x1,
             y0,
         };
+        let mut labels = Labels::default();
         let _ = writeln!(
             s,
             r#"<clipPath id="c{i}"><rect x="{}" y="{}" width="{}" height="{}"/></clipPath><g clip-path="url(#c{i})">"#,
             i as f64 * w + pad - 2.0,
             pad - 2.0,
             w - 2.0 * pad + 4.0,
-            h - 2.0 * pad + 4.0
+            own_h - 2.0 * pad + 4.0
         );
-        draw_sections(&mut s, p, &f);
-        draw_dims(&mut s, p, &f);
+        draw_sections(&mut s, p, &f, &mut labels);
+        draw_dims(&mut s, p, &f, &mut labels);
         s.push_str("</g>\n");
         draw_labels(&mut s, p, &f);
     }
@@ -178,18 +227,23 @@ fn draw(panels: &[Panel], caption: &str) -> String {
 }
 
 /// A panel's levels, section layers and polylines.
-fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame) {
+fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame, labels: &mut Labels) {
     let (x0, x1) = (f.x0, f.x1);
     for (name, y) in &p.levels {
         let _ = writeln!(
             s,
-            r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/><text x="{}" y="{:.2}" fill="#17becf">{name}</text>"##,
+            r##"<line x1="{}" y1="{:.2}" x2="{}" y2="{:.2}" stroke="#17becf" stroke-dasharray="6 3"/>{}"##,
             f.tx(x0),
             f.ty(*y),
             f.tx(x1),
             f.ty(*y),
-            f.tx(x0),
-            f.ty(*y) - 3.0
+            labels.place(
+                f.tx(x0),
+                f.ty(*y) - 3.0,
+                Labels::SIZE,
+                name,
+                r##"fill="#17becf""##
+            )
         );
     }
     for (name, col, segs) in &p.layers {
@@ -231,7 +285,7 @@ fn draw_sections(s: &mut String, p: &Panel, f: &PanelFrame) {
 
 /// A panel's dimension lines: ticks across the line at both ends, the label beside its
 /// middle.
-fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
+fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame, labels: &mut Labels) {
     for d in &p.dims {
         let (x0, y0, x1, y1) = (f.tx(d.a.0), f.ty(d.a.1), f.tx(d.b.0), f.ty(d.b.1));
         let len = d.length_mm();
@@ -240,7 +294,7 @@ fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
         let (nx, ny) = (-dy / l * 4.0, dx / l * 4.0);
         let _ = writeln!(
             s,
-            r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/><text x="{:.2}" y="{:.2}" font-size="10">{name} {len:.2}</text></g>"##,
+            r##"<g class="dim" data-name="{name}" data-mm="{len:.4}" data-x0="{x0:.3}" data-y0="{y0:.3}" data-x1="{x1:.3}" data-y1="{y1:.3}"><path d="M{x0:.2} {y0:.2}L{x1:.2} {y1:.2}M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="#000" stroke-width="0.8" fill="none"/>{}</g>"##,
             x0 - nx,
             y0 - ny,
             x0 + nx,
@@ -249,8 +303,13 @@ fn draw_dims(s: &mut String, p: &Panel, f: &PanelFrame) {
             y1 - ny,
             x1 + nx,
             y1 + ny,
-            x1.max(x0) + 6.0,
-            0.5 * (y0 + y1) + 3.0,
+            labels.place(
+                x1.max(x0) + 6.0,
+                0.5 * (y0 + y1) + 3.0,
+                10.0,
+                &format!("{} {}", d.name, mm(len)),
+                ""
+            ),
             name = d.name,
         );
     }
@@ -344,7 +403,7 @@ pub(crate) fn module_svg(
             let mut levels = vec![
                 ("plate".into(), 0.0),
                 (
-                    format!("bend start {:.2}", pp.bend_start_z_mm),
+                    format!("bend start {}", mm(pp.bend_start_z_mm)),
                     pp.bend_start_z_mm,
                 ),
             ];
@@ -352,14 +411,17 @@ pub(crate) fn module_svg(
                 g.radius_mm == 0.0
                     || (g.angle_rad - theta).sin().abs() < 1e-6 && (g.angle_rad - theta).cos() > 0.0
             };
-            let mut dims = module_dims(m);
+            let mut dims = module_dims(m, shown.iter().any(|b| b.kind == PartKind::Insert));
             for g in crate::profile::module_gratings(m.spec, p)
                 .iter()
                 .filter(|g| in_plane(g))
             {
                 let s = g.radius_mm + 0.6 * pp.channel_width_mm;
                 dims.push(Dim::new(&g.name, (s, g.z_start_mm), (s, g.z_end_mm)));
-                levels.push((format!("{} from {:.2}", g.name, g.z_start_mm), g.z_start_mm));
+                levels.push((
+                    format!("{} from {}", g.name, mm(g.z_start_mm)),
+                    g.z_start_mm,
+                ));
             }
             Panel {
                 title: format!("{} cut at {:.1}°: {title}", design.name, theta.to_degrees()),
@@ -371,22 +433,34 @@ pub(crate) fn module_svg(
             }
         })
         .collect::<Vec<_>>();
-    Some(draw(
-        &panels,
-        &format!(
-            "Cut-away of the assembled module; fibers bend at {} mm radius and leave at {} mm above the plate.",
-            pp.bend_radius_mm, pp.exit_height_mm
-        ),
-    ))
+    let mut caption = format!(
+        "Cut-away of the assembled module; fibers bend at {} mm radius and leave at {} mm above the plate.",
+        mm(pp.bend_radius_mm),
+        mm(pp.exit_height_mm)
+    );
+    if !shown.iter().any(|b| b.kind == PartKind::Insert) {
+        for f in fibers {
+            let free = unsupported_length_mm(m, f);
+            if free > 0.0 {
+                let _ = write!(
+                    caption,
+                    "; UNSUPPORTED: fiber {} hangs free for {} mm in the core's cavity (no insert holds it)",
+                    f.grating,
+                    mm(free)
+                );
+            }
+        }
+    }
+    Some(draw(&panels, &caption))
 }
 
 /// The module's walls and clearances as dimension lines in a section plane (s, z):
 /// on the +s side, below the pillars for the core and above them for the cap.
-fn module_dims(m: &ModuleDims) -> Vec<Dim> {
+fn module_dims(m: &ModuleDims, with_insert: bool) -> Vec<Dim> {
     let (p, pp) = (&m.profile, &m.parts);
     let z_low = 0.5 * (pp.cap_slot_top_mm.max(pp.core_slot_top_mm) + pp.pillar_bottom_mm);
     let z_up = 0.5 * (pp.pillar_bottom_mm + p.pillar_top_mm);
-    vec![
+    let mut dims = vec![
         Dim::new(
             "cap wall",
             (p.cap_inner_radius_mm, z_up),
@@ -402,12 +476,54 @@ fn module_dims(m: &ModuleDims) -> Vec<Dim> {
             (p.core_inner_radius_mm, z_low),
             (p.core_outer_radius_mm, z_low),
         ),
-        Dim::new(
+    ];
+    // Nothing is drawn that is not built: the clearance to an insert only with one.
+    if with_insert {
+        dims.push(Dim::new(
             "core/insert clearance",
             (p.insert_radius_mm, z_low - 2.0),
             (p.core_inner_radius_mm, z_low - 2.0),
-        ),
-    ]
+        ));
+    }
+    dims
+}
+
+/// Length of the fibers' paths through the core's empty cavity (inside its inner
+/// wall and under its inner dome, above the plate), mm: where nothing holds a fiber
+/// when the module has no insert.
+pub(crate) fn unsupported_length_mm(m: &ModuleDims, fiber: &FiberTrace) -> f64 {
+    let p = &m.profile;
+    let free = |q: [f64; 3]| {
+        let r = q[0].hypot(q[1]);
+        r < p.core_inner_radius_mm
+            && (q[2] <= p.core_inner_junction_z_mm
+                || r.hypot(q[2] - p.dome_center_z_mm) < p.core_dome_inner_sphere_radius_mm)
+            && q[2] > 0.0
+    };
+    // The trace starts at the grating; a fiber that starts on the axis came down it
+    // from the top hole, through the cavity up to its inner dome.
+    let mut total = match fiber.points.first() {
+        Some(q) if q[0].hypot(q[1]) < 1e-9 => {
+            (p.dome_center_z_mm + p.core_dome_inner_sphere_radius_mm - q[2]).max(0.0)
+        }
+        _ => 0.0,
+    };
+    // Each segment of the path cut into 0.01 mm steps, a step counted when its middle
+    // is free (a segment may run from a wall's passage into the cavity).
+    for w in fiber.points.windows(2) {
+        let d = [w[1][0] - w[0][0], w[1][1] - w[0][1], w[1][2] - w[0][2]];
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let n = (len / 0.01).ceil().max(1.0) as usize;
+        let step = len / n as f64;
+        total += step
+            * (0..n)
+                .filter(|&k| {
+                    let t = (k as f64 + 0.5) / n as f64;
+                    free([w[0][0] + t * d[0], w[0][1] + t * d[1], w[0][2] + t * d[2]])
+                })
+                .count() as f64;
+    }
+    total
 }
 
 /// The mold (and its plugs in place) cut through the first fiber's slits, with the
@@ -439,7 +555,10 @@ pub(crate) fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<S
         }
     }
     let hy = l.mold_outer_mm.1 / 2.0;
-    let fiber = vec![(-hy - 3.0, l.fiber_z_mm), (hy + 3.0, l.fiber_z_mm)];
+    // The fiber's axis as printed (the seat plus the fiber's radius), as the manifest
+    // states it, not the mid-sheet height it is placed for.
+    let axis = l.slit_bottom_z_mm + design.fiber_routing.coated_diameter_mm / 2.0;
+    let fiber = vec![(-hy - 3.0, axis), (hy + 3.0, axis)];
     let iy = a.spec.mold.internal_y_mm / 2.0;
     let top = l.mold_outer_mm.2;
     let wall_z = 0.5 * (l.cavity_floor_z_mm + top);
@@ -459,14 +578,13 @@ pub(crate) fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<S
             ),
         ],
     };
-    let axis = l.slit_bottom_z_mm + design.fiber_routing.coated_diameter_mm / 2.0;
     let detail = Panel {
         title: "detail: the +y wall's slit".into(),
         layers,
         polylines: vec![("fiber axis".into(), "#d62728", fiber)],
         levels: vec![
             ("silicone level".into(), l.silicone_level_z_mm),
-            (format!("fiber axis {axis:.3}"), axis),
+            (format!("fiber axis {}", mm(axis)), axis),
         ],
         view: Some((iy - 2.0, hy + 1.0, -0.5, top + 1.0)),
         dims: vec![
@@ -485,8 +603,25 @@ pub(crate) fn mold_svg(profile: &DesignProfile, parts: &[BuiltPart]) -> Option<S
     Some(draw(
         &[whole, detail],
         &format!(
-            "Fill silicone to {:.3} mm above the mold's underside; the fiber axis lies at {:.3} mm, the slit bottoms at {:.3} mm.",
-            l.silicone_level_z_mm, l.fiber_z_mm, l.slit_bottom_z_mm
+            "Fill silicone to {} mm above the mold's underside; the fiber axis lies at {} mm, the slit bottoms at {} mm.",
+            mm(l.silicone_level_z_mm),
+            mm(axis),
+            mm(l.slit_bottom_z_mm)
         ),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mm;
+
+    #[test]
+    fn lengths_print_at_the_manifest_precision() {
+        assert_eq!(mm(0.075), "0.075");
+        assert_eq!(mm(4.525), "4.525");
+        assert_eq!(mm(2.0), "2");
+        assert_eq!(mm(0.1 + 0.2), "0.3");
+        assert_eq!(mm(1.23456), "1.2346");
+        assert_eq!(mm(-0.00001), "0");
+    }
 }
