@@ -202,8 +202,9 @@ fn run_predict_array(a: &PredictArgs, design: &fbgforge::spec::Design) -> Result
     let spectra = if a.no_spectrum {
         None
     } else {
-        p.spectra(design)
-            .with_context(|| format!("{}: cannot predict the array's spectra", a.design.display()))?
+        p.spectra(design).with_context(|| {
+            format!("{}: cannot predict the array's spectra", a.design.display())
+        })?
     };
     let shown = array::ArrayPrediction {
         design,

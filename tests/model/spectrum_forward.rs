@@ -388,11 +388,9 @@ fn build_warns_at_design_time_of_a_grating_that_stops_being_one_clean_peak() {
     assert_eq!(warnings.len(), stops.len(), "{warnings:#?}");
     for (config, f) in &stops {
         assert!(
-            warnings
-                .iter()
-                .any(|w| w.starts_with(config.trim_end())
-                    && w.contains("lambda_11")
-                    && w.contains(&format!("one clean peak at {f:.3} N"))),
+            warnings.iter().any(|w| w.starts_with(config.trim_end())
+                && w.contains("lambda_11")
+                && w.contains(&format!("one clean peak at {f:.3} N"))),
             "{config} at {f} N not in {warnings:#?}"
         );
         assert!(*f > 0.0 && *f < 10.0, "{f} N");
@@ -403,9 +401,11 @@ fn build_warns_at_design_time_of_a_grating_that_stops_being_one_clean_peak() {
         .find(|(c, _)| c.starts_with("psc1 Case II"))
         .unwrap();
     assert!(case_ii.1 > 0.5 && case_ii.1 < 3.0, "{stops:?}");
-    assert!(design_warnings(&common::shipped("clip-on-34mm.toml"), crate::fe_cache())
-        .unwrap()
-        .is_empty());
+    assert!(
+        design_warnings(&common::shipped("clip-on-34mm.toml"), crate::fe_cache())
+            .unwrap()
+            .is_empty()
+    );
 
     // Through `build`'s sink: the table states it among the build's warnings.
     let dir = tempfile::tempdir().unwrap();

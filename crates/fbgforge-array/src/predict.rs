@@ -225,10 +225,7 @@ impl ArrayPredictor {
     /// force range, with the warnings of those that chirp or split inside it
     /// ([`super::sheet::spectrum::array_spectra`], from the same solve as the matrix);
     /// `None` for the empirical kernel, which has no strain along a grating.
-    pub fn spectra(
-        &self,
-        design: &Design,
-    ) -> Result<Option<super::sheet::spectrum::ArraySpectra>> {
+    pub fn spectra(&self, design: &Design) -> Result<Option<super::sheet::spectrum::ArraySpectra>> {
         match &self.engine {
             Engine::Kernel(_) => Ok(None),
             Engine::Sheet { solution, .. } => {

@@ -468,11 +468,7 @@ impl SheetSolution {
         y.push(y1);
         let strain = y
             .iter()
-            .map(|&yy| {
-                self.system
-                    .strain_weights(g.fiber, yy, 0.0)
-                    .dot(forces)
-            })
+            .map(|&yy| self.system.strain_weights(g.fiber, yy, 0.0).dot(forces))
             .collect();
         (y.iter().map(|yy| yy - y0).collect(), strain)
     }

@@ -23,8 +23,8 @@ use crate::model::Configuration;
 use crate::spec::Design;
 use anyhow::{Context, Result};
 use fbgforge_spectra::grating::{
-    clean_peak_limit_against, spectrum_shape_against, unstrained_shape, CleanPeakCriteria,
-    Grating, LoadCase, SpectrumShape, StrainProfile,
+    clean_peak_limit_against, spectrum_shape_against, unstrained_shape, CleanPeakCriteria, Grating,
+    LoadCase, SpectrumShape, StrainProfile,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -334,10 +334,7 @@ pub const DESIGN_CHECK_FORCE_N: f64 = 10.0;
 /// assert!(design_warnings(&d, &GeometryCache::default())?.is_empty());
 /// # Ok::<(), anyhow::Error>(())
 /// ```
-pub fn design_warnings(
-    design: &Design,
-    cache: &crate::fem::GeometryCache,
-) -> Result<Vec<String>> {
+pub fn design_warnings(design: &Design, cache: &crate::fem::GeometryCache) -> Result<Vec<String>> {
     let Some(m) = &design.module else {
         return Ok(Vec::new());
     };
