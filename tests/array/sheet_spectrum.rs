@@ -239,7 +239,7 @@ fn a_centred_load_on_the_shipped_array_moves_the_peak_by_the_mean_strain() {
 
 #[test]
 fn an_array_grating_that_chirps_inside_the_range_is_warned_with_its_cell_and_load() {
-    let d = weak_long_gratings(1e6);
+    let d = weak_long_gratings(2e4);
     let sol = SheetModel::from_design(&d).unwrap().solve().unwrap();
     let s = array_spectra(&d, &sol).unwrap();
     let names: Vec<String> = d
@@ -275,7 +275,7 @@ fn an_array_grating_that_chirps_inside_the_range_is_warned_with_its_cell_and_loa
                     "{}",
                     mine[0]
                 );
-                assert!(g > 0.0 && g < 1e6);
+                assert!(g > 0.0 && g < 2e4);
             }
         }
     }
