@@ -66,6 +66,12 @@ pub struct ArraySpectra {
 }
 
 /// Mean of a piecewise-linear profile (trapezoids).
+///
+/// ```
+/// use fbgforge_array::sheet::spectrum::profile_mean;
+/// // 0 → 2 over the first mm, then flat at 2 for 3 mm: (1 + 6) / 4.
+/// assert_eq!(profile_mean(&[0.0, 1.0, 4.0], &[0.0, 2.0, 2.0]), 1.75);
+/// ```
 pub fn profile_mean(z_mm: &[f64], strain: &[f64]) -> f64 {
     let len = z_mm.last().copied().unwrap_or(0.0) - z_mm.first().copied().unwrap_or(0.0);
     if len <= 0.0 {

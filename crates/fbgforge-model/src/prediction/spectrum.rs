@@ -325,7 +325,7 @@ pub const DESIGN_CHECK_FORCE_N: f64 = 10.0;
 /// range, with the force where it starts. One FE solve per configuration at the
 /// default mesh level, no band; empty for a design without a module.
 ///
-/// ```no_run
+/// ```
 /// use fbgforge_model::fem::GeometryCache;
 /// use fbgforge_model::prediction::spectrum::design_warnings;
 /// let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
