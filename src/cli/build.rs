@@ -45,9 +45,29 @@ pub fn run(a: BuildArgs) -> Result<()> {
         tolerance_mm: a.tolerance,
         parts: a.parts.clone(),
     };
-    let mut sink = (Previews, BuildTable::new(std::io::stdout()));
+    let mut sink = geometry::WithWarnings {
+        warnings: design_warnings(&design)?,
+        sink: (Previews, BuildTable::new(std::io::stdout())),
+    };
     geometry::build_design(&design, &dir, &request, &mut sink)?;
     Ok(())
+}
+
+/// What the models find about a design at build time: a grating whose reflection
+/// chirps or splits inside the force range (module: the FE strain profile over
+/// `[module.limits]`; array: the sheet model's under each cell up to `ulimit_g`).
+fn design_warnings(design: &Design) -> Result<Vec<String>> {
+    let mut w = fbgforge::prediction::spectrum::design_warnings(
+        design,
+        &fbgforge::fem::GeometryCache::default(),
+    )?;
+    if design.array.is_some() && design.module.is_none() {
+        let p = fbgforge::array::predict::ArrayPredictor::new(design, None)?;
+        if let Some(s) = p.spectra(design)? {
+            w.extend(s.warnings);
+        }
+    }
+    Ok(w)
 }
 
 /// `fbgforge` with no arguments: build the shipped default designs into `out/`.
@@ -63,7 +83,10 @@ pub fn run_default() -> Result<()> {
     let pb = Bar::with("build", designs.len() as u64);
     let mut tables = BuildTables::new(std::io::stdout());
     for (_, d) in &designs {
-        let mut sink = (Previews, &mut tables);
+        let mut sink = geometry::WithWarnings {
+            warnings: design_warnings(d)?,
+            sink: (Previews, &mut tables),
+        };
         geometry::build_design(d, &default_out(d), &BuildRequest::default(), &mut sink)?;
         pb.advance(1);
     }

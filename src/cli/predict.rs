@@ -97,7 +97,8 @@ pub struct PredictArgs {
     pub mesh_level: Option<u32>,
     /// Skip each grating's reflection spectrum over the design's force range (the
     /// transfer-matrix model on the FE strain profile along the grating, read from the
-    /// same solve: milliseconds per grating, no extra finite-element solve).
+    /// same solve: milliseconds per grating, no extra finite-element solve; for an
+    /// array, on the sheet model's profile under the indenter on each cell).
     #[arg(long)]
     pub no_spectrum: bool,
     /// Print JSON instead of a table.
@@ -198,11 +199,19 @@ fn run_predict_array(a: &PredictArgs, design: &fbgforge::spec::Design) -> Result
         )),
         None => None,
     };
+    let spectra = if a.no_spectrum {
+        None
+    } else {
+        p.spectra(design).with_context(|| {
+            format!("{}: cannot predict the array's spectra", a.design.display())
+        })?
+    };
     let shown = array::ArrayPrediction {
         design,
         predictor: &p,
         load: response.as_ref().map(|(at, r)| (*at, r)),
         map_files: (&svg, &csv),
+        spectra: spectra.as_ref(),
     };
     let mut out = std::io::stdout();
     if a.json {

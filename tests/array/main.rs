@@ -30,3 +30,4 @@ mod live_tare;
 mod sheet_cli;
 mod sheet_exact;
 mod sheet_paper;
+mod sheet_spectrum;

@@ -359,3 +359,75 @@ fn predict_json_states_the_spectrum_with_units_in_its_names() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["predictions"][0].get("spectrum").is_none());
 }
+
+#[test]
+fn build_warns_at_design_time_of_a_grating_that_stops_being_one_clean_peak() {
+    // (f) The design-time check (`prediction::spectrum::design_warnings`, what `build`
+    // and `optimize` run) names the grating, its configuration and the force where it
+    // stops, the same force `predict` gives; the shipped module earns none.
+    use fbgforge::prediction::spectrum::design_warnings;
+    let d = long_grating_design();
+    let warnings = design_warnings(&d, crate::fe_cache()).unwrap();
+    let request = PredictionRequest {
+        force_n: 10.0,
+        fidelity: FidelityChoice::Fem,
+        spectrum: true,
+        refine_to_level: None,
+        cache: crate::fe_cache().clone(),
+        ..PredictionRequest::default()
+    };
+    let stops: Vec<(String, f64)> = predict(&d, &request)
+        .unwrap()
+        .iter()
+        .filter_map(|r| {
+            let f = r.spectrum.as_ref()?.clean_limit_force_n?;
+            Some((config_label(&r.detail.prediction), f))
+        })
+        .collect();
+    assert!(!stops.is_empty());
+    assert_eq!(warnings.len(), stops.len(), "{warnings:#?}");
+    for (config, f) in &stops {
+        assert!(
+            warnings.iter().any(|w| w.starts_with(config.trim_end())
+                && w.contains("lambda_11")
+                && w.contains(&format!("one clean peak at {f:.3} N"))),
+            "{config} at {f} N not in {warnings:#?}"
+        );
+        assert!(*f > 0.0 && *f < 10.0, "{f} N");
+    }
+    // Case II of the 30 mm grating: 1.24 N in the last measurement.
+    let case_ii = stops
+        .iter()
+        .find(|(c, _)| c.starts_with("psc1 Case II"))
+        .unwrap();
+    assert!(case_ii.1 > 0.5 && case_ii.1 < 3.0, "{stops:?}");
+    assert!(
+        design_warnings(&common::shipped("clip-on-34mm.toml"), crate::fe_cache())
+            .unwrap()
+            .is_empty()
+    );
+
+    // Through `build`'s sink: the table states it among the build's warnings.
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("long-grating.toml");
+    std::fs::write(&spec, d.to_toml()).unwrap();
+    let out = common::bin()
+        .args(["build", "--parts", "cap", "--out"])
+        .arg(dir.path().join("out"))
+        .arg(&spec)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let (_, f) = &stops[0];
+    assert!(
+        text.lines().any(|l| l.contains("warning:")
+            && l.contains("lambda_11")
+            && l.contains(&format!("{f:.3} N"))),
+        "{text}"
+    );
+}

@@ -12,4 +12,5 @@ mod optimize;
 mod optimize_cli;
 mod optimize_model;
 mod optimize_place;
+mod optimize_spectrum;
 mod report_html;

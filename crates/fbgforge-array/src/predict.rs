@@ -221,6 +221,19 @@ impl ArrayPredictor {
         })
     }
 
+    /// The spectrum each grating makes under the indenter on each cell over the array's
+    /// force range, with the warnings of those that chirp or split inside it
+    /// ([`super::sheet::spectrum::array_spectra`], from the same solve as the matrix);
+    /// `None` for the empirical kernel, which has no strain along a grating.
+    pub fn spectra(&self, design: &Design) -> Result<Option<super::sheet::spectrum::ArraySpectra>> {
+        match &self.engine {
+            Engine::Kernel(_) => Ok(None),
+            Engine::Sheet { solution, .. } => {
+                super::sheet::spectrum::array_spectra(design, solution).map(Some)
+            }
+        }
+    }
+
     /// Grating centres, mm.
     pub fn grating_xy_mm(&self) -> &[(f64, f64)] {
         &self.grating_xy_mm

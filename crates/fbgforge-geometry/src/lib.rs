@@ -314,6 +314,31 @@ impl<S: BuildSink + ?Sized> BuildSink for &mut S {
     }
 }
 
+/// A sink that hears every build with `warnings` added to the report's: what a model
+/// above this floor found about the design (e.g. a grating that stops being one clean
+/// peak inside the force range, `fbgforge_model::prediction::spectrum::design_warnings`),
+/// stated where the build's own warnings are.
+pub struct WithWarnings<S> {
+    /// Warnings to add, in words.
+    pub warnings: Vec<String>,
+    /// The sink that hears the build.
+    pub sink: S,
+}
+
+impl<S: BuildSink> BuildSink for WithWarnings<S> {
+    fn drawings(&mut self, build: &CheckedBuild) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+        self.sink.drawings(build)
+    }
+    fn built(&mut self, design: &Design, report: &BuildReport) -> anyhow::Result<()> {
+        if self.warnings.is_empty() {
+            return self.sink.built(design, report);
+        }
+        let mut r = report.clone();
+        r.warnings.extend(self.warnings.iter().cloned());
+        self.sink.built(design, &r)
+    }
+}
+
 /// What one design build wrote.
 #[derive(Debug, Clone)]
 pub struct BuildReport {

@@ -33,6 +33,7 @@ pub mod fit;
 pub mod hankel;
 pub mod layer;
 pub mod layouts;
+pub mod spectrum;
 
 use crate::profile::{cell_label, ArrayLayout};
 use crate::spec::Design;
@@ -431,6 +432,45 @@ impl SheetSolution {
             }
         }
         out
+    }
+
+    /// The fiber's axial strain per newton on the indenter at `load_mm`, sampled along
+    /// grating `g` from its start (z = 0, at y − ℓ/2) to its end (z = ℓ): at both ends
+    /// and at every segment edge between them. The bar's axial force is continuous and
+    /// linear within a segment (uniform force density per segment), so the samples
+    /// joined by straight lines *are* the model's strain along the grating, and their
+    /// mean (trapezoids) is the grating's reading [`Self::strain_per_n`] of the same
+    /// forces: one source of truth for the mean and the profile.
+    pub fn strain_profile_per_n(
+        &self,
+        g: &GratingOnFiber,
+        load_mm: (f64, f64),
+    ) -> (Vec<f64>, Vec<f64>) {
+        let f = self.forces(&[load_mm]);
+        self.profile_from_forces(g, &f.column(0).into_owned())
+    }
+
+    /// [`Self::strain_profile_per_n`] from segment forces already solved (one load).
+    pub fn profile_from_forces(
+        &self,
+        g: &GratingOnFiber,
+        forces: &DVector<f64>,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let lines = self.system.lines();
+        let (y0, y1) = (g.y_mm - 0.5 * g.length_mm, g.y_mm + 0.5 * g.length_mm);
+        let dy = lines.segment_mm();
+        let mut y = vec![y0];
+        y.extend(
+            (0..=lines.segments)
+                .map(|k| lines.span_mm.0 + k as f64 * dy)
+                .filter(|&e| e > y0 + 1e-9 && e < y1 - 1e-9),
+        );
+        y.push(y1);
+        let strain = y
+            .iter()
+            .map(|&yy| self.system.strain_weights(g.fiber, yy, 0.0).dot(forces))
+            .collect();
+        (y.iter().map(|yy| yy - y0).collect(), strain)
     }
 
     /// Each grating's strain per newton for the indenter at every point of `points`

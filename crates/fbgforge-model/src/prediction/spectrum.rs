@@ -23,7 +23,8 @@ use crate::model::Configuration;
 use crate::spec::Design;
 use anyhow::{Context, Result};
 use fbgforge_spectra::grating::{
-    clean_peak_limit, spectrum_shape, CleanPeakCriteria, Grating, LoadCase, StrainProfile,
+    clean_peak_limit_against, spectrum_shape_against, unstrained_shape, CleanPeakCriteria, Grating,
+    LoadCase, SpectrumShape, StrainProfile,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -39,6 +40,9 @@ pub enum ProfileSource {
     Fem,
     /// Uniform at the closed form's mean strain: no FE solve ran for this row.
     UniformClosedForm,
+    /// Sampled along the grating's fiber in the array's sheet model
+    /// (`fbgforge_array::sheet::spectrum`), from the solve that gives its mean.
+    Sheet,
 }
 
 /// The reflection spectrum one grating will make over the design's force range.
@@ -121,8 +125,27 @@ pub fn forward(
     force_range_n: f64,
     criteria: &CleanPeakCriteria,
 ) -> Result<GratingSpectrum, fbgforge_spectra::SpectrumError> {
-    let at = spectrum_shape(grating, &scaled(per_n, at_force_n), criteria)?;
-    let unloaded = spectrum_shape(grating, &StrainProfile::Uniform(0.0), criteria)?;
+    let unloaded = unstrained_shape(grating, criteria)?;
+    forward_against(
+        grating,
+        &unloaded,
+        per_n,
+        (at_force_n, force_range_n),
+        criteria,
+    )
+}
+
+/// [`forward`] against the grating's unloaded shape already computed
+/// ([`unstrained_shape`] with the same criteria): the reference of every loaded shape,
+/// computed once per grating however many rows or loads it answers.
+pub fn forward_against(
+    grating: &Grating,
+    unloaded: &SpectrumShape,
+    per_n: &StrainProfile,
+    (at_force_n, force_range_n): (f64, f64),
+    criteria: &CleanPeakCriteria,
+) -> Result<GratingSpectrum, fbgforge_spectra::SpectrumError> {
+    let at = spectrum_shape_against(grating, &scaled(per_n, at_force_n), unloaded, criteria)?;
     let range = force_range_n.abs();
     let cases: Vec<LoadCase> = if range > 0.0 {
         (1..=RANGE_STEPS)
@@ -137,8 +160,8 @@ pub fn forward(
     } else {
         Vec::new()
     };
-    let limit = clean_peak_limit(grating, &cases, criteria)?;
-    let top = limit.shapes.last().map_or(&unloaded, |(_, s)| s);
+    let limit = clean_peak_limit_against(grating, &cases, unloaded, criteria)?;
+    let top = limit.shapes.last().map_or(unloaded, |(_, s)| s);
     let samples = grating.sections;
     let eps = per_n.at_sections(grating.length_mm, samples);
     let span = eps.iter().copied().fold(f64::NEG_INFINITY, f64::max)
@@ -207,10 +230,12 @@ fn row_spectrum(
     (range, from): (f64, &'static str),
     fe: Option<&AxialStrainProfile>,
     row: &ModelledPrediction,
+    unloaded: &[(String, Grating, SpectrumShape)],
 ) -> Result<(GratingSpectrum, Option<String>)> {
     let p = &row.detail.prediction;
-    let grating = design
-        .bragg_grating(&p.grating)
+    let (_, grating, reference) = unloaded
+        .iter()
+        .find(|(n, _, _)| *n == p.grating)
         .with_context(|| format!("grating `{}` is not in the design", p.grating))?;
     let lambda = row.detail.bragg_wavelength_nm;
     let per_n = p.sensitivity_pm_per_n / design.fiber.shift_pm(lambda, 1.0, 0.0);
@@ -221,11 +246,11 @@ fn row_spectrum(
             ProfileSource::UniformClosedForm,
         ),
     };
-    let mut s = forward(
-        &grating,
+    let mut s = forward_against(
+        grating,
+        reference,
         &input,
-        request.force_n,
-        range,
+        (request.force_n, range),
         &CleanPeakCriteria::default(),
     )
     .with_context(|| format!("spectrum of grating `{}`", p.grating))?;
@@ -248,6 +273,23 @@ pub(super) fn attach<'a>(
     let range = limits.map_or((request.force_n.abs(), "request"), |l| {
         (l.max_force_n, "design")
     });
+    // Each grating's unloaded shape once, however many rows (cases, inserts) read it.
+    let mut names: Vec<&str> = rows
+        .iter()
+        .map(|r| r.detail.prediction.grating.as_str())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    let criteria = CleanPeakCriteria::default();
+    let unloaded: Vec<(String, Grating, SpectrumShape)> = names
+        .par_iter()
+        .filter_map(|&n| design.bragg_grating(n).map(|g| (n, g)))
+        .map(|(n, g)| {
+            let s = unstrained_shape(&g, &criteria)
+                .with_context(|| format!("spectrum of grating `{n}`"))?;
+            Ok((n.to_string(), g, s))
+        })
+        .collect::<Result<_>>()?;
     let spectra: Vec<Result<(GratingSpectrum, Option<String>)>> = rows
         .par_iter()
         .map(|row| {
@@ -258,6 +300,7 @@ pub(super) fn attach<'a>(
                 range,
                 profile(&config_of(p), &p.grating),
                 row,
+                &unloaded,
             )
         })
         .collect();
@@ -269,4 +312,53 @@ pub(super) fn attach<'a>(
         row.spectrum = Some(s);
     }
     Ok(())
+}
+
+/// Apex force at which a design without `[module.limits]` is checked at design time, N
+/// (`predict`'s default force).
+pub const DESIGN_CHECK_FORCE_N: f64 = 10.0;
+
+/// The design-time check `build` and `optimize` run: every strain grating's spectrum
+/// over the design's force range (`[module.limits].max_force_n`, else
+/// [`DESIGN_CHECK_FORCE_N`]) by the FE strain profile of every configuration, one
+/// warning per grating and configuration whose reflection chirps or splits inside the
+/// range, with the force where it starts. One FE solve per configuration at the
+/// default mesh level, no band; empty for a design without a module.
+///
+/// ```
+/// use fbgforge_model::fem::GeometryCache;
+/// use fbgforge_model::prediction::spectrum::design_warnings;
+/// let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+/// let d = fbgforge_core::design::load(&root.join("designs/clip-on-34mm.toml"))?;
+/// // The shipped module's 5 mm gratings stay one clean peak.
+/// assert!(design_warnings(&d, &GeometryCache::default())?.is_empty());
+/// # Ok::<(), anyhow::Error>(())
+/// ```
+pub fn design_warnings(design: &Design, cache: &crate::fem::GeometryCache) -> Result<Vec<String>> {
+    let Some(m) = &design.module else {
+        return Ok(Vec::new());
+    };
+    let request = PredictionRequest {
+        force_n: m.limits.map_or(DESIGN_CHECK_FORCE_N, |l| l.max_force_n),
+        fidelity: super::FidelityChoice::Fem,
+        band: false,
+        design_interval: false,
+        spectrum: true,
+        refine_to_level: None,
+        cache: cache.clone(),
+        ..PredictionRequest::default()
+    };
+    let rows = super::predict(design, &request)?;
+    Ok(rows
+        .iter()
+        .filter_map(|row| {
+            let p = &row.detail.prediction;
+            let w = warning(&p.grating, row.spectrum.as_ref()?)?;
+            let config = match &p.insert {
+                Some(i) => format!("{} Case {} {i}", p.core, p.case),
+                None => format!("{} Case {}", p.core, p.case),
+            };
+            Some(format!("{config}: {w}"))
+        })
+        .collect())
 }

@@ -307,6 +307,13 @@ pub fn optimise_module(
     )?;
     let ties = tie_notes(&choices_done, &front, settings);
     let mut warnings = written_warnings(&choice, &design, &eval);
+    // A warning, not a constraint: the search varies walls and materials, not the
+    // gratings' length or modulation, and the check costs an FE solve per
+    // configuration; it is run once, on the written design.
+    warnings.extend(crate::prediction::spectrum::design_warnings(
+        &design,
+        &crate::fem::GeometryCache::default(),
+    )?);
     if !failed.is_empty() {
         warnings.push(format!(
             "the written design fails the paper's statement(s) {} (predict names the numbers)",

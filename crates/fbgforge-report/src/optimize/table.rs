@@ -314,6 +314,11 @@ fn written_lines(s: &mut String, o: &ModuleOutcome, words: InWords) {
             );
         }
     }
+    // The outcome's other warnings (the default contact's is the note above).
+    let contact = format!("Case I: {}", crate::prediction::DEFAULT_CONTACT_WARNING);
+    for w in o.warnings.iter().filter(|w| **w != contact) {
+        wrapped(s, &words(&format!("warning: {w}")), 6);
+    }
 }
 
 fn x_text(vars: &[Variable], x: &[f64]) -> String {

@@ -7,6 +7,7 @@ use crate::plot::{HeatMaps, HeatPanel};
 use crate::spec::Design;
 use anyhow::Result;
 use fbgforge_array::predict::{ArrayPredictor, SensitivityMap};
+use fbgforge_array::sheet::spectrum::ArraySpectra;
 use std::io::Write;
 use std::path::Path;
 
@@ -90,6 +91,9 @@ pub struct ArrayPrediction<'a> {
     pub load: Option<((f64, f64), &'a LoadResponse)>,
     /// The map's SVG and CSV.
     pub map_files: (&'a Path, &'a Path),
+    /// Each grating's spectrum under a load on each cell (sheet model; `None` when not
+    /// asked for or by the kernel).
+    pub spectra: Option<&'a ArraySpectra>,
 }
 
 /// The prediction as pretty JSON.
@@ -122,6 +126,10 @@ pub fn write_json(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
             })
         }
     };
+    let mut doc = doc;
+    if let Some(s) = a.spectra {
+        doc["spectrum"] = serde_json::to_value(s)?;
+    }
     writeln!(out, "{}", serde_json::to_string_pretty(&doc)?)?;
     Ok(())
 }
@@ -169,6 +177,9 @@ pub fn write_table(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
             }
         }
     }
+    if let Some(s) = a.spectra {
+        write_spectra(out, s)?;
+    }
     let (svg, csv) = a.map_files;
     writeln!(
         out,
@@ -176,5 +187,72 @@ pub fn write_table(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
         svg.display(),
         csv.display()
     )?;
+    Ok(())
+}
+
+/// Per grating: the cell that moves it most (its peak shift and FWHM change at the top
+/// of the range), the largest FWHM change over the cells, and whether it stays one
+/// clean peak under every cell (else the cell and load where it stops); then the
+/// warnings.
+fn write_spectra(out: &mut impl Write, s: &ArraySpectra) -> Result<()> {
+    writeln!(
+        out,
+        "Reflection spectrum (transfer-matrix model on the sheet model's strain along each grating), indenter on each cell, one clean peak checked over 0–{} g (array.ulimit_g):",
+        s.force_range_g
+    )?;
+    writeln!(
+        out,
+        "  {:<10} {:>5} {:>10} {:>8} {:>8} {:>12} {:>11}  one clean peak",
+        "grating", "cell", "shift pm", "FWHM pm", "ΔFWHM %", "max |ΔFWHM| %", "span µε/N"
+    )?;
+    let mut names: Vec<&str> = s.loads.iter().map(|l| l.grating.as_str()).collect();
+    names.dedup();
+    for name in names {
+        let loads: Vec<_> = s.loads.iter().filter(|l| l.grating == name).collect();
+        let Some(main) = loads.iter().max_by(|a, b| {
+            a.spectrum
+                .peak_shift_pm
+                .abs()
+                .total_cmp(&b.spectrum.peak_shift_pm.abs())
+        }) else {
+            continue;
+        };
+        let widest = loads
+            .iter()
+            .map(|l| l.spectrum.fwhm_change_at_range_pct.abs())
+            .fold(0.0, f64::max);
+        let span = loads
+            .iter()
+            .map(|l| l.spectrum.strain_span_microstrain_per_n)
+            .fold(0.0, f64::max);
+        let stop = loads
+            .iter()
+            .filter_map(|l| l.clean_limit_g().map(|g| (g, l)))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let verdict = match stop {
+            _ if loads.iter().any(|l| !l.spectrum.clean_unloaded) => {
+                "not clean unloaded".to_string()
+            }
+            Some((g, l)) => format!(
+                "stops at {g:.1} g on cell {}",
+                l.cell.as_deref().unwrap_or("?")
+            ),
+            None => format!("clean to {} g on every cell", s.force_range_g),
+        };
+        writeln!(
+            out,
+            "  {:<10} {:>5} {:>10.2} {:>8.1} {:>+8.3} {:>12.3} {:>11.3}  {verdict}",
+            name,
+            main.cell.as_deref().unwrap_or("-"),
+            main.spectrum.peak_shift_pm,
+            main.spectrum.fwhm_pm,
+            main.spectrum.fwhm_change_pct,
+            widest,
+            span,
+        )?;
+    }
+    for w in &s.warnings {
+        writeln!(out, "  warning: {w}")?;
+    }
     Ok(())
 }

@@ -37,6 +37,7 @@ fn line(out: &mut impl Write, row: &ModelledPrediction, s: &GratingSpectrum) -> 
         match s.strain_profile {
             ProfileSource::Fem => "",
             ProfileSource::UniformClosedForm => " (uniform: no FE profile)",
+            ProfileSource::Sheet => " (sheet model's profile)",
         }
     )?;
     Ok(())

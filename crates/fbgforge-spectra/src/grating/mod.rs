@@ -32,8 +32,9 @@ use crate::error::SpectrumError;
 use crate::spectrum::{PowerUnit, Spectrum};
 
 pub use shape::{
-    auto_grid, clean_peak_limit, reflection_shape, spectrum_shape, CleanPeakCriteria,
-    CleanPeakLimit, LoadCase, SpectrumShape,
+    auto_grid, clean_peak_limit, clean_peak_limit_against, reflection_shape, spectrum_shape,
+    spectrum_shape_against, unstrained_shape, CleanPeakCriteria, CleanPeakLimit, LoadCase,
+    SpectrumShape,
 };
 
 /// How the index modulation varies along the grating (z from 0 to L).

@@ -213,7 +213,36 @@ pub fn spectrum_shape(
     strain: &StrainProfile,
     criteria: &CleanPeakCriteria,
 ) -> Result<SpectrumShape, SpectrumError> {
-    let unstrained = shape_on_grid(grating, &StrainProfile::Uniform(0.0), None, criteria)?;
+    let unstrained = unstrained_shape(grating, criteria)?;
+    spectrum_shape_against(grating, strain, &unstrained, criteria)
+}
+
+/// The unstrained grating's shape: the reference every loaded shape is measured
+/// against. Callers that shape one grating many times compute it once and pass it to
+/// [`spectrum_shape_against`] and [`clean_peak_limit_against`].
+///
+/// ```
+/// use fbgforge_spectra::grating::{unstrained_shape, spectrum_shape_against, spectrum_shape, CleanPeakCriteria, Grating, StrainProfile};
+/// let (g, c) = (Grating::default(), CleanPeakCriteria::default());
+/// let reference = unstrained_shape(&g, &c).unwrap();
+/// let strain = StrainProfile::Linear { start: 0.0, end: 300e-6 };
+/// assert_eq!(spectrum_shape_against(&g, &strain, &reference, &c).unwrap(), spectrum_shape(&g, &strain, &c).unwrap());
+/// ```
+pub fn unstrained_shape(
+    grating: &Grating,
+    criteria: &CleanPeakCriteria,
+) -> Result<SpectrumShape, SpectrumError> {
+    shape_on_grid(grating, &StrainProfile::Uniform(0.0), None, criteria)
+}
+
+/// [`spectrum_shape`] against an unstrained shape already computed
+/// ([`unstrained_shape`] of the same grating and criteria).
+pub fn spectrum_shape_against(
+    grating: &Grating,
+    strain: &StrainProfile,
+    unstrained: &SpectrumShape,
+    criteria: &CleanPeakCriteria,
+) -> Result<SpectrumShape, SpectrumError> {
     let reference = (unstrained.peak_wavelength_nm, 1e-3 * unstrained.fwhm_pm);
     shape_on_grid(grating, strain, Some(reference), criteria)
 }
@@ -247,7 +276,18 @@ pub fn clean_peak_limit(
     cases: &[LoadCase],
     criteria: &CleanPeakCriteria,
 ) -> Result<CleanPeakLimit, SpectrumError> {
-    let unstrained = shape_on_grid(grating, &StrainProfile::Uniform(0.0), None, criteria)?;
+    let unstrained = unstrained_shape(grating, criteria)?;
+    clean_peak_limit_against(grating, cases, &unstrained, criteria)
+}
+
+/// [`clean_peak_limit`] against an unstrained shape already computed
+/// ([`unstrained_shape`] of the same grating and criteria).
+pub fn clean_peak_limit_against(
+    grating: &Grating,
+    cases: &[LoadCase],
+    unstrained: &SpectrumShape,
+    criteria: &CleanPeakCriteria,
+) -> Result<CleanPeakLimit, SpectrumError> {
     let reference = Some((unstrained.peak_wavelength_nm, 1e-3 * unstrained.fwhm_pm));
     let mut sorted: Vec<&LoadCase> = cases.iter().collect();
     sorted.sort_by(|a, b| a.force_n.total_cmp(&b.force_n));
