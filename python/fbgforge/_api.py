@@ -127,7 +127,8 @@ def predict(design, force_n=10.0, delta_t_k=0.0, case=None, fidelity="auto", ban
             "design": d.name,
             "fidelity": fidelity,
             "force_n": float(force_n),
-            "mesh_level": 1 if mesh_level is None else int(mesh_level),
+            "starting_mesh_level": 1 if mesh_level is None else int(mesh_level),
+            "mesh_levels_used": sorted({r["mesh_level"] for r in rows if r.get("mesh_level") is not None}),
             "predictions": rows,
             "paper_statements": statements,
         }

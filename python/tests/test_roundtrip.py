@@ -65,7 +65,8 @@ def test_predict_mesh_level_equals_the_cli_and_states_its_discretisation(cli):
     want = in_python_words(cli_json(cli, "predict", path, "--json", "--case", "I", "--mesh-level", "2"))
     got = fbgforge.predict(path, case="I", mesh_level=2)
     close(got.to_dict(), want)
-    assert got.to_dict()["mesh_level"] == 2
+    assert got.to_dict()["starting_mesh_level"] == 2
+    assert got.to_dict()["mesh_levels_used"] == [2]
     coarse = fbgforge.predict(path, case="I", mesh_level=1, band=False).to_dict()["predictions"]
     fine = got.to_dict()["predictions"]
     # A finer mesh states a smaller discretisation error (the Richardson step), and

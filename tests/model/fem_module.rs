@@ -265,3 +265,73 @@ fn case_ii_holds_at_the_extremes_of_the_modulus_range() {
         }
     }
 }
+
+/// The band's and the design interval's Case I readings that differ only in the domes'
+/// contact radius (the design's, the window's ends, the apex patch) are answered in one
+/// batch from one factorisation, the wider zones' extra ties condensed on it
+/// (`fem::solve_configurations`); each answer equals that reading solved alone, on its
+/// own geometry with its ties in the stiffness and its own factorisation, to 1e-9
+/// relative (strain per newton and the profile along each grating), at the
+/// Richardson-extrapolated default level, for every insert.
+#[test]
+fn readings_condensed_on_one_factorisation_equal_each_reading_solved_alone() {
+    use fbgforge::fem::ContactReading;
+    let d = design();
+    let m = d.module.as_ref().unwrap();
+    // Sliding cylinders: every one of these readings has the base clip, so they share
+    // one geometry and the wider ones are condensed (with bonded cylinders the design's
+    // reading would be another family).
+    assert_eq!(
+        m.contact.cylinders,
+        fbgforge::spec::CylinderCoupling::Sliding
+    );
+    let readings = [
+        ContactReading::SlidingApexPatch,
+        ContactReading::Design,
+        ContactReading::WindowLow,
+        ContactReading::WindowHigh,
+    ];
+    let base = FemOptions::mesh_level(FemOptions::DEFAULT_MESH_LEVEL);
+    let requests: Vec<(Configuration, FemOptions)> = configurations(&d)
+        .unwrap()
+        .into_iter()
+        .filter(|c| c.case == LoadCase::I)
+        .flat_map(|c| {
+            readings
+                .iter()
+                .map(move |&r| (c.clone(), base.with_reading(m, r, LoadCase::I)))
+        })
+        .collect();
+    assert_eq!(requests.len(), 4 * 6);
+    let cache = fem::GeometryCache::default();
+    let batch = fem::solve_configurations(&d, &requests, &cache);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
+    let mut first = Vec::new();
+    for ((config, opt), together) in requests.iter().zip(batch) {
+        let together = together.unwrap();
+        let alone = solve_configuration(&d, config, opt, &cache).unwrap();
+        assert_eq!(together.strain_per_n.len(), alone.strain_per_n.len());
+        for (t, a) in together.strain_per_n.iter().zip(&alone.strain_per_n) {
+            assert!(close(t.2, a.2), "{config:?} {}: {} vs {}", t.0, t.2, a.2);
+        }
+        for (t, a) in together
+            .strain_profile_per_n
+            .iter()
+            .zip(&alone.strain_profile_per_n)
+        {
+            let scale = a.strain.iter().fold(0.0f64, |s, e| s.max(e.abs()));
+            assert_eq!(t.strain.len(), a.strain.len());
+            for (x, y) in t.strain.iter().zip(&a.strain) {
+                assert!((x - y).abs() <= 1e-9 * scale, "{config:?}: {x} vs {y}");
+            }
+        }
+        first.push(together.strain_per_n[0].2);
+    }
+    // The four readings of a configuration differ (so equal answers are no accident).
+    for k in first.chunks(4) {
+        let (lo, hi) = k
+            .iter()
+            .fold((f64::MAX, f64::MIN), |a, &e| (a.0.min(e), a.1.max(e)));
+        assert!(hi - lo > 0.05 * hi.abs().max(lo.abs()), "{k:?}");
+    }
+}

@@ -257,4 +257,6 @@ fn predict_mesh_level_is_fixed_when_given_and_refused_outside_1_to_4() {
     for r in v["predictions"].as_array().unwrap() {
         assert_eq!(r["mesh_level"], 2, "{r}");
     }
+    assert_eq!(v["starting_mesh_level"], 2, "{v}");
+    assert_eq!(v["mesh_levels_used"], serde_json::json!([2]), "{v}");
 }

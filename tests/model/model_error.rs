@@ -291,6 +291,48 @@ fn where_level_1_states_over_15_percent_the_policy_refines_that_configuration_on
     );
 }
 
+/// `predict --json` names the level the policy started from and the levels its rows
+/// were answered at: on the thin cap some configurations are refined, so the two differ
+/// (a single top-level `mesh_level` would have named the starting level as if every row
+/// had it).
+#[test]
+fn predict_json_names_the_starting_mesh_level_and_every_level_the_rows_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("thin-cap.toml");
+    std::fs::write(&path, thin_cap().to_toml()).unwrap();
+    let o = crate::common::bin()
+        .args([
+            "predict",
+            path.to_str().unwrap(),
+            "--case",
+            "i",
+            "--json",
+            "--no-spectrum",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v.get("mesh_level").is_none(), "{v}");
+    assert_eq!(v["starting_mesh_level"], 1);
+    let mut rows: Vec<u64> = v["predictions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["mesh_level"].as_u64().unwrap())
+        .collect();
+    rows.sort_unstable();
+    rows.dedup();
+    let used: Vec<u64> = v["mesh_levels_used"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_u64().unwrap())
+        .collect();
+    assert_eq!(used, rows);
+    assert!(used.len() > 1 && used[0] == 1, "{used:?}");
+}
+
 /// The 34 mm module with a very thin cap (0.35 mm) over a stiff Case I core (the
 /// model-error study's seed-7 designs 59 and 87 have this shape).
 fn very_thin_cap() -> Design {

@@ -81,30 +81,36 @@ struct TaskSolution {
 
 /// Ties of facing dome nodes beyond a geometry's own, condensed on its factorisation:
 /// each tie row (a pair's radial or axial relative displacement) with its pair's
-/// radius, the solution of a unit force pair on it, the flexibility W (row i's value
-/// under unit force j) and the rows' values in the geometry's own solution.
+/// radius, the solution of a unit force pair on it (in the solver's numbering: a
+/// column of `unit`, unknowns × rows), the flexibility W (row i's value under unit
+/// force j), the rows' values in the geometry's own solution, and that solution in
+/// the solver's numbering. Only the solution a unit reads is turned into nodal
+/// displacements, once, after the columns are combined.
 struct CondensedTies {
     radius_mm: Vec<f64>,
-    unit: Vec<solve::Solution>,
+    unit: Vec<f64>,
     flexibility: DMatrix<f64>,
     free: Vec<f64>,
-    rows: Vec<[(usize, usize); 2]>,
+    base: Vec<f64>,
+    structure: Arc<solve::ProblemStructure>,
+    factor_nonzeros: usize,
 }
 
-/// A tie row's value in `sol`: the core node's component less the cap node's.
-fn tie_value(sol: &solve::Solution, row: &[(usize, usize); 2]) -> f64 {
+/// A tie row's value in the solution `u` (solver's numbering) of `f`: the core node's
+/// component less the cap node's.
+fn tie_value(f: &solve::FactoredProblem, u: &[f64], row: &[(usize, usize); 2]) -> f64 {
     let [(cap, c), (core, _)] = *row;
-    sol.displacement_mm[core][c] - sol.displacement_mm[cap][c]
+    f.component_value(u, core, c) - f.component_value(u, cap, c)
 }
 
-/// Condense the ties of every untied facing dome pair out to `radius_mm` on the
-/// factorisation `f` whose own solution is `base`.
+/// Solve the geometry's own load on `f` and condense the ties of every untied facing
+/// dome pair out to `radius_mm`: the geometry's own solution and the condensed ties.
 fn condense_dome_ties(
     f: &solve::FactoredProblem,
-    base: &solve::Solution,
+    loads: &[(usize, usize, f64)],
     pairs: &[module::DomePair],
     radius_mm: f64,
-) -> Result<CondensedTies> {
+) -> Result<(solve::Solution, CondensedTies)> {
     let mut rows = Vec::new();
     let mut radius = Vec::new();
     for p in pairs
@@ -116,29 +122,41 @@ fn condense_dome_ties(
             radius.push(p.radius_mm);
         }
     }
-    // A unit force pair on a tie row: +1 on the core's component, −1 on the cap's.
-    let loads: Vec<Vec<(usize, usize, f64)>> = rows
-        .iter()
-        .map(|&[(a, c), (b, _)]| vec![(b, c, 1.0), (a, c, -1.0)])
+    // The geometry's own load first, then a unit force pair on each tie row: +1 on
+    // the core's component, −1 on the cap's; one blocked solve.
+    let cases: Vec<Vec<(usize, usize, f64)>> = std::iter::once(loads.to_vec())
+        .chain(
+            rows.iter()
+                .map(|&[(a, c), (b, _)]| vec![(b, c, 1.0), (a, c, -1.0)]),
+        )
         .collect();
-    let unit = f.solve_load_cases(&loads)?;
+    let mut unit = f.solve_load_columns(&cases)?;
+    let n = f.unknowns();
+    let base: Vec<f64> = unit.drain(..n).collect();
     let m = rows.len();
-    let flexibility = DMatrix::from_fn(m, m, |i, j| tie_value(&unit[j], &rows[i]));
-    let free = rows.iter().map(|r| tie_value(base, r)).collect();
-    Ok(CondensedTies {
-        radius_mm: radius,
-        unit,
-        flexibility,
-        free,
-        rows,
-    })
+    let flexibility = DMatrix::from_fn(m, m, |i, j| {
+        tie_value(f, &unit[j * n..(j + 1) * n], &rows[i])
+    });
+    let free = rows.iter().map(|r| tie_value(f, &base, r)).collect();
+    Ok((
+        f.solution_from(&base)?,
+        CondensedTies {
+            radius_mm: radius,
+            unit,
+            flexibility,
+            free,
+            base,
+            structure: Arc::clone(f.structure()),
+            factor_nonzeros: f.factor_nonzeros(),
+        },
+    ))
 }
 
 impl CondensedTies {
     /// The solution with every pair out to `radius_mm` tied: the forces λ on the rows
     /// that close them (W λ = −q on those rows), added to the geometry's own solution.
-    fn tied_to(&self, base: &solve::Solution, radius_mm: f64) -> Result<solve::Solution> {
-        let sel: Vec<usize> = (0..self.rows.len())
+    fn tied_to(&self, radius_mm: f64) -> Result<solve::Solution> {
+        let sel: Vec<usize> = (0..self.radius_mm.len())
             .filter(|&i| self.radius_mm[i] <= radius_mm * (1.0 + 1e-9))
             .collect();
         let w = DMatrix::from_fn(sel.len(), sel.len(), |i, j| {
@@ -149,18 +167,14 @@ impl CondensedTies {
             .cholesky()
             .ok_or_else(|| anyhow!("the dome ties' flexibility is not positive definite"))?
             .solve(&q);
-        let mut out = base.clone();
+        let n = self.base.len();
+        let mut u = self.base.clone();
         for (k, &i) in sel.iter().enumerate() {
-            for (d, u) in out
-                .displacement_mm
-                .iter_mut()
-                .zip(&self.unit[i].displacement_mm)
-            {
-                d[0] += lambda[k] * u[0];
-                d[1] += lambda[k] * u[1];
+            for (x, y) in u.iter_mut().zip(&self.unit[i * n..(i + 1) * n]) {
+                *x += lambda[k] * y;
             }
         }
-        Ok(out)
+        self.structure.solution_from(&u, self.factor_nonzeros)
     }
 }
 
@@ -391,11 +405,20 @@ impl Batch {
                 let s = s.as_ref().map_err(Clone::clone)?;
                 let model = self.geometries[g].model.as_ref().map_err(Clone::clone)?;
                 let solved = s.factor(materials).and_then(|f| {
-                    let base = f.solve_loads(&model.problem.loads)?;
-                    let ties = widest
-                        .map(|r| condense_dome_ties(&f, &base, &model.dome_pairs, r))
-                        .transpose()?;
-                    Ok(TaskSolution { base, ties })
+                    let loads = &model.problem.loads;
+                    Ok(match widest {
+                        Some(r) => {
+                            let (base, ties) = condense_dome_ties(&f, loads, &model.dome_pairs, r)?;
+                            TaskSolution {
+                                base,
+                                ties: Some(ties),
+                            }
+                        }
+                        None => TaskSolution {
+                            base: f.solve_loads(loads)?,
+                            ties: None,
+                        },
+                    })
                 });
                 let sol = solved.map_err(|e| format!("{e:#}"))?;
                 Ok((sol, start.elapsed().as_secs_f64()))
@@ -428,7 +451,7 @@ impl Batch {
                 let wider;
                 let sol = match (u.wider_contact_mm, &task_sol.ties) {
                     (Some(r), Some(t)) => {
-                        wider = t.tied_to(&task_sol.base, r)?;
+                        wider = t.tied_to(r)?;
                         &wider
                     }
                     _ => &task_sol.base,

@@ -25,14 +25,14 @@
 //! internally, so solutions come back in the caller's numbering.
 
 use anyhow::{anyhow, bail, Result};
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymmetricOrdering,
 };
 use faer::sparse::linalg::{amd, SupernodalThreshold};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{DMatrix, DVector};
 use std::collections::VecDeque;
@@ -339,12 +339,15 @@ pub enum LltKernel {
 struct FaerSymbolic {
     /// New position of each unknown (AMD).
     new_of: Arc<Vec<usize>>,
-    /// The permuted lower pattern.
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
+    /// The permuted lower pattern, checked once here (faer checks a pattern's
+    /// invariants whenever a view is made from slices: once per pattern, not once per
+    /// numeric factorisation).
+    lower: SymbolicSparseColMat<usize>,
     /// Where each entry of the caller's pattern goes in the permuted one.
     slot: Vec<usize>,
     symbolic: Arc<SymbolicCholesky<usize>>,
+    /// The numeric phase's scratch, the same for every factorisation of the pattern.
+    scratch: StackReq,
 }
 
 struct FaerFactor {
@@ -412,12 +415,13 @@ impl LinearSolver for SparseLlt {
             },
         )
         .map_err(|e| anyhow!("sparse Cholesky (faer), symbolic phase: {e:?}"))?;
+        let scratch = symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
         Ok(Box::new(FaerSymbolic {
             new_of: Arc::new(new_of),
-            col_ptr,
-            row_idx,
+            lower: SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
             slot,
             symbolic: Arc::new(symbolic),
+            scratch,
         }))
     }
 }
@@ -435,17 +439,11 @@ impl SymbolicFactorization for FaerSymbolic {
         for (v, &s) in values.iter().zip(&self.slot) {
             permuted[s] = *v;
         }
-        let n = self.new_of.len();
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx),
-            &permuted[..],
-        );
+        let a = SparseColMatRef::new(self.lower.as_ref(), &permuted[..]);
         let sym = &self.symbolic;
         let mut l = vec![0.0; sym.len_val()];
-        let mut mem = MemBuffer::try_new(
-            sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-        )
-        .map_err(|_| anyhow!("sparse Cholesky (faer): out of memory"))?;
+        let mut mem = MemBuffer::try_new(self.scratch)
+            .map_err(|_| anyhow!("sparse Cholesky (faer): out of memory"))?;
         sym.factorize_numeric_llt(
             &mut l,
             a,

@@ -621,15 +621,67 @@ impl FactoredProblem {
         Ok(out)
     }
 
+    /// Solve several load cases and leave the solutions in the solver's numbering
+    /// (column-major, unknowns × cases): for a caller that reads a few components of
+    /// each ([`Self::component_value`]) and combines columns before building one
+    /// [`Solution`] ([`Self::solution_from`]), instead of a full [`Solution`] per case.
+    pub(crate) fn solve_load_columns(
+        &self,
+        cases: &[Vec<(usize, Component, f64)>],
+    ) -> Result<Vec<f64>> {
+        let n = self.unknowns();
+        let mut f = vec![0.0; n * cases.len()];
+        for (loads, col) in cases.iter().zip(f.chunks_exact_mut(n)) {
+            self.load_vector(loads, col)?;
+        }
+        // Blocks of 32 right-hand sides keep the workspace small.
+        for block in f.chunks_mut(n * 32) {
+            let columns = block.len() / n;
+            self.factor.solve_columns_in_place(block, columns);
+        }
+        Ok(f)
+    }
+
+    /// The value of (node, component) in a solution vector in the solver's numbering
+    /// (zero where the component is held).
+    pub(crate) fn component_value(&self, u: &[f64], node: usize, component: Component) -> f64 {
+        if let Some(i) = self.unknown_of(node, component) {
+            u[i]
+        } else if let Some(terms) = self.following(node, component) {
+            terms.iter().map(|&(i, w)| w * u[i]).sum()
+        } else {
+            0.0
+        }
+    }
+
+    /// Stored entries of the factor.
+    pub(crate) fn factor_nonzeros(&self) -> usize {
+        self.factor.nonzeros()
+    }
+
+    /// The structure this factor was made on.
+    pub(crate) fn structure(&self) -> &Arc<ProblemStructure> {
+        &self.structure
+    }
+
     /// Nodal displacements from a solution vector in the solver's numbering.
     pub(crate) fn solution_from(&self, u: &[f64]) -> Result<Solution> {
-        let mut disp = vec![[0.0; 2]; self.structure.nodes];
+        self.structure.solution_from(u, self.factor.nonzeros())
+    }
+}
+
+impl ProblemStructure {
+    /// Nodal displacements from a solution vector in the numbering of the unknowns,
+    /// solved with a factor of `factor_nonzeros` entries.
+    pub(crate) fn solution_from(&self, u: &[f64], factor_nonzeros: usize) -> Result<Solution> {
+        let mut disp = vec![[0.0; 2]; self.nodes];
         for (node, dd) in disp.iter_mut().enumerate() {
             for (c, v) in dd.iter_mut().enumerate() {
-                if let Some(i) = self.unknown_of(node, c) {
-                    *v = u[i];
-                } else if let Some(terms) = self.following(node, c) {
-                    *v = terms.iter().map(|&(i, w)| w * u[i]).sum();
+                let i = 2 * node + c;
+                if let Some(k) = self.map[i] {
+                    *v = u[k];
+                } else if let Ok(k) = self.following.binary_search_by_key(&i, |t| t.0) {
+                    *v = self.following[k].1.iter().map(|&(j, w)| w * u[j]).sum();
                 }
             }
         }
@@ -638,8 +690,8 @@ impl FactoredProblem {
         }
         Ok(Solution {
             displacement_mm: disp,
-            unknowns: self.unknowns(),
-            factor_nonzeros: self.factor.nonzeros(),
+            unknowns: self.unknowns,
+            factor_nonzeros,
         })
     }
 }

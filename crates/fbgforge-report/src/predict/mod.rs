@@ -41,7 +41,10 @@ impl<W: Write> PredictSink for PredictJson<W> {
             "force_n": p.request.force_n,
             "delta_t_k": p.request.delta_t_k,
             "fidelity": p.request.fidelity,
-            "mesh_level": p.request.fem_options.policy_level(),
+            // The level the policy started from; rows the policy refined were answered
+            // finer, so the levels actually used are listed apart (each row names its own).
+            "starting_mesh_level": p.request.fem_options.policy_level(),
+            "mesh_levels_used": mesh_levels_used(p),
             "predictions": p.rows,
             "paper_statements": p.statements,
         });
@@ -49,6 +52,15 @@ impl<W: Write> PredictSink for PredictJson<W> {
         writeln!(self.out, "{text}")?;
         Ok(())
     }
+}
+
+/// The distinct policy mesh levels the rows' FE readings were solved at, ascending
+/// (empty when no row has FE readings on a policy mesh).
+fn mesh_levels_used(p: &Predicted) -> Vec<u32> {
+    let mut levels: Vec<u32> = p.rows.iter().filter_map(|r| r.mesh_level).collect();
+    levels.sort_unstable();
+    levels.dedup();
+    levels
 }
 
 /// Numbered footnotes: each distinct text once, in order of first use.
