@@ -367,7 +367,7 @@ pub(crate) fn triangle_distance(t: &[P3; 3], u: &[P3; 3]) -> f64 {
     let mut best = f64::INFINITY;
     for (x, y) in [(t, u), (u, t)] {
         for &p in x.iter() {
-            let c = super::assembly::closest_on_triangle(p, y[0], y[1], y[2]);
+            let c = super::triangle::closest_on_triangle(p, y[0], y[1], y[2]);
             best = best.min(dot(sub(p, c), sub(p, c)).sqrt());
         }
     }

@@ -30,7 +30,9 @@ pub mod print_notes;
 pub mod refine;
 pub mod registry;
 pub mod step_assembly;
+mod step_text;
 pub mod threemf;
+mod triangle;
 
 pub use design_profile::DesignProfile;
 pub use part::{BuiltSolid, PartKind, Print, PrintablePart};

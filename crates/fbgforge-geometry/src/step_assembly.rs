@@ -212,7 +212,7 @@ fn copy_part(w: &mut Writer, solid: &Solid, name: &str, root: &Root, origin: usi
             context: 0,
             solid: 0,
         },
-        super::export::step_string(name),
+        super::step_text::step_string(name),
     );
     for e in ents.iter().filter(|e| !dropped.contains(&e.id)) {
         let mut body = renumber(&e.body, lookup);
@@ -266,7 +266,7 @@ pub fn assembly_step_text(parts: &[AssemblyPart], name: &str, design_name: &str)
         next: 1,
         text: String::new(),
     };
-    let n = super::export::step_string(name);
+    let n = super::step_text::step_string(name);
     let app = w.add("APPLICATION_CONTEXT('core data for automotive mechanical design processes')");
     w.add(&format!(
         "APPLICATION_PROTOCOL_DEFINITION('international standard', 'automotive_design', 2000, #{app})"
@@ -304,10 +304,10 @@ pub fn assembly_step_text(parts: &[AssemblyPart], name: &str, design_name: &str)
     }
     format!(
         "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('fbgforge assembly {n} of design {design}'), '2;1');\nFILE_NAME('{design}-{n}.step', '{stamp}', ('fbgforge'), (''), 'truck-stepio 0.3', 'fbgforge {version}', '');\nFILE_SCHEMA(('{schema}'));\nENDSEC;\nDATA;\n{data}ENDSEC;\nEND-ISO-10303-21;\n",
-        design = super::export::step_string(design_name),
-        stamp = super::export::iso8601_now(),
+        design = super::step_text::step_string(design_name),
+        stamp = super::step_text::iso8601_now(),
         version = env!("CARGO_PKG_VERSION"),
-        schema = super::export::STEP_SCHEMA,
+        schema = super::step_text::STEP_SCHEMA,
         data = w.text,
     )
 }
@@ -317,7 +317,7 @@ pub fn assembly_step_text(parts: &[AssemblyPart], name: &str, design_name: &str)
 fn place_part(w: &mut Writer, part: &AssemblyPart, root: &Root, placement: usize, k: usize) {
     let origin = w.identity_axis();
     let ids = copy_part(w, part.solid, part.name, root, origin);
-    let n = super::export::step_string(part.name);
+    let n = super::step_text::step_string(part.name);
     w.add(&format!(
         "PRODUCT_RELATED_PRODUCT_CATEGORY('part', $, (#{}))",
         ids.product
@@ -342,7 +342,7 @@ fn place_part(w: &mut Writer, part: &AssemblyPart, root: &Root, placement: usize
     let [r, g, b] = part.colour_rgb;
     let colour = w.add(&format!(
         "COLOUR_RGB('{}', {r:.6}, {g:.6}, {b:.6})",
-        super::export::step_string(part.material)
+        super::step_text::step_string(part.material)
     ));
     let fasc = w.add(&format!("FILL_AREA_STYLE_COLOUR('', #{colour})"));
     let fas = w.add(&format!("FILL_AREA_STYLE('', (#{fasc}))"));

@@ -6,8 +6,8 @@
 use super::choice::Choice;
 use super::outcome::{ChoiceResult, Evaluation, FrontDesign};
 use super::robust::FrontObjectives;
+use super::settings::PaperStatementsPolicy;
 use super::settings::{ModuleSettings, Preference};
-use super::statements::PaperStatementsPolicy;
 use super::variables::Variable;
 
 /// Below this prominence the front is called nearly straight in the report.

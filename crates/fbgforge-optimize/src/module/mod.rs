@@ -58,8 +58,9 @@ pub use predictor::{model_predictor, AnchorCache, PredictFn, Predictor, Readings
 pub use problem::{wavelength_windows, ModuleProblem, TIE_WEIGHT};
 pub use robust::{FrontObjectives, UncertaintyRatios};
 pub use search::optimise_module;
+pub use settings::PaperStatementsPolicy;
 pub use settings::{ModuleSettings, Objective, Preference};
-pub use statements::{contact_basis, PaperStatementsPolicy};
+pub use statements::contact_basis;
 pub use variables::{parse_bounds, Variable};
 
 use crate::materials::MaterialLibrary;

@@ -202,7 +202,7 @@ pub struct ModuleOutcome {
     /// every one checked holds).
     pub paper_statements_failed: Vec<String>,
     /// What was done with designs that fail a statement.
-    pub paper_statements: super::statements::PaperStatementsPolicy,
+    pub paper_statements: super::settings::PaperStatementsPolicy,
     /// The front's objectives on which every design ties, each with why it was dropped
     /// from the front's comparison (the others are what the front trades).
     pub front_dropped_objectives: Vec<String>,

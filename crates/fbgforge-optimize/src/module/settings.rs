@@ -2,7 +2,6 @@
 //! (limits, band, variables, choices, solvers, budget, seed), with the checks it
 //! cannot run without.
 
-pub use super::statements::PaperStatementsPolicy;
 use super::variables::Variable;
 use crate::materials::MaterialLibrary;
 use crate::prediction::Robustness;
@@ -253,4 +252,29 @@ pub(super) fn check_settings(
         );
     }
     Ok(())
+}
+
+/// What `optimize` does with a design that fails one of the paper's statements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PaperStatementsPolicy {
+    /// Never write it while a design of the front meets every statement (default); if
+    /// none does, the preferred design is written and names what it fails.
+    Exclude,
+    /// Write the preferred design whatever it fails, naming what it fails in the JSON,
+    /// the table and the written file's description.
+    Report,
+}
+
+impl PaperStatementsPolicy {
+    /// Parse `exclude` or `report`.
+    pub fn parse(s: &str) -> anyhow::Result<Self> {
+        match s {
+            "exclude" => Ok(PaperStatementsPolicy::Exclude),
+            "report" => Ok(PaperStatementsPolicy::Report),
+            _ => anyhow::bail!(
+                "unknown ModuleSettings.paper_statements `{s}`; expected exclude or report"
+            ),
+        }
+    }
 }

@@ -57,6 +57,21 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
     (100.0 * hyst / span, 100.0 * lin / span)
 }
 
+/// Where the lag-corrected force goes, row by row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Branch {
+    /// Not used (no shift, no force, left out).
+    None,
+    /// At rest (x below 3 % of its largest value).
+    Rest,
+    /// x rising.
+    Loading,
+    /// x falling.
+    Unloading,
+    /// x held (neither rising nor falling beyond its noise).
+    Hold,
+}
+
 /// Hysteresis and non-linearity of the lag-corrected signal, % of span, as the
 /// tactile-array paper defines them: the calibration line is the loading branch's,
 /// Δλ = K·x through the origin (the slow curve is removed from `d`), and the span its
@@ -68,11 +83,10 @@ pub fn hysteresis_and_linearity(force: &[f64], shift: &[f64], line: &fit::LineFi
 pub(crate) fn lag_corrected_loop(
     x: &[f64],
     d: &[f64],
-    branch: &[super::response::Branch],
+    branch: &[Branch],
     k: f64,
     x_max: f64,
 ) -> (f64, f64) {
-    use super::response::Branch;
     let span = k.abs() * x_max;
     if span.is_nan() || span <= 0.0 {
         return (f64::NAN, f64::NAN);

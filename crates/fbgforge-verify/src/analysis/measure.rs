@@ -5,8 +5,9 @@
 use super::instrument::{instrument_check, Readings};
 use super::lags::lag_figures;
 use super::linearity::hysteresis_and_linearity;
+use super::linearity::Branch;
 use super::quality::quality_q;
-use super::response::{response_figures, Branch};
+use super::response::response_figures;
 use super::results::GratingResult;
 use super::sensitivity::{
     chart_intercept, drift_free_shift, fit_lag_model, full_cost, lag1_independence,

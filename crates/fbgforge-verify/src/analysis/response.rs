@@ -19,6 +19,7 @@
 //!   that presses the force has and the shift does not (a clock jump, another run's
 //!   force, a bond that broke) are seen.
 
+use super::linearity::Branch;
 use super::results::{PulseGain, SlowTest};
 use super::slow::{SlowBasis, SlowFit, SlowNormal};
 use super::GratingContext;
@@ -65,21 +66,6 @@ pub fn hysteresis_limit_percent_span(design: &crate::spec::Design, core: Option<
         .and_then(|c| design.materials.get(&c.material))
         .and_then(|m| m.hysteresis_limit_percent_span);
     stated.unwrap_or_else(|| design.printer.default_hysteresis_limit_percent_span())
-}
-
-/// Where the lag-corrected force goes, row by row.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Branch {
-    /// Not used (no shift, no force, left out).
-    None,
-    /// At rest (x below 3 % of its largest value).
-    Rest,
-    /// x rising.
-    Loading,
-    /// x falling.
-    Unloading,
-    /// x held (neither rising nor falling beyond its noise).
-    Hold,
 }
 
 /// One grating's response against its rivals.
