@@ -205,7 +205,7 @@ impl<W: Write> SweepSink for SweepFiles<W> {
         let out = &mut self.out;
         writeln!(
             out,
-            "{}: {} over {}..{} ({} {} steps), F = {} N, model: {label}",
+            "{}: {} over {}..{} ({} {} steps), F = {} N\nmodel: {label}",
             s.design.name,
             q.param.name,
             q.start,
