@@ -20,7 +20,8 @@ pub const FLAGS: &[(&str, &str)] = &[
 /// Arguments of `fbgforge build`.
 #[derive(Debug, Args)]
 pub struct BuildArgs {
-    /// The design spec (TOML).
+    /// The design spec (TOML), or a shipped design's name (`clip-on-34mm`).
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Output folder [default: out/<design name>/].
     #[arg(long)]

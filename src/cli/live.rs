@@ -122,7 +122,9 @@ Keys in the terminal view (when standard input is a terminal): t tare again, q q
 Control lines (--control): `tare`, `stop`."
 )]
 pub struct LiveArgs {
-    /// Design spec (TOML): an array (cell loads) or a module (force per grating).
+    /// Design spec (TOML) or a shipped design's name: an array (cell loads) or a
+    /// module (force per grating).
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Where the frames come from: a log file being written (ENLIGHT, I-MON, CSV;
     /// followed as it grows), `-` for standard input (one frame of peak wavelengths in
@@ -388,7 +390,8 @@ pub fn run_live(a: LiveArgs) -> Result<ExitCode> {
 /// Arguments of `fbgforge synth-stream`.
 #[derive(Debug, Args)]
 pub struct SynthStreamArgs {
-    /// Design spec (TOML): an array or a module.
+    /// Design spec (TOML) or a shipped design's name: an array or a module.
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Load script CSV: `hold_s,<cells…>` (g) for an array, `hold_s,force_n[,delta_t_k]`
     /// for a module; repeated for the whole run (default: a built-in demo script).

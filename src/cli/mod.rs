@@ -2,6 +2,7 @@
 //! library. One file per area; each owns its subcommands' arguments.
 
 pub mod build;
+pub mod designs;
 pub mod hiargs;
 pub mod live;
 pub mod optimize;

@@ -2,6 +2,7 @@
 //! line (the work is in `fbgforge::optimize::run`).
 
 use super::progress::Bar;
+use fbgforge::report::terminal::Fit;
 use anyhow::Result;
 use clap::Args;
 use fbgforge::optimize::module::{
@@ -44,7 +45,8 @@ fn in_flag_words(text: &str) -> String {
 /// Arguments of `fbgforge optimize`.
 #[derive(Debug, Args)]
 pub struct OptimizeArgs {
-    /// Start design (TOML with a [module] section).
+    /// Start design (TOML with a [module] section, or a shipped design's name).
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// What the table ranks by: q (|K|·R²/Δt_max), sensitivity (|K|) or force-range
     /// (the largest force before the strain or wavelength limit).
@@ -198,7 +200,7 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
     let mut sink: Box<dyn ModuleSink> = if a.json {
         Box::new((folder, ModuleJson::new(out, in_flag_words)))
     } else {
-        Box::new((folder, ModuleTable::new(out, in_flag_words)))
+        Box::new((folder, ModuleTable::new(Fit::new(out), in_flag_words)))
     };
     run_module(&req, &Bar::new(), &mut *sink)?;
     Ok(())
@@ -207,7 +209,8 @@ pub fn run_optimize(a: OptimizeArgs) -> Result<()> {
 /// Arguments of `fbgforge place`.
 #[derive(Debug, Args)]
 pub struct PlaceArgs {
-    /// Start design (TOML with an [array] section).
+    /// Start design (TOML with an [array] section, or a shipped design's name).
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Objective: protocol (RR + mean SNR on the seeded protocol) or coherence (proxy).
     #[arg(long, default_value = "protocol")]
@@ -267,7 +270,7 @@ pub fn run_place(a: PlaceArgs) -> Result<()> {
     let mut sink: Box<dyn PlaceSink> = if a.json {
         Box::new((folder, PlaceJson::new(out, in_flag_words)))
     } else {
-        Box::new((folder, PlaceTable::new(out)))
+        Box::new((folder, PlaceTable::new(Fit::new(out))))
     };
     run_placement(&req, &Bar::new(), &mut *sink)?;
     Ok(())

@@ -79,8 +79,8 @@ pub struct PeaksArgs {
     /// Spectrum file: a Luna ENLIGHT / Hyperion spectrum export, an I-MON log with
     /// pixel columns (needs --imon-calibration) or an OSA CSV.
     pub spectrum: PathBuf,
-    /// Design spec (TOML): match the peaks to its gratings.
-    #[arg(long)]
+    /// Design spec (TOML) or a shipped design's name: match the peaks to its gratings.
+    #[arg(long, value_parser = super::designs::design_arg)]
     pub design: Option<PathBuf>,
     /// Format of the spectrum file (detected if omitted).
     #[arg(long, value_enum)]

@@ -5,6 +5,7 @@
 //! `fbgforge::report::predict`.
 
 use super::progress::Bar;
+use fbgforge::report::terminal::Fit;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use fbgforge::array::kernel::ArrayModelKind;
@@ -43,7 +44,9 @@ fn in_flag_words(text: &str) -> String {
 /// Arguments of `fbgforge predict`.
 #[derive(Debug, Args)]
 pub struct PredictArgs {
-    /// Design spec (TOML) with a [module] or an [array] section.
+    /// Design spec (TOML) with a [module] or an [array] section, or a shipped
+    /// design's name (`clip-on-34mm`).
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Arrays: which model predicts the sensing matrix: `sheet` (the physical model of
     /// the sheet, its fibers and its table) or `kernel` (the empirical distance kernel
@@ -217,7 +220,7 @@ fn run_predict_array(a: &PredictArgs, design: &fbgforge::spec::Design) -> Result
     if a.json {
         array::write_json(&mut out, &shown)
     } else {
-        array::write_table(&mut out, &shown)
+        array::write_table(&mut Fit::new(out), &shown)
     }
 }
 
@@ -255,7 +258,7 @@ pub fn run_predict(a: PredictArgs) -> Result<()> {
     let mut sink: Box<dyn PredictSink> = if a.json {
         Box::new(PredictJson::new(out, in_flag_words))
     } else {
-        Box::new(PredictTable::new(out, in_flag_words))
+        Box::new(PredictTable::new(Fit::new(out), in_flag_words))
     };
     fbgforge::prediction::predict_into(&design, &request, &mut *sink)
         .map_err(|e| in_context(e, &a.design, "cannot predict"))?;
@@ -285,7 +288,8 @@ impl From<CaseArg> for LoadCase {
 /// Arguments of `fbgforge sweep`.
 #[derive(Debug, Args)]
 pub struct SweepArgs {
-    /// Design spec (TOML) with a [module] section.
+    /// Design spec (TOML) with a [module] section, or a shipped design's name.
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Parameter to sweep, e.g. e1_mpa, e2_mpa, es_mpa, outer_diameter_mm, core_wall_mm,
     /// cap_wall_mm (an unknown name lists them all).
@@ -344,7 +348,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             fem_options: FemOptions::default(),
             cache: GeometryCache::default(),
         };
-        let mut sink = PaperFigureFiles::new(dir.clone(), std::io::stdout(), in_flag_words);
+        let mut sink = PaperFigureFiles::new(dir.clone(), Fit::new(std::io::stdout()), in_flag_words);
         return fbgforge::prediction::paper_figures(&design, &request, &Bar::new(), &mut sink)
             .map_err(RunError::into_inner);
     }
@@ -387,7 +391,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         .csv
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/sweep").join(format!("{stem}.csv")));
-    let mut sink = SweepFiles::new(svg, csv, std::io::stdout(), in_flag_words);
+    let mut sink = SweepFiles::new(svg, csv, Fit::new(std::io::stdout()), in_flag_words);
     fbgforge::prediction::sweep(&design, &request, &Bar::new(), &mut sink)
         .map_err(|e| in_context(e, &a.design, "sweep failed"))?;
     Ok(())

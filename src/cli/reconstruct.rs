@@ -37,11 +37,26 @@ pub struct ReconstructArgs {
     /// Sensing matrix CSV: header `grating,<cells…>`, one row per grating, pm/g; or
     /// numbers only, without header (numpy.savetxt, MATLAB writematrix): gratings are
     /// then named fbg1…, cells A…, and the shifts may be numbers only too.
-    #[arg(long, conflicts_with = "design", required_unless_present = "design")]
+    #[arg(
+        long,
+        conflicts_with_all = ["design", "design_flag"],
+        required_unless_present_any = ["design", "design_flag"]
+    )]
     pub matrix: Option<PathBuf>,
-    /// Use the model sensing matrix of this array design instead of a measured one.
-    #[arg(long)]
+    /// Array design (TOML, or a shipped design's name) whose model sensing matrix is
+    /// used instead of a measured one (--matrix).
+    #[arg(value_parser = super::designs::design_arg, value_name = "DESIGN")]
     pub design: Option<PathBuf>,
+    /// The design as a flag (the form before the design became the first argument,
+    /// as in every other subcommand).
+    #[arg(
+        long = "design",
+        value_parser = super::designs::design_arg,
+        value_name = "DESIGN",
+        conflicts_with = "design",
+        hide_short_help = true
+    )]
+    pub design_flag: Option<PathBuf>,
     /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
     #[arg(long)]
     pub shifts: PathBuf,
@@ -122,10 +137,10 @@ pub struct ReconstructArgs {
 
 /// Run `fbgforge reconstruct`.
 pub fn run(a: ReconstructArgs) -> Result<()> {
-    let matrix = match (a.matrix, a.design) {
+    let matrix = match (a.matrix, a.design.or(a.design_flag)) {
         (Some(p), _) => MatrixSource::Csv(p),
         (None, Some(d)) => MatrixSource::Design(d),
-        (None, None) => anyhow::bail!("give --matrix A.csv or --design array.toml"),
+        (None, None) => anyhow::bail!("give an array design (reconstruct DESIGN) or --matrix A.csv"),
     };
     let req = ReconstructRequest {
         method: a.method,

@@ -142,7 +142,8 @@ Exit status (after every output is written):
 #[derive(Debug, Args)]
 #[command(after_help = VERIFY_EXIT_STATUS_HELP)]
 pub struct VerifyArgs {
-    /// Design spec (TOML).
+    /// Design spec (TOML), or a shipped design's name.
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Wavelength log (ENLIGHT Peaks or Sensors export, I-MON log, or CSV), or a
     /// spectrum log (an I-MON log read by its pixels with --imon-calibration).
@@ -309,7 +310,8 @@ fn verify_request(a: &VerifyArgs) -> VerifyRequest {
 /// Arguments of `fbgforge synth-log`.
 #[derive(Debug, Args)]
 pub struct SynthLogArgs {
-    /// Design spec (TOML).
+    /// Design spec (TOML), or a shipped design's name.
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Log format to write.
     #[arg(long, value_enum, default_value = "enlight-peaks")]
@@ -639,7 +641,8 @@ fn from_model_k(
 /// Arguments of `fbgforge calibrate-array`.
 #[derive(Debug, Args)]
 pub struct CalibrateArrayArgs {
-    /// Design spec with an [array] (TOML).
+    /// Design spec with an [array] (TOML), or a shipped design's name.
+    #[arg(value_parser = super::designs::design_arg)]
     pub design: PathBuf,
     /// Wavelength log of the calibration run.
     #[arg(long)]

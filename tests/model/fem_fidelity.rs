@@ -245,8 +245,19 @@ fn cli_auto_switches_model_at_the_measured_diameter_limit() {
         .unwrap();
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && out.contains("model"), "{out}");
+    // Each row's model column holds a note (`m1`), the legend below says which model
+    // it is (`m1: closed form (...)`): the four Case II rows name the closed form.
+    let closed: Vec<String> = out
+        .lines()
+        .filter_map(|l| l.split_once(": closed form").map(|(m, _)| m.to_string()))
+        .filter(|m| m.starts_with('m') && m.len() <= 3)
+        .collect();
+    assert!(!closed.is_empty(), "{out}");
     assert_eq!(
-        out.lines().filter(|l| l.contains(" closed-form ")).count(),
+        out.lines()
+            .filter(|l| l.starts_with("lambda_"))
+            .filter(|l| l.split_whitespace().any(|w| closed.iter().any(|m| m == w)))
+            .count(),
         4,
         "{out}"
     );

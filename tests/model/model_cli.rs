@@ -59,7 +59,7 @@ fn predict_table_names_every_configuration() {
         "blue",
         "green",
         "light_green",
-        "K pm/N",
+        "pm/N",
         "closed-form",
     ] {
         assert!(out.contains(word), "missing {word} in\n{out}");

@@ -452,7 +452,7 @@ fn pillar_spacing(m: &Module, prof: &ModuleProfile, min_wall: f64) -> Violation 
                 String::new()
             };
             format!(
-                "{} pillars of {} mm overlap on a core wall of radius {:.3} mm (pillar width + min wall ≤ 0.8 × the pitch); allowed up to {hi:.3} mm each{conflict}",
+                "{} pillars of {:.3} mm overlap on a core wall of radius {:.3} mm (pillar width + min wall ≤ 0.8 × the pitch); allowed up to {hi:.3} mm each{conflict}",
                 pl.count, pl.width_mm, prof.core_outer_radius_mm
             )
         },
@@ -509,7 +509,7 @@ fn cylinder_height(m: &Module, prof: &ModuleProfile, min_wall: f64) -> Violation
         requirement: format!("cylindrical section ≥ {need:.3} mm"),
         excess: (need - prof.pillar_top_mm) / need,
         detail: format!(
-            "{} mm leaves a cylindrical section of {:.3} mm below the dome; make the module taller or the dome lower",
+            "{:.3} mm leaves a cylindrical section of {:.3} mm below the dome; make the module taller or the dome lower",
             m.overall_height_mm, prof.pillar_top_mm
         ),
     }

@@ -31,4 +31,5 @@ pub mod place;
 pub mod predict;
 pub mod reconstruct;
 pub mod synth;
+pub mod terminal;
 pub mod verify;

@@ -43,13 +43,13 @@ fn table(design: &str, r: &BuildReport) -> String {
     let _ = writeln!(s, "{design} -> {}", r.dir.display());
     let _ = writeln!(
         s,
-        "  {:<20} {:>9} {:>14} {:>14} {:>9} {:>9}",
+        "  {:<20} {:>9} {:>12} {:>12} {:>9} {:>9}",
         "part", "triangles", "mesh mm³", "exact mm³", "error %", "tol mm"
     );
     for p in &r.parts {
         let _ = writeln!(
             s,
-            "  {:<20} {:>9} {:>14.3} {:>14.3} {:>9.4} {:>9.4}",
+            "  {:<20} {:>9} {:>12.3} {:>12.3} {:>9.4} {:>9.4}",
             p.name,
             p.mesh.triangles.len(),
             p.mesh_volume_mm3,
@@ -94,12 +94,13 @@ impl<W: Write> BuildTable<W> {
 
 impl<W: Write> BuildSink for BuildTable<W> {
     fn built(&mut self, design: &Design, r: &BuildReport) -> Result<()> {
-        write!(self.out, "{}", table(&design.name, r))?;
-        writeln!(
-            self.out,
-            "  wrote {} files (STL, STEP, 3MF, SVG previews, manifest.json)",
-            r.files.len()
-        )?;
+        let text = format!(
+            "{}  wrote {} files (STL, STEP, 3MF, SVG previews, manifest.json); to print: {}\n",
+            table(&design.name, r),
+            r.files.len(),
+            r.dir.join("parts.3mf").display()
+        );
+        write!(self.out, "{}", crate::terminal::fit(&text))?;
         Ok(())
     }
 }
@@ -124,16 +125,15 @@ impl<W: Write> BuildTables<W> {
 
     /// Print every table, then the number of designs and files and the time they took.
     pub fn finish(mut self, elapsed: Duration) -> Result<()> {
-        for t in &self.tables {
-            write!(self.out, "{t}")?;
-        }
-        writeln!(
-            self.out,
+        let mut text = self.tables.concat();
+        let _ = writeln!(
+            text,
             "built {} designs, {} files in {:.2} s; to print: out/<name>/parts.3mf",
             self.tables.len(),
             self.files,
             elapsed.as_secs_f64()
-        )?;
+        );
+        write!(self.out, "{}", crate::terminal::fit(&text))?;
         Ok(())
     }
 }

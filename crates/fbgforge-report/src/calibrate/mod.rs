@@ -22,7 +22,7 @@ impl CalibrationSink for Table {
         write!(
             std::io::stdout().lock(),
             "{}",
-            text::calibration_text(c, w, f)
+            crate::terminal::fit(&text::calibration_text(c, w, f))
         )?;
         Ok(())
     }
@@ -30,7 +30,7 @@ impl CalibrationSink for Table {
         write!(
             std::io::stdout().lock(),
             "{}",
-            text::sheet_fit_text(fit, path)
+            crate::terminal::fit(&text::sheet_fit_text(fit, path))
         )?;
         Ok(())
     }

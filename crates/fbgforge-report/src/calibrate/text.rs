@@ -57,34 +57,52 @@ fn faults(c: &Calibration) -> String {
     s
 }
 
-/// The matrix, one row per grating (pm/g), each entry's standard deviation under it.
+/// Columns of one matrix entry, and how many entries fit beside the grating's name
+/// in 80 columns: a wider array's matrix is printed in blocks of cells, as numpy
+/// prints a wide array.
+const ENTRY: usize = 9;
+const PER_BLOCK: usize = (crate::terminal::WIDTH - 8) / ENTRY;
+
+/// The matrix, one row per grating (pm/g), each entry's standard deviation under it;
+/// in blocks of [`PER_BLOCK`] cells.
 pub(crate) fn matrix(c: &Calibration) -> String {
-    let mut s = format!(
-        "measured matrix, pm/g (± sd under each entry):\n{:<8}",
-        "grating"
-    );
-    for cell in &c.cells {
-        let _ = write!(s, "{cell:>10}");
-    }
-    s.push('\n');
-    for (g, name) in c.gratings.iter().enumerate() {
-        let _ = write!(s, "{name:<8}");
-        for v in &c.matrix_pm_per_g[g] {
-            match v {
-                Some(v) => write!(s, "{v:>10.5}"),
-                None => write!(s, "{:>10}", "—"),
-            }
-            .ok();
+    let mut s = String::from("measured matrix, pm/g (± sd under each entry):\n");
+    let blocks = c.cells.len().div_ceil(PER_BLOCK).max(1);
+    for b in 0..blocks {
+        let cols = b * PER_BLOCK..((b + 1) * PER_BLOCK).min(c.cells.len());
+        if blocks > 1 {
+            let _ = writeln!(
+                s,
+                "cells {}–{} of {}:",
+                cols.start + 1,
+                cols.end,
+                c.cells.len()
+            );
         }
-        let _ = write!(s, "\n{:<8}", "");
-        for v in &c.matrix_sd_pm_per_g[g] {
-            match v {
-                Some(v) => write!(s, "{:>10}", format!("±{v:.5}")),
-                None => write!(s, "{:>10}", ""),
-            }
-            .ok();
+        let _ = write!(s, "{:<8}", "pm/g");
+        for cell in &c.cells[cols.clone()] {
+            let _ = write!(s, "{cell:>ENTRY$}");
         }
         s.push('\n');
+        for (g, name) in c.gratings.iter().enumerate() {
+            let _ = write!(s, "{name:<8}");
+            for v in &c.matrix_pm_per_g[g][cols.clone()] {
+                match v {
+                    Some(v) => write!(s, "{v:>ENTRY$.5}"),
+                    None => write!(s, "{:>ENTRY$}", "—"),
+                }
+                .ok();
+            }
+            let _ = write!(s, "\n{:<8}", "");
+            for v in &c.matrix_sd_pm_per_g[g][cols.clone()] {
+                match v {
+                    Some(v) => write!(s, "{:>ENTRY$}", format!("±{v:.5}")),
+                    None => write!(s, "{:>ENTRY$}", ""),
+                }
+                .ok();
+            }
+            s.push('\n');
+        }
     }
     s
 }
@@ -104,7 +122,7 @@ pub(crate) fn table2(c: &Calibration) -> String {
         );
         let _ = writeln!(
             s,
-            "{:<8}{:>8}{:>24}{:>14}{:>14}{:>15}",
+            "{:<8}{:>7}{:>19}{:>13}{:>13}{:>14}",
             "grating", "R", "sensitivity pm/g", "resolution g", "linearity %", "hysteresis %"
         );
         for m in rows {
@@ -114,7 +132,7 @@ pub(crate) fn table2(c: &Calibration) -> String {
             };
             let _ = writeln!(
                 s,
-                "{:<8}{:>8.4}{:>24}{:>14.2}{:>14}{:>15}",
+                "{:<8}{:>7.4}{:>19}{:>13.2}{:>13}{:>14}",
                 m.grating,
                 m.r,
                 sens,

@@ -476,7 +476,7 @@ fn write_load_grid(
     let total: f64 = loads_g.iter().sum();
     let _ = writeln!(
         s,
-        "      −x → +x   loads in g; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm"
+        "      −x → +x   loads in g; full bar {ulimit} g; total {total:.0} g; residual {residual_pm:.1} pm"
     );
 }
 
@@ -504,7 +504,7 @@ fn write_load_list(
     let total: f64 = loads_g.iter().sum();
     let _ = writeln!(
         s,
-        "  loaded cells of {}, largest first; a full bar is ulimit {ulimit} g; total {total:.0} g; residual {residual_pm:.2} pm",
+        "  largest of {} cells; full bar {ulimit} g; total {total:.0} g; residual {residual_pm:.1} pm",
         loads_g.len()
     );
 }
@@ -771,6 +771,13 @@ mod tests {
                 &events,
             );
             assert_fits(&text);
+            // The status line under the loads is one line with its residual, four
+            // digits and all (issue 40: it wrapped at two).
+            assert!(
+                text.lines()
+                    .any(|l| l.contains("total") && l.ends_with("residual 1234.5 pm")),
+                "{text}"
+            );
             assert!(
                 text.contains("NOT TRUSTED: inconsistent, ceiling"),
                 "the frame's flags are shown:\n{text}"

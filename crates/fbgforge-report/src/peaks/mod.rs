@@ -22,7 +22,7 @@ fn flags_text(p: &ReportedPeak) -> String {
 fn peak_line(out: &mut String, p: &ReportedPeak) {
     let _ = writeln!(
         out,
-        "  {:<8} {:<14} {:>12.4} {:>9.3} {:>8.3} {:>8.1} {:>8.0}  {}",
+        "  {:<7} {:<11} {:>10.4} {:>7.3} {:>6.3} {:>5.0} {:>6.0}  {}",
         p.channel,
         p.grating.as_deref().unwrap_or("-"),
         p.wavelength_nm,
@@ -34,8 +34,14 @@ fn peak_line(out: &mut String, p: &ReportedPeak) {
     );
 }
 
-const HEADER: &str =
-    "  channel  grating        wavelength_nm  std_err_pm  crb_pm  fwhm_pm      snr  flags";
+/// The per-peak table's header: the names (the JSON's without their units), then
+/// the units.
+fn header() -> String {
+    format!(
+        "  {:<7} {:<11} {:>10} {:>7} {:>6} {:>5} {:>6}  flags\n  {:<7} {:<11} {:>10} {:>7} {:>6} {:>5}",
+        "channel", "grating", "wavelength", "std_err", "crb", "fwhm", "snr", "", "", "nm", "pm", "pm", "pm"
+    )
+}
 
 /// Median of a list (NaN when empty).
 fn median(v: &mut [f64]) -> f64 {
@@ -63,7 +69,9 @@ fn summary_by_grating(out: &mut String, report: &PeaksReport) {
     }
     let _ = writeln!(
         out,
-        "  channel  grating          rows   median_nm  median_se_pm  median_crb_pm  median_fwhm_pm  median_snr  flagged"
+        "  {:<7} {:<11} {:>6} {:>11} {:>7} {:>6} {:>5} {:>6}  flagged\n  {:<7} {:<11} {:>6} {:>11} {:>7} {:>6} {:>5}",
+        "channel", "grating", "rows", "wavelength", "std_err", "crb", "fwhm", "snr",
+        "", "(medians)", "", "nm", "pm", "pm", "pm"
     );
     for ((channel, grating), peaks) in &by {
         let med = |f: &dyn Fn(&ReportedPeak) -> f64| {
@@ -86,7 +94,7 @@ fn summary_by_grating(out: &mut String, report: &PeaksReport) {
         };
         let _ = writeln!(
             out,
-            "  {:<8} {:<14} {:>6} {:>11.4} {:>13.3} {:>14.3} {:>15.1} {:>11.0}  {}",
+            "  {:<7} {:<11} {:>6} {:>11.4} {:>7.3} {:>6.3} {:>5.0} {:>6.0}  {}",
             channel,
             grating,
             peaks.len(),
@@ -119,7 +127,7 @@ pub fn summary_text(report: &PeaksReport) -> String {
     if report.rows.len() <= 10 {
         for row in &report.rows {
             let _ = writeln!(out, "time {:.3} s", row.time_s);
-            let _ = writeln!(out, "{HEADER}");
+            let _ = writeln!(out, "{}", header());
             for p in &row.peaks {
                 peak_line(&mut out, p);
             }
@@ -147,5 +155,5 @@ pub fn summary_text(report: &PeaksReport) -> String {
             report.columns.join(", ")
         );
     }
-    out
+    crate::terminal::fit(&out)
 }

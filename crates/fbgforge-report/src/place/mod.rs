@@ -172,9 +172,25 @@ impl<W: Write> PlaceTable<W> {
 
 impl<W: Write> PlaceSink for PlaceTable<W> {
     fn placed(&mut self, run: &PlaceRun) -> Result<()> {
-        write!(self.out, "{}", place_table(&run.outcome))?;
-        writeln!(self.out, "design: {}", run.design_path.display())?;
-        writeln!(self.out, "report: {}", run.report_dir.display())?;
+        let o = &run.outcome;
+        // The written layout is the search's best on its training seeds; when it does
+        // not beat the start on the held-out ones the closing line says so, so the
+        // path is not read as the result.
+        let gain = o.best_test.score() - o.start_test.score();
+        let verdict = if gain > 0.0 {
+            String::new()
+        } else {
+            format!(
+                " (written, but it does not beat the start on the held-out seeds: RR + SNR {gain:+.2}; keep the start design)"
+            )
+        };
+        let text = format!(
+            "{}design: {}{verdict}\nreport: {}\n",
+            place_table(o),
+            run.design_path.display(),
+            run.report_dir.display()
+        );
+        write!(self.out, "{}", crate::terminal::fit(&text))?;
         Ok(())
     }
 }

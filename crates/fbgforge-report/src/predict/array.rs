@@ -163,17 +163,27 @@ pub fn write_table(out: &mut impl Write, a: &ArrayPrediction) -> Result<()> {
                 design.name
             )?;
             writeln!(out, "model: {}", p.description())?;
-            write!(out, "{:<10}", "grating")?;
-            for c in &m.cells {
-                write!(out, "{c:>10}")?;
-            }
-            writeln!(out)?;
-            for (g, row) in m.gratings.iter().zip(m.sensitivity_pm_per_g.row_iter()) {
-                write!(out, "{g:<10}")?;
-                for v in row.iter() {
-                    write!(out, "{v:>10.5}")?;
+            // Eight cells of nine columns beside the names fit 80 columns; a wider
+            // array is printed in blocks of cells (as numpy prints a wide array).
+            let per_block = (crate::terminal::WIDTH - 8) / 9;
+            let blocks = m.cells.len().div_ceil(per_block).max(1);
+            for b in 0..blocks {
+                let cols = b * per_block..((b + 1) * per_block).min(m.cells.len());
+                if blocks > 1 {
+                    writeln!(out, "cells {}–{} of {}:", cols.start + 1, cols.end, m.cells.len())?;
+                }
+                write!(out, "{:<8}", "pm/g")?;
+                for c in &m.cells[cols.clone()] {
+                    write!(out, "{c:>9}")?;
                 }
                 writeln!(out)?;
+                for (g, row) in m.gratings.iter().zip(m.sensitivity_pm_per_g.row_iter()) {
+                    write!(out, "{g:<8}")?;
+                    for k in cols.clone() {
+                        write!(out, "{:>9.5}", row[k])?;
+                    }
+                    writeln!(out)?;
+                }
             }
         }
     }

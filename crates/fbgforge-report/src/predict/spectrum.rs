@@ -6,26 +6,25 @@ use fbgforge_model::prediction::spectrum::{GratingSpectrum, ProfileSource};
 use fbgforge_model::prediction::ModelledPrediction;
 use std::io::Write;
 
-/// `psc1 Case I blue`.
+/// `psc1 I blue`.
 fn config_label(row: &ModelledPrediction) -> String {
     let p = &row.detail.prediction;
-    let case = format!("Case {}", p.case);
     match &p.insert {
-        Some(i) => format!("{} {case} {i}", p.core),
-        None => format!("{} {case}", p.core),
+        Some(i) => format!("{} {} {i}", p.core, p.case),
+        None => format!("{} {}", p.core, p.case),
     }
 }
 
 fn line(out: &mut impl Write, row: &ModelledPrediction, s: &GratingSpectrum) -> Result<()> {
     let p = &row.detail.prediction;
     let limit = match (s.clean_unloaded, s.clean_limit_force_n) {
-        (false, _) => "not clean unloaded".to_string(),
-        (true, Some(f)) => format!("stops at {f:.2} N"),
-        (true, None) => format!("clean to {} N", s.force_range_n),
+        (false, _) => "no (unloaded)".to_string(),
+        (true, Some(f)) => format!("to {f:.2} N"),
+        (true, None) => format!("to {} N", s.force_range_n),
     };
     writeln!(
         out,
-        "  {:<10} {:<24} {:>10.1} {:>9.3} {:>8.1} {:>+8.2} {:>9.3}  {}{}",
+        "  {:<10} {:<18} {:>8.1} {:>8.2} {:>5.0} {:>+6.2} {:>6.3} {}{}",
         p.grating,
         config_label(row),
         s.peak_shift_pm,
@@ -36,8 +35,8 @@ fn line(out: &mut impl Write, row: &ModelledPrediction, s: &GratingSpectrum) -> 
         limit,
         match s.strain_profile {
             ProfileSource::Fem => "",
-            ProfileSource::UniformClosedForm => " (uniform: no FE profile)",
-            ProfileSource::Sheet => " (sheet model's profile)",
+            ProfileSource::UniformClosedForm => " (uniform)",
+            ProfileSource::Sheet => " (sheet)",
         }
     )?;
     Ok(())
@@ -50,13 +49,18 @@ pub(super) fn write(out: &mut impl Write, rows: &[ModelledPrediction]) -> Result
     };
     writeln!(
         out,
-        "Reflection spectrum (transfer-matrix model on the FE strain profile along each grating) at F = {} N, one clean peak checked over 0–{} N ({}):",
+        "Reflection spectrum (transfer-matrix model on the FE strain profile along each grating) at F = {} N, one clean peak checked over 0–{} N ({}); span: the strain's spread along the grating per newton; clean: one clean peak (uniform: no FE profile, a uniform strain):",
         first.at_force_n, first.force_range_n, first.force_range_from
     )?;
     writeln!(
         out,
-        "  {:<10} {:<24} {:>10} {:>9} {:>8} {:>8} {:>9}  one clean peak",
-        "grating", "configuration", "shift pm", "pm/N", "FWHM pm", "ΔFWHM %", "span µε/N"
+        "  {:<10} {:<18} {:>8} {:>8} {:>5} {:>6} {:>6} clean",
+        "grating", "configuration", "shift pm", "pm/N", "FWHM", "ΔFWHM", "span"
+    )?;
+    writeln!(
+        out,
+        "  {:<10} {:<18} {:>8} {:>8} {:>5} {:>6} {:>6}",
+        "", "", "", "", "pm", "%", "µε/N"
     )?;
     for row in rows {
         if let Some(s) = &row.spectrum {

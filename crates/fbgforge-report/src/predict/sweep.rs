@@ -205,7 +205,7 @@ impl<W: Write> SweepSink for SweepFiles<W> {
         let out = &mut self.out;
         writeln!(
             out,
-            "{}: {} over {}..{} ({} {} steps), F = {} N, model: {label}",
+            "{}: {} over {}..{} ({} {} steps), F = {} N\nmodel: {label}",
             s.design.name,
             q.param.name,
             q.start,
@@ -216,13 +216,13 @@ impl<W: Write> SweepSink for SweepFiles<W> {
         )?;
         writeln!(
             out,
-            "{:<36} {:>14} {:>14}",
+            "{:<36} {:>12} {:>12}",
             "series", "Δλ first pm", "Δλ last pm"
         )?;
         for x in &r.series {
             writeln!(
                 out,
-                "{:<36} {:>+14.3} {:>+14.3}",
+                "{:<36} {:>+12.1} {:>+12.1}",
                 x.label(),
                 x.shift_pm.first().copied().unwrap_or(f64::NAN),
                 x.shift_pm.last().copied().unwrap_or(f64::NAN)

@@ -34,16 +34,17 @@ impl<W: Write> PredictSink for PredictTable<W> {
         )?;
         let columns = (p.request.with_band(), p.request.delta_t_k != 0.0);
         let interval = p.rows.iter().any(|r| r.design_interval_pm_per_n.is_some());
+        let widths = Widths::of(p.rows);
         let mut notes = Footnotes::default();
         let mut models = Footnotes::default();
-        header(out, columns, interval)?;
+        header(out, columns, widths)?;
         for row in p.rows {
-            write_row(out, row, (columns, interval), &mut notes, &mut models)?;
+            write_row(out, row, (columns, widths), &mut notes, &mut models)?;
         }
         for (i, m) in models.0.iter().enumerate() {
             writeln!(out, "m{}: {m}", i + 1)?;
         }
-        write!(out, "{}", legend(columns.0, p.request.fidelity))?;
+        write!(out, "{}", legend(columns, p.request.fidelity))?;
         write!(out, "{}", error_legend(p, interval))?;
         for (i, n) in notes.0.iter().enumerate() {
             writeln!(out, "[{}] {n}", i + 1)?;
@@ -53,47 +54,89 @@ impl<W: Write> PredictSink for PredictTable<W> {
             statements(out, s)?;
         }
         let text = String::from_utf8(text)?;
-        write!(self.out, "{}", (self.words)(&text))?;
+        write!(self.out, "{}", crate::terminal::fit(&(self.words)(&text)))?;
         Ok(())
     }
 }
 
-/// The table's header line; `(band, temp)`: whether the band and the thermal columns
-/// are shown, `interval`: whether the design interval and its strain are.
-fn header(out: &mut impl Write, (band, temp): (bool, bool), interval: bool) -> Result<()> {
-    write!(
+/// Widths of the name columns: the longest grating name and configuration (`II`,
+/// `I light_green`), at least the header's, so the table fits 80 columns with the
+/// paper's names.
+#[derive(Clone, Copy)]
+struct Widths {
+    grating: usize,
+    case: usize,
+}
+
+/// `II` or `I blue`: the loading case and its insert.
+fn case_label(p: &fbgforge_model::model::GratingPrediction) -> String {
+    match &p.insert {
+        Some(i) => format!("{} {i}", p.case),
+        None => p.case.to_string(),
+    }
+}
+
+impl Widths {
+    fn of(rows: &[ModelledPrediction]) -> Self {
+        let longest = |f: &dyn Fn(&ModelledPrediction) -> usize, min: usize| {
+            rows.iter().map(f).max().unwrap_or(0).max(min)
+        };
+        Widths {
+            grating: longest(&|r| r.detail.prediction.grating.chars().count(), 7),
+            case: longest(&|r| case_label(&r.detail.prediction).chars().count(), 4),
+        }
+    }
+}
+
+/// The table's header, names then units; `(band, temp)`: whether the band and the
+/// thermal columns are shown (the thermal columns take the band's place: the band
+/// stays in the JSON). The shift at F (K·F), E1, the load share, the design interval
+/// and its far-end strain are in the JSON, so the table keeps to 80 columns.
+fn header(out: &mut impl Write, (band, temp): (bool, bool), w: Widths) -> Result<()> {
+    let row = |out: &mut dyn Write, names: [&str; 10]| -> Result<()> {
+        write!(
+            out,
+            "{:<gw$} {:<4} {:<cw$} {:<5} {:>8} {:>7} {:>5}",
+            names[0],
+            names[1],
+            names[2],
+            names[3],
+            names[4],
+            names[5],
+            names[6],
+            gw = w.grating,
+            cw = w.case,
+        )?;
+        if temp {
+            write!(out, " {:>8} {:>8}", names[7], names[8])?;
+        } else if band {
+            write!(out, " {:>13}", names[7])?;
+        }
+        if names[9].is_empty() {
+            writeln!(out)?;
+        } else {
+            writeln!(out, " {}", names[9])?;
+        }
+        Ok(())
+    };
+    row(
         out,
-        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8} {:>10} {:>11} {:>10} {:>8}",
-        "grating",
-        "core",
-        "case",
-        "insert",
-        "model",
-        "E1 MPa",
-        "K pm/N",
-        "shift pm",
-        "strain µε",
-        "share"
+        [
+            "grating", "core", "case", "model", "K", "strain", "err", if temp { "raw" } else { "band" },
+            "comp.", "notes",
+        ],
     )?;
-    write!(out, " {:>6}", "err %")?;
-    if band {
-        write!(out, " {:>21}", "band pm/N")?;
-    }
-    if interval {
-        write!(out, " {:>21} {:>10}", "design interval pm/N", "far µε")?;
-    }
-    if temp {
-        write!(out, " {:>11} {:>12}", "raw pm", "compens. pm")?;
-    }
-    writeln!(out, "  warnings")?;
-    Ok(())
+    row(
+        out,
+        ["", "", "", "", "pm/N", "µε", "%", if temp { "pm" } else { "pm/N" }, "pm", ""],
+    )
 }
 
 /// One row of the table; its warnings and model become numbered notes.
 fn write_row(
     out: &mut impl Write,
     row: &ModelledPrediction,
-    ((band, temp), interval): ((bool, bool), bool),
+    ((band, temp), w): ((bool, bool), Widths),
     notes: &mut Footnotes,
     models: &mut Footnotes,
 ) -> Result<()> {
@@ -104,62 +147,46 @@ fn write_row(
         .iter()
         .map(|w| format!("[{}]", notes.index(w) + 1))
         .collect();
-    let share = if d.core_load_share.is_finite() {
-        format!("{:.4}", d.core_load_share)
-    } else {
-        "-".to_string()
-    };
     let m = models.index(&row.model_description);
     write!(
         out,
-        "{:<12} {:<6} {:<4} {:<12} {:<14} {:>8.3} {:>+10.3} {:>+11.2} {:>+10.1} {:>8}",
+        "{:<gw$} {:<4} {:<cw$} {:<5} {:>+8.2} {:>+7.1}",
         p.grating,
         p.core,
-        p.case.to_string(),
-        p.insert.as_deref().unwrap_or("-"),
-        format!("{} (m{})", row.model.name(), m + 1),
-        d.core_modulus_mpa,
+        case_label(p),
+        format!("m{}", m + 1),
         p.sensitivity_pm_per_n,
-        p.shift_pm,
         p.strain * 1e6,
-        share
+        gw = w.grating,
+        cw = w.case,
     )?;
     let err = row
         .model_error_fraction
         .map_or("-".to_string(), |f| format!("{:.1}", 100.0 * f));
-    write!(out, " {err:>6}")?;
-    if band {
-        let b = row
-            .band_pm_per_n
-            .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
-        write!(out, " {b:>21}")?;
-    }
-    if interval {
-        let iv = row
-            .design_interval_pm_per_n
-            .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1} … {hi:+.1}"));
-        let far = row.limit_check.map_or("-".to_string(), |c| {
-            format!("{:+.0}", c.far_end_strain_microstrain)
-        });
-        write!(out, " {iv:>21} {far:>10}")?;
-    }
+    write!(out, " {err:>5}")?;
     if temp {
         let comp = d
             .compensated_shift_pm
-            .map_or("-".to_string(), |c| format!("{c:+.2}"));
-        write!(out, " {:>+11.2} {:>12}", d.raw_shift_pm, comp)?;
+            .map_or("-".to_string(), |c| format!("{c:+.1}"));
+        write!(out, " {:>+8.1} {:>8}", d.raw_shift_pm, comp)?;
+    } else if band {
+        let b = row
+            .band_pm_per_n
+            .map_or("-".to_string(), |[lo, hi]| format!("{lo:+.1}…{hi:+.1}"));
+        write!(out, " {b:>13}")?;
     }
-    writeln!(out, "  {}", refs.join(""))?;
+    writeln!(out, " {}", refs.join(""))?;
     Ok(())
 }
 
 /// What the columns and the model choice mean, in the library's words.
-fn legend(band: bool, choice: FidelityChoice) -> String {
-    let mut s = String::from("K > 0: red shift (core cylinder in tension); K < 0: blue shift.\n");
-    if band {
+fn legend((band, temp): (bool, bool), choice: FidelityChoice) -> String {
+    let mut s = String::from("K > 0: red shift (core cylinder in tension); K < 0: blue shift. strain: at F. The shift at F (K·F), E1, the load share, the design interval and its far-end strain: in the JSON document.\n");
+    if temp {
+        s.push_str("raw pm: the shift at F with the temperature change; comp. pm: after the reference grating's compensation (the band: in the JSON).\n");
+    } else if band {
         s.push_str("band: K between the bounding contact readings (FE): pillars bonded to the cap (most coupled) and cylinders sliding with the domes touching over the apex patch only (least coupled); docs/model.md §5.6.\n");
     }
-    s.push_str("share: Case I, share of F through the cap→core loop; Case II, share carried by the core (closed form only).\n");
     match choice {
         FidelityChoice::Auto => {
             let v = prediction::validity();
@@ -222,7 +249,7 @@ fn error_legend(p: &Predicted, interval: bool) -> String {
         ));
     }
     if interval {
-        s.push_str("design interval: every reading the spec implies (Case I: the nominal and the contact window's ends, 1.30–1.48 × the apex patch; Case II: the closed form and the FE reading of the stated cylinders), each widened by its own model error; far µε: the strain at the largest force from its far end.\n");
+        s.push_str("design interval: every reading the spec implies (Case I: the nominal and the contact window's ends, 1.30–1.48 × the apex patch; Case II: the closed form and the FE reading of the stated cylinders), each widened by its own model error (in the JSON, with the strain at the largest force from its far end).\n");
         if let Some(c) = p.rows.iter().find_map(|r| r.limit_check) {
             s.push_str(&format!(
                 "limits: {} N ({}), strain limit {:.0} µε, each grating to keep {:.0} % of it free at the far end.\n",
@@ -267,7 +294,7 @@ fn statements(out: &mut impl Write, s: &PaperStatements) -> Result<()> {
             Some(false) => "FAILS",
             None => "not checked",
         };
-        writeln!(out, "  {:<34} {v:<12} {}", c.statement, c.detail)?;
+        writeln!(out, "  {}: {v}; {}", c.statement, c.detail)?;
     }
     Ok(())
 }

@@ -66,5 +66,5 @@ pub fn summary_text(summary: &ReconstructSummary) -> String {
             g.remedy
         );
     }
-    s
+    crate::terminal::fit(&s)
 }

@@ -147,10 +147,12 @@ pub fn shift_vs_time(series: &Series) -> Chart {
     c
 }
 
-/// The lag of the shift behind the force per segment, when any segment has one.
+/// The lag of the shift behind the force per segment, when any segment has one, each
+/// grating's lags with their ±1 standard uncertainty as a band (`pulses.csv` has the
+/// same ±): 1 ms of scatter inside a ±1.2 ms band is not a trend.
 pub(crate) fn lag_per_segment(m: &Measurement) -> Option<Chart> {
     let mut c = Chart::new(
-        "Lag of the shift behind the force, per segment",
+        "Lag of the shift behind the force, per segment (band: ±1 standard uncertainty)",
         "segment",
         "lag (s)",
     );
@@ -158,7 +160,26 @@ pub(crate) fn lag_per_segment(m: &Measurement) -> Option<Chart> {
     for (gi, g) in m.gratings.iter().enumerate() {
         let pts: Vec<(f64, f64)> = g.pulses.iter().map(|p| (p.index as f64, p.lag_s)).collect();
         any |= pts.iter().any(|(a, b)| a.is_finite() && b.is_finite());
-        c = c.with(PlotSeries::new(g.grating.clone(), pts, Mark::LinePoints).with_color(gi));
+        let band: Vec<(f64, f64, f64)> = g
+            .pulses
+            .iter()
+            .filter(|p| p.lag_s.is_finite() && p.lag_uncertainty_s.is_finite())
+            .map(|p| {
+                (
+                    p.index as f64,
+                    p.lag_s - p.lag_uncertainty_s,
+                    p.lag_s + p.lag_uncertainty_s,
+                )
+            })
+            .collect();
+        let mut series = PlotSeries::new(g.grating.clone(), pts, Mark::LinePoints).with_color(gi);
+        if !band.is_empty() {
+            series = series.with_band(band).with_role(ROLE_LAG_UNCERTAINTY);
+        }
+        c = c.with(series);
     }
     any.then_some(c)
 }
+
+/// The role of a lag series drawn with its uncertainty band.
+pub(crate) const ROLE_LAG_UNCERTAINTY: &str = "lag-with-uncertainty";

@@ -67,50 +67,80 @@ fn summary_header(s: &mut String, r: &VerifyReport) {
     }
 }
 
-/// One line per grating: K, R², hysteresis, linearity, Δt_max, Q, τ, the model's K and
-/// the status, with the reason beneath.
+/// Decimals that show a value of standard error `se` to its precision (the first
+/// significant digit of the error), 0–4.
+fn decimals_for(se: f64) -> usize {
+    if se.is_finite() && se > 0.0 {
+        (-se.log10()).ceil().clamp(0.0, 4.0) as usize
+    } else {
+        2
+    }
+}
+
+/// `v±u` without spaces (a table cell), or `v` alone, or `—`.
+fn cell_pm(v: Option<f64>, u: Option<f64>, digits: usize) -> String {
+    plus_minus(v, u, digits).replace(" ± ", "±")
+}
+
+/// One line per grating, within 80 columns: K with its standard error, R², Δt_max, Q,
+/// the model's K and the status with the relative error, with the reason beneath.
+/// Hysteresis, linearity and the SLS time constant are in the JSON and the report.
 fn summary_table(s: &mut String, r: &VerifyReport) {
     let m = &r.measurement;
+    let gw = m
+        .gratings
+        .iter()
+        .map(|g| g.grating.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(7);
     let _ = writeln!(
         s,
-        "{:<12} {:>14} {:>10} {:>8} {:>9} {:>9} {:>17} {:>17} {:>8} {:>11}",
-        "grating",
-        "K pm/N",
-        "±se",
-        "R²",
-        "hyst %",
-        "lin %",
-        "Δt_max s",
-        "Q pm/(N·s)",
-        "τ s",
-        "model pm/N"
+        "{:<gw$} {:>9} {:>6} {:>6} {:>11} {:>12} {:>7}  status",
+        "grating", "K pm/N", "±se", "R²", "Δt_max s", "Q pm/(N·s)", "model"
     );
+    let mut tolerances: Vec<f64> = Vec::new();
     for (g, v) in m.gratings.iter().zip(&r.verdict.gratings) {
+        let se = g.sensitivity_std_error_pm_per_n;
+        let d = decimals_for(se);
+        let q = match q_text(g, 1).as_str() {
+            t if t.contains(" ± ") => t.replace(" ± ", "±"),
+            t => t.to_string(),
+        };
         let _ = writeln!(
             s,
-            "{:<12} {:>14.4} {:>10.2e} {:>8.4} {:>9.2} {:>9.2} {:>17} {:>17} {:>8.3} {:>11}  {}{}",
+            "{:<gw$} {:>9.d$} {:>6} {:>6.4} {:>11} {:>12} {:>7}  {}{}",
             g.grating,
             g.sensitivity_pm_per_n,
-            g.sensitivity_std_error_pm_per_n,
+            format!("{se:.e$}", e = (d + 1).min(4)),
             g.r_squared,
-            g.hysteresis_percent_span,
-            g.nonlinearity_percent_span,
-            plus_minus(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
-            q_text(g, 3),
-            g.sls_time_constant_s,
-            opt(v.predicted_sensitivity_pm_per_n, 3),
+            cell_pm(Some(g.max_lag_s), Some(g.max_lag_uncertainty_s), 3),
+            q,
+            opt(v.predicted_sensitivity_pm_per_n, 1),
             v.status.word(),
             v.relative_error
-                .map(|e| format!(
-                    " ({:.2} % error, tolerance {:.1} %)",
-                    100.0 * e,
-                    100.0 * v.tolerance
-                ))
+                .map(|e| {
+                    if !tolerances.contains(&v.tolerance) {
+                        tolerances.push(v.tolerance);
+                    }
+                    format!(" {:.2} %", 100.0 * e)
+                })
                 .unwrap_or_default()
         );
         if let Some(reason) = &v.reason {
-            let _ = writeln!(s, "{:<12} {reason}", "");
+            let _ = writeln!(s, "{:<gw$} {reason}", "");
         }
+    }
+    if !tolerances.is_empty() {
+        let tol: Vec<String> = tolerances
+            .iter()
+            .map(|t| format!("{:.1} %", 100.0 * t))
+            .collect();
+        let _ = writeln!(
+            s,
+            "status: the fitted K against the model's (pm/N), |K − model|/|model|, tolerance {}",
+            tol.join(", ")
+        );
     }
 }
 
@@ -130,7 +160,7 @@ fn summary_notes(s: &mut String, r: &VerifyReport) {
         }
     }
     for g in &r.verdict.missing_gratings {
-        let _ = writeln!(s, "{:<12} missing: {}", g.grating, g.reason);
+        let _ = writeln!(s, "{} missing: {}", g.grating, g.reason);
     }
     if m.warnings.total() > 0 {
         let _ = writeln!(s, "warnings ({}):", m.warnings.total());
