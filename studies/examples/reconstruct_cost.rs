@@ -13,8 +13,8 @@
 use anyhow::Result;
 use fbgforge::array::choice::estimated_test_ns;
 use fbgforge::array::methods::{build, Method, MethodSettings};
-use fbgforge::array::trust::FrameTest;
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
+use fbgforge::array::trust::FrameTest;
 use fbgforge_studies::reconstruct_scaling::scaling_problem_and_frames;
 use std::time::Instant;
 

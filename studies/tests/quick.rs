@@ -301,7 +301,10 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
     // leave-one-out fits it leaked, tested again (one was named with it before).
     let drift = row("10x20 hex", "drift", "bnb");
     assert_eq!(
-        (drift["diagnosis_right"].as_u64(), drift["wrong_suspects"].as_u64()),
+        (
+            drift["diagnosis_right"].as_u64(),
+            drift["wrong_suspects"].as_u64()
+        ),
         (Some(1), Some(0)),
         "{drift}"
     );

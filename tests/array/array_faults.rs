@@ -218,7 +218,10 @@ fn a_dead_grating_of_a_large_grid_is_named_when_the_strongest_frames_load_elsewh
                         x[far[rng.random_range(0..far.len())]] = rng.random_range(150.0..240.0);
                     }
                 }
-                let mut y: Vec<f64> = (&a * x).iter().map(|v| v + noise.sample(&mut rng)).collect();
+                let mut y: Vec<f64> = (&a * x)
+                    .iter()
+                    .map(|v| v + noise.sample(&mut rng))
+                    .collect();
                 y[dead] = noise.sample(&mut rng);
                 y
             })

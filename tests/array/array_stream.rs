@@ -40,7 +40,11 @@ fn frames(a: &DMatrix<f64>, frames: usize, seed: u64) -> Vec<Vec<f64>> {
         .collect()
 }
 
-fn write_files(dir: &Path, a: &DMatrix<f64>, ys: &[Vec<f64>]) -> (std::path::PathBuf, std::path::PathBuf) {
+fn write_files(
+    dir: &Path,
+    a: &DMatrix<f64>,
+    ys: &[Vec<f64>],
+) -> (std::path::PathBuf, std::path::PathBuf) {
     let mut m = String::from("grating,A,B,C,D,E,F,G,H\n");
     for i in 0..a.nrows() {
         let row: Vec<String> = a.row(i).iter().map(|v| format!("{v:e}")).collect();
@@ -103,7 +107,10 @@ fn reconstruct_file_holds_a_bounded_number_of_frames_and_writes_what_memory_give
             let fields: Vec<&str> = line.split(',').collect();
             for (j, want) in r.loads_g.iter().enumerate() {
                 let got: f64 = fields[1 + j].parse().unwrap();
-                assert!((got - want).abs() < 1e-3, "frame {k} cell {j}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-3,
+                    "frame {k} cell {j}: {got} vs {want}"
+                );
             }
             assert_eq!(fields[10], r.flags.field(), "frame {k}");
         }

@@ -350,7 +350,11 @@ pub(crate) struct LoadsWriter<'w> {
 
 impl<'w> LoadsWriter<'w> {
     /// Start the file: its header.
-    pub(crate) fn start(w: &'w mut dyn std::io::Write, cells: &[String], timed: bool) -> Result<Self> {
+    pub(crate) fn start(
+        w: &'w mut dyn std::io::Write,
+        cells: &[String],
+        timed: bool,
+    ) -> Result<Self> {
         let mut csv = csv::Writer::from_writer(w);
         let mut header = vec![if timed { "time_s" } else { "frame" }.to_string()];
         header.extend(cells.iter().cloned());

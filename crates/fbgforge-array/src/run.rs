@@ -3,8 +3,8 @@
 //! reconstruct` calls [`reconstruct_file`]; the method is picked and the frames
 //! reconstructed by [`super::reconstruct()`].
 
-use super::faults::{temperature_weights, SuspectGrating};
 use super::faults::StreamSample;
+use super::faults::{temperature_weights, SuspectGrating};
 use super::io::{read_matrix_file, LoadsWriter, ShiftReader};
 use super::kernel::matrix_from_design;
 use super::methods::{Method, NoisePrior, ReadingSettings, DEFAULT_MAX_LOADS};

@@ -241,7 +241,9 @@ fn judge_diagnosis(st: &Stream, done: &Reconstructed) -> (bool, usize) {
 /// [`LOADED_FROM_G`]); an unusable frame (no loads) is wrong.
 pub fn wrong_answer(truth_g: &[f64], loads_g: &[f64]) -> bool {
     truth_g.iter().zip(loads_g).any(|(t, x)| {
-        !x.is_finite() || (t - x).abs() > WRONG_LOAD_G || (*t >= LOADED_FROM_G) != (*x >= LOADED_FROM_G)
+        !x.is_finite()
+            || (t - x).abs() > WRONG_LOAD_G
+            || (*t >= LOADED_FROM_G) != (*x >= LOADED_FROM_G)
     })
 }
 
@@ -354,7 +356,10 @@ fn row(arr: &ArrayDef, fault: Fault, e: Entry, outs: &[StreamOutcome]) -> FlagRo
         flagged_wrong_pct: pct(flagged_wrong, wrong),
         false_flag_right_pct: pct(flagged_right, frames.len() - wrong),
         ceiling_frames: (
-            frames.iter().filter(|f| f.words.contains(&"ceiling")).count(),
+            frames
+                .iter()
+                .filter(|f| f.words.contains(&"ceiling"))
+                .count(),
             frames
                 .iter()
                 .filter(|f| f.wrong && f.words.contains(&"ceiling"))
@@ -618,7 +623,10 @@ fn table(
         report,
         "| array | fault | method | RR % | missed | recall (SNR) % | false flags (SNR) % | wrong | recall (wrong) % [flagged] | false flags (right) % | diagnosis | wrong suspects | cm streams | est µs | measured µs |"
     )?;
-    writeln!(report, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")?;
+    writeln!(
+        report,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    )?;
     for r in rows {
         writeln!(
             report,

@@ -169,7 +169,9 @@ pub(super) fn find(
     if up.max(down) >= 3.max(m.div_ceil(2)) {
         return Ok(histories);
     }
-    while let Some(k) = (0..found.len()).max_by(|&a, &b| found[a].1.t.abs().total_cmp(&found[b].1.t.abs())) {
+    while let Some(k) =
+        (0..found.len()).max_by(|&a, &b| found[a].1.t.abs().total_cmp(&found[b].1.t.abs()))
+    {
         let (i, line, count) = found.swap_remove(k);
         corr.trends.push((i, line.offset, line.slope));
         suspects.push(SuspectGrating {
@@ -193,7 +195,14 @@ pub(super) fn find(
             .copied()
             .filter(|(_, q)| found.iter().any(|(f, _, _)| f == q))
             .collect();
-        found = drifts(&lines(&with_offset, prior, sample, corr, &again, 0.5 * sigma)?);
+        found = drifts(&lines(
+            &with_offset,
+            prior,
+            sample,
+            corr,
+            &again,
+            0.5 * sigma,
+        )?);
     }
     Ok(histories)
 }

@@ -105,8 +105,8 @@ impl ShiftReader {
             r.pending = Some((hline, header));
             return Ok(r);
         }
-        r.columns =
-            shift_columns(&header, gratings).map_err(|e| anyhow!("{}:{hline}: {e}", path.display()))?;
+        r.columns = shift_columns(&header, gratings)
+            .map_err(|e| anyhow!("{}:{hline}: {e}", path.display()))?;
         r.width = header.len();
         Ok(r)
     }
@@ -209,7 +209,13 @@ impl ShiftReader {
             );
         }
         let time = match self.columns.time {
-            Some(t) => Some(parse_value(&self.path, line, "time_s", &rec[t], "a time in s")?),
+            Some(t) => Some(parse_value(
+                &self.path,
+                line,
+                "time_s",
+                &rec[t],
+                "a time in s",
+            )?),
             None => None,
         };
         let shifts = self
