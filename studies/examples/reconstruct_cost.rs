@@ -5,12 +5,16 @@
 //!     cargo run --release -p fbgforge-studies --example reconstruct_cost -- <method> <cells> [penalty] [work budget] [frames per load count] [reps]
 //!
 //! Prints median and mean µs per frame, mean work, ns per unit of work (per n and
-//! per n·m too), RR per load count and mean SNR, and frames not converged. docs/array.md
-//! §10.3 lists what it gave for each method and size.
+//! per n·m too), RR per load count and mean SNR, and frames not converged; then the
+//! frame test's time per load count of the answer (best of `reps`, the problem told
+//! the frames' noise, rivals of up to 4 loads) beside the cost model's
+//! `choice::estimated_test_ns`. docs/array.md §10.3 and §11.5 list what it gave.
 
 use anyhow::Result;
+use fbgforge::array::choice::estimated_test_ns;
 use fbgforge::array::methods::{build, Method, MethodSettings};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
+use fbgforge::array::trust::FrameTest;
 use fbgforge_studies::reconstruct_scaling::scaling_problem_and_frames;
 use std::time::Instant;
 
@@ -35,6 +39,9 @@ fn main() -> Result<()> {
     let (problem, loads, truth, shifts) = scaling_problem_and_frames(cells, per_load, 1)?;
     let (m, n) = (problem.n_gratings(), problem.n_cells());
     let r = build(&problem, &settings)?;
+    let test = FrameTest::new(&problem, 4);
+    // Per load count of the answer: (frames, best-of-reps test time sum, µs).
+    let mut tests = [(0usize, 0.0f64); 8];
     let (mut times, mut work) = (Vec::new(), Vec::new());
     let (mut recovered, mut snr_sum, mut not_converged) = ([0usize; 5], 0.0, 0usize);
     for ((y, x), &k) in shifts.iter().zip(&truth).zip(&loads) {
@@ -47,6 +54,16 @@ fn main() -> Result<()> {
         }
         times.push(best);
         work.push(rec.iterations as f64);
+        let mut best_test = f64::INFINITY;
+        for _ in 0..reps {
+            let mut tested = rec.clone();
+            let t = Instant::now();
+            test.assess(y, &mut tested);
+            best_test = best_test.min(1e6 * t.elapsed().as_secs_f64());
+        }
+        let held = rec.loads_g.iter().filter(|v| **v > 0.0).count().min(7);
+        tests[held].0 += 1;
+        tests[held].1 += best_test;
         let snr = snr_db(x, &rec.loads_g);
         snr_sum += snr;
         if snr >= RECOVERY_THRESHOLD_DB {
@@ -75,5 +92,12 @@ fn main() -> Result<()> {
         &recovered[1..],
         snr_sum / frames
     );
+    for (k, &(count, sum)) in tests.iter().enumerate().filter(|(_, t)| t.0 > 0) {
+        println!(
+            "frame test, answers of {k} loads ({count} frames): measured {:.1} µs, estimated {:.1} µs",
+            sum / count as f64,
+            1e-3 * estimated_test_ns(m, n, k)
+        );
+    }
     Ok(())
 }

@@ -296,6 +296,24 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
             assert!(f(r, "recall_pct") > 0.0, "{r}");
         }
     }
+    // The 10 × 20 drift stream names its drifting grating and nothing else: the
+    // strongest trend is corrected first and its neighbours, into whose
+    // leave-one-out fits it leaked, tested again (one was named with it before).
+    let drift = row("10x20 hex", "drift", "bnb");
+    assert_eq!(
+        (
+            drift["diagnosis_right"].as_u64(),
+            drift["wrong_suspects"].as_u64()
+        ),
+        (Some(1), Some(0)),
+        "{drift}"
+    );
+    // False flags on right answers (no load off by more than 25 g, no loaded cell
+    // missed or added) within the test's 5 % size on clean streams.
+    for array in ["6x8 paper", "10x20 hex"] {
+        let clean = row(array, "clean", "bnb");
+        assert!(f(clean, "false_flag_right_pct") <= 5.0, "{clean}");
+    }
     assert!(dir.path().join("flags-roc.csv").exists());
     assert!(dir.path().join("flags-roc-10x20-clean.svg").exists());
 }

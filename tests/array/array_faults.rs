@@ -192,3 +192,46 @@ fn absurd_shifts_are_unusable_for_every_method_never_zero_loads() {
         assert_eq!(done.flag_counts.unusable, absurd.len(), "{method:?}");
     }
 }
+
+/// The flag study's 16 × 64 grid: a dead grating among 16 is named (and nothing
+/// else) although the strongest frames of the stream load elsewhere (heavy loads
+/// far from it, light ones near it): it is tested on the frames loaded near it too
+/// (its most alike neighbours' largest readings), not on the strongest alone.
+#[test]
+fn a_dead_grating_of_a_large_grid_is_named_when_the_strongest_frames_load_elsewhere() {
+    let (c, g) = fiber_grid_layout(8, 8, 4, 4);
+    let a = matrix_from_positions(&c, &g, &DistanceKernel::table1_power_law(3.0));
+    let n = a.ncols();
+    for (seed, dead) in [(3530u64, 5usize), (3531, 10)] {
+        let top = a.row(dead).max();
+        let near: Vec<usize> = (0..n).filter(|&j| a[(dead, j)] >= 0.5 * top).collect();
+        let far: Vec<usize> = (0..n).filter(|&j| a[(dead, j)] < 0.05 * top).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, SIGMA_PM).unwrap();
+        let frames: Vec<Vec<f64>> = (0..FRAMES)
+            .map(|f| {
+                let mut x = DVector::zeros(n);
+                if f % 4 == 0 {
+                    x[near[rng.random_range(0..near.len())]] = rng.random_range(60.0..150.0);
+                } else {
+                    for _ in 0..3 + f % 2 {
+                        x[far[rng.random_range(0..far.len())]] = rng.random_range(150.0..240.0);
+                    }
+                }
+                let mut y: Vec<f64> = (&a * x)
+                    .iter()
+                    .map(|v| v + noise.sample(&mut rng))
+                    .collect();
+                y[dead] = noise.sample(&mut rng);
+                y
+            })
+            .collect();
+        let done = run(&a, &frames, Method::BranchAndBound);
+        assert_eq!(
+            named(&done),
+            vec![(dead, "dead or stuck")],
+            "{:?}",
+            done.suspect_gratings
+        );
+    }
+}

@@ -14,6 +14,7 @@ mod array_exact;
 mod array_faults;
 mod array_flag_size;
 mod array_scaling;
+mod array_stream;
 mod array_trust;
 mod calibrate_additivity;
 mod calibrate_cli;

@@ -25,6 +25,9 @@ use nalgebra::DMatrix;
 use std::collections::HashSet;
 use std::path::Path;
 
+mod stream;
+pub use stream::ShiftReader;
+
 /// How the fields of a line are separated.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Separator {
@@ -265,57 +268,27 @@ pub fn read_shifts(path: &Path, gratings: &[String]) -> Result<ShiftStream> {
 
 /// Read shifts for a matrix; `headerless_ok` (the matrix had no header) also accepts
 /// numbers only: one column per grating in the matrix's row order, or a first column
-/// of times in s and then those.
+/// of times in s and then those. The whole file, through [`ShiftReader`].
 pub(crate) fn read_shifts_for(
     path: &Path,
     gratings: &[String],
     headerless_ok: bool,
 ) -> Result<ShiftStream> {
-    let recs = records(path)?;
-    if all_numbers(&recs[0].1) {
-        if !headerless_ok {
-            bail!(
-                "{}:{}: the shifts have no header; name the columns ({}) — a shifts file without header is read only with a matrix without header",
-                path.display(),
-                recs[0].0,
-                gratings.join(",")
-            );
+    let mut reader = ShiftReader::open(path, gratings, headerless_ok)?;
+    let mut all = ShiftStream {
+        time_s: reader.timed().then(Vec::new),
+        frames_pm: Vec::new(),
+    };
+    while let Some(chunk) = reader.next_chunk(usize::MAX)? {
+        all.frames_pm.extend(chunk.frames_pm);
+        if let (Some(t), Some(c)) = (&mut all.time_s, chunk.time_s) {
+            t.extend(c);
         }
-        return read_shifts_numbers(path, gratings, &recs);
     }
-    let (hline, header) = &recs[0];
-    let ShiftColumns {
-        time: time_col,
-        gratings: cols,
-    } = shift_columns(header, gratings).map_err(|e| anyhow!("{}:{hline}: {e}", path.display()))?;
-    if recs.len() < 2 {
+    if all.frames_pm.is_empty() {
         bail!("{}: no frames after the header", path.display());
     }
-    let mut times = Vec::new();
-    let mut frames = Vec::with_capacity(recs.len() - 1);
-    for (line, rec) in &recs[1..] {
-        if rec.len() != header.len() {
-            bail!(
-                "{}:{line}: {} fields, expected {} as in the header",
-                path.display(),
-                rec.len(),
-                header.len()
-            );
-        }
-        if let Some(t) = time_col {
-            times.push(parse_value(path, *line, "time_s", &rec[t], "a time in s")?);
-        }
-        let frame = cols
-            .iter()
-            .zip(gratings)
-            .map(|(&k, g)| parse_value(path, *line, g, &rec[k], "a shift in pm"))
-            .collect::<Result<Vec<f64>>>()?;
-        frames.push(frame);
-    }
-    Ok(ShiftStream {
-        time_s: time_col.map(|_| times),
-        frames_pm: frames,
-    })
+    Ok(all)
 }
 
 /// Where each grating's shifts are among named columns.
@@ -366,100 +339,56 @@ pub fn shift_columns(names: &[String], gratings: &[String]) -> Result<ShiftColum
     })
 }
 
-/// Headerless shifts: m columns, or m + 1 with times first.
-fn read_shifts_numbers(
-    path: &Path,
-    gratings: &[String],
-    recs: &[(u64, Vec<String>)],
-) -> Result<ShiftStream> {
-    let m = gratings.len();
-    let width = recs[0].1.len();
-    let timed = if width == m {
-        false
-    } else if width == m + 1 {
-        true
-    } else {
-        bail!(
-            "{}:{}: {width} numbers, expected {m} shifts (one per row of the matrix), or a time in s and {m} shifts",
-            path.display(),
-            recs[0].0
-        );
-    };
-    let mut times = Vec::new();
-    let mut frames = Vec::with_capacity(recs.len());
-    for (line, rec) in recs {
-        if rec.len() != width {
-            bail!(
-                "{}:{line}: {} numbers, expected {width} as on line {}",
-                path.display(),
-                rec.len(),
-                recs[0].0
-            );
-        }
-        let shifts = if timed {
-            times.push(parse_value(
-                path,
-                *line,
-                "1 (time_s)",
-                &rec[0],
-                "a time in s",
-            )?);
-            &rec[1..]
-        } else {
-            &rec[..]
-        };
-        let frame = shifts
-            .iter()
-            .zip(gratings)
-            .enumerate()
-            .map(|(k, (text, g))| {
-                parse_value(
-                    path,
-                    *line,
-                    &format!("{} ({g})", k + 1 + usize::from(timed)),
-                    text,
-                    "a shift in pm",
-                )
-            })
-            .collect::<Result<Vec<f64>>>()?;
-        frames.push(frame);
-    }
-    Ok(ShiftStream {
-        time_s: timed.then_some(times),
-        frames_pm: frames,
-    })
+/// Reconstructed loads with each frame's trust, written a chunk at a time:
+/// `time_s,<cells…>,residual_pm,flags` (loads in g, residual in pm, the flags as
+/// words joined by `;`, empty when the frame can be trusted); without times the
+/// first column is `frame`, the 0-based row index.
+pub(crate) struct LoadsWriter<'w> {
+    csv: csv::Writer<&'w mut dyn std::io::Write>,
+    next: usize,
 }
 
-/// Write reconstructed loads with each frame's trust: `time_s,<cells…>,residual_pm,flags`
-/// (loads in g, residual in pm, the flags as words joined by `;`, empty when the frame
-/// can be trusted), atomically; without times the first column is `frame`.
-pub(crate) fn write_loads_with_trust(
-    path: &Path,
-    cells: &[String],
-    time_s: Option<&[f64]>,
-    frames: &[crate::methods::Reconstruction],
-) -> Result<()> {
-    crate::output::write_atomic_with(path, |w| {
-        let mut c = csv::Writer::from_writer(w);
-        let first = if time_s.is_some() { "time_s" } else { "frame" };
-        let mut header = vec![first.to_string()];
+impl<'w> LoadsWriter<'w> {
+    /// Start the file: its header.
+    pub(crate) fn start(
+        w: &'w mut dyn std::io::Write,
+        cells: &[String],
+        timed: bool,
+    ) -> Result<Self> {
+        let mut csv = csv::Writer::from_writer(w);
+        let mut header = vec![if timed { "time_s" } else { "frame" }.to_string()];
         header.extend(cells.iter().cloned());
         header.push("residual_pm".into());
         header.push("flags".into());
-        c.write_record(&header)?;
+        csv.write_record(&header)?;
+        Ok(LoadsWriter { csv, next: 0 })
+    }
+
+    /// The next frames' rows (`time_s` as the header said).
+    pub(crate) fn rows(
+        &mut self,
+        time_s: Option<&[f64]>,
+        frames: &[crate::methods::Reconstruction],
+    ) -> Result<()> {
         for (k, r) in frames.iter().enumerate() {
             let mut row = vec![match time_s {
                 Some(t) => format!("{}", t[k]),
-                None => k.to_string(),
+                None => (self.next + k).to_string(),
             }];
             row.extend(r.loads_g.iter().map(|v| format!("{v:.3}")));
             row.push(format!("{:.4}", r.residual_pm));
             row.push(r.flags.field());
-            c.write_record(&row)?;
+            self.csv.write_record(&row)?;
         }
-        c.flush()?;
+        self.next += frames.len();
         Ok(())
-    })
+    }
+
+    /// End the file.
+    pub(crate) fn finish(mut self) -> Result<()> {
+        self.csv.flush()?;
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -3,12 +3,13 @@
 //! reconstruct` calls [`reconstruct_file`]; the method is picked and the frames
 //! reconstructed by [`super::reconstruct()`].
 
+use super::faults::StreamSample;
 use super::faults::{temperature_weights, SuspectGrating};
-use super::io::{read_matrix_file, read_shifts_for, write_loads_with_trust};
+use super::io::{read_matrix_file, LoadsWriter, ShiftReader};
 use super::kernel::matrix_from_design;
 use super::methods::{Method, NoisePrior, ReadingSettings, DEFAULT_MAX_LOADS};
 use super::problem::{default_min_load_g, SensingProblem, Uncertainty, UncertaintySummary};
-use super::reconstruct::{reconstruct, Frames, MethodRequest, Reconstructed, DEFAULT_BUDGET_US};
+use super::reconstruct::{MethodRequest, StreamEnd, StreamRun, CHUNK_FRAMES, DEFAULT_BUDGET_US};
 use super::trust::FlagCounts;
 use super::SensingMatrix;
 use anyhow::{bail, Context, Result};
@@ -167,6 +168,10 @@ pub struct ReconstructSummary {
     pub time_per_frame_us: f64,
     /// Threads used for the frames (in parallel from 512 frames on).
     pub threads: usize,
+    /// The most frames held in memory at once: one chunk of the file
+    /// ([`CHUNK_FRAMES`]) and the diagnosis sample's frames (bounded), whatever the
+    /// file's length.
+    pub most_frames_held: usize,
     /// Output file.
     pub out: PathBuf,
 }
@@ -315,6 +320,13 @@ fn sensing_problem(
 /// Read a sensing matrix (or derive it from a design) and a shifts file, reconstruct
 /// every frame, write the loads CSV and return the summary; `progress` hears the frames.
 ///
+/// The file is streamed (docs/array.md §11.10): a first pass reads and checks every
+/// row and keeps the stream diagnosis's bounded sample ([`StreamSample`]); the
+/// second reads it again [`CHUNK_FRAMES`] rows at a time, reconstructs each chunk
+/// (in parallel within it) and appends its rows to a temporary file renamed into
+/// place at the end, so memory stays flat in the number of frames
+/// ([`ReconstructSummary::most_frames_held`]) and a failure leaves no output.
+///
 /// ```
 /// use fbgforge_array::run::{reconstruct_file, MatrixSource, ReconstructRequest};
 ///
@@ -364,26 +376,123 @@ pub fn reconstruct_file(
     };
     request.check()?;
     let matrix = &loaded.matrix;
-    let stream = read_shifts_for(&a.shifts, &matrix.gratings, loaded.generated_names)?;
     let min_load_g = a.min_load_g.unwrap_or(default_min_load_g(ulimit_g));
     let uncertainty = matrix_uncertainty(a, &loaded, prior.resolution_pm)?;
     let problem = sensing_problem(a, &loaded, ulimit_g, min_load_g, uncertainty)?;
-    let frames = Frames {
-        gratings: &matrix.gratings,
-        shifts_pm: &stream.frames_pm,
-    };
-    let done = reconstruct(&problem, frames, &prior, &request, progress)?;
+    let (sample, frames) = sample_file(a, &loaded, &problem)?;
+    let run = StreamRun::start(&problem, &prior, &request, &sample, &matrix.gratings)?;
+    let held_by_sample = sample.most_frames_held();
+    drop(sample);
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.shifts));
-    write_loads_with_trust(&out, &matrix.cells, stream.time_s.as_deref(), &done.frames)?;
+    progress.begin("reconstruct", frames as u64);
+    let (end, totals) = reconstruct_chunks(a, &loaded, run, frames, &out, progress);
+    progress.end();
+    let (end, mut totals) = (end, totals?);
+    totals.most_frames_held += held_by_sample;
     Ok(summarise(
         a,
         matrix,
         &problem,
         &prior,
-        done,
+        (end, totals),
         (ulimit_g, min_load_g),
         out,
     ))
+}
+
+/// The first pass over the shifts file: every row read and checked, the diagnosis
+/// sample kept (bounded: [`StreamSample`]); the number of frames.
+fn sample_file(
+    a: &ReconstructRequest,
+    loaded: &LoadedMatrix,
+    problem: &SensingProblem,
+) -> Result<(StreamSample, usize)> {
+    let gratings = &loaded.matrix.gratings;
+    let mut reader = ShiftReader::open(&a.shifts, gratings, loaded.generated_names)?;
+    let mut sample = StreamSample::new(problem);
+    while let Some(chunk) = reader.next_chunk(CHUNK_FRAMES)? {
+        for y in &chunk.frames_pm {
+            sample.push(y);
+        }
+    }
+    if reader.frames() == 0 {
+        bail!("{}: no frames after the header", a.shifts.display());
+    }
+    Ok((sample, reader.frames()))
+}
+
+/// The second pass: the file read again a chunk at a time, each chunk reconstructed
+/// and its rows appended to a temporary file renamed to `out` at the end.
+fn reconstruct_chunks(
+    a: &ReconstructRequest,
+    loaded: &LoadedMatrix,
+    mut run: StreamRun,
+    frames: usize,
+    out: &Path,
+    progress: &dyn crate::progress::Progress,
+) -> (StreamEnd, Result<Totals>) {
+    let matrix = &loaded.matrix;
+    let mut totals = Totals::new(matrix.n_cells());
+    let written = crate::output::write_atomic_with(out, |w| {
+        let mut reader = ShiftReader::open(&a.shifts, &matrix.gratings, loaded.generated_names)?;
+        let mut writer = LoadsWriter::start(w, &matrix.cells, reader.timed())?;
+        while let Some(chunk) = reader.next_chunk(CHUNK_FRAMES)? {
+            let done = run.reconstruct_chunk(&chunk.frames_pm, progress);
+            totals.add(&done);
+            writer.rows(chunk.time_s.as_deref(), &done)?;
+        }
+        if reader.frames() != frames {
+            bail!(
+                "{} changed while it was read: {frames} frames on the first pass, {} on the second",
+                a.shifts.display(),
+                reader.frames()
+            );
+        }
+        totals.most_frames_held = reader.most_frames_held();
+        writer.finish()
+    });
+    (run.finish(), written.map(|()| totals))
+}
+
+/// What the summary needs of the frames, accumulated chunk by chunk.
+struct Totals {
+    frames: usize,
+    not_converged: usize,
+    certified: usize,
+    load_sum_g: Vec<f64>,
+    max_residual_pm: f64,
+    offsets: (f64, usize),
+    most_frames_held: usize,
+}
+
+impl Totals {
+    fn new(cells: usize) -> Self {
+        Totals {
+            frames: 0,
+            not_converged: 0,
+            certified: 0,
+            load_sum_g: vec![0.0; cells],
+            max_residual_pm: 0.0,
+            offsets: (0.0, 0),
+            most_frames_held: 0,
+        }
+    }
+
+    fn add(&mut self, results: &[crate::methods::Reconstruction]) {
+        for r in results {
+            self.frames += 1;
+            self.not_converged += usize::from(!r.converged);
+            self.certified += usize::from(r.certified);
+            for (s, v) in self.load_sum_g.iter_mut().zip(&r.loads_g) {
+                *s += v;
+            }
+            self.max_residual_pm = self.max_residual_pm.max(r.residual_pm);
+            if let Some(c) = r.common_mode_pm {
+                self.offsets.0 += c;
+                self.offsets.1 += 1;
+            }
+        }
+    }
 }
 
 /// The run's summary: the method and why, the flags, the loads, the times.
@@ -392,13 +501,11 @@ fn summarise(
     matrix: &SensingMatrix,
     problem: &SensingProblem,
     prior: &ReadingSettings,
-    done: Reconstructed,
+    (done, totals): (StreamEnd, Totals),
     (ulimit_g, min_load_g): (f64, f64),
     out: PathBuf,
 ) -> ReconstructSummary {
-    let results = &done.frames;
-    let n = results.len().max(1) as f64;
-    let offsets: Vec<f64> = results.iter().filter_map(|r| r.common_mode_pm).collect();
+    let n = totals.frames.max(1) as f64;
     ReconstructSummary {
         method: done.setup.method.name(),
         penalty: done.setup.penalty(),
@@ -411,25 +518,24 @@ fn summarise(
         ulimit_g,
         min_load_g,
         gratings: matrix.n_gratings(),
-        frames: results.len(),
-        not_converged: results.iter().filter(|r| !r.converged).count(),
-        certified: results.iter().filter(|r| r.certified).count(),
+        frames: totals.frames,
+        not_converged: totals.not_converged,
+        certified: totals.certified,
         flags: done.flag_counts,
-        suspect_gratings: done.suspect_gratings.clone(),
+        suspect_gratings: done.diagnosis.suspects.clone(),
         common_mode: done.diagnosis.common_mode.fitted,
         common_mode_note: done.diagnosis.common_mode.clone(),
         budget: done.budget.clone(),
-        mean_common_mode_pm: (!offsets.is_empty())
-            .then(|| offsets.iter().sum::<f64>() / offsets.len() as f64),
+        mean_common_mode_pm: (totals.offsets.1 > 0)
+            .then(|| totals.offsets.0 / totals.offsets.1 as f64),
         uncertainty: problem.uncertainty_summary(),
-        mean_load_g: (0..matrix.n_cells())
-            .map(|j| results.iter().map(|r| r.loads_g[j]).sum::<f64>() / n)
-            .collect(),
+        mean_load_g: totals.load_sum_g.iter().map(|s| s / n).collect(),
         cells: matrix.cells.clone(),
-        max_residual_pm: results.iter().map(|r| r.residual_pm).fold(0.0, f64::max),
+        max_residual_pm: totals.max_residual_pm,
         setup_ms: done.setup.setup_ms,
         time_per_frame_us: done.time_per_frame_us,
         threads: done.threads,
+        most_frames_held: totals.most_frames_held,
         out,
     }
 }

@@ -46,6 +46,15 @@ pub const RUN_SIGNIFICANCE: f64 = 1e-4;
 /// Significances of the ROC curves.
 pub const ROC_SIGNIFICANCES: [f64; 10] = [1e-4, 3e-4, 1e-3, 3e-3, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4];
 
+/// A frame's answer is wrong when some cell's load is off by more than this, g (the
+/// rated range's lower end, 10 % of its 250 g top): what a lab would call a wrong
+/// load, whatever the SNR.
+pub const WRONG_LOAD_G: f64 = PAPER_MIN_LOAD_G;
+
+/// …or when its loaded cells are not the truth's, a cell counting as loaded from
+/// this load, g (half the rated lower end).
+pub const LOADED_FROM_G: f64 = 0.5 * PAPER_MIN_LOAD_G;
+
 /// Frames per stream (full run; `--quick`: 60).
 pub const STREAM_FRAMES: usize = 200;
 
@@ -83,6 +92,10 @@ impl Entry {
 #[derive(Debug, Clone)]
 struct FrameOutcome {
     recovered: bool,
+    /// The answer is wrong ([`wrong_answer`]).
+    wrong: bool,
+    /// The stream's fault was named by its diagnosis (and removed or corrected).
+    named: bool,
     flagged: Vec<bool>,
     /// Flag words at the default significance.
     words: Vec<&'static str>,
@@ -119,6 +132,18 @@ pub struct FlagRow {
     pub recall_pct: Option<f64>,
     /// Flagged among recovered frames, % (default significance).
     pub false_flag_pct: Option<f64>,
+    /// Frames whose answer is wrong ([`wrong_answer`]).
+    pub wrong: usize,
+    /// Recall on wrong answers: among frames whose answer is wrong, flagged or in a
+    /// stream whose fault the diagnosis named (and removed or corrected), %.
+    pub recall_wrong_pct: Option<f64>,
+    /// Among frames whose answer is wrong, flagged, %.
+    pub flagged_wrong_pct: Option<f64>,
+    /// False flags on right answers: flagged among frames whose answer is right, %.
+    pub false_flag_right_pct: Option<f64>,
+    /// Frames flagged `ceiling` (default significance), and how many of them have a
+    /// wrong answer: the flag is then right, not a false alarm.
+    pub ceiling_frames: (usize, usize),
     /// Streams whose diagnosis found what the fault should give and nothing else.
     pub diagnosis_right: usize,
     /// Suspects named that were not the fault's, over all streams.
@@ -211,13 +236,28 @@ fn judge_diagnosis(st: &Stream, done: &Reconstructed) -> (bool, usize) {
     (right && wrong == 0, wrong)
 }
 
+/// Whether an answer is wrong as a lab counts it: some cell's load off by more than
+/// [`WRONG_LOAD_G`], or a loaded cell missed or added (loaded from
+/// [`LOADED_FROM_G`]); an unusable frame (no loads) is wrong.
+pub fn wrong_answer(truth_g: &[f64], loads_g: &[f64]) -> bool {
+    truth_g.iter().zip(loads_g).any(|(t, x)| {
+        !x.is_finite()
+            || (t - x).abs() > WRONG_LOAD_G
+            || (*t >= LOADED_FROM_G) != (*x >= LOADED_FROM_G)
+    })
+}
+
 fn outcome(st: &Stream, done: &Reconstructed) -> StreamOutcome {
+    let (diagnosis_right, wrong_suspects) = judge_diagnosis(st, done);
+    let named = diagnosis_right && !st.expect.contains(&Expect::Nothing);
     let frames = st
         .truth_g
         .iter()
         .zip(&done.frames)
         .map(|(x0, r): (&Vec<f64>, &Reconstruction)| FrameOutcome {
             recovered: snr_db(x0, &r.loads_g) >= RECOVERY_THRESHOLD_DB,
+            wrong: wrong_answer(x0, &r.loads_g),
+            named,
             flagged: ROC_SIGNIFICANCES
                 .iter()
                 .map(|&a| !r.flags_at(a).trusted())
@@ -225,7 +265,6 @@ fn outcome(st: &Stream, done: &Reconstructed) -> StreamOutcome {
             words: r.flags_at(DEFAULT_SIGNIFICANCE).words(),
         })
         .collect();
-    let (diagnosis_right, wrong_suspects) = judge_diagnosis(st, done);
     StreamOutcome {
         frames,
         picked: done.setup.method.name().into(),
@@ -278,6 +317,13 @@ fn row(arr: &ArrayDef, fault: Fault, e: Entry, outs: &[StreamOutcome]) -> FlagRo
         .iter()
         .filter(|f| f.recovered && f.flagged[d])
         .count();
+    let wrong = frames.iter().filter(|f| f.wrong).count();
+    let caught = frames
+        .iter()
+        .filter(|f| f.wrong && (f.flagged[d] || f.named))
+        .count();
+    let flagged_wrong = frames.iter().filter(|f| f.wrong && f.flagged[d]).count();
+    let flagged_right = frames.iter().filter(|f| !f.wrong && f.flagged[d]).count();
     let mut picks: Vec<String> = Vec::new();
     for o in outs {
         if !picks.contains(&o.picked) {
@@ -305,6 +351,20 @@ fn row(arr: &ArrayDef, fault: Fault, e: Entry, outs: &[StreamOutcome]) -> FlagRo
         missed,
         recall_pct: pct(flagged_missed, missed),
         false_flag_pct: pct(flagged_ok, frames.len() - missed),
+        wrong,
+        recall_wrong_pct: pct(caught, wrong),
+        flagged_wrong_pct: pct(flagged_wrong, wrong),
+        false_flag_right_pct: pct(flagged_right, frames.len() - wrong),
+        ceiling_frames: (
+            frames
+                .iter()
+                .filter(|f| f.words.contains(&"ceiling"))
+                .count(),
+            frames
+                .iter()
+                .filter(|f| f.wrong && f.words.contains(&"ceiling"))
+                .count(),
+        ),
         diagnosis_right: outs.iter().filter(|o| o.diagnosis_right).count(),
         wrong_suspects: outs.iter().map(|o| o.wrong_suspects).sum(),
         common_mode_streams: outs.iter().filter(|o| o.common_mode).count(),
@@ -433,6 +493,12 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
         "missed",
         "recall_pct",
         "false_flag_pct",
+        "wrong",
+        "recall_wrong_pct",
+        "flagged_wrong_pct",
+        "false_flag_right_pct",
+        "ceiling_frames",
+        "ceiling_wrong",
         "diagnosis_right",
         "wrong_suspects",
         "common_mode_streams",
@@ -453,6 +519,15 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
                 r.recall_pct.map_or(String::new(), |v| format!("{v:.2}")),
                 r.false_flag_pct
                     .map_or(String::new(), |v| format!("{v:.2}")),
+                r.wrong.to_string(),
+                r.recall_wrong_pct
+                    .map_or(String::new(), |v| format!("{v:.2}")),
+                r.flagged_wrong_pct
+                    .map_or(String::new(), |v| format!("{v:.2}")),
+                r.false_flag_right_pct
+                    .map_or(String::new(), |v| format!("{v:.2}")),
+                r.ceiling_frames.0.to_string(),
+                r.ceiling_frames.1.to_string(),
                 r.diagnosis_right.to_string(),
                 r.wrong_suspects.to_string(),
                 r.common_mode_streams.to_string(),
@@ -542,17 +617,20 @@ fn table(
     )?;
     writeln!(
         report,
-        "Recall: flagged among frames below 12 dB (or unusable); false flags: flagged among frames at or above it. Diagnosis: streams whose suspects and common offset are the fault's and nothing else.\n"
+        "Recall (SNR): flagged among frames below 12 dB (or unusable); false flags (SNR): flagged among frames at or above it. Wrong: frames whose answer has a load off by more than {WRONG_LOAD_G} g or a loaded cell missed or added (loaded from {LOADED_FROM_G} g); recall (wrong): of those, flagged or in a stream whose fault the diagnosis named and removed or corrected (flagged alone in brackets); false flags (right): flagged among the other frames. Diagnosis: streams whose suspects and common offset are the fault's and nothing else.\n"
     )?;
     writeln!(
         report,
-        "| array | fault | method | RR % | missed | recall % | false flags % | diagnosis | wrong suspects | cm streams | est µs | measured µs |"
+        "| array | fault | method | RR % | missed | recall (SNR) % | false flags (SNR) % | wrong | recall (wrong) % [flagged] | false flags (right) % | diagnosis | wrong suspects | cm streams | est µs | measured µs |"
     )?;
-    writeln!(report, "|---|---|---|---|---|---|---|---|---|---|---|---|")?;
+    writeln!(
+        report,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    )?;
     for r in rows {
         writeln!(
             report,
-            "| {} | {} | {} | {:.1} | {} | {} | {} | {}/{} | {} | {} | {} | {:.1} |",
+            "| {} | {} | {} | {:.1} | {} | {} | {} | {} | {} [{}] | {} | {}/{} | {} | {} | {} | {:.1} |",
             r.array,
             r.fault,
             r.method,
@@ -560,6 +638,10 @@ fn table(
             r.missed,
             opt(r.recall_pct),
             opt(r.false_flag_pct),
+            r.wrong,
+            opt(r.recall_wrong_pct),
+            opt(r.flagged_wrong_pct),
+            opt(r.false_flag_right_pct),
             r.diagnosis_right,
             r.streams,
             r.wrong_suspects,

@@ -87,39 +87,26 @@ pub(crate) fn robust_line(points: &[(f64, f64)], floor: f64) -> Option<Line> {
 /// frames it rests on (gratings with too few frames are left out).
 pub(super) type Histories = Vec<(usize, Line, usize)>;
 
-/// Find the drifting gratings among the rows `current` keeps of `original`, and
-/// correct them; return every grating's residual history (for [`super::noisy`]).
-pub(super) fn find(
-    original: &SensingProblem,
-    current: &SensingProblem,
-    common_weights: Option<&[f64]>,
+/// The robust line of each of `rows` ((row of `current`, row of the original)):
+/// its leave-one-out residual history over the spread frames as `corr` corrects
+/// them; rows with too few usable frames are left out.
+fn lines(
+    with_offset: &SensingProblem,
     prior: &ReadingSettings,
     sample: &StreamSample,
-    corr: &mut Corrections,
-    suspects: &mut Vec<SuspectGrating>,
+    corr: &Corrections,
+    rows: &[(usize, usize)],
+    floor: f64,
 ) -> Result<Histories, ArrayError> {
-    let sigma = original.uncertainty.resolution_pm;
-    let kept = corr.kept(original.n_gratings());
     let frames: Vec<(usize, Vec<f64>)> = sample
         .spread()
         .iter()
         .map(|(f, y)| (*f, view(corr, *f, y)))
         .collect();
-    let mut histories = Histories::new();
-    if frames.len() < MIN_DRIFT_FRAMES {
-        return Ok(histories);
-    }
     let ys: Vec<&[f64]> = frames.iter().map(|(_, y)| y.as_slice()).collect();
-    let with_offset = match common_weights {
-        Some(w) if current.common_mode.is_none() => current
-            .clone()
-            .with_common_mode(w)
-            .unwrap_or_else(|_| current.clone()),
-        _ => current.clone(),
-    };
-    let mut found = Vec::new();
-    for (r, &i) in kept.iter().enumerate() {
-        let preds = leave_one_out(&with_offset, prior, r, &ys)?;
+    let mut out = Histories::new();
+    for &(r, i) in rows {
+        let preds = leave_one_out(with_offset, prior, r, &ys)?;
         let points: Vec<(f64, f64)> = frames
             .iter()
             .zip(&preds)
@@ -131,14 +118,50 @@ pub(super) fn find(
         if points.len() < MIN_DRIFT_FRAMES {
             continue;
         }
-        let Some(line) = robust_line(&points, 0.5 * sigma) else {
-            continue;
-        };
-        histories.push((i, line, points.len()));
-        if line.t.abs() >= DRIFT_T && line.change.abs() >= DRIFT_MIN_SIGMAS * sigma {
-            found.push((i, line, points.len()));
+        if let Some(line) = robust_line(&points, floor) {
+            out.push((i, line, points.len()));
         }
     }
+    Ok(out)
+}
+
+/// Find the drifting gratings among the rows `current` keeps of `original`, and
+/// correct them; return every grating's residual history (for [`super::noisy`]).
+///
+/// One drifting grating leaks into its neighbours' leave-one-out residuals (it is
+/// in their fits), so they can show a smaller trend of their own: the strongest
+/// trend is taken first, corrected, and the others tested again on the corrected
+/// frames, until none is left.
+pub(super) fn find(
+    original: &SensingProblem,
+    current: &SensingProblem,
+    common_weights: Option<&[f64]>,
+    prior: &ReadingSettings,
+    sample: &StreamSample,
+    corr: &mut Corrections,
+    suspects: &mut Vec<SuspectGrating>,
+) -> Result<Histories, ArrayError> {
+    let sigma = original.uncertainty.resolution_pm;
+    let kept = corr.kept(original.n_gratings());
+    if sample.spread().len() < MIN_DRIFT_FRAMES {
+        return Ok(Histories::new());
+    }
+    let with_offset = match common_weights {
+        Some(w) if current.common_mode.is_none() => current
+            .clone()
+            .with_common_mode(w)
+            .unwrap_or_else(|_| current.clone()),
+        _ => current.clone(),
+    };
+    let rows: Vec<(usize, usize)> = kept.iter().copied().enumerate().collect();
+    let histories = lines(&with_offset, prior, sample, corr, &rows, 0.5 * sigma)?;
+    let drifts = |h: &Histories| -> Histories {
+        h.iter()
+            .copied()
+            .filter(|(_, l, _)| l.t.abs() >= DRIFT_T && l.change.abs() >= DRIFT_MIN_SIGMAS * sigma)
+            .collect()
+    };
+    let mut found = drifts(&histories);
     // Half the gratings or more drifting the same way: the temperature of all.
     let m = kept.len();
     let up = found.iter().filter(|(_, l, _)| l.slope > 0.0).count();
@@ -146,7 +169,10 @@ pub(super) fn find(
     if up.max(down) >= 3.max(m.div_ceil(2)) {
         return Ok(histories);
     }
-    for (i, line, count) in found {
+    while let Some(k) =
+        (0..found.len()).max_by(|&a, &b| found[a].1.t.abs().total_cmp(&found[b].1.t.abs()))
+    {
+        let (i, line, count) = found.swap_remove(k);
         corr.trends.push((i, line.offset, line.slope));
         suspects.push(SuspectGrating {
             index: i,
@@ -161,6 +187,22 @@ pub(super) fn find(
             remedy: "its readings corrected by that trend".into(),
             frames: count,
         });
+        if found.is_empty() {
+            break;
+        }
+        let again: Vec<(usize, usize)> = rows
+            .iter()
+            .copied()
+            .filter(|(_, q)| found.iter().any(|(f, _, _)| f == q))
+            .collect();
+        found = drifts(&lines(
+            &with_offset,
+            prior,
+            sample,
+            corr,
+            &again,
+            0.5 * sigma,
+        )?);
     }
     Ok(histories)
 }

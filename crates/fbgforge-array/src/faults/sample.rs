@@ -27,6 +27,7 @@ pub struct StreamSample {
     spread: Vec<Indexed>,
     strongest: Largest,
     tops: Vec<Largest>,
+    most_held: usize,
 }
 
 /// The entries with the largest keys (pruned at twice `keep`, so that the cost per
@@ -75,6 +76,7 @@ impl StreamSample {
             spread: Vec::new(),
             strongest: Largest::default(),
             tops: vec![Largest::default(); problem.n_gratings()],
+            most_held: 0,
         }
     }
 
@@ -99,6 +101,17 @@ impl StreamSample {
         for (i, tops) in self.tops.iter_mut().enumerate() {
             tops.offer(y[i], (index, y), TOP_READINGS);
         }
+        let held = self.spread.len()
+            + self.strongest.items.len()
+            + self.tops.iter().map(|t| t.items.len()).sum::<usize>();
+        self.most_held = self.most_held.max(held);
+    }
+
+    /// The most frames (copies of a frame's readings) the sample held at once: at
+    /// most 2 × ([`SPREAD_FRAMES`] + [`STRONGEST_FRAMES`] + [`TOP_READINGS`] per
+    /// grating), whatever the stream's length.
+    pub fn most_frames_held(&self) -> usize {
+        self.most_held
     }
 
     /// Frames seen (usable or not).

@@ -18,14 +18,14 @@
 //! it), then the frames are reconstructed chunk by chunk (memory flat in the number
 //! of frames), and the default method's mean estimated time is kept within its
 //! budget ([`StreamRun`]'s guard). [`reconstruct`] does both for frames held in
-//! memory; `fbgforge reconstruct` ([`crate::run::reconstruct_file`]) reads its file
-//! whole and goes through the same [`StreamRun`] (reading the file chunk by chunk
-//! too is not done yet: docs/array.md §11.10), and the Python binding and the live
-//! mode ([`crate::live::interpret`]) come through here too.
+//! memory; `fbgforge reconstruct` ([`crate::run::reconstruct_file`]) streams its
+//! file through the same [`StreamRun`] (two passes: the sample, then the chunks;
+//! docs/array.md §11.10), and the Python binding and the live mode
+//! ([`crate::live::interpret`]) come through here too.
 
 mod stream;
 
-pub use stream::{BudgetNote, StreamRun, CHUNK_FRAMES};
+pub use stream::{BudgetNote, StreamEnd, StreamRun, CHUNK_FRAMES};
 
 pub use super::choice::DEFAULT_BUDGET_US;
 use super::choice::{check_budget, default_choice, Candidate};
