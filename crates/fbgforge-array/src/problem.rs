@@ -211,7 +211,7 @@ impl SensingProblem {
             diagnose_stream: true,
             auto_common_mode: Some(vec![1.0; m]),
             window_pm: DEFAULT_WINDOW_PM,
-            significance: crate::trust::DEFAULT_SIGNIFICANCE,
+            significance: crate::trust::significance::DEFAULT_SIGNIFICANCE,
         };
         p.derive_working()?;
         Ok(p)
@@ -404,7 +404,7 @@ impl SensingProblem {
     /// The same problem with the significance `significance` of the per-frame test
     /// (in (0, 0.5]; see [`crate::trust`]).
     pub fn with_significance(mut self, significance: f64) -> Result<Self, ArrayError> {
-        crate::trust::check_significance(significance)?;
+        crate::trust::significance::check_significance(significance)?;
         self.significance = significance;
         Ok(self)
     }

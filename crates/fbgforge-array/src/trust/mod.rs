@@ -62,6 +62,7 @@
 
 mod chi2;
 mod rivals;
+pub(crate) mod significance;
 
 use chi2::chi2_1_quantile;
 pub(crate) use chi2::{chi2_p_value, chi2_quantile};
@@ -75,10 +76,7 @@ use serde::Serialize;
 
 /// The per-frame flags, defined beside the [`Reconstruction`] that carries them.
 pub use super::methods::FrameFlags;
-
-/// The significance of the frame test when none is given: a true answer is flagged
-/// (by any of the three tests) with at most this probability, on any array.
-pub const DEFAULT_SIGNIFICANCE: f64 = 0.05;
+pub use significance::{check_significance, DEFAULT_SIGNIFICANCE};
 
 /// The tests a clean frame can fail (`inconsistent`, `ambiguous`, `below_range`):
 /// each is run at the significance divided by this, so that a true answer is
@@ -89,17 +87,6 @@ pub const TESTS: f64 = 3.0;
 /// The price of one load in the penalised χ²: the ℓ0 methods' λ = 16 σ²
 /// ([`crate::methods::l0_penalty_for_resolution`]) in units of σ².
 pub const OCCAM_CHI2: f64 = 16.0;
-
-/// A significance must be a probability in (0, 0.5].
-pub fn check_significance(significance: f64) -> Result<(), ArrayError> {
-    if significance.is_finite() && significance > 0.0 && significance <= 0.5 {
-        Ok(())
-    } else {
-        Err(ArrayError::Input(format!(
-            "SensingProblem.significance must be a probability in (0, 0.5], got {significance}"
-        )))
-    }
-}
 
 /// The rival quantile q(α): the χ²₁ quantile at 1 − α.
 pub fn rival_quantile(significance: f64) -> f64 {
