@@ -373,9 +373,12 @@ fn sweep_range(
     };
     let (start, stop) = (from.unwrap_or(lo), to.unwrap_or(hi));
     if from.is_none() || to.is_none() {
-        println!(
-            "range from the material library ({role_name} materials printed by {process_name}): \
-             {start}..{stop} MPa"
+        print!(
+            "{}",
+            fbgforge::report::terminal::fit(&format!(
+                "range from the material library ({role_name} materials printed by \
+                 {process_name}): {start}..{stop} MPa\n"
+            ))
         );
     }
     Ok((start, stop))

@@ -147,7 +147,8 @@ pub struct ReconstructArgs {
 
 /// The shifts of a wavelength log from its tare, read as `live` reads a log
 /// (`fbgforge::live::replay`), written to <log name>-shifts.csv beside `out` (the
-/// loads), else in out/reconstruct: that file's path. Says what the tare took unless `quiet` (JSON on stdout).
+/// loads), else in out/reconstruct: that file's path. Says what the tare took unless
+/// `quiet` (JSON on stdout).
 fn shifts_from_log(
     design: &std::path::Path,
     log: &std::path::Path,
@@ -174,19 +175,18 @@ fn shifts_from_log(
     let path = dir.join(format!("{stem}-shifts.csv"));
     tared.write_shifts_csv(&path)?;
     if !quiet {
-        println!(
-            "{}: tare on the first {} frames at rest; {} frames read, {} skipped{}; shifts in {}",
+        let first = tared.skipped.first();
+        let text = format!(
+            "{}: tare on the first {} frames at rest; {} frames read, {} skipped{}; \
+             shifts in {}\n",
             log.display(),
             tared.tare_frames,
             tared.shifts_pm.len(),
             tared.skipped.len(),
-            tared
-                .skipped
-                .first()
-                .map(|s| format!(" (first: {s})"))
-                .unwrap_or_default(),
+            first.map(|s| format!(" (first: {s})")).unwrap_or_default(),
             path.display()
         );
+        print!("{}", fbgforge::report::terminal::fit(&text));
     }
     Ok(path)
 }
