@@ -376,8 +376,8 @@ fn sweep_range(
         print!(
             "{}",
             fbgforge::report::terminal::fit(&format!(
-                "range from the material library ({role_name} materials printed by \
-                 {process_name}): {start}..{stop} MPa\n"
+                "range from the material library ({process_name} {role_name}s): \
+                 {start}..{stop} MPa\n"
             ))
         );
     }
