@@ -85,6 +85,9 @@ def test_synth_log_and_verify_with_and_without_report_fit(cli, scratch):
 def test_sweep_fits(cli, scratch):
     out = run(cli, scratch, "sweep", MODULE, "--param", "es_mpa", "--from", "10", "--to", "2000", "--steps", "21", "--case", "I")
     assert_fits(out, "Δλ first", "sweep")
+    # A modulus without a range: the material library's, said in a line that fits.
+    out = run(cli, scratch, "sweep", MODULE, "--param", "es_mpa", "--steps", "5", "--fidelity", "closed-form")
+    assert_fits(out, "range from the material library", "sweep (library range)")
 
 
 def test_build_fits(cli, scratch):
@@ -107,6 +110,9 @@ def test_array_commands_fit(cli, scratch):
     rec = run(cli, scratch, "reconstruct", "--matrix", FIXTURES / "array" / "paper-model-matrix.csv",
               "--shifts", FIXTURES / "array" / "paper-model-shifts.csv")
     assert_fits(rec, "trusted 4 of 4 frames", "reconstruct")
+    # The calibration run's wavelength log, tared and matched as `live` does.
+    rec = run(cli, scratch, "reconstruct", ARRAY, "--log", "cal/log.txt", "--out", "cal/loads.csv")
+    assert_fits(rec, "frames at rest", "reconstruct --log")
 
 
 def test_peaks_fits(cli, scratch):

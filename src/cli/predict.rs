@@ -5,7 +5,6 @@
 //! `fbgforge::report::predict`.
 
 use super::progress::Bar;
-use fbgforge::report::terminal::Fit;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use fbgforge::array::kernel::ArrayModelKind;
@@ -18,6 +17,7 @@ use fbgforge::prediction::{
     SweepRequest,
 };
 use fbgforge::report::predict::{array, PaperFigureFiles, PredictJson, PredictTable, SweepFiles};
+use fbgforge::report::terminal::Fit;
 use std::path::{Path, PathBuf};
 
 /// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
@@ -295,10 +295,14 @@ pub struct SweepArgs {
     /// cap_wall_mm (an unknown name lists them all).
     #[arg(long)]
     pub param: Option<String>,
-    /// First value of the range.
+    /// First value of the range. For a modulus (e1_mpa, e2_mpa, es_mpa) without
+    /// --from/--to, the range is the material library's: the smallest to the largest
+    /// modulus of the cores, caps or inserts the design's printer makes
+    /// (designs/library/materials.toml), in --steps values (41 by default).
     #[arg(long)]
     pub from: Option<f64>,
-    /// Last value of the range (must be larger than --from).
+    /// Last value of the range (must be larger than --from); see --from for a
+    /// modulus's default.
     #[arg(long)]
     pub to: Option<f64>,
     /// Number of values, including both ends.
@@ -337,6 +341,49 @@ pub struct SweepArgs {
     pub no_band: bool,
 }
 
+/// The range of a sweep: --from/--to, else for a modulus the library's range of the
+/// materials the design's printer makes for that part.
+fn sweep_range(
+    design: &fbgforge::spec::Design,
+    param: &sweep::SweepParam,
+    from: Option<f64>,
+    to: Option<f64>,
+) -> Result<(f64, f64)> {
+    use fbgforge::optimize::materials::{MaterialLibrary, MaterialRole};
+    if let (Some(start), Some(stop)) = (from, to) {
+        return Ok((start, stop));
+    }
+    let role = match param.name {
+        "e1_mpa" => MaterialRole::Core,
+        "e2_mpa" => MaterialRole::Cap,
+        "es_mpa" => MaterialRole::Insert,
+        _ => bail!("--from and --to are required for a sweep of {}", param.name),
+    };
+    let process = design.printer.process;
+    let (role_name, process_name) = (
+        format!("{role:?}").to_lowercase(),
+        format!("{process:?}").to_lowercase(),
+    );
+    let Some((lo, hi)) = MaterialLibrary::shipped().modulus_range(role, process) else {
+        bail!(
+            "the material library offers no {role_name} material for this printer ({process_name}); \
+             give --from and --to for a sweep of {}",
+            param.name
+        );
+    };
+    let (start, stop) = (from.unwrap_or(lo), to.unwrap_or(hi));
+    if from.is_none() || to.is_none() {
+        print!(
+            "{}",
+            fbgforge::report::terminal::fit(&format!(
+                "range from the material library ({process_name} {role_name}s): \
+                 {start}..{stop} MPa\n"
+            ))
+        );
+    }
+    Ok((start, stop))
+}
+
 /// Run `fbgforge sweep`: one parameter over a range, or the paper's figures.
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
     let design = fbgforge::design::load(&a.design)?;
@@ -348,7 +395,8 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
             fem_options: FemOptions::default(),
             cache: GeometryCache::default(),
         };
-        let mut sink = PaperFigureFiles::new(dir.clone(), Fit::new(std::io::stdout()), in_flag_words);
+        let mut sink =
+            PaperFigureFiles::new(dir.clone(), Fit::new(std::io::stdout()), in_flag_words);
         return fbgforge::prediction::paper_figures(&design, &request, &Bar::new(), &mut sink)
             .map_err(RunError::into_inner);
     }
@@ -359,9 +407,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     };
     let param = sweep::find_param(name)?;
-    let (Some(start), Some(stop)) = (a.from, a.to) else {
-        bail!("--from and --to are required for a sweep of {}", param.name);
-    };
+    let (start, stop) = sweep_range(&design, param, a.from, a.to)?;
     let request = SweepRequest {
         param,
         start,

@@ -58,8 +58,18 @@ pub struct ReconstructArgs {
     )]
     pub design_flag: Option<PathBuf>,
     /// Shifts CSV: header `[time_s,]<grating names…>`, one row per frame, pm.
+    #[arg(long, required_unless_present = "log", conflicts_with = "log")]
+    pub shifts: Option<PathBuf>,
+    /// Instead of --shifts, an interrogator's wavelength log (any format `verify --log`
+    /// reads) of the array DESIGN, read as `live` reads one: each grating found in its
+    /// window, the tare taken on the first frames at rest (--tare-frames, spanning
+    /// ≥ 1 s), the shifts of the later frames from it, written to <log name>-shifts.csv
+    /// (beside --out, else in out/reconstruct) and reconstructed.
     #[arg(long)]
-    pub shifts: PathBuf,
+    pub log: Option<PathBuf>,
+    /// With --log: frames the tare window holds at least (as `live`'s --tare-frames).
+    #[arg(long, default_value_t = 50, requires = "log")]
+    pub tare_frames: usize,
     /// Method: wsupport, support, bnb, nnls, lasso, omp or de (default: the most
     /// accurate method within --budget-us per frame for this array, chosen from the
     /// work each candidate does on frames spread over the file, converted to time by
@@ -135,12 +145,75 @@ pub struct ReconstructArgs {
     pub json: bool,
 }
 
+/// The shifts of a wavelength log from its tare, read as `live` reads a log
+/// (`fbgforge::live::replay`), written to <log name>-shifts.csv beside `out` (the
+/// loads), else in out/reconstruct: that file's path. Says what the tare took unless
+/// `quiet` (JSON on stdout).
+fn shifts_from_log(
+    design: &std::path::Path,
+    log: &std::path::Path,
+    tare_frames: usize,
+    resolution_pm: Option<f64>,
+    (out, quiet): (Option<&std::path::Path>, bool),
+) -> Result<PathBuf> {
+    use fbgforge::live::interpret::InterpretOptions;
+    let d = fbgforge::design::load(design)?;
+    let defaults = InterpretOptions::default();
+    let opts = InterpretOptions {
+        tare_frames,
+        resolution_pm: resolution_pm.unwrap_or(defaults.resolution_pm),
+        ..defaults
+    };
+    let tared = fbgforge::live::replay::tare_log(&d, log, &Default::default(), &opts)?;
+    let stem = log
+        .file_stem()
+        .map_or("log".into(), |s| s.to_string_lossy().into_owned());
+    let dir = out
+        .and_then(|o| o.parent())
+        .filter(|p| !p.as_os_str().is_empty())
+        .map_or(PathBuf::from("out/reconstruct"), |p| p.to_path_buf());
+    let path = dir.join(format!("{stem}-shifts.csv"));
+    tared.write_shifts_csv(&path)?;
+    if !quiet {
+        let first = tared.skipped.first();
+        let text = format!(
+            "{}: tare on the first {} frames at rest; {} frames read, {} skipped{}; \
+             shifts in {}\n",
+            log.display(),
+            tared.tare_frames,
+            tared.shifts_pm.len(),
+            tared.skipped.len(),
+            first.map(|s| format!(" (first: {s})")).unwrap_or_default(),
+            path.display()
+        );
+        print!("{}", fbgforge::report::terminal::fit(&text));
+    }
+    Ok(path)
+}
+
 /// Run `fbgforge reconstruct`.
 pub fn run(a: ReconstructArgs) -> Result<()> {
-    let matrix = match (a.matrix, a.design.or(a.design_flag)) {
+    let design = a.design.or(a.design_flag);
+    let shifts = match (&a.shifts, &a.log, &design) {
+        (Some(s), _, _) => s.clone(),
+        (None, Some(log), Some(d)) => shifts_from_log(
+            d,
+            log,
+            a.tare_frames,
+            a.resolution_pm,
+            (a.out.as_deref(), a.json),
+        )?,
+        (None, Some(_), None) => {
+            anyhow::bail!("--log needs the array design: reconstruct DESIGN --log LOG")
+        }
+        (None, None, _) => anyhow::bail!("give --shifts SHIFTS.csv or --log WAVELENGTH_LOG"),
+    };
+    let matrix = match (a.matrix, design) {
         (Some(p), _) => MatrixSource::Csv(p),
         (None, Some(d)) => MatrixSource::Design(d),
-        (None, None) => anyhow::bail!("give an array design (reconstruct DESIGN) or --matrix A.csv"),
+        (None, None) => {
+            anyhow::bail!("give an array design (reconstruct DESIGN) or --matrix A.csv")
+        }
     };
     let req = ReconstructRequest {
         method: a.method,
@@ -158,7 +231,7 @@ pub fn run(a: ReconstructArgs) -> Result<()> {
         significance: a.significance,
         window_pm: a.window_pm,
         out: a.out,
-        ..ReconstructRequest::new(matrix, a.shifts)
+        ..ReconstructRequest::new(matrix, shifts)
     };
     let summary = reconstruct_file(&req, &super::progress::Bar::new())?;
     if a.json {

@@ -350,3 +350,106 @@ fn the_interrogator_resolution_sets_the_l0_penalty() {
         assert_eq!(p, 1.0, "{method}");
     }
 }
+
+/// Loads CSV (`time_s,<cells…>` and trust columns) as rows of numbers: (time, loads).
+fn loads_rows(path: &Path, cells: usize) -> Vec<(f64, Vec<f64>)> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .take(1 + cells)
+                .map(|v| v.parse().unwrap())
+                .collect();
+            (f[0], f[1..].to_vec())
+        })
+        .collect()
+}
+
+#[test]
+fn a_wavelength_log_reconstructs_as_its_shifts_do() {
+    // Stated tolerance: loads from --log and from the shifts CSV agree within 0.5 g.
+    const TOLERANCE_G: f64 = 0.5;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("schedule.csv"),
+        "start_s,end_s,cell,load_g\n3,5,B,100\n6,8,D,150\n9,11,A,80\n",
+    )
+    .unwrap();
+    let syn = d.join("syn");
+    let o = fbgforge(&[
+        "synth-log",
+        "tactile-array-60x80",
+        "--schedule",
+        d.join("schedule.csv").to_str().unwrap(),
+        "--format",
+        "csv",
+        "--out",
+        syn.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The shifts by hand: the mean of the first 50 rows (2.5 s at rest) as the tare.
+    let log = std::fs::read_to_string(syn.join("log.csv")).unwrap();
+    let mut lines = log.lines();
+    let header = lines.next().unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let n = header.split(',').count();
+    let tare: Vec<f64> = (1..n)
+        .map(|g| rows[..50].iter().map(|r| r[g]).sum::<f64>() / 50.0)
+        .collect();
+    let mut shifts = format!("{header}\n");
+    for r in &rows[50..] {
+        let s: Vec<String> = (1..n)
+            .map(|g| format!("{:.6}", (r[g] - tare[g - 1]) * 1e3))
+            .collect();
+        shifts.push_str(&format!("{},{}\n", r[0], s.join(",")));
+    }
+    std::fs::write(d.join("shifts.csv"), shifts).unwrap();
+    let run = |input: &str, path: &Path, out: &Path| {
+        let o = fbgforge(&[
+            "reconstruct",
+            "tactile-array-60x80",
+            input,
+            path.to_str().unwrap(),
+            "--method",
+            "support",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let stdout = run("--log", &syn.join("log.csv"), &d.join("via-log.csv"));
+    let flat = stdout.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        flat.contains("tare on the first 50 frames at rest; 370 frames read, 0 skipped"),
+        "{stdout}"
+    );
+    assert!(
+        d.join("log-shifts.csv").exists(),
+        "the shifts beside the loads"
+    );
+    run("--shifts", &d.join("shifts.csv"), &d.join("via-shifts.csv"));
+    let (a, b) = (
+        loads_rows(&d.join("via-log.csv"), 8),
+        loads_rows(&d.join("via-shifts.csv"), 8),
+    );
+    assert_eq!(a.len(), 370);
+    assert_eq!(a.len(), b.len());
+    let mut worst = 0.0f64;
+    for ((ta, la), (tb, lb)) in a.iter().zip(&b) {
+        assert!((ta - tb).abs() < 1e-9);
+        for (x, y) in la.iter().zip(lb) {
+            worst = worst.max((x - y).abs());
+        }
+    }
+    assert!(worst <= TOLERANCE_G, "loads differ by up to {worst} g");
+    // The loads are there: the 150 g on D is read near 150 g in both.
+    let peak_d = a.iter().map(|(_, l)| l[3]).fold(0.0, f64::max);
+    assert!(peak_d > 50.0, "D peaks at {peak_d} g");
+}

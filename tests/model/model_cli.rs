@@ -260,3 +260,61 @@ fn predict_mesh_level_is_fixed_when_given_and_refused_outside_1_to_4() {
     assert_eq!(v["starting_mesh_level"], 2, "{v}");
     assert_eq!(v["mesh_levels_used"], serde_json::json!([2]), "{v}");
 }
+
+#[test]
+fn a_modulus_sweep_without_a_range_spans_the_material_library() {
+    use fbgforge::optimize::materials::{MaterialLibrary, MaterialRole};
+    let d = design("clip-on-34mm.toml");
+    let process = fbgforge::design::load(&d).unwrap().printer.process;
+    let dir = tempfile::tempdir().unwrap();
+    let lib = MaterialLibrary::shipped();
+    for (param, role) in [
+        ("es_mpa", MaterialRole::Insert),
+        ("e1_mpa", MaterialRole::Core),
+        ("e2_mpa", MaterialRole::Cap),
+    ] {
+        let (lo, hi) = lib.modulus_range(role, process).unwrap();
+        // The library offers more than one material for each part: a real range.
+        assert!(hi > lo, "{param}: {lo}..{hi}");
+        let csv = dir.path().join(format!("{param}.csv"));
+        let o = run(&[
+            "sweep",
+            d.to_str().unwrap(),
+            "--param",
+            param,
+            "--steps",
+            "4",
+            "--fidelity",
+            "closed-form",
+            "--plot",
+            dir.path().join("s.svg").to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{param}: {}", stderr(&o));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            stdout.contains(&format!("over {lo}..{hi} (4 ")),
+            "{param}: {stdout}"
+        );
+        let values: Vec<f64> = std::fs::read_to_string(&csv)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect();
+        let min = values.iter().cloned().fold(f64::INFINITY, f64::min);
+        let max = values.iter().cloned().fold(0.0, f64::max);
+        assert!(
+            (min - lo).abs() < 1e-9 * lo && (max - hi).abs() < 1e-9 * hi,
+            "{param}: {min}..{max}"
+        );
+    }
+    // A length has no library range: still asked for.
+    let o = run(&["sweep", d.to_str().unwrap(), "--param", "cap_wall_mm"]);
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("--from and --to are required"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -135,3 +135,68 @@ fn linear_and_log_spacing_can_be_asked_for() {
         "log"
     );
 }
+
+/// (number of shift lines, their distinct stroke colours) of a sweep chart.
+fn shift_legend(svg: &str) -> (usize, BTreeSet<String>) {
+    let lines = svg.matches(r#"<polyline class="line""#).count();
+    let colours = svg
+        .match_indices(r#"<polyline class="line""#)
+        .map(|(i, _)| attr(&svg[i..i + svg[i..].find('>').unwrap()], "stroke").to_string())
+        .collect();
+    (lines, colours)
+}
+
+#[test]
+fn coinciding_configurations_are_drawn_once_and_named_together() {
+    let dir = tempfile::tempdir().unwrap();
+    // Distinct curves: the shipped design's e2 sweep draws every configuration.
+    let run = |design: &Path, svg: &Path| {
+        let out = crate::common::bin()
+            .arg("sweep")
+            .arg(design)
+            .args([
+                "--param", "e2_mpa", "--from", "20", "--to", "80", "--steps", "4",
+            ])
+            .args(["--fidelity", "closed-form", "--csv"])
+            .arg(dir.path().join("s.csv"))
+            .arg("--plot")
+            .arg(svg)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read_to_string(svg).unwrap()
+    };
+    let shipped_design = shipped("clip-on-34mm.toml");
+    let svg = run(&shipped_design, &dir.path().join("a.svg"));
+    let (lines, colours) = shift_legend(&svg);
+    // Case II and three inserts, four strain gratings each.
+    assert_eq!((lines, colours.len()), (16, 4), "{colours:?}");
+    assert!(!svg.contains(" = "), "nothing merged");
+    // A fourth insert of the green insert's material: the same curves, drawn once.
+    let text = std::fs::read_to_string(&shipped_design).unwrap();
+    let twin = text.replacen(
+        "[[module.inserts]]\nname = \"green\"",
+        "[[module.inserts]]\nname = \"green_twin\"\nmaterial = \"insert_green\"\n\n\
+         [[module.inserts]]\nname = \"green\"",
+        1,
+    );
+    assert_ne!(twin, text);
+    let path = dir.path().join("twin.toml");
+    std::fs::write(&path, twin).unwrap();
+    let svg = run(&path, &dir.path().join("b.svg"));
+    let csv = std::fs::read_to_string(dir.path().join("s.csv")).unwrap();
+    assert!(
+        csv.contains(",green_twin,"),
+        "the CSV keeps every configuration"
+    );
+    let (lines, colours) = shift_legend(&svg);
+    assert_eq!((lines, colours.len()), (16, 4), "{colours:?}");
+    assert!(
+        svg.contains("Case I · green_twin = Case I · green"),
+        "the legend names both"
+    );
+}

@@ -8,6 +8,8 @@
 //!   array's cell loads (its default reconstruction method) or the module's
 //!   temperature-compensated force per grating (predicted or calibrated K);
 //! * [`tare`]: the zero-load wavelengths, taken only from a window at rest;
+//! * [`replay`]: a finished log read the same way, its shifts from the tare (for
+//!   `reconstruct --log`);
 //! * [`control`]: stop a run or tare again while it runs;
 //! * [`stats`]: frames, drops, bad frames by kind, reconnections, latency;
 //! * [`sink`]: where the output goes ([`sink::LiveSink`]; the terminal view and the
@@ -30,6 +32,7 @@ use fbgforge_model::{fem, model, prediction, solvers};
 pub mod control;
 pub mod hyperion;
 pub mod interpret;
+pub mod replay;
 pub mod sink;
 pub mod source;
 pub mod stats;

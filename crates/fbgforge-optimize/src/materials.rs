@@ -223,6 +223,19 @@ impl MaterialLibrary {
             .collect()
     }
 
+    /// Smallest and largest modulus (MPa) of the materials a printer of `process`
+    /// makes for `role`: `sweep`'s default range for a modulus parameter. `None` when
+    /// the library offers no such material.
+    pub fn modulus_range(&self, role: MaterialRole, process: PrintProcess) -> Option<(f64, f64)> {
+        self.for_role(role, process)
+            .iter()
+            .map(|k| self.materials[k].youngs_modulus_mpa)
+            .fold(None, |r, e| match r {
+                None => Some((e, e)),
+                Some((lo, hi)) => Some((f64::min(lo, e), f64::max(hi, e))),
+            })
+    }
+
     /// Viscoelastic parameters of a design material: the library entry of the same
     /// name, else class defaults from its modulus.
     pub(crate) fn visco_for(&self, name: &str, m: &Material) -> ViscoParams {

@@ -8,7 +8,7 @@ use crate::plot::{Chart, Mark, Series, Stroke};
 use crate::spec::Design;
 use anyhow::Result;
 use fbgforge_core::fields::InWords;
-use fbgforge_model::model::sweep::{SweepResult, PAPER_FIGURES};
+use fbgforge_model::model::sweep::{SweepResult, SweepSeries, PAPER_FIGURES};
 use fbgforge_model::prediction::{
     FidelityChoice, FigureSwept, PaperFiguresRequest, SweepSink, Swept, DEFAULT_CONTACT_WARNING,
 };
@@ -24,9 +24,68 @@ fn fidelity_label(f: FidelityChoice) -> &'static str {
     }
 }
 
-/// The sweep's chart: one colour per configuration (case and insert), one dash per
-/// grating within it, and one band per configuration (the envelope of its gratings'
-/// bands, outlined), with the legend beside the plot: twelve series stay readable.
+/// Relative tolerance under which two curves are the same curve, drawn once.
+pub const SAME_CURVE_TOLERANCE: f64 = 1e-3;
+
+/// True when `a` and `b` are the same curve: the same swept values and shifts equal
+/// within [`SAME_CURVE_TOLERANCE`] of the larger at every value.
+fn same_curve(a: &SweepSeries, b: &SweepSeries) -> bool {
+    let close = |p: f64, q: f64| (p - q).abs() <= SAME_CURVE_TOLERANCE * p.abs().max(q.abs());
+    a.x.len() == b.x.len()
+        && a.x.iter().zip(&b.x).all(|(p, q)| close(*p, *q))
+        && a.shift_pm
+            .iter()
+            .zip(&b.shift_pm)
+            .all(|(p, q)| close(*p, *q))
+}
+
+/// A configuration's legend name, e.g. `Case I · blue`.
+fn config_name(case: LoadCase, insert: &Option<String>) -> String {
+    match insert {
+        Some(i) => format!("Case {case} · {i}"),
+        None => format!("Case {case}"),
+    }
+}
+
+/// Configurations drawn as one: their legend names, and the series of the first.
+pub type Configuration<'a> = (Vec<String>, Vec<&'a SweepSeries>);
+
+/// The sweep's configurations (case and insert) with their series, those whose every
+/// grating's curve coincides with another's ([`same_curve`]) merged into one: the
+/// names of the merged configurations, and the series of the first.
+pub fn distinct_configurations(r: &SweepResult) -> Vec<Configuration<'_>> {
+    let mut keys: Vec<(LoadCase, Option<String>)> = Vec::new();
+    for s in &r.series {
+        let key = (s.case, s.insert.clone());
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    let mut groups: Vec<Configuration<'_>> = Vec::new();
+    for key in keys {
+        let members: Vec<_> = r
+            .series
+            .iter()
+            .filter(|s| (s.case, s.insert.clone()) == key)
+            .collect();
+        let same = |g: &[&SweepSeries]| {
+            g.len() == members.len()
+                && g.iter()
+                    .zip(&members)
+                    .all(|(a, b)| a.grating == b.grating && same_curve(a, b))
+        };
+        match groups.iter_mut().find(|(_, g)| same(g)) {
+            Some((names, _)) => names.push(config_name(key.0, &key.1)),
+            None => groups.push((vec![config_name(key.0, &key.1)], members)),
+        }
+    }
+    groups
+}
+
+/// The sweep's chart: one colour per distinct configuration (case and insert;
+/// configurations whose curves coincide within 0.1 % are drawn once, the legend naming
+/// them all), one dash per grating within it, and one band per configuration (the
+/// envelope of its gratings' bands, outlined), with the legend beside the plot.
 pub fn sweep_chart(r: &SweepResult, title: &str, log_x: bool) -> Chart {
     let mut c = Chart::new(
         title,
@@ -34,23 +93,12 @@ pub fn sweep_chart(r: &SweepResult, title: &str, log_x: bool) -> Chart {
         format!("Δλ at {} N (pm)", r.force_n),
     );
     c.x_log = log_x;
-    let mut groups: Vec<(LoadCase, Option<String>)> = Vec::new();
-    for s in &r.series {
-        let key = (s.case, s.insert.clone());
-        if !groups.contains(&key) {
-            groups.push(key);
-        }
-    }
-    for (gi, key) in groups.iter().enumerate() {
-        let members: Vec<_> = r
-            .series
-            .iter()
-            .filter(|s| (s.case, s.insert.clone()) == *key)
-            .collect();
+    for (gi, (names, members)) in distinct_configurations(r).iter().enumerate() {
+        let what = names.join(" = ");
         for (k, s) in members.iter().enumerate() {
             c = c.with(
                 Series::new(
-                    s.label(),
+                    format!("{} · {what}", s.grating),
                     s.x.iter()
                         .copied()
                         .zip(s.shift_pm.iter().copied())
@@ -62,11 +110,7 @@ pub fn sweep_chart(r: &SweepResult, title: &str, log_x: bool) -> Chart {
                 .with_role("shift"),
             );
         }
-        if let Some(band) = group_band(&members, r.force_n) {
-            let what = match &key.1 {
-                Some(i) => format!("Case {} · {i}", key.0),
-                None => format!("Case {}", key.0),
-            };
+        if let Some(band) = group_band(members, r.force_n) {
             c = c.with(
                 Series::new(
                     format!("band, {what} (contact readings)"),
@@ -85,10 +129,7 @@ pub fn sweep_chart(r: &SweepResult, title: &str, log_x: bool) -> Chart {
 
 /// The band of K of one configuration's gratings as a band of the shift at force `f`:
 /// their envelope at each value (`None` when some grating has no band).
-fn group_band(
-    members: &[&fbgforge_model::model::sweep::SweepSeries],
-    f: f64,
-) -> Option<Vec<(f64, f64, f64)>> {
+fn group_band(members: &[&SweepSeries], f: f64) -> Option<Vec<(f64, f64, f64)>> {
     let first = members[0];
     let banded = members
         .iter()
