@@ -7,7 +7,7 @@
 //! (`--force-start`). A test checks that every field name the library's sources can
 //! say has its flag here.
 
-use super::{build, live, optimize, peaks, predict, reconstruct, verify};
+use super::{build, live, log_args, optimize, peaks, predict, reconstruct, verify};
 use fbgforge::fields::in_words;
 
 /// Every subcommand's `(field, flag)` pairs.
@@ -19,6 +19,7 @@ pub const FLAGS: &[&[(&str, &str)]] = &[
     reconstruct::FLAGS,
     live::FLAGS,
     peaks::FLAGS,
+    log_args::FLAGS,
 ];
 
 /// `message` with every request field named as its flag.

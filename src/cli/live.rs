@@ -4,8 +4,8 @@
 
 mod steer;
 
+use super::log_args::{read_options, DateOrderArg, LogFormatArg};
 use super::predict::{CaseArg, FidelityArg};
-use super::verify::{read_options, DateOrderArg, LogFormatArg};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use fbgforge::live::control::LiveControl;
@@ -213,7 +213,7 @@ pub struct LiveArgs {
     #[arg(long, value_enum)]
     pub format: Option<LogFormatArg>,
     #[command(flatten)]
-    pub spectrum: super::peaks::SpectrumArgs,
+    pub spectrum: super::log_args::SpectrumArgs,
     /// Log file: order of day and month in slash dates.
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,

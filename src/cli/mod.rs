@@ -5,6 +5,7 @@ pub mod build;
 pub mod designs;
 pub mod hiargs;
 pub mod live;
+pub mod log_args;
 pub mod optimize;
 pub mod peaks;
 pub mod predict;

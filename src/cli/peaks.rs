@@ -1,77 +1,18 @@
 //! `fbgforge peaks`: a spectrum file's peaks with their uncertainty (the work is
-//! `fbgforge::logs::peaks::run`), and the spectrum flags every command that reads a
-//! wavelength log shares ([`SpectrumArgs`]).
+//! `fbgforge::logs::peaks::run`).
 
+use super::log_args::SpectrumArgs;
 use anyhow::Result;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use fbgforge::logs::peaks::{self, PeaksRequest};
 use fbgforge::report::peaks::{json, summary_text};
 use std::path::PathBuf;
 
-/// This subcommand's request fields and the flags that fill them (`cli::hiargs`); the
-/// spectrum flags serve `verify`, `calibrate-array` and `live` too.
+/// This subcommand's request fields and the flags that fill them (`cli::hiargs`).
 pub const FLAGS: &[(&str, &str)] = &[
-    ("ReadOptions.imon_calibration", "--imon-calibration"),
-    ("ReadOptions.estimator", "--estimator"),
     ("PeaksRequest.window_half_width_nm", "--window-nm"),
     ("PeaksRequest.out", "--out"),
 ];
-
-/// A peak estimator on the command line (`fbgforge::logs::estimator_names`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum EstimatorArg {
-    /// Gaussian least squares (the default: within 2× the Cramér–Rao bound wherever it
-    /// can be met).
-    Gaussian,
-    /// 3-point parabola on log power (as good at 1.5–2 samples per FWHM, ~65× faster).
-    Parabola,
-    /// Centroid over the half maximum (pixel-locked on narrow peaks).
-    Centroid,
-    /// Cross-correlation with each grating's spectrum in the first acquisition.
-    Xcorr,
-}
-
-impl EstimatorArg {
-    fn name(self) -> &'static str {
-        match self {
-            EstimatorArg::Gaussian => "gaussian",
-            EstimatorArg::Parabola => "parabola",
-            EstimatorArg::Centroid => "centroid",
-            EstimatorArg::Xcorr => "xcorr",
-        }
-    }
-}
-
-/// How spectra are read: the flags every command reading a wavelength log takes.
-#[derive(Debug, Clone, Default, Args)]
-pub struct SpectrumArgs {
-    /// I-MON pixel-to-wavelength polynomial a0,a1,… (nm; pixel index from 1 as the
-    /// header writes it, pixels in the file's order). With it an I-MON log's pixel
-    /// columns are read as spectra and their peaks found; without it the peaks the
-    /// I-MON software wrote are read.
-    #[arg(
-        long,
-        value_name = "A0,A1,…",
-        value_delimiter = ',',
-        allow_negative_numbers = true
-    )]
-    pub imon_calibration: Vec<f64>,
-    /// Peak estimator for spectra (default: gaussian).
-    #[arg(long, value_enum)]
-    pub estimator: Option<EstimatorArg>,
-}
-
-impl SpectrumArgs {
-    /// The library's calibration (`None` when not given).
-    pub fn calibration(&self) -> Option<Vec<f64>> {
-        (!self.imon_calibration.is_empty()).then(|| self.imon_calibration.clone())
-    }
-
-    /// The library's estimator name.
-    pub fn estimator(&self) -> Option<String> {
-        self.estimator.map(|e| e.name().to_string())
-    }
-}
 
 /// Arguments of `fbgforge peaks`.
 #[derive(Debug, Args)]
@@ -84,7 +25,7 @@ pub struct PeaksArgs {
     pub design: Option<PathBuf>,
     /// Format of the spectrum file (detected if omitted).
     #[arg(long, value_enum)]
-    pub format: Option<super::verify::LogFormatArg>,
+    pub format: Option<super::log_args::LogFormatArg>,
     #[command(flatten)]
     pub spectrum_args: SpectrumArgs,
     /// Half-width of each grating's window, nm (default: half the smallest spacing, at
@@ -109,7 +50,7 @@ pub fn run(a: PeaksArgs) -> Result<()> {
         .transpose()?;
     let req = PeaksRequest {
         spectrum: a.spectrum.clone(),
-        read: super::verify::read_options(a.format, None, &a.spectrum_args),
+        read: super::log_args::read_options(a.format, None, &a.spectrum_args),
         window_half_width_nm: a.window_nm,
         out: a.out.clone(),
     };

@@ -1,9 +1,10 @@
 //! `fbgforge verify`, `synth-log` and `calibrate-array`: logs to verdicts.
 
+use super::log_args::{date_order, read_options, DateOrderArg, LogFormatArg, SpectrumArgs};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use fbgforge::array::calibrate::{self, CalibrateRequest};
-use fbgforge::logs::{num::DateOrder, ForceReadOptions, LogFormat, ReadOptions};
+use fbgforge::logs::ForceReadOptions;
 use fbgforge::model::LoadCase;
 use fbgforge::report::calibrate::{Charts, Table};
 use fbgforge::report::synth::written;
@@ -69,39 +70,6 @@ fn in_flag_words(text: &str) -> String {
     fbgforge::fields::in_words(text, FLAGS)
 }
 
-/// Wavelength log format on the command line ([`LogFormat`], the library's).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum LogFormatArg {
-    /// ENLIGHT "Peaks" export: timestamp, peak count per channel, then the peaks.
-    EnlightPeaks,
-    /// ENLIGHT "Sensors" export: timestamp then one column per sensor.
-    EnlightSensors,
-    /// Ibsen I-MON log: date, time, then a varying number of wavelengths.
-    Imon,
-    /// Plain CSV (or TSV / semicolon-separated): time then wavelength columns, nm.
-    Csv,
-    /// I-MON log read by its pixel columns (needs --imon-calibration).
-    ImonPixels,
-    /// Luna ENLIGHT / Hyperion spectrum export (one acquisition).
-    EnlightSpectrum,
-    /// OSA / swept-laser CSV (one acquisition).
-    OsaCsv,
-}
-
-impl From<LogFormatArg> for LogFormat {
-    fn from(f: LogFormatArg) -> Self {
-        match f {
-            LogFormatArg::EnlightPeaks => LogFormat::EnlightPeaks,
-            LogFormatArg::EnlightSensors => LogFormat::EnlightSensors,
-            LogFormatArg::Imon => LogFormat::Imon,
-            LogFormatArg::Csv => LogFormat::Csv,
-            LogFormatArg::ImonPixels => LogFormat::ImonPixels,
-            LogFormatArg::EnlightSpectrum => LogFormat::EnlightSpectrum,
-            LogFormatArg::OsaCsv => LogFormat::OsaCsv,
-        }
-    }
-}
-
 /// Load case on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CaseArg {
@@ -111,15 +79,6 @@ pub enum CaseArg {
     /// Case II: hollow core.
     #[value(name = "II", alias = "ii", alias = "2")]
     II,
-}
-
-/// Day/month order on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum DateOrderArg {
-    /// 17/04/2025.
-    Dmy,
-    /// 04/17/2025.
-    Mdy,
 }
 
 /// What `fbgforge verify`'s exit status says, for `--help`.
@@ -159,7 +118,7 @@ pub struct VerifyArgs {
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
     #[command(flatten)]
-    pub spectrum: super::peaks::SpectrumArgs,
+    pub spectrum: SpectrumArgs,
     /// Load case (default: I with --insert, II without).
     #[arg(long, value_enum)]
     pub case: Option<CaseArg>,
@@ -219,28 +178,6 @@ pub struct VerifyArgs {
     /// `predict` and `optimize` of that design then use the measurement.
     #[arg(long, value_name = "DESIGN.toml")]
     pub calibrate_into: Option<PathBuf>,
-}
-
-/// The library's day/month order.
-pub fn date_order(d: DateOrderArg) -> DateOrder {
-    match d {
-        DateOrderArg::Dmy => DateOrder::DayMonthYear,
-        DateOrderArg::Mdy => DateOrder::MonthDayYear,
-    }
-}
-
-/// How to read a wavelength log, as the flags say.
-pub fn read_options(
-    format: Option<LogFormatArg>,
-    d: Option<DateOrderArg>,
-    spectrum: &super::peaks::SpectrumArgs,
-) -> ReadOptions {
-    ReadOptions {
-        format: format.map(LogFormat::from),
-        date_order: d.map(date_order),
-        imon_calibration: spectrum.calibration(),
-        estimator: spectrum.estimator(),
-    }
 }
 
 /// Run `fbgforge verify`. After writing everything it returns status 0 for PASS, 2 for
@@ -660,7 +597,7 @@ pub struct CalibrateArrayArgs {
     #[arg(long, value_enum)]
     pub date_order: Option<DateOrderArg>,
     #[command(flatten)]
-    pub spectrum: super::peaks::SpectrumArgs,
+    pub spectrum: SpectrumArgs,
     /// Half-width of the wavelength windows, nm.
     #[arg(long)]
     pub window_nm: Option<f64>,
@@ -726,26 +663,4 @@ pub fn run_calibrate_array(a: CalibrateArrayArgs) -> Result<std::process::ExitCo
     } else {
         std::process::ExitCode::from(EXIT_UNUSABLE)
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The command line's format names are the library's registered ones, every
-    /// format has one, in the library's order.
-    #[test]
-    fn registered_names_are_the_command_line_names() {
-        let args = LogFormatArg::value_variants();
-        let all: Vec<LogFormat> = LogFormat::ALL
-            .into_iter()
-            .chain(LogFormat::SPECTRA)
-            .collect();
-        assert_eq!(args.len(), all.len());
-        for (arg, &format) in args.iter().zip(&all) {
-            let cli = arg.to_possible_value().expect("every format is a value");
-            assert_eq!(cli.get_name(), format.name());
-            assert_eq!(LogFormat::from(*arg), format);
-        }
-    }
 }

@@ -70,7 +70,6 @@ pub(crate) use chi2::{chi2_p_value, chi2_quantile};
 use super::methods::bounded::box_qp;
 use super::methods::Reconstruction;
 use super::problem::SensingProblem;
-use super::ArrayError;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
