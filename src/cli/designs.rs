@@ -45,13 +45,19 @@ mod tests {
     #[test]
     fn a_shipped_name_is_its_file_and_a_path_stays_a_path() {
         let p = design_arg("clip-on-34mm").unwrap();
-        assert!(p.ends_with("designs/clip-on-34mm.toml") && p.is_file(), "{p:?}");
+        assert!(
+            p.ends_with("designs/clip-on-34mm.toml") && p.is_file(),
+            "{p:?}"
+        );
         assert_eq!(design_arg("clip-on-34mm.toml").unwrap(), p);
         assert_eq!(
             design_arg("some/dir/x.toml").unwrap(),
             PathBuf::from("some/dir/x.toml")
         );
         let e = design_arg("clip-on-99mm").unwrap_err();
-        assert!(e.contains("clip-on-34mm") && e.contains("tactile-array-60x80"), "{e}");
+        assert!(
+            e.contains("clip-on-34mm") && e.contains("tactile-array-60x80"),
+            "{e}"
+        );
     }
 }

@@ -2,7 +2,6 @@
 //! line (the work is in `fbgforge::optimize::run`).
 
 use super::progress::Bar;
-use fbgforge::report::terminal::Fit;
 use anyhow::Result;
 use clap::Args;
 use fbgforge::optimize::module::{
@@ -15,6 +14,7 @@ use fbgforge::optimize::run::{
 use fbgforge::prediction::Robustness;
 use fbgforge::report::optimize::{ModuleJson, ModuleReportFolder, ModuleTable};
 use fbgforge::report::place::{PlaceJson, PlaceReportFolder, PlaceTable};
+use fbgforge::report::terminal::Fit;
 use fbgforge::solvers::SolverKind;
 use std::path::PathBuf;
 

@@ -214,6 +214,12 @@ mod tests {
         let s = String::from_utf8(buf).unwrap();
         assert!(s.lines().all(|l| width(l) <= WIDTH), "{s}");
         assert!(s.ends_with("\nnext"), "{s}");
-        assert_eq!(fit(&format!("warning: {}\n", "abc ".repeat(30))).lines().count() + 1, s.lines().count());
+        assert_eq!(
+            fit(&format!("warning: {}\n", "abc ".repeat(30)))
+                .lines()
+                .count()
+                + 1,
+            s.lines().count()
+        );
     }
 }

@@ -122,13 +122,32 @@ fn header(out: &mut impl Write, (band, temp): (bool, bool), w: Widths) -> Result
     row(
         out,
         [
-            "grating", "core", "case", "model", "K", "strain", "err", if temp { "raw" } else { "band" },
-            "comp.", "notes",
+            "grating",
+            "core",
+            "case",
+            "model",
+            "K",
+            "strain",
+            "err",
+            if temp { "raw" } else { "band" },
+            "comp.",
+            "notes",
         ],
     )?;
     row(
         out,
-        ["", "", "", "", "pm/N", "µε", "%", if temp { "pm" } else { "pm/N" }, "pm", ""],
+        [
+            "",
+            "",
+            "",
+            "",
+            "pm/N",
+            "µε",
+            "%",
+            if temp { "pm" } else { "pm/N" },
+            "pm",
+            "",
+        ],
     )
 }
 

@@ -90,7 +90,11 @@ impl VerifySink for Printer {
                 (self.words)(&serde_json::to_string_pretty(report)?)
             )?;
         } else {
-            write!(out, "{}", crate::terminal::fit(&(self.words)(&summary(report))))?;
+            write!(
+                out,
+                "{}",
+                crate::terminal::fit(&(self.words)(&summary(report)))
+            )?;
             if let Some(page) = &self.report_html {
                 writeln!(out, "report: {}", page.display())?;
             }
@@ -103,7 +107,11 @@ impl VerifySink for Printer {
         if self.json {
             writeln!(std::io::stderr(), "{line}")?;
         } else {
-            write!(std::io::stdout(), "{}", crate::terminal::fit(&format!("{line}\n")))?;
+            write!(
+                std::io::stdout(),
+                "{}",
+                crate::terminal::fit(&format!("{line}\n"))
+            )?;
         }
         Ok(())
     }
