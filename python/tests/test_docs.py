@@ -76,10 +76,13 @@ def shell_examples():
 
 
 def test_the_quick_start_commands_are_found():
-    assert {p.name for p, _, _ in shell_examples()} == {"README.md", "install.md"}
+    # The README and the install page must carry them; other guide pages may too
+    # (predict.md's commands run in the test below like these).
+    assert {"README.md", "install.md"} <= {p.name for p, _, _ in shell_examples()}
     for name in ("README.md", "install.md"):
         cmds = {c for p, _, c in shell_examples() if p.name == name}
-        assert "fbgforge predict designs/clip-on-34mm.toml" in cmds, name
+        # by path or by the shipped design's name, as the CLI takes both
+        assert cmds & {"fbgforge predict designs/clip-on-34mm.toml", "fbgforge predict clip-on-34mm"}, name
         assert any(c.startswith("python -c") for c in cmds), name
 
 
