@@ -7,7 +7,8 @@
 //!
 //! - a build that succeeds but whose parts overlap (a vertex of one part more than
 //!   [`OVERLAP_MM`] inside another, by ray parity and the exact point–triangle
-//!   distance, on the written meshes);
+//!   distance on the written meshes: the geometry crate's `assembly::Solid` queries,
+//!   run here on every pair rather than trusting the build's own interference check);
 //! - a fiber passage under the printer's floor (the spec's holes and slits against the
 //!   floor as docs/geometry.md states it, recomputed here; a meshed passage narrower
 //!   than the coated fiber);
@@ -22,6 +23,7 @@
 
 use anyhow::Result;
 use clap::Args;
+use fbgforge::geometry::assembly::Solid;
 use fbgforge::geometry::{self, BuiltPart, PartKind};
 use fbgforge::progress::Progress;
 use fbgforge::spec::{Design, PrintProcess};
@@ -221,94 +223,6 @@ pub fn watertight(triangles: &[[u32; 3]]) -> bool {
         .all(|(&(a, b), &n)| n == 1 && directed.get(&(b, a)) == Some(&1))
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// Distance from `p` to the triangle `t` (closest point by Voronoi regions, Ericson's
-/// "Real-Time Collision Detection" 5.1.5).
-pub fn point_triangle_distance(p: [f64; 3], t: [[f64; 3]; 3]) -> f64 {
-    let [a, b, c] = t;
-    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
-    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
-    let at = |q: [f64; 3]| dot(sub(p, q), sub(p, q)).sqrt();
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return at(a);
-    }
-    let bp = sub(p, b);
-    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return at(b);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return at([a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]]);
-    }
-    let cp = sub(p, c);
-    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return at(c);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return at([a[0] + w * ac[0], a[1] + w * ac[1], a[2] + w * ac[2]]);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return at([
-            b[0] + w * (c[0] - b[0]),
-            b[1] + w * (c[1] - b[1]),
-            b[2] + w * (c[2] - b[2]),
-        ]);
-    }
-    let n = cross(ab, ac);
-    dot(ap, n).abs() / dot(n, n).sqrt()
-}
-
-/// Whether `p` is inside the closed mesh (`positions`, `triangles`): crossings of a
-/// ray in a direction no facet of these parts lies along, counted by parity
-/// (Möller–Trumbore).
-fn inside(p: [f64; 3], pos: &[[f64; 3]], tris: &[[u32; 3]]) -> bool {
-    let dir = [0.573_481, 0.389_208, 0.720_869];
-    let mut crossings = 0;
-    for t in tris {
-        let [a, b, c] = t.map(|i| pos[i as usize]);
-        let (e1, e2) = (sub(b, a), sub(c, a));
-        let h = cross(dir, e2);
-        let det = dot(e1, h);
-        if det.abs() < 1e-14 {
-            continue;
-        }
-        let s = sub(p, a);
-        let u = dot(s, h) / det;
-        if !(0.0..=1.0).contains(&u) {
-            continue;
-        }
-        let q = cross(s, e1);
-        let v = dot(dir, q) / det;
-        if v < 0.0 || u + v > 1.0 {
-            continue;
-        }
-        if dot(e2, q) / det > 0.0 {
-            crossings += 1;
-        }
-    }
-    crossings % 2 == 1
-}
-
 /// Whether a vertex of one part lies deeper than `allowed_mm` of the pair inside
 /// another (up to 400 vertices of each part inside the other's box are tried).
 pub fn parts_overlap(
@@ -330,16 +244,12 @@ pub fn parts_overlap(
                 .filter(|p| (0..3).all(|k| p[k] > lo[k] && p[k] < hi[k]))
                 .collect();
             let step = (candidates.len() / 400).max(1);
+            let solid = Solid::new(&b.name, &b.mesh);
             for p in candidates.iter().step_by(step) {
-                if inside(*p, &b.mesh.positions, &b.mesh.triangles) {
-                    let depth = b
-                        .mesh
-                        .triangles
-                        .iter()
-                        .map(|t| {
-                            point_triangle_distance(*p, t.map(|k| b.mesh.positions[k as usize]))
-                        })
-                        .fold(f64::INFINITY, f64::min);
+                if solid.contains(*p) {
+                    let depth = solid
+                        .distance_within(*p, f64::INFINITY)
+                        .unwrap_or(f64::INFINITY);
                     if depth > allowed {
                         return Some(format!(
                             "a vertex of {} at ({:.3}, {:.3}, {:.3}) lies {depth:.4} mm inside {} (allowed {allowed:.4} mm)",

@@ -891,9 +891,15 @@ fn print_files_study_quick_counts_no_confidently_wrong_build() {
     let tet = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
     assert!(pf::watertight(&tet));
     assert!(!pf::watertight(&tet[..3]));
-    let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-    assert!((pf::point_triangle_distance([0.2, 0.2, 0.3], t) - 0.3).abs() < 1e-12);
-    assert!((pf::point_triangle_distance([2.0, 0.0, 0.0], t) - 1.0).abs() < 1e-12);
+    // (the overlap depth is the library's point-to-mesh distance, `Solid`)
+    let t = fbgforge::geometry::mesh::TriMesh {
+        positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        triangles: vec![[0, 1, 2]],
+    };
+    let solid = fbgforge::geometry::assembly::Solid::new("t", &t);
+    let at = |p| solid.distance_within(p, f64::INFINITY).unwrap();
+    assert!((at([0.2, 0.2, 0.3]) - 0.3).abs() < 1e-12);
+    assert!((at([2.0, 0.0, 0.0]) - 1.0).abs() < 1e-12);
     assert!(pf::names_field(
         "field `module.pillars.fiber_hole_diameter_mm`: 0.3 mm"
     ));

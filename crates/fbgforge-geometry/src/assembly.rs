@@ -46,8 +46,9 @@ impl<'a> Solid<'a> {
         self.mesh.triangles[k].map(|i| self.mesh.positions[i as usize])
     }
 
-    /// Distance from `p` to the surface, if it is below `within` (else None).
-    pub(crate) fn distance_within(&self, p: P3, within: f64) -> Option<f64> {
+    /// Distance from `p` to the surface, if it is below `within` (else None;
+    /// `f64::INFINITY` gives the distance to the nearest triangle).
+    pub fn distance_within(&self, p: P3, within: f64) -> Option<f64> {
         let mut best: Option<f64> = None;
         for (k, (lo, hi)) in self.boxes.iter().enumerate() {
             let lim = best.unwrap_or(within);
