@@ -54,3 +54,25 @@ pub fn set_modulus(d: &mut Design, material: &str, mpa: f64) {
         .unwrap_or_else(|| panic!("no material {material}"))
         .youngs_modulus_mpa = mpa;
 }
+
+/// clip-on-34mm with `lambda_11` made 30 mm long and centred 40 mm up its core (the
+/// highest centre the spec allows), so it reaches from the cylinder into the zone
+/// under the dome where the strain changes fast (17 µε/N from end to end), written
+/// weak (Δn = 3·10⁻⁵, κL ≈ 1.8, FWHM ≈ 46 pm) and rated for 10 N.
+pub fn long_grating_design() -> Design {
+    let mut d = shipped("clip-on-34mm.toml");
+    d.fiber.index_modulation = 3e-5;
+    let m = d.module.as_mut().unwrap();
+    let g = m
+        .gratings
+        .iter_mut()
+        .find(|g| g.name == "lambda_11")
+        .unwrap();
+    g.length_mm = 30.0;
+    g.center_height_mm = Some(40.0);
+    m.limits = Some(fbgforge::spec::Limits {
+        max_force_n: 10.0,
+        max_grating_strain_microstrain: 3000.0,
+    });
+    d
+}

@@ -8,7 +8,7 @@ use fbgforge::model::LoadCase;
 use fbgforge::prediction::spectrum::{forward, GratingSpectrum, ProfileSource};
 use fbgforge::prediction::{predict, FidelityChoice, PredictionRequest};
 use fbgforge::profile::{module_gratings, ModuleProfile};
-use fbgforge::spec::{Design, GratingRole, Limits};
+use fbgforge::spec::{Design, GratingRole};
 use fbgforge::spectra::grating::{
     clean_peak_limit, spectrum_shape, CleanPeakCriteria, LoadCase as SpectrumLoad, StrainProfile,
 };
@@ -175,33 +175,11 @@ fn on_the_shipped_designs_the_predicted_shift_per_newton_is_k() {
     }
 }
 
-/// clip-on-34mm with `lambda_11` made 30 mm long and centred 40 mm up its core (the
-/// highest centre the spec allows), so it reaches from the cylinder into the zone
-/// under the dome where the strain changes fast (17 µε/N from end to end), written
-/// weak (Δn = 3·10⁻⁵, κL ≈ 1.8, FWHM ≈ 46 pm) and rated for 10 N.
-fn long_grating_design() -> Design {
-    let mut d = common::shipped("clip-on-34mm.toml");
-    d.fiber.index_modulation = 3e-5;
-    let m = d.module.as_mut().unwrap();
-    let g = m
-        .gratings
-        .iter_mut()
-        .find(|g| g.name == "lambda_11")
-        .unwrap();
-    g.length_mm = 30.0;
-    g.center_height_mm = Some(40.0);
-    m.limits = Some(Limits {
-        max_force_n: 10.0,
-        max_grating_strain_microstrain: 3000.0,
-    });
-    d
-}
-
 #[test]
 fn a_steep_gradient_over_a_long_grating_is_warned_with_the_force_where_it_stops() {
     // (d) Against clean_peak_limit run directly on the FE profile of the same
     // configuration, with a finer force grid than predict's eight steps.
-    let d = long_grating_design();
+    let d = common::long_grating_design();
     let request = PredictionRequest {
         force_n: 5.0,
         case: Some(LoadCase::II),
@@ -366,7 +344,7 @@ fn build_warns_at_design_time_of_a_grating_that_stops_being_one_clean_peak() {
     // and `optimize` run) names the grating, its configuration and the force where it
     // stops, the same force `predict` gives; the shipped module earns none.
     use fbgforge::prediction::spectrum::design_warnings;
-    let d = long_grating_design();
+    let d = common::long_grating_design();
     let warnings = design_warnings(&d, crate::fe_cache()).unwrap();
     let request = PredictionRequest {
         force_n: 10.0,

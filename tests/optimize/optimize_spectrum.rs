@@ -5,26 +5,12 @@ use crate::common;
 use fbgforge::optimize::module::{ModuleSettings, Objective, Variable};
 use fbgforge::optimize::run::{run_module, ModuleRequest};
 use fbgforge::progress::Quiet;
-use fbgforge::spec::Limits;
 
 #[test]
 fn the_written_design_carries_the_spectrum_warning_with_the_force() {
     // The 34 mm module with a 30 mm weak grating under the dome (17 µε/N from end to
     // end), rated for 10 N: it stops being one clean peak near 1.24 N.
-    let mut d = common::shipped("clip-on-34mm.toml");
-    d.fiber.index_modulation = 3e-5;
-    let m = d.module.as_mut().unwrap();
-    let g = m
-        .gratings
-        .iter_mut()
-        .find(|g| g.name == "lambda_11")
-        .unwrap();
-    g.length_mm = 30.0;
-    g.center_height_mm = Some(40.0);
-    m.limits = Some(Limits {
-        max_force_n: 10.0,
-        max_grating_strain_microstrain: 3000.0,
-    });
+    let d = common::long_grating_design();
     let dir = tempfile::tempdir().unwrap();
     let spec = dir.path().join("long-grating.toml");
     std::fs::write(&spec, d.to_toml()).unwrap();
