@@ -264,8 +264,8 @@ fn us(v: f64) -> String {
     }
 }
 
-/// Columns the terminal view and the summary keep to.
-pub const WIDTH: usize = 80;
+/// Columns the terminal view and the summary keep to: the one terminal width.
+pub use crate::terminal::WIDTH;
 
 /// `text` with every line longer than `width` columns wrapped at spaces (continuation
 /// lines indented by four), and a word longer than a line cut with `…`.

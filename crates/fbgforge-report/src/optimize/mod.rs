@@ -27,8 +27,8 @@ use std::io::Write;
 
 pub use fbgforge_core::fields::InWords;
 
-/// Width the printed tables keep to, columns (a terminal's default).
-pub const WIDTH: usize = 80;
+/// Width the printed tables keep to, columns: the one terminal width.
+pub use crate::terminal::WIDTH;
 
 /// Append `text` word-wrapped to [`WIDTH`] columns; continuation lines are indented
 /// by `indent` spaces.
