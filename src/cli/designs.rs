@@ -27,15 +27,11 @@ pub fn design_arg(arg: &str) -> Result<PathBuf, String> {
 
 /// The names of the shipped designs in `dir` (file stems, sorted).
 fn shipped_names(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+    fbgforge::design::design_files(dir)
+        .unwrap_or_default()
+        .iter()
         .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
-        .collect();
-    names.sort();
-    names
+        .collect()
 }
 
 #[cfg(test)]

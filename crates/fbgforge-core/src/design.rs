@@ -548,8 +548,8 @@ pub fn designs_dir() -> PathBuf {
     }
 }
 
-/// Every `*.toml` in `dir`, loaded and validated, sorted by file name.
-pub fn load_designs(dir: &Path) -> anyhow::Result<Vec<(PathBuf, Design)>> {
+/// Every `*.toml` in `dir`, sorted by file name: the design files a folder holds.
+pub fn design_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     use anyhow::Context;
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read the designs folder {}", dir.display()))?
@@ -557,7 +557,12 @@ pub fn load_designs(dir: &Path) -> anyhow::Result<Vec<(PathBuf, Design)>> {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     paths.sort();
-    paths
+    Ok(paths)
+}
+
+/// Every `*.toml` in `dir` ([`design_files`]), loaded and validated, sorted by file name.
+pub fn load_designs(dir: &Path) -> anyhow::Result<Vec<(PathBuf, Design)>> {
+    design_files(dir)?
         .into_iter()
         .map(|p| {
             let d = load(&p)?;
