@@ -42,14 +42,8 @@ pub fn log_frames(path: &Path, read: &ReadOptions) -> Result<(Vec<Frame>, Vec<St
         let origin = format!("{} body line {}", path.display(), i + 1);
         match reader.parse(line) {
             Ok(None) => {}
-            Ok(Some(row)) => frames.push(Frame {
-                serial: None,
-                time_s: Some(row.time_s),
-                wall_clock: false,
-                peaks_nm: row.peaks_nm,
-                received,
-                origin,
-            }),
+            // A replayed row is the log's past: its age is not measured.
+            Ok(Some(row)) => frames.push(Frame::of_log_row(row, false, received, origin)),
             Err((kind, message)) => bad.push(format!("{origin}: {kind}: {message}")),
         }
     }

@@ -34,6 +34,26 @@ pub struct Frame {
     pub origin: String,
 }
 
+impl Frame {
+    /// A log row read by the row reader as a frame (a followed log's, or a finished
+    /// log replayed by `replay`): the log's time, no serial.
+    pub(crate) fn of_log_row(
+        row: crate::logs::LogRow,
+        wall_clock: bool,
+        received: Instant,
+        origin: String,
+    ) -> Frame {
+        Frame {
+            serial: None,
+            time_s: Some(row.time_s),
+            wall_clock,
+            peaks_nm: row.peaks_nm,
+            received,
+            origin,
+        }
+    }
+}
+
 /// What a source reports.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SourceEvent {
@@ -569,14 +589,10 @@ impl Tail<'_> {
             };
             let ok = match self.reader.parse(line) {
                 Ok(None) => true,
-                Ok(Some(row)) => out.frame(Frame {
-                    serial: None,
-                    time_s: Some(row.time_s),
-                    wall_clock: live && row.time_s > 1e8,
-                    peaks_nm: row.peaks_nm,
-                    received,
-                    origin,
-                }),
+                Ok(Some(row)) => {
+                    let wall_clock = live && row.time_s > 1e8;
+                    out.frame(Frame::of_log_row(row, wall_clock, received, origin))
+                }
                 Err((kind, message)) => out.event(SourceEvent::Bad {
                     kind: kind.to_string(),
                     message: format!("{origin}: {message}"),
