@@ -17,6 +17,123 @@ pub fn width(s: &str) -> usize {
     s.chars().count()
 }
 
+/// How a printer breaks a line longer than its width: the one wrapping rule of every
+/// terminal printer (the tables' notes, optimize's and place's reports, live's view),
+/// which differ only in these settings.
+///
+/// Every rule breaks at spaces, keeps the first line's leading spaces and the runs of
+/// spaces inside a line (a wrapped table row keeps its alignment up to the break), and
+/// trims the spaces at a break.
+///
+/// ```
+/// use fbgforge_report::terminal::{width, Wrap};
+/// let line = "fiber x mm (mold slits): 10.0, 20.0, 30.0, 40.0, 50.0";
+/// let text = Wrap::TERMINAL.width(30).indent(4).text(line);
+/// assert_eq!(text, "fiber x mm (mold slits): 10.0,\n    20.0, 30.0, 40.0, 50.0");
+/// let cut = Wrap::TERMINAL.width(10).indent(4).cut_long_words().text(&"x".repeat(30));
+/// assert_eq!((width(&cut), cut.ends_with('…')), (6, true));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wrap {
+    /// Columns a line keeps to.
+    pub columns: usize,
+    /// The continuation lines' indent; `None` hangs them under the line's text.
+    pub continuation: Option<usize>,
+    /// Whether a word longer than a line is cut with `…` (a status line redrawn in
+    /// place must fit) rather than kept whole (a path cut cannot be copied).
+    pub cut: bool,
+}
+
+impl Wrap {
+    /// The default: [`WIDTH`] columns, continuation hung under the text, words whole.
+    pub const TERMINAL: Wrap = Wrap {
+        columns: WIDTH,
+        continuation: None,
+        cut: false,
+    };
+
+    /// This rule at `columns` columns.
+    #[must_use]
+    pub const fn width(self, columns: usize) -> Wrap {
+        Wrap { columns, ..self }
+    }
+
+    /// This rule with continuation lines indented by `spaces`.
+    #[must_use]
+    pub const fn indent(self, spaces: usize) -> Wrap {
+        Wrap {
+            continuation: Some(spaces),
+            ..self
+        }
+    }
+
+    /// This rule cutting a word longer than a line with `…`.
+    #[must_use]
+    pub const fn cut_long_words(self) -> Wrap {
+        Wrap { cut: true, ..self }
+    }
+
+    /// `text` with every line longer than the width wrapped; the text after the last
+    /// newline (usually none) stays unterminated.
+    pub fn text(&self, text: &str) -> String {
+        let mut out = String::with_capacity(text.len() + text.len() / 40);
+        let mut lines = text.split('\n').peekable();
+        while let Some(line) = lines.next() {
+            if lines.peek().is_none() {
+                if !line.is_empty() {
+                    let mut last = String::new();
+                    self.line(&mut last, line);
+                    last.pop();
+                    out.push_str(&last);
+                }
+                break;
+            }
+            self.line(&mut out, line);
+        }
+        out
+    }
+
+    /// `line` (no newline) wrapped, each piece pushed to `out` with a newline.
+    pub fn line(&self, out: &mut String, line: &str) {
+        if width(line) <= self.columns {
+            out.push_str(line);
+            out.push('\n');
+            return;
+        }
+        let indent = self.continuation.unwrap_or_else(|| hanging_indent(line));
+        let lead = line.len() - line.trim_start_matches(' ').len();
+        let mut cur = " ".repeat(lead.min(self.columns / 2));
+        let mut fresh = true;
+        for (gap, word) in spaced_words(line) {
+            let word = self.whole_or_cut(word);
+            if !fresh && width(&cur) + width(gap) + width(&word) > self.columns {
+                out.push_str(cur.trim_end());
+                out.push('\n');
+                cur = " ".repeat(indent.min(self.columns / 2));
+                fresh = true;
+            }
+            if !fresh {
+                cur.push_str(gap);
+            }
+            cur.push_str(&word);
+            fresh = false;
+        }
+        out.push_str(&cur);
+        out.push('\n');
+    }
+
+    /// `word`, or (when this rule cuts) its first columns and `…` if it is longer
+    /// than a continuation line holds.
+    fn whole_or_cut<'a>(&self, word: &'a str) -> std::borrow::Cow<'a, str> {
+        let room = self.columns.saturating_sub(4).max(1);
+        if self.cut && width(word) > room {
+            word.chars().take(room - 1).chain(['…']).collect::<String>().into()
+        } else {
+            word.into()
+        }
+    }
+}
+
 /// The indent of a line's continuation: under its text after any leading spaces and a
 /// marker (`[3] `, `- `, `• `; otherwise four spaces in), at most half a line.
 fn hanging_indent(line: &str) -> usize {
@@ -33,11 +150,10 @@ fn hanging_indent(line: &str) -> usize {
     .into_iter()
     .flatten()
     .next();
-    let indent = match marker {
+    match marker {
         Some(m) => lead + m,
         None => lead + 4,
-    };
-    indent.min(WIDTH / 2)
+    }
 }
 
 /// The words of `line` after its indent, each with the run of spaces before it (kept
@@ -57,36 +173,8 @@ fn spaced_words(line: &str) -> Vec<(&str, &str)> {
     out
 }
 
-/// `line` (no newline) wrapped at spaces to [`WIDTH`] columns, each piece pushed to
-/// `out` with a newline.
-fn wrap_line(out: &mut String, line: &str) {
-    if width(line) <= WIDTH {
-        out.push_str(line);
-        out.push('\n');
-        return;
-    }
-    let indent = hanging_indent(line);
-    let lead = line.len() - line.trim_start_matches(' ').len();
-    let mut cur = " ".repeat(lead);
-    let mut fresh = true;
-    for (gap, word) in spaced_words(line) {
-        if !fresh && width(&cur) + width(gap) + width(word) > WIDTH {
-            out.push_str(cur.trim_end());
-            out.push('\n');
-            cur = " ".repeat(indent);
-            fresh = true;
-        }
-        if !fresh {
-            cur.push_str(gap);
-        }
-        cur.push_str(word);
-        fresh = false;
-    }
-    out.push_str(&cur);
-    out.push('\n');
-}
-
-/// `text` with every line longer than [`WIDTH`] columns wrapped at spaces.
+/// `text` with every line longer than [`WIDTH`] columns wrapped at spaces
+/// ([`Wrap::TERMINAL`]).
 ///
 /// ```
 /// use fbgforge_report::terminal::{fit, width, WIDTH};
@@ -97,22 +185,7 @@ fn wrap_line(out: &mut String, line: &str) {
 /// assert!(text.lines().nth(2).unwrap().starts_with("    ")); // under the note's text
 /// ```
 pub fn fit(text: &str) -> String {
-    let mut out = String::with_capacity(text.len() + text.len() / 40);
-    let mut lines = text.split('\n').peekable();
-    while let Some(line) = lines.next() {
-        if lines.peek().is_none() {
-            // The text after the last newline (usually none): kept unterminated.
-            if !line.is_empty() {
-                let mut last = String::new();
-                wrap_line(&mut last, line);
-                last.pop();
-                out.push_str(&last);
-            }
-            break;
-        }
-        wrap_line(&mut out, line);
-    }
-    out
+    Wrap::TERMINAL.text(text)
 }
 
 /// A writer that fits each line written through it to [`WIDTH`] columns ([`fit`]):

@@ -267,43 +267,15 @@ fn us(v: f64) -> String {
 /// Columns the terminal view and the summary keep to: the one terminal width.
 pub use crate::terminal::WIDTH;
 
-/// `text` with every line longer than `width` columns wrapped at spaces (continuation
-/// lines indented by four), and a word longer than a line cut with `…`.
+/// `text` wrapped to `width` columns by the terminal's one rule
+/// ([`crate::terminal::Wrap`]): continuation lines indented by four, and a word longer
+/// than a line cut with `…` (the view is redrawn in place: every line must fit).
 pub(crate) fn fit_width(text: &str, width: usize) -> String {
-    let mut out = String::with_capacity(text.len());
-    for (n, line) in text.split('\n').enumerate() {
-        if n > 0 {
-            out.push('\n');
-        }
-        if line.chars().count() <= width {
-            out.push_str(line);
-            continue;
-        }
-        let lead = line.len() - line.trim_start_matches(' ').len();
-        let mut cur = " ".repeat(lead.min(width / 2));
-        let mut fresh = true;
-        for word in line.split(' ').filter(|w| !w.is_empty()) {
-            let room = width.saturating_sub(4).max(1);
-            let word: String = if word.chars().count() > room {
-                word.chars().take(room - 1).chain(['…']).collect()
-            } else {
-                word.to_string()
-            };
-            if !fresh && cur.chars().count() + 1 + word.chars().count() > width {
-                out.push_str(&cur);
-                out.push('\n');
-                cur = "    ".to_string();
-                fresh = true;
-            }
-            if !fresh {
-                cur.push(' ');
-            }
-            cur.push_str(&word);
-            fresh = false;
-        }
-        out.push_str(&cur);
-    }
-    out
+    crate::terminal::Wrap::TERMINAL
+        .width(width)
+        .indent(4)
+        .cut_long_words()
+        .text(text)
 }
 
 /// What the terminal view shows besides the counters: the last reading (of the tare

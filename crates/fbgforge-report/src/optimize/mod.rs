@@ -30,27 +30,13 @@ pub use fbgforge_core::fields::InWords;
 /// Width the printed tables keep to, columns: the one terminal width.
 pub use crate::terminal::WIDTH;
 
-/// Append `text` word-wrapped to [`WIDTH`] columns; continuation lines are indented
-/// by `indent` spaces.
+/// Append `text` wrapped to [`WIDTH`] columns by the terminal's one rule
+/// ([`crate::terminal::Wrap`]), continuation lines indented by `indent` spaces.
 pub(crate) fn wrapped(out: &mut String, text: &str, indent: usize) {
-    let lead = text.len() - text.trim_start_matches(' ').len();
-    let mut line = " ".repeat(lead);
-    let mut fresh = true;
-    for word in text.split(' ').filter(|w| !w.is_empty()) {
-        if !fresh && line.chars().count() + 1 + word.chars().count() > WIDTH {
-            out.push_str(&line);
-            out.push('\n');
-            line = " ".repeat(indent);
-            fresh = true;
-        }
-        if !fresh {
-            line.push(' ');
-        }
-        line.push_str(word);
-        fresh = false;
+    let rule = crate::terminal::Wrap::TERMINAL.indent(indent);
+    for line in text.split('\n') {
+        rule.line(out, line);
     }
-    out.push_str(&line);
-    out.push('\n');
 }
 
 /// `value` as the pretty JSON the report folders and the JSON printers write, in the
