@@ -12,8 +12,9 @@ pub fn interactive() -> bool {
 }
 
 /// Fewest steps of a stage for which an ETA is drawn: below it a step is too coarse a
-/// unit (`place`'s three stages of unequal length: an ETA after the first would
-/// extrapolate its time to the others), so the bar shows the stage and the time spent.
+/// unit to extrapolate from (`place`'s held-out scoring is 2 steps), so the bar shows
+/// the steps and the time spent. Every stage begins the bar afresh, so an ETA comes
+/// from the steps of its own stage only (`place`'s search: one step per iteration).
 pub const ETA_MIN_STEPS: u64 = 20;
 
 /// The bar's template for a stage of `steps` steps: the stage's name, the steps done,
@@ -23,7 +24,7 @@ pub fn template(steps: u64) -> &'static str {
     if steps >= ETA_MIN_STEPS {
         "{msg:>12} [{bar:30}] {pos}/{len}, ETA {eta}"
     } else {
-        "{msg:>12} [{bar:30}] stage {pos} of {len} done, {elapsed} so far"
+        "{msg:>12} [{bar:30}] {pos}/{len} done, {elapsed} so far"
     }
 }
 

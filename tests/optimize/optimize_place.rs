@@ -213,3 +213,52 @@ fn placement_scores_with_the_designs_model_and_reports_its_gain_on_perturbed_mod
     let e = PlacementProblem::new(&base, &s).err().unwrap().to_string();
     assert!(e.contains("scatter"), "{e}");
 }
+
+/// The stages a run begins, each with its steps and every advance, in order (parallel
+/// runs advance from several threads).
+#[derive(Default)]
+struct Stages {
+    stages: std::sync::Mutex<Vec<(String, u64, Vec<u64>)>>,
+    ended: std::sync::atomic::AtomicBool,
+}
+
+impl fbgforge::progress::Progress for Stages {
+    fn begin(&self, label: &str, steps: u64) {
+        self.stages
+            .lock()
+            .unwrap()
+            .push((label.to_string(), steps, Vec::new()));
+    }
+    fn advance(&self, steps: u64) {
+        let mut s = self.stages.lock().unwrap();
+        s.last_mut().expect("a step before any stage").2.push(steps);
+    }
+    fn end(&self) {
+        self.ended.store(true, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+#[test]
+fn placement_progress_moves_within_the_search_and_each_stage_reaches_its_total() {
+    let s = PlaceSettings {
+        agreement_samples: 3,
+        perturbed_draws: 1,
+        ..quick(PlaceObjective::Coherence, false)
+    };
+    let rec = Stages::default();
+    place(&degenerate_layout(), &s, &rec).unwrap();
+    assert!(rec.ended.load(std::sync::atomic::Ordering::SeqCst));
+    let stages = rec.stages.into_inner().unwrap();
+    let labels: Vec<&str> = stages.iter().map(|(l, _, _)| l.as_str()).collect();
+    assert_eq!(labels, ["searching", "held-out", "perturbed", "agreement"]);
+    for (label, steps, advances) in &stages {
+        // Monotone (every advance forward) and ending exactly at the stage's total.
+        assert!(advances.iter().all(|&a| a > 0), "{label}: {advances:?}");
+        assert_eq!(advances.iter().sum::<u64>(), *steps, "{label}: {advances:?}");
+    }
+    // The search: Nelder–Mead from the start and one random start (25 iterations
+    // each) and the swarm once (15), reported iteration by iteration, not per run.
+    let (_, steps, advances) = &stages[0];
+    assert_eq!(*steps, 2 * 25 + 15);
+    assert!(advances.len() > 10, "{advances:?}");
+}

@@ -26,7 +26,10 @@ use crate::array::sheet::layouts::LayoutMatrices;
 use crate::array::sheet::GratingOnFiber;
 use crate::profile::ArrayLayout;
 use crate::progress::Progress;
-use crate::solvers::{multi_start, start_points, BoxProblem, Run, RunSettings, SolverKind};
+use crate::solvers::{
+    iteration_budget, multi_start_with_progress, start_points, BoxProblem, Run, RunSettings,
+    SolverKind,
+};
 use crate::spec::ArrayModelKind;
 use crate::spec::{Design, TactileArray};
 use nalgebra::DMatrix;
@@ -647,9 +650,20 @@ pub fn place(
     let start_objective = p.objective(&x0);
     let (lo, hi) = p.bounds();
     let starts = start_points(&x0, &lo, &hi, settings.extra_starts, settings.seed);
-    progress.begin("place", 3);
-    progress.message("searching");
-    let runs = multi_start(&p, &settings.solvers, &starts, settings.seed, &settings.run)?;
+    // One stage per phase, each begun afresh, so a drawn ETA extrapolates from the
+    // steps of its own phase only; the search's steps are the runs' iterations.
+    progress.begin(
+        "searching",
+        iteration_budget(&settings.solvers, starts.len(), &settings.run),
+    );
+    let runs = multi_start_with_progress(
+        &p,
+        &settings.solvers,
+        &starts,
+        settings.seed,
+        &settings.run,
+        progress,
+    )?;
     let mut per_solver = Vec::new();
     for &k in &settings.solvers {
         let mine: Vec<_> = runs.iter().filter(|r| r.solver == k).collect();
@@ -670,26 +684,26 @@ pub fn place(
     let (best_objective, best_x) = p
         .best_of(&x0, &runs)
         .unwrap_or((start_objective, x0.clone()));
-    progress.advance(1);
-    progress.message("held-out protocol");
-    let (start_test, best_test) = rayon::join(
-        || p.protocol(&x0, &settings.test_seeds, true),
-        || p.protocol(&best_x, &settings.test_seeds, true),
-    );
+    progress.begin("held-out", 2);
+    let scored = |x: &[f64]| {
+        let r = p.protocol(x, &settings.test_seeds, true);
+        progress.advance(1);
+        r
+    };
+    let (start_test, best_test) = rayon::join(|| scored(&x0), || scored(&best_x));
     let perturbed = if settings.perturbed_draws > 0 {
-        progress.message("perturbed models");
-        Some(p.perturbed_gain(&x0, &best_x)?)
+        progress.begin("perturbed", 1);
+        let gain = p.perturbed_gain(&x0, &best_x)?;
+        progress.advance(1);
+        Some(gain)
     } else {
         None
     };
     let agreement = if settings.agreement_samples >= 3 {
+        progress.begin("agreement", 1);
+        let a = proxy_agreement(&p, settings.agreement_samples, settings.seed ^ 0xA5A5)?;
         progress.advance(1);
-        progress.message("proxy agreement");
-        Some(proxy_agreement(
-            &p,
-            settings.agreement_samples,
-            settings.seed ^ 0xA5A5,
-        )?)
+        Some(a)
     } else {
         None
     };

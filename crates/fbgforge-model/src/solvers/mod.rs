@@ -21,6 +21,7 @@ pub mod differential_evolution;
 pub mod nelder_mead;
 
 use argmin::core::observers::{Observe, ObserverMode};
+use fbgforge_core::progress::{Progress, Quiet};
 use argmin::core::{
     ArgminError, CostFunction, Error, Executor, IterState, PopulationState, Solver, State,
     TerminationReason, KV,
@@ -148,6 +149,29 @@ struct Boxed<'a, P: BoxProblem> {
     lo: Vec<f64>,
     hi: Vec<f64>,
     evaluations: Arc<AtomicU64>,
+    ticker: &'a Ticker<'a>,
+}
+
+/// A run's iterations as progress steps: the observer counts them (`observed`), the
+/// cost function (called on the solver's thread, where the borrowed sink can go)
+/// passes the new ones on, and the run's end passes on the rest of its budget, so a
+/// run is always worth exactly its iteration limit.
+struct Ticker<'a> {
+    progress: &'a dyn Progress,
+    observed: Arc<AtomicU64>,
+    reported: AtomicU64,
+    budget: u64,
+}
+
+impl Ticker<'_> {
+    /// Report the iterations observed since the last report (at most the budget).
+    fn catch_up(&self, done: u64) {
+        let done = done.min(self.budget);
+        let before = self.reported.fetch_max(done, Ordering::Relaxed);
+        if done > before {
+            self.progress.advance(done - before);
+        }
+    }
 }
 
 /// `x` clamped into [lo, hi] (a non-finite value goes to the lower bound), and the
@@ -172,6 +196,8 @@ impl<P: BoxProblem> CostFunction for Boxed<'_, P> {
     type Output = f64;
     fn cost(&self, x: &Vec<f64>) -> Result<f64, Error> {
         self.evaluations.fetch_add(1, Ordering::Relaxed);
+        self.ticker
+            .catch_up(self.ticker.observed.load(Ordering::Relaxed));
         let (y, outside) = project(&self.lo, &self.hi, x);
         let c = self.problem.cost(&y);
         let c = if c.is_finite() { c } else { 1e12 };
@@ -184,11 +210,12 @@ pub struct Unobserved;
 
 impl<I> Observe<I> for Unobserved {}
 
-/// Records the best cost after every iteration.
-struct History(Arc<Mutex<Vec<f64>>>);
+/// Records the best cost after every iteration, and counts the iterations.
+struct History(Arc<Mutex<Vec<f64>>>, Arc<AtomicU64>);
 
 impl<I: State<Float = f64>> Observe<I> for History {
     fn observe_iter(&mut self, state: &I, _kv: &KV) -> Result<(), Error> {
+        self.1.fetch_add(1, Ordering::Relaxed);
         if let Ok(mut h) = self.0.lock() {
             h.push(state.get_best_cost());
         }
@@ -287,6 +314,7 @@ pub(crate) fn run_one<P: BoxProblem>(
     start_index: usize,
     seed: u64,
     settings: &RunSettings,
+    progress: &dyn Progress,
 ) -> anyhow::Result<Run> {
     let (lo, hi) = problem.bounds();
     anyhow::ensure!(
@@ -294,14 +322,21 @@ pub(crate) fn run_one<P: BoxProblem>(
         "bounds and start differ in length"
     );
     let evaluations = Arc::new(AtomicU64::new(0));
+    let ticker = Ticker {
+        progress,
+        observed: Arc::new(AtomicU64::new(0)),
+        reported: AtomicU64::new(0),
+        budget: iteration_limit(kind, settings),
+    };
     let boxed = Boxed {
         problem,
         lo: lo.clone(),
         hi: hi.clone(),
         evaluations: evaluations.clone(),
+        ticker: &ticker,
     };
     let history = Arc::new(Mutex::new(Vec::new()));
-    let observer = Some(History(history.clone()));
+    let observer = Some(History(history.clone(), ticker.observed.clone()));
     let t0 = Instant::now();
     let found = match kind {
         SolverKind::NelderMead => {
@@ -327,6 +362,8 @@ pub(crate) fn run_one<P: BoxProblem>(
         }
     }
     .map_err(|e| anyhow::anyhow!("{}: {e}", kind.name()))?;
+    // A run that converged before its limit is done: the rest of its budget too.
+    ticker.catch_up(ticker.budget);
     let (best_x, _) = project(&lo, &hi, &found.best_x);
     let history = history.lock().map(|h| h.clone()).unwrap_or_default();
     Ok(Run {
@@ -363,6 +400,45 @@ pub fn start_points(
     pts
 }
 
+/// The iteration limit of one run of `kind`: its whole budget as progress steps.
+fn iteration_limit(kind: SolverKind, settings: &RunSettings) -> u64 {
+    match kind {
+        SolverKind::NelderMead => settings.max_iters,
+        SolverKind::ParticleSwarm | SolverKind::DifferentialEvolution => settings.swarm_iters,
+    }
+}
+
+/// The runs [`multi_start`] makes: Nelder–Mead from every start, the swarm and
+/// differential evolution once (they ignore the start point and cover the whole box).
+fn jobs(solvers: &[SolverKind], starts: usize) -> Vec<(SolverKind, usize)> {
+    solvers
+        .iter()
+        .flat_map(|&k| {
+            let n = match k {
+                SolverKind::NelderMead => starts,
+                SolverKind::ParticleSwarm | SolverKind::DifferentialEvolution => starts.min(1),
+            };
+            (0..n).map(move |i| (k, i))
+        })
+        .collect()
+}
+
+/// The progress steps of [`multi_start_with_progress`]: every run's iteration limit,
+/// summed (a run that converges early reports the rest of its limit when it ends).
+///
+/// ```
+/// use fbgforge_model::solvers::{iteration_budget, RunSettings, SolverKind};
+/// let s = RunSettings { max_iters: 100, swarm_iters: 90, ..RunSettings::default() };
+/// // Nelder–Mead from each of 2 starts, the swarm once.
+/// assert_eq!(iteration_budget(&SolverKind::BOTH, 2, &s), 2 * 100 + 90);
+/// ```
+pub fn iteration_budget(solvers: &[SolverKind], starts: usize, settings: &RunSettings) -> u64 {
+    jobs(solvers, starts)
+        .iter()
+        .map(|&(k, _)| iteration_limit(k, settings))
+        .sum()
+}
+
 /// Run Nelder–Mead from every start point and the particle swarm once (it searches
 /// the whole box), all in parallel.
 pub fn multi_start<P: BoxProblem>(
@@ -372,21 +448,22 @@ pub fn multi_start<P: BoxProblem>(
     seed: u64,
     settings: &RunSettings,
 ) -> anyhow::Result<Vec<Run>> {
-    // The swarm ignores the start point and covers the whole box itself, so it runs
-    // once per problem; Nelder–Mead runs from every start.
-    let jobs: Vec<(SolverKind, usize)> = solvers
-        .iter()
-        .flat_map(|&k| {
-            let n = match k {
-                SolverKind::NelderMead => starts.len(),
-                SolverKind::ParticleSwarm | SolverKind::DifferentialEvolution => {
-                    starts.len().min(1)
-                }
-            };
-            (0..n).map(move |i| (k, i))
-        })
-        .collect();
-    jobs.par_iter()
+    multi_start_with_progress(problem, solvers, starts, seed, settings, &Quiet)
+}
+
+/// [`multi_start`], telling `progress` of every iteration done: the current stage
+/// (begun by the caller with [`iteration_budget`] steps) moves with the search and
+/// ends exactly at its total.
+pub fn multi_start_with_progress<P: BoxProblem>(
+    problem: &P,
+    solvers: &[SolverKind],
+    starts: &[Vec<f64>],
+    seed: u64,
+    settings: &RunSettings,
+    progress: &dyn Progress,
+) -> anyhow::Result<Vec<Run>> {
+    jobs(solvers, starts.len())
+        .par_iter()
         .map(|&(k, i)| {
             run_one(
                 problem,
@@ -395,6 +472,7 @@ pub fn multi_start<P: BoxProblem>(
                 i,
                 seed.wrapping_add(i as u64 * 7919),
                 settings,
+                progress,
             )
         })
         .collect()
@@ -456,7 +534,7 @@ mod tests {
             ..RunSettings::default()
         };
         for kind in SolverKind::ALL {
-            let r = run_one(&p, kind, &[0.0, 0.0, 0.0], 0, 3, &s).unwrap();
+            let r = run_one(&p, kind, &[0.0, 0.0, 0.0], 0, 3, &s, &Quiet).unwrap();
             for (a, c) in r.best_x.iter().zip(&p.centre) {
                 assert!((a - c).abs() < 2e-2, "{kind:?}: {:?}", r.best_x);
             }
@@ -468,6 +546,41 @@ mod tests {
             // The history is the executor's best cost, never rising.
             assert!(r.history.windows(2).all(|w| w[1] <= w[0] + 1e-12));
             assert_eq!(r.history.len() as u64, r.iterations);
+        }
+    }
+
+    /// Records every step a run reports, from several threads.
+    struct Steps(Mutex<Vec<u64>>);
+
+    impl Progress for Steps {
+        fn advance(&self, steps: u64) {
+            self.0.lock().unwrap().push(steps);
+        }
+    }
+
+    #[test]
+    fn the_search_reports_its_iterations_and_ends_at_its_budget() {
+        // Short limits (some runs stop at them) and a loose tolerance (Nelder–Mead
+        // converges first): either way each run is worth its limit.
+        for (max_iters, tol) in [(15, 1e-14), (2000, 1e-3)] {
+            let s = RunSettings {
+                max_iters,
+                swarm_iters: 12,
+                particles: 8,
+                sd_tolerance: tol,
+                ..RunSettings::default()
+            };
+            let starts = start_points(&[-1.5, 2.5], &[-2.0, -1.0], &[2.0, 3.0], 3, 11);
+            let rec = Steps(Mutex::new(Vec::new()));
+            let solvers = SolverKind::BOTH;
+            multi_start_with_progress(&Rosenbrock, &solvers, &starts, 1, &s, &rec).unwrap();
+            let steps = rec.0.into_inner().unwrap();
+            assert!(steps.iter().all(|&k| k > 0), "{steps:?}");
+            let total = iteration_budget(&solvers, starts.len(), &s);
+            assert_eq!(steps.iter().sum::<u64>(), total);
+            assert_eq!(total, 4 * max_iters + 12);
+            // The bar moves within the stage, not in one jump per run.
+            assert!(steps.len() > 5, "{steps:?}");
         }
     }
 
@@ -495,7 +608,7 @@ mod tests {
     #[test]
     fn bounded_minimum_lands_on_the_bound() {
         for kind in SolverKind::ALL {
-            let r = run_one(&Edge, kind, &[0.0], 0, 5, &RunSettings::default()).unwrap();
+            let r = run_one(&Edge, kind, &[0.0], 0, 5, &RunSettings::default(), &Quiet).unwrap();
             assert!((r.best_x[0] - 5.0).abs() < 1e-3, "{kind:?}: {:?}", r.best_x);
             assert!((r.best_cost - 4.0).abs() < 1e-2);
         }
