@@ -476,7 +476,9 @@ fn synth_config(a: &SynthLogArgs, design: &fbgforge::spec::Design) -> Result<syn
         // The default protocol scaled so that the model's shifts stay in their windows.
         let top = fbgforge::synth::from_model::largest_force_n(design, &grating_k);
         let peaks: Vec<f64> = a.pulses_n.iter().map(|p| p / 50.0 * top).collect();
-        println!("pulses scaled to the model: {top} N at most (--pulses-n sets them)");
+        // Printed to its two significant figures (7.8, not 7.800000000000001).
+        let decimals = (1.0 - top.log10().floor()).max(0.0) as usize;
+        println!("pulses scaled to the model: {top:.decimals$} N at most (--pulses-n sets them)");
         peaks
     } else {
         a.pulses_n.clone()
