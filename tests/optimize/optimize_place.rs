@@ -254,7 +254,11 @@ fn placement_progress_moves_within_the_search_and_each_stage_reaches_its_total()
     for (label, steps, advances) in &stages {
         // Monotone (every advance forward) and ending exactly at the stage's total.
         assert!(advances.iter().all(|&a| a > 0), "{label}: {advances:?}");
-        assert_eq!(advances.iter().sum::<u64>(), *steps, "{label}: {advances:?}");
+        assert_eq!(
+            advances.iter().sum::<u64>(),
+            *steps,
+            "{label}: {advances:?}"
+        );
     }
     // The search: Nelder–Mead from the start and one random start (25 iterations
     // each) and the swarm once (15), reported iteration by iteration, not per run.

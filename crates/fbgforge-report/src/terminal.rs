@@ -127,7 +127,11 @@ impl Wrap {
     fn whole_or_cut<'a>(&self, word: &'a str) -> std::borrow::Cow<'a, str> {
         let room = self.columns.saturating_sub(4).max(1);
         if self.cut && width(word) > room {
-            word.chars().take(room - 1).chain(['…']).collect::<String>().into()
+            word.chars()
+                .take(room - 1)
+                .chain(['…'])
+                .collect::<String>()
+                .into()
         } else {
             word.into()
         }

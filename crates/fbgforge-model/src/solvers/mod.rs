@@ -21,13 +21,13 @@ pub mod differential_evolution;
 pub mod nelder_mead;
 
 use argmin::core::observers::{Observe, ObserverMode};
-use fbgforge_core::progress::{Progress, Quiet};
 use argmin::core::{
     ArgminError, CostFunction, Error, Executor, IterState, PopulationState, Solver, State,
     TerminationReason, KV,
 };
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::particleswarm::{Particle, ParticleSwarm};
+use fbgforge_core::progress::{Progress, Quiet};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
