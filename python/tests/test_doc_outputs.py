@@ -1,11 +1,26 @@
 """The documentation's examples are tests of their output, not only of running.
 
-Every command line of a ```sh block in README.md, docs/python.md and the user guide
-(docs/guide/) that calls `fbgforge` or `python -c` runs here as written, from the
-repository root, with the command line CI built; every ```python block of those pages
-runs too (test_docs.py). When an example block is followed directly (only blank lines
-between) by a ```text block, that block is the example's printed answer and is
-asserted:
+Every fenced ```sh and ```python block of README.md and of **every** page under docs/
+(the user guide and the "how it works" pages alike) is an example: each of its command
+lines runs here as written, from the repository root, through bash (pipes and `>`
+redirections as typed), with `fbgforge` the command line CI built and `python` the
+interpreter of these tests; a ```python block runs on its own (test_docs.py), one that
+imports `mcap` with $FBGFORGE_PYTHON (the venv of the ROS 2 world's readers .ci/run
+makes). A fenced block with no language that holds a command line fails
+(`test_no_command_hides_in_an_untyped_block`): examples are marked ```sh so that they
+run; terminal captures and diagrams are ```text.
+
+* `cargo run --release -p fbgforge-studies -- STUDY …` runs the studies binary that
+  `cargo test --release` built (target/release/fbgforge-studies: `cargo run` with other
+  packages selected could unify features differently and compile again); a line whose
+  comment says `CI: --quick` runs in the study's `--quick` form (its smoke run, whose
+  numbers studies/tests check), every other study line runs as written.
+* `fbgforge synth-stream … --port 0` starts in the background (a simulated Hyperion);
+  the port it prints replaces `PORT` in the block's later lines, and it is stopped when
+  the block ends.
+
+When an example block is followed directly (only blank lines between) by a ```text
+block, that block is the example's printed answer and is asserted:
 
 * each of its lines must appear, in order, among the lines the example printed (the
   example may print more lines than the docs show: abridged output is allowed);
@@ -16,10 +31,14 @@ asserted:
   66–68): the docs round, the machines differ in the last bits, a model change that
   moves an answer fails.
 
-Commands that cannot run on a fresh clone (they name the reader's own files, a port
-a simulator picks, or are the install commands CI itself runs) are listed in SKIPPED
-with the reason, and the test fails on a command that is neither run nor listed, so a
-new example cannot go unchecked by accident.
+A block that runs but prints nothing worth asserting (it writes files a later block
+shows, or its numbers are timings of the machine) is listed in UNASSERTED with the
+reason; any other block without a printed answer fails
+(`test_every_example_that_prints_results_asserts_them`). Commands that cannot run on a
+fresh clone (the reader's own files, ROS 2, the install commands CI itself runs) are
+listed in SKIPPED with the reason, and the test fails on a command that is neither run
+nor listed, so a new example cannot go unchecked by accident. The census (blocks
+total / run / asserted / not run): `python python/tests/test_doc_outputs.py`.
 
 Why this and not trycmd/snapbox: the examples are half Python, and pytest already
 runs them with the installed package and the command line CI built (test_docs.py);
@@ -29,45 +48,71 @@ docs' claims are numbers with a tolerance.
 """
 
 import math
+import os
 import shutil
 import re
 import shlex
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import pytest
 
 from conftest import ROOT
 
-PAGES = [ROOT / "README.md", ROOT / "docs" / "python.md", *sorted((ROOT / "docs" / "guide").glob("*.md"))]
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 
 # Command lines not run, with the reason (the test below fails on any other).
 SKIPPED = {
     "cargo install": "the install itself: .ci/run runs `cargo install --path . --locked` before the tests",
     "cargo test": "the test command itself (.ci/run)",
-    "cargo run": "the studies and the default build, run by `cargo test --release` (studies/tests) and by `fbgforge` here",
+    "cargo bench": "not run: a criterion benchmark, whose numbers are the machine's (CI compiles it: clippy --all-targets)",
+    "ros2 ": "not run: needs ROS 2 (the recording it plays is read by the Python example beside it, which runs)",
     "python3 -m venv": "the package's install: .ci/run makes the venv and installs it as written",
     "pip install": "the package's install (.ci/run)",
     "python -m pytest": "this very test suite",
-    "PORT": "a port the simulator picks when it starts: tests/array/live*.rs run synth-stream and live together",
+    "--port 0": "the simulator of a session that needs PORT (below)",
+    "PORT": "a port the simulator picks when it starts, in a session that runs for a minute or reads a terminal: tests/array/live*.rs run synth-stream and live together",
+    "--script steps.csv": "the reader's own load script (tests/array/live*.rs run synth-stream with scripts)",
     "Peaks.2025": "the reader's own interrogator log (docs/guide/verify.md and live.md show its shape; fixtures/ hold real ones, tested in tests/verify)",
     "--matrix A.csv": "the reader's own matrix and shifts (the README's reconstruct example runs on the fixtures)",
     "--shifts shifts.csv": "the reader's own shifts (the README's reconstruct example runs on the fixtures)",
 }
+
+# Blocks that run but whose output is not asserted, by page:line of the block, with
+# the reason. Every other block that runs carries its printed answer.
+UNASSERTED = {}
 
 # Commands too slow for CI, with the test that asserts their output instead (none:
 # the slowest, `optimize` of the 16 mm module and the README's 81-step Case I sweep,
 # take 7 s of CPU each).
 SLOW = {}
 
+STUDY = "cargo run --release -p fbgforge-studies --"
+# `cargo run --release` alone is the binary with no arguments (the default build).
+DEFAULT_BUILD = "cargo run --release"
+
 
 def blocks(path):
-    """The fenced blocks of a page, in order: (line, language, code)."""
+    """The fenced blocks of a page, in order: (line, language, code, start, end)."""
     text = path.read_text()
     out = []
     for m in re.finditer(r"^```([\w-]*)[^\n]*\n(.*?)^```[ \t]*$", text, re.S | re.M):
         out.append((text[: m.start()].count("\n") + 1, m.group(1), m.group(2), m.start(), m.end()))
     return out, text
+
+
+def command_lines(code):
+    """The command lines of a shell block: continuations joined, comments dropped;
+    each with its comment (what it says of how CI runs it)."""
+    out = []
+    for cmd in re.sub(r"\\\n\s*", " ", code).splitlines():
+        cmd, _, comment = cmd.partition("  #")
+        cmd = cmd.strip()
+        if cmd and not cmd.startswith("#"):
+            out.append((cmd, comment))
+    return out
 
 
 def examples():
@@ -85,12 +130,7 @@ def examples():
                 if nlang == "text" and text[end:nstart].strip() == "":
                     expected = [l for l in ncode.splitlines() if l.strip()]
             if lang == "sh":
-                cmds = []
-                for k, cmd in enumerate(re.sub(r"\\\n\s*", " ", code).splitlines()):
-                    cmd = cmd.split("  #")[0].strip()
-                    if cmd and not cmd.startswith("#"):
-                        cmds.append(cmd)
-                out.append((page, line, lang, cmds, expected))
+                out.append((page, line, lang, command_lines(code), expected))
             else:
                 out.append((page, line, lang, code, expected))
     return out
@@ -99,9 +139,9 @@ def examples():
 EXAMPLES = examples()
 
 
-# The programs an example line may call: fbgforge, Python, and `head`/`cat` to show a
-# file a command wrote.
-RUNNABLE = ("fbgforge", "python", "head", "cat")
+# The programs an example line may call: fbgforge, Python, a study, and `head`/`cat`/
+# `mkdir` to show a file a command wrote or make a folder.
+RUNNABLE = ("fbgforge", "python", "head", "cat", "mkdir")
 
 
 def skip_reason(cmd):
@@ -109,6 +149,26 @@ def skip_reason(cmd):
         if key in cmd:
             return why
     return None
+
+
+def runs(cmd):
+    """Whether a command line runs here (else it is skipped with a reason)."""
+    return not skip_reason(cmd) and (cmd.split()[0] in RUNNABLE or cmd.startswith(STUDY) or cmd == DEFAULT_BUILD)
+
+
+def where(page, line):
+    return f"{page.relative_to(ROOT).as_posix()}:{line}"
+
+
+def census():
+    """Example blocks total / run / asserted / not run (every line skipped), and the
+    skipped lines marked `not run:` (ROS 2, a benchmark)."""
+    total = len(EXAMPLES)
+    ran = [e for e in EXAMPLES if e[2] == "python" or any(runs(c) for c, _ in e[3])]
+    asserted = [e for e in ran if e[4]]
+    marked = [c for e in EXAMPLES if e[2] == "sh" for c, _ in e[3] if (skip_reason(c) or "").startswith("not run:")]
+    return {"blocks": total, "run": len(ran), "asserted": len(asserted),
+            "not_run": total - len(ran), "lines_marked_not_run": len(marked)}
 
 
 def number_close(expected, actual):
@@ -202,9 +262,48 @@ def test_every_example_is_run_or_its_skip_stated():
     for page, line, lang, body, _ in EXAMPLES:
         if lang != "sh":
             continue
-        for cmd in body:
-            runnable = cmd.split()[0] in RUNNABLE
-            assert runnable or skip_reason(cmd), f"{page.name}:{line}: `{cmd}` is neither run nor skipped with a reason"
+        for cmd, _ in body:
+            assert runs(cmd) or skip_reason(cmd), f"{where(page, line)}: `{cmd}` is neither run nor skipped with a reason"
+
+
+# A line of an untyped block that reads as a command: a program, a subcommand word,
+# then an argument (a terminal capture's title, `fbgforge live · …`, is not one).
+COMMAND = re.compile(r"^(fbgforge|cargo|python3?|ros2|pip)\s+[a-z][\w-]*(\s+[-\w./\"']|\s*$)", re.M)
+
+
+def test_no_command_hides_in_an_untyped_block():
+    """A command in a fence without a language would go unrun: examples are ```sh."""
+    hidden = []
+    for page in PAGES:
+        for line, lang, code, _, _ in blocks(page)[0]:
+            if lang == "" and COMMAND.search(code):
+                hidden.append(f"{where(page, line)}: {COMMAND.search(code).group(0)}")
+    assert not hidden, "\n".join(hidden)
+
+
+def test_every_example_that_prints_results_asserts_them():
+    """A block that runs shows its printed answer (a ```text block after it), or says
+    in UNASSERTED why it has none."""
+    bare = [where(p, l) for p, l, lang, body, exp in EXAMPLES
+            if not exp and (lang == "python" or any(runs(c) for c, _ in body))
+            and where(p, l) not in UNASSERTED]
+    assert not bare, bare
+    stale = set(UNASSERTED) - {where(p, l) for p, l, *_ in EXAMPLES}
+    assert not stale, stale
+
+
+def test_the_census_of_the_examples():
+    """Every page's examples counted; what does not run is a stated exception."""
+    c = census()
+    assert c["blocks"] == c["run"] + c["not_run"]
+    # Marked `not run:`: the two ROS 2 commands and the benchmark (the Python reader
+    # of the ROS 2 recording runs, on a recording made here). The blocks that do not
+    # run (2026-11-28: 9 of 38): the install commands CI itself runs (3), the
+    # reader's own log (2: Peaks.*, steps.csv), ROS 2 (1), and the live sessions
+    # against a simulator's PORT (3), which tests/array/live*.rs run instead.
+    assert c["lines_marked_not_run"] <= 3, c
+    assert c["not_run"] <= 9, c
+    assert c["asserted"] == c["run"], c
 
 
 def test_the_readme_states_printed_answers():
@@ -214,38 +313,102 @@ def test_the_readme_states_printed_answers():
     assert len(with_output) >= 3, [(e[1], e[2]) for e in with_output]
 
 
-SH = [e for e in EXAMPLES if e[2] == "sh" and any(c.split()[0] in RUNNABLE and not skip_reason(c) for c in e[3])]
+SH = [e for e in EXAMPLES if e[2] == "sh" and any(runs(c) for c, _ in e[3])]
 
 
-@pytest.mark.parametrize("page, line, lang, cmds, expected", SH, ids=[f"{e[0].name}:{e[1]}" for e in SH])
-def test_every_shell_example_prints_what_the_docs_say(cli, page, line, lang, cmds, expected):
-    output = ""
-    for cmd in cmds:
-        if skip_reason(cmd) or cmd in SLOW or cmd.split()[0] not in RUNNABLE:
-            continue
-        args = shlex.split(cmd)
-        args[0] = {"fbgforge": cli.exe, "python": sys.executable}.get(args[0], args[0])
-        # What the terminal shows: the report on stdout and the summaries on stderr.
-        p = subprocess.run(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=900)
-        # verify's exit status is its verdict (2 FAIL, 4 IN BAND, …): the printed
-        # verdict is what the docs assert.
-        ok = (0, 2, 3, 4, 5) if args[1:2] == ["verify"] else (0,)
-        assert p.returncode in ok, f"{page.name}:{line}: `{cmd}` exited {p.returncode}\n{p.stdout}"
-        output += p.stdout
+@pytest.fixture(scope="module")
+def shims(cli, tmp_path_factory):
+    """A folder put first on PATH: `fbgforge` (the command line CI built), `python`
+    (this interpreter) and `fbgforge-studies` (the studies binary beside it)."""
+    d = tmp_path_factory.mktemp("bin")
+    studies = Path(cli.exe).with_name("fbgforge-studies")
+    for name, target in (("fbgforge", cli.exe), ("python", sys.executable), ("fbgforge-studies", studies)):
+        # A script, not a symlink: a venv's python finds its packages by the path it
+        # was called by.
+        (d / name).write_text(f'#!/bin/sh\nexec {shlex.quote(str(target))} "$@"\n')
+        (d / name).chmod(0o755)
+    return d
+
+
+def as_run(cmd, comment):
+    """The line as bash runs it here: a study through its binary (`--quick` when the
+    docs say CI runs it so)."""
+    if cmd == DEFAULT_BUILD:
+        return "fbgforge"
+    if cmd.startswith(STUDY):
+        cmd = "fbgforge-studies" + cmd[len(STUDY):]
+        if "CI: --quick" in comment and "--quick" not in cmd:
+            cmd += " --quick"
+    return cmd
+
+
+def start_stream(cmd, env):
+    """A `synth-stream --port 0` in the background, and the port it says it serves."""
+    p = subprocess.Popen(["bash", "-c", "exec " + cmd], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True)
+    seen = ""
+    for line in p.stdout:
+        seen += line
+        m = re.search(r"127\.0\.0\.1:(\d+)|port (\d+)", line)
+        if m:
+            return p, m.group(1) or m.group(2)
+    raise AssertionError(f"`{cmd}` named no port:\n{seen}")
+
+
+@pytest.mark.parametrize("page, line, lang, cmds, expected", SH, ids=[where(e[0], e[1]) for e in SH])
+def test_every_shell_example_prints_what_the_docs_say(shims, page, line, lang, cmds, expected):
+    env = {**os.environ, "PATH": f"{shims}{os.pathsep}{os.environ['PATH']}"}
+    output, streams, port = "", [], None
+    try:
+        for cmd, comment in cmds:
+            if not runs(cmd) or cmd in SLOW:
+                continue
+            cmd = as_run(cmd, comment)
+            if port:
+                cmd = cmd.replace("PORT", port)
+            if "synth-stream" in cmd and "--port 0" in cmd:
+                proc, port = start_stream(cmd, env)
+                streams.append(proc)
+                continue
+            # What the terminal shows: the report on stdout and the summaries on stderr.
+            p = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True, timeout=900)
+            # verify's exit status is its verdict (2 FAIL, 4 IN BAND, …): the printed
+            # verdict is what the docs assert.
+            ok = (0, 2, 3, 4, 5) if re.match(r"fbgforge verify\b", cmd) else (0,)
+            assert p.returncode in ok, f"{where(page, line)}: `{cmd}` exited {p.returncode}\n{p.stdout}"
+            output += p.stdout
+    finally:
+        for proc in streams:
+            proc.kill()
+            proc.wait()
     if expected:
-        assert_printed(expected, output, f"{page.name}:{line}")
+        assert_printed(expected, output, where(page, line))
 
 
 PY = [e for e in EXAMPLES if e[2] == "python" and e[4]]
 
 
-@pytest.mark.parametrize("page, line, lang, code, expected", PY, ids=[f"{e[0].name}:{e[1]}" for e in PY])
+def interpreter(code):
+    """The Python an example runs with: $FBGFORGE_PYTHON (the venv with the ROS 2
+    world's MCAP readers, .ci/run) for a block that reads MCAP, else this one."""
+    if "import mcap" in code or "from mcap" in code:
+        py = os.environ.get("FBGFORGE_PYTHON")
+        if not py:
+            if os.environ.get("CI"):
+                pytest.fail("FBGFORGE_PYTHON is not set (.ci/run sets it)")
+            pytest.skip("needs FBGFORGE_PYTHON (the venv with mcap readers)")
+        return py
+    return sys.executable
+
+
+@pytest.mark.parametrize("page, line, lang, code, expected", PY, ids=[where(e[0], e[1]) for e in PY])
 def test_every_python_example_prints_what_the_docs_say(page, line, lang, code, expected, tmp_path):
     script = tmp_path / "example.py"
     script.write_text(code)
-    p = subprocess.run([sys.executable, str(script)], cwd=ROOT, capture_output=True, text=True, timeout=900)
-    assert p.returncode == 0, f"{page.name}:{line}\n{p.stderr}"
-    assert_printed(expected, p.stdout, f"{page.name}:{line}")
+    p = subprocess.run([interpreter(code), str(script)], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert p.returncode == 0, f"{where(page, line)}\n{p.stderr}"
+    assert_printed(expected, p.stdout, where(page, line))
 
 
 def cargo_tree(*args):
@@ -269,3 +432,7 @@ def test_the_install_compiles_nothing_the_tests_compile_again():
     install = cargo_tree("-p", "fbgforge", "-e", "normal,build")
     tests = cargo_tree("--workspace", "--exclude", "fbgforge-python", "-e", "normal,build,dev")
     assert install and install <= tests, sorted(install - tests)
+
+
+if __name__ == "__main__":
+    print(census())
