@@ -10,7 +10,8 @@
 //!    outside its bounding readings widened by its model error (and of those, rows
 //!    that do not say so, and rows whose readings do not fix K's sign), rows whose stated
 //!    error exceeds 0.15 (the policy refines a configuration's mesh from level 1
-//!    until it states at most that, up to level 3), rows whose nominal lies outside
+//!    until it states at most that, up to level 3; and of those, rows that do not say
+//!    so), rows whose nominal lies outside
 //!    its design interval, and rows per mesh level. Each drawn design is written
 //!    beside the rows (`designs/design-K.toml`) to re-run it with `fbgforge predict`.
 //! 2. **Written designs.** `optimize` from some of those designs (a small budget),
@@ -72,6 +73,9 @@ pub struct ModelErrorReport {
     pub rows_outside_design_interval: usize,
     /// Rows whose stated model error exceeds 0.15.
     pub rows_over_max_error: usize,
+    /// Of those, rows that do not say so ("stated model error"): confidently wrong
+    /// answers.
+    pub rows_over_max_error_unflagged: usize,
     /// Largest stated model error, fraction.
     pub max_model_error: f64,
     /// Rows by the policy mesh level they were answered at (index = level; the
@@ -171,6 +175,8 @@ fn check_design(
         }
         report.rows_outside_design_interval += usize::from(!in_interval);
         report.rows_over_max_error += usize::from(f > MAX_MODEL_ERROR);
+        report.rows_over_max_error_unflagged +=
+            usize::from(f > MAX_MODEL_ERROR && !said("stated model error"));
         report.max_model_error = report.max_model_error.max(f);
         if let Some(level) = r.mesh_level {
             report.rows_by_mesh_level[level as usize] += 1;

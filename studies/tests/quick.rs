@@ -531,6 +531,7 @@ fn model_error_study_quick_finds_every_nominal_inside_and_every_written_grating_
     // The policy picked a mesh stating at most 15 % on every row, and every row
     // (FE readings on each of them) names its level.
     assert_eq!(r.rows_over_max_error, 0, "{r:?}");
+    assert_eq!(r.rows_over_max_error_unflagged, 0, "{r:?}");
     assert_eq!(r.rows_outside_unflagged, 0, "{r:?}");
     assert_eq!(r.rows_by_mesh_level.iter().sum::<usize>(), r.rows, "{r:?}");
     assert_eq!(r.rows_by_mesh_level[0], 0, "{r:?}");

@@ -7,8 +7,9 @@
 //! interval;
 //! a stated error above 0.15 is flagged on the row; and the strain at the largest force
 //! comes from the far end of the design interval, never less than the nominal plus its
-//! error. The policy's own mesh choice keeps every row's stated error within 0.15: a
-//! configuration whose level-1 rows state more is solved again one level finer.
+//! error. The policy's own mesh choice refines a configuration whose level-1 rows state
+//! more than 0.15 one level at a time up to level 3; a row still over 0.15 there (issue
+//! 38's design: the FE step stops shrinking) says so, and `optimize` does not write it.
 
 use crate::common::shipped;
 use fbgforge::fem::FemOptions;
@@ -155,12 +156,17 @@ fn every_shipped_design_states_its_error_and_holds_its_nominal_inside() {
     }
 }
 
+/// The unit draws of issue 38's design: a 34.2 mm PolyJet module with a 0.37 mm cap and
+/// a 0.68 mm core wall, whose light-green Case I rows state 17.2 % at mesh level 3 (a
+/// free draw of the proptest below found it).
+const ISSUE_38_DESIGN: [f64; 8] = [0.8189, 0.0249, 0.1416, 0.0, 0.0, 0.0, 0.0, 0.0];
+
 proptest! {
-    // A fixed seed, so that CI draws the same six designs every run: a free draw
-    // found a design the property fails on (issue 38 stays open for it: u =
-    // [0.8189, 0.0249, 0.1416, 0, 0, 0, 0, 0], not FDM, a 34.2 mm module whose Case I
-    // rows state 0.1715 at mesh level 3 and 0.1722 at level 4, so refining does not
-    // bring them within 0.15).
+    // A fixed seed, so that CI draws the same six designs every run; free seeds are
+    // run locally (PROPTEST_RNG_SEED is ignored here: edit the seed; the model-error
+    // study draws the same space at any --seed). A row may state more than 0.15 only
+    // at the finest level the policy refines to, and then says so
+    // (check_containment); issue 38's design is the explicit case below.
     #![proptest_config(ProptestConfig {
         cases: 6,
         failure_persistence: None,
@@ -183,12 +189,83 @@ proptest! {
         if let Err(e) = check_containment(&label, &rows) {
             prop_assert!(false, "{}", e);
         }
-        // The policy picked a mesh stating at most 0.15 on every row.
+        // Over 0.15 only where the policy refined as far as it goes.
         for r in &rows {
             let f = r.model_error_fraction.unwrap_or(0.0);
-            prop_assert!(f <= MAX_MODEL_ERROR, "{} {}: stated {} at mesh level {:?}", label, r.detail.prediction.grating, f, r.mesh_level);
+            prop_assert!(
+                f <= MAX_MODEL_ERROR || r.mesh_level == Some(FemOptions::AUTO_FINEST_MESH_LEVEL),
+                "{} {}: stated {} at mesh level {:?}", label, r.detail.prediction.grating, f, r.mesh_level
+            );
         }
     }
+}
+
+/// Issue 38's design: the light-green Case I rows cannot state ≤ 0.15 at the finest
+/// level the policy refines to, and the cause is real, not the estimate: the raw FE
+/// reading's step between levels stops shrinking (levels 2→3→4 on the light-green
+/// insert: +1.14, +1.27 pm/N on K ≈ 14 pm/N), so level 4 would state the same. The
+/// rows say so, naming the row's error and why; the blue insert's rows (K ≈ 63 pm/N,
+/// the same absolute step) state within 0.15.
+#[test]
+fn issue_38_design_states_over_15_percent_on_its_light_green_rows_and_says_why() {
+    let d = random_design(&shipped("clip-on-34mm.toml"), ISSUE_38_DESIGN, false).unwrap();
+    let rows = case_i(&d, 1, PredictionRequest::default().refine_to_level);
+    check_containment("issue 38 design", &rows).unwrap();
+    let insert = |r: &ModelledPrediction| r.detail.prediction.insert.clone().unwrap();
+    let over: Vec<&ModelledPrediction> = rows
+        .iter()
+        .filter(|r| r.model_error_fraction.unwrap() > MAX_MODEL_ERROR)
+        .collect();
+    assert!(!over.is_empty());
+    for r in &over {
+        assert_eq!(insert(r), "light_green");
+        assert_eq!(r.mesh_level, Some(FemOptions::AUTO_FINEST_MESH_LEVEL));
+        let e = r.model_error.unwrap();
+        // The discretisation term is what breaks 15 % (the modelling term is 9 %).
+        assert!(e.discretisation_fraction > MAX_MODEL_ERROR - e.modelling_fraction);
+        let w = r
+            .detail
+            .prediction
+            .warnings
+            .iter()
+            .find(|w| w.contains("stated model error"))
+            .expect("flagged");
+        let pct = format!("{:.1} %", 100.0 * e.total_fraction);
+        assert!(w.contains(&pct) && w.contains("at mesh level 3"), "{w}");
+        assert!(
+            w.contains("a finer mesh need not help") && w.contains("do not rely"),
+            "{w}"
+        );
+    }
+    for r in rows.iter().filter(|r| insert(r) == "blue") {
+        assert!(r.model_error_fraction.unwrap() <= MAX_MODEL_ERROR);
+    }
+    // Why: the raw light-green reading's step does not shrink from level 2→3 to 3→4.
+    let raw = |level: u32| {
+        let rows = predict(
+            &d,
+            &PredictionRequest {
+                case: Some(LoadCase::I),
+                insert: Some("light_green".into()),
+                fem_options: FemOptions {
+                    reference_diameter_mm: Some(FemOptions::REFERENCE_DIAMETER_MM),
+                    ..FemOptions::level(level)
+                },
+                refine_to_level: None,
+                cache: crate::fe_cache().clone(),
+                ..PredictionRequest::default()
+            },
+        )
+        .unwrap();
+        rows[0].detail.prediction.sensitivity_pm_per_n
+    };
+    let (k2, k3, k4) = (raw(2), raw(3), raw(4));
+    assert!(
+        (k4 - k3).abs() > 0.8 * (k3 - k2).abs(),
+        "steps {} then {}",
+        k3 - k2,
+        k4 - k3
+    );
 }
 
 /// The 34 mm module with a thin, soft cap over a stiff Case I core (the shape of the

@@ -84,6 +84,7 @@ pub fn pareto_front(candidates: Vec<FrontCandidate>, variables: &[Variable]) -> 
             readings: c.evaluation.readings.clone(),
             knee: false,
             paper_statements_failed: Vec::new(),
+            model_error_over_max: Vec::new(),
             evaluation: c.evaluation.clone(),
         });
     }
@@ -312,44 +313,65 @@ pub(crate) fn tie_notes(
     notes
 }
 
-/// The design written under `settings`' preference and its policy on the paper's
-/// statements: [`pick`] among the front's designs that meet every statement (and the
-/// table's best when it does) under [`PaperStatementsPolicy::Exclude`], among all under
-/// `Report`; with why, in words. `best_failed` names the statements the table's best
-/// fails.
+/// Why a design is not written while another can be: the paper's statements it fails
+/// (under [`PaperStatementsPolicy::Exclude`]) and its rows whose stated model error
+/// exceeds 15 % (always), in words; empty when nothing excludes it.
+fn exclusion(settings: &ModuleSettings, failed: &[String], over: &[String]) -> Vec<String> {
+    let mut why = Vec::new();
+    if settings.paper_statements == PaperStatementsPolicy::Exclude && !failed.is_empty() {
+        why.push(format!("fails {}", failed.join(", ")));
+    }
+    if !over.is_empty() {
+        why.push(format!(
+            "states a model error over 15 % on {}",
+            over.join(", ")
+        ));
+    }
+    why
+}
+
+/// The design written under `settings`' preference: [`pick`] among the front's
+/// designs that meet every paper statement (under [`PaperStatementsPolicy::Exclude`];
+/// among all under `Report`) and state every row's model error within 15 %, the
+/// table's best included when it does; with why, in words. `best_failed` names the
+/// statements the table's best fails, `best_over` its rows over 15 %. When every
+/// design is excluded, the preferred one is written and names why.
 pub fn pick_written(
     front: &[FrontDesign],
     settings: &ModuleSettings,
-    (best_choice, best, best_failed): (&Choice, &Evaluation, &[String]),
+    (best_choice, best, best_failed, best_over): (&Choice, &Evaluation, &[String], &[String]),
 ) -> (Option<usize>, String) {
     let (i, why) = pick(front, settings.prefer, best_choice, best);
-    let fails = |i: Option<usize>| match i {
-        Some(k) => !front[k].paper_statements_failed.is_empty(),
-        None => !best_failed.is_empty(),
+    let excluded = |i: Option<usize>| match i {
+        Some(k) => exclusion(
+            settings,
+            &front[k].paper_statements_failed,
+            &front[k].model_error_over_max,
+        ),
+        None => exclusion(settings, best_failed, best_over),
     };
-    if settings.paper_statements == PaperStatementsPolicy::Report || !fails(i) {
+    let reasons = excluded(i);
+    if reasons.is_empty() {
         return (i, why);
     }
     let passing: Vec<usize> = (0..front.len())
-        .filter(|&k| front[k].paper_statements_failed.is_empty())
+        .filter(|&k| excluded(Some(k)).is_empty())
         .collect();
-    let failed_names = match i {
-        Some(k) => front[k].paper_statements_failed.join(", "),
-        None => best_failed.join(", "),
-    };
-    if passing.is_empty() && !best_failed.is_empty() {
+    let best_ok = excluded(None).is_empty();
+    let reasons = reasons.join("; ");
+    if passing.is_empty() && !best_ok {
         return (
             i,
-            format!("{why}; every design of the front and the table's best fail a paper statement, so this one is written and names what it fails ({failed_names})"),
+            format!("{why}; every design of the front and the table's best are excluded, so this one is written and names why ({reasons})"),
         );
     }
     let sub: Vec<FrontDesign> = passing.iter().map(|&k| front[k].clone()).collect();
     let (j, sub_why) = pick(&sub, settings.prefer, best_choice, best);
     let chosen = match j {
         Some(j) => Some(passing[j]),
-        // The table's best is not on the front (or fails): the passing design of the
-        // best objective.
-        None if best_failed.is_empty() => None,
+        // The table's best is not on the front (or is excluded): the passing design of
+        // the best objective.
+        None if best_ok => None,
         None => passing.iter().copied().max_by(|&a, &b| {
             front[a]
                 .evaluation
@@ -360,7 +382,11 @@ pub fn pick_written(
     (
         chosen,
         format!(
-            "{sub_why}, among the designs that meet the paper's statements (the preferred design fails {failed_names}; ModuleSettings.paper_statements exclude)"
+            "{sub_why}, among the designs that meet the paper's statements and state every row's model error within 15 % (the preferred design {reasons}; ModuleSettings.paper_statements {})",
+            match settings.paper_statements {
+                PaperStatementsPolicy::Exclude => "exclude",
+                PaperStatementsPolicy::Report => "report",
+            }
         ),
     )
 }
@@ -410,4 +436,87 @@ pub fn tied_objectives(front: &[FrontDesign], settings: &ModuleSettings) -> Vec<
         ));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn design(k: f64, range: f64, objective: f64) -> FrontDesign {
+        let evaluation = Evaluation {
+            x: vec![k],
+            objective,
+            nominal_objective: objective,
+            exact: true,
+            gratings: Vec::new(),
+            readings: Vec::new(),
+            objectives: None,
+            margins: None,
+            constraints: Vec::new(),
+        };
+        FrontDesign {
+            choice: Choice {
+                core_material: "core".into(),
+                insert_material: Some("insert".into()),
+            },
+            variables: Default::default(),
+            objectives: FrontObjectives {
+                sensitivity_pm_per_n: k,
+                nominal_sensitivity_pm_per_n: k,
+                force_range_n: range,
+                force_range_limited_by: "grating_strain",
+                max_lag_s: 0.5,
+                r_squared: 1.0,
+                quality_pm_per_n_s: objective,
+            },
+            readings: Vec::new(),
+            knee: false,
+            paper_statements_failed: Vec::new(),
+            model_error_over_max: Vec::new(),
+            evaluation,
+        }
+    }
+
+    #[test]
+    fn a_design_stating_over_15_percent_is_not_written_while_another_can_be() {
+        let settings = ModuleSettings {
+            prefer: Preference::Sensitivity,
+            ..ModuleSettings::default()
+        };
+        let mut front = vec![design(50.0, 40.0, 2.0), design(80.0, 25.0, 3.0)];
+        let best = front[1].clone();
+        let choice = best.choice.clone();
+        // Nothing excluded: the most sensitive design.
+        let (i, _) = pick_written(&front, &settings, (&choice, &best.evaluation, &[], &[]));
+        assert_eq!(i, Some(1));
+        // Its rows state 17.2 %: the other design is written, and why says so.
+        let over = vec!["lambda_11 Case I light_green 17.2 %".to_string()];
+        front[1].model_error_over_max = over.clone();
+        let (i, why) = pick_written(&front, &settings, (&choice, &best.evaluation, &[], &over));
+        assert_eq!(i, Some(0), "{why}");
+        assert!(
+            why.contains("model error over 15 % on lambda_11 Case I light_green 17.2 %"),
+            "{why}"
+        );
+        // Under `report` a paper-statement failure is written, an error over 15 % is not.
+        let report = ModuleSettings {
+            paper_statements: PaperStatementsPolicy::Report,
+            ..settings.clone()
+        };
+        let (i, _) = pick_written(&front, &report, (&choice, &best.evaluation, &[], &over));
+        assert_eq!(i, Some(0));
+        front[1].model_error_over_max.clear();
+        front[1].paper_statements_failed = vec!["case_i_red_shift".into()];
+        let (i, _) = pick_written(&front, &report, (&choice, &best.evaluation, &[], &[]));
+        assert_eq!(i, Some(1));
+        // Every design excluded: the preferred one is written and names why.
+        front[0].model_error_over_max = over.clone();
+        front[1].model_error_over_max = over.clone();
+        let (i, why) = pick_written(&front, &settings, (&choice, &best.evaluation, &[], &over));
+        assert_eq!(i, Some(1));
+        assert!(
+            why.contains("every design of the front and the table's best are excluded"),
+            "{why}"
+        );
+    }
 }

@@ -115,6 +115,11 @@ pub struct FrontDesign {
     /// The paper's statements `predict` finds failing on this design as written (empty
     /// when every one checked holds).
     pub paper_statements_failed: Vec<String>,
+    /// Its rows whose stated model error exceeds 15 % (`prediction::MAX_MODEL_ERROR`)
+    /// at the finest mesh the policy refines to, each named with its grating, case,
+    /// insert and error: such a design is not written while another design of the
+    /// front (or the table's best) states every row within 15 %.
+    pub model_error_over_max: Vec<String>,
     /// The evaluation behind it.
     #[serde(skip)]
     pub evaluation: Evaluation,

@@ -272,17 +272,30 @@ pub fn optimise_module(
         .expect("the best row is feasible");
     let mut front = pareto_front(candidates, &win_problem.variables);
     for f in front.iter_mut() {
-        f.paper_statements_failed = inputs.paper_statements_failed(&f.choice, &f.evaluation.x)?;
+        let c = inputs.written_checks(&f.choice, &f.evaluation.x)?;
+        f.paper_statements_failed = c.paper_statements_failed;
+        f.model_error_over_max = c.model_error_over_max;
     }
-    let best_failed = inputs.paper_statements_failed(&choices_done[bi].choice, &best_eval.x)?;
+    let best_checks = inputs.written_checks(&choices_done[bi].choice, &best_eval.x)?;
     let (written, why) = pick_written(
         &front,
         settings,
-        (&choices_done[bi].choice, &best_eval, &best_failed),
+        (
+            &choices_done[bi].choice,
+            &best_eval,
+            &best_checks.paper_statements_failed,
+            &best_checks.model_error_over_max,
+        ),
     );
-    let failed = match written {
-        Some(i) => front[i].paper_statements_failed.clone(),
-        None => best_failed,
+    let (failed, over) = match written {
+        Some(i) => (
+            front[i].paper_statements_failed.clone(),
+            front[i].model_error_over_max.clone(),
+        ),
+        None => (
+            best_checks.paper_statements_failed,
+            best_checks.model_error_over_max,
+        ),
     };
     let (problem, eval, choice) = match written {
         Some(i) => {
@@ -318,6 +331,12 @@ pub fn optimise_module(
         warnings.push(format!(
             "the written design fails the paper's statement(s) {} (predict names the numbers)",
             failed.join(", ")
+        ));
+    }
+    if !over.is_empty() {
+        warnings.push(format!(
+            "the written design states a model error over 15 % on {} (every design found does; predict names why)",
+            over.join(", ")
         ));
     }
     let front_dropped_objectives = tied_objectives(&front, settings);
