@@ -71,9 +71,11 @@ pub struct ReconstructArgs {
     #[arg(long, default_value_t = 50, requires = "log")]
     pub tare_frames: usize,
     /// Method: wsupport, support, bnb, nnls, lasso, omp or de (default: the most
-    /// accurate method within --budget-us per frame for this array, chosen from the
-    /// work each candidate does on frames spread over the file, converted to time by
-    /// per-method costs measured once; the choice and why is printed).
+    /// accurate method within --budget-us per frame for this array, chosen from its
+    /// size and matrix alone: the work each candidate does on probe frames synthesised
+    /// from the matrix, converted to time by per-operation costs measured once, so the
+    /// same array and settings give the same method whatever the file holds; the
+    /// choice and why is printed).
     #[arg(long)]
     pub method: Option<String>,
     /// Per-frame time budget of the automatic method choice, µs (default 100, i.e.

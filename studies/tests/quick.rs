@@ -316,6 +316,26 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
     }
     assert!(dir.path().join("flags-roc.csv").exists());
     assert!(dir.path().join("flags-roc-10x20-clean.svg").exists());
+    // The margin ROC of a "rival within the noise" flag: per array and data, a
+    // larger margin flags a superset, so both rates never fall; at M = 0 on clean
+    // streams (a rival the methods' own objective prefers) within the 5 % size.
+    let csv = std::fs::read_to_string(dir.path().join("flags-margin.csv")).unwrap();
+    let pts: Vec<Vec<String>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    let fields = fbgforge_studies::reconstruct_flags::RIVAL_MARGINS.len();
+    assert_eq!(pts.len(), 2 * 2 * fields);
+    for curve in pts.chunks(fields) {
+        let v = |r: &Vec<String>, k: usize| r[k].parse::<f64>().unwrap();
+        for w in curve.windows(2) {
+            assert!(v(&w[1], 5) >= v(&w[0], 5) && v(&w[1], 6) >= v(&w[0], 6), "{w:?}");
+        }
+        if curve[0][1] == "clean" {
+            assert!(v(&curve[0], 5) <= 5.0, "{:?}", curve[0]);
+        }
+    }
 }
 
 #[test]

@@ -99,6 +99,8 @@ struct FrameOutcome {
     flagged: Vec<bool>,
     /// Flag words at the default significance.
     words: Vec<&'static str>,
+    /// Penalised χ² of the nearest rival less the answer's (None: no rival).
+    margin: Option<f64>,
 }
 
 /// One stream's outcome for one entry.
@@ -263,6 +265,7 @@ fn outcome(st: &Stream, done: &Reconstructed) -> StreamOutcome {
                 .map(|&a| !r.flags_at(a).trusted())
                 .collect(),
             words: r.flags_at(DEFAULT_SIGNIFICANCE).words(),
+            margin: r.rival_margin_chi2,
         })
         .collect();
     StreamOutcome {
@@ -411,6 +414,88 @@ fn roc(arr: &ArrayDef, e: Entry, data: &'static str, outs: &[&StreamOutcome]) ->
         .collect()
 }
 
+/// Margins M of the "rival within the noise" flag whose trade is charted: a frame
+/// is flagged when the stated test flags it at the default significance or its
+/// nearest rival's penalised χ² is within M of the answer's (likelihood ratio e^(M/2)).
+pub const RIVAL_MARGINS: [f64; 8] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
+
+/// One point of the margin ROC: right answers flagged and wrong answers flagged
+/// (flags alone, no stream-level naming), %.
+#[derive(Debug, Clone)]
+pub struct MarginPoint {
+    /// Array name.
+    pub array: String,
+    /// `clean` or `faults` (the other scenarios pooled).
+    pub data: &'static str,
+    /// The margin M, χ².
+    pub margin_chi2: f64,
+    /// Wrong answers.
+    pub wrong: usize,
+    /// Frames.
+    pub frames: usize,
+    /// Right answers flagged, %.
+    pub false_flag_right_pct: f64,
+    /// Wrong answers flagged, %.
+    pub flagged_wrong_pct: f64,
+}
+
+fn margin_roc(arr: &ArrayDef, data: &'static str, outs: &[&StreamOutcome]) -> Vec<MarginPoint> {
+    let frames: Vec<&FrameOutcome> = outs.iter().flat_map(|o| &o.frames).collect();
+    let wrong = frames.iter().filter(|f| f.wrong).count();
+    let k = default_index();
+    RIVAL_MARGINS
+        .iter()
+        .map(|&m| {
+            let flag = |f: &&&FrameOutcome| f.flagged[k] || f.margin.is_some_and(|d| d < m);
+            let ff = frames.iter().filter(|f| !f.wrong).filter(flag).count();
+            let fw = frames.iter().filter(|f| f.wrong).filter(flag).count();
+            MarginPoint {
+                array: arr.name.into(),
+                data,
+                margin_chi2: m,
+                wrong,
+                frames: frames.len(),
+                false_flag_right_pct: pct(ff, frames.len() - wrong).unwrap_or(0.0),
+                flagged_wrong_pct: pct(fw, wrong).unwrap_or(100.0),
+            }
+        })
+        .collect()
+}
+
+fn margin_table(report: &mut String, points: &[MarginPoint]) -> Result<()> {
+    writeln!(
+        report,
+        "### A rival within the noise: false flags (right) % / flagged (wrong) % at each margin M (default method, significance {DEFAULT_SIGNIFICANCE})\n"
+    )?;
+    write!(report, "| array | data | wrong / frames |")?;
+    for m in RIVAL_MARGINS {
+        write!(report, " M = {m} |")?;
+    }
+    writeln!(report)?;
+    writeln!(
+        report,
+        "|---|---|---|{}",
+        "---|".repeat(RIVAL_MARGINS.len())
+    )?;
+    for c in points.chunks(RIVAL_MARGINS.len()) {
+        write!(
+            report,
+            "| {} | {} | {} / {} |",
+            c[0].array, c[0].data, c[0].wrong, c[0].frames
+        )?;
+        for p in c {
+            write!(
+                report,
+                " {:.1} / {:.1} |",
+                p.false_flag_right_pct, p.flagged_wrong_pct
+            )?;
+        }
+        writeln!(report)?;
+    }
+    writeln!(report)?;
+    Ok(())
+}
+
 /// Run the flag study: tables to `report`, CSV/JSON/SVG to `out`.
 pub fn run(
     out: &Path,
@@ -456,6 +541,7 @@ pub fn run(
     let done = done.into_iter().collect::<Result<Vec<_>>>()?;
     let mut rows = Vec::new();
     let mut rocs = Vec::new();
+    let mut margins = Vec::new();
     for (a, arr) in arrays.iter().enumerate() {
         let entries = Entry::all(arr);
         for (k, &e) in entries.iter().enumerate() {
@@ -472,10 +558,46 @@ pub fn run(
             let others: Vec<StreamOutcome> = (1..faults.len()).flat_map(of).collect();
             rocs.extend(roc(arr, e, "clean", &clean.iter().collect::<Vec<_>>()));
             rocs.extend(roc(arr, e, "faults", &others.iter().collect::<Vec<_>>()));
+            if e == Entry::Default {
+                margins.extend(margin_roc(arr, "clean", &clean.iter().collect::<Vec<_>>()));
+                margins.extend(margin_roc(
+                    arr,
+                    "faults",
+                    &others.iter().collect::<Vec<_>>(),
+                ));
+            }
         }
     }
     write_files(out, &rows, &rocs, &arrays)?;
     table(report, &rows, &rocs, streams, frames, seed)?;
+    margin_table(report, &margins)?;
+    let margin_csv: Vec<Vec<String>> = margins
+        .iter()
+        .map(|p| {
+            vec![
+                p.array.clone(),
+                p.data.into(),
+                format!("{}", p.margin_chi2),
+                p.wrong.to_string(),
+                p.frames.to_string(),
+                format!("{:.2}", p.false_flag_right_pct),
+                format!("{:.2}", p.flagged_wrong_pct),
+            ]
+        })
+        .collect();
+    write_csv(
+        &out.join("flags-margin.csv"),
+        &[
+            "array",
+            "data",
+            "margin_chi2",
+            "wrong",
+            "frames",
+            "false_flag_right_pct",
+            "flagged_wrong_pct",
+        ],
+        &margin_csv,
+    )?;
     Ok(rows)
 }
 

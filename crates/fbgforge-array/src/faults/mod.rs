@@ -291,6 +291,16 @@ pub fn diagnose(
             &mut corr,
             &mut suspects,
         );
+        if corr.dropped.len() == before {
+            residuals::find_noisy_quiet(
+                problem,
+                &current,
+                prior,
+                sample,
+                &mut corr,
+                &mut suspects,
+            )?;
+        }
         if corr.dropped.len() != before {
             current = problem.without_gratings(&corr.dropped)?;
         }

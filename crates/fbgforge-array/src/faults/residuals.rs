@@ -34,6 +34,13 @@ pub(crate) const NOISY_MEDIAN_SIGMAS: f64 = 2.0;
 /// [`NOISY_MEDIAN_SIGMAS`] resolutions.
 pub(crate) const NOISY_ALONE_RATIO: f64 = 6.0;
 
+/// A frame is quiet for a grating when the answer predicts at most this many
+/// resolutions there: its reading is then noise whatever the model's error.
+pub(crate) const QUIET_SIGMAS: f64 = 6.0;
+
+/// Fewest quiet frames a grating is judged on.
+pub(crate) const MIN_QUIET: usize = 6;
+
 /// Fewest frames before either test is made.
 pub(crate) const MIN_FRAMES: usize = 8;
 
@@ -206,4 +213,87 @@ pub(super) fn find_noisy(
         });
         corr.dropped.push(i);
     }
+}
+
+/// Name and drop the gratings noisy where no load acts near them: over the frames
+/// quiet for a grating (the answer predicts at most [`QUIET_SIGMAS`] resolutions
+/// there), its residual's robust scatter is at least [`NOISY_SIGMAS`] resolutions and
+/// [`NOISY_RATIO`] times the median of the other gratings judged (at least two). On those frames the reading is noise
+/// whatever the model's error (additivity, calibration), so the stated resolution is
+/// the yardstick even where the leave-one-out fits of a small array have too few
+/// gratings to spare ([`find_noisy`]'s test, which names none there).
+pub(super) fn find_noisy_quiet(
+    original: &SensingProblem,
+    current: &SensingProblem,
+    prior: &ReadingSettings,
+    sample: &StreamSample,
+    corr: &mut Corrections,
+    suspects: &mut Vec<SuspectGrating>,
+) -> Result<(), ArrayError> {
+    let kept = corr.kept(original.n_gratings());
+    let frames = frames_of(sample, corr);
+    if frames.len() < MIN_FRAMES || kept.len() < 4 {
+        return Ok(());
+    }
+    let sigma = original.uncertainty.resolution_pm;
+    let solver = Solver::new(current.clone(), prior)?;
+    let mut quiet: Vec<Vec<f64>> = vec![Vec::new(); kept.len()];
+    for y in &frames {
+        let r = solver.solve(y);
+        if r.flags.unusable {
+            continue;
+        }
+        let pred = &current.sensitivity_pm_per_g * DVector::from_column_slice(&r.loads_g);
+        let res = current.residual_vector_pm(&r.loads_g, y);
+        for (q, z) in quiet.iter_mut().enumerate() {
+            if pred[q].abs() <= QUIET_SIGMAS * sigma {
+                z.push(res[q] / sigma);
+            }
+        }
+    }
+    let scales: Vec<(usize, f64, usize)> = quiet
+        .iter()
+        .enumerate()
+        .filter(|(_, z)| z.len() >= MIN_QUIET)
+        .map(|(q, z)| {
+            let mid = median(z.clone());
+            let mad = median(z.iter().map(|v| (v - mid).abs()).collect());
+            (q, 1.4826 * mad, z.len())
+        })
+        .collect();
+    if scales.len() < 3 {
+        return Ok(());
+    }
+    for &(q, scale, count) in &scales {
+        let i = kept[q];
+        // The yardstick is the other judged gratings' median: a noisy grating does
+        // not raise it, and on a small array two others are enough.
+        let med = median(
+            scales
+                .iter()
+                .filter(|(p, _, _)| *p != q)
+                .map(|(_, s, _)| *s)
+                .collect(),
+        );
+        let swapped = corr.swaps.iter().any(|&(a, b)| a == i || b == i);
+        if swapped || scale < NOISY_SIGMAS || scale < NOISY_RATIO * med {
+            continue;
+        }
+        suspects.push(SuspectGrating {
+            index: i,
+            name: String::new(),
+            reason: SuspectReason::Noisy,
+            partner: None,
+            partner_name: None,
+            evidence: format!(
+                "where no load acts near it ({count} frames) its reading scatters by {:.2} pm (robust sd), {scale:.1} resolutions, {:.1} times the median grating's",
+                scale * sigma,
+                scale / med.max(1e-300)
+            ),
+            remedy: "left out of every frame".into(),
+            frames: count,
+        });
+        corr.dropped.push(i);
+    }
+    Ok(())
 }
