@@ -901,6 +901,34 @@ fn silence_from_a_noisy_k_or_untrusted_readings_is_not_no_response() {
     }
 }
 
+#[test]
+fn a_preloaded_sine_s_cycles_count_as_presses_that_pin_the_offset() {
+    // The third draw (seeds 3000-3199): five preloaded sines with three or more
+    // presses both logs cover (seeds 3050, 3100, 3150, 3158, 3193) were NOT JUDGED
+    // with the offset estimated, "only 1 press of the force log lies in the overlap":
+    // a preloaded sine never returns to rest, so its whole train is one pulse, and the
+    // count was of pulses. A sine's cycles now count each. Seed 3050 (a slightly
+    // hysteretic part at 2 Hz, whole-second stamps with pauses) PASSes and seed 3158
+    // (a part 32 % off the model at 250 Hz) FAILs, their truths, with either clock.
+    for (seed, verdict) in [(3050, "PASS"), (3158, "FAIL")] {
+        let dir = tempfile::tempdir().unwrap();
+        let (s, rows) = verdict_rows(dir.path(), 1, seed, None, false);
+        assert_eq!(
+            s["confidently_wrong"].as_u64(),
+            Some(0),
+            "seed {seed}: {rows:?}"
+        );
+        assert_eq!(rows.len(), 2);
+        for r in &rows {
+            assert_eq!(
+                (r[2].as_str(), r[4].as_str()),
+                (verdict, "Right"),
+                "seed {seed}: {r:?}"
+            );
+        }
+    }
+}
+
 /// Issue 39's study of print files: the quick draw reaches built designs and
 /// refusals of both kinds, its outside checks find what they look for on cases with
 /// known answers, and (the finding) no confidently wrong output.

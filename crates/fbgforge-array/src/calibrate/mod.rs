@@ -401,15 +401,7 @@ fn read_run(design: &Design, req: &CalibrateRequest) -> Result<(RunData, LogWarn
     let t0 = log.time_s.first().copied().unwrap_or(0.0);
     let data = RunData {
         time_s: log.time_s.iter().map(|t| t - t0).collect(),
-        shifts_pm: tracks
-            .iter()
-            .map(|tr| {
-                tr.wavelength_nm
-                    .iter()
-                    .map(|l| (l - tr.window.nominal_nm) * 1e3)
-                    .collect()
-            })
-            .collect(),
+        shifts_pm: tracks.iter().map(|tr| tr.offsets_pm()).collect(),
     };
     Ok((data, log.warnings))
 }

@@ -47,12 +47,20 @@ pub fn default_half_width_nm(nominals: &[f64]) -> f64 {
 }
 
 /// One grating's wavelength, row by row (NaN where no peak fell in its window).
+///
+/// Stored compactly as each row's offset from the window's nominal wavelength in pm,
+/// as f32: half the memory of f64 wavelengths (an hour at 1 kHz: 14 MB a grating, not
+/// 29). Within a window (at most ±2.5 nm = ±2500 pm) an f32 keeps 24 bits, so the
+/// stored offset is within 1.5e-4 pm of the log's (6e-8 of it, relative), far
+/// below any interrogator's resolution (≥ 0.1 pm); a sensitivity fitted to the shifts
+/// moves by ~1e-7 relative, not by 1e-12.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GratingTrack {
     /// The window it was read with.
     pub window: GratingWindow,
-    /// Wavelength per log row, nm; NaN = dropped out.
-    pub wavelength_nm: Vec<f64>,
+    /// Wavelength per log row as the offset from `window.nominal_nm`, pm; NaN = dropped
+    /// out.
+    pub offset_pm: Vec<f32>,
     /// Rows with a peak in the window.
     pub rows_present: usize,
     /// Rows with more than one peak in the window.
@@ -61,6 +69,41 @@ pub struct GratingTrack {
     /// in spectra, a peaks log with standard errors); NaN where it states none, and
     /// empty when the log states none at all (a plain peak log: no column of NaNs).
     pub std_error_pm: Vec<f64>,
+}
+
+impl GratingTrack {
+    /// The offset of row `i` from the nominal wavelength, pm (NaN: no peak).
+    pub fn offset_pm_at(&self, i: usize) -> f64 {
+        f64::from(self.offset_pm[i])
+    }
+
+    /// The wavelength of row `i`, nm (NaN: no peak).
+    ///
+    /// ```
+    /// use fbgforge_core::logs::assign::{GratingTrack, GratingWindow};
+    /// let t = GratingTrack {
+    ///     window: GratingWindow::new("FBG1", 1546.295, 2.5),
+    ///     offset_pm: vec![12.5, f32::NAN],
+    ///     rows_present: 1,
+    ///     rows_ambiguous: 0,
+    ///     std_error_pm: Vec::new(),
+    /// };
+    /// assert!((t.wavelength_nm_at(0) - 1546.3075).abs() < 1e-9);
+    /// assert!(t.wavelength_nm_at(1).is_nan());
+    /// ```
+    pub fn wavelength_nm_at(&self, i: usize) -> f64 {
+        self.window.nominal_nm + self.offset_pm_at(i) * 1e-3
+    }
+
+    /// Every row's offset from the nominal wavelength as f64, pm (NaN: no peak).
+    pub fn offsets_pm(&self) -> Vec<f64> {
+        self.offset_pm.iter().map(|&o| f64::from(o)).collect()
+    }
+}
+
+/// A wavelength as a track stores it: its offset from `nominal_nm` in pm, as f32.
+fn stored_offset_pm(wavelength_nm: f64, nominal_nm: f64) -> f32 {
+    ((wavelength_nm - nominal_nm) * 1e3) as f32
 }
 
 /// Assigns one frame's peaks to gratings, frame after frame: each peak to the grating
@@ -162,7 +205,7 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
         .iter()
         .map(|w| GratingTrack {
             window: w.clone(),
-            wavelength_nm: vec![f64::NAN; n],
+            offset_pm: vec![f32::NAN; n],
             rows_present: 0,
             rows_ambiguous: 0,
             std_error_pm: vec![f64::NAN; n_errors],
@@ -175,7 +218,7 @@ pub fn assign(log: &PeakLog, windows: &[GratingWindow]) -> Vec<GratingTrack> {
         let quality = log.row_quality(i);
         tracker.assign_frame(peaks, &mut frame);
         for (g, (track, &hits)) in tracks.iter_mut().zip(tracker.hits()).enumerate() {
-            track.wavelength_nm[i] = frame[g];
+            track.offset_pm[i] = stored_offset_pm(frame[g], track.window.nominal_nm);
             if let (Some(q), true) = (quality, frame[g].is_finite()) {
                 if let Some(j) = peaks.iter().position(|&p| p == frame[g]) {
                     track.std_error_pm[i] = q[j].std_error_pm;
@@ -227,36 +270,37 @@ pub fn slope_std_error_from_errors(x: &[f64], sigma: &[f64]) -> Option<f64> {
 /// reference grating only: temperature changes slowly, so a dropped reference peak
 /// should not cost the strain sample beside it.
 pub fn fill_gaps(t: &[f64], v: &[f64]) -> Vec<f64> {
-    let idx: Vec<usize> = (0..v.len()).filter(|&i| v[i].is_finite()).collect();
-    if idx.is_empty() {
-        return v.to_vec();
-    }
     let mut out = v.to_vec();
-    for i in 0..v.len() {
+    fill_gaps_in_place(t, &mut out);
+    out
+}
+
+/// [`fill_gaps`] in place (a long log's reference track is not copied once more): only
+/// the gaps are written, and only finite values are read.
+pub fn fill_gaps_in_place(t: &[f64], out: &mut [f64]) {
+    let idx: Vec<usize> = (0..out.len()).filter(|&i| out[i].is_finite()).collect();
+    if idx.is_empty() {
+        return;
+    }
+    for i in 0..out.len() {
         if out[i].is_finite() {
             continue;
         }
         let k = idx.partition_point(|&j| j < i);
         out[i] = if k == 0 {
-            v[idx[0]]
+            out[idx[0]]
         } else if k == idx.len() {
-            v[idx[k - 1]]
+            out[idx[k - 1]]
         } else {
             let (a, b) = (idx[k - 1], idx[k]);
-            v[a] + (v[b] - v[a]) * (t[i] - t[a]) / (t[b] - t[a])
+            out[a] + (out[b] - out[a]) * (t[i] - t[a]) / (t[b] - t[a])
         };
     }
-    out
 }
 
 /// Median of the finite values among the first `n` finite ones.
-pub(crate) fn early_median(v: &[f64], n: usize) -> f64 {
-    let mut s: Vec<f64> = v
-        .iter()
-        .copied()
-        .filter(|x| x.is_finite())
-        .take(n)
-        .collect();
+pub(crate) fn early_median(v: impl IntoIterator<Item = f64>, n: usize) -> f64 {
+    let mut s: Vec<f64> = v.into_iter().filter(|x| x.is_finite()).take(n).collect();
     if s.is_empty() {
         return f64::NAN;
     }
@@ -267,29 +311,25 @@ pub(crate) fn early_median(v: &[f64], n: usize) -> f64 {
 /// Shift of a strain grating, pm, relative to its early baseline, with the
 /// reference grating's shift removed (scaled by λ_sensor / λ_reference as in
 /// [`crate::grating::compensate_temperature_pm`]). Without a reference the raw shift
-/// is returned. NaN stays NaN.
+/// is returned. NaN stays NaN. `reference` is the reference track with the offsets of
+/// its gaps filled, pm from its nominal ([`GratingTrack::offsets_pm`], [`fill_gaps`]).
 pub fn compensated_shift_pm(
     sensor: &GratingTrack,
     reference: Option<(&GratingTrack, &[f64])>,
 ) -> Vec<f64> {
-    let base = early_median(&sensor.wavelength_nm, 50);
+    let offsets = sensor.offset_pm.iter().map(|&o| f64::from(o));
+    let base = early_median(offsets.clone(), 50);
     match reference {
-        None => sensor
-            .wavelength_nm
-            .iter()
-            .map(|&l| (l - base) * 1e3)
-            .collect(),
+        None => offsets.map(|o| o - base).collect(),
         Some((r, filled)) => {
-            let rbase = early_median(filled, 50);
-            sensor
-                .wavelength_nm
-                .iter()
+            let rbase = early_median(filled.iter().copied(), 50);
+            offsets
                 .zip(filled)
-                .map(|(&l, &lr)| {
+                .map(|(o, &or)| {
                     crate::grating::compensate_temperature_pm(
-                        (l - base) * 1e3,
+                        o - base,
                         sensor.window.nominal_nm,
-                        (lr - rbase) * 1e3,
+                        or - rbase,
                         r.window.nominal_nm,
                     )
                 })
@@ -347,12 +387,72 @@ mod tests {
             .collect();
         let log = log_of(&[&[1530.1, 1536.2], &[1536.3], &[1529.9, 1530.6, 1545.0]]);
         let t = assign(&log, &win);
-        assert_eq!(t[0].wavelength_nm[0], 1530.1);
-        assert!(t[0].wavelength_nm[1].is_nan());
+        // Stored as f32 offsets from the nominal: within 1.5e-4 pm of the log's value.
+        let near = |got: f64, want: f64| (got - want).abs() < 1.5e-7;
+        assert!(near(t[0].wavelength_nm_at(0), 1530.1));
+        assert!(t[0].wavelength_nm_at(1).is_nan());
         // Two peaks in the window: the one nearest the previous value (1530.1) wins.
-        assert_eq!(t[0].wavelength_nm[2], 1529.9);
+        assert!(near(t[0].wavelength_nm_at(2), 1529.9));
+        assert!(near(t[1].wavelength_nm_at(0), 1536.2));
         assert_eq!((t[0].rows_present, t[0].rows_ambiguous), (2, 1));
-        assert!(t[1].wavelength_nm[2].is_nan());
+        assert!(t[1].wavelength_nm_at(2).is_nan());
+    }
+
+    /// The compact tracks (f32 offsets from the nominal, pm) against the log's own f64
+    /// wavelengths, over the whole window: every row within the stated 1.5e-4 pm, the
+    /// shifts as the f64 arithmetic gives them, and a slope fitted to them within 1e-7
+    /// relative. Storing the wavelength itself as f32 (ulp 122 pm at 1546 nm) or the
+    /// offset in nm would fail each.
+    #[test]
+    fn compact_tracks_keep_the_logs_wavelengths_to_the_stated_precision() {
+        let (l0, hw) = (1546.295, 2.5);
+        let n = 20_000;
+        // A deterministic spread over the window: a load ramp up to 2.4 nm plus a
+        // scatter of odd digits (a linear congruential draw).
+        let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut draw = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let force_n: Vec<f64> = (0..n).map(|i| 240.0 * i as f64 / n as f64).collect();
+        let wl: Vec<f64> = force_n
+            .iter()
+            .map(|f| l0 - 2.45 + 0.01 * f + 1e-3 * draw())
+            .collect();
+        let rows: Vec<Vec<f64>> = wl.iter().map(|&l| vec![l]).collect();
+        let refs: Vec<&[f64]> = rows.iter().map(Vec::as_slice).collect();
+        let t = assign(&log_of(&refs), &[GratingWindow::new("g", l0, hw)]);
+        let worst_pm = (0..n)
+            .map(|i| (t[0].wavelength_nm_at(i) - wl[i]).abs() * 1e3)
+            .fold(0.0, f64::max);
+        assert!(worst_pm <= 1.5e-4, "worst row off by {worst_pm} pm");
+        // The shift from the early baseline: as the f64 wavelengths give it.
+        let base = early_median(wl.iter().copied(), 50);
+        let exact: Vec<f64> = wl.iter().map(|l| (l - base) * 1e3).collect();
+        let compact = compensated_shift_pm(&t[0], None);
+        let worst_shift = exact
+            .iter()
+            .zip(&compact)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst_shift <= 3e-4, "shift off by {worst_shift} pm");
+        let slope = |y: &[f64]| {
+            let mx = force_n.iter().sum::<f64>() / n as f64;
+            let my = y.iter().sum::<f64>() / n as f64;
+            let sxy: f64 = force_n
+                .iter()
+                .zip(y)
+                .map(|(x, y)| (x - mx) * (y - my))
+                .sum();
+            let sxx: f64 = force_n.iter().map(|x| (x - mx).powi(2)).sum();
+            sxy / sxx
+        };
+        let (k_exact, k_compact) = (slope(&exact), slope(&compact));
+        assert!((k_exact - 10.0).abs() < 0.01, "K {k_exact} pm/N");
+        assert!(
+            ((k_compact - k_exact) / k_exact).abs() < 1e-7,
+            "K {k_compact} vs {k_exact}"
+        );
     }
 
     #[test]
@@ -378,17 +478,18 @@ mod tests {
             rows_present: n,
             rows_ambiguous: 0,
             std_error_pm: vec![f64::NAN; v.len()],
-            wavelength_nm: v,
+            offset_pm: v.iter().map(|&l| stored_offset_pm(l, l0)).collect(),
         };
         let (st, rt) = (mk("s", ls, s), mk("r", lr, r));
-        let filled = fill_gaps(&t, &rt.wavelength_nm);
+        let filled = fill_gaps(&t, &rt.offsets_pm());
         let c = compensated_shift_pm(&st, Some((&rt, &filled)));
         let expect = fo.shift_pm(ls, 50e-6, 0.0);
         // The early median is taken over rows 0..50, where the ramp moves the baseline
-        // by the same amount in both gratings: compensation leaves only the strain.
+        // by the same amount in both gratings: compensation leaves only the strain (to
+        // the f32 storage: offsets up to ~110 pm keep ~4e-6 pm).
         for i in [0usize, 99, 150, 199] {
             let want = if i > 100 { expect } else { 0.0 };
-            assert!((c[i] - want).abs() < 1e-6, "row {i}: {} vs {want}", c[i]);
+            assert!((c[i] - want).abs() < 2e-5, "row {i}: {} vs {want}", c[i]);
         }
     }
 }

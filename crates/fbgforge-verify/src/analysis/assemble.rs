@@ -283,7 +283,7 @@ fn finish_alignment(
         .filter(|(k, _)| !st.trusted.untrusted.contains(k))
         .map(|(_, p)| (fu[p.start], fu[p.end]))
         .collect();
-    check.presses_in_overlap = trusted.iter().filter(|(a, b)| *a >= wa && *b <= wb).count();
+    check.presses_in_overlap = presses_in_overlap(&st.seg, &st.trusted.untrusted, fu, (wa, wb));
     check.force_presses_outside = trusted.iter().filter(|(a, b)| *b < wa || *a > wb).count();
     let (gi, s) = (&st.shifts.used[st.primary], st.shifts.primary_shift_pm());
     let name = &st.shifts.selection.strain[*gi].name;
@@ -332,6 +332,37 @@ fn finish_alignment(
         check.ambiguous = alignment_doubt(&check);
     }
     check
+}
+
+/// The trusted presses of the force log that the wavelength log `[wa, wb]` covers
+/// whole: a pulse counts once, but a pulse of sine cycles counts each cycle covered.
+/// A preloaded sine never returns to rest, so its whole train is one pulse; its cycles,
+/// each a rise and fall the shift must follow, pin the offset as separate presses do
+/// (a rival offset a cycle away is the evidence test's to find, not the count's).
+pub(super) fn presses_in_overlap(
+    seg: &crate::segment::Segmentation,
+    untrusted: &[usize],
+    fu: &[f64],
+    (wa, wb): (f64, f64),
+) -> usize {
+    let inside = |a: usize, b: usize| fu[a] >= wa && fu[b] <= wb;
+    seg.pulses
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| !untrusted.contains(k))
+        .map(|(k, p)| {
+            let cycles: Vec<_> = seg
+                .segments
+                .iter()
+                .filter(|s| s.pulse == k && s.kind == crate::segment::SegmentKind::Cycle)
+                .collect();
+            if cycles.is_empty() {
+                usize::from(inside(p.start, p.end))
+            } else {
+                cycles.iter().filter(|s| inside(s.start, s.end)).count()
+            }
+        })
+        .sum()
 }
 
 /// Rows this close to a force press count as explained by it (a lag, a slow
@@ -583,4 +614,59 @@ fn collect_results(
         }
     }
     Ok((results, series))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::presses_in_overlap;
+    use crate::segment::{Protocol, PulseSpan, Segment, SegmentKind, Segmentation};
+
+    fn segment(kind: SegmentKind, pulse: usize, start: usize, end: usize) -> Segment {
+        Segment {
+            kind,
+            pulse,
+            start,
+            end,
+            window: (start, end),
+        }
+    }
+
+    #[test]
+    fn a_preloaded_sine_counts_its_cycles_in_the_overlap_and_a_press_counts_once() {
+        // Force samples at 1 s. Pulse 0: a preloaded sine, one pulse of five cycles of
+        // 10 s (10-20, ..., 50-60); pulse 1: a press-hold-release (press and release
+        // segments, 70-80); pulse 2: an impulse (90-95). The wavelength log covers
+        // 25-100 s: cycles 3, 4, 5 whole, the press whole, the impulse whole -> 5.
+        // Counting pulses, as before, gave 2 (the sine cut at its start not counted).
+        let fu: Vec<f64> = (0..120).map(f64::from).collect();
+        let seg = Segmentation {
+            protocol: Protocol::Sine,
+            pulses: vec![
+                PulseSpan { start: 10, end: 60 },
+                PulseSpan { start: 70, end: 80 },
+                PulseSpan { start: 90, end: 95 },
+            ],
+            pulse_protocols: vec![
+                Protocol::Sine,
+                Protocol::PressHoldRelease,
+                Protocol::Impulse,
+            ],
+            segments: (0..5)
+                .map(|c| segment(SegmentKind::Cycle, 0, 10 + 10 * c, 20 + 10 * c))
+                .chain([
+                    segment(SegmentKind::Press, 1, 70, 72),
+                    segment(SegmentKind::Release, 1, 78, 80),
+                    segment(SegmentKind::Pulse, 2, 90, 95),
+                ])
+                .collect(),
+            plateaus: Vec::new(),
+        };
+        assert_eq!(presses_in_overlap(&seg, &[], &fu, (25.0, 100.0)), 5);
+        // The whole sine covered: five cycles, two presses.
+        assert_eq!(presses_in_overlap(&seg, &[], &fu, (0.0, 119.0)), 7);
+        // An untrusted pulse (a clipped force) does not count, cycles and all.
+        assert_eq!(presses_in_overlap(&seg, &[0], &fu, (0.0, 119.0)), 2);
+        // A press cut by the log's end does not count.
+        assert_eq!(presses_in_overlap(&seg, &[], &fu, (65.0, 75.0)), 0);
+    }
 }

@@ -79,7 +79,7 @@ pub(super) struct GratingShifts<'a> {
     pub(super) tracks: Vec<GratingTrack>,
     /// The reference grating used, if any.
     pub(super) reference_grating: Option<String>,
-    /// The reference grating's track with its gaps filled, nm.
+    /// The reference grating's track with its gaps filled, pm from its nominal.
     reference_filled: Option<Vec<f64>>,
     /// Strain grating index (into `selection.strain`) of each grating used.
     pub(super) used: Vec<usize>,
@@ -195,7 +195,9 @@ fn reference_track(
             let t = tracks.last().filter(|t| t.window.name == r.name);
             match t {
                 Some(t) if t.rows_present >= min_rows => {
-                    Some(assign::fill_gaps(tw, &t.wavelength_nm))
+                    let mut filled = t.offsets_pm();
+                    assign::fill_gaps_in_place(tw, &mut filled);
+                    Some(filled)
                 }
                 _ => {
                     warnings.add("reference_missing", || {

@@ -12,10 +12,8 @@ use crate::segment::percentile;
 
 /// The grating's readings and what the force predicts for them.
 pub(super) struct Readings<'a> {
-    /// Wavelength per row, nm (NaN: no peak).
-    pub nm: &'a [f64],
-    /// Nominal wavelength, nm.
-    pub nominal_nm: f64,
+    /// Wavelength per row as the track stores it: pm from the nominal (NaN: no peak).
+    pub offset_pm: &'a [f32],
     /// The lag-corrected force per row, N (NaN outside the force log or left out).
     pub x: &'a [f64],
     /// K, pm/N.
@@ -30,8 +28,8 @@ const MIN_HIDDEN_SHARE: f64 = 0.1;
 
 /// Check one grating's readings.
 pub(super) fn instrument_check(r: &Readings) -> InstrumentCheck {
-    let n = r.nm.len();
-    let v: Vec<f64> = r.nm.iter().map(|w| (w - r.nominal_nm) * 1e3).collect();
+    let n = r.offset_pm.len();
+    let v: Vec<f64> = r.offset_pm.iter().map(|&o| f64::from(o)).collect();
     let span = r.k.abs() * r.x_max;
     let mut out = InstrumentCheck::default();
     if span.is_nan() || span <= 0.0 || n < 10 {

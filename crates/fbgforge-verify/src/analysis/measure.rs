@@ -109,8 +109,7 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
     drop(residual);
     let instrument = rf.as_ref().map_or_else(Default::default, |r| {
         instrument_check(&Readings {
-            nm: &t.wavelength_nm,
-            nominal_nm: g.bragg_wavelength_nm,
+            offset_pm: &t.offset_pm,
             x: &r.x,
             k,
             x_max: r.x_max,

@@ -258,7 +258,8 @@ pub struct AlignmentCheck {
     pub evidence: Option<f64>,
     /// Λ the best needs.
     pub evidence_margin: f64,
-    /// Trusted presses of the force log that the wavelength log covers whole.
+    /// Trusted presses of the force log that the wavelength log covers whole (a sine's
+    /// cycles each count: a preloaded sine never returns to rest and is one pulse).
     pub presses_in_overlap: usize,
     /// Presses of the force log outside the wavelength log.
     pub force_presses_outside: usize,
