@@ -969,3 +969,44 @@ fn print_files_study_quick_counts_no_confidently_wrong_build() {
     assert!(s["refused_spec"].as_u64().unwrap() >= 1, "{s}");
     assert_eq!(s["confidently_wrong"], 0, "{j}");
 }
+
+#[test]
+fn a_preloaded_sine_held_at_the_force_ceiling_is_force_untrusted_not_silent() {
+    // Seed 5013 (fourth draw, first seed 5000): a good part (K 1.02 × the model's)
+    // under a preloaded sine whose force channel saturates at 2.29 N for two thirds of
+    // each 12 s cycle, at a 1 Hz interrogator. Two thirds of the samples repeat the
+    // ceiling exactly, so the force noise read from second differences was 0 (no
+    // clipping could be seen) and the ceiling passed for the rest level: the unclipped
+    // dips were taken for negative presses, the force negated, and the sensor read as
+    // silent (NO RESPONSE, K -4.6 × the model's) with either clock. The saturated side
+    // now names compression and the clipped tops are found: NOT JUDGED, the force
+    // untrusted, naming the saturation, with the offset given and estimated.
+    let dir = tempfile::tempdir().unwrap();
+    let (s, rows) = verdict_rows(dir.path(), 1, 5013, None, false);
+    assert_eq!(s["confidently_wrong"].as_u64(), Some(0), "{rows:?}");
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        assert_eq!(r[0], "force-saturation", "{r:?}");
+        assert_eq!(
+            (r[2].as_str(), r[3].as_str(), r[4].as_str()),
+            ("NOT JUDGED", "force_untrusted", "Refused"),
+            "{r:?}"
+        );
+    }
+    let (_, files) = fbgforge_studies::verdicts::write_one(dir.path(), 5013, None).unwrap();
+    let mut req = fbgforge::verify::VerifyRequest::new(files.design, files.log, files.force);
+    req.case = Some(fbgforge::model::LoadCase::II);
+    req.analysis.core = Some("psc2".into());
+    let out = fbgforge::verify::run(&req).unwrap();
+    let v = serde_json::to_value(&out.report).unwrap();
+    let m = &v["measurement"];
+    assert!(
+        m["warnings"]["counts"]["force_sign_flipped"].is_null(),
+        "{}",
+        m["warnings"]
+    );
+    let top = m["force_trust"]["saturation_n"].as_f64().unwrap();
+    assert!((top - 2.2904).abs() < 1e-3, "{}", m["force_trust"]);
+    let reason = v["verdict"]["reason"].as_str().unwrap();
+    assert!(reason.contains("saturates at 2.2904 N"), "{reason}");
+}

@@ -142,13 +142,87 @@ pub fn check(t: &[f64], f: &[f64], seg: &Segmentation) -> ForceCheck {
 /// Noise standard deviation of a sampled signal from its second differences (their
 /// median absolute value): for white noise σ_d2 = √6 σ, and a smooth force's own
 /// curvature hardly enters, where first differences would count a steep flank as
-/// noise (and a sine's smooth top as flat).
-fn noise_sigma_d2(v: &[f64]) -> f64 {
-    let d2: Vec<f64> = v
-        .windows(3)
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .collect();
-    1.4826 * percentile(&d2, 0.5) / 6f64.sqrt()
+/// noise (and a sine's smooth top as flat). A channel saturated for most of the log
+/// repeats its extreme exactly, and the median second difference is then 0 however
+/// noisy the rest is: the noise is then read off the extremes, from fourth
+/// differences (σ_d4 = √70 σ for white noise; a smooth flank's own shape hardly
+/// enters), and counted only when the second differences there agree with it (a
+/// noise-free log's flanks have curvature but no noise: it stays at 0).
+pub(crate) fn noise_sigma_d2(v: &[f64]) -> f64 {
+    let robust = |d: Vec<f64>, var: f64| 1.4826 * percentile(&d, 0.5) / var.sqrt();
+    let all = robust(
+        v.windows(3)
+            .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
+            .collect(),
+        6.0,
+    );
+    if all != 0.0 {
+        return all;
+    }
+    let (lo, hi) = extremes(v);
+    let off = |w: &[f64]| !w.iter().all(|x| *x == hi) && !w.iter().all(|x| *x == lo);
+    let d2 = robust(
+        v.windows(3)
+            .filter(|w| off(w))
+            .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
+            .collect(),
+        6.0,
+    );
+    let d4 = robust(
+        v.windows(5)
+            .filter(|w| off(w))
+            .map(|w| (w[0] - 4.0 * w[1] + 6.0 * w[2] - 4.0 * w[3] + w[4]).abs())
+            .collect(),
+        70.0,
+    );
+    if d4.is_finite() && d4 > 0.0 && d4 >= 0.5 * d2 {
+        d4
+    } else {
+        all
+    }
+}
+
+/// The smallest and largest finite value.
+fn extremes(v: &[f64]) -> (f64, f64) {
+    v.iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        })
+}
+
+/// The longest run of consecutive samples within a quarter of the noise (`sigma`) of
+/// `level`.
+fn longest_run_at(v: &[f64], level: f64, sigma: f64) -> usize {
+    let (mut best, mut run) = (0usize, 0usize);
+    for x in v {
+        run = if (x - level).abs() <= 0.25 * sigma {
+            run + 1
+        } else {
+            0
+        };
+        best = best.max(run);
+    }
+    best
+}
+
+/// Which extreme of a noisy force log is a saturated channel's flat level (at least
+/// [`MIN_FLAT_SAMPLES`] consecutive samples within a quarter of the noise of it, the
+/// noise collapsed there): `Some(true)` the maximum, `Some(false)` the minimum, `None`
+/// neither or both (or no noise to tell a flat level from a held one). A channel
+/// saturates under load, never at rest: that side is compression, whatever the
+/// force's level elsewhere (a preload held at the ceiling for most of each cycle makes
+/// the ceiling look like the rest level and the unclipped dips like presses).
+pub(crate) fn saturated_side(v: &[f64]) -> Option<bool> {
+    let sigma = noise_sigma_d2(v);
+    if !(sigma > 0.0 && sigma.is_finite()) {
+        return None;
+    }
+    let (lo, hi) = extremes(v);
+    let top = longest_run_at(v, hi, sigma) >= MIN_FLAT_SAMPLES;
+    let bottom = longest_run_at(v, lo, sigma) >= MIN_FLAT_SAMPLES;
+    (top != bottom).then_some(top)
 }
 
 /// The pulses with a flat top at the log's maximum, and that maximum.
@@ -270,6 +344,47 @@ mod tests {
         // Noise-free: a flat top cannot be told from a held one; nothing is flagged.
         let (t, f) = presses(&[3.5, 4.0], 0.0, 3.0);
         assert!(check(&t, &f, &segment(&t, &f)).clipped.is_empty());
+    }
+
+    #[test]
+    fn a_ceiling_held_most_of_the_log_is_the_compression_side_and_clipped() {
+        // A preload of 2.2 N with a 1 N sine of 12 s on it, clipped at 2 N (56 % of
+        // each cycle at the ceiling), noisy: the ceiling, not the dips, is where
+        // compression is, and every cycle's top is clipped.
+        let t: Vec<f64> = (0..6000).map(|i| f64::from(i) / 10.0).collect();
+        let f: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| {
+                let r = ((i * 7919 + 13) % 1009) as f64 / 504.5 - 1.0;
+                let ramp = (x / 5.0).min(1.0);
+                (ramp * (2.2 + (std::f64::consts::TAU * x / 12.0).sin()) + 0.01 * r).min(2.0)
+            })
+            .collect();
+        assert!(f.iter().filter(|v| **v == 2.0).count() > f.len() / 2);
+        let sigma = noise_sigma_d2(&f);
+        // The fixed sequence spans [-1, 1] with σ ≈ 0.01/√3, but is not white (its
+        // steps repeat): the noise is read within a factor 2, and never as 0 (before,
+        // the exact repeats of the ceiling made it 0).
+        let ratio = sigma / (0.01 / 3f64.sqrt());
+        assert!((0.5..2.0).contains(&ratio), "{sigma}");
+        assert_eq!(saturated_side(&f), Some(true));
+        let negated: Vec<f64> = f.iter().map(|v| -v).collect();
+        assert_eq!(saturated_side(&negated), Some(false));
+        let s = segment(&t, &f);
+        let c = check(&t, &f, &s);
+        // 50 cycles of 12 s in 600 s, each clipped (the segmentation may add a part
+        // of a cycle at an end).
+        assert!(
+            c.clipped.len() >= 49 && c.clipped.len() + 1 >= s.pulses.len(),
+            "{c:?}"
+        );
+        assert_eq!(c.saturation_n, Some(2.0));
+        // Unclipped presses and a noise-free log name no side.
+        let (_, f) = presses(&[3.5, 4.0, 4.5, 3.8], 0.01, f64::INFINITY);
+        assert_eq!(saturated_side(&f), None);
+        let (_, f) = presses(&[3.5, 4.0], 0.0, 3.0);
+        assert_eq!(saturated_side(&f), None);
     }
 
     #[test]

@@ -75,9 +75,18 @@ fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64
     // excursions are measured from the rest level: the quieter end of the log (a
     // preloaded protocol spends most of its time away from rest, so the median is no
     // rest level: it flipped a preloaded sine).
+    // A channel saturated at one extreme names the compression side first: a load
+    // cell saturates under load, and a preload held at its ceiling would otherwise
+    // pass for the rest level (a clipped preloaded sine was flipped, and read as
+    // silent).
     let rest = rest_level(&force.force_n);
-    let flip = (percentile(&force.force_n, 0.001) - rest).abs()
-        > (percentile(&force.force_n, 0.999) - rest).abs();
+    let flip = match force_check::saturated_side(&force.force_n) {
+        Some(top) => !top,
+        None => {
+            (percentile(&force.force_n, 0.001) - rest).abs()
+                > (percentile(&force.force_n, 0.999) - rest).abs()
+        }
+    };
     if flip {
         warnings.add("force_sign_flipped", || {
             format!(
