@@ -197,21 +197,12 @@ pub(super) fn find_noisy(
         {
             continue;
         }
-        suspects.push(SuspectGrating {
-            index: i,
-            name: String::new(),
-            reason: SuspectReason::Noisy,
-            partner: None,
-            partner_name: None,
-            evidence: format!(
-                "its reading scatters by {:.2} pm (robust sd) about what the other gratings predict, {:.1} times the median grating's, over {count} frames",
-                line.scale,
-                line.scale / med.max(1e-300)
-            ),
-            remedy: "left out of every frame".into(),
-            frames: count,
-        });
-        corr.dropped.push(i);
+        let evidence = format!(
+            "its reading scatters by {:.2} pm (robust sd) about what the other gratings predict, {:.1} times the median grating's, over {count} frames",
+            line.scale,
+            line.scale / med.max(1e-300)
+        );
+        name_noisy(i, evidence, count, corr, suspects);
     }
 }
 
@@ -279,21 +270,34 @@ pub(super) fn find_noisy_quiet(
         if swapped || scale < NOISY_SIGMAS || scale < NOISY_RATIO * med {
             continue;
         }
-        suspects.push(SuspectGrating {
-            index: i,
-            name: String::new(),
-            reason: SuspectReason::Noisy,
-            partner: None,
-            partner_name: None,
-            evidence: format!(
-                "where no load acts near it ({count} frames) its reading scatters by {:.2} pm (robust sd), {scale:.1} resolutions, {:.1} times the median grating's",
-                scale * sigma,
-                scale / med.max(1e-300)
-            ),
-            remedy: "left out of every frame".into(),
-            frames: count,
-        });
-        corr.dropped.push(i);
+        let evidence = format!(
+            "where no load acts near it ({count} frames) its reading scatters by {:.2} pm (robust sd), {scale:.1} resolutions, {:.1} times the median grating's",
+            scale * sigma,
+            scale / med.max(1e-300)
+        );
+        name_noisy(i, evidence, count, corr, suspects);
     }
     Ok(())
+}
+
+/// Name grating `i` noisy with its evidence and leave it out of every frame (both
+/// noise tests end the same way).
+fn name_noisy(
+    i: usize,
+    evidence: String,
+    frames: usize,
+    corr: &mut Corrections,
+    suspects: &mut Vec<SuspectGrating>,
+) {
+    suspects.push(SuspectGrating {
+        index: i,
+        name: String::new(),
+        reason: SuspectReason::Noisy,
+        partner: None,
+        partner_name: None,
+        evidence,
+        remedy: "left out of every frame".into(),
+        frames,
+    });
+    corr.dropped.push(i);
 }
