@@ -330,7 +330,10 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
     for curve in pts.chunks(fields) {
         let v = |r: &Vec<String>, k: usize| r[k].parse::<f64>().unwrap();
         for w in curve.windows(2) {
-            assert!(v(&w[1], 5) >= v(&w[0], 5) && v(&w[1], 6) >= v(&w[0], 6), "{w:?}");
+            assert!(
+                v(&w[1], 5) >= v(&w[0], 5) && v(&w[1], 6) >= v(&w[0], 6),
+                "{w:?}"
+            );
         }
         if curve[0][1] == "clean" {
             assert!(v(&curve[0], 5) <= 5.0, "{:?}", curve[0]);
