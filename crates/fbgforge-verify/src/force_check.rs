@@ -192,17 +192,24 @@ fn extremes(v: &[f64]) -> (f64, f64) {
         })
 }
 
-/// The longest run of consecutive samples within a quarter of the noise (`sigma`) of
-/// `level`.
-fn longest_run_at(v: &[f64], level: f64, sigma: f64) -> usize {
-    let (mut best, mut run) = (0usize, 0usize);
-    for x in v {
-        run = if (x - level).abs() <= 0.25 * sigma {
-            run + 1
+/// The first longest run of consecutive samples within a quarter of the noise
+/// (`sigma`) of `level`, as (start, length): the one flat-level rule of a clipped top
+/// and a saturated side.
+fn longest_run_at(v: &[f64], level: f64, sigma: f64) -> (usize, usize) {
+    let (mut best, mut run) = ((0usize, 0usize), (0usize, 0usize));
+    for (i, x) in v.iter().enumerate() {
+        if (x - level).abs() <= 0.25 * sigma {
+            run = if run.1 == 0 {
+                (i, 1)
+            } else {
+                (run.0, run.1 + 1)
+            };
+            if run.1 > best.1 {
+                best = run;
+            }
         } else {
-            0
-        };
-        best = best.max(run);
+            run.1 = 0;
+        }
     }
     best
 }
@@ -220,8 +227,8 @@ pub(crate) fn saturated_side(v: &[f64]) -> Option<bool> {
         return None;
     }
     let (lo, hi) = extremes(v);
-    let top = longest_run_at(v, hi, sigma) >= MIN_FLAT_SAMPLES;
-    let bottom = longest_run_at(v, lo, sigma) >= MIN_FLAT_SAMPLES;
+    let top = longest_run_at(v, hi, sigma).1 >= MIN_FLAT_SAMPLES;
+    let bottom = longest_run_at(v, lo, sigma).1 >= MIN_FLAT_SAMPLES;
     (top != bottom).then_some(top)
 }
 
@@ -232,34 +239,22 @@ fn clipped_pulses(t: &[f64], f: &[f64], seg: &Segmentation) -> (Option<f64>, Vec
     if !(sigma > 0.0 && sigma.is_finite()) {
         return (None, Vec::new());
     }
-    let top = f
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(f64::NEG_INFINITY, f64::max);
+    let top = extremes(f).1;
     if !top.is_finite() {
         return (None, Vec::new());
     }
-    let eps = 0.25 * sigma;
     let mut clipped = Vec::new();
     for (k, p) in seg.pulses.iter().enumerate() {
-        let (mut best, mut best_s) = (0usize, 0.0f64);
-        let mut run: Option<usize> = None;
-        for i in p.start..=p.end.min(f.len() - 1) {
-            if f[i] >= top - eps {
-                let a = *run.get_or_insert(i);
-                if i + 1 - a > best {
-                    best = i + 1 - a;
-                    best_s = t[i] - t[a];
-                }
-            } else {
-                run = None;
-            }
+        let end = p.end.min(f.len() - 1);
+        if p.start > end {
+            continue;
         }
-        if best >= MIN_FLAT_SAMPLES {
+        let (start, len) = longest_run_at(&f[p.start..=end], top, sigma);
+        if len >= MIN_FLAT_SAMPLES {
+            let a = p.start + start;
             clipped.push(ClippedPulse {
                 pulse: k,
-                flat_s: best_s,
+                flat_s: t[a + len - 1] - t[a],
             });
         }
     }
