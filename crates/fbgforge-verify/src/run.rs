@@ -3,7 +3,7 @@
 //! [`run_with`] (or its two stages, [`read_inputs`] and [`judge`]), so the pipeline is
 //! written once; the results go to a [`VerifySink`].
 
-use super::analysis::{analyse, analyse_owned, AnalysisOptions, Series};
+use super::analysis::{analyse, analyse_assigned, analyse_owned, AnalysisOptions, Series};
 use super::report::VerifyReport;
 use super::sink::VerifySink;
 use super::verdict;
@@ -168,7 +168,7 @@ pub fn run(req: &VerifyRequest) -> Result<VerifyOutcome> {
 /// contact calibration) once everything has been computed: a failed calibration
 /// leaves the sink untold.
 pub fn run_with(req: &VerifyRequest, sink: &mut dyn VerifySink) -> Result<VerifyOutcome> {
-    let inputs = read_inputs(req)?;
+    let (inputs, tracks) = read_inputs_assigned(req)?;
     let given;
     let req_used = match &req.force_start {
         None => req,
@@ -181,7 +181,7 @@ pub fn run_with(req: &VerifyRequest, sink: &mut dyn VerifySink) -> Result<Verify
     };
     // The inputs handed over: the log's peaks are freed once assigned to gratings.
     let VerifyInputs { design, log, force } = inputs;
-    let mut outcome = judge_log(req_used, &design, Cow::Owned(log), &force)?;
+    let mut outcome = judge_log(req_used, &design, (Cow::Owned(log), tracks), &force)?;
     if let Some(path) = &req.calibrate_into {
         outcome.calibration = Some(calibrate_into(req, &design, &outcome.report, path, &*sink)?);
     }
@@ -268,6 +268,25 @@ pub fn read_inputs(req: &VerifyRequest) -> Result<VerifyInputs> {
     let log = logs::read_peak_log(&req.log, &req.read)?;
     let force = logs::read_force_log(&req.force, &req.force_read)?;
     Ok(VerifyInputs { design, log, force })
+}
+
+/// [`read_inputs`], with a long log's peaks assigned to the design's gratings as it is
+/// read ([`logs::read_peak_log_assigned`]: its peak table never held whole) and before
+/// the force log is read: the log without its peaks and the tracks, or (a log read
+/// whole, a design whose gratings the analysis will refuse) the log and no tracks.
+fn read_inputs_assigned(
+    req: &VerifyRequest,
+) -> Result<(VerifyInputs, Option<Vec<logs::assign::GratingTrack>>)> {
+    req.validate()?;
+    let design = crate::design::load(&req.design)?;
+    check_insert(&design, req)?;
+    // Windows the analysis refuses: read as before, for the analysis to say why.
+    let (log, tracks) = match crate::analysis::grating_windows(&design, &req.analysis) {
+        Ok(w) => logs::read_peak_log_assigned(&req.log, &req.read, &w)?,
+        Err(_) => (logs::read_peak_log(&req.log, &req.read)?, None),
+    };
+    let force = logs::read_force_log(&req.force, &req.force_read)?;
+    Ok((VerifyInputs { design, log, force }, tracks))
 }
 
 /// The clock offset a `force_start` wall-clock time gives (force clock − wavelength
@@ -376,7 +395,7 @@ pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome
     judge_log(
         req,
         &inputs.design,
-        Cow::Borrowed(&inputs.log),
+        (Cow::Borrowed(&inputs.log), None),
         &inputs.force,
     )
 }
@@ -386,12 +405,13 @@ pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome
 fn judge_log(
     req: &VerifyRequest,
     design: &Design,
-    log: Cow<'_, PeakLog>,
+    (log, tracks): (Cow<'_, PeakLog>, Option<Vec<logs::assign::GratingTrack>>),
     force: &ForceLog,
 ) -> Result<VerifyOutcome> {
-    let (m, series) = match log {
-        Cow::Borrowed(l) => analyse(design, l, force, &req.analysis)?,
-        Cow::Owned(l) => analyse_owned(design, l, force, &req.analysis)?,
+    let (m, series) = match (log, tracks) {
+        (Cow::Borrowed(l), _) => analyse(design, l, force, &req.analysis)?,
+        (Cow::Owned(l), None) => analyse_owned(design, l, force, &req.analysis)?,
+        (Cow::Owned(l), Some(t)) => analyse_assigned(design, l, t, force, &req.analysis)?,
     };
     // The one model policy, with the band, for the configuration under test only.
     let mut cores: Vec<&String> = m.gratings.iter().filter_map(|g| g.core.as_ref()).collect();

@@ -123,13 +123,14 @@ pub struct Segmentation {
 /// Percentile of the finite values; vectors of more than a million values are
 /// subsampled evenly (plenty for thresholds and spreads).
 pub fn percentile(v: &[f64], p: f64) -> f64 {
-    let step = v.len().div_ceil(1 << 20).max(1);
-    let mut s: Vec<f64> = v
-        .iter()
-        .step_by(step)
-        .copied()
-        .filter(|x| x.is_finite())
-        .collect();
+    percentile_of(|| v.iter().copied(), p)
+}
+
+/// [`percentile`] of the values `values()` yields, without a copy of them all (it is
+/// called twice: to count them, then to take the subsample).
+pub fn percentile_of<I: Iterator<Item = f64>>(values: impl Fn() -> I, p: f64) -> f64 {
+    let step = values().count().div_ceil(1 << 20).max(1);
+    let mut s: Vec<f64> = values().step_by(step).filter(|x| x.is_finite()).collect();
     if s.is_empty() {
         return f64::NAN;
     }
@@ -140,8 +141,22 @@ pub fn percentile(v: &[f64], p: f64) -> f64 {
 /// Noise standard deviation of a sampled signal from the median absolute first
 /// difference (robust to the signal's own steps).
 pub fn noise_sigma(v: &[f64]) -> f64 {
-    let diffs: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-    1.4826 * percentile(&diffs, 0.5) / std::f64::consts::SQRT_2
+    noise_sigma_of(|| v.iter().copied())
+}
+
+/// [`noise_sigma`] of the values `values()` yields, without a copy of them or of their
+/// differences.
+pub fn noise_sigma_of<I: Iterator<Item = f64>>(values: impl Fn() -> I) -> f64 {
+    let diffs = || {
+        let mut it = values();
+        let mut prev = it.next();
+        it.map(move |x| {
+            let d = prev.map_or(f64::NAN, |p| (x - p).abs());
+            prev = Some(x);
+            d
+        })
+    };
+    1.4826 * percentile_of(diffs, 0.5) / std::f64::consts::SQRT_2
 }
 
 /// Find loading pulses: runs where the force rises above its resting level by more
@@ -690,6 +705,46 @@ fn oscillation_minima(sm: &[f64], s: usize, e: usize, swing: f64) -> Vec<usize> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The percentile and noise of values read as they go (the instrument check and the
+    /// branches of a long log, no copy of the column) are those of the collected copy,
+    /// subsample and all: written out here as the copies were taken before.
+    #[test]
+    fn figures_of_values_read_as_they_go_are_those_of_their_copy() {
+        // 3 M values (more than 2^20: percentile subsamples), a third NaN or filtered.
+        let v: Vec<f64> = (0..3_000_000u32)
+            .map(|i| {
+                let x = f64::from(i.wrapping_mul(2_654_435_761) % 1_000_003) * 1e-3;
+                if i % 5 == 0 {
+                    f64::NAN
+                } else {
+                    x
+                }
+            })
+            .collect();
+        let keep = |x: &f64| x.is_nan() || *x > 100.0;
+        let copy: Vec<f64> = v.iter().copied().filter(keep).collect();
+        let by_copy = |c: &[f64], p: f64| {
+            let step = c.len().div_ceil(1 << 20);
+            let mut s: Vec<f64> = c
+                .iter()
+                .step_by(step)
+                .copied()
+                .filter(|x| x.is_finite())
+                .collect();
+            let k = ((s.len() - 1) as f64 * p).round() as usize;
+            *s.select_nth_unstable_by(k, f64::total_cmp).1
+        };
+        for p in [0.05, 0.5, 0.999] {
+            let got = percentile_of(|| v.iter().copied().filter(keep), p);
+            assert_eq!(got.to_bits(), by_copy(&copy, p).to_bits(), "p {p}");
+        }
+        let diffs: Vec<f64> = copy.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+        let want = 1.4826 * by_copy(&diffs, 0.5) / std::f64::consts::SQRT_2;
+        let got = noise_sigma_of(|| v.iter().copied().filter(keep));
+        assert_eq!(got.to_bits(), want.to_bits());
+        assert!(want > 0.0);
+    }
 
     fn grid(dur: f64, rate: f64) -> Vec<f64> {
         (0..=(dur * rate) as usize)

@@ -569,11 +569,14 @@ pub fn parse_force_bytes(bytes: &[u8], path: &Path, cols: &ForceReadOptions) -> 
     // wrong span (one time of -1e308 among 1836 samples gave K = -13 867 pm/N).
     check_force_times_increase(path, &time_s, &rows.line_nos)?;
     let time_uncertainty_s = dequantize(path, &mut time_s, &mut warnings);
+    // The column grew row by row: its spare capacity (up to as much again) freed.
+    let mut force_n = rows.force;
+    force_n.shrink_to_fit();
     Ok(ForceLog {
         source: path.to_path_buf(),
         time_s,
         clock,
-        force_n: rows.force,
+        force_n,
         time_column: lay.time_column,
         force_column: lay.force_column,
         scale_to_n: scale,

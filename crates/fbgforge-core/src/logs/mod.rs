@@ -573,6 +573,49 @@ pub(crate) fn read_peak_log_in_blocks(
     opts: &ReadOptions,
     block: usize,
 ) -> Result<PeakLog> {
+    read_blocks(path, opts, block, None).map(|(log, _)| log)
+}
+
+/// A wavelength log read as [`read_peak_log`] reads it, with its peaks assigned to the
+/// gratings of `windows` ([`assign::assign`]) and freed: a long log's rows are assigned
+/// block by block as the file is read, so its peak table (317 MB of an hour at 1 kHz
+/// with eight peaks a row) is never held whole. The log comes back without its peaks
+/// ([`PeakLog::drop_peaks`]) and with the tracks, the same as `assign` gives on the
+/// whole log. Rows arriving in file order are assigned in time order only when the
+/// log's times never run back: a log whose rows must be sorted by time (or one of
+/// spectra, or with peak uncertainties, or small) is read whole instead and comes back
+/// with its peaks and no tracks (`None`), for the caller to assign.
+///
+/// ```
+/// use fbgforge_core::logs::assign::{assign, GratingWindow};
+/// use fbgforge_core::logs::{read_peak_log, read_peak_log_assigned, ReadOptions};
+/// let dir = tempfile::tempdir()?;
+/// let path = dir.path().join("peaks.csv");
+/// std::fs::write(&path, "time_s,a\n0.0,1546.295\n0.5,1546.296\n")?;
+/// let windows = [GratingWindow::new("a", 1546.3, 2.5)];
+/// // A small file is read whole: its peaks kept, for the caller to assign.
+/// let (log, tracks) = read_peak_log_assigned(&path, &ReadOptions::default(), &windows)?;
+/// assert!(tracks.is_none());
+/// assert_eq!(log, read_peak_log(&path, &ReadOptions::default())?);
+/// assert_eq!(assign(&log, &windows)[0].rows_present, 2);
+/// # Ok::<(), anyhow::Error>(())
+/// ```
+pub fn read_peak_log_assigned(
+    path: &Path,
+    opts: &ReadOptions,
+    windows: &[assign::GratingWindow],
+) -> Result<(PeakLog, Option<Vec<assign::GratingTrack>>)> {
+    read_blocks(path, opts, rows::STREAM_BLOCK, Some(windows))
+}
+
+/// [`read_peak_log_in_blocks`], and with `windows` the peaks of a streamed log assigned
+/// block by block ([`read_peak_log_assigned`]).
+pub(crate) fn read_blocks(
+    path: &Path,
+    opts: &ReadOptions,
+    block: usize,
+    windows: Option<&[assign::GratingWindow]>,
+) -> Result<(PeakLog, Option<Vec<assign::GratingTrack>>)> {
     use std::io::Read;
     let cannot = || format!("cannot read the log {}", path.display());
     let mut file = std::fs::File::open(path).with_context(cannot)?;
@@ -580,7 +623,7 @@ pub(crate) fn read_peak_log_in_blocks(
     if len <= 2 * block as u64 {
         let mut bytes = Vec::with_capacity(len as usize);
         file.read_to_end(&mut bytes).with_context(cannot)?;
-        return parse_wavelength_bytes(&bytes, path, opts);
+        return Ok((parse_wavelength_bytes(&bytes, path, opts)?, None));
     }
     // The head: what detection reads (a test's small blocks read a smaller one).
     let head_len = HEAD_BYTES.min(block.max(1 << 16));
@@ -594,21 +637,46 @@ pub(crate) fn read_peak_log_in_blocks(
         // A whole-file spectrum is one acquisition's table, not a stream of rows.
         let mut bytes = head;
         file.read_to_end(&mut bytes).with_context(cannot)?;
-        return parse_wavelength_bytes(&bytes, path, opts);
+        return Ok((parse_wavelength_bytes(&bytes, path, opts)?, None));
     }
     let reader = det.format.reader();
     let table = reader.rows(&det, &head, path, opts)?;
     let body_offset = det.body_offset.min(head.len());
     head.drain(..body_offset);
+    // Peaks with uncertainties go with their standard errors: read whole.
+    let mut assigner = windows
+        .filter(|_| table.estimator.is_none())
+        .map(assign::StreamAssigner::new);
+    let mut first_block = true;
+    let mut take = |m: &mut rows::Merged, expected_rows: usize| {
+        if let Some(a) = assigner.as_mut() {
+            if std::mem::take(&mut first_block) {
+                // Room for the whole body's rows, once.
+                a.reserve(expected_rows);
+            }
+            m.take_peaks(|starts, peaks| a.push_rows(starts, peaks));
+        }
+    };
     let m = rows::parse_body_stream(
         &mut file,
         head,
         det.body_line,
         &*table.parser,
         (path, Some(len - body_offset as u64), block),
+        Some(&mut take),
     )
     .with_context(cannot)?;
-    finish_peak_log(m, &det, table, path, opts)
+    let assigned = assigner.is_some();
+    match (
+        finish_table(m, &det, table, path, opts, assigned)?,
+        assigner,
+    ) {
+        (Some(log), Some(a)) => Ok((log, Some(a.finish()))),
+        (Some(log), None) => Ok((log, None)),
+        // Rows to sort by time: assigned in file order they could differ from the
+        // rows assigned in time order; read again, whole.
+        (None, _) => Ok((read_peak_log_in_blocks(path, opts, block)?, None)),
+    }
 }
 
 /// Parse a wavelength log held in memory: detect its format, read its rows with that
@@ -630,12 +698,31 @@ pub fn parse_wavelength_bytes(bytes: &[u8], path: &Path, opts: &ReadOptions) -> 
 /// The log from its parsed table: too many unreadable lines refused, the times
 /// resolved, ordered and spread, the clock's jumps found.
 fn finish_peak_log(
-    mut m: rows::Merged,
+    m: rows::Merged,
     det: &Detected,
     table: Rows,
     path: &Path,
     opts: &ReadOptions,
 ) -> Result<PeakLog> {
+    finish_table(m, det, table, path, opts, false)?.ok_or_else(|| {
+        anyhow::anyhow!(
+            "internal: {}: a table with its peaks was not finished",
+            path.display()
+        )
+    })
+}
+
+/// [`finish_peak_log`]; with `peaks_taken` (the peaks were assigned as the table was
+/// read, [`read_peak_log_assigned`]) the log has no peaks, and `None` is returned when
+/// its rows must be sorted by time.
+fn finish_table(
+    mut m: rows::Merged,
+    det: &Detected,
+    table: Rows,
+    path: &Path,
+    opts: &ReadOptions,
+    peaks_taken: bool,
+) -> Result<Option<PeakLog>> {
     let reader = det.format.reader();
     let rows = m.lines.len();
     if rows == 0 || m.bad * 2 > m.table_lines {
@@ -681,14 +768,20 @@ fn finish_peak_log(
         debug_assert_eq!(u.peaks.len(), log.peaks_nm.len());
     }
     log.clock_jumps = time::clock_jumps(path, &time_s, &log.line_of_row, &mut log.warnings);
+    if peaks_taken {
+        log.drop_peaks();
+    }
     if let Some(order) = time::finish_times(path, &mut time_s, &log.line_of_row, &mut log.warnings)
     {
+        if peaks_taken {
+            return Ok(None);
+        }
         time::reorder_rows(&mut log, &mut time_s, &order);
     }
     log.time_uncertainty_s = time::dequantize(path, &mut time_s, &mut log.warnings);
     log.time_s = time_s;
     spectrum::warn_flagged_peaks(&mut log);
-    Ok(log)
+    Ok(Some(log))
 }
 
 /// Resolved path display helper for messages.

@@ -385,12 +385,28 @@ impl Merged {
 
     /// Room for `rows` more rows holding `n_peaks` more peaks.
     fn reserve_rows(&mut self, rows: usize, n_peaks: usize) {
-        self.times.date_of_row.reserve(rows);
-        self.times.sec.reserve(rows);
+        self.reserve_times(rows);
         self.row_start.reserve(rows);
-        self.lines.reserve(rows);
         self.peaks.reserve(n_peaks);
         self.chans.reserve(n_peaks);
+    }
+
+    /// Room for `rows` more rows' times and lines (not their peaks).
+    fn reserve_times(&mut self, rows: usize) {
+        self.times.date_of_row.reserve(rows);
+        self.times.sec.reserve(rows);
+        self.lines.reserve(rows);
+    }
+
+    /// Take the peaks of the rows appended since the last call out of the table: `f`
+    /// is handed their row starts (from 0) and peaks, then they are freed (the
+    /// capacity kept for the next block). The rows' times and lines stay.
+    pub(crate) fn take_peaks(&mut self, f: impl FnOnce(&[usize], &[f64])) {
+        f(&self.row_start, &self.peaks);
+        self.row_start.truncate(1);
+        self.peaks.clear();
+        self.chans.clear();
+        self.quality.clear();
     }
 
     /// Append the chunks of the table that starts at file line `first_line` (moved on
@@ -452,16 +468,24 @@ impl Merged {
 /// Bytes read from the file at a time when a table body is streamed.
 pub(crate) const STREAM_BLOCK: usize = 32 << 20;
 
+/// What is done with each block's rows once appended to the table: `None` keeps them;
+/// a hook is handed the table and the rows expected in the whole body (from the first
+/// block, 5 % spare), and takes the block's peaks out (the table's `row_start`, `peaks`
+/// and `chans` then hold only the blocks since it last ran).
+pub(crate) type BlockHook<'a> = Option<&'a mut dyn FnMut(&mut Merged, usize)>;
+
 /// Parse a table body read from `src` block by block (the file is never held whole):
 /// each block cut after its last newline, parsed in parallel chunks and appended in
 /// file order; `first`: body bytes already read; `total_hint`: the body's size in bytes,
-/// to reserve the table once (None: grow); `block`: bytes read at a time.
+/// to reserve the table once (None: grow); `block`: bytes read at a time; `hook`: run
+/// after each block ([`BlockHook`]; with one, no room is reserved for the peaks).
 pub(crate) fn parse_body_stream(
     src: &mut dyn std::io::Read,
     first: Vec<u8>,
     body_line: usize,
     parser: &dyn RowParser,
     (path, total_hint, block): (&Path, Option<u64>, usize),
+    mut hook: BlockHook,
 ) -> std::io::Result<Merged> {
     let block_len = block.max(1);
     let mut m = Merged::with_table_lines(0);
@@ -469,6 +493,7 @@ pub(crate) fn parse_body_stream(
     let mut buf = first;
     let mut eof = false;
     let mut reserved = false;
+    let mut expected_rows = 0;
     while !(eof && buf.is_empty()) {
         // Fill the block, then cut it after its last newline (all of it at the end).
         while !eof && buf.len() < block_len {
@@ -506,14 +531,19 @@ pub(crate) fn parse_body_stream(
                 let scale = total as f64 / cut as f64 * 1.05;
                 let rows: usize = partials.iter().map(|p| p.lines.len()).sum();
                 let peaks: usize = partials.iter().map(|p| p.peaks.len()).sum();
-                m.reserve_rows(
-                    (rows as f64 * scale) as usize,
-                    (peaks as f64 * scale) as usize,
-                );
+                expected_rows = (rows as f64 * scale) as usize;
+                if hook.is_some() {
+                    m.reserve_times(expected_rows);
+                } else {
+                    m.reserve_rows(expected_rows, (peaks as f64 * scale) as usize);
+                }
             }
             reserved = true;
         }
         m.append(partials, &mut first_line, path);
+        if let Some(h) = hook.as_mut() {
+            h(&mut m, expected_rows);
+        }
         buf.drain(..cut);
     }
     Ok(m)

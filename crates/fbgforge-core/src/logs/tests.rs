@@ -244,3 +244,102 @@ fn a_log_streamed_in_small_blocks_reads_as_the_whole_file() {
         assert_eq!(streamed, whole, "{}", format.name());
     }
 }
+
+/// Peaks assigned block by block as a long log is read ([`read_peak_log_assigned`])
+/// give the tracks [`assign::assign`] gives on the whole log, for every format: a
+/// second peak in a window now and then (the tracker's choice depends on the row
+/// before, across the blocks' seams), peaks missing, a garbled line; the log comes back
+/// as the whole read with its peaks dropped. A log whose rows must be sorted by time is
+/// read whole instead (its peaks kept, no tracks).
+#[test]
+fn peaks_assigned_while_streaming_are_the_whole_logs_assignment() {
+    use assign::{assign, GratingWindow};
+    let n = 20_000;
+    let time_s: Vec<f64> = (0..n).map(|i| f64::from(i) * 0.01).collect();
+    let names = vec!["fbg_a".to_string(), "fbg_b".into(), "fbg_c".into()];
+    let rows: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            let a = 1524.5703 + f64::from(i % 97) * 1e-4;
+            // Every 7th row a rival peak in fbg_a's window, every 11th fbg_b missing.
+            let c = if i % 7 == 0 { 1525.1 } else { f64::NAN };
+            let b = if i % 11 == 0 { f64::NAN } else { 1546.2953 };
+            vec![a, b, c]
+        })
+        .collect();
+    let t0 = days_from_civil(2025, 4, 17) as f64 * 86400.0 + 56696.0;
+    let table = LogTable {
+        start_epoch_s: t0,
+        time_s: &time_s,
+        names: &names,
+        wavelength_nm: &rows,
+        sample_rate_hz: 100.0,
+    };
+    let windows = [
+        GratingWindow::new("a", 1524.6, 2.0),
+        GratingWindow::new("b", 1546.3, 2.0),
+    ];
+    let opts = ReadOptions::default();
+    let dir = tempfile::tempdir().unwrap();
+    for format in LogFormat::ALL {
+        let mut bytes = Vec::new();
+        write_log(&mut bytes, format, &table, &LogStyle::default()).unwrap();
+        let third = bytes.len() / 3;
+        let at = third + memchr::memchr(b'\n', &bytes[third..]).unwrap() + 1;
+        bytes.splice(at..at, b"garbled line\n".iter().copied());
+        let path = dir.path().join(format!("log.{}", format.extension()));
+        std::fs::write(&path, &bytes).unwrap();
+        let mut whole = parse_wavelength_bytes(&bytes, &path, &opts).unwrap();
+        let want = assign(&whole, &windows);
+        let (log, tracks) = read_blocks(&path, &opts, 4096, Some(&windows)).unwrap();
+        let name = format.name();
+        if whole.uncertainty.is_some() {
+            // Peaks with standard errors are read whole, for the caller to assign.
+            assert!(tracks.is_none(), "{name}");
+            assert_eq!(log, whole, "{name}");
+            continue;
+        }
+        let tracks = tracks.unwrap_or_else(|| panic!("{name}: not assigned while read"));
+        assert!(
+            want[0].rows_ambiguous > 2000,
+            "{name}: {}",
+            want[0].rows_ambiguous
+        );
+        assert!(want[1].rows_present < n as usize - 1000, "{name}");
+        // NaN offsets compare unequal: compare their bits.
+        for (got, want) in tracks.iter().zip(&want) {
+            let bits = |t: &assign::GratingTrack| -> Vec<u32> {
+                t.offset_pm.iter().map(|o| o.to_bits()).collect()
+            };
+            assert_eq!(bits(got), bits(want), "{name}");
+            assert_eq!(
+                (got.rows_present, got.rows_ambiguous, &got.window),
+                (want.rows_present, want.rows_ambiguous, &want.window),
+                "{name}"
+            );
+            assert_eq!(got.std_error_pm, want.std_error_pm, "{name}");
+        }
+        whole.drop_peaks();
+        assert_eq!(log, whole, "{name}");
+    }
+    // Two rows swapped: the rows are sorted by time, so the log is read whole.
+    let mut text = String::from("time_s,a,b\n");
+    for i in 0..2000 {
+        let k = match i {
+            500 => 501,
+            501 => 500,
+            _ => i,
+        };
+        text.push_str(&format!(
+            "{:.2},{:.4},1546.2953\n",
+            f64::from(k) * 0.01,
+            1524.5703 + f64::from(k % 13) * 1e-4
+        ));
+    }
+    let path = dir.path().join("swapped.csv");
+    std::fs::write(&path, &text).unwrap();
+    let (log, tracks) = read_blocks(&path, &opts, 4096, Some(&windows)).unwrap();
+    assert!(tracks.is_none());
+    assert_eq!(log, read_peak_log(&path, &opts).unwrap());
+    assert_eq!(log.rows(), 2000);
+    assert!(!log.row(0).0.is_empty());
+}

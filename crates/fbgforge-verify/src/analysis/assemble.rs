@@ -30,7 +30,7 @@ pub fn analyse(
     force: &ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
-    analyse_log(design, Cow::Borrowed(log), force, opts)
+    analyse_log(design, (Cow::Borrowed(log), None), force, opts)
 }
 
 /// [`analyse`] of a log handed over: its peaks are freed once assigned to gratings (the
@@ -41,12 +41,28 @@ pub fn analyse_owned(
     force: &ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
-    analyse_log(design, Cow::Owned(log), force, opts)
+    analyse_log(design, (Cow::Owned(log), None), force, opts)
+}
+
+/// [`analyse`] of a log whose peaks were assigned to gratings as it was read
+/// ([`crate::logs::read_peak_log_assigned`] with [`super::grating_windows`]): `tracks`
+/// are its gratings' tracks, the answers the same.
+pub fn analyse_assigned(
+    design: &Design,
+    log: PeakLog,
+    tracks: Vec<crate::logs::assign::GratingTrack>,
+    force: &ForceLog,
+    opts: &AnalysisOptions,
+) -> Result<(Measurement, Series)> {
+    analyse_log(design, (Cow::Owned(log), Some(tracks)), force, opts)
 }
 
 fn analyse_log(
     design: &Design,
-    log: Cow<'_, PeakLog>,
+    (log, assigned): (
+        Cow<'_, PeakLog>,
+        Option<Vec<crate::logs::assign::GratingTrack>>,
+    ),
     force: &ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
@@ -67,11 +83,22 @@ fn analyse_log(
     };
     let (mut log, rows_set_aside) = match super::stretch::one_clock(&log, force_span, &mut warnings)
     {
+        // The reader assigns as it reads only a log whose clock never runs back.
+        Some(_) if assigned.is_some() => {
+            bail!("internal: a log whose clock runs back was assigned as it was read")
+        }
         Some((l, n)) => (Cow::Owned(l), n),
         None => (log, 0),
     };
     let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
-    let shifts = grating_shifts(design, module, &mut log, opts, &tw, &mut warnings)?;
+    let shifts = grating_shifts(
+        design,
+        module,
+        (&mut log, assigned),
+        opts,
+        &tw,
+        &mut warnings,
+    )?;
     let log: &PeakLog = &log;
     let mut st = stages(
         (design, module),
@@ -153,7 +180,7 @@ struct Stages<'a> {
     module: &'a crate::spec::Module,
     shifts: &'a GratingShifts<'a>,
     tw: &'a [f64],
-    fval: Vec<f64>,
+    fval: Cow<'a, [f64]>,
     seg: Segmentation,
     trusted: TrustedForce,
     clocks: AlignedClocks,
@@ -169,7 +196,7 @@ struct Stages<'a> {
 /// or a gap leaves untrusted are left out), the clocks aligned on the primary grating.
 fn stages<'a>(
     (design, module): (&'a Design, &'a crate::spec::Module),
-    (log, force): (&PeakLog, &ForceLog),
+    (log, force): (&PeakLog, &'a ForceLog),
     opts: &AnalysisOptions,
     tw: &'a [f64],
     shifts: &'a GratingShifts<'a>,
@@ -182,7 +209,8 @@ fn stages<'a>(
     let logs = (log, force);
     let (shift_pm, given_s) = (shifts.primary_shift_pm(), opts.clock_offset_s);
     let spans = &trusted.spans;
-    let clocks = align_clocks(&frame, tw, shift_pm, logs, given_s, spans, warnings)?;
+    let clocks = align_clocks(&frame, tw, &shift_pm, logs, given_s, spans, warnings)?;
+    drop(shift_pm);
     check_coverage(logs, &seg, &clocks.fu, (tw[0], tw[tw.len() - 1]))?;
     let resolution_pm = opts
         .resolution_pm
@@ -285,7 +313,8 @@ fn finish_alignment(
         .collect();
     check.presses_in_overlap = presses_in_overlap(&st.seg, &st.trusted.untrusted, fu, (wa, wb));
     check.force_presses_outside = trusted.iter().filter(|(a, b)| *b < wa || *a > wb).count();
-    let (gi, s) = (&st.shifts.used[st.primary], st.shifts.primary_shift_pm());
+    let primary_shift = st.shifts.primary_shift_pm();
+    let (gi, s) = (&st.shifts.used[st.primary], &*primary_shift);
     let name = &st.shifts.selection.strain[*gi].name;
     if let Some(g) = results.iter().find(|r| &r.grating == name) {
         let longest = trusted.iter().map(|(a, b)| b - a).fold(0.0, f64::max);

@@ -10,16 +10,17 @@ use crate::logs::{Clock, ForceLog, LogWarnings, PeakLog};
 use crate::segment::{percentile, Segmentation};
 use crate::{fit, force_check};
 use anyhow::{bail, Result};
+use std::borrow::Cow;
 
 /// Place the force log on the wavelength log's clock by the prior offset, check that
 /// the two logs can overlap, and turn the force compression-positive.
-pub(super) fn force_frame(
+pub(super) fn force_frame<'f>(
     log: &PeakLog,
-    force: &ForceLog,
+    force: &'f ForceLog,
     opts: &AnalysisOptions,
     tw: &[f64],
     warnings: &mut LogWarnings,
-) -> Result<ForceFrame> {
+) -> Result<ForceFrame<'f>> {
     let w0 = log.time_s[0];
     let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute {
         0.0
@@ -69,7 +70,7 @@ pub(super) fn force_frame(
 /// The force with compression positive: some stands log compression as negative
 /// force; if the force's excursions go down rather than up, flip it (and say so) so
 /// that pulses are peaks.
-fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64> {
+fn compression_positive<'f>(force: &'f ForceLog, warnings: &mut LogWarnings) -> Cow<'f, [f64]> {
     // Some stands log compression as negative force: if the force's excursions go
     // down rather than up, flip it (and say so) so that pulses are peaks. The
     // excursions are measured from the rest level: the quieter end of the log (a
@@ -94,9 +95,9 @@ fn compression_positive(force: &ForceLog, warnings: &mut LogWarnings) -> Vec<f64
                 force.source.display()
             )
         });
-        force.force_n.iter().map(|f| -f).collect()
+        Cow::Owned(force.force_n.iter().map(|f| -f).collect())
     } else {
-        force.force_n.clone()
+        Cow::Borrowed(&force.force_n)
     }
 }
 

@@ -70,23 +70,23 @@ fn select_gratings<'a>(
     })
 }
 
-/// The strain gratings' shifts: peaks assigned to gratings, temperature removed. One
-/// shift is kept per row (the primary grating's); the others are rebuilt from their
-/// tracks when a stage needs them ([`GratingShifts::shift_pm`]), so eight gratings of
-/// an hour at 1 kHz do not hold eight more columns.
+/// The strain gratings' shifts: peaks assigned to gratings, temperature removed. No
+/// shift is kept per row: each (the primary grating's too) is rebuilt from the tracks
+/// when a stage needs it ([`GratingShifts::shift_pm`], the same values each time), so
+/// eight gratings of an hour at 1 kHz hold no column beyond their tracks.
 pub(super) struct GratingShifts<'a> {
     pub(super) selection: GratingSelection<'a>,
     pub(super) tracks: Vec<GratingTrack>,
     /// The reference grating used, if any.
     pub(super) reference_grating: Option<String>,
-    /// The reference grating's track with its gaps filled, pm from its nominal.
-    reference_filled: Option<Vec<f64>>,
+    /// The reference grating's track compensates the shifts (it has enough peaks).
+    reference_used: bool,
+    /// The rows' times, s (the reference's gaps are filled over them).
+    tw: &'a [f64],
     /// Strain grating index (into `selection.strain`) of each grating used.
     pub(super) used: Vec<usize>,
     /// Index into `used` of the primary grating (the largest response).
     pub(super) primary: usize,
-    /// The primary grating's compensated shift, pm per row.
-    primary_shift: Vec<f64>,
     /// Strain gratings of the core under test with too few peaks (missing channels).
     pub(super) missing: Vec<String>,
 }
@@ -94,20 +94,25 @@ pub(super) struct GratingShifts<'a> {
 impl GratingShifts<'_> {
     /// The temperature-compensated shift of `used[k]`, pm per row.
     pub(super) fn shift_pm(&self, k: usize) -> Cow<'_, [f64]> {
-        if k == self.primary {
-            return Cow::Borrowed(&self.primary_shift);
-        }
-        Cow::Owned(compensated(
-            &self.tracks,
-            self.used[k],
-            self.reference_filled.as_deref(),
-        ))
+        let filled = self
+            .reference_used
+            .then(|| filled_reference(&self.tracks, self.tw))
+            .flatten();
+        Cow::Owned(compensated(&self.tracks, self.used[k], filled.as_deref()))
     }
 
     /// The primary grating's shift, pm per row.
-    pub(super) fn primary_shift_pm(&self) -> &[f64] {
-        &self.primary_shift
+    pub(super) fn primary_shift_pm(&self) -> Cow<'_, [f64]> {
+        self.shift_pm(self.primary)
     }
+}
+
+/// The reference grating's track (the last one) with its gaps filled, pm from its
+/// nominal.
+fn filled_reference(tracks: &[GratingTrack], tw: &[f64]) -> Option<Vec<f64>> {
+    let mut filled = tracks.last()?.offsets_pm();
+    assign::fill_gaps_in_place(tw, &mut filled);
+    Some(filled)
 }
 
 /// The compensated shift of strain grating `i` (the reference, when given, is the last
@@ -117,18 +122,41 @@ fn compensated(tracks: &[GratingTrack], i: usize, reference: Option<&[f64]>) -> 
     assign::compensated_shift_pm(&tracks[i], r)
 }
 
-/// Assign the peaks to the gratings and remove temperature with the reference grating;
-/// a log handed over (`Cow::Owned`) has its peaks freed once assigned.
+/// The wavelength windows of the gratings a verification reads, in the order of their
+/// tracks (the strain gratings of the core asked for, then the temperature reference):
+/// what [`crate::logs::read_peak_log_assigned`] assigns a log's peaks to as it reads it.
+pub fn grating_windows(design: &Design, opts: &AnalysisOptions) -> Result<Vec<GratingWindow>> {
+    let Some(module) = &design.module else {
+        bail!("design `{}` has no [module]", design.name);
+    };
+    Ok(select_gratings(design, module, opts)?.windows)
+}
+
+/// Assign the peaks to the gratings (unless `assigned` holds the tracks already, read
+/// with [`grating_windows`]) and remove temperature with the reference grating; a log
+/// handed over (`Cow::Owned`) has its peaks freed once assigned.
 pub(super) fn grating_shifts<'a>(
     design: &Design,
     module: &'a crate::spec::Module,
-    log: &mut Cow<'_, PeakLog>,
+    (log, assigned): (&mut Cow<'_, PeakLog>, Option<Vec<GratingTrack>>),
     opts: &AnalysisOptions,
-    tw: &[f64],
+    tw: &'a [f64],
     warnings: &mut LogWarnings,
 ) -> Result<GratingShifts<'a>> {
     let selection = select_gratings(design, module, opts)?;
-    let tracks = assign::assign(log, &selection.windows);
+    let tracks = match assigned {
+        Some(t) => {
+            let same = t.len() == selection.windows.len()
+                && t.iter()
+                    .zip(&selection.windows)
+                    .all(|(t, w)| &t.window == w);
+            if !same || t.iter().any(|t| t.offset_pm.len() != log.rows()) {
+                bail!("internal: the tracks read with the log are not those of the design's gratings and the log's rows");
+            }
+            t
+        }
+        None => assign::assign(log, &selection.windows),
+    };
     if let Cow::Owned(l) = log {
         l.drop_peaks();
     }
@@ -150,22 +178,22 @@ pub(super) fn grating_shifts<'a>(
     // The primary grating: the one with the largest response (each shift built, its
     // spread read, and only the largest kept; of equals the later one).
     let spread = |s: &[f64]| percentile(s, 0.98) - percentile(s, 0.02);
-    let mut primary = (0, f64::NEG_INFINITY, Vec::new());
+    let mut primary = (0, f64::NEG_INFINITY);
     for (k, &i) in used.iter().enumerate() {
         let s = compensated(&tracks, i, reference_filled.as_deref());
         let w = spread(&s);
         if k == 0 || w.total_cmp(&primary.1).is_ge() {
-            primary = (k, w, s);
+            primary = (k, w);
         }
     }
     Ok(GratingShifts {
         selection,
         tracks,
         reference_grating,
-        reference_filled,
+        reference_used: reference_filled.is_some(),
+        tw,
         used,
         primary: primary.0,
-        primary_shift: primary.2,
         missing,
     })
 }
@@ -194,11 +222,7 @@ fn reference_track(
         Some(r) => {
             let t = tracks.last().filter(|t| t.window.name == r.name);
             match t {
-                Some(t) if t.rows_present >= min_rows => {
-                    let mut filled = t.offsets_pm();
-                    assign::fill_gaps_in_place(tw, &mut filled);
-                    Some(filled)
-                }
+                Some(t) if t.rows_present >= min_rows => filled_reference(tr.tracks, tw),
                 _ => {
                     warnings.add("reference_missing", || {
                         format!(

@@ -58,11 +58,12 @@ fn timing_loop_percent(tw: &[f64], x: &[f64], branch: &[Branch], x_max: f64, u: 
 /// seeds the delay, τ and r from an already measured grating.
 fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, f64)>) -> Measured {
     let gi = &ctx.shifts.used[k_used];
-    let s: &[f64] = &ctx.shifts.shift_pm(k_used);
+    let shift = ctx.shifts.shift_pm(k_used);
+    let s: &[f64] = &shift;
     let g = ctx.strain[*gi];
     let t = &ctx.tracks[*gi];
     let fc = ctx.fc;
-    let (lm, residual) = fit_lag_model(ctx, s, &g.name, prev)?;
+    let lm = fit_lag_model(ctx, s, &g.name, prev)?;
     let delay = -lm.offset_s;
     let drift = DriftLine::of(ctx, &lm);
     let d = drift_free_shift(ctx, s, &lm);
@@ -88,6 +89,9 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
             r.nonlinearity_percent_span,
         ),
         None => {
+            // The lag model's residuals, for this fallback only (a column of their
+            // own, not held through the rest).
+            let residual = full_cost(ctx, s).residuals(&lm);
             let (h, l) = hysteresis_and_linearity(fc, &d, &line);
             let t_mid = (ctx.span.0 + ctx.span.1) / 2.0;
             let (rho, n, n_eff) = lag1_independence(&residual);
@@ -105,8 +109,6 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
             )
         }
     };
-    // The lag model's residuals served the fallback only: freed before the rest.
-    drop(residual);
     let instrument = rf.as_ref().map_or_else(Default::default, |r| {
         instrument_check(&Readings {
             offset_pm: &t.offset_pm,
@@ -114,6 +116,23 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
             k,
             x_max: r.x_max,
         })
+    });
+    let loading_rows = rf.as_ref().map_or(0, |r| {
+        r.branch
+            .iter()
+            .filter(|b| matches!(b, Branch::Loading | Branch::Rest))
+            .count()
+    });
+    let timing_loop = rf.as_ref().map_or(0.0, |r| {
+        timing_loop_percent(ctx.tw, &r.x, &r.branch, r.x_max, ctx.row_timing_s)
+    });
+    // The shift, the lag-corrected force and the branches are read no more (columns of
+    // their own at a long log's length): freed before the lags' columns are made.
+    drop(shift);
+    let rf = rf.map(|mut r| {
+        r.x = Vec::new();
+        r.branch = Vec::new();
+        r
     });
     let lags = lag_figures(ctx, &d, &lm, delay);
     // Peaks found in spectra carry their own standard errors: propagated to K they
@@ -138,12 +157,7 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
         sensitivity_pm_per_n: k,
         sensitivity_std_error_pm_per_n: se_k,
         lag_model_sensitivity_pm_per_n: lm.k_pm_per_n,
-        loading_rows: rf.as_ref().map_or(0, |r| {
-            r.branch
-                .iter()
-                .filter(|b| matches!(b, Branch::Loading | Branch::Rest))
-                .count()
-        }),
+        loading_rows,
         slow_test: rf.as_ref().map(|r| r.slow.clone()),
         pulse_gains: rf.as_ref().map(|r| r.gains.clone()).unwrap_or_default(),
         instrument,
@@ -151,9 +165,7 @@ fn measure_grating(ctx: &GratingContext, k_used: usize, prev: Option<(f64, f64, 
             ctx.design,
             g.core.as_deref(),
         ),
-        hysteresis_timing_percent_span: rf.as_ref().map_or(0.0, |r| {
-            timing_loop_percent(ctx.tw, &r.x, &r.branch, r.x_max, ctx.row_timing_s)
-        }),
+        hysteresis_timing_percent_span: timing_loop,
         residual_autocorrelation: rho,
         effective_samples: n_eff,
         sensitivity_std_error_effective_pm_per_n: se_k_eff,

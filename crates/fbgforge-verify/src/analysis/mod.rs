@@ -60,7 +60,8 @@ use crate::segment::Segmentation;
 
 pub use super::segment::{detect_pulses, percentile, PulseSpan};
 pub use alignment::MIN_PRESSES;
-pub use assemble::{analyse, analyse_owned};
+pub use assemble::{analyse, analyse_assigned, analyse_owned};
+pub use gratings::grating_windows;
 pub use linearity::hysteresis_and_linearity;
 pub use options::{AnalysisOptions, MAX_OFFSET_RANGE_S, MAX_RESOLUTION_PM, MAX_WINDOW_NM};
 pub use response::hysteresis_limit_percent_span;
@@ -71,15 +72,16 @@ pub use results::{
 };
 
 /// The force log's times on the wavelength log's clock, before the residual offset.
-struct ForceFrame {
+struct ForceFrame<'f> {
     /// Prior for the clock offset: 0 for two wall clocks, aligned starts otherwise, s.
     prior: f64,
     /// How far the estimated offset may lie from the prior, s.
     range: f64,
     /// Force times in the wavelength frame, before the residual offset, s.
     u: Vec<f64>,
-    /// Force, N (compression positive).
-    fval: Vec<f64>,
+    /// Force, N (compression positive): the force log's own column unless it was
+    /// negated (no copy of it: 29 MB at 1 h × 1 kHz).
+    fval: std::borrow::Cow<'f, [f64]>,
     /// The span searched for the offset, s.
     a: f64,
     b: f64,

@@ -18,7 +18,7 @@ pub(super) fn fit_lag_model(
     s: &[f64],
     name: &str,
     prev: Option<(f64, f64, f64)>,
-) -> Result<(LagModelFit, Vec<f64>)> {
+) -> Result<LagModelFit> {
     let (tw, fu, fval, fc) = (ctx.tw, ctx.fu, ctx.fval, ctx.fc);
     let (span_a, span_b) = ctx.span;
     let sub = FitData::new(
@@ -71,11 +71,9 @@ pub(super) fn fit_lag_model(
         );
     }
     let full = full_cost(ctx, s);
-    let lm = full
+    Ok(full
         .evaluate(lm0.offset_s, lm0.tau_s, lm0.instant_fraction)
-        .unwrap_or(lm0);
-    let residual = full.residuals(&lm);
-    Ok((lm, residual))
+        .unwrap_or(lm0))
 }
 
 /// The lag model over every row of the shift `s`, the clocks aligned (the delay
