@@ -80,6 +80,7 @@ SKIPPED = {
     "Peaks.2025": "the reader's own interrogator log, growing (docs/guide/live.md; fixtures/ hold real ones, tested in tests/verify and tests/array/live*.rs)",
     "--matrix A.csv": "the reader's own matrix and shifts (the README's reconstruct example runs on the fixtures)",
     "--shifts shifts.csv": "the reader's own shifts (the README's reconstruct example runs on the fixtures)",
+    "studies/peers/": "not run: needs the peers' sources (PEERS_SRC, outside this repository), SciPy and scikit-learn; the study half runs on the line before it",
 }
 
 # Blocks that run but whose output is not asserted, by page:line of the block, with
@@ -308,11 +309,11 @@ def test_the_census_of_the_examples():
     """Every page's examples counted; what does not run is a stated exception."""
     c = census()
     assert c["blocks"] == c["run"] + c["not_run"]
-    # Marked `not run:`: the benchmark (`ros2 bag` is prose beside the Python summary
-    # of the recording, which runs). The blocks that do not run (2026-11-28: 3 of 38)
-    # are the install commands CI itself runs; every other block runs, the live
-    # sessions against a simulator's PORT included.
-    assert c["lines_marked_not_run"] <= 1, c
+    # Marked `not run:`: the benchmark and the scaling study's SciPy peers (`ros2 bag`
+    # is prose beside the Python summary of the recording, which runs). The blocks
+    # that do not run (2026-11-28: 3 of 40) are the install commands CI itself runs;
+    # every other block runs, the live sessions against a simulator's PORT included.
+    assert c["lines_marked_not_run"] <= 2, c
     assert c["not_run"] <= 3, c
     assert c["asserted"] == c["run"], c
     idle = [(where(page, line), cmd) for page, line, lang, body, _ in EXAMPLES if lang == "sh"
