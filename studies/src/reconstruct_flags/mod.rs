@@ -131,6 +131,10 @@ pub struct WrongClass {
     /// Loads below the range were pruned from the method's answer before the test
     /// (the answer held is then not the method's own).
     pub pruned: bool,
+    /// The truth is one of the answers the ℓ0 methods search (at most
+    /// [`DEFAULT_MAX_LOADS`] loads, none above the ceiling): else no search could
+    /// return it.
+    pub truth_searched: bool,
     /// The truth is a rival of the answer (≥ 12 dB from it once refitted, on other
     /// cells): else the rival test cannot weigh it, by construction.
     pub truth_is_rival: bool,
@@ -217,6 +221,8 @@ pub fn classify_wrong(
         truth_gain_own_chi2: held_own.answer_penalised_chi2 - held_own.penalised_chi2,
         certified: r.certified,
         pruned: r.pruned_loads > 0,
+        truth_searched: truth.len() <= DEFAULT_MAX_LOADS
+            && truth_g.iter().all(|&v| v <= test.problem().ulimit_g),
         truth_is_rival: held.rival_p_value.is_some(),
         loads: (truth.len(), answer.len()),
     })
@@ -235,6 +241,11 @@ pub struct WrongClasses {
     pub answer_better: usize,
     /// Of (c), answers on the truth's own cells (a load off by more than 25 g).
     pub answer_better_same_cells: usize,
+    /// Of (c), answers better than the truth by more than the chance level.
+    pub answer_better_beyond_chance: usize,
+    /// Of (c), answers the truth beats without the price of a load: the penalty,
+    /// not the fit, made them better.
+    pub answer_better_by_penalty: usize,
     /// Of (a), flagged at the default significance.
     pub search_failure_flagged: usize,
     /// Of (a), the truth one cell from the answer.
@@ -243,9 +254,9 @@ pub struct WrongClasses {
     pub search_failure_certified: usize,
     /// Of (a), answers with loads below the range pruned before the test.
     pub search_failure_pruned: usize,
-    /// Of (a), the method's own answer (nothing pruned) and the truth better on the
-    /// method's own objective by more than the chance level too: the method's
-    /// search missed it.
+    /// Of (a), the method's own answer (nothing pruned), the truth among the answers
+    /// searched, and better on the method's own objective by more than the chance
+    /// level too: the method's search missed it.
     pub search_missed: usize,
     /// Of those, flagged at the default significance.
     pub search_missed_flagged: usize,
@@ -270,13 +281,16 @@ impl WrongClasses {
                 c.search_failure_one_cell += usize::from(k.one_cell_away);
                 c.search_failure_certified += usize::from(k.certified);
                 c.search_failure_pruned += usize::from(k.pruned);
-                if !k.pruned && k.truth_gain_own_chi2 > chance_level_chi2() {
+                if k.truth_searched && !k.pruned && k.truth_gain_own_chi2 > chance_level_chi2() {
                     c.search_missed += 1;
                     c.search_missed_flagged += usize::from(f.flagged[d]);
                 }
             } else if k.answer_better() {
                 c.answer_better += 1;
                 c.answer_better_same_cells += usize::from(k.same_cells);
+                c.answer_better_beyond_chance +=
+                    usize::from(k.truth_gain_chi2 < -chance_level_chi2());
+                c.answer_better_by_penalty += usize::from(k.truth_gain_unpenalised_chi2() > 0.0);
             } else {
                 c.within_chance += 1;
             }
@@ -841,6 +855,8 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
         "search_missed_flagged",
         "wrong_truth_would_flag",
         "answer_better_same_cells",
+        "answer_better_beyond_chance",
+        "answer_better_by_penalty",
         "truth_no_rival",
     ];
     let csv: Vec<Vec<String>> = rows
@@ -883,6 +899,8 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
                 r.wrong_classes.search_missed_flagged.to_string(),
                 r.wrong_classes.truth_would_flag.to_string(),
                 r.wrong_classes.answer_better_same_cells.to_string(),
+                r.wrong_classes.answer_better_beyond_chance.to_string(),
+                r.wrong_classes.answer_better_by_penalty.to_string(),
                 r.wrong_classes.truth_no_rival.to_string(),
             ]
         })
@@ -1006,19 +1024,19 @@ fn table(
     )?;
     writeln!(
         report,
-        "(a) search failure: the truth better by more than {:.2} (the rival quantile at {DEFAULT_SIGNIFICANCE}); (b) within chance: better by at most that; (c) the answer no worse. Of (a), missed by the search: the answer is the method's own (no load pruned) and the truth beats it by more than that on the method's own objective too (χ² with the resolution alone, 16 per load). Streams whose diagnosis left a grating out, corrected one or fitted an offset are not classified.\n",
+        "(a) search failure: the truth better by more than {:.2} (the rival quantile at {DEFAULT_SIGNIFICANCE}); (b) within chance: better by at most that; (c) the answer no worse. Of (a), missed by the search: the answer is the method's own (no load pruned), the truth is among the answers searched (at most {DEFAULT_MAX_LOADS} loads, none above the ceiling) and beats it by more than that on the method's own objective too (χ² with the resolution alone, 16 per load). Streams whose diagnosis left a grating out, corrected one or fitted an offset are not classified.\n",
         chance_level_chi2()
     )?;
     writeln!(
         report,
-        "| array | fault | wrong | classified | (a) truth better [flagged; one cell away; certified; pruned] | of (a), missed by the search [flagged] | (b) within chance | (c) answer better [same cells] | truth as a rival would flag | truth no rival (within 12 dB or the answer's cells) |"
+        "| array | fault | wrong | classified | (a) truth better [flagged; one cell away; certified; pruned] | of (a), missed by the search [flagged] | (b) within chance | (c) answer better [same cells; by more than chance; by the penalty] | truth as a rival would flag | truth no rival (within 12 dB or the answer's cells) |"
     )?;
     writeln!(report, "|---|---|---|---|---|---|---|---|---|---|")?;
     for r in rows.iter().filter(|r| r.method.starts_with("default")) {
         let c = &r.wrong_classes;
         writeln!(
             report,
-            "| {} | {} | {} | {} | {} [{}; {}; {}; {}] | {} [{}] | {} | {} [{}] | {} | {} |",
+            "| {} | {} | {} | {} | {} [{}; {}; {}; {}] | {} [{}] | {} | {} [{}; {}; {}] | {} | {} |",
             r.array,
             r.fault,
             r.wrong,
@@ -1033,6 +1051,8 @@ fn table(
             c.within_chance,
             c.answer_better,
             c.answer_better_same_cells,
+            c.answer_better_beyond_chance,
+            c.answer_better_by_penalty,
             c.truth_would_flag,
             c.truth_no_rival
         )?;
