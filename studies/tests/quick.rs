@@ -314,6 +314,31 @@ fn reconstruct_flag_study_quick_flags_alike_names_faults_and_refuses_absurd_fram
         let clean = row(array, "clean", "bnb");
         assert!(f(clean, "false_flag_right_pct") <= 5.0, "{clean}");
     }
+    // Every wrong answer of a clean stream is held against its truth and falls in
+    // exactly one class; an exhaustive search (`support`, certified) is never beaten
+    // on its own objective, so none of its wrong answers is missed by the search.
+    for array in ["6x8 paper", "10x20 hex"] {
+        for method in ["default → support", "support", "bnb"] {
+            let Some(r) = rows
+                .iter()
+                .find(|r| r["array"] == array && r["fault"] == "clean" && r["method"] == method)
+            else {
+                continue;
+            };
+            let c = &r["wrong_classes"];
+            let n = |k: &str| c[k].as_u64().unwrap();
+            assert_eq!(n("classified"), r["wrong"].as_u64().unwrap(), "{r}");
+            assert_eq!(
+                n("search_failure") + n("within_chance") + n("answer_better"),
+                n("classified"),
+                "{r}"
+            );
+        }
+        for fault in ["clean", "dead", "drift", "offset", "absurd"] {
+            let s = row(array, fault, "support");
+            assert_eq!(s["wrong_classes"]["search_missed"], 0, "{s}");
+        }
+    }
     assert!(dir.path().join("flags-roc.csv").exists());
     assert!(dir.path().join("flags-roc-10x20-clean.svg").exists());
     // The margin ROC of a "rival within the noise" flag: per array and data, a

@@ -26,7 +26,7 @@ use fbgforge::array::methods::{Method, ReadingSettings, Reconstruction, DEFAULT_
 use fbgforge::array::problem::{SensingProblem, Uncertainty, PAPER_MIN_LOAD_G};
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
 use fbgforge::array::reconstruct::{reconstruct, Frames, MethodRequest, Reconstructed};
-use fbgforge::array::trust::DEFAULT_SIGNIFICANCE;
+use fbgforge::array::trust::{rival_quantile, FrameTest, DEFAULT_SIGNIFICANCE, OCCAM_CHI2, TESTS};
 use fbgforge::output::{write_csv, write_json};
 use fbgforge::plot::{Chart, Mark, Series};
 use fbgforge::progress::{Progress, Quiet};
@@ -101,6 +101,204 @@ struct FrameOutcome {
     words: Vec<&'static str>,
     /// Penalised χ² of the nearest rival less the answer's (None: no rival).
     margin: Option<f64>,
+    /// A wrong answer held against the truth ([`classify_wrong`]; None: a right
+    /// answer, or frames not solved on the stated problem).
+    class: Option<WrongClass>,
+}
+
+/// Why a wrong answer was given, from the truth's penalised χ² under the frame
+/// test's weights against the answer's ([`FrameTest::hold_against`]; issue 35).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WrongClass {
+    /// The answer's penalised χ² less the truth's (positive: the truth explains the
+    /// frame better on the methods' own objective).
+    pub truth_gain_chi2: f64,
+    /// The truth offered as a rival would have made the frame `ambiguous` at the
+    /// default significance.
+    pub truth_would_flag: bool,
+    /// The truth's support is one cell from the answer's (a load added, dropped or
+    /// moved): a rival the test already evaluates.
+    pub one_cell_away: bool,
+    /// The answer's loaded cells are the truth's (a load off by more than 25 g).
+    pub same_cells: bool,
+    /// The same gain on the ℓ0 methods' own objective (χ² with the interrogator
+    /// resolution alone, plus the same price per load: [`own_objective_test`]):
+    /// where (a) holds but this does not exceed the chance level, the method's
+    /// objective, not its search, preferred the answer.
+    pub truth_gain_own_chi2: f64,
+    /// The answer is the proven optimum of the method's own objective.
+    pub certified: bool,
+    /// Loads below the range were pruned from the method's answer before the test
+    /// (the answer held is then not the method's own).
+    pub pruned: bool,
+    /// The truth is one of the answers the ℓ0 methods search (at most
+    /// [`DEFAULT_MAX_LOADS`] loads, none above the ceiling): else no search could
+    /// return it.
+    pub truth_searched: bool,
+    /// The truth is a rival of the answer (≥ 12 dB from it once refitted, on other
+    /// cells): else the rival test cannot weigh it, by construction.
+    pub truth_is_rival: bool,
+    /// Loads of the truth and of the answer: the answer's χ² less the truth's,
+    /// unpenalised, is `truth_gain_chi2` − 16 × (answer loads − truth loads).
+    pub loads: (usize, usize),
+}
+
+impl WrongClass {
+    /// The answer's χ² less the truth's without the price of a load: negative in
+    /// class (c) while the truth fits better unpenalised means the penalty, not the
+    /// noise, made the wrong answer the optimum.
+    pub fn truth_gain_unpenalised_chi2(&self) -> f64 {
+        let (t, a) = self.loads;
+        self.truth_gain_chi2 - OCCAM_CHI2 * (a as f64 - t as f64)
+    }
+}
+
+impl WrongClass {
+    /// (a) a search failure: the truth beats the answer on the objective by more
+    /// than the chance level ([`chance_level_chi2`]).
+    pub fn search_failure(&self) -> bool {
+        self.truth_gain_chi2 > chance_level_chi2()
+    }
+
+    /// (c) the noise made the wrong answer the optimum: it is no worse than the truth.
+    pub fn answer_better(&self) -> bool {
+        self.truth_gain_chi2 <= 0.0
+    }
+}
+
+/// The chance level of the classification: the rival quantile at the default
+/// significance (χ²₁ at 0.95, 3.84), the margin within which the frame test's
+/// rival search looks for rivals of the answer.
+pub fn chance_level_chi2() -> f64 {
+    rival_quantile(DEFAULT_SIGNIFICANCE)
+}
+
+/// The loaded cells of loads `x`, g (from [`LOADED_FROM_G`]).
+fn cells_of(x: &[f64]) -> Vec<usize> {
+    (0..x.len()).filter(|&j| x[j] >= LOADED_FROM_G).collect()
+}
+
+/// The frame test of `problem` with the interrogator resolution as the only noise:
+/// its penalised χ² is the ℓ0 methods' own objective (‖Ax − y‖²/σ² + 16 per load,
+/// λ = 16 σ²), loads in the rated range.
+pub fn own_objective_test(problem: &SensingProblem) -> Result<FrameTest> {
+    let (m, n) = (problem.n_gratings(), problem.n_cells());
+    let unc = Uncertainty {
+        resolution_pm: problem.uncertainty.resolution_pm,
+        matrix_sd_pm_per_g: nalgebra::DMatrix::zeros(m, n),
+        additivity_sd_frac: 0.0,
+    };
+    let p = problem.clone().with_uncertainty(unc)?;
+    Ok(FrameTest::new(&p, DEFAULT_MAX_LOADS))
+}
+
+/// Hold the truth `truth_g` of frame `shifts_pm` against its tested answer `r`,
+/// under the frame test's weights (`test`) and on the methods' own objective
+/// (`own`, [`own_objective_test`]): None when the frame is unusable or the test
+/// cannot fit the truth's cells.
+pub fn classify_wrong(
+    test: &FrameTest,
+    own: &FrameTest,
+    shifts_pm: &[f64],
+    truth_g: &[f64],
+    r: &Reconstruction,
+) -> Option<WrongClass> {
+    let truth = cells_of(truth_g);
+    let held = test.hold_against(shifts_pm, r, &truth)?;
+    let held_own = own.hold_against(shifts_pm, r, &truth)?;
+    let answer: Vec<usize> = (0..r.loads_g.len())
+        .filter(|&j| r.loads_g[j] > 0.0)
+        .collect();
+    let only_truth = truth.iter().filter(|j| !answer.contains(j)).count();
+    let only_answer = answer.iter().filter(|j| !truth.contains(j)).count();
+    Some(WrongClass {
+        truth_gain_chi2: held.answer_penalised_chi2 - held.penalised_chi2,
+        truth_would_flag: held
+            .rival_p_value
+            .is_some_and(|p| p < DEFAULT_SIGNIFICANCE / TESTS),
+        one_cell_away: only_truth <= 1 && only_answer <= 1,
+        same_cells: only_truth == 0 && only_answer == 0,
+        truth_gain_own_chi2: held_own.answer_penalised_chi2 - held_own.penalised_chi2,
+        certified: r.certified,
+        pruned: r.pruned_loads > 0,
+        truth_searched: truth.len() <= DEFAULT_MAX_LOADS
+            && truth_g.iter().all(|&v| v <= test.problem().ulimit_g),
+        truth_is_rival: held.rival_p_value.is_some(),
+        loads: (truth.len(), answer.len()),
+    })
+}
+
+/// The wrong answers of a row by class (frames solved on the stated problem).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct WrongClasses {
+    /// Wrong answers classified.
+    pub classified: usize,
+    /// (a) the truth better on the objective by more than the chance level.
+    pub search_failure: usize,
+    /// (b) the truth better by at most the chance level.
+    pub within_chance: usize,
+    /// (c) the answer no worse than the truth.
+    pub answer_better: usize,
+    /// Of (c), answers on the truth's own cells (a load off by more than 25 g).
+    pub answer_better_same_cells: usize,
+    /// Of (c), answers better than the truth by more than the chance level.
+    pub answer_better_beyond_chance: usize,
+    /// Of (c), answers the truth beats without the price of a load: the penalty,
+    /// not the fit, made them better.
+    pub answer_better_by_penalty: usize,
+    /// Of (a), flagged at the default significance.
+    pub search_failure_flagged: usize,
+    /// Of (a), the truth one cell from the answer.
+    pub search_failure_one_cell: usize,
+    /// Of (a), answers certified optimal on the method's own objective.
+    pub search_failure_certified: usize,
+    /// Of (a), answers with loads below the range pruned before the test.
+    pub search_failure_pruned: usize,
+    /// Of (a), the method's own answer (nothing pruned), the truth among the answers
+    /// searched, and better on the method's own objective by more than the chance
+    /// level too: the method's search missed it.
+    pub search_missed: usize,
+    /// Of those, flagged at the default significance.
+    pub search_missed_flagged: usize,
+    /// Wrong answers the truth, offered as a rival, would have flagged `ambiguous`.
+    pub truth_would_flag: usize,
+    /// Wrong answers whose truth is no rival of them (within 12 dB, or on the
+    /// answer's own cells): the rival test cannot weigh it, by its definition.
+    pub truth_no_rival: usize,
+}
+
+impl WrongClasses {
+    fn of(frames: &[&FrameOutcome], d: usize) -> Self {
+        let mut c = WrongClasses::default();
+        for f in frames {
+            let Some(k) = f.class.filter(|_| f.wrong) else {
+                continue;
+            };
+            c.classified += 1;
+            if k.search_failure() {
+                c.search_failure += 1;
+                c.search_failure_flagged += usize::from(f.flagged[d]);
+                c.search_failure_one_cell += usize::from(k.one_cell_away);
+                c.search_failure_certified += usize::from(k.certified);
+                c.search_failure_pruned += usize::from(k.pruned);
+                if k.truth_searched && !k.pruned && k.truth_gain_own_chi2 > chance_level_chi2() {
+                    c.search_missed += 1;
+                    c.search_missed_flagged += usize::from(f.flagged[d]);
+                }
+            } else if k.answer_better() {
+                c.answer_better += 1;
+                c.answer_better_same_cells += usize::from(k.same_cells);
+                c.answer_better_beyond_chance +=
+                    usize::from(k.truth_gain_chi2 < -chance_level_chi2());
+                c.answer_better_by_penalty += usize::from(k.truth_gain_unpenalised_chi2() > 0.0);
+            } else {
+                c.within_chance += 1;
+            }
+            c.truth_would_flag += usize::from(k.truth_would_flag);
+            c.truth_no_rival += usize::from(!k.truth_is_rival);
+        }
+        c
+    }
 }
 
 /// One stream's outcome for one entry.
@@ -156,6 +354,9 @@ pub struct FlagRow {
     pub streams: usize,
     /// Share of frames carrying each flag word at the default significance, %.
     pub flag_pct: Vec<(String, f64)>,
+    /// The wrong answers by class: the truth held against the answer under the
+    /// frame test's weights ([`WrongClasses`]).
+    pub wrong_classes: WrongClasses,
     /// Mean estimated time per frame (default choice), µs.
     pub estimated_us: Option<f64>,
     /// Mean measured time per frame, µs.
@@ -252,21 +453,35 @@ pub fn wrong_answer(truth_g: &[f64], loads_g: &[f64]) -> bool {
 fn outcome(st: &Stream, done: &Reconstructed) -> StreamOutcome {
     let (diagnosis_right, wrong_suspects) = judge_diagnosis(st, done);
     let named = diagnosis_right && !st.expect.contains(&Expect::Nothing);
+    // The truth is held against the answer only where the frames were solved on the
+    // stated problem (no grating left out or corrected, no offset fitted).
+    let test = done.setup.test();
+    let stated = done.suspect_gratings.is_empty()
+        && !done.diagnosis.common_mode.fitted
+        && test.problem().n_gratings() == st.matrix.nrows();
+    let own = own_objective_test(test.problem()).ok();
     let frames = st
         .truth_g
         .iter()
         .zip(&done.frames)
-        .map(|(x0, r): (&Vec<f64>, &Reconstruction)| FrameOutcome {
-            recovered: snr_db(x0, &r.loads_g) >= RECOVERY_THRESHOLD_DB,
-            wrong: wrong_answer(x0, &r.loads_g),
-            named,
-            flagged: ROC_SIGNIFICANCES
-                .iter()
-                .map(|&a| !r.flags_at(a).trusted())
-                .collect(),
-            words: r.flags_at(DEFAULT_SIGNIFICANCE).words(),
-            margin: r.rival_margin_chi2,
-        })
+        .zip(&st.shifts_pm)
+        .map(
+            |((x0, r), y): ((&Vec<f64>, &Reconstruction), &Vec<f64>)| FrameOutcome {
+                recovered: snr_db(x0, &r.loads_g) >= RECOVERY_THRESHOLD_DB,
+                wrong: wrong_answer(x0, &r.loads_g),
+                class: own
+                    .as_ref()
+                    .filter(|_| stated && wrong_answer(x0, &r.loads_g))
+                    .and_then(|own| classify_wrong(test, own, y, x0, r)),
+                named,
+                flagged: ROC_SIGNIFICANCES
+                    .iter()
+                    .map(|&a| !r.flags_at(a).trusted())
+                    .collect(),
+                words: r.flags_at(DEFAULT_SIGNIFICANCE).words(),
+                margin: r.rival_margin_chi2,
+            },
+        )
         .collect();
     StreamOutcome {
         frames,
@@ -379,6 +594,7 @@ fn row(arr: &ArrayDef, fault: Fault, e: Entry, outs: &[StreamOutcome]) -> FlagRo
                 (w.to_string(), pct(c, frames.len()).unwrap_or(0.0))
             })
             .collect(),
+        wrong_classes: WrongClasses::of(&frames, d),
         estimated_us: {
             let v: Vec<f64> = outs.iter().filter_map(|o| o.estimated_us).collect();
             (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
@@ -627,6 +843,21 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
         "streams",
         "estimated_us",
         "measured_us",
+        "wrong_classified",
+        "wrong_search_failure",
+        "wrong_within_chance",
+        "wrong_answer_better",
+        "search_failure_flagged",
+        "search_failure_one_cell",
+        "search_failure_certified",
+        "search_failure_pruned",
+        "search_missed",
+        "search_missed_flagged",
+        "wrong_truth_would_flag",
+        "answer_better_same_cells",
+        "answer_better_beyond_chance",
+        "answer_better_by_penalty",
+        "truth_no_rival",
     ];
     let csv: Vec<Vec<String>> = rows
         .iter()
@@ -656,6 +887,21 @@ fn write_files(out: &Path, rows: &[FlagRow], rocs: &[RocPoint], arrays: &[ArrayD
                 r.streams.to_string(),
                 r.estimated_us.map_or(String::new(), |v| format!("{v:.1}")),
                 format!("{:.1}", r.measured_us),
+                r.wrong_classes.classified.to_string(),
+                r.wrong_classes.search_failure.to_string(),
+                r.wrong_classes.within_chance.to_string(),
+                r.wrong_classes.answer_better.to_string(),
+                r.wrong_classes.search_failure_flagged.to_string(),
+                r.wrong_classes.search_failure_one_cell.to_string(),
+                r.wrong_classes.search_failure_certified.to_string(),
+                r.wrong_classes.search_failure_pruned.to_string(),
+                r.wrong_classes.search_missed.to_string(),
+                r.wrong_classes.search_missed_flagged.to_string(),
+                r.wrong_classes.truth_would_flag.to_string(),
+                r.wrong_classes.answer_better_same_cells.to_string(),
+                r.wrong_classes.answer_better_beyond_chance.to_string(),
+                r.wrong_classes.answer_better_by_penalty.to_string(),
+                r.wrong_classes.truth_no_rival.to_string(),
             ]
         })
         .collect();
@@ -770,6 +1016,45 @@ fn table(
             r.common_mode_streams,
             opt(r.estimated_us),
             r.measured_us
+        )?;
+    }
+    writeln!(
+        report,
+        "\n### Wrong answers by class (default method): the truth's penalised χ² under the frame test's weights against the answer's\n"
+    )?;
+    writeln!(
+        report,
+        "(a) search failure: the truth better by more than {:.2} (the rival quantile at {DEFAULT_SIGNIFICANCE}); (b) within chance: better by at most that; (c) the answer no worse. Of (a), missed by the search: the answer is the method's own (no load pruned), the truth is among the answers searched (at most {DEFAULT_MAX_LOADS} loads, none above the ceiling) and beats it by more than that on the method's own objective too (χ² with the resolution alone, 16 per load). Streams whose diagnosis left a grating out, corrected one or fitted an offset are not classified.\n",
+        chance_level_chi2()
+    )?;
+    writeln!(
+        report,
+        "| array | fault | wrong | classified | (a) truth better [flagged; one cell away; certified; pruned] | of (a), missed by the search [flagged] | (b) within chance | (c) answer better [same cells; by more than chance; by the penalty] | truth as a rival would flag | truth no rival (within 12 dB or the answer's cells) |"
+    )?;
+    writeln!(report, "|---|---|---|---|---|---|---|---|---|---|")?;
+    for r in rows.iter().filter(|r| r.method.starts_with("default")) {
+        let c = &r.wrong_classes;
+        writeln!(
+            report,
+            "| {} | {} | {} | {} | {} [{}; {}; {}; {}] | {} [{}] | {} | {} [{}; {}; {}] | {} | {} |",
+            r.array,
+            r.fault,
+            r.wrong,
+            c.classified,
+            c.search_failure,
+            c.search_failure_flagged,
+            c.search_failure_one_cell,
+            c.search_failure_certified,
+            c.search_failure_pruned,
+            c.search_missed,
+            c.search_missed_flagged,
+            c.within_chance,
+            c.answer_better,
+            c.answer_better_same_cells,
+            c.answer_better_beyond_chance,
+            c.answer_better_by_penalty,
+            c.truth_would_flag,
+            c.truth_no_rival
         )?;
     }
     writeln!(

@@ -218,30 +218,15 @@ impl FrameTest {
         }
         r.pruned_loads = pruned;
         let x = &r.loads_g;
-        let support = loaded(x);
-        let predicted = &p.sensitivity_pm_per_g * DVector::from_column_slice(x);
-        let var = p.uncertainty.reading_variances_pm2(x, predicted.as_slice());
-        let w = Weighted::new(&self.cols, &yp, &var);
+        let AtAnswer {
+            support,
+            w,
+            wa,
+            chi2,
+            fitted,
+        } = self.at_answer(shifts_pm, x);
         let (lo, hi) = (p.min_load_g, p.ulimit_g);
-        let fitted = w.box_fit(&support, lo, hi);
-        let chi2 = fitted.as_ref().map(|(c, _)| *c).unwrap_or_else(|| {
-            let res = p.residual_vector_pm(x, shifts_pm);
-            res.iter().zip(&var).map(|(r, v)| r * r / v).sum()
-        });
-        // What the frame would be were the answer's support true, its loads refitted
-        // with the test's weights (the rival test's null).
         let m = p.n_gratings();
-        let mut yhat = vec![0.0; m];
-        match &fitted {
-            Some((_, z)) => {
-                for (&j, &v) in support.iter().zip(z) {
-                    for (h, c) in yhat.iter_mut().zip(&self.cols[j * m..(j + 1) * m]) {
-                        *h += v * c;
-                    }
-                }
-            }
-            None => yhat = p.project_frame(predicted.as_slice()),
-        }
         r.chi2 = chi2;
         // A load the refit holds at a bound of the range is not a free parameter: it
         // takes no degree of freedom from the noise.
@@ -257,13 +242,7 @@ impl FrameTest {
             chi2_p_value((chi2 - with).max(0.0), pruned)
         });
         let answer_cost = chi2 + OCCAM_CHI2 * support.len() as f64;
-        let bounds = rivals::Bounds {
-            lo,
-            hi,
-            max_loads: self.max_loads.max(support.len()),
-            cut: answer_cost + self.quantile,
-        };
-        let wa = Weighted::new(&self.cols, &yhat, &var);
+        let bounds = self.bounds(support.len(), answer_cost);
         let answer = rivals::Answer {
             x,
             support: &support,
@@ -295,6 +274,89 @@ impl FrameTest {
             ..FrameFlags::default()
         };
         r.flags = r.flags_at(p.significance);
+    }
+
+    /// The rivals' bounds for an answer of `k` loads and penalised χ² `answer_cost`.
+    fn bounds(&self, k: usize, answer_cost: f64) -> rivals::Bounds {
+        rivals::Bounds {
+            lo: self.problem.min_load_g,
+            hi: self.problem.ulimit_g,
+            max_loads: self.max_loads.max(k),
+            cut: answer_cost + self.quantile,
+        }
+    }
+
+    /// The frame seen from the answer `x` (pruned): the test's weights are the
+    /// reading variances at `x`.
+    fn at_answer(&self, shifts_pm: &[f64], x: &[f64]) -> AtAnswer {
+        let p = &self.problem;
+        let yp = p.project_frame(shifts_pm);
+        let support = loaded(x);
+        let predicted = &p.sensitivity_pm_per_g * DVector::from_column_slice(x);
+        let var = p.uncertainty.reading_variances_pm2(x, predicted.as_slice());
+        let w = Weighted::new(&self.cols, &yp, &var);
+        let fitted = w.box_fit(&support, p.min_load_g, p.ulimit_g);
+        let chi2 = fitted.as_ref().map(|(c, _)| *c).unwrap_or_else(|| {
+            let res = p.residual_vector_pm(x, shifts_pm);
+            res.iter().zip(&var).map(|(r, v)| r * r / v).sum()
+        });
+        // What the frame would be were the answer's support true, its loads refitted
+        // with the test's weights (the rival test's null).
+        let m = p.n_gratings();
+        let mut yhat = vec![0.0; m];
+        match &fitted {
+            Some((_, z)) => {
+                for (&j, &v) in support.iter().zip(z) {
+                    for (h, c) in yhat.iter_mut().zip(&self.cols[j * m..(j + 1) * m]) {
+                        *h += v * c;
+                    }
+                }
+            }
+            None => yhat = p.project_frame(predicted.as_slice()),
+        }
+        let wa = Weighted::new(&self.cols, &yhat, &var);
+        AtAnswer {
+            support,
+            w,
+            wa,
+            chi2,
+            fitted,
+        }
+    }
+
+    /// Hold the explanation with loads on `cells` against `r`, an answer to frame
+    /// `shifts_pm` this test has assessed ([`FrameTest::assess`]), under the test's
+    /// weights (the answer's): whether the truth of a synthetic frame would have
+    /// beaten the answer had the rivals' search found it (the flag study's
+    /// classification of wrong answers, issue 35). None for an unusable frame or
+    /// dependent columns.
+    pub fn hold_against(
+        &self,
+        shifts_pm: &[f64],
+        r: &Reconstruction,
+        cells: &[usize],
+    ) -> Option<HeldAgainst> {
+        if r.flags.unusable
+            || shifts_pm.len() != self.problem.n_gratings()
+            || cells.iter().any(|&j| j >= self.problem.n_cells())
+        {
+            return None;
+        }
+        let at = self.at_answer(shifts_pm, &r.loads_g);
+        let answer_cost = at.chi2 + OCCAM_CHI2 * at.support.len() as f64;
+        let bounds = self.bounds(at.support.len(), answer_cost);
+        let answer = rivals::Answer {
+            x: &r.loads_g,
+            support: &at.support,
+            chi2: at.chi2,
+            predicted: &at.wa,
+        };
+        let (cost, rival_p_value) = rivals::hold(&at.w, &answer, &bounds, cells)?;
+        Some(HeldAgainst {
+            penalised_chi2: cost,
+            answer_penalised_chi2: answer_cost,
+            rival_p_value,
+        })
     }
 
     /// The answer with its loads below the rated range removed, the smaller support
@@ -381,6 +443,32 @@ impl FrameTest {
         }
         best
     }
+}
+
+/// The frame seen from an answer: its loaded cells, the weighted frame and the
+/// weighted prediction, the answer's χ² and its refit.
+struct AtAnswer {
+    support: Vec<usize>,
+    w: Weighted,
+    wa: Weighted,
+    chi2: f64,
+    fitted: Option<(f64, Vec<f64>)>,
+}
+
+/// An explanation of a frame held against the answer under the test's weights
+/// ([`FrameTest::hold_against`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldAgainst {
+    /// Its penalised χ²: the least χ² over loads on its cells within the rated
+    /// range, plus [`OCCAM_CHI2`] per load.
+    pub penalised_chi2: f64,
+    /// The answer's penalised χ² (its χ² plus [`OCCAM_CHI2`] per load).
+    pub answer_penalised_chi2: f64,
+    /// The frame's rival p-value, had the rivals' search found it (its tail bound
+    /// times the Bonferroni count): the frame is `ambiguous` with it below a third
+    /// of the significance. None when it is not a rival (under 12 dB from the
+    /// answer once refitted, or the answer's own cells).
+    pub rival_p_value: Option<f64>,
 }
 
 /// Whether a loaded cell's weighted column is repeated by another cell's (within
@@ -520,6 +608,44 @@ mod tests {
             let (q1, qb) = (rival_quantile(a), chi2_quantile(a, 1));
             assert!((q1 - qb).abs() < 1e-9 * (1.0 + qb), "{a}: {q1} {qb}");
         }
+    }
+
+    #[test]
+    fn the_truth_held_against_a_wrong_answer_costs_exactly_its_price_per_load_without_noise() {
+        use crate::kernel::{matrix_from_positions, paper_layout, DistanceKernel};
+        let (c, g) = paper_layout();
+        let a = matrix_from_positions(&c, &g, &DistanceKernel::paper());
+        let p = SensingProblem::new(a.clone(), 250.0, true).unwrap();
+        let test = FrameTest::new(&p, 4);
+        // 120 g on cell 1 and 60 g on cell 6, read without noise.
+        let truth = [0.0, 120.0, 0.0, 0.0, 0.0, 0.0, 60.0, 0.0];
+        let y: Vec<f64> = (&a * DVector::from_column_slice(&truth))
+            .iter()
+            .copied()
+            .collect();
+        // The answer moved the 60 g load to cell 3.
+        let mut r = Reconstruction::answer(vec![0.0, 120.0, 0.0, 60.0, 0.0, 0.0, 0.0, 0.0]);
+        test.assess(&y, &mut r);
+        let held = test.hold_against(&y, &r, &[1, 6]).unwrap();
+        // The truth fits the noise-free frame exactly: χ² 0, two loads at 16 each.
+        assert!(
+            (held.penalised_chi2 - 2.0 * OCCAM_CHI2).abs() < 1e-6,
+            "{held:?}"
+        );
+        // The answer is priced as the test priced it.
+        assert!((held.answer_penalised_chi2 - (r.chi2 + 2.0 * OCCAM_CHI2)).abs() < 1e-9);
+        assert!(r.chi2 > chi2_1_quantile(1e-6), "{}", r.chi2);
+        // Found as a rival, the truth would make the frame ambiguous.
+        assert!(
+            held.rival_p_value.unwrap() < DEFAULT_SIGNIFICANCE / TESTS,
+            "{held:?}"
+        );
+        // The answer's own support is no rival and costs what the answer costs.
+        let own = test.hold_against(&y, &r, &[1, 3]).unwrap();
+        assert_eq!(own.rival_p_value, None);
+        assert!((own.penalised_chi2 - own.answer_penalised_chi2).abs() < 1e-9);
+        // A frame of the wrong length is not held.
+        assert!(test.hold_against(&y[..5], &r, &[1, 6]).is_none());
     }
 
     #[test]

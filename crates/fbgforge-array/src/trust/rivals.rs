@@ -185,7 +185,30 @@ fn lower_tail_bound(t: f64, v2: f64, k: usize) -> f64 {
         .fold(1.0, f64::min)
 }
 
-impl Search<'_> {
+impl<'a> Search<'a> {
+    /// A search from the answer `a`: nothing fitted yet but the answer's support.
+    fn new(w: &'a Weighted, a: &'a Answer<'a>, b: &'a Bounds) -> Self {
+        let support = a.support;
+        let q = if support.is_empty() {
+            DMatrix::zeros(w.m, 0)
+        } else {
+            let ba = DMatrix::from_fn(w.m, support.len(), |i, c| w.col(support[c])[i]);
+            ba.qr().q()
+        };
+        let mut key = support.to_vec();
+        key.sort_unstable();
+        Search {
+            w,
+            b,
+            a,
+            x_norm2: a.x.iter().map(|v| v * v).sum(),
+            q,
+            seen: HashSet::from([key]),
+            best: None,
+            least_p: None,
+        }
+    }
+
     /// Fit the support `cells` exactly (loads in [lo, hi]) unless seen; if it is
     /// distinct from the answer keep its penalised χ² when the closest so far, and
     /// its rival-test tail bound when the least so far.
@@ -274,25 +297,7 @@ fn considered(n: usize, k: usize, max_loads: usize) -> usize {
 /// penalised χ² and the rival test's p-value (see the module doc).
 pub(super) fn closest(w: &Weighted, a: &Answer<'_>, b: &Bounds) -> Found {
     let support = a.support;
-    let q = if support.is_empty() {
-        DMatrix::zeros(w.m, 0)
-    } else {
-        let ba = DMatrix::from_fn(w.m, support.len(), |i, c| w.col(support[c])[i]);
-        ba.qr().q()
-    };
-    let mut s = Search {
-        w,
-        b,
-        a,
-        x_norm2: a.x.iter().map(|v| v * v).sum(),
-        q,
-        seen: HashSet::new(),
-        best: None,
-        least_p: None,
-    };
-    let mut key = support.to_vec();
-    key.sort_unstable();
-    s.seen.insert(key);
+    let mut s = Search::new(w, a, b);
     let grows: Vec<Vec<f64>> = support.iter().map(|&j| w.gram_row(j)).collect();
     // One load added.
     let mut full = Base::empty(w);
@@ -336,4 +341,24 @@ pub(super) fn closest(w: &Weighted, a: &Answer<'_>, b: &Bounds) -> Found {
         closest: s.best,
         p_value: s.least_p.map(|p| (p * count).min(1.0)),
     }
+}
+
+/// One explanation on `cells` held against the answer `a`, as the rival test would
+/// hold it were it found: its penalised χ² (loads refitted within the range) and,
+/// when it is a rival (≥ 12 dB from the answer, not the answer's own cells), the
+/// frame's rival p-value it would give (its tail bound times the Bonferroni count).
+/// None: dependent columns.
+pub(super) fn hold(
+    w: &Weighted,
+    a: &Answer<'_>,
+    b: &Bounds,
+    cells: &[usize],
+) -> Option<(f64, Option<f64>)> {
+    let (chi2, z) = w.box_fit(cells, b.lo, b.hi)?;
+    let cost = chi2 + OCCAM_CHI2 * z.iter().filter(|&&v| v > 0.0).count() as f64;
+    // The answer's own cells are no rival of it (seeded as seen, as in the search).
+    let mut s = Search::new(w, a, b);
+    s.fit(cells);
+    let count = considered(w.n, a.support.len(), b.max_loads) as f64;
+    Some((cost, s.least_p.map(|p| (p * count).min(1.0))))
 }
