@@ -179,9 +179,11 @@ pub fn run_with(req: &VerifyRequest, sink: &mut dyn VerifySink) -> Result<Verify
             &given
         }
     };
-    // The inputs handed over: the log's peaks are freed once assigned to gratings.
+    // The inputs handed over: the log's peaks are freed once assigned to gratings, the
+    // two logs' times become the analysis's own.
     let VerifyInputs { design, log, force } = inputs;
-    let mut outcome = judge_log(req_used, &design, (Cow::Owned(log), tracks), &force)?;
+    let logs = (Cow::Owned(log), tracks, Cow::Owned(force));
+    let mut outcome = judge_log(req_used, &design, logs)?;
     if let Some(path) = &req.calibrate_into {
         outcome.calibration = Some(calibrate_into(req, &design, &outcome.report, path, &*sink)?);
     }
@@ -395,23 +397,31 @@ pub fn judge(req: &VerifyRequest, inputs: &VerifyInputs) -> Result<VerifyOutcome
     judge_log(
         req,
         &inputs.design,
-        (Cow::Borrowed(&inputs.log), None),
-        &inputs.force,
+        (
+            Cow::Borrowed(&inputs.log),
+            None,
+            Cow::Borrowed(&inputs.force),
+        ),
     )
 }
 
 /// [`judge`] of the parts of the inputs; a log handed over (`Cow::Owned`) has its
-/// peaks freed once they are assigned to gratings.
+/// peaks freed once they are assigned to gratings (a force log handed over with it:
+/// its times become the analysis's own).
 fn judge_log(
     req: &VerifyRequest,
     design: &Design,
-    (log, tracks): (Cow<'_, PeakLog>, Option<Vec<logs::assign::GratingTrack>>),
-    force: &ForceLog,
+    (log, tracks, force): (
+        Cow<'_, PeakLog>,
+        Option<Vec<logs::assign::GratingTrack>>,
+        Cow<'_, ForceLog>,
+    ),
 ) -> Result<VerifyOutcome> {
+    let analysis = &req.analysis;
     let (m, series) = match (log, tracks) {
-        (Cow::Borrowed(l), _) => analyse(design, l, force, &req.analysis)?,
-        (Cow::Owned(l), None) => analyse_owned(design, l, force, &req.analysis)?,
-        (Cow::Owned(l), Some(t)) => analyse_assigned(design, l, t, force, &req.analysis)?,
+        (Cow::Borrowed(l), _) => analyse(design, l, &force, analysis)?,
+        (Cow::Owned(l), None) => analyse_owned(design, l, force.into_owned(), analysis)?,
+        (Cow::Owned(l), Some(t)) => analyse_assigned(design, l, t, force.into_owned(), analysis)?,
     };
     // The one model policy, with the band, for the configuration under test only.
     let mut cores: Vec<&String> = m.gratings.iter().filter_map(|g| g.core.as_ref()).collect();

@@ -4,7 +4,8 @@
 
 use super::clocks::{align_clocks, span_times, timing_uncertainty_s};
 use super::force::{
-    check_coverage, force_at_rows, force_frame, loading_pulses, trusted_force, TrustedForce,
+    check_coverage, force_at_rows, force_frame, loading_pulses, place_force_times, trusted_force,
+    TrustedForce,
 };
 use super::gratings::{grating_shifts, GratingShifts};
 use super::measure::{measure_all, Measured, MeasuredGrating};
@@ -30,31 +31,43 @@ pub fn analyse(
     force: &ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
-    analyse_log(design, (Cow::Borrowed(log), None), force, opts)
+    analyse_log(
+        design,
+        (Cow::Borrowed(log), None),
+        Cow::Borrowed(force),
+        opts,
+    )
 }
 
-/// [`analyse`] of a log handed over: its peaks are freed once assigned to gratings (the
-/// table is most of a long log's memory), the answers the same.
+/// [`analyse`] of logs handed over: the wavelength log's peaks are freed once assigned
+/// to gratings (the table is most of a long log's memory), the two logs' times become
+/// the analysis's own (shifted in place), the answers the same.
 pub fn analyse_owned(
     design: &Design,
     log: PeakLog,
-    force: &ForceLog,
+    force: ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
-    analyse_log(design, (Cow::Owned(log), None), force, opts)
+    analyse_log(design, (Cow::Owned(log), None), Cow::Owned(force), opts)
 }
 
 /// [`analyse`] of a log whose peaks were assigned to gratings as it was read
 /// ([`crate::logs::read_peak_log_assigned`] with [`super::grating_windows`]): `tracks`
-/// are its gratings' tracks, the answers the same.
+/// are its gratings' tracks, the answers the same. The logs are handed over as to
+/// [`analyse_owned`].
 pub fn analyse_assigned(
     design: &Design,
     log: PeakLog,
     tracks: Vec<crate::logs::assign::GratingTrack>,
-    force: &ForceLog,
+    force: ForceLog,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
-    analyse_log(design, (Cow::Owned(log), Some(tracks)), force, opts)
+    analyse_log(
+        design,
+        (Cow::Owned(log), Some(tracks)),
+        Cow::Owned(force),
+        opts,
+    )
 }
 
 fn analyse_log(
@@ -63,7 +76,7 @@ fn analyse_log(
         Cow<'_, PeakLog>,
         Option<Vec<crate::logs::assign::GratingTrack>>,
     ),
-    force: &ForceLog,
+    force: Cow<'_, ForceLog>,
     opts: &AnalysisOptions,
 ) -> Result<(Measurement, Series)> {
     let Some(module) = &design.module else {
@@ -90,7 +103,21 @@ fn analyse_log(
         Some((l, n)) => (Cow::Owned(l), n),
         None => (log, 0),
     };
-    let tw: Vec<f64> = log.time_s.iter().map(|t| t - log.time_s[0]).collect();
+    // A log handed over is assigned to the gratings here, before its times become `tw`
+    // (the assignment counts its rows by them); windows the analysis refuses are left
+    // for it to say why.
+    let assigned = match (&log, assigned) {
+        (Cow::Owned(l), None) => super::grating_windows(design, opts)
+            .ok()
+            .map(|w| crate::logs::assign::assign(l, &w)),
+        (_, a) => a,
+    };
+    // What the report reads of the log's own times, taken before they become `tw`.
+    let (w0, row_count, period_s) = (log.time_s[0], log.rows(), log.median_period_s());
+    let tw = relative_times(&mut log, assigned.is_some());
+    let force_rate_hz = 1.0 / median_period(&force.time_s);
+    let (force, force_time) = force_times(force);
+    let force: &ForceLog = &force;
     let shifts = grating_shifts(
         design,
         module,
@@ -102,7 +129,7 @@ fn analyse_log(
     let log: &PeakLog = &log;
     let mut st = stages(
         (design, module),
-        (log, force),
+        (log, w0, force, force_time),
         opts,
         &tw,
         &shifts,
@@ -141,11 +168,11 @@ fn analyse_log(
         wavelength_log: log.source.display().to_string(),
         wavelength_format: log.format.name().into(),
         peak_estimator: log.estimator().map(str::to_string),
-        wavelength_rows: log.rows(),
-        wavelength_rate_hz: 1.0 / log.median_period_s(),
+        wavelength_rows: row_count,
+        wavelength_rate_hz: 1.0 / period_s,
         force_log: force.source.display().to_string(),
         force_samples: force.force_n.len(),
-        force_rate_hz: 1.0 / median_period(&force.time_s),
+        force_rate_hz,
         clock_offset_s: st.clocks.offset,
         clock_offset_source: st.clocks.source.into(),
         clock_skew_ppm: skew.map(|s| s.ppm()),
@@ -172,6 +199,33 @@ fn analyse_log(
     Ok((m, series))
 }
 
+/// The log's times from its first row, s: a log handed over with its tracks
+/// (`assigned`) gives its own column, shifted in place (no second column of a long
+/// log's length), and is left without times (its rows counted by `tw`).
+fn relative_times(log: &mut Cow<'_, PeakLog>, assigned: bool) -> Vec<f64> {
+    let w0 = log.time_s[0];
+    match log {
+        Cow::Owned(l) if assigned => {
+            let mut t = std::mem::take(&mut l.time_s);
+            for x in &mut t {
+                *x -= w0;
+            }
+            t
+        }
+        _ => log.time_s.iter().map(|t| t - w0).collect(),
+    }
+}
+
+/// The force log's times, for the analysis to place on the wavelength clock: a log
+/// handed over gives its own column (left without times), a borrowed one a copy.
+fn force_times(mut force: Cow<'_, ForceLog>) -> (Cow<'_, ForceLog>, Vec<f64>) {
+    let t = match &mut force {
+        Cow::Owned(f) => std::mem::take(&mut f.time_s),
+        Cow::Borrowed(f) => f.time_s.clone(),
+    };
+    (force, t)
+}
+
 /// What every measurement pass shares: the gratings' shifts, the force on the
 /// wavelength clock cut into pulses, its trusted part, the aligned clocks, the
 /// resolution and the timestamps' uncertainty.
@@ -196,20 +250,22 @@ struct Stages<'a> {
 /// or a gap leaves untrusted are left out), the clocks aligned on the primary grating.
 fn stages<'a>(
     (design, module): (&'a Design, &'a crate::spec::Module),
-    (log, force): (&PeakLog, &'a ForceLog),
+    (log, w0, force, ft): (&PeakLog, f64, &'a ForceLog, Vec<f64>),
     opts: &AnalysisOptions,
     tw: &'a [f64],
     shifts: &'a GratingShifts<'a>,
     warnings: &mut LogWarnings,
 ) -> Result<Stages<'a>> {
-    let frame = force_frame(log, force, opts, tw, warnings)?;
-    let mut seg = loading_pulses(force, &frame.fval)?;
-    let trusted = trusted_force(force, &frame.fval, &mut seg, warnings);
+    let mut frame = force_frame((log, w0), (force, &ft), opts, tw, warnings)?;
+    let mut seg = loading_pulses((force, &ft), &frame.fval)?;
+    let trusted = trusted_force((force, &ft), &frame.fval, &mut seg, warnings);
+    // The force log's times are read no more: they become the frame's.
+    place_force_times(&mut frame, ft, w0);
     let primary = shifts.primary;
     let logs = (log, force);
     let (shift_pm, given_s) = (shifts.primary_shift_pm(), opts.clock_offset_s);
     let spans = &trusted.spans;
-    let clocks = align_clocks(&frame, tw, &shift_pm, logs, given_s, spans, warnings)?;
+    let clocks = align_clocks(&mut frame, tw, &shift_pm, logs, given_s, spans, warnings)?;
     drop(shift_pm);
     check_coverage(logs, &seg, &clocks.fu, (tw[0], tw[tw.len() - 1]))?;
     let resolution_pm = opts

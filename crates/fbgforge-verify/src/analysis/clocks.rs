@@ -16,7 +16,7 @@ use rayon::prelude::*;
 /// whose force is not trusted), and check the aligned logs overlap.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn align_clocks(
-    frame: &ForceFrame,
+    frame: &mut ForceFrame,
     tw: &[f64],
     shift_pm: &[f64],
     (log, force): (&PeakLog, &ForceLog),
@@ -44,7 +44,11 @@ pub(super) fn align_clocks(
         }
     };
     let offset = prior + delta;
-    let fu: Vec<f64> = frame.u.iter().map(|x| x - delta).collect();
+    // The frame's times become the aligned ones in place (no second column).
+    let mut fu = std::mem::take(&mut frame.u);
+    for x in &mut fu {
+        *x -= delta;
+    }
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
     let (fa, fb) = (fu[0], fu[fu.len() - 1]);
     let overlap = (wb.min(fb) - wa.max(fa)).max(0.0);

@@ -13,24 +13,25 @@ use anyhow::{bail, Result};
 use std::borrow::Cow;
 
 /// Place the force log on the wavelength log's clock by the prior offset, check that
-/// the two logs can overlap, and turn the force compression-positive.
+/// the two logs can overlap, and turn the force compression-positive (`w0`: the
+/// wavelength log's first time, on its own clock, s; `ft`: the force log's times, s).
+/// The frame's times are left to [`place_force_times`], once the force log's own
+/// times are read no more.
 pub(super) fn force_frame<'f>(
-    log: &PeakLog,
-    force: &'f ForceLog,
+    (log, w0): (&PeakLog, f64),
+    (force, ft): (&'f ForceLog, &[f64]),
     opts: &AnalysisOptions,
     tw: &[f64],
     warnings: &mut LogWarnings,
 ) -> Result<ForceFrame<'f>> {
-    let w0 = log.time_s[0];
     let prior = if log.clock == Clock::Absolute && force.clock == Clock::Absolute {
         0.0
     } else {
-        force.time_s[0] - w0
+        ft[0] - w0
     };
     let range = opts.max_clock_offset_s.max(0.0);
-    let u: Vec<f64> = force.time_s.iter().map(|t| t - w0 - prior).collect();
     let (wa, wb) = (tw[0], tw[tw.len() - 1]);
-    let (fa, fb) = (u[0], u[u.len() - 1]);
+    let (fa, fb) = (ft[0] - w0 - prior, ft[ft.len() - 1] - w0 - prior);
     // Where the force log lies on the wavelength clock: placed by the given offset, or
     // by the prior (the estimate may then move it by up to the range).
     let moved = opts.clock_offset_s.map_or(0.0, |o| o - prior);
@@ -60,11 +61,21 @@ pub(super) fn force_frame<'f>(
     Ok(ForceFrame {
         prior,
         range,
-        u,
+        u: Vec::new(),
         fval: compression_positive(force, warnings),
         a: wa.max(fa - range).max(wa),
         b: wb.min(fb + range),
     })
+}
+
+/// The frame's force times: the force log's times `ft` on the wavelength clock by the
+/// prior offset (`w0`: the wavelength log's first time), shifted in place (no second
+/// column of the force log's length).
+pub(super) fn place_force_times(frame: &mut ForceFrame, mut ft: Vec<f64>, w0: f64) {
+    for t in &mut ft {
+        *t = *t - w0 - frame.prior;
+    }
+    frame.u = ft;
 }
 
 /// The force with compression positive: some stands log compression as negative
@@ -120,9 +131,12 @@ fn rest_level(f: &[f64]) -> f64 {
 }
 
 /// Cut the force log into its loading pulses and segments (force clock, before any
-/// alignment).
-pub(super) fn loading_pulses(force: &ForceLog, fval: &[f64]) -> Result<Segmentation> {
-    let seg = crate::segment::segment(&force.time_s, fval);
+/// alignment; `ft`: the force log's times).
+pub(super) fn loading_pulses(
+    (force, ft): (&ForceLog, &[f64]),
+    fval: &[f64],
+) -> Result<Segmentation> {
+    let seg = crate::segment::segment(ft, fval);
     if seg.pulses.is_empty() {
         bail!(
             "{}: no loading pulse found in the force log (the force never rises clearly above its resting level): nothing to fit",
@@ -147,12 +161,11 @@ pub(super) struct TrustedForce {
 /// untrusted pulses, or nothing (and the run not judged) when fewer than
 /// [`force_check::MIN_USABLE_PULSES`] trusted pulses would be left.
 pub(super) fn trusted_force(
-    force: &ForceLog,
+    (force, t): (&ForceLog, &[f64]),
     fval: &[f64],
     seg: &mut Segmentation,
     warnings: &mut LogWarnings,
 ) -> TrustedForce {
-    let t = &force.time_s;
     let c = force_check::check(t, fval, seg);
     let file = force.source.display();
     let untrusted = c.untrusted_pulses();

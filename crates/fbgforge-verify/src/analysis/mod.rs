@@ -77,7 +77,8 @@ struct ForceFrame<'f> {
     prior: f64,
     /// How far the estimated offset may lie from the prior, s.
     range: f64,
-    /// Force times in the wavelength frame, before the residual offset, s.
+    /// Force times in the wavelength frame, before the residual offset, s (taken by
+    /// the alignment, which makes them the aligned times).
     u: Vec<f64>,
     /// Force, N (compression positive): the force log's own column unless it was
     /// negated (no copy of it: 29 MB at 1 h × 1 kHz).
