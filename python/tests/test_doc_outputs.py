@@ -78,8 +78,6 @@ SKIPPED = {
     "pip install": "the package's install (.ci/run)",
     "python -m pytest": "this very test suite",
     "Peaks.2025": "the reader's own interrogator log, growing (docs/guide/live.md; fixtures/ hold real ones, tested in tests/verify and tests/array/live*.rs)",
-    "--matrix A.csv": "the reader's own matrix and shifts (the README's reconstruct example runs on the fixtures)",
-    "--shifts shifts.csv": "the reader's own shifts (the README's reconstruct example runs on the fixtures)",
     "studies/peers/": "not run: needs the peers' sources (PEERS_SRC, outside this repository), SciPy and scikit-learn; the study half runs on the line before it",
 }
 
