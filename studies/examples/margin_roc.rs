@@ -9,12 +9,12 @@
 //!
 //! `cargo run --release -p fbgforge-studies --example margin_roc -- [streams]`
 
-use fbgforge::array::methods::ReadingSettings;
-use fbgforge::array::problem::{SensingProblem, Uncertainty, PAPER_MIN_LOAD_G};
-use fbgforge::array::reconstruct::{reconstruct, Frames, MethodRequest};
-use fbgforge::progress::Quiet;
+use fbgforge::array::reconstruct::MethodRequest;
+use fbgforge::array::trust::DEFAULT_SIGNIFICANCE;
 use fbgforge_studies::reconstruct_flags::gen::{arrays, stream, Fault};
-use fbgforge_studies::reconstruct_flags::{wrong_answer, SEED_OFFSET, STREAM_FRAMES};
+use fbgforge_studies::reconstruct_flags::{
+    problem_at, reconstruct_stream, wrong_answer, SEED_OFFSET, STREAM_FRAMES,
+};
 
 const MARGINS: [f64; 8] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
 
@@ -23,28 +23,9 @@ fn frames_of(a: usize, fault: Fault, s: u64) -> Vec<(bool, bool, Option<f64>)> {
     let f = Fault::ALL.iter().position(|&x| x == fault).unwrap() as u64;
     let seed = SEED_OFFSET + 1 + 7919 * s + 104_729 * f + 1_299_709 * a as u64;
     let st = stream(&arrays(false)[a], fault, STREAM_FRAMES, seed);
-    let (m, n) = st.matrix.shape();
-    let mut unc = Uncertainty::paper(m, n, st.resolution_pm);
-    if let Some(pct) = st.matrix_sd_pct {
-        unc.matrix_sd_pm_per_g = st.matrix.map(|v| v.abs() * pct / 100.0);
-    }
-    let p = SensingProblem::new(st.matrix.clone(), 250.0, true)
-        .unwrap()
-        .with_min_load_g(PAPER_MIN_LOAD_G)
-        .unwrap()
-        .with_uncertainty(unc)
-        .unwrap();
-    let names: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
-    let prior = ReadingSettings {
-        max_loads: 4,
-        resolution_pm: st.resolution_pm,
-    };
-    let frames = Frames {
-        gratings: &names,
-        shifts_pm: &st.shifts_pm,
-    };
+    let p = problem_at(&st, DEFAULT_SIGNIFICANCE).unwrap();
     let req = MethodRequest::Default { budget_us: 100.0 };
-    let done = reconstruct(&p, frames, &prior, &req, &Quiet).unwrap();
+    let done = reconstruct_stream(&st, &p, &req).unwrap();
     st.truth_g
         .iter()
         .zip(&done.frames)

@@ -387,6 +387,12 @@ fn pct(num: usize, den: usize) -> Option<f64> {
 /// The problem a user would state for this stream: the matrix seen, the 25–250 g
 /// range, the stream's resolution, the matrix's stated error when calibrated.
 fn problem_for(st: &Stream) -> Result<SensingProblem> {
+    problem_at(st, RUN_SIGNIFICANCE)
+}
+
+/// [`problem_for`] with the per-frame test at `significance` (the studies' examples
+/// read their flags at the library's default).
+pub fn problem_at(st: &Stream, significance: f64) -> Result<SensingProblem> {
     let (m, n) = st.matrix.shape();
     let mut unc = Uncertainty::paper(m, n, st.resolution_pm);
     if let Some(pct) = st.matrix_sd_pct {
@@ -395,7 +401,26 @@ fn problem_for(st: &Stream) -> Result<SensingProblem> {
     Ok(SensingProblem::new(st.matrix.clone(), ULIMIT_G, true)?
         .with_min_load_g(PAPER_MIN_LOAD_G)?
         .with_uncertainty(unc)?
-        .with_significance(RUN_SIGNIFICANCE)?)
+        .with_significance(significance)?)
+}
+
+/// The stream's frames reconstructed on `problem` as a user would ask (gratings
+/// fbg1…, at most four loads, the stream's resolution).
+pub fn reconstruct_stream(
+    st: &Stream,
+    problem: &SensingProblem,
+    request: &MethodRequest,
+) -> Result<Reconstructed> {
+    let names: Vec<String> = (1..=st.matrix.nrows()).map(|i| format!("fbg{i}")).collect();
+    let prior = ReadingSettings {
+        max_loads: DEFAULT_MAX_LOADS,
+        resolution_pm: st.resolution_pm,
+    };
+    let frames = Frames {
+        gratings: &names,
+        shifts_pm: &st.shifts_pm,
+    };
+    Ok(reconstruct(problem, frames, &prior, request, &Quiet)?)
 }
 
 /// Whether the diagnosis found what the stream's fault should give, and how many
@@ -496,22 +521,11 @@ fn outcome(st: &Stream, done: &Reconstructed) -> StreamOutcome {
 
 /// Reconstruct one stream with one entry.
 fn run_entry(st: &Stream, e: Entry) -> Result<StreamOutcome> {
-    let problem = problem_for(st)?;
-    let m = st.matrix.nrows();
-    let names: Vec<String> = (1..=m).map(|i| format!("fbg{i}")).collect();
     let request = match e {
         Entry::Default => MethodRequest::Default { budget_us: 100.0 },
         Entry::Named(method) => MethodRequest::named(method),
     };
-    let prior = ReadingSettings {
-        max_loads: DEFAULT_MAX_LOADS,
-        resolution_pm: st.resolution_pm,
-    };
-    let frames = Frames {
-        gratings: &names,
-        shifts_pm: &st.shifts_pm,
-    };
-    let done = reconstruct(&problem, frames, &prior, &request, &Quiet)?;
+    let done = reconstruct_stream(st, &problem_for(st)?, &request)?;
     Ok(outcome(st, &done))
 }
 
