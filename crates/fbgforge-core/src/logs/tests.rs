@@ -25,13 +25,37 @@ fn table_values() -> (Vec<f64>, Vec<String>, Vec<Vec<f64>>) {
     (time_s, names, rows)
 }
 
+/// 17/04/2025 15:44:56: the day (17) tells the date order in every format.
+fn log_start_epoch_s() -> f64 {
+    days_from_civil(2025, 4, 17) as f64 * 86400.0 + 56696.0
+}
+
+/// A long log's table: `rows` at 100 Hz from [`log_start_epoch_s`].
+fn long_table<'a>(time_s: &'a [f64], names: &'a [String], rows: &'a [Vec<f64>]) -> LogTable<'a> {
+    LogTable {
+        start_epoch_s: log_start_epoch_s(),
+        time_s,
+        names,
+        wavelength_nm: rows,
+        sample_rate_hz: 100.0,
+    }
+}
+
+/// `table` written in `format`, with a garbled line a third of the way in.
+fn written_with_a_garbled_line(format: LogFormat, table: &LogTable) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    write_log(&mut bytes, format, table, &LogStyle::default()).unwrap();
+    let third = bytes.len() / 3;
+    let at = third + memchr::memchr(b'\n', &bytes[third..]).unwrap() + 1;
+    bytes.splice(at..at, b"garbled line\n".iter().copied());
+    bytes
+}
+
 #[test]
 fn every_format_reads_back_what_it_writes() {
     let (time_s, names, rows) = table_values();
-    // 17/04/2025 15:44:56: the day (17) tells the date order in every format.
-    let t0 = days_from_civil(2025, 4, 17) as f64 * 86400.0 + 56696.0;
     let table = LogTable {
-        start_epoch_s: t0,
+        start_epoch_s: log_start_epoch_s(),
         time_s: &time_s,
         names: &names,
         wavelength_nm: &rows,
@@ -58,7 +82,7 @@ fn every_format_reads_back_what_it_writes() {
             assert_eq!(log.format, format, "{what}");
             assert_eq!(log.clock, format.written_clock(), "{what}");
             let origin = match format.written_clock() {
-                Clock::Absolute => t0,
+                Clock::Absolute => log_start_epoch_s(),
                 Clock::Relative => 0.0,
             };
             let want_t: Vec<f64> = time_s.iter().map(|t| origin + t).collect();
@@ -218,22 +242,11 @@ fn a_log_streamed_in_small_blocks_reads_as_the_whole_file() {
     let rows: Vec<Vec<f64>> = (0..n)
         .map(|i| vec![1524.5703 + f64::from(i % 97) * 1e-4, 1546.2953])
         .collect();
-    let t0 = days_from_civil(2025, 4, 17) as f64 * 86400.0 + 56696.0;
-    let table = LogTable {
-        start_epoch_s: t0,
-        time_s: &time_s,
-        names: &names,
-        wavelength_nm: &rows,
-        sample_rate_hz: 100.0,
-    };
+    let table = long_table(&time_s, &names, &rows);
     let dir = tempfile::tempdir().unwrap();
     for format in LogFormat::ALL {
-        let mut bytes = Vec::new();
-        write_log(&mut bytes, format, &table, &LogStyle::default()).unwrap();
-        // A garbled line a third of the way in; the last line cut in its middle.
-        let third = bytes.len() / 3;
-        let at = third + memchr::memchr(b'\n', &bytes[third..]).unwrap() + 1;
-        bytes.splice(at..at, b"garbled line\n".iter().copied());
+        let mut bytes = written_with_a_garbled_line(format, &table);
+        // The last line cut in its middle.
         let last = memchr::memrchr(b'\n', &bytes[..bytes.len() - 1]).unwrap();
         bytes.truncate(last + 6);
         let path = dir.path().join(format!("log.{}", format.extension()));
@@ -266,14 +279,7 @@ fn peaks_assigned_while_streaming_are_the_whole_logs_assignment() {
             vec![a, b, c]
         })
         .collect();
-    let t0 = days_from_civil(2025, 4, 17) as f64 * 86400.0 + 56696.0;
-    let table = LogTable {
-        start_epoch_s: t0,
-        time_s: &time_s,
-        names: &names,
-        wavelength_nm: &rows,
-        sample_rate_hz: 100.0,
-    };
+    let table = long_table(&time_s, &names, &rows);
     let windows = [
         GratingWindow::new("a", 1524.6, 2.0),
         GratingWindow::new("b", 1546.3, 2.0),
@@ -281,11 +287,7 @@ fn peaks_assigned_while_streaming_are_the_whole_logs_assignment() {
     let opts = ReadOptions::default();
     let dir = tempfile::tempdir().unwrap();
     for format in LogFormat::ALL {
-        let mut bytes = Vec::new();
-        write_log(&mut bytes, format, &table, &LogStyle::default()).unwrap();
-        let third = bytes.len() / 3;
-        let at = third + memchr::memchr(b'\n', &bytes[third..]).unwrap() + 1;
-        bytes.splice(at..at, b"garbled line\n".iter().copied());
+        let bytes = written_with_a_garbled_line(format, &table);
         let path = dir.path().join(format!("log.{}", format.extension()));
         std::fs::write(&path, &bytes).unwrap();
         let mut whole = parse_wavelength_bytes(&bytes, &path, &opts).unwrap();
