@@ -130,7 +130,8 @@ fn the_mcap_file_of_a_live_run_decodes_with_the_python_ros2_readers() {
         "hold_s,A,B,C,D,E,F,G,H\n0.4,0,0,0,0,0,0,0,0\n0.4,0,0,0,0,0,0,120,0\n0.4,0,0,0,0,0,0,0,0\n";
     let lines = run_to_mcap(&array, script, &a_mcap, &[]);
     let module = common::shipped_path("clip-on-34mm.toml");
-    let m_mcap = dir.path().join("module.mcap");
+    // Into a folder that does not exist yet: made, as for every output.
+    let m_mcap = dir.path().join("runs/module.mcap");
     let m_script = "hold_s,force_n,delta_t_k\n0.4,0,0\n0.8,5,0\n";
     let m_lines = run_to_mcap(&module, m_script, &m_mcap, &["--core", "psc2"]);
     assert!(a_mcap.exists() && m_mcap.exists());

@@ -59,7 +59,8 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
         .arg("--script")
         .arg(&script);
     let (mut server, from) = common::spawn_stream(stream);
-    let record = dir.path().join("run.csv");
+    // Into a folder that does not exist yet: `live` makes it, as every output does.
+    let record = dir.path().join("runs/today/run.csv");
     let rec = record.to_str().unwrap();
     let ran = live(&[d, "--from", &from, "--give-up-s", "1", "--record", rec]);
     server.wait().unwrap();
@@ -101,7 +102,7 @@ fn the_record_replays_to_the_same_tare_and_readings_and_reconstructs_the_same_lo
     // which `reconstruct` does by default), gives the same loads (to the 0.001 g its
     // CSV prints).
     let out = dir.path().join("loads.csv");
-    let shifts = dir.path().join("run.shifts.csv");
+    let shifts = dir.path().join("runs/today/run.shifts.csv");
     let method = of_type(&ran, "start")[0]["method"]
         .as_str()
         .expect("live names its method")

@@ -239,6 +239,13 @@ impl McapRecorder {
         check_setup(&setup)?;
         let final_path = path.as_ref().to_owned();
         let partial_path = partial_path_of(&final_path)?;
+        // The folder is made as for every other output file of fbgforge.
+        if let Some(dir) = final_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| PublishError::Io {
+                path: dir.to_owned(),
+                source,
+            })?;
+        }
         let file = File::create(&partial_path).map_err(|source| PublishError::Io {
             path: partial_path.clone(),
             source,

@@ -429,7 +429,8 @@ fn module_and_array_runs_read_back() {
 #[test]
 fn a_recorder_dropped_without_finish_leaves_only_a_partial_file() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("run.mcap");
+    // Into a folder that does not exist yet: made, as for every output.
+    let path = dir.path().join("runs/today/run.mcap");
     let setup = RecorderSetup {
         design_name: "d".into(),
         sensor: SensorLayout::Module {
@@ -439,7 +440,7 @@ fn a_recorder_dropped_without_finish_leaves_only_a_partial_file() {
     };
     let mut rec = McapRecorder::create(&path, setup).unwrap();
     let partial = rec.partial_path().to_owned();
-    assert_eq!(partial, dir.path().join("run.mcap.partial"));
+    assert_eq!(partial, dir.path().join("runs/today/run.mcap.partial"));
     rec.record_module(&ModuleReading {
         frame_time_ns: T0_NS,
         core_forces_n: &[Some(1.0)],

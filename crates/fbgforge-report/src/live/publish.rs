@@ -105,6 +105,7 @@ impl McapSink {
         let mut name = path.file_name().unwrap_or_default().to_owned();
         name.push(".partial");
         let probe = path.with_file_name(name);
+        super::record::create_parent(path)?;
         std::fs::File::create(&probe)
             .and_then(|_| std::fs::remove_file(&probe))
             .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", probe.display())))?;

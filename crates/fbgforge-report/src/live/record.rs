@@ -45,6 +45,7 @@ impl Partial {
         let mut name = path.file_name().unwrap_or_default().to_owned();
         name.push(".partial");
         let partial = path.with_file_name(name);
+        create_parent(path)?;
         let file = File::create(&partial).map_err(|e| named(&partial, e))?;
         Ok(Partial {
             path: path.to_path_buf(),
@@ -60,6 +61,17 @@ impl Partial {
             .sync_all()
             .map_err(|e| named(&self.partial, e))?;
         std::fs::rename(&self.partial, &self.path).map_err(|e| named(&self.path, e))
+    }
+}
+
+/// Make the folder `path` goes into, as every other output does (a lab names
+/// `--record runs/today/run.csv` before the folder exists).
+pub(crate) fn create_parent(path: &Path) -> io::Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => {
+            std::fs::create_dir_all(dir).map_err(|e| named(dir, e))
+        }
+        _ => Ok(()),
     }
 }
 
