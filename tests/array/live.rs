@@ -586,6 +586,12 @@ fn a_growing_enlight_log_is_followed_as_it_is_written() {
     let summary = *of_type(&lines, "summary").last().unwrap();
     let ended = summary["ended"].as_str().unwrap();
     assert!(ended.ends_with("did not grow for 0.2 s"), "{ended}");
+    // Replayed in milliseconds, its rate is still the log's: 40 frames over its
+    // 0.39 s, 100 Hz (the short row is a bad line), not how fast they were read.
+    let span = summary["clock_span_s"].as_f64().unwrap();
+    assert!((span - 0.39).abs() < 1e-3, "{summary}");
+    let rate = summary["rate_hz"].as_f64().unwrap();
+    assert!((rate - 100.0).abs() < 0.5, "{summary}");
     check_growing_log_readings(&lines);
 }
 

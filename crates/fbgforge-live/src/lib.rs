@@ -204,6 +204,8 @@ struct Watch<'a> {
     connections: u64,
     first_frame: Option<Instant>,
     last_frame: Option<Instant>,
+    /// The first and last frame's own time (instrument or log clock), s.
+    clock_s: Option<(f64, f64)>,
     ended: Option<String>,
     source_lost: bool,
     output_closed: bool,
@@ -273,6 +275,9 @@ impl Watch<'_> {
     fn frame(&mut self, f: &source::Frame) -> std::io::Result<()> {
         let first = *self.first_frame.get_or_insert(f.received);
         self.last_frame = Some(f.received);
+        if let Some(t) = f.time_s.filter(|t| t.is_finite()) {
+            self.clock_s = Some(self.clock_s.map_or((t, t), |(a, _)| (a, t)));
+        }
         self.stats.frames_in += 1;
         let wall_clock = self.clock_is_wall(f)?;
         let a = self.interp.prepare(f);
@@ -455,10 +460,14 @@ impl Watch<'_> {
         let stats = &mut self.stats;
         stats.dropped.queue_overflow = self.overflow.load(Ordering::Relaxed);
         let elapsed_s = self.first_frame.map_or(0.0, |t| t.elapsed().as_secs_f64());
-        let span_s = match (self.first_frame, self.last_frame) {
+        let read_span_s = match (self.first_frame, self.last_frame) {
             (Some(a), Some(b)) => b.duration_since(a).as_secs_f64(),
             _ => 0.0,
         };
+        // A replayed log is read far faster than it was written: its rate is that of
+        // its own clock, not of the reading (which a finished file makes near zero).
+        let clock_span_s = self.clock_s.map(|(a, b)| b - a).filter(|s| *s > 0.0);
+        let span_s = clock_span_s.unwrap_or(read_span_s);
         let d = stats.dropped;
         LiveSummary {
             design,
@@ -467,6 +476,7 @@ impl Watch<'_> {
             source_lost: self.source_lost,
             output_closed: self.output_closed,
             elapsed_s,
+            clock_span_s,
             frames_in: stats.frames_in,
             frames_out: stats.frames_out,
             rate_hz: if span_s > 0.0 {
@@ -550,6 +560,7 @@ pub fn run(
         connections: 0,
         first_frame: None,
         last_frame: None,
+        clock_s: None,
         ended: None,
         source_lost: false,
         output_closed: false,

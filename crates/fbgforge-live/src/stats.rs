@@ -168,11 +168,16 @@ pub struct LiveSummary {
     pub output_closed: bool,
     /// Wall time from the first frame to the end, s.
     pub elapsed_s: f64,
+    /// The frames' own clock (instrument timestamp or log time) from the first frame
+    /// to the last, s, when they carry one.
+    pub clock_span_s: Option<f64>,
     /// Frames read.
     pub frames_in: u64,
     /// Frames turned into readings.
     pub frames_out: u64,
-    /// Frames read per second, from the first frame to the last.
+    /// Frames per second from the first frame to the last: by the frames' own clock
+    /// where they carry one (a replayed log gives the rate it was written at, not how
+    /// fast it was read), else by when they were read.
     pub rate_hz: f64,
     /// Where the tare stood at the end.
     pub tare: TareState,

@@ -591,9 +591,15 @@ pub fn summary_text_in(x: &LiveSummary, words: Words) -> String {
     let _ = writeln!(s, "ended: {}", x.ended);
     let _ = writeln!(
         s,
-        "{} frames in {:.2} s ({:.0} frames/s): {} read, {} tare, {} bad, {} ambiguous; dropped {} (serial gaps {}, queue overflow {}); {} reconnects",
+        "{} frames in {:.2} s ({}{:.0} frames/s): {} read, {} tare, {} bad, {} ambiguous; dropped {} (serial gaps {}, queue overflow {}); {} reconnects",
         x.frames_in,
         x.elapsed_s,
+        // Frames read much faster than their clock ran (a log replayed): say over how
+        // long they were written, which the rate is of.
+        match x.clock_span_s {
+            Some(c) if x.elapsed_s < 0.5 * c => format!("{c:.2} s by their own clock, "),
+            _ => String::new(),
+        },
         x.rate_hz,
         x.frames_out,
         x.tare_frames,
@@ -843,6 +849,7 @@ mod tests {
             source: info.source.clone(),
             ended: "gave up reconnecting to hyperion://192.168.100.200:51972 after 10 attempts over 30 s".into(),
             elapsed_s: 123456.0,
+            clock_span_s: Some(123455.9),
             frames_in: st.frames_in,
             frames_out: st.frames_out,
             rate_hz: 1000.0,
