@@ -13,7 +13,8 @@
 
 use fbgforge_studies::reconstruct_flags::gen::arrays;
 use fbgforge_studies::reconstruct_flags::oracle::{
-    judge_clean_stream, oracle_point, supports, wilson_pct, JudgedFrame, OracleSettings,
+    judge_clean_stream, oracle_point, oracle_threshold, supports, wilson_pct, JudgedFrame,
+    OracleSettings,
 };
 use fbgforge_studies::reconstruct_flags::STREAM_FRAMES;
 
@@ -70,6 +71,7 @@ fn main() {
     let streams = arg(1, 10);
     let grid_streams = arg(2, 0);
     let settings = OracleSettings::default();
+    let mut kinds = Vec::new();
     println!(
         "| array | streams × frames | wrong / frames | stated test: false flags / recall % | oracle at the test's false flags: false flags / recall % | oracle recall % at false flags 1 % | 2 % | 5 % [Wilson 95 %] | 10 % | 20 % | default right % (expected) | Bayes answer right % (expected) |"
     );
@@ -86,5 +88,28 @@ fn main() {
             all.extend(judge_clean_stream(a, s, STREAM_FRAMES, &all_supports, &settings).unwrap());
         }
         println!("{}", row(arr.name, ns, &all));
+        kinds.push((arr.name, all));
+    }
+    println!();
+    println!("| array | wrong answers | kind | count | stated test flags | oracle flags at 5 % false flags |");
+    println!("|---|---|---|---|---|---|");
+    for (name, all) in &kinds {
+        let (_, threshold) = oracle_threshold(all, 0.05);
+        for (kind, same) in [
+            ("its cells, a load > 25 g off", true),
+            ("other cells (a load missed, added or moved)", false),
+        ] {
+            let of: Vec<&JudgedFrame> = all
+                .iter()
+                .filter(|f| f.wrong && f.same_cells == same)
+                .collect();
+            let test = of.iter().filter(|f| f.flagged).count();
+            let oracle = of.iter().filter(|f| f.p_right < threshold).count();
+            println!(
+                "| {name} | {} | {kind} | {} | {test} | {oracle} |",
+                all.iter().filter(|f| f.wrong).count(),
+                of.len()
+            );
+        }
     }
 }

@@ -564,6 +564,9 @@ pub struct JudgedFrame {
     pub wrong: bool,
     /// The stated test flagged it.
     pub flagged: bool,
+    /// The default's loaded cells are the truth's (a wrong answer then has a load
+    /// more than 25 g off).
+    pub same_cells: bool,
     /// P(the default's answer is right | y).
     pub p_right: f64,
     /// The Bayes answer is right (against the truth).
@@ -591,6 +594,7 @@ pub fn judge_frame(
     JudgedFrame {
         wrong: wrong_answer(truth_g, loads_g),
         flagged,
+        same_cells: loaded_cells(loads_g) == loaded_cells(truth_g),
         p_right: post.p_right(loads_g),
         bayes_right: !wrong_answer(truth_g, &bayes),
         bayes_p_right,
@@ -602,6 +606,15 @@ pub fn judge_frame(
 /// share of the right answers. Returns (false-flag share reached, wrong answers
 /// flagged, wrong answers).
 pub fn oracle_point(frames: &[JudgedFrame], false_flag_share: f64) -> (f64, usize, usize) {
+    let (ff, threshold) = oracle_threshold(frames, false_flag_share);
+    let wrong: Vec<&JudgedFrame> = frames.iter().filter(|f| f.wrong).collect();
+    let hit = wrong.iter().filter(|f| f.p_right < threshold).count();
+    (ff, hit, wrong.len())
+}
+
+/// The best flag's threshold on P(right | y) (flag below it) at false-flag rate ≤
+/// `false_flag_share`, and the false-flag share it reaches.
+pub fn oracle_threshold(frames: &[JudgedFrame], false_flag_share: f64) -> (f64, f64) {
     let mut right: Vec<f64> = frames
         .iter()
         .filter(|f| !f.wrong)
@@ -611,9 +624,7 @@ pub fn oracle_point(frames: &[JudgedFrame], false_flag_share: f64) -> (f64, usiz
     let allowed = (false_flag_share * right.len() as f64 + 1e-9).floor() as usize;
     let threshold = right.get(allowed).copied().unwrap_or(f64::INFINITY);
     let ff = right.iter().filter(|&&p| p < threshold).count();
-    let wrong: Vec<&JudgedFrame> = frames.iter().filter(|f| f.wrong).collect();
-    let hit = wrong.iter().filter(|f| f.p_right < threshold).count();
-    (ff as f64 / right.len().max(1) as f64, hit, wrong.len())
+    (ff as f64 / right.len().max(1) as f64, threshold)
 }
 
 /// Wilson 95 % interval of a share `hit / n`, in %.
@@ -836,6 +847,39 @@ mod tests {
                 a.p_right(x),
                 b.p_right(x)
             );
+        }
+    }
+
+    /// The same on the 16 × 64 grid (679 120 supports; two frames, 16 samples per
+    /// support: about a minute, so run by hand: `cargo test --release -p
+    /// fbgforge-studies --lib oracle -- --ignored`).
+    #[test]
+    #[ignore]
+    fn the_screen_changes_no_posterior_on_the_grid() {
+        let arr = &arrays(false)[2];
+        let all = supports(arr.cells.len());
+        assert_eq!(all.len(), 679_120);
+        let st = crate::reconstruct_flags::gen::stream(
+            arr,
+            crate::reconstruct_flags::gen::Fault::Clean,
+            2,
+            99,
+        );
+        let model = FrameModel::clean(&st.matrix, st.resolution_pm);
+        let screened = OracleSettings {
+            samples: 16,
+            ..OracleSettings::default()
+        };
+        let full = OracleSettings {
+            screen_nats: None,
+            ..screened
+        };
+        for (y, x) in st.shifts_pm.iter().zip(&st.truth_g) {
+            let a = posterior(&model, y, &all, &[], &screened);
+            let b = posterior(&model, y, &all, &[], &full);
+            let (pa, pb) = (a.p_right(x), b.p_right(x));
+            assert!((pa - pb).abs() < 1e-9, "{pa} vs {pb}");
+            assert!((a.log_total - b.log_total).abs() < 1e-9);
         }
     }
 
