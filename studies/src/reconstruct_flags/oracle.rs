@@ -850,7 +850,7 @@ mod tests {
         }
     }
 
-    /// The same on the 16 × 64 grid (679 120 supports; two frames, 16 samples per
+    /// The same on the 16 × 64 grid (679 121 supports; two frames, 16 samples per
     /// support: about a minute, so run by hand: `cargo test --release -p
     /// fbgforge-studies --lib oracle -- --ignored`).
     #[test]
@@ -858,7 +858,7 @@ mod tests {
     fn the_screen_changes_no_posterior_on_the_grid() {
         let arr = &arrays(false)[2];
         let all = supports(arr.cells.len());
-        assert_eq!(all.len(), 679_120);
+        assert_eq!(all.len(), 679_121);
         let st = crate::reconstruct_flags::gen::stream(
             arr,
             crate::reconstruct_flags::gen::Fault::Clean,
