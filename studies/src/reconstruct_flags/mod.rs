@@ -20,6 +20,7 @@
 //! ([`fbgforge::array::methods::Reconstruction::flags_at`], exact above the run's).
 
 pub mod gen;
+pub mod oracle;
 
 use anyhow::Result;
 use fbgforge::array::methods::{Method, ReadingSettings, Reconstruction, DEFAULT_MAX_LOADS};
