@@ -9,23 +9,14 @@
 //!
 //! `cargo run --release -p fbgforge-studies --example margin_roc -- [streams]`
 
-use fbgforge::array::reconstruct::MethodRequest;
-use fbgforge::array::trust::DEFAULT_SIGNIFICANCE;
-use fbgforge_studies::reconstruct_flags::gen::{arrays, stream, Fault};
-use fbgforge_studies::reconstruct_flags::{
-    problem_at, reconstruct_stream, wrong_answer, SEED_OFFSET, STREAM_FRAMES,
-};
+use fbgforge_studies::reconstruct_flags::gen::{arrays, Fault};
+use fbgforge_studies::reconstruct_flags::{default_answers_of, wrong_answer, STREAM_FRAMES};
 
 const MARGINS: [f64; 8] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
 
 /// Per frame: wrong, flagged by the stated test, rival margin (None: no rival).
 fn frames_of(a: usize, fault: Fault, s: u64) -> Vec<(bool, bool, Option<f64>)> {
-    let f = Fault::ALL.iter().position(|&x| x == fault).unwrap() as u64;
-    let seed = SEED_OFFSET + 1 + 7919 * s + 104_729 * f + 1_299_709 * a as u64;
-    let st = stream(&arrays(false)[a], fault, STREAM_FRAMES, seed);
-    let p = problem_at(&st, DEFAULT_SIGNIFICANCE).unwrap();
-    let req = MethodRequest::Default { budget_us: 100.0 };
-    let done = reconstruct_stream(&st, &p, &req).unwrap();
+    let (st, done) = default_answers_of(a, fault, s, STREAM_FRAMES).unwrap();
     st.truth_g
         .iter()
         .zip(&done.frames)

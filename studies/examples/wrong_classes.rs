@@ -9,12 +9,10 @@
 //! (default: clean; `all` for every scenario).
 
 use fbgforge::array::protocol::{snr_db, RECOVERY_THRESHOLD_DB};
-use fbgforge::array::reconstruct::MethodRequest;
-use fbgforge::array::trust::DEFAULT_SIGNIFICANCE;
-use fbgforge_studies::reconstruct_flags::gen::{arrays, stream, Fault};
+use fbgforge_studies::reconstruct_flags::gen::{arrays, Fault};
 use fbgforge_studies::reconstruct_flags::{
-    chance_level_chi2, classify_wrong, own_objective_test, problem_at, reconstruct_stream,
-    wrong_answer, SEED_OFFSET, STREAM_FRAMES,
+    chance_level_chi2, classify_wrong, default_answers_of, own_objective_test, wrong_answer,
+    STREAM_FRAMES,
 };
 
 fn main() {
@@ -35,12 +33,7 @@ fn main() {
     println!("| array | fault | RR % | wrong | flagged wrong % | false flags right % | (a) [flagged; one cell] missed by search | (b) | (c) | truth would flag | est µs | measured µs |");
     for (a, arr) in arrays(false).iter().enumerate() {
         for &fault in &faults {
-            let f = Fault::ALL.iter().position(|&x| x == fault).unwrap() as u64;
-            let seed = SEED_OFFSET + 1 + 104_729 * f + 1_299_709 * a as u64;
-            let st = stream(arr, fault, STREAM_FRAMES, seed);
-            let p = problem_at(&st, DEFAULT_SIGNIFICANCE).unwrap();
-            let req = MethodRequest::Default { budget_us: 100.0 };
-            let done = reconstruct_stream(&st, &p, &req).unwrap();
+            let (st, done) = default_answers_of(a, fault, 0, STREAM_FRAMES).unwrap();
             let stated = done.suspect_gratings.is_empty() && !done.diagnosis.common_mode.fitted;
             let own = own_objective_test(done.setup.test().problem()).unwrap();
             let mut missed = 0;

@@ -424,6 +424,27 @@ pub fn reconstruct_stream(
     Ok(reconstruct(problem, frames, &prior, request, &Quiet)?)
 }
 
+/// The examples' stream: array `a` of the full study (`arrays(false)`), scenario
+/// `fault`, repetition `s`, with the study's seed 1 (the flag study's own stream s
+/// when it runs every scenario), and the default method's answers on it (100 µs
+/// budget, the frame test at the library's default significance).
+pub fn default_answers_of(
+    a: usize,
+    fault: Fault,
+    s: u64,
+    frames: usize,
+) -> Result<(Stream, Reconstructed)> {
+    let f = Fault::ALL
+        .iter()
+        .position(|&x| x == fault)
+        .expect("every scenario is in Fault::ALL") as u64;
+    let seed = SEED_OFFSET + 1 + 7919 * s + 104_729 * f + 1_299_709 * a as u64;
+    let st = stream(&arrays(false)[a], fault, frames, seed);
+    let p = problem_at(&st, DEFAULT_SIGNIFICANCE)?;
+    let done = reconstruct_stream(&st, &p, &MethodRequest::Default { budget_us: 100.0 })?;
+    Ok((st, done))
+}
+
 /// Whether the diagnosis found what the stream's fault should give, and how many
 /// suspects it named besides.
 fn judge_diagnosis(st: &Stream, done: &Reconstructed) -> (bool, usize) {

@@ -652,15 +652,10 @@ pub fn judge_clean_stream(
     all: &[Vec<usize>],
     settings: &OracleSettings,
 ) -> anyhow::Result<Vec<JudgedFrame>> {
-    use super::gen::{arrays, stream, Fault};
-    use super::{problem_at, reconstruct_stream, SEED_OFFSET};
-    use fbgforge::array::reconstruct::MethodRequest;
+    use super::gen::Fault;
     use fbgforge::array::trust::DEFAULT_SIGNIFICANCE;
     use rayon::prelude::*;
-    let seed = SEED_OFFSET + 1 + 7919 * s + 1_299_709 * a as u64;
-    let st = stream(&arrays(false)[a], Fault::Clean, frames, seed);
-    let p = problem_at(&st, DEFAULT_SIGNIFICANCE)?;
-    let done = reconstruct_stream(&st, &p, &MethodRequest::Default { budget_us: 100.0 })?;
+    let (st, done) = super::default_answers_of(a, Fault::Clean, s, frames)?;
     let model = FrameModel::clean(&st.matrix, st.resolution_pm);
     Ok((0..st.truth_g.len())
         .into_par_iter()
